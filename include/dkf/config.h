@@ -1,0 +1,103 @@
+/*
+ * dkf/config.h - compile-time limits and switches of the dkf core.
+ *
+ * Every option is #ifndef-guarded: define it on the command line, or put
+ * your own values in a header and build with -DDKF_CONFIG_FILE='"my.h"'
+ * (that file is included first, so it wins over every default below).
+ * The consistency checks at the end turn a bad combination into a
+ * compile error instead of a runtime surprise.
+ */
+#ifndef DKF_CONFIG_H
+#define DKF_CONFIG_H
+
+#ifdef DKF_CONFIG_FILE
+#include DKF_CONFIG_FILE
+#endif
+
+#include <float.h>
+#include <stddef.h>
+
+/* The real type. 0: double (host default). 1: float (Cortex-M4F has a
+ * single-precision FPU only, so firmware builds want this). */
+#ifndef DKF_USE_FLOAT
+#define DKF_USE_FLOAT 0
+#endif
+
+/* Largest number of rows or columns any matrix passed to dkf may have.
+ * Bounds the small fixed-size arrays some routines keep on the stack
+ * (DKF_MAX_DIM reals or indices, never a square of it). */
+#ifndef DKF_MAX_DIM
+#define DKF_MAX_DIM 48
+#endif
+
+/* 1: measurement updates use the Joseph form
+ *    P+ = (I - K H) P (I - K H)^T + K R K^T,
+ * which stays symmetric positive semi-definite under rounding;
+ * 0: the cheaper P+ = P - K S K^T. */
+#ifndef DKF_JOSEPH
+#define DKF_JOSEPH 1
+#endif
+
+/* 1: every covariance a filter stores is symmetrised, (P + P^T)/2. */
+#ifndef DKF_SYMMETRISE
+#define DKF_SYMMETRISE 1
+#endif
+
+/* 1: check argument preconditions that a correct program never violates
+ * (NULL pointers, aliasing). 0 compiles them out for a lean firmware
+ * build. Validation that protects filter state (dimensions, non-finite
+ * data, SPD, rank) is never compiled out. */
+#ifndef DKF_DEBUG_CHECKS
+#define DKF_DEBUG_CHECKS 1
+#endif
+
+/* Sweeps of the one-sided Jacobi SVD before it reports
+ * DKF_ERR_NO_CONVERGENCE. Jacobi converges quadratically; 6-10 sweeps are
+ * typical for the sizes dkf meets. */
+#ifndef DKF_SVD_MAX_SWEEPS
+#define DKF_SVD_MAX_SWEEPS 60
+#endif
+
+#if DKF_USE_FLOAT
+typedef float dkf_real_t;
+#define DKF_REAL_EPSILON FLT_EPSILON
+#define DKF_REAL_MAX FLT_MAX
+#define DKF_REAL_MIN FLT_MIN
+#define DKF_R(x) (x##f)
+#define DKF_SQRT sqrtf
+#define DKF_FABS fabsf
+#define DKF_HYPOT hypotf
+#else
+typedef double dkf_real_t;
+#define DKF_REAL_EPSILON DBL_EPSILON
+#define DKF_REAL_MAX DBL_MAX
+#define DKF_REAL_MIN DBL_MIN
+#define DKF_R(x) (x)
+#define DKF_SQRT sqrt
+#define DKF_FABS fabs
+#define DKF_HYPOT hypot
+#endif
+
+/* ---- consistency checks ------------------------------------------------ */
+#define DKF_STATIC_ASSERT(cond, msg) \
+    typedef char dkf_static_assert_##msg[(cond) ? 1 : -1]
+
+#if DKF_MAX_DIM < 1 || DKF_MAX_DIM > 4096
+#error "DKF_MAX_DIM must lie in [1, 4096]"
+#endif
+#if DKF_USE_FLOAT != 0 && DKF_USE_FLOAT != 1
+#error "DKF_USE_FLOAT must be 0 or 1"
+#endif
+#if DKF_JOSEPH != 0 && DKF_JOSEPH != 1
+#error "DKF_JOSEPH must be 0 or 1"
+#endif
+#if DKF_SYMMETRISE != 0 && DKF_SYMMETRISE != 1
+#error "DKF_SYMMETRISE must be 0 or 1"
+#endif
+#if DKF_SVD_MAX_SWEEPS < 1
+#error "DKF_SVD_MAX_SWEEPS must be at least 1"
+#endif
+/* size_t must hold DKF_MAX_DIM^2 elements for index arithmetic. */
+DKF_STATIC_ASSERT(sizeof(size_t) >= 4, size_t_at_least_32_bits);
+
+#endif /* DKF_CONFIG_H */

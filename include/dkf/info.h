@@ -1,0 +1,62 @@
+/*
+ * dkf/info.h - linear information filter and exact multi-sensor fusion.
+ *
+ * Information form of the Kalman filter: Y = P^{-1}, y = Y x. A sensor j
+ * with y_j = C_j x + w_j, w_j ~ (0, R_j), contributes
+ *   i_j = C_j^T R_j^{-1} z_j,   I_j = C_j^T R_j^{-1} C_j          (seed 001 (29)-(34))
+ * and the fused update is a plain sum (seed 001 (54)-(55), linear case):
+ *   Y_{k|k} = Y_{k|k-1} + sum_j I_j,   y_{k|k} = y_{k|k-1} + sum_j i_j,
+ * which equals the Kalman update on the stacked measurement [z_1; ...; z_L]
+ * whenever the sensor noises are mutually uncorrelated. A node computes its
+ * (i_j, I_j) with dkf_info_contribution and sends them; the fusion centre
+ * adds them with dkf_info_fuse.
+ *
+ * The filter keeps both forms (x, P, Y, y): the time update needs P, the
+ * measurement update needs Y.
+ */
+#ifndef DKF_INFO_H
+#define DKF_INFO_H
+
+#include <stddef.h>
+
+#include "dkf/mat.h"
+
+/* x, P, y, Y, and scratch for one step. */
+#define DKF_INFO_STORAGE_LEN(n) (2 * (n) + 2 * (n) * (n) + 2 * (n) + 3 * (n) * (n))
+/* Scratch of dkf_info_contribution for state n, measurement m. */
+#define DKF_INFO_CONTRIB_WORK(n, m) (2 * (m) * (m) + (n) * (m))
+
+typedef struct {
+    size_t n;
+    dkf_mat_t x; /* P y: n x 1 */
+    dkf_mat_t P; /* Y^{-1}: n x n */
+    dkf_mat_t y; /* information vector: n x 1 */
+    dkf_mat_t Y; /* information matrix: n x n */
+    dkf_real_t *work;
+    int ready;
+} dkf_info_t;
+
+#define DKF_INFO_DECLARE(name, n) \
+    dkf_real_t name##_storage[DKF_INFO_STORAGE_LEN(n)]; \
+    dkf_info_t name
+
+/* Binds f to storage and starts from x0, P0 (SPD). */
+dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t storage_len,
+                           const dkf_mat_t *x0, const dkf_mat_t *P0);
+
+/* Time update (seed 001 (29)-(30), linear): P- = F P F^T + Q, x- = F x,
+ * Y- = (P-)^{-1}, y- = Y- x-. DKF_ERR_NOT_SPD if P- is not SPD. */
+dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t *Q);
+
+/* A sensor's contribution: I = C^T R^{-1} C (n x n), i = C^T R^{-1} z
+ * (n x 1), for C m x n, R m x m SPD, z m x 1. Touches no filter: a node
+ * computes it and sends (i, I). work: DKF_INFO_CONTRIB_WORK(n, m). */
+dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
+                                   const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work);
+
+/* Measurement update with `count` contributions (count may be 0):
+ * Y += sum I[j], y += sum i[j], then P = Y^{-1}, x = P y. */
+dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I[],
+                           size_t count);
+
+#endif /* DKF_INFO_H */

@@ -1,0 +1,65 @@
+/*
+ * dkf/kf.h - linear Kalman filter, covariance form.
+ *
+ *   x_{k+1} = F_k x_k + u_k + v_k,   v_k ~ (0, Q_k)
+ *   y_k     = H_k x_k + w_k,         w_k ~ (0, R_k)
+ *
+ * Every model matrix is an argument of the step that uses it, so F, Q, H, R
+ * (and the measurement dimension, up to the capacity m_max) may change from
+ * step to step. The filter keeps x, P, and the last innovation nu = y - H x
+ * with its covariance S = H P H^T + R and NIS = nu^T S^{-1} nu, for gating
+ * and consistency (NEES/NIS) checks.
+ *
+ * Storage: the caller declares DKF_KF_STORAGE_LEN(n, m_max) reals (or uses
+ * DKF_KF_DECLARE) and passes them to dkf_kf_init. A failed predict or
+ * update returns its status and leaves the filter bit-identical.
+ */
+#ifndef DKF_KF_H
+#define DKF_KF_H
+
+#include <stddef.h>
+
+#include "dkf/mat.h"
+
+/* Reals a filter of state dimension n and measurement capacity m needs:
+ * x, P, nu, S, and scratch for one step (Joseph form included). */
+#define DKF_KF_STORAGE_LEN(n, m) \
+    ((n) + (n) * (n) + (m) + (m) * (m) + (n) + 3 * (n) * (n) + 3 * (n) * (m) + (m) * (m))
+
+typedef struct {
+    size_t n;         /* state dimension */
+    size_t m_max;     /* largest measurement dimension accepted */
+    dkf_mat_t x;      /* x_{k|k} or x_{k|k-1}: n x 1 */
+    dkf_mat_t P;      /* its error covariance: n x n */
+    dkf_mat_t nu;     /* last innovation y - H x_{k|k-1}: m x 1 (m of the last update) */
+    dkf_mat_t S;      /* its covariance H P H^T + R: m x m */
+    dkf_real_t nis;   /* nu^T S^{-1} nu of the last update */
+    dkf_real_t *work; /* scratch for one step */
+    int ready;        /* set by dkf_kf_init */
+} dkf_kf_t;
+
+/* Declares a filter `name` and exactly-sized storage `name_storage`. */
+#define DKF_KF_DECLARE(name, n, m) \
+    dkf_real_t name##_storage[DKF_KF_STORAGE_LEN(n, m)]; \
+    dkf_kf_t name
+
+/* Binds kf to storage (storage_len reals) and sets x = x0 (n x 1), P = P0
+ * (n x n, must be SPD). Returns DKF_ERR_CAPACITY if storage_len is too
+ * small, DKF_ERR_NOT_SPD if P0 is not. */
+dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
+                         size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0);
+
+/* Time update: x = F x + u, P = F P F^T + Q. u may be NULL (no known
+ * input). Q must be finite and symmetric positive semi-definite (its
+ * definiteness is not checked; its finiteness is). */
+dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
+                            const dkf_mat_t *u);
+
+/* Measurement update with y (m x 1), H (m x n), R (m x m), m <= m_max:
+ *   nu = y - H x, S = H P H^T + R, K = P H^T S^{-1},
+ *   x = x + K nu, P = Joseph form or P - K S K^T (DKF_JOSEPH).
+ * DKF_ERR_NOT_SPD if S is not SPD, DKF_ERR_NONFINITE for NaN/Inf in y, H, R. */
+dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
+                           const dkf_mat_t *y);
+
+#endif /* DKF_KF_H */

@@ -1,0 +1,42 @@
+/* Argument checks shared by every module (see internal.h). */
+#include <stdint.h>
+
+#include "internal.h"
+
+dkf_status_t dkf__check_mat(const dkf_mat_t *m)
+{
+    if (m == NULL || m->data == NULL) return DKF_ERR_NULL;
+    if (m->rows == 0 || m->cols == 0 || m->rows > DKF_MAX_DIM || m->cols > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    return DKF_OK;
+}
+
+dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols)
+{
+    DKF_TRY(dkf__check_mat(m));
+    return (m->rows == rows && m->cols == cols) ? DKF_OK : DKF_ERR_DIM;
+}
+
+/* Pointers into different objects cannot be compared portably with <, so
+ * compare their integer images (exact on every flat-memory target). */
+int dkf__overlap_buf(const dkf_mat_t *m, const dkf_real_t *p, size_t len)
+{
+    uintptr_t a0 = (uintptr_t)m->data;
+    uintptr_t a1 = a0 + m->rows * m->cols * sizeof(dkf_real_t);
+    uintptr_t b0 = (uintptr_t)p;
+    uintptr_t b1 = b0 + len * sizeof(dkf_real_t);
+    return a0 < b1 && b0 < a1;
+}
+
+int dkf__overlap(const dkf_mat_t *a, const dkf_mat_t *b)
+{
+    return dkf__overlap_buf(a, b->data, b->rows * b->cols);
+}
+
+int dkf__all_finite(const dkf_real_t *p, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i)
+        if (!isfinite(p[i])) return 0;
+    return 1;
+}

@@ -1,0 +1,45 @@
+/*
+ * src/internal.h - checks shared by the dkf sources. Not installed.
+ */
+#ifndef DKF_INTERNAL_H
+#define DKF_INTERNAL_H
+
+#include <math.h>
+#include <stddef.h>
+
+#include "dkf/mat.h"
+
+/* Returns from the calling function with `s` unless it is DKF_OK. */
+#define DKF_TRY(expr) \
+    do { \
+        dkf_status_t dkf_try_s_ = (expr); \
+        if (dkf_try_s_ != DKF_OK) return dkf_try_s_; \
+    } while (0)
+
+#if DKF_DEBUG_CHECKS
+#define DKF_CHECK_NULL(p) \
+    do { \
+        if ((p) == NULL) return DKF_ERR_NULL; \
+    } while (0)
+#define DKF_CHECK_NO_ALIAS(a, b) \
+    do { \
+        if (dkf__overlap((a), (b))) return DKF_ERR_ALIAS; \
+    } while (0)
+#else
+#define DKF_CHECK_NULL(p) ((void)0)
+#define DKF_CHECK_NO_ALIAS(a, b) ((void)0)
+#endif
+
+/* DKF_ERR_NULL for a NULL view or data pointer, DKF_ERR_CAPACITY for a
+ * dimension of 0 or above DKF_MAX_DIM. */
+dkf_status_t dkf__check_mat(const dkf_mat_t *m);
+/* dkf__check_mat plus an exact shape. */
+dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols);
+/* 1 if the storage of a and b overlaps (any element shared). */
+int dkf__overlap(const dkf_mat_t *a, const dkf_mat_t *b);
+/* 1 if the storage of m overlaps the len reals at p. */
+int dkf__overlap_buf(const dkf_mat_t *m, const dkf_real_t *p, size_t len);
+/* 1 if all n reals at p are finite. */
+int dkf__all_finite(const dkf_real_t *p, size_t n);
+
+#endif /* DKF_INTERNAL_H */

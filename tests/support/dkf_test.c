@@ -1,0 +1,146 @@
+#include "dkf_test.h"
+
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+
+#include <cmocka.h>
+
+void test_rng_seed(test_rng_t *r, uint64_t seed) { r->s = seed; }
+
+/* splitmix64: tiny, fixed-seed reproducible on every platform. */
+static uint64_t rng_next(test_rng_t *r)
+{
+    uint64_t z = (r->s += 0x9E3779B97F4A7C15ULL);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return z ^ (z >> 31);
+}
+
+double test_rng_uniform(test_rng_t *r) { return (double)(rng_next(r) >> 11) * 0x1.0p-53; }
+
+double test_rng_normal(test_rng_t *r)
+{
+    double u1 = test_rng_uniform(r), u2 = test_rng_uniform(r);
+    if (u1 < 1e-300) u1 = 1e-300;
+    return sqrt(-2.0 * log(u1)) * cos(6.283185307179586 * u2);
+}
+
+void test_rand_gauss(test_rng_t *r, double *A, size_t rows, size_t cols)
+{
+    size_t i;
+    for (i = 0; i < rows * cols; ++i) A[i] = test_rng_normal(r);
+}
+
+void test_rand_orthogonal(test_rng_t *r, double *Q, size_t n)
+{
+    size_t i, j, k, pass;
+    test_rand_gauss(r, Q, n, n);
+    /* columns of Q orthonormalised by modified Gram-Schmidt, twice */
+    for (pass = 0; pass < 2; ++pass) {
+        for (j = 0; j < n; ++j) {
+            double nrm = 0.0;
+            for (k = 0; k < j; ++k) {
+                double d = 0.0;
+                for (i = 0; i < n; ++i) d += Q[i * n + k] * Q[i * n + j];
+                for (i = 0; i < n; ++i) Q[i * n + j] -= d * Q[i * n + k];
+            }
+            for (i = 0; i < n; ++i) nrm += Q[i * n + j] * Q[i * n + j];
+            nrm = sqrt(nrm);
+            for (i = 0; i < n; ++i) Q[i * n + j] /= nrm;
+        }
+    }
+}
+
+void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t cols,
+                                   const double *s)
+{
+    double U[DKF_MAX_DIM * DKF_MAX_DIM], V[DKF_MAX_DIM * DKF_MAX_DIM];
+    size_t i, j, l, k = rows < cols ? rows : cols;
+    test_rand_orthogonal(r, U, rows);
+    test_rand_orthogonal(r, V, cols);
+    for (i = 0; i < rows; ++i)
+        for (j = 0; j < cols; ++j) {
+            double acc = 0.0;
+            for (l = 0; l < k; ++l) acc += U[i * rows + l] * s[l] * V[j * cols + l];
+            A[i * cols + j] = acc;
+        }
+}
+
+void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale)
+{
+    double s[DKF_MAX_DIM];
+    size_t i, j;
+    for (i = 0; i < n; ++i)
+        s[i] = scale * (n > 1 ? pow(cond, (double)i / (double)(n - 1)) : 1.0);
+    /* A = Q diag(s) Q^T */
+    {
+        double Q[DKF_MAX_DIM * DKF_MAX_DIM];
+        size_t l;
+        test_rand_orthogonal(r, Q, n);
+        for (i = 0; i < n; ++i)
+            for (j = 0; j <= i; ++j) {
+                double acc = 0.0;
+                for (l = 0; l < n; ++l) acc += Q[i * n + l] * s[l] * Q[j * n + l];
+                A[i * n + j] = A[j * n + i] = acc;
+            }
+    }
+}
+
+void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) {
+            double acc = 0.0;
+            for (l = 0; l < k; ++l) acc += A[i * k + l] * B[l * c + j];
+            C[i * c + j] = acc;
+        }
+}
+
+void test_to_real(dkf_real_t *dst, const double *src, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) dst[i] = (dkf_real_t)src[i];
+}
+
+void test_to_double(double *dst, const dkf_real_t *src, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) dst[i] = (double)src[i];
+}
+
+double test_max_abs_diff(const dkf_real_t *a, const double *b, size_t n)
+{
+    double m = 0.0;
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        double d = fabs((double)a[i] - b[i]);
+        if (!(d <= m)) m = d; /* NaN propagates as the maximum */
+    }
+    return m;
+}
+
+double test_max_abs(const double *a, size_t n)
+{
+    double m = 0.0;
+    size_t i;
+    for (i = 0; i < n; ++i)
+        if (fabs(a[i]) > m) m = fabs(a[i]);
+    return m;
+}
+
+void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
+                       double rel)
+{
+    double scale = test_max_abs(expected, n);
+    double err = test_max_abs_diff(got, expected, n);
+    if (scale < 1.0) scale = 1.0;
+    if (!(err <= rel * scale)) {
+        print_error("%s: max|got - expected| = %.3e > %.3e (rel %.1e x scale %.3e)\n", what, err,
+                    rel * scale, rel, scale);
+        fail();
+    }
+}

@@ -1,0 +1,59 @@
+/*
+ * Test support: a fixed-seed PRNG, random matrices built in double
+ * independently of the library, and tolerance-aware comparisons.
+ * Include after <cmocka.h>'s prerequisites (stdarg, stddef, setjmp).
+ */
+#ifndef DKF_TEST_H
+#define DKF_TEST_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "dkf/mat.h"
+
+/* Unit roundoff of the library's real type, and a tolerance factor tests
+ * multiply by it (so float and double runs share one justification). */
+#define TEST_EPS ((double)DKF_REAL_EPSILON)
+
+/* Directory holding the golden vectors copied into tests/vectors/. */
+#ifndef DKF_VECTOR_DIR
+#error "DKF_VECTOR_DIR must be defined by the build"
+#endif
+
+typedef struct {
+    uint64_t s;
+} test_rng_t;
+
+void test_rng_seed(test_rng_t *r, uint64_t seed);
+double test_rng_uniform(test_rng_t *r); /* in [0, 1) */
+double test_rng_normal(test_rng_t *r);  /* N(0, 1) */
+
+/* Fills A (rows x cols, row-major doubles) with N(0,1) entries. */
+void test_rand_gauss(test_rng_t *r, double *A, size_t rows, size_t cols);
+/* Q (n x n) random orthogonal: Gram-Schmidt (twice) on a Gaussian matrix. */
+void test_rand_orthogonal(test_rng_t *r, double *Q, size_t n);
+/* A = U diag(s) V^T with random orthogonal U (rows) and V (cols), k =
+ * min(rows, cols) singular values s[0..k-1] as given. Exact rank control. */
+void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t cols,
+                                   const double *s);
+/* Random SPD n x n with condition number cond (eigenvalues log-spaced in
+ * [1, cond], scaled by `scale`). */
+void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale);
+
+/* Double-precision reference products: C = A B (A r x k, B k x c). */
+void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
+
+/* Copies between the library's real type and double. */
+void test_to_real(dkf_real_t *dst, const double *src, size_t n);
+void test_to_double(double *dst, const dkf_real_t *src, size_t n);
+
+/* max |a - b| over n entries (a, b in the library type / double). */
+double test_max_abs_diff(const dkf_real_t *a, const double *b, size_t n);
+double test_max_abs(const double *a, size_t n);
+
+/* Asserts max|got - expected| <= rel * max(1, max|expected|), naming
+ * `what` in the failure message. */
+void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
+                       double rel);
+
+#endif /* DKF_TEST_H */

@@ -144,3 +144,58 @@ void test_assert_close(const char *what, const dkf_real_t *got, const double *ex
         fail();
     }
 }
+
+json_t *test_load_vector(const char *rel)
+{
+    char path[512];
+    json_error_t e;
+    json_t *root;
+    snprintf(path, sizeof path, "%s/%s", DKF_VECTOR_DIR, rel);
+    root = json_load_file(path, 0, &e);
+    if (root == NULL) {
+        print_error("%s:%d: %s\n", path, e.line, e.text);
+        fail();
+    }
+    return root;
+}
+
+json_t *test_json_get(const json_t *obj, const char *key)
+{
+    json_t *v = json_object_get(obj, key);
+    if (v == NULL) {
+        print_error("missing key '%s'\n", key);
+        fail();
+    }
+    return v;
+}
+
+size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows, size_t *cols)
+{
+    size_t r = 1, c = 1, i, j;
+    if (json_is_number(node)) {
+        assert_true(cap >= 1);
+        out[0] = json_number_value(node);
+    } else {
+        assert_true(json_is_array(node));
+        r = json_array_size(node);
+        c = 1;
+        if (r > 0 && json_is_array(json_array_get(node, 0))) c = json_array_size(json_array_get(node, 0));
+        assert_true(r * c <= cap);
+        for (i = 0; i < r; ++i) {
+            const json_t *row = json_array_get(node, i);
+            if (json_is_array(row)) {
+                assert_int_equal(json_array_size(row), c);
+                for (j = 0; j < c; ++j) {
+                    assert_true(json_is_number(json_array_get(row, j)));
+                    out[i * c + j] = json_number_value(json_array_get(row, j));
+                }
+            } else {
+                assert_true(json_is_number(row) && c == 1);
+                out[i] = json_number_value(row);
+            }
+        }
+    }
+    if (rows) *rows = r;
+    if (cols) *cols = c;
+    return r * c;
+}

@@ -56,4 +56,15 @@ double test_max_abs(const double *a, size_t n);
 void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
                        double rel);
 
+/* ---- golden vectors (jansson) ------------------------------------------ */
+#include <jansson.h>
+
+/* Loads DKF_VECTOR_DIR "/" rel; fails the test if it cannot. */
+json_t *test_load_vector(const char *rel);
+/* Reads a JSON number, list (n x 1) or list of lists (r x c) into out
+ * (cap doubles); fails the test on a malformed node. Returns the count. */
+size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows, size_t *cols);
+/* json_object_get that fails the test when the key is missing. */
+json_t *test_json_get(const json_t *obj, const char *key);
+
 #endif /* DKF_TEST_H */

@@ -1,0 +1,2 @@
+/* placeholder: being written */
+typedef int dkf_placeholder_mat_t;

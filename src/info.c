@@ -1,2 +1,191 @@
-/* placeholder: being written */
-typedef int dkf_placeholder_info_t;
+/*
+ * Linear information filter and exact multi-sensor fusion (dkf/info.h).
+ * Equation numbers refer to seed 001 (Ding-Xiao-Zhang 2014) in the linear
+ * case, as corrected in docs/ (information contributions (29)-(34), fused
+ * sums (54)-(55)).
+ */
+#include "dkf/info.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+/* Scratch: xn (n), yn (n), A, B, C (n*n each) = DKF_INFO_STORAGE_LEN - state. */
+typedef struct {
+    dkf_real_t *xn, *yn, *A, *B, *C;
+} info_scratch_t;
+
+static info_scratch_t info_scratch(const dkf_info_t *f)
+{
+    const size_t n = f->n;
+    info_scratch_t s;
+    s.xn = f->work;
+    s.yn = s.xn + n;
+    s.A = s.yn + n;
+    s.B = s.A + n * n;
+    s.C = s.B + n * n;
+    return s;
+}
+
+static dkf_status_t check_input(const dkf_mat_t *M, size_t rows, size_t cols)
+{
+    DKF_TRY(dkf__check_shape(M, rows, cols));
+    return dkf__all_finite(M->data, rows * cols) ? DKF_OK : DKF_ERR_NONFINITE;
+}
+
+static void copy_reals(dkf_real_t *dst, const dkf_real_t *src, size_t count)
+{
+    memcpy(dst, src, count * sizeof *dst);
+}
+
+/* From the SPD matrix M (n x n, in `spd`) computes its inverse into `inv`
+ * and inv * v into `out`; `chol` is n*n scratch. -1 if M is not SPD. */
+static int invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol, const dkf_real_t *spd,
+                      const dkf_real_t *v, size_t n)
+{
+    copy_reals(chol, spd, n * n);
+    if (dkf__chol_inplace(chol, n) != 0) return -1;
+    dkf__chol_inverse(inv, chol, n);
+    dkf__mul_vec(out, inv, v, n, n);
+    return 0;
+}
+
+/* Commits (x, P, y, Y) from scratch after a finiteness check. */
+static dkf_status_t commit(dkf_info_t *f, const dkf_real_t *x, const dkf_real_t *P,
+                           const dkf_real_t *y, const dkf_real_t *Y)
+{
+    const size_t n = f->n;
+    if (!dkf__all_finite(x, n) || !dkf__all_finite(P, n * n) || !dkf__all_finite(y, n) ||
+        !dkf__all_finite(Y, n * n))
+        return DKF_ERR_NONFINITE;
+    copy_reals(f->x.data, x, n);
+    copy_reals(f->P.data, P, n * n);
+    copy_reals(f->y.data, y, n);
+    copy_reals(f->Y.data, Y, n * n);
+    return DKF_OK;
+}
+
+dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t storage_len,
+                           const dkf_mat_t *x0, const dkf_mat_t *P0)
+{
+    dkf_info_t g; /* built aside so a failed init leaves *f as it was */
+    info_scratch_t s;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(storage);
+    if (n == 0 || n > DKF_MAX_DIM || storage_len < DKF_INFO_STORAGE_LEN(n))
+        return DKF_ERR_CAPACITY;
+    DKF_TRY(check_input(x0, n, 1));
+    DKF_TRY(check_input(P0, n, n));
+    g.n = n;
+    g.x.rows = n, g.x.cols = 1, g.x.data = storage;
+    g.P.rows = n, g.P.cols = n, g.P.data = storage + n;
+    g.y.rows = n, g.y.cols = 1, g.y.data = g.P.data + n * n;
+    g.Y.rows = n, g.Y.cols = n, g.Y.data = g.y.data + n;
+    g.work = g.Y.data + n * n;
+    g.ready = 1;
+    s = info_scratch(&g);
+    /* Y0 = P0^{-1}, y0 = Y0 x0 */
+    if (invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B));
+    *f = g;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t *Q)
+{
+    size_t n;
+    info_scratch_t s;
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    n = f->n;
+    DKF_TRY(check_input(F, n, n));
+    DKF_TRY(check_input(Q, n, n));
+    s = info_scratch(f);
+    /* x- = F x;  P- = F P F^T + Q  (A = F P, then the symmetric product) */
+    dkf__mul_vec(s.xn, F->data, f->x.data, n, n);
+    dkf__mul_nn(s.A, F->data, f->P.data, n, n, n);
+    dkf__mul_nt_sym(s.C, s.A, F->data, Q->data, n, n);
+    /* Y- = (P-)^{-1}, y- = Y- x- */
+    if (invert_spd(s.B, s.yn, s.A, s.C, s.xn, n) != 0) return DKF_ERR_NOT_SPD;
+    return commit(f, s.xn, s.C, s.yn, s.B);
+}
+
+dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
+                                   const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
+{
+    size_t n, m, a, b, l;
+    dkf_real_t *L, *RiC;
+    DKF_TRY(dkf__check_mat(C));
+    n = C->cols;
+    m = C->rows;
+    DKF_CHECK_NULL(work);
+    DKF_TRY(check_input(C, m, n));
+    DKF_TRY(check_input(R, m, m));
+    DKF_TRY(check_input(z, m, 1));
+    DKF_TRY(dkf__check_shape(i, n, 1));
+    DKF_TRY(dkf__check_shape(I, n, n));
+    DKF_CHECK_NO_ALIAS(i, I);
+    DKF_CHECK_NO_ALIAS(I, C);
+    DKF_CHECK_NO_ALIAS(I, R);
+    DKF_CHECK_NO_ALIAS(I, z);
+    DKF_CHECK_NO_ALIAS(i, C);
+    DKF_CHECK_NO_ALIAS(i, R);
+    DKF_CHECK_NO_ALIAS(i, z);
+    if (dkf__overlap_buf(I, work, DKF_INFO_CONTRIB_WORK(n, m)) ||
+        dkf__overlap_buf(i, work, DKF_INFO_CONTRIB_WORK(n, m)))
+        return DKF_ERR_ALIAS;
+    L = work;
+    RiC = L + m * m;
+    /* R^{-1} C by Cholesky: never forms R^{-1} explicitly */
+    copy_reals(L, R->data, m * m);
+    if (dkf__chol_inplace(L, m) != 0) return DKF_ERR_NOT_SPD;
+    copy_reals(RiC, C->data, m * n);
+    dkf__chol_solve_inplace(L, RiC, m, n);
+    if (!dkf__all_finite(RiC, m * n)) return DKF_ERR_NONFINITE;
+    /* I = C^T (R^{-1} C), exactly symmetric; i = (R^{-1} C)^T z */
+    for (a = 0; a < n; ++a) {
+        dkf_real_t v = DKF_R(0.0);
+        for (l = 0; l < m; ++l) v += RiC[l * n + a] * z->data[l];
+        i->data[a] = v;
+        for (b = a; b < n; ++b) {
+            dkf_real_t w = DKF_R(0.0);
+            for (l = 0; l < m; ++l) w += C->data[l * n + a] * RiC[l * n + b];
+            I->data[a * n + b] = w;
+            I->data[b * n + a] = w;
+        }
+    }
+    return DKF_OK;
+}
+
+dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I[],
+                           size_t count)
+{
+    size_t n, j, e;
+    info_scratch_t s;
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    if (count > 0) {
+        DKF_CHECK_NULL(i);
+        DKF_CHECK_NULL(I);
+    }
+    n = f->n;
+    for (j = 0; j < count; ++j) {
+        DKF_TRY(check_input(&i[j], n, 1));
+        DKF_TRY(check_input(&I[j], n, n));
+    }
+    s = info_scratch(f);
+    /* (54)-(55): Y = Y- + sum I_j, y = y- + sum i_j */
+    copy_reals(s.C, f->Y.data, n * n);
+    copy_reals(s.yn, f->y.data, n);
+    for (j = 0; j < count; ++j) {
+        for (e = 0; e < n * n; ++e) s.C[e] += I[j].data[e];
+        for (e = 0; e < n; ++e) s.yn[e] += i[j].data[e];
+    }
+#if DKF_SYMMETRISE
+    dkf__symmetrise(s.C, n);
+#endif
+    /* P = Y^{-1}, x = P y */
+    if (invert_spd(s.B, s.xn, s.A, s.C, s.yn, n) != 0) return DKF_ERR_NOT_SPD;
+    return commit(f, s.xn, s.B, s.yn, s.C);
+}

@@ -1,0 +1,43 @@
+/*
+ * src/kernels.h - unchecked dense kernels on raw row-major arrays.
+ *
+ * The hot paths of the filters validate their arguments once at the API
+ * boundary and then run on these, so a Kalman step pays for no repeated
+ * checks. Shapes are given explicitly; outputs never alias inputs unless a
+ * kernel says so. Not installed.
+ */
+#ifndef DKF_KERNELS_H
+#define DKF_KERNELS_H
+
+#include <stddef.h>
+
+#include "dkf/config.h"
+
+/* C (r x c) = A (r x k) B (k x c). */
+void dkf__mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
+                 size_t c);
+/* C (r x c) = A (r x k) B^T, B c x k. */
+void dkf__mul_nt(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
+                 size_t c);
+/* C (r x r) = A (r x k) B^T + D, B r x k, symmetric by construction: only
+ * the upper triangle is computed and mirrored. D (r x r) may be NULL; if
+ * given, only its upper triangle is read. */
+void dkf__mul_nt_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
+                     size_t r, size_t k);
+/* y (r) = A (r x c) x (c). */
+void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c);
+/* A = (A + A^T) / 2 for n x n A. */
+void dkf__symmetrise(dkf_real_t *A, size_t n);
+/* In-place Cholesky of the n x n A: on return the lower triangle holds L
+ * (A = L L^T) and the strict upper triangle is zero. Only the lower
+ * triangle of A is read. Returns 0, or -1 if a pivot is not positive and
+ * finite (A is then partly overwritten). */
+int dkf__chol_inplace(dkf_real_t *A, size_t n);
+/* Solves (L L^T) X = B in place for B n x c. */
+void dkf__chol_solve_inplace(const dkf_real_t *L, dkf_real_t *B, size_t n, size_t c);
+/* Solves L w = b in place (forward substitution), b n x 1. */
+void dkf__tri_lower_solve_vec(const dkf_real_t *L, dkf_real_t *b, size_t n);
+/* Ainv = (L L^T)^{-1}, exactly symmetric. Ainv must not alias L. */
+void dkf__chol_inverse(dkf_real_t *Ainv, const dkf_real_t *L, size_t n);
+
+#endif /* DKF_KERNELS_H */

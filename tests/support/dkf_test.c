@@ -132,12 +132,18 @@ double test_max_abs(const double *a, size_t n)
     return m;
 }
 
+static double worst_rel;
+
+double test_worst_rel(void) { return worst_rel; }
+void test_reset_worst_rel(void) { worst_rel = 0.0; }
+
 void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
                        double rel)
 {
     double scale = test_max_abs(expected, n);
     double err = test_max_abs_diff(got, expected, n);
     if (scale < 1.0) scale = 1.0;
+    if (err / scale > worst_rel) worst_rel = err / scale;
     if (!(err <= rel * scale)) {
         print_error("%s: max|got - expected| = %.3e > %.3e (rel %.1e x scale %.3e)\n", what, err,
                     rel * scale, rel, scale);

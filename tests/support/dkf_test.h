@@ -55,6 +55,11 @@ double test_max_abs(const double *a, size_t n);
  * `what` in the failure message. */
 void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
                        double rel);
+/* Largest max|got - expected| / max(1, max|expected|) seen by
+ * test_assert_close since the last reset: tests print it so the log shows
+ * the margin under each tolerance. */
+double test_worst_rel(void);
+void test_reset_worst_rel(void);
 
 /* ---- golden vectors (jansson) ------------------------------------------ */
 #include <jansson.h>

@@ -1,0 +1,22 @@
+# Registers `install_consumer`: install this build into a prefix under the
+# build directory, then configure, build and run tests/consumer against it
+# (offline; see run_consumer.cmake). Included from the top-level
+# CMakeLists.txt when DKF_BUILD_TESTS is on.
+set(_dkf_consumer_args
+  -DDKF_BUILD_DIR=${CMAKE_BINARY_DIR}
+  -DDKF_CONSUMER_SOURCE=${CMAKE_CURRENT_LIST_DIR}
+  -DDKF_WORK_DIR=${CMAKE_BINARY_DIR}/consumer-test
+  -DDKF_C_COMPILER=${CMAKE_C_COMPILER}
+  -DDKF_CONFIG=$<CONFIG>)
+if(CMAKE_TOOLCHAIN_FILE)
+  get_filename_component(_dkf_tc "${CMAKE_TOOLCHAIN_FILE}" ABSOLUTE BASE_DIR "${CMAKE_SOURCE_DIR}")
+  list(APPEND _dkf_consumer_args -DDKF_TOOLCHAIN_FILE=${_dkf_tc})
+endif()
+if(CMAKE_CROSSCOMPILING_EMULATOR)
+  # A list would be split by add_test; pass it '|'-separated.
+  string(REPLACE ";" "|" _dkf_emu "${CMAKE_CROSSCOMPILING_EMULATOR}")
+  list(APPEND _dkf_consumer_args "-DDKF_EMULATOR=${_dkf_emu}")
+endif()
+add_test(NAME install_consumer
+  COMMAND ${CMAKE_COMMAND} ${_dkf_consumer_args} -P ${CMAKE_CURRENT_LIST_DIR}/run_consumer.cmake)
+set_tests_properties(install_consumer PROPERTIES TIMEOUT 300 RESOURCE_LOCK dkf_consumer_dir)

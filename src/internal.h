@@ -25,9 +25,22 @@
     do { \
         if (dkf__overlap((a), (b))) return DKF_ERR_ALIAS; \
     } while (0)
+/* For routines that accept output == input: the identical buffer is fine,
+ * any other overlap would read elements already overwritten. */
+#define DKF_CHECK_SAME_OR_DISJOINT(a, b) \
+    do { \
+        if ((a)->data != (b)->data && dkf__overlap((a), (b))) return DKF_ERR_ALIAS; \
+    } while (0)
+/* Workspace (len reals at p) must not overlap matrix m. */
+#define DKF_CHECK_NO_ALIAS_BUF(m, p, len) \
+    do { \
+        if (dkf__overlap_buf((m), (p), (len))) return DKF_ERR_ALIAS; \
+    } while (0)
 #else
 #define DKF_CHECK_NULL(p) ((void)0)
 #define DKF_CHECK_NO_ALIAS(a, b) ((void)0)
+#define DKF_CHECK_SAME_OR_DISJOINT(a, b) ((void)0)
+#define DKF_CHECK_NO_ALIAS_BUF(m, p, len) ((void)0)
 #endif
 
 /* DKF_ERR_NULL for a NULL view or data pointer, DKF_ERR_CAPACITY for a

@@ -36,6 +36,13 @@ static const shape_t shapes[] = {{1, 1}, {2, 1}, {3, 3}, {5, 3}, {8, 8},   {12, 
 
 static double qr_tol(size_t r, size_t c) { return 10.0 * (double)(r > c ? r : c) * TEST_EPS; }
 
+/* A view as an expression (DKF_MAT is an initializer only). */
+static dkf_mat_t view(size_t r, size_t c, dkf_real_t *p)
+{
+    dkf_mat_t m = DKF_MAT(r, c, p);
+    return m;
+}
+
 static void fill(dkf_real_t *p, size_t n, dkf_real_t v)
 {
     size_t i;
@@ -373,28 +380,31 @@ static void test_qr_errors(void **state)
         assert_untouched(&b, &ref);
 
         /* dimensions */
-        bad = DKF_MAT(4, 6, b.A); /* r < c */
+        bad = view(4, 6, b.A); /* r < c */
         {
             dkf_mat_t QRw = DKF_MAT(4, 6, b.QR), Xw = DKF_MAT(6, 2, b.Q);
             assert_int_equal(dkf_mat_qr(&QRw, b.tau, &bad), DKF_ERR_DIM);
             assert_int_equal(dkf_mat_qr_solve(&Xw, &bad, &B, b.work), DKF_ERR_DIM);
         }
-        bad = DKF_MAT(6, 3, b.QR);
+        bad = view(6, 3, b.QR);
         assert_int_equal(dkf_mat_qr(&bad, b.tau, &A), DKF_ERR_DIM);
-        bad = DKF_MAT(6, 3, b.Q); /* k < c */
+        bad = view(6, 3, b.Q); /* k < c */
         assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_DIM);
-        bad = DKF_MAT(5, 4, b.Q); /* rows != r */
+        bad = view(5, 4, b.Q); /* rows != r */
         assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_DIM);
         {
-            dkf_mat_t Q7 = DKF_MAT(6, 7, b.Q); /* k > r; 42 > 36 reals, never touched */
-            Q7.data = b.work;                  /* big enough: 28 reals? no: guard below */
-            (void)Q7;
+            static dkf_real_t q7[6 * 7], q7s[6 * 7];
+            dkf_mat_t Q7 = DKF_MAT(6, 7, q7); /* k > r */
+            fill(q7, 42, SENTINEL);
+            memcpy(q7s, q7, sizeof q7);
+            assert_int_equal(dkf_mat_qr_q(&Q7, &QR, b.tau), DKF_ERR_DIM);
+            assert_memory_equal(q7, q7s, sizeof q7);
         }
-        bad = DKF_MAT(3, 4, b.R);
+        bad = view(3, 4, b.R);
         assert_int_equal(dkf_mat_qr_r(&bad, &QR, b.tau), DKF_ERR_DIM);
-        bad = DKF_MAT(4, 1, b.X);
+        bad = view(4, 1, b.X);
         assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_DIM);
-        bad = DKF_MAT(5, 2, b.B);
+        bad = view(5, 2, b.B);
         assert_int_equal(dkf_mat_qr_solve(&X, &A, &bad, b.work), DKF_ERR_DIM);
         assert_untouched(&b, &ref);
 
@@ -422,15 +432,15 @@ static void test_qr_errors(void **state)
             assert_int_equal(dkf_mat_qr(&out, b.tau, &in), DKF_ERR_ALIAS); /* partial */
             assert_int_equal(dkf_mat_qr(&QR, b.QR + 2, &A), DKF_ERR_ALIAS); /* tau in QR */
             assert_int_equal(dkf_mat_qr(&QR, b.A + 20, &A), DKF_ERR_ALIAS); /* tau in A */
-            bad = DKF_MAT(6, 4, b.QR);
+            bad = view(6, 4, b.QR);
             assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_ALIAS);
-            bad = DKF_MAT(6, 4, b.Q);
+            bad = view(6, 4, b.Q);
             assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.Q + 3), DKF_ERR_ALIAS);
-            bad = DKF_MAT(4, 4, b.QR + 8);
+            bad = view(4, 4, b.QR + 8);
             assert_int_equal(dkf_mat_qr_r(&bad, &QR, b.tau), DKF_ERR_ALIAS);
-            bad = DKF_MAT(4, 2, b.A);
+            bad = view(4, 2, b.A);
             assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_ALIAS);
-            bad = DKF_MAT(4, 2, b.B + 4);
+            bad = view(4, 2, b.B + 4);
             assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_ALIAS);
             assert_int_equal(dkf_mat_qr_solve(&X, &A, &B, b.X), DKF_ERR_ALIAS);
             assert_int_equal(dkf_mat_qr_solve(&X, &A, &B, b.A), DKF_ERR_ALIAS);

@@ -35,11 +35,6 @@
 static dkf_real_t ra[MAXSQ], rb[MAXSQ], rc[MAXSQ], rd[MAXSQ], rw[MAXSQ], snap[2 * MAXSQ];
 static double da[MAXSQ], db[MAXSQ], dc[MAXSQ], dd[MAXSQ], de[MAXSQ], dw[MAXSQ];
 
-static void fill(dkf_real_t *p, size_t n, dkf_real_t v)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) p[i] = v;
-}
 
 /* r x c N(0,1) matrix in the library type (a) and the exact double image
  * of those same values (ad). */
@@ -72,13 +67,6 @@ static void assert_within(const char *what, const dkf_real_t *got, const double 
     }
 }
 
-/* Asserts the call returns `st` and leaves the n reals at out as they were. */
-#define ASSERT_FAILS_UNTOUCHED(st, call, out, n) \
-    do { \
-        memcpy(snap, (out), (n) * sizeof(dkf_real_t)); \
-        assert_int_equal((call), (st)); \
-        assert_memory_equal(snap, (out), (n) * sizeof(dkf_real_t)); \
-    } while (0)
 
 /* ---- bad-view harness ------------------------------------------------------ */
 
@@ -110,7 +98,7 @@ static void check_bad_views(binop_fn f, int nargs, dkf_mat_t C, dkf_mat_t A, dkf
             case 4: v[arg].rows = DKF_MAX_DIM + 1; break;
             default: v[arg].cols = DKF_MAX_DIM + 1; break;
             }
-            ASSERT_FAILS_UNTOUCHED(expect, f(p[0], p[1], p[2]), C.data, nout);
+            TEST_FAILS_UNTOUCHED(snap, expect, f(p[0], p[1], p[2]), C.data, nout);
         }
 }
 
@@ -176,7 +164,7 @@ static void test_zero_identity_set(void **state)
     dkf_real_t vals[6] = {1, -2, 3.5, 4, 5, -6.25};
     size_t i, j;
     (void)state;
-    fill(ra, 9, SENTINEL);
+    test_fill(ra, 9, SENTINEL);
     assert_int_equal(dkf_mat_identity(&A), DKF_OK);
     for (i = 0; i < 3; ++i)
         for (j = 0; j < 3; ++j) assert_true(DKF_AT(&A, i, j) == (i == j ? 1 : 0));
@@ -185,19 +173,19 @@ static void test_zero_identity_set(void **state)
     assert_int_equal(dkf_mat_set(&R, vals), DKF_OK);
     assert_memory_equal(rb, vals, sizeof vals);
 
-    fill(rb, 6, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_identity(&R), rb, 6);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_set(&R, NULL), rb, 6);
+    test_fill(rb, 6, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_identity(&R), rb, 6);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_set(&R, NULL), rb, 6);
     assert_int_equal(dkf_mat_zero(NULL), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_identity(NULL), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_set(NULL, vals), DKF_ERR_NULL);
-    fill(ra, 9, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_zero(&bad), ra, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_identity(&bad), ra, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_set(&bad, vals), ra, 9);
+    test_fill(ra, 9, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_zero(&bad), ra, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_identity(&bad), ra, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_set(&bad, vals), ra, 9);
     bad.rows = DKF_MAX_DIM + 1;
     bad.cols = DKF_MAX_DIM + 1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_identity(&bad), ra, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_identity(&bad), ra, 9);
 }
 
 static void test_copy_transpose(void **state)
@@ -222,16 +210,16 @@ static void test_copy_transpose(void **state)
     assert_int_equal(dkf_mat_transpose(&TT, &T), DKF_OK);
     assert_memory_equal(rd, ra, 15 * sizeof(dkf_real_t));
 
-    fill(rb, 15, SENTINEL);
-    fill(rc, 15, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_copy(&B, &T), rb, 15);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_transpose(&Wrong, &A), rc, 15);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_transpose(&B, &A), rb, 15);
+    test_fill(rb, 15, SENTINEL);
+    test_fill(rc, 15, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_copy(&B, &T), rb, 15);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_transpose(&Wrong, &A), rc, 15);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_transpose(&B, &A), rb, 15);
     /* partial overlap is refused even where identical views are fine */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_copy(&Part, &A), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_transpose(&Sq, &Sq), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_copy(&Part, &A), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_transpose(&Sq, &Sq), ra, 16);
     W.data = ra + 2;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_transpose(&W, &W), ra, 27);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_transpose(&W, &W), ra, 27);
     check_bad_views(copy_fn, 2, B, A, A);
     check_bad_views(transpose_fn, 2, T, A, A);
 }
@@ -306,15 +294,15 @@ static void test_elementwise(void **state)
     assert_memory_equal(rc, rd, n * sizeof(dkf_real_t));
 
     /* errors */
-    fill(rc, n + 3, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_add(&C, &A, &Wrong), rc, n);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_sub(&C, &Wrong, &B), rc, n);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_scale(&C, &Wrong, s), rc, n);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_axpy(&C, s, &Wrong), rc, n);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_add(&Part, &C, &B), rc, n + 3);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_sub(&Part, &A, &C), rc, n + 3);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_scale(&Part, &C, s), rc, n + 3);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_axpy(&Part, s, &C), rc, n + 3);
+    test_fill(rc, n + 3, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_add(&C, &A, &Wrong), rc, n);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_sub(&C, &Wrong, &B), rc, n);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_scale(&C, &Wrong, s), rc, n);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_axpy(&C, s, &Wrong), rc, n);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_add(&Part, &C, &B), rc, n + 3);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_sub(&Part, &A, &C), rc, n + 3);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_scale(&Part, &C, s), rc, n + 3);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_axpy(&Part, s, &C), rc, n + 3);
     check_bad_views(dkf_mat_add, 3, C, A, B);
     check_bad_views(dkf_mat_sub, 3, C, A, B);
     check_bad_views(scale_fn, 2, C, A, A);
@@ -335,17 +323,17 @@ static void check_products(test_rng_t *g, size_t r, size_t k, size_t c)
     abs_of(dw, da, r * k);
     abs_of(dd, db, k * c);
     test_ref_mul(de, dw, dd, r, k, c); /* |A||B| */
-    fill(rc, r * c, SENTINEL);
+    test_fill(rc, r * c, SENTINEL);
     assert_int_equal(dkf_mat_mul(&C, &A, &B), DKF_OK);
     assert_within("mul", rc, dc, de, r * c, rel);
 
     /* A B^T with B^T given as Bt, and A^T B with A^T given as At */
     assert_int_equal(dkf_mat_transpose(&Bt, &B), DKF_OK);
-    fill(rc, r * c, SENTINEL);
+    test_fill(rc, r * c, SENTINEL);
     assert_int_equal(dkf_mat_mul_abt(&C, &A, &Bt), DKF_OK);
     assert_within("mul_abt", rc, dc, de, r * c, rel);
     assert_int_equal(dkf_mat_transpose(&At, &A), DKF_OK);
-    fill(rc, r * c, SENTINEL);
+    test_fill(rc, r * c, SENTINEL);
     assert_int_equal(dkf_mat_mul_atb(&C, &At, &B), DKF_OK);
     assert_within("mul_atb", rc, dc, de, r * c, rel);
 }
@@ -420,25 +408,25 @@ static void test_products_errors(void **state)
               B5 = DKF_MAT(5, 2, rb), C33 = DKF_MAT(3, 3, rc), S = DKF_MAT(4, 4, ra),
               Bt = DKF_MAT(2, 4, rb), At = DKF_MAT(4, 3, ra), Part = DKF_MAT(3, 2, ra + 5);
     (void)state;
-    fill(ra, 16, 1);
-    fill(rb, 10, 2);
-    fill(rc, 9, SENTINEL);
+    test_fill(ra, 16, 1);
+    test_fill(rb, 10, 2);
+    test_fill(rc, 9, SENTINEL);
     /* inner dimensions disagree / output has the wrong shape */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul(&C, &A, &B5), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul(&C33, &A, &B), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul_abt(&C, &A, &B), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul_abt(&C33, &A, &Bt), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul_atb(&C, &A, &B), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_mul_atb(&C33, &At, &B), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul(&C, &A, &B5), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul(&C33, &A, &B), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul_abt(&C, &A, &B), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul_abt(&C33, &A, &Bt), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul_atb(&C, &A, &B), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_mul_atb(&C33, &At, &B), rc, 9);
     /* output overlapping an input, identical or partial */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul(&S, &S, &S), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul_abt(&S, &S, &S), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul_atb(&S, &S, &S), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul(&Part, &A, &B), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul_abt(&Part, &A, &Bt), ra, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul_atb(&Part, &At, &B), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul(&S, &S, &S), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul_abt(&S, &S, &S), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul_atb(&S, &S, &S), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul(&Part, &A, &B), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul_abt(&Part, &A, &Bt), ra, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul_atb(&Part, &At, &B), ra, 16);
     Part.data = rb + 3;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_mul(&Part, &A, &B), rb, 10);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_mul(&Part, &A, &B), rb, 10);
     check_bad_views(dkf_mat_mul, 3, C, A, B);
     check_bad_views(dkf_mat_mul_abt, 3, C, A, Bt);
     check_bad_views(dkf_mat_mul_atb, 3, C, At, B);
@@ -479,7 +467,7 @@ static void test_congruence(void **state)
             for (l = 0; l < c; ++l) acc += de[ii * c + l] * dw[jj * c + l];
             dd[i] = acc;
         }
-        fill(rc, r * r, SENTINEL);
+        test_fill(rc, r * r, SENTINEL);
         assert_int_equal(dkf_mat_congruence(&C, &A, &P, rw), DKF_OK);
         /* two chained c-term products: gamma_{2c} |A||P||A^T|, for the
          * library and for the double reference alike */
@@ -494,18 +482,18 @@ static void test_congruence_errors(void **state)
     dkf_mat_t A = DKF_MAT(2, 3, ra), P = DKF_MAT(3, 3, rb), C = DKF_MAT(2, 2, rc),
               P2 = DKF_MAT(2, 2, rb), C3 = DKF_MAT(3, 3, rc), Sq = DKF_MAT(3, 3, ra);
     (void)state;
-    fill(ra, 9, 1);
-    fill(rb, 9, 1);
-    fill(rc, 9, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_congruence(&C, &A, &P2, rw), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_congruence(&C3, &A, &P, rw), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_congruence(&C, &A, &P, NULL), rc, 9);
+    test_fill(ra, 9, 1);
+    test_fill(rb, 9, 1);
+    test_fill(rc, 9, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_congruence(&C, &A, &P2, rw), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_congruence(&C3, &A, &P, rw), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_congruence(&C, &A, &P, NULL), rc, 9);
     /* C over A or P, and workspace over C, A or P */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_congruence(&Sq, &Sq, &P, rw), ra, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_congruence(&C3, &Sq, &C3, rw), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, rc + 3), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, ra + 5), rc, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, rb + 8), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_congruence(&Sq, &Sq, &P, rw), ra, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_congruence(&C3, &Sq, &C3, rw), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, rc + 3), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, ra + 5), rc, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_congruence(&C, &A, &P, rb + 8), rc, 9);
     check_bad_views(congruence_fn, 3, C, A, P);
 }
 
@@ -528,11 +516,11 @@ static void test_symmetrise(void **state)
             assert_true(fabs((double)DKF_AT(&A, i, j) - exact) <= TEST_EPS * fabs(exact));
         }
     }
-    fill(rb, 6, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_symmetrise(&R), rb, 6);
+    test_fill(rb, 6, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_symmetrise(&R), rb, 6);
     assert_int_equal(dkf_mat_symmetrise(NULL), DKF_ERR_NULL);
     R.rows = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_symmetrise(&R), rb, 6);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_symmetrise(&R), rb, 6);
 }
 
 /* ---- blocks ------------------------------------------------------------------- */
@@ -561,25 +549,25 @@ static void test_blocks(void **state)
                             double want = in ? db[(i - r0) * bc + j - c0] : da[i * C + j];
                             assert_true((double)DKF_AT(&A, i, j) == want);
                         }
-                    fill(rc, br * bc, SENTINEL);
+                    test_fill(rc, br * bc, SENTINEL);
                     assert_int_equal(dkf_mat_get_block(&G, &A, r0, c0), DKF_OK);
                     assert_memory_equal(rc, rb, br * bc * sizeof(dkf_real_t));
                 }
     {
         dkf_mat_t B = DKF_MAT(2, 3, rb);
-        fill(rb, 6, SENTINEL);
+        test_fill(rb, 6, SENTINEL);
         /* blocks that leave A by one row / column, or by a wrapped index */
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_get_block(&B, &A, R - 1, 0), rb, 6);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_get_block(&B, &A, 0, C - 2), rb, 6);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_get_block(&B, &A, SIZE_MAX, 0), rb, 6);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_get_block(&Big, &A, 0, 0), rc, 16);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_set_block(&A, R - 1, 0, &B), ra, R * C);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_set_block(&A, 0, C - 2, &B), ra, R * C);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_set_block(&A, 0, SIZE_MAX, &B), ra, R * C);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_set_block(&A, 0, 0, &Big), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_get_block(&B, &A, R - 1, 0), rb, 6);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_get_block(&B, &A, 0, C - 2), rb, 6);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_get_block(&B, &A, SIZE_MAX, 0), rb, 6);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_get_block(&Big, &A, 0, 0), rc, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_set_block(&A, R - 1, 0, &B), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_set_block(&A, 0, C - 2, &B), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_set_block(&A, 0, SIZE_MAX, &B), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_set_block(&A, 0, 0, &Big), ra, R * C);
         /* a block view inside A's own storage */
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_get_block(&Part, &A, 1, 1), ra, R * C);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_set_block(&A, 1, 1, &Part), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_get_block(&Part, &A, 1, 1), ra, R * C);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_set_block(&A, 1, 1, &Part), ra, R * C);
         check_bad_views(get_block_fn, 2, B, A, A);
         check_bad_views(set_block_fn, 2, A, B, B);
     }
@@ -599,7 +587,7 @@ static void test_blkdiag(void **state)
     blocks[2] = &B2;
     test_rng_seed(&g, 18);
     rand_pair(&g, ra, da, 1, 9);
-    fill(rc, 30, SENTINEL);
+    test_fill(rc, 30, SENTINEL);
     assert_int_equal(dkf_mat_blkdiag(&D, blocks, 3), DKF_OK);
     /* shape rule: (1+3+2) x (2+1+2); each block at its offset, zeros elsewhere */
     for (i = 0; i < 6; ++i)
@@ -626,26 +614,26 @@ static void test_blkdiag(void **state)
         assert_int_equal(dkf_mat_blkdiag(&E, two, 2), DKF_OK);
         assert_true(rd[0] == 2 && rd[1] == 0 && rd[2] == 0 && rd[3] == -3);
     }
-    fill(rc, 35, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_blkdiag(&Dbig, blocks, 3), rc, 35);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_blkdiag(&Dsmall, blocks, 3), rc, 35);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_blkdiag(&D, blocks, 2), rc, 35);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_blkdiag(&D, blocks, 0), rc, 35);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_blkdiag(&D, NULL, 3), rc, 35);
+    test_fill(rc, 35, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_blkdiag(&Dbig, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_blkdiag(&Dsmall, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_blkdiag(&D, blocks, 2), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_blkdiag(&D, blocks, 0), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_blkdiag(&D, NULL, 3), rc, 35);
     assert_int_equal(dkf_mat_blkdiag(NULL, blocks, 3), DKF_ERR_NULL);
     blocks[1] = NULL;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
     B1.rows = DKF_MAX_DIM + 1;
     blocks[1] = &B1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
     B1.rows = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
     B1.rows = 3;
     B1.data = rc + 29; /* a block sharing D's storage */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
     D.rows = 0;
     B1.data = ra + 2;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_blkdiag(&D, blocks, 3), rc, 35);
 }
 
 static void test_check_finite(void **state)
@@ -655,7 +643,7 @@ static void test_check_finite(void **state)
     const size_t where[3] = {0, 5, 11};
     size_t b, w;
     (void)state;
-    fill(ra, 12, 1);
+    test_fill(ra, 12, 1);
     ra[1] = DKF_REAL_MAX;
     ra[2] = -DKF_REAL_MAX;
     ra[3] = DKF_REAL_MIN / 4; /* subnormal */

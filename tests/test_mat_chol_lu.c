@@ -52,18 +52,7 @@ static const size_t sizes[] = {1, 2, 3, 4, 6, 8, 12, 24, DKF_MAX_DIM};
 #define NSIZES (sizeof sizes / sizeof sizes[0])
 #define TRIALS 3
 
-static void fill(dkf_real_t *p, size_t n, dkf_real_t v)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) p[i] = v;
-}
 
-#define ASSERT_FAILS_UNTOUCHED(st, call, out, n) \
-    do { \
-        memcpy(snap, (out), (n) * sizeof(dkf_real_t)); \
-        assert_int_equal((call), (st)); \
-        assert_memory_equal(snap, (out), (n) * sizeof(dkf_real_t)); \
-    } while (0)
 
 /* Random SPD matrix of condition number cond in the library type, and the
  * exact double image of the rounded values. */
@@ -239,7 +228,7 @@ static void test_chol_residuals(void **state)
                           X = DKF_MAT(n, NRHS, rx), Inv = DKF_MAT(n, n, ry);
                 double r, cond = conds[ci];
                 spd_pair(&g, ra, da, n, cond);
-                fill(rl, n * n, SENTINEL);
+                test_fill(rl, n * n, SENTINEL);
                 assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
                 test_to_double(dl, rl, n * n);
                 for (i = 0; i < n; ++i) {
@@ -282,7 +271,7 @@ static void test_chol_residuals(void **state)
                  * ~ n u cond and that is what is asserted (2 n EPS cond,
                  * observed ratio printed below, ~0.25 at most), so a change
                  * that loses the usual accuracy is caught. */
-                fill(ry, n * n, SENTINEL);
+                test_fill(ry, n * n, SENTINEL);
                 assert_int_equal(dkf_mat_chol_inverse(&Inv, &L), DKF_OK);
                 for (i = 0; i < n; ++i)
                     for (j = 0; j < i; ++j) assert_true(ry[i * n + j] == ry[j * n + i]);
@@ -346,19 +335,19 @@ static void test_chol_errors(void **state)
     size_t pos;
     (void)state;
     nan1[0] = (dkf_real_t)NAN;
-    fill(rl, 16, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L3, &A3, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Ao, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Az, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Ai, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L1, &An, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&L3, &Ai3, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol(&L1, &Nan, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&L3, &A3, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&L3, &Ai3, rw), rl, 16);
+    test_fill(rl, 16, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L3, &A3, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Ao, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Az, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L2, &Ai, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L1, &An, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&L3, &Ai3, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol(&L1, &Nan, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&L3, &A3, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&L3, &Ai3, rw), rl, 16);
     /* in place failure leaves A itself untouched */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_chol(&A3, &A3, rw), psd, 9);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&Ai3, &Ai3, rw), indef3, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_chol(&A3, &A3, rw), psd, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_mat_spd_inverse(&Ai3, &Ai3, rw), indef3, 9);
 
     /* NaN / +-Inf anywhere in the lower triangle gives NONFINITE, even when
      * an earlier pivot would fail first; the upper triangle is not read. */
@@ -370,12 +359,12 @@ static void test_chol_errors(void **state)
             const int lower = pos % 3 <= pos / 3;
             const dkf_status_t want = lower ? DKF_ERR_NONFINITE : DKF_OK;
             good[pos] = bad[b];
-            fill(rl, 9, SENTINEL);
+            test_fill(rl, 9, SENTINEL);
             if (lower) {
-                ASSERT_FAILS_UNTOUCHED(want, dkf_mat_chol(&L3, &G, rw), rl, 9);
-                ASSERT_FAILS_UNTOUCHED(want, dkf_mat_spd_inverse(&L3, &G, rw), rl, 9);
+                TEST_FAILS_UNTOUCHED(snap, want, dkf_mat_chol(&L3, &G, rw), rl, 9);
+                TEST_FAILS_UNTOUCHED(snap, want, dkf_mat_spd_inverse(&L3, &G, rw), rl, 9);
                 good[0] = -1; /* pivot 0 fails before the bad value is reached */
-                if (pos != 0) ASSERT_FAILS_UNTOUCHED(want, dkf_mat_chol(&L3, &G, rw), rl, 9);
+                if (pos != 0) TEST_FAILS_UNTOUCHED(snap, want, dkf_mat_chol(&L3, &G, rw), rl, 9);
                 good[0] = 4;
             } else {
                 assert_int_equal(dkf_mat_chol(&L3, &G, rw), DKF_OK);
@@ -385,30 +374,30 @@ static void test_chol_errors(void **state)
     }
 
     /* argument errors */
-    fill(rl, 16, SENTINEL);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol(&L3, &R, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol(&L2, &G, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_spd_inverse(&L2, &G, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_chol(&L3, &G, NULL), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_chol(&L3, NULL, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_spd_inverse(&L3, &G, NULL), rl, 16);
+    test_fill(rl, 16, SENTINEL);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol(&L3, &R, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol(&L2, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_spd_inverse(&L2, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_chol(&L3, &G, NULL), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_chol(&L3, NULL, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_spd_inverse(&L3, &G, NULL), rl, 16);
     assert_int_equal(dkf_mat_chol(NULL, &G, rw), DKF_ERR_NULL);
     L3.rows = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_chol(&L3, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_chol(&L3, &G, rw), rl, 16);
     L3.rows = DKF_MAX_DIM + 1;
     L3.cols = DKF_MAX_DIM + 1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_chol(&L3, &G, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_spd_inverse(&L3, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_chol(&L3, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_spd_inverse(&L3, &G, rw), rl, 16);
     L3.rows = L3.cols = 3;
     /* workspace over L or over A; L partly over A */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol(&L3, &G, rl + 2), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol(&L3, &G, good + 8), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_spd_inverse(&L3, &G, rl + 8), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol(&L3, &G, rl + 2), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol(&L3, &G, good + 8), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_spd_inverse(&L3, &G, rl + 8), rl, 16);
     {
         dkf_mat_t Gs = DKF_MAT(3, 3, rl), Gp = DKF_MAT(3, 3, rl + 1);
         memcpy(rl, good, sizeof good);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol(&Gp, &Gs, rw), rl, 16);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_spd_inverse(&Gp, &Gs, rw), rl, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol(&Gp, &Gs, rw), rl, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_spd_inverse(&Gp, &Gs, rw), rl, 16);
     }
 }
 
@@ -420,63 +409,63 @@ static void test_chol_solve_inverse_errors(void **state)
               R = DKF_MAT(3, 2, ra);
     size_t i;
     (void)state;
-    fill(rb, 6, 1);
+    test_fill(rb, 6, 1);
     /* NaN in the strict upper triangle of L is never read */
     assert_int_equal(dkf_mat_chol_solve(&X, &L, &B), DKF_OK);
     assert_int_equal(dkf_mat_chol_inverse(&Inv, &L), DKF_OK);
     assert_true(dkf_mat_check_finite(&Inv) == DKF_OK);
 
-    fill(rx, 8, SENTINEL);
-    fill(ry, 9, SENTINEL);
+    test_fill(rx, 8, SENTINEL);
+    test_fill(ry, 9, SENTINEL);
     /* a non-positive diagonal element: SINGULAR */
     for (i = 0; i < 3; ++i) {
         const dkf_real_t keep = l[4 * i];
         l[4 * i] = 0;
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
         l[4 * i] = -keep;
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
         l[4 * i] = keep;
     }
     /* non-finite factor (lower triangle) or right-hand side */
     l[7] = (dkf_real_t)INFINITY;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
     l[7] = 2;
     l[8] = (dkf_real_t)NAN;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
     l[8] = 1;
     rb[5] = (dkf_real_t)NAN;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_chol_solve(&B, &L, &B), rb, 6);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_chol_solve(&B, &L, &B), rb, 6);
     rb[5] = 1;
     /* shapes */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol_solve(&X4, &L, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol_solve(&X4, &L, &B4), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol_solve(&X, &R, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol_inverse(&X, &L), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_chol_inverse(&Inv, &R), ry, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol_solve(&X4, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol_solve(&X4, &L, &B4), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol_solve(&X, &R, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol_inverse(&X, &L), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_chol_inverse(&Inv, &R), ry, 9);
     /* X over L, X partly over B, Ainv over L */
     {
         dkf_mat_t XL = DKF_MAT(3, 3, l), Bp = DKF_MAT(3, 2, rb + 1);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol_solve(&XL, &L, &XL), l, 9);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol_solve(&Bp, &L, &B), rb, 7);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_chol_inverse(&L, &L), l, 9);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol_solve(&XL, &L, &XL), l, 9);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol_solve(&Bp, &L, &B), rb, 7);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_chol_inverse(&L, &L), l, 9);
     }
     /* NULL and capacity */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_chol_solve(&X, NULL, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_chol_solve(&X, &L, NULL), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_chol_inverse(&Inv, NULL), ry, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_chol_solve(&X, NULL, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_chol_solve(&X, &L, NULL), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_chol_inverse(&Inv, NULL), ry, 9);
     assert_int_equal(dkf_mat_chol_solve(NULL, &L, &B), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_chol_inverse(NULL, &L), DKF_ERR_NULL);
     B.cols = DKF_MAX_DIM + 1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
     B.cols = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_chol_solve(&X, &L, &B), rx, 8);
     L.rows = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_chol_inverse(&Inv, &L), ry, 9);
 }
 
 /* ---- LU -------------------------------------------------------------------------- */
@@ -593,7 +582,7 @@ static void test_lu_residuals(void **state)
                  * Theorem 9.4 bounds |A X - I| <= gamma_{3n+2} P^T|L||U||X|
                  * componentwise. Normwise that is ~ n EPS cond: with
                  * ||A||_2 = 1, ||A X - I|| <= c n EPS ||X|| ~ c n EPS cond. */
-                fill(ry, n * n, SENTINEL);
+                test_fill(ry, n * n, SENTINEL);
                 assert_int_equal(dkf_mat_inverse(&Inv, &A, piv2, rw), DKF_OK);
                 assert_memory_equal(piv2, piv, n * sizeof(size_t));
                 test_to_double(dx, ry, n * n);
@@ -640,13 +629,13 @@ static void test_lu_errors(void **state)
               R = DKF_MAT(2, 3, ra);
     size_t pos, keep_piv[MAXN];
     (void)state;
-    fill(rl, 16, SENTINEL);
-    fill(ry, 16, SENTINEL);
+    test_fill(rl, 16, SENTINEL);
+    test_fill(ry, 16, SENTINEL);
     for (pos = 0; pos < MAXN; ++pos) piv[pos] = piv2[pos] = 777;
     memcpy(keep_piv, piv, sizeof keep_piv);
 #define ASSERT_LU_FAILS(st, Amat, LUmat) \
     do { \
-        ASSERT_FAILS_UNTOUCHED(st, dkf_mat_lu(&LUmat, piv, &Amat, rw), rl, 16); \
+        TEST_FAILS_UNTOUCHED(snap, st, dkf_mat_lu(&LUmat, piv, &Amat, rw), rl, 16); \
         assert_memory_equal(piv, keep_piv, sizeof keep_piv); \
     } while (0)
     ASSERT_LU_FAILS(DKF_ERR_SINGULAR, Z, LU2);
@@ -654,9 +643,9 @@ static void test_lu_errors(void **state)
     ASSERT_LU_FAILS(DKF_ERR_SINGULAR, C, LU);
     /* rank2's last pivot is O(eps), far below 3 * eps * 9 */
     ASSERT_LU_FAILS(DKF_ERR_SINGULAR, K, LU);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_inverse(&Inv, &K, piv2, rw), ry, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_inverse(&Inv2, &Z, piv2, rw), ry, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_inverse(&D, &D, piv2, rw), dup, 9);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_inverse(&Inv, &K, piv2, rw), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_inverse(&Inv2, &Z, piv2, rw), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_inverse(&D, &D, piv2, rw), dup, 9);
     /* the threshold n * eps * max|A| itself: diag(1, 2 EPS) with n = 2 sits
      * on it (SINGULAR, the test is <=), diag(1, 4 EPS) is above it */
     tiny[3] = 2 * DKF_REAL_EPSILON;
@@ -666,7 +655,7 @@ static void test_lu_errors(void **state)
     /* the threshold scales with max|A| */
     tiny[0] = 1024;
     tiny[3] = 1024 * 2 * DKF_REAL_EPSILON;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_lu(&LU2, piv2, &T, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_lu(&LU2, piv2, &T, rw), rl, 16);
     memcpy(keep_piv, piv, sizeof keep_piv);
 
     /* NaN / Inf anywhere (LU reads all of A) */
@@ -674,7 +663,7 @@ static void test_lu_errors(void **state)
         const dkf_real_t keep = good[pos];
         good[pos] = pos % 2 ? (dkf_real_t)NAN : (dkf_real_t)-INFINITY;
         ASSERT_LU_FAILS(DKF_ERR_NONFINITE, G, LU);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_inverse(&Inv, &G, piv2, rw), ry, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_inverse(&Inv, &G, piv2, rw), ry, 16);
         good[pos] = keep;
     }
     /* NONFINITE outranks singularity */
@@ -685,12 +674,12 @@ static void test_lu_errors(void **state)
     /* arguments */
     ASSERT_LU_FAILS(DKF_ERR_DIM, R, LU);
     ASSERT_LU_FAILS(DKF_ERR_DIM, G, LU2);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_inverse(&Inv2, &G, piv2, rw), ry, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu(&LU, NULL, &G, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu(&LU, piv, &G, NULL), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu(&LU, piv, NULL, rw), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_inverse(&Inv, &G, NULL, rw), ry, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_inverse(&Inv, &G, piv2, NULL), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_inverse(&Inv2, &G, piv2, rw), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu(&LU, NULL, &G, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu(&LU, piv, &G, NULL), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu(&LU, piv, NULL, rw), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_inverse(&Inv, &G, NULL, rw), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_inverse(&Inv, &G, piv2, NULL), ry, 16);
     assert_int_equal(dkf_mat_lu(NULL, piv, &G, rw), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_inverse(NULL, &G, piv2, rw), DKF_ERR_NULL);
     LU.rows = LU.cols = DKF_MAX_DIM + 1;
@@ -699,17 +688,17 @@ static void test_lu_errors(void **state)
     ASSERT_LU_FAILS(DKF_ERR_CAPACITY, G, LU);
     LU.rows = LU.cols = 3;
     Inv.cols = DKF_MAX_DIM + 1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_inverse(&Inv, &G, piv2, rw), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_inverse(&Inv, &G, piv2, rw), ry, 16);
     Inv.cols = 3;
     /* workspace over the output or the input, partial overlap of LU and A */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_lu(&LU, piv, &G, rl + 8), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_lu(&LU, piv, &G, good + 8), rl, 16);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_inverse(&Inv, &G, piv2, ry + 8), ry, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_lu(&LU, piv, &G, rl + 8), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_lu(&LU, piv, &G, good + 8), rl, 16);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_inverse(&Inv, &G, piv2, ry + 8), ry, 16);
     {
         dkf_mat_t Gs = DKF_MAT(3, 3, rl), Gp = DKF_MAT(3, 3, rl + 3);
         memcpy(rl, good, sizeof good);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_lu(&Gp, piv, &Gs, rw), rl, 16);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_inverse(&Gp, &Gs, piv2, rw), rl, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_lu(&Gp, piv, &Gs, rw), rl, 16);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_inverse(&Gp, &Gs, piv2, rw), rl, 16);
     }
 #undef ASSERT_LU_FAILS
 }
@@ -724,45 +713,45 @@ static void test_lu_solve_errors(void **state)
     (void)state;
     assert_int_equal(dkf_mat_lu(&LU, piv, &G, rw), DKF_OK);
     memcpy(p, piv, sizeof p);
-    fill(rb, 8, 1);
-    fill(rx, 8, SENTINEL);
+    test_fill(rb, 8, 1);
+    test_fill(rx, 8, SENTINEL);
     /* piv must be a permutation of 0..n-1 */
     p[1] = 3;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ARG, dkf_mat_lu_solve(&X, &LU, p, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ARG, dkf_mat_lu_solve(&X, &LU, p, &B), rx, 8);
     p[1] = p[0];
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_ARG, dkf_mat_lu_solve(&X, &LU, p, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu_solve(&X, &LU, NULL, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ARG, dkf_mat_lu_solve(&X, &LU, p, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu_solve(&X, &LU, NULL, &B), rx, 8);
     /* exact zero on U's diagonal */
     lu[8] = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_SINGULAR, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_SINGULAR, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
     /* non-finite factor or right-hand side */
     lu[8] = (dkf_real_t)NAN;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
     assert_int_equal(dkf_mat_lu(&LU, piv, &G, rw), DKF_OK);
     lu[1] = (dkf_real_t)INFINITY; /* in U's strict upper part: still read */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
     assert_int_equal(dkf_mat_lu(&LU, piv, &G, rw), DKF_OK);
     rb[3] = (dkf_real_t)-INFINITY;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NONFINITE, dkf_mat_lu_solve(&B, &LU, piv, &B), rb, 6);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NONFINITE, dkf_mat_lu_solve(&B, &LU, piv, &B), rb, 6);
     rb[3] = 1;
     /* shapes, aliasing, NULL, capacity */
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_lu_solve(&X4, &LU, piv, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_lu_solve(&X4, &LU, piv, &B4), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_DIM, dkf_mat_lu_solve(&X, &R, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_lu_solve(&X4, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_lu_solve(&X4, &LU, piv, &B4), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_mat_lu_solve(&X, &R, piv, &B), rx, 8);
     {
         dkf_mat_t XL = DKF_MAT(3, 3, lu), Bp = DKF_MAT(3, 2, rb + 2);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_lu_solve(&XL, &LU, piv, &XL), lu, 9);
-        ASSERT_FAILS_UNTOUCHED(DKF_ERR_ALIAS, dkf_mat_lu_solve(&Bp, &LU, piv, &B), rb, 8);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_lu_solve(&XL, &LU, piv, &XL), lu, 9);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_ALIAS, dkf_mat_lu_solve(&Bp, &LU, piv, &B), rb, 8);
     }
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu_solve(&X, NULL, piv, &B), rx, 8);
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_NULL, dkf_mat_lu_solve(&X, &LU, piv, NULL), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu_solve(&X, NULL, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NULL, dkf_mat_lu_solve(&X, &LU, piv, NULL), rx, 8);
     assert_int_equal(dkf_mat_lu_solve(NULL, &LU, piv, &B), DKF_ERR_NULL);
     B.cols = DKF_MAX_DIM + 1;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
     B.cols = 2;
     LU.rows = 0;
-    ASSERT_FAILS_UNTOUCHED(DKF_ERR_CAPACITY, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_CAPACITY, dkf_mat_lu_solve(&X, &LU, piv, &B), rx, 8);
 }
 
 int main(void)

@@ -36,32 +36,8 @@ static const shape_t shapes[] = {{1, 1}, {2, 1}, {3, 3}, {5, 3}, {8, 8},   {12, 
 
 static double qr_tol(size_t r, size_t c) { return 10.0 * (double)(r > c ? r : c) * TEST_EPS; }
 
-/* A view as an expression (DKF_MAT is an initializer only). */
-static dkf_mat_t view(size_t r, size_t c, dkf_real_t *p)
-{
-    dkf_mat_t m = DKF_MAT(r, c, p);
-    return m;
-}
 
-static void fill(dkf_real_t *p, size_t n, dkf_real_t v)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) p[i] = v;
-}
 
-/* max |Q^T Q - I| for an r x k Q, in double. */
-static double orth_err(const dkf_real_t *Q, size_t r, size_t k)
-{
-    double m = 0.0;
-    size_t i, j, l;
-    for (i = 0; i < k; ++i)
-        for (j = 0; j < k; ++j) {
-            double acc = (i == j) ? -1.0 : 0.0;
-            for (l = 0; l < r; ++l) acc += (double)Q[l * k + i] * (double)Q[l * k + j];
-            if (fabs(acc) > m) m = fabs(acc);
-        }
-    return m;
-}
 
 /* max |A - Q R| / max|A|, Q r x k whose first c columns multiply R (c x c). */
 static double factor_err(const dkf_real_t *A, const dkf_real_t *Q, size_t k, const dkf_real_t *R,
@@ -101,7 +77,7 @@ static void test_qr_factors(void **state)
                   mQf = DKF_MAT(r, r, Qf), mR = DKF_MAT(c, c, R);
         double tol = qr_tol(r, c), e;
         rand_real(&g, A, r, c);
-        fill(R, c * c, SENTINEL);
+        test_fill(R, c * c, SENTINEL);
         assert_int_equal(dkf_mat_qr(&mQR, tau, &mA), DKF_OK);
         assert_int_equal(dkf_mat_qr_q(&mQt, &mQR, tau), DKF_OK);
         assert_int_equal(dkf_mat_qr_q(&mQf, &mQR, tau), DKF_OK);
@@ -118,10 +94,10 @@ static void test_qr_factors(void **state)
         assert_true(e <= tol);
         e = factor_err(A, Qf, r, R, r, c);
         assert_true(e <= tol);
-        e = orth_err(Qt, r, c);
+        e = test_orth_err(Qt, r, c);
         worst_orth = e > worst_orth ? e : worst_orth;
         assert_true(e <= tol);
-        e = orth_err(Qf, r, r);
+        e = test_orth_err(Qf, r, r);
         worst_orth = e > worst_orth ? e : worst_orth;
         assert_true(e <= tol);
         /* the thin Q is the leading c columns of the full Q */
@@ -290,7 +266,7 @@ static void test_qr_solve_rank(void **state)
 
     /* d = c eps max|R_jj| / 2 and d = c eps max|R_jj| exactly: rank deficient */
     A[8] = c_eps;
-    fill(X, 6, SENTINEL);
+    test_fill(X, 6, SENTINEL);
     memcpy(Xs, X, sizeof X);
     assert_int_equal(dkf_mat_qr_solve(&mX, &mA, &mB, work), DKF_ERR_RANK);
     assert_memory_equal(X, Xs, sizeof X);
@@ -313,7 +289,7 @@ static void test_qr_solve_rank(void **state)
             size_t row;
             rand_real(&g, Z, 5, 3);
             for (row = 0; row < 5; ++row) Z[row * 3 + i] = 0;
-            fill(X, 6, SENTINEL);
+            test_fill(X, 6, SENTINEL);
             assert_int_equal(dkf_mat_qr_solve(&mX, &mZ, &mB5, work), DKF_ERR_RANK);
             assert_memory_equal(X, Xs, sizeof X);
         }
@@ -337,12 +313,12 @@ static void setup_bufs(qr_bufs_t *b)
     test_rng_seed(&g, 99);
     rand_real(&g, b->A, 6, 4);
     rand_real(&g, b->B, 6, 2);
-    fill(b->QR, 24, SENTINEL);
-    fill(b->tau, 4, SENTINEL);
-    fill(b->Q, 36, SENTINEL);
-    fill(b->R, 16, SENTINEL);
-    fill(b->X, 8, SENTINEL);
-    fill(b->work, DKF_MAT_QR_SOLVE_WORK(6, 4), SENTINEL);
+    test_fill(b->QR, 24, SENTINEL);
+    test_fill(b->tau, 4, SENTINEL);
+    test_fill(b->Q, 36, SENTINEL);
+    test_fill(b->R, 16, SENTINEL);
+    test_fill(b->X, 8, SENTINEL);
+    test_fill(b->work, DKF_MAT_QR_SOLVE_WORK(6, 4), SENTINEL);
 }
 
 /* Every output buffer still holds the sentinel (A, B are inputs). */
@@ -380,31 +356,31 @@ static void test_qr_errors(void **state)
         assert_untouched(&b, &ref);
 
         /* dimensions */
-        bad = view(4, 6, b.A); /* r < c */
+        bad = test_view(4, 6, b.A); /* r < c */
         {
             dkf_mat_t QRw = DKF_MAT(4, 6, b.QR), Xw = DKF_MAT(6, 2, b.Q);
             assert_int_equal(dkf_mat_qr(&QRw, b.tau, &bad), DKF_ERR_DIM);
             assert_int_equal(dkf_mat_qr_solve(&Xw, &bad, &B, b.work), DKF_ERR_DIM);
         }
-        bad = view(6, 3, b.QR);
+        bad = test_view(6, 3, b.QR);
         assert_int_equal(dkf_mat_qr(&bad, b.tau, &A), DKF_ERR_DIM);
-        bad = view(6, 3, b.Q); /* k < c */
+        bad = test_view(6, 3, b.Q); /* k < c */
         assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_DIM);
-        bad = view(5, 4, b.Q); /* rows != r */
+        bad = test_view(5, 4, b.Q); /* rows != r */
         assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_DIM);
         {
             static dkf_real_t q7[6 * 7], q7s[6 * 7];
             dkf_mat_t Q7 = DKF_MAT(6, 7, q7); /* k > r */
-            fill(q7, 42, SENTINEL);
+            test_fill(q7, 42, SENTINEL);
             memcpy(q7s, q7, sizeof q7);
             assert_int_equal(dkf_mat_qr_q(&Q7, &QR, b.tau), DKF_ERR_DIM);
             assert_memory_equal(q7, q7s, sizeof q7);
         }
-        bad = view(3, 4, b.R);
+        bad = test_view(3, 4, b.R);
         assert_int_equal(dkf_mat_qr_r(&bad, &QR, b.tau), DKF_ERR_DIM);
-        bad = view(4, 1, b.X);
+        bad = test_view(4, 1, b.X);
         assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_DIM);
-        bad = view(5, 2, b.B);
+        bad = test_view(5, 2, b.B);
         assert_int_equal(dkf_mat_qr_solve(&X, &A, &bad, b.work), DKF_ERR_DIM);
         assert_untouched(&b, &ref);
 
@@ -428,19 +404,19 @@ static void test_qr_errors(void **state)
         {
             static dkf_real_t big[8 * 4];
             dkf_mat_t in = DKF_MAT(6, 4, big), out = DKF_MAT(6, 4, big + 4);
-            fill(big, 32, SENTINEL);
+            test_fill(big, 32, SENTINEL);
             assert_int_equal(dkf_mat_qr(&out, b.tau, &in), DKF_ERR_ALIAS); /* partial */
             assert_int_equal(dkf_mat_qr(&QR, b.QR + 2, &A), DKF_ERR_ALIAS); /* tau in QR */
             assert_int_equal(dkf_mat_qr(&QR, b.A + 20, &A), DKF_ERR_ALIAS); /* tau in A */
-            bad = view(6, 4, b.QR);
+            bad = test_view(6, 4, b.QR);
             assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.tau), DKF_ERR_ALIAS);
-            bad = view(6, 4, b.Q);
+            bad = test_view(6, 4, b.Q);
             assert_int_equal(dkf_mat_qr_q(&bad, &QR, b.Q + 3), DKF_ERR_ALIAS);
-            bad = view(4, 4, b.QR + 8);
+            bad = test_view(4, 4, b.QR + 8);
             assert_int_equal(dkf_mat_qr_r(&bad, &QR, b.tau), DKF_ERR_ALIAS);
-            bad = view(4, 2, b.A);
+            bad = test_view(4, 2, b.A);
             assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_ALIAS);
-            bad = view(4, 2, b.B + 4);
+            bad = test_view(4, 2, b.B + 4);
             assert_int_equal(dkf_mat_qr_solve(&bad, &A, &B, b.work), DKF_ERR_ALIAS);
             assert_int_equal(dkf_mat_qr_solve(&X, &A, &B, b.X), DKF_ERR_ALIAS);
             assert_int_equal(dkf_mat_qr_solve(&X, &A, &B, b.A), DKF_ERR_ALIAS);

@@ -41,32 +41,8 @@ typedef struct {
 static double svd_tol(size_t r, size_t c) { return 10.0 * (double)(r > c ? r : c) * TEST_EPS; }
 static size_t min_sz(size_t a, size_t b) { return a < b ? a : b; }
 
-/* A view as an expression (DKF_MAT is an initializer only). */
-static dkf_mat_t view(size_t r, size_t c, dkf_real_t *p)
-{
-    dkf_mat_t m = DKF_MAT(r, c, p);
-    return m;
-}
 
-static void fill(dkf_real_t *p, size_t n, dkf_real_t v)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) p[i] = v;
-}
 
-/* max |Q^T Q - I| for an r x k Q, in double. */
-static double orth_err(const dkf_real_t *Q, size_t r, size_t k)
-{
-    double m = 0.0;
-    size_t i, j, l;
-    for (i = 0; i < k; ++i)
-        for (j = 0; j < k; ++j) {
-            double acc = (i == j) ? -1.0 : 0.0;
-            for (l = 0; l < r; ++l) acc += (double)Q[l * k + i] * (double)Q[l * k + j];
-            if (fabs(acc) > m) m = fabs(acc);
-        }
-    return m;
-}
 
 /* max |A - U diag(s) V^T|, U r x k, V c x k. */
 static double recon_err(const dkf_real_t *A, const dkf_real_t *U, const dkf_real_t *s,
@@ -122,10 +98,10 @@ static void check_svd(const dkf_real_t *A, size_t r, size_t c, const double *sre
     if (smax > 0.0) e /= smax;
     if (e > worst_recon) worst_recon = e;
     assert_true(e <= tol);
-    e = orth_err(U, r, k);
+    e = test_orth_err(U, r, k);
     if (e > worst_orth) worst_orth = e;
     assert_true(e <= tol);
-    e = orth_err(V, c, k);
+    e = test_orth_err(V, c, k);
     if (e > worst_orth) worst_orth = e;
     assert_true(e <= tol);
 
@@ -260,8 +236,8 @@ static void test_svd_structure_and_scale(void **state)
             for (i = 0; i < 5; ++i) ssum += pow((double)sv[i] / scales[sc], 2.0);
             assert_true(fabs(ssum - fro) <= tol * fro);
             assert_true(sv[3] == (dkf_real_t)0 && sv[4] == (dkf_real_t)0);
-            assert_true(orth_err(U, 7, 5) <= tol);
-            assert_true(orth_err(V, 5, 5) <= tol);
+            assert_true(test_orth_err(U, 7, 5) <= tol);
+            assert_true(test_orth_err(V, 5, 5) <= tol);
             assert_true(recon_err(A, U, sv, V, 7, 5) <= tol * (double)sv[0]);
         }
         /* and the transposed shape */
@@ -274,8 +250,8 @@ static void test_svd_structure_and_scale(void **state)
                 for (j = 0; j < 5; ++j) At[j * 7 + i] = A[i * 5 + j];
             assert_int_equal(dkf_mat_svd(&mU, sv, &mV, &mA, work), DKF_OK);
             assert_true(sv[3] == (dkf_real_t)0 && sv[4] == (dkf_real_t)0);
-            assert_true(orth_err(U, 5, 5) <= tol);
-            assert_true(orth_err(V, 7, 5) <= tol);
+            assert_true(test_orth_err(U, 5, 5) <= tol);
+            assert_true(test_orth_err(V, 7, 5) <= tol);
             assert_true(recon_err(At, U, sv, V, 5, 7) <= tol * (double)sv[0]);
         }
     }
@@ -293,7 +269,7 @@ static void test_svd_structure_and_scale(void **state)
             qsort(s2, 4, sizeof(double), cmp_desc);
             assert_int_equal(dkf_mat_svd(&mU, sv, &mV, &mA, work), DKF_OK);
             for (i = 0; i < 4; ++i) assert_true(fabs((double)sv[i] - s2[i]) <= svd_tol(6, 4) * s2[0]);
-            assert_true(orth_err(U, 6, 4) <= svd_tol(6, 4));
+            assert_true(test_orth_err(U, 6, 4) <= svd_tol(6, 4));
         }
     }
 }
@@ -404,8 +380,8 @@ static void test_pinv_zero(void **state)
     dkf_mat_t mA = DKF_MAT(3, 4, A), mX = DKF_MAT(4, 3, X);
     size_t rank = 99, i;
     (void)state;
-    fill(A, 12, 0);
-    fill(X, 12, SENTINEL);
+    test_fill(A, 12, 0);
+    test_fill(X, 12, SENTINEL);
     assert_int_equal(dkf_mat_pinv(&mX, &rank, &mA, DKF_RANK_TOL_DEFAULT, work), DKF_OK);
     assert_int_equal(rank, 0);
     for (i = 0; i < 12; ++i) assert_true(X[i] == (dkf_real_t)0);
@@ -489,8 +465,8 @@ static void test_rank_exact(void **state)
         static dkf_real_t eye[5 * 5];
         size_t got;
         dkf_mat_t M = DKF_MAT(3, 3, m123), O = DKF_MAT(4, 6, ones), E = DKF_MAT(5, 5, eye);
-        fill(ones, 24, 1);
-        fill(eye, 25, 0);
+        test_fill(ones, 24, 1);
+        test_fill(eye, 25, 0);
         for (i = 0; i < 5; ++i) eye[i * 6] = 1;
         assert_int_equal(dkf_mat_rank(&got, &M, DKF_RANK_TOL_DEFAULT, work), DKF_OK);
         assert_int_equal(got, 2);
@@ -532,11 +508,11 @@ static void test_frd_golden(void **state)
         k = min_sz(p, m);
         assert_true(nsv >= k);
         test_to_real(Hr, H, p * m);
-        mH = view(p, m, Hr);
-        mAbar = view(p, k, Abar);
-        mT = view(k, m, T);
-        fill(Abar, p * k, SENTINEL);
-        fill(T, k * m, SENTINEL);
+        mH = test_view(p, m, Hr);
+        mAbar = test_view(p, k, Abar);
+        mT = test_view(k, m, T);
+        test_fill(Abar, p * k, SENTINEL);
+        test_fill(T, k * m, SENTINEL);
         hmax = test_max_abs(H, p * m);
 
         if (want == 0) {
@@ -682,46 +658,46 @@ static void test_svd_errors(void **state)
         double s[3] = {2.0, 1.0, 0.5};
         make_matrix(&g, b.A, 5, 3, s);
     }
-    fill(b.U, 15, SENTINEL);
-    fill(b.s, 3, SENTINEL);
-    fill(b.V, 9, SENTINEL);
-    fill(b.X, 15, SENTINEL);
-    fill(b.Abar, 15, SENTINEL);
-    fill(b.T, 9, SENTINEL);
-    fill(b.work, DKF_MAT_SVD_WORK(5, 3), SENTINEL);
+    test_fill(b.U, 15, SENTINEL);
+    test_fill(b.s, 3, SENTINEL);
+    test_fill(b.V, 9, SENTINEL);
+    test_fill(b.X, 15, SENTINEL);
+    test_fill(b.Abar, 15, SENTINEL);
+    test_fill(b.T, 9, SENTINEL);
+    test_fill(b.work, DKF_MAT_SVD_WORK(5, 3), SENTINEL);
     b.rank = 777;
     ref = b;
 
     /* capacity */
-    bad = view(0, 3, b.A);
+    bad = test_view(0, 3, b.A);
     assert_int_equal(dkf_mat_svd(&U, b.s, &V, &bad, b.work), DKF_ERR_CAPACITY);
-    bad = view(5, DKF_MAX_DIM + 1, b.A);
+    bad = test_view(5, DKF_MAX_DIM + 1, b.A);
     assert_int_equal(dkf_mat_rank(&b.rank, &bad, dflt, b.work), DKF_ERR_CAPACITY);
     assert_int_equal(dkf_mat_pinv(&X, &b.rank, &bad, dflt, b.work), DKF_ERR_CAPACITY);
     assert_int_equal(dkf_mat_frd(&Abar, &T, &b.rank, &bad, dflt, b.work), DKF_ERR_CAPACITY);
-    bad = view(5, 0, b.U);
+    bad = test_view(5, 0, b.U);
     assert_int_equal(dkf_mat_svd(&bad, b.s, &V, &A, b.work), DKF_ERR_CAPACITY);
     assert_untouched(&b, &ref);
 
     /* dimensions */
-    bad = view(5, 2, b.U);
+    bad = test_view(5, 2, b.U);
     assert_int_equal(dkf_mat_svd(&bad, b.s, &V, &A, b.work), DKF_ERR_DIM);
-    bad = view(3, 2, b.V);
+    bad = test_view(3, 2, b.V);
     assert_int_equal(dkf_mat_svd(&U, b.s, &bad, &A, b.work), DKF_ERR_DIM);
-    bad = view(5, 3, b.X);
+    bad = test_view(5, 3, b.X);
     assert_int_equal(dkf_mat_pinv(&bad, &b.rank, &A, dflt, b.work), DKF_ERR_DIM);
-    bad = view(4, 3, b.Abar);
+    bad = test_view(4, 3, b.Abar);
     assert_int_equal(dkf_mat_frd(&bad, &T, &b.rank, &A, dflt, b.work), DKF_ERR_DIM);
-    bad = view(3, 2, b.T);
+    bad = test_view(3, 2, b.T);
     assert_int_equal(dkf_mat_frd(&Abar, &bad, &b.rank, &A, dflt, b.work), DKF_ERR_DIM);
     assert_untouched(&b, &ref);
 
     /* frd: storage smaller than the rank (3) is reported after the SVD,
      * still before anything is written */
-    bad = view(5, 2, b.Abar);
+    bad = test_view(5, 2, b.Abar);
     assert_int_equal(dkf_mat_frd(&bad, &T, &b.rank, &A, dflt, b.work), DKF_ERR_CAPACITY);
     assert_int_equal(bad.cols, 2);
-    bad = view(2, 3, b.T);
+    bad = test_view(2, 3, b.T);
     assert_int_equal(dkf_mat_frd(&Abar, &bad, &b.rank, &A, dflt, b.work), DKF_ERR_CAPACITY);
     assert_int_equal(bad.rows, 2);
     assert_int_equal(Abar.cols, 3);
@@ -732,7 +708,7 @@ static void test_svd_errors(void **state)
     assert_int_equal(dkf_mat_svd(&U, NULL, &V, &A, b.work), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_svd(&U, b.s, &V, &A, NULL), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_svd(&U, b.s, &V, NULL, b.work), DKF_ERR_NULL);
-    bad = view(5, 3, NULL);
+    bad = test_view(5, 3, NULL);
     assert_int_equal(dkf_mat_svd(&bad, b.s, &V, &A, b.work), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_pinv(NULL, &b.rank, &A, dflt, b.work), DKF_ERR_NULL);
     assert_int_equal(dkf_mat_pinv(&X, &b.rank, &A, dflt, NULL), DKF_ERR_NULL);
@@ -744,9 +720,9 @@ static void test_svd_errors(void **state)
     assert_untouched(&b, &ref);
 
     /* aliasing */
-    bad = view(5, 3, b.A);
+    bad = test_view(5, 3, b.A);
     assert_int_equal(dkf_mat_svd(&bad, b.s, &V, &A, b.work), DKF_ERR_ALIAS);
-    bad = view(3, 3, b.U + 6);
+    bad = test_view(3, 3, b.U + 6);
     assert_int_equal(dkf_mat_svd(&U, b.s, &bad, &A, b.work), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_svd(&U, b.U + 14, &V, &A, b.work), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_svd(&U, b.A + 13, &V, &A, b.work), DKF_ERR_ALIAS);
@@ -754,13 +730,13 @@ static void test_svd_errors(void **state)
     assert_int_equal(dkf_mat_svd(NULL, b.s, NULL, &A, b.A + 2), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_svd(&U, b.s, NULL, &A, b.U + 14), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_svd(NULL, b.s, &V, &A, b.V + 8), DKF_ERR_ALIAS);
-    bad = view(3, 5, b.A);
+    bad = test_view(3, 5, b.A);
     assert_int_equal(dkf_mat_pinv(&bad, &b.rank, &A, dflt, b.work), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_pinv(&X, &b.rank, &A, dflt, b.X + 10), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_rank(&b.rank, &A, dflt, b.A + 14), DKF_ERR_ALIAS);
-    bad = view(5, 3, b.A);
+    bad = test_view(5, 3, b.A);
     assert_int_equal(dkf_mat_frd(&bad, &T, &b.rank, &A, dflt, b.work), DKF_ERR_ALIAS);
-    bad = view(3, 3, b.Abar + 6);
+    bad = test_view(3, 3, b.Abar + 6);
     assert_int_equal(dkf_mat_frd(&Abar, &bad, &b.rank, &A, dflt, b.work), DKF_ERR_ALIAS);
     assert_int_equal(dkf_mat_frd(&Abar, &T, &b.rank, &A, dflt, b.T + 8), DKF_ERR_ALIAS);
     assert_untouched(&b, &ref);
@@ -808,12 +784,12 @@ static void test_svd_no_convergence(void **state)
     test_rng_seed(&g, 51);
     test_rand_gauss(&g, d, 10, 10);
     test_to_real(A, d, 100);
-    fill(U, 100, SENTINEL);
-    fill(V, 100, SENTINEL);
-    fill(s, 10, SENTINEL);
-    fill(X, 100, SENTINEL);
-    fill(Abar, 100, SENTINEL);
-    fill(T, 100, SENTINEL);
+    test_fill(U, 100, SENTINEL);
+    test_fill(V, 100, SENTINEL);
+    test_fill(s, 10, SENTINEL);
+    test_fill(X, 100, SENTINEL);
+    test_fill(Abar, 100, SENTINEL);
+    test_fill(T, 100, SENTINEL);
     memcpy(U0, U, sizeof U);
     memcpy(V0, V, sizeof V);
     memcpy(s0, s, sizeof s);

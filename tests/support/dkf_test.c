@@ -132,6 +132,31 @@ double test_max_abs(const double *a, size_t n)
     return m;
 }
 
+dkf_mat_t test_view(size_t rows, size_t cols, dkf_real_t *data)
+{
+    dkf_mat_t m = DKF_MAT(rows, cols, data);
+    return m;
+}
+
+void test_fill(dkf_real_t *p, size_t n, dkf_real_t v)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) p[i] = v;
+}
+
+double test_orth_err(const dkf_real_t *Q, size_t r, size_t k)
+{
+    double m = 0.0;
+    size_t i, j, l;
+    for (i = 0; i < k; ++i)
+        for (j = 0; j < k; ++j) {
+            double acc = (i == j) ? -1.0 : 0.0;
+            for (l = 0; l < r; ++l) acc += (double)Q[l * k + i] * (double)Q[l * k + j];
+            if (fabs(acc) > m) m = fabs(acc);
+        }
+    return m;
+}
+
 static double worst_rel;
 
 double test_worst_rel(void) { return worst_rel; }

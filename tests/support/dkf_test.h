@@ -55,6 +55,22 @@ double test_max_abs(const double *a, size_t n);
  * `what` in the failure message. */
 void test_assert_close(const char *what, const dkf_real_t *got, const double *expected, size_t n,
                        double rel);
+/* A view as an expression (DKF_MAT is an initializer only). */
+dkf_mat_t test_view(size_t rows, size_t cols, dkf_real_t *data);
+/* p[0..n-1] = v (a sentinel before a call that must not write). */
+void test_fill(dkf_real_t *p, size_t n, dkf_real_t v);
+/* max |Q^T Q - I| for the r x k Q, in double. */
+double test_orth_err(const dkf_real_t *Q, size_t r, size_t k);
+
+/* Asserts `call` returns `st` and leaves the n reals at `out` bit-identical;
+ * `snap` is caller scratch of at least n reals. */
+#define TEST_FAILS_UNTOUCHED(snap, st, call, out, n) \
+    do { \
+        memcpy((snap), (out), (n) * sizeof(dkf_real_t)); \
+        assert_int_equal((call), (st)); \
+        assert_memory_equal((snap), (out), (n) * sizeof(dkf_real_t)); \
+    } while (0)
+
 /* Largest max|got - expected| / max(1, max|expected|) seen by
  * test_assert_close since the last reset: tests print it so the log shows
  * the margin under each tolerance. */

@@ -17,6 +17,12 @@ dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols)
     return (m->rows == rows && m->cols == cols) ? DKF_OK : DKF_ERR_DIM;
 }
 
+dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols)
+{
+    DKF_TRY(dkf__check_shape(m, rows, cols));
+    return dkf__all_finite(m->data, rows * cols) ? DKF_OK : DKF_ERR_NONFINITE;
+}
+
 /* Pointers into different objects cannot be compared portably with <, so
  * compare their integer images (exact on every flat-memory target). */
 int dkf__overlap_buf(const dkf_mat_t *m, const dkf_real_t *p, size_t len)

@@ -6,8 +6,6 @@
  */
 #include "dkf/info.h"
 
-#include <string.h>
-
 #include "internal.h"
 #include "kernels.h"
 
@@ -28,25 +26,14 @@ static info_scratch_t info_scratch(const dkf_info_t *f)
     return s;
 }
 
-static dkf_status_t check_input(const dkf_mat_t *M, size_t rows, size_t cols)
-{
-    DKF_TRY(dkf__check_shape(M, rows, cols));
-    return dkf__all_finite(M->data, rows * cols) ? DKF_OK : DKF_ERR_NONFINITE;
-}
-
-static void copy_reals(dkf_real_t *dst, const dkf_real_t *src, size_t count)
-{
-    memcpy(dst, src, count * sizeof *dst);
-}
-
 /* From the SPD matrix M (n x n, in `spd`) computes its inverse into `inv`
  * and inv * v into `out`; `chol` is n*n scratch. -1 if M is not SPD. */
 static int invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol, const dkf_real_t *spd,
                       const dkf_real_t *v, size_t n)
 {
-    copy_reals(chol, spd, n * n);
-    if (dkf__chol_inplace(chol, n) != 0) return -1;
-    dkf__chol_inverse(inv, chol, n);
+    dkf_real_t dinv[DKF_MAX_DIM];
+    if (dkf__chol(chol, dinv, spd, n) != 0) return -1;
+    dkf__chol_inverse(inv, chol, dinv, n);
     dkf__mul_vec(out, inv, v, n, n);
     return 0;
 }
@@ -59,10 +46,10 @@ static dkf_status_t commit(dkf_info_t *f, const dkf_real_t *x, const dkf_real_t 
     if (!dkf__all_finite(x, n) || !dkf__all_finite(P, n * n) || !dkf__all_finite(y, n) ||
         !dkf__all_finite(Y, n * n))
         return DKF_ERR_NONFINITE;
-    copy_reals(f->x.data, x, n);
-    copy_reals(f->P.data, P, n * n);
-    copy_reals(f->y.data, y, n);
-    copy_reals(f->Y.data, Y, n * n);
+    dkf__copy(f->x.data, x, n);
+    dkf__copy(f->P.data, P, n * n);
+    dkf__copy(f->y.data, y, n);
+    dkf__copy(f->Y.data, Y, n * n);
     return DKF_OK;
 }
 
@@ -75,8 +62,8 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     DKF_CHECK_NULL(storage);
     if (n == 0 || n > DKF_MAX_DIM || storage_len < DKF_INFO_STORAGE_LEN(n))
         return DKF_ERR_CAPACITY;
-    DKF_TRY(check_input(x0, n, 1));
-    DKF_TRY(check_input(P0, n, n));
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
     g.n = n;
     g.x.rows = n, g.x.cols = 1, g.x.data = storage;
     g.P.rows = n, g.P.cols = n, g.P.data = storage + n;
@@ -99,8 +86,8 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
     n = f->n;
-    DKF_TRY(check_input(F, n, n));
-    DKF_TRY(check_input(Q, n, n));
+    DKF_TRY(dkf__check_input(F, n, n));
+    DKF_TRY(dkf__check_input(Q, n, n));
     s = info_scratch(f);
     /* x- = F x;  P- = F P F^T + Q  (A = F P, then the symmetric product) */
     dkf__mul_vec(s.xn, F->data, f->x.data, n, n);
@@ -115,14 +102,14 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
 {
     size_t n, m, a, b, l;
-    dkf_real_t *L, *RiC;
+    dkf_real_t *L, *RiC, inv[DKF_MAX_DIM];
     DKF_TRY(dkf__check_mat(C));
     n = C->cols;
     m = C->rows;
     DKF_CHECK_NULL(work);
-    DKF_TRY(check_input(C, m, n));
-    DKF_TRY(check_input(R, m, m));
-    DKF_TRY(check_input(z, m, 1));
+    DKF_TRY(dkf__check_input(C, m, n));
+    DKF_TRY(dkf__check_input(R, m, m));
+    DKF_TRY(dkf__check_input(z, m, 1));
     DKF_TRY(dkf__check_shape(i, n, 1));
     DKF_TRY(dkf__check_shape(I, n, n));
     DKF_CHECK_NO_ALIAS(i, I);
@@ -138,10 +125,9 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
     L = work;
     RiC = L + m * m;
     /* R^{-1} C by Cholesky: never forms R^{-1} explicitly */
-    copy_reals(L, R->data, m * m);
-    if (dkf__chol_inplace(L, m) != 0) return DKF_ERR_NOT_SPD;
-    copy_reals(RiC, C->data, m * n);
-    dkf__chol_solve_inplace(L, RiC, m, n);
+    if (dkf__chol(L, inv, R->data, m) != 0) return DKF_ERR_NOT_SPD;
+    dkf__copy(RiC, C->data, m * n);
+    dkf__chol_solve(L, inv, RiC, m, n);
     if (!dkf__all_finite(RiC, m * n)) return DKF_ERR_NONFINITE;
     /* I = C^T (R^{-1} C), exactly symmetric; i = (R^{-1} C)^T z */
     for (a = 0; a < n; ++a) {
@@ -171,13 +157,13 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
     }
     n = f->n;
     for (j = 0; j < count; ++j) {
-        DKF_TRY(check_input(&i[j], n, 1));
-        DKF_TRY(check_input(&I[j], n, n));
+        DKF_TRY(dkf__check_input(&i[j], n, 1));
+        DKF_TRY(dkf__check_input(&I[j], n, n));
     }
     s = info_scratch(f);
     /* (54)-(55): Y = Y- + sum I_j, y = y- + sum i_j */
-    copy_reals(s.C, f->Y.data, n * n);
-    copy_reals(s.yn, f->y.data, n);
+    dkf__copy(s.C, f->Y.data, n * n);
+    dkf__copy(s.yn, f->y.data, n);
     for (j = 0; j < count; ++j) {
         for (e = 0; e < n * n; ++e) s.C[e] += I[j].data[e];
         for (e = 0; e < n; ++e) s.yn[e] += i[j].data[e];

@@ -48,6 +48,9 @@
 dkf_status_t dkf__check_mat(const dkf_mat_t *m);
 /* dkf__check_mat plus an exact shape. */
 dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols);
+/* dkf__check_shape plus finiteness of every element (DKF_ERR_NONFINITE):
+ * the check every filter applies to each model input at its boundary. */
+dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols);
 /* 1 if the storage of a and b overlaps (any element shared). */
 int dkf__overlap(const dkf_mat_t *a, const dkf_mat_t *b);
 /* 1 if the storage of m overlaps the len reals at p. */

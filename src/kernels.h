@@ -13,9 +13,13 @@
 
 #include "dkf/config.h"
 
-/* C (r x c) = A (r x k) B (k x c). */
+/* dst = src, n reals (memcpy; the regions must not overlap). */
+void dkf__copy(dkf_real_t *dst, const dkf_real_t *src, size_t n);
+/* C (r x c) = A (r x k) B (k x c). C must not overlap A or B. */
 void dkf__mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
                  size_t c);
+/* Dot product of two contiguous vectors of length k (k may be 0). */
+dkf_real_t dkf__dot(const dkf_real_t *a, const dkf_real_t *b, size_t k);
 /* C (r x c) = A (r x k) B^T, B c x k. */
 void dkf__mul_nt(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
                  size_t c);
@@ -28,16 +32,20 @@ void dkf__mul_nt_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, co
 void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c);
 /* A = (A + A^T) / 2 for n x n A. */
 void dkf__symmetrise(dkf_real_t *A, size_t n);
-/* In-place Cholesky of the n x n A: on return the lower triangle holds L
- * (A = L L^T) and the strict upper triangle is zero. Only the lower
- * triangle of A is read. Returns 0, or -1 if a pivot is not positive and
- * finite (A is then partly overwritten). */
-int dkf__chol_inplace(dkf_real_t *A, size_t n);
-/* Solves (L L^T) X = B in place for B n x c. */
-void dkf__chol_solve_inplace(const dkf_real_t *L, dkf_real_t *B, size_t n, size_t c);
+
+/* Cholesky factor of the n x n A into W (W may be A): the lower triangle
+ * of W gets L with A = L L^T, its strict upper triangle zeros, and
+ * inv[i] = 1 / L(i,i). Only the lower triangle of A is read. Returns 0,
+ * or -1 as soon as a pivot is not in (0, REAL_MAX] (W is then partly
+ * written). A non-finite input always ends in such a pivot. */
+int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n);
+/* Solves (L L^T) X = B in place for B n x c; inv from dkf__chol. */
+void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
+                     size_t c);
 /* Solves L w = b in place (forward substitution), b n x 1. */
-void dkf__tri_lower_solve_vec(const dkf_real_t *L, dkf_real_t *b, size_t n);
-/* Ainv = (L L^T)^{-1}, exactly symmetric. Ainv must not alias L. */
-void dkf__chol_inverse(dkf_real_t *Ainv, const dkf_real_t *L, size_t n);
+void dkf__tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
+                              size_t n);
+/* Ainv = (L L^T)^{-1}, exactly symmetric. Ainv must not overlap L. */
+void dkf__chol_inverse(dkf_real_t *Ainv, const dkf_real_t *L, const dkf_real_t *inv, size_t n);
 
 #endif /* DKF_KERNELS_H */

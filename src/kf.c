@@ -7,8 +7,6 @@
  */
 #include "dkf/kf.h"
 
-#include <string.h>
-
 #include "internal.h"
 #include "kernels.h"
 
@@ -42,23 +40,6 @@ static kf_scratch_t kf_scratch(const dkf_kf_t *kf)
     return s;
 }
 
-static dkf_status_t check_finite_mat(const dkf_mat_t *M)
-{
-    return dkf__all_finite(M->data, M->rows * M->cols) ? DKF_OK : DKF_ERR_NONFINITE;
-}
-
-/* Checks shape and finiteness of a model input. */
-static dkf_status_t check_input(const dkf_mat_t *M, size_t rows, size_t cols)
-{
-    DKF_TRY(dkf__check_shape(M, rows, cols));
-    return check_finite_mat(M);
-}
-
-static void copy_reals(dkf_real_t *dst, const dkf_real_t *src, size_t count)
-{
-    memcpy(dst, src, count * sizeof *dst);
-}
-
 dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
@@ -67,11 +48,10 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     DKF_CHECK_NULL(storage);
     if (n == 0 || m_max == 0 || n > DKF_MAX_DIM || m_max > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
     if (storage_len < DKF_KF_STORAGE_LEN(n, m_max)) return DKF_ERR_CAPACITY;
-    DKF_TRY(check_input(x0, n, 1));
-    DKF_TRY(check_input(P0, n, n));
-    /* P0 must be SPD: factor a copy in the storage, which holds no state yet */
-    copy_reals(storage, P0->data, n * n);
-    if (dkf__chol_inplace(storage, n) != 0) return DKF_ERR_NOT_SPD;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+    /* P0 must be SPD: factor it into the storage, which holds no state yet */
+    if (dkf__chol(storage, storage + n * n, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
 
     kf->n = n;
     kf->m_max = m_max;
@@ -80,8 +60,8 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     kf->nu.rows = m_max, kf->nu.cols = 1, kf->nu.data = kf->P.data + n * n;
     kf->S.rows = m_max, kf->S.cols = m_max, kf->S.data = kf->nu.data + m_max;
     kf->work = kf->S.data + m_max * m_max;
-    copy_reals(kf->x.data, x0->data, n);
-    copy_reals(kf->P.data, P0->data, n * n);
+    dkf__copy(kf->x.data, x0->data, n);
+    dkf__copy(kf->P.data, P0->data, n * n);
     for (i = 0; i < m_max * (m_max + 1); ++i) kf->nu.data[i] = DKF_R(0.0);
     kf->nis = DKF_R(0.0);
     kf->ready = 1;
@@ -96,9 +76,9 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
     DKF_CHECK_NULL(kf);
     if (!kf->ready) return DKF_ERR_STATE;
     n = kf->n;
-    DKF_TRY(check_input(F, n, n));
-    DKF_TRY(check_input(Q, n, n));
-    if (u != NULL) DKF_TRY(check_input(u, n, 1));
+    DKF_TRY(dkf__check_input(F, n, n));
+    DKF_TRY(dkf__check_input(Q, n, n));
+    if (u != NULL) DKF_TRY(dkf__check_input(u, n, 1));
     s = kf_scratch(kf);
 
     /* x = F x + u */
@@ -112,8 +92,8 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
     dkf__mul_nt_sym(s.B, s.A, F->data, Q->data, n, n);
     if (!dkf__all_finite(s.xn, n) || !dkf__all_finite(s.B, n * n)) return DKF_ERR_NONFINITE;
 
-    copy_reals(kf->x.data, s.xn, n);
-    copy_reals(kf->P.data, s.B, n * n);
+    dkf__copy(kf->x.data, s.xn, n);
+    dkf__copy(kf->P.data, s.B, n * n);
     return DKF_OK;
 }
 
@@ -170,7 +150,7 @@ static void simple_update(const dkf_kf_t *kf, const kf_scratch_t *s, size_t m)
 dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
                            const dkf_mat_t *y)
 {
-    dkf_real_t nu[DKF_MAX_DIM], w[DKF_MAX_DIM];
+    dkf_real_t nu[DKF_MAX_DIM], w[DKF_MAX_DIM], inv[DKF_MAX_DIM];
     dkf_real_t nis = DKF_R(0.0);
     size_t n, m, i, j;
     kf_scratch_t s;
@@ -180,9 +160,9 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
     DKF_TRY(dkf__check_mat(H));
     m = H->rows;
     if (m > kf->m_max) return DKF_ERR_CAPACITY;
-    DKF_TRY(check_input(H, m, n));
-    DKF_TRY(check_input(R, m, m));
-    DKF_TRY(check_input(y, m, 1));
+    DKF_TRY(dkf__check_input(H, m, n));
+    DKF_TRY(dkf__check_input(R, m, m));
+    DKF_TRY(dkf__check_input(y, m, 1));
     s = kf_scratch(kf);
 
     /* nu = y - H x;  PHt = P H^T;  S = H PHt + R (upper triangle of R read) */
@@ -197,15 +177,14 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
             s.S[i * m + j] = v;
             s.S[j * m + i] = v;
         }
-    copy_reals(s.L, s.S, m * m);
-    if (dkf__chol_inplace(s.L, m) != 0) return DKF_ERR_NOT_SPD;
+    if (dkf__chol(s.L, inv, s.S, m) != 0) return DKF_ERR_NOT_SPD;
     /* Kt = K^T = S^{-1} (P H^T)^T, m x n */
     for (i = 0; i < m; ++i)
         for (j = 0; j < n; ++j) s.Kt[i * n + j] = s.PHt[j * m + i];
-    dkf__chol_solve_inplace(s.L, s.Kt, m, n);
+    dkf__chol_solve(s.L, inv, s.Kt, m, n);
     /* NIS = nu^T S^{-1} nu = |L^{-1} nu|^2 */
-    copy_reals(w, nu, m);
-    dkf__tri_lower_solve_vec(s.L, w, m);
+    dkf__copy(w, nu, m);
+    dkf__tri_lower_solve_vec(s.L, inv, w, m);
     for (i = 0; i < m; ++i) nis += w[i] * w[i];
     /* x+ = x + K nu */
     for (i = 0; i < n; ++i) {
@@ -221,12 +200,12 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
     if (!dkf__all_finite(s.xn, n) || !dkf__all_finite(s.B, n * n) || !isfinite(nis))
         return DKF_ERR_NONFINITE;
 
-    copy_reals(kf->x.data, s.xn, n);
-    copy_reals(kf->P.data, s.B, n * n);
+    dkf__copy(kf->x.data, s.xn, n);
+    dkf__copy(kf->P.data, s.B, n * n);
     kf->nu.rows = m;
     kf->S.rows = kf->S.cols = m;
-    copy_reals(kf->nu.data, nu, m);
-    copy_reals(kf->S.data, s.S, m * m);
+    dkf__copy(kf->nu.data, nu, m);
+    dkf__copy(kf->S.data, s.S, m * m);
     kf->nis = nis;
     return DKF_OK;
 }

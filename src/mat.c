@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "internal.h"
+#include "kernels.h"
 
 dkf_status_t dkf_mat_init(dkf_mat_t *m, size_t rows, size_t cols, dkf_real_t *data)
 {
@@ -127,34 +128,6 @@ dkf_status_t dkf_mat_axpy(dkf_mat_t *Y, dkf_real_t s, const dkf_mat_t *X)
 
 /* ---- products ------------------------------------------------------------ */
 
-/* C (r x c) = A (r x k) B (k x c): row i of C accumulates A(i,l) * row l of
- * B, so every inner loop runs along contiguous rows. */
-static void mul_nn(dkf_real_t *restrict C, const dkf_real_t *restrict A,
-                   const dkf_real_t *restrict B, size_t r, size_t k, size_t c)
-{
-    size_t i, j, l;
-    for (i = 0; i < r; ++i) {
-        dkf_real_t *restrict ci = C + i * c;
-        const dkf_real_t *ai = A + i * k;
-        const dkf_real_t a0 = ai[0];
-        for (j = 0; j < c; ++j) ci[j] = a0 * B[j];
-        for (l = 1; l < k; ++l) {
-            const dkf_real_t a = ai[l];
-            const dkf_real_t *bl = B + l * c;
-            for (j = 0; j < c; ++j) ci[j] += a * bl[j];
-        }
-    }
-}
-
-/* Dot product of two contiguous rows of length k >= 1. */
-static dkf_real_t dot(const dkf_real_t *a, const dkf_real_t *b, size_t k)
-{
-    dkf_real_t s = a[0] * b[0];
-    size_t l;
-    for (l = 1; l < k; ++l) s += a[l] * b[l];
-    return s;
-}
-
 /* Checks of C = op(A) op(B): both inputs valid, C exactly r x c, and C
  * disjoint from both inputs (products read inputs after writing C). */
 static dkf_status_t check_product(const dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_t *B,
@@ -175,25 +148,16 @@ dkf_status_t dkf_mat_mul(dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_t *B)
     DKF_TRY(dkf__check_mat(A));
     DKF_TRY(dkf__check_mat(B));
     DKF_TRY(check_product(C, A, B, A->cols, B->rows, A->rows, B->cols));
-    mul_nn(C->data, A->data, B->data, A->rows, A->cols, B->cols);
+    dkf__mul_nn(C->data, A->data, B->data, A->rows, A->cols, B->cols);
     return DKF_OK;
 }
 
 dkf_status_t dkf_mat_mul_abt(dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_t *B)
 {
-    size_t i, j, r, k, c;
     DKF_TRY(dkf__check_mat(A));
     DKF_TRY(dkf__check_mat(B));
     DKF_TRY(check_product(C, A, B, A->cols, B->cols, A->rows, B->rows));
-    r = A->rows;
-    k = A->cols;
-    c = B->rows;
-    /* C(i,j) = row i of A . row j of B: both contiguous */
-    for (i = 0; i < r; ++i) {
-        const dkf_real_t *ai = A->data + i * k;
-        dkf_real_t *ci = C->data + i * c;
-        for (j = 0; j < c; ++j) ci[j] = dot(ai, B->data + j * k, k);
-    }
+    dkf__mul_nt(C->data, A->data, B->data, A->rows, A->cols, B->rows);
     return DKF_OK;
 }
 
@@ -224,7 +188,7 @@ dkf_status_t dkf_mat_mul_atb(dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_t *
 dkf_status_t dkf_mat_congruence(dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_t *P,
                                 dkf_real_t *work)
 {
-    size_t i, j, r, c;
+    size_t r, c;
     DKF_TRY(dkf__check_mat(C));
     DKF_TRY(dkf__check_mat(A));
     r = A->rows;
@@ -237,32 +201,18 @@ dkf_status_t dkf_mat_congruence(dkf_mat_t *C, const dkf_mat_t *A, const dkf_mat_
     DKF_CHECK_NO_ALIAS_BUF(C, work, r * c);
     DKF_CHECK_NO_ALIAS_BUF(A, work, r * c);
     DKF_CHECK_NO_ALIAS_BUF(P, work, r * c);
-    /* W = A P (r x c); C(i,j) = W(i,:) . A(j,:) for j >= i, mirrored, so
+    /* W = A P (r x c); C = W A^T through its upper triangle, mirrored, so
      * C is symmetric to the last bit whatever the rounding. */
-    mul_nn(work, A->data, P->data, r, c, c);
-    for (i = 0; i < r; ++i) {
-        const dkf_real_t *wi = work + i * c;
-        for (j = i; j < r; ++j) {
-            const dkf_real_t v = dot(wi, A->data + j * c, c);
-            C->data[i * r + j] = v;
-            C->data[j * r + i] = v;
-        }
-    }
+    dkf__mul_nn(work, A->data, P->data, r, c, c);
+    dkf__mul_nt_sym(C->data, work, A->data, NULL, r, c);
     return DKF_OK;
 }
 
 dkf_status_t dkf_mat_symmetrise(dkf_mat_t *A)
 {
-    size_t i, j, n;
     DKF_TRY(dkf__check_mat(A));
     if (A->rows != A->cols) return DKF_ERR_DIM;
-    n = A->rows;
-    for (i = 0; i < n; ++i)
-        for (j = i + 1; j < n; ++j) {
-            const dkf_real_t v = DKF_R(0.5) * (A->data[i * n + j] + A->data[j * n + i]);
-            A->data[i * n + j] = v;
-            A->data[j * n + i] = v;
-        }
+    dkf__symmetrise(A->data, A->rows);
     return DKF_OK;
 }
 

@@ -24,7 +24,7 @@
 /* x, P, y, Y, and scratch for one step. */
 #define DKF_INFO_STORAGE_LEN(n) (2 * (n) + 2 * (n) * (n) + 2 * (n) + 3 * (n) * (n))
 /* Scratch of dkf_info_contribution for state n, measurement m. */
-#define DKF_INFO_CONTRIB_WORK(n, m) (2 * (m) * (m) + (n) * (m))
+#define DKF_INFO_CONTRIB_WORK(n, m) ((m) * (m) + (n) * (m))
 
 typedef struct {
     size_t n;

@@ -1,0 +1,981 @@
+/*
+ * scenario.c - reads the JSON scenario format (docs/scenario-format.md)
+ * with jansson and normalises both accepted layouts into dkf_scenario_t.
+ *
+ * Parsing and validation share one rule: the first problem found is
+ * reported as "FILE: KEY.PATH: problem" and everything is freed. Parsers
+ * return 0 on success and -1 after recording the error.
+ */
+#include "scenario.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PATH_LEN 256
+
+typedef struct {
+    const char *file;
+    char *err;
+    size_t errlen;
+} ctx_t;
+
+/* printf-style "FILE: PATH: problem" into the caller's buffer. */
+static int fail(ctx_t *c, const char *path, const char *fmt, ...)
+{
+    char msg[DKF_SCN_ERR_LEN / 2];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    if (c->err != NULL && c->errlen > 0) {
+        if (path != NULL && path[0] != '\0')
+            snprintf(c->err, c->errlen, "%s: %s: %s", c->file, path, msg);
+        else
+            snprintf(c->err, c->errlen, "%s: %s", c->file, msg);
+    }
+    return -1;
+}
+
+/* Key paths longer than PATH_LEN are cut short: they only label messages. */
+#if defined(__GNUC__)
+__attribute__((format(printf, 2, 3)))
+#endif
+static void pathf(char *out, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(out, PATH_LEN, fmt, ap);
+    va_end(ap);
+}
+
+static void subkey(char *out, const char *base, const char *key)
+{
+    if (base[0] == '\0')
+        pathf(out, "%s", key);
+    else
+        pathf(out, "%s.%s", base, key);
+}
+
+static void subidx(char *out, const char *base, size_t i)
+{
+    pathf(out, "%s[%zu]", base, i);
+}
+
+static char *dupstr(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d != NULL) memcpy(d, s, n);
+    return d;
+}
+
+static void *xcalloc(ctx_t *c, size_t n, size_t size)
+{
+    void *p = calloc(n == 0 ? 1 : n, size);
+    if (p == NULL) fail(c, NULL, "out of memory");
+    return p;
+}
+
+static const char *json_kind(const json_t *j)
+{
+    switch (json_typeof(j)) {
+    case JSON_OBJECT: return "an object";
+    case JSON_ARRAY: return "a list";
+    case JSON_STRING: return "a string";
+    case JSON_INTEGER:
+    case JSON_REAL: return "a number";
+    case JSON_TRUE:
+    case JSON_FALSE: return "a boolean";
+    case JSON_NULL: return "null";
+    }
+    return "?";
+}
+
+/* ---- numbers, vectors, matrices ------------------------------------------ */
+
+static int get_integer(ctx_t *c, const json_t *j, const char *path, long *out)
+{
+    double v;
+    if (!json_is_number(j)) return fail(c, path, "expected an integer, got %s", json_kind(j));
+    v = json_number_value(j);
+    if (v != floor(v) || v < (double)LONG_MIN || v > (double)LONG_MAX)
+        return fail(c, path, "expected an integer, got %.17g", v);
+    *out = (long)v;
+    return 0;
+}
+
+/* A non-empty list of numbers. */
+static int parse_vector(ctx_t *c, const json_t *j, const char *path, size_t *len,
+                        double **out)
+{
+    size_t i, n;
+    double *v;
+    char p[PATH_LEN];
+    if (!json_is_array(j)) return fail(c, path, "expected a list of numbers, got %s", json_kind(j));
+    n = json_array_size(j);
+    if (n == 0) return fail(c, path, "expected a non-empty list of numbers, got an empty list");
+    if ((v = xcalloc(c, n, sizeof *v)) == NULL) return -1;
+    for (i = 0; i < n; ++i) {
+        const json_t *e = json_array_get(j, i);
+        if (!json_is_number(e)) {
+            subidx(p, path, i);
+            free(v);
+            return fail(c, p, "expected a number, got %s", json_kind(e));
+        }
+        v[i] = json_number_value(e);
+    }
+    *len = n;
+    *out = v;
+    return 0;
+}
+
+/* A non-empty rectangular list of rows. */
+static int parse_matrix(ctx_t *c, const json_t *j, const char *path, size_t *rows, size_t *cols,
+                        double **out)
+{
+    size_t i, r, cc = 0;
+    double *m = NULL;
+    char p[PATH_LEN];
+    if (!json_is_array(j) || json_array_size(j) == 0 || !json_is_array(json_array_get(j, 0)))
+        return fail(c, path, "expected a matrix (non-empty list of rows), got %s",
+                    !json_is_array(j)             ? json_kind(j)
+                    : json_array_size(j) == 0     ? "an empty list"
+                    : json_is_number(json_array_get(j, 0)) ? "a list of numbers"
+                                                  : "a list of something else");
+    r = json_array_size(j);
+    for (i = 0; i < r; ++i) {
+        double *row;
+        size_t len;
+        subidx(p, path, i);
+        if (parse_vector(c, json_array_get(j, i), p, &len, &row) != 0) {
+            free(m);
+            return -1;
+        }
+        if (i == 0) {
+            cc = len;
+            if ((m = xcalloc(c, r * cc, sizeof *m)) == NULL) {
+                free(row);
+                return -1;
+            }
+        } else if (len != cc) {
+            free(row);
+            free(m);
+            return fail(c, p, "row has %zu entries, row 0 has %zu", len, cc);
+        }
+        memcpy(m + i * cc, row, cc * sizeof *m);
+        free(row);
+    }
+    *rows = r;
+    *cols = cc;
+    *out = m;
+    return 0;
+}
+
+/* Depth of the first-element chain: 1 for [1,2], 2 for [[1]], 3 for [[[1]]]. */
+static int nest_depth(const json_t *j)
+{
+    int d = 0;
+    while (json_is_array(j) && json_array_size(j) > 0) {
+        ++d;
+        j = json_array_get(j, 0);
+    }
+    return d;
+}
+
+static int shape_error(ctx_t *c, const char *path, size_t er, size_t ec, size_t r, size_t cc)
+{
+    if (ec == 1 && cc == 1)
+        return fail(c, path, "expected a vector of %zu values, got %zu", er, r);
+    return fail(c, path, "expected %zux%zu matrix, got %zux%zu", er, ec, r, cc);
+}
+
+/* ---- named matrix sets ------------------------------------------------------ */
+
+static dkf_scn_mat_t *mats_add(ctx_t *c, dkf_scn_mats_t *set, const char *name, const char *path)
+{
+    dkf_scn_mat_t *items = realloc(set->items, (set->len + 1) * sizeof *items);
+    dkf_scn_mat_t *m;
+    if (items == NULL) {
+        fail(c, NULL, "out of memory");
+        return NULL;
+    }
+    set->items = items;
+    m = &items[set->len];
+    memset(m, 0, sizeof *m);
+    m->name = dupstr(name);
+    m->path = dupstr(path);
+    if (m->name == NULL || m->path == NULL) {
+        free(m->name);
+        free(m->path);
+        fail(c, NULL, "out of memory");
+        return NULL;
+    }
+    set->len++;
+    return m;
+}
+
+static void mats_free(dkf_scn_mats_t *set)
+{
+    size_t i;
+    for (i = 0; i < set->len; ++i) {
+        free(set->items[i].name);
+        free(set->items[i].path);
+        free(set->items[i].data);
+    }
+    free(set->items);
+    set->items = NULL;
+    set->len = 0;
+}
+
+static const dkf_scn_mat_t *mats_find(const dkf_scn_mats_t *set, const char *name)
+{
+    size_t i;
+    for (i = 0; i < set->len; ++i)
+        if (strcmp(set->items[i].name, name) == 0) return &set->items[i];
+    return NULL;
+}
+
+/* A list of same-shape matrices (per_k, or a stacked init entry). */
+static int parse_matrix_list(ctx_t *c, const json_t *j, const char *path, dkf_scn_mat_t *m)
+{
+    size_t i, n, r, cc;
+    double *one;
+    char p[PATH_LEN];
+    if (!json_is_array(j) || json_array_size(j) == 0)
+        return fail(c, path, "expected a non-empty list of matrices, got %s", json_kind(j));
+    n = json_array_size(j);
+    for (i = 0; i < n; ++i) {
+        subidx(p, path, i);
+        if (parse_matrix(c, json_array_get(j, i), p, &r, &cc, &one) != 0) return -1;
+        if (i == 0) {
+            m->rows = r;
+            m->cols = cc;
+            if ((m->data = xcalloc(c, n * r * cc, sizeof *m->data)) == NULL) {
+                free(one);
+                return -1;
+            }
+        } else if (r != m->rows || cc != m->cols) {
+            free(one);
+            return shape_error(c, p, m->rows, m->cols, r, cc);
+        }
+        memcpy(m->data + i * r * cc, one, r * cc * sizeof *one);
+        free(one);
+    }
+    m->count = n;
+    return 0;
+}
+
+/* A model entry: {"const": M}, {"per_k": [M_0, ...]} or a bare matrix M. */
+static int parse_model_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, const json_t *j,
+                             const char *path)
+{
+    dkf_scn_mat_t *m;
+    char p[PATH_LEN];
+    const json_t *cst, *pk;
+    if (json_is_string(j) || json_is_null(j)) return 0; /* notes */
+    if (!json_is_object(j) && !json_is_array(j))
+        return fail(c, path, "expected {\"const\": M}, {\"per_k\": [...]} or a matrix, got %s",
+                    json_kind(j));
+    if ((m = mats_add(c, set, name, path)) == NULL) return -1;
+    if (json_is_array(j)) return parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
+    cst = json_object_get(j, "const");
+    pk = json_object_get(j, "per_k");
+    if ((cst == NULL) == (pk == NULL))
+        return fail(c, path, "expected exactly one of \"const\" and \"per_k\"");
+    if (cst != NULL) {
+        subkey(p, path, "const");
+        return parse_matrix(c, cst, p, &m->rows, &m->cols, &m->data);
+    }
+    subkey(p, path, "per_k");
+    return parse_matrix_list(c, pk, p, m);
+}
+
+/* An init entry: vector (n x 1), matrix, or list of matrices; strings skipped. */
+static int parse_init_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, const json_t *j,
+                            const char *path)
+{
+    dkf_scn_mat_t *m;
+    int depth;
+    if (json_is_string(j) || json_is_null(j)) return 0;
+    if ((m = mats_add(c, set, name, path)) == NULL) return -1;
+    depth = nest_depth(j);
+    if (depth <= 1) {
+        m->cols = 1;
+        return parse_vector(c, j, path, &m->rows, &m->data);
+    }
+    if (depth == 2) return parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
+    return parse_matrix_list(c, j, path, m);
+}
+
+/* ---- measurements and truth -------------------------------------------------- */
+
+/* {"k": [...], "<vkey>": [[...], ...]}: times strictly increasing. */
+static int parse_series(ctx_t *c, const json_t *j, const char *path, const char *vkey,
+                        size_t dim, size_t *count, long **kout, double **vout)
+{
+    const json_t *jk, *jv;
+    size_t i, n;
+    long *k;
+    double *v;
+    char p[PATH_LEN], pi[PATH_LEN];
+    if (!json_is_object(j))
+        return fail(c, path, "expected {\"k\": [...], \"%s\": [...]}, got %s", vkey,
+                    json_kind(j));
+    jv = json_object_get(j, vkey);
+    subkey(p, path, vkey);
+    if (jv == NULL) return fail(c, p, "missing key");
+    if (!json_is_array(jv) || json_array_size(jv) == 0)
+        return fail(c, p, "expected a non-empty list of vectors, got %s", json_kind(jv));
+    n = json_array_size(jv);
+    k = xcalloc(c, n, sizeof *k);
+    v = xcalloc(c, n * dim, sizeof *v);
+    if (k == NULL || v == NULL) goto bad;
+    for (i = 0; i < n; ++i) {
+        size_t len;
+        double *e;
+        subidx(pi, p, i);
+        if (parse_vector(c, json_array_get(jv, i), pi, &len, &e) != 0) goto bad;
+        if (len != dim) {
+            free(e);
+            fail(c, pi, "expected a vector of %zu values, got %zu", dim, len);
+            goto bad;
+        }
+        memcpy(v + i * dim, e, dim * sizeof *e);
+        free(e);
+    }
+    jk = json_object_get(j, "k");
+    subkey(p, path, "k");
+    if (jk == NULL) {
+        /* Only truth may omit k: it then starts at k = 0. */
+        for (i = 0; i < n; ++i) k[i] = (long)i;
+    } else {
+        if (!json_is_array(jk) || json_array_size(jk) != n) {
+            fail(c, p, "expected a list of %zu times (one per value), got %s of %zu", n,
+                 json_kind(jk), json_is_array(jk) ? json_array_size(jk) : (size_t)0);
+            goto bad;
+        }
+        for (i = 0; i < n; ++i) {
+            subidx(pi, p, i);
+            if (get_integer(c, json_array_get(jk, i), pi, &k[i]) != 0) goto bad;
+            if (k[i] < 0) {
+                fail(c, pi, "time must be >= 0, got %ld", k[i]);
+                goto bad;
+            }
+            if (i > 0 && k[i] <= k[i - 1]) {
+                fail(c, pi, "times must increase strictly (%ld after %ld)", k[i], k[i - 1]);
+                goto bad;
+            }
+        }
+    }
+    *count = n;
+    *kout = k;
+    *vout = v;
+    return 0;
+bad:
+    free(k);
+    free(v);
+    return -1;
+}
+
+/* Index of time k in the strictly increasing list ks, or -1. */
+static long find_time(const long *ks, size_t n, long k)
+{
+    size_t lo = 0, hi = n;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (ks[mid] == k) return (long)mid;
+        if (ks[mid] < k)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return -1;
+}
+
+/* ---- validation shared by both layouts ------------------------------------- */
+
+/* Matrix `name` must exist (in set or, for sensors, the fallback) with shape r x c. */
+static int require_shape(ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path, size_t r,
+                         size_t cc)
+{
+    if (m == NULL) return fail(c, missing_path, "missing key");
+    if (m->rows != r || m->cols != cc) {
+        char p[PATH_LEN];
+        pathf(p, "%s%s", m->path, m->count > 0 ? ".per_k" : "");
+        return shape_error(c, m->count > 0 ? p : m->path, r, cc, m->rows, m->cols);
+    }
+    return 0;
+}
+
+/* A per_k matrix must cover absolute times 0..last. */
+static int require_times(ctx_t *c, const dkf_scn_mat_t *m, size_t last, const char *why)
+{
+    char p[PATH_LEN];
+    if (m == NULL || m->count == 0 || last < m->count) return 0;
+    pathf(p, "%s.per_k", m->path);
+    return fail(c, p, "has %zu entries (k = 0..%zu) but %s needs k up to %zu", m->count,
+                m->count - 1, why, last);
+}
+
+/* An optional init covariance: absent, or exactly one n x n matrix. */
+static int require_single(ctx_t *c, const dkf_scn_mat_t *m, const char *path, size_t n)
+{
+    if (m == NULL) return 0;
+    if (m->count != 0) return fail(c, m->path, "expected one %zux%zu matrix, got a list", n, n);
+    return require_shape(c, m, path, n, n);
+}
+
+static int validate(ctx_t *c, dkf_scenario_t *s, const char *model_path,
+                    const char *sensor_fmt_path)
+{
+    const dkf_scn_mat_t *F = dkf_scn_model(s, "F"), *Q, *x00, *P00, *Pl, *Pc;
+    size_t i, n;
+    char p[PATH_LEN], why[64];
+    long k;
+
+    subkey(p, model_path, "F");
+    if (F == NULL) return fail(c, p, "missing key");
+    if (F->rows != F->cols) return fail(c, F->path, "expected a square matrix, got %zux%zu",
+                                        F->rows, F->cols);
+    n = s->n = F->rows;
+    if (n > DKF_MAX_DIM)
+        return fail(c, F->path, "state dimension %zu exceeds DKF_MAX_DIM = %d", n, DKF_MAX_DIM);
+    Q = dkf_scn_model(s, "Q");
+    subkey(p, model_path, "Q");
+    if (require_shape(c, Q, p, n, n) != 0) return -1;
+    snprintf(why, sizeof why, "steps k = 1..%zu", s->steps);
+    if (require_times(c, F, s->steps - 1, why) != 0) return -1;
+    if (require_times(c, Q, s->steps - 1, why) != 0) return -1;
+
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, "H");
+        const dkf_scn_mat_t *R = dkf_scn_sensor_model(s, i, "R");
+        const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, i, "A");
+        char sp[PATH_LEN];
+        pathf(sp, sensor_fmt_path, i);
+        subkey(p, sp, "H");
+        if (H == NULL) return fail(c, p, "missing key");
+        if (require_shape(c, H, p, H->rows, n) != 0) return -1;
+        if (se->m != 0 && se->m != H->rows)
+            return fail(c, H->path, "has %zu rows but the measurements have %zu values",
+                        H->rows, se->m);
+        se->m = H->rows;
+        if (se->m > DKF_MAX_DIM)
+            return fail(c, H->path, "measurement dimension %zu exceeds DKF_MAX_DIM = %d", se->m,
+                        DKF_MAX_DIM);
+        subkey(p, sp, "R");
+        if (require_shape(c, R, p, se->m, se->m) != 0) return -1;
+        /* Unknown-input pieces are not used by kf/info; check what is unambiguous. */
+        if (A != NULL && A->rows != se->m)
+            return fail(c, A->path, "expected %zu rows (like H), got %zu", se->m, A->rows);
+        if (require_times(c, H, s->steps, why) != 0) return -1;
+        if (require_times(c, R, s->steps, why) != 0) return -1;
+    }
+
+    x00 = dkf_scn_init(s, "x00");
+    if (require_shape(c, x00, "init.x00", n, 1) != 0) return -1;
+    P00 = dkf_scn_init(s, "P00");
+    Pl = dkf_scn_init(s, "P00_local");
+    Pc = dkf_scn_init(s, "P00_central");
+    if (require_single(c, P00, "init.P00", n) != 0) return -1;
+    if (require_single(c, Pc, "init.P00_central", n) != 0) return -1;
+    if (Pl != NULL) {
+        if (require_shape(c, Pl, "init.P00_local", n, n) != 0) return -1;
+        if (Pl->count != s->nsensors)
+            return fail(c, Pl->path, "expected a list of %zu %zux%zu matrices (one per sensor)",
+                        s->nsensors, n, n);
+    }
+    if (P00 == NULL && (Pc == NULL || (Pl == NULL && s->multi)))
+        return fail(c, "init.P00", "missing key (needed unless init.P00_central%s are given)",
+                    s->multi ? " and init.P00_local" : "");
+
+    for (i = 0; i < s->nsensors; ++i)
+        for (k = 1; k <= (long)s->steps; ++k)
+            if (dkf_scn_y(s, i, k) == NULL) {
+                if (s->layout == DKF_SCN_LAYOUT_CASES)
+                    pathf(p, "cases[%zu].steps", s->case_index);
+                else if (s->multi)
+                    pathf(p, "y[%zu].k", i);
+                else
+                    pathf(p, "y.k");
+                return fail(c, p, "no measurement for k = %ld (steps k = 1..%zu need one)", k,
+                            s->steps);
+            }
+    return 0;
+}
+
+/* ---- canonical layout -------------------------------------------------------- */
+
+static int parse_mat_object(ctx_t *c, dkf_scn_mats_t *set, const json_t *obj, const char *path,
+                            const char *skip)
+{
+    const char *key;
+    json_t *val;
+    char p[PATH_LEN];
+    json_object_foreach((json_t *)obj, key, val) {
+        if (skip != NULL && strcmp(key, skip) == 0) continue;
+        subkey(p, path, key);
+        if (parse_model_entry(c, set, key, val, p) != 0) return -1;
+    }
+    return 0;
+}
+
+/* The number of steps N: key `N`, else the list `k` (= [1..N]), else the
+ * last time every sensor has a measurement for. */
+static int canonical_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
+{
+    const json_t *jn = json_object_get(root, "N"), *jk = json_object_get(root, "k");
+    long N = -1;
+    size_t i;
+    char p[PATH_LEN];
+    if (jn != NULL) {
+        if (get_integer(c, jn, "N", &N) != 0) return -1;
+        if (N < 1) return fail(c, "N", "expected at least 1 step, got %ld", N);
+    }
+    if (jk != NULL) {
+        size_t len;
+        if (!json_is_array(jk) || json_array_size(jk) == 0)
+            return fail(c, "k", "expected the list [1, 2, ..., N], got %s", json_kind(jk));
+        len = json_array_size(jk);
+        if (N >= 0 && (size_t)N != len)
+            return fail(c, "k", "has %zu entries but N = %ld", len, N);
+        for (i = 0; i < len; ++i) {
+            long v;
+            subidx(p, "k", i);
+            if (get_integer(c, json_array_get(jk, i), p, &v) != 0) return -1;
+            if (v != (long)i + 1)
+                return fail(c, p, "expected %zu (k lists 1..N), got %ld", i + 1, v);
+        }
+        N = (long)len;
+    }
+    if (N < 0) {
+        for (i = 0; i < s->nsensors; ++i) {
+            const dkf_scn_sensor_t *se = &s->sensors[i];
+            long last = se->yk[se->ny - 1];
+            if (N < 0 || last < N) N = last;
+        }
+        if (N < 1) return fail(c, "y", "no measurement at k >= 1");
+    }
+    s->steps = (size_t)N;
+    return 0;
+}
+
+static int parse_truth(ctx_t *c, dkf_scenario_t *s, const json_t *tj, const char *path)
+{
+    if (tj == NULL || !json_is_object(tj) || json_object_get(tj, "x") == NULL) return 0;
+    return parse_series(c, tj, path, "x", s->n, &s->ntruth, &s->truth_k, &s->truth_x);
+}
+
+/* A sensor's y series; its dimension comes from its H (checked again later). */
+static int parse_sensor_y(ctx_t *c, dkf_scenario_t *s, size_t i, const json_t *yj,
+                          const char *path)
+{
+    dkf_scn_sensor_t *se = &s->sensors[i];
+    const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, "H");
+    const json_t *v0;
+    size_t dim;
+    if (H != NULL) {
+        dim = H->rows;
+    } else {
+        /* Let validate() report the missing H; size y by its first value. */
+        v0 = json_is_object(yj) ? json_object_get(yj, "values") : NULL;
+        v0 = v0 != NULL ? json_array_get(v0, 0) : NULL;
+        dim = v0 != NULL && json_is_array(v0) ? json_array_size(v0) : 1;
+    }
+    se->m = dim;
+    return parse_series(c, yj, path, "values", dim, &se->ny, &se->yk, &se->y);
+}
+
+static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
+{
+    const json_t *model = json_object_get(root, "model"), *init = json_object_get(root, "init");
+    const json_t *sensors, *yj;
+    const char *key;
+    json_t *val;
+    size_t i;
+    char p[PATH_LEN];
+
+    if (model == NULL) return fail(c, "model", "missing key");
+    if (!json_is_object(model))
+        return fail(c, "model", "expected an object, got %s", json_kind(model));
+    if (init == NULL) return fail(c, "init", "missing key");
+    if (!json_is_object(init))
+        return fail(c, "init", "expected an object, got %s", json_kind(init));
+    yj = json_object_get(root, "y");
+    if (yj == NULL) return fail(c, "y", "missing key");
+
+    sensors = json_object_get(model, "sensors");
+    if (parse_mat_object(c, &s->model, model, "model", "sensors") != 0) return -1;
+    if (sensors != NULL) {
+        if (!json_is_array(sensors) || json_array_size(sensors) == 0)
+            return fail(c, "model.sensors", "expected a non-empty list of sensor objects, got %s",
+                        json_kind(sensors));
+        s->multi = 1;
+        s->nsensors = json_array_size(sensors);
+    } else {
+        s->nsensors = 1;
+    }
+    if ((s->sensors = xcalloc(c, s->nsensors, sizeof *s->sensors)) == NULL) return -1;
+    for (i = 0; s->multi && i < s->nsensors; ++i) {
+        const json_t *sj = json_array_get(sensors, i);
+        subidx(p, "model.sensors", i);
+        if (!json_is_object(sj)) return fail(c, p, "expected an object, got %s", json_kind(sj));
+        if (parse_mat_object(c, &s->sensors[i].mats, sj, p, NULL) != 0) return -1;
+    }
+
+    json_object_foreach((json_t *)init, key, val) {
+        subkey(p, "init", key);
+        if (parse_init_entry(c, &s->init, key, val, p) != 0) return -1;
+    }
+
+    if (s->multi) {
+        if (!json_is_array(yj) || json_array_size(yj) != s->nsensors)
+            return fail(c, "y", "expected a list of %zu measurement series (one per "
+                        "model.sensors entry), got %s", s->nsensors,
+                        json_is_array(yj) ? "a list of another length" : json_kind(yj));
+        for (i = 0; i < s->nsensors; ++i) {
+            subidx(p, "y", i);
+            if (parse_sensor_y(c, s, i, json_array_get(yj, i), p) != 0) return -1;
+        }
+    } else if (parse_sensor_y(c, s, 0, yj, "y") != 0) {
+        return -1;
+    }
+
+    if (canonical_steps(c, s, root) != 0) return -1;
+    /* n comes from F; validate first so truth is sized right. */
+    if (validate(c, s, "model", s->multi ? "model.sensors[%zu]" : "model") != 0) return -1;
+    return parse_truth(c, s, json_object_get(root, "truth"), "truth");
+}
+
+/* ---- cases layout (infofusion vectors) ------------------------------------ */
+
+static int select_case(ctx_t *c, const json_t *cases, const char *sel, size_t *idx)
+{
+    size_t i, n = json_array_size(cases);
+    char *end;
+    unsigned long v;
+    if (n == 0) return fail(c, "cases", "expected a non-empty list of cases");
+    if (sel == NULL) {
+        *idx = 0;
+        return 0;
+    }
+    for (i = 0; i < n; ++i) {
+        const json_t *name = json_object_get(json_array_get(cases, i), "name");
+        if (json_is_string(name) && strcmp(json_string_value(name), sel) == 0) {
+            *idx = i;
+            return 0;
+        }
+    }
+    errno = 0;
+    v = strtoul(sel, &end, 10);
+    if (sel[0] >= '0' && sel[0] <= '9' && *end == '\0' && errno == 0) {
+        if (v >= n) return fail(c, "cases", "case index %lu out of range (file has %zu)", v, n);
+        *idx = (size_t)v;
+        return 0;
+    }
+    return fail(c, "cases", "no case named '%s' (use a name or an index 0..%zu)", sel, n - 1);
+}
+
+/* Model matrix `name` from every step (per_k: step k gives entry k-1, the
+ * matrix that propagates k-1 -> k) or from the case itself. */
+static int cases_model(ctx_t *c, dkf_scenario_t *s, const json_t *cj, const json_t *steps,
+                       const char *cpath, const char *name)
+{
+    const json_t *first = json_object_get(json_array_get(steps, 0), name);
+    dkf_scn_mat_t *m;
+    size_t j, N = json_array_size(steps), r, cc;
+    char p[PATH_LEN], sp[PATH_LEN];
+    if (first == NULL) {
+        const json_t *v = json_object_get(cj, name);
+        subkey(p, cpath, name);
+        if (v == NULL) return fail(c, p, "missing key (give it in the case or in every step)");
+        if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
+        return parse_matrix(c, v, p, &m->rows, &m->cols, &m->data);
+    }
+    pathf(p, "%s.steps[].%s", cpath, name);
+    if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
+    for (j = 0; j < N; ++j) {
+        double *one;
+        pathf(sp, "%s.steps[%zu].%s", cpath, j, name);
+        if (json_object_get(json_array_get(steps, j), name) == NULL)
+            return fail(c, sp, "missing key (step 0 has it, so every step needs it)");
+        if (parse_matrix(c, json_object_get(json_array_get(steps, j), name), sp, &r, &cc, &one)
+            != 0)
+            return -1;
+        if (j == 0) {
+            m->rows = r;
+            m->cols = cc;
+            if ((m->data = xcalloc(c, N * r * cc, sizeof *m->data)) == NULL) {
+                free(one);
+                return -1;
+            }
+        } else if (r != m->rows || cc != m->cols) {
+            free(one);
+            return shape_error(c, sp, m->rows, m->cols, r, cc);
+        }
+        memcpy(m->data + j * r * cc, one, r * cc * sizeof *one);
+        free(one);
+    }
+    m->count = N;
+    return 0;
+}
+
+/* Sensor j's matrix from the case list `list` (C or R), renamed to `as`. */
+static int cases_sensor_mat(ctx_t *c, dkf_scenario_t *s, const json_t *list, const char *lpath,
+                            size_t j, const char *as)
+{
+    dkf_scn_mat_t *m;
+    char p[PATH_LEN];
+    subidx(p, lpath, j);
+    if ((m = mats_add(c, &s->sensors[j].mats, as, p)) == NULL) return -1;
+    return parse_matrix(c, json_array_get(list, j), p, &m->rows, &m->cols, &m->data);
+}
+
+static int cases_init(ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath,
+                      const char *key, const char *as)
+{
+    const json_t *v = json_object_get(cj, key);
+    char p[PATH_LEN];
+    subkey(p, cpath, key);
+    if (v == NULL) return fail(c, p, "missing key");
+    return parse_init_entry(c, &s->init, as, v, p);
+}
+
+static int cases_measurements(ctx_t *c, dkf_scenario_t *s, const json_t *steps,
+                              const char *cpath)
+{
+    size_t j, i, N = json_array_size(steps);
+    char p[PATH_LEN], pz[PATH_LEN];
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        se->m = dkf_scn_sensor_model(s, i, "H")->rows;
+        se->ny = N;
+        se->yk = xcalloc(c, N, sizeof *se->yk);
+        se->y = xcalloc(c, N * se->m, sizeof *se->y);
+        if (se->yk == NULL || se->y == NULL) return -1;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *st = json_array_get(steps, j), *z;
+        long k;
+        pathf(p, "%s.steps[%zu]", cpath, j);
+        if (!json_is_object(st)) return fail(c, p, "expected an object, got %s", json_kind(st));
+        subkey(pz, p, "k");
+        if (json_object_get(st, "k") == NULL) return fail(c, pz, "missing key");
+        if (get_integer(c, json_object_get(st, "k"), pz, &k) != 0) return -1;
+        if (k != (long)j + 1)
+            return fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+        z = json_object_get(st, "z");
+        subkey(pz, p, "z");
+        if (z == NULL) return fail(c, pz, "missing key");
+        if (!json_is_array(z) || json_array_size(z) != s->nsensors)
+            return fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
+                        s->nsensors, json_kind(z));
+        for (i = 0; i < s->nsensors; ++i) {
+            dkf_scn_sensor_t *se = &s->sensors[i];
+            char pzi[PATH_LEN];
+            size_t len;
+            double *v;
+            subidx(pzi, pz, i);
+            if (parse_vector(c, json_array_get(z, i), pzi, &len, &v) != 0) return -1;
+            if (len != se->m) {
+                free(v);
+                return fail(c, pzi, "expected a vector of %zu values, got %zu", se->m, len);
+            }
+            memcpy(se->y + j * se->m, v, len * sizeof *v);
+            se->yk[j] = k;
+            free(v);
+        }
+    }
+    return 0;
+}
+
+static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const char *sel)
+{
+    const json_t *cases = json_object_get(root, "cases"), *cj, *steps, *C, *R, *name;
+    size_t i;
+    char cpath[PATH_LEN], p[PATH_LEN], pr[PATH_LEN];
+
+    if (!json_is_array(cases)) return fail(c, "cases", "expected a list, got %s", json_kind(cases));
+    if (select_case(c, cases, sel, &s->case_index) != 0) return -1;
+    subidx(cpath, "cases", s->case_index);
+    cj = json_array_get(cases, s->case_index);
+    if (!json_is_object(cj)) return fail(c, cpath, "expected an object, got %s", json_kind(cj));
+    name = json_object_get(cj, "name");
+    s->case_name = dupstr(json_is_string(name) ? json_string_value(name) : "");
+    s->layout = DKF_SCN_LAYOUT_CASES;
+    s->multi = 1;
+
+    steps = json_object_get(cj, "steps");
+    subkey(p, cpath, "steps");
+    if (steps == NULL) return fail(c, p, "missing key");
+    if (!json_is_array(steps) || json_array_size(steps) == 0)
+        return fail(c, p, "expected a non-empty list of steps, got %s", json_kind(steps));
+    s->steps = json_array_size(steps);
+    if (!json_is_object(json_array_get(steps, 0)))
+        return fail(c, p, "expected a list of step objects");
+    if (cases_model(c, s, cj, steps, cpath, "F") != 0) return -1;
+    if (cases_model(c, s, cj, steps, cpath, "Q") != 0) return -1;
+
+    C = json_object_get(cj, "C");
+    R = json_object_get(cj, "R");
+    subkey(p, cpath, "C");
+    subkey(pr, cpath, "R");
+    if (C == NULL) return fail(c, p, "missing key");
+    if (R == NULL) return fail(c, pr, "missing key");
+    if (!json_is_array(C) || json_array_size(C) == 0)
+        return fail(c, p, "expected a non-empty list of sensor matrices, got %s", json_kind(C));
+    s->nsensors = json_array_size(C);
+    if (!json_is_array(R) || json_array_size(R) != s->nsensors)
+        return fail(c, pr, "expected a list of %zu matrices (one per C), got %s", s->nsensors,
+                    json_kind(R));
+    if ((s->sensors = xcalloc(c, s->nsensors, sizeof *s->sensors)) == NULL) return -1;
+    for (i = 0; i < s->nsensors; ++i) {
+        if (cases_sensor_mat(c, s, C, p, i, "H") != 0) return -1;
+        if (cases_sensor_mat(c, s, R, pr, i, "R") != 0) return -1;
+    }
+    if (cases_init(c, s, cj, cpath, "x0", "x00") != 0) return -1;
+    if (cases_init(c, s, cj, cpath, "P0", "P00") != 0) return -1;
+    if (cases_measurements(c, s, steps, cpath) != 0) return -1;
+    pathf(p, "%s.C[%%zu]", cpath);
+    if (validate(c, s, cpath, p) != 0) return -1;
+    subkey(p, cpath, "truth");
+    return parse_truth(c, s, json_object_get(cj, "truth"), p);
+}
+
+/* ---- public API ---------------------------------------------------------------- */
+
+dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
+                                  size_t errlen)
+{
+    ctx_t c;
+    json_error_t je;
+    json_t *root;
+    dkf_scenario_t *s;
+    int rc;
+
+    c.file = path != NULL ? path : "(null)";
+    c.err = err;
+    c.errlen = errlen;
+    if (err != NULL && errlen > 0) err[0] = '\0';
+    if (path == NULL) {
+        fail(&c, NULL, "no scenario file given");
+        return NULL;
+    }
+    root = json_load_file(path, JSON_REJECT_DUPLICATES, &je);
+    if (root == NULL) {
+        if (je.line <= 0)
+            fail(&c, NULL, "cannot read: %s", je.text);
+        else
+            fail(&c, NULL, "invalid JSON at line %d, column %d: %s", je.line, je.column, je.text);
+        return NULL;
+    }
+    if (!json_is_object(root)) {
+        fail(&c, NULL, "expected a JSON object at the top level, got %s", json_kind(root));
+        json_decref(root);
+        return NULL;
+    }
+    s = calloc(1, sizeof *s);
+    if (s == NULL || (s->file = dupstr(path)) == NULL) {
+        free(s);
+        json_decref(root);
+        fail(&c, NULL, "out of memory");
+        return NULL;
+    }
+    s->root = root;
+    if (json_object_get(root, "cases") != NULL) {
+        rc = load_cases(&c, s, root, case_sel);
+    } else if (case_sel != NULL) {
+        rc = fail(&c, "cases", "--case given but the file has no cases (canonical layout)");
+    } else {
+        rc = load_canonical(&c, s, root);
+    }
+    if (rc != 0) {
+        dkf_scenario_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+void dkf_scenario_free(dkf_scenario_t *s)
+{
+    size_t i;
+    if (s == NULL) return;
+    for (i = 0; s->sensors != NULL && i < s->nsensors; ++i) {
+        mats_free(&s->sensors[i].mats);
+        free(s->sensors[i].yk);
+        free(s->sensors[i].y);
+    }
+    free(s->sensors);
+    mats_free(&s->model);
+    mats_free(&s->init);
+    free(s->truth_k);
+    free(s->truth_x);
+    free(s->case_name);
+    free(s->file);
+    json_decref(s->root);
+    free(s);
+}
+
+const dkf_scn_mat_t *dkf_scn_model(const dkf_scenario_t *s, const char *name)
+{
+    return mats_find(&s->model, name);
+}
+
+const dkf_scn_mat_t *dkf_scn_sensor_model(const dkf_scenario_t *s, size_t i, const char *name)
+{
+    const dkf_scn_mat_t *m = NULL;
+    if (i < s->nsensors) m = mats_find(&s->sensors[i].mats, name);
+    return m != NULL ? m : mats_find(&s->model, name);
+}
+
+const dkf_scn_mat_t *dkf_scn_init(const dkf_scenario_t *s, const char *name)
+{
+    return mats_find(&s->init, name);
+}
+
+const double *dkf_scn_at(const dkf_scn_mat_t *m, size_t k)
+{
+    if (m == NULL) return NULL;
+    if (m->count == 0) return m->data;
+    if (k >= m->count) return NULL;
+    return m->data + k * m->rows * m->cols;
+}
+
+const double *dkf_scn_P00_local(const dkf_scenario_t *s, size_t i)
+{
+    const dkf_scn_mat_t *Pl = dkf_scn_init(s, "P00_local");
+    if (Pl != NULL) return dkf_scn_at(Pl, i);
+    return dkf_scn_at(dkf_scn_init(s, "P00"), 0);
+}
+
+const double *dkf_scn_P00_central(const dkf_scenario_t *s)
+{
+    const dkf_scn_mat_t *Pc = dkf_scn_init(s, "P00_central");
+    return dkf_scn_at(Pc != NULL ? Pc : dkf_scn_init(s, "P00"), 0);
+}
+
+const double *dkf_scn_y(const dkf_scenario_t *s, size_t i, long k)
+{
+    long j;
+    if (i >= s->nsensors) return NULL;
+    j = find_time(s->sensors[i].yk, s->sensors[i].ny, k);
+    return j < 0 ? NULL : s->sensors[i].y + (size_t)j * s->sensors[i].m;
+}
+
+const double *dkf_scn_truth(const dkf_scenario_t *s, long k)
+{
+    long j = find_time(s->truth_k, s->ntruth, k);
+    return j < 0 ? NULL : s->truth_x + (size_t)j * s->n;
+}
+
+void dkf_scn_to_real(dkf_real_t *dst, const double *src, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) dst[i] = (dkf_real_t)src[i];
+}

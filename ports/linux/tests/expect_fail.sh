@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# expect_fail.sh CODE REGEX COMMAND [ARGS...]
+# Passes when COMMAND exits with status CODE and its stderr+stdout matches the
+# extended regular expression REGEX. For the CLI error codes (2, 3) stderr
+# must also be exactly one line: dkf-run's errors are one-line messages.
+set -u
+want=$1 regex=$2
+shift 2
+errf=$(mktemp) outf=$(mktemp)
+trap 'rm -f "$errf" "$outf"' EXIT
+"$@" >"$outf" 2>"$errf"
+got=$?
+echo "command: $*"
+echo "exit status: $got (want $want)"
+echo "--- stderr"; cat "$errf"
+echo "--- stdout"; head -n 20 "$outf"
+if [[ $got -ne $want ]]; then
+  echo "FAIL: exit status $got, expected $want"; exit 1
+fi
+if ! cat "$errf" "$outf" | grep -Eq -- "$regex"; then
+  echo "FAIL: output does not match /$regex/"; exit 1
+fi
+if [[ $want -eq 2 || $want -eq 3 ]]; then
+  lines=$(wc -l <"$errf")
+  if [[ $lines -ne 1 ]]; then
+    echo "FAIL: stderr has $lines lines, expected one"; exit 1
+  fi
+fi
+echo "PASS"

@@ -1,0 +1,209 @@
+#!/usr/bin/env python3
+"""Compare the numeric arrays of two JSON files (dkf-run outputs, golden vectors).
+
+    dkf_compare.py OUT.json VECTOR.json [--keys outputs.KF] [--rel 1e-9]
+    dkf_compare.py OUT.json OUT.json --a-keys outputs.fused --b-keys outputs.central
+
+Under the key path given for each file (--keys for both, --a-keys/--b-keys
+to differ), every numeric array present on both sides is compared with the
+rule of the golden-vector READMEs
+
+    max|a - b| <= atol + rel * max(1, max|b|)        (per array; B is the reference)
+
+A numeric array is a number or an arbitrarily nested list of numbers (a
+whole per-step series such as xf counts as one array; --per-step applies the
+rule to each step, i.e. each entry of the first axis, instead). Objects are
+matched by key, lists of objects by position; strings are ignored.
+
+Key paths: dot-separated keys and [i] indices, e.g. outputs.local[1]. The
+index [*] gathers over a list: cases[0].steps[*].expected turns a list of
+per-step objects into one object of per-step lists, which is how dkf-run
+lays out its outputs.
+
+Exit status: 0 all compared arrays pass; 1 a mismatch, or nothing compared;
+2 bad arguments, unreadable file, or a key path that does not exist.
+"""
+import argparse
+import json
+import math
+import re
+import sys
+
+TOKEN = re.compile(r"([^.\[\]]+)|\[(\*|\d+)\]|(\.)")
+
+
+class PathError(Exception):
+    pass
+
+
+def parse_path(path):
+    """'a.b[2].c[*]' -> ['a', 'b', 2, 'c', '*']."""
+    out, pos = [], 0
+    for m in TOKEN.finditer(path):
+        if m.start() != pos:
+            raise PathError("bad key path %r at %r" % (path, path[pos:]))
+        pos = m.end()
+        if m.group(1) is not None:
+            out.append(m.group(1))
+        elif m.group(2) is not None:
+            out.append("*" if m.group(2) == "*" else int(m.group(2)))
+    if pos != len(path):
+        raise PathError("bad key path %r" % path)
+    return out
+
+
+def gather(items):
+    """[{k: v0}, {k: v1}] -> {k: [v0, v1]} (keys common to all); else the list."""
+    if items and all(isinstance(x, dict) for x in items):
+        keys = [k for k in items[0] if all(k in x for x in items)]
+        return {k: gather([x[k] for x in items]) if all(isinstance(x[k], dict) for x in items)
+                else [x[k] for x in items] for k in keys}
+    return items
+
+
+def resolve(doc, tokens, shown=""):
+    """Follows tokens into doc; raises PathError naming the missing piece."""
+    for i, t in enumerate(tokens):
+        if t == "*":
+            if not isinstance(doc, list):
+                raise PathError("%s: [*] needs a list" % (shown or "(top)"))
+            return gather([resolve(x, tokens[i + 1:], "%s[%d]" % (shown, j))
+                           for j, x in enumerate(doc)])
+        if isinstance(t, int):
+            if not isinstance(doc, list) or t >= len(doc):
+                raise PathError("%s[%d]: no such list entry" % (shown, t))
+            doc, shown = doc[t], "%s[%d]" % (shown, t)
+        else:
+            if not isinstance(doc, dict) or t not in doc:
+                raise PathError("%s: missing key" % (shown + "." + t if shown else t))
+            doc, shown = doc[t], (shown + "." + t if shown else t)
+    return doc
+
+
+def is_number(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+def flatten(x):
+    """(values, structure) of a number or nested list of numbers, else None."""
+    if is_number(x):
+        return [float(x)], ()
+    if isinstance(x, list):
+        vals, shape = [], []
+        for e in x:
+            f = flatten(e)
+            if f is None:
+                return None
+            vals.extend(f[0])
+            shape.append(f[1])
+        return vals, tuple(shape)
+    return None
+
+
+def shape_str(x):
+    dims = []
+    while isinstance(x, list):
+        dims.append(len(x))
+        if not x:
+            break
+        x = x[0]
+    return "x".join(str(d) for d in dims) if dims else "scalar"
+
+
+def check_array(a, b, rel, atol):
+    """(max error, bound, ok) for flattened a against reference b."""
+    if not b:
+        return 0.0, atol, True
+    scale = max(1.0, max(abs(v) for v in b))
+    err = max(abs(p - q) for p, q in zip(a, b))
+    bound = atol + rel * scale
+    finite = all(math.isfinite(v) for v in a) and all(math.isfinite(v) for v in b)
+    return err, bound, finite and err <= bound
+
+
+def compare(a, b, key, args, rows):
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in b:
+            if k in a:
+                compare(a[k], b[k], key + "." + k if key else k, args, rows)
+        return
+    fa, fb = flatten(a), flatten(b)
+    if fa is not None and fb is not None:
+        if fa[1] != fb[1]:
+            rows.append((key, shape_str(a) + " vs " + shape_str(b), float("nan"), 0.0, False))
+            return
+        if args.per_step and isinstance(b, list) and b and isinstance(b[0], list):
+            steps = [check_array(flatten(x)[0], flatten(y)[0], args.rel, args.atol)
+                     for x, y in zip(a, b)]
+            worst = max(steps, key=lambda r: r[0] / r[1] if r[1] > 0 else math.inf)
+            worst = (worst[0], worst[1], all(r[2] for r in steps))
+            rows.append((key, shape_str(b) + " per step") + worst)
+        else:
+            rows.append((key, shape_str(b)) + check_array(fa[0], fb[0], args.rel, args.atol))
+        return
+    if isinstance(a, list) and isinstance(b, list):
+        if len(a) != len(b):
+            rows.append((key, "%d vs %d entries" % (len(a), len(b)), float("nan"), 0.0, False))
+            return
+        for i, (x, y) in enumerate(zip(a, b)):
+            compare(x, y, "%s[%d]" % (key, i), args, rows)
+        return
+    if (fa is None) != (fb is None) and not isinstance(a, str) and not isinstance(b, str):
+        rows.append((key, "type mismatch", float("nan"), 0.0, False))
+
+
+def load(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        raise PathError("%s: %s" % (path, e))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(
+        description="Compare numeric arrays of two JSON files key by key "
+                    "(rule: max|a-b| <= atol + rel*max(1, max|b|) per array; B is the reference).")
+    ap.add_argument("a", help="JSON file under test (e.g. a dkf-run output)")
+    ap.add_argument("b", help="reference JSON file (e.g. a golden vector)")
+    ap.add_argument("--keys", default="", help="key path used in both files (default: top level)")
+    ap.add_argument("--a-keys", help="key path in A (overrides --keys)")
+    ap.add_argument("--b-keys", help="key path in B (overrides --keys)")
+    ap.add_argument("--rel", type=float, default=1e-9, help="relative tolerance (default 1e-9)")
+    ap.add_argument("--atol", type=float, default=0.0, help="absolute tolerance (default 0)")
+    ap.add_argument("--per-step", action="store_true",
+                    help="apply the rule to each entry of an array's first axis")
+    ap.add_argument("--quiet", action="store_true", help="print failures and the verdict only")
+    args = ap.parse_args(argv)
+
+    try:
+        ka = args.a_keys if args.a_keys is not None else args.keys
+        kb = args.b_keys if args.b_keys is not None else args.keys
+        a = resolve(load(args.a), parse_path(ka) if ka else [])
+        b = resolve(load(args.b), parse_path(kb) if kb else [])
+    except PathError as e:
+        print("dkf_compare: %s" % e, file=sys.stderr)
+        return 2
+
+    rows = []
+    compare(a, b, "", args, rows)
+    width = max([len("key")] + [len(r[0] or "(top)") for r in rows])
+    print("A = %s : %s" % (args.a, ka or "(top)"))
+    print("B = %s : %s" % (args.b, kb or "(top)"))
+    print("%-*s  %-18s %12s %12s  %s" % (width, "key", "shape", "max|a-b|", "bound", "pass"))
+    for key, shape, err, bound, ok in rows:
+        if ok and args.quiet:
+            continue
+        print("%-*s  %-18s %12.3e %12.3e  %s" % (width, key or "(top)", shape, err, bound,
+                                                 "ok" if ok else "FAIL"))
+    failed = sum(1 for r in rows if not r[4])
+    if not rows:
+        print("FAIL: nothing compared (no numeric array present in both)")
+        return 1
+    print("%s: %d array(s) compared, %d failed (rel %g, atol %g)" %
+          ("FAIL" if failed else "PASS", len(rows), failed, args.rel, args.atol))
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

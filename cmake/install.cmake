@@ -1,10 +1,24 @@
-# Installs headers, the library and a CMake package so that another project
-# can find_package(dkf) and link dkf::dkf.
+# Installs headers, libdkf.a and a CMake package, so that another project
+# can find_package(dkf) and link dkf::dkf:
+#
+#   <prefix>/include/dkf/*.h
+#   <prefix>/lib/libdkf.a
+#   <prefix>/lib/cmake/dkf/{dkfConfig,dkfConfigVersion,dkfTargets*}.cmake
+#
+# The exported target carries what a consumer must agree on: the
+# DKF_USE_FLOAT / DKF_JOSEPH compile definitions (so its view of
+# dkf_real_t and of the filter matches the library), libm, and, for a
+# DKF_SANITIZE build, the sanitizer runtimes the objects need.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
-install(TARGETS dkf EXPORT dkfTargets
-  ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
-  INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+
+if(DKF_SANITIZE)
+  target_link_options(dkf INTERFACE $<INSTALL_INTERFACE:-fsanitize=address,undefined>)
+endif()
+
+# (The include directory reaches the export through the INSTALL_INTERFACE
+# of target_include_directories in the top-level CMakeLists.txt.)
+install(TARGETS dkf EXPORT dkfTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(DIRECTORY include/dkf DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(EXPORT dkfTargets NAMESPACE dkf:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/dkf)
 configure_package_config_file(cmake/dkfConfig.cmake.in

@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# tools/bootstrap.sh - install what building and testing dkf needs (Debian).
+#
+# Idempotent and silent when everything is present: it asks dpkg-query which
+# packages are missing and only then touches apt (one `apt-get update`, one
+# `apt-get install`). As root it installs; otherwise it prints the exact
+# command to run and exits 1.
+#
+#   DKF_BOOTSTRAP_NO_ARMHF=1  skip the armhf multiarch packages (qemu-arm tests)
+#   DKF_BOOTSTRAP_NO_PYTHON=1 skip the python3 numpy/matplotlib check
+set -euo pipefail
+
+# Host toolchain, unit-test deps, cross compilers, qemu, bench deps.
+pkgs=(
+  cmake make gcc g++ pkg-config binutils
+  libcmocka-dev libjansson-dev
+  gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
+  gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
+  qemu-user
+  libeigen3-dev liblcm-dev liblcm-bin
+  python3 python3-pip
+)
+# Target (armhf) builds of the unit-test libraries, via Debian multiarch.
+armhf_pkgs=(libcmocka-dev:armhf libjansson-dev:armhf)
+
+want_armhf=1
+[[ "${DKF_BOOTSTRAP_NO_ARMHF:-0}" == 1 ]] && want_armhf=0
+
+native_arch="$(dpkg --print-architecture)"
+# True if package $1 ("name" = native or arch-all, or "name:arch") is installed.
+# dpkg-query prints one line per installed architecture of a Multi-Arch:
+# same package, so look for the line of the architecture we want.
+is_installed() {
+  local name="${1%%:*}" arch="${1#*:}"
+  [[ "$arch" == "$1" ]] && arch=""
+  local a st
+  while read -r a st; do
+    [[ "$st" == installed ]] || continue
+    if [[ -n "$arch" ]]; then
+      [[ "$a" == "$arch" ]] && return 0
+    elif [[ "$a" == "$native_arch" || "$a" == all ]]; then
+      return 0
+    fi
+  done < <(dpkg-query -W -f='${Architecture} ${db:Status-Status}\n' "$name" 2>/dev/null || true)
+  return 1
+}
+
+apt_updated=0
+apt_update() {
+  (( apt_updated )) && return 0
+  apt_updated=1
+  # A partial index failure (a mirror mid-sync) is not fatal: install decides.
+  apt-get update -qq >/dev/null || echo "bootstrap: apt-get update reported errors; trying anyway" >&2
+}
+
+missing=()
+for p in "${pkgs[@]}"; do
+  is_installed "$p" || missing+=("$p")
+done
+need_arch=0
+if (( want_armhf )); then
+  if ! dpkg --print-foreign-architectures | grep -qx armhf; then
+    need_arch=1
+    missing+=("${armhf_pkgs[@]}")
+  else
+    for p in "${armhf_pkgs[@]}"; do
+      is_installed "$p" || missing+=("$p")
+    done
+  fi
+fi
+
+if (( ${#missing[@]} )); then
+  if [[ "$(id -u)" != 0 ]]; then
+    echo "bootstrap: missing Debian packages: ${missing[*]}" >&2
+    echo "bootstrap: run as root, or:" >&2
+    (( need_arch )) && echo "  sudo dpkg --add-architecture armhf" >&2
+    echo "  sudo apt-get update && sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "bootstrap: installing ${missing[*]}" >&2
+  (( need_arch )) && dpkg --add-architecture armhf
+  export DEBIAN_FRONTEND=noninteractive
+  apt_update
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# Python for the analysis scripts (tests do not need it).
+if [[ "${DKF_BOOTSTRAP_NO_PYTHON:-0}" != 1 ]] && \
+   ! python3 -c 'import numpy, matplotlib' >/dev/null 2>&1; then
+  stdlib="$(python3 -c 'import sysconfig; print(sysconfig.get_path("stdlib"))')"
+  if [[ "$(id -u)" != 0 ]]; then
+    # Only the analysis scripts need them, not the build or the tests: warn.
+    if [[ -e "$stdlib/EXTERNALLY-MANAGED" ]]; then
+      echo "bootstrap: warning: python3 lacks numpy/matplotlib; run: sudo apt-get install -y python3-numpy python3-matplotlib" >&2
+    else
+      echo "bootstrap: warning: python3 lacks numpy/matplotlib; run: python3 -m pip install numpy matplotlib" >&2
+    fi
+  elif [[ -e "$stdlib/EXTERNALLY-MANAGED" ]]; then
+    # Debian's own python3 refuses pip (PEP 668): use its packages instead.
+    echo "bootstrap: installing python3-numpy python3-matplotlib" >&2
+    apt_update
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      python3-numpy python3-matplotlib >/dev/null
+  else
+    echo "bootstrap: pip installing numpy matplotlib" >&2
+    PIP_ROOT_USER_ACTION=ignore python3 -m pip install --quiet --disable-pip-version-check numpy matplotlib
+  fi
+fi
+exit 0

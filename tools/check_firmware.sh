@@ -1,0 +1,114 @@
+#!/usr/bin/env bash
+# tools/check_firmware.sh - build the Cortex-M4F image (ports/cortex-m4) and
+# check its footprint. For each variant (default: float double float-nochecks;
+# float-nochecks is float with DKF_DEBUG_CHECKS=0, the lean configuration):
+#   build     library + image with the arm-none-eabi toolchain, -Werror
+#   no-heap   nm finds no allocator symbol (malloc, free, _sbrk, _malloc_r...)
+#             in the ELF, and libdkf.a references none
+#   stack     worst-case stack of dkf_kf_init/predict/update (GCC
+#             -fstack-usage/-fcallgraph-info + tools/stack_usage.py) is
+#             bounded (no recursion, no dynamic frame) and within
+#             DKF_M4_STACK_BUDGET bytes (default 4096)
+#   host-run  the image's filter code (demo.c), built for the host against a
+#             host library of the same real type, reproduces the reference
+#             (not for -nochecks: the checks do not change any number)
+# and prints arm-none-eabi-size. Builds go to build/m4-<real>/ (reused).
+# The last line is "firmware: N passed, M failed"; exit status 1 if M > 0.
+#
+# usage: tools/check_firmware.sh [float] [double] [float-nochecks] [double-nochecks]
+set -uo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+reals=("$@")
+(( ${#reals[@]} )) || reals=(float double float-nochecks)
+budget=${DKF_M4_STACK_BUDGET:-4096}
+jobs=${DKF_JOBS:-2}
+passed=0
+failed=0
+
+pass() { echo "PASS: $*"; passed=$((passed + 1)); }
+fail() { echo "FAIL: $*"; failed=$((failed + 1)); }
+
+# Anything the allocator would bring in. newlib-nano names included.
+heap_re='^(malloc|calloc|realloc|free|reallocf|memalign|aligned_alloc|posix_memalign|valloc|pvalloc|_malloc_r|_calloc_r|_realloc_r|_free_r|_memalign_r|_valloc_r|_pvalloc_r|_malloc_trim_r|_mallinfo_r|_sbrk|_sbrk_r|sbrk|__malloc_av_|__malloc_lock|__malloc_unlock|__malloc_sbrk_base|__malloc_top_pad|__malloc_max_sbrked_mem|__malloc_current_mallinfo|__nano_malloc|nano_malloc|nano_free|__malloc_free_list|__malloc_sbrk_start|alloca)$'
+
+check_real() {
+  local variant=$1
+  local real=${variant%-nochecks}
+  local checks=ON
+  [[ $variant == *-nochecks ]] && checks=OFF
+  if [[ $real != float && $real != double ]]; then
+    fail "unknown firmware variant '$variant'"
+    return
+  fi
+  local bdir=$ROOT/build/m4-$variant
+  local hdir=$ROOT/build/m4-host-$real
+  local elf=$bdir/dkf_m4.elf
+  echo "== Cortex-M4F image, DKF_REAL=$real, debug checks $checks ($bdir)"
+
+  if cmake -S ports/cortex-m4 -B "$bdir" -DDKF_REAL="$real" -DDKF_M4_DEBUG_CHECKS=$checks >"$bdir.configure.log" 2>&1 &&
+     cmake --build "$bdir" -j"$jobs" >"$bdir.build.log" 2>&1; then
+    pass "m4-$variant build (library + image, -Werror)"
+  else
+    cat "$bdir.configure.log" "$bdir.build.log" 2>/dev/null | tail -40
+    fail "m4-$variant build"
+    return
+  fi
+
+  local heap lib_heap
+  heap=$(arm-none-eabi-nm "$elf" | awk '{print $NF}' | grep -E "$heap_re" || true)
+  lib_heap=$(arm-none-eabi-nm -u "$bdir/dkf/libdkf.a" 2>/dev/null | awk '{print $NF}' |
+             grep -E "$heap_re" || true)
+  if [[ -z "$heap$lib_heap" ]]; then
+    pass "m4-$variant no heap symbols in dkf_m4.elf or libdkf.a"
+  else
+    fail "m4-$variant heap symbols linked: $(echo $heap $lib_heap)"
+  fi
+
+  echo "-- arm-none-eabi-size"
+  arm-none-eabi-size "$elf"
+  echo "-- bytes per input in the image (from the linker map)"
+  python3 tools/map_summary.py "$bdir/dkf_m4.map"
+  echo "-- libdkf.a objects (arm-none-eabi-size -t)"
+  arm-none-eabi-size -t "$bdir/dkf/libdkf.a" | sed 's/^/  /'
+
+  echo "-- worst-case stack (bytes; frame sizes in parentheses)"
+  local stack_out
+  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" "$bdir" \
+                   dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler 2>&1); then
+    echo "$stack_out" | sed 's/^/  /'
+    local worst
+    worst=$(echo "$stack_out" | awk '$1 ~ /^dkf_kf_/ { if ($2 > w) w = $2 } END { print w + 0 }')
+    if (( worst > 0 && worst <= budget )); then
+      pass "m4-$variant filter stack ${worst} B <= budget ${budget} B"
+    else
+      fail "m4-$variant filter stack ${worst} B (budget ${budget} B)"
+    fi
+  else
+    echo "$stack_out" | sed 's/^/  /'
+    fail "m4-$variant stack analysis (recursion, indirect call or dynamic frame)"
+  fi
+
+  # The same demo.c on the host, against a host library of the same type.
+  [[ $checks == ON ]] || return
+  if cmake -S . -B "$hdir" -DDKF_REAL="$real" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=OFF \
+       -DDKF_BUILD_BENCH=OFF >"$hdir.configure.log" 2>&1 &&
+     cmake --build "$hdir" -j"$jobs" --target dkf >"$hdir.build.log" 2>&1 &&
+     cc -std=c99 -Wall -Wextra -Wpedantic -Werror -O2 -DDKF_USE_FLOAT=$([[ $real == float ]] && echo 1 || echo 0) \
+       -Iinclude -Iports/cortex-m4 ports/cortex-m4/demo.c ports/cortex-m4/host_main.c \
+       "$hdir/libdkf.a" -lm -o "$hdir/m4_demo_host" 2>"$hdir.demo.log" &&
+     "$hdir/m4_demo_host"; then
+    pass "m4-$variant demo filter on the host matches the reference"
+  else
+    cat "$hdir.configure.log" "$hdir.build.log" "$hdir.demo.log" 2>/dev/null | tail -30
+    fail "m4-$variant demo filter on the host"
+  fi
+}
+
+echo "arm-none-eabi-gcc: $(arm-none-eabi-gcc --version | head -1)"
+mkdir -p build
+for r in "${reals[@]}"; do
+  check_real "$r"
+done
+echo "firmware: $passed passed, $failed failed"
+(( failed == 0 ))

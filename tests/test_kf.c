@@ -32,24 +32,6 @@ typedef struct {
     DKF_KF_DECLARE(kf, NMAX, MMAX);
 } kf_box_t;
 
-static void mat_from_json(const json_t *node, dkf_real_t *storage, dkf_mat_t *M)
-{
-    double tmp[NMAX * NMAX];
-    size_t r, c, cnt = test_json_array(node, tmp, NMAX * NMAX, &r, &c);
-    test_to_real(storage, tmp, cnt);
-    M->rows = r;
-    M->cols = c;
-    M->data = storage;
-}
-
-/* {"const": M} or {"per_k": [...]} at absolute k */
-static const json_t *model_at(const json_t *model, const char *key, size_t k)
-{
-    const json_t *spec = test_json_get(model, key);
-    const json_t *c = json_object_get(spec, "const");
-    return c != NULL ? c : json_array_get(test_json_get(spec, "per_k"), k);
-}
-
 static void compare_step(const char *what, const dkf_real_t *got, const json_t *list, size_t j)
 {
     double e[NMAX * NMAX];
@@ -74,20 +56,20 @@ static void test_kf_matches_ex1_vector(void **state)
     dkf_mat_t x0, P0, F, Q, H, R, y;
     (void)state;
     test_reset_worst_rel();
-    mat_from_json(test_json_get(init, "x00"), xs, &x0);
-    mat_from_json(test_json_get(init, "P00"), Ps, &P0);
+    test_json_mat(test_json_get(init, "x00"), xs, NMAX, &x0);
+    test_json_mat(test_json_get(init, "P00"), Ps, NMAX * NMAX, &P0);
     assert_int_equal(dkf_kf_init(&b.kf, x0.rows, MMAX, b.kf_storage,
                                  DKF_KF_STORAGE_LEN(NMAX, MMAX), &x0, &P0),
                      DKF_OK);
     assert_true(N == 50);
     for (j = 0; j < N; ++j) {
         size_t k = j + 1;
-        mat_from_json(model_at(model, "F", k - 1), Fs, &F);
-        mat_from_json(model_at(model, "Q", k - 1), Qs, &Q);
-        mat_from_json(model_at(model, "H", k), Hs, &H);
-        mat_from_json(model_at(model, "R", k), Rs, &R);
+        test_json_mat(test_json_model_at(model, "F", k - 1), Fs, NMAX * NMAX, &F);
+        test_json_mat(test_json_model_at(model, "Q", k - 1), Qs, NMAX * NMAX, &Q);
+        test_json_mat(test_json_model_at(model, "H", k), Hs, NMAX * NMAX, &H);
+        test_json_mat(test_json_model_at(model, "R", k), Rs, NMAX * NMAX, &R);
         /* y lists y_1..y_{N+1}; entry j is y_{j+1} */
-        mat_from_json(json_array_get(yv, j), ys, &y);
+        test_json_mat(json_array_get(yv, j), ys, NMAX, &y);
         assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, NULL), DKF_OK);
         compare_step("KF xp", b.kf.x.data, test_json_get(out, "xp"), j);
         compare_step("KF Pp", b.kf.P.data, test_json_get(out, "Pp"), j);

@@ -230,3 +230,24 @@ size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows
     if (cols) *cols = c;
     return r * c;
 }
+
+void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_t *M)
+{
+    double tmp[DKF_MAX_DIM * DKF_MAX_DIM];
+    size_t r, c, cnt;
+    assert_true(cap <= DKF_MAX_DIM * DKF_MAX_DIM);
+    cnt = test_json_array(node, tmp, cap, &r, &c);
+    test_to_real(storage, tmp, cnt);
+    M->rows = r;
+    M->cols = c;
+    M->data = storage;
+}
+
+const json_t *test_json_model_at(const json_t *model, const char *key, size_t k)
+{
+    const json_t *spec = test_json_get(model, key);
+    const json_t *c = json_object_get(spec, "const");
+    const json_t *m = c != NULL ? c : json_array_get(test_json_get(spec, "per_k"), k);
+    assert_non_null(m);
+    return m;
+}

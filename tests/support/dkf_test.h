@@ -85,6 +85,12 @@ json_t *test_load_vector(const char *rel);
 /* Reads a JSON number, list (n x 1) or list of lists (r x c) into out
  * (cap doubles); fails the test on a malformed node. Returns the count. */
 size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows, size_t *cols);
+/* Reads a matrix node into storage (cap reals, library type) and points M
+ * at it with the node's shape. */
+void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_t *M);
+/* The model matrix `key` of a vector file at absolute time k: the node of
+ * {"const": M} or of {"per_k": [M_0, M_1, ...]}[k]. */
+const json_t *test_json_model_at(const json_t *model, const char *key, size_t k);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
 

@@ -1,0 +1,129 @@
+/*
+ * dkf/diffkf.h - the Difference Kalman filter (seed 000, Ruan-Luo-Zhu 2018,
+ * Theorem 1, with the corrections of docs/diffkf.md).
+ *
+ * Model (library names; the paper's in brackets):
+ *   x_{k+1} = F_k x_k + v_k,              v_k ~ (0, Q_k)     [nu_k, R_nu]
+ *   y_k     = H_k x_k + A_k d_k + w_k,    w_k ~ (0, R_k)     [omega_k, R_omega]
+ *   d_{k+1} = B_k d_k + wd_k,             wd_k ~ (0, Rd_k)   [omega_d, R_d]
+ * with state dimension n [paper m], measurement dimension m [paper n] and
+ * unknown-input dimension p; A_k (m x p) of full column rank, B_k (p x p)
+ * nonsingular; every matrix may change with k (the dimensions may not).
+ *
+ * The unknown input d is never estimated: it is removed by differencing
+ *   z_k = G_k y_{k+1} - A_k^+ y_k,   G_k = B_k^{-1} A_{k+1}^+          (8)
+ *       = M_k x_k + u_k,             M_k = G_k H_{k+1} F_k - A_k^+ H_k   (10)-(11)
+ * whose noise u_k is correlated with v_k and with u_{k-1}; the filter is
+ * the optimal (MMSE given z) recursion for that model. It never needs d_0.
+ *
+ * ONE-STEP DELAY. z_k needs y_{k+1}, so the step that consumes y_{k+1}
+ * yields x_{k|k} (xf, for time k) and the prediction x_{k+1|k} (xp). The
+ * filter's field `k` is the time of xf. x_{k+1|k} uses the same data
+ * y_1..y_{k+1} as an ordinary KF's x_{k+1|k+1}.
+ *
+ * Calls:
+ *   dkf_diffkf_init    (x_{0|0}, P_{0|0}): k = 0
+ *   dkf_diffkf_start   (F_0, Q_0, model at 1, y_1): predicts x_{1|0} and
+ *                      stores y_1; no estimate for a new time yet
+ *   dkf_diffkf_step    (dynamics at k, model at k+1, y_{k+1}), k = 1, 2, ...:
+ *                      x_{k|k}, P_{k|k}, x_{k+1|k}, P_{k+1|k}; k advances
+ * A step is also available in two phases for a fusion centre that knows the
+ * differenced measurement z_k rather than y: dkf_diffkf_gain computes
+ * everything that does not depend on data (M, J, L, K, ...), then
+ * dkf_diffkf_update_z applies z_k. A failed call of any kind leaves the
+ * estimates and everything carried between steps bit-identical; a failed
+ * dkf_diffkf_gain also cancels a pending gain.
+ */
+#ifndef DKF_DIFFKF_H
+#define DKF_DIFFKF_H
+
+#include <stddef.h>
+
+#include "dkf/mat.h"
+
+/* Dynamics from k to k+1. */
+typedef struct {
+    const dkf_mat_t *F;  /* F_k, n x n */
+    const dkf_mat_t *Q;  /* Q_k = Cov(v_k), n x n, symmetric PSD */
+    const dkf_mat_t *B;  /* B_k, p x p, nonsingular */
+    const dkf_mat_t *Rd; /* Rd_k = Cov(wd_k), p x p, symmetric PSD */
+} dkf_diffkf_dyn_t;
+
+/* Measurement model at one time k. */
+typedef struct {
+    const dkf_mat_t *H; /* H_k, m x n */
+    const dkf_mat_t *A; /* A_k, m x p, full column rank */
+    const dkf_mat_t *R; /* R_k = Cov(w_k), m x m, symmetric PSD */
+} dkf_diffkf_meas_t;
+
+/* Reals of storage for dimensions (n, m, p). */
+#define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
+    (2 * (n) + 2 * (n) * (n) + 2 * (p) + 3 * (n) * (p) + (p) * (p) /* outputs */ \
+     + 3 * (p) * (p) + 2 * (n) * (p) + (p) /* carried to the next step */ \
+     + 2 * (m) * (p) + 2 * (p) * (p) /* cached A^+ and B^{-1} */ \
+     + 2 * (m) * (p) + 2 * (p) * (n) + 3 * (p) * (p) + 2 * (n) * (p) /* pending gain */ \
+     + (p) + (p) * (n) + (p) * (p) + (p) /* pending next-step data */ \
+     + 2 * (n) * (n) + (n) * (p) + (p) * (p) + (n) + (p) /* step scratch */ \
+     + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
+
+typedef struct {
+    size_t n, m, p;
+    size_t k;        /* time of xf; xp is for k + 1 */
+    /* estimates */
+    dkf_mat_t xf, Pf; /* x_{k|k}, P_{k|k} */
+    dkf_mat_t xp, Pp; /* x_{k+1|k}, P_{k+1|k} */
+    /* the last step's quantities (for inspection, tests, messages) */
+    dkf_mat_t z;  /* z_k, p x 1 */
+    dkf_mat_t dz; /* innovation dz_k = z_k - z_{k|k-1}, p x 1 */
+    dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x p */
+    dkf_mat_t L;  /* L_k = Cov(dz_k), p x p */
+    dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x p */
+    dkf_real_t *mem; /* everything else (carry, caches, scratch) */
+    int ready;       /* dkf_diffkf_init done */
+    int started;     /* dkf_diffkf_start done */
+    int has_y;       /* A_k^+ y_k is stored, so dkf_diffkf_step can difference */
+    int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
+    /* caches of A^+ and B^{-1} (valid flags): not part of the state */
+    int a_cached, b_cached;
+} dkf_diffkf_t;
+
+#define DKF_DIFFKF_DECLARE(name, n, m, p) \
+    dkf_real_t name##_storage[DKF_DIFFKF_STORAGE_LEN(n, m, p)]; \
+    dkf_diffkf_t name
+
+/* Binds f to storage and sets (x_{0|0}, P_{0|0}) = (x0, P0); P0 SPD. */
+dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
+                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0);
+
+/* Predicts x_{1|0} = F0 x_{0|0}, P_{1|0} = F0 P_{0|0} F0^T + Q0 and takes
+ * the first measurement y_1 with its model. The first step has no previous
+ * innovation (every term with L_0^{-1} is zero, docs/diffkf.md §2).
+ * With F0 = Q0 = NULL, (x0, P0) of init are taken as the prior
+ * (x_{1|0}, P_{1|0}) of the first measured time instead (the general
+ * start of the note, k0 = the first measurement). */
+dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
+                              const dkf_diffkf_meas_t *meas1, const dkf_mat_t *y1);
+
+/* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
+ * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
+ * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD,
+ * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start). */
+dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
+                             const dkf_diffkf_meas_t *meas_next, const dkf_mat_t *y_next);
+
+/* Two-phase step. gain: everything of the step that does not depend on
+ * data (M_k, Ru_k, S_k, J_k, L_k, K_k, G_k, C_{k+1}); afterwards f->J,
+ * f->L, f->K are NOT yet updated: read them with dkf_diffkf_pending(). */
+dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
+                             const dkf_diffkf_meas_t *meas_next);
+/* Views of the pending M_k (p x n), K_k (n x p), and C_k L_{k-1}^{-1} dz_{k-1}
+ * (p x 1, the correlated part of the predicted z: zero at the first step),
+ * valid after a successful dkf_diffkf_gain. */
+dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *K,
+                                dkf_mat_t *zcorr);
+/* Applies z_k (p x 1) to the pending gain and completes the step. y_next
+ * may be NULL; if given, A_{k+1}^+ y_{k+1} is stored so that a later
+ * dkf_diffkf_step can difference against it. */
+dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next);
+
+#endif /* DKF_DIFFKF_H */

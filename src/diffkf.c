@@ -1,0 +1,456 @@
+/*
+ * The Difference Kalman filter (dkf/diffkf.h): seed 000 Theorem 1 in the
+ * corrected form of docs/diffkf.md §3-4.
+ *
+ * Notation (library dimensions n state, m measurement, p input):
+ *   G_k   = B_k^{-1} A_{k+1}^+                            p x m   (8)
+ *   M_k   = G_k H_{k+1} F_k - A_k^+ H_k                   p x n   (11)
+ *   Ru_k  = Cov(u_k) = G H Q H^T G^T + B^{-1} Rd B^{-T}
+ *           + G R_{k+1} G^T + A_k^+ R_k A_k^{+T}          p x p   (14)
+ *   S_k   = E[v_k u_k^T] = Q_k H_{k+1}^T G_k^T            n x p   (13)
+ *   C_k   = E[u_k u_{k-1}^T] = -A_k^+ R_k G_{k-1}^T       p x p   (15, lag corrected)
+ *   W_k   = (F_k J_k + S_k) L_k^{-1}                      n x p
+ * Recursion for step k (note §4, eqs (16)-(20)):
+ *   dz_k  = z_k - M_k x_{k|k-1} - C_k L_{k-1}^{-1} dz_{k-1}               (18)
+ *   J_k   = P_{k|k-1} M_k^T - W_{k-1} C_k^T                               (19)
+ *   L_k   = M P M^T - M W_{k-1} C_k^T - C_k W_{k-1}^T M^T + Ru_k
+ *           - C_k L_{k-1}^{-1} C_k^T                                       (20)
+ *   x_{k|k} = x_{k|k-1} + K_k dz_k,  P_{k|k} = P_{k|k-1} - K_k J_k^T,  K = J L^{-1}
+ *   x_{k+1|k} = F_k x_{k|k-1} + W_k dz_k                                  (16)
+ *   P_{k+1|k} = F_k P_{k|k-1} F_k^T + Q_k - W_k L_k W_k^T                 (17)
+ * (16)-(17) are the paper's prediction rewritten with W: F x_{k|k} + S L^{-1}
+ * dz = F x_{k|k-1} + W dz, and F P_{k|k} F^T + Q - F J L^{-1} S^T - S L^{-1}
+ * J^T F^T - S L^{-1} S^T = F P_{k|k-1} F^T + Q - (F J + S) L^{-1} (F J + S)^T.
+ *
+ * Everything but dz and the x's is data-independent, so a step is split
+ * into a gain phase (covariances, gains, and what the next step carries)
+ * and an update phase (the vectors). The gain phase writes only the
+ * pending area; the update commits. Pseudo-inverses of A and inverses of B
+ * are cached against a bitwise copy of the matrix they came from, so a
+ * time-invariant model pays for one SVD in all.
+ */
+#include "dkf/diffkf.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+typedef struct {
+    /* carried from step k-1 to step k */
+    dkf_real_t *C;     /* C_k (0 at the first step)                p x p */
+    dkf_real_t *CLi;   /* C_k L_{k-1}^{-1}                         p x p */
+    dkf_real_t *W;     /* W_{k-1}                                  n x p */
+    dkf_real_t *dzp;   /* dz_{k-1}                                 p     */
+    dkf_real_t *ApH;   /* A_k^+ H_k                                p x n */
+    dkf_real_t *ApRAp; /* A_k^+ R_k A_k^{+T}                       p x p */
+    dkf_real_t *Apy;   /* A_k^+ y_k                                p     */
+    /* caches: Ap = pinv(Alast), Binv = inv(Blast) */
+    dkf_real_t *Alast, *Ap, *Blast, *Binv;
+    /* pending: the gain phase of step k */
+    dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *CLin, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
+    /* scratch */
+    dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *Lc, *X, *svdw, *invw;
+} layout_t;
+
+/* Walks the storage in a fixed order; with base == NULL it only counts. */
+static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    size_t used = 0;
+#define TAKE(ptr, count) \
+    do { \
+        (ptr) = base != NULL ? base + used : NULL; \
+        used += (count); \
+    } while (0)
+    TAKE(L->C, p * p);
+    TAKE(L->CLi, p * p);
+    TAKE(L->W, n * p);
+    TAKE(L->dzp, p);
+    TAKE(L->ApH, p * n);
+    TAKE(L->ApRAp, p * p);
+    TAKE(L->Apy, p);
+    TAKE(L->Alast, m * p);
+    TAKE(L->Ap, p * m);
+    TAKE(L->Blast, p * p);
+    TAKE(L->Binv, p * p);
+    TAKE(L->G, p * m);
+    TAKE(L->M, p * n);
+    TAKE(L->Jn, n * p);
+    TAKE(L->Ln, p * p);
+    TAKE(L->Kn, n * p);
+    TAKE(L->Wn, n * p);
+    TAKE(L->Cn, p * p);
+    TAKE(L->CLin, p * p);
+    TAKE(L->Pfn, n * n);
+    TAKE(L->Ppn, n * n);
+    TAKE(L->Fn, n * n);
+    TAKE(L->ApHn, p * n);
+    TAKE(L->ApRApn, p * p);
+    TAKE(L->zc, p);
+    TAKE(L->T1, n * n);
+    TAKE(L->T2, n * p);
+    TAKE(L->T3, p * (n + m));
+    TAKE(L->GH, p * n);
+    TAKE(L->S, n * p);
+    TAKE(L->Ru, p * p);
+    TAKE(L->Lc, p * p);
+    TAKE(L->X, p * p);
+    TAKE(L->svdw, DKF_MAT_SVD_WORK(m, p));
+    TAKE(L->invw, DKF_MAT_INV_WORK(p));
+#undef TAKE
+    return used;
+}
+
+/* outputs: xf, Pf, xp, Pp, z, dz, J, L, K */
+static size_t outputs_len(size_t n, size_t p) { return 2 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
+
+static layout_t mem_of(const dkf_diffkf_t *f)
+{
+    layout_t L;
+    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    return L;
+}
+
+static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t **cursor)
+{
+    v->rows = r;
+    v->cols = c;
+    v->data = *cursor;
+    *cursor += r * c;
+}
+
+dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
+                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
+{
+    dkf_diffkf_t g;
+    dkf_real_t *cur = storage;
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(storage);
+    if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    /* A has full column rank, so p <= m */
+    if (p > m) return DKF_ERR_RANK;
+    if (storage_len < outputs_len(n, p) + layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    g.m = m;
+    g.p = p;
+    set_view(&g.xf, n, 1, &cur);
+    set_view(&g.Pf, n, n, &cur);
+    set_view(&g.xp, n, 1, &cur);
+    set_view(&g.Pp, n, n, &cur);
+    set_view(&g.z, p, 1, &cur);
+    set_view(&g.dz, p, 1, &cur);
+    set_view(&g.J, n, p, &cur);
+    set_view(&g.L, p, p, &cur);
+    set_view(&g.K, n, p, &cur);
+    g.mem = cur;
+    L = mem_of(&g);
+    /* P0 must be SPD (factored in scratch, which holds nothing yet) */
+    if (dkf__chol(L.T1, L.T2, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    memset(storage, 0, (outputs_len(n, p) + layout(&L, NULL, n, m, p)) * sizeof *storage);
+    dkf__copy(g.xf.data, x0->data, n);
+    dkf__copy(g.Pf.data, P0->data, n * n);
+    g.ready = 1;
+    *f = g;
+    return DKF_OK;
+}
+
+static dkf_status_t check_meas(const dkf_diffkf_t *f, const dkf_diffkf_meas_t *meas)
+{
+    DKF_CHECK_NULL(meas);
+    DKF_TRY(dkf__check_input(meas->H, f->m, f->n));
+    DKF_TRY(dkf__check_input(meas->A, f->m, f->p));
+    return dkf__check_input(meas->R, f->m, f->m);
+}
+
+/* Ap = A^+ (p x m), from the cache when A is bitwise the cached matrix.
+ * DKF_ERR_RANK unless A has full column rank p. */
+static dkf_status_t pinv_cached(dkf_diffkf_t *f, const layout_t *L, const dkf_mat_t *A)
+{
+    const size_t m = f->m, p = f->p;
+    const size_t bytes = m * p * sizeof(dkf_real_t);
+    size_t rank = 0;
+    dkf_mat_t Ap = DKF_MAT(p, m, L->T3);
+    if (f->a_cached && memcmp(L->Alast, A->data, bytes) == 0) return DKF_OK;
+    DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
+    if (rank != p) return DKF_ERR_RANK;
+    memcpy(L->Alast, A->data, bytes);
+    dkf__copy(L->Ap, L->T3, p * m);
+    f->a_cached = 1;
+    return DKF_OK;
+}
+
+/* Binv = B^{-1}, cached likewise. DKF_ERR_SINGULAR for singular B. */
+static dkf_status_t inverse_cached(dkf_diffkf_t *f, const layout_t *L, const dkf_mat_t *B)
+{
+    const size_t p = f->p;
+    const size_t bytes = p * p * sizeof(dkf_real_t);
+    size_t piv[DKF_MAX_DIM];
+    dkf_mat_t Bi = DKF_MAT(p, p, L->X);
+    if (f->b_cached && memcmp(L->Blast, B->data, bytes) == 0) return DKF_OK;
+    DKF_TRY(dkf_mat_inverse(&Bi, B, piv, L->invw));
+    memcpy(L->Blast, B->data, bytes);
+    dkf__copy(L->Binv, L->X, p * p);
+    f->b_cached = 1;
+    return DKF_OK;
+}
+
+/* Out (r x r) += A X A^T, A r x c, X c x c symmetric; tmp holds r * c
+ * reals. Only the upper triangle is formed; the result is mirrored. */
+static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *X, size_t r,
+                           size_t c, dkf_real_t *tmp)
+{
+    dkf__mul_nn(tmp, A, X, r, c, c);
+    dkf__mul_nt_sym(Out, tmp, A, Out, r, c);
+}
+
+/* Out (r x p) = Y L^{-1} for Y r x p and L = Lc Lc^T (L symmetric, so
+ * Out^T = L^{-1} Y^T is one Cholesky solve); tmp holds r * p reals. */
+static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                        const dkf_real_t *inv, size_t r, size_t p, dkf_real_t *tmp)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < p; ++j) tmp[j * r + i] = Y[i * p + j];
+    dkf__chol_solve(Lc, inv, tmp, p, r);
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < p; ++j) Out[i * p + j] = tmp[j * r + i];
+}
+
+/* The data-independent part of the next-step carry that depends only on
+ * the model at k+1: A^+ H, A^+ R A^{+T} (pending copies). */
+static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_diffkf_meas_t *meas,
+                          dkf_real_t *ApH, dkf_real_t *ApRAp)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    dkf__mul_nn(ApH, L->Ap, meas->H->data, p, m, n);
+    dkf__mul_nn(L->T3, L->Ap, meas->R->data, p, m, m);
+    dkf__mul_nt_sym(ApRAp, L->T3, L->Ap, NULL, p, m);
+}
+
+dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
+                              const dkf_diffkf_meas_t *meas1, const dkf_mat_t *y1)
+{
+    size_t n, p;
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->ready || f->started) return DKF_ERR_STATE;
+    n = f->n;
+    p = f->p;
+    if ((F0 == NULL) != (Q0 == NULL)) return DKF_ERR_NULL;
+    if (F0 != NULL) {
+        DKF_TRY(dkf__check_input(F0, n, n));
+        DKF_TRY(dkf__check_input(Q0, n, n));
+    }
+    DKF_TRY(check_meas(f, meas1));
+    if (y1 != NULL) DKF_TRY(dkf__check_input(y1, f->m, 1));
+    L = mem_of(f);
+    DKF_TRY(pinv_cached(f, &L, meas1->A));
+    /* predict to the first measured time, into pending slots */
+    if (F0 != NULL) {
+        dkf__mul_vec(L.T2, F0->data, f->xf.data, n, n);
+        dkf__mul_nn(L.T1, F0->data, f->Pf.data, n, n, n);
+        dkf__mul_nt_sym(L.Ppn, L.T1, F0->data, Q0->data, n, n);
+        if (!dkf__all_finite(L.Ppn, n * n) || !dkf__all_finite(L.T2, n)) return DKF_ERR_NONFINITE;
+    }
+    meas_products(f, &L, meas1, L.ApH, L.ApRAp);
+    if (y1 != NULL) dkf__mul_vec(L.Apy, L.Ap, y1->data, p, f->m);
+    /* no previous innovation: every term with L_0^{-1} vanishes */
+    memset(L.C, 0, p * p * sizeof(dkf_real_t));
+    memset(L.CLi, 0, p * p * sizeof(dkf_real_t));
+    memset(L.W, 0, n * p * sizeof(dkf_real_t));
+    memset(L.dzp, 0, p * sizeof(dkf_real_t));
+    if (F0 != NULL) {
+        dkf__copy(f->xp.data, L.T2, n);
+        dkf__copy(f->Pp.data, L.Ppn, n * n);
+    } else {
+        dkf__copy(f->xp.data, f->xf.data, n);
+        dkf__copy(f->Pp.data, f->Pf.data, n * n);
+    }
+    f->started = 1;
+    f->has_y = y1 != NULL;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
+                             const dkf_diffkf_meas_t *meas_next)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    size_t n, m, p, i, j;
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->ready || !f->started) return DKF_ERR_STATE;
+    n = f->n;
+    m = f->m;
+    p = f->p;
+    DKF_CHECK_NULL(dyn);
+    DKF_TRY(dkf__check_input(dyn->F, n, n));
+    DKF_TRY(dkf__check_input(dyn->Q, n, n));
+    DKF_TRY(dkf__check_input(dyn->B, p, p));
+    DKF_TRY(dkf__check_input(dyn->Rd, p, p));
+    DKF_TRY(check_meas(f, meas_next));
+    f->pending = 0;
+    L = mem_of(f);
+    DKF_TRY(pinv_cached(f, &L, meas_next->A));
+    DKF_TRY(inverse_cached(f, &L, dyn->B));
+
+    /* G = B^{-1} A_{k+1}^+; GH = G H_{k+1}; M = GH F - A_k^+ H_k      (8), (11) */
+    dkf__mul_nn(L.G, L.Binv, L.Ap, p, p, m);
+    dkf__mul_nn(L.GH, L.G, meas_next->H->data, p, m, n);
+    dkf__mul_nn(L.M, L.GH, dyn->F->data, p, n, n);
+    for (i = 0; i < p * n; ++i) L.M[i] -= L.ApH[i];
+
+    /* Ru = GH Q GH^T + B^{-1} Rd B^{-T} + G R_{k+1} G^T + A_k^+ R_k A_k^{+T}  (14) */
+    dkf__copy(L.Ru, L.ApRAp, p * p);
+    add_congruence(L.Ru, L.GH, dyn->Q->data, p, n, L.T3);
+    add_congruence(L.Ru, L.Binv, dyn->Rd->data, p, p, L.T3);
+    add_congruence(L.Ru, L.G, meas_next->R->data, p, m, L.T3);
+
+    /* S = Q H_{k+1}^T G^T = Q GH^T                                     (13) */
+    dkf__mul_nt(L.S, dyn->Q->data, L.GH, n, n, p);
+
+    /* J = P M^T - W_{k-1} C_k^T                                         (19) */
+    dkf__mul_nt(L.Jn, f->Pp.data, L.M, n, n, p);
+    dkf__mul_nt(L.T2, L.W, L.C, n, p, p);
+    for (i = 0; i < n * p; ++i) L.Jn[i] -= L.T2[i];
+
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T      (20) */
+    dkf__mul_nn(L.T3, L.M, L.W, p, n, p);     /* M W      */
+    dkf__mul_nt(L.X, L.T3, L.C, p, p, p);     /* M W C^T  */
+    dkf__mul_nn(L.T3, L.M, f->Pp.data, p, n, n);
+    dkf__mul_nt_sym(L.Ln, L.T3, L.M, L.Ru, p, n); /* M P M^T + Ru */
+    dkf__mul_nt(L.T3, L.CLi, L.C, p, p, p);   /* C L^{-1} C^T */
+    for (i = 0; i < p; ++i)
+        for (j = i; j < p; ++j) {
+            const dkf_real_t v = L.Ln[i * p + j] - L.X[i * p + j] - L.X[j * p + i] -
+                                 DKF_R(0.5) * (L.T3[i * p + j] + L.T3[j * p + i]);
+            L.Ln[i * p + j] = v;
+            L.Ln[j * p + i] = v;
+        }
+    if (dkf__chol(L.Lc, inv, L.Ln, p) != 0) return DKF_ERR_NOT_SPD;
+
+    /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored) */
+    right_solve(L.Kn, L.Jn, L.Lc, inv, n, p, L.T2);
+    dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, p);
+    for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pp.data[i] - L.Pfn[i];
+
+    /* W = (F J + S) L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S) W^T    (16)-(17) */
+    dkf__mul_nn(L.T3, dyn->F->data, L.Jn, n, n, p); /* T3 has p(n+m) >= n p */
+    for (i = 0; i < n * p; ++i) L.T3[i] += L.S[i];
+    right_solve(L.Wn, L.T3, L.Lc, inv, n, p, L.T2);
+    dkf__mul_nn(L.T1, dyn->F->data, f->Pp.data, n, n, n);
+    dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
+    dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, p);
+    for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
+
+    /* next step's correlation: C_{k+1} = -A_{k+1}^+ R_{k+1} G^T      (15);
+     * C_{k+1} L_k^{-1}; and the model products at k+1 */
+    dkf__mul_nn(L.T3, L.Ap, meas_next->R->data, p, m, m);
+    dkf__mul_nt(L.Cn, L.T3, L.G, p, m, p);
+    for (i = 0; i < p * p; ++i) L.Cn[i] = -L.Cn[i];
+    right_solve(L.CLin, L.Cn, L.Lc, inv, p, p, L.T2);
+    meas_products(f, &L, meas_next, L.ApHn, L.ApRApn);
+
+    /* the correlated part of the predicted z: C_k L_{k-1}^{-1} dz_{k-1} */
+    dkf__mul_vec(L.zc, L.CLi, L.dzp, p, p);
+    dkf__copy(L.Fn, dyn->F->data, n * n);
+
+    if (!dkf__all_finite(L.Pfn, n * n) || !dkf__all_finite(L.Ppn, n * n) ||
+        !dkf__all_finite(L.Kn, n * p) || !dkf__all_finite(L.Wn, n * p) ||
+        !dkf__all_finite(L.CLin, p * p))
+        return DKF_ERR_NONFINITE;
+    f->pending = 1;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *K,
+                                dkf_mat_t *zcorr)
+{
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->pending) return DKF_ERR_STATE;
+    L = mem_of(f);
+    if (M != NULL) M->rows = f->p, M->cols = f->n, M->data = L.M;
+    if (K != NULL) K->rows = f->n, K->cols = f->p, K->data = L.Kn;
+    if (zcorr != NULL) zcorr->rows = f->p, zcorr->cols = 1, zcorr->data = L.zc;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)
+{
+    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
+    size_t n, p, i;
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->pending) return DKF_ERR_STATE;
+    n = f->n;
+    p = f->p;
+    DKF_TRY(dkf__check_input(z, p, 1));
+    if (y_next != NULL) DKF_TRY(dkf__check_input(y_next, f->m, 1));
+    L = mem_of(f);
+    /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
+    dkf__mul_vec(dz, L.M, f->xp.data, p, n);
+    for (i = 0; i < p; ++i) dz[i] = z->data[i] - dz[i] - L.zc[i];
+    /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
+    dkf__mul_vec(xf, L.Kn, dz, n, p);
+    dkf__mul_vec(xp, L.Fn, f->xp.data, n, n);
+    for (i = 0; i < n; ++i) {
+        xf[i] += f->xp.data[i];
+        xp[i] += dkf__dot(L.Wn + i * p, dz, p);
+    }
+    if (!dkf__all_finite(dz, p) || !dkf__all_finite(xf, n) || !dkf__all_finite(xp, n))
+        return DKF_ERR_NONFINITE;
+
+    /* commit: estimates, the step's quantities, and the carry */
+    dkf__copy(f->xf.data, xf, n);
+    dkf__copy(f->Pf.data, L.Pfn, n * n);
+    dkf__copy(f->xp.data, xp, n);
+    dkf__copy(f->Pp.data, L.Ppn, n * n);
+    dkf__copy(f->z.data, z->data, p);
+    dkf__copy(f->dz.data, dz, p);
+    dkf__copy(f->J.data, L.Jn, n * p);
+    dkf__copy(f->L.data, L.Ln, p * p);
+    dkf__copy(f->K.data, L.Kn, n * p);
+    dkf__copy(L.C, L.Cn, p * p);
+    dkf__copy(L.CLi, L.CLin, p * p);
+    dkf__copy(L.W, L.Wn, n * p);
+    dkf__copy(L.dzp, dz, p);
+    dkf__copy(L.ApH, L.ApHn, p * n);
+    dkf__copy(L.ApRAp, L.ApRApn, p * p);
+    f->has_y = y_next != NULL;
+    if (y_next != NULL) dkf__mul_vec(L.Apy, L.Ap, y_next->data, p, f->m);
+    f->k += 1;
+    f->pending = 0;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
+                             const dkf_diffkf_meas_t *meas_next, const dkf_mat_t *y_next)
+{
+    dkf_real_t zbuf[DKF_MAX_DIM];
+    dkf_mat_t z;
+    dkf_status_t st;
+    layout_t L;
+    size_t i;
+    int was_pending;
+    DKF_CHECK_NULL(f);
+    if (!f->ready || !f->started || !f->has_y) return DKF_ERR_STATE;
+    DKF_TRY(dkf__check_input(y_next, f->m, 1));
+    was_pending = f->pending;
+    DKF_TRY(dkf_diffkf_gain(f, dyn, meas_next));
+    /* z_k = G y_{k+1} - A_k^+ y_k                                        (8) */
+    L = mem_of(f);
+    dkf__mul_vec(zbuf, L.G, y_next->data, f->p, f->m);
+    for (i = 0; i < f->p; ++i) zbuf[i] -= L.Apy[i];
+    z.rows = f->p;
+    z.cols = 1;
+    z.data = zbuf;
+    st = dkf_diffkf_update_z(f, &z, y_next);
+    /* the pending gain is valid for the unchanged state: restore the flag */
+    if (st != DKF_OK) f->pending = was_pending;
+    return st;
+}

@@ -159,7 +159,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     return DKF_OK;
 }
 
-static dkf_status_t check_meas(const dkf_diffkf_t *f, const dkf_diffkf_meas_t *meas)
+static dkf_status_t check_meas(const dkf_diffkf_t *f, const dkf_ui_meas_t *meas)
 {
     DKF_CHECK_NULL(meas);
     DKF_TRY(dkf__check_input(meas->H, f->m, f->n));
@@ -223,7 +223,7 @@ static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *
 
 /* The data-independent part of the next-step carry that depends only on
  * the model at k+1: A^+ H, A^+ R A^{+T} (pending copies). */
-static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_diffkf_meas_t *meas,
+static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_meas_t *meas,
                           dkf_real_t *ApH, dkf_real_t *ApRAp)
 {
     const size_t n = f->n, m = f->m, p = f->p;
@@ -233,7 +233,7 @@ static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_di
 }
 
 dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
-                              const dkf_diffkf_meas_t *meas1, const dkf_mat_t *y1)
+                              const dkf_ui_meas_t *meas1, const dkf_mat_t *y1)
 {
     size_t n, p;
     layout_t L;
@@ -276,8 +276,8 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     return DKF_OK;
 }
 
-dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
-                             const dkf_diffkf_meas_t *meas_next)
+dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                             const dkf_ui_meas_t *meas_next)
 {
     dkf_real_t inv[DKF_MAX_DIM];
     size_t n, m, p, i, j;
@@ -428,8 +428,8 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
     return DKF_OK;
 }
 
-dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
-                             const dkf_diffkf_meas_t *meas_next, const dkf_mat_t *y_next)
+dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                             const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next)
 {
     dkf_real_t zbuf[DKF_MAX_DIM];
     dkf_mat_t z;

@@ -38,8 +38,8 @@ typedef struct {
 typedef struct {
     dkf_real_t F[CAP], Q[CAP], H[CAP], A[CAP], R[CAP], B[CAP], Rd[CAP];
     dkf_mat_t mF, mQ, mH, mA, mR, mB, mRd;
-    dkf_diffkf_dyn_t dyn;
-    dkf_diffkf_meas_t meas;
+    dkf_ui_dyn_t dyn;
+    dkf_ui_meas_t meas;
 } model_t;
 
 /* dyn = dynamics at k from `dynamics` (F, Q) and `sensor` (B, Rd); meas =

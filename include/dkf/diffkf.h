@@ -2,13 +2,9 @@
  * dkf/diffkf.h - the Difference Kalman filter (seed 000, Ruan-Luo-Zhu 2018,
  * Theorem 1, with the corrections of docs/diffkf.md).
  *
- * Model (library names; the paper's in brackets):
- *   x_{k+1} = F_k x_k + v_k,              v_k ~ (0, Q_k)     [nu_k, R_nu]
- *   y_k     = H_k x_k + A_k d_k + w_k,    w_k ~ (0, R_k)     [omega_k, R_omega]
- *   d_{k+1} = B_k d_k + wd_k,             wd_k ~ (0, Rd_k)   [omega_d, R_d]
- * with state dimension n [paper m], measurement dimension m [paper n] and
- * unknown-input dimension p; A_k (m x p) of full column rank, B_k (p x p)
- * nonsingular; every matrix may change with k (the dimensions may not).
+ * Model: dkf/ui_model.h (state n, measurement m, unknown input p; A_k of
+ * full column rank, B_k nonsingular; every matrix may change with k, the
+ * dimensions may not).
  *
  * The unknown input d is never estimated: it is removed by differencing
  *   z_k = G_k y_{k+1} - A_k^+ y_k,   G_k = B_k^{-1} A_{k+1}^+          (8)
@@ -40,21 +36,7 @@
 #include <stddef.h>
 
 #include "dkf/mat.h"
-
-/* Dynamics from k to k+1. */
-typedef struct {
-    const dkf_mat_t *F;  /* F_k, n x n */
-    const dkf_mat_t *Q;  /* Q_k = Cov(v_k), n x n, symmetric PSD */
-    const dkf_mat_t *B;  /* B_k, p x p, nonsingular */
-    const dkf_mat_t *Rd; /* Rd_k = Cov(wd_k), p x p, symmetric PSD */
-} dkf_diffkf_dyn_t;
-
-/* Measurement model at one time k. */
-typedef struct {
-    const dkf_mat_t *H; /* H_k, m x n */
-    const dkf_mat_t *A; /* A_k, m x p, full column rank */
-    const dkf_mat_t *R; /* R_k = Cov(w_k), m x m, symmetric PSD */
-} dkf_diffkf_meas_t;
+#include "dkf/ui_model.h"
 
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
@@ -102,20 +84,20 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
  * (x_{1|0}, P_{1|0}) of the first measured time instead (the general
  * start of the note, k0 = the first measurement). */
 dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
-                              const dkf_diffkf_meas_t *meas1, const dkf_mat_t *y1);
+                              const dkf_ui_meas_t *meas1, const dkf_mat_t *y1);
 
 /* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
  * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
  * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD,
  * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start). */
-dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
-                             const dkf_diffkf_meas_t *meas_next, const dkf_mat_t *y_next);
+dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                             const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next);
 
 /* Two-phase step. gain: everything of the step that does not depend on
  * data (M_k, Ru_k, S_k, J_k, L_k, K_k, G_k, C_{k+1}); afterwards f->J,
  * f->L, f->K are NOT yet updated: read them with dkf_diffkf_pending(). */
-dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_diffkf_dyn_t *dyn,
-                             const dkf_diffkf_meas_t *meas_next);
+dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                             const dkf_ui_meas_t *meas_next);
 /* Views of the pending M_k (p x n), K_k (n x p), and C_k L_{k-1}^{-1} dz_{k-1}
  * (p x 1, the correlated part of the predicted z: zero at the first step),
  * valid after a successful dkf_diffkf_gain. */

@@ -1,0 +1,46 @@
+/*
+ * dkf/askf.h - the augmented-state Kalman filter (ASKF), the classical
+ * baseline of seed 000: a Kalman filter on X = [x; d] with
+ *   Phi_k = blockdiag(F_k, B_k),  Q^a_k = blockdiag(Q_k, Rd_k),
+ *   H^a_k = [H_k  A_k],           R_k,
+ * for the model of dkf/ui_model.h. It needs a prior for d_0 (d00, Pd00);
+ * with a wrong d00 its estimates suffer, which is what the Difference KF
+ * avoids.
+ */
+#ifndef DKF_ASKF_H
+#define DKF_ASKF_H
+
+#include <stddef.h>
+
+#include "dkf/kf.h"
+#include "dkf/ui_model.h"
+
+/* Reals of storage for state n, measurement m, input p. */
+#define DKF_ASKF_STORAGE_LEN(n, m, p) \
+    (DKF_KF_STORAGE_LEN((n) + (p), m) + 2 * ((n) + (p)) * ((n) + (p)) + (m) * ((n) + (p)))
+
+typedef struct {
+    size_t n, m, p;
+    dkf_kf_t kf;      /* the KF on X = [x; d]: kf.x = X (n+p), kf.P = P^a */
+    dkf_real_t *aug;  /* Phi, Q^a (n+p)^2 each and H^a (m x (n+p)), built per step */
+    int ready;
+} dkf_askf_t;
+
+#define DKF_ASKF_DECLARE(name, n, m, p) \
+    dkf_real_t name##_storage[DKF_ASKF_STORAGE_LEN(n, m, p)]; \
+    dkf_askf_t name
+
+/* X_{0|0} = [x0; d0], P^a_{0|0} = [[P0, Pxd0], [Pxd0^T, Pd0]] (Pxd0 may be
+ * NULL for zero). P^a must be SPD. */
+dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
+                           size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                           const dkf_mat_t *d0, const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);
+/* X = Phi X, P^a = Phi P^a Phi^T + Q^a with the dynamics at k. */
+dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn);
+/* Update with y_k and the measurement model at k. */
+dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
+/* Views of the state block: x (n x 1) and its covariance block P_x (the
+ * leading n x n block of P^a, copied into Px, which must be n x n). */
+dkf_status_t dkf_askf_state(const dkf_askf_t *f, dkf_mat_t *x, dkf_mat_t *Px);
+
+#endif /* DKF_ASKF_H */

@@ -17,7 +17,7 @@ pkgs=(
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   qemu-user
-  libeigen3-dev liblcm-dev liblcm-bin
+  libeigen3-dev liblcm-dev liblcm-bin valgrind
   python3 python3-pip
 )
 # Target (armhf) builds of the unit-test libraries, via Debian multiarch.

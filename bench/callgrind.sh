@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# bench/callgrind.sh - instructions per KF step (dkf, Eigen -O2, Eigen -O3
+# -march=native), counted by valgrind's callgrind: deterministic, unlike
+# the timings of a shared VM, so it is the number to watch when tuning.
+#
+#   bench/callgrind.sh [steps]     (default steps: 2000)
+#
+# Method: every benchmark runs twice under callgrind with fixed step counts
+# and one repeat, `--steps S` and `--steps 0`. Both runs do the same setup
+# (process start, model generation, the 1000-step checksum run, filter
+# init), so
+#     Ir/step = (Ir_total(S) - Ir_total(0)) / S
+# counts exactly S predict+update steps and nothing else.
+#
+# With BENCH_PROFILE=1 it also prints, for dkf, the functions with the most
+# self instructions in the S-step run (callgrind_annotate), to show where a
+# step's time goes. Those counts include the 1000 checksum steps, so
+# "per step" there is self Ir / (S + 1000) (init is negligible).
+#
+# Environment: BENCH_TYPES (default "double float"), BENCH_BUILD_PREFIX and
+# BENCH_JOSEPH as for run_bench.sh, BENCH_PROFILE=1 for the profile.
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+steps="${1:-2000}"
+types="${BENCH_TYPES:-double float}"
+exes="bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3native"
+check_steps=1000 # BENCH_CHECK_STEPS in bench_common.h
+
+command -v valgrind >/dev/null || { echo "callgrind.sh: valgrind not installed" >&2; exit 1; }
+[[ "$steps" =~ ^[1-9][0-9]*$ ]] || { echo "usage: callgrind.sh [steps >= 1]" >&2; exit 2; }
+
+out="$(mktemp -d)"
+trap 'rm -rf "$out"' EXIT
+
+# Total instructions (Ir) of a callgrind output file.
+total_ir() {
+  sed -n 's/^\(summary\|totals\): *\([0-9]*\).*/\2/p' "$1" | head -n1
+}
+
+# callgrind runs of: exe case steps -> output file name
+cg_run() {
+  local exe="$1" c="$2" s="$3" f="$4"
+  valgrind --tool=callgrind --callgrind-out-file="$f" -q \
+    "$exe" --case "$c" --steps "$s" --repeats 1 >/dev/null
+}
+
+printf "%-4s %-4s %-7s %12s %12s %12s %8s %8s\n" \
+  n m type dkf_Ir eigO2_Ir eigO3n_Ir dkf/O2 dkf/O3n
+for t in $types; do
+  b="$("$here/build_bench.sh" "$t")"
+  for c in 0 1 2; do
+    declare -A per=()
+    for e in $exes; do
+      cg_run "$b/bench/$e" "$c" "$steps" "$out/$e.$t.$c.S"
+      cg_run "$b/bench/$e" "$c" 0 "$out/$e.$t.$c.0"
+      a="$(total_ir "$out/$e.$t.$c.S")"
+      z="$(total_ir "$out/$e.$t.$c.0")"
+      per[$e]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+    done
+    nm="$(awk -v c="$c" 'BEGIN { split("4 2,8 4,12 6", v, ","); print v[c + 1] }')"
+    awk -v nm="$nm" -v t="$t" -v d="${per[bench_kf]}" -v e2="${per[bench_kf_eigen_O2]}" \
+        -v e3="${per[bench_kf_eigen_O3native]}" 'BEGIN {
+      split(nm, f, " ")
+      printf "%-4s %-4s %-7s %12.1f %12.1f %12.1f %8.2f %8.2f\n", f[1], f[2], t, d, e2, e3, d / e2, d / e3
+    }'
+    unset per
+  done
+done
+
+if [[ "${BENCH_PROFILE:-0}" == 1 ]]; then
+  for t in $types; do
+    for c in 0 1 2; do
+      f="$out/bench_kf.$t.$c.S"
+      echo
+      echo "== dkf $t case $c: top self instructions, per step = Ir / $((steps + check_steps))"
+      callgrind_annotate --inclusive=no "$f" 2>/dev/null |
+        awk -v d="$((steps + check_steps))" '
+          /^ *[0-9,]+ *\( *[0-9.]+%\)/ && n < 12 {
+            ir = $1; gsub(",", "", ir)
+            match($0, /\( *[0-9.]+%\)/); pct = substr($0, RSTART, RLENGTH); gsub(" ", "", pct)
+            name = substr($0, RSTART + RLENGTH); sub(/^ */, "", name); sub(/ *\[[^]]*\]$/, "", name)
+            sub(/^.*\//, "", name)
+            printf "  %10.1f Ir/step %9s  %s\n", ir / d, pct, name; ++n
+          }'
+    done
+  done
+fi

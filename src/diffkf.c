@@ -101,8 +101,8 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     return used;
 }
 
-/* outputs: xf, Pf, xp, Pp, z, dz, J, L, K */
-static size_t outputs_len(size_t n, size_t p) { return 2 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
+/* outputs: xf, Pf, xp, Pp, z, dz, J, L, K, xpp */
+static size_t outputs_len(size_t n, size_t p) { return 3 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
 
 static layout_t mem_of(const dkf_diffkf_t *f)
 {
@@ -147,6 +147,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     set_view(&g.J, n, p, &cur);
     set_view(&g.L, p, p, &cur);
     set_view(&g.K, n, p, &cur);
+    set_view(&g.xpp, n, 1, &cur);
     g.mem = cur;
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
@@ -406,6 +407,7 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
         return DKF_ERR_NONFINITE;
 
     /* commit: estimates, the step's quantities, and the carry */
+    dkf__copy(f->xpp.data, f->xp.data, n);
     dkf__copy(f->xf.data, xf, n);
     dkf__copy(f->Pf.data, L.Pfn, n * n);
     dkf__copy(f->xp.data, xp, n);

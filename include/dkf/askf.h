@@ -6,6 +6,13 @@
  * for the model of dkf/ui_model.h. It needs a prior for d_0 (d00, Pd00);
  * with a wrong d00 its estimates suffer, which is what the Difference KF
  * avoids.
+ *
+ * The augmented matrices are rebuilt from the model at every step, so
+ * every model matrix may change with k (the dimensions may not). The ASKF
+ * itself needs neither B_k nonsingular nor A_k of full column rank (the
+ * model of ui_model.h asks for both; the DKF and the OTSKF use them).
+ * A failed call leaves the filter bit-identical (dkf_kf_* are atomic and
+ * the augmented matrices are scratch).
  */
 #ifndef DKF_ASKF_H
 #define DKF_ASKF_H
@@ -15,7 +22,8 @@
 #include "dkf/kf.h"
 #include "dkf/ui_model.h"
 
-/* Reals of storage for state n, measurement m, input p. */
+/* Reals of storage for state n, measurement m, input p: the KF on n + p
+ * states, then Phi and Q^a ((n+p)^2 each) and H^a (m x (n+p)). */
 #define DKF_ASKF_STORAGE_LEN(n, m, p) \
     (DKF_KF_STORAGE_LEN((n) + (p), m) + 2 * ((n) + (p)) * ((n) + (p)) + (m) * ((n) + (p)))
 
@@ -31,16 +39,24 @@ typedef struct {
     dkf_askf_t name
 
 /* X_{0|0} = [x0; d0], P^a_{0|0} = [[P0, Pxd0], [Pxd0^T, Pd0]] (Pxd0 may be
- * NULL for zero). P^a must be SPD. */
+ * NULL for zero). P^a must be SPD (DKF_ERR_NOT_SPD). n + p must not
+ * exceed DKF_MAX_DIM (DKF_ERR_CAPACITY). Like dkf_kf_init, a failed init
+ * may have written to `storage` but never to *f. */
 dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                            size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                            const dkf_mat_t *d0, const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);
 /* X = Phi X, P^a = Phi P^a Phi^T + Q^a with the dynamics at k. */
 dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn);
-/* Update with y_k and the measurement model at k. */
+/* Update with y_k and the measurement model at k. DKF_ERR_NOT_SPD if the
+ * innovation covariance H^a P^a H^a^T + R is not SPD. */
 dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
-/* Views of the state block: x (n x 1) and its covariance block P_x (the
- * leading n x n block of P^a, copied into Px, which must be n x n). */
+/* The state block: x (may be NULL) becomes a view (n x 1) of the filter's
+ * x; P_x, the leading n x n block of P^a, is copied into Px (may be NULL;
+ * else it must be n x n). Nothing is written unless both are valid. */
 dkf_status_t dkf_askf_state(const dkf_askf_t *f, dkf_mat_t *x, dkf_mat_t *Px);
+/* The input block, likewise: d (may be NULL) becomes a view (p x 1) of
+ * the filter's d; P_d, the trailing p x p block of P^a, is copied into Pd
+ * (may be NULL; else p x p). */
+dkf_status_t dkf_askf_input(const dkf_askf_t *f, dkf_mat_t *d, dkf_mat_t *Pd);
 
 #endif /* DKF_ASKF_H */

@@ -40,12 +40,9 @@
 
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
-    (2 * (n) + 2 * (n) * (n) + 2 * (p) + 3 * (n) * (p) + (p) * (p) /* outputs */ \
-     + 3 * (p) * (p) + 2 * (n) * (p) + (p) /* carried to the next step */ \
-     + 2 * (m) * (p) + 2 * (p) * (p) /* cached A^+ and B^{-1} */ \
-     + 2 * (m) * (p) + 2 * (p) * (n) + 3 * (p) * (p) + 2 * (n) * (p) /* pending gain */ \
-     + (p) + (p) * (n) + (p) * (p) + (p) /* pending next-step data */ \
-     + 2 * (n) * (n) + (n) * (p) + (p) * (p) + (n) + (p) /* step scratch */ \
+    (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
+     + 4 * (n) * (n) + 11 * (n) * (p) + 12 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
+     /* carried, caches of A^+ and B^{-1}, pending gain and data, scratch */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
 
 typedef struct {
@@ -60,6 +57,8 @@ typedef struct {
     dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x p */
     dkf_mat_t L;  /* L_k = Cov(dz_k), p x p */
     dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x p */
+    dkf_mat_t xpp; /* x_{k|k-1}, n x 1: the prediction the last step updated
+                      (a fusion-centre message needs it with x_{k|k}) */
     dkf_real_t *mem; /* everything else (carry, caches, scratch) */
     int ready;       /* dkf_diffkf_init done */
     int started;     /* dkf_diffkf_start done */

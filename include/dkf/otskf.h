@@ -6,7 +6,15 @@
  * U_k, V_k:
  *   x_{k|k-1} = x~_{k|k-1} + U_k d_{k|k-1},   x_{k|k} = x~_{k|k} + V_k d_{k|k}.
  * It is exactly equivalent to the ASKF initialised alike (tests check
- * 1e-9), at lower cost.
+ * 1e-9), at lower cost: it never forms an (n+p)-dimensional matrix.
+ *
+ * Every model matrix may change with k (the dimensions may not). B_k must
+ * be nonsingular (Ubar_k = F V B^{-1}). Predict and update need not
+ * alternate: a predict without an update (missing measurement) or several
+ * updates at one time (sequential sensors sharing d) are exact, because
+ * each step starts from the blending matrix of the last call (V after an
+ * update or init, U after a predict). A failed call leaves the filter
+ * bit-identical.
  */
 #ifndef DKF_OTSKF_H
 #define DKF_OTSKF_H
@@ -15,12 +23,21 @@
 
 #include "dkf/ui_model.h"
 
-/* Reals of storage for state n, measurement m, input p: the helper that
- * implements src/otskf.c sizes this exactly. */
+/* Storage, in reals, for state n, measurement m, input p: the state
+ * (x~, x, P^x, P, d, P^d, U, V), then scratch for the larger of the two
+ * steps (exact: dkf_otskf_init accepts no less). */
+#define DKF_OTSKF_STATE_LEN(n, p) \
+    (2 * (n) + 2 * (n) * (n) + (p) + (p) * (p) + 2 * (n) * (p))
+#define DKF_OTSKF_PREDICT_LEN(n, p) \
+    (5 * (p) * (p) + 4 * (n) * (p) + 3 * (n) * (n) + (p) + 2 * (n))
+#define DKF_OTSKF_UPDATE_LEN(n, m, p) \
+    (3 * (m) * (m) + 2 * (m) * (n) + 3 * (m) * (p) + 2 * (n) * (n) + (p) * (p) + \
+     2 * (n) * (p) + (m) + 2 * (n) + (p))
 #define DKF_OTSKF_STORAGE_LEN(n, m, p) \
-    (4 * (n) + 4 * (n) * (n) + 2 * (p) + 2 * (p) * (p) + 2 * (n) * (p) /* state */ \
-     + 6 * (n) * (n) + 6 * (n) * (p) + 4 * (p) * (p) + 4 * (m) * (m) + 4 * (m) * ((n) + (p)) \
-     + 2 * (m) + 2 * (n) + 2 * (p) /* scratch */)
+    (DKF_OTSKF_STATE_LEN(n, p) + \
+     (DKF_OTSKF_PREDICT_LEN(n, p) > DKF_OTSKF_UPDATE_LEN(n, m, p) \
+          ? DKF_OTSKF_PREDICT_LEN(n, p) \
+          : DKF_OTSKF_UPDATE_LEN(n, m, p)))
 
 typedef struct {
     size_t n, m, p;
@@ -29,7 +46,8 @@ typedef struct {
     dkf_mat_t U, V;    /* blending matrices U_k (after predict), V_k (after update) */
     dkf_mat_t x, P;    /* combined estimate x = x~ + U d (or V d) and its
                           covariance P = P^x + U P^d U^T (or V P^d V^T) */
-    dkf_real_t *work;
+    dkf_real_t *work;  /* step scratch (not state) */
+    int blend_is_v;    /* 1 after init/update (x = x~ + V d), 0 after predict */
     int ready;
 } dkf_otskf_t;
 
@@ -38,11 +56,18 @@ typedef struct {
     dkf_otskf_t name
 
 /* Start from x_{0|0} = x0, P0 and the bias prior d00 = d0, Pd00 = Pd0, with
- * V_0 = 0 (x and d uncorrelated a priori). */
+ * V_0 = U_0 = 0 (x and d uncorrelated a priori). P0 and Pd0 must be SPD
+ * (DKF_ERR_NOT_SPD). A failed init may have written to `storage` but
+ * never to *f. */
 dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                             const dkf_mat_t *d0, const dkf_mat_t *Pd0);
+/* Time update with the dynamics at k-1. DKF_ERR_SINGULAR if B is singular,
+ * DKF_ERR_NOT_SPD if P^d_{k|k-1} = B P^d B^T + Rd is not SPD. */
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
+/* Measurement update with y_k and the model at k. DKF_ERR_NOT_SPD if the
+ * bias-free innovation covariance H P^x H^T + R or the bias filter's
+ * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD. */
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
 
 #endif /* DKF_OTSKF_H */

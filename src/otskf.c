@@ -1,0 +1,359 @@
+/*
+ * Optimal two-stage Kalman filter (dkf/otskf.h), in the form of the
+ * reference note §5 (docs/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
+ *
+ * Time update, from x = x~ + Bl d (Bl = V_{k-1} after an update):
+ *   d_{k|k-1}   = B d                    P^d_{k|k-1} = B P^d B^T + Rd
+ *   Ubar        = F Bl B^{-1}            U = Ubar (I - Rd (P^d_{k|k-1})^{-1})
+ *   x~_{k|k-1}  = F x~ + (Ubar - U) d_{k|k-1}
+ *   P^x_{k|k-1} = F P^x F^T + Q + U Rd Ubar^T
+ * Ubar - U = Ubar T and U Rd Ubar^T = Ubar Y Ubar^T with T = Rd (P^d)^{-1}
+ * and Y = Rd - Rd (P^d)^{-1} Rd, which is symmetric, so P^x stays exactly
+ * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: note §5.)
+ *
+ * Measurement update, from x = x~ + U d (U = U_k after a predict):
+ *   S   = H U + A                         Sx = H P^x H^T + R
+ *   K^x = P^x H^T Sx^{-1}                 x~ += K^x (y - H x~)
+ *   P^x -= K^x Sx K^x^T                   (= (I - K^x H) P^x)
+ *   Sd  = Sx + S P^d S^T                  K^d = P^d S^T Sd^{-1}
+ *   d   += K^d (y - H x~_{k|k-1} - S d)   P^d -= K^d Sd K^d^T
+ *   V   = U - K^x S
+ * and the combined estimate x = x~ + V d, P = P^x + V P^d V^T.
+ *
+ * Every step validates its inputs once, computes into scratch with the
+ * unchecked kernels, and copies over the state only when every result is
+ * finite, so a failed step leaves the filter bit-identical. Nothing of
+ * size n + p is ever formed: that is the OTSKF's saving over the ASKF.
+ */
+#include "dkf/otskf.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+/* Scratch of the time update (DKF_OTSKF_PREDICT_LEN). W1, W2 are the LU
+ * workspace of B^{-1} (2 p^2, contiguous), then hold T^T = P^d^{-1} Rd
+ * and Y. Lpd first holds B P^d. FV (F Bl) later holds Ubar T. */
+typedef struct {
+    dkf_real_t *Binv, *W1, *W2, *Pdn, *Lpd, *FV, *Ubar, *Un, *T, *N1, *N2, *Pn, *dn, *xtn, *xn;
+} pred_scratch_t;
+
+/* Scratch of the measurement update (DKF_OTSKF_UPDATE_LEN). Sd holds its
+ * own Cholesky factor. */
+typedef struct {
+    dkf_real_t *Sk, *HP, *Sx, *Lx, *KxT, *Sd, *SkPd, *KdT, *Pxn, *Pn, *Pdn, *Vn, *T, *r, *xtn,
+        *dn, *xn;
+} upd_scratch_t;
+
+static dkf_real_t *take(dkf_real_t **cursor, size_t count)
+{
+    dkf_real_t *p = *cursor;
+    *cursor += count;
+    return p;
+}
+
+static pred_scratch_t pred_scratch(const dkf_otskf_t *f)
+{
+    const size_t n = f->n, p = f->p;
+    dkf_real_t *c = f->work;
+    pred_scratch_t s;
+    s.Binv = take(&c, p * p);
+    s.W1 = take(&c, p * p);
+    s.W2 = take(&c, p * p);
+    s.Pdn = take(&c, p * p);
+    s.Lpd = take(&c, p * p);
+    s.FV = take(&c, n * p);
+    s.Ubar = take(&c, n * p);
+    s.Un = take(&c, n * p);
+    s.T = take(&c, n * p);
+    s.N1 = take(&c, n * n);
+    s.N2 = take(&c, n * n);
+    s.Pn = take(&c, n * n);
+    s.dn = take(&c, p);
+    s.xtn = take(&c, n);
+    s.xn = take(&c, n);
+    return s;
+}
+
+static upd_scratch_t upd_scratch(const dkf_otskf_t *f)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    dkf_real_t *c = f->work;
+    upd_scratch_t s;
+    s.Sk = take(&c, m * p);
+    s.HP = take(&c, m * n);
+    s.Sx = take(&c, m * m);
+    s.Lx = take(&c, m * m);
+    s.KxT = take(&c, m * n);
+    s.Sd = take(&c, m * m);
+    s.SkPd = take(&c, m * p);
+    s.KdT = take(&c, m * p);
+    s.Pxn = take(&c, n * n);
+    s.Pn = take(&c, n * n);
+    s.Pdn = take(&c, p * p);
+    s.Vn = take(&c, n * p);
+    s.T = take(&c, n * p);
+    s.r = take(&c, m);
+    s.xtn = take(&c, n);
+    s.dn = take(&c, p);
+    s.xn = take(&c, n);
+    return s;
+}
+
+static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t **cursor)
+{
+    v->rows = r;
+    v->cols = c;
+    v->data = take(cursor, r * c);
+}
+
+/* Out (r x c) = P - At^T Bt, At k x r, Bt k x c. */
+static void sub_atb(dkf_real_t *Out, const dkf_real_t *P, const dkf_real_t *At,
+                    const dkf_real_t *Bt, size_t k, size_t r, size_t c)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) {
+            dkf_real_t v = P[i * c + j];
+            for (l = 0; l < k; ++l) v -= At[l * r + i] * Bt[l * c + j];
+            Out[i * c + j] = v;
+        }
+}
+
+/* Out (r x r) = P - At^T Bt for a product known to be symmetric (At, Bt
+ * k x r): the upper triangle is formed and mirrored, only P's upper
+ * triangle is read. */
+static void sub_atb_sym(dkf_real_t *Out, const dkf_real_t *P, const dkf_real_t *At,
+                        const dkf_real_t *Bt, size_t k, size_t r)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = i; j < r; ++j) {
+            dkf_real_t v = P[i * r + j];
+            for (l = 0; l < k; ++l) v -= At[l * r + i] * Bt[l * r + j];
+            Out[i * r + j] = v;
+            Out[j * r + i] = v;
+        }
+}
+
+/* y (n) = a (n) + A (n x c) b (c). */
+static void add_mul_vec(dkf_real_t *y, const dkf_real_t *a, const dkf_real_t *A,
+                        const dkf_real_t *b, size_t n, size_t c)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) y[i] = a[i] + dkf__dot(A + i * c, b, c);
+}
+
+/* y (n) = a (n) + At^T b, At c x n. */
+static void add_mul_tvec(dkf_real_t *y, const dkf_real_t *a, const dkf_real_t *At,
+                         const dkf_real_t *b, size_t c, size_t n)
+{
+    size_t i, l;
+    for (i = 0; i < n; ++i) {
+        dkf_real_t v = a[i];
+        for (l = 0; l < c; ++l) v += At[l * n + i] * b[l];
+        y[i] = v;
+    }
+}
+
+dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
+                            size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                            const dkf_mat_t *d0, const dkf_mat_t *Pd0)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    dkf_real_t *cur = storage;
+    dkf_otskf_t g;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(storage);
+    if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    if (storage_len < DKF_OTSKF_STORAGE_LEN(n, m, p)) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+    DKF_TRY(dkf__check_input(d0, p, 1));
+    DKF_TRY(dkf__check_input(Pd0, p, p));
+    /* both priors must be SPD (factored in the scratch, which holds nothing) */
+    cur = storage + DKF_OTSKF_STATE_LEN(n, p);
+    if (dkf__chol(cur, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    if (dkf__chol(cur, inv, Pd0->data, p) != 0) return DKF_ERR_NOT_SPD;
+
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    g.m = m;
+    g.p = p;
+    cur = storage;
+    set_view(&g.xt, n, 1, &cur);
+    set_view(&g.x, n, 1, &cur);
+    set_view(&g.Px, n, n, &cur);
+    set_view(&g.P, n, n, &cur);
+    set_view(&g.d, p, 1, &cur);
+    set_view(&g.Pd, p, p, &cur);
+    set_view(&g.U, n, p, &cur);
+    set_view(&g.V, n, p, &cur);
+    g.work = cur;
+    /* V_0 = 0: x~_{0|0} = x_{0|0}, P^x_{0|0} = P_{0|0} */
+    dkf__copy(g.xt.data, x0->data, n);
+    dkf__copy(g.x.data, x0->data, n);
+    dkf__copy(g.Px.data, P0->data, n * n);
+    dkf__copy(g.P.data, P0->data, n * n);
+    dkf__copy(g.d.data, d0->data, p);
+    dkf__copy(g.Pd.data, Pd0->data, p * p);
+    memset(g.U.data, 0, 2 * n * p * sizeof(dkf_real_t));
+    g.blend_is_v = 1;
+    g.ready = 1;
+    *f = g;
+    return DKF_OK;
+}
+
+/* The blending matrix that currently ties x to x~ and d. */
+static const dkf_real_t *blend(const dkf_otskf_t *f)
+{
+    return f->blend_is_v ? f->V.data : f->U.data;
+}
+
+dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    size_t piv[DKF_MAX_DIM];
+    size_t n, p, i;
+    const dkf_real_t *F, *Q, *B, *Rd;
+    dkf_mat_t Binv;
+    pred_scratch_t s;
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(dyn);
+    n = f->n;
+    p = f->p;
+    DKF_TRY(dkf__check_input(dyn->F, n, n));
+    DKF_TRY(dkf__check_input(dyn->Q, n, n));
+    DKF_TRY(dkf__check_input(dyn->B, p, p));
+    DKF_TRY(dkf__check_input(dyn->Rd, p, p));
+    F = dyn->F->data;
+    Q = dyn->Q->data;
+    B = dyn->B->data;
+    Rd = dyn->Rd->data;
+    s = pred_scratch(f);
+
+    /* B^{-1} by LU: DKF_ERR_SINGULAR for a (numerically) singular B */
+    Binv.rows = Binv.cols = p, Binv.data = s.Binv;
+    DKF_TRY(dkf_mat_inverse(&Binv, dyn->B, piv, s.W1));
+
+    /* bias filter: d = B d, P^d = B P^d B^T + Rd (SPD, or no T) */
+    dkf__mul_vec(s.dn, B, f->d.data, p, p);
+    dkf__mul_nn(s.Lpd, B, f->Pd.data, p, p, p);
+    dkf__mul_nt_sym(s.Pdn, s.Lpd, B, Rd, p, p);
+    if (dkf__chol(s.Lpd, inv, s.Pdn, p) != 0) return DKF_ERR_NOT_SPD;
+    /* W1 = T^T = P^d^{-1} Rd;  W2 = Y = Rd - Rd P^d^{-1} Rd (symmetric) */
+    dkf__copy(s.W1, Rd, p * p);
+    dkf__chol_solve(s.Lpd, inv, s.W1, p, p);
+    sub_atb_sym(s.W2, Rd, Rd, s.W1, p, p); /* Rd^T = Rd */
+
+    /* Ubar = F Bl B^{-1};  FV := Ubar T;  U = Ubar - Ubar T */
+    dkf__mul_nn(s.FV, F, blend(f), n, n, p);
+    dkf__mul_nn(s.Ubar, s.FV, s.Binv, n, p, p);
+    dkf__mul_nt(s.FV, s.Ubar, s.W1, n, p, p);
+    for (i = 0; i < n * p; ++i) s.Un[i] = s.Ubar[i] - s.FV[i];
+
+    /* x~ = F x~ + (Ubar - U) d_{k|k-1} */
+    dkf__mul_vec(s.xtn, F, f->xt.data, n, n);
+    add_mul_vec(s.xtn, s.xtn, s.FV, s.dn, n, p);
+    /* P^x = F P^x F^T + Q + Ubar Y Ubar^T  (= ... + U Rd Ubar^T), into N1 */
+    dkf__mul_nn(s.N1, F, f->Px.data, n, n, n);
+    dkf__mul_nt_sym(s.N2, s.N1, F, Q, n, n);
+    dkf__mul_nn(s.T, s.Ubar, s.W2, n, p, p);
+    dkf__mul_nt_sym(s.N1, s.T, s.Ubar, s.N2, n, p);
+
+    /* combined: x = x~ + U d, P = P^x + U P^d U^T */
+    add_mul_vec(s.xn, s.xtn, s.Un, s.dn, n, p);
+    dkf__mul_nn(s.T, s.Un, s.Pdn, n, p, p);
+    dkf__mul_nt_sym(s.Pn, s.T, s.Un, s.N1, n, p);
+
+    if (!dkf__all_finite(s.xtn, n) || !dkf__all_finite(s.N1, n * n) ||
+        !dkf__all_finite(s.dn, p) || !dkf__all_finite(s.Pdn, p * p) ||
+        !dkf__all_finite(s.Un, n * p) || !dkf__all_finite(s.xn, n) ||
+        !dkf__all_finite(s.Pn, n * n))
+        return DKF_ERR_NONFINITE;
+
+    dkf__copy(f->xt.data, s.xtn, n);
+    dkf__copy(f->Px.data, s.N1, n * n);
+    dkf__copy(f->d.data, s.dn, p);
+    dkf__copy(f->Pd.data, s.Pdn, p * p);
+    dkf__copy(f->U.data, s.Un, n * p);
+    dkf__copy(f->x.data, s.xn, n);
+    dkf__copy(f->P.data, s.Pn, n * n);
+    f->blend_is_v = 0;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    size_t n, m, p, i;
+    const dkf_real_t *H, *A, *R, *Bl;
+    upd_scratch_t s;
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(meas);
+    n = f->n;
+    m = f->m;
+    p = f->p;
+    DKF_TRY(dkf__check_input(meas->H, m, n));
+    DKF_TRY(dkf__check_input(meas->A, m, p));
+    DKF_TRY(dkf__check_input(meas->R, m, m));
+    DKF_TRY(dkf__check_input(y, m, 1));
+    H = meas->H->data;
+    A = meas->A->data;
+    R = meas->R->data;
+    Bl = blend(f);
+    s = upd_scratch(f);
+
+    /* S = H U + A: how d enters the bias-free filter's innovation */
+    dkf__mul_nn(s.Sk, H, Bl, m, n, p);
+    for (i = 0; i < m * p; ++i) s.Sk[i] += A[i];
+
+    /* bias-free filter: Sx = H P^x H^T + R;  K^x^T = Sx^{-1} H P^x */
+    dkf__mul_nn(s.HP, H, f->Px.data, m, n, n);
+    dkf__mul_nt_sym(s.Sx, s.HP, H, R, m, n);
+    if (dkf__chol(s.Lx, inv, s.Sx, m) != 0) return DKF_ERR_NOT_SPD;
+    dkf__copy(s.KxT, s.HP, m * n);
+    dkf__chol_solve(s.Lx, inv, s.KxT, m, n);
+    /* r = y - H x~_{k|k-1};  x~ += K^x r;  P^x -= (H P^x)^T K^x^T */
+    dkf__mul_vec(s.r, H, f->xt.data, m, n);
+    for (i = 0; i < m; ++i) s.r[i] = y->data[i] - s.r[i];
+    add_mul_tvec(s.xtn, f->xt.data, s.KxT, s.r, m, n);
+    sub_atb_sym(s.Pxn, f->Px.data, s.HP, s.KxT, m, n);
+
+    /* bias filter: Sd = Sx + S P^d S^T;  K^d^T = Sd^{-1} S P^d */
+    dkf__mul_nn(s.SkPd, s.Sk, f->Pd.data, m, p, p);
+    dkf__mul_nt_sym(s.Sd, s.SkPd, s.Sk, s.Sx, m, p);
+    if (dkf__chol(s.Sd, inv, s.Sd, m) != 0) return DKF_ERR_NOT_SPD;
+    dkf__copy(s.KdT, s.SkPd, m * p);
+    dkf__chol_solve(s.Sd, inv, s.KdT, m, p);
+    /* r := r - S d;  d += K^d r;  P^d -= (S P^d)^T K^d^T */
+    for (i = 0; i < m; ++i) s.r[i] -= dkf__dot(s.Sk + i * p, f->d.data, p);
+    add_mul_tvec(s.dn, f->d.data, s.KdT, s.r, m, p);
+    sub_atb_sym(s.Pdn, f->Pd.data, s.SkPd, s.KdT, m, p);
+
+    /* V = U - K^x S;  x = x~ + V d;  P = P^x + V P^d V^T */
+    sub_atb(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
+    add_mul_vec(s.xn, s.xtn, s.Vn, s.dn, n, p);
+    dkf__mul_nn(s.T, s.Vn, s.Pdn, n, p, p);
+    dkf__mul_nt_sym(s.Pn, s.T, s.Vn, s.Pxn, n, p);
+
+    if (!dkf__all_finite(s.xtn, n) || !dkf__all_finite(s.Pxn, n * n) ||
+        !dkf__all_finite(s.dn, p) || !dkf__all_finite(s.Pdn, p * p) ||
+        !dkf__all_finite(s.Vn, n * p) || !dkf__all_finite(s.xn, n) ||
+        !dkf__all_finite(s.Pn, n * n))
+        return DKF_ERR_NONFINITE;
+
+    dkf__copy(f->xt.data, s.xtn, n);
+    dkf__copy(f->Px.data, s.Pxn, n * n);
+    dkf__copy(f->d.data, s.dn, p);
+    dkf__copy(f->Pd.data, s.Pdn, p * p);
+    dkf__copy(f->V.data, s.Vn, n * p);
+    dkf__copy(f->x.data, s.xn, n);
+    dkf__copy(f->P.data, s.Pn, n * n);
+    f->blend_is_v = 1;
+    return DKF_OK;
+}

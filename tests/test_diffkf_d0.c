@@ -128,14 +128,9 @@ typedef struct {
     dkf_real_t xf[NSTEP][NX], Pf[NSTEP][NX * NX], xp[NSTEP][NX], Pp[NSTEP][NX * NX];
 } run_t;
 
-/* DKF_DIFFKF_STORAGE_LEN(4, 2, 2) = 258 while dkf_diffkf_init needs 308
- * (its n^2 and n p terms under-count src/diffkf.c's layout): reported to
- * the owner of dkf/diffkf.h; the slack goes once the macro is fixed. */
-#define DKF_D0_STORAGE_SLACK 128
-
 static void run_dkf(run_t *out, const model_t *m, const data_t *s)
 {
-    static dkf_real_t f_storage[DKF_DIFFKF_STORAGE_LEN(NX, NY, NP) + DKF_D0_STORAGE_SLACK];
+    static dkf_real_t f_storage[DKF_DIFFKF_STORAGE_LEN(NX, NY, NP)];
     dkf_diffkf_t f;
     dkf_real_t yb[NY];
     dkf_mat_t y = test_view(NY, 1, yb);

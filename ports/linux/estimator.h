@@ -3,16 +3,24 @@
  * per-step estimates as JSON series (host side, reused by dkf-run and the
  * network processes).
  *
- * An estimator is a filter kind (KF, information filter, ...) applied to a
- * set of sensors: one sensor (a "local" filter), all sensors stacked into
- * one measurement with block-diagonal R ("central"), or - information
- * filter only - all sensors' contributions summed ("fused"). Each call of
- * dkf_est_step performs step k: predict with F_{k-1}, Q_{k-1}, update with
- * the sensors' H_k, R_k, y_k, and appends the estimates to the series.
+ * An estimator is a filter kind (KF, information filter, Difference KF,
+ * ASKF, OTSKF) applied to a set of sensors: one sensor (a "local" filter),
+ * all sensors stacked into one measurement with block-diagonal R, A, B, Rd
+ * ("central"), or all sensors fused ("fused": the information filter sums
+ * per-sensor contributions; the Difference KF runs one local filter per
+ * sensor and a fusion centre, dkf/diffkf_fusion.h, fed with their
+ * messages). Each call of dkf_est_step performs step k = 1, 2, ... and
+ * appends the estimates to the series:
+ *   KF, IF, ASKF, OTSKF: predict with the dynamics at k-1, update with y_k;
+ *   DKF: the step consuming y_{k+1} (dynamics at k, measurement model at
+ *   k+1), so it records x_{k|k-1} (the estimate compared with the others'
+ *   x_{k|k}), then x_{k|k}.
  *
  * Series key names follow the scenario's layout so an output compares key
  * by key with the golden-vector file it came from (docs/scenario-format.md):
- *   canonical: xp Pp xf Pf (+ information form yp Yp yf Yf, fused i I)
+ *   canonical: xp Pp xf Pf (+ information form yp Yp yf Yf, fused i I;
+ *              DKF z dz J L K; ASKF Xp PXp Xf PXf; OTSKF xtp Pxp xtf Pxf
+ *              dp Pdp df Pdf U V; fused DKF messages fc_recovered)
  *   cases:     x_pred P_pred x P (+ y_pred Y_pred y Y, fused i I)
  */
 #ifndef DKF_HOST_ESTIMATOR_H
@@ -26,34 +34,51 @@
 #include "scenario.h"
 
 typedef enum {
-    DKF_EST_KF = 0,  /* dkf/kf.h, covariance form */
-    DKF_EST_INFO = 1 /* dkf/info.h, information form */
+    DKF_EST_KF = 0,    /* dkf/kf.h, covariance form (ignores A, B, Rd) */
+    DKF_EST_INFO = 1,  /* dkf/info.h, information form (ignores A, B, Rd) */
+    DKF_EST_DKF = 2,   /* dkf/diffkf.h, the Difference KF */
+    DKF_EST_ASKF = 3,  /* dkf/askf.h, augmented-state KF (needs d00, Pd00) */
+    DKF_EST_OTSKF = 4  /* dkf/otskf.h, optimal two-stage KF (needs d00, Pd00) */
 } dkf_est_kind_t;
 
 typedef enum {
     DKF_EST_STACKED = 0, /* one measurement: the listed sensors stacked */
-    DKF_EST_FUSED = 1    /* information filter: sum of per-sensor contributions */
+    DKF_EST_FUSED = 1    /* INFO: sum of contributions; DKF: local filters + fusion centre */
 } dkf_est_mode_t;
+
+/* Options of dkf_est_create; a zeroed struct (or NULL) means the defaults. */
+typedef struct {
+    int no_record;     /* 1: record no JSON series (Monte-Carlo error mode) */
+    const double *d00; /* ASKF/OTSKF: d_{0|0} (p values) instead of init.d00 */
+    double Pd00_scale; /* ASKF/OTSKF: P_{d0|0} = scale * init.Pd00 (0 means 1) */
+} dkf_est_opts_t;
 
 typedef struct dkf_est dkf_est_t;
 
 /* Creates an estimator of `kind` over sensors[0..count-1] of s, started from
- * x00 and the given P00 (n x n doubles). On failure returns NULL and writes a
- * one-line message (naming the core call and its status) into err. */
+ * x00 and the given P00 (n x n doubles). The scenario must have passed
+ * dkf_scn_require_ui for DKF, ASKF, OTSKF. On failure returns NULL and
+ * writes a one-line message (naming the core call and its status) into err. */
 dkf_est_t *dkf_est_create(dkf_est_kind_t kind, dkf_est_mode_t mode, const dkf_scenario_t *s,
-                          const size_t *sensors, size_t count, const double *P00, char *err,
-                          size_t errlen);
+                          const size_t *sensors, size_t count, const double *P00,
+                          const dkf_est_opts_t *opts, char *err, size_t errlen);
 void dkf_est_free(dkf_est_t *e);
 
-/* Step k (predict from k-1, update with y_k). On a core error returns its
- * status and sets *what to the failing operation ("predict", "update",
- * "contribution of sensor 2", ...). */
+/* Step k (k = 1, 2, ... in order). On a core error returns its status and
+ * sets *what to the failing operation ("dkf_kf_update", "dkf_info_contribution
+ * of sensor 2", ...). */
 dkf_status_t dkf_est_step(dkf_est_t *e, long k, const char **what);
 
-/* The per-step series recorded so far (borrowed reference). */
+/* The per-step series recorded so far (borrowed reference; empty with
+ * no_record). */
 json_t *dkf_est_series(const dkf_est_t *e);
 
-/* trace of the current P, and the RMSE of the filtered x against the
+/* Squared errors against the scenario's truth, one per step taken:
+ * ||x_{k|k} - x_k||^2 (predicted = 0) or ||x_{k|k-1} - x_k||^2
+ * (predicted = 1); NaN where the scenario has no truth for k. */
+const double *dkf_est_sqerr(const dkf_est_t *e, int predicted);
+
+/* trace of the current P_{k|k}, and the RMSE of the filtered x against the
  * scenario's truth over the steps that had truth: overall (root mean over
  * steps and components) and per component (rmse_comp, n values; may be
  * NULL). Returns the number of steps compared (0: no truth, RMSE = NaN). */

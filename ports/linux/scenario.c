@@ -430,11 +430,26 @@ static int require_single(ctx_t *c, const dkf_scn_mat_t *m, const char *path, si
     return require_shape(c, m, path, n, n);
 }
 
+/* The key path of the times of sensor i's measurements in run r. */
+static void y_path(const dkf_scenario_t *s, size_t r, size_t i, char *p)
+{
+    if (s->layout == DKF_SCN_LAYOUT_CASES)
+        pathf(p, "cases[%zu].steps", s->case_index);
+    else if (s->has_runs && s->multi)
+        pathf(p, "runs[%zu].y[%zu].k", r, i);
+    else if (s->has_runs)
+        pathf(p, "runs[%zu].y.k", r);
+    else if (s->multi)
+        pathf(p, "y[%zu].k", i);
+    else
+        pathf(p, "y.k");
+}
+
 static int validate(ctx_t *c, dkf_scenario_t *s, const char *model_path,
                     const char *sensor_fmt_path)
 {
     const dkf_scn_mat_t *F = dkf_scn_model(s, "F"), *Q, *x00, *P00, *Pl, *Pc;
-    size_t i, n;
+    size_t i, n, r;
     char p[PATH_LEN], why[64];
     long k;
 
@@ -474,6 +489,12 @@ static int validate(ctx_t *c, dkf_scenario_t *s, const char *model_path,
         /* Unknown-input pieces are not used by kf/info; check what is unambiguous. */
         if (A != NULL && A->rows != se->m)
             return fail(c, A->path, "expected %zu rows (like H), got %zu", se->m, A->rows);
+        if (A != NULL) {
+            const dkf_scn_mat_t *B = dkf_scn_sensor_model(s, i, "B");
+            const dkf_scn_mat_t *Rd = dkf_scn_sensor_model(s, i, "Rd");
+            if (B != NULL && require_shape(c, B, B->path, A->cols, A->cols) != 0) return -1;
+            if (Rd != NULL && require_shape(c, Rd, Rd->path, A->cols, A->cols) != 0) return -1;
+        }
         if (require_times(c, H, s->steps, why) != 0) return -1;
         if (require_times(c, R, s->steps, why) != 0) return -1;
     }
@@ -495,18 +516,17 @@ static int validate(ctx_t *c, dkf_scenario_t *s, const char *model_path,
         return fail(c, "init.P00", "missing key (needed unless init.P00_central%s are given)",
                     s->multi ? " and init.P00_local" : "");
 
-    for (i = 0; i < s->nsensors; ++i)
-        for (k = 1; k <= (long)s->steps; ++k)
-            if (dkf_scn_y(s, i, k) == NULL) {
-                if (s->layout == DKF_SCN_LAYOUT_CASES)
-                    pathf(p, "cases[%zu].steps", s->case_index);
-                else if (s->multi)
-                    pathf(p, "y[%zu].k", i);
-                else
-                    pathf(p, "y.k");
-                return fail(c, p, "no measurement for k = %ld (steps k = 1..%zu need one)", k,
-                            s->steps);
-            }
+    for (r = 0; r < s->nruns; ++r) {
+        dkf_scn_select_run(s, r);
+        for (i = 0; i < s->nsensors; ++i)
+            for (k = 1; k <= (long)s->steps; ++k)
+                if (dkf_scn_y(s, i, k) == NULL) {
+                    y_path(s, r, i, p);
+                    return fail(c, p, "no measurement for k = %ld (steps k = 1..%zu need one)",
+                                k, s->steps);
+                }
+    }
+    dkf_scn_select_run(s, 0);
     return 0;
 }
 
@@ -589,16 +609,83 @@ static int parse_sensor_y(ctx_t *c, dkf_scenario_t *s, size_t i, const json_t *y
         dim = v0 != NULL && json_is_array(v0) ? json_array_size(v0) : 1;
     }
     se->m = dim;
+    se->ny = 0;
+    se->yk = NULL;
+    se->y = NULL;
+    se->borrowed = 0;
     return parse_series(c, yj, path, "values", dim, &se->ny, &se->yk, &se->y);
+}
+
+/* Every sensor's y series from yj (one object, or a list with one per sensor). */
+static int parse_y_all(ctx_t *c, dkf_scenario_t *s, const json_t *yj, const char *path)
+{
+    size_t i;
+    char p[PATH_LEN];
+    if (!s->multi) return parse_sensor_y(c, s, 0, yj, path);
+    if (!json_is_array(yj) || json_array_size(yj) != s->nsensors)
+        return fail(c, path, "expected a list of %zu measurement series (one per "
+                    "model.sensors entry), got %s", s->nsensors,
+                    json_is_array(yj) ? "a list of another length" : json_kind(yj));
+    for (i = 0; i < s->nsensors; ++i) {
+        subidx(p, path, i);
+        if (parse_sensor_y(c, s, i, json_array_get(yj, i), p) != 0) return -1;
+    }
+    return 0;
+}
+
+/* ---- runs ------------------------------------------------------------------- */
+
+static int alloc_runs(ctx_t *c, dkf_scenario_t *s, size_t nruns)
+{
+    size_t r;
+    if ((s->runs = xcalloc(c, nruns, sizeof *s->runs)) == NULL) return -1;
+    s->nruns = nruns;
+    for (r = 0; r < nruns; ++r)
+        if ((s->runs[r].y = xcalloc(c, s->nsensors, sizeof *s->runs[r].y)) == NULL) return -1;
+    return 0;
+}
+
+/* Hands the sensors' freshly parsed y series to run r; the sensors keep
+ * viewing them. */
+static void adopt_y(dkf_scenario_t *s, size_t r)
+{
+    size_t i;
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        s->runs[r].y[i].n = se->ny;
+        s->runs[r].y[i].k = se->yk;
+        s->runs[r].y[i].v = se->y;
+        se->borrowed = 1;
+    }
+}
+
+static void adopt_truth(dkf_scenario_t *s, size_t r)
+{
+    s->runs[r].ntruth = s->ntruth;
+    s->runs[r].truth_k = s->truth_k;
+    s->runs[r].truth_x = s->truth_x;
+    s->truth_borrowed = 1;
+}
+
+static int parse_run_truth(ctx_t *c, dkf_scenario_t *s, size_t r, const json_t *tj,
+                           const char *path)
+{
+    s->ntruth = 0;
+    s->truth_k = NULL;
+    s->truth_x = NULL;
+    s->truth_borrowed = 0;
+    if (parse_truth(c, s, tj, path) != 0) return -1;
+    adopt_truth(s, r);
+    return 0;
 }
 
 static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
 {
     const json_t *model = json_object_get(root, "model"), *init = json_object_get(root, "init");
-    const json_t *sensors, *yj;
+    const json_t *sensors, *yj, *runs;
     const char *key;
     json_t *val;
-    size_t i;
+    size_t i, r, nruns = 1;
     char p[PATH_LEN];
 
     if (model == NULL) return fail(c, "model", "missing key");
@@ -608,7 +695,19 @@ static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
     if (!json_is_object(init))
         return fail(c, "init", "expected an object, got %s", json_kind(init));
     yj = json_object_get(root, "y");
-    if (yj == NULL) return fail(c, "y", "missing key");
+    runs = json_object_get(root, "runs");
+    if (runs != NULL) {
+        if (yj != NULL) return fail(c, "y", "not allowed together with runs (give runs[i].y)");
+        if (json_object_get(root, "truth") != NULL)
+            return fail(c, "truth", "not allowed together with runs (give runs[i].truth)");
+        if (!json_is_array(runs) || json_array_size(runs) == 0)
+            return fail(c, "runs", "expected a non-empty list of {\"y\": ..., \"truth\": ...} "
+                        "objects, got %s", json_kind(runs));
+        s->has_runs = 1;
+        nruns = json_array_size(runs);
+    } else if (yj == NULL) {
+        return fail(c, "y", "missing key");
+    }
 
     sensors = json_object_get(model, "sensors");
     if (parse_mat_object(c, &s->model, model, "model", "sensors") != 0) return -1;
@@ -634,23 +733,36 @@ static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
         if (parse_init_entry(c, &s->init, key, val, p) != 0) return -1;
     }
 
-    if (s->multi) {
-        if (!json_is_array(yj) || json_array_size(yj) != s->nsensors)
-            return fail(c, "y", "expected a list of %zu measurement series (one per "
-                        "model.sensors entry), got %s", s->nsensors,
-                        json_is_array(yj) ? "a list of another length" : json_kind(yj));
-        for (i = 0; i < s->nsensors; ++i) {
-            subidx(p, "y", i);
-            if (parse_sensor_y(c, s, i, json_array_get(yj, i), p) != 0) return -1;
+    if (alloc_runs(c, s, nruns) != 0) return -1;
+    for (r = 0; r < nruns; ++r) {
+        const json_t *rj = runs != NULL ? json_array_get(runs, r) : root;
+        char py[PATH_LEN];
+        if (runs != NULL) {
+            subidx(p, "runs", r);
+            if (!json_is_object(rj)) return fail(c, p, "expected an object, got %s", json_kind(rj));
+            subkey(py, p, "y");
+            if ((yj = json_object_get(rj, "y")) == NULL) return fail(c, py, "missing key");
+        } else {
+            pathf(py, "y");
         }
-    } else if (parse_sensor_y(c, s, 0, yj, "y") != 0) {
-        return -1;
+        if (parse_y_all(c, s, yj, py) != 0) return -1;
+        adopt_y(s, r);
     }
+    dkf_scn_select_run(s, 0);
 
     if (canonical_steps(c, s, root) != 0) return -1;
     /* n comes from F; validate first so truth is sized right. */
     if (validate(c, s, "model", s->multi ? "model.sensors[%zu]" : "model") != 0) return -1;
-    return parse_truth(c, s, json_object_get(root, "truth"), "truth");
+    for (r = 0; r < nruns; ++r) {
+        const json_t *rj = runs != NULL ? json_array_get(runs, r) : root;
+        if (runs != NULL)
+            pathf(p, "runs[%zu].truth", r);
+        else
+            pathf(p, "truth");
+        if (parse_run_truth(c, s, r, json_object_get(rj, "truth"), p) != 0) return -1;
+    }
+    dkf_scn_select_run(s, 0);
+    return 0;
 }
 
 /* ---- cases layout (infofusion vectors) ------------------------------------ */
@@ -842,10 +954,14 @@ static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const cha
     if (cases_init(c, s, cj, cpath, "x0", "x00") != 0) return -1;
     if (cases_init(c, s, cj, cpath, "P0", "P00") != 0) return -1;
     if (cases_measurements(c, s, steps, cpath) != 0) return -1;
+    if (alloc_runs(c, s, 1) != 0) return -1;
+    adopt_y(s, 0);
     pathf(p, "%s.C[%%zu]", cpath);
     if (validate(c, s, cpath, p) != 0) return -1;
     subkey(p, cpath, "truth");
-    return parse_truth(c, s, json_object_get(cj, "truth"), p);
+    if (parse_run_truth(c, s, 0, json_object_get(cj, "truth"), p) != 0) return -1;
+    dkf_scn_select_run(s, 0);
+    return 0;
 }
 
 /* ---- public API ---------------------------------------------------------------- */
@@ -904,18 +1020,32 @@ dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *
 
 void dkf_scenario_free(dkf_scenario_t *s)
 {
-    size_t i;
+    size_t i, r;
     if (s == NULL) return;
     for (i = 0; s->sensors != NULL && i < s->nsensors; ++i) {
         mats_free(&s->sensors[i].mats);
-        free(s->sensors[i].yk);
-        free(s->sensors[i].y);
+        if (!s->sensors[i].borrowed) {
+            free(s->sensors[i].yk);
+            free(s->sensors[i].y);
+        }
     }
+    for (r = 0; s->runs != NULL && r < s->nruns; ++r) {
+        for (i = 0; s->runs[r].y != NULL && i < s->nsensors; ++i) {
+            free(s->runs[r].y[i].k);
+            free(s->runs[r].y[i].v);
+        }
+        free(s->runs[r].y);
+        free(s->runs[r].truth_k);
+        free(s->runs[r].truth_x);
+    }
+    free(s->runs);
     free(s->sensors);
     mats_free(&s->model);
     mats_free(&s->init);
-    free(s->truth_k);
-    free(s->truth_x);
+    if (!s->truth_borrowed) {
+        free(s->truth_k);
+        free(s->truth_x);
+    }
     free(s->case_name);
     free(s->file);
     json_decref(s->root);
@@ -978,4 +1108,116 @@ void dkf_scn_to_real(dkf_real_t *dst, const double *src, size_t n)
 {
     size_t i;
     for (i = 0; i < n; ++i) dst[i] = (dkf_real_t)src[i];
+}
+
+void dkf_scn_select_run(dkf_scenario_t *s, size_t r)
+{
+    size_t i;
+    if (s->runs == NULL || r >= s->nruns) return;
+    s->run = r;
+    for (i = 0; i < s->nsensors; ++i) {
+        s->sensors[i].ny = s->runs[r].y[i].n;
+        s->sensors[i].yk = s->runs[r].y[i].k;
+        s->sensors[i].y = s->runs[r].y[i].v;
+        s->sensors[i].borrowed = 1;
+    }
+    s->ntruth = s->runs[r].ntruth;
+    s->truth_k = s->runs[r].truth_k;
+    s->truth_x = s->runs[r].truth_x;
+    s->truth_borrowed = 1;
+}
+
+/* ---- checks of the unknown-input filters ------------------------------------ */
+
+/* The key path of sensor i's matrix `name` when it is missing. */
+static void sensor_key(const dkf_scenario_t *s, size_t i, const char *name, char *p)
+{
+    if (s->layout == DKF_SCN_LAYOUT_CASES)
+        pathf(p, "cases[%zu].%s[%zu]", s->case_index, name, i);
+    else if (s->multi)
+        pathf(p, "model.sensors[%zu].%s", i, name);
+    else
+        pathf(p, "model.%s", name);
+}
+
+int dkf_scn_require_ui(const dkf_scenario_t *s, size_t last_dyn, size_t last_meas, int need_d0,
+                       const char *who, char *err, size_t errlen)
+{
+    ctx_t c;
+    size_t i, r, j, p = 0;
+    char path[PATH_LEN], why[96];
+    static const char *const dyn_names[] = {"B", "Rd"};
+    static const char *const meas_names[] = {"H", "R", "A"};
+    dkf_scenario_t *sm = (dkf_scenario_t *)s; /* run selection only; restored below */
+    size_t run0 = s->run;
+    c.file = s->file;
+    c.err = err;
+    c.errlen = errlen;
+    snprintf(why, sizeof why, "filter %s", who);
+    if (require_times(&c, dkf_scn_model(s, "F"), last_dyn, why) != 0) return -1;
+    if (require_times(&c, dkf_scn_model(s, "Q"), last_dyn, why) != 0) return -1;
+    for (i = 0; i < s->nsensors; ++i) {
+        const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, i, "A");
+        sensor_key(s, i, "A", path);
+        if (A == NULL) return fail(&c, path, "missing key (filter %s needs A, B, Rd)", who);
+        p = A->cols;
+        if (p > s->sensors[i].m)
+            return fail(&c, A->path, "has %zu columns but %zu rows: A must have full column "
+                        "rank (p <= m)", p, s->sensors[i].m);
+        for (j = 0; j < 2; ++j) {
+            const dkf_scn_mat_t *M = dkf_scn_sensor_model(s, i, dyn_names[j]);
+            sensor_key(s, i, dyn_names[j], path);
+            if (M == NULL)
+                return fail(&c, path, "missing key (filter %s needs A, B, Rd)", who);
+            if (require_shape(&c, M, path, p, p) != 0) return -1;
+            if (require_times(&c, M, last_dyn, why) != 0) return -1;
+        }
+        for (j = 0; j < 3; ++j)
+            if (require_times(&c, dkf_scn_sensor_model(s, i, meas_names[j]), last_meas, why)
+                != 0)
+                return -1;
+    }
+    for (r = 0; r < s->nruns; ++r) {
+        dkf_scn_select_run(sm, r);
+        for (i = 0; i < s->nsensors; ++i)
+            if (dkf_scn_y(s, i, (long)last_meas) == NULL) {
+                y_path(s, r, i, path);
+                dkf_scn_select_run(sm, run0);
+                return fail(&c, path, "no measurement for k = %zu (filter %s needs y_1..y_%zu)",
+                            last_meas, who, last_meas);
+            }
+    }
+    dkf_scn_select_run(sm, run0);
+    if (need_d0) {
+        const dkf_scn_mat_t *d00 = dkf_scn_init(s, "d00"), *Pd00 = dkf_scn_init(s, "Pd00");
+        if (d00 == NULL) return fail(&c, "init.d00", "missing key (filter %s needs it)", who);
+        if (require_shape(&c, d00, "init.d00", p, 1) != 0) return -1;
+        if (Pd00 == NULL) return fail(&c, "init.Pd00", "missing key (filter %s needs it)", who);
+        if (require_single(&c, Pd00, "init.Pd00", p) != 0) return -1;
+    }
+    return 0;
+}
+
+int dkf_scn_require_truth(const dkf_scenario_t *s, char *err, size_t errlen)
+{
+    ctx_t c;
+    size_t r;
+    long k;
+    char path[PATH_LEN];
+    c.file = s->file;
+    c.err = err;
+    c.errlen = errlen;
+    for (r = 0; r < s->nruns; ++r) {
+        const dkf_scn_run_t *run = &s->runs[r];
+        for (k = 1; k <= (long)s->steps; ++k)
+            if (find_time(run->truth_k, run->ntruth, k) < 0) {
+                if (s->has_runs)
+                    pathf(path, "runs[%zu].truth", r);
+                else
+                    pathf(path, "truth");
+                return fail(&c, path, "no true state x for k = %ld (the error mode needs "
+                            "x_1..x_%zu)", k, s->steps);
+            }
+    }
+    return 0;
 }

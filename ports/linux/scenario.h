@@ -5,7 +5,8 @@
  * layouts are accepted and normalised into one dkf_scenario_t:
  *
  *  - canonical (the diffkf golden-vector layout): top-level `model`, `init`,
- *    `y`, optional `truth`, `k`, `N`;
+ *    `y`, optional `truth`, `k`, `N`; or, for Monte-Carlo files, `runs`
+ *    (a list of {y, truth}) instead of `y` and `truth`;
  *  - cases (the infofusion golden-vector layout): `cases[c]` with `x0`, `P0`,
  *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`.
  *
@@ -51,12 +52,30 @@ typedef struct {
     dkf_scn_mat_t *items;
 } dkf_scn_mats_t;
 
+/* One sensor's measurement series: y at absolute times k[0..n-1]. */
+typedef struct {
+    size_t n;
+    long *k;   /* strictly increasing */
+    double *v; /* n * m */
+} dkf_scn_yseries_t;
+
+/* One Monte-Carlo run: every sensor's measurements and (optionally) the
+ * true state. A file without `runs` has exactly one run (its y, truth). */
+typedef struct {
+    dkf_scn_yseries_t *y; /* nsensors series */
+    size_t ntruth;
+    long *truth_k;
+    double *truth_x;      /* ntruth * n */
+} dkf_scn_run_t;
+
 typedef struct {
     size_t m;            /* measurement dimension (rows of H) */
     dkf_scn_mats_t mats; /* this sensor's own matrices (H, R, A, B, Rd, ...) */
+    /* the selected run's measurements (views into runs[run].y[i] once loaded) */
     size_t ny;           /* measurements y at absolute times yk[0..ny-1] */
     long *yk;            /* strictly increasing */
     double *y;           /* ny * m */
+    int borrowed;        /* 1: yk, y belong to a run (not freed with the sensor) */
 } dkf_scn_sensor_t;
 
 typedef struct {
@@ -71,9 +90,15 @@ typedef struct {
     dkf_scn_sensor_t *sensors;
     dkf_scn_mats_t model;     /* F, Q and (single sensor) H, R, A, B, Rd, ... */
     dkf_scn_mats_t init;      /* x00, P00, P00_local, P00_central, d00, Pd00, ... */
-    size_t ntruth;            /* truth x at absolute times truth_k (0 if none) */
+    /* the selected run's truth x at absolute times truth_k (0 if none) */
+    size_t ntruth;
     long *truth_k;
     double *truth_x;          /* ntruth * n */
+    int truth_borrowed;       /* 1: truth_k, truth_x belong to a run */
+    size_t nruns;             /* >= 1; > 1 or has_runs: the file has a `runs` list */
+    int has_runs;
+    dkf_scn_run_t *runs;
+    size_t run;               /* the selected run (dkf_scn_select_run) */
     json_t *root;             /* the parsed document (read-only), for keys not modelled */
 } dkf_scenario_t;
 
@@ -105,6 +130,22 @@ const double *dkf_scn_P00_central(const dkf_scenario_t *s);
 const double *dkf_scn_y(const dkf_scenario_t *s, size_t i, long k);
 /* True state x_k (n values), NULL if absent. */
 const double *dkf_scn_truth(const dkf_scenario_t *s, long k);
+
+/* Makes run r (0..nruns-1) the one dkf_scn_y and dkf_scn_truth read. */
+void dkf_scn_select_run(dkf_scenario_t *s, size_t r);
+
+/* Checks what the unknown-input filters (DKF, ASKF, OTSKF) need beyond the
+ * loader's own checks: every sensor has A (m x p, p <= m), B and Rd (p x p);
+ * per_k lists of F, Q, B, Rd cover k = 0..last_dyn and of H, R, A cover
+ * k = 1..last_meas; every run has y at k = 1..last_meas; with need_d0,
+ * init.d00 (p) and init.Pd00 (p x p) exist (single sensor). `who` names
+ * the filter in messages. Returns 0, or -1 with a "FILE: KEY: problem"
+ * line in err. */
+int dkf_scn_require_ui(const dkf_scenario_t *s, size_t last_dyn, size_t last_meas, int need_d0,
+                       const char *who, char *err, size_t errlen);
+
+/* Checks that every run has truth x at k = 1..N (Monte-Carlo error mode). */
+int dkf_scn_require_truth(const dkf_scenario_t *s, char *err, size_t errlen);
 
 /* dst[0..n-1] = src converted to the library's real type. */
 void dkf_scn_to_real(dkf_real_t *dst, const double *src, size_t n);

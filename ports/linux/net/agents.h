@@ -1,0 +1,114 @@
+/*
+ * agents.h - the simulator, a node and the fusion centre as objects that
+ * live on one dkf_net_t (host side).
+ *
+ * Each agent subscribes its channels when created and does its work in the
+ * LCM handlers, so any mix of agents can share one transport: the programs
+ * dkf-sim, dkf-node and dkf-fusion run one agent each over UDP multicast;
+ * the unit tests run all of them in one process over memq://. Each agent
+ * has a tick (heartbeat, deadlines) that the owner calls between
+ * dkf_net_handle calls with the monotonic time.
+ *
+ * Timing (docs/network.md): the simulator publishes y^i_j for every sensor
+ * i at j = 1..N+1. Node i starts its local Difference KF on y^i_1 and, on
+ * y^i_{k+1}, completes step k and publishes {x^i_{k|k}, x^i_{k|k-1}}. The
+ * fusion centre fuses step k once every node's message of step k is there,
+ * or publishes it DEGRADED when the step's deadline passes.
+ */
+#ifndef DKF_NET_AGENTS_H
+#define DKF_NET_AGENTS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <jansson.h>
+
+#include "codec.h"
+#include "net.h"
+#include "scenario.h"
+
+#define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
+#define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
+#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead */
+
+/* Counters every agent keeps (published in its status messages). */
+typedef struct {
+    int64_t sent;      /* messages published (data, not status) */
+    int64_t received;  /* data messages accepted */
+    int64_t rejected;  /* data messages refused by validation */
+    int64_t stale;     /* valid but late, duplicate or out of sequence */
+    int64_t missed;    /* node: measurements never received (gaps); fusion: degraded steps */
+    dkf_net_rejects_t why;
+} dkf_net_counts_t;
+
+/* Publishes a status message on <prefix>_STATUS. */
+int dkf_net_publish_status(dkf_net_t *net, const char *prefix, const dkf_net_status_t *st);
+
+/* ---- node ------------------------------------------------------------------- */
+
+typedef struct dkf_net_node dkf_net_node_t;
+
+/* Node `id` of scenario s (which must outlive the node and have passed
+ * dkf_net_check_scenario): subscribes <prefix>_MEAS_<id>. NULL + err. */
+dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, size_t id,
+                                    const char *prefix, char *err, size_t errlen);
+void dkf_net_node_free(dkf_net_node_t *nd);
+/* Publishes a heartbeat if one is due (every heartbeat_us; 0: the default). */
+void dkf_net_node_tick(dkf_net_node_t *nd, int64_t mono_us, int64_t heartbeat_us);
+/* Publishes a status now (e.g. the final one). */
+void dkf_net_node_report(dkf_net_node_t *nd);
+/* DKF_NET_STARTING (no measurement yet), RUNNING, DONE (step N sent), FAILED. */
+int dkf_net_node_state(const dkf_net_node_t *nd);
+const char *dkf_net_node_error(const dkf_net_node_t *nd);
+const dkf_net_counts_t *dkf_net_node_counts(const dkf_net_node_t *nd);
+
+/* ---- fusion centre ------------------------------------------------------------ */
+
+typedef struct dkf_net_fusion dkf_net_fusion_t;
+
+/* Fusion centre for scenario s: subscribes <prefix>_NODE_[0-9]+ and sets up
+ * the core's dkf_diffkf_fc_t (start included). deadline_us: how long after
+ * a step opens (its first message, or a later step's) it may wait for the
+ * rest (0: the default). NULL + err (naming the core call and fault). */
+dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
+                                        const char *prefix, int64_t deadline_us, char *err,
+                                        size_t errlen);
+void dkf_net_fusion_free(dkf_net_fusion_t *fu);
+/* Deadlines (publishes overdue steps DEGRADED) and the heartbeat. */
+void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us);
+void dkf_net_fusion_report(dkf_net_fusion_t *fu);
+/* RUNNING until step N is published, then DONE. */
+int dkf_net_fusion_state(const dkf_net_fusion_t *fu);
+/* Last published step (0: none). */
+long dkf_net_fusion_k(const dkf_net_fusion_t *fu);
+const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu);
+/* The run so far as a JSON document (new reference; docs/network.md):
+ * k, outputs.fused.{xf,xp,Pf,Pp}, status, contributors, latency_us, counters. */
+json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu);
+
+/* ---- simulator ------------------------------------------------------------------ */
+
+typedef struct dkf_net_sim dkf_net_sim_t;
+
+/* Simulator for scenario s: publishes on <prefix>_MEAS_<i> and
+ * <prefix>_TRUTH; listens to <prefix>_FUSED and <prefix>_STATUS. */
+dkf_net_sim_t *dkf_net_sim_create(dkf_net_t *net, const dkf_scenario_t *s, const char *prefix,
+                                  char *err, size_t errlen);
+void dkf_net_sim_free(dkf_net_sim_t *sim);
+/* Publishes every sensor's y_j and (if the scenario has it) x_j. 0 or -1. */
+int dkf_net_sim_publish(dkf_net_sim_t *sim, long j);
+/* The last measurement time to publish: N + 1. */
+long dkf_net_sim_last(const dkf_net_sim_t *sim);
+/* Largest fused step seen on <prefix>_FUSED (0: none). */
+long dkf_net_sim_fused_k(const dkf_net_sim_t *sim);
+/* 1 when every node and the fusion centre has sent a status with the
+ * simulator's model id and not FAILED; else 0 and, if why is given, a
+ * one-line account of who is missing. */
+int dkf_net_sim_ready(const dkf_net_sim_t *sim, char *why, size_t whylen);
+/* 1 if some process reported FAILED or a different model id (why says which). */
+int dkf_net_sim_trouble(const dkf_net_sim_t *sim, char *why, size_t whylen);
+void dkf_net_sim_tick(dkf_net_sim_t *sim, int64_t mono_us, int64_t heartbeat_us);
+void dkf_net_sim_report(dkf_net_sim_t *sim, int state);
+const dkf_net_counts_t *dkf_net_sim_counts(const dkf_net_sim_t *sim);
+
+#endif /* DKF_NET_AGENTS_H */

@@ -1,0 +1,101 @@
+/*
+ * cli.c - shared helpers of the network programs (cli.h).
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include "cli.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "model.h"
+#include "net.h"
+
+volatile sig_atomic_t dkf_cli_stop = 0;
+
+static void on_signal(int sig)
+{
+    (void)sig;
+    dkf_cli_stop = 1;
+}
+
+void dkf_cli_signals(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+}
+
+int dkf_cli_num(const char *prog, const char *opt, const char *arg, double lo, double hi,
+                double *out)
+{
+    char *end = NULL;
+    double v;
+    errno = 0;
+    v = strtod(arg, &end);
+    if (end == arg || *end != '\0' || errno != 0 || !isfinite(v) || v < lo || v > hi) {
+        fprintf(stderr, "%s: %s %s: expected a number in [%g, %g]\n", prog, opt, arg, lo, hi);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+void dkf_cli_bad_option(const char *prog, int argc, char **argv, int optind_now, int optopt_now)
+{
+    const char *what = (optind_now - 1 >= 1 && optind_now - 1 < argc) ? argv[optind_now - 1] : "?";
+    (void)optopt_now;
+    fprintf(stderr, "%s: %s: unrecognized option or missing argument (see --help)\n", prog, what);
+}
+
+dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = dkf_scenario_load(path, NULL, err, sizeof err);
+    if (s == NULL) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        return NULL;
+    }
+    if (run < 0 || (size_t)run >= s->nruns) {
+        fprintf(stderr, "%s: %s: --run %ld: the file has %zu run(s)\n", prog, path, run, s->nruns);
+        dkf_scenario_free(s);
+        return NULL;
+    }
+    dkf_scn_select_run(s, (size_t)run);
+    if (dkf_net_check_scenario(s, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        dkf_scenario_free(s);
+        return NULL;
+    }
+    return s;
+}
+
+int dkf_cli_write_json(const char *prog, const char *path, const json_t *doc)
+{
+    if (json_dump_file(doc, path, JSON_COMPACT | JSON_REAL_PRECISION(17)) != 0) {
+        fprintf(stderr, "%s: %s: cannot write the output\n", prog, path);
+        return -1;
+    }
+    return 0;
+}
+
+int dkf_cli_touch(const char *prog, const char *path)
+{
+    FILE *f = fopen(path, "w");
+    if (f == NULL || fclose(f) != 0) {
+        fprintf(stderr, "%s: %s: cannot create the ready file\n", prog, path);
+        return -1;
+    }
+    return 0;
+}
+
+int dkf_cli_expired(int64_t start_mono_us, double timeout_s)
+{
+    return timeout_s > 0 && (double)(dkf_net_mono_us() - start_mono_us) >= timeout_s * 1e6;
+}

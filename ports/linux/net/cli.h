@@ -1,0 +1,51 @@
+/*
+ * cli.h - what dkf-sim, dkf-node and dkf-fusion share: signals, option
+ * parsing helpers, scenario loading, files. Every error is one line
+ * "PROG: problem" on stderr.
+ *
+ * Exit statuses of the three programs: 0 done, 2 bad options or input,
+ * 3 a run failure (core call failed, a peer failed, a wait timed out),
+ * 4 interrupted (SIGINT/SIGTERM or --timeout) before the end.
+ */
+#ifndef DKF_NET_CLI_H
+#define DKF_NET_CLI_H
+
+#include <signal.h>
+#include <stdint.h>
+
+#include <jansson.h>
+
+#include "scenario.h"
+
+#define DKF_EXIT_OK 0
+#define DKF_EXIT_USAGE 2
+#define DKF_EXIT_RUN 3
+#define DKF_EXIT_STOPPED 4
+
+extern volatile sig_atomic_t dkf_cli_stop;
+
+/* SIGINT and SIGTERM set dkf_cli_stop (no SA_RESTART: waits return). */
+void dkf_cli_signals(void);
+
+/* *out = arg as a number in [lo, hi]; else prints "PROG: OPT ARG: ..." and
+ * returns -1. */
+int dkf_cli_num(const char *prog, const char *opt, const char *arg, double lo, double hi,
+                double *out);
+
+/* The one-line message for a getopt_long failure (opterr = 0). */
+void dkf_cli_bad_option(const char *prog, int argc, char **argv, int optind_now, int optopt_now);
+
+/* Loads the scenario, selects run (if the file has runs) and checks it for
+ * the network (dkf_net_check_scenario). NULL after printing the error. */
+dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
+
+/* Writes doc (17 significant digits, so doubles round-trip). 0 or -1. */
+int dkf_cli_write_json(const char *prog, const char *path, const json_t *doc);
+
+/* Creates an empty file (the "ready" signal for scripts). 0 or -1. */
+int dkf_cli_touch(const char *prog, const char *path);
+
+/* Deadline helper: 1 if timeout_s > 0 and start + timeout_s has passed. */
+int dkf_cli_expired(int64_t start_mono_us, double timeout_s);
+
+#endif /* DKF_NET_CLI_H */

@@ -1,0 +1,146 @@
+/*
+ * codec.h - LCM wire messages (lcmtypes/<type>.lcm) <-> plain structs, with
+ * validation of everything received (host side).
+ *
+ * The node message decodes into the core's dkf_diffkf_msg_t
+ * (dkf/diffkf_fusion.h) plus the envelope fields the core does not need
+ * (model id, sequence number, time stamps: dkf_net_meta_t). Every decoder
+ * checks, in this order, and returns the first verdict that fails:
+ *   MALFORMED  truncated bytes, trailing bytes, wrong type fingerprint,
+ *              negative array length
+ *   NODE       node id outside 0..nnodes-1, or not the channel's node
+ *   MODEL      model id differs from the receiver's scenario model
+ *   DIM        n (or m) is not the receiver's dimension
+ *   STEP       k outside 1..kmax
+ *   NONFINITE  NaN/Inf, also after conversion to dkf_real_t (float build)
+ * and counts each rejection in a dkf_net_rejects_t. Outputs are written
+ * only on DKF_NET_ACCEPT.
+ */
+#ifndef DKF_NET_CODEC_H
+#define DKF_NET_CODEC_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "dkf/diffkf_fusion.h"
+
+/* Largest number of nodes a fused message can name (stacked dimensions
+ * sum m_i <= DKF_MAX_DIM bound it well below this). */
+#define DKF_NET_MAX_NODES 64
+/* Largest encoded message of any type (fused: 4 + 2n + 2n^2 doubles). */
+#define DKF_NET_MAX_MSG (128 + DKF_NET_MAX_NODES + 8 * (2 * DKF_MAX_DIM + 2 * DKF_MAX_DIM * DKF_MAX_DIM))
+
+typedef enum {
+    DKF_NET_ACCEPT = 0,
+    DKF_NET_REJ_MALFORMED,
+    DKF_NET_REJ_NODE,
+    DKF_NET_REJ_MODEL,
+    DKF_NET_REJ_DIM,
+    DKF_NET_REJ_STEP,
+    DKF_NET_REJ_NONFINITE,
+    DKF_NET_NVERDICTS
+} dkf_net_verdict_t;
+
+/* "accepted", "malformed", "unknown node", ... */
+const char *dkf_net_verdict_str(dkf_net_verdict_t v);
+
+typedef struct {
+    uint64_t total;
+    uint64_t by[DKF_NET_NVERDICTS]; /* by[0] unused */
+} dkf_net_rejects_t;
+
+/* What a receiver expects. */
+typedef struct {
+    int64_t model_id;
+    size_t nnodes;     /* node ids 0..nnodes-1 */
+    long node;         /* the channel's node, or -1 for any */
+    size_t n;          /* state dimension */
+    const size_t *m;   /* measurement dimension per node (measurements only) */
+    long kmax;         /* largest acceptable k */
+} dkf_net_expect_t;
+
+/* Envelope of a message: what the core message does not carry. */
+typedef struct {
+    int64_t utime;      /* publication time, us since the epoch */
+    int64_t model_id;
+    int64_t seq;
+    int64_t meas_utime; /* node message: utime of the measurement that completed the step */
+} dkf_net_meta_t;
+
+/* One sensor's measurement, as host doubles. */
+typedef struct {
+    dkf_net_meta_t meta; /* meas_utime unused */
+    size_t node;
+    long k;
+    size_t m;
+    double y[DKF_MAX_DIM];
+} dkf_net_meas_t;
+
+/* The simulated truth. */
+typedef struct {
+    dkf_net_meta_t meta;
+    long k;
+    size_t n;
+    double x[DKF_MAX_DIM];
+} dkf_net_truth_t;
+
+/* A fused estimate (host doubles; matrices row-major n x n). */
+typedef struct {
+    dkf_net_meta_t meta; /* meas_utime unused */
+    long k;
+    int degraded;        /* 0 complete (centralized), 1 prediction only */
+    size_t nnodes;
+    unsigned char contributed[DKF_NET_MAX_NODES];
+    int64_t meas_utime_first, meas_utime_last, msg_utime_last;
+    size_t n;
+    double xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
+    double Pf[DKF_MAX_DIM * DKF_MAX_DIM], Pp[DKF_MAX_DIM * DKF_MAX_DIM];
+} dkf_net_fused_t;
+
+/* Process status / heartbeat (lcmtypes/status_t.lcm). */
+enum { DKF_NET_ROLE_SIM = 0, DKF_NET_ROLE_NODE = 1, DKF_NET_ROLE_FUSION = 2 };
+enum { DKF_NET_STARTING = 0, DKF_NET_RUNNING = 1, DKF_NET_DONE = 2, DKF_NET_FAILED = 3 };
+typedef struct {
+    int64_t utime, model_id;
+    int role, id, state;
+    long k;
+    int64_t sent, received, rejected, missed;
+    char detail[160];
+} dkf_net_status_t;
+
+/* Encoders: write the message into buf (cap bytes), *len = its size.
+ * 0, or -1 if it does not fit or a dimension is out of range. */
+int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf_msg_t *msg,
+                            const dkf_net_meta_t *meta);
+int dkf_net_encode_meas(void *buf, size_t cap, size_t *len, const dkf_net_meas_t *meas);
+int dkf_net_encode_truth(void *buf, size_t cap, size_t *len, const dkf_net_truth_t *t);
+int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused_t *f);
+int dkf_net_encode_status(void *buf, size_t cap, size_t *len, const dkf_net_status_t *st);
+
+/* Decoders (see the top of this file). rej may be NULL. */
+dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
+                                          const dkf_net_expect_t *ex, dkf_diffkf_msg_t *msg,
+                                          dkf_net_meta_t *meta, dkf_net_rejects_t *rej);
+dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net_expect_t *ex,
+                                      dkf_net_meas_t *meas, dkf_net_rejects_t *rej);
+/* Truth: MODEL, DIM, STEP (0..kmax), NONFINITE; nnodes, node, m unused. */
+dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_net_expect_t *ex,
+                                       dkf_net_truth_t *t, dkf_net_rejects_t *rej);
+/* Fused: nnodes must equal ex->nnodes (else NODE); status must be valid (else MALFORMED). */
+dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_net_expect_t *ex,
+                                       dkf_net_fused_t *f, dkf_net_rejects_t *rej);
+/* Status: only MALFORMED is checked (any model, any role). */
+dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
+                                        dkf_net_rejects_t *rej);
+
+/* Channel names: "<prefix>_MEAS_<i>", "<prefix>_NODE_<i>", "<prefix>_FUSED",
+ * "<prefix>_TRUTH", "<prefix>_STATUS". out has DKF_NET_CHAN_LEN bytes. */
+#define DKF_NET_CHAN_LEN 64
+#define DKF_NET_PREFIX "DKF"
+void dkf_net_chan_meas(char *out, const char *prefix, size_t node);
+void dkf_net_chan_node(char *out, const char *prefix, size_t node);
+void dkf_net_chan(char *out, const char *prefix, const char *what);
+/* The node index at the end of a "<prefix>_<what>_<i>" channel, or -1. */
+long dkf_net_chan_index(const char *channel);
+
+#endif /* DKF_NET_CODEC_H */

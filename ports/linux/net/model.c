@@ -1,0 +1,146 @@
+/*
+ * model.c - per-sensor Difference-KF model from a scenario (model.h).
+ */
+#include "model.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "codec.h"
+
+int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
+{
+    size_t i, ms = 0, ps = 0;
+    if (dkf_scn_require_ui(s, s->steps, s->steps + 1, 0, "DKF", err, errlen) != 0) return -1;
+    if (s->nsensors > DKF_NET_MAX_NODES) {
+        snprintf(err, errlen, "%s: model.sensors: %zu sensors, at most %d", s->file, s->nsensors,
+                 DKF_NET_MAX_NODES);
+        return -1;
+    }
+    for (i = 0; i < s->nsensors; ++i) {
+        ms += s->sensors[i].m;
+        ps += dkf_scn_sensor_model(s, i, "A")->cols;
+    }
+    if (ms > DKF_MAX_DIM || ps > DKF_MAX_DIM || s->n > DKF_MAX_DIM) {
+        snprintf(err, errlen, "%s: model.sensors: stacked dimensions (sum m_i = %zu, sum p_i = "
+                 "%zu, n = %zu) exceed DKF_MAX_DIM = %d", s->file, ms, ps, s->n, DKF_MAX_DIM);
+        return -1;
+    }
+    return 0;
+}
+
+int dkf_net_model_init(dkf_net_model_t *md, const dkf_scenario_t *s, size_t i)
+{
+    const size_t n = s->n, m = s->sensors[i].m, p = dkf_scn_sensor_model(s, i, "A")->cols;
+    dkf_real_t *b;
+    memset(md, 0, sizeof *md);
+    b = calloc(2 * n * n + 2 * p * p + m * n + m * p + m * m, sizeof *b);
+    if (b == NULL) return -1;
+    md->n = n;
+    md->m = m;
+    md->p = p;
+    md->buf = b;
+    md->F = (dkf_mat_t)DKF_MAT(n, n, b);
+    md->Q = (dkf_mat_t)DKF_MAT(n, n, b + n * n);
+    md->B = (dkf_mat_t)DKF_MAT(p, p, b + 2 * n * n);
+    md->Rd = (dkf_mat_t)DKF_MAT(p, p, b + 2 * n * n + p * p);
+    b += 2 * n * n + 2 * p * p;
+    md->H = (dkf_mat_t)DKF_MAT(m, n, b);
+    md->A = (dkf_mat_t)DKF_MAT(m, p, b + m * n);
+    md->R = (dkf_mat_t)DKF_MAT(m, m, b + m * n + m * p);
+    md->dyn.F = &md->F;
+    md->dyn.Q = &md->Q;
+    md->dyn.B = &md->B;
+    md->dyn.Rd = &md->Rd;
+    md->meas.H = &md->H;
+    md->meas.A = &md->A;
+    md->meas.R = &md->R;
+    return 0;
+}
+
+void dkf_net_model_free(dkf_net_model_t *md)
+{
+    free(md->buf);
+    md->buf = NULL;
+}
+
+/* dst (rows x cols of the view) = matrix `name` at k; -1 if absent. */
+static int load(dkf_mat_t *dst, const dkf_scn_mat_t *src, size_t k)
+{
+    const double *v = src ? dkf_scn_at(src, k) : NULL;
+    if (v == NULL || src->rows != dst->rows || src->cols != dst->cols) return -1;
+    dkf_scn_to_real(dst->data, v, dst->rows * dst->cols);
+    return 0;
+}
+
+int dkf_net_model_dyn(dkf_net_model_t *md, const dkf_scenario_t *s, size_t i, size_t k)
+{
+    if (load(&md->F, dkf_scn_model(s, "F"), k) || load(&md->Q, dkf_scn_model(s, "Q"), k) ||
+        load(&md->B, dkf_scn_sensor_model(s, i, "B"), k) ||
+        load(&md->Rd, dkf_scn_sensor_model(s, i, "Rd"), k))
+        return -1;
+    return 0;
+}
+
+int dkf_net_model_meas(dkf_net_model_t *md, const dkf_scenario_t *s, size_t i, size_t k)
+{
+    if (load(&md->H, dkf_scn_sensor_model(s, i, "H"), k) ||
+        load(&md->A, dkf_scn_sensor_model(s, i, "A"), k) ||
+        load(&md->R, dkf_scn_sensor_model(s, i, "R"), k))
+        return -1;
+    return 0;
+}
+
+/* ---- model id ---------------------------------------------------------------- */
+
+#define FNV_OFFSET 0xcbf29ce484222325ull
+#define FNV_PRIME 0x100000001b3ull
+
+static uint64_t fnv_u64(uint64_t h, uint64_t v)
+{
+    int i;
+    for (i = 56; i >= 0; i -= 8) {
+        h ^= (v >> i) & 0xffu;
+        h *= FNV_PRIME;
+    }
+    return h;
+}
+
+static uint64_t fnv_doubles(uint64_t h, const double *v, size_t len)
+{
+    size_t i;
+    for (i = 0; i < len; ++i) {
+        uint64_t bits;
+        memcpy(&bits, &v[i], sizeof bits);
+        h = fnv_u64(h, bits);
+    }
+    return h;
+}
+
+/* Shape, number of entries and every value of a scenario matrix (or a
+ * marker for an absent one). */
+static uint64_t fnv_mat(uint64_t h, const dkf_scn_mat_t *m)
+{
+    if (m == NULL) return fnv_u64(h, 0xffffffffffffffffull);
+    h = fnv_u64(fnv_u64(fnv_u64(h, m->rows), m->cols), m->count);
+    return fnv_doubles(h, m->data, (m->count ? m->count : 1) * m->rows * m->cols);
+}
+
+int64_t dkf_net_model_id(const dkf_scenario_t *s)
+{
+    static const char *const sensor_keys[] = {"H", "A", "R", "B", "Rd"};
+    uint64_t h = FNV_OFFSET;
+    size_t i, j;
+    h = fnv_u64(fnv_u64(fnv_u64(h, s->n), s->nsensors), s->steps);
+    h = fnv_mat(h, dkf_scn_model(s, "F"));
+    h = fnv_mat(h, dkf_scn_model(s, "Q"));
+    for (i = 0; i < s->nsensors; ++i) {
+        for (j = 0; j < sizeof sensor_keys / sizeof sensor_keys[0]; ++j)
+            h = fnv_mat(h, dkf_scn_sensor_model(s, i, sensor_keys[j]));
+        h = fnv_doubles(h, dkf_scn_P00_local(s, i), s->n * s->n);
+    }
+    h = fnv_mat(h, dkf_scn_init(s, "x00"));
+    h = fnv_doubles(h, dkf_scn_P00_central(s), s->n * s->n);
+    return (int64_t)h;
+}

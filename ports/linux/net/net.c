@@ -1,0 +1,181 @@
+/*
+ * net.c - LCM transport with the URL safety rules of net.h.
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include "net.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <lcm/lcm.h>
+
+struct dkf_net {
+    lcm_t *lcm;
+    int subs;              /* number of subscriptions (bounded below) */
+    struct sub {
+        dkf_net_handler_t fn;
+        void *user;
+    } sub[16];
+};
+
+static int fail(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    if (err == NULL || errlen == 0) return -1;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+/* Parses a decimal number in [lo, hi] from s[0..len-1]; -1 if not one. */
+static long parse_dec(const char *s, size_t len, long lo, long hi)
+{
+    long v = 0;
+    size_t i;
+    if (len == 0 || len > 5 || (len > 1 && s[0] == '0')) return -1; /* canonical only */
+    for (i = 0; i < len; ++i) {
+        if (s[i] < '0' || s[i] > '9') return -1;
+        v = v * 10 + (s[i] - '0');
+    }
+    return (v < lo || v > hi) ? -1 : v;
+}
+
+/* 0 if host[0..len-1] is a dotted quad a.b.c.d with a = 239. */
+static int check_group(const char *host, size_t len)
+{
+    long part[4];
+    size_t i = 0, start = 0, np = 0;
+    for (i = 0; i <= len; ++i) {
+        if (i == len || host[i] == '.') {
+            if (np == 4) return -1;
+            part[np] = parse_dec(host + start, i - start, 0, 255);
+            if (part[np] < 0) return -1;
+            ++np;
+            start = i + 1;
+        }
+    }
+    return (np == 4 && part[0] == 239) ? 0 : -1;
+}
+
+/* Checks the options after '?': ttl must appear exactly once, equal to 0. */
+static int check_options(const char *url, const char *opt, char *err, size_t errlen)
+{
+    int nttl = 0;
+    while (opt != NULL && *opt != '\0') {
+        const char *end = strchr(opt, '&');
+        size_t len = end ? (size_t)(end - opt) : strlen(opt);
+        if (len >= 4 && strncmp(opt, "ttl=", 4) == 0) {
+            ++nttl;
+            if (len != 5 || opt[4] != '0')
+                return fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not leave "
+                            "this host; docs/network.md)", url);
+        }
+        opt = end ? end + 1 : NULL;
+    }
+    if (nttl != 1)
+        return fail(err, errlen, "%s: refused: a udpm URL must say ttl=0 exactly once", url);
+    return 0;
+}
+
+int dkf_net_check_url(const char *url, char *err, size_t errlen)
+{
+    const char *host, *q, *colon, *hend;
+    if (url == NULL) return fail(err, errlen, "(null): refused: no LCM URL");
+    if (strcmp(url, "memq://") == 0) return 0;
+    if (strncmp(url, "udpm://", 7) != 0)
+        return fail(err, errlen, "%s: refused: only udpm:// (ttl=0) and memq:// are allowed", url);
+    host = url + 7;
+    q = strchr(host, '?');
+    hend = q ? q : host + strlen(host);
+    colon = memchr(host, ':', (size_t)(hend - host));
+    if (check_group(host, (size_t)((colon ? colon : hend) - host)) != 0)
+        return fail(err, errlen, "%s: refused: the multicast group must be an address in "
+                    "239.0.0.0/8", url);
+    if (colon != NULL && parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535) < 0)
+        return fail(err, errlen, "%s: refused: bad port", url);
+    return check_options(url, q ? q + 1 : NULL, err, errlen);
+}
+
+dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
+{
+    dkf_net_t *net;
+    if (dkf_net_check_url(url, err, errlen) != 0) return NULL;
+    net = calloc(1, sizeof *net);
+    if (net == NULL) {
+        fail(err, errlen, "%s: out of memory", url);
+        return NULL;
+    }
+    net->lcm = lcm_create(url);
+    if (net->lcm == NULL) {
+        free(net);
+        fail(err, errlen, "%s: cannot open LCM (is there a multicast route? docs/network.md)",
+             url);
+        return NULL;
+    }
+    return net;
+}
+
+void dkf_net_close(dkf_net_t *net)
+{
+    if (net == NULL) return;
+    lcm_destroy(net->lcm);
+    free(net);
+}
+
+int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_t len)
+{
+    if (len > 0x7fffffffu) return -1;
+    return lcm_publish(net->lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
+}
+
+static void dispatch(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+{
+    const struct sub *s = user;
+    s->fn(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime, s->user);
+}
+
+int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler_t handler,
+                      void *user)
+{
+    struct sub *s;
+    if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0])) return -1;
+    s = &net->sub[net->subs];
+    s->fn = handler;
+    s->user = user;
+    if (lcm_subscribe(net->lcm, channel_regex, dispatch, s) == NULL) return -1;
+    ++net->subs;
+    return 0;
+}
+
+int dkf_net_handle(dkf_net_t *net, int timeout_ms)
+{
+    int r = lcm_handle_timeout(net->lcm, timeout_ms < 0 ? 0 : timeout_ms);
+    if (r < 0) return -1;
+    return r > 0 ? 1 : 0;
+}
+
+int dkf_net_drain(dkf_net_t *net, int timeout_ms)
+{
+    int count = 0, r = dkf_net_handle(net, timeout_ms);
+    while (r == 1) {
+        ++count;
+        r = dkf_net_handle(net, 0);
+    }
+    return r < 0 ? -1 : count;
+}
+
+static int64_t clock_us(clockid_t id)
+{
+    struct timespec ts;
+    clock_gettime(id, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + (int64_t)(ts.tv_nsec / 1000);
+}
+
+int64_t dkf_net_now_us(void) { return clock_us(CLOCK_REALTIME); }
+int64_t dkf_net_mono_us(void) { return clock_us(CLOCK_MONOTONIC); }

@@ -1,0 +1,61 @@
+/*
+ * net.h - the thin LCM transport of the network processes (host side).
+ *
+ * The core never sees LCM: dkf-sim, dkf-node and dkf-fusion talk through
+ * this layer, which hands raw message bytes to codec.h. It opens only URLs
+ * that cannot leave the machine by default:
+ *
+ *   memq://                               in-process queue (unit tests)
+ *   udpm://239.x.y.z[:port]?...ttl=0...   UDP multicast in 239.0.0.0/8
+ *                                          (administratively scoped) with
+ *                                          TTL 0 (never routed off the host)
+ *
+ * Every other provider, a udpm group outside 239.0.0.0/8, and a udpm URL
+ * whose ttl is missing or not 0 are refused (docs/network.md says how to
+ * run on several machines, which needs a source change on purpose).
+ * Integer returns: 0 success, -1 failure with a one-line message in err.
+ */
+#ifndef DKF_NET_H
+#define DKF_NET_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#define DKF_NET_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
+#define DKF_NET_ERR_LEN 256
+
+typedef struct dkf_net dkf_net_t;
+
+/* Raw-message handler: channel, payload, receive time (us since epoch). */
+typedef void (*dkf_net_handler_t)(const char *channel, const void *data, size_t len,
+                                  int64_t recv_utime, void *user);
+
+/* 0 if url is allowed (see above), else -1 with the reason in err. */
+int dkf_net_check_url(const char *url, char *err, size_t errlen);
+
+/* Checks url, then creates the LCM instance. NULL + err on failure. */
+dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen);
+void dkf_net_close(dkf_net_t *net);
+
+/* Publishes len bytes on channel. 0 or -1. */
+int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_t len);
+
+/* Subscribes handler to channels matching the regular expression
+ * (LCM anchors it: "DKF_NODE_[0-9]+" matches whole names). 0 or -1. */
+int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler_t handler,
+                      void *user);
+
+/* Dispatches at most one message, waiting up to timeout_ms (0: poll).
+ * 1 a message was handled, 0 timeout, -1 error. */
+int dkf_net_handle(dkf_net_t *net, int timeout_ms);
+
+/* Dispatches every message already queued (waiting at most timeout_ms for
+ * the first); returns how many were handled, or -1. */
+int dkf_net_drain(dkf_net_t *net, int timeout_ms);
+
+/* Wall-clock time (message stamps, comparable between processes on one
+ * host) and monotonic time (deadlines), microseconds. */
+int64_t dkf_net_now_us(void);
+int64_t dkf_net_mono_us(void);
+
+#endif /* DKF_NET_H */

@@ -1,0 +1,128 @@
+#!/usr/bin/env bash
+# net_integration.sh MODE SCENARIO OUTDIR - the network processes over real
+# UDP multicast (udpm://239.255.76.67:7667?ttl=0) inside a private network
+# namespace made for this run (tools/netns.sh): nothing can leave the host.
+#
+#   lockstep  dkf-sim --lockstep, 2 x dkf-node, dkf-fusion; fused == the
+#             vector's central (and fused) series within DKF_REL
+#   paced     the same with dkf-sim --rate 200
+#   replay    lockstep run recorded by lcm-logger; the node channels of the
+#             log replayed by lcm-logplayer into a fresh dkf-fusion must give
+#             the same fused output bit for bit
+#
+# Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_PYTHON
+# DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL.
+# Exit 77 (skip) when not root; every process has its own --timeout and the
+# script as a whole is bounded by ctest's TIMEOUT.
+set -uo pipefail
+mode=$1 scn=$2 out=$3
+URL='udpm://239.255.76.67:7667?ttl=0'
+T=60   # per-process timeout, seconds
+
+if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
+  "$DKF_NETNS" check || exit $?
+  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
+fi
+
+# Inside the namespace: refuse to run if anything but loopback exists.
+if ip -o link | grep -qv ': lo:'; then
+  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
+  exit 1
+fi
+
+rm -rf "$out" && mkdir -p "$out"
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
+trap cleanup EXIT
+
+wait_file() { # FILE SECONDS
+  local i
+  for ((i = 0; i < $2 * 100; ++i)); do [[ -e $1 ]] && return 0; sleep 0.01; done
+  echo "FAIL: $1 did not appear within $2 s" >&2; return 1
+}
+
+# Starts the fusion centre and both nodes, waits until they are subscribed.
+start_peers() { # TAG
+  "$DKF_FUSION" --url "$URL" --timeout $T --ready-file "$out/$1.fusion.ready" \
+    --output "$out/$1.fused.json" "$scn" 2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
+  "$DKF_NODE" --url "$URL" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" "$scn" \
+    2>"$out/$1.n0.log" & pids+=($!); n0=$!
+  "$DKF_NODE" --url "$URL" --id 1 --timeout $T --ready-file "$out/$1.n1.ready" "$scn" \
+    2>"$out/$1.n1.log" & pids+=($!); n1=$!
+  wait_file "$out/$1.fusion.ready" 10 && wait_file "$out/$1.n0.ready" 10 &&
+    wait_file "$out/$1.n1.ready" 10
+}
+
+# Waits for the peers started by start_peers; fails if any failed.
+wait_peers() { # TAG
+  local rc=0
+  wait $fpid || { echo "FAIL: dkf-fusion exited $?"; cat "$out/$1.fusion.log"; rc=1; }
+  wait $n0 || { echo "FAIL: dkf-node 0 exited $?"; cat "$out/$1.n0.log"; rc=1; }
+  wait $n1 || { echo "FAIL: dkf-node 1 exited $?"; cat "$out/$1.n1.log"; rc=1; }
+  cat "$out/$1.fusion.log" "$out/$1.n0.log" "$out/$1.n1.log"
+  return $rc
+}
+
+run_live() { # TAG SIM-MODE-ARGS...
+  local tag=$1; shift
+  start_peers "$tag" || return 1
+  "$DKF_SIM" --url "$URL" --timeout $T "$@" "$scn" || { echo "FAIL: dkf-sim exited $?"; return 1; }
+  wait_peers "$tag"
+}
+
+compare_central() { # FUSED.json
+  "$DKF_PYTHON" "$DKF_COMPARE" "$1" "$scn" --a-keys outputs.fused --b-keys outputs.central \
+    --rel "$DKF_REL" &&
+  "$DKF_PYTHON" "$DKF_COMPARE" "$1" "$scn" --a-keys outputs.fused --b-keys outputs.fused \
+    --rel "$DKF_REL" &&
+  "$DKF_PYTHON" - "$1" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+n = d["N"]
+assert len(d["k"]) == n, "not every step published"
+assert all(s == "complete" for s in d["status"]), "a step is degraded"
+assert all(len(c) == 2 for c in d["contributors"]), "a node is missing from a step"
+assert d["counters"]["rejected"] == 0, d["counters"]
+print("every step complete, both nodes contributed, nothing rejected")
+PY
+}
+
+case "$mode" in
+  lockstep)
+    run_live live --lockstep || exit 1
+    compare_central "$out/live.fused.json" || exit 1
+    ;;
+  paced)
+    run_live live --rate 200 || exit 1
+    compare_central "$out/live.fused.json" || exit 1
+    ;;
+  replay)
+    [[ -x $DKF_LCM_LOGGER && -x $DKF_LCM_LOGPLAYER ]] ||
+      { echo "FAIL: lcm-logger / lcm-logplayer not found"; exit 1; }
+    log=$out/run.lcmlog
+    "$DKF_LCM_LOGGER" --lcm-url="$URL" -f -q --flush-interval=10 "$log" & pids+=($!); logger=$!
+    start_peers live || exit 1
+    # the heartbeats reach the log only once the logger is subscribed
+    for ((i = 0; i < 1000; ++i)); do [[ -s $log ]] && break; sleep 0.01; done
+    [[ -s $log ]] || { echo "FAIL: lcm-logger recorded nothing"; exit 1; }
+    "$DKF_SIM" --url "$URL" --timeout $T --lockstep "$scn" || { echo "FAIL: dkf-sim"; exit 1; }
+    wait_peers live || exit 1
+    sleep 0.2  # let the logger flush the last messages
+    kill -INT $logger; wait $logger
+    compare_central "$out/live.fused.json" || exit 1
+    # replay only the node messages into a fresh fusion centre
+    "$DKF_FUSION" --url "$URL" --timeout $T --ready-file "$out/replay.ready" \
+      --output "$out/replay.fused.json" "$scn" 2>"$out/replay.fusion.log" & pids+=($!); fpid=$!
+    wait_file "$out/replay.ready" 10 || exit 1
+    "$DKF_LCM_LOGPLAYER" --lcm-url="$URL" -e 'DKF_NODE_[0-9]+' "$log" || { echo "FAIL: lcm-logplayer"; exit 1; }
+    wait $fpid || { echo "FAIL: replay dkf-fusion exited $?"; cat "$out/replay.fusion.log"; exit 1; }
+    cat "$out/replay.fusion.log"
+    "$DKF_PYTHON" "$DKF_COMPARE" "$out/replay.fused.json" "$out/live.fused.json" \
+      --keys outputs.fused --rel 0 || { echo "FAIL: replay differs from the live run"; exit 1; }
+    echo "replay == live run, bit for bit"
+    ;;
+  *)
+    echo "net_integration.sh: $mode: unknown mode" >&2; exit 2
+    ;;
+esac
+echo "PASS: $mode"

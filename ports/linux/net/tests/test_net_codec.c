@@ -1,0 +1,407 @@
+/*
+ * Wire codec (codec.h): round trips of every message type, every rejection
+ * path of the decoders (each counted once, outputs untouched), and the
+ * length checks that keep lcm-gen's trusting decoders safe.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "codec.h"
+
+#define MODEL ((int64_t)0x1234567890abcdefLL)
+
+static unsigned char buf[DKF_NET_MAX_MSG];
+
+static dkf_net_expect_t expect(void)
+{
+    static const size_t m[3] = {2, 3, 1};
+    dkf_net_expect_t ex;
+    ex.model_id = MODEL;
+    ex.nnodes = 3;
+    ex.node = -1;
+    ex.n = 4;
+    ex.m = m;
+    ex.kmax = 50;
+    return ex;
+}
+
+static void make_msg(dkf_diffkf_msg_t *m, dkf_net_meta_t *meta)
+{
+    size_t i;
+    memset(m, 0, sizeof *m);
+    m->node = 2;
+    m->k = 17;
+    m->n = 4;
+    for (i = 0; i < 4; ++i) {
+        m->xf[i] = (dkf_real_t)(0.1 * (double)i - 3.25);
+        m->xp[i] = (dkf_real_t)(1e3 + (double)i / 7.0);
+    }
+    meta->utime = 1700000000123456LL;
+    meta->model_id = MODEL;
+    meta->seq = 41;
+    meta->meas_utime = 1700000000000001LL;
+}
+
+static size_t encode_msg(const dkf_diffkf_msg_t *m, const dkf_net_meta_t *meta)
+{
+    size_t len = 0;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, m, meta), 0);
+    return len;
+}
+
+/* Decodes buf[0..len) expecting verdict v; on rejection the outputs must be
+ * untouched and exactly one rejection of kind v counted. */
+static void expect_node_verdict(size_t len, const dkf_net_expect_t *ex, dkf_net_verdict_t v)
+{
+    dkf_diffkf_msg_t out, ref;
+    dkf_net_meta_t meta, mref;
+    dkf_net_rejects_t rej;
+    memset(&out, 0x5a, sizeof out);
+    memset(&meta, 0x5a, sizeof meta);
+    ref = out;
+    mref = meta;
+    memset(&rej, 0, sizeof rej);
+    assert_int_equal(dkf_net_decode_node_msg(buf, len, ex, &out, &meta, &rej), v);
+    if (v != DKF_NET_ACCEPT) {
+        assert_memory_equal(&out, &ref, sizeof out);
+        assert_memory_equal(&meta, &mref, sizeof meta);
+        assert_int_equal(rej.total, 1);
+        assert_int_equal(rej.by[v], 1);
+    } else {
+        assert_int_equal(rej.total, 0);
+    }
+}
+
+static void test_node_msg_round_trip(void **state)
+{
+    dkf_diffkf_msg_t m, out;
+    dkf_net_meta_t meta, mo;
+    dkf_net_expect_t ex = expect();
+    size_t len;
+    (void)state;
+    make_msg(&m, &meta);
+    len = encode_msg(&m, &meta);
+    /* layout: fingerprint + 4 int64 + 3 int32 + 2n doubles */
+    assert_int_equal(len, 8 + 4 * 8 + 3 * 4 + 2 * 4 * 8);
+    memset(&out, 0, sizeof out);
+    assert_int_equal(dkf_net_decode_node_msg(buf, len, &ex, &out, &mo, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(out.node, 2);
+    assert_int_equal(out.k, 17);
+    assert_int_equal(out.n, 4);
+    /* the wire carries doubles: dkf_real_t values come back bit for bit */
+    assert_memory_equal(out.xf, m.xf, 4 * sizeof(dkf_real_t));
+    assert_memory_equal(out.xp, m.xp, 4 * sizeof(dkf_real_t));
+    assert_memory_equal(&mo, &meta, sizeof mo);
+    ex.node = 2; /* the channel's node */
+    expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
+}
+
+static void test_node_msg_rejections(void **state)
+{
+    dkf_diffkf_msg_t m;
+    dkf_net_meta_t meta;
+    dkf_net_expect_t ex = expect();
+    size_t len, cut;
+    (void)state;
+    make_msg(&m, &meta);
+    len = encode_msg(&m, &meta);
+    /* truncated at every length, and one trailing byte */
+    for (cut = 0; cut < len; ++cut) expect_node_verdict(cut, &ex, DKF_NET_REJ_MALFORMED);
+    buf[len] = 0;
+    expect_node_verdict(len + 1, &ex, DKF_NET_REJ_MALFORMED);
+    /* fingerprint changed */
+    buf[3] ^= 0x10;
+    expect_node_verdict(len, &ex, DKF_NET_REJ_MALFORMED);
+    buf[3] ^= 0x10;
+    /* length field n (offset 48) negative, huge, or not matching the size */
+    {
+        static const unsigned char bad_n[][4] = {
+            {0xff, 0xff, 0xff, 0xff}, {0x7f, 0xff, 0xff, 0xff}, {0, 0, 0, 3}, {0, 0, 0, 5}};
+        unsigned char keep[4];
+        size_t b;
+        memcpy(keep, buf + 48, 4);
+        for (b = 0; b < sizeof bad_n / sizeof bad_n[0]; ++b) {
+            memcpy(buf + 48, bad_n[b], 4);
+            expect_node_verdict(len, &ex, DKF_NET_REJ_MALFORMED);
+        }
+        memcpy(buf + 48, keep, 4);
+    }
+    expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
+    /* node outside 0..nnodes-1, and not the channel's node */
+    m.node = 3;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_NODE);
+    m.node = 2;
+    len = encode_msg(&m, &meta);
+    ex.node = 1;
+    expect_node_verdict(len, &ex, DKF_NET_REJ_NODE);
+    ex.node = -1;
+    /* model id */
+    meta.model_id = MODEL + 1;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_MODEL);
+    meta.model_id = MODEL;
+    /* dimension: a consistent message of another n */
+    m.n = 3;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_DIM);
+    m.n = 4;
+    /* step 0 and beyond kmax */
+    m.k = 0;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP);
+    m.k = 51;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP);
+    m.k = 50;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
+    /* non-finite in xf or xp */
+    m.xf[1] = (dkf_real_t)NAN;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_NONFINITE);
+    m.xf[1] = 0;
+    m.xp[3] = (dkf_real_t)-INFINITY;
+    len = encode_msg(&m, &meta);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_NONFINITE);
+}
+
+/* A double that is finite but overflows dkf_real_t (float build) is
+ * non-finite for the receiver; in the double build it is accepted. */
+static void test_node_msg_real_overflow(void **state)
+{
+    dkf_diffkf_msg_t m;
+    dkf_net_meta_t meta;
+    dkf_net_expect_t ex = expect();
+    size_t len;
+    (void)state;
+    make_msg(&m, &meta);
+    len = encode_msg(&m, &meta);
+    {
+        /* patch xf[0] (offset 52) on the wire to 1e300, big-endian */
+        double v = 1e300;
+        uint64_t bits;
+        int i;
+        memcpy(&bits, &v, sizeof bits);
+        for (i = 0; i < 8; ++i) buf[52 + i] = (unsigned char)(bits >> (56 - 8 * i));
+    }
+    expect_node_verdict(len, &ex, DKF_USE_FLOAT ? DKF_NET_REJ_NONFINITE : DKF_NET_ACCEPT);
+}
+
+static void test_meas_round_trip_and_rejections(void **state)
+{
+    dkf_net_meas_t y, out, ref;
+    dkf_net_expect_t ex = expect();
+    dkf_net_rejects_t rej;
+    size_t len, cut, full;
+    (void)state;
+    memset(&y, 0, sizeof y);
+    y.meta.utime = 99;
+    y.meta.model_id = MODEL;
+    y.meta.seq = 7;
+    y.node = 1;
+    y.k = 51; /* measurements run to N+1 */
+    y.m = 3;
+    y.y[0] = 1.5;
+    y.y[1] = -2.25;
+    y.y[2] = 1e-300;
+    ex.kmax = 51;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(len, 8 + 3 * 8 + 3 * 4 + 3 * 8);
+    full = len;
+    memset(&out, 0, sizeof out);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(out.node, 1);
+    assert_int_equal(out.k, 51);
+    assert_int_equal(out.m, 3);
+    assert_memory_equal(out.y, y.y, 3 * sizeof(double));
+    assert_int_equal(out.meta.seq, 7);
+    assert_int_equal(out.meta.utime, 99);
+    memset(&rej, 0, sizeof rej);
+    memset(&out, 0x77, sizeof out);
+    ref = out;
+    for (cut = 0; cut < len; ++cut)
+        assert_int_equal(dkf_net_decode_meas(buf, cut, &ex, &out, &rej), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(rej.by[DKF_NET_REJ_MALFORMED], len);
+    /* a node message is not a measurement */
+    {
+        dkf_diffkf_msg_t m;
+        dkf_net_meta_t meta;
+        size_t l2;
+        make_msg(&m, &meta);
+        l2 = encode_msg(&m, &meta);
+        assert_int_equal(dkf_net_decode_meas(buf, l2, &ex, &out, &rej), DKF_NET_REJ_MALFORMED);
+    }
+    /* wrong m for that node (node 1 has m = 3) */
+    y.m = 2;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, &rej), DKF_NET_REJ_DIM);
+    y.m = 3;
+    y.node = 5;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, &rej), DKF_NET_REJ_NODE);
+    y.node = 1;
+    y.meta.model_id = 0;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, &rej), DKF_NET_REJ_MODEL);
+    y.meta.model_id = MODEL;
+    y.k = 52;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, &rej), DKF_NET_REJ_STEP);
+    y.k = 2;
+    y.y[2] = NAN;
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_decode_meas(buf, len, &ex, &out, &rej), DKF_NET_REJ_NONFINITE);
+    assert_memory_equal(&out, &ref, sizeof out);
+    /* every truncation, the node message and the five field checks */
+    assert_int_equal(rej.total, full + 1 + 5);
+}
+
+static void test_truth_round_trip(void **state)
+{
+    dkf_net_truth_t t, out;
+    dkf_net_expect_t ex = expect();
+    size_t len;
+    (void)state;
+    memset(&t, 0, sizeof t);
+    t.meta.model_id = MODEL;
+    t.k = 0; /* the truth starts at k = 0 */
+    t.n = 4;
+    t.x[3] = 42.5;
+    assert_int_equal(dkf_net_encode_truth(buf, sizeof buf, &len, &t), 0);
+    assert_int_equal(dkf_net_decode_truth(buf, len, &ex, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(out.k, 0);
+    assert_true(out.x[3] == 42.5);
+    assert_int_equal(dkf_net_decode_truth(buf, len - 1, &ex, &out, NULL), DKF_NET_REJ_MALFORMED);
+    t.x[0] = INFINITY;
+    assert_int_equal(dkf_net_encode_truth(buf, sizeof buf, &len, &t), 0);
+    assert_int_equal(dkf_net_decode_truth(buf, len, &ex, &out, NULL), DKF_NET_REJ_NONFINITE);
+}
+
+static void test_fused_round_trip_and_rejections(void **state)
+{
+    static dkf_net_fused_t f, out;
+    dkf_net_expect_t ex = expect();
+    size_t len, i, cut;
+    (void)state;
+    memset(&f, 0, sizeof f);
+    f.meta.model_id = MODEL;
+    f.meta.seq = 3;
+    f.k = 12;
+    f.degraded = 1;
+    f.nnodes = 3;
+    f.contributed[0] = 1;
+    f.contributed[2] = 1;
+    f.meas_utime_first = 10;
+    f.meas_utime_last = 20;
+    f.msg_utime_last = 30;
+    f.n = 4;
+    for (i = 0; i < 4; ++i) {
+        f.xf[i] = (double)i;
+        f.xp[i] = -(double)i;
+    }
+    for (i = 0; i < 16; ++i) {
+        f.Pf[i] = 1.0 / (1.0 + (double)i);
+        f.Pp[i] = 2.0 + (double)i;
+    }
+    assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
+    assert_int_equal(len, 8 + 8 + 8 + 4 + 8 + 1 + 4 + 3 + 3 * 8 + 4 + 8 * (8 + 32));
+    assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(out.k, 12);
+    assert_int_equal(out.degraded, 1);
+    assert_int_equal(out.nnodes, 3);
+    assert_int_equal(out.contributed[0], 1);
+    assert_int_equal(out.contributed[1], 0);
+    assert_int_equal(out.contributed[2], 1);
+    assert_int_equal(out.meas_utime_first, 10);
+    assert_int_equal(out.msg_utime_last, 30);
+    assert_memory_equal(out.Pf, f.Pf, 16 * sizeof(double));
+    assert_memory_equal(out.Pp, f.Pp, 16 * sizeof(double));
+    assert_memory_equal(out.xp, f.xp, 4 * sizeof(double));
+    for (cut = 0; cut < len; ++cut)
+        assert_int_equal(dkf_net_decode_fused(buf, cut, &ex, &out, NULL), DKF_NET_REJ_MALFORMED);
+    /* status byte (offset 36) outside {COMPLETE, DEGRADED} */
+    buf[36] = 7;
+    assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_REJ_MALFORMED);
+    /* nnodes (offset 37) negative */
+    buf[37] = 0xff;
+    assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_REJ_MALFORMED);
+    ex.nnodes = 2;
+    assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
+    assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_REJ_NODE);
+    ex.nnodes = 3;
+    f.Pp[5] = NAN;
+    assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
+    assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_REJ_NONFINITE);
+}
+
+static void test_status_round_trip(void **state)
+{
+    dkf_net_status_t st, out;
+    size_t len;
+    (void)state;
+    memset(&st, 0, sizeof st);
+    st.model_id = MODEL;
+    st.role = DKF_NET_ROLE_NODE;
+    st.id = 4;
+    st.state = DKF_NET_FAILED;
+    st.k = 9;
+    st.sent = 8;
+    st.rejected = 2;
+    strcpy(st.detail, "node 4: step k=9: dkf_diffkf_step failed");
+    assert_int_equal(dkf_net_encode_status(buf, sizeof buf, &len, &st), 0);
+    assert_int_equal(len, 70 + strlen(st.detail) + 1);
+    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(out.role, DKF_NET_ROLE_NODE);
+    assert_int_equal(out.id, 4);
+    assert_int_equal(out.state, DKF_NET_FAILED);
+    assert_int_equal(out.k, 9);
+    assert_int_equal(out.sent, 8);
+    assert_string_equal(out.detail, st.detail);
+    /* the string must end with its NUL; its length must fit the message */
+    buf[len - 1] = 'x';
+    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_REJ_MALFORMED);
+    buf[len - 1] = 0;
+    buf[66] = 0x80; /* length field negative */
+    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(dkf_net_decode_status(buf, 10, &out, NULL), DKF_NET_REJ_MALFORMED);
+}
+
+static void test_channels(void **state)
+{
+    char c[DKF_NET_CHAN_LEN];
+    (void)state;
+    dkf_net_chan_meas(c, "DKF", 11);
+    assert_string_equal(c, "DKF_MEAS_11");
+    assert_int_equal(dkf_net_chan_index(c), 11);
+    dkf_net_chan_node(c, "X", 0);
+    assert_string_equal(c, "X_NODE_0");
+    assert_int_equal(dkf_net_chan_index(c), 0);
+    dkf_net_chan(c, "DKF", "FUSED");
+    assert_string_equal(c, "DKF_FUSED");
+    assert_int_equal(dkf_net_chan_index(c), -1);
+    assert_int_equal(dkf_net_chan_index("DKF_NODE_"), -1);
+    assert_int_equal(dkf_net_chan_index("DKF_NODE_1x"), -1);
+    assert_string_equal(dkf_net_verdict_str(DKF_NET_REJ_MODEL), "wrong model id");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_node_msg_round_trip),
+        cmocka_unit_test(test_node_msg_rejections),
+        cmocka_unit_test(test_node_msg_real_overflow),
+        cmocka_unit_test(test_meas_round_trip_and_rejections),
+        cmocka_unit_test(test_truth_round_trip),
+        cmocka_unit_test(test_fused_round_trip_and_rejections),
+        cmocka_unit_test(test_status_round_trip),
+        cmocka_unit_test(test_channels),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

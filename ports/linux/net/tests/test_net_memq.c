@@ -1,0 +1,364 @@
+/*
+ * The whole network in one process over LCM's in-process memq:// provider:
+ * the simulator, two nodes and the fusion centre of seed-000 Example 3
+ * (tests/vectors/diffkf/ex3_multi.json) share one transport. Checks that
+ * the fused output equals the vector's `fused` and `central` series, that
+ * invalid messages injected on the node channels are rejected and counted
+ * without disturbing the result, and the (provisional) deadline path.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "agents.h"
+#include "model.h"
+#include "net.h"
+
+#define EX3 DKF_VECTOR_DIR "/diffkf/ex3_multi.json"
+
+/* Tolerance relative to max(1, max|expected|) per series. Double: the
+ * vector's own 1e-9 (the FC rebuilds the centralized DKF exactly in exact
+ * arithmetic; measured 8.6e-16). Float (eps_f = 1.19e-7): every node runs
+ * its DKF in float and the FC recovers dz^i_k through (K^i_k)^+, whose
+ * smallest singular value in Ex 3 is 0.163 (docs/diffkf.md §6), so node
+ * rounding is amplified by up to ~6 before the central step; measured
+ * 3.2e-7 (2.7 eps_f); bound 1e-5 = 84 eps_f, as for the KF vectors. */
+#if DKF_USE_FLOAT
+#define REL 1e-5
+#else
+#define REL 1e-9
+#endif
+
+static size_t flatten(const json_t *j, double *out, size_t cap)
+{
+    size_t i, n = 0;
+    if (json_is_number(j)) {
+        assert_true(cap >= 1);
+        out[0] = json_number_value(j);
+        return 1;
+    }
+    assert_true(json_is_array(j));
+    for (i = 0; i < json_array_size(j); ++i)
+        n += flatten(json_array_get(j, i), out + n, cap - n);
+    return n;
+}
+
+/* max|a - b| / max(1, max|b|) of series key of two output objects. */
+static double rel_diff(const json_t *a, const json_t *b, const char *key)
+{
+    static double va[1 << 16], vb[1 << 16];
+    size_t na = flatten(json_object_get(a, key), va, 1 << 16);
+    size_t nb = flatten(json_object_get(b, key), vb, 1 << 16), i;
+    double d = 0, m = 1;
+    assert_int_equal(na, nb);
+    assert_true(na > 0);
+    for (i = 0; i < na; ++i) {
+        if (fabs(va[i] - vb[i]) > d) d = fabs(va[i] - vb[i]);
+        if (fabs(vb[i]) > m) m = fabs(vb[i]);
+    }
+    return d / m;
+}
+
+static dkf_scenario_t *load(void)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = dkf_scenario_load(EX3, NULL, err, sizeof err);
+    if (s == NULL) fail_msg("%s", err);
+    if (dkf_net_check_scenario(s, err, sizeof err) != 0) fail_msg("%s", err);
+    return s;
+}
+
+/* Publishes y_1..y_{N+1}, handling every message after each time step
+ * (the in-process equivalent of --lockstep). inject(j) runs after y_j.
+ * With late != NULL, late's clock is then advanced 10 s past now, so any
+ * open step is past its deadline (no sleeping, no timing assumption). */
+static void run(dkf_net_t *net, dkf_net_sim_t *sim, void (*inject)(dkf_net_t *, long),
+                dkf_net_fusion_t *late)
+{
+    long j;
+    for (j = 1; j <= dkf_net_sim_last(sim); ++j) {
+        assert_int_equal(dkf_net_sim_publish(sim, j), 0);
+        if (inject != NULL) inject(net, j);
+        assert_true(dkf_net_drain(net, 0) >= 0);
+        if (late != NULL) dkf_net_fusion_tick(late, dkf_net_mono_us() + 10000000, 0);
+    }
+}
+
+/* Compares the fusion result with the vector's fused and central series. */
+static void check_exact(const dkf_net_fusion_t *fu, const dkf_scenario_t *s)
+{
+    json_t *doc = dkf_net_fusion_result(fu);
+    const json_t *got = json_object_get(json_object_get(doc, "outputs"), "fused");
+    const json_t *outs = json_object_get(s->root, "outputs");
+    static const char *const keys[] = {"xf", "xp", "Pf", "Pp"};
+    double worst = 0;
+    size_t i, j;
+    for (i = 0; i < 4; ++i) {
+        const double df = rel_diff(got, json_object_get(outs, "fused"), keys[i]);
+        const double dc = rel_diff(got, json_object_get(outs, "central"), keys[i]);
+        if (df > worst) worst = df;
+        if (dc > worst) worst = dc;
+        if (df > REL || dc > REL) fail_msg("%s: fused %.3e central %.3e > %.0e", keys[i], df, dc, REL);
+    }
+    print_message("worst relative difference to the vector's fused/central: %.3e\n", worst);
+    /* every step complete, both nodes contributed */
+    assert_int_equal(json_array_size(json_object_get(doc, "k")), s->steps);
+    for (j = 0; j < s->steps; ++j) {
+        const json_t *c = json_array_get(json_object_get(doc, "contributors"), j);
+        assert_string_equal(json_string_value(json_array_get(json_object_get(doc, "status"), j)),
+                            "complete");
+        assert_int_equal(json_array_size(c), 2);
+    }
+    json_decref(doc);
+}
+
+static void test_memq_ex3_fused_equals_central(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = load();
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    dkf_net_sim_t *sim;
+    dkf_net_node_t *n0, *n1;
+    dkf_net_fusion_t *fu;
+    (void)state;
+    assert_non_null(net);
+    sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
+    n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
+    assert_non_null(sim);
+    assert_non_null(n0);
+    assert_non_null(n1);
+    if (fu == NULL) fail_msg("%s", err);
+    /* heartbeats make the simulator's peers ready */
+    dkf_net_node_tick(n0, 0, 0);
+    dkf_net_node_tick(n1, 0, 0);
+    dkf_net_fusion_tick(fu, 0, 0);
+    assert_true(dkf_net_drain(net, 0) >= 3);
+    assert_int_equal(dkf_net_sim_ready(sim, err, sizeof err), 1);
+    run(net, sim, NULL, NULL);
+    assert_int_equal(dkf_net_node_state(n0), DKF_NET_DONE);
+    assert_int_equal(dkf_net_node_state(n1), DKF_NET_DONE);
+    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
+    assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
+    assert_int_equal(dkf_net_sim_fused_k(sim), (long)s->steps);
+    assert_int_equal(dkf_net_node_counts(n0)->sent, (int64_t)s->steps);
+    assert_int_equal(dkf_net_node_counts(n0)->received, (int64_t)s->steps + 1);
+    assert_int_equal(dkf_net_fusion_counts(fu)->received, 2 * (int64_t)s->steps);
+    assert_int_equal(dkf_net_fusion_counts(fu)->rejected, 0);
+    assert_int_equal(dkf_net_fusion_counts(fu)->missed, 0);
+    check_exact(fu, s);
+    dkf_net_fusion_free(fu);
+    dkf_net_node_free(n0);
+    dkf_net_node_free(n1);
+    dkf_net_sim_free(sim);
+    dkf_net_close(net);
+    dkf_scenario_free(s);
+}
+
+/* ---- hostile traffic on the node channels --------------------------------------- */
+
+static int64_t g_model;
+
+static void send_msg(dkf_net_t *net, const char *chan, long node, long k, int64_t model, size_t n,
+                     double poison)
+{
+    static dkf_diffkf_msg_t m;
+    unsigned char buf[DKF_NET_MAX_MSG];
+    dkf_net_meta_t meta = {1, 0, 1000, 1};
+    size_t len, i;
+    meta.model_id = model;
+    m.node = (uint16_t)node;
+    m.k = (uint32_t)k;
+    m.n = (uint16_t)n;
+    for (i = 0; i < n; ++i) m.xf[i] = m.xp[i] = (dkf_real_t)1e6; /* absurd if ever used */
+    m.xf[0] = (dkf_real_t)poison;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, &meta), 0);
+    assert_int_equal(dkf_net_publish(net, chan, buf, len), 0);
+}
+
+/* After y_j (j >= 3, so step j-2 was fused and j-1 is pending), sends one
+ * invalid message of each kind for step j-1 or j. */
+static void inject(dkf_net_t *net, long j)
+{
+    unsigned char junk[100];
+    if (j != 3) return;
+    memset(junk, 0xab, sizeof junk);
+    send_msg(net, "T_NODE_0", 0, j - 1, g_model ^ 1, 4, 1.0);   /* wrong model id */
+    send_msg(net, "T_NODE_0", 0, j - 1, g_model, 3, 1.0);       /* wrong dimension */
+    send_msg(net, "T_NODE_0", 0, j - 1, g_model, 4, NAN);       /* non-finite */
+    send_msg(net, "T_NODE_0", 0, j - 1, g_model, 4, INFINITY);  /* non-finite */
+    send_msg(net, "T_NODE_0", 1, j - 1, g_model, 4, 1.0);       /* node 1 on node 0's channel */
+    send_msg(net, "T_NODE_7", 7, j - 1, g_model, 4, 1.0);       /* unknown node */
+    send_msg(net, "T_NODE_0", 0, 1000, g_model, 4, 1.0);        /* step beyond N */
+    send_msg(net, "T_NODE_0", 0, j - 2, g_model, 4, 1.0);       /* late: step already fused */
+    assert_int_equal(dkf_net_publish(net, "T_NODE_1", junk, sizeof junk), 0); /* garbage */
+    assert_int_equal(dkf_net_publish(net, "T_NODE_1", junk, 3), 0);           /* truncated */
+}
+
+static void test_memq_rejects_hostile_messages(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = load();
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    dkf_net_node_t *n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
+    const dkf_net_counts_t *c;
+    (void)state;
+    assert_non_null(fu);
+    g_model = dkf_net_model_id(s);
+    run(net, sim, inject, NULL);
+    c = dkf_net_fusion_counts(fu);
+    assert_int_equal(c->why.by[DKF_NET_REJ_MODEL], 1);
+    assert_int_equal(c->why.by[DKF_NET_REJ_DIM], 1);
+    assert_int_equal(c->why.by[DKF_NET_REJ_NONFINITE], 2);
+    assert_int_equal(c->why.by[DKF_NET_REJ_NODE], 2);
+    assert_int_equal(c->why.by[DKF_NET_REJ_STEP], 1);
+    assert_int_equal(c->why.by[DKF_NET_REJ_MALFORMED], 2);
+    assert_int_equal(c->rejected, 9);
+    assert_int_equal(c->why.total, 9);
+    assert_int_equal(c->stale, 1);
+    assert_int_equal(c->received, 2 * (int64_t)s->steps);
+    assert_int_equal(c->missed, 0);
+    check_exact(fu, s);
+    dkf_net_fusion_free(fu);
+    dkf_net_node_free(n0);
+    dkf_net_node_free(n1);
+    dkf_net_sim_free(sim);
+    dkf_net_close(net);
+    dkf_scenario_free(s);
+}
+
+/* A node whose scenario differs (one entry of its Q) has another model id:
+ * the simulator reports it, the node rejects every measurement (they carry
+ * the simulator's model id) and sends nothing, and every step is published
+ * degraded, with node 0 alone contributing, once its deadline passes. */
+static void test_memq_wrong_model_node_degrades(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = load(), *other = load();
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    dkf_net_node_t *n1;
+    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 1000, err, sizeof err);
+    dkf_scn_mat_t *Q = (dkf_scn_mat_t *)dkf_scn_model(other, "Q");
+    const dkf_net_counts_t *c;
+    json_t *doc;
+    const json_t *fused, *prior;
+    double x1[DKF_MAX_DIM];
+    size_t j;
+    (void)state;
+    Q->data[0] *= 1.5;
+    assert_true(dkf_net_model_id(other) != dkf_net_model_id(s));
+    n1 = dkf_net_node_create(net, other, 1, "T", err, sizeof err);
+    assert_non_null(n1);
+    assert_non_null(fu);
+    dkf_net_node_tick(n1, 0, 0);
+    assert_true(dkf_net_drain(net, 0) >= 1);
+    assert_int_equal(dkf_net_sim_trouble(sim, err, sizeof err), 1);
+    assert_non_null(strstr(err, "node 1 runs another model"));
+    /* nothing can be fused; each step is published degraded at its deadline */
+    run(net, sim, NULL, fu);
+    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
+    c = dkf_net_node_counts(n1);
+    assert_int_equal(c->why.by[DKF_NET_REJ_MODEL], (int64_t)s->steps + 1);
+    assert_int_equal(c->sent, 0);
+    c = dkf_net_fusion_counts(fu);
+    assert_int_equal(c->received, (int64_t)s->steps);
+    assert_int_equal(c->missed, (int64_t)s->steps);
+    doc = dkf_net_fusion_result(fu);
+    fused = json_object_get(json_object_get(doc, "outputs"), "fused");
+    for (j = 0; j < s->steps; ++j) {
+        const json_t *cj = json_array_get(json_object_get(doc, "contributors"), j);
+        assert_string_equal(json_string_value(json_array_get(json_object_get(doc, "status"), j)),
+                            "degraded");
+        assert_int_equal(json_array_size(cj), 1);
+        assert_int_equal(json_integer_value(json_array_get(cj, 0)), 0);
+    }
+    /* step 1 degraded: xf = xp = x_{1|0} = F_0 x_{0|0}, the vector's xp of step 1 */
+    prior = json_array_get(json_object_get(json_object_get(json_object_get(s->root, "outputs"),
+                                                           "central"), "xp"), 0);
+    flatten(prior, x1, DKF_MAX_DIM);
+    for (j = 0; j < s->n; ++j) {
+        assert_true(fabs(json_number_value(json_array_get(json_array_get(
+                             json_object_get(fused, "xf"), 0), j)) - x1[j]) <= 1e-12 * fabs(x1[j]) + 1e-12);
+        assert_true(json_number_value(json_array_get(json_array_get(json_object_get(fused, "xf"), 0), j)) ==
+                    json_number_value(json_array_get(json_array_get(json_object_get(fused, "xp"), 0), j)));
+    }
+    json_decref(doc);
+    dkf_net_fusion_free(fu);
+    dkf_net_node_free(n0);
+    dkf_net_node_free(n1);
+    dkf_net_sim_free(sim);
+    dkf_net_close(net);
+    dkf_scenario_free(s);
+    dkf_scenario_free(other);
+}
+
+/* A node stops hearing y (a lost measurement): it reports the gap and does
+ * not step; the measurements of the wrong node or model are rejected. */
+static void test_memq_node_measurement_checks(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = load();
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    unsigned char buf[DKF_NET_MAX_MSG];
+    dkf_net_meas_t y;
+    size_t len;
+    const dkf_net_counts_t *c;
+    (void)state;
+    assert_non_null(n0);
+    memset(&y, 0, sizeof y);
+    y.meta.model_id = dkf_net_model_id(s);
+    y.node = 0;
+    y.m = s->sensors[0].m;
+    y.k = 1;
+    memcpy(y.y, dkf_scn_y(s, 0, 1), y.m * sizeof(double));
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_publish(net, "T_MEAS_0", buf, len), 0); /* accepted: start */
+    y.k = 3;                                                          /* y_2 lost */
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_publish(net, "T_MEAS_0", buf, len), 0);
+    y.k = 2;
+    y.node = 1;                                                       /* not this node */
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_publish(net, "T_MEAS_0", buf, len), 0);
+    y.node = 0;
+    y.meta.model_id ^= 2;                                             /* another model */
+    assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &y), 0);
+    assert_int_equal(dkf_net_publish(net, "T_MEAS_0", buf, len), 0);
+    assert_true(dkf_net_drain(net, 0) >= 4);
+    c = dkf_net_node_counts(n0);
+    assert_int_equal(c->received, 1);
+    assert_int_equal(c->stale, 1);
+    assert_int_equal(c->missed, 1);
+    assert_int_equal(c->rejected, 2);
+    assert_int_equal(c->why.by[DKF_NET_REJ_NODE], 1);
+    assert_int_equal(c->why.by[DKF_NET_REJ_MODEL], 1);
+    assert_int_equal(c->sent, 0);
+    assert_int_equal(dkf_net_node_state(n0), DKF_NET_RUNNING);
+    dkf_net_node_free(n0);
+    dkf_net_close(net);
+    dkf_scenario_free(s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_memq_ex3_fused_equals_central),
+        cmocka_unit_test(test_memq_rejects_hostile_messages),
+        cmocka_unit_test(test_memq_wrong_model_node_degrades),
+        cmocka_unit_test(test_memq_node_measurement_checks),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,136 @@
+/*
+ * LCM URL safety (net.h): only memq:// and udpm:// to a 239.0.0.0/8 group
+ * with ttl=0 (exactly once) are accepted; dkf_net_open refuses the rest
+ * before LCM is touched.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "net.h"
+
+static void test_accepts_safe_urls(void **state)
+{
+    static const char *const ok[] = {
+        DKF_NET_DEFAULT_URL,
+        "memq://",
+        "udpm://239.255.76.67:7667?ttl=0",
+        "udpm://239.0.0.1:1?ttl=0",
+        "udpm://239.1.2.3?ttl=0",
+        "udpm://239.255.76.67:7667?recv_buf_size=2097152&ttl=0",
+        "udpm://239.255.76.67:65535?ttl=0&recv_buf_size=100000",
+    };
+    char err[DKF_NET_ERR_LEN];
+    size_t i;
+    (void)state;
+    for (i = 0; i < sizeof ok / sizeof ok[0]; ++i) {
+        err[0] = '\0';
+        if (dkf_net_check_url(ok[i], err, sizeof err) != 0) fail_msg("%s refused: %s", ok[i], err);
+    }
+}
+
+static void test_refuses_unsafe_urls(void **state)
+{
+    static const struct {
+        const char *url, *why;
+    } bad[] = {
+        {"udpm://239.255.76.67:7667", "ttl=0 exactly once"},          /* LCM's default ttl */
+        {"udpm://239.255.76.67:7667?ttl=1", "ttl must be 0"},
+        {"udpm://239.255.76.67:7667?ttl=00", "ttl must be 0"},
+        {"udpm://239.255.76.67:7667?ttl=", "ttl must be 0"},
+        {"udpm://239.255.76.67:7667?ttl=0&ttl=1", "ttl must be 0"},
+        {"udpm://239.255.76.67:7667?ttl=0&ttl=0", "ttl=0 exactly once"},
+        {"udpm://239.255.76.67:7667?xttl=0", "ttl=0 exactly once"},
+        {"udpm://224.0.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://238.255.76.67:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://240.0.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://10.0.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://127.0.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.256.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.1.2:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.1.2.3.4:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.1.2.-3:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://0239.1.2.3:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://?ttl=0", "239.0.0.0/8"},
+        {"udpm://host.example:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.255.76.67:0?ttl=0", "bad port"},
+        {"udpm://239.255.76.67:07667?ttl=0", "bad port"},
+        {"udpm://239.255.76.67:70000?ttl=0", "bad port"},
+        {"udpm://239.255.76.67:76a?ttl=0", "bad port"},
+        {"udpm://239.255.76.67:?ttl=0", "bad port"},
+        {"udp://239.255.76.67:7667?ttl=0", "only udpm"},
+        {"tcpq://127.0.0.1:7700", "only udpm"},
+        {"file:///tmp/x.log?mode=w", "only udpm"},
+        {"memq://x", "only udpm"},
+        {"", "only udpm"},
+        {"UDPM://239.255.76.67:7667?ttl=0", "only udpm"},
+    };
+    char err[DKF_NET_ERR_LEN];
+    size_t i;
+    (void)state;
+    for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        err[0] = '\0';
+        if (dkf_net_check_url(bad[i].url, err, sizeof err) == 0)
+            fail_msg("%s accepted", bad[i].url);
+        if (strstr(err, bad[i].why) == NULL)
+            fail_msg("%s: message '%s' lacks '%s'", bad[i].url, err, bad[i].why);
+        /* the message is one line naming the URL */
+        assert_null(strchr(err, '\n'));
+        assert_non_null(strstr(err, bad[i].url));
+    }
+    assert_int_equal(dkf_net_check_url(NULL, err, sizeof err), -1);
+}
+
+/* dkf_net_open applies the same check (no LCM instance is created). */
+static void test_open_refuses(void **state)
+{
+    char err[DKF_NET_ERR_LEN] = "";
+    (void)state;
+    assert_null(dkf_net_open("udpm://239.255.76.67:7667?ttl=1", err, sizeof err));
+    assert_non_null(strstr(err, "ttl must be 0"));
+    assert_null(dkf_net_open("udpm://224.1.1.1:7667?ttl=0", err, sizeof err));
+    assert_non_null(strstr(err, "239.0.0.0/8"));
+}
+
+/* memq:// opens, and a message published is delivered to a subscriber. */
+static int got;
+static void on_msg(const char *channel, const void *data, size_t len, int64_t t, void *user)
+{
+    (void)t;
+    (void)user;
+    assert_string_equal(channel, "DKF_TEST");
+    assert_int_equal(len, 3);
+    assert_memory_equal(data, "abc", 3);
+    ++got;
+}
+
+static void test_memq_round_trip(void **state)
+{
+    char err[DKF_NET_ERR_LEN] = "";
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    (void)state;
+    assert_non_null(net);
+    assert_int_equal(dkf_net_subscribe(net, "DKF_TEST", on_msg, NULL), 0);
+    assert_int_equal(dkf_net_publish(net, "DKF_TEST", "abc", 3), 0);
+    assert_int_equal(dkf_net_publish(net, "OTHER", "xyz", 3), 0);
+    /* memq may drop a message nobody subscribed to before queueing it */
+    assert_true(dkf_net_drain(net, 100) >= 1);
+    assert_int_equal(got, 1);
+    assert_int_equal(dkf_net_handle(net, 0), 0);
+    dkf_net_close(net);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_accepts_safe_urls),
+        cmocka_unit_test(test_refuses_unsafe_urls),
+        cmocka_unit_test(test_open_refuses),
+        cmocka_unit_test(test_memq_round_trip),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

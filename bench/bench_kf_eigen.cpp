@@ -1,16 +1,19 @@
 /*
- * bench/bench_kf_eigen.cpp - the reference: the same Kalman step as
- * src/kf.c, written the way one writes it with Eigen 3.4 fixed-size
- * matrices (Matrix<Real, N, N>, LLT for S). Built twice by
+ * bench/bench_kf_eigen.cpp - the reference: the Kalman step a competent
+ * Eigen 3.4 user writes with fixed-size matrices (Matrix<Real, N, N>, LLT
+ * for S), i.e. what one would pick instead of dkf. Built twice by
  * bench/CMakeLists.txt: -O2, and -O3 -march=native.
  *
  * Same models, data, timing and checksum as bench_kf.c (bench_common.h).
- * The arithmetic follows src/kf.c formula for formula (Joseph form when
- * the library is built with DKF_JOSEPH=1; every stored covariance made
- * exactly symmetric by mirroring its upper triangle, as kf.c does), so the
- * checksums agree to rounding: only the order of the sums inside the
- * products differs, and Eigen computes whole products where kf.c computes
- * only the upper triangle.
+ * It is written from the textbook formulas, not from src/kf.c's algorithm:
+ *   predict  x = F x,  P = F P F^T + Q;
+ *   update   nu = y - H x,  S = H P H^T + R,  K = P H^T S^{-1} (LLT),
+ *            NIS = nu^T S^{-1} nu,  x += K nu,
+ *            P = (I - K H) P (I - K H)^T + K R K^T   (Joseph, DKF_JOSEPH=1)
+ *            or P -= K H P                           (DKF_JOSEPH=0),
+ * and P made exactly symmetric after each step (upper triangle mirrored),
+ * as dkf stores it. The mathematical quantities are those of dkf, so the
+ * checksums agree to rounding (different evaluation orders only).
  *
  * BENCH_USE_FLOAT (set from DKF_REAL by CMake) picks the real type;
  * BENCH_JOSEPH (from DKF_JOSEPH) the covariance update.
@@ -80,40 +83,33 @@ struct Case {
 
     static double run(long steps)
     {
+        const MatM I = MatM::Identity();
         VecN x = md.x0;
         MatN P = md.P0;
         for (long k = 0; k < steps; ++k) {
             const VecM &y = md.Y[k % BENCH_NMEAS];
 
-            // Predict: x = F x; P = (F P) F^T + Q, upper triangle mirrored
-            // (src/kf.c computes only the upper triangle and mirrors it).
+            // Predict.
             x = md.F * x;
-            const MatN Pp = md.F * P * md.F.transpose() + md.Q;
-            P = Pp.template selfadjointView<Eigen::Upper>();
+            P = md.F * P * md.F.transpose() + md.Q;
+            P = P.template selfadjointView<Eigen::Upper>(); // symmetrise, as dkf does
 
-            // Update: nu = y - H x; PHt = P H^T; S = H PHt + R (mirrored);
-            // Kt = K^T = S^{-1} PHt^T by Cholesky; NIS = |L^{-1} nu|^2.
+            // Update: innovation, its covariance, gain through a Cholesky
+            // factorisation of S.
             const VecM nu = y - md.H * x;
-            const MatNM PHt = P * md.H.transpose();
-            const MatM Su = md.H * PHt + md.R;
-            const MatM S = Su.template selfadjointView<Eigen::Upper>();
+            const MatM S = md.H * P * md.H.transpose() + md.R;
             const Eigen::LLT<MatM> llt(S);
             if (llt.info() != Eigen::Success) return NAN;
-            const MatMN Kt = llt.solve(PHt.transpose());
-            g_nis = llt.matrixL().solve(nu).squaredNorm();
-            x += Kt.transpose() * nu;
+            const MatNM K = P * md.H.transpose() * llt.solve(I);
+            g_nis = nu.dot(llt.solve(nu));
+            x += K * nu;
 #if BENCH_JOSEPH
-            // Joseph form: A = I - K H; P = (A P) A^T + (K R) K^T, upper
-            // triangle mirrored (exactly symmetric, as in src/kf.c).
-            const MatN A = MatN::Identity() - Kt.transpose() * md.H;
-            const MatNM KR = Kt.transpose() * md.R;
-            const MatN Pj = A * P * A.transpose() + KR * Kt;
-            P = Pj.template selfadjointView<Eigen::Upper>();
+            const MatN A = MatN::Identity() - K * md.H;
+            P = A * P * A.transpose() + K * md.R * K.transpose();
 #else
-            // P = P - PHt Kt (= P - K S K^T), upper triangle mirrored.
-            const MatN Ps = P - PHt * Kt;
-            P = Ps.template selfadjointView<Eigen::Upper>();
+            P -= K * md.H * P;
 #endif
+            P = P.template selfadjointView<Eigen::Upper>(); // symmetrise, as dkf does
         }
         return (double)x.sum() + (double)P.trace();
     }

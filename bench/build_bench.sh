@@ -17,5 +17,5 @@ b="${BENCH_BUILD_PREFIX:-$root/build-bench}-$t"
 cmake -S "$root" -B "$b" -DDKF_REAL="$t" -DDKF_JOSEPH="${BENCH_JOSEPH:-ON}" \
   -DDKF_BUILD_BENCH=ON -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=OFF \
   -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_FLAGS_RELEASE="-O2 -g -DNDEBUG" >/dev/null
-cmake --build "$b" -j2 --target bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3native >/dev/null
+cmake --build "$b" -j2 --target bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3native bench_uif >/dev/null
 echo "$b"

@@ -12,6 +12,9 @@
 #     Ir/step = (Ir_total(S) - Ir_total(0)) / S
 # counts exactly S predict+update steps and nothing else.
 #
+# Then the same for bench_uif, one filter at a time (--filter): DKF, ASKF
+# and OTSKF instructions per step on seed 000 Example 1.
+#
 # With BENCH_PROFILE=1 it also prints, for dkf, the functions with the most
 # self instructions in the S-step run (callgrind_annotate), to show where a
 # step's time goes. Those counts include the 1000 checksum steps, so
@@ -66,6 +69,26 @@ for t in $types; do
     }'
     unset per
   done
+done
+
+echo
+printf "%-7s %12s %12s %12s   %s\n" type dkf_Ir askf_Ir otskf_Ir "DKF : ASKF : OTSKF"
+for t in $types; do
+  b="$("$here/build_bench.sh" "$t")"
+  declare -A per=()
+  for flt in dkf askf otskf; do
+    valgrind --tool=callgrind --callgrind-out-file="$out/uif.$flt.$t.S" -q \
+      "$b/bench/bench_uif" --filter "$flt" --steps "$steps" --repeats 1 >/dev/null
+    valgrind --tool=callgrind --callgrind-out-file="$out/uif.$flt.$t.0" -q \
+      "$b/bench/bench_uif" --filter "$flt" --steps 0 --repeats 1 >/dev/null
+    a="$(total_ir "$out/uif.$flt.$t.S")"
+    z="$(total_ir "$out/uif.$flt.$t.0")"
+    per[$flt]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+  done
+  awk -v t="$t" -v d="${per[dkf]}" -v a="${per[askf]}" -v o="${per[otskf]}" 'BEGIN {
+    printf "%-7s %12.1f %12.1f %12.1f   1 : %.2f : %.2f\n", t, d, a, o, a / d, o / d
+  }'
+  unset per
 done
 
 if [[ "${BENCH_PROFILE:-0}" == 1 ]]; then

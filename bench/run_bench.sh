@@ -2,6 +2,8 @@
 # bench/run_bench.sh - builds the KF step benchmarks (dkf, Eigen -O2, Eigen
 # -O3 -march=native) for double and float and runs them all in ONE run,
 # then prints one table row per (n, m, type): times, ratios, checksums.
+# Then, in the same run, bench_uif (DKF : ASKF : OTSKF per step on seed
+# 000 Example 1) for each type: a second table of times and ratios.
 #
 #   bench/run_bench.sh [extra benchmark args, e.g. --repeats 51 --target-ms 40]
 #
@@ -46,7 +48,8 @@ for t in $types; do
 done
 
 raw="$(mktemp)"
-trap 'rm -f "$raw"' EXIT
+rawuif="$(mktemp)"
+trap 'rm -f "$raw" "$rawuif"' EXIT
 
 {
   echo "# date:     $(date -u '+%Y-%m-%d %H:%M UTC')"
@@ -69,11 +72,14 @@ for ((r = 1; r <= rounds; ++r)); do
         "${pin[@]}" "${dir[$t]}/bench/$e" --case "$c" "$@" | tee -a "$raw" >&2
       done
     done
+    # The three unknown-input filters, back to back in one process.
+    "${pin[@]}" "${dir[$t]}/bench/bench_uif" "$@" | tee -a "$rawuif" >&2
   done
 done
-[[ -n "${BENCH_RAW:-}" ]] && cp "$raw" "$BENCH_RAW"
+[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" >"$BENCH_RAW"
 
 # Lines: impl type n m ns steps repeats checksum
+status=0
 awk '
 function median(key,   n, i, j, t, a) {
   n = cnt[key]
@@ -109,4 +115,28 @@ END {
       n, m, ty, d, e2, e3, d / e2, d / e3, rel, ok, sum[kd]
   }
   exit bad
-}' "$raw"
+}' "$raw" || status=$?
+
+# Unknown-input filters: uif-dkf, uif-askf, uif-otskf (the paper: 1 : 1.74 : 1.26)
+echo
+awk '
+function median(key,   n, i, j, t, a) {
+  n = cnt[key]
+  for (i = 1; i <= n; ++i) a[i] = val[key, i]
+  for (i = 2; i <= n; ++i) { t = a[i]; for (j = i - 1; j >= 1 && a[j] > t; --j) a[j + 1] = a[j]; a[j + 1] = t }
+  return (n % 2) ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
+}
+{
+  key = $1 SUBSEP $2
+  val[key, ++cnt[key]] = $5
+  if (!($2 in seen)) { seen[$2] = 1; order[++nt] = $2 }
+}
+END {
+  printf "%-7s %10s %10s %10s   %s\n", "type", "dkf_ns", "askf_ns", "otskf_ns", "DKF : ASKF : OTSKF (paper 1 : 1.74 : 1.26)"
+  for (i = 1; i <= nt; ++i) {
+    ty = order[i]
+    d = median("uif-dkf" SUBSEP ty); a = median("uif-askf" SUBSEP ty); o = median("uif-otskf" SUBSEP ty)
+    printf "%-7s %10.1f %10.1f %10.1f   1 : %.2f : %.2f\n", ty, d, a, o, a / d, o / d
+  }
+}' "$rawuif"
+exit "$status"

@@ -18,17 +18,26 @@ void dkf__copy(dkf_real_t *dst, const dkf_real_t *src, size_t n);
 /* C (r x c) = A (r x k) B (k x c). C must not overlap A or B. */
 void dkf__mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
                  size_t c);
-/* Dot product of two contiguous vectors of length k (k may be 0). */
+/* Dot product of two contiguous vectors of length k (k may be 0), summed
+ * in index order. */
 dkf_real_t dkf__dot(const dkf_real_t *a, const dkf_real_t *b, size_t k);
 /* C (r x c) = A (r x k) B^T, B c x k. */
 void dkf__mul_nt(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r, size_t k,
                  size_t c);
 /* C (r x r) = A (r x k) B^T + D, B r x k, symmetric by construction: only
  * the upper triangle is computed and mirrored. D (r x r) may be NULL; if
- * given, only its upper triangle is read. */
+ * given, only its upper triangle is read, and D may be C itself (C += A B^T
+ * on the upper triangle); C must not overlap A or B. */
 void dkf__mul_nt_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
                      size_t r, size_t k);
-/* y (r) = A (r x c) x (c). */
+/* C (r x r) = A (r x k) B (k x r) + D for a product known to be symmetric
+ * (e.g. F (P F^T), K (H P)): only the upper triangle is computed, with
+ * the row-major blocks of dkf__mul_nn, and mirrored. D as in
+ * dkf__mul_nt_sym (NULL, or upper triangle read, may be C itself); C must
+ * not overlap A or B. */
+void dkf__mul_nn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
+                     size_t r, size_t k);
+/* y (r) = A (r x c) x (c). y must not overlap A or x. */
 void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c);
 /* A = (A + A^T) / 2 for n x n A. */
 void dkf__symmetrise(dkf_real_t *A, size_t n);

@@ -47,6 +47,10 @@ typedef struct {
     dkf_real_t *Apy;   /* A_k^+ y_k                                p     */
     /* caches: Ap = pinv(Alast), Binv = inv(Blast) */
     dkf_real_t *Alast, *Ap, *Blast, *Binv;
+    /* the model inputs the model-only block (G, M, Ru, S, C_{k+1}, ...) was
+     * last computed from: F, Q, B, Rd, H_{k+1}, A_{k+1}, R_{k+1}, and the
+     * carried A_k^+ H_k, A_k^+ R_k A_k^{+T} */
+    dkf_real_t *mF, *mQ, *mB, *mRd, *mH, *mA, *mR, *mApH, *mApRAp;
     /* pending: the gain phase of step k */
     dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *CLin, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
     /* scratch */
@@ -73,6 +77,15 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     TAKE(L->Ap, p * m);
     TAKE(L->Blast, p * p);
     TAKE(L->Binv, p * p);
+    TAKE(L->mF, n * n);
+    TAKE(L->mQ, n * n);
+    TAKE(L->mB, p * p);
+    TAKE(L->mRd, p * p);
+    TAKE(L->mH, m * n);
+    TAKE(L->mA, m * p);
+    TAKE(L->mR, m * m);
+    TAKE(L->mApH, p * n);
+    TAKE(L->mApRAp, p * p);
     TAKE(L->G, p * m);
     TAKE(L->M, p * n);
     TAKE(L->Jn, n * p);
@@ -166,6 +179,31 @@ static dkf_status_t check_meas(const dkf_diffkf_t *f, const dkf_ui_meas_t *meas)
     DKF_TRY(dkf__check_input(meas->H, f->m, f->n));
     DKF_TRY(dkf__check_input(meas->A, f->m, f->p));
     return dkf__check_input(meas->R, f->m, f->m);
+}
+
+static dkf_status_t check_model_shapes(const dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                                       const dkf_ui_meas_t *meas)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    DKF_CHECK_NULL(dyn);
+    DKF_CHECK_NULL(meas);
+    DKF_TRY(dkf__check_shape(dyn->F, n, n));
+    DKF_TRY(dkf__check_shape(dyn->Q, n, n));
+    DKF_TRY(dkf__check_shape(dyn->B, p, p));
+    DKF_TRY(dkf__check_shape(dyn->Rd, p, p));
+    DKF_TRY(dkf__check_shape(meas->H, m, n));
+    DKF_TRY(dkf__check_shape(meas->A, m, p));
+    return dkf__check_shape(meas->R, m, m);
+}
+
+/* Finiteness of every model input (shapes already checked). */
+static dkf_status_t check_model_finite(const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas)
+{
+    const dkf_mat_t *const all[] = {dyn->F, dyn->Q, dyn->B, dyn->Rd, meas->H, meas->A, meas->R};
+    size_t i;
+    for (i = 0; i < sizeof all / sizeof all[0]; ++i)
+        if (!dkf__all_finite(all[i]->data, all[i]->rows * all[i]->cols)) return DKF_ERR_NONFINITE;
+    return DKF_OK;
 }
 
 /* Ap = A^+ (p x m), from the cache when A is bitwise the cached matrix.
@@ -277,25 +315,15 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     return DKF_OK;
 }
 
-dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
-                             const dkf_ui_meas_t *meas_next)
+/* The part of a step that depends on the model only (not on P or data):
+ * G, GH = G H_{k+1}, M, Ru, S, C_{k+1}, A_{k+1}^+ H_{k+1} and
+ * A_{k+1}^+ R_{k+1} A_{k+1}^{+T}. */
+static dkf_status_t model_block(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_dyn_t *dyn,
+                                const dkf_ui_meas_t *meas_next)
 {
-    dkf_real_t inv[DKF_MAX_DIM];
-    size_t n, m, p, i, j;
-    layout_t L;
-    DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started) return DKF_ERR_STATE;
-    n = f->n;
-    m = f->m;
-    p = f->p;
-    DKF_CHECK_NULL(dyn);
-    DKF_TRY(dkf__check_input(dyn->F, n, n));
-    DKF_TRY(dkf__check_input(dyn->Q, n, n));
-    DKF_TRY(dkf__check_input(dyn->B, p, p));
-    DKF_TRY(dkf__check_input(dyn->Rd, p, p));
-    DKF_TRY(check_meas(f, meas_next));
-    f->pending = 0;
-    L = mem_of(f);
+    const layout_t L = *L_;
+    const size_t n = f->n, m = f->m, p = f->p;
+    size_t i;
     DKF_TRY(pinv_cached(f, &L, meas_next->A));
     DKF_TRY(inverse_cached(f, &L, dyn->B));
 
@@ -313,6 +341,65 @@ dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
 
     /* S = Q H_{k+1}^T G^T = Q GH^T                                     (13) */
     dkf__mul_nt(L.S, dyn->Q->data, L.GH, n, n, p);
+
+    /* the next step's correlation C_{k+1} = -A_{k+1}^+ R_{k+1} G^T    (15),
+     * and the model products at k+1 it will carry */
+    dkf__mul_nn(L.T3, L.Ap, meas_next->R->data, p, m, m);
+    dkf__mul_nt(L.Cn, L.T3, L.G, p, m, p);
+    for (i = 0; i < p * p; ++i) L.Cn[i] = -L.Cn[i];
+    meas_products(f, &L, meas_next, L.ApHn, L.ApRApn);
+    return DKF_OK;
+}
+
+/* 1 if the n reals at a equal those at b bit for bit. */
+static int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
+{
+    return memcmp(a, b, n * sizeof *a) == 0;
+}
+
+/* model_block, skipped when every model input is bitwise the one it was
+ * last computed from (a time-invariant model then pays for it once). The
+ * flag is cleared before the block is recomputed, so a failure part-way
+ * never leaves a stale block marked valid. */
+static dkf_status_t model_block_memo(dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
+                                     const dkf_ui_meas_t *meas_next)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    /* A hit also proves the inputs finite: they equal, bit for bit, inputs
+     * that were checked when the block was computed. */
+    if (f->model_cached && same_bits(L->mF, dyn->F->data, n * n) &&
+        same_bits(L->mQ, dyn->Q->data, n * n) && same_bits(L->mB, dyn->B->data, p * p) &&
+        same_bits(L->mRd, dyn->Rd->data, p * p) && same_bits(L->mH, meas_next->H->data, m * n) &&
+        same_bits(L->mA, meas_next->A->data, m * p) && same_bits(L->mR, meas_next->R->data, m * m) &&
+        same_bits(L->mApH, L->ApH, p * n) && same_bits(L->mApRAp, L->ApRAp, p * p))
+        return DKF_OK;
+    DKF_TRY(check_model_finite(dyn, meas_next));
+    f->model_cached = 0;
+    DKF_TRY(model_block(f, L, dyn, meas_next));
+    dkf__copy(L->mF, dyn->F->data, n * n);
+    dkf__copy(L->mQ, dyn->Q->data, n * n);
+    dkf__copy(L->mB, dyn->B->data, p * p);
+    dkf__copy(L->mRd, dyn->Rd->data, p * p);
+    dkf__copy(L->mH, meas_next->H->data, m * n);
+    dkf__copy(L->mA, meas_next->A->data, m * p);
+    dkf__copy(L->mR, meas_next->R->data, m * m);
+    dkf__copy(L->mApH, L->ApH, p * n);
+    dkf__copy(L->mApRAp, L->ApRAp, p * p);
+    f->model_cached = 1;
+    return DKF_OK;
+}
+
+/* The gain phase on the storage map L (computed once per call chain). */
+static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_dyn_t *dyn,
+                              const dkf_ui_meas_t *meas_next)
+{
+    const layout_t L = *L_;
+    const size_t n = f->n, p = f->p;
+    dkf_real_t inv[DKF_MAX_DIM];
+    size_t i, j;
+    DKF_TRY(check_model_shapes(f, dyn, meas_next));
+    f->pending = 0;
+    DKF_TRY(model_block_memo(f, &L, dyn, meas_next));
 
     /* J = P M^T - W_{k-1} C_k^T                                         (19) */
     dkf__mul_nt(L.Jn, f->Pp.data, L.M, n, n, p);
@@ -348,13 +435,8 @@ dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, p);
     for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
 
-    /* next step's correlation: C_{k+1} = -A_{k+1}^+ R_{k+1} G^T      (15);
-     * C_{k+1} L_k^{-1}; and the model products at k+1 */
-    dkf__mul_nn(L.T3, L.Ap, meas_next->R->data, p, m, m);
-    dkf__mul_nt(L.Cn, L.T3, L.G, p, m, p);
-    for (i = 0; i < p * p; ++i) L.Cn[i] = -L.Cn[i];
+    /* C_{k+1} L_k^{-1} for the next step */
     right_solve(L.CLin, L.Cn, L.Lc, inv, p, p, L.T2);
-    meas_products(f, &L, meas_next, L.ApHn, L.ApRApn);
 
     /* the correlated part of the predicted z: C_k L_{k-1}^{-1} dz_{k-1} */
     dkf__mul_vec(L.zc, L.CLi, L.dzp, p, p);
@@ -366,6 +448,16 @@ dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
         return DKF_ERR_NONFINITE;
     f->pending = 1;
     return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                             const dkf_ui_meas_t *meas_next)
+{
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->ready || !f->started) return DKF_ERR_STATE;
+    L = mem_of(f);
+    return gain_impl(f, &L, dyn, meas_next);
 }
 
 dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *K,
@@ -381,21 +473,17 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
     return DKF_OK;
 }
 
-dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)
+/* The update phase on the storage map L; z and y_next already checked. */
+static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_real_t *zk,
+                                const dkf_mat_t *y_next)
 {
+    const layout_t L = *L_;
+    const size_t n = f->n, p = f->p;
     dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
-    size_t n, p, i;
-    layout_t L;
-    DKF_CHECK_NULL(f);
-    if (!f->pending) return DKF_ERR_STATE;
-    n = f->n;
-    p = f->p;
-    DKF_TRY(dkf__check_input(z, p, 1));
-    if (y_next != NULL) DKF_TRY(dkf__check_input(y_next, f->m, 1));
-    L = mem_of(f);
+    size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
     dkf__mul_vec(dz, L.M, f->xp.data, p, n);
-    for (i = 0; i < p; ++i) dz[i] = z->data[i] - dz[i] - L.zc[i];
+    for (i = 0; i < p; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
     dkf__mul_vec(xf, L.Kn, dz, n, p);
     dkf__mul_vec(xp, L.Fn, f->xp.data, n, n);
@@ -412,7 +500,7 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
     dkf__copy(f->Pf.data, L.Pfn, n * n);
     dkf__copy(f->xp.data, xp, n);
     dkf__copy(f->Pp.data, L.Ppn, n * n);
-    dkf__copy(f->z.data, z->data, p);
+    dkf__copy(f->z.data, zk, p);
     dkf__copy(f->dz.data, dz, p);
     dkf__copy(f->J.data, L.Jn, n * p);
     dkf__copy(f->L.data, L.Ln, p * p);
@@ -430,11 +518,21 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
     return DKF_OK;
 }
 
+dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)
+{
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->pending) return DKF_ERR_STATE;
+    DKF_TRY(dkf__check_input(z, f->p, 1));
+    if (y_next != NULL) DKF_TRY(dkf__check_input(y_next, f->m, 1));
+    L = mem_of(f);
+    return update_impl(f, &L, z->data, y_next);
+}
+
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next)
 {
-    dkf_real_t zbuf[DKF_MAX_DIM];
-    dkf_mat_t z;
+    dkf_real_t z[DKF_MAX_DIM];
     dkf_status_t st;
     layout_t L;
     size_t i;
@@ -443,15 +541,12 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     if (!f->ready || !f->started || !f->has_y) return DKF_ERR_STATE;
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
     was_pending = f->pending;
-    DKF_TRY(dkf_diffkf_gain(f, dyn, meas_next));
-    /* z_k = G y_{k+1} - A_k^+ y_k                                        (8) */
     L = mem_of(f);
-    dkf__mul_vec(zbuf, L.G, y_next->data, f->p, f->m);
-    for (i = 0; i < f->p; ++i) zbuf[i] -= L.Apy[i];
-    z.rows = f->p;
-    z.cols = 1;
-    z.data = zbuf;
-    st = dkf_diffkf_update_z(f, &z, y_next);
+    DKF_TRY(gain_impl(f, &L, dyn, meas_next));
+    /* z_k = G y_{k+1} - A_k^+ y_k                                        (8) */
+    dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
+    for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
+    st = update_impl(f, &L, z, y_next);
     /* the pending gain is valid for the unchanged state: restore the flag */
     if (st != DKF_OK) f->pending = was_pending;
     return st;

@@ -43,6 +43,8 @@
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
      + 4 * (n) * (n) + 11 * (n) * (p) + 12 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
      /* carried, caches of A^+ and B^{-1}, pending gain and data, scratch */ \
+     + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
+     /* the model inputs of the memoised model-only block */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
 
 typedef struct {
@@ -64,8 +66,9 @@ typedef struct {
     int started;     /* dkf_diffkf_start done */
     int has_y;       /* A_k^+ y_k is stored, so dkf_diffkf_step can difference */
     int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
-    /* caches of A^+ and B^{-1} (valid flags): not part of the state */
-    int a_cached, b_cached;
+    /* caches of A^+, B^{-1} and the model-only block (valid flags): not
+     * part of the state */
+    int a_cached, b_cached, model_cached;
 } dkf_diffkf_t;
 
 #define DKF_DIFFKF_DECLARE(name, n, m, p) \

@@ -15,6 +15,8 @@ const char *dkf_status_str(dkf_status_t status)
     case DKF_ERR_NO_CONVERGENCE: return "no convergence";
     case DKF_ERR_STATE: return "call out of sequence";
     case DKF_ERR_ARG: return "argument out of domain";
+    case DKF_ERR_GRAPH: return "invalid graph";
+    case DKF_ERR_WEIGHTS: return "weights not stochastic";
     }
     return "unknown status";
 }

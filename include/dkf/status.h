@@ -20,7 +20,9 @@ typedef enum {
     DKF_ERR_ALIAS = -8,          /* an output overlaps an input where that is not allowed */
     DKF_ERR_NO_CONVERGENCE = -9, /* an iterative method hit its iteration limit */
     DKF_ERR_STATE = -10,         /* call out of sequence (e.g. before init) */
-    DKF_ERR_ARG = -11            /* an argument is outside its domain */
+    DKF_ERR_ARG = -11,           /* an argument is outside its domain */
+    DKF_ERR_GRAPH = -12,         /* malformed graph, or a link that is not in it */
+    DKF_ERR_WEIGHTS = -13        /* weights not (row/doubly) stochastic or negative */
 } dkf_status_t;
 
 /* Short constant description of a status, e.g. "matrix not SPD".

@@ -1,0 +1,520 @@
+/*
+ * Talebi-Werner filters with unknown actuations (dkf/tw.h): seed 003
+ * Algorithms 1-3 as corrected in docs/graph-filters.md.
+ *
+ * The local step evaluates the information form (9)-(20) through product
+ * identities that avoid the cancellations of the printed formulas
+ * (Psi = Phi-^{-1} + Q, Phi+ = Psi^{-1}, Lambda = I - Q Psi^{-1}):
+ *   Lambda = Phi-^{-1} Phi+          since (Psi - Q) Psi^{-1} = Phi-^{-1} Psi^{-1}
+ *   Phi- Lambda = Phi+               so (19)-(20): phi+ = phi- + Phi+ (s - Q phi-)
+ *   (I - Phi- Pi) = I - Phi+ Q = Phi+ Phi-^{-1}   so (8a): G = Phi+ (Phi-^{-1} B)
+ *   Pi = Lambda Q,  B^T Lambda = G^T  so (12): S = G^T (Q B), (18): z = S^{-1} G^T (s - Q phi-)
+ * Pi = Q - Q Psi^{-1} Q itself is never formed: with 200 nodes Q is ~1e3
+ * times Pi and the subtraction would cost three digits (float: all of
+ * the margin). Every product above has positive factors only.
+ */
+#include "dkf/tw.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+/* What a step shows: z and the views, in this order, once committed and
+ * once pending, so a commit is one copy. */
+typedef struct {
+    dkf_real_t *z, *phi, *Phi, *Q, *s, *phi_post, *Phi_post, *S, *G, *psi, *Ploc;
+} block_t;
+
+static size_t block_len(size_t n, size_t m) { return m + 4 * n + 4 * n * n + m * m + n * m; }
+
+static block_t block_at(dkf_real_t *b, size_t n, size_t m)
+{
+    block_t k;
+    k.z = b;
+    k.phi = k.z + m;
+    k.Phi = k.phi + n;
+    k.Q = k.Phi + n * n;
+    k.s = k.Q + n * n;
+    k.phi_post = k.s + n;
+    k.Phi_post = k.phi_post + n;
+    k.S = k.Phi_post + n * n;
+    k.G = k.S + m * m;
+    k.psi = k.G + n * m;
+    k.Ploc = k.psi + n;
+    return k;
+}
+
+/* nd->mem: pending block, then scratch. */
+typedef struct {
+    dkf_real_t *pend;
+    dkf_real_t *J, *C, *T;       /* n x n: Phi-^{-1}, Cholesky factors, Psi / unpacked P */
+    dkf_real_t *JB, *QB, *GSi;   /* n x m */
+    dkf_real_t *Sc, *Si;         /* m x m: Cholesky of S, S^{-1} */
+    dkf_real_t *r;               /* n: s - Q phi- */
+    dkf_real_t *Lw, *RiH, *Riy;  /* measurement: chol(Sw), Sw^{-1} H, Sw^{-1} y */
+    dkf_real_t *stage, *acc;     /* packets: one being built, the central sum */
+} layout_t;
+
+static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    size_t used = 0;
+#define TAKE(ptr, count) \
+    do { \
+        (ptr) = base != NULL ? base + used : NULL; \
+        used += (count); \
+    } while (0)
+    TAKE(L->pend, block_len(n, m));
+    TAKE(L->J, n * n);
+    TAKE(L->C, n * n);
+    TAKE(L->T, n * n);
+    TAKE(L->JB, n * m);
+    TAKE(L->QB, n * m);
+    TAKE(L->GSi, n * m);
+    TAKE(L->Sc, m * m);
+    TAKE(L->Si, m * m);
+    TAKE(L->r, n);
+    TAKE(L->Lw, p * p);
+    TAKE(L->RiH, p * n);
+    TAKE(L->Riy, p);
+    TAKE(L->stage, DKF_TW_PKT_LEN(n));
+    TAKE(L->acc, DKF_TW_PKT_LEN(n));
+#undef TAKE
+    return used;
+}
+
+/* committed: x, P, block */
+static size_t committed_len(size_t n, size_t m) { return n + n * n + block_len(n, m); }
+
+static layout_t mem_of(const dkf_tw_node_t *nd)
+{
+    layout_t L;
+    (void)layout(&L, nd->mem, nd->n, nd->m, nd->p_max);
+    return L;
+}
+
+static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
+{
+    v->rows = r;
+    v->cols = c;
+    v->data = data;
+}
+
+/* Packed upper triangle <-> full symmetric n x n. */
+static void pack_sym(dkf_real_t *p, const dkf_real_t *A, size_t n)
+{
+    size_t i, j, e = 0;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j) p[e++] = A[i * n + j];
+}
+
+static void unpack_sym(dkf_real_t *A, const dkf_real_t *p, size_t n)
+{
+    size_t i, j, e = 0;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j) {
+            A[i * n + j] = p[e];
+            A[j * n + i] = p[e];
+            ++e;
+        }
+}
+
+dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m, size_t p_max,
+                              dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                              const dkf_mat_t *P0)
+{
+    dkf_tw_node_t g;
+    dkf_real_t inv[DKF_MAX_DIM];
+    layout_t L;
+    block_t b;
+    size_t total;
+    DKF_CHECK_NULL(nd);
+    DKF_CHECK_NULL(storage);
+    if (n == 0 || m == 0 || p_max == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p_max > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    if (m > n) return DKF_ERR_RANK;
+    total = committed_len(n, m) + layout(&L, NULL, n, m, p_max);
+    if (storage_len < total) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    g.m = m;
+    g.p_max = p_max;
+    g.mem = storage + committed_len(n, m);
+    L = mem_of(&g);
+    /* P0 must be SPD. The test factorisation writes into the scratch part
+     * of storage only: every caller-visible value is set after it. */
+    if (dkf__chol(L.C, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    memset(storage, 0, total * sizeof *storage);
+    set_view(&g.x, n, 1, storage);
+    set_view(&g.P, n, n, storage + n);
+    b = block_at(storage + n + n * n, n, m);
+    set_view(&g.z, m, 1, b.z);
+    set_view(&g.phi, n, 1, b.phi);
+    set_view(&g.Phi, n, n, b.Phi);
+    set_view(&g.Q, n, n, b.Q);
+    set_view(&g.s, n, 1, b.s);
+    set_view(&g.phi_post, n, 1, b.phi_post);
+    set_view(&g.Phi_post, n, n, b.Phi_post);
+    set_view(&g.S, m, m, b.S);
+    set_view(&g.G, n, m, b.G);
+    set_view(&g.psi, n, 1, b.psi);
+    set_view(&g.Ploc, n, n, b.Ploc);
+    dkf__copy(g.x.data, x0->data, n);
+    dkf__copy(g.P.data, P0->data, n * n);
+    g.ready = 1;
+    *nd = g;
+    return DKF_OK;
+}
+
+/* Builds scale * [H^T Sw^{-1} y | packed H^T Sw^{-1} H] in L.stage. */
+static dkf_status_t meas_info(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw_sensor_t *sn,
+                              dkf_real_t scale)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    const size_t n = nd->n;
+    size_t p, a, b, l, e;
+    DKF_CHECK_NULL(sn);
+    DKF_TRY(dkf__check_mat(sn->H));
+    p = sn->H->rows;
+    if (p > nd->p_max) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(sn->H, p, n));
+    DKF_TRY(dkf__check_input(sn->Sw, p, p));
+    DKF_TRY(dkf__check_input(sn->y, p, 1));
+    if (!dkf__all_finite(&scale, 1)) return DKF_ERR_NONFINITE;
+    /* Sw^{-1} H and Sw^{-1} y by one Cholesky factorisation: (17), (21) */
+    if (dkf__chol(L->Lw, inv, sn->Sw->data, p) != 0) return DKF_ERR_NOT_SPD;
+    dkf__copy(L->RiH, sn->H->data, p * n);
+    dkf__chol_solve(L->Lw, inv, L->RiH, p, n);
+    dkf__copy(L->Riy, sn->y->data, p);
+    dkf__chol_solve(L->Lw, inv, L->Riy, p, 1);
+    e = n;
+    for (a = 0; a < n; ++a) {
+        dkf_real_t v = DKF_R(0.0);
+        for (l = 0; l < p; ++l) v += sn->H->data[l * n + a] * L->Riy[l];
+        L->stage[a] = scale * v;
+        for (b = a; b < n; ++b) {
+            dkf_real_t w = DKF_R(0.0);
+            for (l = 0; l < p; ++l) w += sn->H->data[l * n + a] * L->RiH[l * n + b];
+            L->stage[e++] = scale * w;
+        }
+    }
+    if (!dkf__all_finite(L->stage, DKF_TW_PKT_LEN(n))) return DKF_ERR_NONFINITE;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_tw_meas_packet(dkf_real_t *pkt, dkf_tw_node_t *nd, const dkf_tw_sensor_t *sn,
+                                dkf_real_t scale)
+{
+    layout_t L;
+    DKF_CHECK_NULL(pkt);
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    DKF_TRY(meas_info(nd, &L, sn, scale));
+    dkf__copy(pkt, L.stage, DKF_TW_PKT_LEN(nd->n));
+    return DKF_OK;
+}
+
+/* S must be numerically positive definite: a Cholesky pivot below
+ * 16 m eps of the largest diagonal entry means rank(H B) < m for the
+ * information at hand (S = B^T Pi B is then singular up to rounding). */
+static int chol_rank_ok(dkf_real_t *Lc, dkf_real_t *inv, const dkf_real_t *S, size_t m)
+{
+    dkf_real_t dmax = DKF_R(0.0);
+    size_t i;
+    if (dkf__chol(Lc, inv, S, m) != 0) return 0;
+    for (i = 0; i < m; ++i)
+        if (S[i * m + i] > dmax) dmax = S[i * m + i];
+    for (i = 0; i < m; ++i)
+        if (Lc[i * m + i] * Lc[i * m + i] <= DKF_R(16.0) * (dkf_real_t)m * DKF_REAL_EPSILON * dmax)
+            return 0;
+    return 1;
+}
+
+static dkf_status_t check_model(const dkf_tw_node_t *nd, const dkf_tw_model_t *md)
+{
+    DKF_CHECK_NULL(md);
+    DKF_TRY(dkf__check_input(md->A, nd->n, nd->n));
+    DKF_TRY(dkf__check_input(md->B, nd->n, nd->m));
+    return dkf__check_input(md->Sv, nd->n, nd->n);
+}
+
+/* The local step into the pending block (see the top of the file). */
+static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw_model_t *md,
+                               const dkf_real_t *info)
+{
+    dkf_real_t inv[DKF_MAX_DIM], u[DKF_MAX_DIM];
+    const size_t n = nd->n, m = nd->m;
+    const block_t b = block_at(L->pend, n, m);
+    const dkf_real_t *A = md->A->data, *B = md->B->data;
+    size_t i, j, a;
+
+    /* unpack the info first: info may live in the caller's est buffer */
+    dkf__copy(b.s, info, n);
+    unpack_sym(b.Q, info + n, n);
+
+    /* (6a)-(6b): phi- = A x, Phi- = A P A^T + Sv */
+    dkf__mul_vec(b.phi, A, nd->x.data, n, n);
+    dkf__mul_nn(L->T, A, nd->P.data, n, n, n);
+    dkf__mul_nt_sym(b.Phi, L->T, A, md->Sv->data, n, n);
+    if (dkf__chol(L->C, inv, b.Phi, n) != 0) return DKF_ERR_NOT_SPD;
+    dkf__chol_inverse(L->J, L->C, inv, n);
+
+    /* (10), (7b): Psi = Phi-^{-1} + Q, Phi+ = Psi^{-1} */
+    for (i = 0; i < n * n; ++i) L->T[i] = L->J[i] + b.Q[i];
+    if (dkf__chol(L->C, inv, L->T, n) != 0) return DKF_ERR_NOT_SPD;
+    dkf__chol_inverse(b.Phi_post, L->C, inv, n);
+
+    /* (14), (17): r = s - Q phi- (the summed xi_l);  (20): phi+ = phi- + Phi+ r */
+    dkf__mul_vec(L->r, b.Q, b.phi, n, n);
+    for (i = 0; i < n; ++i) L->r[i] = b.s[i] - L->r[i];
+    dkf__mul_vec(b.phi_post, b.Phi_post, L->r, n, n);
+    for (i = 0; i < n; ++i) b.phi_post[i] += b.phi[i];
+
+    /* (8a): G = Phi+ (Phi-^{-1} B);  (12): S = G^T (Q B), symmetrised */
+    dkf__mul_nn(L->JB, L->J, B, n, n, m);
+    dkf__mul_nn(b.G, b.Phi_post, L->JB, n, n, m);
+    dkf__mul_nn(L->QB, b.Q, B, n, n, m);
+    for (i = 0; i < m; ++i)
+        for (j = 0; j < m; ++j) {
+            dkf_real_t v = DKF_R(0.0);
+            for (a = 0; a < n; ++a) v += b.G[a * m + i] * L->QB[a * m + j];
+            b.S[i * m + j] = v;
+        }
+    dkf__symmetrise(b.S, m);
+    if (!dkf__all_finite(b.S, m * m)) return DKF_ERR_NONFINITE;
+    if (!chol_rank_ok(L->Sc, inv, b.S, m)) return DKF_ERR_RANK;
+
+    /* (18): z = S^{-1} G^T r;  (8b): psi = phi+ + G z */
+    for (i = 0; i < m; ++i) {
+        dkf_real_t v = DKF_R(0.0);
+        for (a = 0; a < n; ++a) v += b.G[a * m + i] * L->r[a];
+        u[i] = v;
+    }
+    dkf__chol_solve(L->Sc, inv, u, m, 1);
+    dkf__copy(b.z, u, m);
+    dkf__mul_vec(b.psi, b.G, b.z, n, m);
+    for (i = 0; i < n; ++i) b.psi[i] += b.phi_post[i];
+
+    /* (8c) corrected: Ploc = Phi+ + G S^{-1} G^T */
+    dkf__chol_inverse(L->Si, L->Sc, inv, m);
+    dkf__mul_nn(L->GSi, b.G, L->Si, n, m, m);
+    dkf__mul_nt_sym(b.Ploc, L->GSi, b.G, b.Phi_post, n, m);
+
+    if (!dkf__all_finite(L->pend, block_len(n, m))) return DKF_ERR_NONFINITE;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_tw_model_t *md, const dkf_real_t *info,
+                               dkf_real_t *est)
+{
+    layout_t L;
+    dkf_status_t st;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(info);
+    DKF_TRY(check_model(nd, md));
+    if (!dkf__all_finite(info, DKF_TW_PKT_LEN(nd->n))) return DKF_ERR_NONFINITE;
+    nd->pending = 0;
+    L = mem_of(nd);
+    st = local_step(nd, &L, md, info);
+    if (st != DKF_OK) return st;
+    if (est != NULL) {
+        const block_t b = block_at(L.pend, nd->n, nd->m);
+        dkf__copy(est, b.psi, nd->n);
+        pack_sym(est + nd->n, b.Ploc, nd->n);
+    }
+    nd->pending = 1;
+    return DKF_OK;
+}
+
+/* Checks a commit's x and packed P (NULL: the pending local ones) and
+ * leaves the full P in L->T. */
+static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, const dkf_real_t *x,
+                                 const dkf_real_t *Ppacked)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    const size_t n = nd->n;
+    const block_t b = block_at(L->pend, n, nd->m);
+    if (!nd->pending) return DKF_ERR_STATE;
+    if (x != NULL && !dkf__all_finite(x, n)) return DKF_ERR_NONFINITE;
+    if (Ppacked != NULL) {
+        if (!dkf__all_finite(Ppacked, n * (n + 1) / 2)) return DKF_ERR_NONFINITE;
+        unpack_sym(L->T, Ppacked, n);
+    } else {
+        dkf__copy(L->T, b.Ploc, n * n);
+    }
+    if (dkf__chol(L->C, inv, L->T, n) != 0) return DKF_ERR_NOT_SPD;
+    return DKF_OK;
+}
+
+static void apply_commit(dkf_tw_node_t *nd, const layout_t *L, const dkf_real_t *x)
+{
+    const size_t n = nd->n;
+    const block_t b = block_at(L->pend, n, nd->m);
+    dkf__copy(nd->x.data, x != NULL ? x : b.psi, n);
+    dkf__copy(nd->P.data, L->T, n * n);
+    dkf__copy(nd->z.data, L->pend, block_len(n, nd->m));
+    nd->pending = 0;
+    ++nd->k;
+}
+
+dkf_status_t dkf_tw_node_commit(dkf_tw_node_t *nd, const dkf_real_t *x, const dkf_real_t *Ppacked)
+{
+    layout_t L;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    DKF_TRY(check_commit(nd, &L, x, Ppacked));
+    apply_commit(nd, &L, x);
+    return DKF_OK;
+}
+
+dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
+                                 const dkf_tw_sensor_t sensors[], size_t N)
+{
+    layout_t L;
+    size_t l, e, len;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    len = DKF_TW_PKT_LEN(nd->n);
+    DKF_CHECK_NULL(sensors);
+    if (N == 0) return DKF_ERR_ARG;
+    L = mem_of(nd);
+    /* the fusion centre's sums Q = sum H^T Sw^{-1} H (21), sum H^T Sw^{-1} y */
+    for (e = 0; e < len; ++e) L.acc[e] = DKF_R(0.0);
+    for (l = 0; l < N; ++l) {
+        DKF_TRY(meas_info(nd, &L, &sensors[l], DKF_R(1.0)));
+        for (e = 0; e < len; ++e) L.acc[e] += L.stage[e];
+    }
+    DKF_TRY(dkf_tw_node_local(nd, md, L.acc, NULL));
+    return dkf_tw_node_commit(nd, NULL, NULL);
+}
+
+/* ---- whole-graph simulation --------------------------------------------- */
+
+dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_node_t *nodes,
+                             size_t n, size_t m, size_t p_max, dkf_real_t *storage,
+                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
+{
+    dkf_graph_t chk;
+    dkf_tw_net_t t;
+    size_t node_len, pkt, l;
+    DKF_CHECK_NULL(net);
+    DKF_CHECK_NULL(g);
+    DKF_CHECK_NULL(nodes);
+    DKF_CHECK_NULL(storage);
+    DKF_TRY(dkf_graph_init(&chk, g->N, g->start, g->nbr));
+    if (n == 0 || m == 0 || p_max == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p_max > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    node_len = DKF_TW_NODE_STORAGE_LEN(n, m, p_max);
+    pkt = DKF_TW_PKT_LEN(n);
+    if (storage_len / g->N < node_len + 3 * pkt) return DKF_ERR_CAPACITY;
+    /* node 0 checks (x0, P0, m <= n); the others cannot fail after it */
+    DKF_TRY(dkf_tw_node_init(&nodes[0], n, m, p_max, storage, node_len, x0, P0));
+    for (l = 1; l < g->N; ++l)
+        (void)dkf_tw_node_init(&nodes[l], n, m, p_max, storage + l * node_len, node_len, x0, P0);
+    memset(&t, 0, sizeof t);
+    t.g = g;
+    t.N = g->N;
+    t.n = n;
+    t.m = m;
+    t.nodes = nodes;
+    t.out = storage + g->N * node_len;
+    t.mix = t.out + g->N * pkt;
+    t.tmp = t.mix + g->N * pkt;
+    *net = t;
+    return DKF_OK;
+}
+
+static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_tw_model_t *md,
+                              const dkf_tw_sensor_t sensors[])
+{
+    DKF_CHECK_NULL(net);
+    if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(sensors);
+    return check_model(&net->nodes[0], md);
+}
+
+/* Every node's info packet, scaled, into net->out. */
+static dkf_status_t all_meas(dkf_tw_net_t *net, const dkf_tw_sensor_t sensors[], dkf_real_t scale)
+{
+    const size_t pkt = DKF_TW_PKT_LEN(net->n);
+    size_t l;
+    for (l = 0; l < net->N; ++l)
+        DKF_TRY(dkf_tw_meas_packet(net->out + l * pkt, &net->nodes[l], &sensors[l], scale));
+    return DKF_OK;
+}
+
+/* Local step of every node on its row of `info`, estimate packets to est. */
+static dkf_status_t all_local(dkf_tw_net_t *net, const dkf_tw_model_t *md, const dkf_real_t *info,
+                              dkf_real_t *est)
+{
+    const size_t pkt = DKF_TW_PKT_LEN(net->n);
+    size_t l;
+    for (l = 0; l < net->N; ++l)
+        DKF_TRY(dkf_tw_node_local(&net->nodes[l], md, info + l * pkt, est + l * pkt));
+    return DKF_OK;
+}
+
+/* All commits are checked before any is applied: a failing node leaves
+ * every node as it was. x of node l at xs + l * pkt, packed P at
+ * Ps + l * pkt (Ps NULL: local P). */
+static dkf_status_t commit_all(dkf_tw_net_t *net, const dkf_real_t *xs, const dkf_real_t *Ps)
+{
+    const size_t pkt = DKF_TW_PKT_LEN(net->n);
+    size_t l;
+    for (l = 0; l < net->N; ++l) {
+        const layout_t L = mem_of(&net->nodes[l]);
+        DKF_TRY(check_commit(&net->nodes[l], &L, xs + l * pkt, Ps != NULL ? Ps + l * pkt : NULL));
+    }
+    for (l = 0; l < net->N; ++l) {
+        const layout_t L = mem_of(&net->nodes[l]);
+        /* check_commit again: it leaves the node's P in its scratch T */
+        (void)check_commit(&net->nodes[l], &L, xs + l * pkt, Ps != NULL ? Ps + l * pkt : NULL);
+        apply_commit(&net->nodes[l], &L, xs + l * pkt);
+    }
+    return DKF_OK;
+}
+
+dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alpha,
+                                       const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[])
+{
+    size_t pkt;
+    DKF_TRY(check_net(net, md, sensors));
+    DKF_TRY(dkf_graph_check_row_stochastic(net->g, alpha));
+    pkt = DKF_TW_PKT_LEN(net->n);
+    /* broadcast 1: info packets; (24c) and the data sum of (25a) over N_l */
+    DKF_TRY(all_meas(net, sensors, DKF_R(1.0)));
+    DKF_TRY(dkf_graph_mix_all(net->tmp, net->out, pkt, pkt, net->g, NULL));
+    DKF_TRY(all_local(net, md, net->tmp, net->mix));
+    /* broadcast 2: psi_k (the first n reals of the estimate packet); (26b) */
+    DKF_TRY(dkf_graph_mix_all(net->out, net->mix, net->n, pkt, net->g, alpha));
+    DKF_TRY(commit_all(net, net->out, NULL));
+    net->reals_sent += (unsigned long)(net->N * (pkt + net->n));
+    net->broadcasts += (unsigned long)(2 * net->N);
+    ++net->steps;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, size_t eta,
+                                       const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[])
+{
+    size_t pkt;
+    DKF_TRY(check_net(net, md, sensors));
+    DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
+    pkt = DKF_TW_PKT_LEN(net->n);
+    /* (32c), (33a): ACF of |N| H^T Sw^{-1} [y | H], one packet per iteration */
+    DKF_TRY(all_meas(net, sensors, (dkf_real_t)net->N));
+    DKF_TRY(dkf_graph_acf(net->out, pkt, net->g, W, eta, net->tmp));
+    DKF_TRY(all_local(net, md, net->out, net->mix));
+    /* (34b)-(34c): ACF of [psi_k | Ploc_k] */
+    DKF_TRY(dkf_graph_acf(net->mix, pkt, net->g, W, eta, net->tmp));
+    DKF_TRY(commit_all(net, net->mix, net->mix + net->n));
+    net->reals_sent += (unsigned long)(net->N * 2 * eta * pkt);
+    net->broadcasts += (unsigned long)(net->N * 2 * eta);
+    ++net->steps;
+    return DKF_OK;
+}

@@ -1,0 +1,159 @@
+/*
+ * dkf/uif.h - joint state and unknown-input filters (seed 004: Hua, Wang,
+ * Zhao 2021, with the corrections of docs/uif.md).
+ *
+ *   x_k = A_{k-1} x_{k-1} + G_{k-1} d_{k-1} + w_{k-1},   w ~ (0, Q_{k-1})
+ *   y_k = C_k x_k + H_k d_k + v_k,                        v ~ (0, R_k), R_k > 0
+ *
+ * Library dimensions: state n, unknown input m, measurement p (the paper's
+ * letters). d_k is arbitrary (no model, no prior). Three filters share one
+ * filter type; the kind is fixed at init:
+ *
+ *   DKF_UIF_RTSF      Gillijns-De Moor recursive three-step filter with
+ *                     direct feedthrough; needs rank H_k = m at every step.
+ *   DKF_UIF_NRTSF_DF  the paper's NRTSF-DF (eqs 27-29): any H_k. H_k = Hbar T
+ *                     (full-rank decomposition, rank r_k), estimates the
+ *                     virtual input T d_k and returns the minimum-norm
+ *                     d_{k|k} = T^+ dbar_{k|k}. Equals RTSF when rank H = m.
+ *   DKF_UIF_NRTSF     the paper's NRTSF (eqs 51-53), no feedthrough (H = 0):
+ *                     G_{k-1} = Gbar T, needs rank(C_k Gbar) = rank G_{k-1};
+ *                     the input estimate is one step late, d_{k-1|k}.
+ *
+ * Every model matrix is an argument of the step that uses it, so all of
+ * them (and the ranks r_k) may change from step to step; n, m, p may not.
+ *
+ * Steps. RTSF / NRTSF-DF: (x0, P0) of init is the PRIOR of x_0
+ * (x_{0|-1}, P_{0|-1}); the first dkf_uif_step takes dyn == NULL (input
+ * estimation and measurement update with y_0, no time update); every later
+ * step takes dyn = (A_{k-1}, G_{k-1}, Q_{k-1}) and the measurement model
+ * (C_k, H_k, R_k) with y_k. NRTSF: (x0, P0) = (x_{0|0}, P_{0|0}); every
+ * step k = 1, 2, ... takes dyn = (A_{k-1}, G_{k-1}, Q_{k-1}) and (C_k, R_k)
+ * with y_k (meas->H must be NULL). A dyn that is NULL when it must not be,
+ * or given when it must be NULL, is DKF_ERR_STATE.
+ *
+ * Statuses of dkf_uif_step (the filter is bit-identical after any error):
+ *   DKF_ERR_NOT_SPD    R~_k = C_k P_{k|k-1} C_k^T + R_k is not SPD
+ *   DKF_ERR_RANK       RTSF: rank H_k < m.  NRTSF-DF: H~ = Hbar^T R~^-1 Hbar
+ *                      numerically singular.  NRTSF: rank(C_k Gbar_{k-1}) <
+ *                      rank G_{k-1} (F^T R~^-1 F singular)
+ *   DKF_ERR_NONFINITE  NaN/Inf in an input, or produced by the step
+ *   DKF_ERR_DIM, DKF_ERR_NULL, DKF_ERR_STATE, DKF_ERR_ARG (meas->H given to
+ *   NRTSF), DKF_ERR_NO_CONVERGENCE (SVD)
+ * Ranks are decided by singular values with the filter's rank_tol
+ * (DKF_RANK_TOL_DEFAULT: max(rows, cols) * eps * sigma_max, docs/matrix.md).
+ *
+ * Estimability and bias (both informational; the step still returns
+ * DKF_OK). After each step, proj = T^+ T (m x m) is the orthogonal
+ * projector onto the estimable input subspace (row space of H_k, or of
+ * G_{k-1} for NRTSF): d = T^+ T d + (I - T^+ T) d, and only the first part
+ * is estimated; d's component along null(H) is returned as exactly 0 and
+ * Pd is the covariance of d_hat - proj d, NOT of d_hat - d. estimable[i]
+ * summarises column i of proj: DKF_UIF_EST_FULL (d_i itself is estimated,
+ * proj e_i = e_i), DKF_UIF_EST_NONE (e_i in null: d_hat_i = 0 carries no
+ * information), DKF_UIF_EST_PARTIAL (only a combination involving d_i is).
+ * NRTSF-DF feeds the minimum-norm d_{k-1|k-1} into the time update, so its
+ * x_{k|k} is biased by G_{k-1} (I - proj_{k-1}) d_{k-1} whenever that
+ * matrix is nonzero (the paper's own example): such a step sets
+ * bias_risk = 1 and increments bias_steps. RTSF (proj = I) and NRTSF
+ * (unbiased for every d) never set it.
+ */
+#ifndef DKF_UIF_H
+#define DKF_UIF_H
+
+#include <stddef.h>
+
+#include "dkf/mat.h"
+
+typedef enum {
+    DKF_UIF_RTSF = 0,     /* rank H_k = m required */
+    DKF_UIF_NRTSF_DF = 1, /* any H_k; minimum-norm input estimate */
+    DKF_UIF_NRTSF = 2     /* H = 0, rank-deficient G allowed; d_{k-1|k} */
+} dkf_uif_kind_t;
+
+/* estimable[i] values. */
+enum {
+    DKF_UIF_EST_NONE = 0,    /* proj(i,i) <= sqrt(eps): d_i not observed at all */
+    DKF_UIF_EST_PARTIAL = 1, /* in between: d_i only within a combination */
+    DKF_UIF_EST_FULL = 2     /* proj(i,i) >= 1 - sqrt(eps): d_i estimated */
+};
+
+/* Dynamics from k-1 to k. */
+typedef struct {
+    const dkf_mat_t *A; /* A_{k-1}, n x n */
+    const dkf_mat_t *G; /* G_{k-1}, n x m */
+    const dkf_mat_t *Q; /* Q_{k-1}, n x n, symmetric PSD */
+} dkf_uif_dyn_t;
+
+/* Measurement model at k. Of R the step reads the upper triangle for R~
+ * and all of it in the Joseph update: pass a symmetric R. */
+typedef struct {
+    const dkf_mat_t *C; /* C_k, p x n */
+    const dkf_mat_t *H; /* H_k, p x m (NULL for NRTSF) */
+    const dkf_mat_t *R; /* R_k, p x p, SPD */
+} dkf_uif_meas_t;
+
+/* Storage layout helpers (private): q = rows of the decomposed matrix
+ * (H p x m, or G n x m), outputs = the reals behind the views below. */
+#define DKF__UIF_Q(n, p) ((n) > (p) ? (n) : (p))
+#define DKF__UIF_OUT_LEN(n, m, p) \
+    (2 * (n) + 2 * (n) * (n) + (m) + 2 * (m) * (m) + (n) * (m) + (p) * (p) + 2 * (n) * (p) + \
+     (m) * (p))
+
+/* Reals of storage for dimensions (n, m, p): the outputs, their pending
+ * copy, the decomposition cache, scratch for one step and SVD workspace. */
+#define DKF_UIF_STORAGE_LEN(n, m, p) \
+    (2 * DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m) /* cache */ \
+     + 2 * (p) * (n) + (p) * (p) + 4 * (p) * (m) + 4 * (m) * (m) + (n) * (n) + 2 * (n) * (m) + \
+     2 * (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m))
+
+typedef struct {
+    size_t n, m, p;
+    dkf_uif_kind_t kind;
+    size_t k; /* successful steps since init */
+    /* estimates after the last step */
+    dkf_mat_t x;   /* x_{k|k}, n x 1 */
+    dkf_mat_t Px;  /* its error covariance, n x n */
+    dkf_mat_t d;   /* d_{k|k} (RTSF, NRTSF-DF) or d_{k-1|k} (NRTSF), m x 1;
+                      0 before the first step */
+    dkf_mat_t Pd;  /* covariance of d_hat - proj d (of d_hat - d when rank = m), m x m */
+    dkf_mat_t Pxd; /* E[(x - x_hat)(d - d_hat)^T] (estimable part), n x m */
+    /* the last step's intermediates (inspection, tests) */
+    dkf_mat_t x_pred, P_pred; /* x_{k|k-1}, P_{k|k-1} (the prior at the first DF step) */
+    dkf_mat_t Rtilde;         /* R~_k = C P_{k|k-1} C^T + R, p x p */
+    dkf_mat_t K;              /* P_{k|k-1} C^T R~^{-1}, n x p */
+    dkf_mat_t L;              /* state gain: x_{k|k} = x_{k|k-1} + L (y - C x_{k|k-1}), n x p */
+    dkf_mat_t M;              /* input gain: d_hat = M (y - C x_{k|k-1}), m x p (= T^+ Mbar) */
+    dkf_mat_t proj;           /* T^+ T, m x m (I for RTSF) */
+    size_t rank;              /* r_k = rank H_k (RTSF, NRTSF-DF) or rank G_{k-1} (NRTSF) */
+    unsigned char estimable[DKF_MAX_DIM]; /* DKF_UIF_EST_* per input component */
+    int bias_risk;     /* NRTSF-DF: G_{k-1} (I - proj_{k-1}) != 0 in this step */
+    size_t bias_steps; /* steps since init with bias_risk set */
+    /* Rank tolerance for every rank decision; DKF_RANK_TOL_DEFAULT after
+     * init. May be changed between steps. */
+    dkf_real_t rank_tol;
+    /* private */
+    dkf_real_t *mem;
+    size_t cache_rows, cache_rank;
+    dkf_real_t cache_tol;
+    int cached;
+    int ready;
+} dkf_uif_t;
+
+#define DKF_UIF_DECLARE(name, n, m, p) \
+    dkf_real_t name##_storage[DKF_UIF_STORAGE_LEN(n, m, p)]; \
+    dkf_uif_t name
+
+/* Binds f to storage (storage_len >= DKF_UIF_STORAGE_LEN(n, m, p) reals)
+ * and sets x = x0 (n x 1), Px = P0 (n x n, SPD); d, Pd, Pxd = 0.
+ * DKF_ERR_ARG for an unknown kind, DKF_ERR_RANK for RTSF with p < m (rank
+ * H = m is impossible), DKF_ERR_CAPACITY, DKF_ERR_NOT_SPD (P0). */
+dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m, size_t p,
+                          dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                          const dkf_mat_t *P0);
+
+/* One step of the filter chosen at init (see the top of this file for the
+ * sequence, the statuses and the estimability / bias reporting). */
+dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_meas_t *meas,
+                          const dkf_mat_t *y);
+
+#endif /* DKF_UIF_H */

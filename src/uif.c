@@ -1,0 +1,499 @@
+/*
+ * Joint state and unknown-input filters (dkf/uif.h): RTSF, NRTSF-DF and
+ * NRTSF of seed 004 in the corrected form of docs/uif.md.
+ *
+ * The three filters share one measurement step. With B the p x r matrix
+ * through which the (virtual) input reaches the innovation
+ *   y~ = y - C x_{k|k-1} = B dbar + e,   e ~ (0, R~),  R~ = C P_{k|k-1} C^T + R
+ * (B = H (RTSF), Hbar (NRTSF-DF, H = Hbar T), F = C Gbar (NRTSF,
+ * G_{k-1} = Gbar T)), the input is the weighted least-squares estimate
+ *   Pdbar = (B^T R~^-1 B)^-1,  Mbar = Pdbar B^T R~^-1,  dbar = Mbar y~   (28), (52)
+ * and, with K = P_{k|k-1} C^T R~^-1 and
+ *   Z = -K Hbar (feedthrough)   or   Z = (I - K C) Gbar (NRTSF),
+ * both papers' state updates are the one formula
+ *   x_{k|k} = x_{k|k-1} + K y~ + Z dbar,     L = K + Z Mbar             (29), (53)
+ *   P_{k|k} = P_{k|k-1} - K R~ K^T + Z Pdbar Z^T                        (24), (50)
+ *   Pxd = Z Pdbar T^+T,  d = T^+ dbar,  Pd = T^+ Pdbar T^+T,  M = T^+ Mbar
+ * (for feedthrough x = x_pred + K (y~ - Hbar dbar); for NRTSF L = K + (I -
+ * K C) Gbar Mbar; Pxd = -K Hbar Pdbar T^+T (29) and (I - K C) Gbar Pdbar
+ * T^+T (note §1, added)). With DKF_JOSEPH the covariance is the Joseph
+ * form (20)/(47), (I - L C) P (I - L C)^T + L R L^T, valid for any L that
+ * meets the unbiasedness constraint L Hbar = 0 (19) / L C Gbar = Gbar (46).
+ * T comes from the SVD (dkf_mat_frd), so T^+ = T^T; RTSF uses B = H, T = I.
+ *
+ * A step computes every output into a pending copy of the output block
+ * and copies it over the state only when every check has passed. The
+ * full-rank decomposition is cached against a bitwise copy of the matrix
+ * it came from (a time-invariant H or G costs one SVD in all); the cache
+ * is derived data, not filter state.
+ */
+#include "dkf/uif.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+/* The output block; the filter's views and the pending copy share it. */
+typedef struct {
+    dkf_real_t *x, *Px, *d, *Pd, *Pxd, *xp, *Pp, *Rt, *K, *L, *M, *proj;
+} out_t;
+
+typedef struct {
+    out_t nx; /* pending outputs */
+    /* cache: the decomposed matrix, Dbar (rows x r), T (r x m) */
+    dkf_real_t *Dlast, *Dbar, *Tc;
+    /* scratch */
+    dkf_real_t *CP;   /* C P_{k|k-1}                       p x n */
+    dkf_real_t *Kt;   /* K^T = R~^-1 C P                   p x n */
+    dkf_real_t *Lr;   /* Cholesky factor of R~             p x p */
+    dkf_real_t *Bm;   /* F = C Gbar (NRTSF)                p x r */
+    dkf_real_t *W;    /* R~^-1 B                           p x r */
+    dkf_real_t *Bt;   /* B^T, then T^T                     r x p, m x r */
+    dkf_real_t *Mbar; /* Pdbar B^T R~^-1                   r x p */
+    dkf_real_t *S;    /* B^T R~^-1 B                       r x r */
+    dkf_real_t *Ls;   /* its Cholesky factor               r x r */
+    dkf_real_t *Pdb;  /* Pdbar = S^-1                      r x r */
+    dkf_real_t *X;    /* Pdbar T                           r x m */
+    dkf_real_t *T1;   /* A P + G Pxd^T; (I - L C) P        n x n */
+    dkf_real_t *Z;    /* A Pxd + G Pd; then Z              n x m, n x r */
+    dkf_real_t *ZP;   /* G Pd; then Z Pdbar                n x m, n x r */
+    dkf_real_t *T3, *T4; /* Joseph / simple update          n x p */
+    dkf_real_t *svdw;
+} layout_t;
+
+#define TAKE(ptr, count) \
+    do { \
+        (ptr) = base != NULL ? base + used : NULL; \
+        used += (count); \
+    } while (0)
+
+static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    size_t used = 0;
+    TAKE(o->x, n);
+    TAKE(o->Px, n * n);
+    TAKE(o->d, m);
+    TAKE(o->Pd, m * m);
+    TAKE(o->Pxd, n * m);
+    TAKE(o->xp, n);
+    TAKE(o->Pp, n * n);
+    TAKE(o->Rt, p * p);
+    TAKE(o->K, n * p);
+    TAKE(o->L, n * p);
+    TAKE(o->M, m * p);
+    TAKE(o->proj, m * m);
+    return used;
+}
+
+/* Everything after the output block; with base == NULL it only counts. */
+static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    const size_t q = DKF__UIF_Q(n, p);
+    size_t used = out_layout(&L->nx, base, n, m, p);
+    TAKE(L->Dlast, q * m);
+    TAKE(L->Dbar, q * m);
+    TAKE(L->Tc, m * m);
+    TAKE(L->CP, p * n);
+    TAKE(L->Kt, p * n);
+    TAKE(L->Lr, p * p);
+    TAKE(L->Bm, p * m);
+    TAKE(L->W, p * m);
+    TAKE(L->Bt, m * p);
+    TAKE(L->Mbar, m * p);
+    TAKE(L->S, m * m);
+    TAKE(L->Ls, m * m);
+    TAKE(L->Pdb, m * m);
+    TAKE(L->X, m * m);
+    TAKE(L->T1, n * n);
+    TAKE(L->Z, n * m);
+    TAKE(L->ZP, n * m);
+    TAKE(L->T3, n * p);
+    TAKE(L->T4, n * p);
+    TAKE(L->svdw, DKF_MAT_SVD_WORK(q, m));
+    return used;
+}
+#undef TAKE
+
+static layout_t mem_of(const dkf_uif_t *f)
+{
+    layout_t L;
+    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    return L;
+}
+
+static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
+{
+    v->rows = r;
+    v->cols = c;
+    v->data = data;
+}
+
+/* At (c x r) = A^T for A r x c. */
+static void transpose(dkf_real_t *At, const dkf_real_t *A, size_t r, size_t c)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
+/* C (r x c) = A^T B for A k x r, B k x c (rows of B accumulated). */
+static void mul_tn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t k, size_t r,
+                   size_t c)
+{
+    size_t i, j, l;
+    for (i = 0; i < r * c; ++i) C[i] = DKF_R(0.0);
+    for (l = 0; l < k; ++l)
+        for (i = 0; i < r; ++i) {
+            const dkf_real_t a = A[l * r + i];
+            for (j = 0; j < c; ++j) C[i * c + j] += a * B[l * c + j];
+        }
+}
+
+dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m, size_t p,
+                          dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                          const dkf_mat_t *P0)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    dkf_uif_t g;
+    layout_t L;
+    out_t o;
+    size_t total;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(storage);
+    if (kind != DKF_UIF_RTSF && kind != DKF_UIF_NRTSF_DF && kind != DKF_UIF_NRTSF)
+        return DKF_ERR_ARG;
+    if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    /* RTSF needs rank H = m, impossible with fewer measurements */
+    if (kind == DKF_UIF_RTSF && p < m) return DKF_ERR_RANK;
+    total = out_layout(&o, NULL, n, m, p) + layout(&L, NULL, n, m, p);
+    if (storage_len < total) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+
+    memset(&g, 0, sizeof g);
+    g.n = n;
+    g.m = m;
+    g.p = p;
+    g.kind = kind;
+    g.mem = storage + out_layout(&o, storage, n, m, p);
+    L = mem_of(&g);
+    /* P0 must be SPD (factored in scratch, which holds nothing yet) */
+    if (dkf__chol(L.T1, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    memset(storage, 0, total * sizeof *storage);
+    set_view(&g.x, n, 1, o.x);
+    set_view(&g.Px, n, n, o.Px);
+    set_view(&g.d, m, 1, o.d);
+    set_view(&g.Pd, m, m, o.Pd);
+    set_view(&g.Pxd, n, m, o.Pxd);
+    set_view(&g.x_pred, n, 1, o.xp);
+    set_view(&g.P_pred, n, n, o.Pp);
+    set_view(&g.Rtilde, p, p, o.Rt);
+    set_view(&g.K, n, p, o.K);
+    set_view(&g.L, n, p, o.L);
+    set_view(&g.M, m, p, o.M);
+    set_view(&g.proj, m, m, o.proj);
+    dkf__copy(o.x, x0->data, n);
+    dkf__copy(o.Px, P0->data, n * n);
+    g.rank_tol = DKF_RANK_TOL_DEFAULT;
+    g.ready = 1;
+    *f = g;
+    return DKF_OK;
+}
+
+/* Shapes and finiteness of everything a step reads, and the call sequence:
+ * a feedthrough filter's first step has no dynamics, every other step has. */
+static dkf_status_t check_step_args(const dkf_uif_t *f, const dkf_uif_dyn_t *dyn,
+                                    const dkf_uif_meas_t *meas, const dkf_mat_t *y)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    const int want_dyn = f->kind == DKF_UIF_NRTSF || f->k > 0;
+    DKF_CHECK_NULL(meas);
+    if ((dyn != NULL) != want_dyn) return DKF_ERR_STATE;
+    if (dyn != NULL) {
+        DKF_TRY(dkf__check_input(dyn->A, n, n));
+        DKF_TRY(dkf__check_input(dyn->G, n, m));
+        DKF_TRY(dkf__check_input(dyn->Q, n, n));
+    }
+    DKF_TRY(dkf__check_input(meas->C, p, n));
+    DKF_TRY(dkf__check_input(meas->R, p, p));
+    if (f->kind == DKF_UIF_NRTSF) {
+        if (meas->H != NULL) return DKF_ERR_ARG;
+    } else {
+        DKF_TRY(dkf__check_input(meas->H, p, m));
+    }
+    return dkf__check_input(y, p, 1);
+}
+
+/* x_{k|k-1}, P_{k|k-1} into the pending block:
+ *   feedthrough  x = A x + G d,  P = [A G] [Px Pxd; Pxd^T Pd] [A G]^T + Q   (27)
+ *   NRTSF        x = A x,        P = A P A^T + Q                           (51)
+ * and the prior itself at the first feedthrough step. The two congruence
+ * terms are each non-symmetric but their sum is not, so the upper triangles
+ * are accumulated and mirrored (dkf__mul_nt_sym). */
+static void predict(const dkf_uif_t *f, const layout_t *L, const dkf_uif_dyn_t *dyn)
+{
+    const size_t n = f->n, m = f->m;
+    dkf_real_t Gd[DKF_MAX_DIM];
+    size_t i;
+    if (dyn == NULL) {
+        dkf__copy(L->nx.xp, f->x.data, n);
+        dkf__copy(L->nx.Pp, f->Px.data, n * n);
+        return;
+    }
+    dkf__mul_vec(L->nx.xp, dyn->A->data, f->x.data, n, n);
+    dkf__mul_nn(L->T1, dyn->A->data, f->Px.data, n, n, n);
+    if (f->kind == DKF_UIF_NRTSF) {
+        dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->A->data, dyn->Q->data, n, n);
+        return;
+    }
+    dkf__mul_vec(Gd, dyn->G->data, f->d.data, n, m);
+    for (i = 0; i < n; ++i) L->nx.xp[i] += Gd[i];
+    /* T1 = A Px + G Pxd^T, Z = A Pxd + G Pd (pending Px as a temporary) */
+    dkf__mul_nt(L->nx.Px, dyn->G->data, f->Pxd.data, n, m, n);
+    for (i = 0; i < n * n; ++i) L->T1[i] += L->nx.Px[i];
+    dkf__mul_nn(L->Z, dyn->A->data, f->Pxd.data, n, n, m);
+    dkf__mul_nn(L->ZP, dyn->G->data, f->Pd.data, n, m, m);
+    for (i = 0; i < n * m; ++i) L->Z[i] += L->ZP[i];
+    dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->A->data, dyn->Q->data, n, n);
+    dkf__mul_nt_sym(L->nx.Pp, L->Z, dyn->G->data, L->nx.Pp, n, m);
+}
+
+/* R~ = C P C^T + R (upper triangle of R), its Cholesky factor, K, and the
+ * innovation y~ = y - C x_{k|k-1}. DKF_ERR_NOT_SPD if R~ is not SPD. */
+static dkf_status_t innovation(const dkf_uif_t *f, const layout_t *L, const dkf_uif_meas_t *meas,
+                               const dkf_mat_t *y, dkf_real_t *invr, dkf_real_t *yt)
+{
+    const size_t n = f->n, p = f->p;
+    size_t i;
+    if (!dkf__all_finite(L->nx.xp, n) || !dkf__all_finite(L->nx.Pp, n * n))
+        return DKF_ERR_NONFINITE; /* overflow in the time update */
+    dkf__mul_nn(L->CP, meas->C->data, L->nx.Pp, p, n, n);
+    dkf__mul_nt_sym(L->nx.Rt, L->CP, meas->C->data, meas->R->data, p, n);
+    if (dkf__chol(L->Lr, invr, L->nx.Rt, p) != 0) return DKF_ERR_NOT_SPD;
+    /* K^T = R~^-1 (C P)  (P, R~ symmetric) */
+    dkf__copy(L->Kt, L->CP, p * n);
+    dkf__chol_solve(L->Lr, invr, L->Kt, p, n);
+    transpose(L->nx.K, L->Kt, p, n);
+    dkf__mul_vec(yt, meas->C->data, L->nx.xp, p, n);
+    for (i = 0; i < p; ++i) yt[i] = y->data[i] - yt[i];
+    return DKF_OK;
+}
+
+/* Full-rank decomposition D = Dbar T (rows x m) into the cache, reused
+ * while D and the tolerance are bitwise unchanged. Rank 0 is not an error
+ * here (dkf_mat_frd's only DKF_ERR_RANK is rank 0): the caller decides. */
+static dkf_status_t decompose(dkf_uif_t *f, const layout_t *L, const dkf_mat_t *D, size_t *rank)
+{
+    const size_t rows = D->rows, m = f->m;
+    const size_t bytes = rows * m * sizeof(dkf_real_t);
+    dkf_mat_t Dbar = DKF_MAT(rows, m, L->Dbar);
+    dkf_mat_t T = DKF_MAT(m, m, L->Tc);
+    dkf_status_t st;
+    size_t r = 0;
+    if (f->cached && f->cache_rows == rows &&
+        memcmp(&f->cache_tol, &f->rank_tol, sizeof f->rank_tol) == 0 &&
+        memcmp(L->Dlast, D->data, bytes) == 0) {
+        *rank = f->cache_rank;
+        return DKF_OK;
+    }
+    f->cached = 0;
+    st = dkf_mat_frd(&Dbar, &T, &r, D, f->rank_tol, L->svdw);
+    if (st == DKF_ERR_RANK)
+        r = 0;
+    else if (st != DKF_OK)
+        return st;
+    memcpy(L->Dlast, D->data, bytes);
+    f->cache_rows = rows;
+    f->cache_rank = r;
+    f->cache_tol = f->rank_tol;
+    f->cached = 1;
+    *rank = r;
+    return DKF_OK;
+}
+
+/* The input direction matrix B (p x r) and T (r x m, NULL for T = I) of
+ * this step, with the existence conditions of each filter. */
+static dkf_status_t input_directions(dkf_uif_t *f, const layout_t *L, const dkf_uif_dyn_t *dyn,
+                                     const dkf_uif_meas_t *meas, const dkf_real_t **B,
+                                     const dkf_real_t **T, size_t *rank)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    size_t r, rf;
+    if (f->kind == DKF_UIF_RTSF) {
+        DKF_TRY(decompose(f, L, meas->H, &r));
+        if (r < m) return DKF_ERR_RANK; /* H^T R~^-1 H singular */
+        *B = meas->H->data;
+        *T = NULL;
+    } else if (f->kind == DKF_UIF_NRTSF_DF) {
+        DKF_TRY(decompose(f, L, meas->H, &r));
+        *B = L->Dbar;
+        *T = L->Tc;
+    } else {
+        DKF_TRY(decompose(f, L, dyn->G, &r));
+        if (r > 0) {
+            dkf_mat_t F = DKF_MAT(p, r, L->Bm);
+            /* F = C_k Gbar_{k-1} must keep the rank of G_{k-1} (Theorem 5) */
+            if (r > p) return DKF_ERR_RANK;
+            dkf__mul_nn(L->Bm, meas->C->data, L->Dbar, p, n, r);
+            DKF_TRY(dkf_mat_rank(&rf, &F, f->rank_tol, L->svdw));
+            if (rf < r) return DKF_ERR_RANK;
+        }
+        *B = L->Bm;
+        *T = L->Tc;
+    }
+    *rank = r;
+    return DKF_OK;
+}
+
+/* Weighted least squares for dbar and the state update (file comment),
+ * r >= 1. DKF_ERR_RANK if B^T R~^-1 B is numerically singular. */
+static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dkf_real_t *B,
+                                 const dkf_real_t *T, size_t r, const dkf_real_t *invr,
+                                 const dkf_real_t *yt)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    dkf_real_t invs[DKF_MAX_DIM], db[DKF_MAX_DIM], v[DKF_MAX_DIM];
+    size_t i;
+    dkf__copy(L->W, B, p * r);
+    dkf__chol_solve(L->Lr, invr, L->W, p, r);
+    transpose(L->Bt, B, p, r);
+    dkf__mul_nn_sym(L->S, L->Bt, L->W, NULL, r, p);
+    if (dkf__chol(L->Ls, invs, L->S, r) != 0) return DKF_ERR_RANK;
+    dkf__chol_inverse(L->Pdb, L->Ls, invs, r);
+    dkf__mul_nt(L->Mbar, L->Pdb, L->W, r, r, p);
+    dkf__mul_vec(db, L->Mbar, yt, r, p);
+
+    /* Z = -K Hbar (feedthrough) or Gbar - K F (NRTSF); Z Pdbar */
+    dkf__mul_nn(L->Z, L->nx.K, B, n, p, r);
+    if (f->kind == DKF_UIF_NRTSF)
+        for (i = 0; i < n * r; ++i) L->Z[i] = L->Dbar[i] - L->Z[i];
+    else
+        for (i = 0; i < n * r; ++i) L->Z[i] = -L->Z[i];
+    dkf__mul_nn(L->ZP, L->Z, L->Pdb, n, r, r);
+    /* x += Z dbar;  L = K + Z Mbar */
+    dkf__mul_vec(v, L->Z, db, n, r);
+    for (i = 0; i < n; ++i) L->nx.x[i] += v[i];
+    dkf__mul_nn(L->nx.L, L->Z, L->Mbar, n, r, p);
+    for (i = 0; i < n * p; ++i) L->nx.L[i] += L->nx.K[i];
+
+    if (T == NULL) { /* RTSF: T = I, r = m */
+        dkf__copy(L->nx.d, db, m);
+        dkf__copy(L->nx.M, L->Mbar, m * p);
+        dkf__copy(L->nx.Pd, L->Pdb, m * m);
+        dkf__copy(L->nx.Pxd, L->ZP, n * m);
+        for (i = 0; i < m * m; ++i) L->nx.proj[i] = DKF_R(0.0);
+        for (i = 0; i < m; ++i) L->nx.proj[i * m + i] = DKF_R(1.0);
+        return DKF_OK;
+    }
+    /* d = T^T dbar, M = T^T Mbar, Pd = T^T Pdbar T, Pxd = Z Pdbar T, proj = T^T T */
+    mul_tn(L->nx.d, T, db, r, m, 1);
+    mul_tn(L->nx.M, T, L->Mbar, r, m, p);
+    dkf__mul_nn(L->X, L->Pdb, T, r, r, m);
+    transpose(L->Bt, T, r, m); /* r <= p, so T^T fits where B^T was */
+    dkf__mul_nn_sym(L->nx.Pd, L->Bt, L->X, NULL, m, r);
+    dkf__mul_nn(L->nx.Pxd, L->ZP, T, n, r, m);
+    dkf__mul_nn_sym(L->nx.proj, L->Bt, T, NULL, m, r);
+    return DKF_OK;
+}
+
+/* P_{k|k}: Joseph form (20)/(47) or the short form (24)/(50). */
+static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_uif_meas_t *meas,
+                             size_t r)
+{
+    const size_t n = f->n, p = f->p;
+    size_t i;
+#if DKF_JOSEPH
+    /* T1 = (I - L C) P = P - L (C P);  P+ = T1 + (L R - T1 C^T) L^T */
+    dkf__mul_nn(L->T1, L->nx.L, L->CP, n, p, n);
+    for (i = 0; i < n * n; ++i) L->T1[i] = L->nx.Pp[i] - L->T1[i];
+    dkf__mul_nt(L->T3, L->T1, meas->C->data, n, n, p);
+    dkf__mul_nn(L->T4, L->nx.L, meas->R->data, n, p, p);
+    for (i = 0; i < n * p; ++i) L->T3[i] = L->T4[i] - L->T3[i];
+    dkf__mul_nt_sym(L->nx.Px, L->T3, L->nx.L, L->T1, n, p);
+    (void)r;
+#else
+    /* P - K R~ K^T = P - K (C P), then + (Z Pdbar) Z^T */
+    (void)meas;
+    for (i = 0; i < n * p; ++i) L->T3[i] = -L->nx.K[i];
+    dkf__mul_nn_sym(L->nx.Px, L->T3, L->CP, L->nx.Pp, n, p);
+    if (r > 0) dkf__mul_nt_sym(L->nx.Px, L->ZP, L->Z, L->nx.Px, n, r);
+#endif
+}
+
+/* Largest |G (I - proj)| against sqrt(eps) max|G|: the part of the input
+ * that NRTSF-DF's time update feeds with the minimum-norm 0 instead of
+ * an estimate. */
+static int bias_risk(const dkf_mat_t *G, const dkf_real_t *proj)
+{
+    const size_t n = G->rows, m = G->cols;
+    const dkf_real_t *g = G->data;
+    dkf_real_t gmax = DKF_R(0.0), worst = DKF_R(0.0);
+    size_t i, j, l;
+    for (i = 0; i < n * m; ++i)
+        if (DKF_FABS(g[i]) > gmax) gmax = DKF_FABS(g[i]);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < m; ++j) {
+            dkf_real_t acc = g[i * m + j];
+            for (l = 0; l < m; ++l) acc -= g[i * m + l] * proj[l * m + j];
+            if (DKF_FABS(acc) > worst) worst = DKF_FABS(acc);
+        }
+    return worst > DKF_SQRT(DKF_REAL_EPSILON) * gmax;
+}
+
+static unsigned char classify(dkf_real_t diag)
+{
+    const dkf_real_t tau = DKF_SQRT(DKF_REAL_EPSILON);
+    if (diag >= DKF_R(1.0) - tau) return DKF_UIF_EST_FULL;
+    if (diag <= tau) return DKF_UIF_EST_NONE;
+    return DKF_UIF_EST_PARTIAL;
+}
+
+dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_meas_t *meas,
+                          const dkf_mat_t *y)
+{
+    dkf_real_t invr[DKF_MAX_DIM], yt[DKF_MAX_DIM];
+    const dkf_real_t *B = NULL, *T = NULL;
+    size_t n, m, p, r = 0, i, olen;
+    int risk = 0;
+    layout_t L;
+    out_t o;
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    DKF_TRY(check_step_args(f, dyn, meas, y));
+    n = f->n;
+    m = f->m;
+    p = f->p;
+    L = mem_of(f);
+
+    predict(f, &L, dyn);
+    DKF_TRY(innovation(f, &L, meas, y, invr, yt));
+    DKF_TRY(input_directions(f, &L, dyn, meas, &B, &T, &r));
+    /* x = x_{k|k-1} + K y~ (+ Z dbar below); L = K when r = 0 */
+    dkf__mul_vec(L.nx.x, L.nx.K, yt, n, p);
+    for (i = 0; i < n; ++i) L.nx.x[i] += L.nx.xp[i];
+    if (r > 0) {
+        DKF_TRY(input_update(f, &L, B, T, r, invr, yt));
+    } else { /* nothing to estimate: a Kalman step, d = 0 */
+        dkf__copy(L.nx.L, L.nx.K, n * p);
+        memset(L.nx.d, 0, m * sizeof(dkf_real_t));
+        memset(L.nx.M, 0, m * p * sizeof(dkf_real_t));
+        memset(L.nx.Pd, 0, m * m * sizeof(dkf_real_t));
+        memset(L.nx.Pxd, 0, n * m * sizeof(dkf_real_t));
+        memset(L.nx.proj, 0, m * m * sizeof(dkf_real_t));
+    }
+    state_covariance(f, &L, meas, r);
+    if (f->kind == DKF_UIF_NRTSF_DF && dyn != NULL) risk = bias_risk(dyn->G, f->proj.data);
+    olen = out_layout(&o, NULL, n, m, p);
+    if (!dkf__all_finite(L.nx.x, olen)) return DKF_ERR_NONFINITE;
+
+    /* commit */
+    dkf__copy(f->x.data, L.nx.x, olen);
+    f->rank = r;
+    for (i = 0; i < m; ++i) f->estimable[i] = classify(f->proj.data[i * m + i]);
+    f->bias_risk = risk;
+    if (risk) ++f->bias_steps;
+    ++f->k;
+    return DKF_OK;
+}

@@ -17,7 +17,7 @@ pkgs=(
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   qemu-user
-  libeigen3-dev liblcm-dev liblcm-bin valgrind
+  libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind
   python3 python3-pip
 )
 # Target (armhf) builds of the unit-test libraries, via Debian multiarch.
@@ -84,26 +84,44 @@ if (( ${#missing[@]} )); then
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 fi
 
-# Python for the analysis scripts (tests do not need it).
-if [[ "${DKF_BOOTSTRAP_NO_PYTHON:-0}" != 1 ]] && \
-   ! python3 -c 'import numpy, matplotlib' >/dev/null 2>&1; then
+# Python for the analysis, Monte-Carlo and monitoring tools (numpy,
+# matplotlib; PyPI `lcm` for the LCM monitors). Their smoke tests need them.
+py_missing=()
+if [[ "${DKF_BOOTSTRAP_NO_PYTHON:-0}" != 1 ]]; then
+  for mod in numpy matplotlib lcm; do
+    python3 -c "import $mod" >/dev/null 2>&1 || py_missing+=("$mod")
+  done
+fi
+if (( ${#py_missing[@]} )); then
   stdlib="$(python3 -c 'import sysconfig; print(sysconfig.get_path("stdlib"))')"
+  managed=0
+  [[ -e "$stdlib/EXTERNALLY-MANAGED" ]] && managed=1
   if [[ "$(id -u)" != 0 ]]; then
-    # Only the analysis scripts need them, not the build or the tests: warn.
-    if [[ -e "$stdlib/EXTERNALLY-MANAGED" ]]; then
-      echo "bootstrap: warning: python3 lacks numpy/matplotlib; run: sudo apt-get install -y python3-numpy python3-matplotlib" >&2
+    echo "bootstrap: python3 lacks: ${py_missing[*]}; run:" >&2
+    if (( managed )); then
+      echo "  sudo apt-get install -y python3-numpy python3-matplotlib && sudo python3 -m pip install --break-system-packages lcm" >&2
     else
-      echo "bootstrap: warning: python3 lacks numpy/matplotlib; run: python3 -m pip install numpy matplotlib" >&2
+      echo "  python3 -m pip install ${py_missing[*]}" >&2
     fi
-  elif [[ -e "$stdlib/EXTERNALLY-MANAGED" ]]; then
-    # Debian's own python3 refuses pip (PEP 668): use its packages instead.
-    echo "bootstrap: installing python3-numpy python3-matplotlib" >&2
-    apt_update
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-      python3-numpy python3-matplotlib >/dev/null
-  else
-    echo "bootstrap: pip installing numpy matplotlib" >&2
-    PIP_ROOT_USER_ACTION=ignore python3 -m pip install --quiet --disable-pip-version-check numpy matplotlib
+    exit 1
+  fi
+  echo "bootstrap: installing python modules ${py_missing[*]}" >&2
+  pip_mods=()
+  for mod in "${py_missing[@]}"; do
+    if (( managed )) && [[ "$mod" != lcm ]]; then
+      # Debian's own python3 refuses pip (PEP 668): use its packages.
+      apt_update
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+        "python3-$mod" >/dev/null
+    else
+      pip_mods+=("$mod")
+    fi
+  done
+  if (( ${#pip_mods[@]} )); then
+    extra=()
+    (( managed )) && extra=(--break-system-packages) # lcm is on PyPI only
+    PIP_ROOT_USER_ACTION=ignore python3 -m pip install --quiet --disable-pip-version-check \
+      "${extra[@]}" "${pip_mods[@]}"
   fi
 fi
 exit 0

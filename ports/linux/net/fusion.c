@@ -49,6 +49,7 @@ struct dkf_net_fusion {
     int broken;                   /* a step was degraded: fc is behind (provisional) */
     dkf_real_t *px, *pP, *tmp, *work; /* prior carried while broken, n x n scratch */
     dkf_net_fused_t out;
+    dkf_diffkf_msg_t in;          /* the message being decoded */
     int64_t *seq_max, *got;       /* per node: largest seq seen, messages accepted */
     record_t rec;
     dkf_net_counts_t c;
@@ -251,7 +252,6 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
                         void *user)
 {
     dkf_net_fusion_t *fu = user;
-    static dkf_diffkf_msg_t msg;
     dkf_net_expect_t ex;
     dkf_net_meta_t meta;
     dkf_net_verdict_t v;
@@ -266,15 +266,15 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     ex.n = fu->n;
     ex.m = NULL;
     ex.kmax = fu->N;
-    v = dkf_net_decode_node_msg(data, len, &ex, &msg, &meta, &fu->c.why);
+    v = dkf_net_decode_node_msg(data, len, &ex, &fu->in, &meta, &fu->c.why);
     if (v != DKF_NET_ACCEPT) {
         ++fu->c.rejected;
         fu_note(fu, "fusion: message on %s rejected: %s", channel, dkf_net_verdict_str(v));
         return;
     }
-    i = msg.node;
+    i = fu->in.node;
     if (meta.seq > fu->seq_max[i]) fu->seq_max[i] = meta.seq;
-    k = (long)msg.k;
+    k = (long)fu->in.k;
     if (k <= fu->done_k || k > fu->done_k + DKF_NET_WINDOW) {
         ++fu->c.stale;
         fu_note(fu, "fusion: node %zu step k=%ld is %s", i, k,
@@ -294,7 +294,7 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     }
     ++fu->c.received;
     ++fu->got[i];
-    sl->msg[i] = msg;
+    sl->msg[i] = fu->in;
     sl->have[i] = 1;
     sl->meas_utime[i] = meta.meas_utime;
     sl->recv_utime[i] = recv_utime;
@@ -312,6 +312,7 @@ void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbea
         for (j = 0; j < DKF_NET_WINDOW; ++j) {
             const slot_t *sl = &fu->slot[j];
             if (sl->k >= k && (open == 0 || sl->open_mono < open)) open = sl->open_mono;
+            /* (monotonic time is never 0 on a running system) */
         }
         if (open == 0 || mono_us - open < fu->deadline_us) break;
         fu_note(fu, "fusion: step k=%ld missed its deadline", k);

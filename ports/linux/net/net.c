@@ -14,6 +14,8 @@
 
 #include <lcm/lcm.h>
 
+#define DKF_NET_QUEUE 4096 /* messages a subscription may queue */
+
 struct dkf_net {
     lcm_t *lcm;
     int subs;              /* number of subscriptions (bounded below) */
@@ -144,11 +146,16 @@ int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler
                       void *user)
 {
     struct sub *s;
+    lcm_subscription_t *h;
     if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0])) return -1;
     s = &net->sub[net->subs];
     s->fn = handler;
     s->user = user;
-    if (lcm_subscribe(net->lcm, channel_regex, dispatch, s) == NULL) return -1;
+    h = lcm_subscribe(net->lcm, channel_regex, dispatch, s);
+    if (h == NULL) return -1;
+    /* LCM drops messages beyond a subscription's queue (30 by default); a
+     * burst of one message per node at every step must never be cut. */
+    lcm_subscription_set_queue_capacity(h, DKF_NET_QUEUE);
     ++net->subs;
     return 0;
 }

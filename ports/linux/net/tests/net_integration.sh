@@ -11,7 +11,7 @@
 #             the same fused output bit for bit
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_PYTHON
-# DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL.
+# DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL DKF_LOGPLOT DKF_LCM_PY.
 # Exit 77 (skip) when not root; every process has its own --timeout and the
 # script as a whole is bounded by ctest's TIMEOUT.
 set -uo pipefail
@@ -120,6 +120,13 @@ case "$mode" in
     "$DKF_PYTHON" "$DKF_COMPARE" "$out/replay.fused.json" "$out/live.fused.json" \
       --keys outputs.fused --rel 0 || { echo "FAIL: replay differs from the live run"; exit 1; }
     echo "replay == live run, bit for bit"
+    # the log plots (tools/dkf_logplot.py) when Python has lcm and matplotlib
+    if "$DKF_PYTHON" -c 'import lcm, matplotlib, numpy' 2>/dev/null; then
+      "$DKF_PYTHON" "$DKF_LOGPLOT" "$log" --png "$out/run.png" --types "$DKF_LCM_PY" &&
+        [[ -s $out/run.png ]] || { echo "FAIL: dkf_logplot.py"; exit 1; }
+    else
+      echo "note: Python lcm/matplotlib missing: dkf_logplot.py not exercised"
+    fi
     ;;
   *)
     echo "net_integration.sh: $mode: unknown mode" >&2; exit 2

@@ -1,0 +1,144 @@
+#!/usr/bin/env bash
+# tools/net_demo.sh - the sensor network over LCM, end to end, on this machine.
+#
+#   tools/net_demo.sh [--build-dir DIR] [--no-build] [--rate HZ] [--memq]
+#
+# Builds dkf, then runs seed-000 Example 3 (2 nodes) and a generated 12-node
+# network (tools/make_net_scenario.py, fixed seed; every node with its own
+# H/R, several with p_i < m_i): dkf-sim --rate HZ, one dkf-node per sensor
+# and dkf-fusion as separate processes talking over UDP multicast
+# udpm://239.255.76.67:7667?ttl=0 inside a private network namespace
+# (tools/netns.sh; root only), so nothing can leave the machine. Without
+# root (or with --memq) it says so and runs the same agents in one process
+# over memq:// instead (dkf-net-local; no latency then). It ends with a
+# table: fused RMSE, the centralized DKF's RMSE computed offline by dkf-run
+# from the same measurements, max |fused - central| (must be <= 1e-9
+# relative), node messages sent / lost / rejected, and the latency p50/p99
+# from a measurement's publication to the fused estimate's publication.
+# Exit 0 only if every fused step is complete and equals the central one.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+build=$root/build-net-demo
+do_build=1 rate=50 memq=0
+URL='udpm://239.255.76.67:7667?ttl=0'
+
+while [[ $# -gt 0 ]]; do
+  case $1 in
+    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
+    --no-build) do_build=0; shift ;;
+    --rate) rate=$2; shift 2 ;;
+    --memq) memq=1; shift ;;
+    --inner) shift; break ;;   # internal: run one scenario inside the namespace
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+# ---- inside the namespace: one scenario, every process separate -------------
+if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
+  scn=$1 out=$2 bin=$3 rate=$4
+  if ip -o link | grep -qv ': lo:'; then
+    echo "net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
+  fi
+  nodes=$(python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["model"]; print(len(m.get("sensors",[0])))' "$scn")
+  pids=()
+  trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
+  "$bin/dkf-fusion" --url "$URL" --timeout 120 --quiet --ready-file "$out.fusion.ready" \
+    --output "$out.fused.json" "$scn" & pids+=($!); fpid=$!
+  for ((i = 0; i < nodes; ++i)); do
+    "$bin/dkf-node" --url "$URL" --id $i --timeout 120 --quiet "$scn" & pids+=($!)
+  done
+  for ((i = 0; i < 1000; ++i)); do [[ -e $out.fusion.ready ]] && break; sleep 0.01; done
+  "$bin/dkf-sim" --url "$URL" --rate "$rate" --timeout 120 --quiet "$scn"
+  wait $fpid
+  for p in "${pids[@]:1}"; do wait $p; done
+  exit 0
+fi
+
+# ---- build --------------------------------------------------------------------
+if (( do_build )); then
+  echo "== building dkf in $build"
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local >/dev/null
+fi
+bin=$build/ports/linux/net
+run=$build/ports/linux/dkf-run
+for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-net-local" "$run"; do
+  [[ -x $p ]] || { echo "net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
+done
+out=$build/net-demo
+mkdir -p "$out"
+
+# ---- scenarios ----------------------------------------------------------------
+python3 "$here/make_net_scenario.py" --nodes 12 --steps 100 --seed 12 --out "$out/net12.json"
+scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json")
+
+mode=udpm
+if (( memq )); then
+  mode=memq
+elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
+  echo "net_demo.sh: $(sed 's/^netns.sh: //' "$out/netns.err")"
+  echo "net_demo.sh: the multicast demo needs a private network namespace (root), so that"
+  echo "             nothing can leave this machine; running every agent in one process"
+  echo "             over memq:// instead (same code, no sockets, no latency figures)."
+  mode=memq
+fi
+
+for e in "${scenarios[@]}"; do
+  tag=${e%%:*} scn=${e#*:}
+  rm -f "$out/$tag".*.ready "$out/$tag.fused.json"
+  echo "== $tag: $(python3 -c 'import json,sys; print(json.load(open(sys.argv[1])).get("scenario",""))' "$scn")"
+  if [[ $mode == udpm ]]; then
+    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$rate"
+  else
+    "$bin/dkf-net-local" --quiet --output "$out/$tag.fused.json" "$scn"
+  fi
+  "$run" --filter dkf --quiet --output "$out/$tag.central.json" "$scn"
+done
+
+# ---- the table ------------------------------------------------------------------
+python3 - "$mode" "$rate" "$out" "${scenarios[@]}" <<'PY'
+import json, sys
+import numpy as np
+mode, rate, out = sys.argv[1], sys.argv[2], sys.argv[3]
+ok = True
+rows = []
+for e in sys.argv[4:]:
+    tag, scn = e.split(":", 1)
+    s = json.load(open(scn))
+    fu = json.load(open(f"{out}/{tag}.fused.json"))
+    ce = json.load(open(f"{out}/{tag}.central.json"))["outputs"]["central"]
+    f = fu["outputs"]["fused"]
+    N = s["N"]
+    tk = s["truth"]["k"]
+    truth = {k: np.array(x) for k, x in zip(tk, s["truth"]["x"])}
+    X = np.array([truth[k] for k in fu["k"]])
+    rmse = lambda xf: float(np.sqrt(np.mean((np.array(xf)[: len(X)] - X) ** 2)))
+    dmax = 0.0
+    for key in ("xf", "xp", "Pf", "Pp"):
+        a, b = np.array(f[key]), np.array(ce[key])[: len(f[key])]
+        dmax = max(dmax, float(np.max(np.abs(a - b)) / max(1.0, float(np.max(np.abs(b))))))
+    c = fu["counters"]
+    sent, lost, rej = sum(c["sent_by_node"]), sum(c["not_received"]), c["rejected"]
+    lat = np.array([v for v in fu["latency_us"]["first"] if v >= 0]) / 1000.0
+    p50, p99 = (np.percentile(lat, 50), np.percentile(lat, 99)) if mode == "udpm" else (None, None)
+    complete = len(fu["k"]) == N and all(st == "complete" for st in fu["status"])
+    good = complete and dmax <= 1e-9
+    ok &= good
+    rows.append((tag, len(s["model"]["sensors"]), N, rmse(f["xf"]), rmse(ce["xf"]), dmax,
+                 sent, lost, rej, p50, p99, "ok" if good else "FAIL"))
+print()
+print(f"transport: {'udpm://239.255.76.67:7667?ttl=0 in a private network namespace' if mode == 'udpm' else 'memq:// (one process)'}"
+      + (f", dkf-sim --rate {rate}" if mode == "udpm" else ""))
+hdr = ("scenario", "nodes", "N", "fused RMSE", "central RMSE", "max|fused-central|",
+       "sent", "lost", "rejected", "latency p50", "p99", "")
+print(f"{hdr[0]:<9}{hdr[1]:>6}{hdr[2]:>5}{hdr[3]:>12}{hdr[4]:>14}{hdr[5]:>20}{hdr[6]:>6}{hdr[7]:>6}{hdr[8]:>9}{hdr[9]:>13}{hdr[10]:>9}")
+for r in rows:
+    lat = (f"{r[9]:10.3f} ms{r[10]:6.3f} ms" if r[9] is not None else f"{'-':>13}{'-':>9}")
+    print(f"{r[0]:<9}{r[1]:>6}{r[2]:>5}{r[3]:>12.6f}{r[4]:>14.6f}{r[5]:>20.2e}{r[6]:>6}{r[7]:>6}{r[8]:>9}{lat}  {r[11]}")
+print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, Pf, Pp;"
+      " sent/lost/rejected count node messages at the fusion centre;"
+      " latency: measurement publication -> fused publication, oldest measurement of the step)")
+sys.exit(0 if ok else 1)
+PY

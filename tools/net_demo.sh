@@ -19,7 +19,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
-build=$root/build-net-demo
+build=$root/build/net-demo
 do_build=1 rate=50 memq=0
 URL='udpm://239.255.76.67:7667?ttl=0'
 
@@ -56,8 +56,11 @@ if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   exit 0
 fi
 
-# ---- build --------------------------------------------------------------------
+# ---- dependencies and build ------------------------------------------------------
 if (( do_build )); then
+  # installs what is missing when root, else prints the command and stops;
+  # the demo does not need the armhf cross libraries
+  DKF_BOOTSTRAP_NO_ARMHF=1 "$root/tools/bootstrap.sh"
   echo "== building dkf in $build"
   cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local >/dev/null

@@ -25,13 +25,18 @@ dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols)
 
 /* Pointers into different objects cannot be compared portably with <, so
  * compare their integer images (exact on every flat-memory target). */
+int dkf__overlap_raw(const dkf_real_t *a, size_t na, const dkf_real_t *b, size_t nb)
+{
+    uintptr_t a0 = (uintptr_t)a;
+    uintptr_t a1 = a0 + na * sizeof(dkf_real_t);
+    uintptr_t b0 = (uintptr_t)b;
+    uintptr_t b1 = b0 + nb * sizeof(dkf_real_t);
+    return a0 < b1 && b0 < a1;
+}
+
 int dkf__overlap_buf(const dkf_mat_t *m, const dkf_real_t *p, size_t len)
 {
-    uintptr_t a0 = (uintptr_t)m->data;
-    uintptr_t a1 = a0 + m->rows * m->cols * sizeof(dkf_real_t);
-    uintptr_t b0 = (uintptr_t)p;
-    uintptr_t b1 = b0 + len * sizeof(dkf_real_t);
-    return a0 < b1 && b0 < a1;
+    return dkf__overlap_raw(m->data, m->rows * m->cols, p, len);
 }
 
 int dkf__overlap(const dkf_mat_t *a, const dkf_mat_t *b)

@@ -300,7 +300,7 @@ dkf_status_t dkf_graph_mix(dkf_real_t *out, size_t len, const dkf_real_t *const 
     for (e = 0; e < count; ++e) {
         DKF_CHECK_NULL(in[e]);
 #if DKF_DEBUG_CHECKS
-        if (in[e] < out + len && out < in[e] + len) return DKF_ERR_ALIAS;
+        if (dkf__overlap_raw(in[e], len, out, len)) return DKF_ERR_ALIAS;
 #endif
         if (!dkf__all_finite(in[e], len)) return DKF_ERR_NONFINITE;
     }
@@ -332,14 +332,16 @@ static void mix_rows(dkf_real_t *out, const dkf_real_t *F, size_t len, size_t st
 dkf_status_t dkf_graph_mix_all(dkf_real_t *out, const dkf_real_t *F, size_t len, size_t stride,
                                const dkf_graph_t *g, const dkf_real_t *w)
 {
-    size_t i, span;
+    size_t i;
     DKF_CHECK_NULL(out);
     DKF_CHECK_NULL(F);
     DKF_TRY(check_graph(g));
     if (len == 0 || stride < len) return DKF_ERR_ARG;
-    span = (g->N - 1) * stride + len;
 #if DKF_DEBUG_CHECKS
-    if (F < out + span && out < F + span) return DKF_ERR_ALIAS;
+    {
+        const size_t span = (g->N - 1) * stride + len;
+        if (dkf__overlap_raw(F, span, out, span)) return DKF_ERR_ALIAS;
+    }
 #endif
     for (i = 0; i < g->N; ++i)
         if (!dkf__all_finite(F + i * stride, len)) return DKF_ERR_NONFINITE;
@@ -358,7 +360,7 @@ dkf_status_t dkf_graph_acf(dkf_real_t *F, size_t len, const dkf_graph_t *g, cons
     DKF_TRY(check_graph(g));
     if (len == 0) return DKF_ERR_ARG;
 #if DKF_DEBUG_CHECKS
-    if (F < work + g->N * len && work < F + g->N * len) return DKF_ERR_ALIAS;
+    if (dkf__overlap_raw(F, g->N * len, work, g->N * len)) return DKF_ERR_ALIAS;
 #endif
     if (!dkf__all_finite(F, g->N * len) || !dkf__all_finite(W, g->nnz)) return DKF_ERR_NONFINITE;
     /* (30): F_(eta) = (W kron I) F_(eta-1), two buffers swapped per pass */

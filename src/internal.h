@@ -53,6 +53,8 @@ dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols);
 dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols);
 /* 1 if the storage of a and b overlaps (any element shared). */
 int dkf__overlap(const dkf_mat_t *a, const dkf_mat_t *b);
+/* 1 if the na reals at a overlap the nb reals at b. */
+int dkf__overlap_raw(const dkf_real_t *a, size_t na, const dkf_real_t *b, size_t nb);
 /* 1 if the storage of m overlaps the len reals at p. */
 int dkf__overlap_buf(const dkf_mat_t *m, const dkf_real_t *p, size_t len);
 /* 1 if all n reals at p are finite. */

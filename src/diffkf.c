@@ -31,17 +31,19 @@
  */
 #include "dkf/diffkf.h"
 
+#include <stdint.h>
 #include <string.h>
 
 #include "internal.h"
 #include "kernels.h"
 
 typedef struct {
-    /* carried from step k-1 to step k */
-    dkf_real_t *C;     /* C_k (0 at the first step)                p x p */
-    dkf_real_t *CLi;   /* C_k L_{k-1}^{-1}                         p x p */
-    dkf_real_t *W;     /* W_{k-1}                                  n x p */
-    dkf_real_t *dzp;   /* dz_{k-1}                                 p     */
+    /* carried from step k-1 to step k; pc = the rows step k-1 kept (0
+     * before the first step: no previous innovation), S' its selection */
+    dkf_real_t *C;     /* C_k S'^T                                 p x pc */
+    dkf_real_t *CLi;   /* C_k S'^T L'_{k-1}^{-1}                   p x pc */
+    dkf_real_t *W;     /* W'_{k-1}                                 n x pc */
+    dkf_real_t *dzp;   /* dz'_{k-1}                                pc     */
     dkf_real_t *ApH;   /* A_k^+ H_k                                p x n */
     dkf_real_t *ApRAp; /* A_k^+ R_k A_k^{+T}                       p x p */
     dkf_real_t *Apy;   /* A_k^+ y_k                                p     */
@@ -53,6 +55,10 @@ typedef struct {
     dkf_real_t *mF, *mQ, *mB, *mRd, *mH, *mA, *mR, *mApH, *mApRAp;
     /* pending: the gain phase of step k */
     dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *CLin, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
+    /* pending: the row selection of step k (pk kept rows, pc = the previous
+     * step's kept rows): Mk = S M, Ruk = S Ru S^T, Ck = S C_k S_{k-1}^T
+     * (= S times the carried C), CLik likewise, Cnk = C_{k+1} S^T */
+    dkf_real_t *Mk, *Ruk, *Ck, *CLik, *Cnk;
     /* scratch */
     dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *Lc, *X, *svdw, *invw;
 } layout_t;
@@ -100,6 +106,11 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     TAKE(L->ApHn, p * n);
     TAKE(L->ApRApn, p * p);
     TAKE(L->zc, p);
+    TAKE(L->Mk, p * n);
+    TAKE(L->Ruk, p * p);
+    TAKE(L->Ck, p * p);
+    TAKE(L->CLik, p * p);
+    TAKE(L->Cnk, p * p);
     TAKE(L->T1, n * n);
     TAKE(L->T2, n * p);
     TAKE(L->T3, p * (n + m));
@@ -168,6 +179,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     memset(storage, 0, (outputs_len(n, p) + layout(&L, NULL, n, m, p)) * sizeof *storage);
     dkf__copy(g.xf.data, x0->data, n);
     dkf__copy(g.Pf.data, P0->data, n * n);
+    g.pk = p;
     g.ready = 1;
     *f = g;
     return DKF_OK;
@@ -298,11 +310,13 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     }
     meas_products(f, &L, meas1, L.ApH, L.ApRAp);
     if (y1 != NULL) dkf__mul_vec(L.Apy, L.Ap, y1->data, p, f->m);
-    /* no previous innovation: every term with L_0^{-1} vanishes */
+    /* no previous innovation: every term with L_0^{-1} vanishes (an empty
+     * carry, pc = 0; the zeros are for inspection only) */
     memset(L.C, 0, p * p * sizeof(dkf_real_t));
     memset(L.CLi, 0, p * p * sizeof(dkf_real_t));
     memset(L.W, 0, n * p * sizeof(dkf_real_t));
     memset(L.dzp, 0, p * sizeof(dkf_real_t));
+    f->pc = 0;
     if (F0 != NULL) {
         dkf__copy(f->xp.data, L.T2, n);
         dkf__copy(f->Pp.data, L.Ppn, n * n);
@@ -389,75 +403,124 @@ static dkf_status_t model_block_memo(dkf_diffkf_t *f, const layout_t *L, const d
     return DKF_OK;
 }
 
-/* The gain phase on the storage map L (computed once per call chain). */
+/* The kept rows of a selection: idx[0..pk-1] ascending; rows NULL = all. */
+static size_t kept_rows(size_t *idx, const unsigned char *rows, size_t p)
+{
+    size_t i, pk = 0;
+    for (i = 0; i < p; ++i)
+        if (rows == NULL || rows[i] != 0) idx[pk++] = i;
+    return pk;
+}
+
+/* The selected model of step k (S = the kept rows idx, S' = the previous
+ * step's, already applied to the carry's columns):
+ *   M' = S M,  Ru' = S Ru S^T,  C'_k = S (C_k S'^T),  C'_k L'^{-1}_{k-1} = S (carry),
+ *   C_{k+1} S^T (what the next step will carry). */
+static void select_rows(const dkf_diffkf_t *f, const layout_t *L, const size_t *idx, size_t pk)
+{
+    const size_t n = f->n, p = f->p, pc = f->pc;
+    size_t i, j;
+    for (i = 0; i < pk; ++i) {
+        dkf__copy(L->Mk + i * n, L->M + idx[i] * n, n);
+        dkf__copy(L->Ck + i * pc, L->C + idx[i] * pc, pc);
+        dkf__copy(L->CLik + i * pc, L->CLi + idx[i] * pc, pc);
+        for (j = 0; j < pk; ++j) L->Ruk[i * pk + j] = L->Ru[idx[i] * p + idx[j]];
+    }
+    for (i = 0; i < p; ++i)
+        for (j = 0; j < pk; ++j) L->Cnk[i * pk + j] = L->Cn[i * p + idx[j]];
+}
+
+/* The gain phase on the storage map L (computed once per call chain), for
+ * the pk rows idx of z_k. Theorem 1 holds unchanged for a time-varying
+ * selection (docs/diffkf-fusion.md §8): u'_k = S u_k is correlated only
+ * with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and E[v_k u'_k^T] = S_k S^T,
+ * so the recursion below is (19)-(20), (16)-(17) with the primed blocks and
+ * every dimension p of the innovation replaced by pk (pc for the carry). */
 static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_dyn_t *dyn,
-                              const dkf_ui_meas_t *meas_next)
+                              const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
     const layout_t L = *L_;
-    const size_t n = f->n, p = f->p;
+    const size_t n = f->n, p = f->p, pc = f->pc;
     dkf_real_t inv[DKF_MAX_DIM];
     size_t i, j;
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
     DKF_TRY(model_block_memo(f, &L, dyn, meas_next));
+    select_rows(f, &L, idx, pk);
 
-    /* J = P M^T - W_{k-1} C_k^T                                         (19) */
-    dkf__mul_nt(L.Jn, f->Pp.data, L.M, n, n, p);
-    dkf__mul_nt(L.T2, L.W, L.C, n, p, p);
-    for (i = 0; i < n * p; ++i) L.Jn[i] -= L.T2[i];
+    /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
+    dkf__mul_nt(L.Jn, f->Pp.data, L.Mk, n, n, pk);
+    dkf__mul_nt(L.T2, L.W, L.Ck, n, pc, pk);
+    for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
 
-    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T      (20) */
-    dkf__mul_nn(L.T3, L.M, L.W, p, n, p);     /* M W      */
-    dkf__mul_nt(L.X, L.T3, L.C, p, p, p);     /* M W C^T  */
-    dkf__mul_nn(L.T3, L.M, f->Pp.data, p, n, n);
-    dkf__mul_nt_sym(L.Ln, L.T3, L.M, L.Ru, p, n); /* M P M^T + Ru */
-    dkf__mul_nt(L.T3, L.CLi, L.C, p, p, p);   /* C L^{-1} C^T */
-    for (i = 0; i < p; ++i)
-        for (j = i; j < p; ++j) {
-            const dkf_real_t v = L.Ln[i * p + j] - L.X[i * p + j] - L.X[j * p + i] -
-                                 DKF_R(0.5) * (L.T3[i * p + j] + L.T3[j * p + i]);
-            L.Ln[i * p + j] = v;
-            L.Ln[j * p + i] = v;
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
+    dkf__mul_nn(L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
+    dkf__mul_nt(L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
+    dkf__mul_nn(L.T3, L.Mk, f->Pp.data, pk, n, n);
+    dkf__mul_nt_sym(L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
+    dkf__mul_nt(L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
+    for (i = 0; i < pk; ++i)
+        for (j = i; j < pk; ++j) {
+            const dkf_real_t v = L.Ln[i * pk + j] - L.X[i * pk + j] - L.X[j * pk + i] -
+                                 DKF_R(0.5) * (L.T3[i * pk + j] + L.T3[j * pk + i]);
+            L.Ln[i * pk + j] = v;
+            L.Ln[j * pk + i] = v;
         }
-    if (dkf__chol(L.Lc, inv, L.Ln, p) != 0) return DKF_ERR_NOT_SPD;
+    if (dkf__chol(L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored) */
-    right_solve(L.Kn, L.Jn, L.Lc, inv, n, p, L.T2);
-    dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, p);
+    right_solve(L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
+    dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
     for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pp.data[i] - L.Pfn[i];
 
-    /* W = (F J + S) L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S) W^T    (16)-(17) */
-    dkf__mul_nn(L.T3, dyn->F->data, L.Jn, n, n, p); /* T3 has p(n+m) >= n p */
-    for (i = 0; i < n * p; ++i) L.T3[i] += L.S[i];
-    right_solve(L.Wn, L.T3, L.Lc, inv, n, p, L.T2);
+    /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
+     * S' = S_k S^T: the kept columns of S */
+    dkf__mul_nn(L.T3, dyn->F->data, L.Jn, n, n, pk); /* T3 has p(n+m) >= n p */
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < pk; ++j) L.T3[i * pk + j] += L.S[i * p + idx[j]];
+    right_solve(L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
     dkf__mul_nn(L.T1, dyn->F->data, f->Pp.data, n, n, n);
     dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
-    dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, p);
+    dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
     for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
 
-    /* C_{k+1} L_k^{-1} for the next step */
-    right_solve(L.CLin, L.Cn, L.Lc, inv, p, p, L.T2);
+    /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
+     * now; T2 holds only n p) */
+    right_solve(L.CLin, L.Cnk, L.Lc, inv, p, pk, L.T3);
 
-    /* the correlated part of the predicted z: C_k L_{k-1}^{-1} dz_{k-1} */
-    dkf__mul_vec(L.zc, L.CLi, L.dzp, p, p);
+    /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
+    dkf__mul_vec(L.zc, L.CLik, L.dzp, pk, pc);
     dkf__copy(L.Fn, dyn->F->data, n * n);
 
     if (!dkf__all_finite(L.Pfn, n * n) || !dkf__all_finite(L.Ppn, n * n) ||
-        !dkf__all_finite(L.Kn, n * p) || !dkf__all_finite(L.Wn, n * p) ||
-        !dkf__all_finite(L.CLin, p * p))
+        !dkf__all_finite(L.Kn, n * pk) || !dkf__all_finite(L.Wn, n * pk) ||
+        !dkf__all_finite(L.CLin, p * pk))
         return DKF_ERR_NONFINITE;
+    f->pk = pk;
     f->pending = 1;
     return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                                    const dkf_ui_meas_t *meas_next, const unsigned char *rows)
+{
+    size_t idx[DKF_MAX_DIM], pk;
+    dkf_status_t st;
+    layout_t L;
+    DKF_CHECK_NULL(f);
+    if (!f->ready || !f->started) return DKF_ERR_STATE;
+    pk = kept_rows(idx, rows, f->p);
+    L = mem_of(f);
+    st = gain_impl(f, &L, dyn, meas_next, idx, pk);
+    /* no gain pending: pk describes the last completed step again */
+    if (st != DKF_OK) f->pk = f->z.rows;
+    return st;
 }
 
 dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next)
 {
-    layout_t L;
-    DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started) return DKF_ERR_STATE;
-    L = mem_of(f);
-    return gain_impl(f, &L, dyn, meas_next);
+    return dkf_diffkf_gain_masked(f, dyn, meas_next, NULL);
 }
 
 dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *K,
@@ -467,48 +530,56 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
     DKF_CHECK_NULL(f);
     if (!f->pending) return DKF_ERR_STATE;
     L = mem_of(f);
-    if (M != NULL) M->rows = f->p, M->cols = f->n, M->data = L.M;
-    if (K != NULL) K->rows = f->n, K->cols = f->p, K->data = L.Kn;
-    if (zcorr != NULL) zcorr->rows = f->p, zcorr->cols = 1, zcorr->data = L.zc;
+    if (M != NULL) M->rows = f->pk, M->cols = f->n, M->data = L.Mk;
+    if (K != NULL) K->rows = f->n, K->cols = f->pk, K->data = L.Kn;
+    if (zcorr != NULL) zcorr->rows = f->pk, zcorr->cols = 1, zcorr->data = L.zc;
     return DKF_OK;
 }
 
-/* The update phase on the storage map L; z and y_next already checked. */
+/* The update phase on the storage map L; z (f->pk reals) and y_next
+ * already checked. */
 static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_real_t *zk,
                                 const dkf_mat_t *y_next)
 {
     const layout_t L = *L_;
-    const size_t n = f->n, p = f->p;
+    const size_t n = f->n, p = f->p, pk = f->pk;
     dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
-    dkf__mul_vec(dz, L.M, f->xp.data, p, n);
-    for (i = 0; i < p; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
+    dkf__mul_vec(dz, L.Mk, f->xp.data, pk, n);
+    for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
-    dkf__mul_vec(xf, L.Kn, dz, n, p);
+    dkf__mul_vec(xf, L.Kn, dz, n, pk);
     dkf__mul_vec(xp, L.Fn, f->xp.data, n, n);
     for (i = 0; i < n; ++i) {
         xf[i] += f->xp.data[i];
-        xp[i] += dkf__dot(L.Wn + i * p, dz, p);
+        xp[i] += dkf__dot(L.Wn + i * pk, dz, pk);
     }
-    if (!dkf__all_finite(dz, p) || !dkf__all_finite(xf, n) || !dkf__all_finite(xp, n))
+    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xp, n))
         return DKF_ERR_NONFINITE;
 
-    /* commit: estimates, the step's quantities, and the carry */
+    /* commit: estimates, the step's quantities (pk rows), and the carry */
     dkf__copy(f->xpp.data, f->xp.data, n);
     dkf__copy(f->xf.data, xf, n);
     dkf__copy(f->Pf.data, L.Pfn, n * n);
     dkf__copy(f->xp.data, xp, n);
     dkf__copy(f->Pp.data, L.Ppn, n * n);
-    dkf__copy(f->z.data, zk, p);
-    dkf__copy(f->dz.data, dz, p);
-    dkf__copy(f->J.data, L.Jn, n * p);
-    dkf__copy(f->L.data, L.Ln, p * p);
-    dkf__copy(f->K.data, L.Kn, n * p);
-    dkf__copy(L.C, L.Cn, p * p);
-    dkf__copy(L.CLi, L.CLin, p * p);
-    dkf__copy(L.W, L.Wn, n * p);
-    dkf__copy(L.dzp, dz, p);
+    dkf__copy(f->z.data, zk, pk);
+    dkf__copy(f->dz.data, dz, pk);
+    dkf__copy(f->J.data, L.Jn, n * pk);
+    dkf__copy(f->L.data, L.Ln, pk * pk);
+    dkf__copy(f->K.data, L.Kn, n * pk);
+    f->z.rows = pk;
+    f->dz.rows = pk;
+    f->J.cols = pk;
+    f->L.rows = pk;
+    f->L.cols = pk;
+    f->K.cols = pk;
+    dkf__copy(L.C, L.Cnk, p * pk);
+    dkf__copy(L.CLi, L.CLin, p * pk);
+    dkf__copy(L.W, L.Wn, n * pk);
+    dkf__copy(L.dzp, dz, pk);
+    f->pc = pk;
     dkf__copy(L.ApH, L.ApHn, p * n);
     dkf__copy(L.ApRAp, L.ApRApn, p * p);
     f->has_y = y_next != NULL;
@@ -520,19 +591,26 @@ static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_r
 
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)
 {
+    static const dkf_real_t empty[1] = {DKF_R(0.0)};
     layout_t L;
     DKF_CHECK_NULL(f);
     if (!f->pending) return DKF_ERR_STATE;
-    DKF_TRY(dkf__check_input(z, f->p, 1));
+    if (f->pk == 0) {
+        /* a pure prediction: no datum; a given z must be empty */
+        if (z != NULL && (z->rows != 0 || z->cols != 1)) return DKF_ERR_DIM;
+    } else {
+        DKF_TRY(dkf__check_input(z, f->pk, 1));
+    }
     if (y_next != NULL) DKF_TRY(dkf__check_input(y_next, f->m, 1));
     L = mem_of(f);
-    return update_impl(f, &L, z->data, y_next);
+    return update_impl(f, &L, f->pk == 0 ? empty : z->data, y_next);
 }
 
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next)
 {
     dkf_real_t z[DKF_MAX_DIM];
+    size_t idx[DKF_MAX_DIM];
     dkf_status_t st;
     layout_t L;
     size_t i;
@@ -542,12 +620,131 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
     was_pending = f->pending;
     L = mem_of(f);
-    DKF_TRY(gain_impl(f, &L, dyn, meas_next));
+    st = gain_impl(f, &L, dyn, meas_next, idx, kept_rows(idx, NULL, f->p));
+    if (st != DKF_OK) {
+        f->pk = f->z.rows;
+        return st;
+    }
     /* z_k = G y_{k+1} - A_k^+ y_k                                        (8) */
     dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
     for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
     st = update_impl(f, &L, z, y_next);
-    /* the pending gain is valid for the unchanged state: restore the flag */
-    if (st != DKF_OK) f->pending = was_pending;
+    /* the pending area now holds this step's (all-rows) gain, valid for the
+     * unchanged state: a gain that was pending stays pending, as that one */
+    if (st != DKF_OK) {
+        f->pending = was_pending;
+        if (!was_pending) f->pk = f->z.rows;
+    }
     return st;
+}
+
+dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
+{
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    f->k = k;
+    return DKF_OK;
+}
+
+/* ---- checkpoints ------------------------------------------------------------
+ * Layout (reals): a header of CKPT_HEAD small integers, each exact in any
+ * real type (< 2^16): tag, n, m, p, k in four 16-bit digits (least
+ * significant first), the last step's kept rows (the views' size), the
+ * carry's columns pc, flags (started, has_y); then the output views and
+ * the carry, verbatim (they are contiguous at the start of the storage). */
+#define CKPT_TAG 17478 /* "DF" */
+#define CKPT_HEAD 11
+
+static size_t carry_len(size_t n, size_t p) { return 3 * p * p + 2 * n * p + 2 * p; }
+
+static size_t state_len(const dkf_diffkf_t *f)
+{
+    return outputs_len(f->n, f->p) + carry_len(f->n, f->p);
+}
+
+size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)
+{
+    return f != NULL && f->ready ? CKPT_HEAD + state_len(f) : 0;
+}
+
+dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
+{
+    size_t i, k;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(buf);
+    if (!f->ready) return DKF_ERR_STATE;
+    if (len < dkf_diffkf_checkpoint_len(f)) return DKF_ERR_CAPACITY;
+    buf[0] = (dkf_real_t)CKPT_TAG;
+    buf[1] = (dkf_real_t)f->n;
+    buf[2] = (dkf_real_t)f->m;
+    buf[3] = (dkf_real_t)f->p;
+    for (i = 0, k = f->k; i < 4; ++i, k = (k >> 8) >> 8) buf[4 + i] = (dkf_real_t)(k & 0xFFFFu);
+    buf[8] = (dkf_real_t)f->z.rows;
+    buf[9] = (dkf_real_t)f->pc;
+    buf[10] = (dkf_real_t)((f->started ? 1 : 0) + (f->has_y ? 2 : 0));
+    dkf__copy(buf + CKPT_HEAD, f->xf.data, state_len(f));
+    return DKF_OK;
+}
+
+/* v = buf[i] if it is an integer in [0, hi], else 0 with *ok cleared. */
+static size_t small_int(const dkf_real_t *buf, size_t i, size_t hi, int *ok)
+{
+    const dkf_real_t x = buf[i];
+    if (!(x >= DKF_R(0.0) && x <= (dkf_real_t)hi) || x != (dkf_real_t)(size_t)x) {
+        *ok = 0;
+        return 0;
+    }
+    return (size_t)x;
+}
+
+dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t *buf,
+                                         size_t len)
+{
+    int ok = 1;
+    size_t i;
+    DKF_CHECK_NULL(f);
+    DKF_CHECK_NULL(buf);
+    if (!f->ready) return DKF_ERR_STATE;
+    if (len < dkf_diffkf_checkpoint_len(f)) return DKF_ERR_CAPACITY;
+    if (small_int(buf, 0, 0xFFFFu, &ok) != CKPT_TAG || !ok) return DKF_ERR_ARG;
+    if (small_int(buf, 1, 0xFFFFu, &ok) != f->n || small_int(buf, 2, 0xFFFFu, &ok) != f->m ||
+        small_int(buf, 3, 0xFFFFu, &ok) != f->p || !ok)
+        return DKF_ERR_DIM;
+    for (i = 0; i < 4; ++i) (void)small_int(buf, 4 + i, 0xFFFFu, &ok);
+#if SIZE_MAX <= 0xFFFFFFFFu
+    if (buf[6] != DKF_R(0.0) || buf[7] != DKF_R(0.0)) return DKF_ERR_CAPACITY;
+#endif
+    (void)small_int(buf, 8, f->p, &ok);
+    (void)small_int(buf, 9, f->p, &ok);
+    (void)small_int(buf, 10, 3, &ok);
+    if (!ok) return DKF_ERR_ARG;
+    if (!dkf__all_finite(buf + CKPT_HEAD, state_len(f))) return DKF_ERR_NONFINITE;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t len)
+{
+    int ok = 1;
+    size_t i, k = 0, pk;
+    DKF_TRY(dkf_diffkf_checkpoint_check(f, buf, len));
+    for (i = 4; i-- > 0;) k = ((k << 8) << 8) + small_int(buf, 4 + i, 0xFFFFu, &ok);
+    pk = small_int(buf, 8, f->p, &ok);
+    dkf__copy(f->xf.data, buf + CKPT_HEAD, state_len(f));
+    f->k = k;
+    f->pk = pk;
+    f->z.rows = pk;
+    f->dz.rows = pk;
+    f->J.cols = pk;
+    f->L.rows = pk;
+    f->L.cols = pk;
+    f->K.cols = pk;
+    f->pc = small_int(buf, 9, f->p, &ok);
+    f->started = (small_int(buf, 10, 3, &ok) & 1u) != 0;
+    f->has_y = (small_int(buf, 10, 3, &ok) & 2u) != 0;
+    /* a pending gain belongs to the abandoned state; the caches are keyed
+     * on their inputs and would stay valid, but recomputing them is cheap
+     * and gives the same bits */
+    f->pending = 0;
+    f->a_cached = f->b_cached = f->model_cached = 0;
+    return DKF_OK;
 }

@@ -19,6 +19,12 @@
  * next step's correction term - is the recovered dz^i_k (up to one
  * rounding of z - M x - zcorr) and no x recursion of its own can drift.
  *
+ * Degraded steps (docs/diffkf-fusion.md §8): a node's rows enter the
+ * central step only if its message is present and its replica carries the
+ * true dz^i_{k-1} (sync); the central filter then runs the row-masked
+ * Difference KF, the exact estimate given the rows received. Checkpoints
+ * and replica restarts support rollback/replay and restarted/late nodes.
+ *
  * Atomicity: everything that can fail (replica gains, rank of K^i, the
  * central gain, the updates' overflow checks) runs against snapshots of
  * the replicas and of the central filter's struct; a failure restores them.
@@ -313,6 +319,7 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         nodes[i].z.rows = p[i], nodes[i].z.cols = 1, nodes[i].z.data = cur + zoff;
         nodes[i].dz.rows = p[i], nodes[i].dz.cols = 1, nodes[i].dz.data = cur + ps + zoff;
         zoff += p[i];
+        nodes[i].sync = 1; /* the first step has no previous innovation */
         nodes[i].saved = nodes[i].rep;
     }
     memset(cur, 0, 4 * ps * sizeof(dkf_real_t));
@@ -482,13 +489,15 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
 
-/* Message checks, in the order node, step, dimension, finiteness. */
+/* Message checks of the present nodes, in the order node, step,
+ * dimension, finiteness. */
 static dkf_status_t check_msgs(const dkf_diffkf_fc_t *fc, const dkf_diffkf_msg_t msgs[],
-                               dkf_diffkf_fc_fault_t *fault)
+                               const unsigned char present[], dkf_diffkf_fc_fault_t *fault)
 {
     size_t i;
     for (i = 0; i < fc->l; ++i) {
         const dkf_diffkf_msg_t *g = &msgs[i];
+        if (present != NULL && present[i] == 0) continue;
         if ((size_t)g->node != i) return report(fault, DKF_ERR_ARG, DKF_DIFFKF_FC_MSG_NODE, i);
         if ((size_t)g->k != fc->k + 1)
             return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_MSG_STEP, i);
@@ -501,7 +510,8 @@ static dkf_status_t check_msgs(const dkf_diffkf_fc_t *fc, const dkf_diffkf_msg_t
 
 /* Replica i's gain of step k, then the recovered innovation and datum
  *   dz = K^+ (x_{k|k} - x_{k|k-1}),  z = dz + M x_{k|k-1} + zcorr
- * into dz, z (p_i each). DKF_ERR_RANK (K_RANK) if rank K < p_i. */
+ * into dz, z (p_i each). DKF_ERR_RANK (K_RANK) if rank K < p_i. Without a
+ * message (msg NULL) only the gain runs, and z = dz = 0. */
 static dkf_status_t recover_node(dkf_diffkf_fc_t *fc, size_t i, const dkf_mat_t *F,
                                  const dkf_mat_t *Q, const dkf_diffkf_sensor_t *s,
                                  const dkf_diffkf_msg_t *msg, dkf_real_t *z, dkf_real_t *dz,
@@ -523,6 +533,11 @@ static dkf_status_t recover_node(dkf_diffkf_fc_t *fc, size_t i, const dkf_mat_t 
         *which = cond_of(st);
         return st;
     }
+    if (msg == NULL) {
+        memset(z, 0, pi * sizeof *z);
+        memset(dz, 0, pi * sizeof *dz);
+        return DKF_OK;
+    }
     DKF_TRY(dkf_diffkf_pending(&nd->rep, &M, &K, &zc));
     /* rank K = p_i is exactly the condition for (24) to determine dz */
     st = dkf_mat_pinv(&Kp, &rank, &K, DKF_RANK_TOL_DEFAULT, fc->work);
@@ -542,24 +557,48 @@ static dkf_status_t recover_node(dkf_diffkf_fc_t *fc, size_t i, const dkf_mat_t 
     return DKF_OK;
 }
 
-dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
-                                const dkf_diffkf_sensor_t sensors[], const dkf_diffkf_msg_t msgs[],
-                                dkf_diffkf_fc_fault_t *fault)
+/* Replica i completes its step. With a message, from the node's
+ * x_{k|k-1} and the recovered z^i_k, so the innovation it carries into
+ * step k+1 is the recovered dz^i_k. Without one, from x = 0 and the datum
+ * z = zcorr (dz = 0): only its data-independent recursion matters until it
+ * is in sync again, and zeros cannot overflow however long the gap. */
+static dkf_status_t complete_replica(dkf_diffkf_fc_node_t *nd, size_t n,
+                                     const dkf_diffkf_msg_t *msg, dkf_real_t *z)
+{
+    dkf_mat_t zi = DKF_MAT(nd->p, 1, z);
+    if (msg != NULL) {
+        dkf__copy(nd->rep.xp.data, msg->xp, n);
+    } else {
+        DKF_TRY(dkf_diffkf_pending(&nd->rep, NULL, NULL, &zi));
+        memset(nd->rep.xp.data, 0, n * sizeof(dkf_real_t));
+    }
+    return dkf_diffkf_update_z(&nd->rep, &zi, NULL);
+}
+
+dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
+                                        const dkf_diffkf_sensor_t sensors[],
+                                        const dkf_diffkf_msg_t msgs[], const unsigned char present[],
+                                        unsigned char contributed[], dkf_diffkf_fc_fault_t *fault)
 {
     const size_t none = DKF_DIFFKF_FC_NO_NODE;
     dkf_diffkf_t central_saved;
     dkf_diffkf_fc_cond_t which = DKF_DIFFKF_FC_MODEL;
     dkf_ui_meas_t cmeas;
     dkf_ui_dyn_t cdyn;
-    dkf_real_t *zs, *zt, *dzt;
-    dkf_mat_t zv, zi;
+    dkf_real_t *zs, *zt, *dzt, zk[DKF_MAX_DIM];
+    unsigned char here[DKF_MAX_DIM], contrib[DKF_MAX_DIM], rows[DKF_MAX_DIM];
+    dkf_mat_t zv;
     dkf_status_t st;
-    size_t i, off;
-    if (fc == NULL || sensors == NULL || msgs == NULL)
-        return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
+    size_t i, j, off, pk = 0, nhere = 0;
+    if (fc == NULL || sensors == NULL) return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
     if (!fc->ready || !fc->started)
         return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, none);
-    DKF_TRY(check_msgs(fc, msgs, fault));
+    for (i = 0; i < fc->l; ++i) {
+        here[i] = (unsigned char)(present == NULL || present[i] != 0);
+        nhere += here[i];
+    }
+    if (msgs == NULL && nhere > 0) return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
+    if (nhere > 0) DKF_TRY(check_msgs(fc, msgs, here, fault));
     st = dkf__check_input(F, fc->n, fc->n);
     if (st == DKF_OK) st = dkf__check_input(Q, fc->n, fc->n);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
@@ -569,14 +608,21 @@ dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const d
     zs = fc->nodes[0].z.data; /* committed z, dz, then pending z, dz */
     zt = zs + 2 * fc->ps;
     dzt = zs + 3 * fc->ps;
+    /* the sync rule: z^i_k needs the true dz^i_{k-1} (its zcorr) */
+    for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
+        contrib[i] = (unsigned char)(here[i] && fc->nodes[i].sync);
+        for (j = 0; j < fc->nodes[i].p; ++j) rows[off + j] = contrib[i];
+    }
 
     save_replicas(fc);
     central_saved = fc->central;
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
-        st = recover_node(fc, i, F, Q, &sensors[i], &msgs[i], zt + off, dzt + off, &which);
+        st = recover_node(fc, i, F, Q, &sensors[i], here[i] ? &msgs[i] : NULL, zt + off, dzt + off,
+                          &which);
         if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, which, i);
     }
-    /* the centralized Difference KF on the stacked model (27)-(29) */
+    /* the centralized Difference KF on the stacked model (27)-(29), on the
+     * rows received */
     cdyn.F = F;
     cdyn.Q = Q;
     cdyn.B = &fc->B;
@@ -584,28 +630,191 @@ dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const d
     cmeas.H = &fc->H;
     cmeas.A = &fc->A;
     cmeas.R = &fc->R;
-    st = dkf_diffkf_gain(&fc->central, &cdyn, &cmeas);
+    st = dkf_diffkf_gain_masked(&fc->central, &cdyn, &cmeas, rows);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
 
-    /* replicas complete their step from the node's x_{k|k-1}, so the
-     * innovation they carry into step k+1 is the recovered dz^i_k */
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
-        dkf_diffkf_fc_node_t *nd = &fc->nodes[i];
-        zi.rows = nd->p;
-        zi.cols = 1;
-        zi.data = zt + off;
-        dkf__copy(nd->rep.xp.data, msgs[i].xp, fc->n);
-        st = dkf_diffkf_update_z(&nd->rep, &zi, NULL);
+        st = complete_replica(&fc->nodes[i], fc->n, here[i] ? &msgs[i] : NULL, zt + off);
         if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), i);
     }
-    zv.rows = fc->ps;
+    for (i = 0; i < fc->ps; ++i)
+        if (rows[i]) zk[pk++] = zt[i];
+    zv.rows = pk;
     zv.cols = 1;
-    zv.data = zt;
-    st = dkf_diffkf_update_z(&fc->central, &zv, NULL);
+    zv.data = zk;
+    st = dkf_diffkf_update_z(&fc->central, pk > 0 ? &zv : NULL, NULL);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
 
+    /* an absent node's replica z was its own zcorr: report zeros */
+    for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i)
+        if (!here[i]) memset(zt + off, 0, fc->nodes[i].p * sizeof(dkf_real_t));
     dkf__copy(zs, zt, 2 * fc->ps);
+    for (i = 0; i < fc->l; ++i) {
+        fc->nodes[i].sync = here[i];
+        if (contributed != NULL) contributed[i] = contrib[i];
+    }
     refresh_saved(fc);
     fc->k += 1;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
+}
+
+dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
+                                const dkf_diffkf_sensor_t sensors[], const dkf_diffkf_msg_t msgs[],
+                                dkf_diffkf_fc_fault_t *fault)
+{
+    const size_t none = DKF_DIFFKF_FC_NO_NODE;
+    if (msgs == NULL) return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
+    return dkf_diffkf_fc_step_partial(fc, F, Q, sensors, msgs, NULL, NULL, fault);
+}
+
+/* ---- degraded operation: restarts and checkpoints -------------------------- */
+
+dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t k_start,
+                                        const dkf_mat_t *P_prior,
+                                        const dkf_diffkf_sensor_t *sensor_at_kstart,
+                                        dkf_diffkf_fc_fault_t *fault)
+{
+    const size_t none = DKF_DIFFKF_FC_NO_NODE;
+    dkf_real_t x0s[DKF_MAX_DIM];
+    dkf_diffkf_fc_node_t *nd;
+    dkf_mat_t x0, Lc;
+    size_t rank = 0;
+    dkf_status_t st;
+    if (fc == NULL || P_prior == NULL || sensor_at_kstart == NULL)
+        return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
+    if (!fc->ready || !fc->started)
+        return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, none);
+    if (node >= fc->l) return report(fault, DKF_ERR_ARG, DKF_DIFFKF_FC_ARG, none);
+    if (k_start != fc->k + 1) return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, node);
+    nd = &fc->nodes[node];
+    Lc.rows = fc->n, Lc.cols = fc->n, Lc.data = fc->work;
+    st = dkf__check_input(P_prior, fc->n, fc->n);
+    if (st == DKF_OK) st = dkf_mat_chol(&Lc, P_prior, fc->work + fc->n * fc->n);
+    if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, node);
+    st = dkf__check_input(sensor_at_kstart->meas.H, nd->m, fc->n);
+    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.A, nd->m, nd->p);
+    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.R, nd->m, nd->m);
+    if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
+    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.A, DKF_RANK_TOL_DEFAULT, fc->work);
+    if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
+    if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_A_RANK, node);
+
+    /* as the node: init (its x prior is irrelevant: the replica's x is the
+     * message's) and a start at k_start with no previous innovation */
+    memset(x0s, 0, sizeof x0s);
+    x0.rows = fc->n, x0.cols = 1, x0.data = x0s;
+    nd->saved = nd->rep;
+    memcpy(nd->saved_store, nd->store, nd->store_len * sizeof(dkf_real_t));
+    st = dkf_diffkf_init(&nd->rep, fc->n, nd->m, nd->p, nd->store, nd->store_len, &x0, P_prior);
+    if (st == DKF_OK) st = dkf_diffkf_start(&nd->rep, NULL, NULL, &sensor_at_kstart->meas, NULL);
+    if (st != DKF_OK) {
+        nd->rep = nd->saved;
+        memcpy(nd->store, nd->saved_store, nd->store_len * sizeof(dkf_real_t));
+        return report(fault, st, cond_of(st), node);
+    }
+    nd->saved = nd->rep;
+    nd->sync = 1;
+    return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
+}
+
+/* FC checkpoint header (reals, small integers): tag, n, l, sum m_i,
+ * sum p_i, k as four 16-bit digits (least significant first), started. */
+#define FC_CKPT_TAG 17987 /* "FC" */
+#define FC_CKPT_HEAD 10
+
+size_t dkf_diffkf_fc_checkpoint_len(const dkf_diffkf_fc_t *fc)
+{
+    size_t i, len;
+    if (fc == NULL || !fc->ready) return 0;
+    len = FC_CKPT_HEAD + dkf_diffkf_checkpoint_len(&fc->central) + fc->l + 2 * fc->ps;
+    for (i = 0; i < fc->l; ++i) len += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
+    return len;
+}
+
+dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size_t len)
+{
+    size_t i, k, off = FC_CKPT_HEAD;
+    DKF_CHECK_NULL(fc);
+    DKF_CHECK_NULL(buf);
+    if (!fc->ready) return DKF_ERR_STATE;
+    if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
+    buf[0] = (dkf_real_t)FC_CKPT_TAG;
+    buf[1] = (dkf_real_t)fc->n;
+    buf[2] = (dkf_real_t)fc->l;
+    buf[3] = (dkf_real_t)fc->ms;
+    buf[4] = (dkf_real_t)fc->ps;
+    for (i = 0, k = fc->k; i < 4; ++i, k = (k >> 8) >> 8) buf[5 + i] = (dkf_real_t)(k & 0xFFFFu);
+    buf[9] = (dkf_real_t)(fc->started ? 1 : 0);
+    DKF_TRY(dkf_diffkf_save(&fc->central, buf + off, len - off));
+    off += dkf_diffkf_checkpoint_len(&fc->central);
+    for (i = 0; i < fc->l; ++i) {
+        DKF_TRY(dkf_diffkf_save(&fc->nodes[i].rep, buf + off, len - off));
+        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
+    }
+    for (i = 0; i < fc->l; ++i) buf[off++] = (dkf_real_t)(fc->nodes[i].sync ? 1 : 0);
+    dkf__copy(buf + off, fc->nodes[0].z.data, 2 * fc->ps);
+    return DKF_OK;
+}
+
+/* 1 if x is the integer v (v < 2^16: exact in any real type). */
+static int is_int(dkf_real_t x, size_t v)
+{
+    return x == (dkf_real_t)v;
+}
+
+/* The header's k, or DKF_ERR_ARG if a digit is not an integer in
+ * [0, 2^16), DKF_ERR_CAPACITY if k does not fit in size_t. */
+static dkf_status_t header_k(const dkf_real_t *d, size_t *k)
+{
+    size_t i, v = 0;
+    for (i = 4; i-- > 0;) {
+        const dkf_real_t x = d[i];
+        if (!(x >= DKF_R(0.0) && x < DKF_R(65536.0)) || x != (dkf_real_t)(size_t)x)
+            return DKF_ERR_ARG;
+#if SIZE_MAX <= 0xFFFFFFFFu
+        if (i >= 2 && x != DKF_R(0.0)) return DKF_ERR_CAPACITY;
+#endif
+        v = ((v << 8) << 8) + (size_t)x;
+    }
+    *k = v;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, size_t len)
+{
+    size_t i, k = 0, off = FC_CKPT_HEAD;
+    DKF_CHECK_NULL(fc);
+    DKF_CHECK_NULL(buf);
+    if (!fc->ready) return DKF_ERR_STATE;
+    if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
+    /* validate everything before writing anything */
+    if (!is_int(buf[0], FC_CKPT_TAG)) return DKF_ERR_ARG;
+    if (!is_int(buf[1], fc->n) || !is_int(buf[2], fc->l) || !is_int(buf[3], fc->ms) ||
+        !is_int(buf[4], fc->ps))
+        return DKF_ERR_DIM;
+    DKF_TRY(header_k(buf + 5, &k));
+    if (!is_int(buf[9], 0) && !is_int(buf[9], 1)) return DKF_ERR_ARG;
+    DKF_TRY(dkf_diffkf_checkpoint_check(&fc->central, buf + off, len - off));
+    off += dkf_diffkf_checkpoint_len(&fc->central);
+    for (i = 0; i < fc->l; ++i) {
+        DKF_TRY(dkf_diffkf_checkpoint_check(&fc->nodes[i].rep, buf + off, len - off));
+        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
+    }
+    for (i = 0; i < fc->l; ++i)
+        if (!is_int(buf[off + i], 0) && !is_int(buf[off + i], 1)) return DKF_ERR_ARG;
+    if (!dkf__all_finite(buf + off + fc->l, 2 * fc->ps)) return DKF_ERR_NONFINITE;
+
+    off = FC_CKPT_HEAD;
+    (void)dkf_diffkf_restore(&fc->central, buf + off, len - off);
+    off += dkf_diffkf_checkpoint_len(&fc->central);
+    for (i = 0; i < fc->l; ++i) {
+        (void)dkf_diffkf_restore(&fc->nodes[i].rep, buf + off, len - off);
+        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
+    }
+    for (i = 0; i < fc->l; ++i) fc->nodes[i].sync = is_int(buf[off + i], 1);
+    dkf__copy(fc->nodes[0].z.data, buf + off + fc->l, 2 * fc->ps);
+    refresh_saved(fc);
+    fc->k = k;
+    fc->started = is_int(buf[9], 1);
+    return DKF_OK;
 }

@@ -864,6 +864,363 @@ static void test_msg_fill_checks(void **state)
     }
 }
 
+/* ---- degraded steps: absent messages, restarts, checkpoints ------------------ */
+
+/* The model of step k (F_k, Q_k, sensors at k+1) and the stacked model,
+ * without stepping the nodes (for replays). */
+static void load_model(world_t *w, const scen_t *sc, size_t k)
+{
+    load_step(&w->sm, sc->model, sc->l, k, k + 1);
+    stack(&w->st, &w->sm, sc->l, sc->n, sc->ms, sc->ps);
+}
+
+/* The reference: the centralized DKF run directly on the stacked data
+ * (each node's own z^i_k, computed from its y), given exactly the rows the
+ * FC says entered its step. Independent of the recovery. */
+static void ref_masked_step(world_t *w, const scen_t *sc, const unsigned char *contributed)
+{
+    unsigned char rows[PS];
+    dkf_real_t zk[PS];
+    dkf_mat_t zv;
+    size_t i, j, off = 0, pk = 0;
+    for (i = 0; i < sc->l; ++i)
+        for (j = 0; j < sc->p[i]; ++j, ++off) {
+            rows[off] = contributed[i];
+            if (contributed[i]) zk[pk++] = w->loc[i].z.data[j];
+        }
+    assert_int_equal(dkf_diffkf_gain_masked(&w->cen, &w->st.dyn, &w->st.meas, rows), DKF_OK);
+    zv = test_view(pk, 1, zk);
+    assert_int_equal(dkf_diffkf_update_z(&w->cen, pk > 0 ? &zv : NULL, NULL), DKF_OK);
+}
+
+static void fused_vs_ref(world_t *w, size_t n, double *worst)
+{
+    const dkf_diffkf_t *c = &w->fc.central;
+    close_real(worst, "degraded fused xf", c->xf.data, w->cen.xf.data, n, FUSED_REL);
+    close_real(worst, "degraded fused Pf", c->Pf.data, w->cen.Pf.data, n * n, FUSED_REL);
+    close_real(worst, "degraded fused xp", c->xp.data, w->cen.xp.data, n, FUSED_REL);
+    close_real(worst, "degraded fused Pp", c->Pp.data, w->cen.Pp.data, n * n, FUSED_REL);
+    assert_int_equal(c->pk, w->cen.pk);
+}
+
+/* Restarts node j's local filter at k (dkf_diffkf_init with its P00_local
+ * prior and an arbitrary x, start at k with F0 = Q0 = NULL, absolute
+ * time), and the FC's replica likewise. */
+static void restart_node(world_t *w, const scen_t *sc, size_t j, size_t k)
+{
+    const json_t *init = test_json_get(sc->root, "init");
+    dkf_real_t Pl[CAP], xa[NX];
+    dkf_mat_t mPl, xv;
+    dkf_diffkf_fc_fault_t fault;
+    size_t i;
+    test_json_mat(at(init, "P00_local", j), Pl, CAP, &mPl);
+    for (i = 0; i < sc->n; ++i) xa[i] = (dkf_real_t)(17.0 * (double)i - 3.0); /* any x */
+    xv = test_view(sc->n, 1, xa);
+    load_step(&w->sm, sc->model, sc->l, k, k); /* the sensors' models at k */
+    load_y(w, sc, k);
+    {
+        dkf_mat_t y = test_view(sc->m[j], 1, w->ys[j]);
+        assert_int_equal(dkf_diffkf_init(&w->loc[j], sc->n, sc->m[j], sc->p[j], w->loc_store[j],
+                                         LOC_LEN, &xv, &mPl),
+                         DKF_OK);
+        assert_int_equal(dkf_diffkf_start(&w->loc[j], NULL, NULL, &w->sm.sensors[j].meas, &y),
+                         DKF_OK);
+        assert_int_equal(dkf_diffkf_set_time(&w->loc[j], k - 1), DKF_OK);
+    }
+    assert_int_equal(dkf_diffkf_fc_restart_node(&w->fc, j, k, &mPl, &w->sm.sensors[j], &fault),
+                     DKF_OK);
+    assert_int_equal(fault.which, DKF_DIFFKF_FC_NO_FAULT);
+    assert_int_equal(w->nodes[j].sync, 1);
+}
+
+/* One scenario with messages absent at random (each with probability
+ * 0.3; step 5 loses every message, step 6 none), optionally with node
+ * `rj` absent for steps ra..rb and restarted at rb + 1 (ra = 1: a late
+ * node). Every step: fused = the centralized DKF on the stacked data with
+ * the FC's contributed masks, and contributed follows the sync rule. */
+static double run_degraded(const char *file, uint64_t seed, size_t rj, size_t ra, size_t rb)
+{
+    static world_t w;
+    scen_t sc;
+    test_rng_t rng;
+    unsigned char present[NL], contributed[NL], prev[NL];
+    double worst = 0;
+    size_t j, i, lost = 0, masked = 0;
+    open_scen(&sc, file);
+    start_world(&w, &sc);
+    test_rng_seed(&rng, seed);
+    memset(prev, 1, sizeof prev);
+    for (j = 0; j < sc.N; ++j) {
+        const size_t k = j + 1;
+        dkf_diffkf_fc_fault_t fault;
+        if (rb > 0 && k == rb + 1) restart_node(&w, &sc, rj, k);
+        nodes_step(&w, &sc, k);
+        for (i = 0; i < sc.l; ++i) {
+            present[i] = (unsigned char)(k == 6 || (k != 5 && test_rng_uniform(&rng) >= 0.3));
+            if (rb > 0 && i == rj && k >= ra && k <= rb) present[i] = 0;
+            if (rb > 0 && i == rj && k == rb + 1) present[i] = 1; /* its first message */
+            if (!present[i]) {
+                /* an absent message is ignored, whatever it holds */
+                w.msgs[i].xf[0] = (dkf_real_t)NAN;
+                w.msgs[i].k = 12345;
+                ++lost;
+            }
+        }
+        memset(contributed, 0x77, sizeof contributed);
+        assert_int_equal(dkf_diffkf_fc_step_partial(&w.fc, &w.sm.mF, &w.sm.mQ, w.sm.sensors,
+                                                    w.msgs, present, contributed, &fault),
+                         DKF_OK);
+        assert_int_equal(w.fc.k, k);
+        for (i = 0; i < sc.l; ++i) {
+            const int restarted = rb > 0 && i == rj && k == rb + 1;
+            assert_int_equal(contributed[i], present[i] && (prev[i] || restarted));
+            assert_int_equal(w.nodes[i].sync, present[i]);
+            masked += !contributed[i];
+            prev[i] = present[i];
+        }
+        ref_masked_step(&w, &sc, contributed);
+        fused_vs_ref(&w, sc.n, &worst);
+    }
+    print_message("%s seed %llu: %zu messages lost, %zu node-steps masked, fused vs "
+                  "centralized DKF given the data received %.3e\n",
+                  file, (unsigned long long)seed, lost, masked, worst);
+    assert_true(masked > lost); /* the sync rule masked more than the losses */
+    json_decref(sc.root);
+    return worst;
+}
+
+static void test_fc_partial_random_absent(void **state)
+{
+    (void)state;
+    run_degraded("diffkf/ex3_multi.json", 31, 0, 0, 0);
+    run_degraded("diffkf/tv3_multi.json", 32, 0, 0, 0);
+    run_degraded("diffkf/tv4_multi.json", 33, 0, 0, 0);
+    run_degraded("diffkf/tv4_multi.json", 34, 0, 0, 0);
+}
+
+/* A node absent for steps a..b then restarted at b+1 with its P00_local
+ * prior; a node that starts late (a = 1). */
+static void test_fc_restart_and_late_node(void **state)
+{
+    (void)state;
+    run_degraded("diffkf/ex3_multi.json", 41, 1, 7, 12);
+    run_degraded("diffkf/tv3_multi.json", 42, 2, 4, 9);
+    run_degraded("diffkf/tv3_multi.json", 43, 0, 1, 6); /* late */
+    run_degraded("diffkf/tv4_multi.json", 44, 3, 1, 3); /* late */
+}
+
+/* Every node present: step_partial (with contributed) is bit-identical to
+ * dkf_diffkf_fc_step, step by step, and contributes every node. */
+static void test_fc_partial_all_present_bit_identical(void **state)
+{
+    static world_t a, b;
+    scen_t sc;
+    const unsigned char all[NL] = {1, 1, 1, 1};
+    unsigned char contributed[NL];
+    size_t j, i;
+    (void)state;
+    open_scen(&sc, "diffkf/tv3_multi.json");
+    start_world(&a, &sc);
+    start_world(&b, &sc);
+    for (j = 0; j < sc.N; ++j) {
+        dkf_diffkf_fc_fault_t fault;
+        nodes_step(&a, &sc, j + 1);
+        nodes_step(&b, &sc, j + 1);
+        fc_step_ok(&a);
+        assert_int_equal(dkf_diffkf_fc_step_partial(&b.fc, &b.sm.mF, &b.sm.mQ, b.sm.sensors,
+                                                    b.msgs, j % 2 ? all : NULL, contributed,
+                                                    &fault),
+                         DKF_OK);
+        for (i = 0; i < sc.l; ++i) assert_int_equal(contributed[i], 1);
+        assert_memory_equal(a.fc.central.xf.data, b.fc.central.xf.data, sc.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.fc.central.Pf.data, b.fc.central.Pf.data,
+                            sc.n * sc.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.fc.central.xp.data, b.fc.central.xp.data, sc.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.fc.central.Pp.data, b.fc.central.Pp.data,
+                            sc.n * sc.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.fc.central.z.data, b.fc.central.z.data, sc.ps * sizeof(dkf_real_t));
+    }
+    json_decref(sc.root);
+}
+
+/* Checkpoints: a round trip restores the FC bit for bit; a rollback and a
+ * replay with the payload that was missing turns a degraded history into
+ * the full-data one (the vectors, <= VEC_REL, and bit-identical to an FC
+ * that never missed it). */
+static void run_rollback(const char *file, size_t k0, size_t node)
+{
+    static world_t w, full;
+    static dkf_real_t ck[FC_LEN], ck2[FC_LEN];
+    static dkf_diffkf_msg_t saved[64][NL];
+    scen_t sc;
+    stats_t s = {0, 0, 0, 0};
+    unsigned char present[NL];
+    size_t j, i, len;
+    dkf_diffkf_fc_fault_t fault;
+    open_scen(&sc, file);
+    assert_true(sc.N < 64 && k0 + 4 <= sc.N);
+    start_world(&w, &sc);
+    start_world(&full, &sc);
+    len = dkf_diffkf_fc_checkpoint_len(&w.fc);
+    assert_true(len > 0 && len <= FC_LEN);
+    for (j = 0; j < sc.N; ++j) {
+        const size_t k = j + 1;
+        nodes_step(&full, &sc, k);
+        fc_step_ok(&full);
+        nodes_step(&w, &sc, k);
+        memcpy(saved[k], w.msgs, sizeof w.msgs);
+        if (k == k0) assert_int_equal(dkf_diffkf_fc_save(&w.fc, ck, len), DKF_OK);
+        for (i = 0; i < sc.l; ++i) present[i] = (unsigned char)(k != k0 || i != node);
+        assert_int_equal(dkf_diffkf_fc_step_partial(&w.fc, &w.sm.mF, &w.sm.mQ, w.sm.sensors,
+                                                    w.msgs, present, NULL, &fault),
+                         DKF_OK);
+        if (k == k0 + 3) {
+            /* degraded so far: not the full-data estimate */
+            {
+                double e[CAP];
+                test_to_double(e, full.fc.central.Pf.data, sc.n * sc.n);
+                assert_true(rel_err(w.fc.central.Pf.data, e, sc.n * sc.n) > 1e-6);
+            }
+            /* round trip: save now, restore, same bits */
+            assert_int_equal(dkf_diffkf_fc_save(&w.fc, ck2, len), DKF_OK);
+            assert_int_equal(dkf_diffkf_fc_restore(&w.fc, ck2, len), DKF_OK);
+            assert_int_equal(w.fc.k, k);
+            /* the missing payload arrives: roll back to before k0, replay */
+            assert_int_equal(dkf_diffkf_fc_restore(&w.fc, ck, len), DKF_OK);
+            assert_int_equal(w.fc.k, k0 - 1);
+            for (i = k0; i <= k; ++i) {
+                dkf_diffkf_fc_fault_t f2;
+                load_model(&w, &sc, i);
+                assert_int_equal(dkf_diffkf_fc_step_partial(&w.fc, &w.sm.mF, &w.sm.mQ,
+                                                            w.sm.sensors, saved[i], NULL, NULL,
+                                                            &f2),
+                                 DKF_OK);
+            }
+        }
+        if (k >= k0 + 3) {
+            const json_t *fused = test_json_get(sc.out, "fused");
+            const dkf_diffkf_t *c = &w.fc.central;
+            close_json(&s.vec, "replayed xf", c->xf.data, sc.n, at(fused, "xf", j), VEC_REL);
+            close_json(&s.vec, "replayed Pf", c->Pf.data, sc.n * sc.n, at(fused, "Pf", j), VEC_REL);
+            assert_memory_equal(c->xf.data, full.fc.central.xf.data, sc.n * sizeof(dkf_real_t));
+            assert_memory_equal(c->Pp.data, full.fc.central.Pp.data,
+                                sc.n * sc.n * sizeof(dkf_real_t));
+        }
+    }
+    print_message("%s: checkpoint %zu reals; rollback to %zu, replay with node %zu's message: "
+                  "vs vectors %.3e (bit-identical to the full-data FC)\n",
+                  file, len, k0 - 1, node, s.vec);
+    json_decref(sc.root);
+}
+
+static void test_fc_checkpoint_rollback_replay(void **state)
+{
+    (void)state;
+    run_rollback("diffkf/ex3_multi.json", 10, 1);
+    run_rollback("diffkf/tv3_multi.json", 5, 1);
+    run_rollback("diffkf/tv4_multi.json", 7, 2);
+}
+
+/* Failure atomicity of the new calls (the FC, node array, replica storage
+ * and central views bit-identical; contributed untouched), and a twin
+ * that never saw the failures steps identically afterwards. */
+static void test_fc_degraded_atomicity(void **state)
+{
+    static hworld_t w, twin;
+    static fc_snap_t s;
+    static dkf_real_t ck[H_FC_LEN], bad[H_FC_LEN];
+    const size_t m[3] = {3, 2, 2}, p[3] = {2, 1, 2};
+    const unsigned char present[3] = {1, 0, 1};
+    unsigned char contributed[3] = {9, 9, 9};
+    dkf_real_t Pn[16] = {1, 0, 0, 0, 0, -1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    dkf_mat_t mPn = DKF_MAT(4, 4, Pn);
+    dkf_diffkf_fc_fault_t f;
+    dkf_diffkf_msg_t keep;
+    size_t len, r;
+    (void)state;
+    hmodel(&w.h, 3, m, p, 61);
+    test_rng_seed(&w.rng, 6);
+    h_start(&w);
+    hmodel(&twin.h, 3, m, p, 61);
+    test_rng_seed(&twin.rng, 6);
+    h_start(&twin);
+    h_nodes_step(&w);
+    h_nodes_step(&twin);
+
+    /* a present node's bad message: refused, nothing changed */
+    keep = w.msgs[2];
+    w.msgs[2].xp[1] = (dkf_real_t)INFINITY;
+    snap_take(&s, &w);
+    assert_int_equal(dkf_diffkf_fc_step_partial(&w.fc, &w.h.mF, &w.h.mQ, w.h.sens, w.msgs, present,
+                                                contributed, &f),
+                     DKF_ERR_NONFINITE);
+    expect_fault(&f, DKF_DIFFKF_FC_MSG_NONFINITE, 2);
+    assert_state_same(&s, &w);
+    assert_int_equal(contributed[0], 9);
+    w.msgs[2] = keep;
+    /* an absent node's garbage is ignored */
+    w.msgs[1].node = 7;
+    assert_int_equal(dkf_diffkf_fc_step_partial(&w.fc, &w.h.mF, &w.h.mQ, w.h.sens, w.msgs, present,
+                                                contributed, &f),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_fc_step_partial(&twin.fc, &twin.h.mF, &twin.h.mQ, twin.h.sens,
+                                                twin.msgs, present, NULL, &f),
+                     DKF_OK);
+    assert_twins_equal(&w, &twin);
+    assert_int_equal(contributed[0], 1);
+    assert_int_equal(contributed[1], 0);
+    assert_int_equal(w.nodes[1].sync, 0);
+
+    /* restart: wrong time, node, prior, rank; each refused untouched */
+    snap_take(&s, &w);
+    assert_int_equal(dkf_diffkf_fc_restart_node(&w.fc, 1, w.fc.k + 2, &w.h.mP0, &w.h.sens[1], &f),
+                     DKF_ERR_STATE);
+    expect_fault(&f, DKF_DIFFKF_FC_SEQUENCE, 1);
+    assert_int_equal(dkf_diffkf_fc_restart_node(&w.fc, 3, w.fc.k + 1, &w.h.mP0, &w.h.sens[1], &f),
+                     DKF_ERR_ARG);
+    assert_int_equal(dkf_diffkf_fc_restart_node(&w.fc, 1, w.fc.k + 1, &mPn, &w.h.sens[1], &f),
+                     DKF_ERR_NOT_SPD);
+    expect_fault(&f, DKF_DIFFKF_FC_PRIOR, 1);
+    for (r = 0; r < m[2]; ++r) w.h.A[2][r * 2 + 1] = w.h.A[2][r * 2];
+    assert_int_equal(dkf_diffkf_fc_restart_node(&w.fc, 2, w.fc.k + 1, &w.h.mP0, &w.h.sens[2], &f),
+                     DKF_ERR_RANK);
+    expect_fault(&f, DKF_DIFFKF_FC_A_RANK, 2);
+    assert_state_same(&s, &w);
+    memcpy(w.h.A[2], twin.h.A[2], sizeof w.h.A[2]);
+
+    /* restore: short, tag, dimension, non-finite: refused untouched */
+    len = dkf_diffkf_fc_checkpoint_len(&w.fc);
+    assert_int_equal(dkf_diffkf_fc_save(&w.fc, ck, len - 1), DKF_ERR_CAPACITY);
+    assert_int_equal(dkf_diffkf_fc_save(&w.fc, ck, len), DKF_OK);
+    snap_take(&s, &w);
+    assert_int_equal(dkf_diffkf_fc_restore(&w.fc, ck, len - 1), DKF_ERR_CAPACITY);
+    memcpy(bad, ck, len * sizeof(dkf_real_t));
+    bad[0] = 1;
+    assert_int_equal(dkf_diffkf_fc_restore(&w.fc, bad, len), DKF_ERR_ARG);
+    memcpy(bad, ck, len * sizeof(dkf_real_t));
+    bad[2] = 2;
+    assert_int_equal(dkf_diffkf_fc_restore(&w.fc, bad, len), DKF_ERR_DIM);
+    memcpy(bad, ck, len * sizeof(dkf_real_t));
+    bad[len - 3] = (dkf_real_t)NAN;
+    assert_int_equal(dkf_diffkf_fc_restore(&w.fc, bad, len), DKF_ERR_NONFINITE);
+    memcpy(bad, ck, len * sizeof(dkf_real_t));
+    bad[len / 2] = (dkf_real_t)NAN; /* inside a replica's state */
+    assert_int_equal(dkf_diffkf_fc_restore(&w.fc, bad, len), DKF_ERR_NONFINITE);
+    assert_state_same(&s, &w);
+
+    /* the failures changed nothing: both step on identically */
+    h_nodes_step(&w);
+    h_nodes_step(&twin);
+    assert_int_equal(h_fc_step(&w, &f), DKF_OK);
+    assert_int_equal(h_fc_step(&twin, &f), DKF_OK);
+    assert_twins_equal(&w, &twin);
+    /* node 1 was out of sync: masked now, back at the next step */
+    assert_int_equal(w.fc.central.pk, p[0] + p[2]);
+    h_nodes_step(&w);
+    assert_int_equal(h_fc_step(&w, &f), DKF_OK);
+    assert_int_equal(w.fc.central.pk, p[0] + p[1] + p[2]);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -875,6 +1232,11 @@ int main(void)
         cmocka_unit_test(test_fc_setup_conditions),
         cmocka_unit_test(test_fc_message_validation_and_atomicity),
         cmocka_unit_test(test_fc_step_rank_failure),
+        cmocka_unit_test(test_fc_partial_all_present_bit_identical),
+        cmocka_unit_test(test_fc_partial_random_absent),
+        cmocka_unit_test(test_fc_restart_and_late_node),
+        cmocka_unit_test(test_fc_checkpoint_rollback_replay),
+        cmocka_unit_test(test_fc_degraded_atomicity),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -41,8 +41,8 @@
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
-     + 4 * (n) * (n) + 11 * (n) * (p) + 12 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
-     /* carried, caches of A^+ and B^{-1}, pending gain and data, scratch */ \
+     + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
+     /* carried, caches of A^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
@@ -50,15 +50,20 @@
 typedef struct {
     size_t n, m, p;
     size_t k;        /* time of xf; xp is for k + 1 */
+    size_t pk;       /* rows of z_k kept by the pending gain, or (none
+                        pending) by the last completed step; p before the
+                        first step. z, dz, J, L, K have pk rows/columns */
+    size_t pc;       /* rows the last completed step kept (0 before the
+                        first step): the columns of the carry */
     /* estimates */
     dkf_mat_t xf, Pf; /* x_{k|k}, P_{k|k} */
     dkf_mat_t xp, Pp; /* x_{k+1|k}, P_{k+1|k} */
     /* the last step's quantities (for inspection, tests, messages) */
-    dkf_mat_t z;  /* z_k, p x 1 */
-    dkf_mat_t dz; /* innovation dz_k = z_k - z_{k|k-1}, p x 1 */
-    dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x p */
-    dkf_mat_t L;  /* L_k = Cov(dz_k), p x p */
-    dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x p */
+    dkf_mat_t z;  /* z_k (its kept rows), pk x 1 */
+    dkf_mat_t dz; /* innovation dz_k = z_k - z_{k|k-1}, pk x 1 */
+    dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x pk */
+    dkf_mat_t L;  /* L_k = Cov(dz_k), pk x pk */
+    dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x pk */
     dkf_mat_t xpp; /* x_{k|k-1}, n x 1: the prediction the last step updated
                       (a fusion-centre message needs it with x_{k|k}) */
     dkf_real_t *mem; /* everything else (carry, caches, scratch) */
@@ -100,14 +105,54 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
  * f->L, f->K are NOT yet updated: read them with dkf_diffkf_pending(). */
 dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next);
-/* Views of the pending M_k (p x n), K_k (n x p), and C_k L_{k-1}^{-1} dz_{k-1}
- * (p x 1, the correlated part of the predicted z: zero at the first step),
- * valid after a successful dkf_diffkf_gain. */
+/* As dkf_diffkf_gain, for a step whose differenced measurement z_k is only
+ * partly received: rows[j] != 0 keeps row j of z_k (p flags; NULL = all
+ * rows). The step is the optimal (MMSE) estimate given every kept row so
+ * far: Theorem 1 with a time-varying selection S_k (M' = S M,
+ * Ru' = S Ru S^T, S' = S_cov S^T, C'_k = S_k C_k S_{k-1}^T with S_{k-1} the
+ * previous step's selection; docs/diffkf-fusion.md §8). Afterwards f->pk is
+ * the number of rows kept, and dkf_diffkf_update_z takes those pk rows of
+ * z_k, in order; the step's z, dz, J, L, K views get pk rows/columns.
+ * pk = 0 is a pure prediction: x_{k|k} = x_{k|k-1}, P_{k|k} = P_{k|k-1},
+ * x_{k+1|k} = F x_{k|k-1}, P_{k+1|k} = F P F^T + Q, and the next step has
+ * no previous innovation. With all rows kept the results are bit-identical
+ * to dkf_diffkf_gain. */
+dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                                    const dkf_ui_meas_t *meas_next, const unsigned char *rows);
+/* Views of the pending M'_k (pk x n), K_k (n x pk), and C'_k L'_{k-1}^{-1} dz'_{k-1}
+ * (pk x 1, the correlated part of the predicted z: zero at the first step
+ * and after a step that kept no row), valid after a successful
+ * dkf_diffkf_gain(_masked). */
 dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *K,
                                 dkf_mat_t *zcorr);
-/* Applies z_k (p x 1) to the pending gain and completes the step. y_next
+/* Applies z_k (its f->pk kept rows, pk x 1) to the pending gain and
+ * completes the step. With pk = 0, z may be NULL (or a 0 x 1 view). y_next
  * may be NULL; if given, A_{k+1}^+ y_{k+1} is stored so that a later
  * dkf_diffkf_step can difference against it. */
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next);
+
+/* Sets the time index k of xf. A filter (re)started at an absolute time
+ * k_start (dkf_diffkf_init + dkf_diffkf_start with F0 = Q0 = NULL) counts
+ * from 0; dkf_diffkf_set_time(f, k_start - 1) after the start makes its
+ * steps, and the messages of dkf/diffkf_fusion.h, carry absolute times. */
+dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k);
+
+/* Checkpoints: everything a later step depends on (estimates, the last
+ * step's views, the carry, k and the start flags) into caller memory, and
+ * back, for rollback and replay. A checkpoint is
+ * dkf_diffkf_checkpoint_len(f) reals (0 if f is NULL or not initialised):
+ * a header of small integers (a tag, n, m, p, k as four 16-bit digits,
+ * the view size, the carry size, the flags; exact in float too), then the
+ * state verbatim. A pending gain is not saved; restore cancels it. Restore
+ * needs a filter initialised with the same (n, m, p) (its storage binding
+ * is kept); after it the filter steps bit-identically to the one saved.
+ * check validates a checkpoint without applying it: DKF_ERR_CAPACITY (too
+ * short), DKF_ERR_ARG (tag or header field not a valid integer),
+ * DKF_ERR_DIM (other dimensions), DKF_ERR_NONFINITE. */
+size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f);
+dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len);
+dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t *buf,
+                                         size_t len);
+dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t len);
 
 #endif /* DKF_DIFFKF_H */

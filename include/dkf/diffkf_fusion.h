@@ -116,7 +116,11 @@ typedef struct {
     dkf_diffkf_t saved; /* rep as it was before the running call */
     dkf_real_t *store, *saved_store; /* rep's storage and its snapshot */
     size_t store_len;
-    dkf_mat_t z, dz; /* recovered z^i_k, dz^i_k (p x 1) of the last step */
+    dkf_mat_t z, dz; /* recovered z^i_k, dz^i_k (p x 1) of the last step (z is
+                        z^i_k only if the node contributed; both 0 if its
+                        message was absent) */
+    int sync;        /* the replica carries node i's true dz^i_{k-1}: a
+                        message of step k+1 will give the exact z^i_{k+1} */
 } dkf_diffkf_fc_node_t;
 
 typedef struct {
@@ -171,5 +175,62 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
 dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
                                 const dkf_diffkf_sensor_t sensors[], const dkf_diffkf_msg_t msgs[],
                                 dkf_diffkf_fc_fault_t *fault);
+
+/* ---- degraded steps (docs/diffkf-fusion.md §8) ------------------------------ */
+
+/* As dkf_diffkf_fc_step with some node messages absent (present[i] == 0;
+ * msgs[i] is then ignored; present == NULL means all present). Node i's
+ * z^i_k is recovered iff its message of step k is present AND its replica
+ * is in sync (nodes[i].sync: its message of k-1 was present, or it
+ * (re)started at k); otherwise its rows are masked out of the central step
+ * (dkf_diffkf_gain_masked), which is then the optimal estimate given the
+ * data received. A present node that is out of sync still has dz^i_k
+ * recovered, so it is in sync again at k+1; an absent node's replica keeps
+ * its data-independent recursion going and goes out of sync.
+ * contributed[i] (may be NULL; written only on success) = 1 iff z^i_k
+ * entered the fused estimate. fc->central.z/dz then hold the contributing
+ * nodes' rows only (central.pk of them). With every node present and in
+ * sync the result is bit-identical to dkf_diffkf_fc_step. Checks and
+ * statuses as dkf_diffkf_fc_step (messages of absent nodes are not
+ * checked, nor is rank K^i_k of an absent node). */
+dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
+                                        const dkf_diffkf_sensor_t sensors[],
+                                        const dkf_diffkf_msg_t msgs[], const unsigned char present[],
+                                        unsigned char contributed[], dkf_diffkf_fc_fault_t *fault);
+
+/* Node `node` restarted its local filter at time k_start as
+ * dkf_diffkf_init(x_any, P_prior) + dkf_diffkf_start(F0 = NULL, Q0 = NULL,
+ * its model at k_start, y^i_{k_start}) (+ dkf_diffkf_set_time(k_start - 1)
+ * so that its messages carry absolute times). P_prior is the prior
+ * covariance of x_{k_start} it used (the scenario's P00_local[i] by
+ * convention; the node's x prior does not matter to the FC). The FC
+ * restarts the replica likewise and marks it in sync: the node's first
+ * message after the restart is that of step k_start. Call it after
+ * dkf_diffkf_fc_start and before the step k_start, i.e. k_start = fc->k + 1
+ * (else DKF_ERR_STATE, SEQUENCE). sensor_at_kstart->meas is the model at
+ * k_start (B, Rd are not used and may be NULL). A node that starts late is
+ * a restart with k_start > 1. Faults: node >= l -> DKF_ERR_ARG (ARG);
+ * P_prior -> PRIOR; meas -> MODEL / A_RANK. The FC is unchanged on
+ * failure. */
+dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t k_start,
+                                        const dkf_mat_t *P_prior,
+                                        const dkf_diffkf_sensor_t *sensor_at_kstart,
+                                        dkf_diffkf_fc_fault_t *fault);
+
+/* Checkpoints of the whole FC state (the central filter, the replicas,
+ * the sync flags, the recovered z/dz, k and the start flag) into caller
+ * memory, and back, for rollback and replay. A checkpoint is
+ * dkf_diffkf_fc_checkpoint_len(fc) reals (0 if fc is NULL or not
+ * initialised): a header of small integers (tag, n, l, sum m_i, sum p_i, k
+ * as four 16-bit digits, started), then dkf_diffkf_save of the central
+ * filter and of each replica, each node's sync flag, and the recovered
+ * z, dz. Restore needs an FC initialised with the same dimensions (the
+ * storage binding is kept); it validates the whole buffer before writing
+ * anything (DKF_ERR_CAPACITY, DKF_ERR_ARG, DKF_ERR_DIM, DKF_ERR_NONFINITE as
+ * dkf_diffkf_checkpoint_check; the FC is unchanged on failure). After a
+ * restore the FC steps bit-identically to the FC that was saved. */
+size_t dkf_diffkf_fc_checkpoint_len(const dkf_diffkf_fc_t *fc);
+dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size_t len);
+dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, size_t len);
 
 #endif /* DKF_DIFFKF_FUSION_H */

@@ -18,7 +18,13 @@ matched by key, lists of objects by position; strings are ignored.
 Key paths: dot-separated keys and [i] indices, e.g. outputs.local[1]. The
 index [*] gathers over a list: cases[0].steps[*].expected turns a list of
 per-step objects into one object of per-step lists, which is how dkf-run
-lays out its outputs.
+lays out its outputs. A key that only some steps have (the seed-003
+vectors' intermediates on the first steps) gathers with null at the other
+steps; null entries of B are skipped, so those steps are compared one by one.
+
+Integer arrays (every value a JSON integer on both sides, e.g. `rank`) must
+match exactly. --require-all makes a numeric array of B that A lacks a
+failure (by default it is skipped).
 
 Exit status: 0 all compared arrays pass; 1 a mismatch, or nothing compared;
 2 bad arguments, unreadable file, or a key path that does not exist.
@@ -53,11 +59,19 @@ def parse_path(path):
 
 
 def gather(items):
-    """[{k: v0}, {k: v1}] -> {k: [v0, v1]} (keys common to all); else the list."""
-    if items and all(isinstance(x, dict) for x in items):
-        keys = [k for k in items[0] if all(k in x for x in items)]
-        return {k: gather([x[k] for x in items]) if all(isinstance(x[k], dict) for x in items)
-                else [x[k] for x in items] for k in keys}
+    """[{k: v0}, {k: v1}, {}] -> {k: [v0, v1, None]} (union of keys, None where an
+    item lacks one); else the list. None items count as empty objects."""
+    present = [x for x in items if x is not None]
+    if present and all(isinstance(x, dict) for x in present):
+        keys = []
+        for x in present:
+            keys.extend(k for k in x if k not in keys)
+        out = {}
+        for k in keys:
+            vals = [x.get(k) if isinstance(x, dict) else None for x in items]
+            given = [v for v in vals if v is not None]
+            out[k] = gather(vals) if given and all(isinstance(v, dict) for v in given) else vals
+        return out
     return items
 
 
@@ -110,6 +124,13 @@ def shape_str(x):
     return "x".join(str(d) for d in dims) if dims else "scalar"
 
 
+def all_ints(x):
+    """True if x is a JSON integer or a nested list of only JSON integers."""
+    if isinstance(x, list):
+        return all(all_ints(e) for e in x)
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
 def check_array(a, b, rel, atol):
     """(max error, bound, ok) for flattened a against reference b."""
     if not b:
@@ -121,16 +142,35 @@ def check_array(a, b, rel, atol):
     return err, bound, finite and err <= bound
 
 
+def has_numbers(x):
+    if is_number(x):
+        return True
+    if isinstance(x, list):
+        return any(has_numbers(e) for e in x)
+    if isinstance(x, dict):
+        return any(has_numbers(e) for e in x.values())
+    return False
+
+
 def compare(a, b, key, args, rows):
+    if b is None:
+        return  # a step where the reference has no such field
     if isinstance(a, dict) and isinstance(b, dict):
         for k in b:
+            sub = key + "." + k if key else k
             if k in a:
-                compare(a[k], b[k], key + "." + k if key else k, args, rows)
+                compare(a[k], b[k], sub, args, rows)
+            elif args.require_all and has_numbers(b[k]):
+                rows.append((sub, "missing in A", float("nan"), 0.0, False))
         return
     fa, fb = flatten(a), flatten(b)
     if fa is not None and fb is not None:
         if fa[1] != fb[1]:
             rows.append((key, shape_str(a) + " vs " + shape_str(b), float("nan"), 0.0, False))
+            return
+        if all_ints(a) and all_ints(b):
+            err = max((abs(p - q) for p, q in zip(fa[0], fb[0])), default=0.0)
+            rows.append((key, shape_str(b) + " integer", err, 0.0, err == 0))
             return
         if args.per_step and isinstance(b, list) and b and isinstance(b[0], list):
             steps = [check_array(flatten(x)[0], flatten(y)[0], args.rel, args.atol)
@@ -173,6 +213,8 @@ def main(argv=None):
     ap.add_argument("--atol", type=float, default=0.0, help="absolute tolerance (default 0)")
     ap.add_argument("--per-step", action="store_true",
                     help="apply the rule to each entry of an array's first axis")
+    ap.add_argument("--require-all", action="store_true",
+                    help="fail when A lacks a numeric array that B has (default: skip it)")
     ap.add_argument("--quiet", action="store_true", help="print failures and the verdict only")
     args = ap.parse_args(argv)
 

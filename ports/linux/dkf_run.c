@@ -20,6 +20,8 @@
 
 #include "estimator.h"
 #include "scenario.h"
+#include "tw_run.h"
+#include "uif_run.h"
 
 #define EXIT_BAD_INPUT 2
 #define EXIT_FILTER 3
@@ -37,24 +39,45 @@ typedef struct {
     int fused;
     int ui;    /* 0: ignores A, B, Rd; 1: Difference KF (y up to N+1); 2: needs d00, Pd00 */
     const char *help;
+    int fam;   /* FAM_KF: estimator.h; FAM_UIF: uif_run.h (seed 004); FAM_TW: tw_run.h (seed 003) */
 } filter_t;
+
+enum { FAM_KF = 0, FAM_UIF = 1, FAM_TW = 2 };
 
 static const filter_t filters[] = {
     {"kf", "KF", DKF_EST_KF, 0, 0,
      "Kalman filter (dkf/kf.h) on F, Q, H, R;\n"
-     "                           unknown-input terms (A, B, Rd, ...) are ignored"},
+     "                           unknown-input terms (A, B, Rd, ...) are ignored", FAM_KF},
     {"info", "IF", DKF_EST_INFO, 1, 0,
      "information filter (dkf/info.h); with several\n"
-     "                           sensors it also writes `fused`"},
+     "                           sensors it also writes `fused`", FAM_KF},
     {"dkf", "DKF", DKF_EST_DKF, 1, 1,
      "Difference KF (dkf/diffkf.h); needs A, B, Rd and\n"
      "                           y_1..y_{N+1}; xp = x_{k|k-1}. With several sensors\n"
-     "                           also `fused` (fusion centre, dkf/diffkf_fusion.h)"},
+     "                           also `fused` (fusion centre, dkf/diffkf_fusion.h)", FAM_KF},
     {"askf", "ASKF", DKF_EST_ASKF, 0, 2,
      "augmented-state KF (dkf/askf.h) on [x; d]; needs A, B,\n"
-     "                           Rd, init.d00, init.Pd00; one sensor"},
+     "                           Rd, init.d00, init.Pd00; one sensor", FAM_KF},
     {"otskf", "OTSKF", DKF_EST_OTSKF, 0, 2,
-     "optimal two-stage KF (dkf/otskf.h); like askf"},
+     "optimal two-stage KF (dkf/otskf.h); like askf", FAM_KF},
+    {"rtsf", "RTSF", DKF_EST_KF, 0, 0,
+     "seed 004: recursive three-step filter with direct\n"
+     "                           feedthrough (dkf/uif.h); needs rank H = m; steps from k = 0",
+     FAM_UIF},
+    {"nrtsf_df", "NRTSF_DF", DKF_EST_KF, 0, 0,
+     "seed 004: NRTSF-DF, any rank of H (minimum-norm\n"
+     "                           input estimate); steps from k = 0", FAM_UIF},
+    {"nrtsf", "NRTSF", DKF_EST_KF, 0, 0,
+     "seed 004: NRTSF, no feedthrough (no H), any rank of G;\n"
+     "                           d = d_{k-1|k}; steps from k = 1", FAM_UIF},
+    {"tw1", "alg1", DKF_EST_KF, 0, 0,
+     "seed 003: Algorithm 1, centralized filter with unknown\n"
+     "                           actuations (dkf/tw.h) over every node", FAM_TW},
+    {"tw2", "alg2", DKF_EST_KF, 0, 0,
+     "seed 003: Algorithm 2, diffusion, whole graph in process", FAM_TW},
+    {"tw3", "alg3", DKF_EST_KF, 0, 0,
+     "seed 003: Algorithm 3, consensus (eta ACF iterations:\n"
+     "                           the file's eta or --eta N), whole graph in process", FAM_TW},
 };
 #define NFILTERS (sizeof filters / sizeof filters[0])
 
@@ -67,6 +90,8 @@ typedef struct {
     long run;
     int quiet;
     int has_d00;
+    long eta;         /* --eta, -1 if not given */
+    int metrics_only; /* --metrics-only */
     size_t nd00;
     double d00[MAX_D00];
     double Pd00_scale;
@@ -105,6 +130,9 @@ static void usage(FILE *f, const char *prog)
             "                       a 0-based index (default 0)\n"
             "      --d00 A,B,...    askf/otskf: d_{0|0} instead of init.d00 (p values)\n"
             "      --Pd00-scale S   askf/otskf: P_{d0|0} = S * init.Pd00 (S > 0)\n"
+            "      --eta N          tw3: consensus iterations per ACF (overrides the file's eta)\n"
+            "      --metrics-only   tw1-3: record only the per-step metrics (errors against the\n"
+            "                       truth, gap to Algorithm 1), not the per-node arrays\n"
             "  -q, --quiet          do not print the summary\n"
             "  -h, --help           print this help and exit\n"
             "\n"
@@ -115,6 +143,12 @@ static void usage(FILE *f, const char *prog)
             "diagonal R, A, B, Rd) and, for info and dkf, outputs.fused (dkf: also\n"
             "outputs.messages, outputs.fc_recovered). Cases-layout scenarios use that\n"
             "file's names: x_pred P_pred Y_pred y_pred i I Y y x P.\n"
+            "Steps-layout files (seed 004/003 vectors): outputs.RTSF / NRTSF_DF / NRTSF with\n"
+            "the vectors' expected names (x_pred P_pred Rtilde d Pd x Px Pxd L K M rank proj,\n"
+            "Pxd_extra for nrtsf) plus estimable, bias_risk, bias_steps; outputs.alg1 / alg2 /\n"
+            "alg3 with x P z and the intermediates ([N][...] per node for alg2/3) plus the\n"
+            "metrics mse_x mse_z nees spread_x gap_x gap_z gap_x_rel_max; \"k\" lists the\n"
+            "steps' own times.\n"
             "errors: {\"k\": [1..N], \"runs\": R, \"errors\": {<LABEL> or local[i], central,\n"
             "fused: {\"xf\": [[e_1..e_N] per run], \"xp\": [...], \"mean_xf\": [...],\n"
             "\"mean_xp\": [...]}}}.\n"
@@ -154,7 +188,7 @@ static int parse_list(const char *arg, double *out, size_t cap, size_t *count)
 /* 0: run; 1: --help printed; -1: bad usage (message printed). */
 static int parse_options(int argc, char **argv, options_t *o)
 {
-    enum { OPT_D00 = 256, OPT_PD00_SCALE };
+    enum { OPT_D00 = 256, OPT_PD00_SCALE, OPT_ETA, OPT_METRICS_ONLY };
     static const struct option longopts[] = {
         {"filter", required_argument, NULL, 'f'},
         {"output", required_argument, NULL, 'o'},
@@ -163,6 +197,8 @@ static int parse_options(int argc, char **argv, options_t *o)
         {"case", required_argument, NULL, 'c'},
         {"d00", required_argument, NULL, OPT_D00},
         {"Pd00-scale", required_argument, NULL, OPT_PD00_SCALE},
+        {"eta", required_argument, NULL, OPT_ETA},
+        {"metrics-only", no_argument, NULL, OPT_METRICS_ONLY},
         {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0},
@@ -170,6 +206,7 @@ static int parse_options(int argc, char **argv, options_t *o)
     int c;
     char *end;
     memset(o, 0, sizeof *o);
+    o->eta = -1;
     opterr = 0; /* our own one-line messages instead of getopt's */
     while ((c = getopt_long(argc, argv, ":f:o:e:r:c:qh", longopts, NULL)) != -1) {
         switch (c) {
@@ -204,6 +241,15 @@ static int parse_options(int argc, char **argv, options_t *o)
                 return -1;
             }
             break;
+        case OPT_ETA:
+            errno = 0;
+            o->eta = strtol(optarg, &end, 10);
+            if (end == optarg || *end != '\0' || errno != 0 || o->eta < 0) {
+                fprintf(stderr, "dkf-run: --eta %s: expected an integer >= 0\n", optarg);
+                return -1;
+            }
+            break;
+        case OPT_METRICS_ONLY: o->metrics_only = 1; break;
         case 'h': usage(stdout, argv[0]); return 1;
         case ':':
             fprintf(stderr, "dkf-run: %s: option needs an argument (try --help)\n",
@@ -238,6 +284,27 @@ static int check_filter(const options_t *o, const filter_t *f, const dkf_scenari
 {
     char err[DKF_SCN_ERR_LEN];
     const dkf_scn_mat_t *A;
+    if (o->eta >= 0 && strcmp(f->name, "tw3") != 0) {
+        fprintf(stderr, "dkf-run: %s: --eta: only for tw3\n", s->file);
+        return EXIT_BAD_INPUT;
+    }
+    if (o->metrics_only && f->fam != FAM_TW) {
+        fprintf(stderr, "dkf-run: %s: --metrics-only: only for tw1, tw2, tw3\n", s->file);
+        return EXIT_BAD_INPUT;
+    }
+    if (f->fam != FAM_KF && (o->errors != NULL || o->run != 0)) {
+        fprintf(stderr, "dkf-run: %s: %s: not available for filter %s (steps-layout files "
+                "have one run)\n", s->file, o->errors != NULL ? "--errors" : "--run", f->name);
+        return EXIT_BAD_INPUT;
+    }
+    if (f->fam == FAM_KF && s->layout == DKF_SCN_LAYOUT_STEPS) {
+        fprintf(stderr, "dkf-run: %s: steps: filter %s reads the canonical or cases layout; "
+                "this seed-%s file runs with %s\n", s->file, f->name,
+                s->family == DKF_SCN_FAMILY_TW ? "003" : "004",
+                s->family == DKF_SCN_FAMILY_TW ? "tw1, tw2, tw3" : "rtsf, nrtsf_df, nrtsf");
+        return EXIT_BAD_INPUT;
+    }
+    if (f->fam != FAM_KF) return 0; /* uif_run / tw_run check the rest */
     if ((o->has_d00 || o->Pd00_scale > 0) && f->ui != 2) {
         fprintf(stderr, "dkf-run: %s: --d00/--Pd00-scale: only for askf and otskf\n", s->file);
         return EXIT_BAD_INPUT;
@@ -577,6 +644,106 @@ static int run_errors(const options_t *o, const filter_t *f, dkf_scenario_t *s,
     return rc;
 }
 
+/* ---- seed-004 / seed-003 filters (steps layout) ---------------------------------- */
+
+static json_t *steps_header(const options_t *o, const filter_t *f, const dkf_scenario_t *s)
+{
+    json_t *doc = json_object(), *ks = json_array();
+    long k;
+    for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
+        json_array_append_new(ks, json_integer(k));
+    json_object_set_new(doc, "scenario", json_string(o->scenario));
+    json_object_set_new(doc, "filter", json_string(f->name));
+    json_object_set_new(doc, "real", json_string(DKF_USE_FLOAT ? "float" : "double"));
+    json_object_set_new(doc, "k", ks);
+    return doc;
+}
+
+static void print_uif_summary(const filter_t *f, const dkf_scenario_t *s,
+                              const dkf_uifrun_summary_t *u)
+{
+    static const char *const est[] = {"none", "partial", "full"};
+    size_t i;
+    printf("scenario %s: %zu steps (k = %ld..%ld), n = %zu, m = %zu; filter %s (%s)\n", s->file,
+           s->steps, s->k_first, s->k_first + (long)s->steps - 1, s->n, u->m, f->name,
+           DKF_USE_FLOAT ? "float" : "double");
+    printf("  rank %zu..%zu; steps with bias risk: %zu\n", u->rank_min, u->rank_max,
+           u->bias_steps);
+    printf("  RMSE(x) %s%.6g\n", isnan(u->rmse_x) ? "(no truth) " : "", u->rmse_x);
+    for (i = 0; i < u->m; ++i) {
+        size_t e, best = 0;
+        for (e = 1; e < 3; ++e)
+            if (u->est_count[i][e] > u->est_count[i][best]) best = e;
+        printf("  d%zu: estimable %s (%zu/%zu steps), RMSE vs truth %s %.6g\n", i + 1,
+               est[best], u->est_count[i][best], u->steps,
+               s->truth_u_key[0] != '\0' ? s->truth_u_key : "(none)", u->rmse_d[i]);
+    }
+}
+
+static void print_tw_summary(const filter_t *f, const dkf_scenario_t *s,
+                             const dkf_twrun_summary_t *t)
+{
+    printf("scenario %s: %zu steps, %zu nodes, %zu edges, n = %zu; filter %s (%s)", s->file,
+           t->steps, t->N, t->E, s->n, f->name, DKF_USE_FLOAT ? "float" : "double");
+    if (strcmp(f->name, "tw3") == 0) printf(", eta = %zu", t->eta);
+    printf("\n  weights: alpha %s, W %s\n", t->alpha_default ? "uniform (computed)" : "from file",
+           t->W_default ? "Metropolis (computed)" : "from file");
+    printf("  RMSE x %.6g, z %.6g (over steps, nodes, components)\n", t->rmse_x, t->rmse_z);
+    printf("  reals sent per node per step %.6g (%.6g messages)\n", t->reals_per_node_step,
+           t->broadcasts_per_node_step);
+    if (strcmp(f->name, "tw1") != 0)
+        printf("  gap to Algorithm 1 (max over steps, nodes): ||dx||/||x1|| %.6g, "
+               "max|dx|/max(1, max|x1|) %.6g\n", t->gap_x_rel_max, t->gap_x_vec_rule);
+}
+
+static int run_steps_family(const options_t *o, const filter_t *f, const dkf_scenario_t *s)
+{
+    json_t *series = o->output != NULL ? json_object() : NULL;
+    char err[DKF_SCN_ERR_LEN];
+    int rc;
+    dkf_uifrun_summary_t u;
+    dkf_twrun_summary_t t;
+    json_t *doc, *outs, *comm;
+    if (f->fam == FAM_UIF) {
+        rc = dkf_uifrun(s, (dkf_uif_kind_t)dkf_uifrun_kind(f->name), series, &u, err, sizeof err);
+    } else {
+        dkf_twrun_opts_t to;
+        to.alg = dkf_twrun_alg(f->name);
+        to.eta = o->eta;
+        to.no_nodes = o->metrics_only;
+        rc = dkf_twrun(s, &to, series, &t, err, sizeof err);
+    }
+    if (rc != 0) {
+        fprintf(stderr, "dkf-run: %s\n", err);
+        json_decref(series);
+        return rc;
+    }
+    if (o->output != NULL) {
+        doc = steps_header(o, f, s);
+        outs = json_object();
+        json_object_set_new(outs, f->label, series);
+        json_object_set_new(doc, "outputs", outs);
+        if (f->fam == FAM_TW) {
+            if (strcmp(f->name, "tw3") == 0)
+                json_object_set_new(doc, "eta", json_integer((json_int_t)t.eta));
+            comm = json_pack("{s:f, s:f, s:i, s:i}", "reals_per_node_step",
+                             t.reals_per_node_step, "messages_per_node_step",
+                             t.broadcasts_per_node_step, "N", (json_int_t)t.N, "edges",
+                             (json_int_t)t.E);
+            json_object_set_new(doc, "communication", comm);
+        }
+        rc = write_doc(doc, o->output);
+        if (rc != 0) return rc;
+    }
+    if (!o->quiet) {
+        if (f->fam == FAM_UIF)
+            print_uif_summary(f, s, &u);
+        else
+            print_tw_summary(f, s, &t);
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     options_t o;
@@ -603,6 +770,11 @@ int main(int argc, char **argv)
         return EXIT_BAD_INPUT;
     }
     rc = check_filter(&o, f, s);
+    if (rc == 0 && f->fam != FAM_KF) {
+        rc = run_steps_family(&o, f, s);
+        dkf_scenario_free(s);
+        return rc;
+    }
     memset(&opts, 0, sizeof opts);
     opts.d00 = o.has_d00 ? o.d00 : NULL;
     opts.Pd00_scale = o.Pd00_scale;

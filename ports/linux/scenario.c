@@ -964,6 +964,521 @@ static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const cha
     return 0;
 }
 
+/* ---- steps layout (seed-003/004 vectors) ------------------------------------- */
+
+#define STEPS_MAX_KEYS 32
+
+/* Step j's absolute time: key `k` (seed 004) or `n` (seed 003). */
+static int steps_time(ctx_t *c, const json_t *st, size_t j, long *k)
+{
+    const json_t *jk = json_object_get(st, "k");
+    const char *key = "k";
+    char p[PATH_LEN], pk[PATH_LEN];
+    subidx(p, "steps", j);
+    if (!json_is_object(st)) return fail(c, p, "expected an object, got %s", json_kind(st));
+    if (jk == NULL) {
+        jk = json_object_get(st, "n");
+        key = "n";
+    }
+    if (jk == NULL) return fail(c, p, "missing key k (or n): the step's time");
+    subkey(pk, p, key);
+    return get_integer(c, jk, pk, k);
+}
+
+/* `inputs` of step j: an object with at least y. */
+static int steps_inputs_of(ctx_t *c, const json_t *st, size_t j, const json_t **in)
+{
+    char p[PATH_LEN];
+    pathf(p, "steps[%zu].inputs", j);
+    *in = json_object_get(st, "inputs");
+    if (*in == NULL) return fail(c, p, "missing key");
+    if (!json_is_object(*in)) return fail(c, p, "expected an object, got %s", json_kind(*in));
+    return 0;
+}
+
+/* Per-step matrix `key` of the inputs (`<M>` at k, `<M>_prev` at k - 1)
+ * into model <M>, per_k from k0. Steps that need it: all, or k >= 1. */
+static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const char *key)
+{
+    size_t len = strlen(key), N = json_array_size(steps), j, used = 0, first = N;
+    int prev = len > 5 && strcmp(key + len - 5, "_prev") == 0;
+    char name[64], p[PATH_LEN];
+    dkf_scn_mat_t *m;
+    snprintf(name, sizeof name, "%.*s", (int)(prev ? len - 5 : len), key);
+    for (j = 0; j < N; ++j) {
+        const json_t *v = json_object_get(json_object_get(json_array_get(steps, j), "inputs"), key);
+        const long k = s->k_first + (long)j;
+        pathf(p, "steps[%zu].inputs.%s", j, key);
+        if (prev && k == 0) {
+            if (v != NULL) return fail(c, p, "no dynamics lead to k = 0 (the first step has none)");
+            continue;
+        }
+        if (v == NULL)
+            return fail(c, p, "missing key (another step has it, so every step%s needs it)",
+                        prev ? " with k >= 1" : "");
+        if (nest_depth(v) > 2)
+            return fail(c, p, "time-varying per-node matrices are not supported (give model.%s)",
+                        name);
+        if (first == N) first = j;
+    }
+    if (mats_find(&s->model, name) != NULL) {
+        pathf(p, "steps[%zu].inputs.%s", first, key);
+        return fail(c, p, "also given as model.%s or as another step input (give one)", name);
+    }
+    pathf(p, "steps[%zu].inputs.%s", first, key);
+    if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
+    for (j = first; j < N; ++j) {
+        double *one;
+        size_t r, cc;
+        pathf(p, "steps[%zu].inputs.%s", j, key);
+        if (parse_matrix(c, json_object_get(json_object_get(json_array_get(steps, j), "inputs"),
+                                            key),
+                         p, &r, &cc, &one) != 0)
+            return -1;
+        if (used == 0) {
+            m->rows = r;
+            m->cols = cc;
+            if ((m->data = xcalloc(c, (N - first) * r * cc, sizeof *m->data)) == NULL) {
+                free(one);
+                return -1;
+            }
+        } else if (r != m->rows || cc != m->cols) {
+            free(one);
+            return shape_error(c, p, m->rows, m->cols, r, cc);
+        }
+        memcpy(m->data + used * r * cc, one, r * cc * sizeof *one);
+        free(one);
+        ++used;
+    }
+    m->count = used;
+    m->k0 = (size_t)(s->k_first + (long)first - (prev ? 1 : 0));
+    return 0;
+}
+
+/* Every per-step matrix input (the union of the steps' input keys but y). */
+static int steps_matrices(ctx_t *c, dkf_scenario_t *s, const json_t *steps)
+{
+    const char *keys[STEPS_MAX_KEYS];
+    size_t nkeys = 0, j, i;
+    for (j = 0; j < json_array_size(steps); ++j) {
+        const json_t *in = json_object_get(json_array_get(steps, j), "inputs");
+        const char *key;
+        json_t *val;
+        json_object_foreach((json_t *)in, key, val) {
+            if (strcmp(key, "y") == 0 || json_is_string(val) || json_is_null(val)) continue;
+            for (i = 0; i < nkeys && strcmp(keys[i], key) != 0; ++i) continue;
+            if (i < nkeys) continue;
+            if (nkeys == STEPS_MAX_KEYS) {
+                char p[PATH_LEN];
+                pathf(p, "steps[%zu].inputs.%s", j, key);
+                return fail(c, p, "more than %d different per-step inputs", STEPS_MAX_KEYS);
+            }
+            keys[nkeys++] = key;
+        }
+    }
+    for (i = 0; i < nkeys; ++i)
+        if (steps_matrix(c, s, steps, keys[i]) != 0) return -1;
+    return 0;
+}
+
+/* A list of N same-shape matrices (model.H / model.Sw of seed 003): sensor
+ * l's matrix `name`. */
+static int steps_node_matrices(ctx_t *c, dkf_scenario_t *s, const json_t *model,
+                               const char *name)
+{
+    const json_t *v = json_object_get(model, name);
+    size_t l;
+    char p[PATH_LEN], pl[PATH_LEN];
+    subkey(p, "model", name);
+    if (v == NULL) return fail(c, p, "missing key (a list of one matrix per node)");
+    if (!json_is_array(v) || nest_depth(v) != 3 || json_array_size(v) != s->nsensors)
+        return fail(c, p, "expected a list of %zu matrices (one per node of graph), got %s",
+                    s->nsensors, json_is_array(v) ? "a list of another shape" : json_kind(v));
+    for (l = 0; l < s->nsensors; ++l) {
+        dkf_scn_mat_t *m;
+        subidx(pl, p, l);
+        if ((m = mats_add(c, &s->sensors[l].mats, name, pl)) == NULL) return -1;
+        if (parse_matrix(c, json_array_get(v, l), pl, &m->rows, &m->cols, &m->data) != 0)
+            return -1;
+    }
+    return 0;
+}
+
+/* The constant model: bare matrices (or const/per_k objects); seed 003's
+ * per-node H, Sw go to the sensors. */
+static int steps_model(ctx_t *c, dkf_scenario_t *s, const json_t *model)
+{
+    const char *key;
+    json_t *val;
+    char p[PATH_LEN];
+    json_object_foreach((json_t *)model, key, val) {
+        if (s->family == DKF_SCN_FAMILY_TW && (strcmp(key, "H") == 0 || strcmp(key, "Sw") == 0))
+            continue;
+        subkey(p, "model", key);
+        if (json_is_array(val) && nest_depth(val) > 2)
+            return fail(c, p, "expected a matrix, got a list of matrices");
+        if (parse_model_entry(c, &s->model, key, val, p) != 0) return -1;
+    }
+    if (s->family == DKF_SCN_FAMILY_TW) {
+        if (steps_node_matrices(c, s, model, "H") != 0) return -1;
+        if (steps_node_matrices(c, s, model, "Sw") != 0) return -1;
+    }
+    return 0;
+}
+
+/* y of every step into the sensors' series (seed 004: one vector; seed
+ * 003: a list with one vector per node). */
+static int steps_measurements(ctx_t *c, dkf_scenario_t *s, const json_t *steps)
+{
+    size_t N = json_array_size(steps), j, i;
+    char p[PATH_LEN], pi[PATH_LEN];
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, s->family == DKF_SCN_FAMILY_TW ? "H" : "C");
+        se->m = H != NULL ? H->rows : 0;
+        se->ny = N;
+        se->yk = xcalloc(c, N, sizeof *se->yk);
+        se->y = xcalloc(c, N * (se->m ? se->m : 1), sizeof *se->y);
+        if (se->yk == NULL || se->y == NULL) return -1;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *y = json_object_get(json_object_get(json_array_get(steps, j), "inputs"), "y");
+        pathf(p, "steps[%zu].inputs.y", j);
+        if (y == NULL) return fail(c, p, "missing key");
+        if (s->family == DKF_SCN_FAMILY_TW &&
+            (!json_is_array(y) || json_array_size(y) != s->nsensors || nest_depth(y) != 2))
+            return fail(c, p, "expected a list of %zu measurement vectors (one per node), got %s",
+                        s->nsensors, json_is_array(y) ? "a list of another shape" : json_kind(y));
+        for (i = 0; i < s->nsensors; ++i) {
+            dkf_scn_sensor_t *se = &s->sensors[i];
+            const json_t *yi = s->family == DKF_SCN_FAMILY_TW ? json_array_get(y, i) : y;
+            size_t len;
+            double *v;
+            if (s->family == DKF_SCN_FAMILY_TW)
+                subidx(pi, p, i);
+            else
+                pathf(pi, "%s", p);
+            if (parse_vector(c, yi, pi, &len, &v) != 0) return -1;
+            if (se->m == 0) se->m = len; /* no C / H: validate reports it */
+            if (len != se->m) {
+                free(v);
+                return fail(c, pi, "expected a vector of %zu values (the rows of %s), got %zu",
+                            se->m, s->family == DKF_SCN_FAMILY_TW ? "H" : "C", len);
+            }
+            memcpy(se->y + j * se->m, v, len * sizeof *v);
+            se->yk[j] = s->k_first + (long)j;
+            free(v);
+        }
+    }
+    return 0;
+}
+
+/* truth.x (n) and the true input truth.d / d_prev / z_prev (m), all or none. */
+static int steps_truth(ctx_t *c, dkf_scenario_t *s, const json_t *steps, size_t m)
+{
+    static const char *const ukeys[] = {"d", "d_prev", "z_prev"};
+    const json_t *t0 = json_object_get(json_array_get(steps, 0), "truth");
+    size_t N = json_array_size(steps), j, i;
+    const char *ukey = NULL;
+    char p[PATH_LEN];
+    if (!json_is_object(t0)) return 0;
+    for (i = 0; i < 3 && ukey == NULL; ++i)
+        if (json_object_get(t0, ukeys[i]) != NULL) ukey = ukeys[i];
+    if (json_object_get(t0, "x") != NULL) {
+        s->truth_k = xcalloc(c, N, sizeof *s->truth_k);
+        s->truth_x = xcalloc(c, N * s->n, sizeof *s->truth_x);
+        if (s->truth_k == NULL || s->truth_x == NULL) return -1;
+        s->ntruth = N;
+    }
+    if (ukey != NULL) {
+        snprintf(s->truth_u_key, sizeof s->truth_u_key, "%s", ukey);
+        s->truth_u_k = xcalloc(c, N, sizeof *s->truth_u_k);
+        s->truth_u = xcalloc(c, N * m, sizeof *s->truth_u);
+        if (s->truth_u_k == NULL || s->truth_u == NULL) return -1;
+        s->ntruth_u = N;
+        s->m_u = m;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *t = json_object_get(json_array_get(steps, j), "truth");
+        for (i = 0; i < 2; ++i) {
+            const char *key = i == 0 ? "x" : ukey;
+            const size_t dim = i == 0 ? s->n : m;
+            double *dst = i == 0 ? s->truth_x : s->truth_u;
+            long *kd = i == 0 ? s->truth_k : s->truth_u_k;
+            size_t len;
+            double *v;
+            if (dst == NULL) continue;
+            pathf(p, "steps[%zu].truth.%s", j, key);
+            if (json_object_get(t, key) == NULL)
+                return fail(c, p, "missing key (steps[0] has it, so every step needs it)");
+            if (parse_vector(c, json_object_get(t, key), p, &len, &v) != 0) return -1;
+            if (len != dim) {
+                free(v);
+                return fail(c, p, "expected a vector of %zu values, got %zu", dim, len);
+            }
+            memcpy(dst + j * dim, v, dim * sizeof *v);
+            kd[j] = s->k_first + (long)j;
+            free(v);
+        }
+    }
+    return 0;
+}
+
+/* Weights `key` (dense N x N, nonzeros kept) or `key`_sparse ([[i, j, v], ...]). */
+static int steps_weights(ctx_t *c, dkf_scenario_t *s, const json_t *root, const char *key,
+                         const char **which, size_t *count, size_t **rc, double **v)
+{
+    char skey[64], p[PATH_LEN];
+    const json_t *dense = json_object_get(root, key), *sparse;
+    size_t N = s->nsensors, i, j, n = 0;
+    snprintf(skey, sizeof skey, "%s_sparse", key);
+    sparse = json_object_get(root, skey);
+    *which = NULL;
+    *count = 0;
+    if (dense == NULL && sparse == NULL) return 0;
+    if (dense != NULL && sparse != NULL) return fail(c, skey, "not allowed together with %s", key);
+    if (dense != NULL) {
+        double *M;
+        size_t r, cc;
+        if (parse_matrix(c, dense, key, &r, &cc, &M) != 0) return -1;
+        if (r != N || cc != N) {
+            free(M);
+            return shape_error(c, key, N, N, r, cc);
+        }
+        for (i = 0; i < N * N; ++i) n += M[i] != 0.0;
+        *rc = xcalloc(c, 2 * n, sizeof **rc);
+        *v = xcalloc(c, n, sizeof **v);
+        if (*rc == NULL || *v == NULL) {
+            free(M);
+            return -1;
+        }
+        n = 0;
+        for (i = 0; i < N; ++i)
+            for (j = 0; j < N; ++j)
+                if (M[i * N + j] != 0.0) {
+                    (*rc)[2 * n] = i;
+                    (*rc)[2 * n + 1] = j;
+                    (*v)[n++] = M[i * N + j];
+                }
+        free(M);
+        *which = key;
+        *count = n;
+        return 0;
+    }
+    if (!json_is_array(sparse) || json_array_size(sparse) == 0)
+        return fail(c, skey, "expected a non-empty list of [i, j, value] triplets, got %s",
+                    json_kind(sparse));
+    n = json_array_size(sparse);
+    *rc = xcalloc(c, 2 * n, sizeof **rc);
+    *v = xcalloc(c, n, sizeof **v);
+    if (*rc == NULL || *v == NULL) return -1;
+    for (i = 0; i < n; ++i) {
+        const json_t *t = json_array_get(sparse, i);
+        long a, b;
+        subidx(p, skey, i);
+        if (!json_is_array(t) || json_array_size(t) != 3)
+            return fail(c, p, "expected a triplet [i, j, value], got %s", json_kind(t));
+        if (get_integer(c, json_array_get(t, 0), p, &a) != 0) return -1;
+        if (get_integer(c, json_array_get(t, 1), p, &b) != 0) return -1;
+        if (a < 0 || b < 0 || (size_t)a >= N || (size_t)b >= N)
+            return fail(c, p, "node index out of range 0..%zu", N - 1);
+        if (!json_is_number(json_array_get(t, 2)))
+            return fail(c, p, "expected a number as the value, got %s",
+                        json_kind(json_array_get(t, 2)));
+        (*rc)[2 * i] = (size_t)a;
+        (*rc)[2 * i + 1] = (size_t)b;
+        (*v)[i] = json_number_value(json_array_get(t, 2));
+    }
+    *which = strcmp(key, "W_consensus") == 0 ? "W_consensus_sparse" : "alpha_diffusion_sparse";
+    *count = n;
+    return 0;
+}
+
+/* graph.edges, the weights, eta (seed 003). */
+static int steps_network(ctx_t *c, dkf_scenario_t *s, const json_t *root)
+{
+    const json_t *graph = json_object_get(root, "graph"), *edges, *eta;
+    dkf_scn_network_t *net;
+    size_t e, N = s->nsensors;
+    char p[PATH_LEN];
+    if ((net = s->net = xcalloc(c, 1, sizeof *net)) == NULL) return -1;
+    net->N = N;
+    net->eta = -1;
+    if (!json_is_object(graph)) return fail(c, "graph", "expected an object, got %s", json_kind(graph));
+    edges = json_object_get(graph, "edges");
+    if (edges == NULL) return fail(c, "graph.edges", "missing key");
+    if (!json_is_array(edges))
+        return fail(c, "graph.edges", "expected a list of [i, j] pairs, got %s", json_kind(edges));
+    net->E = json_array_size(edges);
+    if ((net->edges = xcalloc(c, 2 * net->E, sizeof *net->edges)) == NULL) return -1;
+    for (e = 0; e < net->E; ++e) {
+        const json_t *pr = json_array_get(edges, e);
+        size_t i;
+        subidx(p, "graph.edges", e);
+        if (!json_is_array(pr) || json_array_size(pr) != 2)
+            return fail(c, p, "expected a pair [i, j], got %s", json_kind(pr));
+        for (i = 0; i < 2; ++i) {
+            long v;
+            if (get_integer(c, json_array_get(pr, i), p, &v) != 0) return -1;
+            if (v < 0 || (size_t)v >= N)
+                return fail(c, p, "node index %ld out of range 0..%zu (model.H has %zu nodes)", v,
+                            N - 1, N);
+            net->edges[2 * e + i] = (size_t)v;
+        }
+    }
+    if (steps_weights(c, s, root, "W_consensus", &net->W_key, &net->nW, &net->W_rc, &net->W_v) != 0)
+        return -1;
+    if (steps_weights(c, s, root, "alpha_diffusion", &net->alpha_key, &net->nalpha,
+                      &net->alpha_rc, &net->alpha_v) != 0)
+        return -1;
+    eta = json_object_get(root, "eta");
+    if (eta != NULL) {
+        if (get_integer(c, eta, "eta", &net->eta) != 0) return -1;
+        if (net->eta < 0) return fail(c, "eta", "expected an integer >= 0, got %ld", net->eta);
+    }
+    return 0;
+}
+
+/* Model matrix `name` must exist with shape r x cc (0: any) and cover
+ * absolute times k = from..to; returns it through out. */
+static int steps_require(ctx_t *c, const dkf_scenario_t *s, size_t sensor, const char *name,
+                         size_t r, size_t cc, long from, long to, const dkf_scn_mat_t **out)
+{
+    const dkf_scn_mat_t *m = dkf_scn_sensor_model(s, sensor, name);
+    char p[PATH_LEN];
+    long k;
+    subkey(p, "model", name);
+    if (m == NULL) return fail(c, p, "missing key");
+    if ((r != 0 && m->rows != r) || (cc != 0 && m->cols != cc))
+        return shape_error(c, m->path, r != 0 ? r : m->rows, cc != 0 ? cc : m->cols, m->rows,
+                           m->cols);
+    for (k = from; k <= to; ++k)
+        if (dkf_scn_at(m, (size_t)k) == NULL)
+            return fail(c, m->path, "no value for k = %ld (steps k = %ld..%ld need %s_%ld)", k,
+                        s->k_first, s->k_first + (long)s->steps - 1, name, k);
+    if (m->rows > DKF_MAX_DIM || m->cols > DKF_MAX_DIM)
+        return fail(c, m->path, "dimension %zu exceeds DKF_MAX_DIM = %d",
+                    m->rows > m->cols ? m->rows : m->cols, DKF_MAX_DIM);
+    if (out != NULL) *out = m;
+    return 0;
+}
+
+/* Shapes and time coverage of a steps-layout model; sets n. Dynamics are
+ * needed at k - 1 for every step k >= 1, the measurement model at every k. */
+static int steps_validate(ctx_t *c, dkf_scenario_t *s, size_t *m_out)
+{
+    const long klast = s->k_first + (long)s->steps - 1, kd0 = s->k_first > 0 ? s->k_first - 1 : 0;
+    const long kd1 = klast - 1;
+    const dkf_scn_mat_t *A, *G, *C, *H;
+    size_t n, m, p, l;
+    const int tw = s->family == DKF_SCN_FAMILY_TW;
+    if (steps_require(c, s, 0, "A", 0, 0, kd0, kd1, &A) != 0) return -1;
+    if (A->rows != A->cols)
+        return fail(c, A->path, "expected a square matrix, got %zux%zu", A->rows, A->cols);
+    n = s->n = A->rows;
+    if (steps_require(c, s, 0, tw ? "B" : "G", n, 0, kd0, kd1, &G) != 0) return -1;
+    m = *m_out = G->cols;
+    if (steps_require(c, s, 0, tw ? "Sv" : "Q", n, n, kd0, kd1, NULL) != 0) return -1;
+    if (!tw) {
+        if (steps_require(c, s, 0, "C", 0, n, s->k_first, klast, &C) != 0) return -1;
+        p = C->rows;
+        if (steps_require(c, s, 0, "R", p, p, s->k_first, klast, NULL) != 0) return -1;
+        H = dkf_scn_model(s, "H");
+        if (H != NULL && steps_require(c, s, 0, "H", p, m, s->k_first, klast, NULL) != 0)
+            return -1;
+        if (s->sensors[0].m != p)
+            return fail(c, "steps[0].inputs.y", "expected a vector of %zu values (the rows of C), "
+                        "got %zu", p, s->sensors[0].m);
+        return 0;
+    }
+    for (l = 0; l < s->nsensors; ++l) {
+        const dkf_scn_mat_t *Hl = dkf_scn_sensor_model(s, l, "H"), *Sw;
+        if (Hl->cols != n) return shape_error(c, Hl->path, Hl->rows, n, Hl->rows, Hl->cols);
+        if (Hl->rows > DKF_MAX_DIM)
+            return fail(c, Hl->path, "dimension %zu exceeds DKF_MAX_DIM = %d", Hl->rows,
+                        DKF_MAX_DIM);
+        Sw = dkf_scn_sensor_model(s, l, "Sw");
+        if (Sw->rows != Hl->rows || Sw->cols != Hl->rows)
+            return shape_error(c, Sw->path, Hl->rows, Hl->rows, Sw->rows, Sw->cols);
+        if (s->sensors[l].m != Hl->rows) {
+            char p2[PATH_LEN];
+            pathf(p2, "steps[0].inputs.y[%zu]", l);
+            return fail(c, p2, "expected a vector of %zu values (the rows of model.H[%zu]), got %zu",
+                        Hl->rows, l, s->sensors[l].m);
+        }
+    }
+    return 0;
+}
+
+static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
+{
+    const json_t *steps = json_object_get(root, "steps"), *model = json_object_get(root, "model");
+    const json_t *init = json_object_get(root, "init"), *in;
+    size_t j, N, m = 0;
+    long k;
+    s->layout = DKF_SCN_LAYOUT_STEPS;
+    if (!json_is_array(steps) || json_array_size(steps) == 0)
+        return fail(c, "steps", "expected a non-empty list of step objects, got %s",
+                    json_kind(steps));
+    N = s->steps = json_array_size(steps);
+    for (j = 0; j < N; ++j) {
+        char p[PATH_LEN];
+        if (steps_time(c, json_array_get(steps, j), j, &k) != 0) return -1;
+        if (steps_inputs_of(c, json_array_get(steps, j), j, &in) != 0) return -1;
+        if (j == 0) {
+            if (k != 0 && k != 1)
+                return fail(c, "steps[0]", "the first step's time must be 0 or 1, got %ld", k);
+            s->k_first = k;
+        } else if (k != s->k_first + (long)j) {
+            pathf(p, "steps[%zu]", j);
+            return fail(c, p, "time %ld, expected %ld (steps are consecutive)", k,
+                        s->k_first + (long)j);
+        }
+    }
+    if (model == NULL) return fail(c, "model", "missing key");
+    if (!json_is_object(model))
+        return fail(c, "model", "expected an object, got %s", json_kind(model));
+    if (init == NULL) return fail(c, "init", "missing key");
+    if (!json_is_object(init)) return fail(c, "init", "expected an object, got %s", json_kind(init));
+    if (json_object_get(root, "graph") != NULL) {
+        const json_t *H = json_object_get(model, "H");
+        s->family = DKF_SCN_FAMILY_TW;
+        s->multi = 1;
+        if (!json_is_array(H) || json_array_size(H) == 0)
+            return fail(c, "model.H", "%s (seed-003 files give one H per node)",
+                        H == NULL ? "missing key" : "expected a list of matrices");
+        s->nsensors = json_array_size(H);
+    } else {
+        s->family = DKF_SCN_FAMILY_UIF;
+        s->nsensors = 1;
+    }
+    if ((s->sensors = xcalloc(c, s->nsensors, sizeof *s->sensors)) == NULL) return -1;
+    if (steps_model(c, s, model) != 0) return -1;
+    if (steps_matrices(c, s, steps) != 0) return -1;
+    {
+        const char *key;
+        json_t *val;
+        char p[PATH_LEN];
+        json_object_foreach((json_t *)init, key, val) {
+            const char *as = strcmp(key, "x0") == 0 ? "x00" : strcmp(key, "P0") == 0 ? "P00" : key;
+            subkey(p, "init", key);
+            if (parse_init_entry(c, &s->init, as, val, p) != 0) return -1;
+        }
+    }
+    if (steps_measurements(c, s, steps) != 0) return -1;
+    if (steps_validate(c, s, &m) != 0) return -1;
+    if (require_shape(c, dkf_scn_init(s, "x00"), "init.x0", s->n, 1) != 0) return -1;
+    if (require_shape(c, dkf_scn_init(s, "P00"), "init.P0", s->n, s->n) != 0) return -1;
+    if (require_single(c, dkf_scn_init(s, "P00"), "init.P0", s->n) != 0) return -1;
+    if (s->family == DKF_SCN_FAMILY_TW && steps_network(c, s, root) != 0) return -1;
+    if (alloc_runs(c, s, 1) != 0) return -1;
+    adopt_y(s, 0);
+    if (steps_truth(c, s, steps, m) != 0) return -1;
+    adopt_truth(s, 0);
+    dkf_scn_select_run(s, 0);
+    return 0;
+}
+
 /* ---- public API ---------------------------------------------------------------- */
 
 dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
@@ -1004,10 +1519,15 @@ dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *
         return NULL;
     }
     s->root = root;
+    s->k_first = 1;
     if (json_object_get(root, "cases") != NULL) {
         rc = load_cases(&c, s, root, case_sel);
     } else if (case_sel != NULL) {
-        rc = fail(&c, "cases", "--case given but the file has no cases (canonical layout)");
+        rc = fail(&c, "cases", "--case given but the file has no cases (%s layout)",
+                  json_object_get(root, "steps") != NULL ? "steps" : "canonical");
+    } else if (json_object_get(root, "steps") != NULL && json_object_get(root, "y") == NULL &&
+               json_object_get(root, "runs") == NULL) {
+        rc = load_steps(&c, s, root);
     } else {
         rc = load_canonical(&c, s, root);
     }
@@ -1048,6 +1568,16 @@ void dkf_scenario_free(dkf_scenario_t *s)
     }
     free(s->case_name);
     free(s->file);
+    if (s->net != NULL) {
+        free(s->net->edges);
+        free(s->net->W_rc);
+        free(s->net->W_v);
+        free(s->net->alpha_rc);
+        free(s->net->alpha_v);
+        free(s->net);
+    }
+    free(s->truth_u_k);
+    free(s->truth_u);
     json_decref(s->root);
     free(s);
 }
@@ -1073,8 +1603,8 @@ const double *dkf_scn_at(const dkf_scn_mat_t *m, size_t k)
 {
     if (m == NULL) return NULL;
     if (m->count == 0) return m->data;
-    if (k >= m->count) return NULL;
-    return m->data + k * m->rows * m->cols;
+    if (k < m->k0 || k - m->k0 >= m->count) return NULL;
+    return m->data + (k - m->k0) * m->rows * m->cols;
 }
 
 const double *dkf_scn_P00_local(const dkf_scenario_t *s, size_t i)
@@ -1102,6 +1632,12 @@ const double *dkf_scn_truth(const dkf_scenario_t *s, long k)
 {
     long j = find_time(s->truth_k, s->ntruth, k);
     return j < 0 ? NULL : s->truth_x + (size_t)j * s->n;
+}
+
+const double *dkf_scn_truth_u(const dkf_scenario_t *s, long k)
+{
+    long j = find_time(s->truth_u_k, s->ntruth_u, k);
+    return j < 0 ? NULL : s->truth_u + (size_t)j * s->m_u;
 }
 
 void dkf_scn_to_real(dkf_real_t *dst, const double *src, size_t n)

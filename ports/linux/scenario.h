@@ -1,14 +1,16 @@
 /*
  * scenario.h - the JSON scenario format, loaded into memory (host side).
  *
- * docs/scenario-format.md is the specification; this is its reader. Two
+ * docs/scenario-format.md is the specification; this is its reader. Three
  * layouts are accepted and normalised into one dkf_scenario_t:
  *
  *  - canonical (the diffkf golden-vector layout): top-level `model`, `init`,
  *    `y`, optional `truth`, `k`, `N`; or, for Monte-Carlo files, `runs`
  *    (a list of {y, truth}) instead of `y` and `truth`;
  *  - cases (the infofusion golden-vector layout): `cases[c]` with `x0`, `P0`,
- *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`.
+ *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`;
+ *  - steps (the seed-003/004 uif golden-vector layout): top-level `steps[]`
+ *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below).
  *
  * Numbers stay in double here, whatever the library's real type is;
  * dkf_scn_to_real converts at the point where the core is called.
@@ -31,8 +33,16 @@
 
 typedef enum {
     DKF_SCN_LAYOUT_CANONICAL = 0, /* model / init / y (diffkf vectors) */
-    DKF_SCN_LAYOUT_CASES = 1      /* cases[].steps[] (infofusion vectors) */
+    DKF_SCN_LAYOUT_CASES = 1,     /* cases[].steps[] (infofusion vectors) */
+    DKF_SCN_LAYOUT_STEPS = 2      /* steps[].inputs (seed-003/004 uif vectors) */
 } dkf_scn_layout_t;
+
+/* The family of a steps-layout file (what its model describes). */
+typedef enum {
+    DKF_SCN_FAMILY_KF = 0,  /* canonical / cases layouts */
+    DKF_SCN_FAMILY_UIF = 1, /* seed 004: A, G, Q, C, (H), R; one sensor */
+    DKF_SCN_FAMILY_TW = 2   /* seed 003: A, B, Sv, per-node H, Sw; a graph */
+} dkf_scn_family_t;
 
 /* A named matrix that is either constant or given per absolute k, or (for
  * init entries such as P00_local) a plain list of same-shape matrices.
@@ -44,7 +54,26 @@ typedef struct {
     size_t cols;
     size_t count;  /* 0: one constant matrix; else count matrices (per_k / list) */
     double *data;  /* max(count, 1) * rows * cols, row-major */
+    size_t k0;     /* per_k: entry j is M_{k0 + j} (steps layout; 0 elsewhere) */
 } dkf_scn_mat_t;
+
+/* Seed-003 network data (steps layout): the graph and its weights as the
+ * file gives them, checked for shape and index range only (dkf/graph.h
+ * checks the rest when the filter binds them). */
+typedef struct {
+    size_t N;               /* nodes (= nsensors) */
+    size_t E;               /* undirected edges */
+    size_t *edges;          /* 2E node indices: edge e = (edges[2e], edges[2e+1]) */
+    const char *W_key;      /* "W_consensus" / "W_consensus_sparse", NULL if absent */
+    size_t nW;              /* triplets of W */
+    size_t *W_rc;           /* 2 nW: (row, col) */
+    double *W_v;            /* nW values */
+    const char *alpha_key;  /* "alpha_diffusion" / "alpha_diffusion_sparse", NULL if absent */
+    size_t nalpha;
+    size_t *alpha_rc;
+    double *alpha_v;
+    long eta;               /* consensus iterations, -1 if absent */
+} dkf_scn_network_t;
 
 /* A named set of matrices (model, one sensor, init). */
 typedef struct {
@@ -100,7 +129,28 @@ typedef struct {
     dkf_scn_run_t *runs;
     size_t run;               /* the selected run (dkf_scn_select_run) */
     json_t *root;             /* the parsed document (read-only), for keys not modelled */
+    /* steps layout (seed-003/004 vectors); see dkf_scn_steps_* below */
+    dkf_scn_family_t family;  /* DKF_SCN_FAMILY_KF for the other layouts */
+    long k_first;             /* the first step's absolute k (1 for the other layouts) */
+    dkf_scn_network_t *net;   /* seed 003: graph and weights; NULL otherwise */
+    size_t ntruth_u;          /* true unknown input at the steps' times truth_u_k */
+    long *truth_u_k;
+    double *truth_u;          /* ntruth_u * m_u */
+    size_t m_u;
+    char truth_u_key[16];     /* its key in steps[].truth: d, d_prev or z_prev */
 } dkf_scenario_t;
+
+/* Steps layout (docs/scenario-format.md, "Steps layout"): a top-level
+ * `steps` list of {k or n, inputs: {y, ...}, truth, expected}, normalised as
+ *   init.x0, init.P0          -> init x00, P00
+ *   model.<M> (bare matrix)   -> model <M> (constant)
+ *   steps[j].inputs.<M>       -> model <M> per_k, entry at k = steps[j].k
+ *   steps[j].inputs.<M>_prev  -> model <M> per_k, entry at k - 1
+ *   steps[j].inputs.y         -> sensor 0's y_k (seed 004) / node l's y (seed 003)
+ *   model.H[l], model.Sw[l]   -> sensor l's H, Sw (seed 003)
+ *   steps[j].truth.x          -> truth x_k; truth.d / d_prev / z_prev -> truth_u
+ * Steps run k = k_first .. k_first + steps - 1 (k_first = steps[0].k, 0 or 1);
+ * `expected` is ignored. */
 
 /* Loads and validates a scenario. case_sel selects a case of the cases
  * layout by name or decimal index (NULL: case 0); it is an error for a
@@ -143,6 +193,9 @@ void dkf_scn_select_run(dkf_scenario_t *s, size_t r);
  * line in err. */
 int dkf_scn_require_ui(const dkf_scenario_t *s, size_t last_dyn, size_t last_meas, int need_d0,
                        const char *who, char *err, size_t errlen);
+
+/* True unknown input recorded with step k (m_u values), NULL if absent. */
+const double *dkf_scn_truth_u(const dkf_scenario_t *s, long k);
 
 /* Checks that every run has truth x at k = 1..N (Monte-Carlo error mode). */
 int dkf_scn_require_truth(const dkf_scenario_t *s, char *err, size_t errlen);

@@ -10,10 +10,14 @@
  * dkf_net_handle calls with the monotonic time.
  *
  * Timing (docs/network.md): the simulator publishes y^i_j for every sensor
- * i at j = 1..N+1. Node i starts its local Difference KF on y^i_1 and, on
- * y^i_{k+1}, completes step k and publishes {x^i_{k|k}, x^i_{k|k-1}}. The
- * fusion centre fuses step k once every node's message of step k is there,
- * or publishes it DEGRADED when the step's deadline passes.
+ * i at j = 1..N+1. Node i starts its local Difference KF on y^i_1 (or, late
+ * or restarted, on the first y^i_{k0} it gets) and, on y^i_{k+1}, completes
+ * step k and publishes {x^i_{k|k}, x^i_{k|k-1}} with its previous step's
+ * pair. The fusion centre fuses step k once every node's payload of step k
+ * is there, or, when the step's deadline passes, publishes it DEGRADED: the
+ * centralized DKF given the nodes' rows it could rebuild. A payload of a
+ * published step that arrives later (within DKF_NET_CKPT steps) rolls the
+ * fusion centre back to a checkpoint and replays.
  */
 #ifndef DKF_NET_AGENTS_H
 #define DKF_NET_AGENTS_H
@@ -30,6 +34,7 @@
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
 #define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead */
+#define DKF_NET_CKPT 8              /* published steps a late payload can still revise */
 
 /* Counters every agent keeps (published in its status messages). */
 typedef struct {
@@ -48,6 +53,18 @@ int dkf_net_publish_status(dkf_net_t *net, const char *prefix, const dkf_net_sta
 
 typedef struct dkf_net_node dkf_net_node_t;
 
+/* What a node does differently from the normal run (dkf-node's test
+ * flags; docs/network.md, "Faults"). All zero: the normal node. */
+typedef struct {
+    double drop_pct;    /* drop this % of the outgoing messages */
+    double dup_pct;     /* send this % twice */
+    double reorder_pct; /* hold this % back until after the next message */
+    uint64_t seed;      /* the draws (three per message) are reproducible from it */
+    long exit_at;       /* > 0: stop dead at step exit_at, before its message */
+    long join_at;       /* start on the first measurement y_j with j >= join_at */
+    long epoch;         /* epoch of the first start (a restarted process: previous + 1) */
+} dkf_net_faults_t;
+
 /* Node `id` of scenario s (which must outlive the node and have passed
  * dkf_net_check_scenario): subscribes <prefix>_MEAS_<id>. NULL + err. */
 dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, size_t id,
@@ -61,6 +78,15 @@ void dkf_net_node_report(dkf_net_node_t *nd);
 int dkf_net_node_state(const dkf_net_node_t *nd);
 const char *dkf_net_node_error(const dkf_net_node_t *nd);
 const dkf_net_counts_t *dkf_net_node_counts(const dkf_net_node_t *nd);
+/* Sets the faults (before the first measurement). */
+void dkf_net_node_faults(dkf_net_node_t *nd, const dkf_net_faults_t *fx);
+/* 1 once --exit-at was reached (the process should end without a word). */
+int dkf_net_node_exited(const dkf_net_node_t *nd);
+/* The current epoch and its first step (0: not started). */
+long dkf_net_node_epoch(const dkf_net_node_t *nd);
+long dkf_net_node_k_start(const dkf_net_node_t *nd);
+void dkf_net_node_fault_counts(const dkf_net_node_t *nd, int64_t *dropped, int64_t *duplicated,
+                               int64_t *reordered);
 
 /* ---- fusion centre ------------------------------------------------------------ */
 
@@ -68,8 +94,8 @@ typedef struct dkf_net_fusion dkf_net_fusion_t;
 
 /* Fusion centre for scenario s: subscribes <prefix>_NODE_[0-9]+ and sets up
  * the core's dkf_diffkf_fc_t (start included). deadline_us: how long after
- * a step opens (its first message, or a later step's) it may wait for the
- * rest (0: the default). NULL + err (naming the core call and fault). */
+ * a step opens (the first payload of it or of a later step) it may wait for
+ * the rest (0: the default). NULL + err (naming the core call and fault). */
 dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         const char *prefix, int64_t deadline_us, char *err,
                                         size_t errlen);
@@ -105,6 +131,9 @@ long dkf_net_sim_fused_k(const dkf_net_sim_t *sim);
  * simulator's model id and not FAILED; else 0 and, if why is given, a
  * one-line account of who is missing. */
 int dkf_net_sim_ready(const dkf_net_sim_t *sim, char *why, size_t whylen);
+/* Node i is not waited for by dkf_net_sim_ready (it may start late or
+ * never). 0, or -1 if there is no node i. */
+int dkf_net_sim_optional_node(dkf_net_sim_t *sim, size_t i);
 /* 1 if some process reported FAILED or a different model id (why says which). */
 int dkf_net_sim_trouble(const dkf_net_sim_t *sim, char *why, size_t whylen);
 void dkf_net_sim_tick(dkf_net_sim_t *sim, int64_t mono_us, int64_t heartbeat_us);

@@ -28,12 +28,14 @@
 /* Offsets of the length fields (after the 8-byte fingerprint). */
 #define NODE_MSG_N_OFF 48  /* utime model_id node k seq meas_utime | n */
 #define NODE_MSG_HDR 52
+#define NODE_MSG_MID 13    /* after xf[n] xp[n]: epoch k_start has_prev prev_k */
 #define MEAS_M_OFF 40      /* utime model_id node k seq | m */
 #define MEAS_HDR 44
 #define TRUTH_N_OFF 36     /* utime model_id k seq | n */
 #define TRUTH_HDR 40
 #define FUSED_NN_OFF 37    /* utime model_id k seq status | nnodes */
 #define FUSED_TAIL 28      /* after contributed[]: 3 x int64 + n */
+#define FUSED_END 4        /* after the matrices: revision */
 #define STATUS_LEN_OFF 66  /* utime model_id role id state k sent received rejected missed | len */
 #define STATUS_MAX_DETAIL 4096
 
@@ -130,15 +132,18 @@ static int encoded(int r, size_t *len)
 /* ---- node message ------------------------------------------------------------ */
 
 int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf_msg_t *msg,
-                            const dkf_net_meta_t *meta)
+                            const dkf_diffkf_msg_t *prev, const dkf_net_meta_t *meta)
 {
-    double xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
+    double xf[DKF_MAX_DIM], xp[DKF_MAX_DIM], pf[DKF_MAX_DIM], pp[DKF_MAX_DIM];
     dkf_lcm_node_msg_t w;
     size_t i;
     if (msg->n == 0 || msg->n > DKF_MAX_DIM || cap > 0x7fffffff) return -1;
+    if (meta->has_prev && (prev == NULL || prev->n != msg->n)) return -1;
     for (i = 0; i < msg->n; ++i) {
         xf[i] = (double)msg->xf[i];
         xp[i] = (double)msg->xp[i];
+        pf[i] = meta->has_prev ? (double)prev->xf[i] : 0.0;
+        pp[i] = meta->has_prev ? (double)prev->xp[i] : 0.0;
     }
     w.utime = meta->utime;
     w.model_id = meta->model_id;
@@ -149,42 +154,75 @@ int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf
     w.n = (int32_t)msg->n;
     w.xf = xf;
     w.xp = xp;
+    w.epoch = (int32_t)meta->epoch;
+    w.k_start = (int32_t)meta->k_start;
+    w.has_prev = meta->has_prev ? 1 : 0;
+    w.prev_k = meta->has_prev ? (int32_t)prev->k : 0;
+    w.prev_xf = pf;
+    w.prev_xp = pp;
     return encoded(dkf_lcm_node_msg_t_encode(buf, 0, (int)cap, &w), len);
+}
+
+/* The epoch fields of a decoded node message, after check_envelope. */
+static dkf_net_verdict_t check_epoch(const dkf_lcm_node_msg_t *w, size_t n)
+{
+    if (w->epoch < 0) return DKF_NET_REJ_MALFORMED;
+    if (w->k_start < 1 || w->k_start > w->k) return DKF_NET_REJ_STEP;
+    if (w->has_prev && (w->prev_k != w->k - 1 || w->prev_k < w->k_start))
+        return DKF_NET_REJ_STEP;
+    if (finite_all(w->xf, n) || finite_all(w->xp, n)) return DKF_NET_REJ_NONFINITE;
+    if (w->has_prev && (finite_all(w->prev_xf, n) || finite_all(w->prev_xp, n)))
+        return DKF_NET_REJ_NONFINITE;
+    return DKF_NET_ACCEPT;
+}
+
+static void to_core_msg(dkf_diffkf_msg_t *msg, long node, long k, size_t n, const double *xf,
+                        const double *xp)
+{
+    size_t i;
+    msg->node = (uint16_t)node;
+    msg->k = (uint32_t)k;
+    msg->n = (uint16_t)n;
+    for (i = 0; i < n; ++i) {
+        msg->xf[i] = (dkf_real_t)xf[i];
+        msg->xp[i] = (dkf_real_t)xp[i];
+    }
 }
 
 dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
                                           const dkf_net_expect_t *ex, dkf_diffkf_msg_t *msg,
-                                          dkf_net_meta_t *meta, dkf_net_rejects_t *rej)
+                                          dkf_diffkf_msg_t *prev, dkf_net_meta_t *meta,
+                                          dkf_net_rejects_t *rej)
 {
     const unsigned char *b = buf;
     dkf_lcm_node_msg_t w;
     dkf_net_verdict_t v;
     long n;
-    size_t i;
     if (check_head(b, len, NODE_MSG_HDR, hash_node_msg()) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
     n = wire_count(b + NODE_MSG_N_OFF, DKF_MAX_DIM);
-    if (n < 0 || len != NODE_MSG_HDR + 16 * (size_t)n) return reject(rej, DKF_NET_REJ_MALFORMED);
+    if (n < 0 || len != NODE_MSG_HDR + NODE_MSG_MID + 32 * (size_t)n)
+        return reject(rej, DKF_NET_REJ_MALFORMED);
+    /* has_prev is an LCM boolean: one byte, 0 or 1 */
+    if (b[NODE_MSG_HDR + 16 * (size_t)n + 8] > 1) return reject(rej, DKF_NET_REJ_MALFORMED);
     memset(&w, 0, sizeof w);
     if (dkf_lcm_node_msg_t_decode(buf, 0, (int)len, &w) != (int)len) {
         dkf_lcm_node_msg_t_decode_cleanup(&w);
         return reject(rej, DKF_NET_REJ_MALFORMED);
     }
     v = check_envelope(ex, w.node, w.model_id, w.n, ex->n, w.k);
-    if (v == DKF_NET_ACCEPT && (finite_all(w.xf, (size_t)n) || finite_all(w.xp, (size_t)n)))
-        v = DKF_NET_REJ_NONFINITE;
+    if (v == DKF_NET_ACCEPT) v = check_epoch(&w, (size_t)n);
     if (v == DKF_NET_ACCEPT) {
-        msg->node = (uint16_t)w.node;
-        msg->k = (uint32_t)w.k;
-        msg->n = (uint16_t)w.n;
-        for (i = 0; i < (size_t)n; ++i) {
-            msg->xf[i] = (dkf_real_t)w.xf[i];
-            msg->xp[i] = (dkf_real_t)w.xp[i];
-        }
+        to_core_msg(msg, w.node, w.k, (size_t)n, w.xf, w.xp);
+        if (w.has_prev && prev != NULL)
+            to_core_msg(prev, w.node, w.prev_k, (size_t)n, w.prev_xf, w.prev_xp);
         meta->utime = w.utime;
         meta->model_id = w.model_id;
         meta->seq = w.seq;
         meta->meas_utime = w.meas_utime;
+        meta->epoch = w.epoch;
+        meta->k_start = w.k_start;
+        meta->has_prev = w.has_prev ? 1 : 0;
     }
     dkf_lcm_node_msg_t_decode_cleanup(&w);
     return reject(rej, v);
@@ -309,6 +347,7 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
     w.n = (int32_t)f->n;
     w.xf = (double *)f->xf;
     w.xp = (double *)f->xp;
+    w.revision = (int32_t)f->revision;
     /* LCM's double[n][n] is an array of row pointers */
     {
         double *pf[DKF_MAX_DIM], *pp[DKF_MAX_DIM];
@@ -337,7 +376,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
     hdr = FUSED_NN_OFF + 4 + (size_t)nn + FUSED_TAIL;
     if (len < hdr) return reject(rej, DKF_NET_REJ_MALFORMED);
     n = wire_count(b + hdr - 4, DKF_MAX_DIM);
-    if (n < 0 || len != hdr + 8 * (2 * (size_t)n + 2 * (size_t)n * (size_t)n))
+    if (n < 0 || len != hdr + 8 * (2 * (size_t)n + 2 * (size_t)n * (size_t)n) + FUSED_END)
         return reject(rej, DKF_NET_REJ_MALFORMED);
     memset(&w, 0, sizeof w);
     if (dkf_lcm_fused_t_decode(buf, 0, (int)len, &w) != (int)len) {
@@ -349,6 +388,8 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
     else if ((size_t)n != ex->n) v = DKF_NET_REJ_DIM;
     else if (w.k < 1 || w.k > ex->kmax) v = DKF_NET_REJ_STEP;
     else if (w.status != DKF_LCM_FUSED_T_COMPLETE && w.status != DKF_LCM_FUSED_T_DEGRADED)
+        v = DKF_NET_REJ_MALFORMED;
+    else if (w.revision < 0)
         v = DKF_NET_REJ_MALFORMED;
     for (i = 0; v == DKF_NET_ACCEPT && i < (size_t)n; ++i)
         if (finite_all(w.Pf[i], (size_t)n) || finite_all(w.Pp[i], (size_t)n))
@@ -362,6 +403,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
         f->meta.meas_utime = 0;
         f->k = w.k;
         f->degraded = w.status == DKF_LCM_FUSED_T_DEGRADED;
+        f->revision = w.revision;
         f->nnodes = (size_t)nn;
         for (i = 0; i < (size_t)nn; ++i) f->contributed[i] = w.contributed[i] ? 1 : 0;
         f->meas_utime_first = w.meas_utime_first;

@@ -7,11 +7,12 @@
  * (model id, sequence number, time stamps: dkf_net_meta_t). Every decoder
  * checks, in this order, and returns the first verdict that fails:
  *   MALFORMED  truncated bytes, trailing bytes, wrong type fingerprint,
- *              negative array length
+ *              negative array length, negative epoch, a flag not 0/1
  *   NODE       node id outside 0..nnodes-1, or not the channel's node
  *   MODEL      model id differs from the receiver's scenario model
  *   DIM        n (or m) is not the receiver's dimension
- *   STEP       k outside 1..kmax
+ *   STEP       k outside 1..kmax; node message: also k_start outside 1..k,
+ *              or a previous payload that is not of step k-1 >= k_start
  *   NONFINITE  NaN/Inf, also after conversion to dkf_real_t (float build)
  * and counts each rejection in a dkf_net_rejects_t. Outputs are written
  * only on DKF_NET_ACCEPT.
@@ -65,6 +66,9 @@ typedef struct {
     int64_t model_id;
     int64_t seq;
     int64_t meas_utime; /* node message: utime of the measurement that completed the step */
+    long epoch;         /* node message: restart counter of the local filter (>= 0) */
+    long k_start;       /* node message: first step of this epoch (1 <= k_start <= k) */
+    int has_prev;       /* node message: the payload of step k-1 rides along */
 } dkf_net_meta_t;
 
 /* One sensor's measurement, as host doubles. */
@@ -88,7 +92,8 @@ typedef struct {
 typedef struct {
     dkf_net_meta_t meta; /* meas_utime unused */
     long k;
-    int degraded;        /* 0 complete (centralized), 1 prediction only */
+    int degraded;        /* 0 complete (centralized), 1 some nodes' rows missing */
+    long revision;       /* 0 first publication, r > 0 r-th recomputation */
     size_t nnodes;
     unsigned char contributed[DKF_NET_MAX_NODES];
     int64_t meas_utime_first, meas_utime_last, msg_utime_last;
@@ -110,17 +115,22 @@ typedef struct {
 
 /* Encoders: write the message into buf (cap bytes), *len = its size.
  * 0, or -1 if it does not fit or a dimension is out of range. */
+/* Node message: msg is step k; prev (used iff meta->has_prev; then
+ * prev->k == k-1 and prev->n == msg->n) the node's previous step. */
 int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf_msg_t *msg,
-                            const dkf_net_meta_t *meta);
+                            const dkf_diffkf_msg_t *prev, const dkf_net_meta_t *meta);
 int dkf_net_encode_meas(void *buf, size_t cap, size_t *len, const dkf_net_meas_t *meas);
 int dkf_net_encode_truth(void *buf, size_t cap, size_t *len, const dkf_net_truth_t *t);
 int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused_t *f);
 int dkf_net_encode_status(void *buf, size_t cap, size_t *len, const dkf_net_status_t *st);
 
 /* Decoders (see the top of this file). rej may be NULL. */
+/* Node message: prev (may be NULL) receives the previous payload when
+ * meta->has_prev (untouched otherwise). */
 dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
                                           const dkf_net_expect_t *ex, dkf_diffkf_msg_t *msg,
-                                          dkf_net_meta_t *meta, dkf_net_rejects_t *rej);
+                                          dkf_diffkf_msg_t *prev, dkf_net_meta_t *meta,
+                                          dkf_net_rejects_t *rej);
 dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net_expect_t *ex,
                                       dkf_net_meas_t *meas, dkf_net_rejects_t *rej);
 /* Truth: MODEL, DIM, STEP (0..kmax), NONFINITE; nnodes, node, m unused. */

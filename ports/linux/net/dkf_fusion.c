@@ -22,25 +22,28 @@ static void usage(FILE *f)
     fprintf(f,
             "usage: %s [options] SCENARIO.json\n"
             "Fusion centre: subscribes to <prefix>_NODE_<i> of every node, fuses step k once\n"
-            "every node's message of step k is there and publishes the centralized estimate\n"
+            "every node's payload of step k is there and publishes the centralized estimate\n"
             "on <prefix>_FUSED. A step still incomplete DEADLINE after it opened (its first\n"
-            "message, or a later step's) is published DEGRADED: the prediction only\n"
-            "(provisional: every later step is then degraded too). Exits after step N.\n"
+            "payload, or a later step's) is published DEGRADED: the centralized DKF given\n"
+            "the rows of the nodes it could rebuild. A payload of one of the last %d steps\n"
+            "that arrives late rolls back to a checkpoint, replays, and publishes the\n"
+            "present step again (revision > 0). Exits after step N.\n"
             "\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
             "  -d, --deadline-ms MS    per-step deadline (default %d)\n"
             "  -o, --output FILE       write the result (JSON: k, outputs.fused.{xf,xp,Pf,Pp},\n"
-            "                          status, contributors, latency_us, counters) at exit\n"
+            "                          status, contributors, revisions, epochs, latency_us,\n"
+            "                          counters) at exit\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
-            "Exit: 0 step N published, 2 bad options/scenario, 3 set-up or output failure,\n"
+            "Exit: 0 step N published, 2 bad options/scenario, 3 set-up, core or output failure,\n"
             "4 interrupted (SIGINT/SIGTERM/--timeout) before step N (the file is written).\n",
-            prog, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_DEADLINE_US / 1000,
+            prog, DKF_NET_CKPT, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_DEADLINE_US / 1000,
             DKF_NET_HEARTBEAT_US / 1000);
 }
 
@@ -107,12 +110,14 @@ int main(int argc, char **argv)
     start = dkf_net_mono_us();
     dkf_net_fusion_tick(fu, start, (int64_t)(hb_ms * 1000));
     if (ready != NULL && dkf_cli_touch(prog, ready) != 0) dkf_cli_stop = 1;
-    while (!dkf_cli_stop && dkf_net_fusion_state(fu) != DKF_NET_DONE &&
+    while (!dkf_cli_stop && dkf_net_fusion_state(fu) == DKF_NET_RUNNING &&
            !dkf_cli_expired(start, timeout)) {
         if (dkf_net_handle(net, 10) < 0) break;
         dkf_net_fusion_tick(fu, dkf_net_mono_us(), (int64_t)(hb_ms * 1000));
     }
-    code = dkf_net_fusion_state(fu) == DKF_NET_DONE ? DKF_EXIT_OK : DKF_EXIT_STOPPED;
+    code = dkf_net_fusion_state(fu) == DKF_NET_DONE     ? DKF_EXIT_OK
+           : dkf_net_fusion_state(fu) == DKF_NET_FAILED ? DKF_EXIT_RUN
+                                                        : DKF_EXIT_STOPPED;
     dkf_net_fusion_report(fu);
     if (out != NULL) {
         json_t *doc = dkf_net_fusion_result(fu);
@@ -122,7 +127,8 @@ int main(int argc, char **argv)
     if (!quiet) {
         const dkf_net_counts_t *cn = dkf_net_fusion_counts(fu);
         fprintf(stderr, "%s: %s at k=%ld/%zu; degraded %lld, messages accepted %lld, rejected "
-                "%lld, stale %lld\n", prog, code == DKF_EXIT_OK ? "done" : "stopped",
+                "%lld, stale %lld\n", prog,
+                code == DKF_EXIT_OK ? "done" : code == DKF_EXIT_RUN ? "failed" : "stopped",
                 dkf_net_fusion_k(fu), s->steps, (long long)cn->missed, (long long)cn->received,
                 (long long)cn->rejected, (long long)cn->stale);
     }

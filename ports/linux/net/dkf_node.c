@@ -30,6 +30,16 @@ static void usage(FILE *f)
             "  -p, --prefix P          channel prefix (default %s)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
+            "      --join-at K         start on the first measurement y_j with j >= K\n"
+            "                          (default: the first one received; a late node)\n"
+            "      --epoch E           epoch of this start (a restarted node: previous + 1)\n"
+            "Fault injection (tests; docs/network.md, \"Faults\"):\n"
+            "      --drop PCT          drop PCT %% of the outgoing messages\n"
+            "      --dup PCT           send PCT %% of them twice\n"
+            "      --reorder PCT       hold PCT %% back until after the next message\n"
+            "      --seed S            seed of those draws (default 0; reproducible)\n"
+            "      --exit-at K         stop dead at step K, before its message (a crash:\n"
+            "                          no final status; exit status 0)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
@@ -45,7 +55,12 @@ int main(int argc, char **argv)
         {"prefix", required_argument, NULL, 'p'},   {"heartbeat-ms", required_argument, NULL, 'H'},
         {"timeout", required_argument, NULL, 't'},  {"ready-file", required_argument, NULL, 'R'},
         {"quiet", no_argument, NULL, 'q'},          {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
+        {"drop", required_argument, NULL, 'D'},     {"dup", required_argument, NULL, 'U'},
+        {"reorder", required_argument, NULL, 'O'},  {"seed", required_argument, NULL, 'S'},
+        {"exit-at", required_argument, NULL, 'X'},  {"join-at", required_argument, NULL, 'J'},
+        {"epoch", required_argument, NULL, 'E'},    {NULL, 0, NULL, 0}};
+    dkf_net_faults_t fx;
+    double seed = 0, exit_at = 0, join_at = 0, epoch = 0;
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL;
     double id = -1, hb_ms = DKF_NET_HEARTBEAT_US / 1000, timeout = 0;
     int quiet = 0, c, code;
@@ -54,6 +69,7 @@ int main(int argc, char **argv)
     dkf_net_t *net;
     dkf_net_node_t *nd;
     int64_t start;
+    memset(&fx, 0, sizeof fx);
     opterr = 0;
     while ((c = getopt_long(argc, argv, ":i:u:p:t:qh", longopts, NULL)) != -1) {
         switch (c) {
@@ -63,6 +79,13 @@ int main(int argc, char **argv)
         case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
+        case 'D': if (dkf_cli_num(prog, "--drop", optarg, 0, 100, &fx.drop_pct)) return DKF_EXIT_USAGE; break;
+        case 'U': if (dkf_cli_num(prog, "--dup", optarg, 0, 100, &fx.dup_pct)) return DKF_EXIT_USAGE; break;
+        case 'O': if (dkf_cli_num(prog, "--reorder", optarg, 0, 100, &fx.reorder_pct)) return DKF_EXIT_USAGE; break;
+        case 'S': if (dkf_cli_num(prog, "--seed", optarg, 0, 4294967295.0, &seed)) return DKF_EXIT_USAGE; break;
+        case 'X': if (dkf_cli_num(prog, "--exit-at", optarg, 1, 1e9, &exit_at)) return DKF_EXIT_USAGE; break;
+        case 'J': if (dkf_cli_num(prog, "--join-at", optarg, 1, 1e9, &join_at)) return DKF_EXIT_USAGE; break;
+        case 'E': if (dkf_cli_num(prog, "--epoch", optarg, 0, 1e6, &epoch)) return DKF_EXIT_USAGE; break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -72,6 +95,15 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: --id: missing (see --help)\n", prog);
         return DKF_EXIT_USAGE;
     }
+    if (seed != (double)(long)seed || exit_at != (double)(long)exit_at ||
+        join_at != (double)(long)join_at || epoch != (double)(long)epoch) {
+        fprintf(stderr, "%s: --seed, --exit-at, --join-at, --epoch: expected integers\n", prog);
+        return DKF_EXIT_USAGE;
+    }
+    fx.seed = (uint64_t)seed;
+    fx.exit_at = (long)exit_at;
+    fx.join_at = (long)join_at;
+    fx.epoch = (long)epoch;
     if (id != (double)(long)id || optind != argc - 1) {
         fprintf(stderr, "%s: %s\n", prog, id != (double)(long)id ? "--id: expected an integer"
                                                                   : "expected one SCENARIO file");
@@ -100,14 +132,24 @@ int main(int argc, char **argv)
         dkf_scenario_free(s);
         return DKF_EXIT_USAGE;
     }
+    dkf_net_node_faults(nd, &fx);
     dkf_cli_signals();
     start = dkf_net_mono_us();
     dkf_net_node_tick(nd, start, (int64_t)(hb_ms * 1000));
     if (ready != NULL && dkf_cli_touch(prog, ready) != 0) dkf_cli_stop = 1;
     while (!dkf_cli_stop && dkf_net_node_state(nd) != DKF_NET_DONE &&
-           dkf_net_node_state(nd) != DKF_NET_FAILED && !dkf_cli_expired(start, timeout)) {
+           dkf_net_node_state(nd) != DKF_NET_FAILED && !dkf_net_node_exited(nd) &&
+           !dkf_cli_expired(start, timeout)) {
         if (dkf_net_handle(net, 20) < 0) break;
         dkf_net_node_tick(nd, dkf_net_mono_us(), (int64_t)(hb_ms * 1000));
+    }
+    if (dkf_net_node_exited(nd)) {
+        /* a crash, as asked: no final status, no summary but this line */
+        if (!quiet) fprintf(stderr, "%s %ld: %s\n", prog, (long)id, dkf_net_node_error(nd));
+        dkf_net_node_free(nd);
+        dkf_net_close(net);
+        dkf_scenario_free(s);
+        return DKF_EXIT_OK;
     }
     switch (dkf_net_node_state(nd)) {
     case DKF_NET_DONE: code = DKF_EXIT_OK; break;
@@ -118,11 +160,15 @@ int main(int argc, char **argv)
     if (code == DKF_EXIT_RUN) fprintf(stderr, "%s: %s\n", prog, dkf_net_node_error(nd));
     if (!quiet) {
         const dkf_net_counts_t *cn = dkf_net_node_counts(nd);
-        fprintf(stderr, "%s %ld: %s; sent %lld, measurements accepted %lld, rejected %lld, "
-                "out of sequence %lld\n", prog, (long)id,
+        int64_t dr, du, re;
+        dkf_net_node_fault_counts(nd, &dr, &du, &re);
+        fprintf(stderr, "%s %ld: %s; epoch %ld from k=%ld; sent %lld, measurements accepted "
+                "%lld, rejected %lld, out of sequence %lld; dropped %lld, duplicated %lld, "
+                "reordered %lld\n", prog, (long)id,
                 code == DKF_EXIT_OK ? "done" : code == DKF_EXIT_RUN ? "failed" : "stopped",
-                (long long)cn->sent, (long long)cn->received, (long long)cn->rejected,
-                (long long)cn->stale);
+                dkf_net_node_epoch(nd), dkf_net_node_k_start(nd), (long long)cn->sent,
+                (long long)cn->received, (long long)cn->rejected, (long long)cn->stale,
+                (long long)dr, (long long)du, (long long)re);
     }
     dkf_net_node_free(nd);
     dkf_net_close(net);

@@ -35,6 +35,8 @@ static void usage(FILE *f)
             "      --run R             Monte-Carlo run of the file to publish (default 0)\n"
             "      --wait-ready S      how long to wait for the peers (default 10)\n"
             "      --no-wait           do not wait for the peers\n"
+            "      --optional-node I   do not wait for node I (late, or never starting;\n"
+            "                          repeatable)\n"
             "      --step-timeout S    lock-step and final wait for a fused step (default 10)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
             "  -q, --quiet             no summary line\n"
@@ -88,8 +90,11 @@ int main(int argc, char **argv)
         {"run", required_argument, NULL, 'n'},       {"wait-ready", required_argument, NULL, 'w'},
         {"no-wait", no_argument, NULL, 'W'},         {"step-timeout", required_argument, NULL, 's'},
         {"timeout", required_argument, NULL, 't'},   {"quiet", no_argument, NULL, 'q'},
+        {"optional-node", required_argument, NULL, 'O'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX;
+    double optional[DKF_NET_MAX_NODES];
+    size_t noptional = 0, oi;
     double rate = 0, run = 0, wait_ready = 10, step_timeout = 10, timeout = 0;
     int lockstep = 0, no_wait = 0, quiet = 0, c, code = DKF_EXIT_OK;
     char err[DKF_SCN_ERR_LEN];
@@ -110,6 +115,13 @@ int main(int argc, char **argv)
         case 'W': no_wait = 1; break;
         case 's': if (dkf_cli_num(prog, "--step-timeout", optarg, 0.001, 1e6, &step_timeout)) return DKF_EXIT_USAGE; break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
+        case 'O':
+            if (noptional == DKF_NET_MAX_NODES ||
+                dkf_cli_num(prog, "--optional-node", optarg, 0, DKF_NET_MAX_NODES - 1,
+                            &optional[noptional]))
+                return DKF_EXIT_USAGE;
+            ++noptional;
+            break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -151,6 +163,16 @@ int main(int argc, char **argv)
         dkf_scenario_free(s);
         return DKF_EXIT_RUN;
     }
+    for (oi = 0; oi < noptional; ++oi)
+        if (optional[oi] != (double)(long)optional[oi] ||
+            dkf_net_sim_optional_node(sim, (size_t)optional[oi]) != 0) {
+            fprintf(stderr, "%s: --optional-node %g: the scenario has %zu nodes\n", prog,
+                    optional[oi], s->nsensors);
+            dkf_net_sim_free(sim);
+            dkf_net_close(net);
+            dkf_scenario_free(s);
+            return DKF_EXIT_USAGE;
+        }
     dkf_cli_signals();
     start = dkf_net_mono_us();
     dkf_net_sim_tick(sim, start, 0);

@@ -1,8 +1,20 @@
 /*
- * fusion.c - the fusion centre: buffers node messages per step, runs the
- * core's dkf_diffkf_fc_t when a step is complete, publishes the fused
- * estimate (agents.h).
+ * fusion.c - the fusion centre (agents.h, docs/network.md "Faults"):
+ * buffers node payloads per (node, step), runs the core's dkf_diffkf_fc_t
+ * step by step (dkf_diffkf_fc_step_partial: the centralized DKF given the
+ * nodes' rows it can rebuild), publishes every step by its deadline, and
+ * rolls back to a checkpoint and replays when a payload of a published
+ * step arrives late.
+ *
+ * Node i's z^i_k can be rebuilt from its payloads of steps k and k-1 (or of
+ * k alone at the first step of an epoch). A message carries the payload of
+ * its own step and of the previous one, so a lost message is recovered by
+ * the next; a payload that arrives after its step was published (within
+ * DKF_NET_CKPT steps) restores the checkpoint taken before that step and
+ * replays every step since with the data now known, which gives exactly
+ * what the FC would have computed had the payload been on time.
  */
+#include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -12,24 +24,50 @@
 #include "dkf/diffkf_fusion.h"
 #include "model.h"
 
-/* The messages of one step, by node. */
-typedef struct {
-    long k;                  /* the step held (0: empty) */
-    size_t count;            /* nodes whose message is here */
-    int64_t open_mono;       /* arrival (monotonic) of the first message */
-    dkf_diffkf_msg_t *msg;   /* l, indexed by node */
-    unsigned char *have;     /* l */
-    int64_t *meas_utime;     /* l: when the measurement behind msg was published */
-    int64_t *recv_utime;     /* l: when msg arrived */
-} slot_t;
+/* Payloads kept per node: DKF_NET_CKPT revisable steps, the present one and
+ * DKF_NET_WINDOW ahead, indexed by k modulo RING. */
+#define RING (DKF_NET_WINDOW + DKF_NET_CKPT + 2)
+#define EPOCHS 8 /* epochs remembered per node */
 
-/* What is recorded of every published step (for the result file). */
+/* One node's x^i_{k|k}, x^i_{k|k-1} of step k, however it arrived. */
 typedef struct {
-    double *xf, *xp, *Pf, *Pp;    /* N x n, N x n x n */
-    int *degraded;                /* N */
-    unsigned char *contributed;   /* N x l */
-    int64_t *lat_first, *lat_last; /* N: fused publication - measurement publication */
+    long k;              /* the step held (0: empty) */
+    long epoch;
+    int direct;          /* step k's own message arrived (not only the next one's copy) */
+    dkf_diffkf_msg_t msg;
+    int64_t meas_utime, recv_utime;
+} payload_t;
+
+/* An epoch of a node's local filter: it (re)started at k_start. */
+typedef struct {
+    long epoch, k_start;
+    int assumed;  /* epoch 0 from step 1, until a message says otherwise */
+    int usable;   /* 0: it started at a step older than every checkpoint */
+} epoch_t;
+
+typedef struct {
+    payload_t pay[RING];
+    epoch_t ep[EPOCHS];  /* by increasing epoch (and k_start) */
+    size_t nep;
+    int64_t seq_max, seq_before; /* largest seq of the newest epoch; messages of older ones */
+    long seq_epoch;
+    int64_t got;         /* distinct messages accepted (their own step) */
+} peer_t;
+
+/* What is recorded of every step (for the result file). */
+typedef struct {
+    double *xf, *xp, *Pf, *Pp;        /* N x n, N x n x n: the latest computation */
+    int *degraded, *first_degraded;   /* N */
+    int *revisions;                   /* N: recomputations after the first publication */
+    unsigned char *contributed;       /* N x l (latest) */
+    unsigned char *first_contributed; /* N x l (at the first publication) */
+    int64_t *lat_first, *lat_last;    /* N: fused publication - measurement publication */
 } record_t;
+
+typedef struct {
+    int64_t duplicates, redundant, late, too_late, ahead, old_epoch, conflicts;
+    int64_t rollbacks, replayed, revised_sent, restarts, core_masked, lost_epochs;
+} fault_counts_t;
 
 struct dkf_net_fusion {
     dkf_net_t *net;
@@ -44,15 +82,23 @@ struct dkf_net_fusion {
     dkf_diffkf_fc_t fc;
     dkf_diffkf_fc_node_t *fcn;
     dkf_real_t *fc_store;
-    slot_t slot[DKF_NET_WINDOW];
+    dkf_real_t *P0_local;         /* l x n x n: the priors of node (re)starts */
+    peer_t *peer;                 /* l */
+    long open_k[RING];            /* step k opened (its first payload arrived) at open_mono */
+    int64_t open_mono[RING];
+    dkf_real_t *ck;               /* DKF_NET_CKPT + 1 checkpoints: state after step ck_k[j] */
+    long ck_k[DKF_NET_CKPT + 1];
+    size_t ck_len;
     long done_k;                  /* last published step */
-    int broken;                   /* a step was degraded: fc is behind (provisional) */
-    dkf_real_t *px, *pP, *tmp, *work; /* prior carried while broken, n x n scratch */
+    int64_t done_mono;            /* when it was first published (monotonic): step
+                                     done_k + 1 opens then at the latest */
+    dkf_diffkf_msg_t *msgs;       /* l: the running step's messages */
+    unsigned char *present, *contrib; /* l */
     dkf_net_fused_t out;
-    dkf_diffkf_msg_t in;          /* the message being decoded */
-    int64_t *seq_max, *got;       /* per node: largest seq seen, messages accepted */
+    dkf_diffkf_msg_t in, in_prev; /* the message being decoded */
     record_t rec;
     dkf_net_counts_t c;
+    fault_counts_t fx;
     int state;
     int64_t seq, last_beat;
     char error[160];
@@ -66,24 +112,153 @@ static void fu_note(dkf_net_fusion_t *fu, const char *fmt, ...)
     va_end(ap);
 }
 
-static slot_t *slot_of(dkf_net_fusion_t *fu, long k)
-{
-    return &fu->slot[(size_t)k % DKF_NET_WINDOW];
-}
-
-static void slot_clear(dkf_net_fusion_t *fu, slot_t *sl)
-{
-    sl->k = 0;
-    sl->count = 0;
-    sl->open_mono = 0;
-    memset(sl->have, 0, fu->l);
-}
-
 static void to_double(double *dst, const dkf_real_t *src, size_t len)
 {
     size_t i;
     for (i = 0; i < len; ++i) dst[i] = (double)src[i];
 }
+
+static const char *cond_str(dkf_diffkf_fc_cond_t c)
+{
+    static const char *const names[] = {
+        "no fault", "argument", "storage", "p_i > n", "p_i > m_i", "stacked capacity",
+        "prior", "model", "A rank", "B singular", "L not SPD", "K rank", "non-finite",
+        "message node", "message step", "message dimension", "message non-finite", "sequence"};
+    return (size_t)c < sizeof names / sizeof names[0] ? names[c] : "?";
+}
+
+/* ---- epochs and payloads ---------------------------------------------------------- */
+
+/* The epoch that owns step k of node i (the newest that started at or
+ * before k), or NULL (a late node before its start). */
+static epoch_t *owner(dkf_net_fusion_t *fu, size_t i, long k)
+{
+    peer_t *p = &fu->peer[i];
+    size_t j = p->nep;
+    while (j > 0) {
+        --j;
+        if (p->ep[j].k_start <= k) return &p->ep[j];
+    }
+    return NULL;
+}
+
+/* Node i's payload of step k, if it is there and belongs to the epoch that
+ * owns k (a usable one). */
+static const payload_t *payload(dkf_net_fusion_t *fu, size_t i, long k)
+{
+    const payload_t *q = &fu->peer[i].pay[(size_t)k % RING];
+    const epoch_t *e = owner(fu, i, k);
+    if (q->k != k || e == NULL || !e->usable || q->epoch != e->epoch) return NULL;
+    return q;
+}
+
+/* 1 if the checkpoint taken after step k is still in the ring. */
+static int have_ckpt(const dkf_net_fusion_t *fu, long k)
+{
+    return k >= 0 && fu->ck_k[(size_t)k % (DKF_NET_CKPT + 1)] == k;
+}
+
+/* Registers (epoch, k_start) of node i. Returns the first step whose
+ * computation it changes (a restart at k_start), LONG_MAX if none, or -1 if
+ * it contradicts what is known (then the message is ignored). */
+static long note_epoch(dkf_net_fusion_t *fu, size_t i, long epoch, long k_start)
+{
+    peer_t *p = &fu->peer[i];
+    size_t j, at;
+    epoch_t e;
+    for (j = 0; j < p->nep; ++j) {
+        epoch_t *q = &p->ep[j];
+        if (q->epoch != epoch) continue;
+        if (q->k_start == k_start) return LONG_MAX;
+        if (!q->assumed) return -1;
+        /* a late start of epoch 0: the assumption is replaced */
+        q->k_start = k_start;
+        q->assumed = 0;
+        q->usable = k_start == 1 || k_start > fu->done_k || have_ckpt(fu, k_start - 1);
+        if (!q->usable) ++fu->fx.lost_epochs;
+        return k_start;
+    }
+    /* a new epoch: epochs and their starts increase together */
+    for (at = 0; at < p->nep && p->ep[at].epoch < epoch; ++at) {
+    }
+    if ((at > 0 && p->ep[at - 1].k_start > k_start) ||
+        (at < p->nep && p->ep[at].k_start < k_start))
+        return -1;
+    if (at > 0 && p->ep[at - 1].assumed && k_start == 1) return -1;
+    e.epoch = epoch;
+    e.k_start = k_start;
+    e.assumed = 0;
+    e.usable = k_start == 1 || k_start > fu->done_k || have_ckpt(fu, k_start - 1);
+    if (!e.usable) ++fu->fx.lost_epochs;
+    if (p->nep == EPOCHS) { /* forget the oldest */
+        memmove(&p->ep[0], &p->ep[1], (EPOCHS - 1) * sizeof p->ep[0]);
+        --p->nep;
+        if (at > 0) --at;
+    }
+    memmove(&p->ep[at + 1], &p->ep[at], (p->nep - at) * sizeof p->ep[0]);
+    p->ep[at] = e;
+    ++p->nep;
+    return k_start;
+}
+
+/* Stores node i's payload of step k; returns 1 if it is new information. */
+static int store_payload(dkf_net_fusion_t *fu, size_t i, long epoch, const dkf_diffkf_msg_t *m,
+                         int direct, int64_t meas_utime, int64_t recv_utime)
+{
+    peer_t *p = &fu->peer[i];
+    const long k = (long)m->k;
+    payload_t *q = &p->pay[(size_t)k % RING];
+    const epoch_t *e = owner(fu, i, k);
+    if (e == NULL || e->epoch != epoch) {
+        if (direct) {
+            ++fu->fx.old_epoch;
+            ++fu->c.stale;
+            fu_note(fu, "fusion: node %zu step k=%ld of epoch %ld: not the epoch of that step",
+                    i, k, epoch);
+        }
+        return 0;
+    }
+    if (k > fu->done_k + DKF_NET_WINDOW || k <= fu->done_k - DKF_NET_CKPT) {
+        if (direct) {
+            if (k > fu->done_k) ++fu->fx.ahead; else ++fu->fx.too_late;
+            ++fu->c.stale;
+            fu_note(fu, "fusion: node %zu step k=%ld is %s", i, k,
+                    k > fu->done_k ? "too far ahead" : "too late to revise");
+        }
+        return 0;
+    }
+    if (q->k == k && q->epoch == epoch) {
+        if (direct && q->direct) {
+            ++fu->fx.duplicates;
+            ++fu->c.stale;
+            fu_note(fu, "fusion: node %zu step k=%ld: duplicate", i, k);
+        } else if (direct) {
+            q->direct = 1; /* its copy came first (reordered or after a drop) */
+            ++p->got;
+            ++fu->c.received;
+        }
+        return 0;
+    }
+    q->k = k;
+    q->epoch = epoch;
+    q->direct = direct;
+    q->msg = *m;
+    q->meas_utime = meas_utime;
+    q->recv_utime = recv_utime;
+    if (direct) {
+        ++p->got;
+        ++fu->c.received;
+    } else {
+        ++fu->fx.redundant;
+    }
+    if (fu->open_k[(size_t)k % RING] != k) {
+        fu->open_k[(size_t)k % RING] = k;
+        fu->open_mono[(size_t)k % RING] = dkf_net_mono_us();
+    }
+    return 1;
+}
+
+/* ---- one step of the core fusion centre ------------------------------------------- */
 
 /* Loads every sensor's share of step k (dynamics at k, model at kmeas). */
 static int load_sensors(dkf_net_fusion_t *fu, size_t k, size_t kmeas)
@@ -100,48 +275,135 @@ static int load_sensors(dkf_net_fusion_t *fu, size_t k, size_t kmeas)
     return 0;
 }
 
-/* x_{k+1|k} = F_k x, P_{k+1|k} = F_k P F_k^T + Q_k for the carried prior
- * (the prediction-only path of a degraded step). */
-static int predict_prior(dkf_net_fusion_t *fu, size_t k)
+static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_status_t st,
+                       const dkf_diffkf_fc_fault_t *fault)
 {
-    const size_t n = fu->n;
-    dkf_mat_t x = DKF_MAT(n, 1, fu->px), P = DKF_MAT(n, n, fu->pP);
-    dkf_mat_t t = DKF_MAT(n, 1, fu->tmp), T = DKF_MAT(n, n, fu->tmp);
-    if (dkf_net_model_dyn(&fu->md[0], fu->s, 0, k) != 0) return -1;
-    if (dkf_mat_mul(&t, &fu->md[0].F, &x) != DKF_OK || dkf_mat_copy(&x, &t) != DKF_OK) return -1;
-    if (dkf_mat_congruence(&T, &fu->md[0].F, &P, fu->work) != DKF_OK ||
-        dkf_mat_add(&P, &T, &fu->md[0].Q) != DKF_OK)
-        return -1;
-    return 0;
+    if (fault->node == DKF_DIFFKF_FC_NO_NODE)
+        fu_note(fu, "fusion: step k=%ld: %s failed: %s (%s)", k, call, dkf_status_str(st),
+                cond_str(fault->which));
+    else
+        fu_note(fu, "fusion: step k=%ld: %s failed: %s (%s, node %zu)", k, call,
+                dkf_status_str(st), cond_str(fault->which), fault->node);
 }
 
-/* Fills fu->out's envelope and contributors for step k from its slot. */
-static void out_envelope(dkf_net_fusion_t *fu, long k, const slot_t *sl)
+/* Mirrors the (re)starts of local filters at step k (before the step). */
+static void restart_nodes(dkf_net_fusion_t *fu, long k, int first_time)
 {
-    dkf_net_fused_t *o = &fu->out;
+    const size_t n = fu->n;
     size_t i;
-    o->k = k;
-    o->nnodes = fu->l;
-    o->n = fu->n;
-    o->meas_utime_first = o->meas_utime_last = o->msg_utime_last = 0;
     for (i = 0; i < fu->l; ++i) {
-        const int have = sl != NULL && sl->k == k && sl->have[i];
-        o->contributed[i] = (unsigned char)have;
-        if (!have) continue;
-        if (o->meas_utime_first == 0 || sl->meas_utime[i] < o->meas_utime_first)
-            o->meas_utime_first = sl->meas_utime[i];
-        if (sl->meas_utime[i] > o->meas_utime_last) o->meas_utime_last = sl->meas_utime[i];
-        if (sl->recv_utime[i] > o->msg_utime_last) o->msg_utime_last = sl->recv_utime[i];
+        epoch_t *e = owner(fu, i, k);
+        dkf_diffkf_sensor_t sk;
+        dkf_mat_t P0 = DKF_MAT(n, n, fu->P0_local + i * n * n);
+        dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
+        dkf_status_t st;
+        if (e == NULL || !e->usable || e->k_start != k || k == 1) continue;
+        if (dkf_net_model_meas(&fu->md[i], fu->s, i, (size_t)k) != 0) {
+            e->usable = 0;
+            continue;
+        }
+        sk.B = NULL;
+        sk.Rd = NULL;
+        sk.meas = fu->md[i].meas;
+        st = dkf_diffkf_fc_restart_node(&fu->fc, i, (size_t)k, &P0, &sk, &fault);
+        if (st != DKF_OK) {
+            /* the replica cannot follow this epoch: the node stays masked */
+            note_fault(fu, k, "dkf_diffkf_fc_restart_node", st, &fault);
+            e->usable = 0;
+            ++fu->fx.lost_epochs;
+            continue;
+        }
+        if (first_time) ++fu->fx.restarts;
     }
 }
 
-/* Publishes fu->out (already filled) as step k, records it, frees the slot. */
-static void publish_step(dkf_net_fusion_t *fu, long k)
+/* Saves the FC state after step k into the checkpoint ring. */
+static void save_ckpt(dkf_net_fusion_t *fu, long k)
+{
+    const size_t j = (size_t)k % (DKF_NET_CKPT + 1);
+    if (dkf_diffkf_fc_save(&fu->fc, fu->ck + j * fu->ck_len, fu->ck_len) == DKF_OK)
+        fu->ck_k[j] = k;
+    else
+        fu->ck_k[j] = -1;
+}
+
+/* Step k = fc.k + 1 with the payloads known now; records it. A node the
+ * core refuses (rank, model) is masked and the step retried, so a step
+ * always completes unless the central filter itself fails. 0 or -1. */
+static int compute_step(dkf_net_fusion_t *fu, long k, int first_time)
+{
+    const size_t n = fu->n, l = fu->l, j = (size_t)(k - 1);
+    dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
+    dkf_status_t st = DKF_OK;
+    size_t i, tries;
+    restart_nodes(fu, k, first_time);
+    if (load_sensors(fu, (size_t)k, (size_t)k + 1) != 0) {
+        fu_note(fu, "fusion: the scenario has no model for step k=%ld", k);
+        return -1;
+    }
+    for (i = 0; i < l; ++i) {
+        const payload_t *q = payload(fu, i, k);
+        fu->present[i] = q != NULL;
+        if (q != NULL) {
+            fu->msgs[i] = q->msg;
+        } else {
+            memset(&fu->msgs[i], 0, sizeof fu->msgs[i]);
+            fu->msgs[i].node = (uint16_t)i;
+            fu->msgs[i].k = (uint32_t)k;
+            fu->msgs[i].n = (uint16_t)n;
+        }
+    }
+    /* the prior x_{k|k-1}, P_{k|k-1} is the central filter's xp before the step */
+    to_double(fu->rec.xp + j * n, fu->fc.central.xp.data, n);
+    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pp.data, n * n);
+    for (tries = 0; tries <= l; ++tries) {
+        st = dkf_diffkf_fc_step_partial(&fu->fc, &fu->md[0].F, &fu->md[0].Q, fu->sens, fu->msgs,
+                                        fu->present, fu->contrib, &fault);
+        if (st == DKF_OK) break;
+        note_fault(fu, k, "dkf_diffkf_fc_step_partial", st, &fault);
+        ++fu->fx.core_masked;
+        if (fault.node != DKF_DIFFKF_FC_NO_NODE && fault.node < l && fu->present[fault.node])
+            fu->present[fault.node] = 0;
+        else if (memchr(fu->present, 1, l) != NULL)
+            memset(fu->present, 0, l); /* the prediction alone */
+        else
+            break;
+    }
+    if (st != DKF_OK) return -1;
+    to_double(fu->rec.xf + j * n, fu->fc.central.xf.data, n);
+    to_double(fu->rec.Pf + j * n * n, fu->fc.central.Pf.data, n * n);
+    memcpy(fu->rec.contributed + j * l, fu->contrib, l);
+    fu->rec.degraded[j] = memchr(fu->contrib, 0, l) != NULL;
+    save_ckpt(fu, k);
+    return 0;
+}
+
+/* Publishes the recorded step k (revision r). */
+static void publish_step(dkf_net_fusion_t *fu, long k, int revision)
 {
     static unsigned char buf[DKF_NET_MAX_MSG];
     dkf_net_fused_t *o = &fu->out;
-    const size_t n = fu->n, j = (size_t)(k - 1);
-    size_t len;
+    const size_t n = fu->n, l = fu->l, j = (size_t)(k - 1);
+    size_t i, len;
+    o->k = k;
+    o->nnodes = l;
+    o->n = n;
+    o->degraded = fu->rec.degraded[j];
+    o->revision = revision;
+    o->meas_utime_first = o->meas_utime_last = o->msg_utime_last = 0;
+    for (i = 0; i < l; ++i) {
+        const payload_t *q = payload(fu, i, k);
+        o->contributed[i] = fu->rec.contributed[j * l + i];
+        if (!o->contributed[i] || q == NULL) continue;
+        if (o->meas_utime_first == 0 || q->meas_utime < o->meas_utime_first)
+            o->meas_utime_first = q->meas_utime;
+        if (q->meas_utime > o->meas_utime_last) o->meas_utime_last = q->meas_utime;
+        if (q->recv_utime > o->msg_utime_last) o->msg_utime_last = q->recv_utime;
+    }
+    memcpy(o->xf, fu->rec.xf + j * n, n * sizeof(double));
+    memcpy(o->xp, fu->rec.xp + j * n, n * sizeof(double));
+    memcpy(o->Pf, fu->rec.Pf + j * n * n, n * n * sizeof(double));
+    memcpy(o->Pp, fu->rec.Pp + j * n * n, n * n * sizeof(double));
     o->meta.utime = dkf_net_now_us();
     o->meta.model_id = fu->model_id;
     o->meta.seq = fu->seq++;
@@ -150,101 +412,84 @@ static void publish_step(dkf_net_fusion_t *fu, long k)
         fu_note(fu, "fusion: step k=%ld: cannot publish", k);
     else
         ++fu->c.sent;
-    memcpy(fu->rec.xf + j * n, o->xf, n * sizeof(double));
-    memcpy(fu->rec.xp + j * n, o->xp, n * sizeof(double));
-    memcpy(fu->rec.Pf + j * n * n, o->Pf, n * n * sizeof(double));
-    memcpy(fu->rec.Pp + j * n * n, o->Pp, n * n * sizeof(double));
-    fu->rec.degraded[j] = o->degraded;
-    memcpy(fu->rec.contributed + j * fu->l, o->contributed, fu->l);
-    fu->rec.lat_first[j] = o->meas_utime_first ? o->meta.utime - o->meas_utime_first : -1;
-    fu->rec.lat_last[j] = o->meas_utime_last ? o->meta.utime - o->meas_utime_last : -1;
-    if (o->degraded) ++fu->c.missed;
-    slot_clear(fu, slot_of(fu, k));
+    if (revision == 0) {
+        fu->rec.first_degraded[j] = o->degraded;
+        memcpy(fu->rec.first_contributed + j * l, o->contributed, l);
+        fu->rec.lat_first[j] = o->meas_utime_first ? o->meta.utime - o->meas_utime_first : -1;
+        fu->rec.lat_last[j] = o->meas_utime_last ? o->meta.utime - o->meas_utime_last : -1;
+        if (o->degraded) ++fu->c.missed;
+    } else {
+        ++fu->fx.revised_sent;
+    }
+}
+
+static void fail(dkf_net_fusion_t *fu)
+{
+    fu->state = DKF_NET_FAILED;
+    dkf_net_fusion_report(fu);
+}
+
+/* Computes and publishes step done_k + 1 for the first time (at monotonic
+ * time now). */
+static void next_step(dkf_net_fusion_t *fu, int64_t now)
+{
+    const long k = fu->done_k + 1;
+    if (compute_step(fu, k, 1) != 0) {
+        fail(fu);
+        return;
+    }
     fu->done_k = k;
+    fu->done_mono = now;
+    publish_step(fu, k, 0);
     if (k >= fu->N) {
         fu->state = DKF_NET_DONE;
         dkf_net_fusion_report(fu);
     }
 }
 
-/* Step k without (all) messages: the prediction x_{k|k-1}, P_{k|k-1} is
- * published as both the filtered and the predicted estimate, and carried
- * forward with F_k, Q_k. Provisional (docs/network.md, "Faults"): the core
- * FC cannot resume after a lost message, so every later step is degraded. */
-static void degrade_step(dkf_net_fusion_t *fu, long k)
+/* New data for step j <= done_k: back to the checkpoint after step j-1,
+ * every step since recomputed; the present step is published again. */
+static void roll_back(dkf_net_fusion_t *fu, long j)
 {
-    const size_t n = fu->n;
-    dkf_net_fused_t *o = &fu->out;
-    if (!fu->broken) {
-        memcpy(fu->px, fu->fc.central.xp.data, n * sizeof(dkf_real_t));
-        memcpy(fu->pP, fu->fc.central.Pp.data, n * n * sizeof(dkf_real_t));
-        fu->broken = 1;
-    }
-    out_envelope(fu, k, slot_of(fu, k));
-    o->degraded = 1;
-    to_double(o->xf, fu->px, n);
-    to_double(o->xp, fu->px, n);
-    to_double(o->Pf, fu->pP, n * n);
-    to_double(o->Pp, fu->pP, n * n);
-    if (predict_prior(fu, (size_t)k) != 0)
-        fu_note(fu, "fusion: step k=%ld: prediction failed", k);
-    publish_step(fu, k);
-}
-
-static const char *cond_str(dkf_diffkf_fc_cond_t c)
-{
-    static const char *const names[] = {
-        "no fault", "argument", "storage", "p_i > n", "p_i > m_i", "stacked capacity",
-        "prior", "model", "A rank", "B singular", "L not SPD", "K rank", "non-finite",
-        "message node", "message step", "message dimension", "message non-finite", "sequence"};
-    return (size_t)c < sizeof names / sizeof names[0] ? names[c] : "?";
-}
-
-/* Every message of step k is here and the FC is in step: one FC step. */
-static void fuse_step(dkf_net_fusion_t *fu, long k)
-{
-    const size_t n = fu->n;
-    slot_t *sl = slot_of(fu, k);
-    dkf_net_fused_t *o = &fu->out;
-    dkf_diffkf_fc_fault_t fault;
-    dkf_status_t st;
-    if (load_sensors(fu, (size_t)k, (size_t)k + 1) != 0) {
-        fu_note(fu, "fusion: the scenario has no model for step k=%ld", k);
-        degrade_step(fu, k);
+    const size_t c = (size_t)(j - 1) % (DKF_NET_CKPT + 1);
+    long k;
+    if (!have_ckpt(fu, j - 1) ||
+        dkf_diffkf_fc_restore(&fu->fc, fu->ck + c * fu->ck_len, fu->ck_len) != DKF_OK) {
+        ++fu->fx.too_late;
+        fu_note(fu, "fusion: no checkpoint before step k=%ld: late data ignored", j);
         return;
     }
-    /* the prior x_{k|k-1}, P_{k|k-1} is the central filter's xp before the step */
-    to_double(o->xp, fu->fc.central.xp.data, n);
-    to_double(o->Pp, fu->fc.central.Pp.data, n * n);
-    st = dkf_diffkf_fc_step(&fu->fc, &fu->md[0].F, &fu->md[0].Q, fu->sens, sl->msg, &fault);
-    if (st != DKF_OK) {
-        if (fault.node == DKF_DIFFKF_FC_NO_NODE)
-            fu_note(fu, "fusion: step k=%ld: dkf_diffkf_fc_step failed: %s (%s)", k,
-                    dkf_status_str(st), cond_str(fault.which));
-        else
-            fu_note(fu, "fusion: step k=%ld: dkf_diffkf_fc_step failed: %s (%s, node %zu)", k,
-                    dkf_status_str(st), cond_str(fault.which), fault.node);
-        degrade_step(fu, k);
-        return;
+    ++fu->fx.rollbacks;
+    for (k = j; k <= fu->done_k; ++k) {
+        if (compute_step(fu, k, 0) != 0) {
+            fail(fu);
+            return;
+        }
+        ++fu->rec.revisions[k - 1];
+        ++fu->fx.replayed;
     }
-    out_envelope(fu, k, sl);
-    o->degraded = 0;
-    to_double(o->xf, fu->fc.central.xf.data, n);
-    to_double(o->Pf, fu->fc.central.Pf.data, n * n);
-    publish_step(fu, k);
+    publish_step(fu, fu->done_k, fu->rec.revisions[fu->done_k - 1]);
 }
 
-/* Publishes every step that can be published now. */
+/* 1 if step k has nothing more to wait for: every node whose epoch owns k
+ * has its payload there (a late node before its start owns nothing). */
+static int step_ready(dkf_net_fusion_t *fu, long k)
+{
+    size_t i;
+    for (i = 0; i < fu->l; ++i) {
+        const epoch_t *e = owner(fu, i, k);
+        if (e != NULL && e->usable && payload(fu, i, k) == NULL) return 0;
+    }
+    return 1;
+}
+
+/* Publishes every step that has all it can get. */
 static void advance(dkf_net_fusion_t *fu)
 {
-    while (fu->done_k < fu->N) {
+    while (fu->state == DKF_NET_RUNNING && fu->done_k < fu->N) {
         const long k = fu->done_k + 1;
-        slot_t *sl = slot_of(fu, k);
-        if (sl->k != k || sl->count < fu->l) break;
-        if (fu->broken)
-            degrade_step(fu, k);
-        else
-            fuse_step(fu, k);
+        if (fu->open_k[(size_t)k % RING] != k || !step_ready(fu, k)) break;
+        next_step(fu, dkf_net_mono_us());
     }
 }
 
@@ -255,10 +500,10 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     dkf_net_expect_t ex;
     dkf_net_meta_t meta;
     dkf_net_verdict_t v;
-    slot_t *sl;
-    long k;
+    peer_t *p;
+    long dirty = LONG_MAX, e;
     size_t i;
-    if (fu->state == DKF_NET_DONE) return;
+    if (fu->state != DKF_NET_RUNNING) return;
     ex.model_id = fu->model_id;
     ex.nnodes = fu->l;
     ex.node = dkf_net_chan_index(channel);
@@ -266,57 +511,61 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     ex.n = fu->n;
     ex.m = NULL;
     ex.kmax = fu->N;
-    v = dkf_net_decode_node_msg(data, len, &ex, &fu->in, &meta, &fu->c.why);
+    v = dkf_net_decode_node_msg(data, len, &ex, &fu->in, &fu->in_prev, &meta, &fu->c.why);
     if (v != DKF_NET_ACCEPT) {
         ++fu->c.rejected;
         fu_note(fu, "fusion: message on %s rejected: %s", channel, dkf_net_verdict_str(v));
         return;
     }
     i = fu->in.node;
-    if (meta.seq > fu->seq_max[i]) fu->seq_max[i] = meta.seq;
-    k = (long)fu->in.k;
-    if (k <= fu->done_k || k > fu->done_k + DKF_NET_WINDOW) {
+    p = &fu->peer[i];
+    /* messages made by node i (from sequence numbers, per epoch) */
+    if (meta.epoch > p->seq_epoch) {
+        p->seq_before += p->seq_max + 1;
+        p->seq_epoch = meta.epoch;
+        p->seq_max = -1;
+    }
+    if (meta.epoch == p->seq_epoch && meta.seq > p->seq_max) p->seq_max = meta.seq;
+    e = note_epoch(fu, i, meta.epoch, meta.k_start);
+    if (e < 0) {
+        ++fu->fx.conflicts;
         ++fu->c.stale;
-        fu_note(fu, "fusion: node %zu step k=%ld is %s", i, k,
-                k <= fu->done_k ? "late (already published)" : "too far ahead");
+        fu_note(fu, "fusion: node %zu: epoch %ld from k=%ld contradicts its earlier messages", i,
+                meta.epoch, meta.k_start);
         return;
     }
-    sl = slot_of(fu, k);
-    if (sl->k != k) {
-        slot_clear(fu, sl);
-        sl->k = k;
-        sl->open_mono = dkf_net_mono_us();
+    if (e <= fu->done_k) dirty = e;
+    if (meta.has_prev &&
+        store_payload(fu, i, meta.epoch, &fu->in_prev, 0, meta.meas_utime, recv_utime) &&
+        (long)fu->in_prev.k <= fu->done_k && (long)fu->in_prev.k < dirty)
+        dirty = (long)fu->in_prev.k;
+    if (store_payload(fu, i, meta.epoch, &fu->in, 1, meta.meas_utime, recv_utime) &&
+        (long)fu->in.k <= fu->done_k && (long)fu->in.k < dirty)
+        dirty = (long)fu->in.k;
+    if (dirty <= fu->done_k) {
+        ++fu->fx.late;
+        roll_back(fu, dirty);
     }
-    if (sl->have[i]) {
-        ++fu->c.stale;
-        fu_note(fu, "fusion: node %zu step k=%ld: duplicate", i, k);
-        return;
-    }
-    ++fu->c.received;
-    ++fu->got[i];
-    sl->msg[i] = fu->in;
-    sl->have[i] = 1;
-    sl->meas_utime[i] = meta.meas_utime;
-    sl->recv_utime[i] = recv_utime;
-    ++sl->count;
     advance(fu);
 }
 
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us)
 {
-    while (fu->state != DKF_NET_DONE && fu->done_k < fu->N) {
-        /* step done_k + 1 opened with its first message or with any later step's */
+    while (fu->state == DKF_NET_RUNNING && fu->done_k < fu->N) {
+        /* Step done_k + 1 opened with its first payload or any later step's,
+         * or when step done_k was published: once the first step is out,
+         * nothing (all nodes' messages lost or held back) can make the FC
+         * wait for more than one deadline. */
         const long k = fu->done_k + 1;
-        int64_t open = 0;
+        int64_t open = fu->done_k > 0 ? fu->done_mono : 0;
         size_t j;
-        for (j = 0; j < DKF_NET_WINDOW; ++j) {
-            const slot_t *sl = &fu->slot[j];
-            if (sl->k >= k && (open == 0 || sl->open_mono < open)) open = sl->open_mono;
-            /* (monotonic time is never 0 on a running system) */
-        }
+        for (j = 0; j < RING; ++j)
+            if (fu->open_k[j] >= k && (open == 0 || fu->open_mono[j] < open))
+                open = fu->open_mono[j];
+        /* (monotonic time is never 0 on a running system) */
         if (open == 0 || mono_us - open < fu->deadline_us) break;
         fu_note(fu, "fusion: step k=%ld missed its deadline", k);
-        degrade_step(fu, k);
+        next_step(fu, mono_us);
         advance(fu);
     }
     if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
@@ -334,36 +583,41 @@ static int fu_alloc(dkf_net_fusion_t *fu)
     fu->md = calloc(l, sizeof *fu->md);
     fu->sens = calloc(l, sizeof *fu->sens);
     fu->fcn = calloc(l, sizeof *fu->fcn);
-    fu->px = calloc(n, sizeof *fu->px);
-    fu->pP = calloc(n * n, sizeof *fu->pP);
-    fu->tmp = calloc(n * n, sizeof *fu->tmp);
-    fu->work = calloc(DKF_MAT_CONGRUENCE_WORK(n, n), sizeof *fu->work);
-    fu->seq_max = calloc(l, sizeof *fu->seq_max);
-    fu->got = calloc(l, sizeof *fu->got);
+    fu->P0_local = calloc(l * n * n, sizeof *fu->P0_local);
+    fu->peer = calloc(l, sizeof *fu->peer);
+    fu->msgs = calloc(l, sizeof *fu->msgs);
+    fu->present = calloc(l, 1);
+    fu->contrib = calloc(l, 1);
     fu->rec.xf = calloc(N * n, sizeof(double));
     fu->rec.xp = calloc(N * n, sizeof(double));
     fu->rec.Pf = calloc(N * n * n, sizeof(double));
     fu->rec.Pp = calloc(N * n * n, sizeof(double));
     fu->rec.degraded = calloc(N, sizeof(int));
+    fu->rec.first_degraded = calloc(N, sizeof(int));
+    fu->rec.revisions = calloc(N, sizeof(int));
     fu->rec.contributed = calloc(N * l, 1);
+    fu->rec.first_contributed = calloc(N * l, 1);
     fu->rec.lat_first = calloc(N, sizeof(int64_t));
     fu->rec.lat_last = calloc(N, sizeof(int64_t));
-    if (!fu->md || !fu->sens || !fu->fcn || !fu->px || !fu->pP || !fu->tmp || !fu->work ||
-        !fu->seq_max || !fu->got || !fu->rec.xf || !fu->rec.xp || !fu->rec.Pf || !fu->rec.Pp ||
-        !fu->rec.degraded || !fu->rec.contributed || !fu->rec.lat_first || !fu->rec.lat_last)
+    if (!fu->md || !fu->sens || !fu->fcn || !fu->P0_local || !fu->peer || !fu->msgs ||
+        !fu->present || !fu->contrib || !fu->rec.xf || !fu->rec.xp || !fu->rec.Pf ||
+        !fu->rec.Pp || !fu->rec.degraded || !fu->rec.first_degraded || !fu->rec.revisions ||
+        !fu->rec.contributed || !fu->rec.first_contributed || !fu->rec.lat_first ||
+        !fu->rec.lat_last)
         return -1;
     for (j = 0; j < l; ++j) {
-        fu->seq_max[j] = -1;
+        peer_t *p = &fu->peer[j];
+        p->seq_max = -1;
+        /* until a message says otherwise, node j started normally at step 1 */
+        p->nep = 1;
+        p->ep[0].epoch = 0;
+        p->ep[0].k_start = 1;
+        p->ep[0].assumed = 1;
+        p->ep[0].usable = 1;
         if (dkf_net_model_init(&fu->md[j], fu->s, j) != 0) return -1;
+        dkf_scn_to_real(fu->P0_local + j * n * n, dkf_scn_P00_local(fu->s, j), n * n);
     }
-    for (j = 0; j < DKF_NET_WINDOW; ++j) {
-        slot_t *sl = &fu->slot[j];
-        sl->msg = calloc(l, sizeof *sl->msg);
-        sl->have = calloc(l, 1);
-        sl->meas_utime = calloc(l, sizeof(int64_t));
-        sl->recv_utime = calloc(l, sizeof(int64_t));
-        if (!sl->msg || !sl->have || !sl->meas_utime || !sl->recv_utime) return -1;
-    }
+    for (j = 0; j <= DKF_NET_CKPT; ++j) fu->ck_k[j] = -1;
     return 0;
 }
 
@@ -419,6 +673,16 @@ static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
     }
     free(P);
     free(F0);
+    if (st == DKF_OK) {
+        /* the checkpoint ring, and the state after the start (before step 1) */
+        fu->ck_len = dkf_diffkf_fc_checkpoint_len(&fu->fc);
+        fu->ck = calloc((DKF_NET_CKPT + 1) * fu->ck_len, sizeof *fu->ck);
+        if (fu->ck_len == 0 || fu->ck == NULL) {
+            snprintf(err, errlen, "%s: fusion: no storage for the checkpoints", s->file);
+            return -1;
+        }
+        save_ckpt(fu, 0);
+    }
     if (st != DKF_OK) {
         if (fault.node == DKF_DIFFKF_FC_NO_NODE)
             snprintf(err, errlen, "%s: fusion: %s failed: %s (%s)", s->file, call,
@@ -475,28 +739,25 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
     size_t j;
     if (fu == NULL) return;
     for (j = 0; fu->md != NULL && j < fu->l; ++j) dkf_net_model_free(&fu->md[j]);
-    for (j = 0; j < DKF_NET_WINDOW; ++j) {
-        free(fu->slot[j].msg);
-        free(fu->slot[j].have);
-        free(fu->slot[j].meas_utime);
-        free(fu->slot[j].recv_utime);
-    }
     free(fu->md);
     free(fu->sens);
     free(fu->fcn);
     free(fu->fc_store);
-    free(fu->px);
-    free(fu->pP);
-    free(fu->tmp);
-    free(fu->work);
-    free(fu->seq_max);
-    free(fu->got);
+    free(fu->P0_local);
+    free(fu->peer);
+    free(fu->msgs);
+    free(fu->present);
+    free(fu->contrib);
+    free(fu->ck);
     free(fu->rec.xf);
     free(fu->rec.xp);
     free(fu->rec.Pf);
     free(fu->rec.Pp);
     free(fu->rec.degraded);
+    free(fu->rec.first_degraded);
+    free(fu->rec.revisions);
     free(fu->rec.contributed);
+    free(fu->rec.first_contributed);
     free(fu->rec.lat_first);
     free(fu->rec.lat_last);
     free(fu);
@@ -543,29 +804,72 @@ static json_t *json_block(const double *v, size_t rows, size_t cols)
     return a;
 }
 
+/* The node indices whose flag is set in row j of an N x l bitmap. */
+static json_t *json_nodes(const unsigned char *bits, size_t l)
+{
+    json_t *c = json_array();
+    size_t i;
+    for (i = 0; i < l; ++i)
+        if (bits[i]) json_array_append_new(c, json_integer((json_int_t)i));
+    return c;
+}
+
+static void set_int(json_t *o, const char *key, int64_t v)
+{
+    json_object_set_new(o, key, json_integer((json_int_t)v));
+}
+
+/* Every epoch a message announced, per node: [{epoch, k_start, usable}]. */
+static json_t *json_epochs(const dkf_net_fusion_t *fu)
+{
+    json_t *all = json_array();
+    size_t i, j;
+    for (i = 0; i < fu->l; ++i) {
+        const peer_t *p = &fu->peer[i];
+        json_t *a = json_array();
+        for (j = 0; j < p->nep; ++j) {
+            json_t *e;
+            if (p->ep[j].assumed) continue;
+            e = json_object();
+            set_int(e, "epoch", p->ep[j].epoch);
+            set_int(e, "k_start", p->ep[j].k_start);
+            json_object_set_new(e, "usable", json_boolean(p->ep[j].usable));
+            json_array_append_new(a, e);
+        }
+        json_array_append_new(all, a);
+    }
+    return all;
+}
+
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
 {
     const size_t n = fu->n, l = fu->l, K = (size_t)fu->done_k;
     json_t *doc = json_object(), *ks = json_array(), *fused = json_object();
     json_t *xf = json_array(), *xp = json_array(), *Pf = json_array(), *Pp = json_array();
     json_t *status = json_array(), *contrib = json_array(), *lf = json_array(), *ll = json_array();
+    json_t *fstatus = json_array(), *fcontrib = json_array(), *revs = json_array();
     json_t *counts = json_object(), *why = json_object(), *got = json_array(), *sent = json_array();
     json_t *lost = json_array(), *outputs = json_object(), *lat = json_object();
+    json_t *faults = json_object();
     char id[32];
     size_t j, i, v;
+    int64_t degraded = 0, revised = 0;
     for (j = 0; j < K; ++j) {
-        json_t *c = json_array();
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
         json_array_append_new(xf, json_block(fu->rec.xf + j * n, n, 0));
         json_array_append_new(xp, json_block(fu->rec.xp + j * n, n, 0));
         json_array_append_new(Pf, json_block(fu->rec.Pf + j * n * n, n, n));
         json_array_append_new(Pp, json_block(fu->rec.Pp + j * n * n, n, n));
         json_array_append_new(status, json_string(fu->rec.degraded[j] ? "degraded" : "complete"));
-        for (i = 0; i < l; ++i)
-            if (fu->rec.contributed[j * l + i]) json_array_append_new(c, json_integer((json_int_t)i));
-        json_array_append_new(contrib, c);
+        json_array_append_new(fstatus,
+                              json_string(fu->rec.first_degraded[j] ? "degraded" : "complete"));
+        json_array_append_new(contrib, json_nodes(fu->rec.contributed + j * l, l));
+        json_array_append_new(fcontrib, json_nodes(fu->rec.first_contributed + j * l, l));
+        json_array_append_new(revs, json_integer((json_int_t)fu->rec.revisions[j]));
         json_array_append_new(lf, json_integer((json_int_t)fu->rec.lat_first[j]));
         json_array_append_new(ll, json_integer((json_int_t)fu->rec.lat_last[j]));
+        degraded += fu->rec.degraded[j];
+        revised += fu->rec.revisions[j] > 0;
     }
     json_object_set_new(fused, "xf", xf);
     json_object_set_new(fused, "xp", xp);
@@ -575,30 +879,54 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     json_object_set_new(lat, "first", lf);
     json_object_set_new(lat, "last", ll);
     for (i = 0; i < l; ++i) {
-        json_array_append_new(got, json_integer((json_int_t)fu->got[i]));
-        json_array_append_new(sent, json_integer((json_int_t)(fu->seq_max[i] + 1)));
-        json_array_append_new(lost, json_integer((json_int_t)(fu->seq_max[i] + 1 - fu->got[i])));
+        const peer_t *p = &fu->peer[i];
+        const int64_t made = p->seq_before + p->seq_max + 1;
+        json_array_append_new(got, json_integer((json_int_t)p->got));
+        json_array_append_new(sent, json_integer((json_int_t)made));
+        json_array_append_new(lost, json_integer((json_int_t)(made - p->got)));
     }
     for (v = 1; v < DKF_NET_NVERDICTS; ++v)
         json_object_set_new(why, dkf_net_verdict_str((dkf_net_verdict_t)v),
                             json_integer((json_int_t)fu->c.why.by[v]));
+    set_int(faults, "duplicates", fu->fx.duplicates);
+    set_int(faults, "recovered_by_redundancy", fu->fx.redundant);
+    set_int(faults, "late_data", fu->fx.late);
+    set_int(faults, "too_late", fu->fx.too_late);
+    set_int(faults, "too_far_ahead", fu->fx.ahead);
+    set_int(faults, "old_epoch", fu->fx.old_epoch);
+    set_int(faults, "epoch_conflicts", fu->fx.conflicts);
+    set_int(faults, "lost_epochs", fu->fx.lost_epochs);
+    set_int(faults, "rollbacks", fu->fx.rollbacks);
+    set_int(faults, "replayed_steps", fu->fx.replayed);
+    set_int(faults, "revised_published", fu->fx.revised_sent);
+    set_int(faults, "core_refusals", fu->fx.core_masked);
+    set_int(faults, "restarts_applied", fu->fx.restarts);
     json_object_set_new(counts, "received", got);
     json_object_set_new(counts, "sent_by_node", sent);
     json_object_set_new(counts, "not_received", lost);
-    json_object_set_new(counts, "rejected", json_integer((json_int_t)fu->c.rejected));
+    set_int(counts, "rejected", fu->c.rejected);
     json_object_set_new(counts, "rejected_by_reason", why);
-    json_object_set_new(counts, "stale", json_integer((json_int_t)fu->c.stale));
-    json_object_set_new(counts, "degraded_steps", json_integer((json_int_t)fu->c.missed));
-    json_object_set_new(counts, "published", json_integer((json_int_t)fu->c.sent));
+    set_int(counts, "stale", fu->c.stale);
+    set_int(counts, "degraded_steps", degraded);
+    set_int(counts, "degraded_at_first_publication", fu->c.missed);
+    set_int(counts, "revised_steps", revised);
+    set_int(counts, "published", fu->c.sent);
+    json_object_set_new(counts, "faults", faults);
     snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)fu->model_id);
     json_object_set_new(doc, "scenario", json_string(fu->s->file));
     json_object_set_new(doc, "real", json_string(DKF_USE_FLOAT ? "float" : "double"));
     json_object_set_new(doc, "model_id", json_string(id));
-    json_object_set_new(doc, "N", json_integer((json_int_t)fu->N));
+    set_int(doc, "N", fu->N);
+    set_int(doc, "deadline_us", fu->deadline_us);
+    set_int(doc, "checkpoints", DKF_NET_CKPT);
     json_object_set_new(doc, "k", ks);
     json_object_set_new(doc, "outputs", outputs);
     json_object_set_new(doc, "status", status);
     json_object_set_new(doc, "contributors", contrib);
+    json_object_set_new(doc, "revisions", revs);
+    json_object_set_new(doc, "first_status", fstatus);
+    json_object_set_new(doc, "first_contributors", fcontrib);
+    json_object_set_new(doc, "epochs", json_epochs(fu));
     json_object_set_new(doc, "latency_us", lat);
     json_object_set_new(doc, "counters", counts);
     if (fu->error[0] != '\0') json_object_set_new(doc, "last_note", json_string(fu->error));

@@ -23,13 +23,26 @@ struct dkf_net_node {
     dkf_net_model_t md;
     dkf_diffkf_t f;
     dkf_real_t *store;
+    size_t store_len;
+    dkf_real_t *P0;           /* the scenario's P00_local[id] (every (re)start) */
+    dkf_real_t x0[DKF_MAX_DIM];
     dkf_real_t y[DKF_MAX_DIM];
     dkf_net_meas_t ybuf;      /* the measurement being handled */
     dkf_diffkf_msg_t msg;     /* the message being sent */
-    long next;                /* the measurement time expected next */
+    dkf_diffkf_msg_t prev;    /* the previous step's payload (redundancy 1) */
+    int has_prev;
+    long next;                /* the measurement time expected next (0: not started) */
+    long epoch, k_start;      /* restart counter and first step of this epoch */
     int state;
     int64_t seq, last_beat;
     dkf_net_counts_t c;
+    dkf_net_faults_t fx;      /* fault injection (tests) */
+    uint64_t rng;
+    int held;                 /* a message is held back (reordering) */
+    unsigned char hold_buf[DKF_NET_MAX_MSG];
+    size_t hold_len;
+    int exited;               /* --exit-at reached */
+    int64_t fx_dropped, fx_duplicated, fx_reordered;
     char error[160];
 };
 
@@ -53,50 +66,148 @@ static void node_fail(dkf_net_node_t *nd, const char *fmt, ...)
     dkf_net_node_report(nd);
 }
 
-/* Step k of the local filter with y_{k+1} (k = 0: the start with y_1),
+/* splitmix64: the fault draws, reproducible from (seed, node id). */
+static double node_draw(dkf_net_node_t *nd)
+{
+    uint64_t z = (nd->rng += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    z ^= z >> 31;
+    return (double)(z >> 11) * (1.0 / 9007199254740992.0) * 100.0; /* [0, 100) */
+}
+
+static int node_publish(dkf_net_node_t *nd, const void *buf, size_t len)
+{
+    if (dkf_net_publish(nd->net, nd->chan_out, buf, len) != 0) return -1;
+    ++nd->c.sent;
+    return 0;
+}
+
+/* Sends a held-back message now (reordering), if any. */
+static int node_flush(dkf_net_node_t *nd)
+{
+    if (!nd->held) return 0;
+    nd->held = 0;
+    return node_publish(nd, nd->hold_buf, nd->hold_len);
+}
+
+/* Sends one encoded message through the test faults: drop, duplicate,
+ * hold back past the next message. Three draws per message whatever the
+ * outcome, so a run is reproducible from the seed alone. */
+static int node_send(dkf_net_node_t *nd, const unsigned char *buf, size_t len)
+{
+    const double u_drop = node_draw(nd), u_dup = node_draw(nd), u_reo = node_draw(nd);
+    int rc = 0;
+    if (u_drop < nd->fx.drop_pct) {
+        ++nd->fx_dropped;
+        return node_flush(nd);
+    }
+    if (u_reo < nd->fx.reorder_pct && !nd->held) {
+        memcpy(nd->hold_buf, buf, len);
+        nd->hold_len = len;
+        nd->held = 1;
+        ++nd->fx_reordered;
+        return 0;
+    }
+    rc |= node_publish(nd, buf, len);
+    if (u_dup < nd->fx.dup_pct) {
+        rc |= node_publish(nd, buf, len);
+        ++nd->fx_duplicated;
+    }
+    rc |= node_flush(nd);
+    return rc;
+}
+
+/* (Re)starts the local filter on y_{k0} with the scenario's prior: the
+ * normal start (F_0, Q_0 from x_{0|0}, P_{0|0}) at k0 = 1, else the general
+ * start with (x00, P00_local[id]) as the prior of time k0 (F0 = Q0 = NULL),
+ * which the fusion centre mirrors with dkf_diffkf_fc_restart_node. */
+static dkf_status_t node_start(dkf_net_node_t *nd, long k0, const dkf_mat_t *y)
+{
+    const size_t n = nd->s->n;
+    dkf_mat_t mx0 = DKF_MAT(n, 1, nd->x0), mP0 = DKF_MAT(n, n, nd->P0);
+    dkf_status_t st = dkf_diffkf_init(&nd->f, n, nd->md.m, nd->md.p, nd->store, nd->store_len,
+                                      &mx0, &mP0);
+    if (st != DKF_OK) return st;
+    if (k0 == 1) return dkf_diffkf_start(&nd->f, &nd->md.F, &nd->md.Q, &nd->md.meas, y);
+    st = dkf_diffkf_start(&nd->f, NULL, NULL, &nd->md.meas, y);
+    /* the filter counts from 0: its steps (and messages) carry absolute times */
+    return st != DKF_OK ? st : dkf_diffkf_set_time(&nd->f, (size_t)k0 - 1);
+}
+
+/* Encodes and sends the message of the step just completed. */
+static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
+{
+    unsigned char buf[DKF_NET_MAX_MSG];
+    dkf_net_meta_t meta;
+    size_t len;
+    if (dkf_diffkf_msg_fill(&nd->msg, (uint16_t)nd->id, &nd->f) != DKF_OK) return -1;
+    meta.utime = dkf_net_now_us();
+    meta.model_id = nd->model_id;
+    meta.seq = nd->seq;
+    meta.meas_utime = y->meta.utime;
+    meta.epoch = nd->epoch;
+    meta.k_start = nd->k_start;
+    meta.has_prev = nd->has_prev;
+    if (dkf_net_encode_node_msg(buf, sizeof buf, &len, &nd->msg, &nd->prev, &meta) != 0) return -1;
+    ++nd->seq;
+    if (node_send(nd, buf, len) != 0) return -1;
+    nd->prev = nd->msg;
+    nd->has_prev = 1;
+    return 0;
+}
+
+/* Step k of the local filter with y_{k+1}, or the (re)start on y_{k0},
  * then the message of step k. */
 static void node_advance(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 {
-    const size_t k = (size_t)y->k - 1;
+    const int starting = nd->next == 0;
+    const size_t k = starting ? (size_t)y->k : (size_t)y->k - 1;
     dkf_mat_t yv = DKF_MAT(nd->md.m, 1, nd->y);
     dkf_status_t st;
     dkf_scn_to_real(nd->y, y->y, y->m);
-    if (dkf_net_model_dyn(&nd->md, nd->s, nd->id, k) != 0 ||
-        dkf_net_model_meas(&nd->md, nd->s, nd->id, k + 1) != 0) {
+    /* start: (F_0, Q_0) and the model at k0; step k: dynamics at k, model at k+1 */
+    if (dkf_net_model_dyn(&nd->md, nd->s, nd->id, starting ? 0 : k) != 0 ||
+        dkf_net_model_meas(&nd->md, nd->s, nd->id, starting ? k : k + 1) != 0) {
         node_fail(nd, "node %zu: the scenario has no model for step k=%zu", nd->id, k);
         return;
     }
-    if (k == 0)
-        st = dkf_diffkf_start(&nd->f, &nd->md.F, &nd->md.Q, &nd->md.meas, &yv);
-    else
+    if (starting) {
+        st = node_start(nd, y->k, &yv);
+        if (st == DKF_OK) {
+            nd->k_start = y->k;
+            nd->has_prev = 0;
+            nd->seq = 0;
+        }
+    } else {
+        if (nd->fx.exit_at > 0 && (long)k >= nd->fx.exit_at) {
+            /* a crash before step k's message: no final status, nothing flushed */
+            nd->exited = 1;
+            snprintf(nd->error, sizeof nd->error, "node %zu: exiting at step k=%zu (--exit-at)",
+                     nd->id, k);
+            return;
+        }
         st = dkf_diffkf_step(&nd->f, &nd->md.dyn, &nd->md.meas, &yv);
+    }
     if (st != DKF_OK) {
         node_fail(nd, "node %zu: step k=%zu: %s failed: %s (%d)", nd->id, k,
-                  k == 0 ? "dkf_diffkf_start" : "dkf_diffkf_step", dkf_status_str(st), (int)st);
+                  starting ? "dkf_diffkf_start" : "dkf_diffkf_step", dkf_status_str(st), (int)st);
         return;
     }
     nd->next = y->k + 1;
     nd->state = DKF_NET_RUNNING;
-    if (k >= 1) {
-        unsigned char buf[DKF_NET_MAX_MSG];
-        dkf_net_meta_t meta;
-        size_t len;
-        st = dkf_diffkf_msg_fill(&nd->msg, (uint16_t)nd->id, &nd->f);
-        meta.utime = dkf_net_now_us();
-        meta.model_id = nd->model_id;
-        meta.seq = nd->seq;
-        meta.meas_utime = y->meta.utime;
-        if (st != DKF_OK || dkf_net_encode_node_msg(buf, sizeof buf, &len, &nd->msg, &meta) != 0 ||
-            dkf_net_publish(nd->net, nd->chan_out, buf, len) != 0) {
-            node_fail(nd, "node %zu: step k=%zu: cannot publish the message", nd->id, k);
+    if (starting) return;
+    if (node_emit(nd, y) != 0) {
+        node_fail(nd, "node %zu: step k=%zu: cannot publish the message", nd->id, k);
+        return;
+    }
+    if (k >= nd->s->steps) {
+        if (node_flush(nd) != 0) {
+            node_fail(nd, "node %zu: cannot publish the held message", nd->id);
             return;
         }
-        ++nd->seq;
-        ++nd->c.sent;
-        if (k >= nd->s->steps) {
-            nd->state = DKF_NET_DONE;
-            dkf_net_node_report(nd);
-        }
+        nd->state = DKF_NET_DONE;
+        dkf_net_node_report(nd);
     }
 }
 
@@ -108,7 +219,7 @@ static void on_meas(const char *channel, const void *data, size_t len, int64_t r
     dkf_net_verdict_t v;
     (void)channel;
     (void)recv_utime;
-    if (nd->state == DKF_NET_FAILED || nd->state == DKF_NET_DONE) return;
+    if (nd->state == DKF_NET_FAILED || nd->state == DKF_NET_DONE || nd->exited) return;
     ex.model_id = nd->model_id;
     ex.nnodes = nd->s->nsensors;
     ex.node = (long)nd->id;
@@ -122,29 +233,57 @@ static void on_meas(const char *channel, const void *data, size_t len, int64_t r
                  channel, dkf_net_verdict_str(v));
         return;
     }
-    if (nd->ybuf.k != nd->next) {
-        /* The Difference KF needs consecutive y (it differences y_{k+1}
-         * against y_k): a gap stops this node until the fault-handling
-         * extension (docs/network.md, "Faults"). */
+    if (nd->next == 0) {
+        /* not started: join at the first measurement at or after --join-at
+         * (y_{N+1} completes no step of its own, so it cannot start one) */
+        if (nd->ybuf.k < nd->fx.join_at || nd->ybuf.k > (long)nd->s->steps) {
+            ++nd->c.stale;
+            return;
+        }
+    } else if (nd->ybuf.k != nd->next) {
+        /* The Difference KF differences y_{k+1} against y_k: after a gap the
+         * node restarts its filter on this measurement (a new epoch), which
+         * the fusion centre mirrors; an old or repeated y is ignored. */
         ++nd->c.stale;
-        if (nd->ybuf.k > nd->next) nd->c.missed += nd->ybuf.k - nd->next;
         snprintf(nd->error, sizeof nd->error, "node %zu: measurement k=%ld out of sequence "
                  "(expected k=%ld)", nd->id, nd->ybuf.k, nd->next);
-        return;
+        if (nd->ybuf.k < nd->next || nd->ybuf.k > (long)nd->s->steps) return;
+        nd->c.missed += nd->ybuf.k - nd->next;
+        if (node_flush(nd) != 0) {
+            node_fail(nd, "node %zu: cannot publish the held message", nd->id);
+            return;
+        }
+        ++nd->epoch;
+        nd->next = 0;
     }
     ++nd->c.received;
     node_advance(nd, &nd->ybuf);
 }
+
+void dkf_net_node_faults(dkf_net_node_t *nd, const dkf_net_faults_t *fx)
+{
+    nd->fx = *fx;
+    nd->epoch = fx->epoch;
+    nd->rng = fx->seed * 0x100000001b3ULL + (uint64_t)nd->id + 1;
+}
+
+int dkf_net_node_exited(const dkf_net_node_t *nd) { return nd->exited; }
+void dkf_net_node_fault_counts(const dkf_net_node_t *nd, int64_t *dropped, int64_t *duplicated,
+                               int64_t *reordered)
+{
+    *dropped = nd->fx_dropped;
+    *duplicated = nd->fx_duplicated;
+    *reordered = nd->fx_reordered;
+}
+long dkf_net_node_epoch(const dkf_net_node_t *nd) { return nd->epoch; }
+long dkf_net_node_k_start(const dkf_net_node_t *nd) { return nd->next ? nd->k_start : 0; }
 
 dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, size_t id,
                                     const char *prefix, char *err, size_t errlen)
 {
     dkf_net_node_t *nd;
     char chan[DKF_NET_CHAN_LEN];
-    size_t i, len;
-    dkf_real_t x0[DKF_MAX_DIM];
-    dkf_mat_t mx0, mP0;
-    dkf_real_t *P0;
+    size_t i;
     dkf_status_t st;
     if (id >= s->nsensors) {
         snprintf(err, errlen, "%s: --id %zu: the scenario has %zu sensors (0..%zu)", s->file, id,
@@ -154,13 +293,10 @@ dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, siz
     nd = calloc(1, sizeof *nd);
     if (nd == NULL || dkf_net_model_init(&nd->md, s, id) != 0) goto oom;
     nd->m = calloc(s->nsensors, sizeof *nd->m);
-    len = DKF_DIFFKF_STORAGE_LEN(s->n, nd->md.m, nd->md.p);
-    nd->store = calloc(len, sizeof *nd->store);
-    P0 = calloc(s->n * s->n, sizeof *P0);
-    if (nd->m == NULL || nd->store == NULL || P0 == NULL) {
-        free(P0);
-        goto oom;
-    }
+    nd->store_len = DKF_DIFFKF_STORAGE_LEN(s->n, nd->md.m, nd->md.p);
+    nd->store = calloc(nd->store_len, sizeof *nd->store);
+    nd->P0 = calloc(s->n * s->n, sizeof *nd->P0);
+    if (nd->m == NULL || nd->store == NULL || nd->P0 == NULL) goto oom;
     for (i = 0; i < s->nsensors; ++i) nd->m[i] = s->sensors[i].m;
     nd->net = net;
     nd->s = s;
@@ -168,15 +304,18 @@ dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, siz
     snprintf(nd->prefix, sizeof nd->prefix, "%s", prefix);
     dkf_net_chan_node(nd->chan_out, prefix, id);
     nd->model_id = dkf_net_model_id(s);
-    nd->next = 1;
+    nd->next = 0;
     nd->state = DKF_NET_STARTING;
     nd->last_beat = INT64_MIN;
-    dkf_scn_to_real(x0, dkf_scn_at(dkf_scn_init(s, "x00"), 0), s->n);
-    dkf_scn_to_real(P0, dkf_scn_P00_local(s, id), s->n * s->n);
-    mx0 = (dkf_mat_t)DKF_MAT(s->n, 1, x0);
-    mP0 = (dkf_mat_t)DKF_MAT(s->n, s->n, P0);
-    st = dkf_diffkf_init(&nd->f, s->n, nd->md.m, nd->md.p, nd->store, len, &mx0, &mP0);
-    free(P0);
+    nd->rng = (uint64_t)id + 1;
+    dkf_scn_to_real(nd->x0, dkf_scn_at(dkf_scn_init(s, "x00"), 0), s->n);
+    dkf_scn_to_real(nd->P0, dkf_scn_P00_local(s, id), s->n * s->n);
+    {
+        /* the prior is checked now, so a bad file fails at start-up */
+        dkf_mat_t mx0 = DKF_MAT(s->n, 1, nd->x0), mP0 = DKF_MAT(s->n, s->n, nd->P0);
+        st = dkf_diffkf_init(&nd->f, s->n, nd->md.m, nd->md.p, nd->store, nd->store_len, &mx0,
+                             &mP0);
+    }
     if (st != DKF_OK) {
         snprintf(err, errlen, "%s: node %zu: dkf_diffkf_init failed: %s (%d)", s->file, id,
                  dkf_status_str(st), (int)st);
@@ -201,6 +340,7 @@ void dkf_net_node_free(dkf_net_node_t *nd)
     if (nd == NULL) return;
     dkf_net_model_free(&nd->md);
     free(nd->store);
+    free(nd->P0);
     free(nd->m);
     free(nd);
 }
@@ -214,7 +354,7 @@ void dkf_net_node_report(dkf_net_node_t *nd)
     st.role = DKF_NET_ROLE_NODE;
     st.id = (int)nd->id;
     st.state = nd->state;
-    st.k = nd->next >= 2 ? nd->next - 2 : 0;
+    st.k = nd->next >= 2 ? nd->next - 2 : 0; /* last step whose message was made */
     st.sent = nd->c.sent;
     st.received = nd->c.received;
     st.rejected = nd->c.rejected;

@@ -13,6 +13,7 @@
 /* What the simulator last heard from one process. */
 typedef struct {
     int heard;      /* a status with our model id arrived */
+    int optional;   /* not waited for (a node that may never start, or start late) */
     int state;
     int64_t wrong_model; /* a status with another model id arrived (its id) */
     char detail[160];
@@ -158,6 +159,13 @@ int dkf_net_sim_publish(dkf_net_sim_t *sim, long j)
     return 0;
 }
 
+int dkf_net_sim_optional_node(dkf_net_sim_t *sim, size_t i)
+{
+    if (i >= sim->s->nsensors) return -1;
+    sim->nodes[i].optional = 1;
+    return 0;
+}
+
 long dkf_net_sim_last(const dkf_net_sim_t *sim) { return (long)sim->s->steps + 1; }
 long dkf_net_sim_fused_k(const dkf_net_sim_t *sim) { return sim->fused_k; }
 const dkf_net_counts_t *dkf_net_sim_counts(const dkf_net_sim_t *sim) { return &sim->c; }
@@ -168,7 +176,9 @@ int dkf_net_sim_ready(const dkf_net_sim_t *sim, char *why, size_t whylen)
     int ok = 1;
     if (why != NULL && whylen > 0) why[0] = '\0';
     for (i = 0; i < sim->s->nsensors; ++i) {
-        if (sim->nodes[i].heard && sim->nodes[i].state != DKF_NET_FAILED) continue;
+        if (sim->nodes[i].optional ||
+            (sim->nodes[i].heard && sim->nodes[i].state != DKF_NET_FAILED))
+            continue;
         ok = 0;
         if (why != NULL && off < whylen)
             off += (size_t)snprintf(why + off, whylen - off, "%snode %zu", off ? ", " : "", i);

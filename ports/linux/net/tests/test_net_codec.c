@@ -46,12 +46,15 @@ static void make_msg(dkf_diffkf_msg_t *m, dkf_net_meta_t *meta)
     meta->model_id = MODEL;
     meta->seq = 41;
     meta->meas_utime = 1700000000000001LL;
+    meta->epoch = 0;
+    meta->k_start = 1;
+    meta->has_prev = 0;
 }
 
 static size_t encode_msg(const dkf_diffkf_msg_t *m, const dkf_net_meta_t *meta)
 {
     size_t len = 0;
-    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, m, meta), 0);
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, m, NULL, meta), 0);
     return len;
 }
 
@@ -67,7 +70,7 @@ static void expect_node_verdict(size_t len, const dkf_net_expect_t *ex, dkf_net_
     ref = out;
     mref = meta;
     memset(&rej, 0, sizeof rej);
-    assert_int_equal(dkf_net_decode_node_msg(buf, len, ex, &out, &meta, &rej), v);
+    assert_int_equal(dkf_net_decode_node_msg(buf, len, ex, &out, NULL, &meta, &rej), v);
     if (v != DKF_NET_ACCEPT) {
         assert_memory_equal(&out, &ref, sizeof out);
         assert_memory_equal(&meta, &mref, sizeof meta);
@@ -87,17 +90,20 @@ static void test_node_msg_round_trip(void **state)
     (void)state;
     make_msg(&m, &meta);
     len = encode_msg(&m, &meta);
-    /* layout: fingerprint + 4 int64 + 3 int32 + 2n doubles */
-    assert_int_equal(len, 8 + 4 * 8 + 3 * 4 + 2 * 4 * 8);
+    /* layout: fingerprint + 4 int64 + 3 int32 + 2n doubles, then epoch,
+     * k_start, has_prev (1 byte), prev_k and 2n doubles */
+    assert_int_equal(len, 8 + 4 * 8 + 3 * 4 + 2 * 4 * 8 + 4 + 4 + 1 + 4 + 2 * 4 * 8);
     memset(&out, 0, sizeof out);
-    assert_int_equal(dkf_net_decode_node_msg(buf, len, &ex, &out, &mo, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(dkf_net_decode_node_msg(buf, len, &ex, &out, NULL, &mo, NULL), DKF_NET_ACCEPT);
     assert_int_equal(out.node, 2);
     assert_int_equal(out.k, 17);
     assert_int_equal(out.n, 4);
     /* the wire carries doubles: dkf_real_t values come back bit for bit */
     assert_memory_equal(out.xf, m.xf, 4 * sizeof(dkf_real_t));
     assert_memory_equal(out.xp, m.xp, 4 * sizeof(dkf_real_t));
-    assert_memory_equal(&mo, &meta, sizeof mo);
+    assert_true(mo.utime == meta.utime && mo.model_id == meta.model_id && mo.seq == meta.seq &&
+                mo.meas_utime == meta.meas_utime && mo.epoch == 0 && mo.k_start == 1 &&
+                mo.has_prev == 0);
     ex.node = 2; /* the channel's node */
     expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
 }
@@ -192,6 +198,81 @@ static void test_node_msg_real_overflow(void **state)
         for (i = 0; i < 8; ++i) buf[52 + i] = (unsigned char)(bits >> (56 - 8 * i));
     }
     expect_node_verdict(len, &ex, DKF_USE_FLOAT ? DKF_NET_REJ_NONFINITE : DKF_NET_ACCEPT);
+}
+
+/* The fault-handling fields: a message of a restarted node (epoch 2 from
+ * step 15) carrying its previous step's payload round-trips bit for bit;
+ * inconsistent epoch fields, a bad flag and NaN in the previous payload
+ * are rejected by reason with the outputs untouched. */
+static void test_node_msg_epoch_and_prev(void **state)
+{
+    dkf_diffkf_msg_t m, pv, out, outp;
+    dkf_net_meta_t meta, mo;
+    dkf_net_expect_t ex = expect();
+    const size_t hp = 52 + 2 * 4 * 8 + 8; /* has_prev's offset for n = 4 */
+    size_t len, i;
+    (void)state;
+    make_msg(&m, &meta);
+    pv = m;
+    pv.k = 16;
+    for (i = 0; i < 4; ++i) {
+        pv.xf[i] = (dkf_real_t)(-0.5 * (double)i);
+        pv.xp[i] = (dkf_real_t)(0.25 + (double)i);
+    }
+    meta.epoch = 2;
+    meta.k_start = 15;
+    meta.has_prev = 1;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, &pv, &meta), 0);
+    memset(&out, 0, sizeof out);
+    memset(&outp, 0, sizeof outp);
+    assert_int_equal(dkf_net_decode_node_msg(buf, len, &ex, &out, &outp, &mo, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(mo.epoch, 2);
+    assert_int_equal(mo.k_start, 15);
+    assert_int_equal(mo.has_prev, 1);
+    assert_int_equal(outp.k, 16);
+    assert_int_equal(outp.node, 2);
+    assert_int_equal(outp.n, 4);
+    assert_memory_equal(outp.xf, pv.xf, 4 * sizeof(dkf_real_t));
+    assert_memory_equal(outp.xp, pv.xp, 4 * sizeof(dkf_real_t));
+    assert_memory_equal(out.xf, m.xf, 4 * sizeof(dkf_real_t));
+    /* has_prev must be a boolean */
+    buf[hp] = 2;
+    expect_node_verdict(len, &ex, DKF_NET_REJ_MALFORMED);
+    buf[hp] = 1;
+    /* a previous payload that is not of step k-1, or older than the epoch */
+    pv.k = 15;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, &pv, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP);
+    pv.k = 16;
+    meta.k_start = 17;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, &pv, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP); /* also k_start = k with a prev */
+    meta.k_start = 18;
+    meta.has_prev = 0;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP); /* k_start after k */
+    meta.k_start = 0;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_STEP);
+    meta.k_start = 17; /* the first message of an epoch has no previous payload */
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
+    meta.epoch = -1;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_MALFORMED);
+    meta.epoch = 2;
+    meta.k_start = 15;
+    meta.has_prev = 1;
+    pv.xp[3] = (dkf_real_t)NAN;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, &pv, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_REJ_NONFINITE);
+    /* without has_prev the (zero) previous arrays are not looked at */
+    meta.has_prev = 0;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), 0);
+    expect_node_verdict(len, &ex, DKF_NET_ACCEPT);
+    /* the encoder refuses a previous payload it is not given */
+    meta.has_prev = 1;
+    assert_int_equal(dkf_net_encode_node_msg(buf, sizeof buf, &len, &m, NULL, &meta), -1);
 }
 
 static void test_meas_round_trip_and_rejections(void **state)
@@ -311,10 +392,13 @@ static void test_fused_round_trip_and_rejections(void **state)
         f.Pp[i] = 2.0 + (double)i;
     }
     assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
-    assert_int_equal(len, 8 + 8 + 8 + 4 + 8 + 1 + 4 + 3 + 3 * 8 + 4 + 8 * (8 + 32));
+    f.revision = 3;
+    assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
+    assert_int_equal(len, 8 + 8 + 8 + 4 + 8 + 1 + 4 + 3 + 3 * 8 + 4 + 8 * (8 + 32) + 4);
     assert_int_equal(dkf_net_decode_fused(buf, len, &ex, &out, NULL), DKF_NET_ACCEPT);
     assert_int_equal(out.k, 12);
     assert_int_equal(out.degraded, 1);
+    assert_int_equal(out.revision, 3);
     assert_int_equal(out.nnodes, 3);
     assert_int_equal(out.contributed[0], 1);
     assert_int_equal(out.contributed[1], 0);
@@ -395,6 +479,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_node_msg_round_trip),
+        cmocka_unit_test(test_node_msg_epoch_and_prev),
         cmocka_unit_test(test_node_msg_rejections),
         cmocka_unit_test(test_node_msg_real_overflow),
         cmocka_unit_test(test_meas_round_trip_and_rejections),

@@ -1,0 +1,273 @@
+#!/usr/bin/env python3
+"""Checks a dkf-fusion result file of a fault run (docs/network.md, "Faults").
+
+    check_faults.py FUSED.json SCENARIO.json --rel 1e-9 [expectations...]
+
+The reference for every step is the centralized Difference KF given exactly
+the rows the fusion centre says it used: node i's z^i_k enters step k iff i
+is in the result's `contributors[k-1]`. It is computed here in numpy, from
+the scenario's y, independently of the C library: the DKF in the paper's
+printed form (16)-(20) (as tools/make_diffkf_vectors.py) with a time-varying
+row selection S_k of the stacked z_k:
+
+    M' = S M,  Ru' = S Ru S^T,  S'_cov = S_cov S^T,  C'_k = S_k C_k S_{k-1}^T,
+
+and a step that keeps no row is the prediction alone (x_{k|k} = x_{k|k-1};
+the next step has no previous innovation). With every row kept this is the
+full-data centralized DKF; --selftest checks that against the vector's
+`central` series and the one-sensor case against its `local[0]`.
+
+Checks (exit 1 on the first failure, with the numbers):
+  * every step published, fused == masked reference <= rel (per array, per
+    step, relative to max(1, max|ref|));
+  * steps before the first lost row equal the full-data filter (they are the
+    same filter);
+  * the expectations given (--all-complete, --degraded K,..., --absent NODE:FROM:TO,
+    --rejected REASON=COUNT, --min-revised R, --no-rejects).
+Prints the distance to the full-data filter after the last lost row (how
+fast the loss of information is forgotten).
+"""
+import argparse
+import json
+import sys
+
+import numpy as np
+
+
+def mat(spec, k):
+    if "const" in spec:
+        return np.array(spec["const"], dtype=float)
+    return np.array(spec["per_k"][k], dtype=float)
+
+
+def load_model(scn):
+    m = scn["model"]
+    sensors = m["sensors"]
+    N = scn["N"]
+    ys = []
+    for i, s in enumerate(sensors):
+        y = {k: np.array(v, dtype=float) for k, v in zip(scn["y"][i]["k"], scn["y"][i]["values"])}
+        ys.append(y)
+    return m, sensors, ys, N
+
+
+def blkdiag(mats):
+    r = sum(x.shape[0] for x in mats)
+    c = sum(x.shape[1] for x in mats)
+    D = np.zeros((r, c))
+    i = j = 0
+    for x in mats:
+        D[i:i + x.shape[0], j:j + x.shape[1]] = x
+        i += x.shape[0]
+        j += x.shape[1]
+    return D
+
+
+def masked_dkf(scn, keep, P00=None, sensors_used=None):
+    """keep[k-1] = set of node indices whose rows enter step k."""
+    m, sensors, ys, N = load_model(scn)
+    l = len(sensors)
+    idx = list(range(l)) if sensors_used is None else sensors_used
+    F = lambda k: mat(m["F"], k)
+    Q = lambda k: mat(m["Q"], k)
+    H = lambda k: np.vstack([mat(sensors[i]["H"], k) for i in idx])
+    A = lambda k: blkdiag([mat(sensors[i]["A"], k) for i in idx])
+    B = lambda k: blkdiag([mat(sensors[i]["B"], k) for i in idx])
+    Rd = lambda k: blkdiag([mat(sensors[i]["Rd"], k) for i in idx])
+    R = lambda k: blkdiag([mat(sensors[i]["R"], k) for i in idx])
+    p = [mat(sensors[i]["A"], 1).shape[1] for i in idx]
+    off = np.cumsum([0] + p)
+    y = lambda k: np.concatenate([ys[i][k] for i in idx])
+    inv, pinv = np.linalg.inv, np.linalg.pinv
+    x00 = np.array(scn["init"]["x00"], dtype=float)
+    if P00 is None:
+        P00 = np.array(scn["init"]["P00_central"], dtype=float)
+    out = {key: [] for key in ("xp", "Pp", "xf", "Pf")}
+    xp = F(0) @ x00
+    Pp = F(0) @ P00 @ F(0).T + Q(0)
+    prev = None  # (J, L, dz, S', F, rows) of step k-1 with at least one row
+    for k in range(1, N + 1):
+        rows = [r for j, i in enumerate(idx) if i in keep[k - 1]
+                for r in range(off[j], off[j + 1])]
+        Binv = inv(B(k))
+        G = Binv @ pinv(A(k + 1))
+        Apk = pinv(A(k))
+        M = G @ H(k + 1) @ F(k) - Apk @ H(k)
+        S = Q(k) @ H(k + 1).T @ G.T
+        Ru = (G @ H(k + 1) @ Q(k) @ H(k + 1).T @ G.T + Binv @ Rd(k) @ Binv.T
+              + G @ R(k + 1) @ G.T + Apk @ R(k) @ Apk.T)
+        z = G @ y(k + 1) - Apk @ y(k)
+        out["xp"].append(xp)
+        out["Pp"].append(Pp)
+        if not rows:
+            xf, Pf = xp, Pp
+            xp = F(k) @ xf
+            Pp = F(k) @ Pf @ F(k).T + Q(k)
+            Pp = 0.5 * (Pp + Pp.T)
+            prev = None
+            out["xf"].append(xf)
+            out["Pf"].append(Pf)
+            continue
+        Ms, Rus, Ss, zs = M[rows], Ru[np.ix_(rows, rows)], S[:, rows], z[rows]
+        if prev is None:
+            dz = zs - Ms @ xp
+            J = Pp @ Ms.T
+            L = Ms @ Pp @ Ms.T + Rus
+        else:
+            Jp, Lp, dzp, Sp, Fp, prow = prev
+            Gp = inv(B(k - 1)) @ pinv(A(k))
+            C = (-Apk @ R(k) @ Gp.T)[np.ix_(rows, prow)]
+            Lpi = inv(Lp)
+            dz = zs - Ms @ xp - C @ Lpi @ dzp
+            J = Pp @ Ms.T - (Fp @ Jp @ Lpi + Sp @ Lpi) @ C.T
+            L = Ms @ J - C @ Lpi @ (Jp.T @ Fp.T + Sp.T) @ Ms.T + Rus - C @ Lpi @ C.T
+            L = 0.5 * (L + L.T)
+        Li = inv(L)
+        xf = xp + J @ Li @ dz
+        Pf = Pp - J @ Li @ J.T
+        out["xf"].append(xf)
+        out["Pf"].append(Pf)
+        Fk = F(k)
+        xp = Fk @ xf + Ss @ Li @ dz
+        Pp = Fk @ Pf @ Fk.T + Q(k) - Fk @ J @ Li @ Ss.T - Ss @ Li @ J.T @ Fk.T - Ss @ Li @ Ss.T
+        Pp = 0.5 * (Pp + Pp.T)
+        prev = (J, L, dz, Ss, Fk, rows)
+    return out
+
+
+def step_rel(a, b):
+    """max over xf, xp, Pf, Pp of max|a-b| / max(1, max|b|) at one step."""
+    w = 0.0
+    for key in ("xf", "xp", "Pf", "Pp"):
+        x, y = np.array(a[key]), np.array(b[key])
+        w = max(w, float(np.max(np.abs(x - y))) / max(1.0, float(np.max(np.abs(y)))))
+    return w
+
+
+def at(series, j):
+    return {key: series[key][j] for key in ("xf", "xp", "Pf", "Pp")}
+
+
+def fail(msg):
+    print("FAIL: " + msg)
+    sys.exit(1)
+
+
+def selftest(scn, rel):
+    N = scn["N"]
+    l = len(scn["model"]["sensors"])
+    full = masked_dkf(scn, [set(range(l))] * N)
+    cen = scn["outputs"]["central"]
+    w = max(step_rel(at(full, j), at(cen, j)) for j in range(N))
+    print(f"selftest: numpy full-data DKF vs the vector's central: {w:.2e}")
+    if w > rel:
+        fail("the reference does not reproduce the vector's central series")
+    if "local" in scn["outputs"] and np.allclose(scn["init"]["P00_local"][0], scn["init"]["P00_central"]):
+        one = masked_dkf(scn, [{0}] * N)
+        w = max(step_rel(at(one, j), at(scn["outputs"]["local"][0], j)) for j in range(N))
+        print(f"selftest: numpy DKF with node 0's rows only vs the vector's local[0]: {w:.2e}")
+        if w > rel:
+            fail("the masked reference does not reproduce local[0]")
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("fused")
+    ap.add_argument("scenario")
+    ap.add_argument("--rel", type=float, required=True)
+    ap.add_argument("--selftest", action="store_true")
+    ap.add_argument("--all-complete", action="store_true")
+    ap.add_argument("--degraded", default=None, help="K,K,...: exactly these steps degraded")
+    ap.add_argument("--absent", action="append", default=[],
+                    help="NODE:FROM:TO: node absent from steps FROM..TO (inclusive), present elsewhere")
+    ap.add_argument("--never", type=int, default=None, help="NODE: absent from every step")
+    ap.add_argument("--rejected", action="append", default=[], help="REASON=COUNT")
+    ap.add_argument("--no-rejects", action="store_true")
+    ap.add_argument("--min-revised", type=int, default=0)
+    ap.add_argument("--compare", default=None, help="another result file: outputs must be identical")
+    a = ap.parse_args()
+    scn = json.load(open(a.scenario))
+    d = json.load(open(a.fused))
+    N, l = scn["N"], len(scn["model"]["sensors"])
+    if a.selftest:
+        selftest(scn, a.rel)
+    if len(d["k"]) != N:
+        fail(f"{len(d['k'])} of {N} steps published")
+    keep = [set(c) for c in d["contributors"]]
+    ref = masked_dkf(scn, keep)
+    full = masked_dkf(scn, [set(range(l))] * N)
+    fu = d["outputs"]["fused"]
+    dm = [step_rel(at(fu, j), at(ref, j)) for j in range(N)]
+    df = [step_rel(at(fu, j), at(full, j)) for j in range(N)]
+    if "central" in scn.get("outputs", {}):
+        wv = max(step_rel(at(full, j), at(scn["outputs"]["central"], j)) for j in range(N))
+        if wv > a.rel:
+            fail(f"reference vs the vector's central {wv:.2e}")
+    lost = [j + 1 for j in range(N) if len(keep[j]) < l]
+    pattern = "".join("D" if len(keep[j]) < l else ("r" if d["revisions"][j] else ".")
+                      for j in range(N))
+    print(f"steps (. complete, r complete after a revision, D degraded): {pattern}")
+    print(f"fused vs masked centralized DKF: max {max(dm):.2e} over {N} steps "
+          f"(degraded steps: {len(lost)}, revised: {sum(1 for r in d['revisions'] if r)})")
+    if max(dm) > a.rel:
+        j = int(np.argmax(dm))
+        fail(f"step {j + 1}: fused vs masked reference {dm[j]:.2e} > {a.rel:g}")
+    before = (lost[0] - 1) if lost else N
+    if before:
+        w = max(df[:before])
+        print(f"fused vs full-data centralized DKF on steps 1..{before} (before any row was lost): {w:.2e}")
+        if w > a.rel:
+            fail(f"steps before the first loss differ from the full-data filter: {w:.2e}")
+    if lost and lost[-1] < N:
+        last = lost[-1]
+        tail = [(k, df[k - 1]) for k in range(last, N + 1)]
+        marks = [t for t in tail if t[0] in (last, last + 1, last + 2, last + 5, last + 10, last + 20, N)]
+        print("distance to the full-data filter after the last lost row (k: rel): "
+              + ", ".join(f"{k}: {v:.2e}" for k, v in marks))
+    c = d["counters"]
+    print("counters: " + json.dumps({key: c[key] for key in ("received", "sent_by_node", "not_received",
+                                                            "rejected", "stale", "degraded_steps",
+                                                            "revised_steps")})
+          + " faults: " + json.dumps(c["faults"]))
+    if a.all_complete and lost:
+        fail(f"degraded steps {lost}")
+    if a.degraded is not None:
+        want = [int(x) for x in a.degraded.split(",") if x]
+        if lost != want:
+            fail(f"degraded steps {lost}, expected {want}")
+    for spec in a.absent:
+        node, k0, k1 = (int(x) for x in spec.split(":"))
+        for j in range(N):
+            inside = k0 <= j + 1 <= k1
+            if (node in keep[j]) == inside:
+                fail(f"node {node} {'contributes' if inside else 'is absent'} at step {j + 1} "
+                     f"(expected absent exactly on {k0}..{k1})")
+        print(f"node {node} absent exactly on steps {k0}..{k1}")
+    if a.never is not None:
+        if any(a.never in s for s in keep):
+            fail(f"node {a.never} contributed")
+        if not all(len(s) == l - 1 for s in keep):
+            fail("another node is missing somewhere")
+        print(f"node {a.never} absent from every step, every other node present")
+    if a.no_rejects and c["rejected"]:
+        fail(f"rejected {c['rejected']}")
+    for spec in a.rejected:
+        reason, count = spec.rsplit("=", 1)
+        got = c["rejected_by_reason"].get(reason)
+        if got != int(count):
+            fail(f"rejected as '{reason}': {got}, expected {count}")
+    if a.rejected:
+        print("rejected by reason: " + json.dumps(c["rejected_by_reason"]))
+    if sum(1 for r in d["revisions"] if r) < a.min_revised:
+        fail(f"fewer than {a.min_revised} revised steps")
+    if a.compare:
+        o = json.load(open(a.compare))["outputs"]["fused"]
+        for key in ("xf", "xp", "Pf", "Pp"):
+            if o[key] != fu[key]:
+                fail(f"outputs.fused.{key} differs from {a.compare}")
+        print(f"outputs identical to {a.compare} (bit for bit)")
+    print("PASS")
+
+
+if __name__ == "__main__":
+    main()

@@ -107,7 +107,14 @@ case "$mode" in
     [[ -s $log ]] || { echo "FAIL: lcm-logger recorded nothing"; exit 1; }
     "$DKF_SIM" --url "$URL" --timeout $T --lockstep "$scn" || { echo "FAIL: dkf-sim"; exit 1; }
     wait_peers live || exit 1
-    sleep 0.2  # let the logger flush the last messages
+    # let the logger take in and flush the last messages: wait until the log
+    # has stopped growing for 0.3 s (at most 10 s), not a fixed guess
+    last=-1 still=0
+    for ((i = 0; i < 1000 && still < 30; ++i)); do
+      size=$(stat -c %s "$log")
+      if [[ $size == "$last" ]]; then ((++still)); else still=0 last=$size; fi
+      sleep 0.01
+    done
     kill -INT $logger; wait $logger
     compare_central "$out/live.fused.json" || exit 1
     # replay only the node messages into a fresh fusion centre

@@ -3,7 +3,8 @@
 # promises to support, configured, built and tested in build/<config>/
 # (reused, so a second run is incremental).
 #
-#   double           DKF_REAL=double (Joseph form on)
+#   double           DKF_REAL=double (Joseph form on), with the benchmarks'
+#                    smoke test (bench/smoke.py: builds, runs, checksums)
 #   float            DKF_REAL=float
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
@@ -29,8 +30,8 @@ configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
 declare -A cfg_args=(
-  [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF"
-  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF"
+  [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
+  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
   [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF"
   [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON"
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"

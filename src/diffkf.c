@@ -67,61 +67,55 @@ typedef struct {
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     size_t used = 0;
-#define TAKE(ptr, count) \
-    do { \
-        (ptr) = base != NULL ? base + used : NULL; \
-        used += (count); \
-    } while (0)
-    TAKE(L->C, p * p);
-    TAKE(L->CLi, p * p);
-    TAKE(L->W, n * p);
-    TAKE(L->dzp, p);
-    TAKE(L->ApH, p * n);
-    TAKE(L->ApRAp, p * p);
-    TAKE(L->Apy, p);
-    TAKE(L->Alast, m * p);
-    TAKE(L->Ap, p * m);
-    TAKE(L->Blast, p * p);
-    TAKE(L->Binv, p * p);
-    TAKE(L->mF, n * n);
-    TAKE(L->mQ, n * n);
-    TAKE(L->mB, p * p);
-    TAKE(L->mRd, p * p);
-    TAKE(L->mH, m * n);
-    TAKE(L->mA, m * p);
-    TAKE(L->mR, m * m);
-    TAKE(L->mApH, p * n);
-    TAKE(L->mApRAp, p * p);
-    TAKE(L->G, p * m);
-    TAKE(L->M, p * n);
-    TAKE(L->Jn, n * p);
-    TAKE(L->Ln, p * p);
-    TAKE(L->Kn, n * p);
-    TAKE(L->Wn, n * p);
-    TAKE(L->Cn, p * p);
-    TAKE(L->CLin, p * p);
-    TAKE(L->Pfn, n * n);
-    TAKE(L->Ppn, n * n);
-    TAKE(L->Fn, n * n);
-    TAKE(L->ApHn, p * n);
-    TAKE(L->ApRApn, p * p);
-    TAKE(L->zc, p);
-    TAKE(L->Mk, p * n);
-    TAKE(L->Ruk, p * p);
-    TAKE(L->Ck, p * p);
-    TAKE(L->CLik, p * p);
-    TAKE(L->Cnk, p * p);
-    TAKE(L->T1, n * n);
-    TAKE(L->T2, n * p);
-    TAKE(L->T3, p * (n + m));
-    TAKE(L->GH, p * n);
-    TAKE(L->S, n * p);
-    TAKE(L->Ru, p * p);
-    TAKE(L->Lc, p * p);
-    TAKE(L->X, p * p);
-    TAKE(L->svdw, DKF_MAT_SVD_WORK(m, p));
-    TAKE(L->invw, DKF_MAT_INV_WORK(p));
-#undef TAKE
+    DKF_TAKE(L->C, p * p);
+    DKF_TAKE(L->CLi, p * p);
+    DKF_TAKE(L->W, n * p);
+    DKF_TAKE(L->dzp, p);
+    DKF_TAKE(L->ApH, p * n);
+    DKF_TAKE(L->ApRAp, p * p);
+    DKF_TAKE(L->Apy, p);
+    DKF_TAKE(L->Alast, m * p);
+    DKF_TAKE(L->Ap, p * m);
+    DKF_TAKE(L->Blast, p * p);
+    DKF_TAKE(L->Binv, p * p);
+    DKF_TAKE(L->mF, n * n);
+    DKF_TAKE(L->mQ, n * n);
+    DKF_TAKE(L->mB, p * p);
+    DKF_TAKE(L->mRd, p * p);
+    DKF_TAKE(L->mH, m * n);
+    DKF_TAKE(L->mA, m * p);
+    DKF_TAKE(L->mR, m * m);
+    DKF_TAKE(L->mApH, p * n);
+    DKF_TAKE(L->mApRAp, p * p);
+    DKF_TAKE(L->G, p * m);
+    DKF_TAKE(L->M, p * n);
+    DKF_TAKE(L->Jn, n * p);
+    DKF_TAKE(L->Ln, p * p);
+    DKF_TAKE(L->Kn, n * p);
+    DKF_TAKE(L->Wn, n * p);
+    DKF_TAKE(L->Cn, p * p);
+    DKF_TAKE(L->CLin, p * p);
+    DKF_TAKE(L->Pfn, n * n);
+    DKF_TAKE(L->Ppn, n * n);
+    DKF_TAKE(L->Fn, n * n);
+    DKF_TAKE(L->ApHn, p * n);
+    DKF_TAKE(L->ApRApn, p * p);
+    DKF_TAKE(L->zc, p);
+    DKF_TAKE(L->Mk, p * n);
+    DKF_TAKE(L->Ruk, p * p);
+    DKF_TAKE(L->Ck, p * p);
+    DKF_TAKE(L->CLik, p * p);
+    DKF_TAKE(L->Cnk, p * p);
+    DKF_TAKE(L->T1, n * n);
+    DKF_TAKE(L->T2, n * p);
+    DKF_TAKE(L->T3, p * (n + m));
+    DKF_TAKE(L->GH, p * n);
+    DKF_TAKE(L->S, n * p);
+    DKF_TAKE(L->Ru, p * p);
+    DKF_TAKE(L->Lc, p * p);
+    DKF_TAKE(L->X, p * p);
+    DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(m, p));
+    DKF_TAKE(L->invw, DKF_MAT_INV_WORK(p));
     return used;
 }
 

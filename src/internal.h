@@ -43,6 +43,16 @@
 #define DKF_CHECK_NO_ALIAS_BUF(m, p, len) ((void)0)
 #endif
 
+/* Carves `count` reals for `ptr` out of caller storage: ptr = base + used,
+ * used += count. With base == NULL it only counts, so one layout function
+ * both sizes a filter's storage (for its exact *_STORAGE_LEN check) and maps
+ * it. Expects `base` (dkf_real_t *) and `used` (size_t) in scope. */
+#define DKF_TAKE(ptr, count) \
+    do { \
+        (ptr) = base != NULL ? base + used : NULL; \
+        used += (count); \
+    } while (0)
+
 /* DKF_ERR_NULL for a NULL view or data pointer, DKF_ERR_CAPACITY for a
  * dimension of 0 or above DKF_MAX_DIM. */
 dkf_status_t dkf__check_mat(const dkf_mat_t *m);

@@ -59,27 +59,21 @@ typedef struct {
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     size_t used = 0;
-#define TAKE(ptr, count) \
-    do { \
-        (ptr) = base != NULL ? base + used : NULL; \
-        used += (count); \
-    } while (0)
-    TAKE(L->pend, block_len(n, m));
-    TAKE(L->J, n * n);
-    TAKE(L->C, n * n);
-    TAKE(L->T, n * n);
-    TAKE(L->JB, n * m);
-    TAKE(L->QB, n * m);
-    TAKE(L->GSi, n * m);
-    TAKE(L->Sc, m * m);
-    TAKE(L->Si, m * m);
-    TAKE(L->r, n);
-    TAKE(L->Lw, p * p);
-    TAKE(L->RiH, p * n);
-    TAKE(L->Riy, p);
-    TAKE(L->stage, DKF_TW_PKT_LEN(n));
-    TAKE(L->acc, DKF_TW_PKT_LEN(n));
-#undef TAKE
+    DKF_TAKE(L->pend, block_len(n, m));
+    DKF_TAKE(L->J, n * n);
+    DKF_TAKE(L->C, n * n);
+    DKF_TAKE(L->T, n * n);
+    DKF_TAKE(L->JB, n * m);
+    DKF_TAKE(L->QB, n * m);
+    DKF_TAKE(L->GSi, n * m);
+    DKF_TAKE(L->Sc, m * m);
+    DKF_TAKE(L->Si, m * m);
+    DKF_TAKE(L->r, n);
+    DKF_TAKE(L->Lw, p * p);
+    DKF_TAKE(L->RiH, p * n);
+    DKF_TAKE(L->Riy, p);
+    DKF_TAKE(L->stage, DKF_TW_PKT_LEN(n));
+    DKF_TAKE(L->acc, DKF_TW_PKT_LEN(n));
     return used;
 }
 

@@ -62,27 +62,21 @@ typedef struct {
     dkf_real_t *svdw;
 } layout_t;
 
-#define TAKE(ptr, count) \
-    do { \
-        (ptr) = base != NULL ? base + used : NULL; \
-        used += (count); \
-    } while (0)
-
 static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     size_t used = 0;
-    TAKE(o->x, n);
-    TAKE(o->Px, n * n);
-    TAKE(o->d, m);
-    TAKE(o->Pd, m * m);
-    TAKE(o->Pxd, n * m);
-    TAKE(o->xp, n);
-    TAKE(o->Pp, n * n);
-    TAKE(o->Rt, p * p);
-    TAKE(o->K, n * p);
-    TAKE(o->L, n * p);
-    TAKE(o->M, m * p);
-    TAKE(o->proj, m * m);
+    DKF_TAKE(o->x, n);
+    DKF_TAKE(o->Px, n * n);
+    DKF_TAKE(o->d, m);
+    DKF_TAKE(o->Pd, m * m);
+    DKF_TAKE(o->Pxd, n * m);
+    DKF_TAKE(o->xp, n);
+    DKF_TAKE(o->Pp, n * n);
+    DKF_TAKE(o->Rt, p * p);
+    DKF_TAKE(o->K, n * p);
+    DKF_TAKE(o->L, n * p);
+    DKF_TAKE(o->M, m * p);
+    DKF_TAKE(o->proj, m * m);
     return used;
 }
 
@@ -91,29 +85,28 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
 {
     const size_t q = DKF__UIF_Q(n, p);
     size_t used = out_layout(&L->nx, base, n, m, p);
-    TAKE(L->Dlast, q * m);
-    TAKE(L->Dbar, q * m);
-    TAKE(L->Tc, m * m);
-    TAKE(L->CP, p * n);
-    TAKE(L->Kt, p * n);
-    TAKE(L->Lr, p * p);
-    TAKE(L->Bm, p * m);
-    TAKE(L->W, p * m);
-    TAKE(L->Bt, m * p);
-    TAKE(L->Mbar, m * p);
-    TAKE(L->S, m * m);
-    TAKE(L->Ls, m * m);
-    TAKE(L->Pdb, m * m);
-    TAKE(L->X, m * m);
-    TAKE(L->T1, n * n);
-    TAKE(L->Z, n * m);
-    TAKE(L->ZP, n * m);
-    TAKE(L->T3, n * p);
-    TAKE(L->T4, n * p);
-    TAKE(L->svdw, DKF_MAT_SVD_WORK(q, m));
+    DKF_TAKE(L->Dlast, q * m);
+    DKF_TAKE(L->Dbar, q * m);
+    DKF_TAKE(L->Tc, m * m);
+    DKF_TAKE(L->CP, p * n);
+    DKF_TAKE(L->Kt, p * n);
+    DKF_TAKE(L->Lr, p * p);
+    DKF_TAKE(L->Bm, p * m);
+    DKF_TAKE(L->W, p * m);
+    DKF_TAKE(L->Bt, m * p);
+    DKF_TAKE(L->Mbar, m * p);
+    DKF_TAKE(L->S, m * m);
+    DKF_TAKE(L->Ls, m * m);
+    DKF_TAKE(L->Pdb, m * m);
+    DKF_TAKE(L->X, m * m);
+    DKF_TAKE(L->T1, n * n);
+    DKF_TAKE(L->Z, n * m);
+    DKF_TAKE(L->ZP, n * m);
+    DKF_TAKE(L->T3, n * p);
+    DKF_TAKE(L->T4, n * p);
+    DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(q, m));
     return used;
 }
-#undef TAKE
 
 static layout_t mem_of(const dkf_uif_t *f)
 {

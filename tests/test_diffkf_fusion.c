@@ -879,8 +879,8 @@ static void load_model(world_t *w, const scen_t *sc, size_t k)
  * FC says entered its step. Independent of the recovery. */
 static void ref_masked_step(world_t *w, const scen_t *sc, const unsigned char *contributed)
 {
-    unsigned char rows[PS];
-    dkf_real_t zk[PS];
+    unsigned char rows[PS] = {0};
+    dkf_real_t zk[PS] = {0};
     dkf_mat_t zv;
     size_t i, j, off = 0, pk = 0;
     for (i = 0; i < sc->l; ++i)

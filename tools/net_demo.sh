@@ -147,3 +147,13 @@ print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, P
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
 sys.exit(0 if ok else 1)
 PY
+
+# ---- seed-003 graph filters, one process per node (tools/tw_net_demo.sh) ----------
+# Added for the graph-filter processes: same build directory, same transport rule
+# (namespace when root, else the in-process simulation only).
+tw_args=(--build-dir "$build")
+(( do_build )) || tw_args+=(--no-build)
+(( memq )) && tw_args+=(--in-process)
+echo
+echo "== seed-003 diffusion / consensus filters, one process per node"
+"$here/tw_net_demo.sh" "${tw_args[@]}"

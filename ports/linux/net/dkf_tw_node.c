@@ -1,0 +1,274 @@
+/*
+ * dkf-tw-node - one node of the seed-003 diffusion (Algorithm 2) or
+ * consensus (Algorithm 3) filter as its own process (tw_agent.h,
+ * docs/network.md "Graph filters over LCM").
+ *
+ *   dkf-tw-node --id 3 --alg 3 --output n3.json tests/vectors/uif/s003_6node.json
+ */
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "net.h"
+#include "tw_agent.h"
+
+static const char *prog = "dkf-tw-node";
+
+static void usage(FILE *f)
+{
+    fprintf(f,
+            "usage: %s --id I --alg 2|3 [options] SCENARIO.json\n"
+            "Runs node I of a seed-003 scenario (steps layout with a graph): reads its own\n"
+            "y_{I,n} from the file, publishes its packets on <prefix>_I and subscribes only\n"
+            "to its neighbours' channels; Algorithm 2 exchanges twice per step (info\n"
+            "packet, psi), Algorithm 3 2*eta times (two average-consensus filters).\n"
+            "\n"
+            "  -i, --id I              node index (0-based), required\n"
+            "  -a, --alg A             2 (diffusion) or 3 (consensus), required\n"
+            "  -e, --eta N             Algorithm 3: consensus iterations (default: the file's)\n"
+            "  -o, --output FILE       write x, P, z per step and the counters (JSON)\n"
+            "  -u, --url URL           LCM URL (default %s);\n"
+            "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
+            "  -p, --prefix P          channel prefix (default DKF_TW; letters, digits, _)\n"
+            "      --round-timeout S   give up waiting for a neighbour's packet after S s\n"
+            "                          (default 2); the round completes without it\n"
+            "      --start-timeout S   the same for the first round (default 10)\n"
+            "      --retry-ms MS       re-publish after MS ms without progress (default 50)\n"
+            "  -t, --timeout S         stop after S seconds in all (default 0: never)\n"
+            "      --drop PCT          drop PCT %% of the outgoing packets (tests)\n"
+            "      --seed S            seed of the drops (default 0)\n"
+            "      --ready-file F      create F once subscribed (for scripts)\n"
+            "  -q, --quiet             no summary line\n"
+            "  -h, --help              this text\n"
+            "Exit: 0 every step done (degraded steps are marked in the output), 2 bad\n"
+            "options/scenario, 3 filter or transport failure, 4 interrupted or --timeout.\n",
+            prog, DKF_NET_DEFAULT_URL);
+}
+
+typedef struct {
+    double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
+    const char *url, *prefix, *output, *ready, *scn;
+    int quiet;
+} opts_t;
+
+static int prefix_ok(const char *p)
+{
+    if (*p == '\0' || strlen(p) > 32) return 0;
+    for (; *p; ++p)
+        if (!((*p >= 'A' && *p <= 'Z') || (*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') ||
+              *p == '_'))
+            return 0;
+    return 1;
+}
+
+static int parse(int argc, char **argv, opts_t *o)
+{
+    static const struct option lo[] = {
+        {"id", required_argument, NULL, 'i'},          {"alg", required_argument, NULL, 'a'},
+        {"eta", required_argument, NULL, 'e'},         {"output", required_argument, NULL, 'o'},
+        {"url", required_argument, NULL, 'u'},         {"prefix", required_argument, NULL, 'p'},
+        {"round-timeout", required_argument, NULL, 'R'}, {"start-timeout", required_argument, NULL, 'S'},
+        {"retry-ms", required_argument, NULL, 'M'},    {"timeout", required_argument, NULL, 't'},
+        {"drop", required_argument, NULL, 'D'},        {"seed", required_argument, NULL, 'Z'},
+        {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
+        {"help", no_argument, NULL, 'h'},              {NULL, 0, NULL, 0}};
+    int c;
+    memset(o, 0, sizeof *o);
+    o->id = o->alg = o->eta = -1;
+    o->round_to = 2;
+    o->start_to = 10;
+    o->retry_ms = 50;
+    o->url = DKF_NET_DEFAULT_URL;
+    o->prefix = "DKF_TW";
+    opterr = 0;
+    while ((c = getopt_long(argc, argv, ":i:a:e:o:u:p:t:qh", lo, NULL)) != -1) {
+        int bad = 0;
+        switch (c) {
+        case 'i': bad = dkf_cli_num(prog, "--id", optarg, 0, 1e6, &o->id); break;
+        case 'a': bad = dkf_cli_num(prog, "--alg", optarg, 2, 3, &o->alg); break;
+        case 'e': bad = dkf_cli_num(prog, "--eta", optarg, 0, 1e6, &o->eta); break;
+        case 'o': o->output = optarg; break;
+        case 'u': o->url = optarg; break;
+        case 'p': o->prefix = optarg; break;
+        case 'R': bad = dkf_cli_num(prog, "--round-timeout", optarg, 1e-3, 1e6, &o->round_to); break;
+        case 'S': bad = dkf_cli_num(prog, "--start-timeout", optarg, 1e-3, 1e6, &o->start_to); break;
+        case 'M': bad = dkf_cli_num(prog, "--retry-ms", optarg, 1, 1e6, &o->retry_ms); break;
+        case 't': bad = dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &o->timeout); break;
+        case 'D': bad = dkf_cli_num(prog, "--drop", optarg, 0, 100, &o->drop); break;
+        case 'Z': bad = dkf_cli_num(prog, "--seed", optarg, 0, 4e9, &o->seed); break;
+        case 'F': o->ready = optarg; break;
+        case 'q': o->quiet = 1; break;
+        case 'h': usage(stdout); exit(DKF_EXIT_OK);
+        default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return -1;
+        }
+        if (bad) return -1;
+    }
+    if (optind != argc - 1 || o->id < 0 || o->alg < 0 || o->id != (double)(long)o->id ||
+        o->alg != (double)(int)o->alg || (o->eta >= 0 && o->eta != (double)(long)o->eta)) {
+        fprintf(stderr, "%s: need --id I, --alg 2|3 (integers) and one SCENARIO (see --help)\n",
+                prog);
+        return -1;
+    }
+    if (o->eta >= 0 && o->alg != 3) {
+        fprintf(stderr, "%s: --eta: only for --alg 3\n", prog);
+        return -1;
+    }
+    if (!prefix_ok(o->prefix)) {
+        fprintf(stderr, "%s: --prefix %s: letters, digits and _ only (at most 32)\n", prog,
+                o->prefix);
+        return -1;
+    }
+    o->scn = argv[optind];
+    return 0;
+}
+
+typedef struct {
+    dkf_net_t *net;
+    dkf_tw_agent_t *agent;
+    const char *prefix;
+    char chan[DKF_NET_CHAN_LEN];
+    double drop;
+    uint64_t rng;
+    unsigned long dropped;
+} ctx_t;
+
+/* splitmix64: reproducible drop decisions */
+static double uniform(uint64_t *s)
+{
+    uint64_t z = (*s += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    z ^= z >> 31;
+    return (double)(z >> 11) / 9007199254740992.0;
+}
+
+static int send_own(void *user, const void *data, size_t len)
+{
+    ctx_t *x = user;
+    if (x->drop > 0 && uniform(&x->rng) * 100 < x->drop) {
+        ++x->dropped;
+        return 0;
+    }
+    return dkf_net_publish(x->net, x->chan, data, len);
+}
+
+static void on_packet(const char *channel, const void *data, size_t len, int64_t recv_utime,
+                      void *user)
+{
+    ctx_t *x = user;
+    (void)recv_utime;
+    (void)dkf_tw_agent_receive(x->agent, dkf_tw_chan_node(channel, x->prefix), data, len,
+                               dkf_net_mono_us());
+}
+
+static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, double wall)
+{
+    json_t *doc;
+    int rc;
+    if (o->output == NULL) return 0;
+    doc = dkf_tw_agent_result(x->agent);
+    json_object_set_new(doc, "scenario", json_string(o->scn));
+    json_object_set_new(doc, "exit", json_string(exit_what));
+    json_object_set_new(doc, "wall_s", json_real(wall));
+    json_object_set_new(doc, "dropped_by_flag", json_integer((json_int_t)x->dropped));
+    rc = dkf_cli_write_json(prog, o->output, doc);
+    json_decref(doc);
+    return rc;
+}
+
+/* Runs the agent until it finishes, fails, or is stopped. Exit status. */
+static int run(const opts_t *o, ctx_t *x)
+{
+    const int64_t t0 = dkf_net_mono_us();
+    int st = dkf_tw_agent_start(x->agent, t0), code;
+    const char *what;
+    while (st == DKF_TW_RUNNING || st == DKF_TW_LINGER) {
+        int64_t now = dkf_net_mono_us(), w = dkf_tw_agent_wait_us(x->agent, now) / 1000;
+        if (dkf_cli_stop || dkf_cli_expired(t0, o->timeout)) break;
+        if (dkf_net_drain(x->net, (int)(w > 100 ? 100 : w)) < 0) {
+            fprintf(stderr, "%s: node %.0f: LCM receive failed\n", prog, o->id);
+            st = DKF_TW_FAILED;
+            break;
+        }
+        st = dkf_tw_agent_poll(x->agent, dkf_net_mono_us());
+    }
+    if (st == DKF_TW_FINISHED) {
+        code = DKF_EXIT_OK, what = "done";
+    } else if (st == DKF_TW_FAILED) {
+        code = DKF_EXIT_RUN, what = "failed";
+        if (dkf_tw_agent_error(x->agent)[0] != '\0')
+            fprintf(stderr, "%s: %s\n", prog, dkf_tw_agent_error(x->agent));
+    } else {
+        code = DKF_EXIT_STOPPED, what = "stopped";
+        fprintf(stderr, "%s: node %.0f: %s after %zu steps\n", prog, o->id,
+                dkf_cli_stop ? "interrupted" : "--timeout", dkf_tw_agent_steps_done(x->agent));
+    }
+    if (write_result(o, x, what, (double)(dkf_net_mono_us() - t0) * 1e-6) != 0 && code == 0)
+        code = DKF_EXIT_RUN;
+    if (!o->quiet) {
+        const dkf_tw_counters_t *c = dkf_tw_agent_counters(x->agent);
+        fprintf(stderr,
+                "%s: node %.0f alg %.0f: %s, %zu steps (%lu degraded), sent %lu (%lu "
+                "retransmits, %lu answers), received %lu, rejected %llu\n",
+                prog, o->id, o->alg, what, dkf_tw_agent_steps_done(x->agent), c->degraded_steps,
+                c->sent, c->retransmits, c->answers, c->received,
+                (unsigned long long)c->rej.total);
+    }
+    return code;
+}
+
+int main(int argc, char **argv)
+{
+    opts_t o;
+    ctx_t x;
+    dkf_tw_scn_t c;
+    dkf_tw_agent_opts_t ao;
+    dkf_scenario_t *s;
+    char err[DKF_SCN_ERR_LEN], sub[4096];
+    int code = DKF_EXIT_USAGE;
+    if (parse(argc, argv, &o) != 0) return DKF_EXIT_USAGE;
+    dkf_cli_signals();
+    if ((s = dkf_scenario_load(o.scn, NULL, err, sizeof err)) == NULL) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        return DKF_EXIT_USAGE;
+    }
+    if (dkf_tw_scn_bind(&c, s, (int)o.alg, (long)o.eta, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        dkf_scenario_free(s);
+        return DKF_EXIT_USAGE;
+    }
+    memset(&x, 0, sizeof x);
+    x.prefix = o.prefix;
+    x.drop = o.drop;
+    x.rng = (uint64_t)o.seed * 1000003ULL + (uint64_t)o.id;
+    dkf_tw_chan(x.chan, o.prefix, (size_t)o.id);
+    ao.send = send_own;
+    ao.user = &x;
+    ao.round_timeout_us = (int64_t)(o.round_to * 1e6);
+    ao.start_timeout_us = (int64_t)(o.start_to * 1e6);
+    ao.retry_us = (int64_t)(o.retry_ms * 1e3);
+    x.agent = dkf_tw_agent_new(&c, (size_t)o.id, &ao, err, sizeof err);
+    if (x.agent == NULL) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+    } else if (dkf_tw_subscription(sub, sizeof sub, &c, o.prefix, (size_t)o.id) != 0) {
+        fprintf(stderr, "%s: node %.0f: no neighbours, or too many for one subscription\n", prog,
+                o.id);
+    } else if ((x.net = dkf_net_open(o.url, err, sizeof err)) == NULL) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        code = DKF_EXIT_RUN;
+    } else if (dkf_net_subscribe(x.net, sub, on_packet, &x) != 0) {
+        fprintf(stderr, "%s: %s: cannot subscribe\n", prog, sub);
+        code = DKF_EXIT_RUN;
+    } else if (o.ready != NULL && dkf_cli_touch(prog, o.ready) != 0) {
+        code = DKF_EXIT_RUN;
+    } else {
+        code = run(&o, &x);
+    }
+    dkf_net_close(x.net);
+    dkf_tw_agent_free(x.agent);
+    dkf_tw_scn_free(&c);
+    dkf_scenario_free(s);
+    return code;
+}

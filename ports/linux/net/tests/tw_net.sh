@@ -1,0 +1,112 @@
+#!/usr/bin/env bash
+# tw_net.sh MODE OUTDIR - seed-003 graph filters with one dkf-tw-node process
+# per node over real UDP multicast (udpm://239.255.76.67:7667?ttl=0) inside a
+# private network namespace made for this run (tools/netns.sh): nothing can
+# leave the host.
+#
+#   vec6    the 6-node vector (tests/vectors/uif/s003_6node.json), 6 processes,
+#           Algorithms 2 and 3: every node's x, P, z == the vector's alg2/alg3
+#           (double 1e-9, float 1e-3: the file's rule) and == dkf-run's
+#           in-process whole-graph simulation bit for bit (--runner-rel 0)
+#   rgg36   a 36-node random geometric graph (tw_make_scenario.py, seed 36,
+#           40 steps), 36 processes, Algorithms 2 and 3 (eta 10): == dkf-run
+#           bit for bit
+#   loss    vec6 with every process dropping 20 % of its outgoing packets:
+#           retransmissions recover, results unchanged (bit for bit)
+#   absent  vec6 without node 5: the other five finish every step; nodes 0
+#           and 4 (5's neighbours) degraded at every step, 1-3 never
+#
+# Environment (set by ctest): DKF_TW_NODE DKF_RUN DKF_PYTHON DKF_NETNS
+# DKF_TW_TOOLS DKF_REAL DKF_VECTORS. Exit 77 (skip) when not root; every
+# process has --timeout and the script is bounded by ctest's TIMEOUT.
+set -uo pipefail
+mode=$1 out=$2
+URL='udpm://239.255.76.67:7667?ttl=0'
+T=120   # per-process timeout, seconds
+
+if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
+  "$DKF_NETNS" check || exit $?
+  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
+fi
+if ip -o link | grep -qv ': lo:'; then
+  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
+  exit 1
+fi
+
+rm -rf "$out" && mkdir -p "$out"
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
+trap cleanup EXIT
+vrel=1e-9
+[[ ${DKF_REAL:-double} == float ]] && vrel=1e-3
+
+# run_nodes SCN ALG DIR SKIP EXTRA... : one process per node (SKIP: a node
+# not started, or -1), waits for all; fails if one fails.
+run_nodes() {
+  local scn=$1 alg=$2 dir=$3 skip=$4; shift 4
+  local N i rc=0 t0 t1
+  N=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
+  mkdir -p "$dir"
+  local mine=()
+  t0=$(date +%s.%N)
+  for ((i = 0; i < N; ++i)); do
+    [[ $i == "$skip" ]] && continue
+    "$DKF_TW_NODE" --url "$URL" --id $i --alg "$alg" --timeout $T --quiet \
+      --output "$dir/node$i.json" "$@" "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
+  done
+  for p in "${mine[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
+  t1=$(date +%s.%N)
+  echo "alg $alg: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
+  [[ $rc == 0 ]] || cat "$dir"/node*.log
+  return $rc
+}
+
+check() { # SCN ALG DIR [tw_check args]
+  local scn=$1 alg=$2 dir=$3; shift 3
+  "$DKF_RUN" --filter tw$alg --quiet --output "$dir/runner.json" "$scn" || { echo "FAIL: dkf-run"; return 1; }
+  "$DKF_PYTHON" "$DKF_TW_TOOLS/tw_check.py" --scenario "$scn" --alg "$alg" --nodes-dir "$dir" \
+    --runner "$dir/runner.json" --vector-rel $vrel --runner-rel 0 "$@"
+}
+
+v6=$DKF_VECTORS/uif/s003_6node.json
+rc=0
+case "$mode" in
+  vec6)
+    for alg in 2 3; do
+      run_nodes "$v6" $alg "$out/alg$alg" -1 && check "$v6" $alg "$out/alg$alg" || rc=1
+    done
+    ;;
+  rgg36)
+    "$DKF_PYTHON" "$DKF_TW_TOOLS/tw_make_scenario.py" --nodes 36 --steps 40 --seed 36 --eta 10 \
+      --out "$out/rgg36.json" || exit 1
+    for alg in 2 3; do
+      run_nodes "$out/rgg36.json" $alg "$out/alg$alg" -1 && check "$out/rgg36.json" $alg "$out/alg$alg" || rc=1
+    done
+    ;;
+  loss)
+    for alg in 2 3; do
+      run_nodes "$v6" $alg "$out/alg$alg" -1 --drop 20 --seed 7 --retry-ms 20 &&
+        check "$v6" $alg "$out/alg$alg" || rc=1
+      grep -h '"dropped_by_flag"' "$out/alg$alg"/node*.json >/dev/null || rc=1
+      "$DKF_PYTHON" - "$out/alg$alg" <<'PY' || rc=1
+import glob, json, sys
+d = [json.load(open(f)) for f in glob.glob(sys.argv[1] + "/node*.json")]
+dropped = sum(x["dropped_by_flag"] for x in d)
+rt = sum(x["counters"]["retransmits"] for x in d)
+print(f"dropped {dropped} outgoing packets, {rt} retransmissions")
+assert dropped > 0 and rt > 0, "no loss exercised"
+PY
+    done
+    ;;
+  absent)
+    for alg in 2 3; do
+      run_nodes "$v6" $alg "$out/alg$alg" 5 --start-timeout 3 --round-timeout 1 &&
+        "$DKF_PYTHON" "$DKF_TW_TOOLS/tw_check.py" --scenario "$v6" --alg $alg \
+          --nodes-dir "$out/alg$alg" --expect-absent 5 || rc=1
+    done
+    ;;
+  *)
+    echo "tw_net.sh: $mode: unknown mode" >&2; exit 2 ;;
+esac
+[[ $rc == 0 ]] && echo "PASS: $mode" || echo "FAIL: $mode"
+exit $rc

@@ -1,0 +1,890 @@
+/*
+ * tw_agent.c - the seed-003 node agent of tw_agent.h: scenario binding,
+ * packet codec, and the per-node round machine over dkf/tw.h's node API.
+ */
+#define _POSIX_C_SOURCE 200809L
+
+#include "tw_agent.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dkf_lcm_tw_packet_t.h"
+#include "net.h"
+
+static int failf(char *err, size_t errlen, const char *fmt, ...)
+{
+    va_list ap;
+    if (err == NULL || errlen == 0) return -1;
+    va_start(ap, fmt);
+    vsnprintf(err, errlen, fmt, ap);
+    va_end(ap);
+    return -1;
+}
+
+/* ---- scenario ------------------------------------------------------------------- */
+
+/* The file's weights (triplets) or the library default (uniform alpha,
+ * Metropolis W), checked: the rule of tw_run.c, so both runners agree. */
+static int bind_weights(dkf_tw_scn_t *c, int doubly, dkf_real_t *w, int *dflt, char *err,
+                        size_t errlen)
+{
+    const dkf_scn_network_t *net = c->s->net;
+    const size_t cnt = doubly ? net->nW : net->nalpha;
+    const size_t *rc = doubly ? net->W_rc : net->alpha_rc;
+    const double *v = doubly ? net->W_v : net->alpha_v;
+    size_t *ri = NULL, *ci;
+    dkf_real_t *vv;
+    dkf_status_t st;
+    size_t t;
+    *dflt = (doubly ? net->W_key : net->alpha_key) == NULL;
+    if (*dflt)
+        st = doubly ? dkf_graph_weights_metropolis(w, &c->g) : dkf_graph_weights_uniform(w, &c->g);
+    else {
+        ri = malloc((cnt + 1) * (2 * sizeof *ri + sizeof *vv));
+        if (ri == NULL) return failf(err, errlen, "%s: out of memory", c->s->file);
+        ci = ri + cnt + 1;
+        vv = (dkf_real_t *)(void *)(ci + cnt + 1);
+        for (t = 0; t < cnt; ++t) {
+            ri[t] = rc[2 * t];
+            ci[t] = rc[2 * t + 1];
+            vv[t] = (dkf_real_t)v[t];
+        }
+        st = dkf_graph_weights_from_triplets(w, &c->g, ri, ci, vv, cnt);
+        free(ri);
+    }
+    if (st == DKF_OK)
+        st = doubly ? dkf_graph_check_doubly_stochastic(&c->g, w)
+                    : dkf_graph_check_row_stochastic(&c->g, w);
+    if (st != DKF_OK)
+        return failf(err, errlen, "%s: %s: %s", c->s->file,
+                     doubly ? (net->W_key ? net->W_key : "W (Metropolis)")
+                            : (net->alpha_key ? net->alpha_key : "alpha (uniform)"),
+                     dkf_status_str(st));
+    return 0;
+}
+
+typedef struct {
+    uint64_t h;
+} fnv_t;
+
+static void fnv_bytes(fnv_t *f, const unsigned char *b, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        f->h ^= b[i];
+        f->h *= 1099511628211ULL;
+    }
+}
+
+/* Integers and doubles by value, most significant byte first. */
+static void fnv_u64(fnv_t *f, uint64_t v)
+{
+    unsigned char b[8];
+    int i;
+    for (i = 0; i < 8; ++i) b[i] = (unsigned char)(v >> (56 - 8 * i));
+    fnv_bytes(f, b, 8);
+}
+
+static void fnv_doubles(fnv_t *f, const double *v, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) {
+        uint64_t u;
+        memcpy(&u, &v[i], sizeof u);
+        fnv_u64(f, u);
+    }
+}
+
+/* Everything that must agree between the nodes of one run: dimensions,
+ * the model at every step, every sensor's H and Sw, the prior, the graph,
+ * the weights, alg and eta (measurements excluded: each node reads its own). */
+static int64_t model_id(const dkf_tw_scn_t *c)
+{
+    static const char *const dyn[] = {"A", "B", "Sv"};
+    const dkf_scenario_t *s = c->s;
+    fnv_t f = {14695981039346656037ULL};
+    size_t i, k, l;
+    fnv_u64(&f, (uint64_t)c->alg);
+    fnv_u64(&f, (uint64_t)c->eta);
+    fnv_u64(&f, (uint64_t)c->N);
+    fnv_u64(&f, (uint64_t)c->n);
+    fnv_u64(&f, (uint64_t)c->m);
+    fnv_u64(&f, (uint64_t)c->steps);
+    for (i = 0; i < 3; ++i) {
+        const dkf_scn_mat_t *M = dkf_scn_model(s, dyn[i]);
+        for (k = 0; k < c->steps; ++k) fnv_doubles(&f, dkf_scn_at(M, k), M->rows * M->cols);
+    }
+    for (l = 0; l < c->N; ++l) {
+        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
+        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
+        fnv_doubles(&f, H->data, H->rows * H->cols);
+        fnv_doubles(&f, Sw->data, Sw->rows * Sw->cols);
+    }
+    fnv_doubles(&f, dkf_scn_init(s, "x00")->data, c->n);
+    fnv_doubles(&f, dkf_scn_init(s, "P00")->data, c->n * c->n);
+    for (i = 0; i <= c->N; ++i) fnv_u64(&f, (uint64_t)c->start[i]);
+    for (i = 0; i < c->g.nnz; ++i) {
+        const double a = (double)c->alpha[i], w = (double)c->W[i];
+        fnv_u64(&f, (uint64_t)c->nbr[i]);
+        fnv_doubles(&f, &a, 1);
+        fnv_doubles(&f, &w, 1);
+    }
+    return (int64_t)f.h;
+}
+
+static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, size_t errlen)
+{
+    if (alg != 2 && alg != 3) return failf(err, errlen, "--alg %d: expected 2 or 3", alg);
+    if (s->layout != DKF_SCN_LAYOUT_STEPS || s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
+        return failf(err, errlen, "%s: graph: missing key (a seed-003 steps-layout file with a "
+                     "graph is needed)", s->file);
+    if (s->k_first != 1)
+        return failf(err, errlen, "%s: steps[0].n: must be 1, got %ld", s->file, s->k_first);
+    if (alg == 3 && eta < 0 && s->net->eta < 0)
+        return failf(err, errlen, "%s: eta: missing key (Algorithm 3 needs eta or --eta N)",
+                     s->file);
+    return 0;
+}
+
+int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta, char *err,
+                    size_t errlen)
+{
+    size_t l, nnz;
+    dkf_status_t st;
+    memset(c, 0, sizeof *c);
+    if (check_file(s, alg, eta, err, errlen) != 0) return -1;
+    c->s = s;
+    c->alg = alg;
+    c->N = s->net->N;
+    c->E = s->net->E;
+    c->n = s->n;
+    c->m = dkf_scn_model(s, "B")->cols;
+    c->steps = s->steps;
+    c->eta = alg == 3 ? (size_t)(eta >= 0 ? eta : s->net->eta) : 0;
+    c->rounds = alg == 2 ? 2 : 2 * c->eta;
+    for (l = 0; l < c->N; ++l)
+        if (s->sensors[l].m > c->pmax) c->pmax = s->sensors[l].m;
+    nnz = DKF_GRAPH_NNZ(c->N, c->E);
+    c->start = calloc(c->N + 1, sizeof *c->start);
+    c->nbr = calloc(nnz, sizeof *c->nbr);
+    c->alpha = calloc(2 * nnz, sizeof *c->alpha);
+    if (c->start == NULL || c->nbr == NULL || c->alpha == NULL) {
+        dkf_tw_scn_free(c);
+        return failf(err, errlen, "%s: out of memory", s->file);
+    }
+    c->W = c->alpha + nnz;
+    st = dkf_graph_from_edges(&c->g, c->start, c->nbr, nnz, c->N, s->net->edges, c->E);
+    if (st != DKF_OK) {
+        dkf_tw_scn_free(c);
+        return failf(err, errlen, "%s: graph.edges: %s", s->file, dkf_status_str(st));
+    }
+    if (bind_weights(c, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
+        bind_weights(c, 1, c->W, &c->W_default, err, errlen) != 0) {
+        dkf_tw_scn_free(c);
+        return -1;
+    }
+    c->model_id = model_id(c);
+    return 0;
+}
+
+void dkf_tw_scn_free(dkf_tw_scn_t *c)
+{
+    free(c->start);
+    free(c->nbr);
+    free(c->alpha);
+    c->start = c->nbr = NULL;
+    c->alpha = c->W = NULL;
+}
+
+/* ---- packets -------------------------------------------------------------------- */
+
+void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *len)
+{
+    if (c->alg == 2) {
+        *kind = round == 0 ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
+        *len = round == 0 ? DKF_TW_PKT_LEN(c->n) : c->n;
+    } else {
+        *kind = round < c->eta ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
+        *len = DKF_TW_PKT_LEN(c->n);
+    }
+}
+
+int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p)
+{
+    double v[DKF_TW_MAX_PKT];
+    dkf_lcm_tw_packet_t w;
+    size_t i;
+    int r;
+    if (p->len > DKF_TW_MAX_PKT || cap > 0x7fffffff) return -1;
+    for (i = 0; i < p->len; ++i) v[i] = (double)p->v[i];
+    w.utime = p->utime;
+    w.model_id = p->model_id;
+    w.node = (int32_t)p->node;
+    w.k = (int32_t)p->k;
+    w.round = (int32_t)p->round;
+    w.kind = (int8_t)p->kind;
+    w.retransmit = (int8_t)(p->retransmit != 0);
+    w.len = (int32_t)p->len;
+    w.v = v;
+    r = dkf_lcm_tw_packet_t_encode(buf, 0, (int)cap, &w);
+    if (r < 0) return -1;
+    *len = (size_t)r;
+    return 0;
+}
+
+static dkf_net_verdict_t check_fields(const dkf_lcm_tw_packet_t *w, const dkf_tw_scn_t *c,
+                                      long chan_node)
+{
+    int kind;
+    size_t len;
+    if (w->len < 0 || w->kind < 0 || w->kind > 2 || (w->retransmit != 0 && w->retransmit != 1))
+        return DKF_NET_REJ_MALFORMED;
+    if (w->node < 0 || (size_t)w->node >= c->N || (chan_node >= 0 && w->node != chan_node))
+        return DKF_NET_REJ_NODE;
+    if (w->model_id != c->model_id) return DKF_NET_REJ_MODEL;
+    if (w->kind == DKF_TW_KIND_DONE) {
+        if (w->len != 0) return DKF_NET_REJ_DIM;
+        return (w->k == (int32_t)c->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT : DKF_NET_REJ_STEP;
+    }
+    if (w->round < 0 || (size_t)w->round >= c->rounds) return DKF_NET_REJ_STEP;
+    dkf_tw_round_shape(c, (size_t)w->round, &kind, &len);
+    if ((size_t)w->len != len) return DKF_NET_REJ_DIM;
+    if (w->k < 1 || (size_t)w->k > c->steps || w->kind != kind) return DKF_NET_REJ_STEP;
+    return DKF_NET_ACCEPT;
+}
+
+static dkf_net_verdict_t reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v)
+{
+    if (rej != NULL && v != DKF_NET_ACCEPT) {
+        ++rej->total;
+        ++rej->by[v];
+    }
+    return v;
+}
+
+dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t *c,
+                                long chan_node, dkf_tw_pkt_t *out, dkf_net_rejects_t *rej)
+{
+    dkf_lcm_tw_packet_t w;
+    dkf_net_verdict_t v;
+    dkf_real_t tmp[DKF_TW_MAX_PKT];
+    int32_t i;
+    if (buf == NULL || len > 0x7fffffff) return reject(rej, DKF_NET_REJ_MALFORMED);
+    memset(&w, 0, sizeof w);
+    if (dkf_lcm_tw_packet_t_decode(buf, 0, (int)len, &w) != (int)len) {
+        dkf_lcm_tw_packet_t_decode_cleanup(&w);
+        return reject(rej, DKF_NET_REJ_MALFORMED);
+    }
+    v = check_fields(&w, c, chan_node);
+    for (i = 0; v == DKF_NET_ACCEPT && i < w.len; ++i) {
+        tmp[i] = (dkf_real_t)w.v[i];
+        if (!isfinite(w.v[i]) || !isfinite((double)tmp[i])) v = DKF_NET_REJ_NONFINITE;
+    }
+    if (v == DKF_NET_ACCEPT) {
+        out->utime = w.utime;
+        out->model_id = w.model_id;
+        out->node = w.node;
+        out->k = w.k;
+        out->round = w.round;
+        out->kind = w.kind;
+        out->retransmit = w.retransmit;
+        out->len = (size_t)w.len;
+        memcpy(out->v, tmp, (size_t)w.len * sizeof tmp[0]);
+    }
+    dkf_lcm_tw_packet_t_decode_cleanup(&w);
+    return reject(rej, v);
+}
+
+void dkf_tw_chan(char *out, const char *prefix, size_t node)
+{
+    snprintf(out, DKF_NET_CHAN_LEN, "%s_%zu", prefix, node);
+}
+
+long dkf_tw_chan_node(const char *channel, const char *prefix)
+{
+    const size_t pl = strlen(prefix);
+    const char *p = channel + pl + 1;
+    long v = 0;
+    if (strncmp(channel, prefix, pl) != 0 || channel[pl] != '_' || *p == '\0') return -1;
+    if (p[0] == '0' && p[1] != '\0') return -1;
+    for (; *p != '\0'; ++p) {
+        if (*p < '0' || *p > '9' || v > 100000000L) return -1;
+        v = v * 10 + (*p - '0');
+    }
+    return v;
+}
+
+int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char *prefix,
+                        size_t node)
+{
+    size_t e, used;
+    int r = snprintf(out, cap, "%s_(", prefix), first = 1;
+    if (r < 0 || (size_t)r >= cap) return -1;
+    used = (size_t)r;
+    for (e = c->start[node]; e < c->start[node + 1]; ++e) {
+        if (c->nbr[e] == node) continue;
+        r = snprintf(out + used, cap - used, "%s%zu", first ? "" : "|", c->nbr[e]);
+        if (r < 0 || (size_t)r >= cap - used) return -1;
+        used += (size_t)r;
+        first = 0;
+    }
+    if (first) return -1; /* no neighbour: nothing to subscribe to */
+    r = snprintf(out + used, cap - used, ")");
+    return (r < 0 || (size_t)r >= cap - used) ? -1 : 0;
+}
+
+/* ---- the agent ------------------------------------------------------------------- */
+
+struct dkf_tw_agent {
+    const dkf_tw_scn_t *c;
+    dkf_tw_agent_opts_t o;
+    size_t id, row0, deg, self; /* row of id: entries row0 .. row0 + deg - 1; self = position of id */
+    size_t pkt;                 /* DKF_TW_PKT_LEN(n) */
+    dkf_tw_node_t nd;
+    dkf_real_t *mem;            /* node storage, then the buffers below */
+    dkf_real_t *rx, *nx;        /* deg x pkt: this round's / next round's packets, row order */
+    dkf_real_t *cur, *prev;     /* my packet of this round / of the previous one */
+    dkf_real_t *mix, *est;      /* pkt each */
+    size_t cur_len, prev_len;
+    unsigned char *have, *have_nx, *absent, *done, *missed; /* deg flags each */
+    int64_t *heard;             /* deg: last packet of a round <= t + 1 (liveness) */
+    long t, prev_t;             /* global round index (k - 1) * rounds + round; -1: none */
+    long T;                     /* steps * rounds */
+    size_t k;                   /* step in progress (1..steps), steps + 1 when finished */
+    int state;
+    int64_t round_start, last_pub, linger_start;
+    /* model / sensor of the step */
+    dkf_real_t *A, *B, *Sv, *H, *Sw, *y;
+    dkf_mat_t mA, mB, mSv, mH, mSw, my, mx0, mP0;
+    dkf_tw_model_t model;
+    dkf_tw_sensor_t sens;
+    /* results */
+    double *xs, *Ps, *zs;
+    unsigned char *deg_step;    /* per step: degraded */
+    unsigned char *miss_step;   /* steps x deg: neighbour missing in the step */
+    dkf_tw_counters_t cnt;
+    char err[256];
+};
+
+static void to_real(dkf_real_t *dst, const double *src, size_t n)
+{
+    dkf_scn_to_real(dst, src, n);
+}
+
+static int alloc_agent(dkf_tw_agent_t *a)
+{
+    const dkf_tw_scn_t *c = a->c;
+    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax);
+    const size_t nm = 2 * c->n * c->n + c->n * c->m + c->pmax * c->n + c->pmax * c->pmax +
+                      c->pmax + 2 * c->n;
+    a->mem = calloc(node_len + 2 * a->deg * a->pkt + 4 * a->pkt + nm, sizeof *a->mem);
+    a->have = calloc(5 * a->deg + c->steps + c->steps * a->deg, 1);
+    a->xs = calloc(c->steps * (c->n + c->n * c->n + c->m), sizeof *a->xs);
+    a->heard = calloc(a->deg, sizeof *a->heard);
+    if (a->mem == NULL || a->have == NULL || a->xs == NULL || a->heard == NULL) return -1;
+    a->rx = a->mem + node_len;
+    a->nx = a->rx + a->deg * a->pkt;
+    a->cur = a->nx + a->deg * a->pkt;
+    a->prev = a->cur + a->pkt;
+    a->mix = a->prev + a->pkt;
+    a->est = a->mix + a->pkt;
+    a->A = a->est + a->pkt;
+    a->Sv = a->A + c->n * c->n;
+    a->B = a->Sv + c->n * c->n;
+    a->H = a->B + c->n * c->m;
+    a->Sw = a->H + c->pmax * c->n;
+    a->y = a->Sw + c->pmax * c->pmax;
+    a->have_nx = a->have + a->deg;
+    a->absent = a->have_nx + a->deg;
+    a->done = a->absent + a->deg;
+    a->missed = a->done + a->deg;
+    a->deg_step = a->missed + a->deg;
+    a->miss_step = a->deg_step + c->steps;
+    a->Ps = a->xs + c->steps * c->n;
+    a->zs = a->Ps + c->steps * c->n * c->n;
+    return 0;
+}
+
+dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_agent_opts_t *o,
+                                 char *err, size_t errlen)
+{
+    dkf_tw_agent_t *a;
+    const dkf_scn_mat_t *H, *Sw;
+    dkf_status_t st;
+    size_t e;
+    if (id >= c->N) {
+        failf(err, errlen, "--id %zu: the scenario has %zu nodes", id, c->N);
+        return NULL;
+    }
+    a = calloc(1, sizeof *a);
+    if (a == NULL) return NULL;
+    a->c = c;
+    a->o = *o;
+    a->id = id;
+    a->row0 = c->start[id];
+    a->deg = c->start[id + 1] - a->row0;
+    if (a->deg > DKF_TW_MAX_DEG) {
+        failf(err, errlen, "node %zu: %zu neighbours, at most %d supported", id, a->deg - 1,
+              DKF_TW_MAX_DEG - 1);
+        free(a);
+        return NULL;
+    }
+    for (e = 0; e < a->deg; ++e)
+        if (c->nbr[a->row0 + e] == id) a->self = e;
+    a->pkt = DKF_TW_PKT_LEN(c->n);
+    a->t = a->prev_t = -1;
+    a->T = (long)(c->steps * c->rounds);
+    if (alloc_agent(a) != 0) {
+        dkf_tw_agent_free(a);
+        failf(err, errlen, "node %zu: out of memory", id);
+        return NULL;
+    }
+    H = dkf_scn_sensor_model(c->s, id, "H");
+    Sw = dkf_scn_sensor_model(c->s, id, "Sw");
+    to_real(a->H, H->data, H->rows * c->n);
+    to_real(a->Sw, Sw->data, Sw->rows * Sw->rows);
+    dkf_mat_init(&a->mH, H->rows, c->n, a->H);
+    dkf_mat_init(&a->mSw, Sw->rows, Sw->rows, a->Sw);
+    dkf_mat_init(&a->mA, c->n, c->n, a->A);
+    dkf_mat_init(&a->mB, c->n, c->m, a->B);
+    dkf_mat_init(&a->mSv, c->n, c->n, a->Sv);
+    dkf_mat_init(&a->my, H->rows, 1, a->y);
+    /* x0, P0 through the scratch of the step model (A, Sv) before the first step */
+    to_real(a->B, dkf_scn_init(c->s, "x00")->data, c->n);
+    to_real(a->A, dkf_scn_init(c->s, "P00")->data, c->n * c->n);
+    dkf_mat_init(&a->mx0, c->n, 1, a->B);
+    dkf_mat_init(&a->mP0, c->n, c->n, a->A);
+    st = dkf_tw_node_init(&a->nd, c->n, c->m, c->pmax, a->mem,
+                          DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax), &a->mx0, &a->mP0);
+    if (st != DKF_OK) {
+        failf(err, errlen, "node %zu: dkf_tw_node_init: %s", id, dkf_status_str(st));
+        dkf_tw_agent_free(a);
+        return NULL;
+    }
+    a->model.A = &a->mA;
+    a->model.B = &a->mB;
+    a->model.Sv = &a->mSv;
+    a->sens.H = &a->mH;
+    a->sens.Sw = &a->mSw;
+    a->sens.y = &a->my;
+    return a;
+}
+
+void dkf_tw_agent_free(dkf_tw_agent_t *a)
+{
+    if (a == NULL) return;
+    free(a->mem);
+    free(a->have);
+    free(a->xs);
+    free(a->heard);
+    free(a);
+}
+
+static int fail_agent(dkf_tw_agent_t *a, const char *what, dkf_status_t st)
+{
+    snprintf(a->err, sizeof a->err, "node %zu: step n=%zu: %s failed: %s", a->id, a->k, what,
+             dkf_status_str(st));
+    a->state = DKF_TW_FAILED;
+    return a->state;
+}
+
+/* retransmit: 0 first publication, 1 re-publication while waiting (the
+ * wire flag), 2 an answer to a neighbour's re-publication (flag clear). */
+static int publish(dkf_tw_agent_t *a, long t, int kind, const dkf_real_t *v, size_t len,
+                   int retransmit, int64_t now)
+{
+    static unsigned char buf[DKF_TW_MAX_MSG];
+    dkf_tw_pkt_t p;
+    size_t n;
+    const long R = (long)a->c->rounds;
+    memset(&p, 0, sizeof p);
+    p.utime = dkf_net_now_us();
+    p.model_id = a->c->model_id;
+    p.node = (long)a->id;
+    p.k = kind == DKF_TW_KIND_DONE ? (long)a->c->steps + 1 : t / R + 1;
+    p.round = kind == DKF_TW_KIND_DONE ? 0 : t % R;
+    p.kind = kind;
+    p.retransmit = retransmit == 1;
+    p.len = len;
+    if (len > 0) memcpy(p.v, v, len * sizeof *v);
+    if (dkf_tw_encode(buf, sizeof buf, &n, &p) != 0 || a->o.send(a->o.user, buf, n) != 0) {
+        snprintf(a->err, sizeof a->err, "node %zu: cannot publish", a->id);
+        a->state = DKF_TW_FAILED;
+        return -1;
+    }
+    ++a->cnt.sent;
+    if (retransmit == 1) ++a->cnt.retransmits;
+    else if (retransmit == 2) ++a->cnt.answers;
+    else a->cnt.reals_sent += len; /* the filter's own traffic, first publications */
+    a->last_pub = now;
+    return 0;
+}
+
+/* Enters round t with my packet v: early packets of t become current. */
+static int enter_round(dkf_tw_agent_t *a, long t, const dkf_real_t *v, int64_t now)
+{
+    const size_t R = a->c->rounds;
+    int kind;
+    size_t len;
+    dkf_tw_round_shape(a->c, (size_t)t % R, &kind, &len);
+    if (a->t >= 0) {
+        memcpy(a->prev, a->cur, a->cur_len * sizeof *a->cur);
+        a->prev_len = a->cur_len;
+        a->prev_t = a->t;
+    }
+    if (v != a->cur) memcpy(a->cur, v, len * sizeof *v);
+    a->cur_len = len;
+    a->t = t;
+    memcpy(a->rx, a->nx, a->deg * a->pkt * sizeof *a->rx);
+    memcpy(a->have, a->have_nx, a->deg);
+    memset(a->have_nx, 0, a->deg);
+    memcpy(a->rx + a->self * a->pkt, a->cur, len * sizeof *v);
+    a->have[a->self] = 1;
+    a->round_start = now;
+    return publish(a, t, kind, a->cur, len, 0, now);
+}
+
+static void load_step(dkf_tw_agent_t *a)
+{
+    const dkf_tw_scn_t *c = a->c;
+    const size_t k = a->k;
+    to_real(a->A, dkf_scn_at(dkf_scn_model(c->s, "A"), k - 1), c->n * c->n);
+    to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "B"), k - 1), c->n * c->m);
+    to_real(a->Sv, dkf_scn_at(dkf_scn_model(c->s, "Sv"), k - 1), c->n * c->n);
+    to_real(a->y, dkf_scn_y(c->s, a->id, (long)k), a->mH.rows);
+}
+
+static void record_step(dkf_tw_agent_t *a)
+{
+    const dkf_tw_scn_t *c = a->c;
+    const size_t j = a->k - 1;
+    size_t i;
+    for (i = 0; i < c->n; ++i) a->xs[j * c->n + i] = (double)a->nd.x.data[i];
+    for (i = 0; i < c->n * c->n; ++i) a->Ps[j * c->n * c->n + i] = (double)a->nd.P.data[i];
+    for (i = 0; i < c->m; ++i) a->zs[j * c->m + i] = (double)a->nd.z.data[i];
+    memcpy(a->miss_step + j * a->deg, a->missed, a->deg);
+    for (i = 0; i < a->deg; ++i) a->deg_step[j] |= a->missed[i];
+    if (a->deg_step[j]) ++a->cnt.degraded_steps;
+    memset(a->missed, 0, a->deg);
+}
+
+static int finish(dkf_tw_agent_t *a, int64_t now)
+{
+    a->state = DKF_TW_LINGER;
+    a->linger_start = now;
+    a->prev_t = a->t; /* answers to retransmits of the last round */
+    memcpy(a->prev, a->cur, a->cur_len * sizeof *a->cur);
+    a->prev_len = a->cur_len;
+    a->t = a->T;
+    return publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 0, now);
+}
+
+/* Starts step a->k (or finishes): its measurement packet, then round 0;
+ * with no rounds at all (Alg 3, eta = 0) the step is local. */
+static int begin_step(dkf_tw_agent_t *a, int64_t now)
+{
+    const dkf_tw_scn_t *c = a->c;
+    dkf_status_t st;
+    while (a->k <= c->steps) {
+        load_step(a);
+        st = dkf_tw_meas_packet(a->mix, &a->nd, &a->sens,
+                                c->alg == 2 ? DKF_R(1.0) : (dkf_real_t)c->N);
+        if (st != DKF_OK) return fail_agent(a, "dkf_tw_meas_packet", st);
+        if (c->rounds > 0) return enter_round(a, (long)((a->k - 1) * c->rounds), a->mix, now);
+        if ((st = dkf_tw_node_local(&a->nd, &a->model, a->mix, a->est)) != DKF_OK)
+            return fail_agent(a, "dkf_tw_node_local", st);
+        if ((st = dkf_tw_node_commit(&a->nd, a->est, a->est + c->n)) != DKF_OK)
+            return fail_agent(a, "dkf_tw_node_commit", st);
+        record_step(a);
+        ++a->k;
+    }
+    return finish(a, now);
+}
+
+/* Alg 2 info sum (weights NULL) or a weighted mix of the present packets
+ * (len reals each) into out. Complete rounds take the row exactly as
+ * dkf_tw_net_* does; with packets missing, alpha is renormalised over the
+ * present ones (Alg 2) or the own packet stands in (Alg 3, subst). */
+static dkf_status_t mix_round(dkf_tw_agent_t *a, dkf_real_t *out, size_t len,
+                              const dkf_real_t *w, int subst)
+{
+    const dkf_real_t *in[DKF_TW_MAX_DEG];
+    dkf_real_t wc[DKF_TW_MAX_DEG], sum = DKF_R(0.0);
+    size_t e, cnt = 0;
+    int full = 1;
+    for (e = 0; e < a->deg; ++e) full &= a->have[e];
+    if (full || subst) {
+        for (e = 0; e < a->deg; ++e) in[e] = a->have[e] ? a->rx + e * a->pkt : a->cur;
+        return dkf_graph_mix(out, len, in, w, a->deg);
+    }
+    for (e = 0; e < a->deg; ++e)
+        if (a->have[e]) {
+            in[cnt] = a->rx + e * a->pkt;
+            if (w != NULL) sum += (wc[cnt] = w[e]);
+            ++cnt;
+        }
+    for (e = 0; w != NULL && e < cnt; ++e) wc[e] /= sum;
+    return dkf_graph_mix(out, len, in, w != NULL ? wc : NULL, cnt);
+}
+
+/* Round a->t is complete (or given up): mix, and go on. */
+static int complete_round(dkf_tw_agent_t *a, int64_t now)
+{
+    const dkf_tw_scn_t *c = a->c;
+    const size_t r = (size_t)a->t % c->rounds;
+    const long next = a->t + 1;
+    dkf_status_t st;
+    if (c->alg == 2 && r == 0) { /* (24c), (25a): info sum over N_l; local step; publish psi */
+        if ((st = mix_round(a, a->mix, a->pkt, NULL, 0)) != DKF_OK) return fail_agent(a, "info sum", st);
+        if ((st = dkf_tw_node_local(&a->nd, &a->model, a->mix, a->est)) != DKF_OK)
+            return fail_agent(a, "dkf_tw_node_local", st);
+        return enter_round(a, next, a->est, now);
+    }
+    if (c->alg == 2) { /* (26b): x_l = sum alpha_lk psi_k */
+        if ((st = mix_round(a, a->mix, c->n, c->alpha + a->row0, 0)) != DKF_OK)
+            return fail_agent(a, "psi mix", st);
+        if ((st = dkf_tw_node_commit(&a->nd, a->mix, NULL)) != DKF_OK)
+            return fail_agent(a, "dkf_tw_node_commit", st);
+    } else { /* (29)-(30): one ACF iteration */
+        if ((st = mix_round(a, a->mix, a->pkt, c->W + a->row0, 1)) != DKF_OK)
+            return fail_agent(a, "ACF mix", st);
+        if (r + 1 == c->eta) { /* info ACF done: local step, its packet starts the second ACF */
+            if ((st = dkf_tw_node_local(&a->nd, &a->model, a->mix, a->est)) != DKF_OK)
+                return fail_agent(a, "dkf_tw_node_local", st);
+            return enter_round(a, next, a->est, now);
+        }
+        if (r + 1 < c->rounds) return enter_round(a, next, a->mix, now);
+        if ((st = dkf_tw_node_commit(&a->nd, a->mix, a->mix + c->n)) != DKF_OK)
+            return fail_agent(a, "dkf_tw_node_commit", st);
+    }
+    record_step(a);
+    ++a->k;
+    return begin_step(a, now);
+}
+
+int dkf_tw_agent_start(dkf_tw_agent_t *a, int64_t now_us)
+{
+    if (a->k != 0) return a->state;
+    a->k = 1;
+    return begin_step(a, now_us);
+}
+
+/* Row position of node j in my row, or -1. */
+static long row_pos(const dkf_tw_agent_t *a, long j)
+{
+    size_t e;
+    for (e = 0; e < a->deg; ++e)
+        if ((long)a->c->nbr[a->row0 + e] == j) return (long)e;
+    return -1;
+}
+
+dkf_net_verdict_t dkf_tw_agent_receive(dkf_tw_agent_t *a, long chan_node, const void *data,
+                                       size_t len, int64_t now_us)
+{
+    static dkf_tw_pkt_t p;
+    dkf_net_verdict_t v;
+    long e, t;
+    v = dkf_tw_decode(data, len, a->c, chan_node, &p, &a->cnt.rej);
+    if (v != DKF_NET_ACCEPT) return v;
+    e = row_pos(a, p.node);
+    if (e < 0 || (size_t)e == a->self) { /* not a neighbour (a subscription filters these) */
+        ++a->cnt.rej.total;
+        ++a->cnt.rej.by[DKF_NET_REJ_NODE];
+        return DKF_NET_REJ_NODE;
+    }
+    ++a->cnt.received;
+    if (p.kind == DKF_TW_KIND_DONE || (p.k - 1) * (long)a->c->rounds + p.round <= a->t + 1)
+        a->heard[e] = now_us; /* alive, and not gone past us */
+    if (p.kind == DKF_TW_KIND_DONE) {
+        a->done[e] = 1;
+        return v;
+    }
+    t = (p.k - 1) * (long)a->c->rounds + p.round;
+    if (t == a->t && a->state == DKF_TW_RUNNING) {
+        if (a->have[e]) ++a->cnt.duplicates;
+        memcpy(a->rx + (size_t)e * a->pkt, p.v, p.len * sizeof p.v[0]);
+        a->have[e] = 1;
+        a->absent[e] = 0;
+    } else if (t == a->t + 1 && a->state == DKF_TW_RUNNING) {
+        memcpy(a->nx + (size_t)e * a->pkt, p.v, p.len * sizeof p.v[0]);
+        a->have_nx[e] = 1;
+        a->absent[e] = 0;
+    } else if (t < a->t) {
+        int kind;
+        size_t plen;
+        ++a->cnt.stale;
+        /* the neighbour still waits in the round I left: it may lack mine */
+        if (p.retransmit && t == a->prev_t) {
+            dkf_tw_round_shape(a->c, (size_t)t % a->c->rounds, &kind, &plen);
+            (void)publish(a, t, kind, a->prev, a->prev_len, 2, now_us);
+        }
+    } else {
+        ++a->cnt.ahead;
+    }
+    return v;
+}
+
+static int round_ready(const dkf_tw_agent_t *a)
+{
+    size_t e;
+    for (e = 0; e < a->deg; ++e)
+        if (!a->have[e] && !a->absent[e]) return 0;
+    return 1;
+}
+
+/* When the round may complete without the packets still missing: a
+ * neighbour is given up only after a full timeout of silence, counted from
+ * the round's start or from its last packet (a neighbour that is itself
+ * waiting re-publishes, so it is never given up while it lives). */
+static int64_t deadline(const dkf_tw_agent_t *a)
+{
+    const int64_t d = a->t == 0 ? a->o.start_timeout_us : a->o.round_timeout_us;
+    int64_t last = a->round_start;
+    size_t e;
+    for (e = 0; e < a->deg; ++e)
+        if (!a->have[e] && !a->absent[e] && a->heard[e] > last) last = a->heard[e];
+    return last + d;
+}
+
+static int linger_over(const dkf_tw_agent_t *a, int64_t now)
+{
+    size_t e;
+    if (now - a->linger_start >= a->o.round_timeout_us) return 1;
+    for (e = 0; e < a->deg; ++e)
+        if (e != a->self && !a->done[e] && !a->absent[e]) return 0;
+    return 1;
+}
+
+int dkf_tw_agent_poll(dkf_tw_agent_t *a, int64_t now_us)
+{
+    size_t e;
+    while (a->state == DKF_TW_RUNNING) {
+        if (!round_ready(a)) {
+            if (now_us < deadline(a)) break;
+            for (e = 0; e < a->deg; ++e)
+                if (!a->have[e] && !a->absent[e]) {
+                    a->absent[e] = 1;
+                    a->missed[e] = 1;
+                    ++a->cnt.absent_marks;
+                }
+        }
+        for (e = 0; e < a->deg; ++e) a->missed[e] |= (unsigned char)!a->have[e];
+        complete_round(a, now_us);
+    }
+    if (a->state == DKF_TW_RUNNING && now_us - a->last_pub >= a->o.retry_us) {
+        int kind;
+        size_t len;
+        dkf_tw_round_shape(a->c, (size_t)a->t % a->c->rounds, &kind, &len);
+        publish(a, a->t, kind, a->cur, a->cur_len, 1, now_us);
+    }
+    if (a->state == DKF_TW_LINGER) {
+        if (linger_over(a, now_us))
+            a->state = DKF_TW_FINISHED;
+        else if (now_us - a->last_pub >= a->o.retry_us)
+            publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 1, now_us);
+    }
+    return a->state;
+}
+
+int64_t dkf_tw_agent_wait_us(const dkf_tw_agent_t *a, int64_t now_us)
+{
+    int64_t w = a->last_pub + a->o.retry_us - now_us;
+    if (a->state == DKF_TW_RUNNING && deadline(a) - now_us < w) w = deadline(a) - now_us;
+    if (a->state == DKF_TW_LINGER && a->linger_start + a->o.round_timeout_us - now_us < w)
+        w = a->linger_start + a->o.round_timeout_us - now_us;
+    return w < 0 ? 0 : w;
+}
+
+int dkf_tw_agent_state(const dkf_tw_agent_t *a) { return a->state; }
+size_t dkf_tw_agent_steps_done(const dkf_tw_agent_t *a) { return a->nd.k; }
+const char *dkf_tw_agent_error(const dkf_tw_agent_t *a) { return a->err; }
+const dkf_tw_counters_t *dkf_tw_agent_counters(const dkf_tw_agent_t *a) { return &a->cnt; }
+const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a) { return &a->nd; }
+
+/* ---- result --------------------------------------------------------------------- */
+
+static json_t *reals(const double *v, size_t n)
+{
+    json_t *l = json_array();
+    size_t i;
+    for (i = 0; i < n; ++i) json_array_append_new(l, json_real(v[i]));
+    return l;
+}
+
+static json_t *matrix(const double *v, size_t r, size_t cc)
+{
+    json_t *l = json_array();
+    size_t i;
+    for (i = 0; i < r; ++i) json_array_append_new(l, reals(v + i * cc, cc));
+    return l;
+}
+
+static json_t *counters(const dkf_tw_agent_t *a)
+{
+    const dkf_tw_counters_t *c = &a->cnt;
+    json_t *o = json_object(), *by = json_object();
+    int v;
+    json_object_set_new(o, "sent", json_integer((json_int_t)c->sent));
+    json_object_set_new(o, "reals_sent", json_integer((json_int_t)c->reals_sent));
+    json_object_set_new(o, "retransmits", json_integer((json_int_t)c->retransmits));
+    json_object_set_new(o, "answers", json_integer((json_int_t)c->answers));
+    json_object_set_new(o, "received", json_integer((json_int_t)c->received));
+    json_object_set_new(o, "duplicates", json_integer((json_int_t)c->duplicates));
+    json_object_set_new(o, "stale", json_integer((json_int_t)c->stale));
+    json_object_set_new(o, "ahead", json_integer((json_int_t)c->ahead));
+    json_object_set_new(o, "absent_marks", json_integer((json_int_t)c->absent_marks));
+    json_object_set_new(o, "degraded_steps", json_integer((json_int_t)c->degraded_steps));
+    json_object_set_new(o, "rejected", json_integer((json_int_t)c->rej.total));
+    for (v = 1; v < DKF_NET_NVERDICTS; ++v)
+        json_object_set_new(by, dkf_net_verdict_str((dkf_net_verdict_t)v),
+                            json_integer((json_int_t)c->rej.by[v]));
+    json_object_set_new(o, "rejected_by_reason", by);
+    return o;
+}
+
+json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
+{
+    const dkf_tw_scn_t *c = a->c;
+    const size_t done = a->nd.k;
+    json_t *d = json_object(), *ks = json_array(), *xs = json_array(), *Ps = json_array(),
+           *zs = json_array(), *dg = json_array(), *ms = json_array(), *nb = json_array();
+    size_t j, e;
+    char id[32];
+    snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)c->model_id);
+    json_object_set_new(d, "node", json_integer((json_int_t)a->id));
+    json_object_set_new(d, "alg", json_integer(c->alg));
+    json_object_set_new(d, "eta", json_integer((json_int_t)c->eta));
+    json_object_set_new(d, "model_id", json_string(id));
+    json_object_set_new(d, "real", json_string(sizeof(dkf_real_t) == sizeof(double) ? "double" : "float"));
+    json_object_set_new(d, "N", json_integer((json_int_t)c->N));
+    json_object_set_new(d, "E", json_integer((json_int_t)c->E));
+    json_object_set_new(d, "steps", json_integer((json_int_t)c->steps));
+    json_object_set_new(d, "rounds_per_step", json_integer((json_int_t)c->rounds));
+    for (e = 0; e < a->deg; ++e)
+        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)c->nbr[a->row0 + e]));
+    json_object_set_new(d, "neighbours", nb);
+    for (j = 0; j < done; ++j) {
+        json_t *miss = json_array();
+        json_array_append_new(ks, json_integer((json_int_t)j + 1));
+        json_array_append_new(xs, reals(a->xs + j * c->n, c->n));
+        json_array_append_new(Ps, matrix(a->Ps + j * c->n * c->n, c->n, c->n));
+        json_array_append_new(zs, reals(a->zs + j * c->m, c->m));
+        json_array_append_new(dg, json_boolean(a->deg_step[j]));
+        for (e = 0; e < a->deg; ++e)
+            if (a->miss_step[j * a->deg + e])
+                json_array_append_new(miss, json_integer((json_int_t)c->nbr[a->row0 + e]));
+        json_array_append_new(ms, miss);
+    }
+    json_object_set_new(d, "n", ks);
+    json_object_set_new(d, "x", xs);
+    json_object_set_new(d, "P", Ps);
+    json_object_set_new(d, "z", zs);
+    json_object_set_new(d, "degraded", dg);
+    json_object_set_new(d, "missing", ms);
+    json_object_set_new(d, "counters", counters(a));
+    return d;
+}

@@ -212,6 +212,34 @@ static const dkf_real_t *blend(const dkf_otskf_t *f)
     return f->blend_is_v ? f->V.data : f->U.data;
 }
 
+/* The end of both steps: the combined estimate x = x~ + B d and
+ * P = P^x + B P^d B^T for the new blending matrix B (U after a predict, V
+ * after an update), a finiteness check of every result, and the commit.
+ * T (n x p), xn (n), Pn (n x n) are scratch. */
+static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
+                                       const dkf_real_t *Px, const dkf_real_t *d,
+                                       const dkf_real_t *Pd, const dkf_real_t *B, int blend_is_v,
+                                       dkf_real_t *T, dkf_real_t *xn, dkf_real_t *Pn)
+{
+    const size_t n = f->n, p = f->p;
+    add_mul_vec(xn, xt, B, d, n, p);
+    dkf__mul_nn(T, B, Pd, n, p, p);
+    dkf__mul_nt_sym(Pn, T, B, Px, n, p);
+    if (!dkf__all_finite(xt, n) || !dkf__all_finite(Px, n * n) || !dkf__all_finite(d, p) ||
+        !dkf__all_finite(Pd, p * p) || !dkf__all_finite(B, n * p) || !dkf__all_finite(xn, n) ||
+        !dkf__all_finite(Pn, n * n))
+        return DKF_ERR_NONFINITE;
+    dkf__copy(f->xt.data, xt, n);
+    dkf__copy(f->Px.data, Px, n * n);
+    dkf__copy(f->d.data, d, p);
+    dkf__copy(f->Pd.data, Pd, p * p);
+    dkf__copy(blend_is_v ? f->V.data : f->U.data, B, n * p);
+    dkf__copy(f->x.data, xn, n);
+    dkf__copy(f->P.data, Pn, n * n);
+    f->blend_is_v = blend_is_v;
+    return DKF_OK;
+}
+
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
 {
     dkf_real_t inv[DKF_MAX_DIM];
@@ -264,26 +292,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
     dkf__mul_nn(s.T, s.Ubar, s.W2, n, p, p);
     dkf__mul_nt_sym(s.N1, s.T, s.Ubar, s.N2, n, p);
 
-    /* combined: x = x~ + U d, P = P^x + U P^d U^T */
-    add_mul_vec(s.xn, s.xtn, s.Un, s.dn, n, p);
-    dkf__mul_nn(s.T, s.Un, s.Pdn, n, p, p);
-    dkf__mul_nt_sym(s.Pn, s.T, s.Un, s.N1, n, p);
-
-    if (!dkf__all_finite(s.xtn, n) || !dkf__all_finite(s.N1, n * n) ||
-        !dkf__all_finite(s.dn, p) || !dkf__all_finite(s.Pdn, p * p) ||
-        !dkf__all_finite(s.Un, n * p) || !dkf__all_finite(s.xn, n) ||
-        !dkf__all_finite(s.Pn, n * n))
-        return DKF_ERR_NONFINITE;
-
-    dkf__copy(f->xt.data, s.xtn, n);
-    dkf__copy(f->Px.data, s.N1, n * n);
-    dkf__copy(f->d.data, s.dn, p);
-    dkf__copy(f->Pd.data, s.Pdn, p * p);
-    dkf__copy(f->U.data, s.Un, n * p);
-    dkf__copy(f->x.data, s.xn, n);
-    dkf__copy(f->P.data, s.Pn, n * n);
-    f->blend_is_v = 0;
-    return DKF_OK;
+    return combine_and_commit(f, s.xtn, s.N1, s.dn, s.Pdn, s.Un, 0, s.T, s.xn, s.Pn);
 }
 
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
@@ -337,23 +346,5 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
 
     /* V = U - K^x S;  x = x~ + V d;  P = P^x + V P^d V^T */
     sub_atb(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
-    add_mul_vec(s.xn, s.xtn, s.Vn, s.dn, n, p);
-    dkf__mul_nn(s.T, s.Vn, s.Pdn, n, p, p);
-    dkf__mul_nt_sym(s.Pn, s.T, s.Vn, s.Pxn, n, p);
-
-    if (!dkf__all_finite(s.xtn, n) || !dkf__all_finite(s.Pxn, n * n) ||
-        !dkf__all_finite(s.dn, p) || !dkf__all_finite(s.Pdn, p * p) ||
-        !dkf__all_finite(s.Vn, n * p) || !dkf__all_finite(s.xn, n) ||
-        !dkf__all_finite(s.Pn, n * n))
-        return DKF_ERR_NONFINITE;
-
-    dkf__copy(f->xt.data, s.xtn, n);
-    dkf__copy(f->Px.data, s.Pxn, n * n);
-    dkf__copy(f->d.data, s.dn, p);
-    dkf__copy(f->Pd.data, s.Pdn, p * p);
-    dkf__copy(f->V.data, s.Vn, n * p);
-    dkf__copy(f->x.data, s.xn, n);
-    dkf__copy(f->P.data, s.Pn, n * n);
-    f->blend_is_v = 1;
-    return DKF_OK;
+    return combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn);
 }

@@ -99,3 +99,27 @@ int dkf_cli_expired(int64_t start_mono_us, double timeout_s)
 {
     return timeout_s > 0 && (double)(dkf_net_mono_us() - start_mono_us) >= timeout_s * 1e6;
 }
+
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, const char *path,
+                 long run, dkf_scenario_t **s, dkf_net_t **net)
+{
+    char err[256];
+    if (strlen(prefix) == 0 || strlen(prefix) > 24) {
+        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, prefix);
+        return DKF_EXIT_USAGE;
+    }
+    if (dkf_net_check_url(url, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        return DKF_EXIT_USAGE;
+    }
+    *s = dkf_cli_scenario(prog, path, run);
+    if (*s == NULL) return DKF_EXIT_USAGE;
+    *net = dkf_net_open(url, err, sizeof err);
+    if (*net == NULL) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        dkf_scenario_free(*s);
+        *s = NULL;
+        return DKF_EXIT_RUN;
+    }
+    return DKF_EXIT_OK;
+}

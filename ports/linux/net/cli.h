@@ -15,6 +15,7 @@
 
 #include <jansson.h>
 
+#include "net.h"
 #include "scenario.h"
 
 #define DKF_EXIT_OK 0
@@ -38,6 +39,14 @@ void dkf_cli_bad_option(const char *prog, int argc, char **argv, int optind_now,
 /* Loads the scenario, selects run (if the file has runs) and checks it for
  * the network (dkf_net_check_scenario). NULL after printing the error. */
 dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
+
+/* The set-up dkf-sim, dkf-node and dkf-fusion share: checks --prefix
+ * (1..24 characters) and the URL (dkf_net_check_url), loads the scenario
+ * (dkf_cli_scenario) and opens the transport. On success *s and *net are
+ * set and DKF_EXIT_OK is returned; otherwise the error has been printed,
+ * nothing is left open, and the exit status to return is given. */
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, const char *path,
+                 long run, dkf_scenario_t **s, dkf_net_t **net);
 
 /* Writes doc (17 significant digits, so doubles round-trip). 0 or -1. */
 int dkf_cli_write_json(const char *prog, const char *path, const json_t *doc);

@@ -83,21 +83,9 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: expected one SCENARIO file (see --help)\n", prog);
         return DKF_EXIT_USAGE;
     }
-    if (strlen(prefix) == 0 || strlen(prefix) > 24) {
-        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, prefix);
-        return DKF_EXIT_USAGE;
-    }
-    if (dkf_net_check_url(url, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        return DKF_EXIT_USAGE;
-    }
-    s = dkf_cli_scenario(prog, argv[optind], 0);
-    if (s == NULL) return DKF_EXIT_USAGE;
-    net = dkf_net_open(url, err, sizeof err);
-    if (net == NULL) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        dkf_scenario_free(s);
-        return DKF_EXIT_RUN;
+    {
+        const int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
+        if (st != DKF_EXIT_OK) return st;
     }
     fu = dkf_net_fusion_create(net, s, prefix, (int64_t)(deadline_ms * 1000), err, sizeof err);
     if (fu == NULL) {

@@ -109,21 +109,9 @@ int main(int argc, char **argv)
                                                                   : "expected one SCENARIO file");
         return DKF_EXIT_USAGE;
     }
-    if (strlen(prefix) == 0 || strlen(prefix) > 24) {
-        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, prefix);
-        return DKF_EXIT_USAGE;
-    }
-    if (dkf_net_check_url(url, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        return DKF_EXIT_USAGE;
-    }
-    s = dkf_cli_scenario(prog, argv[optind], 0);
-    if (s == NULL) return DKF_EXIT_USAGE;
-    net = dkf_net_open(url, err, sizeof err);
-    if (net == NULL) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        dkf_scenario_free(s);
-        return DKF_EXIT_RUN;
+    {
+        const int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
+        if (st != DKF_EXIT_OK) return st;
     }
     nd = dkf_net_node_create(net, s, (size_t)id, prefix, err, sizeof err);
     if (nd == NULL) {

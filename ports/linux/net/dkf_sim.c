@@ -140,21 +140,9 @@ int main(int argc, char **argv)
                 optind != argc - 1 ? "expected one SCENARIO file" : "--run: expected an integer");
         return DKF_EXIT_USAGE;
     }
-    if (strlen(prefix) == 0 || strlen(prefix) > 24) {
-        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, prefix);
-        return DKF_EXIT_USAGE;
-    }
-    if (dkf_net_check_url(url, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        return DKF_EXIT_USAGE;
-    }
-    s = dkf_cli_scenario(prog, argv[optind], (long)run);
-    if (s == NULL) return DKF_EXIT_USAGE;
-    net = dkf_net_open(url, err, sizeof err);
-    if (net == NULL) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        dkf_scenario_free(s);
-        return DKF_EXIT_RUN;
+    {
+        const int st = dkf_cli_open(prog, prefix, url, argv[optind], (long)run, &s, &net);
+        if (st != DKF_EXIT_OK) return st;
     }
     sim = dkf_net_sim_create(net, s, prefix, err, sizeof err);
     if (sim == NULL) {

@@ -3,20 +3,6 @@
 
 #include "internal.h"
 
-dkf_status_t dkf__check_mat(const dkf_mat_t *m)
-{
-    if (m == NULL || m->data == NULL) return DKF_ERR_NULL;
-    if (m->rows == 0 || m->cols == 0 || m->rows > DKF_MAX_DIM || m->cols > DKF_MAX_DIM)
-        return DKF_ERR_CAPACITY;
-    return DKF_OK;
-}
-
-dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols)
-{
-    DKF_TRY(dkf__check_mat(m));
-    return (m->rows == rows && m->cols == cols) ? DKF_OK : DKF_ERR_DIM;
-}
-
 dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols)
 {
     DKF_TRY(dkf__check_shape(m, rows, cols));

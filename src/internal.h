@@ -54,10 +54,23 @@
     } while (0)
 
 /* DKF_ERR_NULL for a NULL view or data pointer, DKF_ERR_CAPACITY for a
- * dimension of 0 or above DKF_MAX_DIM. */
-dkf_status_t dkf__check_mat(const dkf_mat_t *m);
+ * dimension of 0 or above DKF_MAX_DIM. Inline: every step of every filter
+ * runs a few of these, and a call costs as much as the test. */
+static inline dkf_status_t dkf__check_mat(const dkf_mat_t *m)
+{
+    if (m == NULL || m->data == NULL) return DKF_ERR_NULL;
+    if (m->rows == 0 || m->cols == 0 || m->rows > DKF_MAX_DIM || m->cols > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    return DKF_OK;
+}
+
 /* dkf__check_mat plus an exact shape. */
-dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols);
+static inline dkf_status_t dkf__check_shape(const dkf_mat_t *m, size_t rows, size_t cols)
+{
+    DKF_TRY(dkf__check_mat(m));
+    return (m->rows == rows && m->cols == cols) ? DKF_OK : DKF_ERR_DIM;
+}
+
 /* dkf__check_shape plus finiteness of every element (DKF_ERR_NONFINITE):
  * the check every filter applies to each model input at its boundary. */
 dkf_status_t dkf__check_input(const dkf_mat_t *m, size_t rows, size_t cols);

@@ -32,9 +32,9 @@ void dkf__mul_nt_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, co
                      size_t r, size_t k);
 /* C (r x r) = A (r x k) B (k x r) + D for a product known to be symmetric
  * (e.g. F (P F^T), K (H P)): only the upper triangle is computed, with
- * the row-major blocks of dkf__mul_nn, and mirrored. D as in
- * dkf__mul_nt_sym (NULL, or upper triangle read, may be C itself); C must
- * not overlap A or B. */
+ * the row-major blocks of dkf__mul_nn, and mirrored as it is stored. D
+ * (r x r) may be NULL; if given, only its upper triangle is read. C must
+ * not overlap A, B or D (unlike dkf__mul_nt_sym, D may not be C). */
 void dkf__mul_nn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
                      size_t r, size_t k);
 /* y (r) = A (r x c) x (c). y must not overlap A or x. */

@@ -7,28 +7,32 @@
  */
 #include "dkf/kf.h"
 
+#include <string.h>
+
 #include "internal.h"
 #include "kernels.h"
+#include "kernels_inline.h"
 
-/* Scratch layout for state n, measurement m (DKF_KF_STORAGE_LEN gives
- * n + 3 n^2 + 3 n m + 2 m^2 reals of scratch):
- *   xn  n      new state
- *   Pn  n*n    new P (right after xn: one finiteness scan covers both)
- *   T   n*n    F P (predict); A P = (I - K H) P (Joseph update)
- *   Ft  n*n    F^T (predict)
- *   Ht  n*m    H^T; then R K^T (Joseph) or -K (simple update)
- *   HP  m*n    H P (= (P H^T)^T, P symmetric); then K R - (A P) H^T
- *   Kt  m*n    K^T = S^{-1} H P
- *   S   m*m    innovation covariance H P H^T + R
- *   L   m*m    its Cholesky factor
+/* Scratch layout for state n, measurement capacity m (DKF_KF_STORAGE_LEN
+ * gives n + n^2 + 2 max(n^2, n m) + 2 n m + 2 m^2 reals of scratch):
+ *   xn  n           new state
+ *   Pn  n*n         new P (right after xn: one finiteness scan covers both)
+ *   W   max(2n^2, 2nm), shared by the two steps:
+ *       predict: T = F P (n*n), then Ft = F^T (n*n)
+ *       update:  Ht = H^T (n*m), then Gt = [-K^T; E^T] (2m x n) of
+ *                the covariance update (see covariance_update)
+ *   HP  m*n         H P (= (P H^T)^T, P symmetric)
+ *   Kt  m*n         K^T = S^{-1} H P, right after HP: [HP; Kt] is 2m x n
+ *   S   m*m         innovation covariance H P H^T + R
+ *   L   m*m         its Cholesky factor
  * Every product runs on the row-major register-blocked kernels (row i of
  * the result accumulates rows of the right operand); the transposed
  * copies F^T and H^T, O(n^2) and O(n m), are what makes that possible. */
 typedef struct {
-    dkf_real_t *xn, *T, *Pn, *Ft, *Ht, *HP, *Kt, *S, *L;
+    dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *S, *L;
 } kf_scratch_t;
 
-static kf_scratch_t kf_scratch(const dkf_kf_t *kf)
+DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
 {
     const size_t n = kf->n, m = kf->m_max;
     kf_scratch_t s;
@@ -36,8 +40,8 @@ static kf_scratch_t kf_scratch(const dkf_kf_t *kf)
     s.Pn = s.xn + n;
     s.T = s.Pn + n * n;
     s.Ft = s.T + n * n;
-    s.Ht = s.Ft + n * n;
-    s.HP = s.Ht + n * m;
+    s.Ht = s.Gt = s.T;
+    s.HP = s.T + 2 * (n > m ? n * n : n * m);
     s.Kt = s.HP + m * n;
     s.S = s.Kt + m * n;
     s.L = s.S + m * m;
@@ -45,11 +49,33 @@ static kf_scratch_t kf_scratch(const dkf_kf_t *kf)
 }
 
 /* At (c x r) = A^T for A r x c. */
-static void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r, size_t c)
+DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r, size_t c)
 {
     size_t i, j;
     for (i = 0; i < r; ++i)
         for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
+/* Elementwise helpers on n reals that do not overlap (restrict parameters
+ * are what lets GCC vectorise them once inlined): d = -a, d -= a, and
+ * y += alpha x. */
+DKF__INLINE void negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) d[i] = -a[i];
+}
+
+DKF__INLINE void subtract(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) d[i] -= a[i];
+}
+
+DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t *restrict x,
+                      size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) y[i] += alpha * x[i];
 }
 
 /* Finiteness without classifying each element: x - x is +0 for every
@@ -59,11 +85,12 @@ static void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, siz
  * free, 4 independent sums (vectorised at -O2). Relies on IEEE
  * arithmetic, as all of dkf does: no -ffinite-math-only (so no
  * -ffast-math), under which x - x would fold to 0. */
-static dkf_real_t nan_sum(const dkf_real_t *p, size_t n)
+DKF__INLINE dkf_real_t nan_sum(const dkf_real_t *p, size_t n)
 {
     dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0), s2 = DKF_R(0.0), s3 = DKF_R(0.0);
-    size_t i = 0;
-    for (; i + 4 <= n; i += 4) {
+    const size_t n4 = n - n % 4;
+    size_t i;
+    for (i = 0; i < n4; i += 4) {
         s0 += p[i] - p[i];
         s1 += p[i + 1] - p[i + 1];
         s2 += p[i + 2] - p[i + 2];
@@ -73,7 +100,7 @@ static dkf_real_t nan_sum(const dkf_real_t *p, size_t n)
     return (s0 + s1) + (s2 + s3);
 }
 
-static int nonfinite(dkf_real_t sum)
+DKF__INLINE int nonfinite(dkf_real_t sum)
 {
     return !(sum == DKF_R(0.0));
 }
@@ -106,113 +133,131 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     return DKF_OK;
 }
 
-dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
-                            const dkf_mat_t *u)
-{
-    size_t n;
-    kf_scratch_t s;
-    DKF_CHECK_NULL(kf);
-    if (!kf->ready) return DKF_ERR_STATE;
-    n = kf->n;
-    /* shapes first, then the finiteness of every input in one test */
-    DKF_TRY(dkf__check_shape(F, n, n));
-    DKF_TRY(dkf__check_shape(Q, n, n));
-    if (u != NULL) DKF_TRY(dkf__check_shape(u, n, 1));
-    if (nonfinite(nan_sum(F->data, n * n) + nan_sum(Q->data, n * n) +
-                  (u != NULL ? nan_sum(u->data, n) : DKF_R(0.0))))
-        return DKF_ERR_NONFINITE;
-    s = kf_scratch(kf);
+/* The step bodies below are written once for any size and forced inline:
+ * the entry points expand them once with the run-time n (and m), and once
+ * per size of DKF_KF_FIXED_SIZES with literal sizes, so that each of those
+ * compiles to a step of exactly that size (constant trip counts, unrolled
+ * and vectorised blocks, no remainder code). Both run the same operations
+ * in the same order, so they return the same bits. */
 
-    /* x = F x + u */
-    dkf__mul_vec(s.xn, F->data, kf->x.data, n, n);
-    if (u != NULL) {
-        size_t i;
-        for (i = 0; i < n; ++i) s.xn[i] += u->data[i];
-    }
-    /* P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
-    transpose(s.Ft, F->data, n, n);
-    dkf__mul_nn(s.T, F->data, kf->P.data, n, n, n);
-    dkf__mul_nn_sym(s.Pn, s.T, s.Ft, Q->data, n, n);
+/* x = F x + u, P = (F P) F^T + Q into scratch; commits after the checks. */
+DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const dkf_real_t *Q,
+                                      const dkf_real_t *u, size_t n)
+{
+    const kf_scratch_t s = kf_scratch(kf);
+    size_t i;
+    if (nonfinite(nan_sum(F, n * n) + nan_sum(Q, n * n) + (u != NULL ? nan_sum(u, n) : DKF_R(0.0))))
+        return DKF_ERR_NONFINITE;
+    inl_mul_vec(s.xn, F, kf->x.data, n, n);
+    if (u != NULL)
+        for (i = 0; i < n; ++i) s.xn[i] += u[i];
+    /* upper triangle of (F P) F^T + Q (of Q too), mirrored */
+    transpose(s.Ft, F, n, n);
+    inl_mul_nn(s.T, F, kf->P.data, n, n, n);
+    inl_mul_nn_sym(s.Pn, s.T, s.Ft, Q, n, n);
     if (nonfinite(nan_sum(s.xn, n + n * n))) return DKF_ERR_NONFINITE; /* xn and Pn */
 
-    dkf__copy(kf->x.data, s.xn, n);
-    dkf__copy(kf->P.data, s.Pn, n * n);
+    memcpy(kf->x.data, s.xn, n * sizeof *s.xn);
+    memcpy(kf->P.data, s.Pn, n * n * sizeof *s.Pn);
     return DKF_OK;
 }
 
-#if DKF_JOSEPH
-/* T (n x n) = P - K HP, K = Kt^T (Kt m x n), HP m x n: A P with
- * A = I - K H, without forming A (O(n^2 m), not O(n^3)). Row i of T
- * accumulates the rows of HP, 4 columns at a time in registers. */
-static void minus_k_hp(dkf_real_t *restrict T, const dkf_real_t *restrict P,
-                       const dkf_real_t *restrict Kt, const dkf_real_t *restrict HP, size_t n,
-                       size_t m)
+dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
+                            const dkf_mat_t *u)
 {
-    size_t i, j, l;
-    for (i = 0; i < n; ++i) {
-        const dkf_real_t *pi = P + i * n;
-        dkf_real_t *ti = T + i * n;
-        for (j = 0; j + 4 <= n; j += 4) {
-            dkf_real_t t0 = pi[j], t1 = pi[j + 1], t2 = pi[j + 2], t3 = pi[j + 3];
-            for (l = 0; l < m; ++l) {
-                const dkf_real_t a = Kt[l * n + i];
-                const dkf_real_t *h = HP + l * n + j;
-                t0 -= a * h[0];
-                t1 -= a * h[1];
-                t2 -= a * h[2];
-                t3 -= a * h[3];
-            }
-            ti[j] = t0, ti[j + 1] = t1, ti[j + 2] = t2, ti[j + 3] = t3;
-        }
-        for (; j < n; ++j) {
-            dkf_real_t t = pi[j];
-            for (l = 0; l < m; ++l) t -= Kt[l * n + i] * HP[l * n + j];
-            ti[j] = t;
-        }
+    const dkf_real_t *ud = NULL;
+    size_t n;
+    DKF_CHECK_NULL(kf);
+    if (!kf->ready) return DKF_ERR_STATE;
+    n = kf->n;
+    /* shapes here, the finiteness of every input first thing in the step */
+    DKF_TRY(dkf__check_shape(F, n, n));
+    DKF_TRY(dkf__check_shape(Q, n, n));
+    if (u != NULL) {
+        DKF_TRY(dkf__check_shape(u, n, 1));
+        ud = u->data;
     }
+#define DKF__KF_PREDICT_FIXED(N, M) \
+    if ((N) <= DKF_MAX_DIM && n == (N)) return predict_step(kf, F->data, Q->data, ud, (N));
+    DKF_KF_FIXED_SIZES(DKF__KF_PREDICT_FIXED)
+#undef DKF__KF_PREDICT_FIXED
+    return predict_step(kf, F->data, Q->data, ud, n);
 }
 
-/* P+ = (I - K H) P (I - K H)^T + K R K^T (Joseph form: symmetric positive
- * semi-definite under rounding whatever the gain), through the structure
- * of A = I - K H instead of A itself (O(n^2 m) instead of O(n^3)):
- *   A P = P - K (H P);   (A P) A^T = A P - ((A P) H^T) K^T;
- *   P+ = A P + (K R - (A P) H^T) K^T,
- * upper triangle, mirrored (exactly symmetric). K R = (R K^T)^T, R
- * symmetric. */
-static void joseph_update(const dkf_kf_t *kf, const kf_scratch_t *s, const dkf_mat_t *R, size_t m)
+/* P+ = P + Gt^T [HP; Kt], upper triangle, mirrored: one symmetric product
+ * with inner dimension 2m (DKF_JOSEPH) or m.
+ * Joseph form, for any gain K: with A = I - K H and S = H P H^T + R,
+ *   A P A^T + K R K^T = P - K (H P) - (H P)^T K^T + K S K^T
+ *                     = P - K (H P) + E K^T,   E^T = S K^T - H P,
+ * so Gt = [-Kt; E^T] (2m x n) against [HP; Kt]: O(n^2 m) instead of the
+ * O(n^3) of forming A. It keeps what the Joseph form is for: a gain error
+ * dK enters P+ only as dK S dK^T (the first-order terms cancel), where the
+ * short form P - K H P carries it to first order; what reaches P+ through
+ * E^T = S (S^{-1} H P) - H P is the rounding residual of the gain.
+ * Short form (DKF_JOSEPH=0): P+ = P - K (H P), Gt = -Kt (m x n). */
+DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, size_t n, size_t m)
 {
-    const size_t n = kf->n;
-    dkf_real_t *E = s->HP, *RKt = s->Ht; /* each consumed before it is reused */
-    size_t i, l;
-    minus_k_hp(s->T, kf->P.data, s->Kt, s->HP, n, m);
-    dkf__mul_nn(E, s->T, s->Ht, n, n, m);  /* (A P) H^T */
-    dkf__mul_nn(RKt, R->data, s->Kt, m, m, n);
-    for (i = 0; i < n; ++i)
-        for (l = 0; l < m; ++l) E[i * m + l] = RKt[l * n + i] - E[i * m + l];
-    dkf__mul_nn_sym(s->Pn, E, s->Kt, s->T, n, m);
-}
-
+    negate(s->Gt, s->Kt, m * n);
+#if DKF_JOSEPH
+    inl_mul_nn(s->Gt + m * n, s->S, s->Kt, m, m, n);
+    subtract(s->Gt + m * n, s->HP, m * n);
+    inl_mul_tn_sym(s->Pn, s->Gt, s->HP, kf->P.data, n, 2 * m);
 #else
-/* P+ = P - K (H P) = P - K S K^T: upper triangle, mirrored (negation is
- * exact, so (-K) (H P) + P is that difference). */
-static void simple_update(const dkf_kf_t *kf, const kf_scratch_t *s, size_t m)
-{
-    const size_t n = kf->n;
-    dkf_real_t *Kneg = s->Ht; /* consumed by now */
-    size_t i, l;
-    for (i = 0; i < n; ++i)
-        for (l = 0; l < m; ++l) Kneg[i * m + l] = -s->Kt[l * n + i];
-    dkf__mul_nn_sym(s->Pn, Kneg, s->HP, kf->P.data, n, m);
-}
+    inl_mul_tn_sym(s->Pn, s->Gt, s->HP, kf->P.data, n, m);
 #endif
+}
+
+/* nu = y - H x, S = H P H^T + R, K^T = S^{-1} H P, x + K nu and P+ into
+ * scratch; commits after the checks. */
+DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dkf_real_t *R,
+                                     const dkf_real_t *y, size_t n, size_t m)
+{
+    const kf_scratch_t s = kf_scratch(kf);
+    dkf_real_t nu[DKF_MAX_DIM], w[DKF_MAX_DIM], inv[DKF_MAX_DIM];
+    dkf_real_t nis = DKF_R(0.0);
+    size_t i, j;
+    int spd;
+    /* HP = H P;  S = HP H^T + R (upper triangle of R read), factored */
+    transpose(s.Ht, H, m, n);
+    inl_mul_nn(s.HP, H, kf->P.data, m, n, n);
+    inl_mul_nn_sym(s.S, s.HP, s.Ht, R, m, n);
+    spd = inl_chol(s.L, inv, s.S, m) == 0;
+    /* only now the finiteness of the inputs (a non-finite H, R or y is
+     * reported as such, not as the non-SPD S it makes), so that the scan
+     * runs while the factorisation's sqrt/divide chain is in flight */
+    if (nonfinite(nan_sum(H, m * n) + nan_sum(R, m * m) + nan_sum(y, m))) return DKF_ERR_NONFINITE;
+    if (!spd) return DKF_ERR_NOT_SPD;
+    /* nu = y - H x */
+    inl_mul_vec(nu, H, kf->x.data, m, n);
+    for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];
+    /* K^T = S^{-1} (H P) (P and S symmetric) */
+    memcpy(s.Kt, s.HP, m * n * sizeof *s.Kt);
+    inl_chol_solve(s.L, inv, s.Kt, m, n);
+    /* NIS = nu^T S^{-1} nu = |L^{-1} nu|^2 */
+    memcpy(w, nu, m * sizeof *w);
+    inl_tri_lower_solve_vec(s.L, inv, w, m);
+    for (i = 0; i < m; ++i) nis += w[i] * w[i];
+    /* x+ = x + K nu, accumulating the rows of K^T */
+    memcpy(s.xn, kf->x.data, n * sizeof *s.xn);
+    for (j = 0; j < m; ++j) axpy(s.xn, nu[j], s.Kt + j * n, n);
+    covariance_update(kf, &s, n, m);
+    if (nonfinite(nan_sum(s.xn, n + n * n) + (nis - nis))) /* xn, Pn and the NIS */
+        return DKF_ERR_NONFINITE;
+
+    memcpy(kf->x.data, s.xn, n * sizeof *s.xn);
+    memcpy(kf->P.data, s.Pn, n * n * sizeof *s.Pn);
+    kf->nu.rows = m;
+    kf->S.rows = kf->S.cols = m;
+    memcpy(kf->nu.data, nu, m * sizeof *nu);
+    memcpy(kf->S.data, s.S, m * m * sizeof *s.S);
+    kf->nis = nis;
+    return DKF_OK;
+}
 
 dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
                            const dkf_mat_t *y)
 {
-    dkf_real_t nu[DKF_MAX_DIM], w[DKF_MAX_DIM], inv[DKF_MAX_DIM];
-    dkf_real_t nis = DKF_R(0.0);
-    size_t n, m, i, j;
-    kf_scratch_t s;
+    size_t n, m;
     DKF_CHECK_NULL(kf);
     if (!kf->ready) return DKF_ERR_STATE;
     n = kf->n;
@@ -222,45 +267,10 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
     DKF_TRY(dkf__check_shape(H, m, n));
     DKF_TRY(dkf__check_shape(R, m, m));
     DKF_TRY(dkf__check_shape(y, m, 1));
-    if (nonfinite(nan_sum(H->data, m * n) + nan_sum(R->data, m * m) + nan_sum(y->data, m)))
-        return DKF_ERR_NONFINITE;
-    s = kf_scratch(kf);
-
-    /* nu = y - H x;  HP = H P;  S = HP H^T + R (upper triangle of R read) */
-    dkf__mul_vec(nu, H->data, kf->x.data, m, n);
-    for (i = 0; i < m; ++i) nu[i] = y->data[i] - nu[i];
-    transpose(s.Ht, H->data, m, n);
-    dkf__mul_nn(s.HP, H->data, kf->P.data, m, n, n);
-    dkf__mul_nn_sym(s.S, s.HP, s.Ht, R->data, m, n);
-    if (dkf__chol(s.L, inv, s.S, m) != 0) return DKF_ERR_NOT_SPD;
-    /* K^T = S^{-1} (H P) (P and S symmetric) */
-    dkf__copy(s.Kt, s.HP, m * n);
-    dkf__chol_solve(s.L, inv, s.Kt, m, n);
-    /* NIS = nu^T S^{-1} nu = |L^{-1} nu|^2 */
-    dkf__copy(w, nu, m);
-    dkf__tri_lower_solve_vec(s.L, inv, w, m);
-    for (i = 0; i < m; ++i) nis += w[i] * w[i];
-    /* x+ = x + K nu, accumulating the rows of K^T */
-    dkf__copy(s.xn, kf->x.data, n);
-    for (j = 0; j < m; ++j) {
-        const dkf_real_t *kj = s.Kt + j * n;
-        const dkf_real_t nuj = nu[j];
-        for (i = 0; i < n; ++i) s.xn[i] += kj[i] * nuj;
-    }
-#if DKF_JOSEPH
-    joseph_update(kf, &s, R, m);
-#else
-    simple_update(kf, &s, m);
-#endif
-    if (nonfinite(nan_sum(s.xn, n + n * n) + (nis - nis))) /* xn, Pn and the NIS */
-        return DKF_ERR_NONFINITE;
-
-    dkf__copy(kf->x.data, s.xn, n);
-    dkf__copy(kf->P.data, s.Pn, n * n);
-    kf->nu.rows = m;
-    kf->S.rows = kf->S.cols = m;
-    dkf__copy(kf->nu.data, nu, m);
-    dkf__copy(kf->S.data, s.S, m * m);
-    kf->nis = nis;
-    return DKF_OK;
+#define DKF__KF_UPDATE_FIXED(N, M) \
+    if ((N) <= DKF_MAX_DIM && (M) <= DKF_MAX_DIM && n == (N) && m == (M)) \
+        return update_step(kf, H->data, R->data, y->data, (N), (M));
+    DKF_KF_FIXED_SIZES(DKF__KF_UPDATE_FIXED)
+#undef DKF__KF_UPDATE_FIXED
+    return update_step(kf, H->data, R->data, y->data, n, m);
 }

@@ -51,6 +51,18 @@
 #define DKF_DEBUG_CHECKS 1
 #endif
 
+/* (n, m) sizes that get a Kalman step (dkf_kf_predict / dkf_kf_update)
+ * compiled for exactly that state and measurement dimension, as an X-macro
+ * list: X(n, m) per size. Other sizes run the generic step; results are
+ * bit-identical either way, only speed and code size differ (each size
+ * costs code, docs/footprint.md). Sizes above DKF_MAX_DIM are ignored.
+ * Define it empty, e.g. `#define DKF_KF_FIXED_SIZES(X)`, for the smallest
+ * image. The default covers constant-velocity / -acceleration tracking in
+ * 2-D and 3-D and the benchmark's sizes (docs/bench.md). */
+#ifndef DKF_KF_FIXED_SIZES
+#define DKF_KF_FIXED_SIZES(X) X(4, 2) X(6, 3) X(8, 4) X(12, 6)
+#endif
+
 /* Sweeps of the one-sided Jacobi SVD before it reports
  * DKF_ERR_NO_CONVERGENCE. Jacobi converges quadratically; 6-10 sweeps are
  * typical for the sizes dkf meets. */

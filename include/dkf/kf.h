@@ -24,7 +24,8 @@
 /* Reals a filter of state dimension n and measurement capacity m needs:
  * x, P, nu, S, and scratch for one step (Joseph form included). */
 #define DKF_KF_STORAGE_LEN(n, m) \
-    ((n) + (n) * (n) + (m) + (m) * (m) + (n) + 3 * (n) * (n) + 3 * (n) * (m) + 2 * (m) * (m))
+    ((n) + (n) * (n) + (m) + (m) * (m) + (n) + (n) * (n) + \
+     2 * ((n) > (m) ? (n) * (n) : (n) * (m)) + 2 * (n) * (m) + 2 * (m) * (m))
 
 typedef struct {
     size_t n;         /* state dimension */

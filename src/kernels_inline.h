@@ -1,0 +1,420 @@
+/*
+ * src/kernels_inline.h - bodies of the dense kernels a Kalman step runs on
+ * (see kernels.h for their contracts), as forced-inline static functions.
+ *
+ * kernels.c instantiates each once with run-time sizes (dkf__mul_nn is
+ * inl_mul_nn, ...); kf.c inlines them into steps compiled for fixed sizes,
+ * where every trip count is a constant the compiler unrolls and vectorises
+ * (DKF_KF_FIXED_SIZES in config.h). Not installed.
+ */
+#ifndef DKF_KERNELS_INLINE_H
+#define DKF_KERNELS_INLINE_H
+
+#include <math.h>
+#include <stddef.h>
+
+#include "dkf/config.h"
+
+/* Forced inlining where the compiler has a way to ask for it: the fixed-size
+ * steps only pay off if the kernels are expanded with constant sizes, which
+ * GCC's size heuristics would refuse for bodies this large. */
+#if defined(__GNUC__)
+#define DKF__INLINE static inline __attribute__((always_inline))
+#else
+#define DKF__INLINE static inline
+#endif
+
+/* Register blocks of C = A B (B row-major with row stride ldb). Each
+ * block keeps its sums in registers across the whole l loop: a loaded B
+ * element feeds one multiply-add per row of the block, and the sums are
+ * independent chains (no add-latency bound). Along a row the 8 (4, 2)
+ * sums use contiguous B elements, which GCC's basic-block vectoriser
+ * turns into SIMD at plain -O2; 2 x 8 (8 double or 4 float SSE
+ * accumulators) is the widest block whose sums, B values and broadcasts
+ * of A all stay in the 16 registers of x86-64 SSE. Every sum runs over
+ * l = 0, 1, ... in order from its first product, so each C(i,j) is
+ * bit-identical to the textbook loop's whatever the block.
+ * a0, a1 point at A(i,0), A(i+1,0), and A(i,l) is a0[l * sa]: sa = 1 for
+ * a row-major A (A B), sa = r for a product A^T B whose A is stored k x r.
+ * b points at B(0,j). */
+DKF__INLINE void nn_2x8(dkf_real_t s[16], const dkf_real_t *restrict a0,
+                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
+                        size_t k, size_t ldb)
+{
+    dkf_real_t x0 = a0[0], x1 = a1[0];
+    dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s02 = x0 * b[2], s03 = x0 * b[3];
+    dkf_real_t s04 = x0 * b[4], s05 = x0 * b[5], s06 = x0 * b[6], s07 = x0 * b[7];
+    dkf_real_t s10 = x1 * b[0], s11 = x1 * b[1], s12 = x1 * b[2], s13 = x1 * b[3];
+    dkf_real_t s14 = x1 * b[4], s15 = x1 * b[5], s16 = x1 * b[6], s17 = x1 * b[7];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x0 = a0[l * sa];
+        x1 = a1[l * sa];
+        s00 += x0 * bl[0], s01 += x0 * bl[1], s02 += x0 * bl[2], s03 += x0 * bl[3];
+        s04 += x0 * bl[4], s05 += x0 * bl[5], s06 += x0 * bl[6], s07 += x0 * bl[7];
+        s10 += x1 * bl[0], s11 += x1 * bl[1], s12 += x1 * bl[2], s13 += x1 * bl[3];
+        s14 += x1 * bl[4], s15 += x1 * bl[5], s16 += x1 * bl[6], s17 += x1 * bl[7];
+    }
+    s[0] = s00, s[1] = s01, s[2] = s02, s[3] = s03, s[4] = s04, s[5] = s05, s[6] = s06;
+    s[7] = s07, s[8] = s10, s[9] = s11, s[10] = s12, s[11] = s13, s[12] = s14, s[13] = s15;
+    s[14] = s16, s[15] = s17;
+}
+
+DKF__INLINE void nn_2x4(dkf_real_t s[8], const dkf_real_t *restrict a0,
+                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
+                        size_t k, size_t ldb)
+{
+    dkf_real_t x0 = a0[0], x1 = a1[0];
+    dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s02 = x0 * b[2], s03 = x0 * b[3];
+    dkf_real_t s10 = x1 * b[0], s11 = x1 * b[1], s12 = x1 * b[2], s13 = x1 * b[3];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x0 = a0[l * sa];
+        x1 = a1[l * sa];
+        s00 += x0 * bl[0], s01 += x0 * bl[1], s02 += x0 * bl[2], s03 += x0 * bl[3];
+        s10 += x1 * bl[0], s11 += x1 * bl[1], s12 += x1 * bl[2], s13 += x1 * bl[3];
+    }
+    s[0] = s00, s[1] = s01, s[2] = s02, s[3] = s03;
+    s[4] = s10, s[5] = s11, s[6] = s12, s[7] = s13;
+}
+
+DKF__INLINE void nn_2x2(dkf_real_t s[4], const dkf_real_t *restrict a0,
+                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
+                        size_t k, size_t ldb)
+{
+    dkf_real_t x0 = a0[0], x1 = a1[0];
+    dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s10 = x1 * b[0], s11 = x1 * b[1];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x0 = a0[l * sa];
+        x1 = a1[l * sa];
+        s00 += x0 * bl[0], s01 += x0 * bl[1];
+        s10 += x1 * bl[0], s11 += x1 * bl[1];
+    }
+    s[0] = s00, s[1] = s01, s[2] = s10, s[3] = s11;
+}
+
+DKF__INLINE void nn_2x1(dkf_real_t s[2], const dkf_real_t *restrict a0,
+                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
+                        size_t k, size_t ldb)
+{
+    dkf_real_t s0 = a0[0] * b[0], s1 = a1[0] * b[0];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t bl = b[l * ldb];
+        s0 += a0[l * sa] * bl;
+        s1 += a1[l * sa] * bl;
+    }
+    s[0] = s0, s[1] = s1;
+}
+
+DKF__INLINE void nn_1x4(dkf_real_t s[4], const dkf_real_t *restrict a0, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    dkf_real_t x = a0[0];
+    dkf_real_t s0 = x * b[0], s1 = x * b[1], s2 = x * b[2], s3 = x * b[3];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x = a0[l * sa];
+        s0 += x * bl[0], s1 += x * bl[1], s2 += x * bl[2], s3 += x * bl[3];
+    }
+    s[0] = s0, s[1] = s1, s[2] = s2, s[3] = s3;
+}
+
+DKF__INLINE dkf_real_t nn_1x1(const dkf_real_t *restrict a0, size_t sa,
+                              const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    dkf_real_t s0 = a0[0] * b[0];
+    size_t l;
+    for (l = 1; l < k; ++l) s0 += a0[l * sa] * b[l * ldb];
+    return s0;
+}
+
+/* Row c0 of C = A B (the last row of an odd row count). */
+DKF__INLINE void mul_nn_row1(dkf_real_t *restrict c0, const dkf_real_t *restrict a0,
+                             const dkf_real_t *restrict B, size_t k, size_t c)
+{
+    dkf_real_t s[4];
+    size_t j = 0, q;
+    for (; j + 4 <= c; j += 4) {
+        nn_1x4(s, a0, 1, B + j, k, c);
+        for (q = 0; q < 4; ++q) c0[j + q] = s[q];
+    }
+    for (; j < c; ++j) c0[j] = nn_1x1(a0, 1, B + j, k, c);
+}
+
+/* Stores a 2 x w block s (row i, then row i+1) at c0 = &C(i,j),
+ * c1 = &C(i+1,j). */
+DKF__INLINE void put_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1, const dkf_real_t *s,
+                         size_t w)
+{
+    size_t q;
+    for (q = 0; q < w; ++q) c0[q] = s[q], c1[q] = s[w + q];
+}
+
+/* Rows c0, c1 of C = A B (rows a0, a1 of A), blocks of 8, 4, 2, 1. */
+DKF__INLINE void mul_nn_rows2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                              const dkf_real_t *restrict a0, const dkf_real_t *restrict a1,
+                              const dkf_real_t *restrict B, size_t k, size_t c)
+{
+    dkf_real_t s[16];
+    size_t j = 0;
+    for (; j + 8 <= c; j += 8) {
+        nn_2x8(s, a0, a1, 1, B + j, k, c);
+        put_2xw(c0 + j, c1 + j, s, 8);
+    }
+    if (j + 4 <= c) {
+        nn_2x4(s, a0, a1, 1, B + j, k, c);
+        put_2xw(c0 + j, c1 + j, s, 4);
+        j += 4;
+    }
+    if (j + 2 <= c) {
+        nn_2x2(s, a0, a1, 1, B + j, k, c);
+        put_2xw(c0 + j, c1 + j, s, 2);
+        j += 2;
+    }
+    if (j < c) {
+        nn_2x1(s, a0, a1, 1, B + j, k, c);
+        put_2xw(c0 + j, c1 + j, s, 1);
+    }
+}
+
+DKF__INLINE void inl_mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                            size_t k, size_t c)
+{
+    size_t i = 0;
+    for (; i + 2 <= r; i += 2)
+        mul_nn_rows2(C + i * c, C + (i + 1) * c, A + i * k, A + (i + 1) * k, B, k, c);
+    if (i < r) mul_nn_row1(C + i * c, A + i * k, B, k, c);
+}
+
+/* Stands in for a NULL D of sym_product: adding +0 changes no sum (but
+ * the sign of a zero), and the loops stay free of tests. */
+static const dkf_real_t zero_row[DKF_MAX_DIM];
+
+/* Stores a 2 x w block s (row i, then row i+1) of a symmetric result
+ * plus D at columns j.., j >= i: c0 = &C(i,j), c1 = &C(i+1,j), d0 =
+ * &D(i,j), d1 = &D(i+1,j), and mirrors it below the diagonal: lo =
+ * &C(j,i), where C(j+q, i) and C(j+q, i+1) are adjacent. On the diagonal
+ * block (diag, j == i) the block's (i+1, i) element is the mirror of
+ * C(i, i+1), not the block's own (equal in exact arithmetic) sum. */
+DKF__INLINE void put_sym_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                             dkf_real_t *restrict lo, const dkf_real_t *restrict d0,
+                             const dkf_real_t *restrict d1, const dkf_real_t *s, size_t w,
+                             size_t r, int diag)
+{
+    size_t q;
+    for (q = 0; q < w; ++q) c0[q] = s[q] + d0[q];
+    for (q = diag ? 1 : 0; q < w; ++q) c1[q] = s[w + q] + d1[q];
+    for (q = diag ? 1 : 0; q < w; ++q) lo[q * r] = c0[q];
+    for (q = diag ? 2 : 0; q < w; ++q) lo[q * r + 1] = c1[q];
+}
+
+/* Rows i, i+1 of the upper triangle of A B + D from column i on (and
+ * their mirror), with A(i,l) = a0[l * sa], A(i+1,l) = a1[l * sa]; d0, d1
+ * are rows i, i+1 of D. */
+DKF__INLINE void sym_rows2(dkf_real_t *C, const dkf_real_t *a0, const dkf_real_t *a1, size_t sa,
+                           const dkf_real_t *B, const dkf_real_t *d0, const dkf_real_t *d1,
+                           size_t i, size_t r, size_t k)
+{
+    dkf_real_t *c0 = C + i * r, *c1 = c0 + r;
+    dkf_real_t s[16];
+    size_t j = i;
+    for (; j + 8 <= r; j += 8) {
+        nn_2x8(s, a0, a1, sa, B + j, k, r);
+        put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 8, r, j == i);
+    }
+    if (j + 4 <= r) {
+        nn_2x4(s, a0, a1, sa, B + j, k, r);
+        put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 4, r, j == i);
+        j += 4;
+    }
+    if (j + 2 <= r) {
+        nn_2x2(s, a0, a1, sa, B + j, k, r);
+        put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 2, r, j == i);
+        j += 2;
+    }
+    if (j < r) { /* j > i here: r - i >= 2, and 1 is left after blocks */
+        nn_2x1(s, a0, a1, sa, B + j, k, r);
+        put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 1, r, 0);
+    }
+}
+
+/* C (r x r) = A B + D for a product known to be symmetric, A(i,l) =
+ * A[i * si + l * sa]: only the upper triangle is computed, two rows at a
+ * time from the diagonal on, and mirrored as it is stored. */
+DKF__INLINE void sym_product(dkf_real_t *C, const dkf_real_t *A, size_t si, size_t sa,
+                             const dkf_real_t *B, const dkf_real_t *D, size_t r, size_t k)
+{
+    size_t i = 0;
+    for (; i + 2 <= r; i += 2) {
+        const dkf_real_t *d0 = D != NULL ? D + i * r : zero_row;
+        const dkf_real_t *d1 = D != NULL ? d0 + r : zero_row;
+        sym_rows2(C, A + i * si, A + (i + 1) * si, sa, B, d0, d1, i, r, k);
+    }
+    if (i < r) /* the last row of an odd count: its diagonal (the rest is mirrored) */
+        C[i * r + i] = nn_1x1(A + i * si, sa, B + i, k, r) + (D != NULL ? D[i * r + i] : DKF_R(0.0));
+}
+
+DKF__INLINE void inl_mul_nn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                                const dkf_real_t *D, size_t r, size_t k)
+{
+    sym_product(C, A, k, 1, B, D, r, k);
+}
+
+/* C (r x r) = A^T B + D, A and B k x r, symmetric by construction: as
+ * inl_mul_nn_sym, with A read down its columns. */
+DKF__INLINE void inl_mul_tn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                                const dkf_real_t *D, size_t r, size_t k)
+{
+    sym_product(C, A, 1, r, B, D, r, k);
+}
+
+/* One chain, summed in index order: the kernels below that take dot
+ * products of several pairs at once keep exactly this order per pair. */
+DKF__INLINE dkf_real_t inl_dot(const dkf_real_t *a, const dkf_real_t *b, size_t k)
+{
+    dkf_real_t s = DKF_R(0.0);
+    size_t l;
+    for (l = 0; l < k; ++l) s += a[l] * b[l];
+    return s;
+}
+
+/* out[t] = a . b_t for the 4 rows b_t = b + t*ldb (length k): 4 independent
+ * chains (a dot product's adds are otherwise one serial chain, bound by the
+ * add latency), and a[l] is loaded once for 4 products. Each chain sums in
+ * the order of inl_dot, so the results are bit-identical to 4 calls. */
+DKF__INLINE void dot4(dkf_real_t out[4], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
+                 size_t ldb, size_t k)
+{
+    const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
+    const dkf_real_t *restrict b2 = b + 2 * ldb, *restrict b3 = b + 3 * ldb;
+    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0), s2 = DKF_R(0.0), s3 = DKF_R(0.0);
+    size_t l;
+    for (l = 0; l < k; ++l) {
+        const dkf_real_t x = a[l];
+        s0 += x * b0[l];
+        s1 += x * b1[l];
+        s2 += x * b2[l];
+        s3 += x * b3[l];
+    }
+    out[0] = s0, out[1] = s1, out[2] = s2, out[3] = s3;
+}
+
+/* out[t] = a . b_t for 2 rows (see dot4). */
+DKF__INLINE void dot2(dkf_real_t out[2], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
+                 size_t ldb, size_t k)
+{
+    const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
+    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0);
+    size_t l;
+    for (l = 0; l < k; ++l) {
+        const dkf_real_t x = a[l];
+        s0 += x * b0[l];
+        s1 += x * b1[l];
+    }
+    out[0] = s0, out[1] = s1;
+}
+
+/* 4 rows of A at a time (see dot4): y(i..i+3) = A(i..i+3, :) x. */
+DKF__INLINE void inl_mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c)
+{
+    size_t i = 0;
+    for (; i + 4 <= r; i += 4) dot4(y + i, x, A + i * c, c, c);
+    if (i + 2 <= r) {
+        dot2(y + i, x, A + i * c, c, c);
+        i += 2;
+    }
+    if (i < r) y[i] = inl_dot(A + i * c, x, c);
+}
+
+/* Cholesky-Banachiewicz: row i of L needs only rows 0..i-1 of L and row i
+ * of A, so every inner product runs along two contiguous rows, and W == A
+ * works (each element is read before it is overwritten). Divisions by
+ * L(j,j) become products with its reciprocal: one division per row. */
+DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
+{
+    size_t i, j;
+    for (i = 0; i < n; ++i) {
+        dkf_real_t *wi = W + i * n;
+        const dkf_real_t *ai = A + i * n;
+        dkf_real_t d;
+        for (j = 0; j < i; ++j) wi[j] = (ai[j] - inl_dot(wi, W + j * n, j)) * inv[j];
+        d = ai[i] - inl_dot(wi, wi, i);
+        if (!(d > DKF_R(0.0) && d <= DKF_REAL_MAX)) return -1;
+        d = DKF_SQRT(d);
+        wi[i] = d;
+        inv[i] = DKF_R(1.0) / d;
+        for (j = i + 1; j < n; ++j) wi[j] = DKF_R(0.0);
+    }
+    return 0;
+}
+
+DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
+                              size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) b[i] = (b[i] - inl_dot(L + i * n, b, i)) * inv[i];
+}
+
+/* Both substitutions work on 4 columns of B at a time kept in registers
+ * (row-major friendly, independent chains), and sum each element's terms
+ * in the textbook order (forward: l ascending; backward: i descending),
+ * so the result is that of the plain row-by-row loops. */
+DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
+                     size_t c)
+{
+    size_t i, j, l;
+    /* forward: L W = B; row i of W = (row i of B - sum_{l<i} L(i,l) W_l) / L(i,i) */
+    for (i = 0; i < n; ++i) {
+        dkf_real_t *bi = B + i * c;
+        const dkf_real_t *li = L + i * n;
+        const dkf_real_t d = inv[i];
+        for (j = 0; j + 4 <= c; j += 4) {
+            dkf_real_t t0 = bi[j], t1 = bi[j + 1], t2 = bi[j + 2], t3 = bi[j + 3];
+            for (l = 0; l < i; ++l) {
+                const dkf_real_t a = li[l];
+                const dkf_real_t *bl = B + l * c + j;
+                t0 -= a * bl[0];
+                t1 -= a * bl[1];
+                t2 -= a * bl[2];
+                t3 -= a * bl[3];
+            }
+            bi[j] = t0 * d, bi[j + 1] = t1 * d, bi[j + 2] = t2 * d, bi[j + 3] = t3 * d;
+        }
+        for (; j < c; ++j) {
+            dkf_real_t t = bi[j];
+            for (l = 0; l < i; ++l) t -= li[l] * B[l * c + j];
+            bi[j] = t * d;
+        }
+    }
+    /* backward: L^T X = W; row l of X = (row l of W - sum_{i>l, descending}
+     * L(i,l) X_i) / L(l,l) */
+    for (l = n; l-- > 0;) {
+        dkf_real_t *bl = B + l * c;
+        const dkf_real_t d = inv[l];
+        for (j = 0; j + 4 <= c; j += 4) {
+            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
+            for (i = n - 1; i > l; --i) {
+                const dkf_real_t a = L[i * n + l];
+                const dkf_real_t *bi = B + i * c + j;
+                t0 -= a * bi[0];
+                t1 -= a * bi[1];
+                t2 -= a * bi[2];
+                t3 -= a * bi[3];
+            }
+            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
+        }
+        for (; j < c; ++j) {
+            dkf_real_t t = bl[j];
+            for (i = n - 1; i > l; --i) t -= L[i * n + l] * B[i * c + j];
+            bl[j] = t * d;
+        }
+    }
+}
+
+#endif /* DKF_KERNELS_INLINE_H */

@@ -210,8 +210,8 @@ DKF__INLINE void put_sym_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
     size_t q;
     for (q = 0; q < w; ++q) c0[q] = s[q] + d0[q];
     for (q = diag ? 1 : 0; q < w; ++q) c1[q] = s[w + q] + d1[q];
-    for (q = diag ? 1 : 0; q < w; ++q) lo[q * r] = c0[q];
-    for (q = diag ? 2 : 0; q < w; ++q) lo[q * r + 1] = c1[q];
+    if (diag) lo[r] = c0[1];
+    for (q = diag ? 2 : 0; q < w; ++q) lo[q * r] = c0[q], lo[q * r + 1] = c1[q];
 }
 
 /* Rows i, i+1 of the upper triangle of A B + D from column i on (and

@@ -138,7 +138,19 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
  * per size of DKF_KF_FIXED_SIZES with literal sizes, so that each of those
  * compiles to a step of exactly that size (constant trip counts, unrolled
  * and vectorised blocks, no remainder code). Both run the same operations
- * in the same order, so they return the same bits. */
+ * in the same order, so they return the same bits.
+ *
+ * Which inputs are scanned for NaN/Inf: x and P are finite (nothing else
+ * is ever committed), and under IEEE arithmetic a non-finite term makes
+ * every sum it enters non-finite (Inf * 0 is NaN, Inf - Inf is NaN). So a
+ * non-finite F(i,k) makes row i of F P, hence (F P F^T)(i,i), non-finite;
+ * u(i) makes x(i) non-finite; H(i,k) makes S(i,i) non-finite, which the
+ * Cholesky factorisation rejects; y(i) makes the NIS non-finite. The
+ * scans of the results (x, P, NIS) and of a failed factorisation's
+ * inputs therefore report every non-finite F, u, H, y as
+ * DKF_ERR_NONFINITE without scanning them on the way in. Q and R are
+ * scanned whole: only their upper triangles enter the products, and a
+ * NaN in a lower triangle must not pass unnoticed. */
 
 /* x = F x + u, P = (F P) F^T + Q into scratch; commits after the checks. */
 DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const dkf_real_t *Q,
@@ -146,8 +158,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
 {
     const kf_scratch_t s = kf_scratch(kf);
     size_t i;
-    if (nonfinite(nan_sum(F, n * n) + nan_sum(Q, n * n) + (u != NULL ? nan_sum(u, n) : DKF_R(0.0))))
-        return DKF_ERR_NONFINITE;
+    if (nonfinite(nan_sum(Q, n * n))) return DKF_ERR_NONFINITE; /* F, u: see above */
     inl_mul_vec(s.xn, F, kf->x.data, n, n);
     if (u != NULL)
         for (i = 0; i < n; ++i) s.xn[i] += u[i];
@@ -222,11 +233,12 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     inl_mul_nn(s.HP, H, kf->P.data, m, n, n);
     inl_mul_nn_sym(s.S, s.HP, s.Ht, R, m, n);
     spd = inl_chol(s.L, inv, s.S, m) == 0;
-    /* only now the finiteness of the inputs (a non-finite H, R or y is
-     * reported as such, not as the non-SPD S it makes), so that the scan
-     * runs while the factorisation's sqrt/divide chain is in flight */
-    if (nonfinite(nan_sum(H, m * n) + nan_sum(R, m * m) + nan_sum(y, m))) return DKF_ERR_NONFINITE;
-    if (!spd) return DKF_ERR_NOT_SPD;
+    /* after the factorisation, so that the scan runs while its sqrt/divide
+     * chain is in flight; a failed one is the input's fault if H, R or y
+     * is not finite (see above), and reported as such */
+    if (nonfinite(nan_sum(R, m * m))) return DKF_ERR_NONFINITE;
+    if (!spd)
+        return nonfinite(nan_sum(H, m * n) + nan_sum(y, m)) ? DKF_ERR_NONFINITE : DKF_ERR_NOT_SPD;
     /* nu = y - H x */
     inl_mul_vec(nu, H, kf->x.data, m, n);
     for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];

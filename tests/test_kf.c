@@ -305,6 +305,82 @@ static void test_kf_failed_steps_leave_state_bit_identical(void **state)
     assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
 }
 
+/* Every entry of every model input, set to NaN, +Inf or -Inf in turn, must
+ * give DKF_ERR_NONFINITE and leave the state bit-identical. The step scans
+ * Q and R on the way in but finds a non-finite F, u, H or y through what it
+ * does to the results (src/kf.c explains why that is exact), so this runs
+ * on sizes of the fixed-size steps (4/2, 8/4) and of the generic one (3/2,
+ * 5/1), from a regular P and from P = 0, the case where Inf * P(k,l) is
+ * Inf * 0 = NaN rather than Inf. */
+static void inject_each(kf_box_t *b, dkf_real_t *v, size_t len, int update, const dkf_mat_t *M1,
+                        const dkf_mat_t *M2, const dkf_mat_t *M3)
+{
+    static const double bad[3] = {NAN, INFINITY, -INFINITY};
+    static kf_snapshot_t snap;
+    size_t i, t;
+    snapshot(&snap, &b->kf);
+    for (i = 0; i < len; ++i) {
+        const dkf_real_t keep = v[i];
+        for (t = 0; t < 3; ++t) {
+            v[i] = (dkf_real_t)bad[t];
+            assert_int_equal(update ? dkf_kf_update(&b->kf, M1, M2, M3)
+                                    : dkf_kf_predict(&b->kf, M1, M2, M3),
+                             DKF_ERR_NONFINITE);
+            assert_unchanged(&snap, &b->kf);
+        }
+        v[i] = keep;
+    }
+}
+
+static void test_kf_nonfinite_inputs_anywhere(void **state)
+{
+    static const size_t sizes[4][2] = {{4, 2}, {8, 4}, {3, 2}, {5, 1}};
+    static kf_box_t b;
+    dkf_real_t x0d[NMAX], P0d[NMAX * NMAX], Fd[NMAX * NMAX], Qd[NMAX * NMAX], ud[NMAX],
+        Hd[MMAX * NMAX], Rd[MMAX * MMAX], yd[MMAX], Zd[NMAX * NMAX];
+    double tmp[NMAX * NMAX];
+    test_rng_t rng;
+    size_t c, zero, i;
+    (void)state;
+    test_rng_seed(&rng, 77);
+    for (c = 0; c < 4; ++c) {
+        const size_t n = sizes[c][0], m = sizes[c][1];
+        dkf_mat_t x0 = DKF_MAT(n, 1, x0d), P0 = DKF_MAT(n, n, P0d), F = DKF_MAT(n, n, Fd),
+                  Q = DKF_MAT(n, n, Qd), u = DKF_MAT(n, 1, ud), H = DKF_MAT(m, n, Hd),
+                  R = DKF_MAT(m, m, Rd), y = DKF_MAT(m, 1, yd), Z = DKF_MAT(n, n, Zd);
+        for (zero = 0; zero < 2; ++zero) {
+            test_rand_gauss(&rng, tmp, n, 1);
+            for (i = 0; i < n; ++i) x0d[i] = (dkf_real_t)tmp[i], ud[i] = (dkf_real_t)tmp[i];
+            test_rand_spd(&rng, tmp, n, 10.0, 1.0);
+            for (i = 0; i < n * n; ++i) P0d[i] = Qd[i] = (dkf_real_t)tmp[i], Zd[i] = 0;
+            test_rand_gauss(&rng, tmp, n, n);
+            for (i = 0; i < n * n; ++i) Fd[i] = (dkf_real_t)(0.5 * tmp[i]);
+            test_rand_gauss(&rng, tmp, m, n);
+            for (i = 0; i < m * n; ++i) Hd[i] = (dkf_real_t)tmp[i];
+            test_rand_spd(&rng, tmp, m, 10.0, 1.0);
+            for (i = 0; i < m * m; ++i) Rd[i] = (dkf_real_t)tmp[i];
+            test_rand_gauss(&rng, tmp, m, 1);
+            for (i = 0; i < m; ++i) yd[i] = (dkf_real_t)tmp[i];
+            assert_int_equal(dkf_kf_init(&b.kf, n, MMAX, b.kf_storage,
+                                         DKF_KF_STORAGE_LEN(NMAX, MMAX), &x0, &P0),
+                             DKF_OK);
+            if (zero) { /* F = 0, Q = 0: x = 0 and P = 0 exactly */
+                assert_int_equal(dkf_kf_predict(&b.kf, &Z, &Z, NULL), DKF_OK);
+                for (i = 0; i < n * n; ++i) assert_true(b.kf.P.data[i] == 0);
+            }
+            inject_each(&b, Fd, n * n, 0, &F, &Q, &u);
+            inject_each(&b, Qd, n * n, 0, &F, &Q, &u);
+            inject_each(&b, ud, n, 0, &F, &Q, &u);
+            inject_each(&b, Hd, m * n, 1, &H, &R, &y);
+            inject_each(&b, Rd, m * m, 1, &H, &R, &y);
+            inject_each(&b, yd, m, 1, &H, &R, &y);
+            /* the clean inputs still work */
+            assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, &u), DKF_OK);
+            assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+        }
+    }
+}
+
 static void test_kf_init_errors(void **state)
 {
     static kf_box_t b;
@@ -426,6 +502,7 @@ int main(void)
         cmocka_unit_test(test_kf_matches_reference_time_varying),
         cmocka_unit_test(test_kf_exposes_innovation),
         cmocka_unit_test(test_kf_failed_steps_leave_state_bit_identical),
+        cmocka_unit_test(test_kf_nonfinite_inputs_anywhere),
         cmocka_unit_test(test_kf_init_errors),
         cmocka_unit_test(test_kf_monte_carlo_nees),
     };

@@ -17,8 +17,9 @@
 
 /* Forced inlining where the compiler has a way to ask for it: the fixed-size
  * steps only pay off if the kernels are expanded with constant sizes, which
- * GCC's size heuristics would refuse for bodies this large. */
-#if defined(__GNUC__)
+ * GCC's size heuristics would refuse for bodies this large. Not when
+ * optimising for size (-Os): there the compiler keeps one copy of each. */
+#if defined(__GNUC__) && !defined(__OPTIMIZE_SIZE__)
 #define DKF__INLINE static inline __attribute__((always_inline))
 #else
 #define DKF__INLINE static inline
@@ -204,8 +205,8 @@ static const dkf_real_t zero_row[DKF_MAX_DIM];
  * C(i, i+1), not the block's own (equal in exact arithmetic) sum. */
 DKF__INLINE void put_sym_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
                              dkf_real_t *restrict lo, const dkf_real_t *restrict d0,
-                             const dkf_real_t *restrict d1, const dkf_real_t *s, size_t w,
-                             size_t r, int diag)
+                             const dkf_real_t *restrict d1, const dkf_real_t *s, size_t w, size_t r,
+                             int diag)
 {
     size_t q;
     for (q = 0; q < w; ++q) c0[q] = s[q] + d0[q];
@@ -257,7 +258,8 @@ DKF__INLINE void sym_product(dkf_real_t *C, const dkf_real_t *A, size_t si, size
         sym_rows2(C, A + i * si, A + (i + 1) * si, sa, B, d0, d1, i, r, k);
     }
     if (i < r) /* the last row of an odd count: its diagonal (the rest is mirrored) */
-        C[i * r + i] = nn_1x1(A + i * si, sa, B + i, k, r) + (D != NULL ? D[i * r + i] : DKF_R(0.0));
+        C[i * r + i] =
+            nn_1x1(A + i * si, sa, B + i, k, r) + (D != NULL ? D[i * r + i] : DKF_R(0.0));
 }
 
 DKF__INLINE void inl_mul_nn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
@@ -289,7 +291,7 @@ DKF__INLINE dkf_real_t inl_dot(const dkf_real_t *a, const dkf_real_t *b, size_t 
  * add latency), and a[l] is loaded once for 4 products. Each chain sums in
  * the order of inl_dot, so the results are bit-identical to 4 calls. */
 DKF__INLINE void dot4(dkf_real_t out[4], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
-                 size_t ldb, size_t k)
+                      size_t ldb, size_t k)
 {
     const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
     const dkf_real_t *restrict b2 = b + 2 * ldb, *restrict b3 = b + 3 * ldb;
@@ -307,7 +309,7 @@ DKF__INLINE void dot4(dkf_real_t out[4], const dkf_real_t *restrict a, const dkf
 
 /* out[t] = a . b_t for 2 rows (see dot4). */
 DKF__INLINE void dot2(dkf_real_t out[2], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
-                 size_t ldb, size_t k)
+                      size_t ldb, size_t k)
 {
     const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
     dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0);
@@ -321,7 +323,8 @@ DKF__INLINE void dot2(dkf_real_t out[2], const dkf_real_t *restrict a, const dkf
 }
 
 /* 4 rows of A at a time (see dot4): y(i..i+3) = A(i..i+3, :) x. */
-DKF__INLINE void inl_mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c)
+DKF__INLINE void inl_mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r,
+                             size_t c)
 {
     size_t i = 0;
     for (; i + 4 <= r; i += 4) dot4(y + i, x, A + i * c, c, c);
@@ -355,7 +358,7 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
 }
 
 DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
-                              size_t n)
+                                         size_t n)
 {
     size_t i;
     for (i = 0; i < n; ++i) b[i] = (b[i] - inl_dot(L + i * n, b, i)) * inv[i];
@@ -366,7 +369,7 @@ DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *
  * in the textbook order (forward: l ascending; backward: i descending),
  * so the result is that of the plain row-by-row loops. */
 DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
-                     size_t c)
+                                size_t c)
 {
     size_t i, j, l;
     /* forward: L W = B; row i of W = (row i of B - sum_{l<i} L(i,l) W_l) / L(i,i) */

@@ -49,7 +49,8 @@ DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
 }
 
 /* At (c x r) = A^T for A r x c. */
-DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r, size_t c)
+DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r,
+                           size_t c)
 {
     size_t i, j;
     for (i = 0; i < r; ++i)

@@ -54,13 +54,20 @@
 /* (n, m) sizes that get a Kalman step (dkf_kf_predict / dkf_kf_update)
  * compiled for exactly that state and measurement dimension, as an X-macro
  * list: X(n, m) per size. Other sizes run the generic step; results are
- * bit-identical either way, only speed and code size differ (each size
- * costs code, docs/footprint.md). Sizes above DKF_MAX_DIM are ignored.
- * Define it empty, e.g. `#define DKF_KF_FIXED_SIZES(X)`, for the smallest
- * image. The default covers constant-velocity / -acceleration tracking in
- * 2-D and 3-D and the benchmark's sizes (docs/bench.md). */
+ * bit-identical either way, only speed and code size differ
+ * (docs/bench.md, docs/footprint.md). Sizes above DKF_MAX_DIM are
+ * ignored. The default covers constant-velocity / -acceleration tracking
+ * in 2-D and 3-D and the benchmark's sizes, except in builds optimised for
+ * size (-Os, __OPTIMIZE_SIZE__), where it is empty: each size costs
+ * several KiB of Cortex-M4 flash. To choose, e.g. only n = 4, m = 2:
+ *   #define DKF_KF_FIXED_SIZES(X) X(4, 2)
+ * and `#define DKF_KF_FIXED_SIZES(X)` (empty) for none. */
 #ifndef DKF_KF_FIXED_SIZES
+#if defined(__OPTIMIZE_SIZE__)
+#define DKF_KF_FIXED_SIZES(X)
+#else
 #define DKF_KF_FIXED_SIZES(X) X(4, 2) X(6, 3) X(8, 4) X(12, 6)
+#endif
 #endif
 
 /* Sweeps of the one-sided Jacobi SVD before it reports

@@ -1,0 +1,27 @@
+# cmake -DNM=<nm> -DFIXED=<exe> -DGENERIC=<exe> -P kf_paths_distinct.cmake
+#
+# Passes only if dkf_kf_predict and dkf_kf_update are both larger in the
+# FIXED executable than in GENERIC: the fixed-size steps are forced inline
+# into them, so equal sizes mean both programs carry the same build of the
+# Kalman step and kf_paths_identical would compare a build with itself.
+if(NOT NM)
+  message(FATAL_ERROR "no nm (CMAKE_NM) to inspect the executables with")
+endif()
+
+function(sym_size exe sym out)
+  execute_process(COMMAND ${NM} -S --defined-only ${exe} OUTPUT_VARIABLE o RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0 OR NOT "\n${o}" MATCHES "\n[0-9a-fA-F]+ ([0-9a-fA-F]+) [Tt] ${sym}\n")
+    message(FATAL_ERROR "${NM} finds no sized symbol ${sym} in ${exe}")
+  endif()
+  math(EXPR s "0x${CMAKE_MATCH_1}")
+  set(${out} ${s} PARENT_SCOPE)
+endfunction()
+
+foreach(sym dkf_kf_predict dkf_kf_update)
+  sym_size(${FIXED} ${sym} f)
+  sym_size(${GENERIC} ${sym} g)
+  message("${sym}: ${f} bytes with fixed sizes, ${g} generic")
+  if(NOT f GREATER g)
+    message(FATAL_ERROR "${sym} is not larger with fixed sizes: the two builds do not differ")
+  endif()
+endforeach()

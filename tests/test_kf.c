@@ -13,8 +13,8 @@
 #include "dkf/kf.h"
 #include "dkf_test.h"
 
-#define NMAX 8
-#define MMAX 4
+#define NMAX 12
+#define MMAX 6
 
 /* Golden-vector tolerance, relative to max(1, max|expected|) per array.
  * Double: the vectors are exact to ~1e-15 and the KF is a contraction, so
@@ -145,57 +145,62 @@ static void ref_kf_step(double *x, double *P, const double *F, const double *Q, 
 }
 
 /* Random time-varying model, varying measurement dimension: the filter
- * must agree with the textbook recursion. Tolerance: both compute the same
- * quantities in different orders; the differences are rounding only,
- * O(n^2 eps cond) per step with cond(S) < 1e2, and do not accumulate
- * (stable filter): 1e-10 in double, 2e-5 in float (cond * n * eps / 4;
- * observed 1.1e-16 and 6.6e-7). */
+ * must agree with the textbook recursion, for n = 4, 6, 8, 12 and m = 1..6
+ * (so every fixed-size step of the default DKF_KF_FIXED_SIZES, and the
+ * generic one, is checked against an independent computation). Tolerance:
+ * both compute the same quantities in different orders; the differences
+ * are rounding only, O(n^2 eps cond) per step with cond(S) < 1e2, and do
+ * not accumulate (stable filter): 1e-10 in double, 2e-5 in float
+ * (cond * n * eps / 4 at n = 12; observed 1.1e-16 and 6.6e-7 at n = 6). */
 static void test_kf_matches_reference_time_varying(void **state)
 {
     static kf_box_t b;
-    const size_t n = 6;
+    static const size_t sizes[4] = {4, 6, 8, 12};
     double x[NMAX], P[NMAX * NMAX], F[NMAX * NMAX], Q[NMAX * NMAX], H[MMAX * NMAX],
         R[MMAX * MMAX], y[MMAX];
     dkf_real_t xr[NMAX], Pr[NMAX * NMAX], Fr[NMAX * NMAX], Qr[NMAX * NMAX], Hr[MMAX * NMAX],
         Rr[MMAX * MMAX], yr[MMAX];
-    dkf_mat_t X0 = DKF_MAT(6, 1, xr), P0 = DKF_MAT(6, 6, Pr), Fm = DKF_MAT(6, 6, Fr),
-              Qm = DKF_MAT(6, 6, Qr), Hm, Rm, Ym;
     test_rng_t rng;
-    size_t k, i;
+    size_t c, k, i;
     const double rel = DKF_USE_FLOAT ? 2e-5 : 1e-10;
     (void)state;
     test_reset_worst_rel();
     test_rng_seed(&rng, 11);
-    test_rand_gauss(&rng, x, n, 1);
-    test_rand_spd(&rng, P, n, 10.0, 1.0);
-    test_to_real(xr, x, n);
-    test_to_real(Pr, P, n * n);
-    assert_int_equal(
-        dkf_kf_init(&b.kf, n, MMAX, b.kf_storage, DKF_KF_STORAGE_LEN(NMAX, MMAX), &X0, &P0),
-        DKF_OK);
-    for (k = 0; k < 40; ++k) {
-        size_t m = 1 + k % MMAX;
-        /* F = 0.95 * orthogonal: bounded, but rotating differently each step */
-        test_rand_orthogonal(&rng, F, n);
-        for (i = 0; i < n * n; ++i) F[i] *= 0.95;
-        test_rand_spd(&rng, Q, n, 5.0, 0.1);
-        test_rand_gauss(&rng, H, m, n);
-        test_rand_spd(&rng, R, m, 3.0, 0.5);
-        test_rand_gauss(&rng, y, m, 1);
-        test_to_real(Fr, F, n * n);
-        test_to_real(Qr, Q, n * n);
-        test_to_real(Hr, H, m * n);
-        test_to_real(Rr, R, m * m);
-        test_to_real(yr, y, m);
-        Hm = (dkf_mat_t)DKF_MAT(m, n, Hr);
-        Rm = (dkf_mat_t)DKF_MAT(m, m, Rr);
-        Ym = (dkf_mat_t)DKF_MAT(m, 1, yr);
-        ref_kf_step(x, P, F, Q, H, R, y, n, m);
-        assert_int_equal(dkf_kf_predict(&b.kf, &Fm, &Qm, NULL), DKF_OK);
-        assert_int_equal(dkf_kf_update(&b.kf, &Hm, &Rm, &Ym), DKF_OK);
-        test_assert_close("x vs reference", b.kf.x.data, x, n, rel);
-        test_assert_close("P vs reference", b.kf.P.data, P, n * n, rel);
-        assert_int_equal(b.kf.nu.rows, m);
+    for (c = 0; c < 4; ++c) {
+        const size_t n = sizes[c];
+        dkf_mat_t X0 = DKF_MAT(n, 1, xr), P0 = DKF_MAT(n, n, Pr), Fm = DKF_MAT(n, n, Fr),
+                  Qm = DKF_MAT(n, n, Qr), Hm, Rm, Ym;
+        test_rand_gauss(&rng, x, n, 1);
+        test_rand_spd(&rng, P, n, 10.0, 1.0);
+        test_to_real(xr, x, n);
+        test_to_real(Pr, P, n * n);
+        assert_int_equal(dkf_kf_init(&b.kf, n, MMAX, b.kf_storage,
+                                     DKF_KF_STORAGE_LEN(NMAX, MMAX), &X0, &P0),
+                         DKF_OK);
+        for (k = 0; k < 40; ++k) {
+            size_t m = 1 + k % MMAX;
+            /* F = 0.95 * orthogonal: bounded, but rotating differently each step */
+            test_rand_orthogonal(&rng, F, n);
+            for (i = 0; i < n * n; ++i) F[i] *= 0.95;
+            test_rand_spd(&rng, Q, n, 5.0, 0.1);
+            test_rand_gauss(&rng, H, m, n);
+            test_rand_spd(&rng, R, m, 3.0, 0.5);
+            test_rand_gauss(&rng, y, m, 1);
+            test_to_real(Fr, F, n * n);
+            test_to_real(Qr, Q, n * n);
+            test_to_real(Hr, H, m * n);
+            test_to_real(Rr, R, m * m);
+            test_to_real(yr, y, m);
+            Hm = (dkf_mat_t)DKF_MAT(m, n, Hr);
+            Rm = (dkf_mat_t)DKF_MAT(m, m, Rr);
+            Ym = (dkf_mat_t)DKF_MAT(m, 1, yr);
+            ref_kf_step(x, P, F, Q, H, R, y, n, m);
+            assert_int_equal(dkf_kf_predict(&b.kf, &Fm, &Qm, NULL), DKF_OK);
+            assert_int_equal(dkf_kf_update(&b.kf, &Hm, &Rm, &Ym), DKF_OK);
+            test_assert_close("x vs reference", b.kf.x.data, x, n, rel);
+            test_assert_close("P vs reference", b.kf.P.data, P, n * n, rel);
+            assert_int_equal(b.kf.nu.rows, m);
+        }
     }
     print_message("worst relative error %.3e\n", test_worst_rel());
 }

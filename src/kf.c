@@ -182,7 +182,7 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
     DKF_CHECK_NULL(kf);
     if (!kf->ready) return DKF_ERR_STATE;
     n = kf->n;
-    /* shapes here, the finiteness of every input first thing in the step */
+    /* shapes here; finiteness in the step (see above) */
     DKF_TRY(dkf__check_shape(F, n, n));
     DKF_TRY(dkf__check_shape(Q, n, n));
     if (u != NULL) {

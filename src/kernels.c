@@ -92,11 +92,6 @@ int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
     return inl_chol(W, inv, A, n);
 }
 
-void dkf__tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
-                              size_t n)
-{
-    inl_tri_lower_solve_vec(L, inv, b, n);
-}
 
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
                      size_t c)

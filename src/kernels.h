@@ -51,9 +51,6 @@ int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n);
 /* Solves (L L^T) X = B in place for B n x c; inv from dkf__chol. */
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
                      size_t c);
-/* Solves L w = b in place (forward substitution), b n x 1. */
-void dkf__tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
-                              size_t n);
 /* Ainv = (L L^T)^{-1}, exactly symmetric. Ainv must not overlap L. */
 void dkf__chol_inverse(dkf_real_t *Ainv, const dkf_real_t *L, const dkf_real_t *inv, size_t n);
 

@@ -357,6 +357,8 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
     return 0;
 }
 
+/* Solves L w = b in place (forward substitution), b n x 1; inv from
+ * inl_chol. Only the Kalman step uses it. */
 DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,
                                          size_t n)
 {

@@ -12,6 +12,8 @@
 
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "dkf/config.h"
 
@@ -25,20 +27,129 @@
 #define DKF__INLINE static inline
 #endif
 
+/* DKF_SIMD (config.h) uses the vector extension of GCC and Clang for the
+ * register blocks, on targets with 16-byte SIMD registers. */
+#if DKF_SIMD && (defined(__GNUC__) || defined(__clang__)) && (defined(__SSE2__) || defined(__ARM_NEON))
+#define DKF__SIMD 1
+#else
+#define DKF__SIMD 0
+#endif
+
 /* Register blocks of C = A B (B row-major with row stride ldb). Each
  * block keeps its sums in registers across the whole l loop: a loaded B
  * element feeds one multiply-add per row of the block, and the sums are
  * independent chains (no add-latency bound). Along a row the 8 (4, 2)
- * sums use contiguous B elements, which GCC's basic-block vectoriser
- * turns into SIMD at plain -O2; 2 x 8 (8 double or 4 float SSE
- * accumulators) is the widest block whose sums, B values and broadcasts
- * of A all stay in the 16 registers of x86-64 SSE. Every sum runs over
- * l = 0, 1, ... in order from its first product, so each C(i,j) is
- * bit-identical to the textbook loop's whatever the block.
+ * sums use contiguous B elements: SIMD lanes. 2 x 8 (8 double or 4 float
+ * SSE accumulators) is the widest block whose sums, B values and
+ * broadcasts of A all stay in the 16 registers of x86-64 SSE. With
+ * DKF__SIMD the blocks are written with vectors; in plain C they are
+ * scalars, which GCC's basic-block vectoriser may or may not turn into
+ * SIMD (its cost model decided differently for the same block in two
+ * places of one Kalman step: docs/bench.md). Every sum runs over l = 0,
+ * 1, ... in order from its first product, so each C(i,j) is bit-identical
+ * to the textbook loop's whatever the block and with or without vectors.
+ * The results go straight to c0 = &C(i,j), c1 = &C(i+1,j): a block stored
+ * to a temporary array and copied on was turned into memcpy calls, and
+ * the array kept the sums out of registers.
  * a0, a1 point at A(i,0), A(i+1,0), and A(i,l) is a0[l * sa]: sa = 1 for
  * a row-major A (A B), sa = r for a product A^T B whose A is stored k x r.
  * b points at B(0,j). */
-DKF__INLINE void nn_2x8(dkf_real_t s[16], const dkf_real_t *restrict a0,
+#if DKF__SIMD
+/* 16-byte vectors of DKF__VL reals (GCC/Clang vector extension): each lane
+ * is an ordinary IEEE product or sum, so a lane computes exactly what the
+ * scalar code computes, in the same order. memcpy is the unaligned load
+ * and store. */
+typedef dkf_real_t dkf__vec_t __attribute__((vector_size(16)));
+#if DKF_USE_FLOAT
+typedef int32_t dkf__mask_t __attribute__((vector_size(16))); /* of a v != w */
+#else
+typedef int64_t dkf__mask_t __attribute__((vector_size(16)));
+#endif
+#define DKF__VL (16 / sizeof(dkf_real_t))
+
+DKF__INLINE dkf__vec_t vload(const dkf_real_t *p)
+{
+    dkf__vec_t v;
+    memcpy(&v, p, sizeof v);
+    return v;
+}
+
+DKF__INLINE void vstore(dkf_real_t *p, dkf__vec_t v)
+{
+    memcpy(p, &v, sizeof v);
+}
+
+/* Rows c0, c1 of a 2 x (nv DKF__VL) block, nv = 1, 2 or 4 (a constant
+ * once inlined: the unused sums fold away). The sums stay in nv vector
+ * registers per row for the whole l loop; they are named, not an array,
+ * so that no compiler keeps them in memory. */
+DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb, size_t nv)
+{
+    const dkf__vec_t z = {0};
+    dkf__vec_t s00 = z, s01 = z, s02 = z, s03 = z, s10 = z, s11 = z, s12 = z, s13 = z;
+    dkf__vec_t b0 = vload(b), b1 = z, b2 = z, b3 = z;
+    dkf_real_t x0 = a0[0], x1 = a1[0];
+    size_t l;
+    if (nv > 1) b1 = vload(b + DKF__VL);
+    if (nv > 2) b2 = vload(b + 2 * DKF__VL), b3 = vload(b + 3 * DKF__VL);
+    s00 = b0 * x0, s10 = b0 * x1;
+    if (nv > 1) s01 = b1 * x0, s11 = b1 * x1;
+    if (nv > 2) s02 = b2 * x0, s12 = b2 * x1, s03 = b3 * x0, s13 = b3 * x1;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x0 = a0[l * sa], x1 = a1[l * sa];
+        b0 = vload(bl);
+        s00 += b0 * x0, s10 += b0 * x1;
+        if (nv > 1) {
+            b1 = vload(bl + DKF__VL);
+            s01 += b1 * x0, s11 += b1 * x1;
+        }
+        if (nv > 2) {
+            b2 = vload(bl + 2 * DKF__VL), b3 = vload(bl + 3 * DKF__VL);
+            s02 += b2 * x0, s12 += b2 * x1, s03 += b3 * x0, s13 += b3 * x1;
+        }
+    }
+    vstore(c0, s00), vstore(c1, s10);
+    if (nv > 1) vstore(c0 + DKF__VL, s01), vstore(c1 + DKF__VL, s11);
+    if (nv > 2) {
+        vstore(c0 + 2 * DKF__VL, s02), vstore(c1 + 2 * DKF__VL, s12);
+        vstore(c0 + 3 * DKF__VL, s03), vstore(c1 + 3 * DKF__VL, s13);
+    }
+}
+
+DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 8 / DKF__VL);
+}
+
+DKF__INLINE void nn_2x4(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 4 / DKF__VL);
+}
+
+DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    dkf__vec_t s0 = vload(b) * a0[0], s1 = s0;
+    size_t l;
+    if (DKF__VL == 2) s1 = vload(b + DKF__VL) * a0[0];
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        s0 += vload(bl) * a0[l * sa];
+        if (DKF__VL == 2) s1 += vload(bl + DKF__VL) * a0[l * sa];
+    }
+    vstore(c0, s0);
+    if (DKF__VL == 2) vstore(c0 + DKF__VL, s1);
+}
+#else
+DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0,
                         const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
                         size_t k, size_t ldb)
 {
@@ -57,12 +168,14 @@ DKF__INLINE void nn_2x8(dkf_real_t s[16], const dkf_real_t *restrict a0,
         s10 += x1 * bl[0], s11 += x1 * bl[1], s12 += x1 * bl[2], s13 += x1 * bl[3];
         s14 += x1 * bl[4], s15 += x1 * bl[5], s16 += x1 * bl[6], s17 += x1 * bl[7];
     }
-    s[0] = s00, s[1] = s01, s[2] = s02, s[3] = s03, s[4] = s04, s[5] = s05, s[6] = s06;
-    s[7] = s07, s[8] = s10, s[9] = s11, s[10] = s12, s[11] = s13, s[12] = s14, s[13] = s15;
-    s[14] = s16, s[15] = s17;
+    c0[0] = s00, c0[1] = s01, c0[2] = s02, c0[3] = s03;
+    c0[4] = s04, c0[5] = s05, c0[6] = s06, c0[7] = s07;
+    c1[0] = s10, c1[1] = s11, c1[2] = s12, c1[3] = s13;
+    c1[4] = s14, c1[5] = s15, c1[6] = s16, c1[7] = s17;
 }
 
-DKF__INLINE void nn_2x4(dkf_real_t s[8], const dkf_real_t *restrict a0,
+DKF__INLINE void nn_2x4(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0,
                         const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
                         size_t k, size_t ldb)
 {
@@ -77,11 +190,28 @@ DKF__INLINE void nn_2x4(dkf_real_t s[8], const dkf_real_t *restrict a0,
         s00 += x0 * bl[0], s01 += x0 * bl[1], s02 += x0 * bl[2], s03 += x0 * bl[3];
         s10 += x1 * bl[0], s11 += x1 * bl[1], s12 += x1 * bl[2], s13 += x1 * bl[3];
     }
-    s[0] = s00, s[1] = s01, s[2] = s02, s[3] = s03;
-    s[4] = s10, s[5] = s11, s[6] = s12, s[7] = s13;
+    c0[0] = s00, c0[1] = s01, c0[2] = s02, c0[3] = s03;
+    c1[0] = s10, c1[1] = s11, c1[2] = s12, c1[3] = s13;
 }
 
-DKF__INLINE void nn_2x2(dkf_real_t s[4], const dkf_real_t *restrict a0,
+DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    dkf_real_t x = a0[0];
+    dkf_real_t s0 = x * b[0], s1 = x * b[1], s2 = x * b[2], s3 = x * b[3];
+    size_t l;
+    for (l = 1; l < k; ++l) {
+        const dkf_real_t *bl = b + l * ldb;
+        x = a0[l * sa];
+        s0 += x * bl[0], s1 += x * bl[1], s2 += x * bl[2], s3 += x * bl[3];
+    }
+    c0[0] = s0, c0[1] = s1, c0[2] = s2, c0[3] = s3;
+}
+
+#endif /* DKF__SIMD */
+
+DKF__INLINE void nn_2x2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0,
                         const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
                         size_t k, size_t ldb)
 {
@@ -95,10 +225,35 @@ DKF__INLINE void nn_2x2(dkf_real_t s[4], const dkf_real_t *restrict a0,
         s00 += x0 * bl[0], s01 += x0 * bl[1];
         s10 += x1 * bl[0], s11 += x1 * bl[1];
     }
-    s[0] = s00, s[1] = s01, s[2] = s10, s[3] = s11;
+    c0[0] = s00, c0[1] = s01, c1[0] = s10, c1[1] = s11;
 }
 
-DKF__INLINE void nn_2x1(dkf_real_t s[2], const dkf_real_t *restrict a0,
+/* The 2 x 2 block at column j of B = b: in double one vector per row; in
+ * float, where a vector holds 4, the 2 x 4 block at column j - 2 (when
+ * j >= 2), of which the last 2 columns are stored: the first two are
+ * sums the caller has already, and cost nothing extra in a vector. */
+DKF__INLINE void block_2x2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                           const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                           const dkf_real_t *restrict b, size_t k, size_t ldb, size_t j)
+{
+#if DKF__SIMD
+    if (DKF__VL == 2) {
+        nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 1);
+        return;
+    }
+    if (DKF__VL == 4 && j >= 2) {
+        dkf_real_t s[8];
+        nn_2xv(s, s + 4, a0, a1, sa, b - 2, k, ldb, 1);
+        c0[0] = s[2], c0[1] = s[3], c1[0] = s[6], c1[1] = s[7];
+        return;
+    }
+#endif
+    (void)j;
+    nn_2x2(c0, c1, a0, a1, sa, b, k, ldb);
+}
+
+DKF__INLINE void nn_2x1(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0,
                         const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
                         size_t k, size_t ldb)
 {
@@ -109,21 +264,7 @@ DKF__INLINE void nn_2x1(dkf_real_t s[2], const dkf_real_t *restrict a0,
         s0 += a0[l * sa] * bl;
         s1 += a1[l * sa] * bl;
     }
-    s[0] = s0, s[1] = s1;
-}
-
-DKF__INLINE void nn_1x4(dkf_real_t s[4], const dkf_real_t *restrict a0, size_t sa,
-                        const dkf_real_t *restrict b, size_t k, size_t ldb)
-{
-    dkf_real_t x = a0[0];
-    dkf_real_t s0 = x * b[0], s1 = x * b[1], s2 = x * b[2], s3 = x * b[3];
-    size_t l;
-    for (l = 1; l < k; ++l) {
-        const dkf_real_t *bl = b + l * ldb;
-        x = a0[l * sa];
-        s0 += x * bl[0], s1 += x * bl[1], s2 += x * bl[2], s3 += x * bl[3];
-    }
-    s[0] = s0, s[1] = s1, s[2] = s2, s[3] = s3;
+    c0[0] = s0, c1[0] = s1;
 }
 
 DKF__INLINE dkf_real_t nn_1x1(const dkf_real_t *restrict a0, size_t sa,
@@ -139,22 +280,9 @@ DKF__INLINE dkf_real_t nn_1x1(const dkf_real_t *restrict a0, size_t sa,
 DKF__INLINE void mul_nn_row1(dkf_real_t *restrict c0, const dkf_real_t *restrict a0,
                              const dkf_real_t *restrict B, size_t k, size_t c)
 {
-    dkf_real_t s[4];
-    size_t j = 0, q;
-    for (; j + 4 <= c; j += 4) {
-        nn_1x4(s, a0, 1, B + j, k, c);
-        for (q = 0; q < 4; ++q) c0[j + q] = s[q];
-    }
+    size_t j = 0;
+    for (; j + 4 <= c; j += 4) nn_1x4(c0 + j, a0, 1, B + j, k, c);
     for (; j < c; ++j) c0[j] = nn_1x1(a0, 1, B + j, k, c);
-}
-
-/* Stores a 2 x w block s (row i, then row i+1) at c0 = &C(i,j),
- * c1 = &C(i+1,j). */
-DKF__INLINE void put_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1, const dkf_real_t *s,
-                         size_t w)
-{
-    size_t q;
-    for (q = 0; q < w; ++q) c0[q] = s[q], c1[q] = s[w + q];
 }
 
 /* Rows c0, c1 of C = A B (rows a0, a1 of A), blocks of 8, 4, 2, 1. */
@@ -162,26 +290,17 @@ DKF__INLINE void mul_nn_rows2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
                               const dkf_real_t *restrict a0, const dkf_real_t *restrict a1,
                               const dkf_real_t *restrict B, size_t k, size_t c)
 {
-    dkf_real_t s[16];
     size_t j = 0;
-    for (; j + 8 <= c; j += 8) {
-        nn_2x8(s, a0, a1, 1, B + j, k, c);
-        put_2xw(c0 + j, c1 + j, s, 8);
-    }
+    for (; j + 8 <= c; j += 8) nn_2x8(c0 + j, c1 + j, a0, a1, 1, B + j, k, c);
     if (j + 4 <= c) {
-        nn_2x4(s, a0, a1, 1, B + j, k, c);
-        put_2xw(c0 + j, c1 + j, s, 4);
+        nn_2x4(c0 + j, c1 + j, a0, a1, 1, B + j, k, c);
         j += 4;
     }
     if (j + 2 <= c) {
-        nn_2x2(s, a0, a1, 1, B + j, k, c);
-        put_2xw(c0 + j, c1 + j, s, 2);
+        block_2x2(c0 + j, c1 + j, a0, a1, 1, B + j, k, c, j);
         j += 2;
     }
-    if (j < c) {
-        nn_2x1(s, a0, a1, 1, B + j, k, c);
-        put_2xw(c0 + j, c1 + j, s, 1);
-    }
+    if (j < c) nn_2x1(c0 + j, c1 + j, a0, a1, 1, B + j, k, c);
 }
 
 DKF__INLINE void inl_mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r,
@@ -226,21 +345,21 @@ DKF__INLINE void sym_rows2(dkf_real_t *C, const dkf_real_t *a0, const dkf_real_t
     dkf_real_t s[16];
     size_t j = i;
     for (; j + 8 <= r; j += 8) {
-        nn_2x8(s, a0, a1, sa, B + j, k, r);
+        nn_2x8(s, s + 8, a0, a1, sa, B + j, k, r);
         put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 8, r, j == i);
     }
     if (j + 4 <= r) {
-        nn_2x4(s, a0, a1, sa, B + j, k, r);
+        nn_2x4(s, s + 4, a0, a1, sa, B + j, k, r);
         put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 4, r, j == i);
         j += 4;
     }
     if (j + 2 <= r) {
-        nn_2x2(s, a0, a1, sa, B + j, k, r);
+        block_2x2(s, s + 2, a0, a1, sa, B + j, k, r, j);
         put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 2, r, j == i);
         j += 2;
     }
     if (j < r) { /* j > i here: r - i >= 2, and 1 is left after blocks */
-        nn_2x1(s, a0, a1, sa, B + j, k, r);
+        nn_2x1(s, s + 1, a0, a1, sa, B + j, k, r);
         put_sym_2xw(c0 + j, c1 + j, C + j * r + i, d0 + j, d1 + j, s, 1, r, 0);
     }
 }
@@ -333,6 +452,43 @@ DKF__INLINE void inl_mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_
         i += 2;
     }
     if (i < r) y[i] = inl_dot(A + i * c, x, c);
+}
+
+/* Whether any of n reals is NaN or infinite: x - x is +0 for every finite
+ * x and NaN otherwise, and NaN != 0. Branch-free; with DKF__SIMD one
+ * subtract, compare and OR per vector and no dependency chain but the
+ * 1-cycle OR; in plain C four sums of x - x (a NaN survives every later
+ * addition, so the total is 0 iff all are finite). Relies on IEEE
+ * arithmetic, as all of dkf does: no -ffinite-math-only (so no
+ * -ffast-math), under which x - x would fold to 0. */
+DKF__INLINE int inl_any_nonfinite(const dkf_real_t *p, size_t n)
+{
+#if DKF__SIMD
+    const dkf__vec_t z = {0};
+    dkf__mask_t bad = {0};
+    dkf_real_t tail = DKF_R(0.0);
+    const size_t nv = n - n % DKF__VL;
+    size_t i, q;
+    for (i = 0; i < nv; i += DKF__VL) {
+        const dkf__vec_t v = vload(p + i);
+        bad |= v - v != z;
+    }
+    for (; i < n; ++i) tail += p[i] - p[i];
+    for (q = 1; q < DKF__VL; ++q) bad[0] |= bad[q];
+    return bad[0] != 0 || !(tail == DKF_R(0.0));
+#else
+    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0), s2 = DKF_R(0.0), s3 = DKF_R(0.0);
+    const size_t n4 = n - n % 4;
+    size_t i;
+    for (i = 0; i < n4; i += 4) {
+        s0 += p[i] - p[i];
+        s1 += p[i + 1] - p[i + 1];
+        s2 += p[i + 2] - p[i + 2];
+        s3 += p[i + 3] - p[i + 3];
+    }
+    for (; i < n; ++i) s0 += p[i] - p[i];
+    return !((s0 + s1) + (s2 + s3) == DKF_R(0.0));
+#endif
 }
 
 /* Cholesky-Banachiewicz: row i of L needs only rows 0..i-1 of L and row i

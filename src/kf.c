@@ -79,33 +79,6 @@ DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t
     for (i = 0; i < n; ++i) y[i] += alpha * x[i];
 }
 
-/* Finiteness without classifying each element: x - x is +0 for every
- * finite x and NaN for an infinity or a NaN, and a NaN survives every
- * later addition, so nan_sum(p, n) == 0 iff all n reals are finite, and
- * the sums of several arrays are tested once (nonfinite below). Branch-
- * free, 4 independent sums (vectorised at -O2). Relies on IEEE
- * arithmetic, as all of dkf does: no -ffinite-math-only (so no
- * -ffast-math), under which x - x would fold to 0. */
-DKF__INLINE dkf_real_t nan_sum(const dkf_real_t *p, size_t n)
-{
-    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0), s2 = DKF_R(0.0), s3 = DKF_R(0.0);
-    const size_t n4 = n - n % 4;
-    size_t i;
-    for (i = 0; i < n4; i += 4) {
-        s0 += p[i] - p[i];
-        s1 += p[i + 1] - p[i + 1];
-        s2 += p[i + 2] - p[i + 2];
-        s3 += p[i + 3] - p[i + 3];
-    }
-    for (; i < n; ++i) s0 += p[i] - p[i];
-    return (s0 + s1) + (s2 + s3);
-}
-
-DKF__INLINE int nonfinite(dkf_real_t sum)
-{
-    return !(sum == DKF_R(0.0));
-}
-
 dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
@@ -134,6 +107,21 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     return DKF_OK;
 }
 
+/* x, P = xn, Pn: both pairs are adjacent (x then P in the storage, xn
+ * then Pn in the scratch), one copy of n + n^2 reals. Up to 256 bytes
+ * with the step's n (a compile-time constant in a fixed-size step: a few
+ * inlined moves); above, with the filter's n, so that it is a library
+ * call: GCC expands a constant-length copy of a few hundred bytes as
+ * `rep movs`, whose start-up costs more than the call. */
+DKF__INLINE void commit_state(dkf_kf_t *kf, const kf_scratch_t *s, size_t n)
+{
+    const size_t len = (n + n * n) * sizeof *s->xn;
+    if (len <= 256)
+        memcpy(kf->x.data, s->xn, len);
+    else
+        memcpy(kf->x.data, s->xn, (kf->n + kf->n * kf->n) * sizeof *s->xn);
+}
+
 /* The step bodies below are written once for any size and forced inline:
  * the entry points expand them once with the run-time n (and m), and once
  * per size of DKF_KF_FIXED_SIZES with literal sizes, so that each of those
@@ -159,18 +147,17 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
 {
     const kf_scratch_t s = kf_scratch(kf);
     size_t i;
-    if (nonfinite(nan_sum(Q, n * n))) return DKF_ERR_NONFINITE; /* F, u: see above */
-    inl_mul_vec(s.xn, F, kf->x.data, n, n);
+    if (inl_any_nonfinite(Q, n * n)) return DKF_ERR_NONFINITE; /* F, u: see above */
+    /* x^T F^T, P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
+    transpose(s.Ft, F, n, n);
+    inl_mul_nn(s.xn, kf->x.data, s.Ft, 1, n, n);
     if (u != NULL)
         for (i = 0; i < n; ++i) s.xn[i] += u[i];
-    /* upper triangle of (F P) F^T + Q (of Q too), mirrored */
-    transpose(s.Ft, F, n, n);
     inl_mul_nn(s.T, F, kf->P.data, n, n, n);
     inl_mul_nn_sym(s.Pn, s.T, s.Ft, Q, n, n);
-    if (nonfinite(nan_sum(s.xn, n + n * n))) return DKF_ERR_NONFINITE; /* xn and Pn */
+    if (inl_any_nonfinite(s.xn, n + n * n)) return DKF_ERR_NONFINITE; /* xn and Pn */
 
-    memcpy(kf->x.data, s.xn, n * sizeof *s.xn);
-    memcpy(kf->P.data, s.Pn, n * n * sizeof *s.Pn);
+    commit_state(kf, &s, n);
     return DKF_OK;
 }
 
@@ -237,11 +224,11 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     /* after the factorisation, so that the scan runs while its sqrt/divide
      * chain is in flight; a failed one is the input's fault if H, R or y
      * is not finite (see above), and reported as such */
-    if (nonfinite(nan_sum(R, m * m))) return DKF_ERR_NONFINITE;
+    if (inl_any_nonfinite(R, m * m)) return DKF_ERR_NONFINITE;
     if (!spd)
-        return nonfinite(nan_sum(H, m * n) + nan_sum(y, m)) ? DKF_ERR_NONFINITE : DKF_ERR_NOT_SPD;
-    /* nu = y - H x */
-    inl_mul_vec(nu, H, kf->x.data, m, n);
+        return inl_any_nonfinite(H, m * n) | inl_any_nonfinite(y, m) ? DKF_ERR_NONFINITE : DKF_ERR_NOT_SPD;
+    /* nu = y - H x, as x^T H^T */
+    inl_mul_nn(nu, kf->x.data, s.Ht, 1, n, m);
     for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];
     /* K^T = S^{-1} (H P) (P and S symmetric) */
     memcpy(s.Kt, s.HP, m * n * sizeof *s.Kt);
@@ -254,11 +241,10 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     memcpy(s.xn, kf->x.data, n * sizeof *s.xn);
     for (j = 0; j < m; ++j) axpy(s.xn, nu[j], s.Kt + j * n, n);
     covariance_update(kf, &s, n, m);
-    if (nonfinite(nan_sum(s.xn, n + n * n) + (nis - nis))) /* xn, Pn and the NIS */
+    if (inl_any_nonfinite(s.xn, n + n * n) | inl_any_nonfinite(&nis, 1)) /* xn, Pn and the NIS */
         return DKF_ERR_NONFINITE;
 
-    memcpy(kf->x.data, s.xn, n * sizeof *s.xn);
-    memcpy(kf->P.data, s.Pn, n * n * sizeof *s.Pn);
+    commit_state(kf, &s, n);
     kf->nu.rows = m;
     kf->S.rows = kf->S.cols = m;
     memcpy(kf->nu.data, nu, m * sizeof *nu);

@@ -206,8 +206,8 @@ int main(int argc, char **argv)
     }
     /* a generic dump from a build with fixed sizes (or the reverse) would
      * compare two runs of the same code */
-    printf("kf_paths_dump: %s build, %d fixed sizes, %s\n", argv[2], n_fixed_sizes,
-           sizeof(dkf_real_t) == sizeof(float) ? "float" : "double");
+    printf("kf_paths_dump: %s build, %d fixed sizes, DKF_SIMD %d, %s\n", argv[2], n_fixed_sizes,
+           DKF_SIMD, sizeof(dkf_real_t) == sizeof(float) ? "float" : "double");
     if ((n_fixed_sizes == 0) != !strcmp(argv[2], "generic")) {
         fprintf(stderr, "kf_paths_dump: built with %d fixed sizes, not a %s build\n", n_fixed_sizes,
                 argv[2]);

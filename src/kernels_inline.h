@@ -28,8 +28,13 @@
 #endif
 
 /* DKF_SIMD (config.h) uses the vector extension of GCC and Clang for the
- * register blocks, on targets with 16-byte SIMD registers. */
-#if DKF_SIMD && (defined(__GNUC__) || defined(__clang__)) && (defined(__SSE2__) || defined(__ARM_NEON))
+ * register blocks, on targets with 16-byte SIMD registers whose vector
+ * arithmetic is the scalar code's: SSE2 doing the scalar maths too
+ * (__SSE2_MATH__: every x86-64; not x87) and AArch64. Not 32-bit ARM
+ * NEON, which flushes subnormals to zero (its lanes would not compute what
+ * the scalar VFP code computes). */
+#if DKF_SIMD && (defined(__GNUC__) || defined(__clang__)) && \
+    (defined(__SSE2_MATH__) || (defined(__aarch64__) && defined(__ARM_NEON)))
 #define DKF__SIMD 1
 #else
 #define DKF__SIMD 0

@@ -72,7 +72,8 @@
 
 /* 1: the register-blocked products (matrix products and the Kalman step)
  * use the vector extension of GCC and Clang on targets with 16-byte SIMD
- * registers (x86-64 SSE2, ARM NEON), which makes their vectorisation
+ * registers and IEEE vector arithmetic (x86-64 SSE2, AArch64; not 32-bit
+ * ARM NEON, which flushes subnormals), which makes their vectorisation
  * independent of the compiler's auto-vectoriser heuristics; elsewhere, and
  * with 0, plain C99. Results are bit-identical either way: every lane is
  * the scalar operation, in the same order (a ctest compares the two). */

@@ -138,6 +138,7 @@ DKF__INLINE void nn_2x4(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
     nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 4 / DKF__VL);
 }
 
+/* 1 x 4: one vector of sums in float, two in double. */
 DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, size_t sa,
                         const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
@@ -154,9 +155,8 @@ DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, 
 }
 #else
 DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
-                        const dkf_real_t *restrict a0,
-                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
-                        size_t k, size_t ldb)
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
     dkf_real_t x0 = a0[0], x1 = a1[0];
     dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s02 = x0 * b[2], s03 = x0 * b[3];
@@ -180,9 +180,8 @@ DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
 }
 
 DKF__INLINE void nn_2x4(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
-                        const dkf_real_t *restrict a0,
-                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
-                        size_t k, size_t ldb)
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
     dkf_real_t x0 = a0[0], x1 = a1[0];
     dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s02 = x0 * b[2], s03 = x0 * b[3];
@@ -216,9 +215,8 @@ DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, 
 #endif /* DKF__SIMD */
 
 DKF__INLINE void nn_2x2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
-                        const dkf_real_t *restrict a0,
-                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
-                        size_t k, size_t ldb)
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
     dkf_real_t x0 = a0[0], x1 = a1[0];
     dkf_real_t s00 = x0 * b[0], s01 = x0 * b[1], s10 = x1 * b[0], s11 = x1 * b[1];
@@ -258,9 +256,8 @@ DKF__INLINE void block_2x2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
 }
 
 DKF__INLINE void nn_2x1(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
-                        const dkf_real_t *restrict a0,
-                        const dkf_real_t *restrict a1, size_t sa, const dkf_real_t *restrict b,
-                        size_t k, size_t ldb)
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
     dkf_real_t s0 = a0[0] * b[0], s1 = a1[0] * b[0];
     size_t l;

@@ -16,9 +16,10 @@
 /* Scratch layout for state n, measurement capacity m (DKF_KF_STORAGE_LEN
  * gives n + n^2 + 2 max(n^2, n m) + 2 n m + 2 m^2 reals of scratch):
  *   xn  n           new state
- *   Pn  n*n         new P (right after xn: one finiteness scan covers both)
+ *   Pn  n*n         new P (right after xn: one finiteness scan and one
+ *                   commit copy cover both, as x and P are adjacent)
  *   W   max(2n^2, 2nm), shared by the two steps:
- *       predict: T = F P (n*n), then Ft = F^T (n*n)
+ *       predict: T = F P (n*n) and Ft = F^T (n*n)
  *       update:  Ht = H^T (n*m), then Gt = [-K^T; E^T] (2m x n) of
  *                the covariance update (see covariance_update)
  *   HP  m*n         H P (= (P H^T)^T, P symmetric)
@@ -27,7 +28,8 @@
  *   L   m*m         its Cholesky factor
  * Every product runs on the row-major register-blocked kernels (row i of
  * the result accumulates rows of the right operand); the transposed
- * copies F^T and H^T, O(n^2) and O(n m), are what makes that possible. */
+ * copies F^T and H^T, O(n^2) and O(n m), are what makes that possible
+ * (F x and H x too run as x^T F^T and x^T H^T). */
 typedef struct {
     dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *S, *L;
 } kf_scratch_t;
@@ -148,7 +150,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     const kf_scratch_t s = kf_scratch(kf);
     size_t i;
     if (inl_any_nonfinite(Q, n * n)) return DKF_ERR_NONFINITE; /* F, u: see above */
-    /* x^T F^T, P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
+    /* x = (x^T F^T)^T + u; P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
     transpose(s.Ft, F, n, n);
     inl_mul_nn(s.xn, kf->x.data, s.Ft, 1, n, n);
     if (u != NULL)
@@ -226,7 +228,8 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
      * is not finite (see above), and reported as such */
     if (inl_any_nonfinite(R, m * m)) return DKF_ERR_NONFINITE;
     if (!spd)
-        return inl_any_nonfinite(H, m * n) | inl_any_nonfinite(y, m) ? DKF_ERR_NONFINITE : DKF_ERR_NOT_SPD;
+        return inl_any_nonfinite(H, m * n) | inl_any_nonfinite(y, m) ? DKF_ERR_NONFINITE
+                                                                      : DKF_ERR_NOT_SPD;
     /* nu = y - H x, as x^T H^T */
     inl_mul_nn(nu, kf->x.data, s.Ht, 1, n, m);
     for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];

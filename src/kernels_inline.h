@@ -397,63 +397,14 @@ DKF__INLINE void inl_mul_tn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_re
     sym_product(C, A, 1, r, B, D, r, k);
 }
 
-/* One chain, summed in index order: the kernels below that take dot
- * products of several pairs at once keep exactly this order per pair. */
+/* One chain, summed in index order (dot4 and dot2 in kernels.c keep
+ * exactly this order per pair). */
 DKF__INLINE dkf_real_t inl_dot(const dkf_real_t *a, const dkf_real_t *b, size_t k)
 {
     dkf_real_t s = DKF_R(0.0);
     size_t l;
     for (l = 0; l < k; ++l) s += a[l] * b[l];
     return s;
-}
-
-/* out[t] = a . b_t for the 4 rows b_t = b + t*ldb (length k): 4 independent
- * chains (a dot product's adds are otherwise one serial chain, bound by the
- * add latency), and a[l] is loaded once for 4 products. Each chain sums in
- * the order of inl_dot, so the results are bit-identical to 4 calls. */
-DKF__INLINE void dot4(dkf_real_t out[4], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
-                      size_t ldb, size_t k)
-{
-    const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
-    const dkf_real_t *restrict b2 = b + 2 * ldb, *restrict b3 = b + 3 * ldb;
-    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0), s2 = DKF_R(0.0), s3 = DKF_R(0.0);
-    size_t l;
-    for (l = 0; l < k; ++l) {
-        const dkf_real_t x = a[l];
-        s0 += x * b0[l];
-        s1 += x * b1[l];
-        s2 += x * b2[l];
-        s3 += x * b3[l];
-    }
-    out[0] = s0, out[1] = s1, out[2] = s2, out[3] = s3;
-}
-
-/* out[t] = a . b_t for 2 rows (see dot4). */
-DKF__INLINE void dot2(dkf_real_t out[2], const dkf_real_t *restrict a, const dkf_real_t *restrict b,
-                      size_t ldb, size_t k)
-{
-    const dkf_real_t *restrict b0 = b, *restrict b1 = b + ldb;
-    dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0);
-    size_t l;
-    for (l = 0; l < k; ++l) {
-        const dkf_real_t x = a[l];
-        s0 += x * b0[l];
-        s1 += x * b1[l];
-    }
-    out[0] = s0, out[1] = s1;
-}
-
-/* 4 rows of A at a time (see dot4): y(i..i+3) = A(i..i+3, :) x. */
-DKF__INLINE void inl_mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r,
-                             size_t c)
-{
-    size_t i = 0;
-    for (; i + 4 <= r; i += 4) dot4(y + i, x, A + i * c, c, c);
-    if (i + 2 <= r) {
-        dot2(y + i, x, A + i * c, c, c);
-        i += 2;
-    }
-    if (i < r) y[i] = inl_dot(A + i * c, x, c);
 }
 
 /* Whether any of n reals is NaN or infinite: x - x is +0 for every finite

@@ -531,6 +531,8 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
             L.Ln[i * pk + j] = v;
             L.Ln[j * pk + i] = v;
         }
+    /* an overflow (finite inputs, non-finite L) is not a definiteness question */
+    if (!dkf__all_finite(L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
     if (dkf__chol(L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored) */

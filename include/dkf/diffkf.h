@@ -58,12 +58,17 @@
  * and the struct bit-identical (a failed dkf_diffkf_gain(_masked) also
  * sets pending = 0 and pk = z.rows, cancelling a pending gain). The next
  * reals, up to DKF_DIFFKF_STORAGE_LEN, are the pending gain (state while
- * f->pending) and scratch. */
+ * f->pending, DKF_DIFFKF_PENDING_LEN) and scratch. */
 #define DKF_DIFFKF_STATE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
      + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */ \
      + 2 * (m) * (p) + 2 * (p) * (p) /* A, B caches */ \
      + 2 * (n) * (n) + 5 * (n) * (p) + 6 * (p) * (p) + 2 * (m) * (p) + (m) * (n) + (m) * (m))
+/* The pending gain: the DKF_DIFFKF_PENDING_LEN(n, m, p) reals after the
+ * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
+ * leave bit-identical too. */
+#define DKF_DIFFKF_PENDING_LEN(n, m, p) \
+    ((p) * (m) + 6 * (n) * (p) + 8 * (p) * (p) + 3 * (n) * (n) + (p))
 
 typedef struct {
     size_t n, m, p;

@@ -23,6 +23,10 @@
 
 /* x, P, y, Y, and scratch for one step. */
 #define DKF_INFO_STORAGE_LEN(n) (2 * (n) + 2 * (n) * (n) + 2 * (n) + 3 * (n) * (n))
+/* The first DKF_INFO_STATE_LEN(n) reals of the storage hold x, P, y, Y: a
+ * failed call leaves them and the struct bit-identical (the rest is
+ * scratch). */
+#define DKF_INFO_STATE_LEN(n) (2 * (n) + 2 * (n) * (n))
 /* Scratch of dkf_info_contribution for state n, measurement m. */
 #define DKF_INFO_CONTRIB_WORK(n, m) ((m) * (m) + (n) * (m))
 

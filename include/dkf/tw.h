@@ -47,8 +47,8 @@
  *
  * WHOLE-GRAPH SIMULATION (dkf_tw_net_*): N nodes and their packet buffers
  * in one caller array, stepping all nodes with the same primitives; a
- * step that fails at any node commits no node. It counts the reals each
- * node broadcasts.
+ * step that fails at any node commits no node and leaves none pending. It
+ * counts the reals each node broadcasts.
  */
 #ifndef DKF_TW_H
 #define DKF_TW_H
@@ -68,6 +68,15 @@
      + 3 * (n) * (n) + 3 * (n) * (m) + 2 * (m) * (m) + (n) /* local-step scratch */ \
      + (p) * (p) + (p) * (n) + (p) /* info-packet scratch */ \
      + 2 * DKF_TW_PKT_LEN(n)) /* packet being built, the central sum */
+
+/* The first DKF_TW_NODE_STATE_LEN(n, m) reals of node storage hold x, P, z
+ * and the views of the last committed step: a failed call leaves them and
+ * the struct bit-identical, except that a failed dkf_tw_node_local cancels
+ * a pending step (pending = 0). The next DKF_TW_NODE_STATE_LEN(n, m) -
+ * n - n^2 reals hold the pending step (state while nd->pending), the rest
+ * is scratch. */
+#define DKF_TW_NODE_STATE_LEN(n, m) \
+    ((n) + (n) * (n) + (m) + 4 * (n) + 4 * (n) * (n) + (m) * (m) + (n) * (m))
 
 /* Model of one step: the matrices of time n - 1. */
 typedef struct {

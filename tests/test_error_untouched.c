@@ -402,6 +402,14 @@ static void test_info(void **state)
         mset(&c.C, 2, 3, Cb);
         EXPECT_UNTOUCHED(&out, DKF_ERR_NONFINITE, contrib_call(&c),
                          "info_contribution: C^T R^-1 C overflows");
+        mset(&c.C, 2, 3, C);
+    }
+    {
+        const double zb[2] = {(double)DKF_REAL_MAX, (double)DKF_REAL_MAX};
+        mset(&c.z, 2, 1, zb);
+        EXPECT_UNTOUCHED(&out, DKF_ERR_NONFINITE, contrib_call(&c),
+                         "info_contribution: C^T R^-1 z overflows");
+        mset(&c.z, 2, 1, z);
     }
 }
 

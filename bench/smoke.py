@@ -28,17 +28,25 @@ import subprocess
 import sys
 
 
-def run(exe):
+def lines(exe):
+    """(impl, type, n, m, checksum) of every result line of one program."""
     out = subprocess.run([exe, "--steps", "20", "--repeats", "1"], check=True,
                          capture_output=True, text=True, timeout=120).stdout
-    rows = {}
-    for line in out.splitlines():
-        f = line.split()
-        if len(f) == 8 and not line.startswith("#"):
-            rows[(f[1], f[2], f[3])] = (f[0], float(f[7]))
+    rows = [(f[0], f[1], f[2], f[3], float(f[7])) for f in map(str.split, out.splitlines())
+            if len(f) == 8 and not f[0].startswith("#")]
     if not rows:
         sys.exit(f"FAIL: {exe} printed no result line")
     return rows
+
+
+def run(exe):
+    """KF benchmarks: {(type, n, m): (impl, checksum)}."""
+    return {(t, n, m): (impl, c) for impl, t, n, m, c in lines(exe)}
+
+
+def run_uif(exe):
+    """bench_uif: three filters on one (type, n, m): {impl: checksum}."""
+    return {impl: c for impl, _, _, _, c in lines(exe)}
 
 
 def close(a, b, rel):
@@ -81,20 +89,6 @@ def verdicts(rel, ref, dkf, peers, uif):
 
 def uif_get(uif, name):
     return uif.get(name, math.nan)
-
-
-def run_uif(exe):
-    """bench_uif prints three lines with one (type, n, m): key them by impl."""
-    out = subprocess.run([exe, "--steps", "20", "--repeats", "1"], check=True,
-                         capture_output=True, text=True, timeout=120).stdout
-    rows = {}
-    for line in out.splitlines():
-        f = line.split()
-        if len(f) == 8 and not line.startswith("#"):
-            rows[f[0]] = float(f[7])
-    if not rows:
-        sys.exit(f"FAIL: {exe} printed no result line")
-    return rows
 
 
 def main():

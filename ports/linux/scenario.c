@@ -102,6 +102,19 @@ static const char *json_kind(const json_t *j)
 
 /* ---- numbers, vectors, matrices ------------------------------------------ */
 
+/* v in the fewest significant digits (15..17) that read back as v: the
+ * number as the file wrote it, for messages. */
+static const char *num_str(char *buf, size_t len, double v)
+{
+    int prec;
+    for (prec = 15; prec < 17; ++prec) {
+        snprintf(buf, len, "%.*g", prec, v);
+        if (strtod(buf, NULL) == v) return buf;
+    }
+    snprintf(buf, len, "%.17g", v);
+    return buf;
+}
+
 /* An integer in lo..hi, range-checked in the double domain before any cast
  * (every long in that range converts exactly: |lo|, |hi| <= 2^53); the
  * message shows the file's value, never a converted one. */
@@ -109,13 +122,15 @@ static int get_integer(ctx_t *c, const json_t *j, const char *path, double lo, d
                        long *out)
 {
     double v;
+    char buf[32];
     if (!json_is_number(j)) return fail(c, path, "expected an integer, got %s", json_kind(j));
     v = json_number_value(j);
     if (v != floor(v) || !(v >= lo && v <= hi)) {
         if (json_is_integer(j))
             return fail(c, path, "expected an integer in %.0f..%.0f, got %" JSON_INTEGER_FORMAT,
                         lo, hi, json_integer_value(j));
-        return fail(c, path, "expected an integer in %.0f..%.0f, got %.17g", lo, hi, v);
+        return fail(c, path, "expected an integer in %.0f..%.0f, got %s", lo, hi,
+                    num_str(buf, sizeof buf, v));
     }
     *out = (long)v;
     return 0;
@@ -475,10 +490,11 @@ static long find_time(const long *ks, size_t n, long k)
  * transposed entry is far above 8 eps. */
 #define DKF_SCN_SYM_TOL 8.0
 
-static int require_symmetric(ctx_t *c, const dkf_scn_mat_t *m, int is_list)
+static int require_symmetric(ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
+                             int is_list)
 {
     size_t e, i, j, n, count;
-    char p[PATH_LEN];
+    char p[PATH_LEN], va[32], vb[32];
     if (m == NULL || m->rows != m->cols) return 0; /* shapes are checked elsewhere */
     n = m->rows;
     count = m->count > 0 ? m->count : 1;
@@ -499,11 +515,15 @@ static int require_symmetric(ctx_t *c, const dkf_scn_mat_t *m, int is_list)
             pathf(p, "%s", m->path);
         else if (is_list)
             pathf(p, "%s[%zu]", m->path, e);
+        else if (s->layout == DKF_SCN_LAYOUT_CANONICAL)
+            pathf(p, "%s.per_k[%zu]", m->path, e);
         else
             pathf(p, "%s (entry for k = %zu)", m->path, m->k0 + e);
-        return fail(c, p, "not symmetric: |%s(%zu,%zu) - %s(%zu,%zu)| = %.3g > %g eps max|%s| = "
-                    "%.3g (a covariance must be symmetric)", m->name, wi, wj, m->name, wj, wi,
-                    worst, DKF_SCN_SYM_TOL, m->name, DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
+        return fail(c, p, "not symmetric (a covariance): entries (%zu,%zu) = %s and (%zu,%zu) "
+                    "= %s differ by %.3g > %g eps max|entry| = %.3g", wi, wj,
+                    num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
+                    num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
+                    DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
     }
     return 0;
 }
@@ -516,13 +536,13 @@ static int check_covariances(ctx_t *c, const dkf_scenario_t *s)
     static const char *const init_cov[] = {"P00", "P00_local", "P00_central", "Pd00"};
     size_t i, l;
     for (i = 0; i < sizeof model_cov / sizeof *model_cov; ++i) {
-        if (require_symmetric(c, mats_find(&s->model, model_cov[i]), 0) != 0) return -1;
+        if (require_symmetric(c, s, mats_find(&s->model, model_cov[i]), 0) != 0) return -1;
         for (l = 0; l < s->nsensors; ++l)
-            if (require_symmetric(c, mats_find(&s->sensors[l].mats, model_cov[i]), 0) != 0)
+            if (require_symmetric(c, s, mats_find(&s->sensors[l].mats, model_cov[i]), 0) != 0)
                 return -1;
     }
     for (i = 0; i < sizeof init_cov / sizeof *init_cov; ++i)
-        if (require_symmetric(c, mats_find(&s->init, init_cov[i]), 1) != 0) return -1;
+        if (require_symmetric(c, s, mats_find(&s->init, init_cov[i]), 1) != 0) return -1;
     return 0;
 }
 

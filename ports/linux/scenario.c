@@ -1669,61 +1669,83 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
 
 /* ---- public API ---------------------------------------------------------------- */
 
-dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
-                                  size_t errlen)
+/* The scenario of a parsed document (takes the reference to root). */
+static dkf_scenario_t *load_root(ctx_t *c, json_t *root, const json_error_t *je,
+                                 const char *case_sel)
 {
-    ctx_t c;
-    json_error_t je;
-    json_t *root;
     dkf_scenario_t *s;
     int rc;
-
-    c.file = path != NULL ? path : "(null)";
-    c.err = err;
-    c.errlen = errlen;
-    if (err != NULL && errlen > 0) err[0] = '\0';
-    if (path == NULL) {
-        fail(&c, NULL, "no scenario file given");
-        return NULL;
-    }
-    root = json_load_file(path, JSON_REJECT_DUPLICATES, &je);
     if (root == NULL) {
-        if (je.line <= 0)
-            fail(&c, NULL, "cannot read: %s", je.text);
+        if (je->line <= 0)
+            fail(c, NULL, "cannot read: %s", je->text);
         else
-            fail(&c, NULL, "invalid JSON at line %d, column %d: %s", je.line, je.column, je.text);
+            fail(c, NULL, "invalid JSON at line %d, column %d: %s", je->line, je->column, je->text);
         return NULL;
     }
     if (!json_is_object(root)) {
-        fail(&c, NULL, "expected a JSON object at the top level, got %s", json_kind(root));
+        fail(c, NULL, "expected a JSON object at the top level, got %s", json_kind(root));
         json_decref(root);
         return NULL;
     }
     s = calloc(1, sizeof *s);
-    if (s == NULL || (s->file = dupstr(path)) == NULL) {
+    if (s == NULL || (s->file = dupstr(c->file)) == NULL) {
         free(s);
         json_decref(root);
-        fail(&c, NULL, "out of memory");
+        fail(c, NULL, "out of memory");
         return NULL;
     }
     s->root = root;
     s->k_first = 1;
     if (json_object_get(root, "cases") != NULL) {
-        rc = load_cases(&c, s, root, case_sel);
+        rc = load_cases(c, s, root, case_sel);
     } else if (case_sel != NULL) {
-        rc = fail(&c, "cases", "--case given but the file has no cases (%s layout)",
+        rc = fail(c, "cases", "--case given but the file has no cases (%s layout)",
                   json_object_get(root, "steps") != NULL ? "steps" : "canonical");
     } else if (json_object_get(root, "steps") != NULL && json_object_get(root, "y") == NULL &&
                json_object_get(root, "runs") == NULL) {
-        rc = load_steps(&c, s, root);
+        rc = load_steps(c, s, root);
     } else {
-        rc = load_canonical(&c, s, root);
+        rc = load_canonical(c, s, root);
     }
     if (rc != 0) {
         dkf_scenario_free(s);
         return NULL;
     }
     return s;
+}
+
+static void ctx_init(ctx_t *c, const char *file, char *err, size_t errlen)
+{
+    c->file = file != NULL ? file : "(null)";
+    c->err = err;
+    c->errlen = errlen;
+    if (err != NULL && errlen > 0) err[0] = '\0';
+}
+
+dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
+                                  size_t errlen)
+{
+    ctx_t c;
+    json_error_t je;
+    ctx_init(&c, path, err, errlen);
+    if (path == NULL) {
+        fail(&c, NULL, "no scenario file given");
+        return NULL;
+    }
+    return load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
+}
+
+dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
+                                         const char *case_sel, char *err, size_t errlen)
+{
+    ctx_t c;
+    json_error_t je;
+    ctx_init(&c, name, err, errlen);
+    if (buf == NULL) {
+        fail(&c, NULL, "no scenario buffer given");
+        return NULL;
+    }
+    return load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
 }
 
 void dkf_scenario_free(dkf_scenario_t *s)

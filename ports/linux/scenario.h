@@ -168,6 +168,10 @@ typedef struct {
  * canonical file. Returns NULL and fills err on any problem. */
 dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
                                   size_t errlen);
+/* The same from len bytes at buf (need not be NUL-terminated; e.g. a fuzz
+ * input); name labels the messages and becomes s->file. */
+dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
+                                         const char *case_sel, char *err, size_t errlen);
 void dkf_scenario_free(dkf_scenario_t *s);
 
 /* Matrix `name` of the global model, of sensor i (falling back to the

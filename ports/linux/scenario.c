@@ -1187,8 +1187,8 @@ static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const 
             return fail(c, p, "missing key (another step has it, so every step%s needs it)",
                         prev ? " with k >= 1" : "");
         if (nest_depth(v) > 2)
-            return fail(c, p, "time-varying per-node matrices are not supported (give model.%s)",
-                        name);
+            return fail(c, p, "expected a matrix, got a list of matrices (only seed-003 H and Sw "
+                        "are per node)");
         if (first == N) first = j;
     }
     if (mats_find(&s->model, name) != NULL) {
@@ -1207,6 +1207,53 @@ static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const 
     m->count = N - first;
     m->k0 = (size_t)(s->k_first + (long)first - (prev ? 1 : 0));
     return check_dims(c, m);
+}
+
+/* Seed 003's per-node H or Sw given per step: steps[j].inputs.<key> is a
+ * list of one matrix per node, node l's <key> at the step's time (a per_k
+ * list of sensor l from k_first). Shapes may not change between steps. */
+static int steps_node_series(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const char *key)
+{
+    size_t N = json_array_size(steps), L = s->nsensors, j, l;
+    block_t *b;
+    char p[PATH_LEN], pl[PATH_LEN];
+    int rc = -1;
+    for (l = 0; l < L; ++l)
+        if (mats_find(&s->sensors[l].mats, key) != NULL) {
+            pathf(p, "steps[0].inputs.%s", key);
+            return fail(c, p, "also given as model.%s (give one)", key);
+        }
+    if ((b = xcalloc(c, L, sizeof *b)) == NULL) return -1;
+    for (l = 0; l < L; ++l) {
+        dkf_scn_mat_t *m;
+        pathf(pl, "steps[0].inputs.%s[%zu]", key, l);
+        if ((m = mats_add(c, &s->sensors[l].mats, key, pl)) == NULL) goto done;
+        m->count = N;
+        m->k0 = (size_t)s->k_first;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *v = json_object_get(json_object_get(json_array_get(steps, j), "inputs"), key);
+        pathf(p, "steps[%zu].inputs.%s", j, key);
+        if (v == NULL) {
+            fail(c, p, "missing key (another step has it, so every step needs it)");
+            goto done;
+        }
+        if (!json_is_array(v) || nest_depth(v) != 3 || json_array_size(v) != L) {
+            fail(c, p, "expected a list of %zu matrices (one per node), got %s", L,
+                 json_is_array(v) ? "a list of another shape" : json_kind(v));
+            goto done;
+        }
+        for (l = 0; l < L; ++l) {
+            dkf_scn_mat_t *m = &s->sensors[l].mats.items[s->sensors[l].mats.len - 1];
+            subidx(pl, p, l);
+            if (stack_matrix(c, m, &b[l], j, N, json_array_get(v, l), pl) != 0) goto done;
+            if (j == 0 && check_dims(c, m) != 0) goto done;
+        }
+    }
+    rc = 0;
+done:
+    free(b);
+    return rc;
 }
 
 /* Every per-step matrix input (the union of the steps' input keys but y). */
@@ -1230,8 +1277,13 @@ static int steps_matrices(ctx_t *c, dkf_scenario_t *s, const json_t *steps)
             keys[nkeys++] = key;
         }
     }
-    for (i = 0; i < nkeys; ++i)
-        if (steps_matrix(c, s, steps, keys[i]) != 0) return -1;
+    for (i = 0; i < nkeys; ++i) {
+        const int node_key = s->family == DKF_SCN_FAMILY_TW &&
+                             (strcmp(keys[i], "H") == 0 || strcmp(keys[i], "Sw") == 0);
+        if ((node_key ? steps_node_series(c, s, steps, keys[i])
+                      : steps_matrix(c, s, steps, keys[i])) != 0)
+            return -1;
+    }
     return 0;
 }
 
@@ -1275,8 +1327,11 @@ static int steps_model(ctx_t *c, dkf_scenario_t *s, const json_t *model)
         if (parse_model_entry(c, &s->model, key, val, p) != 0) return -1;
     }
     if (s->family == DKF_SCN_FAMILY_TW) {
-        if (steps_node_matrices(c, s, model, "H") != 0) return -1;
-        if (steps_node_matrices(c, s, model, "Sw") != 0) return -1;
+        /* per node, in model or (time varying) in every step's inputs */
+        if (json_object_get(model, "H") != NULL && steps_node_matrices(c, s, model, "H") != 0)
+            return -1;
+        if (json_object_get(model, "Sw") != NULL && steps_node_matrices(c, s, model, "Sw") != 0)
+            return -1;
     }
     return 0;
 }
@@ -1574,11 +1629,17 @@ static int steps_validate(ctx_t *c, dkf_scenario_t *s, size_t *m_out)
     }
     for (l = 0; l < s->nsensors; ++l) {
         const dkf_scn_mat_t *Hl = dkf_scn_sensor_model(s, l, "H"), *Sw;
+        if (Hl == NULL)
+            return fail(c, "model.H", "missing key (seed-003 files give one H per node, in "
+                        "model or in every step's inputs)");
         if (Hl->cols != n) return shape_error(c, Hl->path, Hl->rows, n, Hl->rows, Hl->cols);
         if (Hl->rows > DKF_MAX_DIM)
             return fail(c, Hl->path, "dimension %zu exceeds DKF_MAX_DIM = %d", Hl->rows,
                         DKF_MAX_DIM);
         Sw = dkf_scn_sensor_model(s, l, "Sw");
+        if (Sw == NULL)
+            return fail(c, "model.Sw", "missing key (one Sw per node, in model or in every "
+                        "step's inputs)");
         if (Sw->rows != Hl->rows || Sw->cols != Hl->rows)
             return shape_error(c, Sw->path, Hl->rows, Hl->rows, Sw->rows, Sw->cols);
         if (s->sensors[l].m != Hl->rows) {
@@ -1626,14 +1687,21 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
     if (!json_is_object(init)) return fail(c, "init", "expected an object, got %s", json_kind(init));
     if (json_object_get(root, "graph") != NULL) {
         const json_t *H = json_object_get(model, "H");
+        const char *hkey = "model.H";
         s->family = DKF_SCN_FAMILY_TW;
         s->multi = 1;
+        if (H == NULL) {
+            H = json_object_get(json_object_get(json_array_get(steps, 0), "inputs"), "H");
+            hkey = "steps[0].inputs.H";
+        }
+        if (H == NULL)
+            return fail(c, "model.H", "missing key (seed-003 files give one H per node, in "
+                        "model or in every step's inputs)");
         if (!json_is_array(H) || json_array_size(H) == 0)
-            return fail(c, "model.H", "%s (seed-003 files give one H per node)",
-                        H == NULL ? "missing key" : "expected a list of matrices");
+            return fail(c, hkey, "expected a list of matrices (one per node)");
         s->nsensors = json_array_size(H);
         if (s->nsensors > DKF_SCN_MAX_SENSORS)
-            return fail(c, "model.H", "%zu nodes, more than the %lu allowed", s->nsensors,
+            return fail(c, hkey, "%zu nodes, more than the %lu allowed", s->nsensors,
                         DKF_SCN_MAX_SENSORS);
     } else {
         s->family = DKF_SCN_FAMILY_UIF;

@@ -4,10 +4,10 @@ independent computation: the same filter restarted on constant-model files.
 
     check_piecewise.py DKF_RUN VECTOR_DIR OUTDIR {rtsf|nrtsf_df|nrtsf|tw1} [TOL]
 
-The model is M_a up to step K and M_b after (every matrix changes: A, G
-or B, Q or Sv, and C, H, R for seed 004). The time-varying file gives it as
-per-step `inputs` (A_prev, ... at every step, and no `model` at all for
-seed 004). The reference runs dkf-run twice on constant-model files:
+The model is M_a up to step K and M_b after (every matrix changes: A, G,
+Q, C, H, R for seed 004; A, B, Sv and every node's H, Sw for seed 003).
+The time-varying file gives it as per-step `inputs` (A_prev, ... at every
+step) and has no `model` at all. The reference runs dkf-run twice on constant-model files:
 
 * nrtsf, tw1 ((x0, P0) = x_{0|0}; (x_{k|k}, P_{k|k}) is the whole state
   carried between steps, d / z are estimated afresh): M_a for steps 1..K,
@@ -92,16 +92,19 @@ def main():
     doc = json.load(open(os.path.join(vdir, VECTOR[flt])))
     label = LABEL[flt]
     if flt == "tw1":
-        tkey, dyn, meas, keys = "n", ("A", "B", "Sv"), (), ("x", "P", "z")
+        tkey, dyn, meas, keys = "n", ("A", "B", "Sv"), ("H", "Sw"), ("x", "P", "z")
     else:
         tkey, dyn, meas = "k", ("A", "G", "Q"), ("C", "H", "R")
         keys = ("x", "Px", "d", "Pd") if flt == "nrtsf" else ("x_pred", "P_pred", "x", "Px", "d")
     prior = flt in ("rtsf", "nrtsf_df")
     ma = doc["model"]
     mb = copy.deepcopy(ma)
-    factor = {"A": 0.97, "G": 1.2, "B": 1.2, "Q": 2.0, "Sv": 2.0, "C": 1.1, "H": 1.3, "R": 1.5}
+    factor = {"A": 0.97, "G": 1.2, "B": 1.2, "Q": 2.0, "Sv": 2.0, "C": 1.1, "H": 1.3, "R": 1.5,
+              "Sw": 0.7}
     for key in dyn + meas:
-        if key in ma:
+        if key in ma and flt == "tw1" and key in meas:  # one matrix per node
+            mb[key] = [scaled(M, factor[key]) for M in ma[key]]
+        elif key in ma:
             mb[key] = scaled(ma[key], factor[key])
     steps = doc["steps"]
     k0 = steps[0][tkey]

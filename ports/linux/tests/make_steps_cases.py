@@ -48,15 +48,20 @@ def time_varying_s004(doc, model_form="empty"):
     return tv
 
 
-def time_varying_s003(doc):
-    """A_prev, B_prev, Sv_prev at every step; model keeps the per-node H, Sw."""
+def time_varying_s003(doc, full=False):
+    """A_prev, B_prev, Sv_prev at every step; model keeps the per-node H, Sw,
+    or (full) they too are per step (lists of one matrix per node) and
+    model is null."""
     tv = copy.deepcopy(doc)
     model = tv["model"]
-    tv["model"] = {"H": model["H"], "Sw": model["Sw"]}
+    tv["model"] = None if full else {"H": model["H"], "Sw": model["Sw"]}
     tv["time_varying"] = True
     for st in tv["steps"]:
         for key in ("A", "B", "Sv"):
             st["inputs"][key + "_prev"] = model[key]
+        if full:
+            st["inputs"]["H"] = model["H"]
+            st["inputs"]["Sw"] = model["Sw"]
     return tv
 
 
@@ -86,6 +91,11 @@ def main():
     save(out, "tv_nrtsf.json", time_varying_s004(nr, "absent"))
     save(out, "tv_rtsf.json", time_varying_s004(rt, "absent"))
     save(out, "tv_tw_6node.json", time_varying_s003(six))
+    save(out, "tv_tw_6node_full.json", time_varying_s003(six, full=True))
+    d = time_varying_s003(six, full=True); d["steps"][5]["inputs"]["Sw"] = six["model"]["Sw"][:5]
+    save(out, "bad_tw_tv_Sw_nodes.json", d)
+    d = time_varying_s003(six); d["steps"][0]["inputs"]["H"] = six["model"]["H"]
+    save(out, "bad_tw_tv_H_dup.json", d)
     # the time-varying form with Q changed at one step only must differ
     tvq = time_varying_s004(df)
     tvq["steps"][10]["inputs"]["Q_prev"] = [[10 * v for v in row] for row in df["model"]["Q"]]

@@ -85,6 +85,14 @@ def main():
     nr = load(vdir, "s004_nrtsf.json")
     rt = load(vdir, "s004_rtsf.json")
     six = load(vdir, "s003_6node.json")
+    # cases layout (infofusion): Q per step instead of per case
+    lif = load(os.path.join(vdir, "..", "infofusion"), "lif_central_fusion.json")
+    d = copy.deepcopy(lif)
+    for c in d["cases"]:
+        for st in c["steps"]:
+            st["Q"] = c["Q"]
+        del c["Q"]
+    save(out, "cases_step_Q.json", d)
 
     save(out, "tv_nrtsf_df.json", time_varying_s004(df))
     save(out, "tv_nrtsf_df_model_null.json", time_varying_s004(df, "null"))

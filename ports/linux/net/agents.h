@@ -24,6 +24,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include <jansson.h>
 
@@ -33,7 +34,8 @@
 
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
-#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead */
+#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead (it follows
+                                       the arrivals: Decision 19) */
 #define DKF_NET_CKPT 8              /* published steps a late payload can still revise */
 
 /* Counters every agent keeps (published in its status messages). */
@@ -100,6 +102,10 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         const char *prefix, int64_t deadline_us, char *err,
                                         size_t errlen);
 void dkf_net_fusion_free(dkf_net_fusion_t *fu);
+/* Appends one JSON line per computed step to f (first computation and
+ * every replay; flushed, so the results survive a killed process), after a
+ * header line; f stays the caller's (NULL: no journal). docs/network.md. */
+void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f);
 /* Deadlines (publishes overdue steps DEGRADED) and the heartbeat. */
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us);
 void dkf_net_fusion_report(dkf_net_fusion_t *fu);

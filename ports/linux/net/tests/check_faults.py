@@ -51,6 +51,17 @@ def load_model(scn):
     return m, sensors, ys, N
 
 
+def prior(scn, which, i=0):
+    """P_{0|0} as the C loader reads it (docs/scenario-format.md): P00_central
+    (which="central") or P00_local[i] (which="local") when given, else P00."""
+    init = scn["init"]
+    if which == "central" and "P00_central" in init:
+        return np.array(init["P00_central"], dtype=float)
+    if which == "local" and "P00_local" in init:
+        return np.array(init["P00_local"][i], dtype=float)
+    return np.array(init["P00"], dtype=float)
+
+
 def blkdiag(mats):
     r = sum(x.shape[0] for x in mats)
     c = sum(x.shape[1] for x in mats)
@@ -81,7 +92,7 @@ def masked_dkf(scn, keep, P00=None, sensors_used=None):
     inv, pinv = np.linalg.inv, np.linalg.pinv
     x00 = np.array(scn["init"]["x00"], dtype=float)
     if P00 is None:
-        P00 = np.array(scn["init"]["P00_central"], dtype=float)
+        P00 = prior(scn, "central")
     out = {key: [] for key in ("xp", "Pp", "xf", "Pf")}
     xp = F(0) @ x00
     Pp = F(0) @ P00 @ F(0).T + Q(0)
@@ -162,7 +173,7 @@ def selftest(scn, rel):
     print(f"selftest: numpy full-data DKF vs the vector's central: {w:.2e}")
     if w > rel:
         fail("the reference does not reproduce the vector's central series")
-    if "local" in scn["outputs"] and np.allclose(scn["init"]["P00_local"][0], scn["init"]["P00_central"]):
+    if "local" in scn["outputs"] and np.allclose(prior(scn, "local", 0), prior(scn, "central")):
         one = masked_dkf(scn, [{0}] * N)
         w = max(step_rel(at(one, j), at(scn["outputs"]["local"][0], j)) for j in range(N))
         print(f"selftest: numpy DKF with node 0's rows only vs the vector's local[0]: {w:.2e}")

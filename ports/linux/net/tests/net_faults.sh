@@ -7,7 +7,11 @@
 #
 #   drop        node 1 drops 20 % of its messages (seed 3): isolated drops are
 #               recovered by the next message's copy (a revision); two in a
-#               row lose a payload: exactly steps 40, 41 and 44, 45 degraded
+#               row lose a payload: exactly steps 40, 41 and 44, 45 degraded;
+#               the run is recorded (lcm-logger) and check_log.py finds what
+#               tools/dkf_monitor.py reports of the log (degraded steps, each
+#               x_k|k) equal to the result file, and every fused message's
+#               meas_utime_first/last a contributor's y_{k+1} publication
 #   dupreorder  both nodes duplicate and reorder messages: every step complete
 #               and equal to the full-data centralized DKF in the end
 #   restart     node 1 dies at step 15 (--exit-at), a second node-1 process joins
@@ -116,12 +120,35 @@ check() { # TAG [check_faults.py options...]
 
 case "$mode" in
   drop)
+    logged=0
+    if [[ -x ${DKF_LCM_LOGGER:-} ]] && "$DKF_PYTHON" -c 'import lcm' 2>/dev/null; then
+      logged=1 log=$out/run.lcmlog
+      "$DKF_LCM_LOGGER" --lcm-url="$URL" -f -q --flush-interval=10 "$log" & pids+=($!); logger=$!
+    fi
     fusion run || exit 1
     node run 0 || exit 1; a=$npid
     node run 1 --drop 20 --seed 3 || exit 1; b=$npid
+    if (( logged )); then # the heartbeats reach the log once the logger is subscribed
+      for ((i = 0; i < 1000; ++i)); do [[ -s $log ]] && break; sleep 0.01; done
+    fi
     sim || exit 1
     finish run $a $b || exit 1
     check run --selftest --degraded 40,41,44,45 --min-revised 5 || exit 1
+    if (( logged )); then
+      # the log of the run: what dkf_monitor.py / dkf_logplot.py make of it
+      # equals the result file; meas_utime_* as docs/network.md says
+      last=-1 still=0
+      for ((i = 0; i < 1000 && still < 30; ++i)); do
+        size=$(stat -c %s "$log")
+        if [[ $size == "$last" ]]; then ((++still)); else still=0 last=$size; fi
+        sleep 0.01
+      done
+      kill -INT $logger; wait $logger
+      "$DKF_PYTHON" "$(dirname "$0")/check_log.py" "$log" "$out/run.fused.json" \
+        --types "$DKF_LCM_PY" || exit 1
+    else
+      echo "note: lcm-logger or Python lcm missing: the log checks (check_log.py) not run"
+    fi
     ;;
   dupreorder)
     fusion run || exit 1

@@ -478,7 +478,15 @@ static void test_memq_drop_dup_reorder(void **state)
  * step 25 with epoch 1: steps 15..24 are degraded with node 0 alone, node 1
  * contributes again from 25 (the FC restarts its replica), and nothing
  * hangs. */
-static void test_memq_restart(void **state)
+static int64_t counter_at(const json_t *doc, const char *key, size_t i)
+{
+    return (int64_t)json_integer_value(
+        json_array_get(json_object_get(json_object_get(doc, "counters"), key), i));
+}
+
+/* The restart below, with the second process's epoch (1: as told; 0: a
+ * restart without --epoch, which repeats epoch 0 from another first step). */
+static void memq_restart(long epoch)
 {
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s = load();
@@ -491,19 +499,18 @@ static void test_memq_restart(void **state)
     dkf_net_faults_t fx;
     json_t *doc;
     size_t j;
-    (void)state;
     assert_non_null(fu);
     memset(&fx, 0, sizeof fx);
     fx.exit_at = 15;
     dkf_net_node_faults(n1, &fx);
     memset(&fx, 0, sizeof fx);
-    fx.epoch = 1;
+    fx.epoch = epoch;
     fx.join_at = 25;
     dkf_net_node_faults(n1b, &fx);
     run(net, sim, NULL, fu);
     assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
     assert_int_equal(dkf_net_node_exited(n1), 1);
-    assert_int_equal(dkf_net_node_epoch(n1b), 1);
+    assert_int_equal(dkf_net_node_epoch(n1b), epoch);
     assert_int_equal(dkf_net_node_k_start(n1b), 25);
     doc = dkf_net_fusion_result(fu);
     for (j = 0; j < s->steps; ++j) {
@@ -518,6 +525,15 @@ static void test_memq_restart(void **state)
                   step_diff(doc, s, 23), step_diff(doc, s, 24), step_diff(doc, s, 34),
                   step_diff(doc, s, 49));
     assert_int_equal(fault_count(doc, "restarts_applied"), 1);
+    /* the counters follow both processes: 14 messages (steps 1..14), then 26
+     * (25..50), every one received (memq loses nothing) */
+    print_message("node 1: received %lld, sent %lld, not received %lld\n",
+                  (long long)counter_at(doc, "received", 1),
+                  (long long)counter_at(doc, "sent_by_node", 1),
+                  (long long)counter_at(doc, "not_received", 1));
+    assert_int_equal(counter_at(doc, "received", 1), 14 + 26);
+    assert_int_equal(counter_at(doc, "sent_by_node", 1), 14 + 26);
+    assert_int_equal(counter_at(doc, "not_received", 1), 0);
     json_decref(doc);
     dkf_net_fusion_free(fu);
     dkf_net_node_free(n0);
@@ -526,6 +542,19 @@ static void test_memq_restart(void **state)
     dkf_net_sim_free(sim);
     dkf_net_close(net);
     dkf_scenario_free(s);
+}
+
+static void test_memq_restart(void **state)
+{
+    (void)state;
+    memq_restart(1);
+}
+
+/* A node restarted without --epoch: fused the same, counted right. */
+static void test_memq_restart_same_epoch(void **state)
+{
+    (void)state;
+    memq_restart(0);
 }
 
 int main(void)
@@ -537,6 +566,7 @@ int main(void)
         cmocka_unit_test(test_memq_node_measurement_checks),
         cmocka_unit_test(test_memq_drop_dup_reorder),
         cmocka_unit_test(test_memq_restart),
+        cmocka_unit_test(test_memq_restart_same_epoch),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -14,10 +14,11 @@
  * or restarted, on the first y^i_{k0} it gets) and, on y^i_{k+1}, completes
  * step k and publishes {x^i_{k|k}, x^i_{k|k-1}} with its previous step's
  * pair. The fusion centre fuses step k once every node's payload of step k
- * is there, or, when the step's deadline passes, publishes it DEGRADED: the
- * centralized DKF given the nodes' rows it could rebuild. A payload of a
- * published step that arrives later (within DKF_NET_CKPT steps) rolls the
- * fusion centre back to a checkpoint and replays.
+ * is there or given up on (the node sent a later step's, or fell silent), or,
+ * when the step's deadline passes, publishes it DEGRADED: the centralized DKF
+ * given the nodes' rows it could rebuild. A payload of a published step that
+ * arrives later (within DKF_NET_CKPT steps) rolls the fusion centre back to a
+ * checkpoint and replays (every replayed step is published again).
  */
 #ifndef DKF_NET_AGENTS_H
 #define DKF_NET_AGENTS_H
@@ -35,7 +36,7 @@
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
 #define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead (it follows
-                                       the arrivals: Decision 19) */
+                                       the arrivals: docs/network.md) */
 #define DKF_NET_CKPT 8              /* published steps a late payload can still revise */
 
 /* Counters every agent keeps (published in its status messages). */

@@ -553,8 +553,9 @@ static void roll_back(dkf_net_fusion_t *fu, long j)
     }
 }
 
-/* 1 if node i's payload of step k is not worth waiting for (Decision 19,
- * docs/decisions.md): the node has moved on (its message of step k+2 or
+/* 1 if node i's payload of step k is not worth waiting for
+ * (docs/decisions.md, "a late step never holds back the steps behind it";
+ * docs/network.md, "Deadlines"): the node has moved on (its message of step k+2 or
  * later arrived, and message k+1 would have carried a copy of payload k),
  * or it has been silent for a deadline of arrivals from the others (dead,
  * never started, or cut off). Both are judged on what has arrived, never on

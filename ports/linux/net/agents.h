@@ -132,7 +132,8 @@ void dkf_net_sim_free(dkf_net_sim_t *sim);
 int dkf_net_sim_publish(dkf_net_sim_t *sim, long j);
 /* The last measurement time to publish: N + 1. */
 long dkf_net_sim_last(const dkf_net_sim_t *sim);
-/* Largest fused step seen on <prefix>_FUSED (0: none). */
+/* Largest fused step seen on <prefix>_FUSED or in the fusion centre's
+ * status (its last published step; 0: none). */
 long dkf_net_sim_fused_k(const dkf_net_sim_t *sim);
 /* 1 when every node and the fusion centre has sent a status with the
  * simulator's model id and not FAILED; else 0 and, if why is given, a

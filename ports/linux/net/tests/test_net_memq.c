@@ -636,6 +636,41 @@ static void test_memq_moved_on_node(void **state)
     dkf_scenario_free(s);
 }
 
+/* The simulator's end of a paced run waits for the fused step N; the
+ * fusion centre's status (sent at DONE and at exit) says it too, so a lost
+ * last fused datagram does not fail the run (measured: 1 run in 5 at
+ * 1000 Hz with 12 nodes failed so on a loaded machine). A status of
+ * another model or beyond N does not count. */
+static void test_memq_sim_fused_from_status(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s = load();
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
+    dkf_net_status_t st;
+    (void)state;
+    assert_non_null(sim);
+    memset(&st, 0, sizeof st);
+    st.model_id = dkf_net_model_id(s) ^ 1;
+    st.role = DKF_NET_ROLE_FUSION;
+    st.id = -1;
+    st.state = DKF_NET_DONE;
+    st.k = 7;
+    assert_int_equal(dkf_net_publish_status(net, "T", &st), 0);
+    st.model_id = dkf_net_model_id(s);
+    st.k = (long)s->steps + 1;
+    assert_int_equal(dkf_net_publish_status(net, "T", &st), 0);
+    assert_true(dkf_net_drain(net, 0) >= 2);
+    assert_int_equal(dkf_net_sim_fused_k(sim), 0);
+    st.k = (long)s->steps;
+    assert_int_equal(dkf_net_publish_status(net, "T", &st), 0);
+    assert_true(dkf_net_drain(net, 0) >= 1);
+    assert_int_equal(dkf_net_sim_fused_k(sim), (long)s->steps);
+    dkf_net_sim_free(sim);
+    dkf_net_close(net);
+    dkf_scenario_free(s);
+}
+
 /* A node restarted without --epoch: fused the same, counted right. */
 static void test_memq_restart_same_epoch(void **state)
 {
@@ -654,6 +689,7 @@ int main(void)
         cmocka_unit_test(test_memq_restart),
         cmocka_unit_test(test_memq_restart_same_epoch),
         cmocka_unit_test(test_memq_window_follows_arrivals),
+        cmocka_unit_test(test_memq_sim_fused_from_status),
         cmocka_unit_test(test_memq_moved_on_node),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -513,6 +513,7 @@ dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, s
 {
     size_t pkt;
     DKF_TRY(check_net(net, md, sensors));
+    if (eta > DKF_TW_MAX_ETA) return DKF_ERR_ARG;
     DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
     pkt = DKF_TW_PKT_LEN(net->n);
     /* (32c), (33a): ACF of |N| H^T Sw^{-1} [y | H], one packet per iteration */

@@ -183,11 +183,21 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
 dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alpha,
                                        const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[]);
 
+/* Largest eta dkf_tw_net_consensus_step accepts. A step costs 2 eta mixes of
+ * every packet, so this bounds its time (an eta from a file or the network
+ * cannot run for ever). On a connected graph the ACF error shrinks like
+ * |lambda_2(W)|^eta, so 10^6 iterations reach double rounding (ln 1e16 = 37)
+ * for any spectral gap 1 - |lambda_2| above 4e-5; a 300-node path with
+ * Metropolis weights, about the worst case a network of that size can be,
+ * has pi^2 / (3 * 300^2) = 3.7e-5. The vectors use eta = 10. */
+#define DKF_TW_MAX_ETA 1000000u
+
 /* Algorithm 3 (31)-(34c): ACF over eta iterations with W (doubly
  * stochastic, >= 0, else DKF_ERR_WEIGHTS) of the |N|-scaled info packets
  * (Upsilon and varphi together: eta broadcasts of PKT reals), local step,
  * ACF of the estimate packets [psi | Ploc] (eta more broadcasts). Every
- * ACF restarts from the step's fresh inputs. */
+ * ACF restarts from the step's fresh inputs. DKF_ERR_ARG if eta >
+ * DKF_TW_MAX_ETA (nothing changes). */
 dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, size_t eta,
                                        const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[]);
 

@@ -579,8 +579,10 @@ dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     pk = kept_rows(idx, rows, f->p);
     L = mem_of(f);
     st = gain_impl(f, &L, dyn, meas_next, idx, pk);
-    /* no gain pending: pk describes the last completed step again */
+    /* no gain pending (also when the failure came before gain_impl could
+     * cancel it): pk describes the last completed step again */
     if (st != DKF_OK) {
+        f->pending = 0;
         f->pk = f->z.rows;
         return st;
     }

@@ -678,6 +678,15 @@ static void test_diffkf(void **state)
                          "diffkf_gain_masked (B = 0) with a gain pending");
         mset(&k.B, DP, DP, B2);
         assert_memory_equal(&expect, &k.f, sizeof expect);
+        /* likewise a gain refused for its shapes (before any computation):
+         * never a pending gain with the last step's pk (found by
+         * fuzz_core_diffkf) */
+        assert_int_equal(dkf_gain_call(&k), DKF_OK);
+        k.F.v.rows = DN + 1;
+        EXPECT_UNTOUCHED(&gs, DKF_ERR_DIM, dkf_gain_call(&k),
+                         "diffkf_gain_masked (F misshaped) with a gain pending");
+        k.F.v.rows = DN;
+        assert_memory_equal(&expect, &k.f, sizeof expect);
         dkf_regions(&k, 0);
     }
     assert_int_equal(dkf_update_call(&k), DKF_ERR_STATE);

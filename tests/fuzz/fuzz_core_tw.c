@@ -104,12 +104,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             s = dkf_tw_node_commit(&nd, code & 8 ? xs : NULL, code & 32 ? Ps : NULL);
             break;
         default:
+            fz_regions_clear(&snap);
+            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, m) * sizeof(dkf_real_t));
             fz_take(&snap);
             s = dkf_tw_central_step(&nd, &md, sn, ns);
-            if (s != DKF_OK && before.pending) { /* its local step cancelled the pending one */
+            if (s != DKF_OK && memcmp(&before, &nd, sizeof nd) != 0) {
+                /* only a failure in its local step may change the node, by
+                 * cancelling a pending step */
+                FZ_CHECK(before.pending);
                 before.pending = 0;
                 FZ_CHECK(memcmp(&before, &nd, sizeof nd) == 0);
-                continue;
             }
             break;
         }

@@ -308,10 +308,11 @@ dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_tw_model_t *md, cons
     dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
+    /* any failure from here on cancels a pending step (tw.h) */
+    nd->pending = 0;
     DKF_CHECK_NULL(info);
     DKF_TRY(check_model(nd, md));
     if (!dkf__all_finite(info, DKF_TW_PKT_LEN(nd->n))) return DKF_ERR_NONFINITE;
-    nd->pending = 0;
     L = mem_of(nd);
     st = local_step(nd, &L, md, info);
     if (st != DKF_OK) return st;

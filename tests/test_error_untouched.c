@@ -919,6 +919,13 @@ static void test_tw_node(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_tw_node_commit(&k.nd, xs, NULL),
                      "tw_node_commit: x NaN");
     assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
+    /* a failed local step cancels a pending one, whichever check fails
+     * (found by fuzz_core_tw: a refused model left it pending) */
+    assert_int_equal(tw_local_call(&k), DKF_OK);
+    k.A.d[0] = (dkf_real_t)NAN;
+    assert_int_equal(tw_local_call(&k), DKF_ERR_NONFINITE);
+    assert_int_equal(k.nd.pending, 0);
+    k.A.d[0] = (dkf_real_t)F3[0];
 }
 
 /* A path 0-1-2-3: nodes 0, 1 observe z, nodes 2, 3 do not, so the local

@@ -61,14 +61,14 @@ int main(void)
      * real type relative; 1e3 epsilons (1.2e-4 in float, 2.2e-13 in
      * double) is far above that and far below any modelling error. */
     const double tol = 1e3 * (double)DKF_REAL_EPSILON;
-    DKF_KF_DECLARE(kf, 2, 1);
-    DKF_MAT_DECLARE(F, 2, 2);
-    DKF_MAT_DECLARE(Q, 2, 2);
-    DKF_MAT_DECLARE(H, 1, 2);
-    DKF_MAT_DECLARE(R, 1, 1);
-    DKF_MAT_DECLARE(x0, 2, 1);
-    DKF_MAT_DECLARE(P0, 2, 2);
-    DKF_MAT_DECLARE(y, 1, 1);
+    DKF_KF_DECLARE(, kf, 2, 1);
+    DKF_MAT_DECLARE(, F, 2, 2);
+    DKF_MAT_DECLARE(, Q, 2, 2);
+    DKF_MAT_DECLARE(, H, 1, 2);
+    DKF_MAT_DECLARE(, R, 1, 1);
+    DKF_MAT_DECLARE(, x0, 2, 1);
+    DKF_MAT_DECLARE(, P0, 2, 2);
+    DKF_MAT_DECLARE(, y, 1, 1);
     ref_t ref = {0.0, 1.0, 4.0, 0.0, 4.0};
     int ok = 1, k;
 

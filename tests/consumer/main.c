@@ -18,7 +18,16 @@
 #include <math.h>
 #include <stdio.h>
 
+#include "dkf/diffkf_fusion.h"
 #include "dkf/kf.h"
+
+#ifdef CONSUMER_EXPECT_MAX_DIM
+/* The installed headers give the library's DKF_MAX_DIM, so the message
+ * layout is the library's. */
+DKF_STATIC_ASSERT(DKF_MAX_DIM == CONSUMER_EXPECT_MAX_DIM, max_dim_is_the_built_one);
+DKF_STATIC_ASSERT(sizeof(((dkf_diffkf_msg_t *)0)->xf) == CONSUMER_EXPECT_MAX_DIM * sizeof(dkf_real_t),
+                  message_layout_is_the_built_one);
+#endif
 
 #define STEPS 8
 
@@ -99,7 +108,8 @@ int main(void)
         ok &= close_to((double)kf.P.data[1], ref.p01, tol, "P[0][1]", k);
         ok &= close_to((double)kf.P.data[3], ref.p11, tol, "P[1][1]", k);
     }
-    printf("consumer: %s (DKF_USE_FLOAT=%d DKF_JOSEPH=%d) x = [%.6f %.6f]\n", ok ? "ok" : "FAILED",
-           DKF_USE_FLOAT, DKF_JOSEPH, (double)kf.x.data[0], (double)kf.x.data[1]);
+    printf("consumer: %s (DKF_USE_FLOAT=%d DKF_JOSEPH=%d DKF_MAX_DIM=%d) x = [%.6f %.6f]\n",
+           ok ? "ok" : "FAILED", DKF_USE_FLOAT, DKF_JOSEPH, DKF_MAX_DIM, (double)kf.x.data[0],
+           (double)kf.x.data[1]);
     return ok ? 0 : 1;
 }

@@ -8,6 +8,8 @@
 #        FUZZ_MERGE=1      afterwards merge the inputs that add coverage into
 #                          tests/fuzz/corpus/<name>/ (default: the committed
 #                          corpus is only read; new inputs go to build/fuzz/work)
+#        FUZZ_SEED=1       libFuzzer's -seed (fixed, as every randomised test here;
+#                          0 lets libFuzzer pick one)
 #        DKF_JOBS=2        build jobs;  CC=clang-14  the compiler
 # One line per harness (PASS/FAIL, executions, coverage, the crash input if
 # any), then "fuzz: N passed, M failed". A crash leaves its input in
@@ -69,9 +71,11 @@ for n in "${names[@]}"; do
     fail=$((fail + 1)); continue
   fi
   mkdir -p "$work" "$art"
+  dict=()
+  [[ -f tests/fuzz/$n.dict ]] && dict=(-dict="$ROOT/tests/fuzz/$n.dict")
   # New inputs go to the first directory (work); the committed corpus is read.
-  "$bin" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 -print_final_stats=1 \
-    -artifact_prefix="$art/" "$work" "$corpus" >"$log" 2>&1
+  "$bin" -seed="${FUZZ_SEED:-1}" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 \
+    -print_final_stats=1 "${dict[@]}" -artifact_prefix="$art/" "$work" "$corpus" >"$log" 2>&1
   rc=$?
   execs=$(grep -E '^stat::number_of_executed_units:' "$log" | awk '{print $2}' | tail -1)
   cov=$(grep -E '^#[0-9]+' "$log" | grep -oE 'cov: [0-9]+' | tail -1)

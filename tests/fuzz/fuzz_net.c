@@ -35,6 +35,17 @@ static void require_counted(const dkf_net_rejects_t *rej, dkf_net_verdict_t v)
         FUZZ_REQUIRE(rej->total == 1 && rej->by[v] == 1);
 }
 
+/* The checks of every decoding: counted as codec.h says, and a rejection
+ * left out (size bytes, prefilled like keep) untouched. 1 if accepted. */
+static int accepted(const dkf_net_rejects_t *rej, dkf_net_verdict_t v, const void *out,
+                    const void *keep, size_t size)
+{
+    require_counted(rej, v);
+    if (v == DKF_NET_ACCEPT) return 1;
+    FUZZ_REQUIRE(memcmp(out, keep, size) == 0);
+    return 0;
+}
+
 /* The bytes re-encoded from an accepted datagram are the datagram. */
 static void require_same_bytes(const uint8_t *d, size_t n, size_t len)
 {
@@ -85,11 +96,7 @@ static void node_msg(const uint8_t *d, size_t n)
         memset(&out, 0xa5, sizeof out);                                             \
         keep = again = out;                                                         \
         v = dkf_net_decode_##name(d, n, &ex, &out, &rej);                           \
-        require_counted(&rej, v);                                                   \
-        if (v != DKF_NET_ACCEPT) {                                                  \
-            FUZZ_REQUIRE(memcmp(&out, &keep, sizeof out) == 0);                     \
-            return;                                                                 \
-        }                                                                           \
+        if (!accepted(&rej, v, &out, &keep, sizeof out)) return;                    \
         FUZZ_REQUIRE(dkf_net_encode_##name(re, sizeof re, &len, &out) == 0);        \
         require_same_bytes(d, n, len);                                              \
         FUZZ_REQUIRE(dkf_net_decode_##name(re, len, &ex, &again, NULL) ==           \
@@ -111,11 +118,7 @@ static void status(const uint8_t *d, size_t n)
     memset(&out, 0xa5, sizeof out);
     keep = again = out;
     v = dkf_net_decode_status(d, n, &out, &rej);
-    require_counted(&rej, v);
-    if (v != DKF_NET_ACCEPT) {
-        FUZZ_REQUIRE(memcmp(&out, &keep, sizeof out) == 0);
-        return;
-    }
+    if (!accepted(&rej, v, &out, &keep, sizeof out)) return;
     /* the detail is a C string that fits (truncated if it did not) */
     FUZZ_REQUIRE(memchr(out.detail, '\0', sizeof out.detail) != NULL);
     FUZZ_REQUIRE(dkf_net_encode_status(re, sizeof re, &len, &out) == 0);
@@ -135,11 +138,7 @@ static void tw(const uint8_t *d, size_t n, int alg)
     keep = again = out;
     /* the channel: none (any node), or node 1's */
     v = dkf_tw_decode(d, n, &c, n % 2 ? 1 : -1, &out, &rej);
-    require_counted(&rej, v);
-    if (v != DKF_NET_ACCEPT) {
-        FUZZ_REQUIRE(memcmp(&out, &keep, sizeof out) == 0);
-        return;
-    }
+    if (!accepted(&rej, v, &out, &keep, sizeof out)) return;
     FUZZ_REQUIRE(out.len <= DKF_TW_MAX_PKT);
     FUZZ_REQUIRE(dkf_tw_encode(re, sizeof re, &len, &out) == 0);
 #if !DKF_USE_FLOAT

@@ -1,6 +1,6 @@
 /*
  * fuzz_net.h - what the network-decoder harness (fuzz_net.c) expects, shared
- * with the program that writes its seed corpus (fuzz_net_seeds.c).
+ * with the program that writes its seed corpus (make_net_seeds.c).
  *
  * An input is one selector byte and then one datagram:
  *   byte 0 % FUZZ_NET_NSEL picks the decoder, bytes 1.. are its input.

@@ -70,6 +70,14 @@ def main():
         "steps_uif_nrtsf_df.json": steps("tests/vectors/uif/s004_nrtsf_df.json"),
         "steps_tw_6node.json": steps("tests/vectors/uif/s003_6node.json"),
     }
+    # a steps file whose model has no C, H (the reader then sizes y as one
+    # value per step): y of one value
+    d = steps("tests/vectors/uif/s004_rtsf.json")
+    for key in ("C", "H"):
+        d["model"].pop(key)
+    for st in d["steps"]:
+        st["inputs"]["y"] = st["inputs"]["y"][:1]
+    seeds["steps_uif_no_CH_m1.json"] = d
     for name, d in seeds.items():
         with open(os.path.join(out, name), "w") as f:
             json.dump(d, f, separators=(",", ":"))

@@ -1,10 +1,10 @@
 /*
- * fuzz_net_seeds.c - writes the seed corpus of fuzz_net (tests/fuzz/corpus/net/):
+ * make_net_seeds.c - writes the seed corpus of fuzz_net (tests/fuzz/corpus/net/):
  * one datagram of each type that the harness's receivers accept, and the
  * datagrams of the decoder bugs fixed in codec.c (issue 10), each file
  * prefixed with its selector byte (fuzz_net.h).
  *
- * usage: fuzz_net_seeds DIR    (cmake --build B --target fuzz_net_seeds)
+ * usage: make_net_seeds DIR    (cmake --build B --target make_net_seeds)
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -23,9 +23,43 @@ static void put(const char *name, int sel, const void *data, size_t len)
     snprintf(path, sizeof path, "%s/%s", dir, name);
     f = fopen(path, "wb");
     if (f == NULL || fwrite(&s, 1, 1, f) != 1 || fwrite(data, 1, len, f) != len || fclose(f)) {
-        fprintf(stderr, "fuzz_net_seeds: cannot write %s\n", path);
+        fprintf(stderr, "make_net_seeds: cannot write %s\n", path);
         exit(1);
     }
+}
+
+/* The harness's receivers accept the seed (sel, data, len). */
+static int accepted(int sel, const void *data, size_t len)
+{
+    static dkf_diffkf_msg_t msg;
+    static dkf_net_meta_t meta;
+    static dkf_net_meas_t m;
+    static dkf_net_truth_t t;
+    static dkf_net_fused_t f;
+    static dkf_net_status_t st;
+    static dkf_tw_pkt_t p;
+    const dkf_net_expect_t ex = fuzz_net_expect();
+    dkf_tw_scn_t c = fuzz_net_tw_scn(sel == FUZZ_NET_TW3 ? 3 : 2);
+    dkf_net_verdict_t v;
+    switch (sel) {
+    case FUZZ_NET_NODE_MSG: v = dkf_net_decode_node_msg(data, len, &ex, &msg, NULL, &meta, NULL); break;
+    case FUZZ_NET_MEAS: v = dkf_net_decode_meas(data, len, &ex, &m, NULL); break;
+    case FUZZ_NET_TRUTH: v = dkf_net_decode_truth(data, len, &ex, &t, NULL); break;
+    case FUZZ_NET_FUSED: v = dkf_net_decode_fused(data, len, &ex, &f, NULL); break;
+    case FUZZ_NET_STATUS: v = dkf_net_decode_status(data, len, &st, NULL); break;
+    default: v = dkf_tw_decode(data, len, &c, -1, &p, NULL); break;
+    }
+    return v == DKF_NET_ACCEPT;
+}
+
+/* A seed the receivers must accept. */
+static void put_ok(const char *name, int sel, const void *data, size_t len)
+{
+    if (!accepted(sel, data, len)) {
+        fprintf(stderr, "make_net_seeds: %s is rejected\n", name);
+        exit(1);
+    }
+    put(name, sel, data, len);
 }
 
 static void be32(unsigned char *p, uint32_t v)
@@ -39,7 +73,7 @@ static void be32(unsigned char *p, uint32_t v)
 static void need(int ok)
 {
     if (!ok) {
-        fprintf(stderr, "fuzz_net_seeds: an encoder refused a seed\n");
+        fprintf(stderr, "make_net_seeds: an encoder refused a seed\n");
         exit(1);
     }
 }
@@ -68,12 +102,12 @@ static void node_msgs(void)
     meta.k_start = 1;
     meta.has_prev = 1;
     need(dkf_net_encode_node_msg(buf, sizeof buf, &len, &msg, &prev, &meta) == 0);
-    put("node_msg_prev", FUZZ_NET_NODE_MSG, buf, len);
+    put_ok("node_msg_prev", FUZZ_NET_NODE_MSG, buf, len);
     meta.has_prev = 0;
     meta.k_start = 7;
     meta.epoch = 1;
     need(dkf_net_encode_node_msg(buf, sizeof buf, &len, &msg, NULL, &meta) == 0);
-    put("node_msg_epoch_start", FUZZ_NET_NODE_MSG, buf, len);
+    put_ok("node_msg_epoch_start", FUZZ_NET_NODE_MSG, buf, len);
 }
 
 static void meas_truth_status(void)
@@ -93,7 +127,7 @@ static void meas_truth_status(void)
     m.y[1] = -2.0;
     m.y[2] = 1e-3;
     need(dkf_net_encode_meas(buf, sizeof buf, &len, &m) == 0);
-    put("meas", FUZZ_NET_MEAS, buf, len);
+    put_ok("meas", FUZZ_NET_MEAS, buf, len);
     memset(&t, 0, sizeof t);
     t.meta = m.meta;
     t.k = 0;
@@ -101,7 +135,7 @@ static void meas_truth_status(void)
     t.x[0] = 1.0;
     t.x[3] = -4.0;
     need(dkf_net_encode_truth(buf, sizeof buf, &len, &t) == 0);
-    put("truth", FUZZ_NET_TRUTH, buf, len);
+    put_ok("truth", FUZZ_NET_TRUTH, buf, len);
     memset(&st, 0, sizeof st);
     st.utime = 1700000000000000LL;
     st.model_id = FUZZ_NET_MODEL_ID;
@@ -113,7 +147,7 @@ static void meas_truth_status(void)
     st.received = 36;
     snprintf(st.detail, sizeof st.detail, "node 2: message rejected: wrong model id");
     need(dkf_net_encode_status(buf, sizeof buf, &len, &st) == 0);
-    put("status", FUZZ_NET_STATUS, buf, len);
+    put_ok("status", FUZZ_NET_STATUS, buf, len);
 }
 
 static void fused(void)
@@ -142,7 +176,7 @@ static void fused(void)
         f.Pp[i * FUZZ_NET_N + i] = 3.0;
     }
     need(dkf_net_encode_fused(buf, sizeof buf, &len, &f) == 0);
-    put("fused", FUZZ_NET_FUSED, buf, len);
+    put_ok("fused", FUZZ_NET_FUSED, buf, len);
     /* issue 10: zero nodes. nnodes is the int32 after the fingerprint,
      * utime, model_id, k, seq, status (8 + 8 + 8 + 4 + 8 + 1 bytes); cut
      * out contributed[3]. */
@@ -167,25 +201,25 @@ static void tw_packets(void)
     p.len = DKF_TW_PKT_LEN(c2.n);
     for (i = 0; i < p.len; ++i) p.v[i] = (dkf_real_t)((double)i * 0.125);
     need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
-    put("tw2_info", FUZZ_NET_TW2, buf, len);
+    put_ok("tw2_info", FUZZ_NET_TW2, buf, len);
     p.round = 1;
     p.kind = DKF_TW_KIND_EST;
     p.len = c2.n;
     p.retransmit = 1;
     need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
-    put("tw2_est_retransmit", FUZZ_NET_TW2, buf, len);
+    put_ok("tw2_est_retransmit", FUZZ_NET_TW2, buf, len);
     p.model_id = c3.model_id;
     p.round = 3;
     p.retransmit = 0;
     p.len = DKF_TW_PKT_LEN(c3.n);
     need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
-    put("tw3_est", FUZZ_NET_TW3, buf, len);
+    put_ok("tw3_est", FUZZ_NET_TW3, buf, len);
     p.round = 0;
     p.kind = DKF_TW_KIND_DONE;
     p.k = (long)c3.steps + 1;
     p.len = 0;
     need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
-    put("tw3_done", FUZZ_NET_TW3, buf, len);
+    put_ok("tw3_done", FUZZ_NET_TW3, buf, len);
     /* issue 10: a 50-byte packet whose len (the int32 that ends the 42-byte
      * header) is 0x20000001; 8 bytes of v follow. */
     be32(buf + len - 4, 0x20000001u);
@@ -196,7 +230,7 @@ static void tw_packets(void)
 int main(int argc, char **argv)
 {
     if (argc != 2) {
-        fprintf(stderr, "usage: fuzz_net_seeds DIR\n");
+        fprintf(stderr, "usage: make_net_seeds DIR\n");
         return 2;
     }
     dir = argv[1];

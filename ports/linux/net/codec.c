@@ -103,7 +103,9 @@ static int wire_field(const wire_field_t *f, const unsigned char *b, size_t room
             count[f->slot] = v;
             return wire_take(4, room, used);
         }
-        return wire_take(4 + (size_t)v, room, used) == 0 && b[4 + v - 1] == '\0' ? 0 : -1;
+        /* an LCM string's length counts its NUL, which must be its last byte */
+        if (v < 1 || wire_take(4 + (size_t)v, room, used) != 0) return -1;
+        return b[4 + v - 1] == '\0' ? 0 : -1;
     case W_BOOLS:
         /* lcm-gen copies it with memcpy into lcm_malloc(0) == NULL if empty */
         if (count[f->slot] == 0 || wire_take((size_t)count[f->slot], room, used) != 0) return -1;
@@ -167,8 +169,8 @@ WIRE_GLUE(tw_packet_t)
     }
 
 /* The tables: one row per field of lcmtypes/<type>.lcm (after the 8-byte
- * fingerprint). No array of the protocol is empty, except the packet of a
- * DONE graph-filter packet (doubles: lcm-gen copies none). */
+ * fingerprint). No array of the protocol is empty, except v of a DONE
+ * graph-filter packet (doubles: lcm-gen copies none). */
 static const wire_field_t node_msg_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},                                     /* seq meas_utime */

@@ -21,9 +21,10 @@ BDIR=$ROOT/build/fuzz
 SECONDS_EACH=${FUZZ_SECONDS:-60}
 JOBS=${DKF_JOBS:-2}
 CC_FUZZ=${CC:-}
-if [[ -z "$CC_FUZZ" || "$CC_FUZZ" == cc || "$CC_FUZZ" == gcc* ]]; then
-  CC_FUZZ=$(command -v clang-14 || command -v clang || true)
-fi
+case "$(basename "${CC_FUZZ:-none}")" in
+  clang*) ;;
+  *) CC_FUZZ=$(command -v clang-14 || command -v clang || true) ;; # libFuzzer is clang's
+esac
 if [[ -z "$CC_FUZZ" ]]; then
   echo "run_fuzz: FAILED: no clang (tools/bootstrap.sh installs clang-14, libclang-rt-14-dev)"
   echo "fuzz: 0 passed, 1 failed"

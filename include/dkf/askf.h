@@ -27,6 +27,11 @@
 #define DKF_ASKF_STORAGE_LEN(n, m, p) \
     (DKF_KF_STORAGE_LEN((n) + (p), m) + 2 * ((n) + (p)) * ((n) + (p)) + (m) * ((n) + (p)))
 
+/* The first DKF_ASKF_STATE_LEN(n, m, p) reals of the storage are the KF's
+ * state (X, P^a, nu, S): a failed call leaves them and the struct
+ * bit-identical. The rest is scratch. */
+#define DKF_ASKF_STATE_LEN(n, m, p) DKF_KF_STATE_LEN((n) + (p), m)
+
 typedef struct {
     size_t n, m, p;
     dkf_kf_t kf;      /* the KF on X = [x; d]: kf.x = X (n+p), kf.P = P^a */

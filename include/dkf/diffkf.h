@@ -27,8 +27,12 @@
  * differenced measurement z_k rather than y: dkf_diffkf_gain computes
  * everything that does not depend on data (M, J, L, K, ...), then
  * dkf_diffkf_update_z applies z_k. A failed call of any kind leaves the
- * estimates and everything carried between steps bit-identical; a failed
- * dkf_diffkf_gain also cancels a pending gain.
+ * struct and the first DKF_DIFFKF_STATE_LEN reals of the storage (the
+ * estimates, everything carried between steps, and the caches)
+ * bit-identical, with one exception: a failed dkf_diffkf_gain(_masked)
+ * cancels a pending gain (pending = 0, pk = z.rows). dkf_diffkf_step
+ * refuses to run while a gain is pending (DKF_ERR_STATE): complete it with
+ * dkf_diffkf_update_z, or replace it with a new dkf_diffkf_gain.
  */
 #ifndef DKF_DIFFKF_H
 #define DKF_DIFFKF_H
@@ -45,7 +49,26 @@
      /* carried, caches of A^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
+     + 2 * (m) * (p) + 4 * (n) * (p) + 4 * (p) * (p) \
+     /* the memoised block, new A^+ and B^{-1} before they are cached */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
+/* The first DKF_DIFFKF_STATE_LEN(n, m, p) reals of the storage hold the
+ * estimates and the step's views, the carry between steps, and the caches
+ * of A^+, B^{-1} and the model-only block: every failed call leaves them
+ * and the struct bit-identical (a failed dkf_diffkf_gain(_masked) also
+ * sets pending = 0 and pk = z.rows, cancelling a pending gain). The next
+ * reals, up to DKF_DIFFKF_STORAGE_LEN, are the pending gain (state while
+ * f->pending, DKF_DIFFKF_PENDING_LEN) and scratch. */
+#define DKF_DIFFKF_STATE_LEN(n, m, p) \
+    (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
+     + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */ \
+     + 2 * (m) * (p) + 2 * (p) * (p) /* A, B caches */ \
+     + 2 * (n) * (n) + 5 * (n) * (p) + 6 * (p) * (p) + 2 * (m) * (p) + (m) * (n) + (m) * (m))
+/* The pending gain: the DKF_DIFFKF_PENDING_LEN(n, m, p) reals after the
+ * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
+ * leave bit-identical too. */
+#define DKF_DIFFKF_PENDING_LEN(n, m, p) \
+    ((p) * (m) + 6 * (n) * (p) + 8 * (p) * (p) + 3 * (n) * (n) + (p))
 
 typedef struct {
     size_t n, m, p;
@@ -71,8 +94,8 @@ typedef struct {
     int started;     /* dkf_diffkf_start done */
     int has_y;       /* A_k^+ y_k is stored, so dkf_diffkf_step can difference */
     int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
-    /* caches of A^+, B^{-1} and the model-only block (valid flags): not
-     * part of the state */
+    /* caches of A^+, B^{-1} and the model-only block (valid flags): derived
+     * data, changed only by a successful call */
     int a_cached, b_cached, model_cached;
 } dkf_diffkf_t;
 
@@ -96,7 +119,8 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
 /* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
  * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
  * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD,
- * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start). */
+ * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start, or while
+ * a gain is pending). */
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next);
 

@@ -27,6 +27,11 @@
     ((n) + (n) * (n) + (m) + (m) * (m) + (n) + (n) * (n) + \
      2 * ((n) > (m) ? (n) * (n) : (n) * (m)) + 2 * (n) * (m) + 2 * (m) * (m))
 
+/* The first DKF_KF_STATE_LEN(n, m) reals of the storage hold x, P, nu and
+ * S: a failed call leaves them and the struct bit-identical. The rest is
+ * scratch. */
+#define DKF_KF_STATE_LEN(n, m) ((n) + (n) * (n) + (m) + (m) * (m))
+
 typedef struct {
     size_t n;         /* state dimension */
     size_t m_max;     /* largest measurement dimension accepted */

@@ -99,12 +99,18 @@ typedef struct {
     (2 * (n) + 2 * (n) * (n) + (m) + 2 * (m) * (m) + (n) * (m) + (p) * (p) + 2 * (n) * (p) + \
      (m) * (p))
 
-/* Reals of storage for dimensions (n, m, p): the outputs, their pending
- * copy, the decomposition cache, scratch for one step and SVD workspace. */
+/* Reals of storage for dimensions (n, m, p): the outputs, the
+ * decomposition cache, the outputs' pending copy, scratch for one step
+ * (with room for a new decomposition) and SVD workspace. */
 #define DKF_UIF_STORAGE_LEN(n, m, p) \
-    (2 * DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m) /* cache */ \
+    (2 * DKF__UIF_OUT_LEN(n, m, p) + 3 * DKF__UIF_Q(n, p) * (m) + 2 * (m) * (m) /* caches */ \
      + 2 * (p) * (n) + (p) * (p) + 4 * (p) * (m) + 4 * (m) * (m) + (n) * (n) + 2 * (n) * (m) + \
      2 * (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m))
+/* The first DKF_UIF_STATE_LEN(n, m, p) reals of the storage hold the
+ * outputs (the views below) and the decomposition cache: a failed call
+ * leaves them and the struct bit-identical. The rest is scratch. */
+#define DKF_UIF_STATE_LEN(n, m, p) \
+    (DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m))
 
 typedef struct {
     size_t n, m, p;

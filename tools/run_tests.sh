@@ -257,21 +257,25 @@ run_firmware() {
 }
 
 run_fuzz() {
-  echo "==== fuzz: libFuzzer harnesses (tools/run_fuzz.sh)"
-  local out rc line p f
-  out=$(DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1)
-  rc=$?
-  echo "$out"
-  line=$(echo "$out" | grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' | tail -1)
+  step_t0=$SECONDS
+  say fuzz "libFuzzer harnesses (tools/run_fuzz.sh)"
+  local log=$ROOT/build/run_tests.fuzz.log rc line p f
+  mkdir -p "$ROOT/build"
+  # Progress: the build header, one line per harness and the first line of
+  # each failure; libFuzzer's own output stays in build/fuzz/logs/.
+  DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1 | tee "$log" |
+    while IFS= read -r line; do say fuzz "$line"; done
+  rc=${PIPESTATUS[0]}
+  line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
   if [[ -z "$line" ]]; then
-    echo "run_tests: FAILED: fuzz run did not finish"
+    echo "run_tests: FAILED: fuzz run did not finish (log: $log)"
     record fuzz 0 1 "run aborted"
     return
   fi
   p=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\1/')
   f=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\2/')
   if (( rc != 0 && f == 0 )); then f=1; fi
-  (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above)"
+  (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above; log: $log)"
   record fuzz "$p" "$f" "harnesses, not ctest"
 }
 

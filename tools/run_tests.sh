@@ -12,6 +12,8 @@
 #                    qemu-arm (cmake/toolchain-arm-linux-gnueabihf.cmake)
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
+#   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
+#                    UBSan for FUZZ_SECONDS (60) each (tools/run_fuzz.sh)
 # Every ctest configuration includes `install_consumer` (install + a
 # separate find_package(dkf) project, tests/consumer/).
 #
@@ -32,7 +34,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan qemu-arm-float firmware)
+all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
@@ -44,7 +46,7 @@ declare -A cfg_args=(
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do
-  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware ]]; then
+  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
     exit 2
   fi
@@ -279,13 +281,36 @@ run_firmware() {
   record firmware "$p" "$f" "checks, not ctest"
 }
 
+run_fuzz() {
+  step_t0=$SECONDS
+  say fuzz "libFuzzer harnesses (tools/run_fuzz.sh)"
+  local log=$ROOT/build/run_tests.fuzz.log rc line p f
+  mkdir -p "$ROOT/build"
+  # Progress: the build header, one line per harness and the first line of
+  # each failure; libFuzzer's own output stays in build/fuzz/logs/.
+  DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1 | tee "$log" |
+    while IFS= read -r line; do say fuzz "$line"; done
+  rc=${PIPESTATUS[0]}
+  line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
+  if [[ -z "$line" ]]; then
+    echo "run_tests: FAILED: fuzz run did not finish (log: $log)"
+    record fuzz 0 1 "run aborted"
+    return
+  fi
+  p=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\1/')
+  f=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\2/')
+  if (( rc != 0 && f == 0 )); then f=1; fi
+  (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above; log: $log)"
+  record fuzz "$p" "$f" "harnesses, not ctest"
+}
+
 start=$SECONDS
 for c in "${configs[@]}"; do
   if (( stop )); then
     summary+=("$(printf '%-16s %6s %6s  %s' "$c" - - "not run (earlier failure; DKF_KEEP_GOING=1 runs all)")")
     continue
   fi
-  if [[ $c == firmware ]]; then run_firmware; else run_ctest_config "$c"; fi
+  if [[ $c == firmware ]]; then run_firmware; elif [[ $c == fuzz ]]; then run_fuzz; else run_ctest_config "$c"; fi
 done
 
 echo

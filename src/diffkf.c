@@ -147,7 +147,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     return used;
 }
 
-/* outputs: xf, Pf, xp, Pp, z, dz, J, L, K, xpp */
+/* outputs: xf, Pf, xn, Pn, z, dz, J, L, K, xp */
 static size_t outputs_len(size_t n, size_t p) { return 3 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
 
 static layout_t mem_of(const dkf_diffkf_t *f)
@@ -186,14 +186,14 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     g.p = p;
     set_view(&g.xf, n, 1, &cur);
     set_view(&g.Pf, n, n, &cur);
-    set_view(&g.xp, n, 1, &cur);
-    set_view(&g.Pp, n, n, &cur);
+    set_view(&g.xn, n, 1, &cur);
+    set_view(&g.Pn, n, n, &cur);
     set_view(&g.z, p, 1, &cur);
     set_view(&g.dz, p, 1, &cur);
     set_view(&g.J, n, p, &cur);
     set_view(&g.L, p, p, &cur);
     set_view(&g.K, n, p, &cur);
-    set_view(&g.xpp, n, 1, &cur);
+    set_view(&g.xp, n, 1, &cur);
     g.mem = cur;
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
@@ -385,11 +385,11 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     memset(L.dzp, 0, p * sizeof(dkf_real_t));
     f->pc = 0;
     if (F0 != NULL) {
-        dkf__copy(f->xp.data, L.T2, n);
-        dkf__copy(f->Pp.data, L.Ppn, n * n);
+        dkf__copy(f->xn.data, L.T2, n);
+        dkf__copy(f->Pn.data, L.Ppn, n * n);
     } else {
-        dkf__copy(f->xp.data, f->xf.data, n);
-        dkf__copy(f->Pp.data, f->Pf.data, n * n);
+        dkf__copy(f->xn.data, f->xf.data, n);
+        dkf__copy(f->Pn.data, f->Pf.data, n * n);
     }
     f->started = 1;
     f->has_y = y1 != NULL;
@@ -514,14 +514,14 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     select_rows(f, &L, idx, pk);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
-    dkf__mul_nt(L.Jn, f->Pp.data, L.Mk, n, n, pk);
+    dkf__mul_nt(L.Jn, f->Pn.data, L.Mk, n, n, pk);
     dkf__mul_nt(L.T2, L.W, L.Ck, n, pc, pk);
     for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
 
     /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
     dkf__mul_nn(L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
     dkf__mul_nt(L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
-    dkf__mul_nn(L.T3, L.Mk, f->Pp.data, pk, n, n);
+    dkf__mul_nn(L.T3, L.Mk, f->Pn.data, pk, n, n);
     dkf__mul_nt_sym(L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
     dkf__mul_nt(L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
     for (i = 0; i < pk; ++i)
@@ -538,7 +538,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored) */
     right_solve(L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
     dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
-    for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pp.data[i] - L.Pfn[i];
+    for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
 
     /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
      * S' = S_k S^T: the kept columns of S */
@@ -546,7 +546,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L.T3[i * pk + j] += L.S[i * p + idx[j]];
     right_solve(L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
-    dkf__mul_nn(L.T1, dyn->F->data, f->Pp.data, n, n, n);
+    dkf__mul_nn(L.T1, dyn->F->data, f->Pn.data, n, n, n);
     dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
     dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
     for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
@@ -616,29 +616,29 @@ static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_r
 {
     const layout_t L = *L_;
     const size_t n = f->n, p = f->p, pk = f->pk;
-    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
+    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
-    dkf__mul_vec(dz, L.Mk, f->xp.data, pk, n);
+    dkf__mul_vec(dz, L.Mk, f->xn.data, pk, n);
     for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
     dkf__mul_vec(xf, L.Kn, dz, n, pk);
-    dkf__mul_vec(xp, L.Fn, f->xp.data, n, n);
+    dkf__mul_vec(xn, L.Fn, f->xn.data, n, n);
     for (i = 0; i < n; ++i) {
-        xf[i] += f->xp.data[i];
-        xp[i] += dkf__dot(L.Wn + i * pk, dz, pk);
+        xf[i] += f->xn.data[i];
+        xn[i] += dkf__dot(L.Wn + i * pk, dz, pk);
     }
-    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xp, n))
+    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xn, n))
         return DKF_ERR_NONFINITE;
 
     /* commit: caches (a one-phase step's), estimates, the step's
      * quantities (pk rows), and the carry */
     commit_caches(f, &L);
-    dkf__copy(f->xpp.data, f->xp.data, n);
+    dkf__copy(f->xp.data, f->xn.data, n);
     dkf__copy(f->xf.data, xf, n);
     dkf__copy(f->Pf.data, L.Pfn, n * n);
-    dkf__copy(f->xp.data, xp, n);
-    dkf__copy(f->Pp.data, L.Ppn, n * n);
+    dkf__copy(f->xn.data, xn, n);
+    dkf__copy(f->Pn.data, L.Ppn, n * n);
     dkf__copy(f->z.data, zk, pk);
     dkf__copy(f->dz.data, dz, pk);
     dkf__copy(f->J.data, L.Jn, n * pk);

@@ -10,7 +10,8 @@
 # of its messages, seed = run), dkf-sim --rate HZ, every process separate,
 # over udpm://239.255.76.67:7667?ttl=0 in a private network namespace
 # (tools/netns.sh; root only). A run succeeds when dkf-sim and dkf-fusion exit
-# 0 (every step published and seen). The table: runs that succeeded, node
+# 0 (every step published and seen). The table: runs that succeeded, runs
+# with every step complete in the end, node
 # messages per second at the fusion centre, steps degraded in the end (mean),
 # node restarts (a node that lost a measurement restarts its filter; mean),
 # latency p50/p99 (measurement publication -> fused publication, all runs),
@@ -86,7 +87,7 @@ import numpy as np
 out, nodes, steps, runs = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), int(sys.argv[4])
 rates, drops = sys.argv[5].split(), sys.argv[6].split()
 print(f"{nodes} nodes, N = {steps}, deadline 1000 ms, {runs} runs per row, udpm ttl=0 in a namespace")
-print(f"{'drop %':>6} {'rate Hz':>8} {'ok':>5} {'node msgs/s':>12} {'degraded':>9} {'restarts':>9} {'p50 ms':>8} {'p99 ms':>8} {'wall s':>7}")
+print(f"{'drop %':>6} {'rate Hz':>8} {'ok':>5} {'complete':>9} {'node msgs/s':>12} {'degraded':>9} {'restarts':>9} {'p50 ms':>8} {'p99 ms':>8} {'wall s':>7}")
 for drop in drops:
     for rate in rates:
         ok, lat, deg, wall, msgs, rst = 0, [], [], [], [], []
@@ -104,7 +105,7 @@ for drop in drops:
             if os.path.exists(tag + ".wall_ms"):
                 wall.append(int(open(tag + ".wall_ms").read()) / 1000)
         f = lambda v, fmt: (fmt % v) if v is not None else "-"
-        print(f"{drop:>6} {rate:>8} {ok:>3}/{runs} {f(np.mean(msgs) if msgs else None, '%12.0f')} "
+        print(f"{drop:>6} {rate:>8} {ok:>3}/{runs} {sum(1 for x in deg if x == 0):>7}/{runs} {f(np.mean(msgs) if msgs else None, '%12.0f')} "
               f"{f(np.mean(deg) if deg else None, '%9.1f')} {f(np.mean(rst) if rst else None, '%9.1f')} "
               f"{f(np.percentile(lat, 50) if lat else None, '%8.2f')} "
               f"{f(np.percentile(lat, 99) if lat else None, '%8.2f')} {f(np.mean(wall) if wall else None, '%7.2f')}")

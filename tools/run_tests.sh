@@ -12,6 +12,8 @@
 #                    qemu-arm (cmake/toolchain-arm-linux-gnueabihf.cmake)
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
+#   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
+#                    UBSan for FUZZ_SECONDS (60) each (tools/run_fuzz.sh)
 # Every ctest configuration includes `install_consumer` (install + a
 # separate find_package(dkf) project, tests/consumer/).
 #
@@ -32,7 +34,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan qemu-arm-float firmware)
+all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
@@ -44,7 +46,7 @@ declare -A cfg_args=(
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do
-  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware ]]; then
+  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
     exit 2
   fi
@@ -75,12 +77,31 @@ record() { # config passed failed note
 step_t0=$SECONDS
 say() { printf '[%s] %s (%d s)\n' "$1" "$2" $((SECONDS - step_t0)); }
 
+# next_line: the next line of stdin into $line, waiting at most 10 s.
+# Returns 0 with a line, 1 at the end of the input, 2 when 10 s passed
+# without a whole line (then the progress functions print a heartbeat, so a
+# long compile or test never leaves the terminal silent for long).
+next_line() {
+  local got rc
+  IFS= read -r -t 10 got; rc=$?
+  if (( rc > 128 )); then _partial+=$got; return 2; fi
+  line=$_partial$got; _partial=''
+  (( rc == 0 )) || [[ -n $line ]] || return 1
+  return 0
+}
+
 # progress_build LABEL LOG < output: all of it to LOG, "[LABEL] build 37%"
 # (make's percentages, or ninja's [37/120]) at most every 10 s.
 progress_build() {
-  local label=$1 log=$2 line pct last=-1 t=$((SECONDS - 10))
+  local label=$1 log=$2 line pct=0 last=-1 t=$((SECONDS - 10)) rc _partial=''
   : >"$log"
-  while IFS= read -r line; do
+  while :; do
+    next_line; rc=$?
+    if (( rc == 2 )); then
+      (( SECONDS - t >= 30 )) && { say "$label" "build $pct%, still compiling"; t=$SECONDS; }
+      continue
+    fi
+    (( rc == 0 )) || break
     printf '%s\n' "$line" >>"$log"
     if [[ $line =~ ^\[\ *([0-9]+)%\] ]]; then pct=${BASH_REMATCH[1]}
     elif [[ $line =~ ^\[([0-9]+)/([0-9]+)\] ]]; then pct=$((100 * BASH_REMATCH[1] / BASH_REMATCH[2]))
@@ -94,10 +115,16 @@ progress_build() {
 # progress_ctest LABEL LOG < ctest output: all of it to LOG; each failing
 # test at once, "[LABEL] ctest 12/85 ..." at most every 10 s and at the end.
 progress_ctest() {
-  local label=$1 log=$2 line n total name res bad=0 t=$SECONDS
+  local label=$1 log=$2 line n=0 total=? name res bad=0 t=$SECONDS rc _partial=''
   local re='^ *([0-9]+)/([0-9]+) Test +#[0-9]+: ([^ ]+) [ .]*(Passed|\*\*\*[A-Za-z ]*[A-Za-z]|Exception: [A-Za-z ]*[A-Za-z]) +[0-9.]+ sec'
   : >"$log"
-  while IFS= read -r line; do
+  while :; do
+    next_line; rc=$?
+    if (( rc == 2 )); then
+      (( SECONDS - t >= 30 )) && { say "$label" "ctest $n/$total done, $bad failed, still running"; t=$SECONDS; }
+      continue
+    fi
+    (( rc == 0 )) || break
     printf '%s\n' "$line" >>"$log"
     [[ $line =~ $re ]] || continue
     n=${BASH_REMATCH[1]} total=${BASH_REMATCH[2]} name=${BASH_REMATCH[3]} res=${BASH_REMATCH[4]}
@@ -254,13 +281,36 @@ run_firmware() {
   record firmware "$p" "$f" "checks, not ctest"
 }
 
+run_fuzz() {
+  step_t0=$SECONDS
+  say fuzz "libFuzzer harnesses (tools/run_fuzz.sh)"
+  local log=$ROOT/build/run_tests.fuzz.log rc line p f
+  mkdir -p "$ROOT/build"
+  # Progress: the build header, one line per harness and the first line of
+  # each failure; libFuzzer's own output stays in build/fuzz/logs/.
+  DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1 | tee "$log" |
+    while IFS= read -r line; do say fuzz "$line"; done
+  rc=${PIPESTATUS[0]}
+  line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
+  if [[ -z "$line" ]]; then
+    echo "run_tests: FAILED: fuzz run did not finish (log: $log)"
+    record fuzz 0 1 "run aborted"
+    return
+  fi
+  p=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\1/')
+  f=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\2/')
+  if (( rc != 0 && f == 0 )); then f=1; fi
+  (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above; log: $log)"
+  record fuzz "$p" "$f" "harnesses, not ctest"
+}
+
 start=$SECONDS
 for c in "${configs[@]}"; do
   if (( stop )); then
     summary+=("$(printf '%-16s %6s %6s  %s' "$c" - - "not run (earlier failure; DKF_KEEP_GOING=1 runs all)")")
     continue
   fi
-  if [[ $c == firmware ]]; then run_firmware; else run_ctest_config "$c"; fi
+  if [[ $c == firmware ]]; then run_firmware; elif [[ $c == fuzz ]]; then run_fuzz; else run_ctest_config "$c"; fi
 done
 
 echo

@@ -13,7 +13,7 @@
  * the optimal (MMSE given z) recursion for that model. It never needs d_0.
  *
  * ONE-STEP DELAY. z_k needs y_{k+1}, so the step that consumes y_{k+1}
- * yields x_{k|k} (xf, for time k) and the prediction x_{k+1|k} (xp). The
+ * yields x_{k|k} (xf, for time k) and the prediction x_{k+1|k} (xn, "next"). The
  * filter's field `k` is the time of xf. x_{k+1|k} uses the same data
  * y_1..y_{k+1} as an ordinary KF's x_{k+1|k+1}.
  *
@@ -72,23 +72,27 @@
 
 typedef struct {
     size_t n, m, p;
-    size_t k;        /* time of xf; xp is for k + 1 */
+    size_t k;        /* time of xf and xp; xn is for k + 1 */
     size_t pk;       /* rows of z_k kept by the pending gain, or (none
                         pending) by the last completed step; p before the
                         first step. z, dz, J, L, K have pk rows/columns */
     size_t pc;       /* rows the last completed step kept (0 before the
                         first step): the columns of the carry */
     /* estimates */
+    /* Names as everywhere in dkf (dkf-run's outputs, the golden vectors, the
+     * node message): xp is x_{k|k-1}, xf is x_{k|k}; xn is the one-step-ahead
+     * prediction x_{k+1|k} that the next step updates. */
     dkf_mat_t xf, Pf; /* x_{k|k}, P_{k|k} */
-    dkf_mat_t xp, Pp; /* x_{k+1|k}, P_{k+1|k} */
+    dkf_mat_t xn, Pn; /* x_{k+1|k}, P_{k+1|k} */
     /* the last step's quantities (for inspection, tests, messages) */
     dkf_mat_t z;  /* z_k (its kept rows), pk x 1 */
     dkf_mat_t dz; /* innovation dz_k = z_k - z_{k|k-1}, pk x 1 */
     dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x pk */
     dkf_mat_t L;  /* L_k = Cov(dz_k), pk x pk */
     dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x pk */
-    dkf_mat_t xpp; /* x_{k|k-1}, n x 1: the prediction the last step updated
-                      (a fusion-centre message needs it with x_{k|k}) */
+    dkf_mat_t xp;  /* x_{k|k-1}, n x 1: the prediction the last step updated
+                      (xn before that step; a fusion-centre message sends it
+                      with x_{k|k}) */
     dkf_real_t *mem; /* everything else (carry, caches, scratch) */
     int ready;       /* dkf_diffkf_init done */
     int started;     /* dkf_diffkf_start done */
@@ -99,9 +103,11 @@ typedef struct {
     int a_cached, b_cached, model_cached;
 } dkf_diffkf_t;
 
-#define DKF_DIFFKF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_DIFFKF_STORAGE_LEN(n, m, p)]; \
-    dkf_diffkf_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_DIFFKF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_DIFFKF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_diffkf_t name
 
 /* Binds f to storage and sets (x_{0|0}, P_{0|0}) = (x0, P0); P0 SPD. */
 dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,

@@ -40,9 +40,11 @@ typedef struct {
     int ready;
 } dkf_info_t;
 
-#define DKF_INFO_DECLARE(name, n) \
-    dkf_real_t name##_storage[DKF_INFO_STORAGE_LEN(n)]; \
-    dkf_info_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_INFO_DECLARE(sc, name, n) \
+    sc dkf_real_t name##_storage[DKF_INFO_STORAGE_LEN(n)]; \
+    sc dkf_info_t name
 
 /* Binds f to storage and starts from x0, P0 (SPD). */
 dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t storage_len,

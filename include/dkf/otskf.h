@@ -52,9 +52,11 @@ typedef struct {
     int ready;
 } dkf_otskf_t;
 
-#define DKF_OTSKF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_OTSKF_STORAGE_LEN(n, m, p)]; \
-    dkf_otskf_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_OTSKF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_OTSKF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_otskf_t name
 
 /* Start from x_{0|0} = x0, P0 and the bias prior d00 = d0, Pd00 = Pd0, with
  * V_0 = U_0 = 0 (x and d uncorrelated a priori). P0 and Pd0 must be SPD

@@ -110,9 +110,11 @@ typedef struct {
     int pending; /* dkf_tw_node_local succeeded, commit not yet called */
 } dkf_tw_node_t;
 
-#define DKF_TW_NODE_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_TW_NODE_STORAGE_LEN(n, m, p)]; \
-    dkf_tw_node_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_TW_NODE_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_TW_NODE_STORAGE_LEN(n, m, p)]; \
+    sc dkf_tw_node_t name
 
 /* Binds the node to storage; x = x0, P = P0 (SPD), z = 0, k = 0.
  * DKF_ERR_RANK if m > n (S = B^T Pi B cannot be invertible then). */

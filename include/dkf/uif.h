@@ -145,9 +145,11 @@ typedef struct {
     int ready;
 } dkf_uif_t;
 
-#define DKF_UIF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_UIF_STORAGE_LEN(n, m, p)]; \
-    dkf_uif_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_UIF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_UIF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_uif_t name
 
 /* Binds f to storage (storage_len >= DKF_UIF_STORAGE_LEN(n, m, p) reals)
  * and sets x = x0 (n x 1), Px = P0 (n x n, SPD); d, Pd, Pxd = 0.

@@ -132,6 +132,13 @@ int main(int argc, char **argv)
            : dkf_net_fusion_state(fu) == DKF_NET_FAILED ? DKF_EXIT_RUN
                                                         : DKF_EXIT_STOPPED;
     dkf_net_fusion_report(fu);
+    if (code == DKF_EXIT_OK) {
+        /* the last fused datagram has no successor to make up for its loss:
+         * the final status (k = N) is repeated for 0.1 s, which dkf-sim also
+         * takes as the confirmation of step N */
+        int i;
+        for (i = 0; i < 5 && dkf_net_handle(net, 20) >= 0; ++i) dkf_net_fusion_report(fu);
+    }
     if (out != NULL) {
         json_t *doc = dkf_net_fusion_result(fu);
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;

@@ -63,11 +63,8 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
 trap cleanup EXIT
 
-wait_file() { # FILE SECONDS
-  local i
-  for ((i = 0; i < $2 * 100; ++i)); do [[ -e $1 ]] && return 0; sleep 0.01; done
-  echo "FAIL: $1 did not appear within $2 s" >&2; return 1
-}
+# wait_file, wait_log_quiet
+. "$(dirname "$0")/net_common.sh"
 
 fusion() { # TAG
   rm -f "$out/$1.fusion.ready"
@@ -137,12 +134,7 @@ case "$mode" in
     if (( logged )); then
       # the log of the run: what dkf_monitor.py / dkf_logplot.py make of it
       # equals the result file; meas_utime_* as docs/network.md says
-      last=-1 still=0
-      for ((i = 0; i < 1000 && still < 30; ++i)); do
-        size=$(stat -c %s "$log")
-        if [[ $size == "$last" ]]; then ((++still)); else still=0 last=$size; fi
-        sleep 0.01
-      done
+      wait_log_quiet "$log"
       kill -INT $logger; wait $logger
       "$DKF_PYTHON" "$(dirname "$0")/check_log.py" "$log" "$out/run.fused.json" \
         --types "$DKF_LCM_PY" || exit 1

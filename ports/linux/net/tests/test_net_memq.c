@@ -550,6 +550,42 @@ static void test_memq_restart(void **state)
     memq_restart(1);
 }
 
+/* Example 3 over memq: the simulator, node 0, node 1 if asked, and a fusion
+ * centre with the given deadline. */
+typedef struct {
+    dkf_scenario_t *s;
+    dkf_net_t *net;
+    dkf_net_sim_t *sim;
+    dkf_net_node_t *n0, *n1;
+    dkf_net_fusion_t *fu;
+} rig_t;
+
+static void rig_open(rig_t *r, int with_n1, int64_t deadline_us)
+{
+    char err[DKF_SCN_ERR_LEN];
+    r->s = load();
+    r->net = dkf_net_open("memq://", err, sizeof err);
+    assert_non_null(r->net);
+    r->sim = dkf_net_sim_create(r->net, r->s, "T", err, sizeof err);
+    r->n0 = dkf_net_node_create(r->net, r->s, 0, "T", err, sizeof err);
+    r->n1 = with_n1 ? dkf_net_node_create(r->net, r->s, 1, "T", err, sizeof err) : NULL;
+    r->fu = dkf_net_fusion_create(r->net, r->s, "T", deadline_us, err, sizeof err);
+    assert_non_null(r->sim);
+    assert_non_null(r->n0);
+    assert_true(!with_n1 || r->n1 != NULL);
+    assert_non_null(r->fu);
+}
+
+static void rig_close(rig_t *r)
+{
+    dkf_net_fusion_free(r->fu);
+    dkf_net_node_free(r->n0);
+    dkf_net_node_free(r->n1);
+    dkf_net_sim_free(r->sim);
+    dkf_net_close(r->net);
+    dkf_scenario_free(r->s);
+}
+
 /* Decision 16 (docs/network.md, "Deadlines"): no step waits for data that
  * cannot come. The deadline is 100 s and no deadline passes during the run
  * (the fusion centre's tick is not called), so only the arrivals move the
@@ -559,37 +595,28 @@ static void test_memq_restart(void **state)
  * payloads more than 32 ahead were discarded and nothing was published). */
 static void test_memq_window_follows_arrivals(void **state)
 {
-    char err[DKF_SCN_ERR_LEN];
-    dkf_scenario_t *s = load();
-    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
-    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 100000000, err, sizeof err);
+    rig_t r;
     json_t *doc;
     size_t j;
     (void)state;
-    assert_non_null(fu);
-    run(net, sim, NULL, NULL);
+    rig_open(&r, 0, 100000000);
+    run(r.net, r.sim, NULL, NULL);
     print_message("after the run, no deadline passed: published up to k=%ld of %zu\n",
-                  dkf_net_fusion_k(fu), s->steps);
-    assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps - DKF_NET_WINDOW);
+                  dkf_net_fusion_k(r.fu), r.s->steps);
+    assert_int_equal(dkf_net_fusion_k(r.fu), (long)r.s->steps - DKF_NET_WINDOW);
     /* the last 32 steps have nothing more to wait for but a deadline */
-    dkf_net_fusion_tick(fu, dkf_net_mono_us() + 200000000, 0);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
-    doc = dkf_net_fusion_result(fu);
-    assert_int_equal(fault_count(doc, "pushed_by_window"), (int64_t)s->steps - DKF_NET_WINDOW);
+    dkf_net_fusion_tick(r.fu, dkf_net_mono_us() + 200000000, 0);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_DONE);
+    doc = dkf_net_fusion_result(r.fu);
+    assert_int_equal(fault_count(doc, "pushed_by_window"), (int64_t)r.s->steps - DKF_NET_WINDOW);
     assert_int_equal(fault_count(doc, "too_far_ahead"), 0);
-    for (j = 0; j < s->steps; ++j) {
+    for (j = 0; j < r.s->steps; ++j) {
         const json_t *c = json_array_get(json_object_get(doc, "contributors"), j);
         assert_int_equal(json_array_size(c), 1);
         assert_int_equal(json_integer_value(json_array_get(c, 0)), 0);
     }
     json_decref(doc);
-    dkf_net_fusion_free(fu);
-    dkf_net_node_free(n0);
-    dkf_net_sim_free(sim);
-    dkf_net_close(net);
-    dkf_scenario_free(s);
+    rig_close(&r);
 }
 
 /* Node 1 drops 20 % of its messages (seed 3: two in a row at 40, 41 and 44,
@@ -600,40 +627,29 @@ static void test_memq_window_follows_arrivals(void **state)
  * degraded steps are exactly those the lost payloads mask. */
 static void test_memq_moved_on_node(void **state)
 {
-    char err[DKF_SCN_ERR_LEN];
-    dkf_scenario_t *s = load();
-    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
-    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
-    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 100000000, err, sizeof err);
+    rig_t r;
     dkf_net_faults_t fx;
     json_t *doc;
     size_t j;
     (void)state;
-    assert_non_null(fu);
+    rig_open(&r, 1, 100000000);
     memset(&fx, 0, sizeof fx);
     fx.drop_pct = 20;
     fx.seed = 3;
-    dkf_net_node_faults(n1, &fx);
-    run(net, sim, NULL, NULL);
+    dkf_net_node_faults(r.n1, &fx);
+    run(r.net, r.sim, NULL, NULL);
     print_message("after the run, no deadline passed: published up to k=%ld of %zu\n",
-                  dkf_net_fusion_k(fu), s->steps);
-    assert_true(dkf_net_fusion_k(fu) >= 46);
-    dkf_net_fusion_tick(fu, dkf_net_mono_us() + 200000000, 0);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
-    doc = dkf_net_fusion_result(fu);
-    for (j = 0; j < s->steps; ++j) {
+                  dkf_net_fusion_k(r.fu), r.s->steps);
+    assert_true(dkf_net_fusion_k(r.fu) >= 46);
+    dkf_net_fusion_tick(r.fu, dkf_net_mono_us() + 200000000, 0);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_DONE);
+    doc = dkf_net_fusion_result(r.fu);
+    for (j = 0; j < r.s->steps; ++j) {
         const int lost = j + 1 == 40 || j + 1 == 41 || j + 1 == 44 || j + 1 == 45;
         assert_string_equal(status_at(doc, "status", j), lost ? "degraded" : "complete");
     }
     json_decref(doc);
-    dkf_net_fusion_free(fu);
-    dkf_net_node_free(n0);
-    dkf_net_node_free(n1);
-    dkf_net_sim_free(sim);
-    dkf_net_close(net);
-    dkf_scenario_free(s);
+    rig_close(&r);
 }
 
 /* The simulator's end of a paced run waits for the fused step N; the

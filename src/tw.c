@@ -372,6 +372,7 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
 {
     layout_t L;
     size_t l, e, len;
+    dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
     len = DKF_TW_PKT_LEN(nd->n);
@@ -385,7 +386,11 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
         for (e = 0; e < len; ++e) L.acc[e] += L.stage[e];
     }
     DKF_TRY(dkf_tw_node_local(nd, md, L.acc, NULL));
-    return dkf_tw_node_commit(nd, NULL, NULL);
+    st = dkf_tw_node_commit(nd, NULL, NULL);
+    /* a local estimate whose P (Ploc) is not numerically SPD is refused by
+     * the commit: the local step of this call is not left pending */
+    if (st != DKF_OK) nd->pending = 0;
+    return st;
 }
 
 /* ---- whole-graph simulation --------------------------------------------- */

@@ -43,7 +43,8 @@
  *   [combine estimate packets: alpha-mix of psi (Alg 2), ACF (Alg 3)]
  *   dkf_tw_node_commit     x, P of the combination (NULL: the local ones)
  * A failed call of any kind leaves x, P, z, k and the views of the last
- * step bit-identical (a failed local step cancels a pending one).
+ * step bit-identical (a failed local step, or a failed dkf_tw_central_step
+ * whose local step ran, cancels a pending one).
  *
  * WHOLE-GRAPH SIMULATION (dkf_tw_net_*): N nodes and their packet buffers
  * in one caller array, stepping all nodes with the same primitives; a

@@ -22,7 +22,7 @@ static void check_ok(const dkf_diffkf_t *f, const dkf_real_t *st, int sym)
 {
     fz_finite(st, DKF_DIFFKF_STATE_LEN(f->n, f->m, f->p));
     fz_symmetric(f->Pf.data, f->n, sym);
-    fz_symmetric(f->Pp.data, f->n, sym);
+    fz_symmetric(f->Pn.data, f->n, sym);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

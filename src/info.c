@@ -27,15 +27,19 @@ static info_scratch_t info_scratch(const dkf_info_t *f)
 }
 
 /* From the SPD matrix M (n x n, in `spd`) computes its inverse into `inv`
- * and inv * v into `out`; `chol` is n*n scratch. -1 if M is not SPD. */
-static int invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol, const dkf_real_t *spd,
-                      const dkf_real_t *v, size_t n)
+ * and inv * v into `out`; `chol` is n*n scratch. DKF_ERR_NONFINITE if M or
+ * v is not finite (an overflow upstream: the inputs are checked, so a
+ * non-finite M is never a definiteness question), DKF_ERR_NOT_SPD if M is
+ * not SPD. */
+static dkf_status_t invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol,
+                               const dkf_real_t *spd, const dkf_real_t *v, size_t n)
 {
     dkf_real_t dinv[DKF_MAX_DIM];
-    if (dkf__chol(chol, dinv, spd, n) != 0) return -1;
+    if (!dkf__all_finite(spd, n * n) || !dkf__all_finite(v, n)) return DKF_ERR_NONFINITE;
+    if (dkf__chol(chol, dinv, spd, n) != 0) return DKF_ERR_NOT_SPD;
     dkf__chol_inverse(inv, chol, dinv, n);
     dkf__mul_vec(out, inv, v, n, n);
-    return 0;
+    return DKF_OK;
 }
 
 /* Commits (x, P, y, Y) from scratch after a finiteness check. */
@@ -73,7 +77,7 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     g.ready = 1;
     s = info_scratch(&g);
     /* Y0 = P0^{-1}, y0 = Y0 x0 */
-    if (invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    DKF_TRY(invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n));
     DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B));
     *f = g;
     return DKF_OK;
@@ -93,15 +97,15 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t
     dkf__mul_vec(s.xn, F->data, f->x.data, n, n);
     dkf__mul_nn(s.A, F->data, f->P.data, n, n, n);
     dkf__mul_nt_sym(s.C, s.A, F->data, Q->data, n, n);
-    /* Y- = (P-)^{-1}, y- = Y- x- */
-    if (invert_spd(s.B, s.yn, s.A, s.C, s.xn, n) != 0) return DKF_ERR_NOT_SPD;
+    /* Y- = (P-)^{-1}, y- = Y- x- (an overflow of F P F^T is NONFINITE) */
+    DKF_TRY(invert_spd(s.B, s.yn, s.A, s.C, s.xn, n));
     return commit(f, s.xn, s.C, s.yn, s.B);
 }
 
 dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
 {
-    size_t n, m, a, b, l;
+    size_t n, m, a, b, l, pass;
     dkf_real_t *L, *RiC, inv[DKF_MAX_DIM];
     DKF_TRY(dkf__check_mat(C));
     n = C->cols;
@@ -129,18 +133,22 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
     dkf__copy(RiC, C->data, m * n);
     dkf__chol_solve(L, inv, RiC, m, n);
     if (!dkf__all_finite(RiC, m * n)) return DKF_ERR_NONFINITE;
-    /* I = C^T (R^{-1} C), exactly symmetric; i = (R^{-1} C)^T z */
-    for (a = 0; a < n; ++a) {
-        dkf_real_t v = DKF_R(0.0);
-        for (l = 0; l < m; ++l) v += RiC[l * n + a] * z->data[l];
-        i->data[a] = v;
-        for (b = a; b < n; ++b) {
-            dkf_real_t w = DKF_R(0.0);
-            for (l = 0; l < m; ++l) w += C->data[l * n + a] * RiC[l * n + b];
-            I->data[a * n + b] = w;
-            I->data[b * n + a] = w;
+    /* I = C^T (R^{-1} C), exactly symmetric; i = (R^{-1} C)^T z. Twice:
+     * the first pass only checks for overflow, so that a failure leaves
+     * the outputs untouched (there is no room to stage n^2 results). */
+    for (pass = 0; pass < 2; ++pass)
+        for (a = 0; a < n; ++a) {
+            dkf_real_t v = DKF_R(0.0);
+            for (l = 0; l < m; ++l) v += RiC[l * n + a] * z->data[l];
+            if (pass == 0 && !dkf__all_finite(&v, 1)) return DKF_ERR_NONFINITE;
+            if (pass == 1) i->data[a] = v;
+            for (b = a; b < n; ++b) {
+                dkf_real_t w = DKF_R(0.0);
+                for (l = 0; l < m; ++l) w += C->data[l * n + a] * RiC[l * n + b];
+                if (pass == 0 && !dkf__all_finite(&w, 1)) return DKF_ERR_NONFINITE;
+                if (pass == 1) I->data[a * n + b] = w, I->data[b * n + a] = w;
+            }
         }
-    }
     return DKF_OK;
 }
 
@@ -171,7 +179,7 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
 #if DKF_SYMMETRISE
     dkf__symmetrise(s.C, n);
 #endif
-    /* P = Y^{-1}, x = P y */
-    if (invert_spd(s.B, s.xn, s.A, s.C, s.yn, n) != 0) return DKF_ERR_NOT_SPD;
+    /* P = Y^{-1}, x = P y (an overflow of the sums is NONFINITE) */
+    DKF_TRY(invert_spd(s.B, s.xn, s.A, s.C, s.yn, n));
     return commit(f, s.xn, s.B, s.yn, s.C);
 }

@@ -13,6 +13,10 @@
 #ifdef DKF_CONFIG_FILE
 #include DKF_CONFIG_FILE
 #endif
+/* The options the library was built with, when it was built by CMake (the
+ * generated header; the source tree's copy is empty): a value above that
+ * disagrees with them is an #error there. */
+#include "dkf/build_config.h"
 
 #include <float.h>
 #include <stddef.h>

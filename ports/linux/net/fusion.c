@@ -377,8 +377,8 @@ static int compute_step(dkf_net_fusion_t *fu, long k)
         }
     }
     /* the prior x_{k|k-1}, P_{k|k-1} is the central filter's xp before the step */
-    to_double(fu->rec.xp + j * n, fu->fc.central.xp.data, n);
-    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pp.data, n * n);
+    to_double(fu->rec.xp + j * n, fu->fc.central.xn.data, n);
+    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pn.data, n * n);
     for (tries = 0; tries <= l; ++tries) {
         st = dkf_diffkf_fc_step_partial(&fu->fc, &fu->md[0].F, &fu->md[0].Q, fu->sens, fu->msgs,
                                         fu->present, fu->contrib, &fault);

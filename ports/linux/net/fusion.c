@@ -43,6 +43,7 @@ typedef struct {
     long epoch, k_start;
     int assumed;  /* epoch 0 from step 1, until a message says otherwise */
     int usable;   /* 0: it started at a step older than every checkpoint */
+    int applied;  /* the replica was restarted for it (counted once) */
 } epoch_t;
 
 /* One run of a node's process as its sequence numbers count it: a
@@ -205,6 +206,7 @@ static long note_epoch(dkf_net_fusion_t *fu, size_t i, long epoch, long k_start)
     e.k_start = k_start;
     e.assumed = 0;
     e.usable = k_start == 1 || k_start > fu->done_k || have_ckpt(fu, k_start - 1);
+    e.applied = 0;
     if (!e.usable) ++fu->fx.lost_epochs;
     if (p->nep == EPOCHS) { /* forget the oldest */
         memmove(&p->ep[0], &p->ep[1], (EPOCHS - 1) * sizeof p->ep[0]);
@@ -306,7 +308,7 @@ static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_statu
 }
 
 /* Mirrors the (re)starts of local filters at step k (before the step). */
-static void restart_nodes(dkf_net_fusion_t *fu, long k, int first_time)
+static void restart_nodes(dkf_net_fusion_t *fu, long k)
 {
     const size_t n = fu->n;
     size_t i;
@@ -332,7 +334,9 @@ static void restart_nodes(dkf_net_fusion_t *fu, long k, int first_time)
             ++fu->fx.lost_epochs;
             continue;
         }
-        if (first_time) ++fu->fx.restarts;
+        /* counted once, whether first applied on time or in a replay */
+        if (!e->applied) ++fu->fx.restarts;
+        e->applied = 1;
     }
 }
 
@@ -349,13 +353,13 @@ static void save_ckpt(dkf_net_fusion_t *fu, long k)
 /* Step k = fc.k + 1 with the payloads known now; records it. A node the
  * core refuses (rank, model) is masked and the step retried, so a step
  * always completes unless the central filter itself fails. 0 or -1. */
-static int compute_step(dkf_net_fusion_t *fu, long k, int first_time)
+static int compute_step(dkf_net_fusion_t *fu, long k)
 {
     const size_t n = fu->n, l = fu->l, j = (size_t)(k - 1);
     dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
     dkf_status_t st = DKF_OK;
     size_t i, tries;
-    restart_nodes(fu, k, first_time);
+    restart_nodes(fu, k);
     if (load_sensors(fu, (size_t)k, (size_t)k + 1) != 0) {
         fu_note(fu, "fusion: the scenario has no model for step k=%ld", k);
         return -1;
@@ -513,7 +517,7 @@ static void fail(dkf_net_fusion_t *fu)
 static void next_step(dkf_net_fusion_t *fu, int64_t now)
 {
     const long k = fu->done_k + 1;
-    if (compute_step(fu, k, 1) != 0) {
+    if (compute_step(fu, k) != 0) {
         fail(fu);
         return;
     }
@@ -542,7 +546,7 @@ static void roll_back(dkf_net_fusion_t *fu, long j)
     }
     ++fu->fx.rollbacks;
     for (k = j; k <= fu->done_k; ++k) {
-        if (compute_step(fu, k, 0) != 0) {
+        if (compute_step(fu, k) != 0) {
             fail(fu);
             return;
         }

@@ -158,7 +158,7 @@ END {
     if (!((ty SUBSEP n) in tn)) { tn[ty SUBSEP n] = 1; torder[++nt] = ty " " n }
   }
   for (i = 1; i <= nnote; ++i) print note[i]
-  printf "\ndkf / %s, like for like:\n%-7s %-4s %8s %8s\n", pn[1], "type", "n", "joseph", "short"
+  printf "\ndkf / %s per form (joseph: DKF_JOSEPH=1 vs the true Joseph form; short: P - KHP on both sides):\n%-7s %-4s %8s %8s\n", pn[1], "type", "n", "joseph", "short"
   for (i = 1; i <= nt; ++i) {
     split(torder[i], f, " "); k = f[1] SUBSEP f[2]
     printf "%-7s %-4s %8s %8s\n", f[1], f[2], (k in rj) ? rj[k] : "", (k in rs) ? rs[k] : ""

@@ -128,7 +128,9 @@ progress_ctest() {
     printf '%s\n' "$line" >>"$log"
     [[ $line =~ $re ]] || continue
     n=${BASH_REMATCH[1]} total=${BASH_REMATCH[2]} name=${BASH_REMATCH[3]} res=${BASH_REMATCH[4]}
-    if [[ $res != Passed ]]; then
+    if [[ $res == '***Not Run' ]]; then
+      bad=$((bad + 1)) # a cascade (a setup fixture failed, or no executable): summed up at the end
+    elif [[ $res != Passed ]]; then
       bad=$((bad + 1)); say "$label" "ctest $n/$total FAILED: $name (${res#\*\*\*})"
     elif (( SECONDS - t >= 10 || n == total )); then
       say "$label" "ctest $n/$total done, $bad failed"; t=$SECONDS
@@ -247,9 +249,17 @@ run_ctest_config() {
   if (( rc != 0 && failed == 0 )); then failed=1; fi
   say "$cfg" "$line"
   if (( failed > 0 )); then
-    # ctest's closing list: "\t  5 - test_kf (Failed)"
-    # shellcheck disable=SC2046  # one name per word
-    first_test_failures "$cfg" "$bdir" $(sed -n -E 's/^[[:space:]]+[0-9]+ - ([^ ]+) \(.*\)$/\1/p' "$log")
+    # ctest's closing list: "\t  5 - test_kf (Failed)". The first 5 that
+    # ran get their first failing assertion; the rest are named; tests that
+    # did not run (their setup fixture failed) are counted.
+    local ran notrun
+    ran=$(sed -n -E 's/^[[:space:]]+[0-9]+ - ([^ ]+) \((Failed|Timeout|SEGFAULT|Exception|[A-Za-z ]*)\)$/\1 \2/p' "$log" |
+          awk '$2 != "Not" { print $1 }')
+    notrun=$(grep -cE '^[[:space:]]+[0-9]+ - [^ ]+ \(Not Run\)$' "$log")
+    # shellcheck disable=SC2086  # one name per word
+    first_test_failures "$cfg" "$bdir" $(echo $ran | tr ' ' '\n' | head -5)
+    (( $(echo $ran | wc -w) > 5 )) && echo "[$cfg] also failed: $(echo $ran | tr ' ' '\n' | tail -n +6 | tr '\n' ' ')"
+    (( notrun > 0 )) && echo "[$cfg] $notrun test(s) not run (a setup test they need failed, or no executable)"
     echo "run_tests: FAILED: $failed test(s) of $cfg (log: $log)"
   fi
   record "$cfg" $((total - failed)) "$failed" ""

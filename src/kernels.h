@@ -42,6 +42,18 @@ void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_
 /* A = (A + A^T) / 2 for n x n A. */
 void dkf__symmetrise(dkf_real_t *A, size_t n);
 
+/* Joseph-form covariance update P+ = (I - K H) P (I - K H)^T + K R K^T,
+ * evaluated as written (inl_joseph in kernels_inline.h), for the gain
+ * given as Kt = K^T (m x n), H (m x n), R (m x m, upper triangle read).
+ * work: DKF__JOSEPH_WORK(n, m) reals, overlapping none of the others;
+ * Pn (n x n) must not overlap P, Kt, H or R. */
+#define DKF__JOSEPH_WORK(n, m) (2 * ((n) + (m)) * (n) + (m) * (m))
+void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, const dkf_real_t *H,
+                 const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work);
+/* 1 if the finite symmetric n x n P is positive semi-definite within
+ * 4 n eps tr(P) (inl_psd_within_rounding); work: n^2 reals, inv: n. */
+int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t *P, size_t n);
+
 /* Cholesky factor of the n x n A into W (W may be A): the lower triangle
  * of W gets L with A = L L^T, its strict upper triangle zeros, and
  * inv[i] = 1 / L(i,i). Only the lower triangle of A is read. Returns 0,

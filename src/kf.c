@@ -190,37 +190,18 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
 }
 
 /* Covariance update, upper triangle computed and mirrored.
- * Joseph form (DKF_JOSEPH=1), for the gain K actually computed:
- *   P+ = A P A^T + K R K^T,   A = I - K H,
- * evaluated as written, as one symmetric product with inner dimension
- * n + m:  P+ = G^T [A^T; K^T],  G = [P A^T; R K^T]  ((n+m) x n each).
- * A = I - K H is formed explicitly: that is what keeps P+ accurate when
- * the measurements pin the state (P large, R small, m >= n): A is then
- * tiny and its rounding, O(eps), enters P+ only as O(eps^2 |P|) through
- * A P A^T, while any form that subtracts from P (P - K H P, or its
- * algebraic rewrite P - K(HP) + (S K^T - HP)^T K^T that dkf used before)
- * leaves an O(eps |P|) error in a result that may be 1e16 times smaller
- * than P (docs/decisions.md). Both terms are PSD in exact arithmetic
- * whatever the gain; a gain error dK enters only as dK S dK^T. Cost
- * O(n^3 + n^2 m) against the O(n^2 m) of the short form. R is read by
- * its upper triangle (as for S), mirrored into L's place.
+ * Joseph form (DKF_JOSEPH=1), for the gain K actually computed, as
+ * written: P+ = A P A^T + K R K^T with A = I - K H formed (inl_joseph:
+ * accurate also when the data pin the state, P+ << P; docs/decisions.md
+ * item 16). O(n^3 + n^2 m). At is placed right before Kt, so [At; Kt] is
+ * the (n+m) x n array inl_joseph wants, G = [P A^T; R K^T] goes to W
+ * (over Ht, which inl_joseph reads first) and R's mirror to L's place.
  * Short form (DKF_JOSEPH=0): P+ = P - K (H P) = P + (-K^T)^T (HP). */
 DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, const dkf_real_t *R,
                                    size_t n, size_t m)
 {
 #if DKF_JOSEPH
-    dkf_real_t *G = s->T, *Rs = s->L;
-    size_t i, j;
-    /* A^T = I - H^T K^T */
-    inl_mul_nn(s->At, s->Ht, s->Kt, n, m, n);
-    for (i = 0; i < n * n; ++i) s->At[i] = -s->At[i];
-    for (i = 0; i < n; ++i) s->At[i * n + i] += DKF_R(1.0);
-    for (i = 0; i < m; ++i)
-        for (j = 0; j < m; ++j) Rs[i * m + j] = i <= j ? R[i * m + j] : R[j * m + i];
-    /* G = [P A^T; R K^T]; P+ = G^T [A^T; K^T] */
-    inl_mul_nn(G, kf->P.data, s->At, n, n, n);
-    inl_mul_nn(G + n * n, Rs, s->Kt, m, m, n);
-    inl_mul_tn_sym(s->Pn, G, s->At, NULL, n, n + m);
+    inl_joseph(s->Pn, s->At, s->T, s->L, kf->P.data, s->Ht, R, n, m);
 #else
     (void)R;
     negate(s->Gt, s->Kt, m * n);

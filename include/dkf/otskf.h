@@ -32,7 +32,9 @@
     (5 * (p) * (p) + 4 * (n) * (p) + 3 * (n) * (n) + (p) + 2 * (n))
 #define DKF_OTSKF_UPDATE_LEN(n, m, p) \
     (3 * (m) * (m) + 2 * (m) * (n) + 3 * (m) * (p) + 2 * (n) * (n) + (p) * (p) + \
-     2 * (n) * (p) + (m) + 2 * (n) + (p))
+     2 * (n) * (p) + (m) + 2 * (n) + (p) + DKF_OTSKF_JOSEPH_LEN((n) > (p) ? (n) : (p), m))
+/* Workspace of the Joseph updates of P^x (N = n) and P^d (N = p). */
+#define DKF_OTSKF_JOSEPH_LEN(N, m) (2 * ((N) + (m)) * (N) + (m) * (m))
 #define DKF_OTSKF_STORAGE_LEN(n, m, p) \
     (DKF_OTSKF_STATE_LEN(n, p) + \
      (DKF_OTSKF_PREDICT_LEN(n, p) > DKF_OTSKF_UPDATE_LEN(n, m, p) \

@@ -104,7 +104,8 @@ typedef struct {
 #define DKF_UIF_STORAGE_LEN(n, m, p) \
     (2 * DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m) /* cache */ \
      + 2 * (p) * (n) + (p) * (p) + 4 * (p) * (m) + 4 * (m) * (m) + (n) * (n) + 2 * (n) * (m) + \
-     2 * (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m))
+     (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m) + \
+     2 * ((n) + (p)) * (n) + (p) * (p) /* Joseph-form workspace */)
 
 typedef struct {
     size_t n, m, p;

@@ -132,16 +132,7 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
     /* R = L L^T;  W = L^{-1} C, w = L^{-1} z (forward substitution, never
      * R^{-1}): the square-root form of (31)-(34) */
     if (dkf__chol(L, inv, R->data, m) != 0) return DKF_ERR_NOT_SPD;
-    for (l = 0; l < m; ++l) {
-        dkf_real_t v = z->data[l];
-        for (b = 0; b < l; ++b) v -= L[l * m + b] * w[b];
-        w[l] = v * inv[l];
-        for (a = 0; a < n; ++a) {
-            dkf_real_t t = C->data[l * n + a];
-            for (b = 0; b < l; ++b) t -= L[l * m + b] * W[b * n + a];
-            W[l * n + a] = t * inv[l];
-        }
-    }
+    dkf__whiten(W, w, L, inv, C->data, z->data, m, n);
     if (!dkf__all_finite(W, m * n) || !dkf__all_finite(w, m)) return DKF_ERR_NONFINITE;
     /* I = W^T W: a Gram matrix, exactly symmetric and PSD up to the rounding
      * of its dot products (the form C^T (R^{-1} C) used before is not a

@@ -188,3 +188,20 @@ int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t
 {
     return inl_psd_within_rounding(work, inv, P, n);
 }
+
+void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
+                 const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n)
+{
+    size_t l, b, a;
+    for (l = 0; l < m; ++l) {
+        const dkf_real_t *ll = L + l * m;
+        dkf_real_t v = z[l];
+        for (b = 0; b < l; ++b) v -= ll[b] * w[b];
+        w[l] = v * inv[l];
+        for (a = 0; a < n; ++a) {
+            dkf_real_t t = C[l * n + a];
+            for (b = 0; b < l; ++b) t -= ll[b] * W[b * n + a];
+            W[l * n + a] = t * inv[l];
+        }
+    }
+}

@@ -54,6 +54,14 @@ void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, cons
  * 4 n eps tr(P) (inl_psd_within_rounding); work: n^2 reals, inv: n. */
 int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t *P, size_t n);
 
+/* Whitening by the Cholesky factor L (m x m, inv from dkf__chol) of a
+ * noise covariance R = L L^T: W = L^{-1} C (C m x n) and w = L^{-1} z
+ * (z m x 1), forward substitution. The information C^T R^{-1} C is then
+ * the Gram matrix W^T W (symmetric, PSD up to the rounding of its dot
+ * products) and C^T R^{-1} z = W^T w. W, w must not overlap the inputs. */
+void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
+                 const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n);
+
 /* Cholesky factor of the n x n A into W (W may be A): the lower triangle
  * of W gets L with A = L L^T, its strict upper triangle zeros, and
  * inv[i] = 1 / L(i,i). Only the lower triangle of A is read. Returns 0,

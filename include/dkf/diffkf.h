@@ -45,7 +45,8 @@
      /* carried, caches of A^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
-     + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
+     + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p) \
+     + 3 * (n) * (n) + 4 * (n) * (p) /* scratch of the Joseph-type covariances */)
 
 typedef struct {
     size_t n, m, p;

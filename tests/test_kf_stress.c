@@ -28,51 +28,6 @@ typedef struct {
     DKF_KF_DECLARE(kf, NMAX, NMAX);
 } kf_box_t;
 
-/* max|got - ref| / max|ref| (relative to the reference's own scale, not
- * max(1, .): the pinned P+ is ~1e-8). */
-static double rel_err(const dkf_real_t *got, const double *ref, size_t n)
-{
-    return test_max_abs_diff(got, ref, n) / test_max_abs(ref, n);
-}
-
-/* Whether the symmetric n x n P satisfies lambda_min(P) >= -tol tr(P), by
- * a double-precision Cholesky of P + tol tr(P) I written here
- * (independent of the library's), and min P(i,i) >= -tol tr(P). */
-static int psd_within(const dkf_real_t *P, size_t n, double tol)
-{
-    double L[NMAX * NMAX], tr = 0.0, d;
-    size_t i, j, l;
-    for (i = 0; i < n; ++i) tr += (double)P[i * n + i];
-    d = tol * fabs(tr);
-    for (i = 0; i < n; ++i) {
-        if (!((double)P[i * n + i] >= -d)) return 0;
-        for (j = 0; j <= i; ++j) {
-            double s = (double)P[i * n + j] + (i == j ? d : 0.0);
-            for (l = 0; l < j; ++l) s -= L[i * n + l] * L[j * n + l];
-            if (i == j) {
-                if (!(s > 0.0)) return 0;
-                L[i * n + i] = sqrt(s);
-            } else {
-                L[i * n + j] = s / L[j * n + j];
-            }
-        }
-    }
-    return 1;
-}
-
-static const json_t *find_case(const json_t *root, const char *name)
-{
-    const json_t *cases = test_json_get(root, "cases");
-    size_t i;
-    for (i = 0; i < json_array_size(cases); ++i) {
-        const json_t *c = json_array_get(cases, i);
-        if (strcmp(json_string_value(test_json_get(c, "name")), name) == 0) return c;
-    }
-    print_error("no case %s\n", name);
-    fail();
-    return NULL;
-}
-
 static void init_case(kf_box_t *b, const json_t *c)
 {
     dkf_real_t xs[NMAX], Ps[NMAX * NMAX];
@@ -108,7 +63,7 @@ static void run_case(const char *name, double *ex, double *eP, double *kappa2, d
 {
     static kf_box_t b;
     json_t *root = test_load_vector("stress/kf.json");
-    const json_t *c = find_case(root, name), *steps = test_json_get(c, "steps");
+    const json_t *c = test_json_case(root, name), *steps = test_json_get(c, "steps");
     size_t n = (size_t)json_integer_value(test_json_get(c, "n")), j;
     double xr[NMAX], Pr[NMAX * NMAX];
     init_case(&b, c);
@@ -120,24 +75,15 @@ static void run_case(const char *name, double *ex, double *eP, double *kappa2, d
         assert_int_equal(run_step(&b, st), DKF_OK);
         test_json_array(test_json_get(st, "x"), xr, NMAX, NULL, NULL);
         test_json_array(test_json_get(st, "P"), Pr, NMAX * NMAX, NULL, NULL);
-        e = rel_err(b.kf.x.data, xr, n);
+        e = test_rel_err(b.kf.x.data, xr, n);
         if (!(e <= *ex)) *ex = e;
-        e = rel_err(b.kf.P.data, Pr, n * n);
+        e = test_rel_err(b.kf.P.data, Pr, n * n);
         if (!(e <= *eP)) *eP = e;
-        assert_true(psd_within(b.kf.P.data, n, psd_tol));
+        assert_true(test_psd_within(b.kf.P.data, n, psd_tol));
     }
     json_decref(root);
     print_message("%s: worst rel error x %.3e, P %.3e (cond(H)^2 %.3g)\n", name, *ex, *eP,
                   *kappa2);
-}
-
-/* Asserts e <= bound, naming it. */
-static void assert_below(const char *what, double e, double bound)
-{
-    if (!(e <= bound)) {
-        print_error("%s: %.3e > %.3e\n", what, e, bound);
-        fail();
-    }
 }
 
 /* ---- pinned and moderate ------------------------------------------------ */
@@ -166,7 +112,7 @@ static void test_kf_stress_pinned(void **state)
 {
     static kf_box_t b;
     json_t *root = test_load_vector("stress/kf.json");
-    const json_t *c = find_case(root, "pinned_n4");
+    const json_t *c = test_json_case(root, "pinned_n4");
     const json_t *st = json_array_get(test_json_get(c, "steps"), 0);
     const double k = json_number_value(test_json_get(st, "cond_H"));
     double ex, eP, k2;
@@ -179,16 +125,16 @@ static void test_kf_stress_pinned(void **state)
         assert_int_equal(run_step(&b, st), DKF_OK);
         test_to_double(Pd, b.kf.P.data, 16);
         print_message("pinned float: max|P+| %.3e (bound %.3e)\n", test_max_abs(Pd, 16), bound);
-        assert_below("pinned float max|P+|", test_max_abs(Pd, 16), bound);
-        assert_below("pinned float max|P+| regression", test_max_abs(Pd, 16), 4 * 4.6e-5);
-        assert_true(psd_within(b.kf.P.data, 4, 4.0 * 4 * TEST_EPS));
+        test_assert_below("pinned float max|P+|", test_max_abs(Pd, 16), bound);
+        test_assert_below("pinned float max|P+| regression", test_max_abs(Pd, 16), 4 * 4.6e-5);
+        assert_true(test_psd_within(b.kf.P.data, 4, 4.0 * 4 * TEST_EPS));
     }
 #elif DKF_JOSEPH
     run_case("pinned_n4", &ex, &eP, &k2, 4.0 * 4 * TEST_EPS);
-    assert_below("pinned P external", eP, 10 * 8 * k2 * TEST_EPS);
-    assert_below("pinned x external", ex, 10 * 8 * k2 * TEST_EPS);
-    assert_below("pinned P regression", eP, 4 * 4.2e-14);
-    assert_below("pinned x regression", ex, 4 * 5.1e-15);
+    test_assert_below("pinned P external", eP, 10 * 8 * k2 * TEST_EPS);
+    test_assert_below("pinned x external", ex, 10 * 8 * k2 * TEST_EPS);
+    test_assert_below("pinned P regression", eP, 4 * 4.2e-14);
+    test_assert_below("pinned x regression", ex, 4 * 5.1e-15);
 #else
     {
         dkf_real_t snap[4 + 16];
@@ -202,7 +148,8 @@ static void test_kf_stress_moderate(void **state)
 {
     static const char *names[] = {"moderate_n4", "moderate_n6"};
     /* worst observed per case: x, P (double), x, P (float) */
-    static const double seen[2][4] = {{1.2e-12, 3.5e-15, 2.8e-4, 9.6e-4}, {9.0e-13, 3.6e-15, 4.5e-4, 1.4e-2}};
+    static const double seen[2][4] = {{1.2e-12, 3.5e-15, 2.8e-4, 9.6e-4},
+                                      {9.0e-13, 3.6e-15, 4.5e-4, 1.4e-2}};
     size_t i;
     (void)state;
     for (i = 0; i < 2; ++i) {
@@ -210,12 +157,12 @@ static void test_kf_stress_moderate(void **state)
         double ex, eP, k2;
         run_case(names[i], &ex, &eP, &k2, 4.0 * NMAX * TEST_EPS);
 #if DKF_JOSEPH || DKF_USE_FLOAT
-        assert_below("moderate P external", eP, 10 * nm * k2 * TEST_EPS);
-        assert_below("moderate x external", ex, 10 * nm * k2 * TEST_EPS);
-        assert_below("moderate x regression", ex, 4 * seen[i][DKF_USE_FLOAT ? 2 : 0]);
-        assert_below("moderate P regression", eP, 4 * seen[i][DKF_USE_FLOAT ? 3 : 1]);
+        test_assert_below("moderate P external", eP, 10 * nm * k2 * TEST_EPS);
+        test_assert_below("moderate x external", ex, 10 * nm * k2 * TEST_EPS);
+        test_assert_below("moderate x regression", ex, 4 * seen[i][DKF_USE_FLOAT ? 2 : 0]);
+        test_assert_below("moderate P regression", eP, 4 * seen[i][DKF_USE_FLOAT ? 3 : 1]);
 #else
-        assert_below("moderate P short form", eP, 1e-4);
+        test_assert_below("moderate P short form", eP, 1e-4);
         (void)nm, (void)ex, (void)k2, (void)seen;
 #endif
     }
@@ -238,7 +185,7 @@ static void singular_case(const char *name)
 {
     static kf_box_t b;
     json_t *root = test_load_vector("stress/kf.json");
-    const json_t *c = find_case(root, name), *steps = test_json_get(c, "steps");
+    const json_t *c = test_json_case(root, name), *steps = test_json_get(c, "steps");
     size_t n = (size_t)json_integer_value(test_json_get(c, "n")), j;
     dkf_real_t snap[NMAX + NMAX * NMAX];
     init_case(&b, c);
@@ -249,7 +196,7 @@ static void singular_case(const char *name)
         s = run_step(&b, st);
 #if DKF_USE_FLOAT
         if (s == DKF_OK) {
-            if (!psd_within(b.kf.P.data, n, 4.0 * (double)n * TEST_EPS)) {
+            if (!test_psd_within(b.kf.P.data, n, 4.0 * (double)n * TEST_EPS)) {
                 print_error("%s step %zu: OK with an indefinite P (P00 %.3e, P11 %.3e)\n", name,
                             j, (double)b.kf.P.data[0], (double)b.kf.P.data[n + 1]);
                 fail();
@@ -262,9 +209,9 @@ static void singular_case(const char *name)
         double Pr[NMAX * NMAX];
         assert_int_equal(s, DKF_OK);
         test_json_array(test_json_get(st, "P"), Pr, NMAX * NMAX, NULL, NULL);
-        assert_below("singular-R P (double)", rel_err(b.kf.P.data, Pr, n * n),
+        test_assert_below("singular-R P (double)", test_rel_err(b.kf.P.data, Pr, n * n),
                      DKF_JOSEPH ? 1e4 * (double)(n + 2) * TEST_EPS : 1e-3);
-        assert_true(psd_within(b.kf.P.data, n, 4.0 * (double)n * TEST_EPS));
+        assert_true(test_psd_within(b.kf.P.data, n, 4.0 * (double)n * TEST_EPS));
 #endif
     }
     json_decref(root);
@@ -314,7 +261,7 @@ static void test_kf_refuses_indefinite_p(void **state)
     /* P = diag(1, 0), PSD and singular: an update passes, P stays PSD */
     b.kf.P.data[0] = 1;
     assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
-    assert_true(psd_within(b.kf.P.data, 2, 8 * TEST_EPS));
+    assert_true(test_psd_within(b.kf.P.data, 2, 8 * TEST_EPS));
     (void)P0;
 }
 

@@ -167,6 +167,98 @@ def kf_cases():
     return cases
 
 
+# ---- ASKF / OTSKF: the augmented KF on [x; d] ---------------------------------
+
+def aug_cases():
+    """x_{k+1} = F x + v, d_{k+1} = B d + wd, y = H x + A d + w: the ASKF is
+    the KF on [x; d] (Phi = diag(F, B), Qa = diag(Q, Rd), Ha = [H A]) and
+    the OTSKF is algebraically equal to it (same prior, Pxd0 = 0). m = n + p,
+    so each update pins the augmented state: P0 eigenvalues in [1e4, 1e6],
+    Pd0 = 1e4 I, R eigenvalues in [1e-4, 1e-3]; 5 steps."""
+    rng = np.random.default_rng(20261202)
+    cases = []
+    for n, p in ((2, 1), (3, 2)):
+        m = n + p
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e4, 1e6, n))
+        Pd0 = f32(1e4 * np.eye(p))
+        x0, d0 = f32(rng.standard_normal(n)), f32(rng.standard_normal(p))
+        N = n + p
+        xa = V(np.concatenate([x0, d0]))
+        Pa = mp.zeros(N, N)
+        for i in range(n):
+            for j in range(n):
+                Pa[i, j] = mp.mpf(float(P0[i, j]))
+        for i in range(p):
+            for j in range(p):
+                Pa[n + i, n + j] = mp.mpf(float(Pd0[i, j]))
+        steps = []
+        for k in range(5):
+            st = {"H": f32(rng.standard_normal((m, n))), "A": f32(rng.standard_normal((m, p))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, m)),
+                  "y": f32(100 * rng.standard_normal(m))}
+            if k > 0:
+                st["F"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e-1, 1e1, n))
+                st["B"] = f32(np.eye(p) + 0.05 * rng.standard_normal((p, p)))
+                st["Rd"] = spd_with_eigs(rng, logspace_eigs(rng, 1e-1, 1e1, p))
+                Phi = np.zeros((N, N)); Phi[:n, :n] = st["F"]; Phi[n:, n:] = st["B"]
+                Qa = np.zeros((N, N)); Qa[:n, :n] = st["Q"]; Qa[n:, n:] = st["Rd"]
+                xa, Pa = kf_predict(xa, Pa, M(Phi), M(Qa))
+            Ha = np.hstack([st["H"], st["A"]])
+            prior = max(abs(Pa[i, j]) for i in range(N) for j in range(N))
+            xa, Pa = kf_update(xa, Pa, M(Ha), M(st["R"]), V(st["y"]))
+            post = max(abs(Pa[i, j]) for i in range(N) for j in range(N))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=[float(xa[i]) for i in range(n)],
+                       d=[float(xa[n + i]) for i in range(p)],
+                       P=[[float(Pa[i, j]) for j in range(n)] for i in range(n)],
+                       Pd=[[float(Pa[n + i, n + j]) for j in range(p)] for i in range(p)],
+                       cond_H=float(np.linalg.cond(Ha)), rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "aug_n%d_p%d" % (n, p), "n": n, "m": m, "p": p,
+                      "note": "augmented state pinned each update (m = n + p), 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "d0": d0.tolist(),
+                      "Pd0": Pd0.tolist(), "steps": steps})
+    return cases
+
+
+# ---- information filter: the KF on the stacked measurement -------------------
+
+def info_cases():
+    """Two sensors (m_j = n/2 rows each, together n), P0 eigenvalues in
+    [1e4, 1e6], R_j eigenvalues in [1e-4, 1e-3]: the fused step equals the
+    KF update on the stacked (C, blockdiag R, z); 5 predict + fuse steps."""
+    rng = np.random.default_rng(20261203)
+    cases = []
+    for n in (4, 6):
+        mj = n // 2
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e4, 1e6, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            sens = [{"C": f32(rng.standard_normal((mj, n))),
+                     "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, mj)),
+                     "z": f32(100 * rng.standard_normal(mj))} for _ in range(2)]
+            rec = {}
+            if k > 0:
+                F = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                Q = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                x, P = kf_predict(x, P, M(F), M(Q))
+                rec["F"], rec["Q"] = F.tolist(), Q.tolist()
+            C = np.vstack([s_["C"] for s_ in sens])
+            R = np.zeros((n, n))
+            R[:mj, :mj], R[mj:, mj:] = sens[0]["R"], sens[1]["R"]
+            z = np.concatenate([s_["z"] for s_ in sens])
+            x, P = kf_update(x, P, M(C), M(R), V(z))
+            rec["sensors"] = [{kk: v.tolist() for kk, v in s_.items()} for s_ in sens]
+            rec.update(x=tovec(x), P=tolist(P), cond_H=float(np.linalg.cond(C)))
+            steps.append(rec)
+        cases.append({"name": "info_n%d" % n, "n": n, "note": "2 sensors of n/2 rows, 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 def write(name, doc):
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".json")
@@ -187,6 +279,17 @@ def main():
                   "H, R, y, and the reference x, P after the update, P_min_eig, "
                   "cond_H (2-norm condition number of H, for the tests' bounds)}",
         "cases": kf_cases()})
+    write("aug", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0, d0, Pd0, steps[] {F, Q, B, Rd (predict first, "
+                  "if present), H, A, R, y, reference x, P, d, Pd after the update, cond_H "
+                  "(of [H A]), rho = max|P^a_{k|k-1}| / max|P^a_{k|k}|}",
+        "cases": aug_cases()})
+    write("info", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, x0, P0, steps[] {F, Q (predict first, if present), sensors[] "
+                  "{C, R, z}, reference x, P after the fusion, cond_H (of the stacked C)}",
+        "cases": info_cases()})
 
 
 if __name__ == "__main__":

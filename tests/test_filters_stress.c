@@ -41,7 +41,9 @@
 
 #include "dkf/askf.h"
 #include "dkf/info.h"
+#include "dkf/diffkf.h"
 #include "dkf/otskf.h"
+#include "dkf/uif.h"
 #include "dkf_test.h"
 
 #define NM 6 /* largest n, m, n + p in the vectors */
@@ -286,11 +288,79 @@ static void test_info_pinned(void **state)
     json_decref(root);
 }
 
+/* ---- an indefinite covariance is refused, the filter untouched ----------- */
+
+/* Inputs that make the new covariance indefinite while every factorisation
+ * on the way succeeds (an indefinite Q or R is the caller's error, and the
+ * step must say so rather than commit an indefinite P):
+ *   OTSKF  predict with Q = diag(1, -3) from P^x = I: P^x = diag(2, -2);
+ *   uif    NRTSF-DF, H = 0 (a Kalman step), C = [1 1], P = I, R = -1.5:
+ *          R~ = 0.5 > 0, P+ = [[-1, -2], [-2, -1]];
+ *   DKF    Q_1 = diag(1, -3) with H = [1 0] (which does not see Q's
+ *          negative direction, so Ru and L stay SPD): P_{2|1} indefinite.
+ * Each must return DKF_ERR_NOT_SPD with its estimates and covariances
+ * bit-identical. (Before the checks all three returned OK.) */
+static void test_indefinite_covariance_refused(void **state)
+{
+    static DKF_OTSKF_DECLARE(ot, 2, 2, 1);
+    static DKF_UIF_DECLARE(uf, 2, 1, 1);
+    static DKF_DIFFKF_DECLARE(df, 2, 1, 1);
+    static dkf_real_t snap[64];
+    dkf_real_t x0d[2] = {1, 2}, Id[4] = {1, 0, 0, 1}, Qd[4] = {1, 0, 0, -3}, one[1] = {1};
+    dkf_real_t Hd2[4] = {1, 0, 0, 1}, Ad2[2] = {1, 1}, Cd[2] = {1, 1}, Rneg[1] = {-1.5};
+    dkf_real_t zero[1] = {0}, Hd[2] = {1, 0}, y2[2] = {0.5, 0.25}, y1[1] = {0.5};
+    dkf_real_t Gd[2] = {0, 0};
+    dkf_mat_t x0 = test_view(2, 1, x0d), I2 = test_view(2, 2, Id), Q = test_view(2, 2, Qd);
+    dkf_mat_t I1 = test_view(1, 1, one), d0 = test_view(1, 1, one), H2 = test_view(2, 2, Hd2);
+    dkf_mat_t A2 = test_view(2, 1, Ad2), Y2 = test_view(2, 1, y2), C = test_view(1, 2, Cd);
+    dkf_mat_t Rn = test_view(1, 1, Rneg), Z1 = test_view(1, 1, zero), H = test_view(1, 2, Hd);
+    dkf_mat_t Y1 = test_view(1, 1, y1), G = test_view(2, 1, Gd);
+    (void)state;
+    { /* OTSKF */
+        dkf_ui_dyn_t dyn = {&I2, &Q, &I1, &I1};
+        const size_t len = DKF_OTSKF_STATE_LEN(2, 1);
+        (void)H2, (void)A2, (void)Y2;
+        assert_int_equal(dkf_otskf_init(&ot, 2, 2, 1, ot_storage, DKF_OTSKF_STORAGE_LEN(2, 2, 1),
+                                        &x0, &I2, &d0, &I1),
+                         DKF_OK);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_otskf_predict(&ot, &dyn), ot_storage, len);
+    }
+    { /* uif, NRTSF-DF with H = 0: a Kalman step with R = -1.5 */
+        dkf_uif_meas_t meas = {&C, &Z1, &Rn};
+        const size_t len = DKF__UIF_OUT_LEN(2, 1, 1);
+        assert_int_equal(dkf_uif_init(&uf, DKF_UIF_NRTSF_DF, 2, 1, 1, uf_storage,
+                                      DKF_UIF_STORAGE_LEN(2, 1, 1), &x0, &I2),
+                         DKF_OK);
+        TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_uif_step(&uf, NULL, &meas, &Y1),
+                             uf.x.data, len);
+        (void)G;
+    }
+    { /* DKF: n = 2, m = p = 1, Q_1 indefinite */
+        dkf_ui_meas_t meas = {&H, &I1, &I1};
+        dkf_ui_dyn_t dyn = {&I2, &Q, &I1, &I1};
+        double before[12];
+        assert_int_equal(dkf_diffkf_init(&df, 2, 1, 1, df_storage,
+                                         DKF_DIFFKF_STORAGE_LEN(2, 1, 1), &x0, &I2),
+                         DKF_OK);
+        assert_int_equal(dkf_diffkf_start(&df, &I2, &I2, &meas, &Y1), DKF_OK);
+        test_to_double(before, df.xf.data, 2);
+        test_to_double(before + 2, df.Pf.data, 4);
+        test_to_double(before + 6, df.xp.data, 2);
+        test_to_double(before + 8, df.Pp.data, 4);
+        assert_int_equal(dkf_diffkf_step(&df, &dyn, &meas, &Y1), DKF_ERR_NOT_SPD);
+        assert_true(test_max_abs_diff(df.xf.data, before, 2) == 0.0);
+        assert_true(test_max_abs_diff(df.Pf.data, before + 2, 4) == 0.0);
+        assert_true(test_max_abs_diff(df.xp.data, before + 6, 2) == 0.0);
+        assert_true(test_max_abs_diff(df.Pp.data, before + 8, 4) == 0.0);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_askf_otskf_pinned),
         cmocka_unit_test(test_info_pinned),
+        cmocka_unit_test(test_indefinite_covariance_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -96,7 +96,9 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
 
 /* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
  * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
- * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD,
+ * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD
+ * or P_{k|k}, P_{k+1|k} is not PSD within 4 n eps tr P (an indefinite Q,
+ * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/diffkf.md),
  * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start). */
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next);

@@ -32,7 +32,9 @@
  * or given when it must be NULL, is DKF_ERR_STATE.
  *
  * Statuses of dkf_uif_step (the filter is bit-identical after any error):
- *   DKF_ERR_NOT_SPD    R~_k = C_k P_{k|k-1} C_k^T + R_k is not SPD
+ *   DKF_ERR_NOT_SPD    R~_k = C_k P_{k|k-1} C_k^T + R_k is not SPD, or
+ *                      P_{k|k} or P_{k|k-1} is not PSD within 4 n eps tr
+ *                      (an indefinite Q or R)
  *   DKF_ERR_RANK       RTSF: rank H_k < m.  NRTSF-DF: H~ = Hbar^T R~^-1 Hbar
  *                      numerically singular.  NRTSF: rank(C_k Gbar_{k-1}) <
  *                      rank G_{k-1} (F^T R~^-1 F singular)

@@ -25,7 +25,7 @@
  *                ((n+m) x n) of the covariance update, then the PSD
  *                check's factor (n*n); (short form) Gt = -K^T (m x n)
  *   HP  m*n         H P (= (P H^T)^T, P symmetric)
- *   Kt  m*n         K^T = S^{-1} H P, right after HP: [HP; Kt] is 2m x n
+ *   Kt  m*n         K^T = S^{-1} H P, right after HP
  *   S   m*m         innovation covariance H P H^T + R
  *   L   m*m         its Cholesky factor; then (Joseph) R mirrored from
  *                   its upper triangle

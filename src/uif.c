@@ -397,18 +397,17 @@ static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui
                              size_t r)
 {
     const size_t n = f->n, p = f->p;
-    size_t i, j;
 #if DKF_JOSEPH
     /* (I - L C) P (I - L C)^T + L R L^T as written, A = I - L C formed
      * (dkf__joseph: accurate also when P_{k|k} << P_{k|k-1}; the rewrite
      * P - L (C P) + (L R - (P - L C P) C^T) L^T used before subtracted
      * from P; docs/decisions.md item 16) */
-    for (i = 0; i < n; ++i) /* T3 = L^T */
-        for (j = 0; j < p; ++j) L->T3[j * n + i] = L->nx.L[i * p + j];
+    transpose(L->T3, L->nx.L, n, p); /* T3 = L^T */
     dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->C->data, meas->R->data, n, p, L->J);
     (void)r;
 #else
     /* P - K R~ K^T = P - K (C P), then + (Z Pdbar) Z^T */
+    size_t i;
     (void)meas;
     for (i = 0; i < n * p; ++i) L->T3[i] = -L->nx.K[i];
     dkf__mul_nn_sym(L->nx.Px, L->T3, L->CP, L->nx.Pp, n, p);

@@ -230,6 +230,18 @@ static inline void bench_usage(const char *prog)
             prog);
 }
 
+/* BENCH_PERTURB=<prefix>: every implementation whose name starts with it
+ * (e.g. "eigen-O2", "eigen", "dkf") gets R(0,0) doubled, so it computes a
+ * wrong answer on purpose. smoke.py's own tests use it to check their
+ * verdicts: a wrong peer is reported and excluded, a wrong dkf fails. */
+static inline void bench_perturb(bench_model_t *md, const char *impl)
+{
+    const char *p = getenv("BENCH_PERTURB");
+    if (p == NULL || *p == '\0' || strncmp(impl, p, strlen(p)) != 0) return;
+    md->R[0] *= 2.0;
+    fprintf(stderr, "%s: BENCH_PERTURB: R(0,0) doubled, a wrong answer on purpose\n", impl);
+}
+
 /* Runs the cases and prints one line per case; returns the exit status. */
 static inline int bench_main(int argc, char **argv, const char *impl, const char *type,
                              bench_prepare_fn prepare, bench_run_fn run)
@@ -264,6 +276,7 @@ static inline int bench_main(int argc, char **argv, const char *impl, const char
         double checksum, ns;
         if (only >= 0 && c != only) continue;
         bench_make_model(&md, c);
+        bench_perturb(&md, impl);
         prepare(c, &md);
 
         checksum = run(BENCH_CHECK_STEPS);

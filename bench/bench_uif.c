@@ -119,7 +119,7 @@ static double trace_plus_sum(const dkf_real_t *x, const dkf_real_t *P)
 
 static double run_dkf(long steps)
 {
-    static DKF_DIFFKF_DECLARE(f, UN, UM, UP);
+    DKF_DIFFKF_DECLARE(static, f, UN, UM, UP);
     dkf_mat_t y = DKF_MAT(UM, 1, mY);
     long k;
     if (dkf_diffkf_init(&f, UN, UM, UP, f_storage, DKF_DIFFKF_STORAGE_LEN(UN, UM, UP), &vx0,
@@ -135,7 +135,7 @@ static double run_dkf(long steps)
 
 static double run_askf(long steps)
 {
-    static DKF_ASKF_DECLARE(f, UN, UM, UP);
+    DKF_ASKF_DECLARE(static, f, UN, UM, UP);
     static dkf_real_t Px[UN * UN];
     dkf_mat_t y = DKF_MAT(UM, 1, mY), x, P = DKF_MAT(UN, UN, Px);
     long k;
@@ -153,7 +153,7 @@ static double run_askf(long steps)
 
 static double run_otskf(long steps)
 {
-    static DKF_OTSKF_DECLARE(f, UN, UM, UP);
+    DKF_OTSKF_DECLARE(static, f, UN, UM, UP);
     dkf_mat_t y = DKF_MAT(UM, 1, mY);
     long k;
     if (dkf_otskf_init(&f, UN, UM, UP, f_storage, DKF_OTSKF_STORAGE_LEN(UN, UM, UP), &vx0, &vP0,

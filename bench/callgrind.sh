@@ -1,9 +1,17 @@
 #!/usr/bin/env bash
-# bench/callgrind.sh - instructions per KF step (dkf, Eigen -O2, Eigen -O3
-# -march=native), counted by valgrind's callgrind: deterministic, unlike
-# the timings of a shared VM, so it is the number to watch when tuning.
+# bench/callgrind.sh - instructions per KF step (dkf, Eigen -O2, Eigen -O3),
+# counted by valgrind's callgrind: deterministic, unlike the timings of a
+# shared VM, so it is the number to watch when tuning. For each type, the
+# Joseph form on both sides and the short form P - K H P on both sides
+# (BENCH_FORMS, as run_bench.sh).
 #
 #   bench/callgrind.sh [steps]     (default steps: 2000)
+#
+# What it builds is what valgrind runs: the baseline ISA of the target
+# (x86-64: SSE2), no -march=native whatever BENCH_NATIVE says; valgrind
+# 3.19 cannot execute AVX-512 and dies with SIGILL on it. (glibc's own
+# AVX-512 string functions are no problem: valgrind's CPUID hides AVX-512,
+# so glibc selects other ones.)
 #
 # Method: every benchmark runs twice under callgrind with fixed step counts
 # and one repeat, `--steps S` and `--steps 0`. Both runs do the same setup
@@ -12,22 +20,26 @@
 #     Ir/step = (Ir_total(S) - Ir_total(0)) / S
 # counts exactly S predict+update steps and nothing else.
 #
-# Then the same for bench_uif, one filter at a time (--filter): DKF, ASKF
-# and OTSKF instructions per step on seed 000 Example 1.
+# Then the same for bench_uif (Joseph build), one filter at a time
+# (--filter): DKF, ASKF and OTSKF instructions per step on seed 000
+# Example 1.
 #
 # With BENCH_PROFILE=1 it also prints, for dkf, the functions with the most
 # self instructions in the S-step run (callgrind_annotate), to show where a
 # step's time goes. Those counts include the 1000 checksum steps, so
 # "per step" there is self Ir / (S + 1000) (init is negligible).
 #
-# Environment: BENCH_TYPES (default "double float"), BENCH_BUILD_PREFIX and
-# BENCH_JOSEPH as for run_bench.sh, BENCH_PROFILE=1 for the profile.
+# Environment: BENCH_TYPES (default "double float"), BENCH_FORMS (default
+# "joseph short"), BENCH_BUILD_PREFIX as for run_bench.sh, BENCH_PROFILE=1
+# for the profile.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 steps="${1:-2000}"
 types="${BENCH_TYPES:-double float}"
-exes="bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3native"
+forms="${BENCH_FORMS:-joseph short}"
+exes="bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3"
+export BENCH_NATIVE=0 # valgrind cannot run what -march=native may emit
 check_steps=1000 # BENCH_CHECK_STEPS in bench_common.h
 
 command -v valgrind >/dev/null || { echo "callgrind.sh: valgrind not installed" >&2; exit 1; }
@@ -48,33 +60,35 @@ cg_run() {
     "$exe" --case "$c" --steps "$s" --repeats 1 >/dev/null
 }
 
-printf "%-4s %-4s %-7s %12s %12s %12s %8s %8s\n" \
-  n m type dkf_Ir eigO2_Ir eigO3n_Ir dkf/O2 dkf/O3n
+printf "%-4s %-4s %-7s %-7s %12s %12s %12s %8s %8s\n" \
+  n m type form dkf_Ir eigO2_Ir eigO3_Ir dkf/O2 dkf/O3
 for t in $types; do
-  b="$("$here/build_bench.sh" "$t")"
-  for c in 0 1 2; do
-    declare -A per=()
-    for e in $exes; do
-      cg_run "$b/bench/$e" "$c" "$steps" "$out/$e.$t.$c.S"
-      cg_run "$b/bench/$e" "$c" 0 "$out/$e.$t.$c.0"
-      a="$(total_ir "$out/$e.$t.$c.S")"
-      z="$(total_ir "$out/$e.$t.$c.0")"
-      per[$e]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+  for f in $forms; do
+    b="$("$here/build_bench.sh" "$t" "$f")"
+    for c in 0 1 2; do
+      declare -A per=()
+      for e in $exes; do
+        cg_run "$b/bench/$e" "$c" "$steps" "$out/$e.$t.$f.$c.S"
+        cg_run "$b/bench/$e" "$c" 0 "$out/$e.$t.$f.$c.0"
+        a="$(total_ir "$out/$e.$t.$f.$c.S")"
+        z="$(total_ir "$out/$e.$t.$f.$c.0")"
+        per[$e]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+      done
+      nm="$(awk -v c="$c" 'BEGIN { split("4 2,8 4,12 6", v, ","); print v[c + 1] }')"
+      awk -v nm="$nm" -v t="$t" -v fo="$f" -v d="${per[bench_kf]}" -v e2="${per[bench_kf_eigen_O2]}" \
+          -v e3="${per[bench_kf_eigen_O3]}" 'BEGIN {
+        split(nm, g, " ")
+        printf "%-4s %-4s %-7s %-7s %12.1f %12.1f %12.1f %8.2f %8.2f\n", g[1], g[2], t, fo, d, e2, e3, d / e2, d / e3
+      }'
+      unset per
     done
-    nm="$(awk -v c="$c" 'BEGIN { split("4 2,8 4,12 6", v, ","); print v[c + 1] }')"
-    awk -v nm="$nm" -v t="$t" -v d="${per[bench_kf]}" -v e2="${per[bench_kf_eigen_O2]}" \
-        -v e3="${per[bench_kf_eigen_O3native]}" 'BEGIN {
-      split(nm, f, " ")
-      printf "%-4s %-4s %-7s %12.1f %12.1f %12.1f %8.2f %8.2f\n", f[1], f[2], t, d, e2, e3, d / e2, d / e3
-    }'
-    unset per
   done
 done
 
 echo
 printf "%-7s %12s %12s %12s   %s\n" type dkf_Ir askf_Ir otskf_Ir "DKF : ASKF : OTSKF"
 for t in $types; do
-  b="$("$here/build_bench.sh" "$t")"
+  b="$("$here/build_bench.sh" "$t" "${forms%% *}")"
   declare -A per=()
   for flt in dkf askf otskf; do
     valgrind --tool=callgrind --callgrind-out-file="$out/uif.$flt.$t.S" -q \
@@ -93,10 +107,11 @@ done
 
 if [[ "${BENCH_PROFILE:-0}" == 1 ]]; then
   for t in $types; do
+    fo="${forms%% *}"
     for c in 0 1 2; do
-      f="$out/bench_kf.$t.$c.S"
+      f="$out/bench_kf.$t.$fo.$c.S"
       echo
-      echo "== dkf $t case $c: top self instructions, per step = Ir / $((steps + check_steps))"
+      echo "== dkf $t $fo case $c: top self instructions, per step = Ir / $((steps + check_steps))"
       callgrind_annotate --inclusive=no "$f" 2>/dev/null |
         awk -v d="$((steps + check_steps))" '
           /^ *[0-9,]+ *\( *[0-9.]+%\)/ && n < 12 {

@@ -1,39 +1,50 @@
 #!/usr/bin/env bash
 # bench/run_bench.sh - builds the KF step benchmarks (dkf, Eigen -O2, Eigen
-# -O3 -march=native) for double and float and runs them all in ONE run,
-# then prints one table row per (n, m, type): times, ratios, checksums.
-# Then, in the same run, bench_uif (DKF : ASKF : OTSKF per step on seed
-# 000 Example 1) for each type: a second table of times and ratios.
+# -O3, the reference) for double and float, each with the Joseph form on
+# both sides and with the short form P - K H P on both sides, runs them all
+# in ONE run, then prints one table row per (n, m, type, form): times,
+# ratios, checksum verdicts. Then, in the same run, bench_uif (DKF : ASKF :
+# OTSKF per step on seed 000 Example 1, Joseph build) for each type.
 #
 #   bench/run_bench.sh [extra benchmark args, e.g. --repeats 51 --target-ms 40]
 #
 # Environment:
-#   BENCH_BUILD_PREFIX  build directories are <prefix>-double and <prefix>-float
+#   BENCH_BUILD_PREFIX  build directories are <prefix>-<type>-<form>
 #                       (default: <repo>/build-bench)
 #   BENCH_TYPES         real types to run (default: "double float")
+#   BENCH_FORMS         covariance updates (default: "joseph short"):
+#                       joseph = dkf DKF_JOSEPH=1 against Eigen's
+#                       (I-KH)P(I-KH)^T + KRK^T; short = dkf DKF_JOSEPH=0
+#                       against Eigen's P - KHP
+#   BENCH_NATIVE=1      also Eigen -O3 -march=native (a by-hand opt-in: it
+#                       depends on this CPU; never in the test command)
 #   BENCH_ROUNDS        how many times the whole set is run; each row reports
 #                       the median over rounds of the per-run medians (default 1)
 #   BENCH_CPU           if set, pin every benchmark to this CPU with taskset
-#   BENCH_JOSEPH        ON/OFF, passed as -DDKF_JOSEPH (default ON)
 #   BENCH_RAW           if set, also keep the raw lines in this file
 #
 # bench/build_bench.sh does the builds: the library and bench_kf in Release
 # with -O2 -DNDEBUG ("without special flags": no -march, no -ffast-math, the
 # default config.h, checks on); Eigen with its own flags (bench/CMakeLists.txt).
 #
-# Checksum agreement: |dkf - eigen| <= tol * max(1, |dkf|) with tol 1e-9 in
-# double and 1e-5 in float (84 FLT_EPSILON). The filter is contractive, so
-# rounding differences (different summation orders inside the products) do
-# not accumulate over the 1000 checksum steps: measured differences are a
-# few units of roundoff (docs/bench.md), the tolerance leaves ~40x margin.
+# Checksums are judged against the independent reference (bench_kf_ref):
+# |impl - reference| <= tol * max(1, |reference|), tol 1e-9 in double and
+# 1e-5 in float (84 FLT_EPSILON). dkf off the reference: "dkf WRONG" and
+# exit status 1. A peer off the reference: "peer X: wrong answer, excluded",
+# its ratio is not printed ("-"), and the exit status is not affected.
+# The filter is contractive, so rounding differences (different summation
+# orders) do not accumulate over the 1000 checksum steps: measured
+# differences are a few units of roundoff (docs/bench.md).
 # Timings are only reported, never asserted.
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/.." && pwd)"
 types="${BENCH_TYPES:-double float}"
+forms="${BENCH_FORMS:-joseph short}"
 rounds="${BENCH_ROUNDS:-1}"
-exes="bench_kf bench_kf_eigen_O2 bench_kf_eigen_O3native"
+peers="eigen-O2 eigen-O3"
+[[ "${BENCH_NATIVE:-0}" == 1 ]] && peers+=" eigen-O3native"
 
 pin=()
 if [[ -n "${BENCH_CPU:-}" ]]; then
@@ -43,8 +54,10 @@ fi
 
 declare -A dir
 for t in $types; do
-  echo "run_bench: building $t" >&2
-  dir[$t]="$("$here/build_bench.sh" "$t")"
+  for f in $forms; do
+    echo "run_bench: building $t $f" >&2
+    dir[$t.$f]="$("$here/build_bench.sh" "$t" "$f")"
+  done
 done
 
 raw="$(mktemp)"
@@ -60,27 +73,38 @@ trap 'rm -f "$raw" "$rawuif"' EXIT
       /usr/include/eigen3/Eigen/src/Core/util/Macros.h 2>/dev/null | paste -sd. -)"
   echo "# cpu:      $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n1) x $(nproc) (nproc)"
   echo "# load:     $(cut -d" " -f1-3 /proc/loadavg) (1/5/15 min load average before the run)"
-  echo "# flags:    dkf -O2 -g -DNDEBUG (Release); DKF_JOSEPH=${BENCH_JOSEPH:-ON}; rounds=$rounds; args: ${*:-(none)}"
+  echo "# flags:    dkf -O2 -g -DNDEBUG (Release); forms: $forms; peers: $peers; rounds=$rounds; args: ${*:-(none)}"
 } >&2
 
+# Raw lines: form impl type n m ns steps repeats checksum
+for t in $types; do
+  # The reference does not depend on the form (bench_kf_ref.c): once per type.
+  first="${forms%% *}"
+  "${dir[$t.$first]}/bench/bench_kf_ref" "$@" --repeats 1 --target-ms 1 | sed 's/^/any /' >>"$raw"
+done
 for ((r = 1; r <= rounds; ++r)); do
   for t in $types; do
-    for c in 0 1 2; do
-      # The three implementations of one case run back to back, so slow
-      # phases of a shared machine hit them alike.
-      for e in $exes; do
-        "${pin[@]}" "${dir[$t]}/bench/$e" --case "$c" "$@" | tee -a "$raw" >&2
+    for f in $forms; do
+      for c in 0 1 2; do
+        # The implementations of one case run back to back, so slow
+        # phases of a shared machine hit them alike.
+        "${pin[@]}" "${dir[$t.$f]}/bench/bench_kf" --case "$c" "$@" | sed "s/^/$f /" | tee -a "$raw" >&2
+        for p in $peers; do
+          # A peer that fails prints no line: it is then excluded (below).
+          "${pin[@]}" "${dir[$t.$f]}/bench/bench_kf_${p/-/_}" --case "$c" "$@" | sed "s/^/$f /" |
+            tee -a "$raw" >&2 || echo "run_bench: peer $p failed on $t $f case $c" >&2
+        done
       done
     done
-    # The three unknown-input filters, back to back in one process.
-    "${pin[@]}" "${dir[$t]}/bench/bench_uif" "$@" | tee -a "$rawuif" >&2
+    # The three unknown-input filters, back to back in one process, in the
+    # first form's build (the Joseph one by default).
+    "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_uif" "$@" | tee -a "$rawuif" >&2
   done
 done
 [[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" >"$BENCH_RAW"
 
-# Lines: impl type n m ns steps repeats checksum
 status=0
-awk '
+awk -v peers="$peers" '
 function median(key,   n, i, j, t, a) {
   n = cnt[key]
   for (i = 1; i <= n; ++i) a[i] = val[key, i]
@@ -88,31 +112,56 @@ function median(key,   n, i, j, t, a) {
   return (n % 2) ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
 }
 function absv(v) { return v < 0 ? -v : v }
+function relerr(a, b,   s) { s = absv(b) > 1 ? absv(b) : 1; return (a == a + 0 && a - a == 0) ? absv(a - b) / s : 1e300 }
+$2 == "reference" { ref[$3 SUBSEP $4 SUBSEP $5] = $9; next }
 {
-  key = $1 SUBSEP $2 SUBSEP $3 SUBSEP $4
-  val[key, ++cnt[key]] = $5
-  sum[key] = $8
-  row = $3 " " $4 " " $2
+  key = $1 SUBSEP $2 SUBSEP $3 SUBSEP $4 SUBSEP $5
+  val[key, ++cnt[key]] = $6
+  sum[key] = $9
+  row = $1 " " $3 " " $4 " " $5
   if (!(row in seen)) { seen[row] = 1; order[++nrows] = row }
 }
 END {
-  printf "%-4s %-4s %-7s %10s %10s %10s %9s %9s %10s  %s\n", \
-    "n", "m", "type", "dkf_ns", "eigO2_ns", "eigO3n_ns", "dkf/O2", "dkf/O3n", "max_rel", "checksum"
-  bad = 0
+  np = split(peers, pn, " ")
+  for (p = 1; p <= np; ++p) { short[p] = pn[p]; sub(/^eigen-/, "", short[p]) }
+  printf "%-4s %-4s %-7s %-7s %9s", "n", "m", "type", "form", "dkf_ns"
+  for (p = 1; p <= np; ++p) printf " %9s", short[p] "_ns"
+  for (p = 1; p <= np; ++p) printf " %8s", "dkf/" short[p]
+  printf " %9s  %s\n", "dkf_rel", "checksum (reference)"
+  bad = 0; nnote = 0
   for (i = 1; i <= nrows; ++i) {
-    split(order[i], f, " "); n = f[1]; m = f[2]; ty = f[3]
-    kd = "dkf" SUBSEP ty SUBSEP n SUBSEP m
-    k2 = "eigen-O2" SUBSEP ty SUBSEP n SUBSEP m
-    k3 = "eigen-O3native" SUBSEP ty SUBSEP n SUBSEP m
-    d = median(kd); e2 = median(k2); e3 = median(k3)
+    split(order[i], f, " "); fo = f[1]; ty = f[2]; n = f[3]; m = f[4]
     tol = (ty == "float") ? 1e-5 : 1e-9
-    scale = absv(sum[kd]) > 1 ? absv(sum[kd]) : 1
-    r2 = absv(sum[kd] - sum[k2]) / scale; r3 = absv(sum[kd] - sum[k3]) / scale
-    rel = r2 > r3 ? r2 : r3
-    ok = (rel <= tol) ? "agree" : "MISMATCH"
-    if (rel > tol) bad = 1
-    printf "%-4s %-4s %-7s %10.1f %10.1f %10.1f %9.2f %9.2f %10.2e  %s (%.10g)\n", \
-      n, m, ty, d, e2, e3, d / e2, d / e3, rel, ok, sum[kd]
+    cs = ty SUBSEP n SUBSEP m
+    kd = fo SUBSEP "dkf" SUBSEP cs
+    d = median(kd)
+    r = (cs in ref) ? ref[cs] : "nan"
+    rd = relerr(sum[kd], r)
+    verdict = (rd <= tol) ? "agree" : "dkf WRONG"
+    if (rd > tol) bad = 1
+    printf "%-4s %-4s %-7s %-7s %9.1f", n, m, ty, fo, d
+    for (p = 1; p <= np; ++p) {
+      kp = fo SUBSEP pn[p] SUBSEP cs
+      ran = cnt[kp] > 0
+      pt[p] = ran ? median(kp) : 0
+      ok[p] = ran && relerr(sum[kp], r) <= tol
+      if (!ran) note[++nnote] = sprintf("peer %s: no result, excluded (%s %s n=%s m=%s)", pn[p], ty, fo, n, m)
+      else if (!ok[p]) note[++nnote] = sprintf("peer %s: wrong answer, excluded (%s %s n=%s m=%s: %s vs reference %.10g)", pn[p], ty, fo, n, m, sum[kp], r)
+      if (ran) printf " %9.1f", pt[p]; else printf " %9s", "-"
+    }
+    for (p = 1; p <= np; ++p) {
+      if (ok[p]) printf " %8.2f", d / pt[p]; else printf " %8s", "-"
+    }
+    printf " %9.2e  %s (%.10g)\n", rd, verdict, r
+    if (fo == "joseph") rj[ty SUBSEP n] = ok[1] ? sprintf("%.2f", d / pt[1]) : "-"
+    if (fo == "short") rs[ty SUBSEP n] = ok[1] ? sprintf("%.2f", d / pt[1]) : "-"
+    if (!((ty SUBSEP n) in tn)) { tn[ty SUBSEP n] = 1; torder[++nt] = ty " " n }
+  }
+  for (i = 1; i <= nnote; ++i) print note[i]
+  printf "\ndkf / %s, like for like:\n%-7s %-4s %8s %8s\n", pn[1], "type", "n", "joseph", "short"
+  for (i = 1; i <= nt; ++i) {
+    split(torder[i], f, " "); k = f[1] SUBSEP f[2]
+    printf "%-7s %-4s %8s %8s\n", f[1], f[2], (k in rj) ? rj[k] : "", (k in rs) ? rs[k] : ""
   }
   exit bad
 }' "$raw" || status=$?

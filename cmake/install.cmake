@@ -5,10 +5,13 @@
 #   <prefix>/lib/libdkf.a
 #   <prefix>/lib/cmake/dkf/{dkfConfig,dkfConfigVersion,dkfTargets*}.cmake
 #
-# The exported target carries what a consumer must agree on: the
-# DKF_USE_FLOAT / DKF_JOSEPH compile definitions (so its view of
-# dkf_real_t and of the filter matches the library), libm, and, for a
-# DKF_SANITIZE build, the sanitizer runtimes the objects need.
+# What a consumer must agree on is in the installed dkf/build_config.h,
+# generated from this build's options (DKF_USE_FLOAT, DKF_MAX_DIM,
+# DKF_JOSEPH, DKF_SYMMETRISE, DKF_DEBUG_CHECKS, DKF_SVD_MAX_SWEEPS): it
+# sets them, and a consumer that defines another value gets an #error. The
+# exported target also carries the DKF_USE_FLOAT / DKF_JOSEPH definitions
+# (the same values), libm, and, for a DKF_SANITIZE build, the sanitizer
+# runtimes the objects need.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -19,7 +22,11 @@ endif()
 # (The include directory reaches the export through the INSTALL_INTERFACE
 # of target_include_directories in the top-level CMakeLists.txt.)
 install(TARGETS dkf EXPORT dkfTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(DIRECTORY include/dkf DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY include/dkf DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+  PATTERN build_config.h EXCLUDE)
+# ... and in its place the configuration this build compiled libdkf.a with.
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/include/dkf/build_config.h
+  DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dkf)
 install(EXPORT dkfTargets NAMESPACE dkf:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/dkf)
 configure_package_config_file(cmake/dkfConfig.cmake.in
   ${CMAKE_CURRENT_BINARY_DIR}/dkfConfig.cmake

@@ -27,7 +27,10 @@
  * and an update phase (the vectors). The gain phase writes only the
  * pending area; the update commits. Pseudo-inverses of A and inverses of B
  * are cached against a bitwise copy of the matrix they came from, so a
- * time-invariant model pays for one SVD in all.
+ * time-invariant model pays for one SVD in all. A call that computes a new
+ * cache entry does so in scratch (the layout's pointer is redirected there
+ * for the rest of the call) and stores it only when the call succeeds
+ * (commit_caches), so a failed call leaves the caches as they were.
  */
 #include "dkf/diffkf.h"
 
@@ -47,20 +50,29 @@ typedef struct {
     dkf_real_t *ApH;   /* A_k^+ H_k                                p x n */
     dkf_real_t *ApRAp; /* A_k^+ R_k A_k^{+T}                       p x p */
     dkf_real_t *Apy;   /* A_k^+ y_k                                p     */
-    /* caches: Ap = pinv(Alast), Binv = inv(Blast) */
-    dkf_real_t *Alast, *Ap, *Blast, *Binv;
+    /* caches: cAp = pinv(Alast), cBinv = inv(Blast) */
+    dkf_real_t *Alast, *cAp, *Blast, *cBinv;
     /* the model inputs the model-only block (G, M, Ru, S, C_{k+1}, ...) was
      * last computed from: F, Q, B, Rd, H_{k+1}, A_{k+1}, R_{k+1}, and the
-     * carried A_k^+ H_k, A_k^+ R_k A_k^{+T} */
+     * carried A_k^+ H_k, A_k^+ R_k A_k^{+T}; then the block itself */
     dkf_real_t *mF, *mQ, *mB, *mRd, *mH, *mA, *mR, *mApH, *mApRAp;
+    dkf_real_t *oG, *oM, *oRu, *oS, *oGH, *oCn, *oApHn, *oApRApn;
+    /* (everything above is DKF_DIFFKF_STATE_LEN; the pending area below is
+     * state while a gain is pending) */
     /* pending: the gain phase of step k */
     dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *CLin, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
     /* pending: the row selection of step k (pk kept rows, pc = the previous
      * step's kept rows): Mk = S M, Ruk = S Ru S^T, Ck = S C_k S_{k-1}^T
      * (= S times the carried C), CLik likewise, Cnk = C_{k+1} S^T */
     dkf_real_t *Mk, *Ruk, *Ck, *CLik, *Cnk;
-    /* scratch */
-    dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *Lc, *X, *svdw, *invw;
+    /* scratch; Apn, Binvn: a new A^+, B^{-1} until commit_caches */
+    dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *Lc, *X, *Apn, *Binvn, *svdw, *invw;
+    /* not storage: what this call computed anew, for commit_caches (the
+     * cache entries, and the model inputs of a new model-only block) */
+    dkf_real_t *Ap, *Binv;
+    const dkf_mat_t *newA, *newB;
+    const dkf_ui_dyn_t *new_dyn;
+    const dkf_ui_meas_t *new_meas;
     /* scratch of the Joseph-type covariances (joseph_covariances) */
     dkf_real_t *jU, *jD, *jE, *jX, *jV, *jAX, *jS;
 } layout_t;
@@ -77,9 +89,9 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->ApRAp, p * p);
     DKF_TAKE(L->Apy, p);
     DKF_TAKE(L->Alast, m * p);
-    DKF_TAKE(L->Ap, p * m);
+    DKF_TAKE(L->cAp, p * m);
     DKF_TAKE(L->Blast, p * p);
-    DKF_TAKE(L->Binv, p * p);
+    DKF_TAKE(L->cBinv, p * p);
     DKF_TAKE(L->mF, n * n);
     DKF_TAKE(L->mQ, n * n);
     DKF_TAKE(L->mB, p * p);
@@ -89,6 +101,14 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->mR, m * m);
     DKF_TAKE(L->mApH, p * n);
     DKF_TAKE(L->mApRAp, p * p);
+    DKF_TAKE(L->oG, p * m);
+    DKF_TAKE(L->oM, p * n);
+    DKF_TAKE(L->oRu, p * p);
+    DKF_TAKE(L->oS, n * p);
+    DKF_TAKE(L->oGH, p * n);
+    DKF_TAKE(L->oCn, p * p);
+    DKF_TAKE(L->oApHn, p * n);
+    DKF_TAKE(L->oApRApn, p * p);
     DKF_TAKE(L->G, p * m);
     DKF_TAKE(L->M, p * n);
     DKF_TAKE(L->Jn, n * p);
@@ -116,6 +136,8 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->Ru, p * p);
     DKF_TAKE(L->Lc, p * p);
     DKF_TAKE(L->X, p * p);
+    DKF_TAKE(L->Apn, p * m);
+    DKF_TAKE(L->Binvn, p * p);
     DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(m, p));
     DKF_TAKE(L->invw, DKF_MAT_INV_WORK(p));
     DKF_TAKE(L->jU, n * n);
@@ -125,10 +147,16 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->jV, p * n);
     DKF_TAKE(L->jAX, n * p);
     DKF_TAKE(L->jS, n * p);
+    /* A^+ and B^{-1} of this call: the caches, or new ones in scratch */
+    L->Ap = L->cAp;
+    L->Binv = L->cBinv;
+    L->newA = L->newB = NULL;
+    L->new_dyn = NULL;
+    L->new_meas = NULL;
     return used;
 }
 
-/* outputs: xf, Pf, xp, Pp, z, dz, J, L, K, xpp */
+/* outputs: xf, Pf, xn, Pn, z, dz, J, L, K, xp */
 static size_t outputs_len(size_t n, size_t p) { return 3 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
 
 static layout_t mem_of(const dkf_diffkf_t *f)
@@ -167,14 +195,14 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     g.p = p;
     set_view(&g.xf, n, 1, &cur);
     set_view(&g.Pf, n, n, &cur);
-    set_view(&g.xp, n, 1, &cur);
-    set_view(&g.Pp, n, n, &cur);
+    set_view(&g.xn, n, 1, &cur);
+    set_view(&g.Pn, n, n, &cur);
     set_view(&g.z, p, 1, &cur);
     set_view(&g.dz, p, 1, &cur);
     set_view(&g.J, n, p, &cur);
     set_view(&g.L, p, p, &cur);
     set_view(&g.K, n, p, &cur);
-    set_view(&g.xpp, n, 1, &cur);
+    set_view(&g.xp, n, 1, &cur);
     g.mem = cur;
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
@@ -221,36 +249,80 @@ static dkf_status_t check_model_finite(const dkf_ui_dyn_t *dyn, const dkf_ui_mea
     return DKF_OK;
 }
 
-/* Ap = A^+ (p x m), from the cache when A is bitwise the cached matrix.
- * DKF_ERR_RANK unless A has full column rank p. */
-static dkf_status_t pinv_cached(dkf_diffkf_t *f, const layout_t *L, const dkf_mat_t *A)
+/* 1 if the n reals at a equal those at b bit for bit. */
+static int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
+{
+    return memcmp(a, b, n * sizeof *a) == 0;
+}
+
+/* L->Ap = A^+ (p x m): the cache when A is bitwise the cached matrix,
+ * else computed into scratch (L->Ap then points there until
+ * commit_caches). DKF_ERR_RANK unless A has full column rank p. */
+static dkf_status_t pinv_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_mat_t *A)
 {
     const size_t m = f->m, p = f->p;
-    const size_t bytes = m * p * sizeof(dkf_real_t);
     size_t rank = 0;
-    dkf_mat_t Ap = DKF_MAT(p, m, L->T3);
-    if (f->a_cached && memcmp(L->Alast, A->data, bytes) == 0) return DKF_OK;
+    dkf_mat_t Ap = DKF_MAT(p, m, L->Apn);
+    if (f->a_cached && same_bits(L->Alast, A->data, m * p)) return DKF_OK;
     DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
     if (rank != p) return DKF_ERR_RANK;
-    memcpy(L->Alast, A->data, bytes);
-    dkf__copy(L->Ap, L->T3, p * m);
-    f->a_cached = 1;
+    L->Ap = L->Apn;
+    L->newA = A;
     return DKF_OK;
 }
 
-/* Binv = B^{-1}, cached likewise. DKF_ERR_SINGULAR for singular B. */
-static dkf_status_t inverse_cached(dkf_diffkf_t *f, const layout_t *L, const dkf_mat_t *B)
+/* L->Binv = B^{-1}, cached likewise. DKF_ERR_SINGULAR for singular B. */
+static dkf_status_t inverse_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_mat_t *B)
 {
     const size_t p = f->p;
-    const size_t bytes = p * p * sizeof(dkf_real_t);
     size_t piv[DKF_MAX_DIM];
-    dkf_mat_t Bi = DKF_MAT(p, p, L->X);
-    if (f->b_cached && memcmp(L->Blast, B->data, bytes) == 0) return DKF_OK;
+    dkf_mat_t Bi = DKF_MAT(p, p, L->Binvn);
+    if (f->b_cached && same_bits(L->Blast, B->data, p * p)) return DKF_OK;
     DKF_TRY(dkf_mat_inverse(&Bi, B, piv, L->invw));
-    memcpy(L->Blast, B->data, bytes);
-    dkf__copy(L->Binv, L->X, p * p);
-    f->b_cached = 1;
+    L->Binv = L->Binvn;
+    L->newB = B;
     return DKF_OK;
+}
+
+/* Stores what this call computed anew (pinv_cached, inverse_cached,
+ * model_block_memo) in the caches; called once the call cannot fail any
+ * more, and before the carry is overwritten (the model block's key holds
+ * the carried A_k^+ H_k, A_k^+ R_k A_k^{+T}). */
+static void commit_caches(dkf_diffkf_t *f, const layout_t *L)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    if (L->newA != NULL) {
+        dkf__copy(L->Alast, L->newA->data, m * p);
+        dkf__copy(L->cAp, L->Apn, p * m);
+        f->a_cached = 1;
+    }
+    if (L->newB != NULL) {
+        dkf__copy(L->Blast, L->newB->data, p * p);
+        dkf__copy(L->cBinv, L->Binvn, p * p);
+        f->b_cached = 1;
+    }
+    if (L->new_dyn != NULL) {
+        const dkf_ui_dyn_t *dyn = L->new_dyn;
+        const dkf_ui_meas_t *meas = L->new_meas;
+        dkf__copy(L->mF, dyn->F->data, n * n);
+        dkf__copy(L->mQ, dyn->Q->data, n * n);
+        dkf__copy(L->mB, dyn->B->data, p * p);
+        dkf__copy(L->mRd, dyn->Rd->data, p * p);
+        dkf__copy(L->mH, meas->H->data, m * n);
+        dkf__copy(L->mA, meas->A->data, m * p);
+        dkf__copy(L->mR, meas->R->data, m * m);
+        dkf__copy(L->mApH, L->ApH, p * n);
+        dkf__copy(L->mApRAp, L->ApRAp, p * p);
+        dkf__copy(L->oG, L->G, p * m);
+        dkf__copy(L->oM, L->M, p * n);
+        dkf__copy(L->oRu, L->Ru, p * p);
+        dkf__copy(L->oS, L->S, n * p);
+        dkf__copy(L->oGH, L->GH, p * n);
+        dkf__copy(L->oCn, L->Cn, p * p);
+        dkf__copy(L->oApHn, L->ApHn, p * n);
+        dkf__copy(L->oApRApn, L->ApRApn, p * p);
+        f->model_cached = 1;
+    }
 }
 
 /* Out (r x r) += A X A^T, A r x c, X c x c symmetric; tmp holds r * c
@@ -311,6 +383,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
         dkf__mul_nt_sym(L.Ppn, L.T1, F0->data, Q0->data, n, n);
         if (!dkf__all_finite(L.Ppn, n * n) || !dkf__all_finite(L.T2, n)) return DKF_ERR_NONFINITE;
     }
+    commit_caches(f, &L);
     meas_products(f, &L, meas1, L.ApH, L.ApRAp);
     if (y1 != NULL) dkf__mul_vec(L.Apy, L.Ap, y1->data, p, f->m);
     /* no previous innovation: every term with L_0^{-1} vanishes (an empty
@@ -321,11 +394,11 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     memset(L.dzp, 0, p * sizeof(dkf_real_t));
     f->pc = 0;
     if (F0 != NULL) {
-        dkf__copy(f->xp.data, L.T2, n);
-        dkf__copy(f->Pp.data, L.Ppn, n * n);
+        dkf__copy(f->xn.data, L.T2, n);
+        dkf__copy(f->Pn.data, L.Ppn, n * n);
     } else {
-        dkf__copy(f->xp.data, f->xf.data, n);
-        dkf__copy(f->Pp.data, f->Pf.data, n * n);
+        dkf__copy(f->xn.data, f->xf.data, n);
+        dkf__copy(f->Pn.data, f->Pf.data, n * n);
     }
     f->started = 1;
     f->has_y = y1 != NULL;
@@ -335,14 +408,15 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
 /* The part of a step that depends on the model only (not on P or data):
  * G, GH = G H_{k+1}, M, Ru, S, C_{k+1}, A_{k+1}^+ H_{k+1} and
  * A_{k+1}^+ R_{k+1} A_{k+1}^{+T}. */
-static dkf_status_t model_block(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_dyn_t *dyn,
+static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t *dyn,
                                 const dkf_ui_meas_t *meas_next)
 {
-    const layout_t L = *L_;
+    layout_t L;
     const size_t n = f->n, m = f->m, p = f->p;
     size_t i;
-    DKF_TRY(pinv_cached(f, &L, meas_next->A));
-    DKF_TRY(inverse_cached(f, &L, dyn->B));
+    DKF_TRY(pinv_cached(f, L_, meas_next->A));
+    DKF_TRY(inverse_cached(f, L_, dyn->B));
+    L = *L_;
 
     /* G = B^{-1} A_{k+1}^+; GH = G H_{k+1}; M = GH F - A_k^+ H_k      (8), (11) */
     dkf__mul_nn(L.G, L.Binv, L.Ap, p, p, m);
@@ -368,17 +442,13 @@ static dkf_status_t model_block(dkf_diffkf_t *f, const layout_t *L_, const dkf_u
     return DKF_OK;
 }
 
-/* 1 if the n reals at a equal those at b bit for bit. */
-static int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
-{
-    return memcmp(a, b, n * sizeof *a) == 0;
-}
-
 /* model_block, skipped when every model input is bitwise the one it was
- * last computed from (a time-invariant model then pays for it once). The
- * flag is cleared before the block is recomputed, so a failure part-way
- * never leaves a stale block marked valid. */
-static dkf_status_t model_block_memo(dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
+ * last computed from (a time-invariant model then pays for it once): the
+ * layout's block pointers then point at the memo, and the products the
+ * update phase reads (possibly in a later call) are copied to the pending
+ * area. A new block is computed into the working area and memoised by
+ * commit_caches, so a failure part-way never touches the memo. */
+static dkf_status_t model_block_memo(const dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                                      const dkf_ui_meas_t *meas_next)
 {
     const size_t n = f->n, m = f->m, p = f->p;
@@ -388,21 +458,21 @@ static dkf_status_t model_block_memo(dkf_diffkf_t *f, const layout_t *L, const d
         same_bits(L->mQ, dyn->Q->data, n * n) && same_bits(L->mB, dyn->B->data, p * p) &&
         same_bits(L->mRd, dyn->Rd->data, p * p) && same_bits(L->mH, meas_next->H->data, m * n) &&
         same_bits(L->mA, meas_next->A->data, m * p) && same_bits(L->mR, meas_next->R->data, m * m) &&
-        same_bits(L->mApH, L->ApH, p * n) && same_bits(L->mApRAp, L->ApRAp, p * p))
+        same_bits(L->mApH, L->ApH, p * n) && same_bits(L->mApRAp, L->ApRAp, p * p)) {
+        L->G = L->oG;
+        L->M = L->oM;
+        L->Ru = L->oRu;
+        L->S = L->oS;
+        L->GH = L->oGH;
+        L->Cn = L->oCn;
+        dkf__copy(L->ApHn, L->oApHn, p * n);
+        dkf__copy(L->ApRApn, L->oApRApn, p * p);
         return DKF_OK;
+    }
     DKF_TRY(check_model_finite(dyn, meas_next));
-    f->model_cached = 0;
     DKF_TRY(model_block(f, L, dyn, meas_next));
-    dkf__copy(L->mF, dyn->F->data, n * n);
-    dkf__copy(L->mQ, dyn->Q->data, n * n);
-    dkf__copy(L->mB, dyn->B->data, p * p);
-    dkf__copy(L->mRd, dyn->Rd->data, p * p);
-    dkf__copy(L->mH, meas_next->H->data, m * n);
-    dkf__copy(L->mA, meas_next->A->data, m * p);
-    dkf__copy(L->mR, meas_next->R->data, m * m);
-    dkf__copy(L->mApH, L->ApH, p * n);
-    dkf__copy(L->mApRAp, L->ApRAp, p * p);
-    f->model_cached = 1;
+    L->new_dyn = dyn;
+    L->new_meas = meas_next;
     return DKF_OK;
 }
 
@@ -472,7 +542,7 @@ static void joint_congruence(dkf_real_t *Pn, const dkf_real_t *Ab, const dkf_rea
  * F - W M' formed: the Joseph form of the DKF for the gains computed.
  * P - K J^T and F P F^T + Q - (F J + S') W^T (DKF_JOSEPH=0, and the
  * Theorem-1 form) subtract from P, which loses the result's digits when
- * the data pin the state (docs/decisions.md item 16). Sg is in L.X, the
+ * the data pin the state (docs/decisions.md item 17). Sg is in L.X, the
  * gains in L.Kn, L.Wn; T1 is scratch. */
 static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
                                const size_t *idx, size_t pk)
@@ -486,7 +556,7 @@ static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const d
     dkf__mul_nn(L->T1, L->Kn, L->Mk, n, pk, n);
     for (i = 0; i < n * n; ++i) L->T1[i] = -L->T1[i];
     for (i = 0; i < n; ++i) L->T1[i * n + i] += DKF_R(1.0);
-    joint_congruence(L->Pfn, L->T1, L->Kn, f->Pp.data, L->jX, L->X, NULL, NULL, L, n, pk);
+    joint_congruence(L->Pfn, L->T1, L->Kn, f->Pn.data, L->jX, L->X, NULL, NULL, L, n, pk);
     /* P_{k+1|k}: Ab = F - W M', D = Q - S' W^T, S' = the kept columns of S */
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L->jS[i * pk + j] = L->S[i * p + idx[j]];
@@ -494,7 +564,7 @@ static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const d
     for (i = 0; i < n * n; ++i) L->T1[i] = dyn->F->data[i] - L->T1[i];
     dkf__mul_nt(L->jD, L->jS, L->Wn, n, pk, n);
     for (i = 0; i < n * n; ++i) L->jD[i] = Q[i] - L->jD[i];
-    joint_congruence(L->Ppn, L->T1, L->Wn, f->Pp.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
+    joint_congruence(L->Ppn, L->T1, L->Wn, f->Pn.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
 }
 #endif
 
@@ -504,27 +574,28 @@ static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const d
  * with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and E[v_k u'_k^T] = S_k S^T,
  * so the recursion below is (19)-(20), (16)-(17) with the primed blocks and
  * every dimension p of the innovation replaced by pk (pc for the carry). */
-static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_dyn_t *dyn,
+static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t *dyn,
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
-    const layout_t L = *L_;
+    layout_t L;
     const size_t n = f->n, p = f->p, pc = f->pc;
     dkf_real_t inv[DKF_MAX_DIM];
     size_t i, j;
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
-    DKF_TRY(model_block_memo(f, &L, dyn, meas_next));
+    DKF_TRY(model_block_memo(f, L_, dyn, meas_next));
+    L = *L_;
     select_rows(f, &L, idx, pk);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
-    dkf__mul_nt(L.Jn, f->Pp.data, L.Mk, n, n, pk);
+    dkf__mul_nt(L.Jn, f->Pn.data, L.Mk, n, n, pk);
     dkf__mul_nt(L.T2, L.W, L.Ck, n, pc, pk);
     for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
 
     /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
     dkf__mul_nn(L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
     dkf__mul_nt(L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
-    dkf__mul_nn(L.T3, L.Mk, f->Pp.data, pk, n, n);
+    dkf__mul_nn(L.T3, L.Mk, f->Pn.data, pk, n, n);
     dkf__mul_nt_sym(L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
     dkf__mul_nt(L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
     for (i = 0; i < pk; ++i)
@@ -534,6 +605,8 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_
             L.Ln[i * pk + j] = v;
             L.Ln[j * pk + i] = v;
         }
+    /* an overflow (finite inputs, non-finite L) is not a definiteness question */
+    if (!dkf__all_finite(L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
     if (dkf__chol(L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 #if DKF_JOSEPH
     /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
@@ -549,7 +622,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_
     right_solve(L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
     if (!DKF_JOSEPH || pk == 0) {
         dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
-        for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pp.data[i] - L.Pfn[i];
+        for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
     }
 
     /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
@@ -562,7 +635,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_
     if (pk > 0) joseph_covariances(f, &L, dyn, idx, pk);
 #endif
     if (!DKF_JOSEPH || pk == 0) {
-        dkf__mul_nn(L.T1, dyn->F->data, f->Pp.data, n, n, n);
+        dkf__mul_nn(L.T1, dyn->F->data, f->Pn.data, n, n, n);
         dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
         dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
         for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
@@ -580,7 +653,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_ui_
         !dkf__all_finite(L.Kn, n * pk) || !dkf__all_finite(L.Wn, n * pk) ||
         !dkf__all_finite(L.CLin, p * pk))
         return DKF_ERR_NONFINITE;
-    /* both covariances PSD up to rounding (docs/decisions.md item 16) */
+    /* both covariances PSD up to rounding (docs/decisions.md item 17) */
     if (!dkf__psd_within_rounding(L.T1, inv, L.Pfn, n) ||
         !dkf__psd_within_rounding(L.T1, inv, L.Ppn, n))
         return DKF_ERR_NOT_SPD;
@@ -601,8 +674,12 @@ dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     L = mem_of(f);
     st = gain_impl(f, &L, dyn, meas_next, idx, pk);
     /* no gain pending: pk describes the last completed step again */
-    if (st != DKF_OK) f->pk = f->z.rows;
-    return st;
+    if (st != DKF_OK) {
+        f->pk = f->z.rows;
+        return st;
+    }
+    commit_caches(f, &L);
+    return DKF_OK;
 }
 
 dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
@@ -631,27 +708,29 @@ static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_r
 {
     const layout_t L = *L_;
     const size_t n = f->n, p = f->p, pk = f->pk;
-    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
+    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
-    dkf__mul_vec(dz, L.Mk, f->xp.data, pk, n);
+    dkf__mul_vec(dz, L.Mk, f->xn.data, pk, n);
     for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
     dkf__mul_vec(xf, L.Kn, dz, n, pk);
-    dkf__mul_vec(xp, L.Fn, f->xp.data, n, n);
+    dkf__mul_vec(xn, L.Fn, f->xn.data, n, n);
     for (i = 0; i < n; ++i) {
-        xf[i] += f->xp.data[i];
-        xp[i] += dkf__dot(L.Wn + i * pk, dz, pk);
+        xf[i] += f->xn.data[i];
+        xn[i] += dkf__dot(L.Wn + i * pk, dz, pk);
     }
-    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xp, n))
+    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xn, n))
         return DKF_ERR_NONFINITE;
 
-    /* commit: estimates, the step's quantities (pk rows), and the carry */
-    dkf__copy(f->xpp.data, f->xp.data, n);
+    /* commit: caches (a one-phase step's), estimates, the step's
+     * quantities (pk rows), and the carry */
+    commit_caches(f, &L);
+    dkf__copy(f->xp.data, f->xn.data, n);
     dkf__copy(f->xf.data, xf, n);
     dkf__copy(f->Pf.data, L.Pfn, n * n);
-    dkf__copy(f->xp.data, xp, n);
-    dkf__copy(f->Pp.data, L.Ppn, n * n);
+    dkf__copy(f->xn.data, xn, n);
+    dkf__copy(f->Pn.data, L.Ppn, n * n);
     dkf__copy(f->z.data, zk, pk);
     dkf__copy(f->dz.data, dz, pk);
     dkf__copy(f->J.data, L.Jn, n * pk);
@@ -702,26 +781,24 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     dkf_status_t st;
     layout_t L;
     size_t i;
-    int was_pending;
     DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started || !f->has_y) return DKF_ERR_STATE;
+    /* a pending gain awaits dkf_diffkf_update_z (or a new gain): a step
+     * would have to discard it */
+    if (!f->ready || !f->started || !f->has_y || f->pending) return DKF_ERR_STATE;
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
-    was_pending = f->pending;
     L = mem_of(f);
     st = gain_impl(f, &L, dyn, meas_next, idx, kept_rows(idx, NULL, f->p));
-    if (st != DKF_OK) {
-        f->pk = f->z.rows;
-        return st;
+    if (st == DKF_OK) {
+        /* z_k = G y_{k+1} - A_k^+ y_k                                    (8) */
+        dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
+        for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
+        st = update_impl(f, &L, z, y_next);
     }
-    /* z_k = G y_{k+1} - A_k^+ y_k                                        (8) */
-    dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
-    for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
-    st = update_impl(f, &L, z, y_next);
-    /* the pending area now holds this step's (all-rows) gain, valid for the
-     * unchanged state: a gain that was pending stays pending, as that one */
+    /* nothing was pending, and nothing is: pk describes the last completed
+     * step, as before the call */
     if (st != DKF_OK) {
-        f->pending = was_pending;
-        if (!was_pending) f->pk = f->z.rows;
+        f->pending = 0;
+        f->pk = f->z.rows;
     }
     return st;
 }

@@ -51,7 +51,7 @@ dkf_status_t dkf_diffkf_msg_fill(dkf_diffkf_msg_t *msg, uint16_t node, const dkf
     msg->k = (uint32_t)f->k;
     msg->n = (uint16_t)f->n;
     dkf__copy(msg->xf, f->xf.data, f->n);
-    dkf__copy(msg->xp, f->xpp.data, f->n);
+    dkf__copy(msg->xp, f->xp.data, f->n);
     return DKF_OK;
 }
 
@@ -567,10 +567,10 @@ static dkf_status_t complete_replica(dkf_diffkf_fc_node_t *nd, size_t n,
 {
     dkf_mat_t zi = DKF_MAT(nd->p, 1, z);
     if (msg != NULL) {
-        dkf__copy(nd->rep.xp.data, msg->xp, n);
+        dkf__copy(nd->rep.xn.data, msg->xp, n);
     } else {
         DKF_TRY(dkf_diffkf_pending(&nd->rep, NULL, NULL, &zi));
-        memset(nd->rep.xp.data, 0, n * sizeof(dkf_real_t));
+        memset(nd->rep.xn.data, 0, n * sizeof(dkf_real_t));
     }
     return dkf_diffkf_update_z(&nd->rep, &zi, NULL);
 }

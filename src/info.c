@@ -27,19 +27,23 @@ static info_scratch_t info_scratch(const dkf_info_t *f)
 }
 
 /* From the SPD matrix M (n x n, in `spd`) computes its inverse into `inv`
- * and inv * v into `out`; `chol` is n*n scratch. -1 if M is not SPD. */
-static int invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol, const dkf_real_t *spd,
-                      const dkf_real_t *v, size_t n)
+ * and inv * v into `out`; `chol` is n*n scratch. DKF_ERR_NONFINITE if M or
+ * v is not finite (an overflow upstream: the inputs are checked, so a
+ * non-finite M is never a definiteness question), DKF_ERR_NOT_SPD if M is
+ * not SPD. */
+static dkf_status_t invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *chol,
+                               const dkf_real_t *spd, const dkf_real_t *v, size_t n)
 {
     dkf_real_t dinv[DKF_MAX_DIM];
-    if (dkf__chol(chol, dinv, spd, n) != 0) return -1;
+    if (!dkf__all_finite(spd, n * n) || !dkf__all_finite(v, n)) return DKF_ERR_NONFINITE;
+    if (dkf__chol(chol, dinv, spd, n) != 0) return DKF_ERR_NOT_SPD;
     dkf__chol_inverse(inv, chol, dinv, n);
     dkf__mul_vec(out, inv, v, n, n);
-    return 0;
+    return DKF_OK;
 }
 
 /* Commits (x, P, y, Y) from scratch after a finiteness check and the check
- * that P and Y are PSD up to rounding (docs/decisions.md item 16); W is
+ * that P and Y are PSD up to rounding (docs/decisions.md item 17); W is
  * n x n scratch (the check's factor). */
 static dkf_status_t commit(dkf_info_t *f, const dkf_real_t *x, const dkf_real_t *P,
                            const dkf_real_t *y, const dkf_real_t *Y, dkf_real_t *W)
@@ -78,7 +82,7 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     g.ready = 1;
     s = info_scratch(&g);
     /* Y0 = P0^{-1}, y0 = Y0 x0 */
-    if (invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    DKF_TRY(invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n));
     DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B, s.C));
     *f = g;
     return DKF_OK;
@@ -98,15 +102,15 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t
     dkf__mul_vec(s.xn, F->data, f->x.data, n, n);
     dkf__mul_nn(s.A, F->data, f->P.data, n, n, n);
     dkf__mul_nt_sym(s.C, s.A, F->data, Q->data, n, n);
-    /* Y- = (P-)^{-1}, y- = Y- x- */
-    if (invert_spd(s.B, s.yn, s.A, s.C, s.xn, n) != 0) return DKF_ERR_NOT_SPD;
+    /* Y- = (P-)^{-1}, y- = Y- x- (an overflow of F P F^T is NONFINITE) */
+    DKF_TRY(invert_spd(s.B, s.yn, s.A, s.C, s.xn, n));
     return commit(f, s.xn, s.C, s.yn, s.B, s.A);
 }
 
 dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
 {
-    size_t n, m, a, b, l;
+    size_t n, m, a, b, l, pass;
     dkf_real_t *L, *W, inv[DKF_MAX_DIM], w[DKF_MAX_DIM];
     DKF_TRY(dkf__check_mat(C));
     n = C->cols;
@@ -136,19 +140,22 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
     if (!dkf__all_finite(W, m * n) || !dkf__all_finite(w, m)) return DKF_ERR_NONFINITE;
     /* I = W^T W: a Gram matrix, exactly symmetric and PSD up to the rounding
      * of its dot products (the form C^T (R^{-1} C) used before is not a
-     * Gram form, and an ill-conditioned R made it indefinite);
-     * i = W^T w */
-    for (a = 0; a < n; ++a) {
-        dkf_real_t v = DKF_R(0.0);
-        for (l = 0; l < m; ++l) v += W[l * n + a] * w[l];
-        i->data[a] = v;
-        for (b = a; b < n; ++b) {
-            dkf_real_t g = DKF_R(0.0);
-            for (l = 0; l < m; ++l) g += W[l * n + a] * W[l * n + b];
-            I->data[a * n + b] = g;
-            I->data[b * n + a] = g;
+     * Gram form, and an ill-conditioned R made it indefinite); i = W^T w.
+     * Twice: the first pass only checks for overflow, so that a failure
+     * leaves the outputs untouched (there is no room to stage n^2 results). */
+    for (pass = 0; pass < 2; ++pass)
+        for (a = 0; a < n; ++a) {
+            dkf_real_t v = DKF_R(0.0);
+            for (l = 0; l < m; ++l) v += W[l * n + a] * w[l];
+            if (pass == 0 && !dkf__all_finite(&v, 1)) return DKF_ERR_NONFINITE;
+            if (pass == 1) i->data[a] = v;
+            for (b = a; b < n; ++b) {
+                dkf_real_t g = DKF_R(0.0);
+                for (l = 0; l < m; ++l) g += W[l * n + a] * W[l * n + b];
+                if (pass == 0 && !dkf__all_finite(&g, 1)) return DKF_ERR_NONFINITE;
+                if (pass == 1) I->data[a * n + b] = g, I->data[b * n + a] = g;
+            }
         }
-    }
     return DKF_OK;
 }
 
@@ -179,7 +186,7 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
 #if DKF_SYMMETRISE
     dkf__symmetrise(s.C, n);
 #endif
-    /* P = Y^{-1}, x = P y */
-    if (invert_spd(s.B, s.xn, s.A, s.C, s.yn, n) != 0) return DKF_ERR_NOT_SPD;
+    /* P = Y^{-1}, x = P y (an overflow of the sums is NONFINITE) */
+    DKF_TRY(invert_spd(s.B, s.xn, s.A, s.C, s.yn, n));
     return commit(f, s.xn, s.B, s.yn, s.C, s.A);
 }

@@ -477,7 +477,7 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
  * while a form that subtracts from P (P - K H P, or P - K(HP) + E K^T)
  * leaves O(eps |P|) in a result that may be far smaller than P. Both
  * terms are PSD in exact arithmetic whatever the gain; a gain error dK
- * enters only as dK S dK^T (docs/decisions.md item 16).
+ * enters only as dK S dK^T (docs/decisions.md item 17).
  * AK is (n+m) x n with K^T (m x n) in its last m rows on entry; its first
  * n rows get A^T = I - H^T K^T. Ht = H^T (n x m) may be G itself: it is
  * read only before G is written. Rs (m x m) gets R mirrored from its

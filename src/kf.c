@@ -193,7 +193,7 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
  * Joseph form (DKF_JOSEPH=1), for the gain K actually computed, as
  * written: P+ = A P A^T + K R K^T with A = I - K H formed (inl_joseph:
  * accurate also when the data pin the state, P+ << P; docs/decisions.md
- * item 16). O(n^3 + n^2 m). At is placed right before Kt, so [At; Kt] is
+ * item 17). O(n^3 + n^2 m). At is placed right before Kt, so [At; Kt] is
  * the (n+m) x n array inl_joseph wants, G = [P A^T; R K^T] goes to W
  * (over Ht, which inl_joseph reads first) and R's mirror to L's place.
  * Short form (DKF_JOSEPH=0): P+ = P - K (H P) = P + (-K^T)^T (HP). */

@@ -219,7 +219,7 @@ static const dkf_real_t *blend(const dkf_otskf_t *f)
  * P = P^x + B P^d B^T for the new blending matrix B (U after a predict, V
  * after an update), a finiteness check of every result, the check that
  * P^x, P^d and P are PSD up to rounding (DKF_ERR_NOT_SPD otherwise:
- * docs/decisions.md item 16), and the commit. T (n x p), xn (n), Pn
+ * docs/decisions.md item 17), and the commit. T (n x p), xn (n), Pn
  * (n x n) and W (max(n, p)^2, the check's factor) are scratch. */
 static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
                                        const dkf_real_t *Px, const dkf_real_t *d,
@@ -310,7 +310,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
 {
     dkf_real_t inv[DKF_MAX_DIM];
-    size_t n, m, p, i;
+    size_t n, m, p, i, rank = 0;
     const dkf_real_t *H, *A, *R, *Bl;
     upd_scratch_t s;
     DKF_CHECK_NULL(f);
@@ -323,6 +323,12 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     DKF_TRY(dkf__check_input(meas->A, m, p));
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
+    /* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
+     * tolerance (docs/matrix.md), before anything is computed; its
+     * workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the update
+     * scratch (DKF_OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of it) */
+    DKF_TRY(dkf_mat_rank(&rank, meas->A, DKF_RANK_TOL_DEFAULT, f->work));
+    if (rank != p) return DKF_ERR_RANK;
     H = meas->H->data;
     A = meas->A->data;
     R = meas->R->data;

@@ -454,6 +454,16 @@ static dkf_status_t all_local(dkf_tw_net_t *net, const dkf_tw_model_t *md, const
     return DKF_OK;
 }
 
+/* A failed net step leaves no node pending: the nodes whose local step
+ * succeeded before the failure are as they were before the call. */
+static dkf_status_t cancel_all(dkf_tw_net_t *net, dkf_status_t st)
+{
+    size_t l;
+    if (st != DKF_OK)
+        for (l = 0; l < net->N; ++l) net->nodes[l].pending = 0;
+    return st;
+}
+
 /* All commits are checked before any is applied: a failing node leaves
  * every node as it was. x of node l at xs + l * pkt, packed P at
  * Ps + l * pkt (Ps NULL: local P). */
@@ -484,10 +494,10 @@ dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alph
     /* broadcast 1: info packets; (24c) and the data sum of (25a) over N_l */
     DKF_TRY(all_meas(net, sensors, DKF_R(1.0)));
     DKF_TRY(dkf_graph_mix_all(net->tmp, net->out, pkt, pkt, net->g, NULL));
-    DKF_TRY(all_local(net, md, net->tmp, net->mix));
+    DKF_TRY(cancel_all(net, all_local(net, md, net->tmp, net->mix)));
     /* broadcast 2: psi_k (the first n reals of the estimate packet); (26b) */
-    DKF_TRY(dkf_graph_mix_all(net->out, net->mix, net->n, pkt, net->g, alpha));
-    DKF_TRY(commit_all(net, net->out, NULL));
+    DKF_TRY(cancel_all(net, dkf_graph_mix_all(net->out, net->mix, net->n, pkt, net->g, alpha)));
+    DKF_TRY(cancel_all(net, commit_all(net, net->out, NULL)));
     net->reals_sent += (unsigned long)(net->N * (pkt + net->n));
     net->broadcasts += (unsigned long)(2 * net->N);
     ++net->steps;
@@ -499,15 +509,16 @@ dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, s
 {
     size_t pkt;
     DKF_TRY(check_net(net, md, sensors));
+    if (eta > DKF_TW_MAX_ETA) return DKF_ERR_ARG;
     DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
     pkt = DKF_TW_PKT_LEN(net->n);
     /* (32c), (33a): ACF of |N| H^T Sw^{-1} [y | H], one packet per iteration */
     DKF_TRY(all_meas(net, sensors, (dkf_real_t)net->N));
     DKF_TRY(dkf_graph_acf(net->out, pkt, net->g, W, eta, net->tmp));
-    DKF_TRY(all_local(net, md, net->out, net->mix));
+    DKF_TRY(cancel_all(net, all_local(net, md, net->out, net->mix)));
     /* (34b)-(34c): ACF of [psi_k | Ploc_k] */
-    DKF_TRY(dkf_graph_acf(net->mix, pkt, net->g, W, eta, net->tmp));
-    DKF_TRY(commit_all(net, net->mix, net->mix + net->n));
+    DKF_TRY(cancel_all(net, dkf_graph_acf(net->mix, pkt, net->g, W, eta, net->tmp)));
+    DKF_TRY(cancel_all(net, commit_all(net, net->mix, net->mix + net->n)));
     net->reals_sent += (unsigned long)(net->N * 2 * eta * pkt);
     net->broadcasts += (unsigned long)(net->N * 2 * eta);
     ++net->steps;

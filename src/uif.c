@@ -24,8 +24,9 @@
  * A step computes every output into a pending copy of the output block
  * and copies it over the state only when every check has passed. The
  * full-rank decomposition is cached against a bitwise copy of the matrix
- * it came from (a time-invariant H or G costs one SVD in all); the cache
- * is derived data, not filter state.
+ * it came from (a time-invariant H or G costs one SVD in all); a new one
+ * is computed into scratch and enters the cache with the commit, so a
+ * failed step leaves the cache (and its fields in the struct) as it was.
  */
 #include "dkf/uif.h"
 
@@ -40,10 +41,12 @@ typedef struct {
 } out_t;
 
 typedef struct {
-    out_t nx; /* pending outputs */
-    /* cache: the decomposed matrix, Dbar (rows x r), T (r x m) */
+    /* cache: the decomposed matrix, Dbar (rows x r), T (r x m); part of
+     * the DKF_UIF_STATE_LEN reals a failed step leaves untouched */
     dkf_real_t *Dlast, *Dbar, *Tc;
+    out_t nx; /* pending outputs */
     /* scratch */
+    dkf_real_t *Dbn, *Tn; /* a new decomposition, cached on commit  rows x r, r x m */
     dkf_real_t *CP;   /* C P_{k|k-1}                       p x n */
     dkf_real_t *Kt;   /* K^T = R~^-1 C P                   p x n */
     dkf_real_t *Lr;   /* Cholesky factor of R~             p x p */
@@ -85,10 +88,13 @@ static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t 
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     const size_t q = DKF__UIF_Q(n, p);
-    size_t used = out_layout(&L->nx, base, n, m, p);
+    size_t used = 0;
     DKF_TAKE(L->Dlast, q * m);
     DKF_TAKE(L->Dbar, q * m);
     DKF_TAKE(L->Tc, m * m);
+    used += out_layout(&L->nx, base != NULL ? base + used : NULL, n, m, p);
+    DKF_TAKE(L->Dbn, q * m);
+    DKF_TAKE(L->Tn, m * m);
     DKF_TAKE(L->CP, p * n);
     DKF_TAKE(L->Kt, p * n);
     DKF_TAKE(L->Lr, p * p);
@@ -275,77 +281,103 @@ static dkf_status_t innovation(const dkf_uif_t *f, const layout_t *L, const dkf_
     return DKF_OK;
 }
 
-/* Full-rank decomposition D = Dbar T (rows x m) into the cache, reused
- * while D and the tolerance are bitwise unchanged. Rank 0 is not an error
- * here (dkf_mat_frd's only DKF_ERR_RANK is rank 0): the caller decides. */
-static dkf_status_t decompose(dkf_uif_t *f, const layout_t *L, const dkf_mat_t *D, size_t *rank)
+/* The full-rank decomposition D = Dbar T (rows x m) a step uses: the
+ * cached one while D and the tolerance are bitwise unchanged, else a new
+ * one in scratch (fresh = 1), which cache_commit stores once the step has
+ * succeeded. */
+typedef struct {
+    const dkf_mat_t *D;
+    const dkf_real_t *Dbar, *T;
+    size_t rank;
+    int fresh;
+} frd_t;
+
+/* Rank 0 is not an error here (dkf_mat_frd's only DKF_ERR_RANK is rank
+ * 0): the caller decides. Writes only scratch. */
+static dkf_status_t decompose(const dkf_uif_t *f, const layout_t *L, const dkf_mat_t *D,
+                              frd_t *d)
 {
     const size_t rows = D->rows, m = f->m;
     const size_t bytes = rows * m * sizeof(dkf_real_t);
-    dkf_mat_t Dbar = DKF_MAT(rows, m, L->Dbar);
-    dkf_mat_t T = DKF_MAT(m, m, L->Tc);
+    dkf_mat_t Dbar = DKF_MAT(rows, m, L->Dbn);
+    dkf_mat_t T = DKF_MAT(m, m, L->Tn);
     dkf_status_t st;
     size_t r = 0;
+    d->D = D;
     if (f->cached && f->cache_rows == rows &&
         memcmp(&f->cache_tol, &f->rank_tol, sizeof f->rank_tol) == 0 &&
         memcmp(L->Dlast, D->data, bytes) == 0) {
-        *rank = f->cache_rank;
+        d->Dbar = L->Dbar;
+        d->T = L->Tc;
+        d->rank = f->cache_rank;
+        d->fresh = 0;
         return DKF_OK;
     }
-    f->cached = 0;
     st = dkf_mat_frd(&Dbar, &T, &r, D, f->rank_tol, L->svdw);
     if (st == DKF_ERR_RANK)
         r = 0;
     else if (st != DKF_OK)
         return st;
-    memcpy(L->Dlast, D->data, bytes);
+    d->Dbar = L->Dbn;
+    d->T = L->Tn;
+    d->rank = r;
+    d->fresh = 1;
+    return DKF_OK;
+}
+
+/* The commit of a new decomposition into the cache. */
+static void cache_commit(dkf_uif_t *f, const layout_t *L, const frd_t *d)
+{
+    const size_t rows = d->D->rows, m = f->m;
+    if (!d->fresh) return;
+    dkf__copy(L->Dlast, d->D->data, rows * m);
+    dkf__copy(L->Dbar, d->Dbar, rows * m);
+    dkf__copy(L->Tc, d->T, m * m);
     f->cache_rows = rows;
-    f->cache_rank = r;
+    f->cache_rank = d->rank;
     f->cache_tol = f->rank_tol;
     f->cached = 1;
-    *rank = r;
-    return DKF_OK;
 }
 
 /* The input direction matrix B (p x r) and T (r x m, NULL for T = I) of
  * this step, with the existence conditions of each filter. */
-static dkf_status_t input_directions(dkf_uif_t *f, const layout_t *L, const dkf_uif_dyn_t *dyn,
-                                     const dkf_uif_meas_t *meas, const dkf_real_t **B,
-                                     const dkf_real_t **T, size_t *rank)
+static dkf_status_t input_directions(const dkf_uif_t *f, const layout_t *L,
+                                     const dkf_uif_dyn_t *dyn, const dkf_uif_meas_t *meas,
+                                     frd_t *d, const dkf_real_t **B, const dkf_real_t **T)
 {
     const size_t n = f->n, m = f->m, p = f->p;
     size_t r, rf;
     if (f->kind == DKF_UIF_RTSF) {
-        DKF_TRY(decompose(f, L, meas->H, &r));
-        if (r < m) return DKF_ERR_RANK; /* H^T R~^-1 H singular */
+        DKF_TRY(decompose(f, L, meas->H, d));
+        if (d->rank < m) return DKF_ERR_RANK; /* H^T R~^-1 H singular */
         *B = meas->H->data;
         *T = NULL;
     } else if (f->kind == DKF_UIF_NRTSF_DF) {
-        DKF_TRY(decompose(f, L, meas->H, &r));
-        *B = L->Dbar;
-        *T = L->Tc;
+        DKF_TRY(decompose(f, L, meas->H, d));
+        *B = d->Dbar;
+        *T = d->T;
     } else {
-        DKF_TRY(decompose(f, L, dyn->G, &r));
+        DKF_TRY(decompose(f, L, dyn->G, d));
+        r = d->rank;
         if (r > 0) {
             dkf_mat_t F = DKF_MAT(p, r, L->Bm);
             /* F = C_k Gbar_{k-1} must keep the rank of G_{k-1} (Theorem 5) */
             if (r > p) return DKF_ERR_RANK;
-            dkf__mul_nn(L->Bm, meas->C->data, L->Dbar, p, n, r);
+            dkf__mul_nn(L->Bm, meas->C->data, d->Dbar, p, n, r);
             DKF_TRY(dkf_mat_rank(&rf, &F, f->rank_tol, L->svdw));
             if (rf < r) return DKF_ERR_RANK;
         }
         *B = L->Bm;
-        *T = L->Tc;
+        *T = d->T;
     }
-    *rank = r;
     return DKF_OK;
 }
 
 /* Weighted least squares for dbar and the state update (file comment),
  * r >= 1. DKF_ERR_RANK if B^T R~^-1 B is numerically singular. */
 static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dkf_real_t *B,
-                                 const dkf_real_t *T, size_t r, const dkf_real_t *invr,
-                                 const dkf_real_t *yt)
+                                 const dkf_real_t *T, const dkf_real_t *Dbar, size_t r,
+                                 const dkf_real_t *invr, const dkf_real_t *yt)
 {
     const size_t n = f->n, m = f->m, p = f->p;
     dkf_real_t invs[DKF_MAX_DIM], db[DKF_MAX_DIM], v[DKF_MAX_DIM];
@@ -362,7 +394,7 @@ static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dk
     /* Z = -K Hbar (feedthrough) or Gbar - K F (NRTSF); Z Pdbar */
     dkf__mul_nn(L->Z, L->nx.K, B, n, p, r);
     if (f->kind == DKF_UIF_NRTSF)
-        for (i = 0; i < n * r; ++i) L->Z[i] = L->Dbar[i] - L->Z[i];
+        for (i = 0; i < n * r; ++i) L->Z[i] = Dbar[i] - L->Z[i];
     else
         for (i = 0; i < n * r; ++i) L->Z[i] = -L->Z[i];
     dkf__mul_nn(L->ZP, L->Z, L->Pdb, n, r, r);
@@ -401,7 +433,7 @@ static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui
     /* (I - L C) P (I - L C)^T + L R L^T as written, A = I - L C formed
      * (dkf__joseph: accurate also when P_{k|k} << P_{k|k-1}; the rewrite
      * P - L (C P) + (L R - (P - L C P) C^T) L^T used before subtracted
-     * from P; docs/decisions.md item 16) */
+     * from P; docs/decisions.md item 17) */
     transpose(L->T3, L->nx.L, n, p); /* T3 = L^T */
     dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->C->data, meas->R->data, n, p, L->J);
     (void)r;
@@ -450,6 +482,7 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     const dkf_real_t *B = NULL, *T = NULL;
     size_t n, m, p, r = 0, i, olen;
     int risk = 0;
+    frd_t d;
     layout_t L;
     out_t o;
     DKF_CHECK_NULL(f);
@@ -462,12 +495,13 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
 
     predict(f, &L, dyn);
     DKF_TRY(innovation(f, &L, meas, y, invr, yt));
-    DKF_TRY(input_directions(f, &L, dyn, meas, &B, &T, &r));
+    DKF_TRY(input_directions(f, &L, dyn, meas, &d, &B, &T));
+    r = d.rank;
     /* x = x_{k|k-1} + K y~ (+ Z dbar below); L = K when r = 0 */
     dkf__mul_vec(L.nx.x, L.nx.K, yt, n, p);
     for (i = 0; i < n; ++i) L.nx.x[i] += L.nx.xp[i];
     if (r > 0) {
-        DKF_TRY(input_update(f, &L, B, T, r, invr, yt));
+        DKF_TRY(input_update(f, &L, B, T, d.Dbar, r, invr, yt));
     } else { /* nothing to estimate: a Kalman step, d = 0 */
         dkf__copy(L.nx.L, L.nx.K, n * p);
         memset(L.nx.d, 0, m * sizeof(dkf_real_t));
@@ -480,13 +514,14 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     if (f->kind == DKF_UIF_NRTSF_DF && dyn != NULL) risk = bias_risk(dyn->G, f->proj.data);
     olen = out_layout(&o, NULL, n, m, p);
     if (!dkf__all_finite(L.nx.x, olen)) return DKF_ERR_NONFINITE;
-    /* P_{k|k} and P_{k|k-1} PSD up to rounding (docs/decisions.md item 16) */
+    /* P_{k|k} and P_{k|k-1} PSD up to rounding (docs/decisions.md item 17) */
     if (!dkf__psd_within_rounding(L.J, invr, L.nx.Px, n) ||
         !dkf__psd_within_rounding(L.J, invr, L.nx.Pp, n))
         return DKF_ERR_NOT_SPD;
 
     /* commit */
     dkf__copy(f->x.data, L.nx.x, olen);
+    cache_commit(f, &L, &d);
     f->rank = r;
     for (i = 0; i < m; ++i) f->estimable[i] = classify(f->proj.data[i * m + i]);
     f->bias_risk = risk;

@@ -51,11 +51,11 @@
 #endif
 
 typedef struct {
-    DKF_ASKF_DECLARE(a, NMAX, MMAX, PMAX);
+    DKF_ASKF_DECLARE(, a, NMAX, MMAX, PMAX);
 } askf_box_t;
 
 typedef struct {
-    DKF_OTSKF_DECLARE(o, NMAX, MMAX, PMAX);
+    DKF_OTSKF_DECLARE(, o, NMAX, MMAX, PMAX);
 } otskf_box_t;
 
 /* One model (dynamics and measurement) in the library's real type. */

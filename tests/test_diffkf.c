@@ -31,7 +31,7 @@
 #endif
 
 typedef struct {
-    DKF_DIFFKF_DECLARE(f, NX, NY, NP);
+    DKF_DIFFKF_DECLARE(, f, NX, NY, NP);
 } dkf_box_t;
 
 /* The model of one sensor (or of the stacked sensors) at absolute k. */
@@ -92,8 +92,8 @@ static void run_against(dkf_box_t *b, const json_t *root, const json_t *dynamics
     assert_int_equal(dkf_diffkf_start(&b->f, &mk.mF, &mk.mQ, &mk1.meas, &y), DKF_OK);
     for (j = 0; j < N; ++j) {
         const size_t k = j + 1;
-        compare("DKF xp", &b->f.xp, out, "xp", j);
-        compare("DKF Pp", &b->f.Pp, out, "Pp", j);
+        compare("DKF xp", &b->f.xn, out, "xp", j);
+        compare("DKF Pp", &b->f.Pn, out, "Pp", j);
         load_model(&mk, dynamics, sensor, k);
         load_model(&mk1, dynamics, sensor, k + 1);
         test_json_mat(json_array_get(yvals, k), ys, NY, &y); /* y_{k+1} */
@@ -106,6 +106,9 @@ static void run_against(dkf_box_t *b, const json_t *root, const json_t *dynamics
         compare("DKF K", &b->f.K, out, "K", j);
         compare("DKF xf", &b->f.xf, out, "xf", j);
         compare("DKF Pf", &b->f.Pf, out, "Pf", j);
+        /* One name, one meaning: the struct's xp after step k is x_{k|k-1},
+         * the vector's (and dkf-run's) xp at the same k. */
+        compare("DKF xp after the step", &b->f.xp, out, "xp", j);
     }
 }
 

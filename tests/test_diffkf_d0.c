@@ -146,15 +146,15 @@ static void run_dkf(run_t *out, const model_t *m, const data_t *s)
         assert_int_equal(dkf_diffkf_step(&f, &m->dyn, &m->meas, &y), DKF_OK);
         memcpy(out->xf[k - 1], f.xf.data, sizeof out->xf[0]);
         memcpy(out->Pf[k - 1], f.Pf.data, sizeof out->Pf[0]);
-        memcpy(out->xp[k - 1], f.xp.data, sizeof out->xp[0]);
-        memcpy(out->Pp[k - 1], f.Pp.data, sizeof out->Pp[0]);
+        memcpy(out->xp[k - 1], f.xn.data, sizeof out->xp[0]);
+        memcpy(out->Pp[k - 1], f.Pn.data, sizeof out->Pp[0]);
     }
 }
 
 /* ASKF with prior d00 = (d00, d00), Pd00 = I (the paper's setting). */
 static void run_askf(run_t *out, const model_t *m, const data_t *s, double d00)
 {
-    static DKF_ASKF_DECLARE(a, NX, NY, NP);
+    DKF_ASKF_DECLARE(static, a, NX, NY, NP);
     dkf_real_t yb[NY], d0[NP] = {(dkf_real_t)d00, (dkf_real_t)d00},
                        Pd0[NP * NP] = {DKF_R(1.0), DKF_R(0.0), DKF_R(0.0), DKF_R(1.0)};
     dkf_mat_t y = test_view(NY, 1, yb), md0 = test_view(NP, 1, d0),

@@ -319,10 +319,10 @@ static void run_scenario(const char *file)
         const dkf_diffkf_t *c = &w.fc.central;
         const json_t *fused = test_json_get(sc.out, "fused"), *cen = test_json_get(sc.out, "central");
         /* the prediction x_{k|k-1} the step starts from */
-        close_json(&s.vec, "fused xp", c->xp.data, n, at(fused, "xp", j), VEC_REL);
-        close_json(&s.vec, "fused Pp", c->Pp.data, n * n, at(fused, "Pp", j), VEC_REL);
-        close_json(&s.vec, "central xp", c->xp.data, n, at(cen, "xp", j), VEC_REL);
-        close_real(&s.fused, "fused vs CDKF xp", c->xp.data, w.cen.xp.data, n, FUSED_REL);
+        close_json(&s.vec, "fused xp", c->xn.data, n, at(fused, "xp", j), VEC_REL);
+        close_json(&s.vec, "fused Pp", c->Pn.data, n * n, at(fused, "Pp", j), VEC_REL);
+        close_json(&s.vec, "central xp", c->xn.data, n, at(cen, "xp", j), VEC_REL);
+        close_real(&s.fused, "fused vs CDKF xp", c->xn.data, w.cen.xn.data, n, FUSED_REL);
 
         nodes_step(&w, &sc, k);
         for (i = 0; i < sc.l; ++i) {
@@ -361,8 +361,8 @@ static void run_scenario(const char *file)
         close_json(&s.vec, "central K", c->K.data, n * sc.ps, at(cen, "K", j), VEC_REL);
         close_real(&s.fused, "fused vs CDKF xf", c->xf.data, w.cen.xf.data, n, FUSED_REL);
         close_real(&s.fused, "fused vs CDKF Pf", c->Pf.data, w.cen.Pf.data, n * n, FUSED_REL);
-        close_real(&s.fused, "fused vs CDKF xp", c->xp.data, w.cen.xp.data, n, FUSED_REL);
-        close_real(&s.fused, "fused vs CDKF Pp", c->Pp.data, w.cen.Pp.data, n * n, FUSED_REL);
+        close_real(&s.fused, "fused vs CDKF xp", c->xn.data, w.cen.xn.data, n, FUSED_REL);
+        close_real(&s.fused, "fused vs CDKF Pp", c->Pn.data, w.cen.Pn.data, n * n, FUSED_REL);
         close_real(&s.fused, "fused vs CDKF z", c->z.data, w.cen.z.data, sc.ps, FUSED_REL);
     }
     print_message("%s: N=%zu l=%zu | vs vectors %.3e | fused vs centralized DKF %.3e | "
@@ -601,14 +601,14 @@ static void assert_state_same(const fc_snap_t *s, const hworld_t *w)
     }
     assert_view_same(&c->xf, s, w);
     assert_view_same(&c->Pf, s, w);
-    assert_view_same(&c->xp, s, w);
-    assert_view_same(&c->Pp, s, w);
+    assert_view_same(&c->xn, s, w);
+    assert_view_same(&c->Pn, s, w);
     assert_view_same(&c->z, s, w);
     assert_view_same(&c->dz, s, w);
     assert_view_same(&c->J, s, w);
     assert_view_same(&c->L, s, w);
     assert_view_same(&c->K, s, w);
-    assert_view_same(&c->xpp, s, w);
+    assert_view_same(&c->xp, s, w);
 }
 
 /* ---- set-up conditions -------------------------------------------------------- */
@@ -717,8 +717,8 @@ static void assert_twins_equal(const hworld_t *a, const hworld_t *b)
     const dkf_diffkf_t *x = &a->fc.central, *y = &b->fc.central;
     assert_memory_equal(x->xf.data, y->xf.data, a->fc.n * sizeof(dkf_real_t));
     assert_memory_equal(x->Pf.data, y->Pf.data, a->fc.n * a->fc.n * sizeof(dkf_real_t));
-    assert_memory_equal(x->xp.data, y->xp.data, a->fc.n * sizeof(dkf_real_t));
-    assert_memory_equal(x->Pp.data, y->Pp.data, a->fc.n * a->fc.n * sizeof(dkf_real_t));
+    assert_memory_equal(x->xn.data, y->xn.data, a->fc.n * sizeof(dkf_real_t));
+    assert_memory_equal(x->Pn.data, y->Pn.data, a->fc.n * a->fc.n * sizeof(dkf_real_t));
     assert_memory_equal(x->z.data, y->z.data, a->fc.ps * sizeof(dkf_real_t));
 }
 
@@ -855,7 +855,7 @@ static void test_msg_fill_checks(void **state)
     assert_int_equal(dkf_diffkf_msg_fill(&msg, 0, &w.loc[0]), DKF_ERR_STATE); /* before a step */
     {
         dkf_real_t xp_before[HN];
-        memcpy(xp_before, w.loc[0].xp.data, sizeof xp_before);
+        memcpy(xp_before, w.loc[0].xn.data, sizeof xp_before);
         h_nodes_step(&w);
         assert_int_equal(w.msgs[0].k, 1);
         /* x_{k|k-1} is the prediction the step started from, bit for bit */
@@ -898,8 +898,8 @@ static void fused_vs_ref(world_t *w, size_t n, double *worst)
     const dkf_diffkf_t *c = &w->fc.central;
     close_real(worst, "degraded fused xf", c->xf.data, w->cen.xf.data, n, FUSED_REL);
     close_real(worst, "degraded fused Pf", c->Pf.data, w->cen.Pf.data, n * n, FUSED_REL);
-    close_real(worst, "degraded fused xp", c->xp.data, w->cen.xp.data, n, FUSED_REL);
-    close_real(worst, "degraded fused Pp", c->Pp.data, w->cen.Pp.data, n * n, FUSED_REL);
+    close_real(worst, "degraded fused xp", c->xn.data, w->cen.xn.data, n, FUSED_REL);
+    close_real(worst, "degraded fused Pp", c->Pn.data, w->cen.Pn.data, n * n, FUSED_REL);
     assert_int_equal(c->pk, w->cen.pk);
 }
 
@@ -1035,8 +1035,8 @@ static void test_fc_partial_all_present_bit_identical(void **state)
         assert_memory_equal(a.fc.central.xf.data, b.fc.central.xf.data, sc.n * sizeof(dkf_real_t));
         assert_memory_equal(a.fc.central.Pf.data, b.fc.central.Pf.data,
                             sc.n * sc.n * sizeof(dkf_real_t));
-        assert_memory_equal(a.fc.central.xp.data, b.fc.central.xp.data, sc.n * sizeof(dkf_real_t));
-        assert_memory_equal(a.fc.central.Pp.data, b.fc.central.Pp.data,
+        assert_memory_equal(a.fc.central.xn.data, b.fc.central.xn.data, sc.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.fc.central.Pn.data, b.fc.central.Pn.data,
                             sc.n * sc.n * sizeof(dkf_real_t));
         assert_memory_equal(a.fc.central.z.data, b.fc.central.z.data, sc.ps * sizeof(dkf_real_t));
     }
@@ -1103,7 +1103,7 @@ static void run_rollback(const char *file, size_t k0, size_t node)
             close_json(&s.vec, "replayed xf", c->xf.data, sc.n, at(fused, "xf", j), VEC_REL);
             close_json(&s.vec, "replayed Pf", c->Pf.data, sc.n * sc.n, at(fused, "Pf", j), VEC_REL);
             assert_memory_equal(c->xf.data, full.fc.central.xf.data, sc.n * sizeof(dkf_real_t));
-            assert_memory_equal(c->Pp.data, full.fc.central.Pp.data,
+            assert_memory_equal(c->Pn.data, full.fc.central.Pn.data,
                                 sc.n * sc.n * sizeof(dkf_real_t));
         }
     }

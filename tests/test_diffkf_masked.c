@@ -408,15 +408,15 @@ static double run_vs_batch(uint64_t seed, size_t n, size_t m, size_t p)
     start_filter(&f, st, &w);
     test_reset_worst_rel();
     batch(&w, 1, 0, x, P);
-    test_assert_close("x_{1|0}", f.xp.data, x, n, TOL);
+    test_assert_close("x_{1|0}", f.xn.data, x, n, TOL);
     for (k = 1; k <= NS; ++k) {
         masked_step(&f, &w, k);
         batch(&w, k, k, x, P);
         test_assert_close("x_{k|k}", f.xf.data, x, n, TOL);
         test_assert_close("P_{k|k}", f.Pf.data, P, n * n, TOL);
         batch(&w, k + 1, k, x, P);
-        test_assert_close("x_{k+1|k}", f.xp.data, x, n, TOL);
-        test_assert_close("P_{k+1|k}", f.Pp.data, P, n * n, TOL);
+        test_assert_close("x_{k+1|k}", f.xn.data, x, n, TOL);
+        test_assert_close("P_{k+1|k}", f.Pn.data, P, n * n, TOL);
     }
     return test_worst_rel();
 }
@@ -462,7 +462,7 @@ static void test_batch_detects_wrong_selection(void **state)
             /* a lost row replaced by its prediction: dz = 0 on that row */
             double pred = zc.data[i];
             size_t j;
-            for (j = 0; j < w.n; ++j) pred += M.data[i * w.n + j] * f.xp.data[j];
+            for (j = 0; j < w.n; ++j) pred += M.data[i * w.n + j] * f.xn.data[j];
             zk[i] = w.mask[k][i] ? (dkf_real_t)w.z[k][i] : (dkf_real_t)pred;
         }
         assert_int_equal(dkf_diffkf_update_z(&f, &zv, NULL), DKF_OK);
@@ -520,13 +520,13 @@ static void test_all_ones_bit_identical(void **state)
         assert_int_equal(dkf_diffkf_update_z(&c, &zv, NULL), DKF_OK);
         assert_memory_equal(a.xf.data, b.xf.data, w.n * sizeof(dkf_real_t));
         assert_memory_equal(a.Pf.data, b.Pf.data, w.n * w.n * sizeof(dkf_real_t));
-        assert_memory_equal(a.xp.data, b.xp.data, w.n * sizeof(dkf_real_t));
-        assert_memory_equal(a.Pp.data, b.Pp.data, w.n * w.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.xn.data, b.xn.data, w.n * sizeof(dkf_real_t));
+        assert_memory_equal(a.Pn.data, b.Pn.data, w.n * w.n * sizeof(dkf_real_t));
         assert_memory_equal(a.K.data, b.K.data, w.n * w.p * sizeof(dkf_real_t));
         assert_memory_equal(a.L.data, b.L.data, w.p * w.p * sizeof(dkf_real_t));
         assert_memory_equal(a.dz.data, b.dz.data, w.p * sizeof(dkf_real_t));
         assert_memory_equal(c.xf.data, b.xf.data, w.n * sizeof(dkf_real_t));
-        assert_memory_equal(c.Pp.data, b.Pp.data, w.n * w.n * sizeof(dkf_real_t));
+        assert_memory_equal(c.Pn.data, b.Pn.data, w.n * w.n * sizeof(dkf_real_t));
     }
 }
 
@@ -551,8 +551,8 @@ static void test_pure_prediction_step(void **state)
     masked_step(&f, &w, 2);
     for (k = 3; k <= 4; ++k) {
         const size_t n = w.n;
-        memcpy(xp0, f.xp.data, sizeof xp0);
-        memcpy(Pp0, f.Pp.data, sizeof Pp0);
+        memcpy(xp0, f.xn.data, sizeof xp0);
+        memcpy(Pp0, f.Pn.data, sizeof Pp0);
         assert_int_equal(dkf_diffkf_gain_masked(&f, &w.dyn[k], &w.meas[k + 1], none), DKF_OK);
         assert_int_equal(f.pk, 0);
         TEST_FAILS_UNTOUCHED(snap, DKF_ERR_DIM, dkf_diffkf_update_z(&f, &bad, NULL), st, ST_LEN);
@@ -576,8 +576,8 @@ static void test_pure_prediction_step(void **state)
         }
         for (i = 0; i < n * n; ++i) FPF[i] += w.Q[k][i];
         /* rounding of one n-term product: a few eps relative */
-        test_assert_close("F x", f.xp.data, Fx, n, 100 * TEST_EPS);
-        test_assert_close("F P F^T + Q", f.Pp.data, FPF, n * n, 100 * TEST_EPS);
+        test_assert_close("F x", f.xn.data, Fx, n, 100 * TEST_EPS);
+        test_assert_close("F P F^T + Q", f.Pn.data, FPF, n * n, 100 * TEST_EPS);
     }
     /* the step after: no previous innovation, still the exact LMMSE */
     masked_step(&f, &w, 5);
@@ -649,7 +649,7 @@ static void test_checkpoint_round_trip(void **state)
         if (k == 4) assert_int_equal(dkf_diffkf_save(&f, ck, len), DKF_OK);
         masked_step(&f, &w, k);
         memcpy(ref[k][0], f.xf.data, w.n * sizeof(dkf_real_t));
-        memcpy(ref[k][1], f.Pp.data, w.n * w.n * sizeof(dkf_real_t));
+        memcpy(ref[k][1], f.Pn.data, w.n * w.n * sizeof(dkf_real_t));
     }
     /* corrupted copies: tag, dimension, non-finite state, short */
     memcpy(bad, ck, len * sizeof(dkf_real_t));
@@ -671,9 +671,9 @@ static void test_checkpoint_round_trip(void **state)
         masked_step(&f, &w, k);
         masked_step(&g, &w, k);
         assert_memory_equal(f.xf.data, ref[k][0], w.n * sizeof(dkf_real_t));
-        assert_memory_equal(f.Pp.data, ref[k][1], w.n * w.n * sizeof(dkf_real_t));
+        assert_memory_equal(f.Pn.data, ref[k][1], w.n * w.n * sizeof(dkf_real_t));
         assert_memory_equal(g.xf.data, ref[k][0], w.n * sizeof(dkf_real_t));
-        assert_memory_equal(g.Pp.data, ref[k][1], w.n * w.n * sizeof(dkf_real_t));
+        assert_memory_equal(g.Pn.data, ref[k][1], w.n * w.n * sizeof(dkf_real_t));
     }
     /* set_time: absolute times for a late start */
     assert_int_equal(dkf_diffkf_set_time(&g, 41), DKF_OK);

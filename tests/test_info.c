@@ -20,7 +20,7 @@
 #define MS 3
 
 typedef struct {
-    DKF_INFO_DECLARE(f, N);
+    DKF_INFO_DECLARE(, f, N);
 } info_box_t;
 
 /* The file's own rule: |got - expected| <= atol + rtol * max(1, max|e|)
@@ -115,7 +115,7 @@ static void test_info_fusion_equals_stacked_kf(void **state)
 {
     static info_box_t b;
     static struct {
-        DKF_KF_DECLARE(kf, N, 6);
+        DKF_KF_DECLARE(, kf, N, 6);
     } k;
     const size_t n = 6, dims[3] = {1, 2, 3};
     double P0[N * N], x0[N], F[N * N], Q[N * N];

@@ -29,7 +29,7 @@
 #endif
 
 typedef struct {
-    DKF_KF_DECLARE(kf, NMAX, MMAX);
+    DKF_KF_DECLARE(, kf, NMAX, MMAX);
 } kf_box_t;
 
 static void compare_step(const char *what, const dkf_real_t *got, const json_t *list, size_t j)

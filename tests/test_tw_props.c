@@ -356,6 +356,12 @@ static void test_tw_failures_are_atomic(void **state)
     assert_unchanged(&s, nodes, C.N);
     C.y[2][2][1] = DKF_R(0.0);
 
+    /* an eta above DKF_TW_MAX_ETA (e.g. read from a file) is refused before
+     * any iteration, not run for hours */
+    assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, (size_t)DKF_TW_MAX_ETA + 1, &C.model,
+                                               C.sens), DKF_ERR_ARG);
+    assert_unchanged(&s, nodes, C.N);
+
     /* weights: uniform alpha is not doubly stochastic on this irregular
      * graph; a negative alpha with unit row sums */
     assert_int_equal(dkf_tw_net_consensus_step(&net, C.alpha, C.eta, &C.model, C.sens), DKF_ERR_WEIGHTS);

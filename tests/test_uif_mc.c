@@ -24,7 +24,7 @@
 #define STEPS 40
 
 typedef struct {
-    DKF_UIF_DECLARE(f, N, M, P);
+    DKF_UIF_DECLARE(, f, N, M, P);
 } box_t;
 
 static const double PA[25] = {0.5, 2, 0, 0, 0, 0, 0.2, 1, 0, 1, 0, 0, 0.3, 0, 1,

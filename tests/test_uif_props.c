@@ -37,7 +37,7 @@
 #define STEPS 40
 
 typedef struct {
-    DKF_UIF_DECLARE(f, MAXN, MAXM, MAXP);
+    DKF_UIF_DECLARE(, f, MAXN, MAXM, MAXP);
 } box_t;
 
 /* ---- double-precision helpers (independent of the library) ------------ */

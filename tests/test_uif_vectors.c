@@ -34,7 +34,7 @@
 #endif
 
 typedef struct {
-    DKF_UIF_DECLARE(f, NX, NM, NP);
+    DKF_UIF_DECLARE(, f, NX, NM, NP);
 } box_t;
 
 typedef struct {

@@ -10,7 +10,7 @@
 #   DKF_BOOTSTRAP_NO_PYTHON=1 skip the python3 numpy/matplotlib check
 set -euo pipefail
 
-# Host toolchain, unit-test deps, cross compilers, qemu, bench deps.
+# Host toolchain, unit-test deps, cross compilers, qemu, bench deps, fuzzing.
 pkgs=(
   cmake make gcc g++ pkg-config binutils
   libcmocka-dev libjansson-dev
@@ -18,6 +18,7 @@ pkgs=(
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   qemu-user
   libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind
+  clang-14 libclang-rt-14-dev  # libFuzzer + sanitizer runtimes (tools/run_fuzz.sh)
   python3 python3-pip
 )
 # Target (armhf) builds of the unit-test libraries, via Debian multiarch.

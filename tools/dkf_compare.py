@@ -26,8 +26,19 @@ Integer arrays (every value a JSON integer on both sides, e.g. `rank`) must
 match exactly. --require-all makes a numeric array of B that A lacks a
 failure (by default it is skipped).
 
-Exit status: 0 all compared arrays pass; 1 a mismatch, or nothing compared;
-2 bad arguments, unreadable file, or a key path that does not exist.
+A comparison must reach at least one real-valued array: when every array
+compared is an integer one (only the time index `k`, say, because the key
+paths point at the wrong level), that is a failure, not a pass.
+
+Exit status: 0 all compared arrays pass; 1 a mismatch, nothing compared, or
+only integer arrays compared; 2 bad arguments, unreadable file, or a key
+path that does not exist.
+
+Where the estimates sit (docs/scenario-format.md, "Comparing with a vector"):
+dkf-run writes outputs.<LABEL>.<key> as per-step lists; the seed-000 vectors
+(tests/vectors/diffkf) have the same layout (--keys outputs.DKF), the
+seed-003/004 vectors (tests/vectors/uif) keep per-step objects, e.g.
+--a-keys outputs.RTSF --b-keys 'steps[*].expected' --per-step --require-all.
 """
 import argparse
 import json
@@ -161,35 +172,38 @@ def compare(a, b, key, args, rows):
             if k in a:
                 compare(a[k], b[k], sub, args, rows)
             elif args.require_all and has_numbers(b[k]):
-                rows.append((sub, "missing in A", float("nan"), 0.0, False))
+                rows.append((sub, "missing in A", float("nan"), 0.0, False, True))
         return
     fa, fb = flatten(a), flatten(b)
     if fa is not None and fb is not None:
         if fa[1] != fb[1]:
-            rows.append((key, shape_str(a) + " vs " + shape_str(b), float("nan"), 0.0, False))
+            rows.append((key, shape_str(a) + " vs " + shape_str(b), float("nan"), 0.0, False,
+                         True))
             return
         if all_ints(a) and all_ints(b):
             err = max((abs(p - q) for p, q in zip(fa[0], fb[0])), default=0.0)
-            rows.append((key, shape_str(b) + " integer", err, 0.0, err == 0))
+            rows.append((key, shape_str(b) + " integer", err, 0.0, err == 0, False))
             return
         if args.per_step and isinstance(b, list) and b and isinstance(b[0], list):
             steps = [check_array(flatten(x)[0], flatten(y)[0], args.rel, args.atol)
                      for x, y in zip(a, b)]
             worst = max(steps, key=lambda r: r[0] / r[1] if r[1] > 0 else math.inf)
             worst = (worst[0], worst[1], all(r[2] for r in steps))
-            rows.append((key, shape_str(b) + " per step") + worst)
+            rows.append((key, shape_str(b) + " per step") + worst + (True,))
         else:
-            rows.append((key, shape_str(b)) + check_array(fa[0], fb[0], args.rel, args.atol))
+            rows.append((key, shape_str(b)) + check_array(fa[0], fb[0], args.rel, args.atol)
+                        + (True,))
         return
     if isinstance(a, list) and isinstance(b, list):
         if len(a) != len(b):
-            rows.append((key, "%d vs %d entries" % (len(a), len(b)), float("nan"), 0.0, False))
+            rows.append((key, "%d vs %d entries" % (len(a), len(b)), float("nan"), 0.0, False,
+                         True))
             return
         for i, (x, y) in enumerate(zip(a, b)):
             compare(x, y, "%s[%d]" % (key, i), args, rows)
         return
     if (fa is None) != (fb is None) and not isinstance(a, str) and not isinstance(b, str):
-        rows.append((key, "type mismatch", float("nan"), 0.0, False))
+        rows.append((key, "type mismatch", float("nan"), 0.0, False, True))
 
 
 def load(path):
@@ -203,7 +217,10 @@ def load(path):
 def main(argv=None):
     ap = argparse.ArgumentParser(
         description="Compare numeric arrays of two JSON files key by key "
-                    "(rule: max|a-b| <= atol + rel*max(1, max|b|) per array; B is the reference).")
+                    "(rule: max|a-b| <= atol + rel*max(1, max|b|) per array; B is the reference).",
+        epilog="examples: dkf_compare.py out.json tests/vectors/diffkf/ex1_single.json "
+               "--keys outputs.DKF;  dkf_compare.py out.json tests/vectors/uif/s004_rtsf.json "
+               "--a-keys outputs.RTSF --b-keys 'steps[*].expected' --per-step --require-all")
     ap.add_argument("a", help="JSON file under test (e.g. a dkf-run output)")
     ap.add_argument("b", help="reference JSON file (e.g. a golden vector)")
     ap.add_argument("--keys", default="", help="key path used in both files (default: top level)")
@@ -233,7 +250,7 @@ def main(argv=None):
     print("A = %s : %s" % (args.a, ka or "(top)"))
     print("B = %s : %s" % (args.b, kb or "(top)"))
     print("%-*s  %-18s %12s %12s  %s" % (width, "key", "shape", "max|a-b|", "bound", "pass"))
-    for key, shape, err, bound, ok in rows:
+    for key, shape, err, bound, ok, _ in rows:
         if ok and args.quiet:
             continue
         print("%-*s  %-18s %12.3e %12.3e  %s" % (width, key or "(top)", shape, err, bound,
@@ -241,6 +258,11 @@ def main(argv=None):
     failed = sum(1 for r in rows if not r[4])
     if not rows:
         print("FAIL: nothing compared (no numeric array present in both)")
+        return 1
+    if not any(r[5] for r in rows):
+        print("FAIL: only integer arrays compared (%s), no estimate: point --keys or "
+              "--a-keys/--b-keys at the values (see --help)"
+              % ", ".join(r[0] or "(top)" for r in rows))
         return 1
     print("%s: %d array(s) compared, %d failed (rel %g, atol %g)" %
           ("FAIL" if failed else "PASS", len(rows), failed, args.rel, args.atol))

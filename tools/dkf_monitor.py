@@ -81,6 +81,7 @@ class Run:
     def __init__(self, types, prefix):
         self.t, self.prefix = types, prefix
         self.truth, self.fused, self.degraded, self.local = {}, {}, set(), {}
+        self.revision = {}  # k -> revision of the fused message held
         self.status, self.done = {}, False
 
     def handle(self, channel, data):
@@ -94,9 +95,17 @@ class Run:
                 self.truth[m.k] = list(m.x)
             elif what == "FUSED":
                 m = self.t.fused_t.decode(data)
+                # the newest revision of step k stands (docs/network.md: the
+                # fusion centre publishes every step it recomputes); a
+                # complete revision clears a degraded first publication
+                if m.revision < self.revision.get(m.k, -1):
+                    return
+                self.revision[m.k] = m.revision
                 self.fused[m.k] = list(m.xf)
                 if m.status == self.t.fused_t.DEGRADED:
                     self.degraded.add(m.k)
+                else:
+                    self.degraded.discard(m.k)
             elif what.startswith("NODE_"):
                 m = self.t.node_msg_t.decode(data)
                 self.local.setdefault(m.node, {})[m.k] = list(m.xf)

@@ -12,6 +12,8 @@
 #                    qemu-arm (cmake/toolchain-arm-linux-gnueabihf.cmake)
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
+#   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
+#                    UBSan for FUZZ_SECONDS (60) each (tools/run_fuzz.sh)
 # Every ctest configuration includes `install_consumer` (install + a
 # separate find_package(dkf) project, tests/consumer/).
 #
@@ -21,11 +23,18 @@
 #        DKF_SKIP_BOOTSTRAP=1  do not run tools/bootstrap.sh first
 # The last line is "N passed, M failed" summed over all configurations (a
 # configuration that does not configure or build counts as 1 failed).
+#
+# Output: every long step keeps its whole output in a log under build/ and
+# prints progress lines instead, "[config] what (elapsed s)": build
+# percentages at most every 10 s, a running ctest count at most every 10 s
+# and every failing test at once. On failure it prints the first distinct
+# error (compiler diagnostics deduplicated across translation units; the
+# failing tests with their first failing assertion), and the log's path.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan qemu-arm-float firmware)
+all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
@@ -37,7 +46,7 @@ declare -A cfg_args=(
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do
-  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware ]]; then
+  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
     exit 2
   fi
@@ -62,63 +71,237 @@ record() { # config passed failed note
   if (( $3 > 0 )) && [[ "${DKF_KEEP_GOING:-0}" != 1 ]]; then stop=1; fi
 }
 
+# ---- output machinery ----------------------------------------------------------
+# Progress lines and first distinct errors; every step's full output stays in
+# its log. say LABEL TEXT prints "[LABEL] TEXT (s since the step began)".
+step_t0=$SECONDS
+say() { printf '[%s] %s (%d s)\n' "$1" "$2" $((SECONDS - step_t0)); }
+
+# next_line: the next line of stdin into $line, waiting at most 10 s.
+# Returns 0 with a line, 1 at the end of the input, 2 when 10 s passed
+# without a whole line (then the progress functions print a heartbeat, so a
+# long compile or test never leaves the terminal silent for long).
+next_line() {
+  local got rc
+  IFS= read -r -t 10 got; rc=$?
+  if (( rc > 128 )); then _partial+=$got; return 2; fi
+  line=$_partial$got; _partial=''
+  (( rc == 0 )) || [[ -n $line ]] || return 1
+  return 0
+}
+
+# progress_build LABEL LOG < output: all of it to LOG, "[LABEL] build 37%"
+# (make's percentages, or ninja's [37/120]) at most every 10 s.
+progress_build() {
+  local label=$1 log=$2 line pct=0 last=-1 t=$((SECONDS - 10)) rc _partial=''
+  : >"$log"
+  while :; do
+    next_line; rc=$?
+    if (( rc == 2 )); then
+      (( SECONDS - t >= 30 )) && { say "$label" "build $pct%, still compiling"; t=$SECONDS; }
+      continue
+    fi
+    (( rc == 0 )) || break
+    printf '%s\n' "$line" >>"$log"
+    if [[ $line =~ ^\[\ *([0-9]+)%\] ]]; then pct=${BASH_REMATCH[1]}
+    elif [[ $line =~ ^\[([0-9]+)/([0-9]+)\] ]]; then pct=$((100 * BASH_REMATCH[1] / BASH_REMATCH[2]))
+    else continue; fi
+    if (( pct != last && SECONDS - t >= 10 )); then
+      say "$label" "build $pct%"; last=$pct; t=$SECONDS
+    fi
+  done
+}
+
+# progress_ctest LABEL LOG < ctest output: all of it to LOG; each failing
+# test at once, "[LABEL] ctest 12/85 ..." at most every 10 s and at the end.
+progress_ctest() {
+  local label=$1 log=$2 line n=0 total=? name res bad=0 t=$SECONDS rc _partial=''
+  local re='^ *([0-9]+)/([0-9]+) Test +#[0-9]+: ([^ ]+) [ .]*(Passed|\*\*\*[A-Za-z ]*[A-Za-z]|Exception: [A-Za-z ]*[A-Za-z]) +[0-9.]+ sec'
+  : >"$log"
+  while :; do
+    next_line; rc=$?
+    if (( rc == 2 )); then
+      (( SECONDS - t >= 30 )) && { say "$label" "ctest $n/$total done, $bad failed, still running"; t=$SECONDS; }
+      continue
+    fi
+    (( rc == 0 )) || break
+    printf '%s\n' "$line" >>"$log"
+    [[ $line =~ $re ]] || continue
+    n=${BASH_REMATCH[1]} total=${BASH_REMATCH[2]} name=${BASH_REMATCH[3]} res=${BASH_REMATCH[4]}
+    if [[ $res != Passed ]]; then
+      bad=$((bad + 1)); say "$label" "ctest $n/$total FAILED: $name (${res#\*\*\*})"
+    elif (( SECONDS - t >= 10 || n == total )); then
+      say "$label" "ctest $n/$total done, $bad failed"; t=$SECONDS
+    fi
+  done
+}
+
+# first_build_errors LABEL LOG: the first distinct compiler/linker error
+# with the lines that explain it, then the other distinct diagnostics, one
+# line each (the same header diagnostic from 40 translation units is one).
+first_build_errors() {
+  local label=$1 log=$2
+  awk -v label="$label" -v logf="$log" '
+    function diag(s) {
+      return s ~ /(^|: )(fatal error|error|warning): / || s ~ /undefined reference to|multiple definition of/
+    }
+    diag($0) && $0 !~ /^(g?make|collect2|ninja)/ {
+      if (!($0 in idx)) { idx[$0] = ++nd; d[nd] = $0; iserr[nd] = ($0 !~ /: warning: /) }
+      cap = 0
+      if (!first && iserr[idx[$0]]) { first = idx[$0]; cap = 1 }
+      next
+    }
+    cap && ctx < 6 && $0 !~ /^(g?make|ninja|In file included|  +from |\[ *[0-9]+%\])/ { c[++ctx] = $0; next }
+    { cap = 0 }
+    END {
+      if (!nd) exit 1
+      if (!first) first = 1
+      ne = 0; for (i = 1; i <= nd; ++i) ne += iserr[i]
+      printf "[%s] first error (%d distinct errors, %d distinct warnings; full log %s):\n", label, ne, nd - ne, logf
+      print "  " d[first]
+      for (i = 1; i <= ctx; ++i) print "  " c[i]
+      shown = 0
+      for (i = 1; i <= nd && shown < 8; ++i) if (i != first) {
+        if (!shown) printf "[%s] the other distinct diagnostics:\n", label
+        print "  " d[i]; ++shown
+      }
+      if (nd - 1 > shown) printf "  ... and %d more\n", nd - 1 - shown
+    }' "$log" || { echo "[$label] no compiler diagnostic found; the log ends:"; tail -15 "$log"; }
+}
+
+# build_warnings LABEL LOG: after a build that succeeded, one line if it
+# printed warnings (third-party code without -Werror: bench/CMakeLists.txt).
+build_warnings() {
+  local n
+  n=$(grep -E ': warning: ' "$2" | sort -u | wc -l)
+  (( n > 0 )) && echo "[$1] build: $n distinct compiler warnings (code built without -Werror), first: $(grep -E -m1 ': warning: ' "$2")"
+  return 0
+}
+
+# first_test_failures LABEL BDIR NAME...: each failing test's first failing
+# assertion, from ctest's own per-test record (Testing/Temporary/LastTest.log).
+first_test_failures() {
+  local label=$1 rec=$2/Testing/Temporary/LastTest.log
+  shift 2
+  (( $# )) || return 0
+  [[ -f $rec ]] || { echo "[$label] failed: $* (no $rec)"; return 0; }
+  awk -v label="$label" -v names=" $* " '
+    /^[0-9]+\/[0-9]+ Test: / { name = $3; out = 0; next }
+    /^Output:$/ { getline; out = (index(names, " " name " ") > 0); nl = 0; got = 0; next }
+    /^<end of output>$/ {
+      if (out) {
+        printf "[%s] FAILED %s:\n", label, name
+        if (got) for (i = 1; i <= got; ++i) print "  " g[i]
+        else for (i = (nl > 4 ? nl - 3 : 1); i <= nl; ++i) print "  " last[i % 4]
+      }
+      out = 0; next
+    }
+    out {
+      ++nl; last[nl % 4] = $0
+      if (!got && $0 ~ /(ERROR|FAIL|[Ff]ailure|[Ff]ailed|[Aa]ssert|MISMATCH|[Mm]ismatch|Traceback|[Ee]rror[: ]|runtime error|Sanitizer)/ &&
+          $0 !~ /(^|[^0-9])0 (tests? |checks? )?failed/) { g[++got] = $0; more = 1; next }
+      if (more) { more = 0; if ($0 ~ /(LINE|[Ee]rror|FAIL)/) g[++got] = $0 }
+    }' "$rec"
+}
+
 run_ctest_config() {
   local cfg=$1 bdir=$ROOT/build/$1
   mkdir -p "$bdir"
-  echo "==== $cfg: configure ($bdir)"
+  step_t0=$SECONDS
+  say "$cfg" "configure ($bdir)"
   # shellcheck disable=SC2086  # the arguments are meant to split
   if ! cmake -S "$ROOT" -B "$bdir" ${cfg_args[$cfg]} >"$bdir/run_tests.configure.log" 2>&1; then
-    tail -40 "$bdir/run_tests.configure.log"
+    if grep -q 'CMake Error' "$bdir/run_tests.configure.log"; then
+      grep -m1 -A8 'CMake Error' "$bdir/run_tests.configure.log"
+    else
+      tail -15 "$bdir/run_tests.configure.log"
+    fi
     echo "run_tests: FAILED: $cfg does not configure (log: $bdir/run_tests.configure.log)"
     record "$cfg" 0 1 "configure failed"
     return
   fi
-  echo "==== $cfg: build"
-  if ! cmake --build "$bdir" -j"$JOBS" >"$bdir/run_tests.build.log" 2>&1; then
-    grep -E 'error|warning' "$bdir/run_tests.build.log" | head -40
-    tail -20 "$bdir/run_tests.build.log"
+  say "$cfg" "build"
+  cmake --build "$bdir" -j"$JOBS" 2>&1 | progress_build "$cfg" "$bdir/run_tests.build.log"
+  if (( PIPESTATUS[0] != 0 )); then
+    first_build_errors "$cfg" "$bdir/run_tests.build.log"
     echo "run_tests: FAILED: $cfg does not build (log: $bdir/run_tests.build.log)"
     record "$cfg" 0 1 "build failed"
     return
   fi
-  echo "==== $cfg: ctest"
-  local out rc
-  out=$(ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" 2>&1)
-  rc=$?
-  echo "$out"
+  say "$cfg" "build done"
+  build_warnings "$cfg" "$bdir/run_tests.build.log"
+  say "$cfg" "ctest"
+  local log=$bdir/run_tests.ctest.log rc
+  ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" 2>&1 | progress_ctest "$cfg" "$log"
+  rc=${PIPESTATUS[0]}
   local line total failed
-  line=$(echo "$out" | grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' | tail -1)
+  line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
   if [[ -z "$line" ]]; then
-    echo "run_tests: FAILED: $cfg ran no test"
+    tail -15 "$log"
+    echo "run_tests: FAILED: $cfg ran no test (log: $log)"
     record "$cfg" 0 1 "no tests found"
     return
   fi
   failed=$(echo "$line" | sed -E 's/.*, ([0-9]+) tests? failed out of ([0-9]+).*/\1/')
   total=$(echo "$line" | sed -E 's/.*, ([0-9]+) tests? failed out of ([0-9]+).*/\2/')
   if (( rc != 0 && failed == 0 )); then failed=1; fi
+  say "$cfg" "$line"
   if (( failed > 0 )); then
-    echo "run_tests: FAILED: $failed test(s) of $cfg (see the output above)"
+    # ctest's closing list: "\t  5 - test_kf (Failed)"
+    # shellcheck disable=SC2046  # one name per word
+    first_test_failures "$cfg" "$bdir" $(sed -n -E 's/^[[:space:]]+[0-9]+ - ([^ ]+) \(.*\)$/\1/p' "$log")
+    echo "run_tests: FAILED: $failed test(s) of $cfg (log: $log)"
   fi
   record "$cfg" $((total - failed)) "$failed" ""
 }
 
 run_firmware() {
-  echo "==== firmware: Cortex-M4F image (tools/check_firmware.sh)"
-  local out rc line p f
-  out=$(DKF_JOBS=$JOBS tools/check_firmware.sh 2>&1)
-  rc=$?
-  echo "$out"
-  line=$(echo "$out" | grep -E '^firmware: [0-9]+ passed, [0-9]+ failed$' | tail -1)
+  step_t0=$SECONDS
+  say firmware "Cortex-M4F image (tools/check_firmware.sh)"
+  local log=$ROOT/build/run_tests.firmware.log rc line p f
+  mkdir -p "$ROOT/build"
+  # Progress: its section headers and every PASS/FAIL line; the sizes and
+  # stack tables stay in the log.
+  DKF_JOBS=$JOBS tools/check_firmware.sh 2>&1 | tee "$log" |
+    while IFS= read -r line; do
+      [[ $line =~ ^(==|PASS:|FAIL:) ]] && say firmware "$line"
+    done
+  rc=${PIPESTATUS[0]}
+  line=$(grep -E '^firmware: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
   if [[ -z "$line" ]]; then
-    echo "run_tests: FAILED: firmware check did not finish"
+    first_build_errors firmware "$log"
+    echo "run_tests: FAILED: firmware check did not finish (log: $log)"
     record firmware 0 1 "check aborted"
     return
   fi
   p=$(echo "$line" | sed -E 's/firmware: ([0-9]+) passed, ([0-9]+) failed/\1/')
   f=$(echo "$line" | sed -E 's/firmware: ([0-9]+) passed, ([0-9]+) failed/\2/')
   if (( rc != 0 && f == 0 )); then f=1; fi
-  (( f > 0 )) && echo "run_tests: FAILED: $f firmware check(s) (see FAIL: lines above)"
+  (( f > 0 )) && echo "run_tests: FAILED: $f firmware check(s) (see FAIL: lines above; log: $log)"
   record firmware "$p" "$f" "checks, not ctest"
+}
+
+run_fuzz() {
+  step_t0=$SECONDS
+  say fuzz "libFuzzer harnesses (tools/run_fuzz.sh)"
+  local log=$ROOT/build/run_tests.fuzz.log rc line p f
+  mkdir -p "$ROOT/build"
+  # Progress: the build header, one line per harness and the first line of
+  # each failure; libFuzzer's own output stays in build/fuzz/logs/.
+  DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1 | tee "$log" |
+    while IFS= read -r line; do say fuzz "$line"; done
+  rc=${PIPESTATUS[0]}
+  line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
+  if [[ -z "$line" ]]; then
+    echo "run_tests: FAILED: fuzz run did not finish (log: $log)"
+    record fuzz 0 1 "run aborted"
+    return
+  fi
+  p=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\1/')
+  f=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\2/')
+  if (( rc != 0 && f == 0 )); then f=1; fi
+  (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above; log: $log)"
+  record fuzz "$p" "$f" "harnesses, not ctest"
 }
 
 start=$SECONDS
@@ -127,7 +310,7 @@ for c in "${configs[@]}"; do
     summary+=("$(printf '%-16s %6s %6s  %s' "$c" - - "not run (earlier failure; DKF_KEEP_GOING=1 runs all)")")
     continue
   fi
-  if [[ $c == firmware ]]; then run_firmware; else run_ctest_config "$c"; fi
+  if [[ $c == firmware ]]; then run_firmware; elif [[ $c == fuzz ]]; then run_fuzz; else run_ctest_config "$c"; fi
 done
 
 echo

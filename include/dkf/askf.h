@@ -27,6 +27,11 @@
 #define DKF_ASKF_STORAGE_LEN(n, m, p) \
     (DKF_KF_STORAGE_LEN((n) + (p), m) + 2 * ((n) + (p)) * ((n) + (p)) + (m) * ((n) + (p)))
 
+/* The first DKF_ASKF_STATE_LEN(n, m, p) reals of the storage are the KF's
+ * state (X, P^a, nu, S): a failed call leaves them and the struct
+ * bit-identical. The rest is scratch. */
+#define DKF_ASKF_STATE_LEN(n, m, p) DKF_KF_STATE_LEN((n) + (p), m)
+
 typedef struct {
     size_t n, m, p;
     dkf_kf_t kf;      /* the KF on X = [x; d]: kf.x = X (n+p), kf.P = P^a */
@@ -34,9 +39,11 @@ typedef struct {
     int ready;
 } dkf_askf_t;
 
-#define DKF_ASKF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_ASKF_STORAGE_LEN(n, m, p)]; \
-    dkf_askf_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_ASKF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_ASKF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_askf_t name
 
 /* X_{0|0} = [x0; d0], P^a_{0|0} = [[P0, Pxd0], [Pxd0^T, Pd0]] (Pxd0 may be
  * NULL for zero). P^a must be SPD (DKF_ERR_NOT_SPD). n + p must not

@@ -13,6 +13,10 @@
 #ifdef DKF_CONFIG_FILE
 #include DKF_CONFIG_FILE
 #endif
+/* The options the library was built with, when it was built by CMake (the
+ * generated header; the source tree's copy is empty): a value above that
+ * disagrees with them is an #error there. */
+#include "dkf/build_config.h"
 
 #include <float.h>
 #include <stddef.h>
@@ -36,7 +40,7 @@
  * data pin the state (P+ << P);
  * 0: the cheaper short form P+ = P - K H P (loses |P| eps absolutely).
  * Either way a P+ that is not PSD within 4 n eps tr(P) is refused
- * (DKF_ERR_NOT_SPD; docs/decisions.md item 16). */
+ * (DKF_ERR_NOT_SPD; docs/decisions.md item 17). */
 #ifndef DKF_JOSEPH
 #define DKF_JOSEPH 1
 #endif

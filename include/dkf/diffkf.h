@@ -13,7 +13,7 @@
  * the optimal (MMSE given z) recursion for that model. It never needs d_0.
  *
  * ONE-STEP DELAY. z_k needs y_{k+1}, so the step that consumes y_{k+1}
- * yields x_{k|k} (xf, for time k) and the prediction x_{k+1|k} (xp). The
+ * yields x_{k|k} (xf, for time k) and the prediction x_{k+1|k} (xn, "next"). The
  * filter's field `k` is the time of xf. x_{k+1|k} uses the same data
  * y_1..y_{k+1} as an ordinary KF's x_{k+1|k+1}.
  *
@@ -27,8 +27,12 @@
  * differenced measurement z_k rather than y: dkf_diffkf_gain computes
  * everything that does not depend on data (M, J, L, K, ...), then
  * dkf_diffkf_update_z applies z_k. A failed call of any kind leaves the
- * estimates and everything carried between steps bit-identical; a failed
- * dkf_diffkf_gain also cancels a pending gain.
+ * struct and the first DKF_DIFFKF_STATE_LEN reals of the storage (the
+ * estimates, everything carried between steps, and the caches)
+ * bit-identical, with one exception: a failed dkf_diffkf_gain(_masked)
+ * cancels a pending gain (pending = 0, pk = z.rows). dkf_diffkf_step
+ * refuses to run while a gain is pending (DKF_ERR_STATE): complete it with
+ * dkf_diffkf_update_z, or replace it with a new dkf_diffkf_gain.
  */
 #ifndef DKF_DIFFKF_H
 #define DKF_DIFFKF_H
@@ -45,41 +49,66 @@
      /* carried, caches of A^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
+     + 2 * (m) * (p) + 4 * (n) * (p) + 4 * (p) * (p) \
+     /* the memoised block, new A^+ and B^{-1} before they are cached */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p) \
      + 3 * (n) * (n) + 4 * (n) * (p) /* scratch of the Joseph-type covariances */)
+/* The first DKF_DIFFKF_STATE_LEN(n, m, p) reals of the storage hold the
+ * estimates and the step's views, the carry between steps, and the caches
+ * of A^+, B^{-1} and the model-only block: every failed call leaves them
+ * and the struct bit-identical (a failed dkf_diffkf_gain(_masked) also
+ * sets pending = 0 and pk = z.rows, cancelling a pending gain). The next
+ * reals, up to DKF_DIFFKF_STORAGE_LEN, are the pending gain (state while
+ * f->pending, DKF_DIFFKF_PENDING_LEN) and scratch. */
+#define DKF_DIFFKF_STATE_LEN(n, m, p) \
+    (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
+     + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */ \
+     + 2 * (m) * (p) + 2 * (p) * (p) /* A, B caches */ \
+     + 2 * (n) * (n) + 5 * (n) * (p) + 6 * (p) * (p) + 2 * (m) * (p) + (m) * (n) + (m) * (m))
+/* The pending gain: the DKF_DIFFKF_PENDING_LEN(n, m, p) reals after the
+ * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
+ * leave bit-identical too. */
+#define DKF_DIFFKF_PENDING_LEN(n, m, p) \
+    ((p) * (m) + 6 * (n) * (p) + 8 * (p) * (p) + 3 * (n) * (n) + (p))
 
 typedef struct {
     size_t n, m, p;
-    size_t k;        /* time of xf; xp is for k + 1 */
+    size_t k;        /* time of xf and xp; xn is for k + 1 */
     size_t pk;       /* rows of z_k kept by the pending gain, or (none
                         pending) by the last completed step; p before the
                         first step. z, dz, J, L, K have pk rows/columns */
     size_t pc;       /* rows the last completed step kept (0 before the
                         first step): the columns of the carry */
     /* estimates */
+    /* Names as everywhere in dkf (dkf-run's outputs, the golden vectors, the
+     * node message): xp is x_{k|k-1}, xf is x_{k|k}; xn is the one-step-ahead
+     * prediction x_{k+1|k} that the next step updates. */
     dkf_mat_t xf, Pf; /* x_{k|k}, P_{k|k} */
-    dkf_mat_t xp, Pp; /* x_{k+1|k}, P_{k+1|k} */
+    dkf_mat_t xn, Pn; /* x_{k+1|k}, P_{k+1|k} */
     /* the last step's quantities (for inspection, tests, messages) */
     dkf_mat_t z;  /* z_k (its kept rows), pk x 1 */
     dkf_mat_t dz; /* innovation dz_k = z_k - z_{k|k-1}, pk x 1 */
     dkf_mat_t J;  /* J_k = E[x~_{k|k-1} dz_k^T], n x pk */
     dkf_mat_t L;  /* L_k = Cov(dz_k), pk x pk */
     dkf_mat_t K;  /* K_k = J_k L_k^{-1}, n x pk */
-    dkf_mat_t xpp; /* x_{k|k-1}, n x 1: the prediction the last step updated
-                      (a fusion-centre message needs it with x_{k|k}) */
+    dkf_mat_t xp;  /* x_{k|k-1}, n x 1: the prediction the last step updated
+                      (xn before that step; a fusion-centre message sends it
+                      with x_{k|k}) */
     dkf_real_t *mem; /* everything else (carry, caches, scratch) */
     int ready;       /* dkf_diffkf_init done */
     int started;     /* dkf_diffkf_start done */
     int has_y;       /* A_k^+ y_k is stored, so dkf_diffkf_step can difference */
     int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
-    /* caches of A^+, B^{-1} and the model-only block (valid flags): not
-     * part of the state */
+    /* caches of A^+, B^{-1} and the model-only block (valid flags): derived
+     * data, changed only by a successful call */
     int a_cached, b_cached, model_cached;
 } dkf_diffkf_t;
 
-#define DKF_DIFFKF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_DIFFKF_STORAGE_LEN(n, m, p)]; \
-    dkf_diffkf_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_DIFFKF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_DIFFKF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_diffkf_t name
 
 /* Binds f to storage and sets (x_{0|0}, P_{0|0}) = (x0, P0); P0 SPD. */
 dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
@@ -99,7 +128,8 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
  * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD
  * or P_{k|k}, P_{k+1|k} is not PSD within 4 n eps tr P (an indefinite Q,
  * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/diffkf.md),
- * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start). */
+ * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start, or while
+ * a gain is pending). */
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next);
 

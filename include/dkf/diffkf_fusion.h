@@ -46,7 +46,7 @@ typedef struct {
 } dkf_diffkf_msg_t;
 
 /* Fills msg from node `node`'s local filter f after a completed step
- * (f->k >= 1): xf = f->xf, xp = f->xpp (the prediction that step started
+ * (f->k >= 1): xf = f->xf, xp = f->xp (the prediction that step started
  * from; a pending two-phase step does not change either). DKF_ERR_STATE
  * before the first step; DKF_ERR_CAPACITY if f->k does not fit in 32 bits.
  * Entries n..DKF_MAX_DIM-1 are zero. */
@@ -128,7 +128,7 @@ typedef struct {
     size_t k;            /* time of central.xf (0 before the first step) */
     dkf_diffkf_fc_node_t *nodes;
     dkf_diffkf_t central; /* the Difference KF on the stacked model: its xf, Pf,
-                             xp, Pp are the fused estimates; z, dz stacked */
+                             xn, Pn are the fused estimates; z, dz stacked */
     dkf_mat_t H, A, R, B, Rd; /* the stacked model of the running call */
     dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
     dkf_real_t *work; /* SVD / LU / rank workspace */

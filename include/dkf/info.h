@@ -23,6 +23,10 @@
 
 /* x, P, y, Y, and scratch for one step. */
 #define DKF_INFO_STORAGE_LEN(n) (2 * (n) + 2 * (n) * (n) + 2 * (n) + 3 * (n) * (n))
+/* The first DKF_INFO_STATE_LEN(n) reals of the storage hold x, P, y, Y: a
+ * failed call leaves them and the struct bit-identical (the rest is
+ * scratch). */
+#define DKF_INFO_STATE_LEN(n) (2 * (n) + 2 * (n) * (n))
 /* Scratch of dkf_info_contribution for state n, measurement m. */
 #define DKF_INFO_CONTRIB_WORK(n, m) ((m) * (m) + (n) * (m))
 
@@ -36,9 +40,11 @@ typedef struct {
     int ready;
 } dkf_info_t;
 
-#define DKF_INFO_DECLARE(name, n) \
-    dkf_real_t name##_storage[DKF_INFO_STORAGE_LEN(n)]; \
-    dkf_info_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_INFO_DECLARE(sc, name, n) \
+    sc dkf_real_t name##_storage[DKF_INFO_STORAGE_LEN(n)]; \
+    sc dkf_info_t name
 
 /* Binds f to storage and starts from x0, P0 (SPD). */
 dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t storage_len,
@@ -46,19 +52,25 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
 
 /* Time update (seed 001 (29)-(30), linear): P- = F P F^T + Q, x- = F x,
  * Y- = (P-)^{-1}, y- = Y- x-. DKF_ERR_NOT_SPD if P- is not SPD (every
- * commit also checks P and Y PSD within 4 n eps tr). */
+ * commit also checks P and Y PSD within 4 n eps tr), DKF_ERR_NONFINITE if
+ * a result overflows (finite inputs whose products exceed the real type's
+ * range), never NOT_SPD for that. */
 dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t *Q);
 
 /* A sensor's contribution: I = C^T R^{-1} C (n x n), i = C^T R^{-1} z
  * (n x 1), for C m x n, R m x m SPD, z m x 1, in square-root form (R =
  * L L^T, W = L^{-1} C, I = W^T W: a Gram matrix, PSD up to rounding,
- * i = W^T L^{-1} z). Touches no filter: a node
- * computes it and sends (i, I). work: DKF_INFO_CONTRIB_WORK(n, m). */
+ * i = W^T L^{-1} z). Touches no filter: a node computes it and sends
+ * (i, I). work: DKF_INFO_CONTRIB_WORK(n, m). DKF_ERR_NOT_SPD (R),
+ * DKF_ERR_NONFINITE (NaN/Inf in C, R, z, or an overflow of the results);
+ * i and I are written only on success. */
 dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work);
 
 /* Measurement update with `count` contributions (count may be 0):
- * Y += sum I[j], y += sum i[j], then P = Y^{-1}, x = P y. */
+ * Y += sum I[j], y += sum i[j], then P = Y^{-1}, x = P y. DKF_ERR_NOT_SPD
+ * if Y is not SPD, DKF_ERR_NONFINITE for NaN/Inf in a contribution or an
+ * overflow of the sums or results. */
 dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I[],
                            size_t count);
 

@@ -27,6 +27,11 @@
     ((n) + (n) * (n) + (m) + (m) * (m) + (n) + (n) * (n) + \
      2 * ((n) > (m) ? (n) * (n) : (n) * (m)) + 2 * (n) * (m) + 2 * (m) * (m))
 
+/* The first DKF_KF_STATE_LEN(n, m) reals of the storage hold x, P, nu and
+ * S: a failed call leaves them and the struct bit-identical. The rest is
+ * scratch. */
+#define DKF_KF_STATE_LEN(n, m) ((n) + (n) * (n) + (m) + (m) * (m))
+
 typedef struct {
     size_t n;         /* state dimension */
     size_t m_max;     /* largest measurement dimension accepted */
@@ -39,10 +44,14 @@ typedef struct {
     int ready;        /* set by dkf_kf_init */
 } dkf_kf_t;
 
-/* Declares a filter `name` and exactly-sized storage `name_storage`. */
-#define DKF_KF_DECLARE(name, n, m) \
-    dkf_real_t name##_storage[DKF_KF_STORAGE_LEN(n, m)]; \
-    dkf_kf_t name
+/* Declares a filter `name` and exactly-sized storage `name_storage`, both
+ * with the storage class `sc` (static, extern, or empty): at file scope
+ * DKF_KF_DECLARE(static, kf, 4, 2); in a function DKF_KF_DECLARE(, kf, 4, 2);
+ * The other filters' DKF_*_DECLARE macros take the same form
+ * (docs/layout.md, "Storage model"). */
+#define DKF_KF_DECLARE(sc, name, n, m) \
+    sc dkf_real_t name##_storage[DKF_KF_STORAGE_LEN(n, m)]; \
+    sc dkf_kf_t name
 
 /* Binds kf to storage (storage_len reals) and sets x = x0 (n x 1), P = P0
  * (n x n, must be SPD). Returns DKF_ERR_CAPACITY if storage_len is too

@@ -40,11 +40,14 @@ typedef struct {
 /* A view over existing storage: dkf_mat_t A = DKF_MAT(2, 3, buf); */
 #define DKF_MAT(r, c, buf) {(r), (c), (buf)}
 
-/* Declares exactly-sized storage and a view over it, at file scope (add
- * `static` in front) or in a function: DKF_MAT_DECLARE(P, 4, 4); */
-#define DKF_MAT_DECLARE(name, r, c) \
-    dkf_real_t name##_data[(r) * (c)]; \
-    dkf_mat_t name = {(r), (c), name##_data}
+/* Declares exactly-sized storage `name_data` and a view `name` over it.
+ * The first argument is the storage class of both, written once:
+ * DKF_MAT_DECLARE(static, P, 4, 4); at file scope or in a function, or
+ * DKF_MAT_DECLARE(, P, 4, 4); (empty) for automatic storage in a function.
+ * (Not `extern`: the view has an initializer.) docs/layout.md. */
+#define DKF_MAT_DECLARE(sc, name, r, c) \
+    sc dkf_real_t name##_data[(r) * (c)]; \
+    sc dkf_mat_t name = {(r), (c), name##_data}
 
 /* Element access without checks. */
 #define DKF_AT(m, i, j) ((m)->data[(i) * (m)->cols + (j)])

@@ -9,7 +9,8 @@
  * 1e-9), at lower cost: it never forms an (n+p)-dimensional matrix.
  *
  * Every model matrix may change with k (the dimensions may not). B_k must
- * be nonsingular (Ubar_k = F V B^{-1}). Predict and update need not
+ * be nonsingular (Ubar_k = F V B^{-1}) and A_k of full column rank (the
+ * model of dkf/ui_model.h; checked at every update). Predict and update need not
  * alternate: a predict without an update (missing measurement) or several
  * updates at one time (sequential sensors sharing d) are exact, because
  * each step starts from the blending matrix of the last call (V after an
@@ -53,9 +54,11 @@ typedef struct {
     int ready;
 } dkf_otskf_t;
 
-#define DKF_OTSKF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_OTSKF_STORAGE_LEN(n, m, p)]; \
-    dkf_otskf_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_OTSKF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_OTSKF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_otskf_t name
 
 /* Start from x_{0|0} = x0, P0 and the bias prior d00 = d0, Pd00 = Pd0, with
  * V_0 = U_0 = 0 (x and d uncorrelated a priori). P0 and Pd0 must be SPD
@@ -68,7 +71,9 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
  * DKF_ERR_NOT_SPD if P^d_{k|k-1} = B P^d B^T + Rd is not SPD, or if
  * P^x, P^d or P is not PSD within 4 n eps tr (an indefinite Q or Rd). */
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
-/* Measurement update with y_k and the model at k. DKF_ERR_NOT_SPD if the
+/* Measurement update with y_k and the model at k. DKF_ERR_RANK if A_k
+ * lacks full column rank p (numerical rank by SVD with
+ * DKF_RANK_TOL_DEFAULT; so also whenever p > m), DKF_ERR_NOT_SPD if the
  * bias-free innovation covariance H P^x H^T + R or the bias filter's
  * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD, or if the updated
  * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in

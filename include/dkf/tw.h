@@ -47,8 +47,8 @@
  *
  * WHOLE-GRAPH SIMULATION (dkf_tw_net_*): N nodes and their packet buffers
  * in one caller array, stepping all nodes with the same primitives; a
- * step that fails at any node commits no node. It counts the reals each
- * node broadcasts.
+ * step that fails at any node commits no node and leaves none pending. It
+ * counts the reals each node broadcasts.
  */
 #ifndef DKF_TW_H
 #define DKF_TW_H
@@ -68,6 +68,15 @@
      + 3 * (n) * (n) + 3 * (n) * (m) + 2 * (m) * (m) + (n) /* local-step scratch */ \
      + (p) * (p) + (p) * (n) + (p) /* info-packet scratch */ \
      + 2 * DKF_TW_PKT_LEN(n)) /* packet being built, the central sum */
+
+/* The first DKF_TW_NODE_STATE_LEN(n, m) reals of node storage hold x, P, z
+ * and the views of the last committed step: a failed call leaves them and
+ * the struct bit-identical, except that a failed dkf_tw_node_local cancels
+ * a pending step (pending = 0). The next DKF_TW_NODE_STATE_LEN(n, m) -
+ * n - n^2 reals hold the pending step (state while nd->pending), the rest
+ * is scratch. */
+#define DKF_TW_NODE_STATE_LEN(n, m) \
+    ((n) + (n) * (n) + (m) + 4 * (n) + 4 * (n) * (n) + (m) * (m) + (n) * (m))
 
 /* Model of one step: the matrices of time n - 1. */
 typedef struct {
@@ -101,9 +110,11 @@ typedef struct {
     int pending; /* dkf_tw_node_local succeeded, commit not yet called */
 } dkf_tw_node_t;
 
-#define DKF_TW_NODE_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_TW_NODE_STORAGE_LEN(n, m, p)]; \
-    dkf_tw_node_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_TW_NODE_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_TW_NODE_STORAGE_LEN(n, m, p)]; \
+    sc dkf_tw_node_t name
 
 /* Binds the node to storage; x = x0, P = P0 (SPD), z = 0, k = 0.
  * DKF_ERR_RANK if m > n (S = B^T Pi B cannot be invertible then). */
@@ -174,11 +185,21 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
 dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alpha,
                                        const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[]);
 
+/* Largest eta dkf_tw_net_consensus_step accepts. A step costs 2 eta mixes of
+ * every packet, so this bounds its time (an eta from a file or the network
+ * cannot run for ever). On a connected graph the ACF error shrinks like
+ * |lambda_2(W)|^eta, so 10^6 iterations reach double rounding (ln 1e16 = 37)
+ * for any spectral gap 1 - |lambda_2| above 4e-5; a 300-node path with
+ * Metropolis weights, about the worst case a network of that size can be,
+ * has pi^2 / (3 * 300^2) = 3.7e-5. The vectors use eta = 10. */
+#define DKF_TW_MAX_ETA 1000000u
+
 /* Algorithm 3 (31)-(34c): ACF over eta iterations with W (doubly
  * stochastic, >= 0, else DKF_ERR_WEIGHTS) of the |N|-scaled info packets
  * (Upsilon and varphi together: eta broadcasts of PKT reals), local step,
  * ACF of the estimate packets [psi | Ploc] (eta more broadcasts). Every
- * ACF restarts from the step's fresh inputs. */
+ * ACF restarts from the step's fresh inputs. DKF_ERR_ARG if eta >
+ * DKF_TW_MAX_ETA (nothing changes). */
 dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, size_t eta,
                                        const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[]);
 

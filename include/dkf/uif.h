@@ -101,13 +101,19 @@ typedef struct {
     (2 * (n) + 2 * (n) * (n) + (m) + 2 * (m) * (m) + (n) * (m) + (p) * (p) + 2 * (n) * (p) + \
      (m) * (p))
 
-/* Reals of storage for dimensions (n, m, p): the outputs, their pending
- * copy, the decomposition cache, scratch for one step and SVD workspace. */
+/* Reals of storage for dimensions (n, m, p): the outputs, the
+ * decomposition cache, the outputs' pending copy, scratch for one step
+ * (with room for a new decomposition) and SVD workspace. */
 #define DKF_UIF_STORAGE_LEN(n, m, p) \
-    (2 * DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m) /* cache */ \
+    (2 * DKF__UIF_OUT_LEN(n, m, p) + 3 * DKF__UIF_Q(n, p) * (m) + 2 * (m) * (m) /* caches */ \
      + 2 * (p) * (n) + (p) * (p) + 4 * (p) * (m) + 4 * (m) * (m) + (n) * (n) + 2 * (n) * (m) + \
      (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m) + \
      2 * ((n) + (p)) * (n) + (p) * (p) /* Joseph-form workspace */)
+/* The first DKF_UIF_STATE_LEN(n, m, p) reals of the storage hold the
+ * outputs (the views below) and the decomposition cache: a failed call
+ * leaves them and the struct bit-identical. The rest is scratch. */
+#define DKF_UIF_STATE_LEN(n, m, p) \
+    (DKF__UIF_OUT_LEN(n, m, p) + 2 * DKF__UIF_Q(n, p) * (m) + (m) * (m))
 
 typedef struct {
     size_t n, m, p;
@@ -142,9 +148,11 @@ typedef struct {
     int ready;
 } dkf_uif_t;
 
-#define DKF_UIF_DECLARE(name, n, m, p) \
-    dkf_real_t name##_storage[DKF_UIF_STORAGE_LEN(n, m, p)]; \
-    dkf_uif_t name
+/* `name` and `name_storage`, storage class sc (static, extern or empty):
+ * the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_UIF_DECLARE(sc, name, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_UIF_STORAGE_LEN(n, m, p)]; \
+    sc dkf_uif_t name
 
 /* Binds f to storage (storage_len >= DKF_UIF_STORAGE_LEN(n, m, p) reals)
  * and sets x = x0 (n x 1), Px = P0 (n x n, SPD); d, Pd, Pxd = 0.

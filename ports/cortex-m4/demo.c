@@ -48,7 +48,7 @@ static const dkf_real_t x_reference[DEMO_N] = {
 #define DEMO_TOL DKF_R(2e-3)
 
 /* The filter lives in static storage: no heap, and no big stack frame. */
-static DKF_KF_DECLARE(filter, DEMO_N, DEMO_M);
+DKF_KF_DECLARE(static, filter, DEMO_N, DEMO_M);
 
 static dkf_real_t abs_diff(dkf_real_t a, dkf_real_t b)
 {
@@ -59,12 +59,12 @@ dkf_status_t m4_demo_run(dkf_real_t x_out[4])
 {
     const dkf_real_t dt = DKF_R(0.1);
     const dkf_real_t q = DKF_R(0.01);
-    DKF_MAT_DECLARE(F, DEMO_N, DEMO_N);
-    DKF_MAT_DECLARE(Q, DEMO_N, DEMO_N);
-    DKF_MAT_DECLARE(H, DEMO_M, DEMO_N);
-    DKF_MAT_DECLARE(R, DEMO_M, DEMO_M);
-    DKF_MAT_DECLARE(x0, DEMO_N, 1);
-    DKF_MAT_DECLARE(P0, DEMO_N, DEMO_N);
+    DKF_MAT_DECLARE(, F, DEMO_N, DEMO_N);
+    DKF_MAT_DECLARE(, Q, DEMO_N, DEMO_N);
+    DKF_MAT_DECLARE(, H, DEMO_M, DEMO_N);
+    DKF_MAT_DECLARE(, R, DEMO_M, DEMO_M);
+    DKF_MAT_DECLARE(, x0, DEMO_N, 1);
+    DKF_MAT_DECLARE(, P0, DEMO_N, DEMO_N);
     dkf_real_t y_data[DEMO_M];
     dkf_mat_t y = DKF_MAT(DEMO_M, 1, y_data);
     dkf_status_t s;

@@ -18,6 +18,7 @@
 
 #include <jansson.h>
 
+#include "dkf/tw.h"
 #include "estimator.h"
 #include "scenario.h"
 #include "tw_run.h"
@@ -244,8 +245,10 @@ static int parse_options(int argc, char **argv, options_t *o)
         case OPT_ETA:
             errno = 0;
             o->eta = strtol(optarg, &end, 10);
-            if (end == optarg || *end != '\0' || errno != 0 || o->eta < 0) {
-                fprintf(stderr, "dkf-run: --eta %s: expected an integer >= 0\n", optarg);
+            if (end == optarg || *end != '\0' || errno != 0 || o->eta < 0 ||
+                (unsigned long)o->eta > DKF_TW_MAX_ETA) {
+                fprintf(stderr, "dkf-run: --eta %s: expected an integer >= 0 (at most %u)\n",
+                        optarg, DKF_TW_MAX_ETA);
                 return -1;
             }
             break;

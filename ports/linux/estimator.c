@@ -606,9 +606,9 @@ static dkf_status_t dkf_kind_step(dkf_est_t *e, long k, const char **what)
 {
     const dkf_diffkf_t *f = &e->dkf;
     if (e->mode == DKF_EST_FUSED) f = &e->fc.central;
-    memcpy(e->xpk.data, f->xp.data, e->n * sizeof *e->xpk.data);
-    record_mat(e, e->names->xp, &f->xp, 1);
-    record_mat(e, e->names->Pp, &f->Pp, 0);
+    memcpy(e->xpk.data, f->xn.data, e->n * sizeof *e->xpk.data);
+    record_mat(e, e->names->xp, &f->xn, 1);
+    record_mat(e, e->names->Pp, &f->Pn, 0);
     if (e->mode == DKF_EST_FUSED) return dkf_fused_step(e, k, what);
     return dkf_stacked_step(e, k, what);
 }

@@ -9,12 +9,16 @@
 #include "scenario.h"
 
 #include <errno.h>
+#include <float.h>
 #include <limits.h>
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "dkf/tw.h"
 
 #define PATH_LEN 256
 
@@ -98,14 +102,68 @@ static const char *json_kind(const json_t *j)
 
 /* ---- numbers, vectors, matrices ------------------------------------------ */
 
-static int get_integer(ctx_t *c, const json_t *j, const char *path, long *out)
+/* v in the fewest significant digits (15..17) that read back as v: the
+ * number as the file wrote it, for messages. */
+static const char *num_str(char *buf, size_t len, double v)
+{
+    int prec;
+    for (prec = 15; prec < 17; ++prec) {
+        snprintf(buf, len, "%.*g", prec, v);
+        if (strtod(buf, NULL) == v) return buf;
+    }
+    snprintf(buf, len, "%.17g", v);
+    return buf;
+}
+
+/* An integer in lo..hi, range-checked in the double domain before any cast
+ * (every long in that range converts exactly: |lo|, |hi| <= 2^53); the
+ * message shows the file's value, never a converted one. */
+static int get_integer(ctx_t *c, const json_t *j, const char *path, double lo, double hi,
+                       long *out)
 {
     double v;
+    char buf[32];
     if (!json_is_number(j)) return fail(c, path, "expected an integer, got %s", json_kind(j));
     v = json_number_value(j);
-    if (v != floor(v) || v < (double)LONG_MIN || v > (double)LONG_MAX)
-        return fail(c, path, "expected an integer, got %.17g", v);
+    if (v != floor(v) || !(v >= lo && v <= hi)) {
+        if (json_is_integer(j))
+            return fail(c, path, "expected an integer in %.0f..%.0f, got %" JSON_INTEGER_FORMAT,
+                        lo, hi, json_integer_value(j));
+        return fail(c, path, "expected an integer in %.0f..%.0f, got %s", lo, hi,
+                    num_str(buf, sizeof buf, v));
+    }
     *out = (long)v;
+    return 0;
+}
+
+/* ---- the one way parsed numbers are written into an array ------------------- */
+
+/* count rows of dim doubles in one allocation; store() checks every write
+ * against the shape it was allocated with. */
+typedef struct {
+    double *v;
+    size_t count, dim;
+} block_t;
+
+static int block_alloc(ctx_t *c, block_t *b, size_t count, size_t dim, const char *path)
+{
+    b->v = NULL;
+    b->count = count;
+    b->dim = dim;
+    if (dim != 0 && count > SIZE_MAX / sizeof(double) / dim)
+        return fail(c, path, "%zu x %zu values are more than this machine can hold", count, dim);
+    if ((b->v = xcalloc(c, count * dim, sizeof *b->v)) == NULL) return -1;
+    return 0;
+}
+
+/* Row `row` of b = src[0..len-1]: refused unless row < count and len == dim. */
+static int store(ctx_t *c, const char *path, const block_t *b, size_t row, const double *src,
+                 size_t len)
+{
+    if (row >= b->count)
+        return fail(c, path, "entry %zu beyond the %zu the file announced", row, b->count);
+    if (len != b->dim) return fail(c, path, "expected a vector of %zu values, got %zu", b->dim, len);
+    memcpy(b->v + row * b->dim, src, len * sizeof *src);
     return 0;
 }
 
@@ -138,8 +196,8 @@ static int parse_vector(ctx_t *c, const json_t *j, const char *path, size_t *len
 static int parse_matrix(ctx_t *c, const json_t *j, const char *path, size_t *rows, size_t *cols,
                         double **out)
 {
-    size_t i, r, cc = 0;
-    double *m = NULL;
+    size_t i, r;
+    block_t m = {NULL, 0, 0};
     char p[PATH_LEN];
     if (!json_is_array(j) || json_array_size(j) == 0 || !json_is_array(json_array_get(j, 0)))
         return fail(c, path, "expected a matrix (non-empty list of rows), got %s",
@@ -151,28 +209,28 @@ static int parse_matrix(ctx_t *c, const json_t *j, const char *path, size_t *row
     for (i = 0; i < r; ++i) {
         double *row;
         size_t len;
+        int rc;
         subidx(p, path, i);
         if (parse_vector(c, json_array_get(j, i), p, &len, &row) != 0) {
-            free(m);
+            free(m.v);
             return -1;
         }
-        if (i == 0) {
-            cc = len;
-            if ((m = xcalloc(c, r * cc, sizeof *m)) == NULL) {
-                free(row);
-                return -1;
-            }
-        } else if (len != cc) {
-            free(row);
-            free(m);
-            return fail(c, p, "row has %zu entries, row 0 has %zu", len, cc);
-        }
-        memcpy(m + i * cc, row, cc * sizeof *m);
+        if (i == 0)
+            rc = block_alloc(c, &m, r, len, path);
+        else if (len != m.dim)
+            rc = fail(c, p, "row has %zu entries, row 0 has %zu", len, m.dim);
+        else
+            rc = 0;
+        if (rc == 0) rc = store(c, p, &m, i, row, len);
         free(row);
+        if (rc != 0) {
+            free(m.v);
+            return -1;
+        }
     }
     *rows = r;
-    *cols = cc;
-    *out = m;
+    *cols = m.dim;
+    *out = m.v;
     return 0;
 }
 
@@ -240,48 +298,61 @@ static const dkf_scn_mat_t *mats_find(const dkf_scn_mats_t *set, const char *nam
     return NULL;
 }
 
+/* Entry idx of m, a stack of `count` same-shape matrices: the first entry
+ * fixes the shape and allocates m->data, the others must match it. */
+static int stack_matrix(ctx_t *c, dkf_scn_mat_t *m, block_t *b, size_t idx, size_t count,
+                        const json_t *j, const char *path)
+{
+    double *one;
+    size_t r, cc;
+    int rc = 0;
+    if (parse_matrix(c, j, path, &r, &cc, &one) != 0) return -1;
+    if (idx == 0) {
+        m->rows = r;
+        m->cols = cc;
+        rc = block_alloc(c, b, count, r * cc, path);
+        m->data = b->v;
+    } else if (r != m->rows || cc != m->cols) {
+        rc = shape_error(c, path, m->rows, m->cols, r, cc);
+    }
+    if (rc == 0) rc = store(c, path, b, idx, one, r * cc);
+    free(one);
+    return rc;
+}
+
 /* A list of same-shape matrices (per_k, or a stacked init entry). */
 static int parse_matrix_list(ctx_t *c, const json_t *j, const char *path, dkf_scn_mat_t *m)
 {
-    size_t i, n, r, cc;
-    double *one;
+    size_t i, n;
+    block_t b;
     char p[PATH_LEN];
     if (!json_is_array(j) || json_array_size(j) == 0)
         return fail(c, path, "expected a non-empty list of matrices, got %s", json_kind(j));
     n = json_array_size(j);
+    if (n > DKF_SCN_MAX_TIMES)
+        return fail(c, path, "%zu matrices, more than the %lu allowed", n, DKF_SCN_MAX_TIMES);
     for (i = 0; i < n; ++i) {
         subidx(p, path, i);
-        if (parse_matrix(c, json_array_get(j, i), p, &r, &cc, &one) != 0) return -1;
-        if (i == 0) {
-            m->rows = r;
-            m->cols = cc;
-            if ((m->data = xcalloc(c, n * r * cc, sizeof *m->data)) == NULL) {
-                free(one);
-                return -1;
-            }
-        } else if (r != m->rows || cc != m->cols) {
-            free(one);
-            return shape_error(c, p, m->rows, m->cols, r, cc);
-        }
-        memcpy(m->data + i * r * cc, one, r * cc * sizeof *one);
-        free(one);
+        if (stack_matrix(c, m, &b, i, n, json_array_get(j, i), p) != 0) return -1;
     }
     m->count = n;
     return 0;
 }
 
-/* A model entry: {"const": M}, {"per_k": [M_0, ...]} or a bare matrix M. */
-static int parse_model_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, const json_t *j,
-                             const char *path)
+/* Matrices of the model and init are at most DKF_MAX_DIM x DKF_MAX_DIM. */
+static int check_dims(ctx_t *c, const dkf_scn_mat_t *m)
 {
-    dkf_scn_mat_t *m;
+    if (m->rows > DKF_MAX_DIM || m->cols > DKF_MAX_DIM)
+        return fail(c, m->path, "%zux%zu: a dimension exceeds DKF_MAX_DIM = %d", m->rows,
+                    m->cols, DKF_MAX_DIM);
+    return 0;
+}
+
+/* A model entry: {"const": M}, {"per_k": [M_0, ...]} or a bare matrix M. */
+static int parse_model_value(ctx_t *c, dkf_scn_mat_t *m, const json_t *j, const char *path)
+{
     char p[PATH_LEN];
     const json_t *cst, *pk;
-    if (json_is_string(j) || json_is_null(j)) return 0; /* notes */
-    if (!json_is_object(j) && !json_is_array(j))
-        return fail(c, path, "expected {\"const\": M}, {\"per_k\": [...]} or a matrix, got %s",
-                    json_kind(j));
-    if ((m = mats_add(c, set, name, path)) == NULL) return -1;
     if (json_is_array(j)) return parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
     cst = json_object_get(j, "const");
     pk = json_object_get(j, "per_k");
@@ -295,21 +366,37 @@ static int parse_model_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, co
     return parse_matrix_list(c, pk, p, m);
 }
 
+static int parse_model_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, const json_t *j,
+                             const char *path)
+{
+    dkf_scn_mat_t *m;
+    if (json_is_string(j) || json_is_null(j)) return 0; /* notes */
+    if (!json_is_object(j) && !json_is_array(j))
+        return fail(c, path, "expected {\"const\": M}, {\"per_k\": [...]} or a matrix, got %s",
+                    json_kind(j));
+    if ((m = mats_add(c, set, name, path)) == NULL) return -1;
+    if (parse_model_value(c, m, j, path) != 0) return -1;
+    return check_dims(c, m);
+}
+
 /* An init entry: vector (n x 1), matrix, or list of matrices; strings skipped. */
 static int parse_init_entry(ctx_t *c, dkf_scn_mats_t *set, const char *name, const json_t *j,
                             const char *path)
 {
     dkf_scn_mat_t *m;
-    int depth;
+    int depth, rc;
     if (json_is_string(j) || json_is_null(j)) return 0;
     if ((m = mats_add(c, set, name, path)) == NULL) return -1;
     depth = nest_depth(j);
     if (depth <= 1) {
         m->cols = 1;
-        return parse_vector(c, j, path, &m->rows, &m->data);
+        rc = parse_vector(c, j, path, &m->rows, &m->data);
+    } else if (depth == 2) {
+        rc = parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
+    } else {
+        rc = parse_matrix_list(c, j, path, m);
     }
-    if (depth == 2) return parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
-    return parse_matrix_list(c, j, path, m);
+    return rc != 0 ? -1 : check_dims(c, m);
 }
 
 /* ---- measurements and truth -------------------------------------------------- */
@@ -321,7 +408,7 @@ static int parse_series(ctx_t *c, const json_t *j, const char *path, const char 
     const json_t *jk, *jv;
     size_t i, n;
     long *k;
-    double *v;
+    block_t v = {NULL, 0, 0};
     char p[PATH_LEN], pi[PATH_LEN];
     if (!json_is_object(j))
         return fail(c, path, "expected {\"k\": [...], \"%s\": [...]}, got %s", vkey,
@@ -332,21 +419,19 @@ static int parse_series(ctx_t *c, const json_t *j, const char *path, const char 
     if (!json_is_array(jv) || json_array_size(jv) == 0)
         return fail(c, p, "expected a non-empty list of vectors, got %s", json_kind(jv));
     n = json_array_size(jv);
+    if (n > DKF_SCN_MAX_TIMES)
+        return fail(c, p, "%zu entries, more than the %lu allowed", n, DKF_SCN_MAX_TIMES);
     k = xcalloc(c, n, sizeof *k);
-    v = xcalloc(c, n * dim, sizeof *v);
-    if (k == NULL || v == NULL) goto bad;
+    if (k == NULL || block_alloc(c, &v, n, dim, p) != 0) goto bad;
     for (i = 0; i < n; ++i) {
         size_t len;
         double *e;
+        int rc;
         subidx(pi, p, i);
         if (parse_vector(c, json_array_get(jv, i), pi, &len, &e) != 0) goto bad;
-        if (len != dim) {
-            free(e);
-            fail(c, pi, "expected a vector of %zu values, got %zu", dim, len);
-            goto bad;
-        }
-        memcpy(v + i * dim, e, dim * sizeof *e);
+        rc = store(c, pi, &v, i, e, len);
         free(e);
+        if (rc != 0) goto bad;
     }
     jk = json_object_get(j, "k");
     subkey(p, path, "k");
@@ -361,11 +446,8 @@ static int parse_series(ctx_t *c, const json_t *j, const char *path, const char 
         }
         for (i = 0; i < n; ++i) {
             subidx(pi, p, i);
-            if (get_integer(c, json_array_get(jk, i), pi, &k[i]) != 0) goto bad;
-            if (k[i] < 0) {
-                fail(c, pi, "time must be >= 0, got %ld", k[i]);
+            if (get_integer(c, json_array_get(jk, i), pi, 0.0, DKF_SCN_MAX_TIME, &k[i]) != 0)
                 goto bad;
-            }
             if (i > 0 && k[i] <= k[i - 1]) {
                 fail(c, pi, "times must increase strictly (%ld after %ld)", k[i], k[i - 1]);
                 goto bad;
@@ -374,11 +456,11 @@ static int parse_series(ctx_t *c, const json_t *j, const char *path, const char 
     }
     *count = n;
     *kout = k;
-    *vout = v;
+    *vout = v.v;
     return 0;
 bad:
     free(k);
-    free(v);
+    free(v.v);
     return -1;
 }
 
@@ -395,6 +477,73 @@ static long find_time(const long *ks, size_t n, long k)
             hi = mid;
     }
     return -1;
+}
+
+/* ---- covariances --------------------------------------------------------------- */
+
+/* A covariance read from a file must be symmetric within rounding:
+ * max |M_ij - M_ji| <= DKF_SCN_SYM_TOL eps max |M| for each entry of a
+ * per_k list or init list. A symmetric matrix written out and read back is
+ * exactly symmetric (the same decimal parses to the same double); a matrix
+ * computed in double without symmetrizing carries a few roundings (the
+ * time-varying diffkf vectors tv3, tv4: at most 0.6 eps max|M|); a typo or a
+ * transposed entry is far above 8 eps. */
+#define DKF_SCN_SYM_TOL 8.0
+
+static int require_symmetric(ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
+                             int is_list)
+{
+    size_t e, i, j, n, count;
+    char p[PATH_LEN], va[32], vb[32];
+    if (m == NULL || m->rows != m->cols) return 0; /* shapes are checked elsewhere */
+    n = m->rows;
+    count = m->count > 0 ? m->count : 1;
+    for (e = 0; e < count; ++e) {
+        const double *a = m->data + e * n * n;
+        double amax = 0.0, worst = 0.0;
+        size_t wi = 0, wj = 0;
+        for (i = 0; i < n * n; ++i) amax = fmax(amax, fabs(a[i]));
+        for (i = 0; i < n; ++i)
+            for (j = i + 1; j < n; ++j)
+                if (fabs(a[i * n + j] - a[j * n + i]) > worst) {
+                    worst = fabs(a[i * n + j] - a[j * n + i]);
+                    wi = i;
+                    wj = j;
+                }
+        if (worst <= DKF_SCN_SYM_TOL * DBL_EPSILON * amax) continue;
+        if (m->count == 0)
+            pathf(p, "%s", m->path);
+        else if (is_list)
+            pathf(p, "%s[%zu]", m->path, e);
+        else if (s->layout == DKF_SCN_LAYOUT_CANONICAL)
+            pathf(p, "%s.per_k[%zu]", m->path, e);
+        else
+            pathf(p, "%s (entry for k = %zu)", m->path, m->k0 + e);
+        return fail(c, p, "not symmetric (a covariance): entries (%zu,%zu) = %s and (%zu,%zu) "
+                    "= %s differ by %.3g > %g eps max|entry| = %.3g", wi, wj,
+                    num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
+                    num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
+                    DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
+    }
+    return 0;
+}
+
+/* Every covariance of the model (Q, R, Rd, Sv, Sw; each sensor's own) and of
+ * init (P00, P00_local, P00_central, Pd00). */
+static int check_covariances(ctx_t *c, const dkf_scenario_t *s)
+{
+    static const char *const model_cov[] = {"Q", "R", "Rd", "Sv", "Sw"};
+    static const char *const init_cov[] = {"P00", "P00_local", "P00_central", "Pd00"};
+    size_t i, l;
+    for (i = 0; i < sizeof model_cov / sizeof *model_cov; ++i) {
+        if (require_symmetric(c, s, mats_find(&s->model, model_cov[i]), 0) != 0) return -1;
+        for (l = 0; l < s->nsensors; ++l)
+            if (require_symmetric(c, s, mats_find(&s->sensors[l].mats, model_cov[i]), 0) != 0)
+                return -1;
+    }
+    for (i = 0; i < sizeof init_cov / sizeof *init_cov; ++i)
+        if (require_symmetric(c, s, mats_find(&s->init, init_cov[i]), 1) != 0) return -1;
+    return 0;
 }
 
 /* ---- validation shared by both layouts ------------------------------------- */
@@ -527,7 +676,7 @@ static int validate(ctx_t *c, dkf_scenario_t *s, const char *model_path,
                 }
     }
     dkf_scn_select_run(s, 0);
-    return 0;
+    return check_covariances(c, s);
 }
 
 /* ---- canonical layout -------------------------------------------------------- */
@@ -555,20 +704,22 @@ static int canonical_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
     size_t i;
     char p[PATH_LEN];
     if (jn != NULL) {
-        if (get_integer(c, jn, "N", &N) != 0) return -1;
-        if (N < 1) return fail(c, "N", "expected at least 1 step, got %ld", N);
+        if (get_integer(c, jn, "N", 1.0, (double)DKF_SCN_MAX_STEPS, &N) != 0) return -1;
     }
     if (jk != NULL) {
         size_t len;
         if (!json_is_array(jk) || json_array_size(jk) == 0)
             return fail(c, "k", "expected the list [1, 2, ..., N], got %s", json_kind(jk));
         len = json_array_size(jk);
+        if (len > DKF_SCN_MAX_STEPS)
+            return fail(c, "k", "%zu steps, more than the %lu allowed", len, DKF_SCN_MAX_STEPS);
         if (N >= 0 && (size_t)N != len)
             return fail(c, "k", "has %zu entries but N = %ld", len, N);
         for (i = 0; i < len; ++i) {
             long v;
             subidx(p, "k", i);
-            if (get_integer(c, json_array_get(jk, i), p, &v) != 0) return -1;
+            if (get_integer(c, json_array_get(jk, i), p, 0.0, DKF_SCN_MAX_TIME, &v) != 0)
+                return -1;
             if (v != (long)i + 1)
                 return fail(c, p, "expected %zu (k lists 1..N), got %ld", i + 1, v);
         }
@@ -581,6 +732,9 @@ static int canonical_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
             if (N < 0 || last < N) N = last;
         }
         if (N < 1) return fail(c, "y", "no measurement at k >= 1");
+        if (N > (long)DKF_SCN_MAX_STEPS)
+            return fail(c, "y", "measurements up to k = %ld: more than the %lu steps allowed "
+                        "(give N)", N, DKF_SCN_MAX_STEPS);
     }
     s->steps = (size_t)N;
     return 0;
@@ -705,6 +859,9 @@ static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
                         "objects, got %s", json_kind(runs));
         s->has_runs = 1;
         nruns = json_array_size(runs);
+        if (nruns > DKF_SCN_MAX_RUNS)
+            return fail(c, "runs", "%zu runs, more than the %lu allowed", nruns,
+                        DKF_SCN_MAX_RUNS);
     } else if (yj == NULL) {
         return fail(c, "y", "missing key");
     }
@@ -717,6 +874,9 @@ static int load_canonical(ctx_t *c, dkf_scenario_t *s, const json_t *root)
                         json_kind(sensors));
         s->multi = 1;
         s->nsensors = json_array_size(sensors);
+        if (s->nsensors > DKF_SCN_MAX_SENSORS)
+            return fail(c, "model.sensors", "%zu sensors, more than the %lu allowed",
+                        s->nsensors, DKF_SCN_MAX_SENSORS);
     } else {
         s->nsensors = 1;
     }
@@ -801,38 +961,24 @@ static int cases_model(ctx_t *c, dkf_scenario_t *s, const json_t *cj, const json
 {
     const json_t *first = json_object_get(json_array_get(steps, 0), name);
     dkf_scn_mat_t *m;
-    size_t j, N = json_array_size(steps), r, cc;
+    size_t j, N = json_array_size(steps);
+    block_t b;
     char p[PATH_LEN], sp[PATH_LEN];
     if (first == NULL) {
         const json_t *v = json_object_get(cj, name);
         subkey(p, cpath, name);
         if (v == NULL) return fail(c, p, "missing key (give it in the case or in every step)");
         if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
-        return parse_matrix(c, v, p, &m->rows, &m->cols, &m->data);
+        if (parse_matrix(c, v, p, &m->rows, &m->cols, &m->data) != 0) return -1;
+        return check_dims(c, m);
     }
     pathf(p, "%s.steps[].%s", cpath, name);
     if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
     for (j = 0; j < N; ++j) {
-        double *one;
+        const json_t *v = json_object_get(json_array_get(steps, j), name);
         pathf(sp, "%s.steps[%zu].%s", cpath, j, name);
-        if (json_object_get(json_array_get(steps, j), name) == NULL)
-            return fail(c, sp, "missing key (step 0 has it, so every step needs it)");
-        if (parse_matrix(c, json_object_get(json_array_get(steps, j), name), sp, &r, &cc, &one)
-            != 0)
-            return -1;
-        if (j == 0) {
-            m->rows = r;
-            m->cols = cc;
-            if ((m->data = xcalloc(c, N * r * cc, sizeof *m->data)) == NULL) {
-                free(one);
-                return -1;
-            }
-        } else if (r != m->rows || cc != m->cols) {
-            free(one);
-            return shape_error(c, sp, m->rows, m->cols, r, cc);
-        }
-        memcpy(m->data + j * r * cc, one, r * cc * sizeof *one);
-        free(one);
+        if (v == NULL) return fail(c, sp, "missing key (step 0 has it, so every step needs it)");
+        if (stack_matrix(c, m, &b, j, N, v, sp) != 0) return -1;
     }
     m->count = N;
     return 0;
@@ -846,7 +992,8 @@ static int cases_sensor_mat(ctx_t *c, dkf_scenario_t *s, const json_t *list, con
     char p[PATH_LEN];
     subidx(p, lpath, j);
     if ((m = mats_add(c, &s->sensors[j].mats, as, p)) == NULL) return -1;
-    return parse_matrix(c, json_array_get(list, j), p, &m->rows, &m->cols, &m->data);
+    if (parse_matrix(c, json_array_get(list, j), p, &m->rows, &m->cols, &m->data) != 0) return -1;
+    return check_dims(c, m);
 }
 
 static int cases_init(ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath,
@@ -864,47 +1011,64 @@ static int cases_measurements(ctx_t *c, dkf_scenario_t *s, const json_t *steps,
 {
     size_t j, i, N = json_array_size(steps);
     char p[PATH_LEN], pz[PATH_LEN];
+    block_t *y = xcalloc(c, s->nsensors, sizeof *y);
+    int rc = -1;
+    if (y == NULL) return -1;
     for (i = 0; i < s->nsensors; ++i) {
         dkf_scn_sensor_t *se = &s->sensors[i];
         se->m = dkf_scn_sensor_model(s, i, "H")->rows;
         se->ny = N;
         se->yk = xcalloc(c, N, sizeof *se->yk);
-        se->y = xcalloc(c, N * se->m, sizeof *se->y);
-        if (se->yk == NULL || se->y == NULL) return -1;
+        if (se->yk == NULL || block_alloc(c, &y[i], N, se->m, cpath) != 0) goto done;
+        se->y = y[i].v;
     }
     for (j = 0; j < N; ++j) {
         const json_t *st = json_array_get(steps, j), *z;
         long k;
         pathf(p, "%s.steps[%zu]", cpath, j);
-        if (!json_is_object(st)) return fail(c, p, "expected an object, got %s", json_kind(st));
+        if (!json_is_object(st)) {
+            fail(c, p, "expected an object, got %s", json_kind(st));
+            goto done;
+        }
         subkey(pz, p, "k");
-        if (json_object_get(st, "k") == NULL) return fail(c, pz, "missing key");
-        if (get_integer(c, json_object_get(st, "k"), pz, &k) != 0) return -1;
-        if (k != (long)j + 1)
-            return fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+        if (json_object_get(st, "k") == NULL) {
+            fail(c, pz, "missing key");
+            goto done;
+        }
+        if (get_integer(c, json_object_get(st, "k"), pz, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
+            goto done;
+        if (k != (long)j + 1) {
+            fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+            goto done;
+        }
         z = json_object_get(st, "z");
         subkey(pz, p, "z");
-        if (z == NULL) return fail(c, pz, "missing key");
-        if (!json_is_array(z) || json_array_size(z) != s->nsensors)
-            return fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
-                        s->nsensors, json_kind(z));
+        if (z == NULL) {
+            fail(c, pz, "missing key");
+            goto done;
+        }
+        if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
+            fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
+                 s->nsensors, json_kind(z));
+            goto done;
+        }
         for (i = 0; i < s->nsensors; ++i) {
-            dkf_scn_sensor_t *se = &s->sensors[i];
             char pzi[PATH_LEN];
             size_t len;
             double *v;
+            int st_rc;
             subidx(pzi, pz, i);
-            if (parse_vector(c, json_array_get(z, i), pzi, &len, &v) != 0) return -1;
-            if (len != se->m) {
-                free(v);
-                return fail(c, pzi, "expected a vector of %zu values, got %zu", se->m, len);
-            }
-            memcpy(se->y + j * se->m, v, len * sizeof *v);
-            se->yk[j] = k;
+            if (parse_vector(c, json_array_get(z, i), pzi, &len, &v) != 0) goto done;
+            st_rc = store(c, pzi, &y[i], j, v, len);
             free(v);
+            if (st_rc != 0) goto done;
+            s->sensors[i].yk[j] = k;
         }
     }
-    return 0;
+    rc = 0;
+done:
+    free(y);
+    return rc;
 }
 
 static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const char *sel)
@@ -929,6 +1093,8 @@ static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const cha
     if (!json_is_array(steps) || json_array_size(steps) == 0)
         return fail(c, p, "expected a non-empty list of steps, got %s", json_kind(steps));
     s->steps = json_array_size(steps);
+    if (s->steps > DKF_SCN_MAX_STEPS)
+        return fail(c, p, "%zu steps, more than the %lu allowed", s->steps, DKF_SCN_MAX_STEPS);
     if (!json_is_object(json_array_get(steps, 0)))
         return fail(c, p, "expected a list of step objects");
     if (cases_model(c, s, cj, steps, cpath, "F") != 0) return -1;
@@ -943,6 +1109,9 @@ static int load_cases(ctx_t *c, dkf_scenario_t *s, const json_t *root, const cha
     if (!json_is_array(C) || json_array_size(C) == 0)
         return fail(c, p, "expected a non-empty list of sensor matrices, got %s", json_kind(C));
     s->nsensors = json_array_size(C);
+    if (s->nsensors > DKF_SCN_MAX_SENSORS)
+        return fail(c, p, "%zu sensors, more than the %lu allowed", s->nsensors,
+                    DKF_SCN_MAX_SENSORS);
     if (!json_is_array(R) || json_array_size(R) != s->nsensors)
         return fail(c, pr, "expected a list of %zu matrices (one per C), got %s", s->nsensors,
                     json_kind(R));
@@ -982,7 +1151,7 @@ static int steps_time(ctx_t *c, const json_t *st, size_t j, long *k)
     }
     if (jk == NULL) return fail(c, p, "missing key k (or n): the step's time");
     subkey(pk, p, key);
-    return get_integer(c, jk, pk, k);
+    return get_integer(c, jk, pk, 0.0, DKF_SCN_MAX_TIME, k);
 }
 
 /* `inputs` of step j: an object with at least y. */
@@ -1000,7 +1169,8 @@ static int steps_inputs_of(ctx_t *c, const json_t *st, size_t j, const json_t **
  * into model <M>, per_k from k0. Steps that need it: all, or k >= 1. */
 static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const char *key)
 {
-    size_t len = strlen(key), N = json_array_size(steps), j, used = 0, first = N;
+    size_t len = strlen(key), N = json_array_size(steps), j, first = N;
+    block_t b;
     int prev = len > 5 && strcmp(key + len - 5, "_prev") == 0;
     char name[64], p[PATH_LEN];
     dkf_scn_mat_t *m;
@@ -1017,8 +1187,8 @@ static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const 
             return fail(c, p, "missing key (another step has it, so every step%s needs it)",
                         prev ? " with k >= 1" : "");
         if (nest_depth(v) > 2)
-            return fail(c, p, "time-varying per-node matrices are not supported (give model.%s)",
-                        name);
+            return fail(c, p, "expected a matrix, got a list of matrices (only seed-003 H and Sw "
+                        "are per node)");
         if (first == N) first = j;
     }
     if (mats_find(&s->model, name) != NULL) {
@@ -1028,31 +1198,62 @@ static int steps_matrix(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const 
     pathf(p, "steps[%zu].inputs.%s", first, key);
     if ((m = mats_add(c, &s->model, name, p)) == NULL) return -1;
     for (j = first; j < N; ++j) {
-        double *one;
-        size_t r, cc;
         pathf(p, "steps[%zu].inputs.%s", j, key);
-        if (parse_matrix(c, json_object_get(json_object_get(json_array_get(steps, j), "inputs"),
-                                            key),
-                         p, &r, &cc, &one) != 0)
+        if (stack_matrix(c, m, &b, j - first, N - first,
+                         json_object_get(json_object_get(json_array_get(steps, j), "inputs"), key),
+                         p) != 0)
             return -1;
-        if (used == 0) {
-            m->rows = r;
-            m->cols = cc;
-            if ((m->data = xcalloc(c, (N - first) * r * cc, sizeof *m->data)) == NULL) {
-                free(one);
-                return -1;
-            }
-        } else if (r != m->rows || cc != m->cols) {
-            free(one);
-            return shape_error(c, p, m->rows, m->cols, r, cc);
-        }
-        memcpy(m->data + used * r * cc, one, r * cc * sizeof *one);
-        free(one);
-        ++used;
     }
-    m->count = used;
+    m->count = N - first;
     m->k0 = (size_t)(s->k_first + (long)first - (prev ? 1 : 0));
-    return 0;
+    return check_dims(c, m);
+}
+
+/* Seed 003's per-node H or Sw given per step: steps[j].inputs.<key> is a
+ * list of one matrix per node, node l's <key> at the step's time (a per_k
+ * list of sensor l from k_first). Shapes may not change between steps. */
+static int steps_node_series(ctx_t *c, dkf_scenario_t *s, const json_t *steps, const char *key)
+{
+    size_t N = json_array_size(steps), L = s->nsensors, j, l;
+    block_t *b;
+    char p[PATH_LEN], pl[PATH_LEN];
+    int rc = -1;
+    for (l = 0; l < L; ++l)
+        if (mats_find(&s->sensors[l].mats, key) != NULL) {
+            pathf(p, "steps[0].inputs.%s", key);
+            return fail(c, p, "also given as model.%s (give one)", key);
+        }
+    if ((b = xcalloc(c, L, sizeof *b)) == NULL) return -1;
+    for (l = 0; l < L; ++l) {
+        dkf_scn_mat_t *m;
+        pathf(pl, "steps[0].inputs.%s[%zu]", key, l);
+        if ((m = mats_add(c, &s->sensors[l].mats, key, pl)) == NULL) goto done;
+        m->count = N;
+        m->k0 = (size_t)s->k_first;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *v = json_object_get(json_object_get(json_array_get(steps, j), "inputs"), key);
+        pathf(p, "steps[%zu].inputs.%s", j, key);
+        if (v == NULL) {
+            fail(c, p, "missing key (another step has it, so every step needs it)");
+            goto done;
+        }
+        if (!json_is_array(v) || nest_depth(v) != 3 || json_array_size(v) != L) {
+            fail(c, p, "expected a list of %zu matrices (one per node), got %s", L,
+                 json_is_array(v) ? "a list of another shape" : json_kind(v));
+            goto done;
+        }
+        for (l = 0; l < L; ++l) {
+            dkf_scn_mat_t *m = &s->sensors[l].mats.items[s->sensors[l].mats.len - 1];
+            subidx(pl, p, l);
+            if (stack_matrix(c, m, &b[l], j, N, json_array_get(v, l), pl) != 0) goto done;
+            if (j == 0 && check_dims(c, m) != 0) goto done;
+        }
+    }
+    rc = 0;
+done:
+    free(b);
+    return rc;
 }
 
 /* Every per-step matrix input (the union of the steps' input keys but y). */
@@ -1076,8 +1277,13 @@ static int steps_matrices(ctx_t *c, dkf_scenario_t *s, const json_t *steps)
             keys[nkeys++] = key;
         }
     }
-    for (i = 0; i < nkeys; ++i)
-        if (steps_matrix(c, s, steps, keys[i]) != 0) return -1;
+    for (i = 0; i < nkeys; ++i) {
+        const int node_key = s->family == DKF_SCN_FAMILY_TW &&
+                             (strcmp(keys[i], "H") == 0 || strcmp(keys[i], "Sw") == 0);
+        if ((node_key ? steps_node_series(c, s, steps, keys[i])
+                      : steps_matrix(c, s, steps, keys[i])) != 0)
+            return -1;
+    }
     return 0;
 }
 
@@ -1100,6 +1306,7 @@ static int steps_node_matrices(ctx_t *c, dkf_scenario_t *s, const json_t *model,
         if ((m = mats_add(c, &s->sensors[l].mats, name, pl)) == NULL) return -1;
         if (parse_matrix(c, json_array_get(v, l), pl, &m->rows, &m->cols, &m->data) != 0)
             return -1;
+        if (check_dims(c, m) != 0) return -1;
     }
     return 0;
 }
@@ -1120,10 +1327,25 @@ static int steps_model(ctx_t *c, dkf_scenario_t *s, const json_t *model)
         if (parse_model_entry(c, &s->model, key, val, p) != 0) return -1;
     }
     if (s->family == DKF_SCN_FAMILY_TW) {
-        if (steps_node_matrices(c, s, model, "H") != 0) return -1;
-        if (steps_node_matrices(c, s, model, "Sw") != 0) return -1;
+        /* per node, in model or (time varying) in every step's inputs */
+        if (json_object_get(model, "H") != NULL && steps_node_matrices(c, s, model, "H") != 0)
+            return -1;
+        if (json_object_get(model, "Sw") != NULL && steps_node_matrices(c, s, model, "Sw") != 0)
+            return -1;
     }
     return 0;
+}
+
+/* The length of sensor i's y: the rows of its C (seed 004) or H (seed 003)
+ * if given, else what the first step's y has (steps_validate then reports
+ * the missing matrix); every step's y is checked against it. */
+static size_t steps_y_dim(const dkf_scenario_t *s, size_t i, const json_t *y0)
+{
+    const int tw = s->family == DKF_SCN_FAMILY_TW;
+    const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, tw ? "H" : "C");
+    const json_t *yi = tw ? json_array_get(y0, i) : y0;
+    if (H != NULL) return H->rows;
+    return json_is_array(yi) && json_array_size(yi) > 0 ? json_array_size(yi) : 1;
 }
 
 /* y of every step into the sensors' series (seed 004: one vector; seed
@@ -1131,46 +1353,55 @@ static int steps_model(ctx_t *c, dkf_scenario_t *s, const json_t *model)
 static int steps_measurements(ctx_t *c, dkf_scenario_t *s, const json_t *steps)
 {
     size_t N = json_array_size(steps), j, i;
+    const int tw = s->family == DKF_SCN_FAMILY_TW;
+    const json_t *y0 = json_object_get(json_object_get(json_array_get(steps, 0), "inputs"), "y");
     char p[PATH_LEN], pi[PATH_LEN];
+    block_t *yb = xcalloc(c, s->nsensors, sizeof *yb);
+    int rc = -1;
+    if (yb == NULL) return -1;
     for (i = 0; i < s->nsensors; ++i) {
         dkf_scn_sensor_t *se = &s->sensors[i];
-        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, s->family == DKF_SCN_FAMILY_TW ? "H" : "C");
-        se->m = H != NULL ? H->rows : 0;
+        se->m = steps_y_dim(s, i, y0);
         se->ny = N;
         se->yk = xcalloc(c, N, sizeof *se->yk);
-        se->y = xcalloc(c, N * (se->m ? se->m : 1), sizeof *se->y);
-        if (se->yk == NULL || se->y == NULL) return -1;
+        if (se->yk == NULL || block_alloc(c, &yb[i], N, se->m, "steps") != 0) goto done;
+        se->y = yb[i].v;
     }
     for (j = 0; j < N; ++j) {
         const json_t *y = json_object_get(json_object_get(json_array_get(steps, j), "inputs"), "y");
         pathf(p, "steps[%zu].inputs.y", j);
-        if (y == NULL) return fail(c, p, "missing key");
-        if (s->family == DKF_SCN_FAMILY_TW &&
-            (!json_is_array(y) || json_array_size(y) != s->nsensors || nest_depth(y) != 2))
-            return fail(c, p, "expected a list of %zu measurement vectors (one per node), got %s",
-                        s->nsensors, json_is_array(y) ? "a list of another shape" : json_kind(y));
+        if (y == NULL) {
+            fail(c, p, "missing key");
+            goto done;
+        }
+        if (tw && (!json_is_array(y) || json_array_size(y) != s->nsensors || nest_depth(y) != 2)) {
+            fail(c, p, "expected a list of %zu measurement vectors (one per node), got %s",
+                 s->nsensors, json_is_array(y) ? "a list of another shape" : json_kind(y));
+            goto done;
+        }
         for (i = 0; i < s->nsensors; ++i) {
-            dkf_scn_sensor_t *se = &s->sensors[i];
-            const json_t *yi = s->family == DKF_SCN_FAMILY_TW ? json_array_get(y, i) : y;
             size_t len;
             double *v;
-            if (s->family == DKF_SCN_FAMILY_TW)
+            int st;
+            if (tw)
                 subidx(pi, p, i);
             else
                 pathf(pi, "%s", p);
-            if (parse_vector(c, yi, pi, &len, &v) != 0) return -1;
-            if (se->m == 0) se->m = len; /* no C / H: validate reports it */
-            if (len != se->m) {
-                free(v);
-                return fail(c, pi, "expected a vector of %zu values (the rows of %s), got %zu",
-                            se->m, s->family == DKF_SCN_FAMILY_TW ? "H" : "C", len);
-            }
-            memcpy(se->y + j * se->m, v, len * sizeof *v);
-            se->yk[j] = s->k_first + (long)j;
+            if (parse_vector(c, tw ? json_array_get(y, i) : y, pi, &len, &v) != 0) goto done;
+            if (len != yb[i].dim)
+                st = fail(c, pi, "expected a vector of %zu values (the rows of %s), got %zu",
+                          yb[i].dim, tw ? "H" : "C", len);
+            else
+                st = store(c, pi, &yb[i], j, v, len);
             free(v);
+            if (st != 0) goto done;
+            s->sensors[i].yk[j] = s->k_first + (long)j;
         }
     }
-    return 0;
+    rc = 0;
+done:
+    free(yb);
+    return rc;
 }
 
 /* truth.x (n) and the true input truth.d / d_prev / z_prev (m), all or none. */
@@ -1180,21 +1411,24 @@ static int steps_truth(ctx_t *c, dkf_scenario_t *s, const json_t *steps, size_t 
     const json_t *t0 = json_object_get(json_array_get(steps, 0), "truth");
     size_t N = json_array_size(steps), j, i;
     const char *ukey = NULL;
+    block_t tb[2] = {{NULL, 0, 0}, {NULL, 0, 0}};
     char p[PATH_LEN];
     if (!json_is_object(t0)) return 0;
     for (i = 0; i < 3 && ukey == NULL; ++i)
         if (json_object_get(t0, ukeys[i]) != NULL) ukey = ukeys[i];
     if (json_object_get(t0, "x") != NULL) {
         s->truth_k = xcalloc(c, N, sizeof *s->truth_k);
-        s->truth_x = xcalloc(c, N * s->n, sizeof *s->truth_x);
-        if (s->truth_k == NULL || s->truth_x == NULL) return -1;
+        if (s->truth_k == NULL || block_alloc(c, &tb[0], N, s->n, "steps[0].truth.x") != 0)
+            return -1;
+        s->truth_x = tb[0].v;
         s->ntruth = N;
     }
     if (ukey != NULL) {
         snprintf(s->truth_u_key, sizeof s->truth_u_key, "%s", ukey);
         s->truth_u_k = xcalloc(c, N, sizeof *s->truth_u_k);
-        s->truth_u = xcalloc(c, N * m, sizeof *s->truth_u);
-        if (s->truth_u_k == NULL || s->truth_u == NULL) return -1;
+        if (s->truth_u_k == NULL || block_alloc(c, &tb[1], N, m, "steps[0].truth") != 0)
+            return -1;
+        s->truth_u = tb[1].v;
         s->ntruth_u = N;
         s->m_u = m;
     }
@@ -1202,23 +1436,19 @@ static int steps_truth(ctx_t *c, dkf_scenario_t *s, const json_t *steps, size_t 
         const json_t *t = json_object_get(json_array_get(steps, j), "truth");
         for (i = 0; i < 2; ++i) {
             const char *key = i == 0 ? "x" : ukey;
-            const size_t dim = i == 0 ? s->n : m;
-            double *dst = i == 0 ? s->truth_x : s->truth_u;
             long *kd = i == 0 ? s->truth_k : s->truth_u_k;
             size_t len;
             double *v;
-            if (dst == NULL) continue;
+            int rc;
+            if (tb[i].v == NULL) continue;
             pathf(p, "steps[%zu].truth.%s", j, key);
             if (json_object_get(t, key) == NULL)
                 return fail(c, p, "missing key (steps[0] has it, so every step needs it)");
             if (parse_vector(c, json_object_get(t, key), p, &len, &v) != 0) return -1;
-            if (len != dim) {
-                free(v);
-                return fail(c, p, "expected a vector of %zu values, got %zu", dim, len);
-            }
-            memcpy(dst + j * dim, v, dim * sizeof *v);
-            kd[j] = s->k_first + (long)j;
+            rc = store(c, p, &tb[i], j, v, len);
             free(v);
+            if (rc != 0) return -1;
+            kd[j] = s->k_first + (long)j;
         }
     }
     return 0;
@@ -1278,8 +1508,10 @@ static int steps_weights(ctx_t *c, dkf_scenario_t *s, const json_t *root, const 
         subidx(p, skey, i);
         if (!json_is_array(t) || json_array_size(t) != 3)
             return fail(c, p, "expected a triplet [i, j, value], got %s", json_kind(t));
-        if (get_integer(c, json_array_get(t, 0), p, &a) != 0) return -1;
-        if (get_integer(c, json_array_get(t, 1), p, &b) != 0) return -1;
+        if (get_integer(c, json_array_get(t, 0), p, -DKF_SCN_MAX_TIME, DKF_SCN_MAX_TIME, &a) != 0)
+            return -1;
+        if (get_integer(c, json_array_get(t, 1), p, -DKF_SCN_MAX_TIME, DKF_SCN_MAX_TIME, &b) != 0)
+            return -1;
         if (a < 0 || b < 0 || (size_t)a >= N || (size_t)b >= N)
             return fail(c, p, "node index out of range 0..%zu", N - 1);
         if (!json_is_number(json_array_get(t, 2)))
@@ -1310,6 +1542,9 @@ static int steps_network(ctx_t *c, dkf_scenario_t *s, const json_t *root)
     if (!json_is_array(edges))
         return fail(c, "graph.edges", "expected a list of [i, j] pairs, got %s", json_kind(edges));
     net->E = json_array_size(edges);
+    if (net->E > N * (N - 1) / 2)
+        return fail(c, "graph.edges", "%zu edges, more than a simple graph on %zu nodes has",
+                    net->E, N);
     if ((net->edges = xcalloc(c, 2 * net->E, sizeof *net->edges)) == NULL) return -1;
     for (e = 0; e < net->E; ++e) {
         const json_t *pr = json_array_get(edges, e);
@@ -1319,7 +1554,9 @@ static int steps_network(ctx_t *c, dkf_scenario_t *s, const json_t *root)
             return fail(c, p, "expected a pair [i, j], got %s", json_kind(pr));
         for (i = 0; i < 2; ++i) {
             long v;
-            if (get_integer(c, json_array_get(pr, i), p, &v) != 0) return -1;
+            if (get_integer(c, json_array_get(pr, i), p, -DKF_SCN_MAX_TIME, DKF_SCN_MAX_TIME, &v)
+                != 0)
+                return -1;
             if (v < 0 || (size_t)v >= N)
                 return fail(c, p, "node index %ld out of range 0..%zu (model.H has %zu nodes)", v,
                             N - 1, N);
@@ -1333,8 +1570,7 @@ static int steps_network(ctx_t *c, dkf_scenario_t *s, const json_t *root)
         return -1;
     eta = json_object_get(root, "eta");
     if (eta != NULL) {
-        if (get_integer(c, eta, "eta", &net->eta) != 0) return -1;
-        if (net->eta < 0) return fail(c, "eta", "expected an integer >= 0, got %ld", net->eta);
+        if (get_integer(c, eta, "eta", 0.0, (double)DKF_TW_MAX_ETA, &net->eta) != 0) return -1;
     }
     return 0;
 }
@@ -1393,11 +1629,17 @@ static int steps_validate(ctx_t *c, dkf_scenario_t *s, size_t *m_out)
     }
     for (l = 0; l < s->nsensors; ++l) {
         const dkf_scn_mat_t *Hl = dkf_scn_sensor_model(s, l, "H"), *Sw;
+        if (Hl == NULL)
+            return fail(c, "model.H", "missing key (seed-003 files give one H per node, in "
+                        "model or in every step's inputs)");
         if (Hl->cols != n) return shape_error(c, Hl->path, Hl->rows, n, Hl->rows, Hl->cols);
         if (Hl->rows > DKF_MAX_DIM)
             return fail(c, Hl->path, "dimension %zu exceeds DKF_MAX_DIM = %d", Hl->rows,
                         DKF_MAX_DIM);
         Sw = dkf_scn_sensor_model(s, l, "Sw");
+        if (Sw == NULL)
+            return fail(c, "model.Sw", "missing key (one Sw per node, in model or in every "
+                        "step's inputs)");
         if (Sw->rows != Hl->rows || Sw->cols != Hl->rows)
             return shape_error(c, Sw->path, Hl->rows, Hl->rows, Sw->rows, Sw->cols);
         if (s->sensors[l].m != Hl->rows) {
@@ -1421,6 +1663,8 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
         return fail(c, "steps", "expected a non-empty list of step objects, got %s",
                     json_kind(steps));
     N = s->steps = json_array_size(steps);
+    if (N > DKF_SCN_MAX_STEPS)
+        return fail(c, "steps", "%zu steps, more than the %lu allowed", N, DKF_SCN_MAX_STEPS);
     for (j = 0; j < N; ++j) {
         char p[PATH_LEN];
         if (steps_time(c, json_array_get(steps, j), j, &k) != 0) return -1;
@@ -1435,19 +1679,30 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
                         s->k_first + (long)j);
         }
     }
-    if (model == NULL) return fail(c, "model", "missing key");
-    if (!json_is_object(model))
+    /* a time-varying file may give every matrix per step: no model, or null */
+    if (json_is_null(model)) model = NULL;
+    if (model != NULL && !json_is_object(model))
         return fail(c, "model", "expected an object, got %s", json_kind(model));
     if (init == NULL) return fail(c, "init", "missing key");
     if (!json_is_object(init)) return fail(c, "init", "expected an object, got %s", json_kind(init));
     if (json_object_get(root, "graph") != NULL) {
         const json_t *H = json_object_get(model, "H");
+        const char *hkey = "model.H";
         s->family = DKF_SCN_FAMILY_TW;
         s->multi = 1;
+        if (H == NULL) {
+            H = json_object_get(json_object_get(json_array_get(steps, 0), "inputs"), "H");
+            hkey = "steps[0].inputs.H";
+        }
+        if (H == NULL)
+            return fail(c, "model.H", "missing key (seed-003 files give one H per node, in "
+                        "model or in every step's inputs)");
         if (!json_is_array(H) || json_array_size(H) == 0)
-            return fail(c, "model.H", "%s (seed-003 files give one H per node)",
-                        H == NULL ? "missing key" : "expected a list of matrices");
+            return fail(c, hkey, "expected a list of matrices (one per node)");
         s->nsensors = json_array_size(H);
+        if (s->nsensors > DKF_SCN_MAX_SENSORS)
+            return fail(c, hkey, "%zu nodes, more than the %lu allowed", s->nsensors,
+                        DKF_SCN_MAX_SENSORS);
     } else {
         s->family = DKF_SCN_FAMILY_UIF;
         s->nsensors = 1;
@@ -1470,6 +1725,7 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
     if (require_shape(c, dkf_scn_init(s, "x00"), "init.x0", s->n, 1) != 0) return -1;
     if (require_shape(c, dkf_scn_init(s, "P00"), "init.P0", s->n, s->n) != 0) return -1;
     if (require_single(c, dkf_scn_init(s, "P00"), "init.P0", s->n) != 0) return -1;
+    if (check_covariances(c, s) != 0) return -1;
     if (s->family == DKF_SCN_FAMILY_TW && steps_network(c, s, root) != 0) return -1;
     if (alloc_runs(c, s, 1) != 0) return -1;
     adopt_y(s, 0);
@@ -1481,61 +1737,83 @@ static int load_steps(ctx_t *c, dkf_scenario_t *s, const json_t *root)
 
 /* ---- public API ---------------------------------------------------------------- */
 
-dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
-                                  size_t errlen)
+/* The scenario of a parsed document (takes the reference to root). */
+static dkf_scenario_t *load_root(ctx_t *c, json_t *root, const json_error_t *je,
+                                 const char *case_sel)
 {
-    ctx_t c;
-    json_error_t je;
-    json_t *root;
     dkf_scenario_t *s;
     int rc;
-
-    c.file = path != NULL ? path : "(null)";
-    c.err = err;
-    c.errlen = errlen;
-    if (err != NULL && errlen > 0) err[0] = '\0';
-    if (path == NULL) {
-        fail(&c, NULL, "no scenario file given");
-        return NULL;
-    }
-    root = json_load_file(path, JSON_REJECT_DUPLICATES, &je);
     if (root == NULL) {
-        if (je.line <= 0)
-            fail(&c, NULL, "cannot read: %s", je.text);
+        if (je->line <= 0)
+            fail(c, NULL, "cannot read: %s", je->text);
         else
-            fail(&c, NULL, "invalid JSON at line %d, column %d: %s", je.line, je.column, je.text);
+            fail(c, NULL, "invalid JSON at line %d, column %d: %s", je->line, je->column, je->text);
         return NULL;
     }
     if (!json_is_object(root)) {
-        fail(&c, NULL, "expected a JSON object at the top level, got %s", json_kind(root));
+        fail(c, NULL, "expected a JSON object at the top level, got %s", json_kind(root));
         json_decref(root);
         return NULL;
     }
     s = calloc(1, sizeof *s);
-    if (s == NULL || (s->file = dupstr(path)) == NULL) {
+    if (s == NULL || (s->file = dupstr(c->file)) == NULL) {
         free(s);
         json_decref(root);
-        fail(&c, NULL, "out of memory");
+        fail(c, NULL, "out of memory");
         return NULL;
     }
     s->root = root;
     s->k_first = 1;
     if (json_object_get(root, "cases") != NULL) {
-        rc = load_cases(&c, s, root, case_sel);
+        rc = load_cases(c, s, root, case_sel);
     } else if (case_sel != NULL) {
-        rc = fail(&c, "cases", "--case given but the file has no cases (%s layout)",
+        rc = fail(c, "cases", "--case given but the file has no cases (%s layout)",
                   json_object_get(root, "steps") != NULL ? "steps" : "canonical");
     } else if (json_object_get(root, "steps") != NULL && json_object_get(root, "y") == NULL &&
                json_object_get(root, "runs") == NULL) {
-        rc = load_steps(&c, s, root);
+        rc = load_steps(c, s, root);
     } else {
-        rc = load_canonical(&c, s, root);
+        rc = load_canonical(c, s, root);
     }
     if (rc != 0) {
         dkf_scenario_free(s);
         return NULL;
     }
     return s;
+}
+
+static void ctx_init(ctx_t *c, const char *file, char *err, size_t errlen)
+{
+    c->file = file != NULL ? file : "(null)";
+    c->err = err;
+    c->errlen = errlen;
+    if (err != NULL && errlen > 0) err[0] = '\0';
+}
+
+dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
+                                  size_t errlen)
+{
+    ctx_t c;
+    json_error_t je;
+    ctx_init(&c, path, err, errlen);
+    if (path == NULL) {
+        fail(&c, NULL, "no scenario file given");
+        return NULL;
+    }
+    return load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
+}
+
+dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
+                                         const char *case_sel, char *err, size_t errlen)
+{
+    ctx_t c;
+    json_error_t je;
+    ctx_init(&c, name, err, errlen);
+    if (buf == NULL) {
+        fail(&c, NULL, "no scenario buffer given");
+        return NULL;
+    }
+    return load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
 }
 
 void dkf_scenario_free(dkf_scenario_t *s)

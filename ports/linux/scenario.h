@@ -31,6 +31,17 @@
 
 #define DKF_SCN_ERR_LEN 1024
 
+/* Limits on what a file can ask for (docs/scenario-format.md, "Limits").
+ * Every count that sizes a loop or an allocation is one of these, the
+ * length of a list in the file, or a matrix dimension (<= DKF_MAX_DIM);
+ * a file above a limit is refused with a one-line message. */
+#define DKF_SCN_MAX_STEPS 1000000UL  /* N, the `k` list, the steps list */
+#define DKF_SCN_MAX_TIMES (DKF_SCN_MAX_STEPS + 3) /* per_k, y, truth: k = 0..N+2 */
+#define DKF_SCN_MAX_RUNS 100000UL    /* `runs` */
+#define DKF_SCN_MAX_SENSORS 4096UL   /* sensors, cases' C list, seed-003 nodes */
+#define DKF_SCN_MAX_TIME 9007199254740992.0 /* 2^53: times k are 0..2^53 */
+/* eta (seed 003) is at most DKF_TW_MAX_ETA (dkf/tw.h). */
+
 typedef enum {
     DKF_SCN_LAYOUT_CANONICAL = 0, /* model / init / y (diffkf vectors) */
     DKF_SCN_LAYOUT_CASES = 1,     /* cases[].steps[] (infofusion vectors) */
@@ -157,6 +168,10 @@ typedef struct {
  * canonical file. Returns NULL and fills err on any problem. */
 dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
                                   size_t errlen);
+/* The same from len bytes at buf (need not be NUL-terminated; e.g. a fuzz
+ * input); name labels the messages and becomes s->file. */
+dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
+                                         const char *case_sel, char *err, size_t errlen);
 void dkf_scenario_free(dkf_scenario_t *s);
 
 /* Matrix `name` of the global model, of sensor i (falling back to the

@@ -185,8 +185,10 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
         const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
-        to_mat(&c->mH[l], c->H + l * c->pmax * c->n, H->data, H->rows, c->n);
-        to_mat(&c->mSw[l], c->Sw + l * c->pmax * c->pmax, Sw->data, Sw->rows, Sw->rows);
+        to_mat(&c->mH[l], c->H + l * c->pmax * c->n, dkf_scn_at(H, (size_t)s->k_first),
+               H->rows, c->n);
+        to_mat(&c->mSw[l], c->Sw + l * c->pmax * c->pmax, dkf_scn_at(Sw, (size_t)s->k_first),
+               Sw->rows, Sw->rows);
         c->sens[l].H = &c->mH[l];
         c->sens[l].Sw = &c->mSw[l];
         c->sens[l].y = &c->my[l];
@@ -215,8 +217,15 @@ static void load_step(ctx_t *c, const dkf_scenario_t *s, long k)
     c->model.A = &c->mA;
     c->model.B = &c->mB;
     c->model.Sv = &c->mSv;
-    for (l = 0; l < c->N; ++l)
+    for (l = 0; l < c->N; ++l) {
+        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
+        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
+        /* per node H_l, Sw_l of time k (constant, or given per step) */
+        to_mat(&c->mH[l], c->H + l * c->pmax * c->n, dkf_scn_at(H, (size_t)k), H->rows, c->n);
+        to_mat(&c->mSw[l], c->Sw + l * c->pmax * c->pmax, dkf_scn_at(Sw, (size_t)k), Sw->rows,
+               Sw->rows);
         to_mat(&c->my[l], c->y + l * c->pmax, dkf_scn_y(s, l, k), s->sensors[l].m, 1);
+    }
 }
 
 /* ---- recording ------------------------------------------------------------------ */

@@ -7,7 +7,13 @@ set(_dkf_consumer_args
   -DDKF_CONSUMER_SOURCE=${CMAKE_CURRENT_LIST_DIR}
   -DDKF_WORK_DIR=${CMAKE_BINARY_DIR}/consumer-test
   -DDKF_C_COMPILER=${CMAKE_C_COMPILER}
-  -DDKF_CONFIG=$<CONFIG>)
+  -DDKF_CONFIG=$<CONFIG>
+  -DDKF_SOURCE_DIR=${PROJECT_SOURCE_DIR}
+  -DDKF_MAX_DIM=${DKF_MAX_DIM}
+  -DDKF_REAL=${DKF_REAL}
+  -DDKF_JOSEPH=${DKF_JOSEPH}
+  -DDKF_SANITIZE=${DKF_SANITIZE}
+  -DDKF_BUILD_PORTS=${DKF_BUILD_PORTS})
 if(CMAKE_TOOLCHAIN_FILE)
   get_filename_component(_dkf_tc "${CMAKE_TOOLCHAIN_FILE}" ABSOLUTE BASE_DIR "${CMAKE_SOURCE_DIR}")
   list(APPEND _dkf_consumer_args -DDKF_TOOLCHAIN_FILE=${_dkf_tc})
@@ -19,4 +25,5 @@ if(CMAKE_CROSSCOMPILING_EMULATOR)
 endif()
 add_test(NAME install_consumer
   COMMAND ${CMAKE_COMMAND} ${_dkf_consumer_args} -P ${CMAKE_CURRENT_LIST_DIR}/run_consumer.cmake)
-set_tests_properties(install_consumer PROPERTIES TIMEOUT 300 RESOURCE_LOCK dkf_consumer_dir)
+# (It also builds the library once more, with another DKF_MAX_DIM.)
+set_tests_properties(install_consumer PROPERTIES TIMEOUT 600 RESOURCE_LOCK dkf_consumer_dir)

@@ -18,7 +18,16 @@
 #include <math.h>
 #include <stdio.h>
 
+#include "dkf/diffkf_fusion.h"
 #include "dkf/kf.h"
+
+#ifdef CONSUMER_EXPECT_MAX_DIM
+/* The installed headers give the library's DKF_MAX_DIM, so the message
+ * layout is the library's. */
+DKF_STATIC_ASSERT(DKF_MAX_DIM == CONSUMER_EXPECT_MAX_DIM, max_dim_is_the_built_one);
+DKF_STATIC_ASSERT(sizeof(((dkf_diffkf_msg_t *)0)->xf) == CONSUMER_EXPECT_MAX_DIM * sizeof(dkf_real_t),
+                  message_layout_is_the_built_one);
+#endif
 
 #define STEPS 8
 
@@ -61,14 +70,14 @@ int main(void)
      * real type relative; 1e3 epsilons (1.2e-4 in float, 2.2e-13 in
      * double) is far above that and far below any modelling error. */
     const double tol = 1e3 * (double)DKF_REAL_EPSILON;
-    DKF_KF_DECLARE(kf, 2, 1);
-    DKF_MAT_DECLARE(F, 2, 2);
-    DKF_MAT_DECLARE(Q, 2, 2);
-    DKF_MAT_DECLARE(H, 1, 2);
-    DKF_MAT_DECLARE(R, 1, 1);
-    DKF_MAT_DECLARE(x0, 2, 1);
-    DKF_MAT_DECLARE(P0, 2, 2);
-    DKF_MAT_DECLARE(y, 1, 1);
+    DKF_KF_DECLARE(, kf, 2, 1);
+    DKF_MAT_DECLARE(, F, 2, 2);
+    DKF_MAT_DECLARE(, Q, 2, 2);
+    DKF_MAT_DECLARE(, H, 1, 2);
+    DKF_MAT_DECLARE(, R, 1, 1);
+    DKF_MAT_DECLARE(, x0, 2, 1);
+    DKF_MAT_DECLARE(, P0, 2, 2);
+    DKF_MAT_DECLARE(, y, 1, 1);
     ref_t ref = {0.0, 1.0, 4.0, 0.0, 4.0};
     int ok = 1, k;
 
@@ -99,7 +108,8 @@ int main(void)
         ok &= close_to((double)kf.P.data[1], ref.p01, tol, "P[0][1]", k);
         ok &= close_to((double)kf.P.data[3], ref.p11, tol, "P[1][1]", k);
     }
-    printf("consumer: %s (DKF_USE_FLOAT=%d DKF_JOSEPH=%d) x = [%.6f %.6f]\n", ok ? "ok" : "FAILED",
-           DKF_USE_FLOAT, DKF_JOSEPH, (double)kf.x.data[0], (double)kf.x.data[1]);
+    printf("consumer: %s (DKF_USE_FLOAT=%d DKF_JOSEPH=%d DKF_MAX_DIM=%d) x = [%.6f %.6f]\n",
+           ok ? "ok" : "FAILED", DKF_USE_FLOAT, DKF_JOSEPH, DKF_MAX_DIM, (double)kf.x.data[0],
+           (double)kf.x.data[1]);
     return ok ? 0 : 1;
 }

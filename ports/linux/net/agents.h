@@ -14,16 +14,18 @@
  * or restarted, on the first y^i_{k0} it gets) and, on y^i_{k+1}, completes
  * step k and publishes {x^i_{k|k}, x^i_{k|k-1}} with its previous step's
  * pair. The fusion centre fuses step k once every node's payload of step k
- * is there, or, when the step's deadline passes, publishes it DEGRADED: the
- * centralized DKF given the nodes' rows it could rebuild. A payload of a
- * published step that arrives later (within DKF_NET_CKPT steps) rolls the
- * fusion centre back to a checkpoint and replays.
+ * is there or given up on (the node sent a later step's, or fell silent), or,
+ * when the step's deadline passes, publishes it DEGRADED: the centralized DKF
+ * given the nodes' rows it could rebuild. A payload of a published step that
+ * arrives later (within DKF_NET_CKPT steps) rolls the fusion centre back to a
+ * checkpoint and replays (every replayed step is published again).
  */
 #ifndef DKF_NET_AGENTS_H
 #define DKF_NET_AGENTS_H
 
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include <jansson.h>
 
@@ -33,7 +35,8 @@
 
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
-#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead */
+#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead (it follows
+                                       the arrivals: docs/network.md) */
 #define DKF_NET_CKPT 8              /* published steps a late payload can still revise */
 
 /* Counters every agent keeps (published in its status messages). */
@@ -100,6 +103,10 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         const char *prefix, int64_t deadline_us, char *err,
                                         size_t errlen);
 void dkf_net_fusion_free(dkf_net_fusion_t *fu);
+/* Appends one JSON line per computed step to f (first computation and
+ * every replay; flushed, so the results survive a killed process), after a
+ * header line; f stays the caller's (NULL: no journal). docs/network.md. */
+void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f);
 /* Deadlines (publishes overdue steps DEGRADED) and the heartbeat. */
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us);
 void dkf_net_fusion_report(dkf_net_fusion_t *fu);
@@ -125,7 +132,8 @@ void dkf_net_sim_free(dkf_net_sim_t *sim);
 int dkf_net_sim_publish(dkf_net_sim_t *sim, long j);
 /* The last measurement time to publish: N + 1. */
 long dkf_net_sim_last(const dkf_net_sim_t *sim);
-/* Largest fused step seen on <prefix>_FUSED (0: none). */
+/* Largest fused step seen on <prefix>_FUSED or in the fusion centre's
+ * status (its last published step; 0: none). */
 long dkf_net_sim_fused_k(const dkf_net_sim_t *sim);
 /* 1 when every node and the fusion centre has sent a status with the
  * simulator's model id and not FAILED; else 0 and, if why is given, a

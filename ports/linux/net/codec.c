@@ -2,13 +2,16 @@
  * codec.c - wire messages <-> plain structs (codec.h).
  *
  * lcm-gen's decoders trust the array lengths they read (a negative or huge
- * length makes them allocate or copy out of bounds), so every message is
- * first checked here against the exact wire layout of its lcmtypes/<type>.lcm
- * definition: fingerprint, each length field in range, total size exact.
- * Only then does the generated decoder run. LCM encodes big-endian, one
- * byte per boolean/int8, strings as int32 length (with the NUL) + bytes.
- * The offsets below follow the field order of the .lcm files; the
- * round-trip tests in tests/test_net_codec.c fail if they drift.
+ * length makes them allocate or copy out of bounds; an empty boolean array
+ * makes them memcpy into lcm_malloc(0) == NULL), so every datagram of every
+ * type goes through one path, wire_decode: wire_check walks the type's
+ * layout table (the field order of its lcmtypes/<type>.lcm) over the bytes
+ * -- fingerprint, every length field within the protocol's range and within
+ * the datagram, every boolean 0 or 1, strings NUL-terminated, total size
+ * exact -- and only then does the generated decoder run. LCM encodes
+ * big-endian, one byte per boolean/int8, strings as int32 length (with the
+ * NUL) + bytes. The tables follow the .lcm files; the round-trip tests in
+ * tests/test_net_codec.c fail if they drift.
  */
 #include "codec.h"
 
@@ -22,22 +25,11 @@
 #include "dkf_lcm_node_msg_t.h"
 #include "dkf_lcm_status_t.h"
 #include "dkf_lcm_truth_t.h"
+#include "dkf_lcm_tw_packet_t.h"
 
-/* ---- wire layout ------------------------------------------------------------ */
+/* ---- the one checked path: wire layout, then lcm-gen's decoder ------------------ */
 
-/* Offsets of the length fields (after the 8-byte fingerprint). */
-#define NODE_MSG_N_OFF 48  /* utime model_id node k seq meas_utime | n */
-#define NODE_MSG_HDR 52
-#define NODE_MSG_MID 13    /* after xf[n] xp[n]: epoch k_start has_prev prev_k */
-#define MEAS_M_OFF 40      /* utime model_id node k seq | m */
-#define MEAS_HDR 44
-#define TRUTH_N_OFF 36     /* utime model_id k seq | n */
-#define TRUTH_HDR 40
-#define FUSED_NN_OFF 37    /* utime model_id k seq status | nnodes */
-#define FUSED_TAIL 28      /* after contributed[]: 3 x int64 + n */
-#define FUSED_END 4        /* after the matrices: revision */
-#define STATUS_LEN_OFF 66  /* utime model_id role id state k sent received rejected missed | len */
-#define STATUS_MAX_DETAIL 4096
+#define STATUS_MAX_DETAIL 4096 /* bytes of status_t.detail, with its NUL */
 
 static int64_t be64(const unsigned char *p)
 {
@@ -53,26 +45,165 @@ static int32_t be32(const unsigned char *p)
     return (int32_t)v;
 }
 
-/* The fingerprint every encoded message starts with, from the generated
- * code's own (header-declared) hash functions. */
-static int64_t hash_node_msg(void) { return __dkf_lcm_node_msg_t_get_hash(); }
-static int64_t hash_meas(void) { return __dkf_lcm_measurement_t_get_hash(); }
-static int64_t hash_truth(void) { return __dkf_lcm_truth_t_get_hash(); }
-static int64_t hash_fused(void) { return __dkf_lcm_fused_t_get_hash(); }
-static int64_t hash_status(void) { return __dkf_lcm_status_t_get_hash(); }
+/* One field of a lcmtypes/<type>.lcm struct, in wire order. */
+typedef enum {
+    W_I8,     /* int8_t */
+    W_BOOL,   /* boolean: one byte, 0 or 1 */
+    W_I32,    /* int32_t */
+    W_I64,    /* int64_t, double */
+    W_COUNT,  /* int32_t array length, in [lo, hi]; kept in count[slot] */
+    W_BOOLS,  /* boolean[count[slot]] */
+    W_F64S,   /* double[count[slot]] */
+    W_F64SQ,  /* double[count[slot]][count[slot]] */
+    W_STRING  /* int32_t length in [lo, hi] (with the NUL), bytes, the last one NUL */
+} wire_kind_t;
 
-/* 0 if buf starts with fingerprint h and has at least hdr bytes. */
-static int check_head(const unsigned char *b, size_t len, size_t hdr, int64_t h)
+typedef struct {
+    wire_kind_t kind;
+    int slot;
+    long lo, hi;
+} wire_field_t;
+
+#define WIRE_NSLOTS 2
+
+typedef struct {
+    int64_t (*hash)(void);       /* the fingerprint the datagram starts with */
+    const wire_field_t *f;
+    size_t nf;
+    size_t size;                 /* of the generated struct */
+    int (*decode)(const void *buf, int len, void *w); /* lcm-gen's, on the whole datagram */
+    void (*cleanup)(void *w);
+} wire_type_t;
+
+/* A field of n bytes at b fits in room bytes: *used = n. */
+static int wire_take(size_t n, size_t room, size_t *used)
 {
-    return (b != NULL && len >= hdr && be64(b) == h) ? 0 : -1;
+    *used = n;
+    return room >= n ? 0 : -1;
 }
 
-/* An array length read from the wire: in [0, cap], else -1. */
-static long wire_count(const unsigned char *p, long cap)
+/* 0 and *used = the bytes field f takes at b (room bytes to the end of the
+ * datagram), or -1 if it does not fit or breaks the protocol's limits. */
+static int wire_field(const wire_field_t *f, const unsigned char *b, size_t room, long *count,
+                      size_t *used)
 {
-    int32_t v = be32(p);
-    return (v < 0 || v > cap) ? -1 : (long)v;
+    size_t i;
+    long v;
+    switch (f->kind) {
+    case W_I8: return wire_take(1, room, used);
+    case W_BOOL: return wire_take(1, room, used) == 0 && b[0] <= 1 ? 0 : -1;
+    case W_I32: return wire_take(4, room, used);
+    case W_I64: return wire_take(8, room, used);
+    case W_COUNT:
+    case W_STRING:
+        if (room < 4) return -1;
+        v = (long)be32(b);
+        if (v < f->lo || v > f->hi) return -1;
+        if (f->kind == W_COUNT) {
+            count[f->slot] = v;
+            return wire_take(4, room, used);
+        }
+        /* an LCM string's length counts its NUL, which must be its last byte */
+        if (v < 1 || wire_take(4 + (size_t)v, room, used) != 0) return -1;
+        return b[4 + v - 1] == '\0' ? 0 : -1;
+    case W_BOOLS:
+        /* lcm-gen copies it with memcpy into lcm_malloc(0) == NULL if empty */
+        if (count[f->slot] == 0 || wire_take((size_t)count[f->slot], room, used) != 0) return -1;
+        for (i = 0; i < *used; ++i)
+            if (b[i] > 1) return -1;
+        return 0;
+    case W_F64S: return wire_take(8 * (size_t)count[f->slot], room, used);
+    case W_F64SQ: return wire_take(8 * (size_t)count[f->slot] * (size_t)count[f->slot], room, used);
+    }
+    return -1;
 }
+
+/* 0 if buf holds exactly one message of type t within the protocol's
+ * limits; count[] then holds its length fields. Every bound a table sets
+ * is <= DKF_NET_MAX_NODES, DKF_NET_TW_MAX_LEN or STATUS_MAX_DETAIL, so no
+ * size here overflows. */
+static int wire_check(const wire_type_t *t, const unsigned char *b, size_t len, long *count)
+{
+    size_t pos = 8, i, used;
+    if (b == NULL || len < 8 || len > 0x7fffffff || be64(b) != t->hash()) return -1;
+    for (i = 0; i < t->nf; ++i) {
+        if (wire_field(&t->f[i], b + pos, len - pos, count, &used) != 0) return -1;
+        pos += used;
+    }
+    return pos == len ? 0 : -1;
+}
+
+/* The one path from wire bytes to a generated struct w (every decoder of
+ * network input takes it): the layout check, then lcm-gen's decoder, which
+ * must take every byte. 0 (then w is to be cleaned up with t->cleanup), or
+ * -1: MALFORMED, nothing to clean up. */
+static int wire_decode(const wire_type_t *t, const void *buf, size_t len, void *w, long *count)
+{
+    if (wire_check(t, buf, len, count) != 0) return -1;
+    memset(w, 0, t->size);
+    if (t->decode(buf, (int)len, w) != (int)len) {
+        t->cleanup(w);
+        return -1;
+    }
+    return 0;
+}
+
+/* lcm-gen's decoder and cleanup of type T as wire_type_t wants them. */
+#define WIRE_GLUE(T)                                                                \
+    static int decode_##T(const void *buf, int len, void *w)                        \
+    {                                                                               \
+        return dkf_lcm_##T##_decode(buf, 0, len, (dkf_lcm_##T *)w);                 \
+    }                                                                               \
+    static void cleanup_##T(void *w) { (void)dkf_lcm_##T##_decode_cleanup((dkf_lcm_##T *)w); }
+WIRE_GLUE(node_msg_t)
+WIRE_GLUE(measurement_t)
+WIRE_GLUE(truth_t)
+WIRE_GLUE(fused_t)
+WIRE_GLUE(status_t)
+WIRE_GLUE(tw_packet_t)
+
+#define WIRE_TYPE(T, fields)                                                          \
+    {                                                                                 \
+        __dkf_lcm_##T##_get_hash, fields, sizeof fields / sizeof fields[0],           \
+            sizeof(dkf_lcm_##T), decode_##T, cleanup_##T                              \
+    }
+
+/* The tables: one row per field of lcmtypes/<type>.lcm (after the 8-byte
+ * fingerprint). No array of the protocol is empty, except v of a DONE
+ * graph-filter packet (doubles: lcm-gen copies none). */
+static const wire_field_t node_msg_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},                                     /* seq meas_utime */
+    {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}, {W_F64S, 0, 0, 0},     /* n xf xp */
+    {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_BOOL, 0, 0, 0}, {W_I32, 0, 0, 0}, /* epoch k_start has_prev prev_k */
+    {W_F64S, 0, 0, 0}, {W_F64S, 0, 0, 0}};                                  /* prev_xf prev_xp */
+static const wire_field_t measurement_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
+    {W_I64, 0, 0, 0}, {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}};     /* seq m y */
+static const wire_field_t truth_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I64, 0, 0, 0}, /* utime model_id k seq */
+    {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}};                       /* n x */
+static const wire_field_t fused_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I64, 0, 0, 0}, /* utime model_id k seq */
+    {W_I8, 0, 0, 0}, {W_COUNT, 0, 1, DKF_NET_MAX_NODES}, {W_BOOLS, 0, 0, 0}, /* status nnodes contributed */
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},                   /* meas_utime_first/last msg_utime_last */
+    {W_COUNT, 1, 1, DKF_MAX_DIM}, {W_F64S, 1, 0, 0}, {W_F64S, 1, 0, 0},     /* n xf xp */
+    {W_F64SQ, 1, 0, 0}, {W_F64SQ, 1, 0, 0}, {W_I32, 0, 0, 0}};              /* Pf Pp revision */
+static const wire_field_t status_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I8, 0, 0, 0}, {W_I32, 0, 0, 0},  /* utime model_id role id */
+    {W_I8, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},  /* state k sent received */
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_STRING, 0, 1, STATUS_MAX_DETAIL}}; /* rejected missed detail */
+static const wire_field_t tw_packet_fields[] = {
+    {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
+    {W_I32, 0, 0, 0}, {W_I8, 0, 0, 0}, {W_BOOL, 0, 0, 0},                   /* round kind retransmit */
+    {W_COUNT, 0, 0, DKF_NET_TW_MAX_LEN}, {W_F64S, 0, 0, 0}};                /* len v */
+
+static const wire_type_t node_msg_wire = WIRE_TYPE(node_msg_t, node_msg_fields);
+static const wire_type_t measurement_wire = WIRE_TYPE(measurement_t, measurement_fields);
+static const wire_type_t truth_wire = WIRE_TYPE(truth_t, truth_fields);
+static const wire_type_t fused_wire = WIRE_TYPE(fused_t, fused_fields);
+static const wire_type_t status_wire = WIRE_TYPE(status_t, status_fields);
+static const wire_type_t tw_packet_wire = WIRE_TYPE(tw_packet_t, tw_packet_fields);
 
 /* ---- verdicts ---------------------------------------------------------------- */
 
@@ -194,22 +325,12 @@ dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
                                           dkf_diffkf_msg_t *prev, dkf_net_meta_t *meta,
                                           dkf_net_rejects_t *rej)
 {
-    const unsigned char *b = buf;
     dkf_lcm_node_msg_t w;
     dkf_net_verdict_t v;
-    long n;
-    if (check_head(b, len, NODE_MSG_HDR, hash_node_msg()) != 0)
+    long count[WIRE_NSLOTS], n;
+    if (wire_decode(&node_msg_wire, buf, len, &w, count) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
-    n = wire_count(b + NODE_MSG_N_OFF, DKF_MAX_DIM);
-    if (n < 0 || len != NODE_MSG_HDR + NODE_MSG_MID + 32 * (size_t)n)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    /* has_prev is an LCM boolean: one byte, 0 or 1 */
-    if (b[NODE_MSG_HDR + 16 * (size_t)n + 8] > 1) return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_node_msg_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_node_msg_t_decode_cleanup(&w);
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
+    n = count[0];
     v = check_envelope(ex, w.node, w.model_id, w.n, ex->n, w.k);
     if (v == DKF_NET_ACCEPT) v = check_epoch(&w, (size_t)n);
     if (v == DKF_NET_ACCEPT) {
@@ -247,18 +368,12 @@ int dkf_net_encode_meas(void *buf, size_t cap, size_t *len, const dkf_net_meas_t
 dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net_expect_t *ex,
                                       dkf_net_meas_t *meas, dkf_net_rejects_t *rej)
 {
-    const unsigned char *b = buf;
     dkf_lcm_measurement_t w;
     dkf_net_verdict_t v;
-    long m;
-    if (check_head(b, len, MEAS_HDR, hash_meas()) != 0) return reject(rej, DKF_NET_REJ_MALFORMED);
-    m = wire_count(b + MEAS_M_OFF, DKF_MAX_DIM);
-    if (m < 0 || len != MEAS_HDR + 8 * (size_t)m) return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_measurement_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_measurement_t_decode_cleanup(&w);
+    long count[WIRE_NSLOTS], m;
+    if (wire_decode(&measurement_wire, buf, len, &w, count) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
+    m = count[0];
     v = check_envelope(ex, w.node, w.model_id, 0, 0, w.k);
     if (v == DKF_NET_ACCEPT && (ex->m == NULL || (size_t)w.m != ex->m[w.node]))
         v = DKF_NET_REJ_DIM;
@@ -295,18 +410,12 @@ int dkf_net_encode_truth(void *buf, size_t cap, size_t *len, const dkf_net_truth
 dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_net_expect_t *ex,
                                        dkf_net_truth_t *t, dkf_net_rejects_t *rej)
 {
-    const unsigned char *b = buf;
     dkf_lcm_truth_t w;
     dkf_net_verdict_t v = DKF_NET_ACCEPT;
-    long n;
-    if (check_head(b, len, TRUTH_HDR, hash_truth()) != 0) return reject(rej, DKF_NET_REJ_MALFORMED);
-    n = wire_count(b + TRUTH_N_OFF, DKF_MAX_DIM);
-    if (n < 0 || len != TRUTH_HDR + 8 * (size_t)n) return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_truth_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_truth_t_decode_cleanup(&w);
+    long count[WIRE_NSLOTS], n;
+    if (wire_decode(&truth_wire, buf, len, &w, count) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
+    n = count[0];
     if (w.model_id != ex->model_id) v = DKF_NET_REJ_MODEL;
     else if ((size_t)n != ex->n) v = DKF_NET_REJ_DIM;
     else if (w.k < 0 || w.k > ex->kmax) v = DKF_NET_REJ_STEP;
@@ -331,7 +440,8 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
     dkf_lcm_fused_t w;
     int8_t contributed[DKF_NET_MAX_NODES];
     size_t i;
-    if (f->n == 0 || f->n > DKF_MAX_DIM || f->nnodes > DKF_NET_MAX_NODES || cap > 0x7fffffff)
+    if (f->n == 0 || f->n > DKF_MAX_DIM || f->nnodes == 0 || f->nnodes > DKF_NET_MAX_NODES ||
+        cap > 0x7fffffff)
         return -1;
     for (i = 0; i < f->nnodes; ++i) contributed[i] = f->contributed[i] ? 1 : 0;
     w.utime = f->meta.utime;
@@ -364,25 +474,14 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
 dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_net_expect_t *ex,
                                        dkf_net_fused_t *f, dkf_net_rejects_t *rej)
 {
-    const unsigned char *b = buf;
     dkf_lcm_fused_t w;
     dkf_net_verdict_t v = DKF_NET_ACCEPT;
-    long nn, n;
-    size_t i, hdr;
-    if (check_head(b, len, FUSED_NN_OFF + 4, hash_fused()) != 0)
+    long count[WIRE_NSLOTS], nn, n;
+    size_t i;
+    if (wire_decode(&fused_wire, buf, len, &w, count) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
-    nn = wire_count(b + FUSED_NN_OFF, DKF_NET_MAX_NODES);
-    if (nn < 0) return reject(rej, DKF_NET_REJ_MALFORMED);
-    hdr = FUSED_NN_OFF + 4 + (size_t)nn + FUSED_TAIL;
-    if (len < hdr) return reject(rej, DKF_NET_REJ_MALFORMED);
-    n = wire_count(b + hdr - 4, DKF_MAX_DIM);
-    if (n < 0 || len != hdr + 8 * (2 * (size_t)n + 2 * (size_t)n * (size_t)n) + FUSED_END)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_fused_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_fused_t_decode_cleanup(&w);
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
+    nn = count[0];
+    n = count[1];
     if ((size_t)nn != ex->nnodes) v = DKF_NET_REJ_NODE;
     else if (w.model_id != ex->model_id) v = DKF_NET_REJ_MODEL;
     else if ((size_t)n != ex->n) v = DKF_NET_REJ_DIM;
@@ -405,7 +504,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
         f->degraded = w.status == DKF_LCM_FUSED_T_DEGRADED;
         f->revision = w.revision;
         f->nnodes = (size_t)nn;
-        for (i = 0; i < (size_t)nn; ++i) f->contributed[i] = w.contributed[i] ? 1 : 0;
+        for (i = 0; i < (size_t)nn; ++i) f->contributed[i] = (unsigned char)w.contributed[i];
         f->meas_utime_first = w.meas_utime_first;
         f->meas_utime_last = w.meas_utime_last;
         f->msg_utime_last = w.msg_utime_last;
@@ -447,20 +546,10 @@ int dkf_net_encode_status(void *buf, size_t cap, size_t *len, const dkf_net_stat
 dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
                                         dkf_net_rejects_t *rej)
 {
-    const unsigned char *b = buf;
     dkf_lcm_status_t w;
-    long sl;
-    if (check_head(b, len, STATUS_LEN_OFF + 4, hash_status()) != 0)
+    long count[WIRE_NSLOTS];
+    if (wire_decode(&status_wire, buf, len, &w, count) != 0)
         return reject(rej, DKF_NET_REJ_MALFORMED);
-    sl = wire_count(b + STATUS_LEN_OFF, STATUS_MAX_DETAIL);
-    /* the string's length counts its NUL, which must be its last byte */
-    if (sl < 1 || len != STATUS_LEN_OFF + 4 + (size_t)sl || b[len - 1] != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_status_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_status_t_decode_cleanup(&w);
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
     st->utime = w.utime;
     st->model_id = w.model_id;
     st->role = w.role;
@@ -473,6 +562,46 @@ dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_sta
     st->missed = w.missed;
     snprintf(st->detail, sizeof st->detail, "%s", w.detail);
     dkf_lcm_status_t_decode_cleanup(&w);
+    return DKF_NET_ACCEPT;
+}
+
+/* ---- graph-filter packet (the wire side of tw_agent.h) ---------------------------- */
+
+int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_wire_t *p)
+{
+    dkf_lcm_tw_packet_t w;
+    if (p->len > DKF_NET_TW_MAX_LEN || cap > 0x7fffffff) return -1;
+    w.utime = p->utime;
+    w.model_id = p->model_id;
+    w.node = (int32_t)p->node;
+    w.k = (int32_t)p->k;
+    w.round = (int32_t)p->round;
+    w.kind = (int8_t)p->kind;
+    w.retransmit = (int8_t)(p->retransmit != 0);
+    w.len = (int32_t)p->len;
+    w.v = (double *)p->v;
+    return encoded(dkf_lcm_tw_packet_t_encode(buf, 0, (int)cap, &w), len);
+}
+
+dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, dkf_net_tw_wire_t *p)
+{
+    dkf_lcm_tw_packet_t w;
+    long count[WIRE_NSLOTS];
+    if (wire_decode(&tw_packet_wire, buf, len, &w, count) != 0) return DKF_NET_REJ_MALFORMED;
+    if (w.kind < 0 || w.kind > 2) {
+        dkf_lcm_tw_packet_t_decode_cleanup(&w);
+        return DKF_NET_REJ_MALFORMED;
+    }
+    p->utime = w.utime;
+    p->model_id = w.model_id;
+    p->node = w.node;
+    p->k = w.k;
+    p->round = w.round;
+    p->kind = w.kind;
+    p->retransmit = w.retransmit;
+    p->len = (size_t)count[0];
+    if (p->len > 0) memcpy(p->v, w.v, p->len * sizeof(double)); /* len 0: w.v is NULL */
+    dkf_lcm_tw_packet_t_decode_cleanup(&w);
     return DKF_NET_ACCEPT;
 }
 

@@ -7,7 +7,11 @@
  * (model id, sequence number, time stamps: dkf_net_meta_t). Every decoder
  * checks, in this order, and returns the first verdict that fails:
  *   MALFORMED  truncated bytes, trailing bytes, wrong type fingerprint,
- *              negative array length, negative epoch, a flag not 0/1
+ *              an array length outside the protocol's range (n, m in
+ *              1..DKF_MAX_DIM, nnodes in 1..DKF_NET_MAX_NODES, a status
+ *              detail of 1..4096 bytes with its NUL last, a graph-filter
+ *              packet of 0..DKF_NET_TW_MAX_LEN reals) or one the datagram
+ *              does not hold, negative epoch, a flag (boolean) not 0/1
  *   NODE       node id outside 0..nnodes-1, or not the channel's node
  *   MODEL      model id differs from the receiver's scenario model
  *   DIM        n (or m) is not the receiver's dimension
@@ -16,6 +20,12 @@
  *   NONFINITE  NaN/Inf, also after conversion to dkf_real_t (float build)
  * and counts each rejection in a dkf_net_rejects_t. Outputs are written
  * only on DKF_NET_ACCEPT.
+ *
+ * Every decoder of network input in ports/linux (these, and the graph
+ * filters' packet through dkf_net_decode_tw) runs the bytes through one
+ * checked path in codec.c: the type's wire layout is checked against the
+ * datagram before lcm-gen's decoder (which trusts the lengths it reads)
+ * runs. tests/fuzz/fuzz_net.c fuzzes them all (docs/fuzzing.md).
  */
 #ifndef DKF_NET_CODEC_H
 #define DKF_NET_CODEC_H
@@ -24,6 +34,7 @@
 #include <stdint.h>
 
 #include "dkf/diffkf_fusion.h"
+#include "dkf/tw.h"
 
 /* Largest number of nodes a fused message can name (stacked dimensions
  * sum m_i <= DKF_MAX_DIM bound it well below this). */
@@ -142,6 +153,22 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
 /* Status: only MALFORMED is checked (any model, any role). */
 dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
                                         dkf_net_rejects_t *rej);
+
+/* A graph-filter packet as on the wire (lcmtypes/tw_packet_t.lcm), in host
+ * doubles; tw_agent.h's dkf_tw_encode / dkf_tw_decode are its users. */
+#define DKF_NET_TW_MAX_LEN DKF_TW_PKT_LEN(DKF_MAX_DIM)
+typedef struct {
+    int64_t utime, model_id;
+    long node, k, round;
+    int kind, retransmit; /* kind 0..2 (tw_agent.h), retransmit 0/1 */
+    size_t len;           /* reals in v, <= DKF_NET_TW_MAX_LEN */
+    double v[DKF_NET_TW_MAX_LEN];
+} dkf_net_tw_wire_t;
+/* 0, or -1 if len is too large or the packet does not fit in cap bytes. */
+int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_wire_t *p);
+/* MALFORMED (the wire layout, kind outside 0..2) or ACCEPT; p is written
+ * only on ACCEPT. Counts nothing: dkf_tw_decode checks the rest and counts. */
+dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, dkf_net_tw_wire_t *p);
 
 /* Channel names: "<prefix>_MEAS_<i>", "<prefix>_NODE_<i>", "<prefix>_FUSED",
  * "<prefix>_TRUTH", "<prefix>_STATUS". out has DKF_NET_CHAN_LEN bytes. */

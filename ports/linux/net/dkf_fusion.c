@@ -22,12 +22,14 @@ static void usage(FILE *f)
     fprintf(f,
             "usage: %s [options] SCENARIO.json\n"
             "Fusion centre: subscribes to <prefix>_NODE_<i> of every node, fuses step k once\n"
-            "every node's payload of step k is there and publishes the centralized estimate\n"
-            "on <prefix>_FUSED. A step still incomplete DEADLINE after it opened (its first\n"
-            "payload, or a later step's) is published DEGRADED: the centralized DKF given\n"
-            "the rows of the nodes it could rebuild. A payload of one of the last %d steps\n"
-            "that arrives late rolls back to a checkpoint, replays, and publishes the\n"
-            "present step again (revision > 0). Exits after step N.\n"
+            "every node's payload of step k is there (or the node has sent a later step's\n"
+            "message k+2, or has been silent for DEADLINE of the others' arrivals) and\n"
+            "publishes the centralized estimate on <prefix>_FUSED. A step still incomplete\n"
+            "DEADLINE after it opened (its first payload, or a later step's), or pushed out\n"
+            "of the 32-step window by newer data, is published DEGRADED: the centralized DKF\n"
+            "given the rows of the nodes it could rebuild. A payload of one of the last %d\n"
+            "steps that arrives late rolls back to a checkpoint, replays, and publishes\n"
+            "every replayed step again (revision > 0). Exits after step N.\n"
             "\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
@@ -36,11 +38,14 @@ static void usage(FILE *f)
             "  -o, --output FILE       write the result (JSON: k, outputs.fused.{xf,xp,Pf,Pp},\n"
             "                          status, contributors, revisions, epochs, latency_us,\n"
             "                          counters) at exit\n"
+            "  -j, --journal FILE      append every step as it is computed (JSON lines,\n"
+            "                          flushed; default with --output: FILE.jsonl)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
+            "A centre started or restarted mid-run joins at the first step it gets data of.\n"
             "Exit: 0 step N published, 2 bad options/scenario, 3 set-up, core or output failure,\n"
             "4 interrupted (SIGINT/SIGTERM/--timeout) before step N (the file is written).\n",
             prog, DKF_NET_CKPT, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_DEADLINE_US / 1000,
@@ -52,10 +57,14 @@ int main(int argc, char **argv)
     static const struct option longopts[] = {
         {"url", required_argument, NULL, 'u'},       {"prefix", required_argument, NULL, 'p'},
         {"deadline-ms", required_argument, NULL, 'd'}, {"output", required_argument, NULL, 'o'},
+        {"journal", required_argument, NULL, 'j'},
         {"heartbeat-ms", required_argument, NULL, 'H'}, {"timeout", required_argument, NULL, 't'},
         {"ready-file", required_argument, NULL, 'R'}, {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL, *out = NULL;
+    const char *jpath = NULL;
+    char jdefault[4096];
+    FILE *jf = NULL;
     double deadline_ms = DKF_NET_DEADLINE_US / 1000, hb_ms = DKF_NET_HEARTBEAT_US / 1000;
     double timeout = 0;
     int quiet = 0, c, code;
@@ -65,12 +74,13 @@ int main(int argc, char **argv)
     dkf_net_fusion_t *fu;
     int64_t start;
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":u:p:d:o:t:qh", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":u:p:d:o:j:t:qh", longopts, NULL)) != -1) {
         switch (c) {
         case 'u': url = optarg; break;
         case 'p': prefix = optarg; break;
         case 'd': if (dkf_cli_num(prog, "--deadline-ms", optarg, 1, 1e8, &deadline_ms)) return DKF_EXIT_USAGE; break;
         case 'o': out = optarg; break;
+        case 'j': jpath = optarg; break;
         case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
@@ -94,6 +104,21 @@ int main(int argc, char **argv)
         dkf_scenario_free(s);
         return DKF_EXIT_RUN;
     }
+    if (jpath == NULL && out != NULL) {
+        snprintf(jdefault, sizeof jdefault, "%s.jsonl", out);
+        jpath = jdefault;
+    }
+    if (jpath != NULL) {
+        jf = fopen(jpath, "a");
+        if (jf == NULL) {
+            fprintf(stderr, "%s: %s: cannot open the journal\n", prog, jpath);
+            dkf_net_fusion_free(fu);
+            dkf_net_close(net);
+            dkf_scenario_free(s);
+            return DKF_EXIT_RUN;
+        }
+        dkf_net_fusion_journal(fu, jf);
+    }
     dkf_cli_signals();
     start = dkf_net_mono_us();
     dkf_net_fusion_tick(fu, start, (int64_t)(hb_ms * 1000));
@@ -107,6 +132,13 @@ int main(int argc, char **argv)
            : dkf_net_fusion_state(fu) == DKF_NET_FAILED ? DKF_EXIT_RUN
                                                         : DKF_EXIT_STOPPED;
     dkf_net_fusion_report(fu);
+    if (code == DKF_EXIT_OK) {
+        /* the last fused datagram has no successor to make up for its loss:
+         * the final status (k = N) is repeated for 0.1 s, which dkf-sim also
+         * takes as the confirmation of step N */
+        int i;
+        for (i = 0; i < 5 && dkf_net_handle(net, 20) >= 0; ++i) dkf_net_fusion_report(fu);
+    }
     if (out != NULL) {
         json_t *doc = dkf_net_fusion_result(fu);
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
@@ -119,6 +151,10 @@ int main(int argc, char **argv)
                 code == DKF_EXIT_OK ? "done" : code == DKF_EXIT_RUN ? "failed" : "stopped",
                 dkf_net_fusion_k(fu), s->steps, (long long)cn->missed, (long long)cn->received,
                 (long long)cn->rejected, (long long)cn->stale);
+    }
+    if (jf != NULL && fclose(jf) != 0) {
+        fprintf(stderr, "%s: %s: cannot write the journal\n", prog, jpath);
+        code = DKF_EXIT_RUN;
     }
     dkf_net_fusion_free(fu);
     dkf_net_close(net);

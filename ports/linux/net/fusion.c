@@ -45,13 +45,24 @@ typedef struct {
     int usable;   /* 0: it started at a step older than every checkpoint */
 } epoch_t;
 
+/* One run of a node's process as its sequence numbers count it: a
+ * (re)start, told apart by (epoch, k_start) (a process restarted without
+ * --epoch repeats the epoch but not the first step). */
+typedef struct {
+    long epoch, k_start;
+    int64_t seq_max; /* largest seq seen (-1: none) */
+} incarnation_t;
+
 typedef struct {
     payload_t pay[RING];
     epoch_t ep[EPOCHS];  /* by increasing epoch (and k_start) */
     size_t nep;
-    int64_t seq_max, seq_before; /* largest seq of the newest epoch; messages of older ones */
-    long seq_epoch;
+    incarnation_t inc[EPOCHS]; /* the newest runs of the process */
+    size_t ninc;
+    int64_t made_before; /* messages made by runs dropped from inc[] */
     int64_t got;         /* distinct messages accepted (their own step) */
+    long k_max;          /* newest step of a message accepted from it (0: none) */
+    int64_t last_recv;   /* its arrival (recv_utime; INT64_MIN: never heard) */
 } peer_t;
 
 /* What is recorded of every step (for the result file). */
@@ -66,7 +77,7 @@ typedef struct {
 
 typedef struct {
     int64_t duplicates, redundant, late, too_late, ahead, old_epoch, conflicts;
-    int64_t rollbacks, replayed, revised_sent, restarts, core_masked, lost_epochs;
+    int64_t rollbacks, replayed, revised_sent, restarts, core_masked, lost_epochs, pushed;
 } fault_counts_t;
 
 struct dkf_net_fusion {
@@ -90,6 +101,11 @@ struct dkf_net_fusion {
     long ck_k[DKF_NET_CKPT + 1];
     size_t ck_len;
     long done_k;                  /* last published step */
+    long newest_k;                /* newest step of any message accepted */
+    long join_k;                  /* first step fused from data (steps before it were
+                                     skipped: a centre started or restarted mid-run) */
+    int64_t first_recv, newest_recv; /* arrival of the first and the newest message */
+    FILE *journal;                /* one JSON line per computed step (NULL: none) */
     int64_t done_mono;            /* when it was first published (monotonic): step
                                      done_k + 1 opens then at the latest */
     dkf_diffkf_msg_t *msgs;       /* l: the running step's messages */
@@ -201,7 +217,9 @@ static long note_epoch(dkf_net_fusion_t *fu, size_t i, long epoch, long k_start)
     return k_start;
 }
 
-/* Stores node i's payload of step k; returns 1 if it is new information. */
+/* Stores node i's payload of step k; returns 1 if it is new information.
+ * meas_utime: the publication of y^i_{k+1} (its own message), 0 for the
+ * copy in message k+1 (that message's time is y^i_{k+2}'s). */
 static int store_payload(dkf_net_fusion_t *fu, size_t i, long epoch, const dkf_diffkf_msg_t *m,
                          int direct, int64_t meas_utime, int64_t recv_utime)
 {
@@ -234,6 +252,7 @@ static int store_payload(dkf_net_fusion_t *fu, size_t i, long epoch, const dkf_d
             fu_note(fu, "fusion: node %zu step k=%ld: duplicate", i, k);
         } else if (direct) {
             q->direct = 1; /* its copy came first (reordered or after a drop) */
+            q->meas_utime = meas_utime; /* the copy had no measurement time */
             ++p->got;
             ++fu->c.received;
         }
@@ -354,8 +373,8 @@ static int compute_step(dkf_net_fusion_t *fu, long k, int first_time)
         }
     }
     /* the prior x_{k|k-1}, P_{k|k-1} is the central filter's xp before the step */
-    to_double(fu->rec.xp + j * n, fu->fc.central.xp.data, n);
-    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pp.data, n * n);
+    to_double(fu->rec.xp + j * n, fu->fc.central.xn.data, n);
+    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pn.data, n * n);
     for (tries = 0; tries <= l; ++tries) {
         st = dkf_diffkf_fc_step_partial(&fu->fc, &fu->md[0].F, &fu->md[0].Q, fu->sens, fu->msgs,
                                         fu->present, fu->contrib, &fault);
@@ -395,10 +414,11 @@ static void publish_step(dkf_net_fusion_t *fu, long k, int revision)
         const payload_t *q = payload(fu, i, k);
         o->contributed[i] = fu->rec.contributed[j * l + i];
         if (!o->contributed[i] || q == NULL) continue;
+        if (q->recv_utime > o->msg_utime_last) o->msg_utime_last = q->recv_utime;
+        if (q->meas_utime == 0) continue; /* known from a copy only: y^i_{k+1}'s time unknown */
         if (o->meas_utime_first == 0 || q->meas_utime < o->meas_utime_first)
             o->meas_utime_first = q->meas_utime;
         if (q->meas_utime > o->meas_utime_last) o->meas_utime_last = q->meas_utime;
-        if (q->recv_utime > o->msg_utime_last) o->msg_utime_last = q->recv_utime;
     }
     memcpy(o->xf, fu->rec.xf + j * n, n * sizeof(double));
     memcpy(o->xp, fu->rec.xp + j * n, n * sizeof(double));
@@ -423,6 +443,65 @@ static void publish_step(dkf_net_fusion_t *fu, long k, int revision)
     }
 }
 
+/* rows x cols doubles as a list (cols == 0: a flat vector of rows). */
+static json_t *json_block(const double *v, size_t rows, size_t cols)
+{
+    json_t *a = json_array();
+    size_t i, j;
+    for (i = 0; i < rows; ++i) {
+        if (cols == 0) {
+            json_array_append_new(a, json_real(v[i]));
+        } else {
+            json_t *r = json_array();
+            for (j = 0; j < cols; ++j) json_array_append_new(r, json_real(v[i * cols + j]));
+            json_array_append_new(a, r);
+        }
+    }
+    return a;
+}
+
+/* The node indices whose flag is set in row j of an N x l bitmap. */
+static json_t *json_nodes(const unsigned char *bits, size_t l)
+{
+    json_t *c = json_array();
+    size_t i;
+    for (i = 0; i < l; ++i)
+        if (bits[i]) json_array_append_new(c, json_integer((json_int_t)i));
+    return c;
+}
+
+static void set_int(json_t *o, const char *key, int64_t v)
+{
+    json_object_set_new(o, key, json_integer((json_int_t)v));
+}
+
+/* Appends step k as it stands now (first computation or a replay) to the
+ * journal, one JSON line, flushed: what was computed survives a killed
+ * process (docs/network.md, "Result file"). */
+static void journal_step(dkf_net_fusion_t *fu, long k, int published)
+{
+    const size_t n = fu->n, l = fu->l, j = (size_t)(k - 1);
+    json_t *o;
+    if (fu->journal == NULL) return;
+    o = json_object();
+    set_int(o, "k", k);
+    set_int(o, "revision", fu->rec.revisions[j]);
+    json_object_set_new(o, "status", json_string(fu->rec.degraded[j] ? "degraded" : "complete"));
+    json_object_set_new(o, "contributors", json_nodes(fu->rec.contributed + j * l, l));
+    json_object_set_new(o, "published", json_boolean(published));
+    json_object_set_new(o, "xf", json_block(fu->rec.xf + j * n, n, 0));
+    json_object_set_new(o, "xp", json_block(fu->rec.xp + j * n, n, 0));
+    json_object_set_new(o, "Pf", json_block(fu->rec.Pf + j * n * n, n, n));
+    json_object_set_new(o, "Pp", json_block(fu->rec.Pp + j * n * n, n, n));
+    set_int(o, "utime", dkf_net_now_us());
+    if (json_dumpf(o, fu->journal, JSON_COMPACT | JSON_REAL_PRECISION(17)) != 0 ||
+        fputc('\n', fu->journal) == EOF || fflush(fu->journal) != 0) {
+        fu_note(fu, "fusion: step k=%ld: cannot write the journal", k);
+        fu->journal = NULL; /* the caller still owns and closes it */
+    }
+    json_decref(o);
+}
+
 static void fail(dkf_net_fusion_t *fu)
 {
     fu->state = DKF_NET_FAILED;
@@ -440,7 +519,8 @@ static void next_step(dkf_net_fusion_t *fu, int64_t now)
     }
     fu->done_k = k;
     fu->done_mono = now;
-    publish_step(fu, k, 0);
+    if (k >= fu->join_k) publish_step(fu, k, 0);
+    journal_step(fu, k, k >= fu->join_k);
     if (k >= fu->N) {
         fu->state = DKF_NET_DONE;
         dkf_net_fusion_report(fu);
@@ -448,7 +528,8 @@ static void next_step(dkf_net_fusion_t *fu, int64_t now)
 }
 
 /* New data for step j <= done_k: back to the checkpoint after step j-1,
- * every step since recomputed; the present step is published again. */
+ * every step since recomputed and published again (revision > 0), so a
+ * subscriber holds the final value of every step. */
 static void roll_back(dkf_net_fusion_t *fu, long j)
 {
     const size_t c = (size_t)(j - 1) % (DKF_NET_CKPT + 1);
@@ -467,18 +548,38 @@ static void roll_back(dkf_net_fusion_t *fu, long j)
         }
         ++fu->rec.revisions[k - 1];
         ++fu->fx.replayed;
+        if (k >= fu->join_k) publish_step(fu, k, fu->rec.revisions[k - 1]);
+        journal_step(fu, k, k >= fu->join_k);
     }
-    publish_step(fu, fu->done_k, fu->rec.revisions[fu->done_k - 1]);
 }
 
-/* 1 if step k has nothing more to wait for: every node whose epoch owns k
- * has its payload there (a late node before its start owns nothing). */
+/* 1 if node i's payload of step k is not worth waiting for
+ * (docs/decisions.md, "a late step never holds back the steps behind it";
+ * docs/network.md, "Deadlines"): the node has moved on (its message of step k+2 or
+ * later arrived, and message k+1 would have carried a copy of payload k),
+ * or it has been silent for a deadline of arrivals from the others (dead,
+ * never started, or cut off). Both are judged on what has arrived, never on
+ * the fusion centre's own clock, so a centre that falls behind catches up
+ * at the speed it reads its socket. */
+static int given_up(const dkf_net_fusion_t *fu, size_t i, long k)
+{
+    const peer_t *p = &fu->peer[i];
+    const int64_t heard = p->last_recv != INT64_MIN ? p->last_recv : fu->first_recv;
+    if (p->k_max >= k + 2) return 1;
+    return fu->first_recv != INT64_MIN && fu->newest_recv - heard >= fu->deadline_us;
+}
+
+/* 1 if step k has nothing more to wait for: it has opened (a payload of it
+ * or of a later step arrived) and every node whose epoch owns k has its
+ * payload there or is given up on (a late node before its start owns
+ * nothing). */
 static int step_ready(dkf_net_fusion_t *fu, long k)
 {
     size_t i;
+    if (fu->newest_k < k) return 0;
     for (i = 0; i < fu->l; ++i) {
         const epoch_t *e = owner(fu, i, k);
-        if (e != NULL && e->usable && payload(fu, i, k) == NULL) return 0;
+        if (e != NULL && e->usable && payload(fu, i, k) == NULL && !given_up(fu, i, k)) return 0;
     }
     return 1;
 }
@@ -487,10 +588,67 @@ static int step_ready(dkf_net_fusion_t *fu, long k)
 static void advance(dkf_net_fusion_t *fu)
 {
     while (fu->state == DKF_NET_RUNNING && fu->done_k < fu->N) {
-        const long k = fu->done_k + 1;
-        if (fu->open_k[(size_t)k % RING] != k || !step_ready(fu, k)) break;
+        if (!step_ready(fu, fu->done_k + 1)) break;
         next_step(fu, dkf_net_mono_us());
     }
+}
+
+/* A payload of step k arrived: the window follows it. Steps more than
+ * DKF_NET_WINDOW behind k are published now with what they have, so no
+ * payload is ever discarded as too far ahead and one slow step cannot hold
+ * back the steps behind it. */
+static void follow_window(dkf_net_fusion_t *fu, long k)
+{
+    while (fu->state == DKF_NET_RUNNING && fu->done_k < fu->N &&
+           fu->done_k < k - DKF_NET_WINDOW) {
+        ++fu->fx.pushed;
+        fu_note(fu, "fusion: step k=%ld pushed out of the window by step k=%ld",
+                fu->done_k + 1, k);
+        next_step(fu, dkf_net_mono_us());
+    }
+}
+
+/* The first message a centre gets, of step k: a centre started (or
+ * restarted) after the nodes joins at the first step it has a payload of
+ * (k - 1 from the copy, or k). The steps before are computed without data
+ * (the prediction; the nodes' replicas run their data-independent
+ * recursions, so they stay in sync) and recorded, not published. */
+static void join_at(dkf_net_fusion_t *fu, long k)
+{
+    fu->join_k = k < 1 ? 1 : k;
+    while (fu->state == DKF_NET_RUNNING && fu->done_k + 1 < fu->join_k)
+        next_step(fu, dkf_net_mono_us());
+    if (fu->join_k > 1)
+        fu_note(fu, "fusion: joined the run at step k=%ld (steps before it skipped)",
+                fu->join_k);
+}
+
+/* Messages made by node i, from the sequence numbers of each of its runs. */
+static void count_made(peer_t *p, long epoch, long k_start, int64_t seq)
+{
+    size_t j;
+    for (j = 0; j < p->ninc; ++j)
+        if (p->inc[j].epoch == epoch && p->inc[j].k_start == k_start) break;
+    if (j == p->ninc) {
+        if (p->ninc == EPOCHS) { /* forget the oldest run, keep its count */
+            p->made_before += p->inc[0].seq_max + 1;
+            memmove(p->inc, p->inc + 1, (EPOCHS - 1) * sizeof p->inc[0]);
+            --p->ninc;
+        }
+        j = p->ninc++;
+        p->inc[j].epoch = epoch;
+        p->inc[j].k_start = k_start;
+        p->inc[j].seq_max = -1;
+    }
+    if (seq > p->inc[j].seq_max) p->inc[j].seq_max = seq;
+}
+
+static int64_t made_by(const peer_t *p)
+{
+    int64_t made = p->made_before;
+    size_t j;
+    for (j = 0; j < p->ninc; ++j) made += p->inc[j].seq_max + 1;
+    return made;
 }
 
 static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
@@ -519,13 +677,11 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     }
     i = fu->in.node;
     p = &fu->peer[i];
-    /* messages made by node i (from sequence numbers, per epoch) */
-    if (meta.epoch > p->seq_epoch) {
-        p->seq_before += p->seq_max + 1;
-        p->seq_epoch = meta.epoch;
-        p->seq_max = -1;
+    count_made(p, meta.epoch, meta.k_start, meta.seq);
+    if (fu->first_recv == INT64_MIN) {
+        fu->first_recv = recv_utime;
+        if (fu->done_k == 0) join_at(fu, meta.has_prev ? (long)fu->in_prev.k : (long)fu->in.k);
     }
-    if (meta.epoch == p->seq_epoch && meta.seq > p->seq_max) p->seq_max = meta.seq;
     e = note_epoch(fu, i, meta.epoch, meta.k_start);
     if (e < 0) {
         ++fu->fx.conflicts;
@@ -535,8 +691,14 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
         return;
     }
     if (e <= fu->done_k) dirty = e;
+    /* arrivals (the clock of given_up) and the newest step heard of */
+    if (recv_utime > fu->newest_recv) fu->newest_recv = recv_utime;
+    p->last_recv = recv_utime;
+    if ((long)fu->in.k > p->k_max) p->k_max = (long)fu->in.k;
+    if ((long)fu->in.k > fu->newest_k) fu->newest_k = (long)fu->in.k;
+    follow_window(fu, (long)fu->in.k);
     if (meta.has_prev &&
-        store_payload(fu, i, meta.epoch, &fu->in_prev, 0, meta.meas_utime, recv_utime) &&
+        store_payload(fu, i, meta.epoch, &fu->in_prev, 0, 0, recv_utime) &&
         (long)fu->in_prev.k <= fu->done_k && (long)fu->in_prev.k < dirty)
         dirty = (long)fu->in_prev.k;
     if (store_payload(fu, i, meta.epoch, &fu->in, 1, meta.meas_utime, recv_utime) &&
@@ -607,7 +769,7 @@ static int fu_alloc(dkf_net_fusion_t *fu)
         return -1;
     for (j = 0; j < l; ++j) {
         peer_t *p = &fu->peer[j];
-        p->seq_max = -1;
+        p->last_recv = INT64_MIN;
         /* until a message says otherwise, node j started normally at step 1 */
         p->nep = 1;
         p->ep[0].epoch = 0;
@@ -716,6 +878,8 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
     fu->deadline_us = deadline_us > 0 ? deadline_us : DKF_NET_DEADLINE_US;
     fu->state = DKF_NET_RUNNING;
     fu->last_beat = INT64_MIN;
+    fu->first_recv = fu->newest_recv = INT64_MIN;
+    fu->join_k = 1;
     if (fu_alloc(fu) != 0) {
         snprintf(err, errlen, "fusion: out of memory");
         dkf_net_fusion_free(fu);
@@ -781,43 +945,34 @@ void dkf_net_fusion_report(dkf_net_fusion_t *fu)
     dkf_net_publish_status(fu->net, fu->prefix, &st);
 }
 
+void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f)
+{
+    json_t *o = json_object();
+    char id[32];
+    fu->journal = f;
+    if (f == NULL) {
+        json_decref(o);
+        return;
+    }
+    /* a header line per run of the centre: a restarted one appends its own */
+    snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)fu->model_id);
+    json_object_set_new(o, "journal", json_string("dkf-fusion"));
+    json_object_set_new(o, "scenario", json_string(fu->s->file));
+    json_object_set_new(o, "model_id", json_string(id));
+    set_int(o, "N", fu->N);
+    set_int(o, "start_utime", dkf_net_now_us());
+    if (json_dumpf(o, f, JSON_COMPACT) != 0 || fputc('\n', f) == EOF || fflush(f) != 0) {
+        fu_note(fu, "fusion: cannot write the journal");
+        fu->journal = NULL;
+    }
+    json_decref(o);
+}
+
 int dkf_net_fusion_state(const dkf_net_fusion_t *fu) { return fu->state; }
 long dkf_net_fusion_k(const dkf_net_fusion_t *fu) { return fu->done_k; }
 const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu) { return &fu->c; }
 
 /* ---- result document -------------------------------------------------------------- */
-
-/* rows x cols doubles as a list (cols == 0: a flat vector of rows). */
-static json_t *json_block(const double *v, size_t rows, size_t cols)
-{
-    json_t *a = json_array();
-    size_t i, j;
-    for (i = 0; i < rows; ++i) {
-        if (cols == 0) {
-            json_array_append_new(a, json_real(v[i]));
-        } else {
-            json_t *r = json_array();
-            for (j = 0; j < cols; ++j) json_array_append_new(r, json_real(v[i * cols + j]));
-            json_array_append_new(a, r);
-        }
-    }
-    return a;
-}
-
-/* The node indices whose flag is set in row j of an N x l bitmap. */
-static json_t *json_nodes(const unsigned char *bits, size_t l)
-{
-    json_t *c = json_array();
-    size_t i;
-    for (i = 0; i < l; ++i)
-        if (bits[i]) json_array_append_new(c, json_integer((json_int_t)i));
-    return c;
-}
-
-static void set_int(json_t *o, const char *key, int64_t v)
-{
-    json_object_set_new(o, key, json_integer((json_int_t)v));
-}
 
 /* Every epoch a message announced, per node: [{epoch, k_start, usable}]. */
 static json_t *json_epochs(const dkf_net_fusion_t *fu)
@@ -880,7 +1035,7 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     json_object_set_new(lat, "last", ll);
     for (i = 0; i < l; ++i) {
         const peer_t *p = &fu->peer[i];
-        const int64_t made = p->seq_before + p->seq_max + 1;
+        const int64_t made = made_by(p);
         json_array_append_new(got, json_integer((json_int_t)p->got));
         json_array_append_new(sent, json_integer((json_int_t)made));
         json_array_append_new(lost, json_integer((json_int_t)(made - p->got)));
@@ -901,6 +1056,7 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     set_int(faults, "revised_published", fu->fx.revised_sent);
     set_int(faults, "core_refusals", fu->fx.core_masked);
     set_int(faults, "restarts_applied", fu->fx.restarts);
+    set_int(faults, "pushed_by_window", fu->fx.pushed);
     json_object_set_new(counts, "received", got);
     json_object_set_new(counts, "sent_by_node", sent);
     json_object_set_new(counts, "not_received", lost);
@@ -919,6 +1075,7 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     set_int(doc, "N", fu->N);
     set_int(doc, "deadline_us", fu->deadline_us);
     set_int(doc, "checkpoints", DKF_NET_CKPT);
+    set_int(doc, "joined_at", fu->join_k);
     json_object_set_new(doc, "k", ks);
     json_object_set_new(doc, "outputs", outputs);
     json_object_set_new(doc, "status", status);

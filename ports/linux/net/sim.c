@@ -54,6 +54,10 @@ static void on_status(const char *channel, const void *data, size_t len, int64_t
     }
     p->heard = 1;
     p->state = st.state;
+    /* the fusion centre's status carries its last published step: a lost
+     * fused datagram (the last one above all) is confirmed by it */
+    if (p == &sim->fusion && st.k > sim->fused_k && st.k <= (long)sim->s->steps)
+        sim->fused_k = st.k;
     snprintf(p->detail, sizeof p->detail, "%s", st.detail);
 }
 

@@ -12,7 +12,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dkf_lcm_tw_packet_t.h"
 #include "net.h"
 
 static int failf(char *err, size_t errlen, const char *fmt, ...)
@@ -215,44 +214,37 @@ void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *
 
 int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p)
 {
-    double v[DKF_TW_MAX_PKT];
-    dkf_lcm_tw_packet_t w;
+    dkf_net_tw_wire_t w;
     size_t i;
-    int r;
-    if (p->len > DKF_TW_MAX_PKT || cap > 0x7fffffff) return -1;
-    for (i = 0; i < p->len; ++i) v[i] = (double)p->v[i];
+    if (p->len > DKF_TW_MAX_PKT) return -1;
+    for (i = 0; i < p->len; ++i) w.v[i] = (double)p->v[i];
     w.utime = p->utime;
     w.model_id = p->model_id;
-    w.node = (int32_t)p->node;
-    w.k = (int32_t)p->k;
-    w.round = (int32_t)p->round;
-    w.kind = (int8_t)p->kind;
-    w.retransmit = (int8_t)(p->retransmit != 0);
-    w.len = (int32_t)p->len;
-    w.v = v;
-    r = dkf_lcm_tw_packet_t_encode(buf, 0, (int)cap, &w);
-    if (r < 0) return -1;
-    *len = (size_t)r;
-    return 0;
+    w.node = p->node;
+    w.k = p->k;
+    w.round = p->round;
+    w.kind = p->kind;
+    w.retransmit = p->retransmit != 0;
+    w.len = p->len;
+    return dkf_net_encode_tw(buf, cap, len, &w);
 }
 
-static dkf_net_verdict_t check_fields(const dkf_lcm_tw_packet_t *w, const dkf_tw_scn_t *c,
+/* The checks after the wire layout's (codec.c), in codec.h's order. */
+static dkf_net_verdict_t check_fields(const dkf_net_tw_wire_t *w, const dkf_tw_scn_t *c,
                                       long chan_node)
 {
     int kind;
     size_t len;
-    if (w->len < 0 || w->kind < 0 || w->kind > 2 || (w->retransmit != 0 && w->retransmit != 1))
-        return DKF_NET_REJ_MALFORMED;
     if (w->node < 0 || (size_t)w->node >= c->N || (chan_node >= 0 && w->node != chan_node))
         return DKF_NET_REJ_NODE;
     if (w->model_id != c->model_id) return DKF_NET_REJ_MODEL;
     if (w->kind == DKF_TW_KIND_DONE) {
         if (w->len != 0) return DKF_NET_REJ_DIM;
-        return (w->k == (int32_t)c->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT : DKF_NET_REJ_STEP;
+        return (w->k == (long)c->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT : DKF_NET_REJ_STEP;
     }
     if (w->round < 0 || (size_t)w->round >= c->rounds) return DKF_NET_REJ_STEP;
     dkf_tw_round_shape(c, (size_t)w->round, &kind, &len);
-    if ((size_t)w->len != len) return DKF_NET_REJ_DIM;
+    if (w->len != len) return DKF_NET_REJ_DIM;
     if (w->k < 1 || (size_t)w->k > c->steps || w->kind != kind) return DKF_NET_REJ_STEP;
     return DKF_NET_ACCEPT;
 }
@@ -269,17 +261,11 @@ static dkf_net_verdict_t reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v)
 dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t *c,
                                 long chan_node, dkf_tw_pkt_t *out, dkf_net_rejects_t *rej)
 {
-    dkf_lcm_tw_packet_t w;
-    dkf_net_verdict_t v;
+    dkf_net_tw_wire_t w;
     dkf_real_t tmp[DKF_TW_MAX_PKT];
-    int32_t i;
-    if (buf == NULL || len > 0x7fffffff) return reject(rej, DKF_NET_REJ_MALFORMED);
-    memset(&w, 0, sizeof w);
-    if (dkf_lcm_tw_packet_t_decode(buf, 0, (int)len, &w) != (int)len) {
-        dkf_lcm_tw_packet_t_decode_cleanup(&w);
-        return reject(rej, DKF_NET_REJ_MALFORMED);
-    }
-    v = check_fields(&w, c, chan_node);
+    dkf_net_verdict_t v = dkf_net_decode_tw(buf, len, &w);
+    size_t i;
+    if (v == DKF_NET_ACCEPT) v = check_fields(&w, c, chan_node);
     for (i = 0; v == DKF_NET_ACCEPT && i < w.len; ++i) {
         tmp[i] = (dkf_real_t)w.v[i];
         if (!isfinite(w.v[i]) || !isfinite((double)tmp[i])) v = DKF_NET_REJ_NONFINITE;
@@ -292,10 +278,9 @@ dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t 
         out->round = w.round;
         out->kind = w.kind;
         out->retransmit = w.retransmit;
-        out->len = (size_t)w.len;
-        memcpy(out->v, tmp, (size_t)w.len * sizeof tmp[0]);
+        out->len = w.len;
+        memcpy(out->v, tmp, w.len * sizeof tmp[0]);
     }
-    dkf_lcm_tw_packet_t_decode_cleanup(&w);
     return reject(rej, v);
 }
 
@@ -307,9 +292,11 @@ void dkf_tw_chan(char *out, const char *prefix, size_t node)
 long dkf_tw_chan_node(const char *channel, const char *prefix)
 {
     const size_t pl = strlen(prefix);
-    const char *p = channel + pl + 1;
+    const char *p;
     long v = 0;
-    if (strncmp(channel, prefix, pl) != 0 || channel[pl] != '_' || *p == '\0') return -1;
+    if (strncmp(channel, prefix, pl) != 0 || channel[pl] != '_') return -1;
+    p = channel + pl + 1;
+    if (*p == '\0') return -1;
     if (p[0] == '0' && p[1] != '\0') return -1;
     for (; *p != '\0'; ++p) {
         if (*p < '0' || *p > '9' || v > 100000000L) return -1;

@@ -73,7 +73,7 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c);
 /* ---- packets (lcmtypes/tw_packet_t.lcm) ---------------------------------------- */
 
 enum { DKF_TW_KIND_INFO = 0, DKF_TW_KIND_EST = 1, DKF_TW_KIND_DONE = 2 };
-#define DKF_TW_MAX_PKT DKF_TW_PKT_LEN(DKF_MAX_DIM)
+#define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_MAX_DIM) */
 #define DKF_TW_MAX_MSG (64 + 8 * DKF_TW_MAX_PKT)
 #define DKF_TW_MAX_DEG 256 /* |N_l| including l */
 
@@ -91,8 +91,9 @@ void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *
 /* Encodes p into buf (cap bytes); *len its size. 0 or -1. */
 int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p);
 
-/* Decodes and validates (codec.h order): MALFORMED (bytes, kind, flag,
- * negative len), NODE (node outside 0..N-1 or != chan_node when
+/* Decodes (dkf_net_decode_tw: codec.c's one checked path) and validates
+ * (codec.h order): MALFORMED (bytes, len outside 0..DKF_TW_MAX_PKT or not
+ * what the datagram holds, kind, flag), NODE (node outside 0..N-1 or != chan_node when
  * chan_node >= 0), MODEL, DIM (len not the round's), STEP (k outside
  * 1..steps, round outside 0..rounds-1 or of the other kind; DONE: k =
  * steps + 1, round 0), NONFINITE (also after conversion to dkf_real_t).

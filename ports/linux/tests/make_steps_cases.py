@@ -1,12 +1,15 @@
 #!/usr/bin/env python3
-"""Writes the steps-layout test inputs of ports/linux/CMakeLists.txt into OUTDIR.
+"""Writes the generated test inputs of ports/linux/CMakeLists.txt into OUTDIR.
 
     make_steps_cases.py VECTOR_DIR OUTDIR
 
 Each file is a golden vector (tests/vectors/uif/s00{3,4}_*.json) with one
 deliberate change: either a bad input that dkf-run must refuse with a
 one-line "FILE: KEY: problem" message, or (tv_*.json) the same data in the
-time-varying per-step `inputs` form, which must give the vector's numbers.
+time-varying per-step `inputs` form (tests/vectors/uif/README.md: "`model`
+(time invariant) or per-step `inputs` (time varying)"), which must give the
+vector's numbers. A few files above the reader's limits (limit_*.json) are
+built from scratch.
 """
 import copy
 import json
@@ -24,11 +27,15 @@ def save(outdir, name, doc):
         json.dump(doc, f)
 
 
-def time_varying_s004(doc):
-    """Every model matrix given per step: A_prev, G_prev, Q_prev (k >= 1), C, H, R."""
+def time_varying_s004(doc, model_form="empty"):
+    """Every model matrix given per step: A_prev, G_prev, Q_prev (k >= 1), C, H, R.
+    model_form: what is left of `model`: "empty" ({}), "null" or "absent"."""
     tv = copy.deepcopy(doc)
     model = tv.pop("model")
-    tv["model"] = {}
+    if model_form == "empty":
+        tv["model"] = {}
+    elif model_form == "null":
+        tv["model"] = None
     tv["time_varying"] = True
     for st in tv["steps"]:
         inp = st["inputs"]
@@ -41,6 +48,36 @@ def time_varying_s004(doc):
     return tv
 
 
+def time_varying_s003(doc, full=False):
+    """A_prev, B_prev, Sv_prev at every step; model keeps the per-node H, Sw,
+    or (full) they too are per step (lists of one matrix per node) and
+    model is null."""
+    tv = copy.deepcopy(doc)
+    model = tv["model"]
+    tv["model"] = None if full else {"H": model["H"], "Sw": model["Sw"]}
+    tv["time_varying"] = True
+    for st in tv["steps"]:
+        for key in ("A", "B", "Sv"):
+            st["inputs"][key + "_prev"] = model[key]
+        if full:
+            st["inputs"]["H"] = model["H"]
+            st["inputs"]["Sw"] = model["Sw"]
+    return tv
+
+
+def limit_cases(out):
+    """Files just above the reader's limits (scenario.h DKF_SCN_MAX_*)."""
+    one = {"F": {"const": [[1]]}, "Q": {"const": [[1]]}}
+    init = {"x00": [0], "P00": [[1]]}
+    y1 = {"k": [1], "values": [[0.5]]}
+    d = {"N": 1, "model": dict(one, sensors=[{"H": [[1]], "R": [[1]]}] * 4097), "init": init,
+         "y": [y1] * 4097}
+    save(out, "limit_sensors.json", d)
+    d = {"N": 1, "model": dict(one, H={"const": [[1]]}, R={"const": [[1]]}), "init": init,
+         "runs": [{"y": y1}] * 100001}
+    save(out, "limit_runs.json", d)
+
+
 def main():
     vdir, out = sys.argv[1], sys.argv[2]
     os.makedirs(out, exist_ok=True)
@@ -48,9 +85,25 @@ def main():
     nr = load(vdir, "s004_nrtsf.json")
     rt = load(vdir, "s004_rtsf.json")
     six = load(vdir, "s003_6node.json")
+    # cases layout (infofusion): Q per step instead of per case
+    lif = load(os.path.join(vdir, "..", "infofusion"), "lif_central_fusion.json")
+    d = copy.deepcopy(lif)
+    for c in d["cases"]:
+        for st in c["steps"]:
+            st["Q"] = c["Q"]
+        del c["Q"]
+    save(out, "cases_step_Q.json", d)
 
     save(out, "tv_nrtsf_df.json", time_varying_s004(df))
-    save(out, "tv_nrtsf.json", time_varying_s004(nr))
+    save(out, "tv_nrtsf_df_model_null.json", time_varying_s004(df, "null"))
+    save(out, "tv_nrtsf.json", time_varying_s004(nr, "absent"))
+    save(out, "tv_rtsf.json", time_varying_s004(rt, "absent"))
+    save(out, "tv_tw_6node.json", time_varying_s003(six))
+    save(out, "tv_tw_6node_full.json", time_varying_s003(six, full=True))
+    d = time_varying_s003(six, full=True); d["steps"][5]["inputs"]["Sw"] = six["model"]["Sw"][:5]
+    save(out, "bad_tw_tv_Sw_nodes.json", d)
+    d = time_varying_s003(six); d["steps"][0]["inputs"]["H"] = six["model"]["H"]
+    save(out, "bad_tw_tv_H_dup.json", d)
     # the time-varying form with Q changed at one step only must differ
     tvq = time_varying_s004(df)
     tvq["steps"][10]["inputs"]["Q_prev"] = [[10 * v for v in row] for row in df["model"]["Q"]]
@@ -84,6 +137,18 @@ def main():
     # the 6-node vector uses exactly those, so the numbers must not change
     d = copy.deepcopy(six); del d["W_consensus"]; del d["alpha_diffusion"]
     save(out, "tw_default_weights.json", d)
+    d = copy.deepcopy(six); d["eta"] = 10 ** 12; save(out, "bad_tw_eta_huge.json", d)
+    d = copy.deepcopy(six); d["model"]["H"] = d["model"]["H"] * 683  # 4098 nodes
+    save(out, "limit_nodes.json", d)
+    d = copy.deepcopy(six); d["steps"][2]["n"] = 9223372036854775808.0
+    save(out, "bad_tw_time_2p63.json", d)
+    d = copy.deepcopy(nr); d["model"]["Q"][0][1] += 1e-3; save(out, "bad_uif_Q_asym.json", d)
+    d = copy.deepcopy(six); d["model"]["Sw"][4][0][1] += 1e-3; save(out, "bad_tw_Sw_asym.json", d)
+    d = copy.deepcopy(df); d["init"]["P0"][1][0] += 1e-3; save(out, "bad_uif_P0_asym.json", d)
+    # the overflow class: a steps file without C whose y has p > 1 values
+    d = copy.deepcopy(df); del d["model"]["C"]; save(out, "bad_uif_no_C.json", d)
+    d = copy.deepcopy(six); del d["model"]["H"]; save(out, "bad_tw_no_H.json", d)
+    limit_cases(out)
     print("wrote %s" % out)
 
 

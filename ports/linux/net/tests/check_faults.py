@@ -51,6 +51,17 @@ def load_model(scn):
     return m, sensors, ys, N
 
 
+def prior(scn, which, i=0):
+    """P_{0|0} as the C loader reads it (docs/scenario-format.md): P00_central
+    (which="central") or P00_local[i] (which="local") when given, else P00."""
+    init = scn["init"]
+    if which == "central" and "P00_central" in init:
+        return np.array(init["P00_central"], dtype=float)
+    if which == "local" and "P00_local" in init:
+        return np.array(init["P00_local"][i], dtype=float)
+    return np.array(init["P00"], dtype=float)
+
+
 def blkdiag(mats):
     r = sum(x.shape[0] for x in mats)
     c = sum(x.shape[1] for x in mats)
@@ -81,7 +92,7 @@ def masked_dkf(scn, keep, P00=None, sensors_used=None):
     inv, pinv = np.linalg.inv, np.linalg.pinv
     x00 = np.array(scn["init"]["x00"], dtype=float)
     if P00 is None:
-        P00 = np.array(scn["init"]["P00_central"], dtype=float)
+        P00 = prior(scn, "central")
     out = {key: [] for key in ("xp", "Pp", "xf", "Pf")}
     xp = F(0) @ x00
     Pp = F(0) @ P00 @ F(0).T + Q(0)
@@ -162,12 +173,28 @@ def selftest(scn, rel):
     print(f"selftest: numpy full-data DKF vs the vector's central: {w:.2e}")
     if w > rel:
         fail("the reference does not reproduce the vector's central series")
-    if "local" in scn["outputs"] and np.allclose(scn["init"]["P00_local"][0], scn["init"]["P00_central"]):
+    if "local" in scn["outputs"] and np.allclose(prior(scn, "local", 0), prior(scn, "central")):
         one = masked_dkf(scn, [{0}] * N)
         w = max(step_rel(at(one, j), at(scn["outputs"]["local"][0], j)) for j in range(N))
         print(f"selftest: numpy DKF with node 0's rows only vs the vector's local[0]: {w:.2e}")
         if w > rel:
             fail("the masked reference does not reproduce local[0]")
+
+
+def read_journal(path):
+    """A dkf-fusion journal as a result document: the last line of each step
+    (a later run of the centre, after its header line, supersedes)."""
+    last = {}
+    for line in open(path):
+        o = json.loads(line)
+        if "k" in o:
+            last[o["k"]] = o
+    ks = sorted(last)
+    d = {"k": ks, "contributors": [last[k]["contributors"] for k in ks],
+         "revisions": [last[k]["revision"] for k in ks],
+         "status": [last[k]["status"] for k in ks], "counters": {},
+         "outputs": {"fused": {key: [last[k][key] for k in ks] for key in ("xf", "xp", "Pf", "Pp")}}}
+    return d
 
 
 def main():
@@ -185,50 +212,67 @@ def main():
     ap.add_argument("--no-rejects", action="store_true")
     ap.add_argument("--min-revised", type=int, default=0)
     ap.add_argument("--compare", default=None, help="another result file: outputs must be identical")
+    ap.add_argument("--journal", action="store_true",
+                    help="FUSED is a dkf-fusion journal (JSON lines): check the steps 1..K it holds")
+    ap.add_argument("--others-complete", type=int, action="append", default=[],
+                    help="NODE: every other node contributes at every step")
+    ap.add_argument("--complete-from", type=int, default=None, help="K: every step >= K complete")
     a = ap.parse_args()
     scn = json.load(open(a.scenario))
-    d = json.load(open(a.fused))
+    d = read_journal(a.fused) if a.journal else json.load(open(a.fused))
     N, l = scn["N"], len(scn["model"]["sensors"])
     if a.selftest:
         selftest(scn, a.rel)
-    if len(d["k"]) != N:
-        fail(f"{len(d['k'])} of {N} steps published")
-    keep = [set(c) for c in d["contributors"]]
+    Np = len(d["k"])  # steps checked: all N, or the journal's 1..Np
+    if d["k"] != list(range(1, Np + 1)) or (Np != N and not a.journal) or Np == 0:
+        fail(f"steps {d['k'][:3]}..{d['k'][-3:]} published, expected 1..{N}")
+    keep = [set(c) for c in d["contributors"]] + [set(range(l))] * (N - Np)
     ref = masked_dkf(scn, keep)
     full = masked_dkf(scn, [set(range(l))] * N)
     fu = d["outputs"]["fused"]
-    dm = [step_rel(at(fu, j), at(ref, j)) for j in range(N)]
-    df = [step_rel(at(fu, j), at(full, j)) for j in range(N)]
+    dm = [step_rel(at(fu, j), at(ref, j)) for j in range(Np)]
+    df = [step_rel(at(fu, j), at(full, j)) for j in range(Np)]
     if "central" in scn.get("outputs", {}):
         wv = max(step_rel(at(full, j), at(scn["outputs"]["central"], j)) for j in range(N))
         if wv > a.rel:
             fail(f"reference vs the vector's central {wv:.2e}")
-    lost = [j + 1 for j in range(N) if len(keep[j]) < l]
+    lost = [j + 1 for j in range(Np) if len(keep[j]) < l]
     pattern = "".join("D" if len(keep[j]) < l else ("r" if d["revisions"][j] else ".")
-                      for j in range(N))
+                      for j in range(Np))
     print(f"steps (. complete, r complete after a revision, D degraded): {pattern}")
-    print(f"fused vs masked centralized DKF: max {max(dm):.2e} over {N} steps "
+    print(f"fused vs masked centralized DKF: max {max(dm):.2e} over {Np} steps "
           f"(degraded steps: {len(lost)}, revised: {sum(1 for r in d['revisions'] if r)})")
     if max(dm) > a.rel:
         j = int(np.argmax(dm))
         fail(f"step {j + 1}: fused vs masked reference {dm[j]:.2e} > {a.rel:g}")
-    before = (lost[0] - 1) if lost else N
+    before = (lost[0] - 1) if lost else Np
     if before:
         w = max(df[:before])
         print(f"fused vs full-data centralized DKF on steps 1..{before} (before any row was lost): {w:.2e}")
         if w > a.rel:
             fail(f"steps before the first loss differ from the full-data filter: {w:.2e}")
-    if lost and lost[-1] < N:
+    if lost and lost[-1] < Np:
         last = lost[-1]
-        tail = [(k, df[k - 1]) for k in range(last, N + 1)]
-        marks = [t for t in tail if t[0] in (last, last + 1, last + 2, last + 5, last + 10, last + 20, N)]
+        tail = [(k, df[k - 1]) for k in range(last, Np + 1)]
+        marks = [t for t in tail if t[0] in (last, last + 1, last + 2, last + 5, last + 10, last + 20, Np)]
         print("distance to the full-data filter after the last lost row (k: rel): "
               + ", ".join(f"{k}: {v:.2e}" for k, v in marks))
     c = d["counters"]
-    print("counters: " + json.dumps({key: c[key] for key in ("received", "sent_by_node", "not_received",
-                                                            "rejected", "stale", "degraded_steps",
-                                                            "revised_steps")})
-          + " faults: " + json.dumps(c["faults"]))
+    if c:
+        print("counters: " + json.dumps({key: c[key] for key in ("received", "sent_by_node", "not_received",
+                                                                "rejected", "stale", "degraded_steps",
+                                                                "revised_steps")})
+              + " faults: " + json.dumps(c["faults"]))
+    for node in a.others_complete:
+        bad = [j + 1 for j in range(Np) if set(range(l)) - keep[j] - {node}]
+        if bad:
+            fail(f"steps {bad[:10]}{'...' if len(bad) > 10 else ''}: a node other than {node} is missing")
+        print(f"every node but {node} contributes at every step")
+    if a.complete_from is not None:
+        bad = [k for k in lost if k >= a.complete_from]
+        if bad:
+            fail(f"degraded steps {bad[:10]} at or after {a.complete_from}")
+        print(f"every step from {a.complete_from} on complete")
     if a.all_complete and lost:
         fail(f"degraded steps {lost}")
     if a.degraded is not None:
@@ -237,7 +281,7 @@ def main():
             fail(f"degraded steps {lost}, expected {want}")
     for spec in a.absent:
         node, k0, k1 = (int(x) for x in spec.split(":"))
-        for j in range(N):
+        for j in range(Np):
             inside = k0 <= j + 1 <= k1
             if (node in keep[j]) == inside:
                 fail(f"node {node} {'contributes' if inside else 'is absent'} at step {j + 1} "

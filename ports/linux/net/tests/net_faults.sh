@@ -7,16 +7,31 @@
 #
 #   drop        node 1 drops 20 % of its messages (seed 3): isolated drops are
 #               recovered by the next message's copy (a revision); two in a
-#               row lose a payload: exactly steps 40, 41 and 44, 45 degraded
+#               row lose a payload: exactly steps 40, 41 and 44, 45 degraded;
+#               the run is recorded (lcm-logger) and check_log.py finds what
+#               tools/dkf_monitor.py reports of the log (degraded steps, each
+#               x_k|k) equal to the result file, and every fused message's
+#               meas_utime_first/last a contributor's y_{k+1} publication
 #   dupreorder  both nodes duplicate and reorder messages: every step complete
 #               and equal to the full-data centralized DKF in the end
-#   restart     node 1 dies at step 15 (--exit-at), a new node-1 process joins
+#   restart     node 1 dies at step 15 (--exit-at), a second node-1 process joins
 #               at step 25 with epoch 1: node 1 absent exactly on 15..24
 #   absent      node 1 never starts: every step degraded, node 0 alone
-#   late        node 1 is started after the others and joins at step 20
+#   late        node 1 joins late, at step 20 (y_1..y_19 ignored)
 #   hostile     net_inject publishes 3 bursts of 12 invalid messages during the
 #               run: all rejected and counted by reason, fused output identical
 #               (bit for bit) to a clean run
+# At the demo's own settings (tools/net_demo.sh: the generated 12-node
+# network, N = 100, dkf-sim --rate 50, --deadline-ms 1000; SCENARIO is then
+# written by tools/make_net_scenario.py, DKF_GEN):
+#   demo_dead   node 3 dies at step 40: it alone is missing, on 40..100 exactly,
+#               every other node contributes at every step (a late step costs
+#               no other step); the wall time is printed (not asserted)
+#   demo_fcrestart  the fusion centre is killed (SIGKILL) after step 30 and a
+#               new one started: the new one joins at the current step and
+#               publishes every step from there to N, complete; the killed
+#               one's journal holds its steps 1..K, each equal to the
+#               centralized DKF
 # Every mode: every step published; fused == the centralized DKF given the
 # rows the fusion centre used (check_faults.py, numpy, independent of the C
 # library) within DKF_REL; steps before the first lost row == the full-data
@@ -48,13 +63,11 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
 trap cleanup EXIT
 
-wait_file() { # FILE SECONDS
-  local i
-  for ((i = 0; i < $2 * 100; ++i)); do [[ -e $1 ]] && return 0; sleep 0.01; done
-  echo "FAIL: $1 did not appear within $2 s" >&2; return 1
-}
+# wait_file, wait_log_quiet
+. "$(dirname "$0")/net_common.sh"
 
 fusion() { # TAG
+  rm -f "$out/$1.fusion.ready"
   "$DKF_FUSION" --url "$URL" --timeout $T --deadline-ms $DEADLINE_MS \
     --ready-file "$out/$1.fusion.ready" --output "$out/$1.fused.json" "$scn" \
     2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
@@ -80,19 +93,54 @@ finish() { # TAG PID... : waits for the fusion centre and the given nodes
   return $rc
 }
 
+demo_scenario() { # the 12-node network of tools/net_demo.sh, at its settings
+  scn=$out/net12.json
+  "$DKF_PYTHON" "$DKF_GEN" --nodes 12 --steps 100 --seed 12 --out "$scn" || exit 1
+  DEADLINE_MS=1000
+}
+
+nodes12() { # TAG [ID OPTION...]: nodes 0..11, node ID with the options; sets npids
+  local tag=$1 i; shift
+  npids=()
+  for ((i = 0; i < 12; ++i)); do
+    if [[ $# -gt 0 && $1 == "$i" ]]; then node "$tag" "$i" "${@:2}" || return 1
+    else node "$tag" "$i" || return 1; fi
+    npids+=($npid)
+  done
+}
+
 check() { # TAG [check_faults.py options...]
-  local tag=$1; shift
-  "$DKF_PYTHON" "$DKF_CHECK" "$out/$tag.fused.json" "$scn" --rel "$DKF_REL" "$@"
+  local f=$out/$1.fused.json; shift
+  [[ $f == *.jsonl.fused.json ]] && f=${f%.fused.json}
+  "$DKF_PYTHON" "$DKF_CHECK" "$f" "$scn" --rel "$DKF_REL" "$@"
 }
 
 case "$mode" in
   drop)
+    logged=0
+    if [[ -x ${DKF_LCM_LOGGER:-} ]] && "$DKF_PYTHON" -c 'import lcm' 2>/dev/null; then
+      logged=1 log=$out/run.lcmlog
+      "$DKF_LCM_LOGGER" --lcm-url="$URL" -f -q --flush-interval=10 "$log" & pids+=($!); logger=$!
+    fi
     fusion run || exit 1
     node run 0 || exit 1; a=$npid
     node run 1 --drop 20 --seed 3 || exit 1; b=$npid
+    if (( logged )); then # the heartbeats reach the log once the logger is subscribed
+      for ((i = 0; i < 1000; ++i)); do [[ -s $log ]] && break; sleep 0.01; done
+    fi
     sim || exit 1
     finish run $a $b || exit 1
     check run --selftest --degraded 40,41,44,45 --min-revised 5 || exit 1
+    if (( logged )); then
+      # the log of the run: what dkf_monitor.py / dkf_logplot.py make of it
+      # equals the result file; meas_utime_* as docs/network.md says
+      wait_log_quiet "$log"
+      kill -INT $logger; wait $logger
+      "$DKF_PYTHON" "$(dirname "$0")/check_log.py" "$log" "$out/run.fused.json" \
+        --types "$DKF_LCM_PY" || exit 1
+    else
+      echo "note: lcm-logger or Python lcm missing: the log checks (check_log.py) not run"
+    fi
     ;;
   dupreorder)
     fusion run || exit 1
@@ -112,12 +160,11 @@ PY
     fusion run || exit 1
     node run 0 || exit 1; a=$npid
     node run 1 --exit-at 15 || exit 1; b=$npid
-    # the restarted process: started once the first one is gone, joins at 25
-    (
-      while kill -0 $b 2>/dev/null; do sleep 0.01; done
-      exec "$DKF_NODE" --url "$URL" --id 1 --epoch 1 --join-at 25 --timeout $T \
-        --ready-file "$out/run.n1b.ready" "$scn" 2>"$out/run.n1b.log"
-    ) & pids+=($!); c=$!
+    # The restarted process (epoch 1) is up before the run and joins at 25: in
+    # lock-step the run goes as fast as the fusion centre, which does not wait
+    # for a node silent for a deadline, so a process started only after the
+    # death could still be starting when step 25 is 8 steps in the past.
+    node run.b 1 --epoch 1 --join-at 25 || exit 1; c=$npid
     sim || exit 1
     finish run $a $b $c || exit 1
     check run --absent 1:15:24 || exit 1
@@ -132,10 +179,9 @@ PY
   late)
     fusion run || exit 1
     node run 0 || exit 1; a=$npid
-    # node 1 starts after the others (0.3 s into the run: every step before
-    # 20 waits for the deadline, so y_20 is still seconds away) and joins at 20
-    (sleep 0.3; exec "$DKF_NODE" --url "$URL" --id 1 --join-at 20 --timeout $T "$scn" \
-       2>"$out/run.n1.log") & pids+=($!); b=$!
+    # node 1 ignores y_1..y_19 and joins at 20 (it is up before the run, for
+    # the reason given under restart)
+    node run 1 --join-at 20 || exit 1; b=$npid
     sim --optional-node 1 || exit 1
     finish run $a $b || exit 1
     check run --absent 1:1:19 || exit 1
@@ -162,6 +208,39 @@ PY
       --rejected malformed=12 --rejected "unknown node=6" --rejected "wrong model id=3" \
       --rejected "wrong dimension=3" --rejected "step out of range=6" \
       --rejected "non-finite number=6" || exit 1
+    ;;
+  demo_dead)
+    demo_scenario
+    fusion run || exit 1
+    nodes12 run 3 --exit-at 40 || exit 1
+    t0=$(date +%s%N)
+    "$DKF_SIM" --url "$URL" --timeout $T --rate 50 "$scn" || { echo "FAIL: dkf-sim exited $?"; exit 1; }
+    finish run "${npids[@]}" || exit 1
+    echo "wall time of the run (dkf-sim start to the fused step N): $(( ($(date +%s%N) - t0) / 1000000 )) ms"
+    check run --absent 3:40:100 --others-complete 3 || exit 1
+    ;;
+  demo_fcrestart)
+    demo_scenario
+    fusion first || exit 1; first=$fpid
+    nodes12 run || exit 1
+    "$DKF_SIM" --url "$URL" --timeout $T --rate 50 "$scn" & pids+=($!); spid=$!
+    # kill the centre once its journal holds step 30 (header line + 30 steps)
+    for ((i = 0; i < 1000; ++i)); do
+      [[ -e $out/first.fused.json.jsonl ]] && (( $(wc -l <"$out/first.fused.json.jsonl") > 30 )) && break
+      sleep 0.01
+    done
+    kill -KILL $first; wait $first 2>/dev/null
+    fusion second || exit 1
+    wait $spid || { echo "FAIL: dkf-sim exited $?"; exit 1; }
+    finish second "${npids[@]}" || exit 1
+    [[ ! -e $out/first.fused.json ]] || { echo "FAIL: the killed centre wrote its result file"; exit 1; }
+    echo "killed centre: journal of $(( $(wc -l <"$out/first.fused.json.jsonl") - 1 )) lines"
+    check first.fused.json.jsonl --journal --all-complete || exit 1
+    join=$("$DKF_PYTHON" -c 'import json,sys; print(json.load(open(sys.argv[1]))["joined_at"])' \
+           "$out/second.fused.json")
+    echo "restarted centre joined at step $join"
+    (( join > 1 )) || { echo "FAIL: the restarted centre did not join mid-run (joined_at $join)"; exit 1; }
+    check second --complete-from $((join + 1)) || exit 1
     ;;
   *)
     echo "net_faults.sh: $mode: unknown mode" >&2; exit 2

@@ -35,11 +35,8 @@ pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
 trap cleanup EXIT
 
-wait_file() { # FILE SECONDS
-  local i
-  for ((i = 0; i < $2 * 100; ++i)); do [[ -e $1 ]] && return 0; sleep 0.01; done
-  echo "FAIL: $1 did not appear within $2 s" >&2; return 1
-}
+# wait_file, wait_log_quiet
+. "$(dirname "$0")/net_common.sh"
 
 # Starts the fusion centre and both nodes, waits until they are subscribed.
 start_peers() { # TAG
@@ -107,14 +104,8 @@ case "$mode" in
     [[ -s $log ]] || { echo "FAIL: lcm-logger recorded nothing"; exit 1; }
     "$DKF_SIM" --url "$URL" --timeout $T --lockstep "$scn" || { echo "FAIL: dkf-sim"; exit 1; }
     wait_peers live || exit 1
-    # let the logger take in and flush the last messages: wait until the log
-    # has stopped growing for 0.3 s (at most 10 s), not a fixed guess
-    last=-1 still=0
-    for ((i = 0; i < 1000 && still < 30; ++i)); do
-      size=$(stat -c %s "$log")
-      if [[ $size == "$last" ]]; then ((++still)); else still=0 last=$size; fi
-      sleep 0.01
-    done
+    # let the logger take in and flush the last messages (not a fixed guess)
+    wait_log_quiet "$log"
     kill -INT $logger; wait $logger
     compare_central "$out/live.fused.json" || exit 1
     # replay only the node messages into a fresh fusion centre

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # net_local.sh OUTDIR - dkf-net-local (every agent in one process over
-# memq://) on a generated 12-node network: the generator is reproducible
-# and every one of the N steps is fused complete by all 12 nodes.
+# memq://) on a generated 12-node network: the generator is reproducible,
+# every one of the N steps is fused complete by all 12 nodes, and
+# check_faults.py (which must read the generator's init.P00-only prior)
+# finds the fused estimate equal to its numpy centralized DKF within DKF_REL.
 set -euo pipefail
 out=$1
 rm -rf "$out" && mkdir -p "$out"
@@ -20,3 +22,4 @@ assert all(s == "complete" for s in d["status"]), "a degraded step"
 assert all(len(c) == 12 for c in d["contributors"]), "a node missing"
 print("PASS: 100 steps, all complete with 12 nodes")
 PY
+"$DKF_PYTHON" "$DKF_CHECK" "$out/fused.json" "$out/a.json" --rel "$DKF_REL" --all-complete

@@ -475,6 +475,191 @@ static void test_channels(void **state)
     assert_string_equal(dkf_net_verdict_str(DKF_NET_REJ_MODEL), "wrong model id");
 }
 
+/* ---- every length field of every type (issue 10) ------------------------------ */
+
+enum { T_NODE, T_MEAS, T_TRUTH, T_FUSED, T_STATUS, T_NTYPES };
+
+/* Decodes with decoder `type` into outputs prefilled with 0x5a and checks
+ * that a rejection leaves them untouched. */
+static dkf_net_verdict_t decode_type(int type, const unsigned char *b, size_t len)
+{
+    static dkf_diffkf_msg_t msg, prev;
+    static dkf_net_meta_t meta;
+    static dkf_net_meas_t meas;
+    static dkf_net_truth_t truth;
+    static dkf_net_fused_t fused;
+    static dkf_net_status_t st;
+    static unsigned char keep[sizeof(dkf_net_fused_t)];
+    const dkf_net_expect_t ex = expect();
+    dkf_net_verdict_t v;
+    void *out[T_NTYPES] = {&msg, &meas, &truth, &fused, &st};
+    size_t size[T_NTYPES] = {sizeof msg, sizeof meas, sizeof truth, sizeof fused, sizeof st};
+    memset(out[type], 0x5a, size[type]);
+    memset(keep, 0x5a, sizeof keep);
+    switch (type) {
+    case T_NODE: v = dkf_net_decode_node_msg(b, len, &ex, &msg, &prev, &meta, NULL); break;
+    case T_MEAS: v = dkf_net_decode_meas(b, len, &ex, &meas, NULL); break;
+    case T_TRUTH: v = dkf_net_decode_truth(b, len, &ex, &truth, NULL); break;
+    case T_FUSED: v = dkf_net_decode_fused(b, len, &ex, &fused, NULL); break;
+    default: v = dkf_net_decode_status(b, len, &st, NULL); break;
+    }
+    if (v != DKF_NET_ACCEPT) assert_memory_equal(out[type], keep, size[type]);
+    return v;
+}
+
+/* A valid message of `type` in buf (the expectations of expect()); its
+ * length, and the offsets of its int32 length fields in off[] (*noff). */
+static size_t encode_type(int type, size_t *off, size_t *noff)
+{
+    static dkf_net_fused_t f;
+    dkf_diffkf_msg_t msg;
+    dkf_net_meta_t meta;
+    dkf_net_meas_t m;
+    dkf_net_truth_t t;
+    dkf_net_status_t st;
+    size_t len = 0;
+    *noff = 1;
+    switch (type) {
+    case T_NODE:
+        make_msg(&msg, &meta);
+        len = encode_msg(&msg, &meta);
+        off[0] = 48;
+        break;
+    case T_MEAS:
+        memset(&m, 0, sizeof m);
+        m.meta.model_id = MODEL;
+        m.node = 1;
+        m.k = 3;
+        m.m = 3;
+        assert_int_equal(dkf_net_encode_meas(buf, sizeof buf, &len, &m), 0);
+        off[0] = 40;
+        break;
+    case T_TRUTH:
+        memset(&t, 0, sizeof t);
+        t.meta.model_id = MODEL;
+        t.n = 4;
+        assert_int_equal(dkf_net_encode_truth(buf, sizeof buf, &len, &t), 0);
+        off[0] = 36;
+        break;
+    case T_FUSED:
+        memset(&f, 0, sizeof f);
+        f.meta.model_id = MODEL;
+        f.k = 1;
+        f.nnodes = 3;
+        f.n = 4;
+        assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), 0);
+        off[0] = 37;                 /* nnodes */
+        off[1] = 37 + 4 + 3 + 3 * 8; /* n, after contributed[3] and three int64 */
+        *noff = 2;
+        break;
+    default:
+        memset(&st, 0, sizeof st);
+        strcpy(st.detail, "ok");
+        assert_int_equal(dkf_net_encode_status(buf, sizeof buf, &len, &st), 0);
+        off[0] = 66; /* the string's length */
+        break;
+    }
+    assert_int_equal(decode_type(type, buf, len), DKF_NET_ACCEPT);
+    return len;
+}
+
+static void put_be32(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)(v >> 24);
+    p[1] = (unsigned char)(v >> 16);
+    p[2] = (unsigned char)(v >> 8);
+    p[3] = (unsigned char)v;
+}
+
+static uint32_t get_be32(const unsigned char *p)
+{
+    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) | p[3];
+}
+
+/* Every truncation, a trailing byte, and every length field set to a value
+ * the datagram does not hold (negative, huge, one more or less, beyond the
+ * protocol's limit): MALFORMED, outputs untouched, no sanitizer report. */
+static void test_length_fields_every_type(void **state)
+{
+    static const uint32_t bad[] = {0xffffffffu, 0x80000000u, 0x7fffffffu, 0x20000001u,
+                                   0x10000000u, 4097u, DKF_MAX_DIM + 1u, DKF_NET_MAX_NODES + 1u};
+    static unsigned char orig[DKF_NET_MAX_MSG];
+    int type;
+    (void)state;
+    for (type = 0; type < T_NTYPES; ++type) {
+        size_t off[2], noff, len = encode_type(type, off, &noff), cut, j, i;
+        memcpy(orig, buf, len);
+        for (cut = 0; cut < len; ++cut)
+            assert_int_equal(decode_type(type, buf, cut), DKF_NET_REJ_MALFORMED);
+        buf[len] = 0;
+        assert_int_equal(decode_type(type, buf, len + 1), DKF_NET_REJ_MALFORMED);
+        for (j = 0; j < noff; ++j) {
+            const uint32_t c = get_be32(orig + off[j]);
+            for (i = 0; i < sizeof bad / sizeof bad[0] + 2; ++i) {
+                memcpy(buf, orig, len);
+                put_be32(buf + off[j], i < 2 ? c + 1 - 2 * (uint32_t)i : bad[i - 2]);
+                assert_int_equal(decode_type(type, buf, len), DKF_NET_REJ_MALFORMED);
+            }
+        }
+    }
+}
+
+/* Removes count bytes at offset at from buf[0..len); the new length. */
+static size_t cut_out(size_t len, size_t at, size_t count)
+{
+    memmove(buf + at, buf + at + count, len - at - count);
+    return len - count;
+}
+
+/* A message whose array is empty and whose size matches: the protocol has
+ * no empty array (n, m, nnodes >= 1), and lcm-gen's decoder would copy a
+ * boolean[0] with memcpy(NULL, ..., 0) (UBSan under double-asan). */
+static void test_zero_length_arrays(void **state)
+{
+    size_t off[2], noff, len;
+    (void)state;
+    /* fused with zero nodes: nnodes = 0, contributed[] removed */
+    len = encode_type(T_FUSED, off, &noff);
+    put_be32(buf + off[0], 0);
+    len = cut_out(len, off[0] + 4, 3);
+    assert_int_equal(decode_type(T_FUSED, buf, len), DKF_NET_REJ_MALFORMED);
+    /* fused with n = 0: xf, xp, Pf, Pp removed (2*4 + 2*16 doubles) */
+    len = encode_type(T_FUSED, off, &noff);
+    put_be32(buf + off[1], 0);
+    len = cut_out(len, off[1] + 4, 8 * (8 + 32));
+    assert_int_equal(decode_type(T_FUSED, buf, len), DKF_NET_REJ_MALFORMED);
+    /* node message, measurement, truth with an empty state / measurement */
+    len = encode_type(T_NODE, off, &noff);
+    put_be32(buf + off[0], 0);
+    len = cut_out(len, off[0] + 4, 8 * 8);         /* xf[4], xp[4] */
+    len = cut_out(len, off[0] + 4 + 13, 8 * 8);    /* prev_xf[4], prev_xp[4] */
+    assert_int_equal(decode_type(T_NODE, buf, len), DKF_NET_REJ_MALFORMED);
+    len = encode_type(T_MEAS, off, &noff);
+    put_be32(buf + off[0], 0);
+    assert_int_equal(decode_type(T_MEAS, buf, cut_out(len, off[0] + 4, 3 * 8)),
+                     DKF_NET_REJ_MALFORMED);
+    len = encode_type(T_TRUTH, off, &noff);
+    put_be32(buf + off[0], 0);
+    assert_int_equal(decode_type(T_TRUTH, buf, cut_out(len, off[0] + 4, 4 * 8)),
+                     DKF_NET_REJ_MALFORMED);
+    /* the encoder makes no fused message without nodes */
+    {
+        static dkf_net_fused_t f;
+        memset(&f, 0, sizeof f);
+        f.n = 4;
+        assert_int_equal(dkf_net_encode_fused(buf, sizeof buf, &len, &f), -1);
+    }
+}
+
+/* A boolean is one byte, 0 or 1: contributed[] too. */
+static void test_fused_contributed_flag(void **state)
+{
+    size_t off[2], noff, len = encode_type(T_FUSED, off, &noff);
+    (void)state;
+    buf[off[0] + 4 + 1] = 2;
+    assert_int_equal(decode_type(T_FUSED, buf, len), DKF_NET_REJ_MALFORMED);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -487,6 +672,9 @@ int main(void)
         cmocka_unit_test(test_fused_round_trip_and_rejections),
         cmocka_unit_test(test_status_round_trip),
         cmocka_unit_test(test_channels),
+        cmocka_unit_test(test_length_fields_every_type),
+        cmocka_unit_test(test_zero_length_arrays),
+        cmocka_unit_test(test_fused_contributed_flag),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

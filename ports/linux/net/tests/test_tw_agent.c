@@ -473,6 +473,60 @@ static void test_tw_codec_rejects(void **state)
     dkf_scenario_free(s);
 }
 
+/* issue 10: the packet's len field is checked against the datagram before
+ * lcm-gen's decoder runs (which trusted it: a 50-byte packet with len =
+ * 0x20000001 read ~4 GiB past the buffer). Every value of len that the
+ * datagram does not hold, and every cut, is MALFORMED; out untouched. */
+static void test_tw_codec_len_field(void **state)
+{
+    static const uint32_t bad[] = {0x20000001u, 0xffffffffu, 0x80000000u, 0x7fffffffu,
+                                   0x10000000u, DKF_TW_MAX_PKT + 1u, 8u};
+    dkf_scenario_t *s = load(V6);
+    dkf_tw_scn_t c;
+    static dkf_tw_pkt_t p, out, q;
+    static unsigned char buf[DKF_TW_MAX_MSG + 64];
+    size_t len, i, j;
+    char err[256];
+    (void)state;
+    assert_int_equal(dkf_tw_scn_bind(&c, s, 3, -1, err, sizeof err), 0);
+    memset(&p, 0, sizeof p);
+    p.model_id = c.model_id;
+    p.node = 4;
+    p.kind = DKF_TW_KIND_DONE;
+    p.k = (long)c.steps + 1;
+    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(len, 42); /* fingerprint + header; len = 0, no v */
+    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_ACCEPT);
+    memset(&out, 0x5a, sizeof out);
+    q = out;
+    for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        for (j = 0; j < 4; ++j) buf[38 + j] = (unsigned char)(bad[i] >> (24 - 8 * j));
+        memset(buf + 42, 0x41, 8);
+        /* the 50-byte packet of the issue (i = 0), then others */
+        assert_int_equal(dkf_tw_decode(buf, 50, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+        assert_int_equal(dkf_tw_decode(buf, 42, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+        assert_memory_equal(&out, &q, sizeof q);
+    }
+    /* a full estimate packet with len one more or less than it holds */
+    p.kind = DKF_TW_KIND_EST;
+    p.k = 3;
+    p.round = 12;
+    p.len = DKF_TW_PKT_LEN(c.n);
+    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    for (i = 0; i < 2; ++i) {
+        const uint32_t l = (uint32_t)p.len + 1 - 2 * (uint32_t)i;
+        for (j = 0; j < 4; ++j) buf[38 + j] = (unsigned char)(l >> (24 - 8 * j));
+        assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+    }
+    assert_memory_equal(&out, &q, sizeof q);
+    /* the retransmit flag is a boolean: 0 or 1 */
+    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    buf[37] = 2;
+    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+    dkf_tw_scn_free(&c);
+    dkf_scenario_free(s);
+}
+
 /* Another alg or eta is another model: mixed runs reject each other. */
 static void test_tw_model_id_covers_alg_eta(void **state)
 {
@@ -522,6 +576,7 @@ int main(void)
         cmocka_unit_test(test_tw_agents_recover_losses),
         cmocka_unit_test(test_tw_absent_node),
         cmocka_unit_test(test_tw_codec_rejects),
+        cmocka_unit_test(test_tw_codec_len_field),
         cmocka_unit_test(test_tw_model_id_covers_alg_eta),
         cmocka_unit_test(test_tw_channels),
     };

@@ -1,0 +1,16 @@
+# net_common.sh - shell helpers of the network test scripts (sourced).
+
+wait_file() { # FILE SECONDS: until FILE exists
+  local i
+  for ((i = 0; i < $2 * 100; ++i)); do [[ -e $1 ]] && return 0; sleep 0.01; done
+  echo "FAIL: $1 did not appear within $2 s" >&2; return 1
+}
+
+wait_log_quiet() { # LOG: until lcm-logger's LOG has stopped growing for 0.3 s (at most 10 s)
+  local i last=-1 still=0 size
+  for ((i = 0; i < 1000 && still < 30; ++i)); do
+    size=$(stat -c %s "$1")
+    if [[ $size == "$last" ]]; then ((++still)); else still=0 last=$size; fi
+    sleep 0.01
+  done
+}

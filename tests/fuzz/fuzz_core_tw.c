@@ -1,0 +1,122 @@
+/*
+ * fuzz_core_tw - the Talebi-Werner node (dkf/tw.h): init, then up to 24
+ * info packets, local steps (on the packet, or a byte-edited one),
+ * commits (of the local estimate, or of byte-given x and packed P) and
+ * centralized steps over 1-3 sensors, on byte-edited models (fuzz_core.h).
+ * Property: a failed call leaves the struct and DKF_TW_NODE_STATE_LEN
+ * reals of storage byte-identical, and the pending step while one is
+ * pending, except that a failed local step sets pending = 0 as documented;
+ * a failed packet leaves the packet untouched; after a successful call the
+ * state is finite and P is exactly symmetric.
+ */
+#include "dkf/tw.h"
+#include "fuzz_core.h"
+
+#define NMAX 4
+#define MMAX 3
+#define PMAX 3
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static dkf_real_t st[DKF_TW_NODE_STORAGE_LEN(NMAX, MMAX, PMAX)];
+    static dkf_real_t pkt[DKF_TW_PKT_LEN(NMAX)], info[DKF_TW_PKT_LEN(NMAX)];
+    static dkf_real_t xs[NMAX], Ps[DKF_TW_PKT_LEN(NMAX)];
+    static fz_snap_t snap;
+    static fz_mat_t x0, P0, A, B, Sv, H[3], Sw[3], y[3];
+    fz_mat_t *const init_m[] = {&x0, &P0}, *const md_m[] = {&A, &B, &Sv},
+                    *const sn_m[] = {&H[0], &Sw[0], &y[0], &H[1], &Sw[1], &y[1], &H[2], &Sw[2], &y[2]};
+    fz_t z = {data, size, 0};
+    dkf_tw_sensor_t sn[3];
+    dkf_tw_model_t md;
+    dkf_tw_node_t nd, before;
+    dkf_status_t s;
+    size_t n, m, pm, op, i, len, blk;
+    int have_pkt = 0;
+    n = fz_dim(&z, NMAX);
+    m = fz_dim(&z, MMAX);
+    pm = fz_dim(&z, PMAX);
+    len = DKF_TW_PKT_LEN(n);
+    blk = DKF_TW_NODE_STATE_LEN(n, m) - n - n * n;
+    memset(&nd, 0, sizeof nd);
+    fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_edit(&z, init_m, 2);
+    /* a non-symmetric prior is accepted (one triangle is read): then no
+     * symmetry is promised */
+    const int sym = P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows);
+    fz_regions_clear(&snap);
+    fz_region(&snap, &nd, sizeof nd);
+    fz_take(&snap);
+    s = dkf_tw_node_init(&nd, n, m, pm, st, DKF_TW_NODE_STORAGE_LEN(n, m, pm), &x0.v, &P0.v);
+    if (!fz_after(&snap, s)) return 0;
+    md.A = &A.v, md.B = &B.v, md.Sv = &Sv.v;
+    for (op = 0; op < 24 && fz_more(&z); ++op) {
+        const uint8_t code = fz_byte(&z);
+        const size_t ns = 1 + (size_t)(code >> 4) % 3;
+        fz_regions_clear(&snap);
+        fz_region(&snap, &nd, sizeof nd);
+        fz_region(&snap, st, (DKF_TW_NODE_STATE_LEN(n, m) + (nd.pending ? blk : 0)) * sizeof(dkf_real_t));
+        fz_set(&A, n, n, DKF_R(0.9), DKF_R(0.05));
+        fz_set(&B, n, m, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&Sv, n, n, DKF_R(0.1), DKF_R(0.0));
+        for (i = 0; i < 3; ++i) {
+            fz_set(&H[i], pm, n, DKF_R(1.0), DKF_R(0.1));
+            fz_set(&Sw[i], pm, pm, DKF_R(0.5), DKF_R(0.0));
+            fz_set(&y[i], pm, 1, DKF_R(0.3), DKF_R(0.3));
+            sn[i].H = &H[i].v, sn[i].Sw = &Sw[i].v, sn[i].y = &y[i].v;
+        }
+        fz_edit(&z, md_m, 3);
+        fz_edit(&z, sn_m, 9);
+        before = nd;
+        switch (code % 4) {
+        case 0: { /* an info packet: the packet is untouched on failure */
+            fz_snap_t *ps = &snap;
+            fz_region(ps, pkt, sizeof pkt);
+            fz_take(ps);
+            s = dkf_tw_meas_packet(pkt, &nd, &sn[0], code & 8 ? fz_real(&z) : DKF_R(1.0));
+            if (fz_after(ps, s)) {
+                fz_finite(pkt, len);
+                have_pkt = 1;
+            }
+            continue;
+        }
+        case 1: /* the local step: a failure may only cancel a pending step */
+            if (!have_pkt) continue;
+            memcpy(info, pkt, len * sizeof *info);
+            if (code & 8) info[fz_byte(&z) % len] = fz_real(&z);
+            fz_regions_clear(&snap);
+            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, m) * sizeof(dkf_real_t));
+            fz_take(&snap);
+            s = dkf_tw_node_local(&nd, &md, info, NULL);
+            if (s != DKF_OK) {
+                before.pending = 0;
+                FZ_CHECK(memcmp(&before, &nd, sizeof nd) == 0);
+            }
+            break;
+        case 2: /* commit the local estimate, or a given x and packed P */
+            for (i = 0; i < n; ++i) xs[i] = fz_real(&z);
+            for (i = 0; i < len - n; ++i) Ps[i] = DKF_R(0.0);
+            for (i = 0; i < n; ++i) Ps[i * n - i * (i - 1) / 2] = DKF_R(1.0); /* identity, packed */
+            if (code & 16) Ps[fz_byte(&z) % (len - n)] = fz_real(&z);
+            fz_take(&snap);
+            s = dkf_tw_node_commit(&nd, code & 8 ? xs : NULL, code & 32 ? Ps : NULL);
+            break;
+        default:
+            fz_take(&snap);
+            s = dkf_tw_central_step(&nd, &md, sn, ns);
+            if (s != DKF_OK && before.pending) { /* its local step cancelled the pending one */
+                before.pending = 0;
+                FZ_CHECK(memcmp(&before, &nd, sizeof nd) == 0);
+                continue;
+            }
+            break;
+        }
+        if (fz_after(&snap, s)) {
+            fz_finite(st, DKF_TW_NODE_STATE_LEN(n, m));
+            fz_symmetric(nd.P.data, n, sym);
+        }
+    }
+    return 0;
+}

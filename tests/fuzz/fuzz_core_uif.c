@@ -1,0 +1,80 @@
+/*
+ * fuzz_core_uif - the joint state and input filters (dkf/uif.h): a kind
+ * (RTSF, NRTSF-DF, NRTSF; also invalid ones), init, then up to 24 steps on
+ * byte-edited models, with or without dynamics (out of sequence when
+ * wrong), with H given or not, and rank tolerances changed between steps
+ * (fuzz_core.h). Property: a failed call leaves the struct and
+ * DKF_UIF_STATE_LEN reals of storage (outputs and the decomposition
+ * cache) byte-identical; after a successful one the outputs are finite and
+ * Px, Pd are exactly symmetric.
+ */
+#include "dkf/uif.h"
+#include "fuzz_core.h"
+
+#define NMAX 4
+#define MMAX 3
+#define PMAX 4
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static dkf_real_t st[DKF_UIF_STORAGE_LEN(NMAX, MMAX, PMAX)];
+    static fz_snap_t snap;
+    static fz_mat_t x0, P0, A, G, Q, C, H, R, y;
+    fz_mat_t *const init_m[] = {&x0, &P0}, *const step_m[] = {&A, &G, &Q, &C, &H, &R, &y};
+    fz_t z = {data, size, 0};
+    dkf_uif_dyn_t dyn;
+    dkf_uif_meas_t meas;
+    dkf_uif_t f;
+    dkf_status_t s;
+    size_t n, m, p, op;
+    const uint8_t kind = fz_byte(&z) % 4; /* 3 is not a kind */
+    n = fz_dim(&z, NMAX);
+    m = fz_dim(&z, MMAX);
+    p = fz_dim(&z, PMAX);
+    memset(&f, 0, sizeof f);
+    fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_edit(&z, init_m, 2);
+    /* a non-symmetric prior is accepted (one triangle is read): then no
+     * symmetry is promised */
+    const int sym = P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows);
+    fz_regions_clear(&snap);
+    fz_region(&snap, &f, sizeof f);
+    fz_take(&snap);
+    s = dkf_uif_init(&f, (dkf_uif_kind_t)kind, n, m, p, st, DKF_UIF_STORAGE_LEN(n, m, p), &x0.v,
+                     &P0.v);
+    if (!fz_after(&snap, s)) return 0;
+    fz_region(&snap, st, DKF_UIF_STATE_LEN(n, m, p) * sizeof(dkf_real_t));
+    dyn.A = &A.v, dyn.G = &G.v, dyn.Q = &Q.v;
+    meas.C = &C.v, meas.R = &R.v;
+    for (op = 0; op < 24 && fz_more(&z); ++op) {
+        const uint8_t code = fz_byte(&z);
+        int with_dyn = f.kind == DKF_UIF_NRTSF || f.k > 0;
+        if (code & 1) with_dyn = !with_dyn; /* out of sequence */
+        if (code & 2) f.rank_tol = fz_real(&z) * DKF_R(1e-3);
+        fz_set(&A, n, n, DKF_R(0.9), DKF_R(0.05));
+        fz_set(&G, n, m, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&Q, n, n, DKF_R(0.1), DKF_R(0.0));
+        fz_set(&C, p, n, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&H, p, m, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&R, p, p, DKF_R(0.5), DKF_R(0.0));
+        fz_set(&y, p, 1, DKF_R(0.3), DKF_R(0.3));
+        if (code & 4) { /* G (or H) loses a rank: a column of zeros */
+            size_t i;
+            for (i = 0; i < n; ++i) G.d[i * m] = DKF_R(0.0);
+            for (i = 0; i < p; ++i) H.d[i * m] = DKF_R(0.0);
+        }
+        fz_edit(&z, step_m, 7);
+        meas.H = (f.kind == DKF_UIF_NRTSF) != ((code & 8) != 0) ? NULL : &H.v;
+        fz_take(&snap);
+        s = dkf_uif_step(&f, with_dyn ? &dyn : NULL, &meas, &y.v);
+        if (fz_after(&snap, s)) {
+            fz_finite(st, DKF__UIF_OUT_LEN(n, m, p));
+            fz_symmetric(f.Px.data, n, sym);
+            fz_symmetric(f.Pd.data, m, sym);
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,987 @@
+/*
+ * Every public function of the core that takes a filter object, called
+ * with bad input of each kind, returns an error and leaves the object
+ * bit-identical: the struct and the state part of its storage (the first
+ * *_STATE_LEN reals; the rest is scratch any call may overwrite). Kinds:
+ * a NULL data pointer, one row or column too many, a zero dimension, NaN,
+ * +Inf and -Inf at every element of every input matrix, and the
+ * module-specific ones (non-SPD, singular, rank, overflow of finite
+ * inputs, out-of-sequence calls). Each module is put in a state after a
+ * few successful calls first, so that the caches and carries are live.
+ * A "huge" variant (one input scaled by 2 sqrt(REAL_MAX)) may fail or
+ * not; if it fails it must leave the object untouched too.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "dkf/askf.h"
+#include "dkf/diffkf.h"
+#include "dkf/diffkf_fusion.h"
+#include "dkf/info.h"
+#include "dkf/kf.h"
+#include "dkf/otskf.h"
+#include "dkf/tw.h"
+#include "dkf/uif.h"
+#include "dkf_test.h"
+
+/* ---- snapshots ------------------------------------------------------------ */
+
+/* "any error": the call must fail, the status is not pinned */
+#define ANY_ERR ((dkf_status_t)1)
+#define SNAP_CAP (1u << 20)
+
+typedef struct {
+    const void *p[24];
+    size_t len[24];
+    size_t n;
+} regions_t;
+
+static unsigned char snap_bytes[SNAP_CAP];
+
+static void reg_clear(regions_t *g) { g->n = 0; }
+static void reg_add(regions_t *g, const void *p, size_t len)
+{
+    assert_true(g->n < 24);
+    g->p[g->n] = p;
+    g->len[g->n] = len;
+    g->n++;
+}
+
+static void snap_take(const regions_t *g)
+{
+    size_t i, off = 0;
+    for (i = 0; i < g->n; ++i) {
+        assert_true(off + g->len[i] <= SNAP_CAP);
+        memcpy(snap_bytes + off, g->p[i], g->len[i]);
+        off += g->len[i];
+    }
+}
+
+static int snap_same(const regions_t *g)
+{
+    size_t i, off = 0;
+    for (i = 0; i < g->n; ++i) {
+        if (memcmp(snap_bytes + off, g->p[i], g->len[i]) != 0) return 0;
+        off += g->len[i];
+    }
+    return 1;
+}
+
+/* Puts the snapshot back (after a call that was allowed to succeed). */
+static void snap_restore(const regions_t *g)
+{
+    size_t i, off = 0;
+    for (i = 0; i < g->n; ++i) {
+        memcpy((void *)(uintptr_t)g->p[i], snap_bytes + off, g->len[i]);
+        off += g->len[i];
+    }
+}
+
+static size_t n_checked; /* failing calls checked, for the log */
+
+static void check_failed(const regions_t *g, dkf_status_t want, dkf_status_t got,
+                         const char *what, size_t e)
+{
+    ++n_checked;
+    if (got == DKF_OK || (want != ANY_ERR && got != want)) {
+        print_error("%s (element %zu): status %d (%s), want %d\n", what, e, (int)got,
+                    dkf_status_str(got), (int)want);
+        fail();
+    }
+    if (!snap_same(g)) {
+        print_error("%s (element %zu): the failed call (%s) changed the object\n", what, e,
+                    dkf_status_str(got));
+        fail();
+    }
+}
+
+#define EXPECT_UNTOUCHED(g, want, call, what) \
+    do { \
+        snap_take(g); \
+        check_failed((g), (want), (call), (what), 0); \
+    } while (0)
+
+/* ---- corrupting one input view ---------------------------------------------- */
+
+typedef enum { K_NULL, K_ROWS, K_COLS, K_ZERO, K_NAN, K_PINF, K_NINF, K_HUGE, K_COUNT } kind_t;
+
+static const char *const kind_name[K_COUNT] = {"NULL data", "rows + 1", "cols + 1", "0 rows",
+                                               "NaN",       "+Inf",     "-Inf",     "huge"};
+
+static size_t variants(const dkf_mat_t *v, kind_t k)
+{
+    return k == K_NAN || k == K_PINF || k == K_NINF ? v->rows * v->cols : 1;
+}
+
+static dkf_status_t kind_status(kind_t k)
+{
+    switch (k) {
+    case K_NULL: return DKF_ERR_NULL;
+    case K_ZERO: return DKF_ERR_CAPACITY;
+    case K_NAN:
+    case K_PINF:
+    case K_NINF: return DKF_ERR_NONFINITE;
+    default: return ANY_ERR;
+    }
+}
+
+/* 2 sqrt(REAL_MAX): any product of two such entries overflows. */
+static dkf_real_t huge_value(void) { return DKF_R(2.0) * DKF_SQRT(DKF_REAL_MAX); }
+
+typedef struct {
+    dkf_mat_t v;
+    dkf_real_t saved[64];
+} undo_t;
+
+/* Every view's data must have room for (rows + 1) (cols + 1) reals. */
+static void corrupt(dkf_mat_t *v, kind_t k, size_t e, undo_t *u)
+{
+    size_t i;
+    u->v = *v;
+    assert_true(v->rows * v->cols <= 64);
+    memcpy(u->saved, v->data, v->rows * v->cols * sizeof(dkf_real_t));
+    switch (k) {
+    case K_NULL: v->data = NULL; break;
+    case K_ROWS: v->rows += 1; break;
+    case K_COLS: v->cols += 1; break;
+    case K_ZERO: v->rows = 0; break;
+    case K_NAN: v->data[e] = (dkf_real_t)NAN; break;
+    case K_PINF: v->data[e] = (dkf_real_t)INFINITY; break;
+    case K_NINF: v->data[e] = -(dkf_real_t)INFINITY; break;
+    case K_HUGE:
+        for (i = 0; i < v->rows * v->cols; ++i) v->data[i] *= huge_value();
+        break;
+    default: break;
+    }
+}
+
+static void uncorrupt(dkf_mat_t *v, const undo_t *u)
+{
+    *v = u->v;
+    memcpy(v->data, u->saved, v->rows * v->cols * sizeof(dkf_real_t));
+}
+
+typedef dkf_status_t (*call_fn)(void *ctx);
+
+/* Every kind at every element of every view in views[] (which the call
+ * reads through pointers), with the object described by g. */
+static void sweep(const char *what, call_fn call, void *ctx, dkf_mat_t *const views[],
+                  const char *const names[], size_t nv, const regions_t *g)
+{
+    char label[160];
+    size_t j, e;
+    int k;
+    for (j = 0; j < nv; ++j)
+        for (k = 0; k < K_COUNT; ++k)
+            for (e = 0; e < variants(views[j], (kind_t)k); ++e) {
+                undo_t u;
+                dkf_status_t st;
+                snprintf(label, sizeof label, "%s: %s %s", what, names[j], kind_name[k]);
+                corrupt(views[j], (kind_t)k, e, &u);
+                snap_take(g);
+                st = call(ctx);
+                if (k == K_HUGE) {
+                    if (st != DKF_OK && !snap_same(g)) {
+                        print_error("%s: the failed call (%s) changed the object\n", label,
+                                    dkf_status_str(st));
+                        fail();
+                    }
+                    snap_restore(g);
+                } else {
+                    check_failed(g, kind_status((kind_t)k), st, label, e);
+                }
+                uncorrupt(views[j], &u);
+            }
+}
+
+/* A matrix with room for one more row and column. */
+typedef struct {
+    dkf_real_t d[64];
+    dkf_mat_t v;
+} mbuf_t;
+
+static dkf_mat_t *mset(mbuf_t *b, size_t r, size_t c, const double *vals)
+{
+    size_t i;
+    memset(b->d, 0, sizeof b->d);
+    for (i = 0; i < r * c; ++i) b->d[i] = (dkf_real_t)vals[i];
+    b->v.rows = r;
+    b->v.cols = c;
+    b->v.data = b->d;
+    return &b->v;
+}
+
+static dkf_mat_t *meye(mbuf_t *b, size_t n, double s)
+{
+    double v[64] = {0};
+    size_t i;
+    for (i = 0; i < n; ++i) v[i * n + i] = s;
+    return mset(b, n, n, v);
+}
+
+/* ---- the shared model (n = 3 states) ----------------------------------------- */
+
+static const double F3[9] = {1.0, 0.1, 0.0, 0.0, 1.0, 0.1, 0.0, 0.0, 0.9};
+static const double Q3[9] = {0.02, 0.001, 0.0, 0.001, 0.02, 0.0, 0.0, 0.0, 0.03};
+static const double P3[9] = {1.0, 0.2, 0.0, 0.2, 1.5, 0.1, 0.0, 0.1, 0.8};
+static const double x3[3] = {0.5, -1.0, 2.0};
+
+/* ---- KF ------------------------------------------------------------------------ */
+
+typedef struct {
+    dkf_kf_t kf;
+    dkf_real_t st[DKF_KF_STORAGE_LEN(3, 2)];
+    mbuf_t F, Q, u, H, R, y;
+    regions_t g;
+} kf_ctx_t;
+
+static dkf_status_t kf_predict_call(void *c)
+{
+    kf_ctx_t *k = c;
+    return dkf_kf_predict(&k->kf, &k->F.v, &k->Q.v, &k->u.v);
+}
+
+static dkf_status_t kf_update_call(void *c)
+{
+    kf_ctx_t *k = c;
+    return dkf_kf_update(&k->kf, &k->H.v, &k->R.v, &k->y.v);
+}
+
+static void test_kf(void **state)
+{
+    static kf_ctx_t k;
+    static const double H[6] = {1.0, 0.0, 0.5, 0.0, 1.0, 0.0};
+    static const double R[4] = {0.1, 0.01, 0.01, 0.2};
+    static const double y[2] = {0.3, -0.7}, u[3] = {0.1, 0.0, -0.1};
+    static const char *const pn[] = {"F", "Q", "u"}, *const un[] = {"H", "R", "y"};
+    mbuf_t x0, P0, H3;
+    dkf_mat_t *pv[3], *uv[3];
+    dkf_kf_t blank;
+    (void)state;
+    mset(&x0, 3, 1, x3);
+    mset(&P0, 3, 3, P3);
+    assert_int_equal(dkf_kf_init(&k.kf, 3, 2, k.st, DKF_KF_STORAGE_LEN(3, 2), &x0.v, &P0.v),
+                     DKF_OK);
+    assert_true(k.kf.work == k.st + DKF_KF_STATE_LEN(3, 2));
+    pv[0] = mset(&k.F, 3, 3, F3), pv[1] = mset(&k.Q, 3, 3, Q3), pv[2] = mset(&k.u, 3, 1, u);
+    uv[0] = mset(&k.H, 2, 3, H), uv[1] = mset(&k.R, 2, 2, R), uv[2] = mset(&k.y, 2, 1, y);
+    assert_int_equal(kf_predict_call(&k), DKF_OK);
+    assert_int_equal(kf_update_call(&k), DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.kf, sizeof k.kf);
+    reg_add(&k.g, k.st, DKF_KF_STATE_LEN(3, 2) * sizeof(dkf_real_t));
+    sweep("kf_predict", kf_predict_call, &k, pv, pn, 3, &k.g);
+    sweep("kf_update", kf_update_call, &k, uv, un, 3, &k.g);
+    /* R = -I: S not SPD; m = 3 > m_max; finite F whose F P F^T overflows */
+    meye(&k.R, 2, -1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, kf_update_call(&k), "kf_update: R = -I");
+    mset(&k.R, 2, 2, R);
+    mset(&H3, 3, 3, F3);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_kf_update(&k.kf, &H3.v, &k.R.v, &k.y.v),
+                     "kf_update: m > m_max");
+    meye(&k.F, 3, (double)huge_value());
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, kf_predict_call(&k), "kf_predict: F P F^T overflows");
+    mset(&k.F, 3, 3, F3);
+    /* out of sequence: a filter that was never initialised */
+    memset(&blank, 0, sizeof blank);
+    reg_clear(&k.g);
+    reg_add(&k.g, &blank, sizeof blank);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_predict(&blank, &k.F.v, &k.Q.v, NULL),
+                     "kf_predict before init");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_update(&blank, &k.H.v, &k.R.v, &k.y.v),
+                     "kf_update before init");
+    /* a failed init never writes *kf */
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.kf, sizeof k.kf);
+    meye(&P0, 3, -1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD,
+                     dkf_kf_init(&k.kf, 3, 2, k.st, DKF_KF_STORAGE_LEN(3, 2), &x0.v, &P0.v),
+                     "kf_init: P0 = -I");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY,
+                     dkf_kf_init(&k.kf, 3, 2, k.st, DKF_KF_STORAGE_LEN(3, 2) - 1, &x0.v, &P0.v),
+                     "kf_init: storage");
+}
+
+/* ---- information filter --------------------------------------------------------- */
+
+typedef struct {
+    dkf_info_t f;
+    dkf_real_t st[DKF_INFO_STORAGE_LEN(3)];
+    mbuf_t F, Q, i[2], I[2];
+    regions_t g;
+} info_ctx_t;
+
+static dkf_status_t info_predict_call(void *c)
+{
+    info_ctx_t *k = c;
+    return dkf_info_predict(&k->f, &k->F.v, &k->Q.v);
+}
+
+static dkf_status_t info_fuse_call(void *c)
+{
+    info_ctx_t *k = c;
+    const dkf_mat_t iv[2] = {k->i[0].v, k->i[1].v}, Iv[2] = {k->I[0].v, k->I[1].v};
+    return dkf_info_fuse(&k->f, iv, Iv, 2);
+}
+
+typedef struct {
+    mbuf_t i, I, C, R, z;
+    dkf_real_t work[DKF_INFO_CONTRIB_WORK(4, 3)];
+} contrib_ctx_t;
+
+static dkf_status_t contrib_call(void *c)
+{
+    contrib_ctx_t *k = c;
+    return dkf_info_contribution(&k->i.v, &k->I.v, &k->C.v, &k->R.v, &k->z.v, k->work);
+}
+
+static void test_info(void **state)
+{
+    static info_ctx_t k;
+    static contrib_ctx_t c;
+    static const double C[6] = {1.0, 0.0, 0.5, 0.0, 1.0, 0.0};
+    static const double R[4] = {0.1, 0.01, 0.01, 0.2}, z[2] = {0.3, -0.7};
+    static const double i0[3] = {0.1, 0.2, 0.3}, I0[9] = {2.0, 0.1, 0.0, 0.1, 1.0, 0.0, 0.0, 0.0, 0.5};
+    static const char *const pn[] = {"F", "Q"}, *const fn[] = {"i0", "i1", "I0", "I1"},
+                             *const cn[] = {"C", "R", "z"};
+    dkf_mat_t *pv[2], *fv[4], *cv[3];
+    mbuf_t x0, P0;
+    regions_t out;
+    double big;
+    (void)state;
+    mset(&x0, 3, 1, x3);
+    mset(&P0, 3, 3, P3);
+    assert_int_equal(dkf_info_init(&k.f, 3, k.st, DKF_INFO_STORAGE_LEN(3), &x0.v, &P0.v), DKF_OK);
+    assert_true(k.f.work == k.st + DKF_INFO_STATE_LEN(3));
+    pv[0] = mset(&k.F, 3, 3, F3), pv[1] = mset(&k.Q, 3, 3, Q3);
+    fv[0] = mset(&k.i[0], 3, 1, i0), fv[1] = mset(&k.i[1], 3, 1, i0);
+    fv[2] = mset(&k.I[0], 3, 3, I0), fv[3] = mset(&k.I[1], 3, 3, I0);
+    assert_int_equal(info_predict_call(&k), DKF_OK);
+    assert_int_equal(info_fuse_call(&k), DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.f, sizeof k.f);
+    reg_add(&k.g, k.st, DKF_INFO_STATE_LEN(3) * sizeof(dkf_real_t));
+    sweep("info_predict", info_predict_call, &k, pv, pn, 2, &k.g);
+    sweep("info_fuse", info_fuse_call, &k, fv, fn, 4, &k.g);
+    meye(&k.Q, 3, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, info_predict_call(&k), "info_predict: Q = -10 I");
+    mset(&k.Q, 3, 3, Q3);
+    /* finite inputs whose products overflow: NONFINITE, not NOT_SPD */
+    big = (double)huge_value();
+    meye(&k.F, 3, big);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, info_predict_call(&k),
+                     "info_predict: F P F^T overflows");
+    mset(&k.F, 3, 3, F3);
+    meye(&k.I[0], 3, (double)DKF_REAL_MAX);
+    meye(&k.I[1], 3, (double)DKF_REAL_MAX);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, info_fuse_call(&k), "info_fuse: the sum overflows");
+    meye(&k.I[0], 3, -10.0);
+    mset(&k.I[1], 3, 3, I0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, info_fuse_call(&k), "info_fuse: Y not SPD");
+    mset(&k.I[0], 3, 3, I0);
+    /* the contribution: its outputs are untouched on failure */
+    mset(&c.i, 3, 1, i0);
+    mset(&c.I, 3, 3, I0);
+    cv[0] = mset(&c.C, 2, 3, C), cv[1] = mset(&c.R, 2, 2, R), cv[2] = mset(&c.z, 2, 1, z);
+    reg_clear(&out);
+    reg_add(&out, c.i.d, sizeof c.i.d);
+    reg_add(&out, c.I.d, sizeof c.I.d);
+    sweep("info_contribution", contrib_call, &c, cv, cn, 3, &out);
+    meye(&c.R, 2, -1.0);
+    EXPECT_UNTOUCHED(&out, DKF_ERR_NOT_SPD, contrib_call(&c), "info_contribution: R = -I");
+    mset(&c.R, 2, 2, R);
+    {
+        const double Cb[6] = {big, 0.0, 0.0, 0.0, 1.0, 0.0};
+        mset(&c.C, 2, 3, Cb);
+        EXPECT_UNTOUCHED(&out, DKF_ERR_NONFINITE, contrib_call(&c),
+                         "info_contribution: C^T R^-1 C overflows");
+        mset(&c.C, 2, 3, C);
+    }
+    {
+        const double zb[2] = {(double)DKF_REAL_MAX, (double)DKF_REAL_MAX};
+        mset(&c.z, 2, 1, zb);
+        EXPECT_UNTOUCHED(&out, DKF_ERR_NONFINITE, contrib_call(&c),
+                         "info_contribution: C^T R^-1 z overflows");
+        mset(&c.z, 2, 1, z);
+    }
+}
+
+/* ---- ASKF and OTSKF ---------------------------------------------------------------- */
+
+typedef struct {
+    dkf_askf_t a;
+    dkf_otskf_t o;
+    dkf_real_t ast[DKF_ASKF_STORAGE_LEN(3, 2, 2)];
+    dkf_real_t ost[DKF_OTSKF_STORAGE_LEN(3, 2, 2)];
+    mbuf_t F, Q, B, Rd, H, A, R, y;
+    dkf_ui_dyn_t dyn;
+    dkf_ui_meas_t meas;
+    regions_t ga, go;
+} ui_ctx_t;
+
+static dkf_status_t askf_predict_call(void *c)
+{
+    ui_ctx_t *k = c;
+    return dkf_askf_predict(&k->a, &k->dyn);
+}
+static dkf_status_t askf_update_call(void *c)
+{
+    ui_ctx_t *k = c;
+    return dkf_askf_update(&k->a, &k->meas, &k->y.v);
+}
+static dkf_status_t otskf_predict_call(void *c)
+{
+    ui_ctx_t *k = c;
+    return dkf_otskf_predict(&k->o, &k->dyn);
+}
+static dkf_status_t otskf_update_call(void *c)
+{
+    ui_ctx_t *k = c;
+    return dkf_otskf_update(&k->o, &k->meas, &k->y.v);
+}
+
+static const double B2[4] = {0.9, 0.1, 0.0, 0.8}, Rd2[4] = {0.05, 0.0, 0.0, 0.05};
+static const double H23[6] = {1.0, 0.0, 0.5, 0.0, 1.0, 0.0};
+static const double A22[4] = {1.0, 0.2, 0.0, 1.0}, R22[4] = {0.1, 0.01, 0.01, 0.2};
+static const double y2[2] = {0.3, -0.7};
+
+static void ui_model(ui_ctx_t *k, dkf_mat_t *dv[4], dkf_mat_t *mv[4])
+{
+    dv[0] = mset(&k->F, 3, 3, F3), dv[1] = mset(&k->Q, 3, 3, Q3);
+    dv[2] = mset(&k->B, 2, 2, B2), dv[3] = mset(&k->Rd, 2, 2, Rd2);
+    mv[0] = mset(&k->H, 2, 3, H23), mv[1] = mset(&k->A, 2, 2, A22);
+    mv[2] = mset(&k->R, 2, 2, R22), mv[3] = mset(&k->y, 2, 1, y2);
+    k->dyn.F = &k->F.v, k->dyn.Q = &k->Q.v, k->dyn.B = &k->B.v, k->dyn.Rd = &k->Rd.v;
+    k->meas.H = &k->H.v, k->meas.A = &k->A.v, k->meas.R = &k->R.v;
+}
+
+static void test_askf_otskf(void **state)
+{
+    static ui_ctx_t k;
+    static const char *const dn[] = {"F", "Q", "B", "Rd"}, *const mn[] = {"H", "A", "R", "y"};
+    static const double d0[2] = {0.1, -0.2}, Pd0[4] = {1.0, 0.0, 0.0, 1.0};
+    static const double Asing[4] = {1.0, 2.0, 2.0, 4.0};
+    dkf_mat_t *dv[4], *mv[4];
+    mbuf_t x0, P0, md0, mPd0;
+    (void)state;
+    ui_model(&k, dv, mv);
+    mset(&x0, 3, 1, x3), mset(&P0, 3, 3, P3), mset(&md0, 2, 1, d0), mset(&mPd0, 2, 2, Pd0);
+    assert_int_equal(dkf_askf_init(&k.a, 3, 2, 2, k.ast, DKF_ASKF_STORAGE_LEN(3, 2, 2), &x0.v,
+                                   &P0.v, &md0.v, &mPd0.v, NULL),
+                     DKF_OK);
+    assert_true(k.a.kf.work == k.ast + DKF_ASKF_STATE_LEN(3, 2, 2));
+    assert_int_equal(dkf_otskf_init(&k.o, 3, 2, 2, k.ost, DKF_OTSKF_STORAGE_LEN(3, 2, 2), &x0.v,
+                                    &P0.v, &md0.v, &mPd0.v),
+                     DKF_OK);
+    assert_int_equal(askf_predict_call(&k), DKF_OK);
+    assert_int_equal(askf_update_call(&k), DKF_OK);
+    assert_int_equal(otskf_predict_call(&k), DKF_OK);
+    assert_int_equal(otskf_update_call(&k), DKF_OK);
+    reg_clear(&k.ga);
+    reg_add(&k.ga, &k.a, sizeof k.a);
+    reg_add(&k.ga, k.ast, DKF_ASKF_STATE_LEN(3, 2, 2) * sizeof(dkf_real_t));
+    reg_clear(&k.go);
+    reg_add(&k.go, &k.o, sizeof k.o);
+    reg_add(&k.go, k.ost, DKF_OTSKF_STATE_LEN(3, 2) * sizeof(dkf_real_t));
+    sweep("askf_predict", askf_predict_call, &k, dv, dn, 4, &k.ga);
+    sweep("askf_update", askf_update_call, &k, mv, mn, 4, &k.ga);
+    sweep("otskf_predict", otskf_predict_call, &k, dv, dn, 4, &k.go);
+    sweep("otskf_update", otskf_update_call, &k, mv, mn, 4, &k.go);
+    meye(&k.R, 2, -1.0);
+    EXPECT_UNTOUCHED(&k.ga, DKF_ERR_NOT_SPD, askf_update_call(&k), "askf_update: R = -I");
+    EXPECT_UNTOUCHED(&k.go, DKF_ERR_NOT_SPD, otskf_update_call(&k), "otskf_update: R = -I");
+    mset(&k.R, 2, 2, R22);
+    meye(&k.B, 2, 0.0);
+    EXPECT_UNTOUCHED(&k.go, DKF_ERR_SINGULAR, otskf_predict_call(&k), "otskf_predict: B = 0");
+    mset(&k.B, 2, 2, B2);
+    /* A of rank 1 < p = 2: the OTSKF's model needs full column rank */
+    mset(&k.A, 2, 2, Asing);
+    EXPECT_UNTOUCHED(&k.go, DKF_ERR_RANK, otskf_update_call(&k), "otskf_update: rank A = 1");
+    mset(&k.A, 2, 2, A22);
+    meye(&k.F, 3, (double)huge_value());
+    EXPECT_UNTOUCHED(&k.ga, DKF_ERR_NONFINITE, askf_predict_call(&k), "askf_predict: overflow");
+    EXPECT_UNTOUCHED(&k.go, DKF_ERR_NONFINITE, otskf_predict_call(&k), "otskf_predict: overflow");
+    mset(&k.F, 3, 3, F3);
+}
+
+/* ---- Difference KF ------------------------------------------------------------------- */
+
+#define DN 3
+#define DM 3
+#define DP 2
+
+typedef struct {
+    dkf_diffkf_t f;
+    dkf_real_t st[DKF_DIFFKF_STORAGE_LEN(DN, DM, DP)];
+    mbuf_t F, Q, B, Rd, H, A, R, y, z;
+    dkf_ui_dyn_t dyn;
+    dkf_ui_meas_t meas;
+    unsigned char rows[DP];
+    regions_t g;
+} dkf_ctx_t;
+
+static dkf_status_t dkf_start_call(void *c)
+{
+    dkf_ctx_t *k = c;
+    return dkf_diffkf_start(&k->f, &k->F.v, &k->Q.v, &k->meas, &k->y.v);
+}
+static dkf_status_t dkf_step_call(void *c)
+{
+    dkf_ctx_t *k = c;
+    return dkf_diffkf_step(&k->f, &k->dyn, &k->meas, &k->y.v);
+}
+static dkf_status_t dkf_gain_call(void *c)
+{
+    dkf_ctx_t *k = c;
+    return dkf_diffkf_gain_masked(&k->f, &k->dyn, &k->meas, k->rows);
+}
+static dkf_status_t dkf_update_call(void *c)
+{
+    dkf_ctx_t *k = c;
+    return dkf_diffkf_update_z(&k->f, &k->z.v, &k->y.v);
+}
+
+static const double DH[9] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.3, 0.0, 1.0};
+static const double DA[6] = {1.0, 0.0, 0.0, 1.0, 0.5, 0.5};
+static const double DR[9] = {0.1, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 0.1};
+static const double Dy[3] = {0.2, -0.1, 0.4};
+
+static void dkf_model(dkf_ctx_t *k, dkf_mat_t *v[8])
+{
+    static const double z[2] = {0.1, 0.2};
+    v[0] = mset(&k->F, DN, DN, F3), v[1] = mset(&k->Q, DN, DN, Q3);
+    v[2] = mset(&k->B, DP, DP, B2), v[3] = mset(&k->Rd, DP, DP, Rd2);
+    v[4] = mset(&k->H, DM, DN, DH), v[5] = mset(&k->A, DM, DP, DA);
+    v[6] = mset(&k->R, DM, DM, DR), v[7] = mset(&k->y, DM, 1, Dy);
+    mset(&k->z, DP, 1, z);
+    k->dyn.F = &k->F.v, k->dyn.Q = &k->Q.v, k->dyn.B = &k->B.v, k->dyn.Rd = &k->Rd.v;
+    k->meas.H = &k->H.v, k->meas.A = &k->A.v, k->meas.R = &k->R.v;
+    k->rows[0] = k->rows[1] = 1;
+}
+
+static void dkf_regions(dkf_ctx_t *k, int with_pending)
+{
+    reg_clear(&k->g);
+    reg_add(&k->g, &k->f, sizeof k->f);
+    reg_add(&k->g, k->st,
+            (DKF_DIFFKF_STATE_LEN(DN, DM, DP) + (with_pending ? DKF_DIFFKF_PENDING_LEN(DN, DM, DP) : 0)) *
+                sizeof(dkf_real_t));
+}
+
+/* The model-specific failures of a step (and of a gain): A of rank 1,
+ * B singular, L not SPD (R = -10 I makes Ru negative definite). Each
+ * with a model the caches have not seen: a miss computes new entries. */
+static void dkf_model_failures(dkf_ctx_t *k, call_fn call, const char *what)
+{
+    static const double Arank1[6] = {1.0, 2.0, 0.0, 0.0, 1.0, 2.0};
+    char label[120];
+    mset(&k->A, DM, DP, Arank1);
+    snprintf(label, sizeof label, "%s: rank A = 1", what);
+    EXPECT_UNTOUCHED(&k->g, DKF_ERR_RANK, call(k), label);
+    mset(&k->A, DM, DP, DA);
+    meye(&k->B, DP, 0.0);
+    snprintf(label, sizeof label, "%s: B = 0", what);
+    EXPECT_UNTOUCHED(&k->g, DKF_ERR_SINGULAR, call(k), label);
+    mset(&k->B, DP, DP, B2);
+    meye(&k->R, DM, -10.0);
+    snprintf(label, sizeof label, "%s: L not SPD", what);
+    EXPECT_UNTOUCHED(&k->g, DKF_ERR_NOT_SPD, call(k), label);
+    mset(&k->R, DM, DM, DR);
+    meye(&k->F, DN, (double)huge_value());
+    snprintf(label, sizeof label, "%s: F P F^T overflows", what);
+    EXPECT_UNTOUCHED(&k->g, DKF_ERR_NONFINITE, call(k), label);
+    mset(&k->F, DN, DN, F3);
+}
+
+static void test_diffkf(void **state)
+{
+    static dkf_ctx_t k;
+    static dkf_real_t ck[DKF_DIFFKF_STORAGE_LEN(DN, DM, DP)];
+    static const char *const names[] = {"F", "Q", "B", "Rd", "H", "A", "R", "y"};
+    static const char *const un[] = {"z", "y"};
+    dkf_mat_t *v[8], *uv[2];
+    mbuf_t x0, P0;
+    size_t len;
+    (void)state;
+    dkf_model(&k, v);
+    mset(&x0, DN, 1, x3), mset(&P0, DN, DN, P3);
+    assert_int_equal(dkf_diffkf_init(&k.f, DN, DM, DP, k.st, DKF_DIFFKF_STORAGE_LEN(DN, DM, DP),
+                                     &x0.v, &P0.v),
+                     DKF_OK);
+    dkf_regions(&k, 0);
+    /* before start: step, gain and update are out of sequence */
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_step_call(&k), "diffkf_step before start");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_gain_call(&k), "diffkf_gain before start");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_update_call(&k), "diffkf_update_z before gain");
+    /* start: F0, Q0, H, A, R, y1 (B, Rd are not inputs of start) */
+    {
+        dkf_mat_t *sv[6] = {v[0], v[1], v[4], v[5], v[6], v[7]};
+        static const char *const sn[] = {"F0", "Q0", "H", "A", "R", "y1"};
+        static const double Arank1[6] = {1.0, 2.0, 0.0, 0.0, 1.0, 2.0};
+        sweep("diffkf_start", dkf_start_call, &k, sv, sn, 6, &k.g);
+        mset(&k.A, DM, DP, Arank1);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, dkf_start_call(&k), "diffkf_start: rank A = 1");
+        mset(&k.A, DM, DP, DA);
+        meye(&k.F, DN, (double)huge_value());
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_start_call(&k), "diffkf_start: overflow");
+        mset(&k.F, DN, DN, F3);
+    }
+    assert_int_equal(dkf_start_call(&k), DKF_OK);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_start_call(&k), "diffkf_start twice");
+    assert_int_equal(dkf_step_call(&k), DKF_OK);
+    assert_int_equal(dkf_step_call(&k), DKF_OK); /* caches and memo live now */
+    sweep("diffkf_step", dkf_step_call, &k, v, names, 8, &k.g);
+    dkf_model_failures(&k, dkf_step_call, "diffkf_step");
+    sweep("diffkf_gain_masked", dkf_gain_call, &k, v, names, 7, &k.g);
+    dkf_model_failures(&k, dkf_gain_call, "diffkf_gain_masked");
+    /* a pending gain: update_z's failures leave it (and everything) as it
+     * was; a step is refused and leaves it too */
+    k.rows[1] = 0;
+    assert_int_equal(dkf_gain_call(&k), DKF_OK);
+    k.z.v.rows = 1;
+    dkf_regions(&k, 1);
+    {
+        /* the pending gain lies where DKF_DIFFKF_PENDING_LEN says */
+        dkf_mat_t M, K, zc;
+        const dkf_real_t *lo = k.st + DKF_DIFFKF_STATE_LEN(DN, DM, DP),
+                         *hi = lo + DKF_DIFFKF_PENDING_LEN(DN, DM, DP);
+        assert_int_equal(dkf_diffkf_pending(&k.f, &M, &K, &zc), DKF_OK);
+        assert_true(M.data >= lo && M.data + M.rows * M.cols <= hi);
+        assert_true(K.data >= lo && K.data + K.rows * K.cols <= hi);
+        assert_true(zc.data >= lo && zc.data + zc.rows <= hi);
+    }
+    uv[0] = &k.z.v, uv[1] = &k.y.v;
+    sweep("diffkf_update_z", dkf_update_call, &k, uv, un, 2, &k.g);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_step_call(&k), "diffkf_step while a gain is pending");
+    meye(&k.B, DP, 0.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_step_call(&k),
+                     "diffkf_step (singular B) while a gain is pending");
+    mset(&k.B, DP, DP, B2);
+    /* a failed gain cancels the pending one, as documented: pending = 0,
+     * pk = z.rows, and nothing else */
+    {
+        dkf_diffkf_t expect = k.f;
+        regions_t gs;
+        expect.pending = 0;
+        expect.pk = expect.z.rows;
+        reg_clear(&gs);
+        reg_add(&gs, k.st, DKF_DIFFKF_STATE_LEN(DN, DM, DP) * sizeof(dkf_real_t));
+        meye(&k.B, DP, 0.0);
+        EXPECT_UNTOUCHED(&gs, DKF_ERR_SINGULAR, dkf_gain_call(&k),
+                         "diffkf_gain_masked (B = 0) with a gain pending");
+        mset(&k.B, DP, DP, B2);
+        assert_memory_equal(&expect, &k.f, sizeof expect);
+        dkf_regions(&k, 0);
+    }
+    assert_int_equal(dkf_update_call(&k), DKF_ERR_STATE);
+    /* checkpoints: a corrupted one is refused, the filter untouched */
+    len = dkf_diffkf_checkpoint_len(&k.f);
+    assert_int_equal(dkf_diffkf_save(&k.f, ck, len), DKF_OK);
+    ck[len - 1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_diffkf_restore(&k.f, ck, len),
+                     "diffkf_restore: NaN");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_diffkf_restore(&k.f, ck, len - 1),
+                     "diffkf_restore: short");
+    ck[len - 1] = DKF_R(0.0);
+    ck[1] += DKF_R(1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_DIM, dkf_diffkf_restore(&k.f, ck, len), "diffkf_restore: n");
+}
+
+/* ---- UIF ---------------------------------------------------------------------------------- */
+
+typedef struct {
+    dkf_uif_t f;
+    dkf_real_t st[DKF_UIF_STORAGE_LEN(3, 2, 2)];
+    mbuf_t A, G, Q, C, H, R, y;
+    dkf_uif_dyn_t dyn;
+    dkf_uif_meas_t meas;
+    int with_dyn;
+    regions_t g;
+} uif_ctx_t;
+
+static dkf_status_t uif_step_call(void *c)
+{
+    uif_ctx_t *k = c;
+    return dkf_uif_step(&k->f, k->with_dyn ? &k->dyn : NULL, &k->meas, &k->y.v);
+}
+
+static void uif_case(dkf_uif_kind_t kind, size_t m, const double *Hv, const char *what)
+{
+    static uif_ctx_t k;
+    static const double G[6] = {1.0, 0.0, 0.0, 1.0, 0.5, 0.0};
+    static const double C[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+    static const double R[4] = {0.1, 0.0, 0.0, 0.1}, y[2] = {0.3, -0.2};
+    static const char *const names[] = {"A", "G", "Q", "C", "R", "y", "H"};
+    char label[120];
+    dkf_mat_t *v[7];
+    mbuf_t x0, P0;
+    const size_t p = 2;
+    size_t nv;
+    v[0] = mset(&k.A, 3, 3, F3), v[1] = mset(&k.G, 3, m, G), v[2] = mset(&k.Q, 3, 3, Q3);
+    v[3] = mset(&k.C, p, 3, C), v[4] = mset(&k.R, p, p, R), v[5] = mset(&k.y, p, 1, y);
+    v[6] = Hv != NULL ? mset(&k.H, p, m, Hv) : NULL;
+    nv = Hv != NULL ? 7 : 6;
+    k.dyn.A = &k.A.v, k.dyn.G = &k.G.v, k.dyn.Q = &k.Q.v;
+    k.meas.C = &k.C.v, k.meas.H = Hv != NULL ? &k.H.v : NULL, k.meas.R = &k.R.v;
+    mset(&x0, 3, 1, x3), mset(&P0, 3, 3, P3);
+    assert_int_equal(dkf_uif_init(&k.f, kind, 3, m, p, k.st, DKF_UIF_STORAGE_LEN(3, m, p), &x0.v,
+                                  &P0.v),
+                     DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.f, sizeof k.f);
+    reg_add(&k.g, k.st, DKF_UIF_STATE_LEN(3, m, p) * sizeof(dkf_real_t));
+    k.with_dyn = kind == DKF_UIF_NRTSF;
+    assert_int_equal(uif_step_call(&k), DKF_OK);
+    k.with_dyn = 1;
+    assert_int_equal(uif_step_call(&k), DKF_OK); /* the cache is live */
+    snprintf(label, sizeof label, "uif_step %s", what);
+    sweep(label, uif_step_call, &k, v, names, nv, &k.g);
+    /* out of sequence: no dynamics after the first step */
+    k.with_dyn = 0;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, uif_step_call(&k), "uif_step: dyn NULL");
+    k.with_dyn = 1;
+    meye(&k.R, p, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, uif_step_call(&k), "uif_step: R = -10 I");
+    mset(&k.R, p, p, R);
+    meye(&k.A, 3, (double)huge_value());
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, uif_step_call(&k), "uif_step: overflow");
+    mset(&k.A, 3, 3, F3);
+    if (kind == DKF_UIF_RTSF) {
+        /* a new H of rank 1 < m: decided after a new decomposition (a
+         * cache miss), refused with the cache as it was */
+        static const double Hr[4] = {1.0, 2.0, 2.0, 4.0};
+        mset(&k.H, p, m, Hr);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, uif_step_call(&k), "uif_step RTSF: rank H = 1");
+        mset(&k.H, p, m, Hv);
+    }
+    if (kind == DKF_UIF_NRTSF) {
+        /* C G loses the rank of a new G: G's columns in null(C) */
+        static const double Gn[6] = {0.0, 0.0, 0.0, 0.0, 1.0, 0.5};
+        mset(&k.G, 3, m, Gn);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, uif_step_call(&k), "uif_step NRTSF: rank C G");
+        mset(&k.G, 3, m, G);
+        k.meas.H = &k.C.v;
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, uif_step_call(&k), "uif_step NRTSF: H given");
+        k.meas.H = NULL;
+    }
+}
+
+static void test_uif(void **state)
+{
+    static const double Hfull[4] = {1.0, 0.0, 0.2, 1.0};
+    static const double Hdef[4] = {1.0, 1.0, 0.0, 0.0}; /* rank 1 < m = 2 */
+    (void)state;
+    uif_case(DKF_UIF_RTSF, 2, Hfull, "RTSF");
+    uif_case(DKF_UIF_NRTSF_DF, 2, Hdef, "NRTSF-DF");
+    uif_case(DKF_UIF_NRTSF, 2, NULL, "NRTSF");
+}
+
+/* ---- Talebi-Werner nodes and networks ------------------------------------------------------- */
+
+#define TN 3
+#define TM 1
+#define TPK DKF_TW_PKT_LEN(TN)
+#define TNODES 4
+
+typedef struct {
+    dkf_tw_node_t nd;
+    dkf_real_t st[DKF_TW_NODE_STORAGE_LEN(TN, TM, 2)];
+    mbuf_t A, B, Sv, H, Sw, y;
+    dkf_tw_model_t md;
+    dkf_tw_sensor_t sn;
+    dkf_real_t info[TPK + 1], pkt[TPK];
+    regions_t g;
+} tw_ctx_t;
+
+static dkf_status_t tw_local_call(void *c)
+{
+    tw_ctx_t *k = c;
+    return dkf_tw_node_local(&k->nd, &k->md, k->info, NULL);
+}
+static dkf_status_t tw_packet_call(void *c)
+{
+    tw_ctx_t *k = c;
+    return dkf_tw_meas_packet(k->pkt, &k->nd, &k->sn, DKF_R(1.0));
+}
+static dkf_status_t tw_central_call(void *c)
+{
+    tw_ctx_t *k = c;
+    return dkf_tw_central_step(&k->nd, &k->md, &k->sn, 1);
+}
+
+static const double TB[3] = {0.0, 0.0, 1.0};
+static const double TH[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 1.0};
+static const double TSw[4] = {0.1, 0.0, 0.0, 0.1}, Ty[2] = {0.4, 0.1};
+
+static void tw_regions(tw_ctx_t *k)
+{
+    reg_clear(&k->g);
+    reg_add(&k->g, &k->nd, sizeof k->nd);
+    reg_add(&k->g, k->st, DKF_TW_NODE_STATE_LEN(TN, TM) * sizeof(dkf_real_t));
+}
+
+static void test_tw_node(void **state)
+{
+    static tw_ctx_t k;
+    static const char *const mn[] = {"A", "B", "Sv"}, *const sn[] = {"H", "Sw", "y"};
+    static const char *const inn[] = {"info"};
+    dkf_mat_t *mv[3], *sv[3], infov;
+    dkf_real_t xs[TN], Pp[TPK - TN];
+    mbuf_t x0, P0;
+    size_t i;
+    (void)state;
+    mv[0] = mset(&k.A, TN, TN, F3), mv[1] = mset(&k.B, TN, TM, TB), mv[2] = mset(&k.Sv, TN, TN, Q3);
+    sv[0] = mset(&k.H, 2, TN, TH), sv[1] = mset(&k.Sw, 2, 2, TSw), sv[2] = mset(&k.y, 2, 1, Ty);
+    k.md.A = &k.A.v, k.md.B = &k.B.v, k.md.Sv = &k.Sv.v;
+    k.sn.H = &k.H.v, k.sn.Sw = &k.Sw.v, k.sn.y = &k.y.v;
+    mset(&x0, TN, 1, x3), mset(&P0, TN, TN, P3);
+    assert_int_equal(dkf_tw_node_init(&k.nd, TN, TM, 2, k.st, DKF_TW_NODE_STORAGE_LEN(TN, TM, 2),
+                                      &x0.v, &P0.v),
+                     DKF_OK);
+    assert_true(k.nd.mem == k.st + DKF_TW_NODE_STATE_LEN(TN, TM));
+    assert_int_equal(tw_central_call(&k), DKF_OK);
+    tw_regions(&k);
+    sweep("tw_central_step", tw_central_call, &k, sv, sn, 3, &k.g);
+    sweep("tw_central_step (model)", tw_central_call, &k, mv, mn, 3, &k.g);
+    /* the info packet of the sensor, and the local step on it */
+    assert_int_equal(tw_packet_call(&k), DKF_OK);
+    {
+        regions_t gp = k.g;
+        reg_add(&gp, k.pkt, sizeof k.pkt);
+        sweep("tw_meas_packet", tw_packet_call, &k, sv, sn, 3, &gp);
+        meye(&k.Sw, 2, -1.0);
+        EXPECT_UNTOUCHED(&gp, DKF_ERR_NOT_SPD, tw_packet_call(&k), "tw_meas_packet: Sw = -I");
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_central_call(&k), "tw_central_step: Sw = -I");
+        mset(&k.Sw, 2, 2, TSw);
+    }
+    memcpy(k.info, k.pkt, sizeof k.pkt);
+    sweep("tw_node_local", tw_local_call, &k, mv, mn, 3, &k.g);
+    infov = test_view(1, TPK, k.info);
+    {
+        dkf_mat_t *iv[1] = {&infov};
+        /* only the value kinds apply to a raw packet */
+        int kk;
+        for (kk = K_NAN; kk <= K_NINF; ++kk)
+            for (i = 0; i < TPK; ++i) {
+                undo_t u;
+                corrupt(&infov, (kind_t)kk, i, &u);
+                EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, tw_local_call(&k), "tw_node_local: info");
+                uncorrupt(&infov, &u);
+            }
+        (void)iv;
+        (void)inn;
+    }
+    meye(&k.Sv, TN, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_local_call(&k), "tw_node_local: Phi- not SPD");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_central_call(&k), "tw_central_step: Phi- not SPD");
+    mset(&k.Sv, TN, TN, Q3);
+    {
+        /* no information on z: S = 0, rank(H B) = 0 < m */
+        static const double Hz[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+        dkf_real_t saved[TPK];
+        memcpy(saved, k.info, sizeof saved);
+        mset(&k.H, 2, TN, Hz);
+        assert_int_equal(tw_packet_call(&k), DKF_OK);
+        memcpy(k.info, k.pkt, sizeof k.pkt);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, tw_local_call(&k), "tw_node_local: rank H B = 0");
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, tw_central_call(&k), "tw_central_step: rank H B = 0");
+        mset(&k.H, 2, TN, TH);
+        memcpy(k.info, saved, sizeof saved);
+    }
+    /* commit without a pending step; with a pending step, a bad commit */
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_tw_node_commit(&k.nd, NULL, NULL),
+                     "tw_node_commit: nothing pending");
+    assert_int_equal(tw_local_call(&k), DKF_OK);
+    tw_regions(&k);
+    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TM) - TN - TN * TN) * sizeof(dkf_real_t));
+    for (i = 0; i < TN; ++i) xs[i] = DKF_R(0.0);
+    for (i = 0; i < TPK - TN; ++i) Pp[i] = DKF_R(0.0);
+    Pp[0] = DKF_R(-1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, dkf_tw_node_commit(&k.nd, xs, Pp),
+                     "tw_node_commit: P not SPD");
+    xs[1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_tw_node_commit(&k.nd, xs, NULL),
+                     "tw_node_commit: x NaN");
+    assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
+}
+
+/* A path 0-1-2-3: nodes 0, 1 observe z, nodes 2, 3 do not, so the local
+ * steps of nodes 2 and 3 fail (rank) after those of 0 and 1 succeeded:
+ * the failed net step must leave every node as it was, none pending. */
+static void test_tw_net(void **state)
+{
+    static dkf_tw_node_t nodes[TNODES];
+    static dkf_real_t st[DKF_TW_NET_STORAGE_LEN(TNODES, TN, TM, 2)];
+    static const size_t edges[] = {0, 1, 1, 2, 2, 3};
+    static size_t start[TNODES + 1], nbr[DKF_GRAPH_NNZ(TNODES, 3)];
+    static const double Hz[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+    dkf_real_t alpha[DKF_GRAPH_NNZ(TNODES, 3)], W[DKF_GRAPH_NNZ(TNODES, 3)];
+    mbuf_t A, B, Sv, H, H0, Sw, y, x0, P0;
+    dkf_tw_sensor_t sens[TNODES];
+    dkf_tw_model_t md;
+    dkf_graph_t g;
+    dkf_tw_net_t net;
+    regions_t rg;
+    size_t l;
+    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(TN, TM, 2);
+    (void)state;
+    assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(TNODES, 3), TNODES, edges, 3),
+                     DKF_OK);
+    assert_int_equal(dkf_graph_weights_uniform(alpha, &g), DKF_OK);
+    assert_int_equal(dkf_graph_weights_metropolis(W, &g), DKF_OK);
+    mset(&A, TN, TN, F3), mset(&B, TN, TM, TB), mset(&Sv, TN, TN, Q3);
+    mset(&H, 2, TN, TH), mset(&H0, 2, TN, Hz), mset(&Sw, 2, 2, TSw), mset(&y, 2, 1, Ty);
+    mset(&x0, TN, 1, x3), mset(&P0, TN, TN, P3);
+    md.A = &A.v, md.B = &B.v, md.Sv = &Sv.v;
+    for (l = 0; l < TNODES; ++l) {
+        sens[l].H = &H.v;
+        sens[l].Sw = &Sw.v;
+        sens[l].y = &y.v;
+    }
+    assert_int_equal(dkf_tw_net_init(&net, &g, nodes, TN, TM, 2, st, sizeof st / sizeof st[0],
+                                     &x0.v, &P0.v),
+                     DKF_OK);
+    assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &md, sens), DKF_OK);
+    reg_clear(&rg);
+    reg_add(&rg, &net, sizeof net);
+    reg_add(&rg, nodes, sizeof nodes);
+    for (l = 0; l < TNODES; ++l)
+        reg_add(&rg, st + l * node_len, DKF_TW_NODE_STATE_LEN(TN, TM) * sizeof(dkf_real_t));
+    sens[2].H = sens[3].H = &H0.v;
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_diffusion_step(&net, alpha, &md, sens),
+                     "tw_net_diffusion_step: nodes 2, 3 without information on z");
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_consensus_step(&net, W, 0, &md, sens),
+                     "tw_net_consensus_step: nodes 2, 3 without information on z");
+    sens[2].H = sens[3].H = &H.v;
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_WEIGHTS, dkf_tw_net_consensus_step(&net, alpha, 2, &md, sens),
+                     "tw_net_consensus_step: alpha is not doubly stochastic");
+    Sw.d[0] = DKF_R(-1.0);
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_NOT_SPD, dkf_tw_net_diffusion_step(&net, alpha, &md, sens),
+                     "tw_net_diffusion_step: Sw not SPD");
+    Sw.d[0] = (dkf_real_t)TSw[0];
+    A.d[4] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_NONFINITE, dkf_tw_net_consensus_step(&net, W, 2, &md, sens),
+                     "tw_net_consensus_step: A NaN");
+    A.d[4] = (dkf_real_t)F3[4];
+    assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens), DKF_OK);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_kf),          cmocka_unit_test(test_info),
+        cmocka_unit_test(test_askf_otskf),  cmocka_unit_test(test_diffkf),
+        cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
+        cmocka_unit_test(test_tw_net),
+    };
+    const int failed = cmocka_run_group_tests(tests, NULL, NULL);
+    print_message("%zu failing calls checked\n", n_checked);
+    return failed;
+}

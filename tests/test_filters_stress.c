@@ -128,8 +128,8 @@ static void check_errs(const char *who, const errs_t *w, size_t N, size_t m, dou
 }
 
 typedef struct {
-    DKF_ASKF_DECLARE(askf, 3, 5, 2);
-    DKF_OTSKF_DECLARE(otskf, 3, 5, 2);
+    DKF_ASKF_DECLARE(, askf, 3, 5, 2);
+    DKF_OTSKF_DECLARE(, otskf, 3, 5, 2);
 } aug_box_t;
 
 /* worst observed, [case][filter][x P d Pd] (a float OTSKF is refused on
@@ -219,7 +219,7 @@ static void test_askf_otskf_pinned(void **state)
 /* ---- information filter -------------------------------------------------- */
 
 typedef struct {
-    DKF_INFO_DECLARE(f, NM);
+    DKF_INFO_DECLARE(, f, NM);
 } info_box_t;
 
 /* worst observed, [case][x P] */
@@ -302,9 +302,9 @@ static void test_info_pinned(void **state)
  * bit-identical. (Before the checks all three returned OK.) */
 static void test_indefinite_covariance_refused(void **state)
 {
-    static DKF_OTSKF_DECLARE(ot, 2, 2, 1);
-    static DKF_UIF_DECLARE(uf, 2, 1, 1);
-    static DKF_DIFFKF_DECLARE(df, 2, 1, 1);
+    DKF_OTSKF_DECLARE(static, ot, 2, 2, 1);
+    DKF_UIF_DECLARE(static, uf, 2, 1, 1);
+    DKF_DIFFKF_DECLARE(static, df, 2, 1, 1);
     static dkf_real_t snap[64];
     dkf_real_t x0d[2] = {1, 2}, Id[4] = {1, 0, 0, 1}, Qd[4] = {1, 0, 0, -3}, one[1] = {1};
     dkf_real_t Hd2[4] = {1, 0, 0, 1}, Ad2[2] = {1, 1}, Cd[2] = {1, 1}, Rneg[1] = {-1.5};
@@ -345,13 +345,13 @@ static void test_indefinite_covariance_refused(void **state)
         assert_int_equal(dkf_diffkf_start(&df, &I2, &I2, &meas, &Y1), DKF_OK);
         test_to_double(before, df.xf.data, 2);
         test_to_double(before + 2, df.Pf.data, 4);
-        test_to_double(before + 6, df.xp.data, 2);
-        test_to_double(before + 8, df.Pp.data, 4);
+        test_to_double(before + 6, df.xn.data, 2);
+        test_to_double(before + 8, df.Pn.data, 4);
         assert_int_equal(dkf_diffkf_step(&df, &dyn, &meas, &Y1), DKF_ERR_NOT_SPD);
         assert_true(test_max_abs_diff(df.xf.data, before, 2) == 0.0);
         assert_true(test_max_abs_diff(df.Pf.data, before + 2, 4) == 0.0);
-        assert_true(test_max_abs_diff(df.xp.data, before + 6, 2) == 0.0);
-        assert_true(test_max_abs_diff(df.Pp.data, before + 8, 4) == 0.0);
+        assert_true(test_max_abs_diff(df.xn.data, before + 6, 2) == 0.0);
+        assert_true(test_max_abs_diff(df.Pn.data, before + 8, 4) == 0.0);
     }
 }
 

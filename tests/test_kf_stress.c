@@ -25,7 +25,7 @@
 #define NMAX 6
 
 typedef struct {
-    DKF_KF_DECLARE(kf, NMAX, NMAX);
+    DKF_KF_DECLARE(, kf, NMAX, NMAX);
 } kf_box_t;
 
 static void init_case(kf_box_t *b, const json_t *c)

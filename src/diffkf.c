@@ -73,6 +73,8 @@ typedef struct {
     const dkf_mat_t *newA, *newB;
     const dkf_ui_dyn_t *new_dyn;
     const dkf_ui_meas_t *new_meas;
+    /* scratch of the Joseph-type covariances (joseph_covariances) */
+    dkf_real_t *jU, *jD, *jE, *jX, *jV, *jAX, *jS;
 } layout_t;
 
 /* Walks the storage in a fixed order; with base == NULL it only counts. */
@@ -138,6 +140,13 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->Binvn, p * p);
     DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(m, p));
     DKF_TAKE(L->invw, DKF_MAT_INV_WORK(p));
+    DKF_TAKE(L->jU, n * n);
+    DKF_TAKE(L->jD, n * n);
+    DKF_TAKE(L->jE, n * n);
+    DKF_TAKE(L->jX, n * p);
+    DKF_TAKE(L->jV, p * n);
+    DKF_TAKE(L->jAX, n * p);
+    DKF_TAKE(L->jS, n * p);
     /* A^+ and B^{-1} of this call: the caches, or new ones in scratch */
     L->Ap = L->cAp;
     L->Binv = L->cBinv;
@@ -494,6 +503,71 @@ static void select_rows(const dkf_diffkf_t *f, const layout_t *L, const size_t *
         for (j = 0; j < pk; ++j) L->Cnk[i * pk + j] = L->Cn[i * p + idx[j]];
 }
 
+#if DKF_JOSEPH
+/* Upper triangle (mirrored) of Pn = Ab (P Ab^T - X Kb^T) + Kb (Sg Kb^T -
+ * (Ab X)^T - Sv^T) + D, i.e. the congruence
+ *   [Ab, -Kb, I] [[P, X, 0], [X^T, Sg, Sv^T], [0, Sv, .]] [Ab, -Kb, I]^T
+ * of a joint covariance, for Ab (n x n), Kb (n x pk), X (n x pk), Sg (pk x
+ * pk, symmetric), Sv (n x pk, or NULL for 0) and D (n x n, only its upper
+ * triangle counts: the sum is symmetric, its parts need not be). U, E
+ * (n x n), V (pk x n), AX (n x pk) are scratch. */
+static void joint_congruence(dkf_real_t *Pn, const dkf_real_t *Ab, const dkf_real_t *Kb,
+                             const dkf_real_t *P, const dkf_real_t *X, const dkf_real_t *Sg,
+                             const dkf_real_t *Sv, const dkf_real_t *D, const layout_t *L,
+                             size_t n, size_t pk)
+{
+    size_t i, j;
+    dkf__mul_nt(L->jU, P, Ab, n, n, n); /* U = P Ab^T - X Kb^T */
+    dkf__mul_nt(L->jE, X, Kb, n, pk, n);
+    for (i = 0; i < n * n; ++i) L->jU[i] -= L->jE[i];
+    dkf__mul_nt(L->jV, Sg, Kb, pk, pk, n); /* V = Sg Kb^T - (Ab X)^T - Sv^T */
+    dkf__mul_nn(L->jAX, Ab, X, n, n, pk);
+    for (i = 0; i < pk; ++i)
+        for (j = 0; j < n; ++j)
+            L->jV[i * n + j] -= L->jAX[j * pk + i] + (Sv != NULL ? Sv[j * pk + i] : DKF_R(0.0));
+    dkf__mul_nn_sym(L->jE, Ab, L->jU, D, n, n);
+    dkf__mul_nn_sym(Pn, Kb, L->jV, L->jE, n, pk);
+}
+
+/* P_{k|k} and P_{k+1|k} in Joseph form (DKF_JOSEPH). With the prior error
+ * e = x - x_{k|k-1} (covariance P), the part of u_k the previous
+ * innovations do not explain, ut = u_k - C' L_{k-1}^{-1} dz_{k-1}
+ * (covariance Sg = Ru' - C' L_{k-1}^{-1} C'^T, cross covariance X =
+ * E[e ut^T] = -W'_{k-1} C'^T, so that J = P M'^T + X and L = M' P M'^T +
+ * M' X + X^T M'^T + Sg: (19)-(20)) and dz = M' e + ut:
+ *   x - x_{k|k}   = (I - K M') e - K ut,
+ *   x_{k+1} - x_{k+1|k} = (F - W M') e - W ut + v_k,  E[v_k ut^T] = S',
+ * so each covariance is a congruence of the joint covariance of (e, ut,
+ * v_k) (joint_congruence), evaluated as written with A = I - K M' and
+ * F - W M' formed: the Joseph form of the DKF for the gains computed.
+ * P - K J^T and F P F^T + Q - (F J + S') W^T (DKF_JOSEPH=0, and the
+ * Theorem-1 form) subtract from P, which loses the result's digits when
+ * the data pin the state (docs/decisions.md item 17). Sg is in L.X, the
+ * gains in L.Kn, L.Wn; T1 is scratch. */
+static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
+                               const size_t *idx, size_t pk)
+{
+    const size_t n = f->n, p = f->p, pc = f->pc;
+    const dkf_real_t *Q = dyn->Q->data;
+    size_t i, j;
+    dkf__mul_nt(L->jX, L->W, L->Ck, n, pc, pk); /* X = -W'_{k-1} C'^T */
+    for (i = 0; i < n * pk; ++i) L->jX[i] = -L->jX[i];
+    /* P_{k|k}: Ab = I - K M' */
+    dkf__mul_nn(L->T1, L->Kn, L->Mk, n, pk, n);
+    for (i = 0; i < n * n; ++i) L->T1[i] = -L->T1[i];
+    for (i = 0; i < n; ++i) L->T1[i * n + i] += DKF_R(1.0);
+    joint_congruence(L->Pfn, L->T1, L->Kn, f->Pn.data, L->jX, L->X, NULL, NULL, L, n, pk);
+    /* P_{k+1|k}: Ab = F - W M', D = Q - S' W^T, S' = the kept columns of S */
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < pk; ++j) L->jS[i * pk + j] = L->S[i * p + idx[j]];
+    dkf__mul_nn(L->T1, L->Wn, L->Mk, n, pk, n);
+    for (i = 0; i < n * n; ++i) L->T1[i] = dyn->F->data[i] - L->T1[i];
+    dkf__mul_nt(L->jD, L->jS, L->Wn, n, pk, n);
+    for (i = 0; i < n * n; ++i) L->jD[i] = Q[i] - L->jD[i];
+    joint_congruence(L->Ppn, L->T1, L->Wn, f->Pn.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
+}
+#endif
+
 /* The gain phase on the storage map L (computed once per call chain), for
  * the pk rows idx of z_k. Theorem 1 holds unchanged for a time-varying
  * selection (docs/diffkf-fusion.md §8): u'_k = S u_k is correlated only
@@ -534,11 +608,22 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     /* an overflow (finite inputs, non-finite L) is not a definiteness question */
     if (!dkf__all_finite(L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
     if (dkf__chol(L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
+#if DKF_JOSEPH
+    /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
+    for (i = 0; i < pk; ++i)
+        for (j = 0; j < pk; ++j)
+            L.X[i * pk + j] =
+                L.Ruk[i * pk + j] - DKF_R(0.5) * (L.T3[i * pk + j] + L.T3[j * pk + i]);
+#endif
 
-    /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored) */
+    /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored; with
+     * DKF_JOSEPH the Joseph form below replaces it, but for pk = 0, where
+     * nothing is subtracted and the products below would have no terms) */
     right_solve(L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
-    dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
-    for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
+    if (!DKF_JOSEPH || pk == 0) {
+        dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
+        for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
+    }
 
     /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
      * S' = S_k S^T: the kept columns of S */
@@ -546,10 +631,15 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L.T3[i * pk + j] += L.S[i * p + idx[j]];
     right_solve(L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
-    dkf__mul_nn(L.T1, dyn->F->data, f->Pn.data, n, n, n);
-    dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
-    dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
-    for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
+#if DKF_JOSEPH
+    if (pk > 0) joseph_covariances(f, &L, dyn, idx, pk);
+#endif
+    if (!DKF_JOSEPH || pk == 0) {
+        dkf__mul_nn(L.T1, dyn->F->data, f->Pn.data, n, n, n);
+        dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
+        dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
+        for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
+    }
 
     /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
      * now; T2 holds only n p) */
@@ -563,6 +653,10 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
         !dkf__all_finite(L.Kn, n * pk) || !dkf__all_finite(L.Wn, n * pk) ||
         !dkf__all_finite(L.CLin, p * pk))
         return DKF_ERR_NONFINITE;
+    /* both covariances PSD up to rounding (docs/decisions.md item 17) */
+    if (!dkf__psd_within_rounding(L.T1, inv, L.Pfn, n) ||
+        !dkf__psd_within_rounding(L.T1, inv, L.Ppn, n))
+        return DKF_ERR_NOT_SPD;
     f->pk = pk;
     f->pending = 1;
     return DKF_OK;

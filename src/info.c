@@ -42,14 +42,19 @@ static dkf_status_t invert_spd(dkf_real_t *inv, dkf_real_t *out, dkf_real_t *cho
     return DKF_OK;
 }
 
-/* Commits (x, P, y, Y) from scratch after a finiteness check. */
+/* Commits (x, P, y, Y) from scratch after a finiteness check and the check
+ * that P and Y are PSD up to rounding (docs/decisions.md item 17); W is
+ * n x n scratch (the check's factor). */
 static dkf_status_t commit(dkf_info_t *f, const dkf_real_t *x, const dkf_real_t *P,
-                           const dkf_real_t *y, const dkf_real_t *Y)
+                           const dkf_real_t *y, const dkf_real_t *Y, dkf_real_t *W)
 {
     const size_t n = f->n;
+    dkf_real_t inv[DKF_MAX_DIM];
     if (!dkf__all_finite(x, n) || !dkf__all_finite(P, n * n) || !dkf__all_finite(y, n) ||
         !dkf__all_finite(Y, n * n))
         return DKF_ERR_NONFINITE;
+    if (!dkf__psd_within_rounding(W, inv, P, n) || !dkf__psd_within_rounding(W, inv, Y, n))
+        return DKF_ERR_NOT_SPD;
     dkf__copy(f->x.data, x, n);
     dkf__copy(f->P.data, P, n * n);
     dkf__copy(f->y.data, y, n);
@@ -78,7 +83,7 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     s = info_scratch(&g);
     /* Y0 = P0^{-1}, y0 = Y0 x0 */
     DKF_TRY(invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n));
-    DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B));
+    DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B, s.C));
     *f = g;
     return DKF_OK;
 }
@@ -99,14 +104,14 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t
     dkf__mul_nt_sym(s.C, s.A, F->data, Q->data, n, n);
     /* Y- = (P-)^{-1}, y- = Y- x- (an overflow of F P F^T is NONFINITE) */
     DKF_TRY(invert_spd(s.B, s.yn, s.A, s.C, s.xn, n));
-    return commit(f, s.xn, s.C, s.yn, s.B);
+    return commit(f, s.xn, s.C, s.yn, s.B, s.A);
 }
 
 dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
 {
     size_t n, m, a, b, l, pass;
-    dkf_real_t *L, *RiC, inv[DKF_MAX_DIM];
+    dkf_real_t *L, *W, inv[DKF_MAX_DIM], w[DKF_MAX_DIM];
     DKF_TRY(dkf__check_mat(C));
     n = C->cols;
     m = C->rows;
@@ -127,26 +132,28 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *
         dkf__overlap_buf(i, work, DKF_INFO_CONTRIB_WORK(n, m)))
         return DKF_ERR_ALIAS;
     L = work;
-    RiC = L + m * m;
-    /* R^{-1} C by Cholesky: never forms R^{-1} explicitly */
+    W = L + m * m;
+    /* R = L L^T;  W = L^{-1} C, w = L^{-1} z (forward substitution, never
+     * R^{-1}): the square-root form of (31)-(34) */
     if (dkf__chol(L, inv, R->data, m) != 0) return DKF_ERR_NOT_SPD;
-    dkf__copy(RiC, C->data, m * n);
-    dkf__chol_solve(L, inv, RiC, m, n);
-    if (!dkf__all_finite(RiC, m * n)) return DKF_ERR_NONFINITE;
-    /* I = C^T (R^{-1} C), exactly symmetric; i = (R^{-1} C)^T z. Twice:
-     * the first pass only checks for overflow, so that a failure leaves
-     * the outputs untouched (there is no room to stage n^2 results). */
+    dkf__whiten(W, w, L, inv, C->data, z->data, m, n);
+    if (!dkf__all_finite(W, m * n) || !dkf__all_finite(w, m)) return DKF_ERR_NONFINITE;
+    /* I = W^T W: a Gram matrix, exactly symmetric and PSD up to the rounding
+     * of its dot products (the form C^T (R^{-1} C) used before is not a
+     * Gram form, and an ill-conditioned R made it indefinite); i = W^T w.
+     * Twice: the first pass only checks for overflow, so that a failure
+     * leaves the outputs untouched (there is no room to stage n^2 results). */
     for (pass = 0; pass < 2; ++pass)
         for (a = 0; a < n; ++a) {
             dkf_real_t v = DKF_R(0.0);
-            for (l = 0; l < m; ++l) v += RiC[l * n + a] * z->data[l];
+            for (l = 0; l < m; ++l) v += W[l * n + a] * w[l];
             if (pass == 0 && !dkf__all_finite(&v, 1)) return DKF_ERR_NONFINITE;
             if (pass == 1) i->data[a] = v;
             for (b = a; b < n; ++b) {
-                dkf_real_t w = DKF_R(0.0);
-                for (l = 0; l < m; ++l) w += C->data[l * n + a] * RiC[l * n + b];
-                if (pass == 0 && !dkf__all_finite(&w, 1)) return DKF_ERR_NONFINITE;
-                if (pass == 1) I->data[a * n + b] = w, I->data[b * n + a] = w;
+                dkf_real_t g = DKF_R(0.0);
+                for (l = 0; l < m; ++l) g += W[l * n + a] * W[l * n + b];
+                if (pass == 0 && !dkf__all_finite(&g, 1)) return DKF_ERR_NONFINITE;
+                if (pass == 1) I->data[a * n + b] = g, I->data[b * n + a] = g;
             }
         }
     return DKF_OK;
@@ -181,5 +188,5 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
 #endif
     /* P = Y^{-1}, x = P y (an overflow of the sums is NONFINITE) */
     DKF_TRY(invert_spd(s.B, s.xn, s.A, s.C, s.yn, n));
-    return commit(f, s.xn, s.B, s.yn, s.C);
+    return commit(f, s.xn, s.B, s.yn, s.C, s.A);
 }

@@ -172,3 +172,36 @@ void dkf__chol_inverse(dkf_real_t *Ainv, const dkf_real_t *L, const dkf_real_t *
     for (i = 0; i < n; ++i)
         for (j = i + 1; j < n; ++j) Ainv[j * n + i] = Ainv[i * n + j];
 }
+
+void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, const dkf_real_t *H,
+                 const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work)
+{
+    dkf_real_t *AK = work, *G = AK + (n + m) * n, *Rs = G + (n + m) * n;
+    size_t i, j;
+    memcpy(AK + n * n, Kt, m * n * sizeof *AK);
+    for (i = 0; i < m; ++i) /* G starts as H^T (inl_joseph reads it first) */
+        for (j = 0; j < n; ++j) G[j * m + i] = H[i * n + j];
+    inl_joseph(Pn, AK, G, Rs, P, G, R, n, m);
+}
+
+int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t *P, size_t n)
+{
+    return inl_psd_within_rounding(work, inv, P, n);
+}
+
+void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
+                 const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n)
+{
+    size_t l, b, a;
+    for (l = 0; l < m; ++l) {
+        const dkf_real_t *ll = L + l * m;
+        dkf_real_t v = z[l];
+        for (b = 0; b < l; ++b) v -= ll[b] * w[b];
+        w[l] = v * inv[l];
+        for (a = 0; a < n; ++a) {
+            dkf_real_t t = C[l * n + a];
+            for (b = 0; b < l; ++b) t -= ll[b] * W[b * n + a];
+            W[l * n + a] = t * inv[l];
+        }
+    }
+}

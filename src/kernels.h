@@ -42,6 +42,26 @@ void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_
 /* A = (A + A^T) / 2 for n x n A. */
 void dkf__symmetrise(dkf_real_t *A, size_t n);
 
+/* Joseph-form covariance update P+ = (I - K H) P (I - K H)^T + K R K^T,
+ * evaluated as written (inl_joseph in kernels_inline.h), for the gain
+ * given as Kt = K^T (m x n), H (m x n), R (m x m, upper triangle read).
+ * work: DKF__JOSEPH_WORK(n, m) reals, overlapping none of the others;
+ * Pn (n x n) must not overlap P, Kt, H or R. */
+#define DKF__JOSEPH_WORK(n, m) (2 * ((n) + (m)) * (n) + (m) * (m))
+void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, const dkf_real_t *H,
+                 const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work);
+/* 1 if the finite symmetric n x n P is positive semi-definite within
+ * 4 n eps tr(P) (inl_psd_within_rounding); work: n^2 reals, inv: n. */
+int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t *P, size_t n);
+
+/* Whitening by the Cholesky factor L (m x m, inv from dkf__chol) of a
+ * noise covariance R = L L^T: W = L^{-1} C (C m x n) and w = L^{-1} z
+ * (z m x 1), forward substitution. The information C^T R^{-1} C is then
+ * the Gram matrix W^T W (symmetric, PSD up to the rounding of its dot
+ * products) and C^T R^{-1} z = W^T w. W, w must not overlap the inputs. */
+void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
+                 const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n);
+
 /* Cholesky factor of the n x n A into W (W may be A): the lower triangle
  * of W gets L with A = L L^T, its strict upper triangle zeros, and
  * inv[i] = 1 / L(i,i). Only the lower triangle of A is read. Returns 0,

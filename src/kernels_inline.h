@@ -466,6 +466,72 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
     return 0;
 }
 
+/* Joseph form of a covariance update for the gain K (n x m) of the
+ * measurement H (m x n) with noise R (m x m, upper triangle read),
+ * evaluated as written:
+ *   P+ = A P A^T + K R K^T,   A = I - K H,
+ * as one symmetric product with inner dimension n + m:
+ *   P+ = G^T [A^T; K^T],   G = [P A^T; R K^T]   ((n+m) x n each).
+ * A is formed explicitly: when the measurements pin the state (P+ << P)
+ * A is tiny and its O(eps) rounding reaches P+ only as O(eps^2 |P|),
+ * while a form that subtracts from P (P - K H P, or P - K(HP) + E K^T)
+ * leaves O(eps |P|) in a result that may be far smaller than P. Both
+ * terms are PSD in exact arithmetic whatever the gain; a gain error dK
+ * enters only as dK S dK^T (docs/decisions.md item 17).
+ * AK is (n+m) x n with K^T (m x n) in its last m rows on entry; its first
+ * n rows get A^T = I - H^T K^T. Ht = H^T (n x m) may be G itself: it is
+ * read only before G is written. Rs (m x m) gets R mirrored from its
+ * upper triangle. Pn must not overlap the others. O(n^3 + n^2 m). */
+DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_real_t *Rs,
+                            const dkf_real_t *P, const dkf_real_t *Ht, const dkf_real_t *R,
+                            size_t n, size_t m)
+{
+    const dkf_real_t *Kt = AK + n * n;
+    size_t i, j;
+    inl_mul_nn(AK, Ht, Kt, n, m, n); /* H^T K^T, then A^T = I - H^T K^T */
+    for (i = 0; i < n * n; ++i) AK[i] = -AK[i];
+    for (i = 0; i < n; ++i) AK[i * n + i] += DKF_R(1.0);
+    for (i = 0; i < m; ++i)
+        for (j = 0; j < m; ++j) Rs[i * m + j] = i <= j ? R[i * m + j] : R[j * m + i];
+    inl_mul_nn(G, P, AK, n, n, n);
+    inl_mul_nn(G + n * n, Rs, Kt, m, m, n);
+    inl_mul_tn_sym(Pn, G, AK, NULL, n, n + m);
+}
+
+/* Whether the symmetric n x n P (upper triangle read, via its mirror: the
+ * lower triangle is read) is positive semidefinite up to rounding, i.e.
+ * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: the
+ * Cholesky factorisation of P + delta I (into W, n x n, with inv) must
+ * succeed. Why this test and this delta:
+ *  - P may be PSD and singular (a filter started from P = 0, a state the
+ *    measurements pin exactly): no pivot of P itself may be required to be
+ *    positive, so the test shifts P; REAL_MIN keeps P = 0 (tr 0) passing.
+ *  - A covariance update or predict computed in floating point has
+ *    elementwise errors of a few (n + m) eps |P| in a well-formed update
+ *    (the Joseph form's products); tr(P) >= lambda_max(P) >= |P(i,j)|, so
+ *    4 n eps tr(P) is above the rounding of a PSD result (an exactly PSD
+ *    P has computed lambda_min >= -(few n eps) tr P), and the Cholesky of
+ *    the shifted matrix then succeeds: its own backward error, (n + 1) eps
+ *    |P|, stays below the shift.
+ *  - An indefinite P whose negative eigenvalue exceeds delta in size makes
+ *    P + delta I indefinite, and no Cholesky of an indefinite matrix
+ *    (up to its backward error) succeeds; a negative diagonal beyond delta
+ *    fails at its pivot. A negative trace (some diagonal < 0) gives
+ *    delta < 0 and fails too.
+ * P must be finite (callers scan it first). Returns 1 if PSD within
+ * delta, 0 otherwise. */
+DKF__INLINE int inl_psd_within_rounding(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *P,
+                                        size_t n)
+{
+    dkf_real_t tr = DKF_R(0.0), delta;
+    size_t i;
+    for (i = 0; i < n; ++i) tr += P[i * n + i];
+    delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
+    memcpy(W, P, n * n * sizeof *W);
+    for (i = 0; i < n; ++i) W[i * n + i] += delta;
+    return inl_chol(W, inv, W, n) == 0;
+}
+
 /* Solves L w = b in place (forward substitution), b n x 1; inv from
  * inl_chol. Only the Kalman step uses it. */
 DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *b,

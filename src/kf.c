@@ -18,20 +18,27 @@
  *   xn  n           new state
  *   Pn  n*n         new P (right after xn: one finiteness scan and one
  *                   commit copy cover both, as x and P are adjacent)
- *   W   max(2n^2, 2nm), shared by the two steps:
- *       predict: T = F P (n*n) and Ft = F^T (n*n)
- *       update:  Ht = H^T (n*m), then Gt = [-K^T; E^T] (2m x n) of
- *                the covariance update (see covariance_update)
+ *   W   w = max(2n^2, 2nm), shared by the two steps:
+ *       predict: T = F P (n*n) and Ft = F^T (n*n); after P is formed,
+ *                the PSD check's factor (n*n)
+ *       update:  Ht = H^T (n*m); then (Joseph) G = [P A^T; R K^T]
+ *                ((n+m) x n) of the covariance update, then the PSD
+ *                check's factor (n*n); (short form) Gt = -K^T (m x n)
  *   HP  m*n         H P (= (P H^T)^T, P symmetric)
- *   Kt  m*n         K^T = S^{-1} H P, right after HP: [HP; Kt] is 2m x n
+ *   Kt  m*n         K^T = S^{-1} H P, right after HP
  *   S   m*m         innovation covariance H P H^T + R
- *   L   m*m         its Cholesky factor
+ *   L   m*m         its Cholesky factor; then (Joseph) R mirrored from
+ *                   its upper triangle
+ * Joseph form: At = A^T = I - H^T K^T (n*n) ends where Kt starts, so
+ * that [At; Kt] is one (n+m) x n array; it covers HP (dead once Kt is
+ * solved) and the last n^2 - nm reals of W (if n > m): it starts at
+ * W + w + nm - n^2 >= W + n^2 + nm, past the end of G (and of Ht).
  * Every product runs on the row-major register-blocked kernels (row i of
  * the result accumulates rows of the right operand); the transposed
  * copies F^T and H^T, O(n^2) and O(n m), are what makes that possible
  * (F x and H x too run as x^T F^T and x^T H^T). */
 typedef struct {
-    dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *S, *L;
+    dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *At, *S, *L;
 } kf_scratch_t;
 
 DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
@@ -45,6 +52,7 @@ DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
     s.Ht = s.Gt = s.T;
     s.HP = s.T + 2 * (n > m ? n * n : n * m);
     s.Kt = s.HP + m * n;
+    s.At = s.Kt - n * n;
     s.S = s.Kt + m * n;
     s.L = s.S + m * m;
     return s;
@@ -60,18 +68,11 @@ DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A
 }
 
 /* Elementwise helpers on n reals that do not overlap (restrict parameters
- * are what lets GCC vectorise them once inlined): d = -a, d -= a, and
- * y += alpha x. */
+ * are what lets GCC vectorise them once inlined): d = -a and y += alpha x. */
 DKF__INLINE void negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
 {
     size_t i;
     for (i = 0; i < n; ++i) d[i] = -a[i];
-}
-
-DKF__INLINE void subtract(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) d[i] -= a[i];
 }
 
 DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t *restrict x,
@@ -148,6 +149,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
                                       const dkf_real_t *u, size_t n)
 {
     const kf_scratch_t s = kf_scratch(kf);
+    dkf_real_t inv[DKF_MAX_DIM];
     size_t i;
     if (inl_any_nonfinite(Q, n * n)) return DKF_ERR_NONFINITE; /* F, u: see above */
     /* x = (x^T F^T)^T + u; P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
@@ -158,6 +160,8 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     inl_mul_nn(s.T, F, kf->P.data, n, n, n);
     inl_mul_nn_sym(s.Pn, s.T, s.Ft, Q, n, n);
     if (inl_any_nonfinite(s.xn, n + n * n)) return DKF_ERR_NONFINITE; /* xn and Pn */
+    /* an indefinite Q (or an indefinite P from outside) must not pass */
+    if (!inl_psd_within_rounding(s.T, inv, s.Pn, n)) return DKF_ERR_NOT_SPD;
 
     commit_state(kf, &s, n);
     return DKF_OK;
@@ -185,25 +189,22 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q
     return predict_step(kf, F->data, Q->data, ud, n);
 }
 
-/* P+ = P + Gt^T [HP; Kt], upper triangle, mirrored: one symmetric product
- * with inner dimension 2m (DKF_JOSEPH) or m.
- * Joseph form, for any gain K: with A = I - K H and S = H P H^T + R,
- *   A P A^T + K R K^T = P - K (H P) - (H P)^T K^T + K S K^T
- *                     = P - K (H P) + E K^T,   E^T = S K^T - H P,
- * so Gt = [-Kt; E^T] (2m x n) against [HP; Kt]: O(n^2 m) instead of the
- * O(n^3) of forming A. It keeps what the Joseph form is for: a gain error
- * dK enters P+ only as dK S dK^T (the first-order terms cancel), where the
- * short form P - K H P carries it to first order; what reaches P+ through
- * E^T = S (S^{-1} H P) - H P is the rounding residual of the gain.
- * Short form (DKF_JOSEPH=0): P+ = P - K (H P), Gt = -Kt (m x n). */
-DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, size_t n, size_t m)
+/* Covariance update, upper triangle computed and mirrored.
+ * Joseph form (DKF_JOSEPH=1), for the gain K actually computed, as
+ * written: P+ = A P A^T + K R K^T with A = I - K H formed (inl_joseph:
+ * accurate also when the data pin the state, P+ << P; docs/decisions.md
+ * item 17). O(n^3 + n^2 m). At is placed right before Kt, so [At; Kt] is
+ * the (n+m) x n array inl_joseph wants, G = [P A^T; R K^T] goes to W
+ * (over Ht, which inl_joseph reads first) and R's mirror to L's place.
+ * Short form (DKF_JOSEPH=0): P+ = P - K (H P) = P + (-K^T)^T (HP). */
+DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, const dkf_real_t *R,
+                                   size_t n, size_t m)
 {
-    negate(s->Gt, s->Kt, m * n);
 #if DKF_JOSEPH
-    inl_mul_nn(s->Gt + m * n, s->S, s->Kt, m, m, n);
-    subtract(s->Gt + m * n, s->HP, m * n);
-    inl_mul_tn_sym(s->Pn, s->Gt, s->HP, kf->P.data, n, 2 * m);
+    inl_joseph(s->Pn, s->At, s->T, s->L, kf->P.data, s->Ht, R, n, m);
 #else
+    (void)R;
+    negate(s->Gt, s->Kt, m * n);
     inl_mul_tn_sym(s->Pn, s->Gt, s->HP, kf->P.data, n, m);
 #endif
 }
@@ -243,9 +244,12 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     /* x+ = x + K nu, accumulating the rows of K^T */
     memcpy(s.xn, kf->x.data, n * sizeof *s.xn);
     for (j = 0; j < m; ++j) axpy(s.xn, nu[j], s.Kt + j * n, n);
-    covariance_update(kf, &s, n, m);
+    covariance_update(kf, &s, R, n, m);
     if (inl_any_nonfinite(s.xn, n + n * n) | inl_any_nonfinite(&nis, 1)) /* xn, Pn and the NIS */
         return DKF_ERR_NONFINITE;
+    /* P+ indefinite beyond rounding (the short form under stress, an R
+     * that is not PSD): refused, the filter unchanged */
+    if (!inl_psd_within_rounding(s.T, inv, s.Pn, n)) return DKF_ERR_NOT_SPD;
 
     commit_state(kf, &s, n);
     kf->nu.rows = m;

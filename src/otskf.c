@@ -14,9 +14,11 @@
  * Measurement update, from x = x~ + U d (U = U_k after a predict):
  *   S   = H U + A                         Sx = H P^x H^T + R
  *   K^x = P^x H^T Sx^{-1}                 x~ += K^x (y - H x~)
- *   P^x -= K^x Sx K^x^T                   (= (I - K^x H) P^x)
+ *   P^x = (I - K^x H) P^x (I - K^x H)^T + K^x R K^x^T   (Joseph; DKF_JOSEPH=0:
+ *                                         P^x -= K^x Sx K^x^T)
  *   Sd  = Sx + S P^d S^T                  K^d = P^d S^T Sd^{-1}
- *   d   += K^d (y - H x~_{k|k-1} - S d)   P^d -= K^d Sd K^d^T
+ *   d   += K^d (y - H x~_{k|k-1} - S d)
+ *   P^d = (I - K^d S) P^d (I - K^d S)^T + K^d Sx K^d^T (Joseph; or P^d -= K^d Sd K^d^T)
  *   V   = U - K^x S
  * and the combined estimate x = x~ + V d, P = P^x + V P^d V^T.
  *
@@ -43,7 +45,7 @@ typedef struct {
  * own Cholesky factor. */
 typedef struct {
     dkf_real_t *Sk, *HP, *Sx, *Lx, *KxT, *Sd, *SkPd, *KdT, *Pxn, *Pn, *Pdn, *Vn, *T, *r, *xtn,
-        *dn, *xn;
+        *dn, *xn, *J;
 } upd_scratch_t;
 
 static dkf_real_t *take(dkf_real_t **cursor, size_t count)
@@ -98,6 +100,7 @@ static upd_scratch_t upd_scratch(const dkf_otskf_t *f)
     s.xtn = take(&c, n);
     s.dn = take(&c, p);
     s.xn = take(&c, n);
+    s.J = take(&c, DKF_OTSKF_JOSEPH_LEN(n > p ? n : p, m));
     return s;
 }
 
@@ -214,14 +217,18 @@ static const dkf_real_t *blend(const dkf_otskf_t *f)
 
 /* The end of both steps: the combined estimate x = x~ + B d and
  * P = P^x + B P^d B^T for the new blending matrix B (U after a predict, V
- * after an update), a finiteness check of every result, and the commit.
- * T (n x p), xn (n), Pn (n x n) are scratch. */
+ * after an update), a finiteness check of every result, the check that
+ * P^x, P^d and P are PSD up to rounding (DKF_ERR_NOT_SPD otherwise:
+ * docs/decisions.md item 17), and the commit. T (n x p), xn (n), Pn
+ * (n x n) and W (max(n, p)^2, the check's factor) are scratch. */
 static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
                                        const dkf_real_t *Px, const dkf_real_t *d,
                                        const dkf_real_t *Pd, const dkf_real_t *B, int blend_is_v,
-                                       dkf_real_t *T, dkf_real_t *xn, dkf_real_t *Pn)
+                                       dkf_real_t *T, dkf_real_t *xn, dkf_real_t *Pn,
+                                       dkf_real_t *W)
 {
     const size_t n = f->n, p = f->p;
+    dkf_real_t inv[DKF_MAX_DIM];
     add_mul_vec(xn, xt, B, d, n, p);
     dkf__mul_nn(T, B, Pd, n, p, p);
     dkf__mul_nt_sym(Pn, T, B, Px, n, p);
@@ -229,6 +236,9 @@ static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
         !dkf__all_finite(Pd, p * p) || !dkf__all_finite(B, n * p) || !dkf__all_finite(xn, n) ||
         !dkf__all_finite(Pn, n * n))
         return DKF_ERR_NONFINITE;
+    if (!dkf__psd_within_rounding(W, inv, Px, n) || !dkf__psd_within_rounding(W, inv, Pd, p) ||
+        !dkf__psd_within_rounding(W, inv, Pn, n))
+        return DKF_ERR_NOT_SPD;
     dkf__copy(f->xt.data, xt, n);
     dkf__copy(f->Px.data, Px, n * n);
     dkf__copy(f->d.data, d, p);
@@ -292,7 +302,9 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
     dkf__mul_nn(s.T, s.Ubar, s.W2, n, p, p);
     dkf__mul_nt_sym(s.N1, s.T, s.Ubar, s.N2, n, p);
 
-    return combine_and_commit(f, s.xtn, s.N1, s.dn, s.Pdn, s.Un, 0, s.T, s.xn, s.Pn);
+    /* the check's factor: N2 (n^2) or W1 (p^2), both free now */
+    return combine_and_commit(f, s.xtn, s.N1, s.dn, s.Pdn, s.Un, 0, s.T, s.xn, s.Pn,
+                              n >= p ? s.N2 : s.W1);
 }
 
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
@@ -333,11 +345,17 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     if (dkf__chol(s.Lx, inv, s.Sx, m) != 0) return DKF_ERR_NOT_SPD;
     dkf__copy(s.KxT, s.HP, m * n);
     dkf__chol_solve(s.Lx, inv, s.KxT, m, n);
-    /* r = y - H x~_{k|k-1};  x~ += K^x r;  P^x -= (H P^x)^T K^x^T */
+    /* r = y - H x~_{k|k-1};  x~ += K^x r;  P^x by the Joseph form
+     * (I - K^x H) P^x (I - K^x H)^T + K^x R K^x^T (DKF_JOSEPH; the short
+     * form P^x - (H P^x)^T K^x^T otherwise) */
     dkf__mul_vec(s.r, H, f->xt.data, m, n);
     for (i = 0; i < m; ++i) s.r[i] = y->data[i] - s.r[i];
     add_mul_tvec(s.xtn, f->xt.data, s.KxT, s.r, m, n);
+#if DKF_JOSEPH
+    dkf__joseph(s.Pxn, f->Px.data, s.KxT, H, R, n, m, s.J);
+#else
     sub_atb_sym(s.Pxn, f->Px.data, s.HP, s.KxT, m, n);
+#endif
 
     /* bias filter: Sd = Sx + S P^d S^T;  K^d^T = Sd^{-1} S P^d */
     dkf__mul_nn(s.SkPd, s.Sk, f->Pd.data, m, p, p);
@@ -345,12 +363,19 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     if (dkf__chol(s.Sd, inv, s.Sd, m) != 0) return DKF_ERR_NOT_SPD;
     dkf__copy(s.KdT, s.SkPd, m * p);
     dkf__chol_solve(s.Sd, inv, s.KdT, m, p);
-    /* r := r - S d;  d += K^d r;  P^d -= (S P^d)^T K^d^T */
+    /* r := r - S d;  d += K^d r;  P^d by the Joseph form of the bias
+     * filter, whose measurement matrix is S and noise Sx:
+     * (I - K^d S) P^d (I - K^d S)^T + K^d Sx K^d^T (short form
+     * P^d - (S P^d)^T K^d^T without DKF_JOSEPH) */
     for (i = 0; i < m; ++i) s.r[i] -= dkf__dot(s.Sk + i * p, f->d.data, p);
     add_mul_tvec(s.dn, f->d.data, s.KdT, s.r, m, p);
+#if DKF_JOSEPH
+    dkf__joseph(s.Pdn, f->Pd.data, s.KdT, s.Sk, s.Sx, p, m, s.J);
+#else
     sub_atb_sym(s.Pdn, f->Pd.data, s.SkPd, s.KdT, m, p);
+#endif
 
     /* V = U - K^x S;  x = x~ + V d;  P = P^x + V P^d V^T */
     sub_atb(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
-    return combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn);
+    return combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn, s.J);
 }

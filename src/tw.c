@@ -52,7 +52,7 @@ typedef struct {
     dkf_real_t *JB, *QB, *GSi;   /* n x m */
     dkf_real_t *Sc, *Si;         /* m x m: Cholesky of S, S^{-1} */
     dkf_real_t *r;               /* n: s - Q phi- */
-    dkf_real_t *Lw, *RiH, *Riy;  /* measurement: chol(Sw), Sw^{-1} H, Sw^{-1} y */
+    dkf_real_t *Lw, *RiH, *Riy;  /* measurement: chol(Sw) = Lw, Lw^{-1} H, Lw^{-1} y */
     dkf_real_t *stage, *acc;     /* packets: one being built, the central sum */
 } layout_t;
 
@@ -177,20 +177,20 @@ static dkf_status_t meas_info(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw
     DKF_TRY(dkf__check_input(sn->Sw, p, p));
     DKF_TRY(dkf__check_input(sn->y, p, 1));
     if (!dkf__all_finite(&scale, 1)) return DKF_ERR_NONFINITE;
-    /* Sw^{-1} H and Sw^{-1} y by one Cholesky factorisation: (17), (21) */
+    /* (17), (21) in square-root form: Sw = Lw Lw^T, W = Lw^{-1} H and
+     * w = Lw^{-1} y (in RiH, Riy), H^T Sw^{-1} H = W^T W (a Gram matrix:
+     * PSD up to rounding, which H^T (Sw^{-1} H) is not for an
+     * ill-conditioned Sw) and H^T Sw^{-1} y = W^T w */
     if (dkf__chol(L->Lw, inv, sn->Sw->data, p) != 0) return DKF_ERR_NOT_SPD;
-    dkf__copy(L->RiH, sn->H->data, p * n);
-    dkf__chol_solve(L->Lw, inv, L->RiH, p, n);
-    dkf__copy(L->Riy, sn->y->data, p);
-    dkf__chol_solve(L->Lw, inv, L->Riy, p, 1);
+    dkf__whiten(L->RiH, L->Riy, L->Lw, inv, sn->H->data, sn->y->data, p, n);
     e = n;
     for (a = 0; a < n; ++a) {
         dkf_real_t v = DKF_R(0.0);
-        for (l = 0; l < p; ++l) v += sn->H->data[l * n + a] * L->Riy[l];
+        for (l = 0; l < p; ++l) v += L->RiH[l * n + a] * L->Riy[l];
         L->stage[a] = scale * v;
         for (b = a; b < n; ++b) {
             dkf_real_t w = DKF_R(0.0);
-            for (l = 0; l < p; ++l) w += sn->H->data[l * n + a] * L->RiH[l * n + b];
+            for (l = 0; l < p; ++l) w += L->RiH[l * n + a] * L->RiH[l * n + b];
             L->stage[e++] = scale * w;
         }
     }

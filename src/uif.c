@@ -61,8 +61,9 @@ typedef struct {
     dkf_real_t *T1;   /* A P + G Pxd^T; (I - L C) P        n x n */
     dkf_real_t *Z;    /* A Pxd + G Pd; then Z              n x m, n x r */
     dkf_real_t *ZP;   /* G Pd; then Z Pdbar                n x m, n x r */
-    dkf_real_t *T3, *T4; /* Joseph / simple update          n x p */
+    dkf_real_t *T3;   /* L^T (Joseph); -K (short form)     p x n, n x p */
     dkf_real_t *svdw;
+    dkf_real_t *J;    /* dkf__joseph's workspace; the PSD check's factor */
 } layout_t;
 
 static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t p)
@@ -109,8 +110,8 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->Z, n * m);
     DKF_TAKE(L->ZP, n * m);
     DKF_TAKE(L->T3, n * p);
-    DKF_TAKE(L->T4, n * p);
     DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(q, m));
+    DKF_TAKE(L->J, DKF__JOSEPH_WORK(n, p));
     return used;
 }
 
@@ -428,18 +429,17 @@ static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui
                              size_t r)
 {
     const size_t n = f->n, p = f->p;
-    size_t i;
 #if DKF_JOSEPH
-    /* T1 = (I - L C) P = P - L (C P);  P+ = T1 + (L R - T1 C^T) L^T */
-    dkf__mul_nn(L->T1, L->nx.L, L->CP, n, p, n);
-    for (i = 0; i < n * n; ++i) L->T1[i] = L->nx.Pp[i] - L->T1[i];
-    dkf__mul_nt(L->T3, L->T1, meas->C->data, n, n, p);
-    dkf__mul_nn(L->T4, L->nx.L, meas->R->data, n, p, p);
-    for (i = 0; i < n * p; ++i) L->T3[i] = L->T4[i] - L->T3[i];
-    dkf__mul_nt_sym(L->nx.Px, L->T3, L->nx.L, L->T1, n, p);
+    /* (I - L C) P (I - L C)^T + L R L^T as written, A = I - L C formed
+     * (dkf__joseph: accurate also when P_{k|k} << P_{k|k-1}; the rewrite
+     * P - L (C P) + (L R - (P - L C P) C^T) L^T used before subtracted
+     * from P; docs/decisions.md item 17) */
+    transpose(L->T3, L->nx.L, n, p); /* T3 = L^T */
+    dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->C->data, meas->R->data, n, p, L->J);
     (void)r;
 #else
     /* P - K R~ K^T = P - K (C P), then + (Z Pdbar) Z^T */
+    size_t i;
     (void)meas;
     for (i = 0; i < n * p; ++i) L->T3[i] = -L->nx.K[i];
     dkf__mul_nn_sym(L->nx.Px, L->T3, L->CP, L->nx.Pp, n, p);
@@ -514,6 +514,10 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     if (f->kind == DKF_UIF_NRTSF_DF && dyn != NULL) risk = bias_risk(dyn->G, f->proj.data);
     olen = out_layout(&o, NULL, n, m, p);
     if (!dkf__all_finite(L.nx.x, olen)) return DKF_ERR_NONFINITE;
+    /* P_{k|k} and P_{k|k-1} PSD up to rounding (docs/decisions.md item 17) */
+    if (!dkf__psd_within_rounding(L.J, invr, L.nx.Px, n) ||
+        !dkf__psd_within_rounding(L.J, invr, L.nx.Pp, n))
+        return DKF_ERR_NOT_SPD;
 
     /* commit */
     dkf__copy(f->x.data, L.nx.x, olen);

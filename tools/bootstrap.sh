@@ -86,10 +86,11 @@ if (( ${#missing[@]} )); then
 fi
 
 # Python for the analysis, Monte-Carlo and monitoring tools (numpy,
-# matplotlib; PyPI `lcm` for the LCM monitors). Their smoke tests need them.
+# matplotlib; PyPI `lcm` for the LCM monitors; mpmath for the 60-digit references of
+# tools/make_stress_vectors.py). Their smoke tests need them.
 py_missing=()
 if [[ "${DKF_BOOTSTRAP_NO_PYTHON:-0}" != 1 ]]; then
-  for mod in numpy matplotlib lcm; do
+  for mod in numpy matplotlib lcm mpmath; do
     python3 -c "import $mod" >/dev/null 2>&1 || py_missing+=("$mod")
   done
 fi
@@ -100,7 +101,7 @@ if (( ${#py_missing[@]} )); then
   if [[ "$(id -u)" != 0 ]]; then
     echo "bootstrap: python3 lacks: ${py_missing[*]}; run:" >&2
     if (( managed )); then
-      echo "  sudo apt-get install -y python3-numpy python3-matplotlib && sudo python3 -m pip install --break-system-packages lcm" >&2
+      echo "  sudo apt-get install -y python3-numpy python3-matplotlib python3-mpmath && sudo python3 -m pip install --break-system-packages lcm" >&2
     else
       echo "  python3 -m pip install ${py_missing[*]}" >&2
     fi

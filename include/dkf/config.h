@@ -34,10 +34,13 @@
 #define DKF_MAX_DIM 48
 #endif
 
-/* 1: measurement updates use the Joseph form
- *    P+ = (I - K H) P (I - K H)^T + K R K^T,
- * which stays symmetric positive semi-definite under rounding;
- * 0: the cheaper P+ = P - K S K^T. */
+/* 1: measurement updates use the Joseph form, evaluated as written
+ *    P+ = (I - K H) P (I - K H)^T + K R K^T   (A = I - K H formed),
+ * symmetric, positive semi-definite up to rounding and accurate when the
+ * data pin the state (P+ << P);
+ * 0: the cheaper short form P+ = P - K H P (loses |P| eps absolutely).
+ * Either way a P+ that is not PSD within 4 n eps tr(P) is refused
+ * (DKF_ERR_NOT_SPD; docs/decisions.md item 17). */
 #ifndef DKF_JOSEPH
 #define DKF_JOSEPH 1
 #endif

@@ -51,7 +51,8 @@
      /* the model inputs of the memoised model-only block */ \
      + 2 * (m) * (p) + 4 * (n) * (p) + 4 * (p) * (p) \
      /* the memoised block, new A^+ and B^{-1} before they are cached */ \
-     + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p))
+     + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p) \
+     + 3 * (n) * (n) + 4 * (n) * (p) /* scratch of the Joseph-type covariances */)
 /* The first DKF_DIFFKF_STATE_LEN(n, m, p) reals of the storage hold the
  * estimates and the step's views, the carry between steps, and the caches
  * of A^+, B^{-1} and the model-only block: every failed call leaves them
@@ -124,7 +125,9 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
 
 /* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
  * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
- * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD,
+ * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD
+ * or P_{k|k}, P_{k+1|k} is not PSD within 4 n eps tr P (an indefinite Q,
+ * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/diffkf.md),
  * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start, or while
  * a gain is pending). */
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,

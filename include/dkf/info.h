@@ -51,16 +51,19 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
                            const dkf_mat_t *x0, const dkf_mat_t *P0);
 
 /* Time update (seed 001 (29)-(30), linear): P- = F P F^T + Q, x- = F x,
- * Y- = (P-)^{-1}, y- = Y- x-. DKF_ERR_NOT_SPD if P- is not SPD,
- * DKF_ERR_NONFINITE if a result overflows (finite inputs whose products
- * exceed the real type's range), never NOT_SPD for that. */
+ * Y- = (P-)^{-1}, y- = Y- x-. DKF_ERR_NOT_SPD if P- is not SPD (every
+ * commit also checks P and Y PSD within 4 n eps tr), DKF_ERR_NONFINITE if
+ * a result overflows (finite inputs whose products exceed the real type's
+ * range), never NOT_SPD for that. */
 dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t *Q);
 
 /* A sensor's contribution: I = C^T R^{-1} C (n x n), i = C^T R^{-1} z
- * (n x 1), for C m x n, R m x m SPD, z m x 1. Touches no filter: a node
- * computes it and sends (i, I). work: DKF_INFO_CONTRIB_WORK(n, m).
- * DKF_ERR_NOT_SPD (R), DKF_ERR_NONFINITE (NaN/Inf in C, R, z, or an
- * overflow of the results); i and I are written only on success. */
+ * (n x 1), for C m x n, R m x m SPD, z m x 1, in square-root form (R =
+ * L L^T, W = L^{-1} C, I = W^T W: a Gram matrix, PSD up to rounding,
+ * i = W^T L^{-1} z). Touches no filter: a node computes it and sends
+ * (i, I). work: DKF_INFO_CONTRIB_WORK(n, m). DKF_ERR_NOT_SPD (R),
+ * DKF_ERR_NONFINITE (NaN/Inf in C, R, z, or an overflow of the results);
+ * i and I are written only on success. */
 dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
                                    const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work);
 

@@ -60,15 +60,19 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0);
 
 /* Time update: x = F x + u, P = F P F^T + Q. u may be NULL (no known
- * input). Q must be finite and symmetric positive semi-definite (its
- * definiteness is not checked; its finiteness is). */
+ * input). Q must be finite and symmetric positive semi-definite:
+ * DKF_ERR_NONFINITE if it is not finite, DKF_ERR_NOT_SPD if the new P is
+ * not PSD within 4 n eps tr(P) (an indefinite Q). */
 dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
                             const dkf_mat_t *u);
 
 /* Measurement update with y (m x 1), H (m x n), R (m x m), m <= m_max:
  *   nu = y - H x, S = H P H^T + R, K = P H^T S^{-1},
- *   x = x + K nu, P = Joseph form or P - K S K^T (DKF_JOSEPH).
- * DKF_ERR_NOT_SPD if S is not SPD, DKF_ERR_NONFINITE for NaN/Inf in y, H, R. */
+ *   x = x + K nu, P = (I-KH) P (I-KH)^T + K R K^T (DKF_JOSEPH=1, A = I-KH
+ *   formed) or P - K H P (DKF_JOSEPH=0).
+ * DKF_ERR_NOT_SPD if S is not SPD or the new P is not PSD within
+ * 4 n eps tr(P) (an indefinite R; the short form when P+ << P),
+ * DKF_ERR_NONFINITE for NaN/Inf in y, H, R or an overflow. */
 dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
                            const dkf_mat_t *y);
 

@@ -33,7 +33,9 @@
     (5 * (p) * (p) + 4 * (n) * (p) + 3 * (n) * (n) + (p) + 2 * (n))
 #define DKF_OTSKF_UPDATE_LEN(n, m, p) \
     (3 * (m) * (m) + 2 * (m) * (n) + 3 * (m) * (p) + 2 * (n) * (n) + (p) * (p) + \
-     2 * (n) * (p) + (m) + 2 * (n) + (p))
+     2 * (n) * (p) + (m) + 2 * (n) + (p) + DKF_OTSKF_JOSEPH_LEN((n) > (p) ? (n) : (p), m))
+/* Workspace of the Joseph updates of P^x (N = n) and P^d (N = p). */
+#define DKF_OTSKF_JOSEPH_LEN(N, m) (2 * ((N) + (m)) * (N) + (m) * (m))
 #define DKF_OTSKF_STORAGE_LEN(n, m, p) \
     (DKF_OTSKF_STATE_LEN(n, p) + \
      (DKF_OTSKF_PREDICT_LEN(n, p) > DKF_OTSKF_UPDATE_LEN(n, m, p) \
@@ -66,13 +68,16 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                             const dkf_mat_t *d0, const dkf_mat_t *Pd0);
 /* Time update with the dynamics at k-1. DKF_ERR_SINGULAR if B is singular,
- * DKF_ERR_NOT_SPD if P^d_{k|k-1} = B P^d B^T + Rd is not SPD. */
+ * DKF_ERR_NOT_SPD if P^d_{k|k-1} = B P^d B^T + Rd is not SPD, or if
+ * P^x, P^d or P is not PSD within 4 n eps tr (an indefinite Q or Rd). */
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
 /* Measurement update with y_k and the model at k. DKF_ERR_RANK if A_k
  * lacks full column rank p (numerical rank by SVD with
  * DKF_RANK_TOL_DEFAULT; so also whenever p > m), DKF_ERR_NOT_SPD if the
  * bias-free innovation covariance H P^x H^T + R or the bias filter's
- * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD. */
+ * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD, or if the updated
+ * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in
+ * Joseph form (DKF_JOSEPH; docs/diffkf.md). */
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
 
 #endif /* DKF_OTSKF_H */

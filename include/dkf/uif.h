@@ -32,7 +32,9 @@
  * or given when it must be NULL, is DKF_ERR_STATE.
  *
  * Statuses of dkf_uif_step (the filter is bit-identical after any error):
- *   DKF_ERR_NOT_SPD    R~_k = C_k P_{k|k-1} C_k^T + R_k is not SPD
+ *   DKF_ERR_NOT_SPD    R~_k = C_k P_{k|k-1} C_k^T + R_k is not SPD, or
+ *                      P_{k|k} or P_{k|k-1} is not PSD within 4 n eps tr
+ *                      (an indefinite Q or R)
  *   DKF_ERR_RANK       RTSF: rank H_k < m.  NRTSF-DF: H~ = Hbar^T R~^-1 Hbar
  *                      numerically singular.  NRTSF: rank(C_k Gbar_{k-1}) <
  *                      rank G_{k-1} (F^T R~^-1 F singular)
@@ -105,7 +107,8 @@ typedef struct {
 #define DKF_UIF_STORAGE_LEN(n, m, p) \
     (2 * DKF__UIF_OUT_LEN(n, m, p) + 3 * DKF__UIF_Q(n, p) * (m) + 2 * (m) * (m) /* caches */ \
      + 2 * (p) * (n) + (p) * (p) + 4 * (p) * (m) + 4 * (m) * (m) + (n) * (n) + 2 * (n) * (m) + \
-     2 * (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m))
+     (n) * (p) + DKF_MAT_SVD_WORK(DKF__UIF_Q(n, p), m) + \
+     2 * ((n) + (p)) * (n) + (p) * (p) /* Joseph-form workspace */)
 /* The first DKF_UIF_STATE_LEN(n, m, p) reals of the storage hold the
  * outputs (the views below) and the decomposition cache: a failed call
  * leaves them and the struct bit-identical. The rest is scratch. */

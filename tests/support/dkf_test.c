@@ -5,6 +5,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
+#include <string.h>
 
 #include <cmocka.h>
 
@@ -250,4 +251,54 @@ const json_t *test_json_model_at(const json_t *model, const char *key, size_t k)
     const json_t *m = c != NULL ? c : json_array_get(test_json_get(spec, "per_k"), k);
     assert_non_null(m);
     return m;
+}
+
+double test_rel_err(const dkf_real_t *got, const double *ref, size_t n)
+{
+    return test_max_abs_diff(got, ref, n) / test_max_abs(ref, n);
+}
+
+int test_psd_within(const dkf_real_t *P, size_t n, double tol)
+{
+    static double L[DKF_MAX_DIM * DKF_MAX_DIM];
+    double tr = 0.0, d;
+    size_t i, j, l;
+    for (i = 0; i < n; ++i) tr += (double)P[i * n + i];
+    d = tol * fabs(tr);
+    for (i = 0; i < n; ++i) {
+        if (!((double)P[i * n + i] >= -d)) return 0;
+        for (j = 0; j <= i; ++j) {
+            double s = (double)P[i * n + j] + (i == j ? d : 0.0);
+            for (l = 0; l < j; ++l) s -= L[i * n + l] * L[j * n + l];
+            if (i == j) {
+                if (!(s > 0.0)) return 0;
+                L[i * n + i] = sqrt(s);
+            } else {
+                L[i * n + j] = s / L[j * n + j];
+            }
+        }
+    }
+    return 1;
+}
+
+void test_assert_below(const char *what, double e, double bound)
+{
+    if (!(e <= bound)) {
+        print_error("%s: %.3e > %.3e\n", what, e, bound);
+        fail();
+    }
+}
+
+const json_t *test_json_case(const json_t *root, const char *name)
+{
+    const json_t *cases = test_json_get(root, "cases");
+    size_t i;
+    for (i = 0; i < json_array_size(cases); ++i) {
+        const json_t *c = json_array_get(cases, i);
+        const char *nm = json_string_value(test_json_get(c, "name"));
+        if (nm != NULL && strcmp(nm, name) == 0) return c;
+    }
+    print_error("no case %s\n", name);
+    fail();
+    return NULL;
 }

@@ -77,6 +77,16 @@ double test_orth_err(const dkf_real_t *Q, size_t r, size_t k);
 double test_worst_rel(void);
 void test_reset_worst_rel(void);
 
+/* max|got - ref| / max|ref| over n entries (relative to the reference's
+ * own scale, not max(1, .): for covariances far below 1). */
+double test_rel_err(const dkf_real_t *got, const double *ref, size_t n);
+/* Whether the symmetric n x n P satisfies lambda_min(P) >= -tol |tr(P)|
+ * and min P(i,i) >= -tol |tr(P)|, by a double-precision Cholesky of
+ * P + tol |tr(P)| I written here (independent of the library's). */
+int test_psd_within(const dkf_real_t *P, size_t n, double tol);
+/* Fails the test (naming `what`) unless e <= bound. */
+void test_assert_below(const char *what, double e, double bound);
+
 /* ---- golden vectors (jansson) ------------------------------------------ */
 #include <jansson.h>
 
@@ -93,5 +103,8 @@ void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_
 const json_t *test_json_model_at(const json_t *model, const char *key, size_t k);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
+/* The element of root's "cases" array whose "name" is `name` (fails the
+ * test if none). */
+const json_t *test_json_case(const json_t *root, const char *name);
 
 #endif /* DKF_TEST_H */

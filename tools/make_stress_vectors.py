@@ -1,0 +1,296 @@
+#!/usr/bin/env python3
+"""High-precision references for the covariance-update stress tests.
+
+Writes tests/vectors/stress/<filter>.json (committed; the C tests read them
+and never run Python): models in the regimes where a covariance update
+that subtracts from P loses its digits, with the filter's results computed
+in 60-digit arithmetic (mpmath) from the very inputs the C tests use.
+
+Every input is rounded to IEEE single precision first (numpy.float32), so
+it is exactly representable in both builds (DKF_REAL=float and double):
+the reference is then the exact answer for the float build's inputs too,
+and a tolerance measures the filter's own rounding only.
+
+Regimes (docs/decisions.md, "The covariance update"):
+* pinned:   P0 = 1e8 I, R = 1e-8 I, n = m = 4: the measurements pin the
+            state, P_{1|1} ~ 1e-8 is 1e16 below P0;
+* moderate: P0 SPD with eigenvalues in [1e4, 1e6], R SPD with
+            eigenvalues in [1e-4, 1e-3], n = m (4 and 6), five
+            predict + update steps;
+* near-singular R (float): R = [[1, 1 - 2^-27], [1 - 2^-27, 1]] (exact in
+            double, singular once rounded to float) and strong P, for
+            the "never OK with an indefinite P" tests; the reference is
+            for the double inputs (the float build sees a singular R).
+
+Numbers are written with 17 significant digits (the reference rounded to
+double: 1e-17 relative, far below every tolerance).
+
+Usage: python3 tools/make_stress_vectors.py [--check-only]
+Requires mpmath and numpy (Debian python3-mpmath, python3-numpy).
+Deterministic (fixed seeds).
+"""
+import json
+import os
+import sys
+
+import mpmath as mp
+import numpy as np
+
+mp.mp.dps = 60
+HERE = os.path.dirname(os.path.abspath(__file__))
+OUT = os.path.join(HERE, "..", "tests", "vectors", "stress")
+
+
+# ---- inputs: float32-exact numbers ----------------------------------------
+
+def f32(a):
+    """a rounded to float32, as float64 (exactly representable in both)."""
+    return np.asarray(a, dtype=np.float32).astype(np.float64)
+
+
+def spd_with_eigs(rng, eigs):
+    """Q diag(eigs) Q^T with a random orthogonal Q, symmetrised, then
+    float32-rounded (symmetric after rounding: both triangles round alike)."""
+    n = len(eigs)
+    q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    a = q @ np.diag(eigs) @ q.T
+    a = (a + a.T) / 2
+    return f32(a)
+
+
+def logspace_eigs(rng, lo, hi, n):
+    return np.exp(rng.uniform(np.log(lo), np.log(hi), n))
+
+
+# ---- 60-digit linear algebra (mpmath) --------------------------------------
+
+def M(a):
+    return mp.matrix([[mp.mpf(float(v)) for v in row] for row in np.atleast_2d(a)])
+
+
+def V(a):
+    return mp.matrix([mp.mpf(float(v)) for v in np.ravel(a)])
+
+
+def kf_update(x, P, H, R, y):
+    """Exact (60-digit) measurement update: S = H P H^T + R,
+    K = P H^T S^{-1}, x+ = x + K (y - H x), P+ = (I-KH) P (I-KH)^T + K R K^T
+    (at 60 digits every algebraic form agrees to ~40 digits)."""
+    S = H * P * H.T + R
+    K = P * H.T * mp.inverse(S)
+    n = P.rows
+    A = mp.eye(n) - K * H
+    xn = x + K * (y - H * x)
+    Pn = A * P * A.T + K * R * K.T
+    Pn = (Pn + Pn.T) / 2
+    return xn, Pn
+
+
+def kf_predict(x, P, F, Q):
+    return F * x, F * P * F.T + Q
+
+
+def tolist(m):
+    return [[float(m[i, j]) for j in range(m.cols)] for i in range(m.rows)]
+
+
+def tovec(v):
+    return [float(v[i]) for i in range(v.rows)]
+
+
+def min_eig(m):
+    e = mp.eigsy(m)[0]
+    return min(e[i] for i in range(e.rows))
+
+
+# ---- the KF cases ------------------------------------------------------------
+
+def kf_case(name, note, x0, P0, steps):
+    """steps: list of dicts with H, R, y and optionally F, Q (predict
+    first). Adds the 60-digit x, P after each step."""
+    x, P = V(x0), M(P0)
+    out = []
+    for st in steps:
+        rec = {}
+        if "F" in st:
+            x, P = kf_predict(x, P, M(st["F"]), M(st["Q"]))
+            rec["F"], rec["Q"] = st["F"].tolist(), st["Q"].tolist()
+        x, P = kf_update(x, P, M(st["H"]), M(st["R"]), V(st["y"]))
+        rec.update(H=st["H"].tolist(), R=st["R"].tolist(), y=st["y"].tolist(),
+                   x=tovec(x), P=tolist(P), P_min_eig=float(min_eig(P)),
+                   cond_H=float(np.linalg.cond(st["H"])))
+        out.append(rec)
+    return {"name": name, "note": note, "n": len(x0), "m": len(steps[0]["y"]),
+            "x0": list(map(float, x0)), "P0": P0.tolist(), "steps": out}
+
+
+def kf_cases():
+    rng = np.random.default_rng(20261201)
+    cases = []
+    # pinned: P0 = 1e8 I, R = 1e-8 I (float32-rounded), n = m = 4
+    n = 4
+    H = f32(rng.standard_normal((n, n)))
+    cases.append(kf_case(
+        "pinned_n4", "P0 = 1e8 I, R = 1e-8 I, n = m = 4, one update",
+        f32(rng.standard_normal(n)), f32(1e8 * np.eye(n)),
+        [{"H": H, "R": f32(1e-8 * np.eye(n)), "y": f32(rng.standard_normal(n))}]))
+    # moderate: P0 eigenvalues in [1e4, 1e6], R in [1e-4, 1e-3], n = m
+    for n in (4, 6):
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e4, 1e6, n))
+        steps = []
+        for k in range(5):
+            st = {"H": f32(rng.standard_normal((n, n))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, n)),
+                  "y": f32(100 * rng.standard_normal(n))}
+            if k > 0:
+                st["F"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+            steps.append(st)
+        cases.append(kf_case(
+            "moderate_n%d" % n,
+            "P0 eigenvalues in [1e4, 1e6], R in [1e-4, 1e-3], n = m = %d, 5 steps" % n,
+            f32(rng.standard_normal(n)), P0, steps))
+    # near-singular R: exact in double, singular in float
+    c = 1.0 - 2.0 ** -27
+    R = np.array([[1.0, c], [c, 1.0]])
+    for n, p0 in ((2, 1e6), (4, 1e6)):
+        H = f32(rng.standard_normal((2, n)))
+        steps = [{"H": H, "R": R, "y": f32(rng.standard_normal(2))} for _ in range(3)]
+        for st in steps[1:]:
+            st["F"] = f32(np.eye(n))
+            st["Q"] = f32(np.zeros((n, n)))
+        cases.append(kf_case(
+            "singular_r_float_n%d" % n,
+            "R = [[1, 1-2^-27], [1-2^-27, 1]] (singular in float), P0 = %g I, "
+            "3 updates of the same H" % p0,
+            f32(rng.standard_normal(n)), f32(p0 * np.eye(n)), steps))
+    return cases
+
+
+# ---- ASKF / OTSKF: the augmented KF on [x; d] ---------------------------------
+
+def aug_cases():
+    """x_{k+1} = F x + v, d_{k+1} = B d + wd, y = H x + A d + w: the ASKF is
+    the KF on [x; d] (Phi = diag(F, B), Qa = diag(Q, Rd), Ha = [H A]) and
+    the OTSKF is algebraically equal to it (same prior, Pxd0 = 0). m = n + p,
+    so each update pins the augmented state: P0 eigenvalues in [1e4, 1e6],
+    Pd0 = 1e4 I, R eigenvalues in [1e-4, 1e-3]; 5 steps."""
+    rng = np.random.default_rng(20261202)
+    cases = []
+    for n, p in ((2, 1), (3, 2)):
+        m = n + p
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e4, 1e6, n))
+        Pd0 = f32(1e4 * np.eye(p))
+        x0, d0 = f32(rng.standard_normal(n)), f32(rng.standard_normal(p))
+        N = n + p
+        xa = V(np.concatenate([x0, d0]))
+        Pa = mp.zeros(N, N)
+        for i in range(n):
+            for j in range(n):
+                Pa[i, j] = mp.mpf(float(P0[i, j]))
+        for i in range(p):
+            for j in range(p):
+                Pa[n + i, n + j] = mp.mpf(float(Pd0[i, j]))
+        steps = []
+        for k in range(5):
+            st = {"H": f32(rng.standard_normal((m, n))), "A": f32(rng.standard_normal((m, p))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, m)),
+                  "y": f32(100 * rng.standard_normal(m))}
+            if k > 0:
+                st["F"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e-1, 1e1, n))
+                st["B"] = f32(np.eye(p) + 0.05 * rng.standard_normal((p, p)))
+                st["Rd"] = spd_with_eigs(rng, logspace_eigs(rng, 1e-1, 1e1, p))
+                Phi = np.zeros((N, N)); Phi[:n, :n] = st["F"]; Phi[n:, n:] = st["B"]
+                Qa = np.zeros((N, N)); Qa[:n, :n] = st["Q"]; Qa[n:, n:] = st["Rd"]
+                xa, Pa = kf_predict(xa, Pa, M(Phi), M(Qa))
+            Ha = np.hstack([st["H"], st["A"]])
+            prior = max(abs(Pa[i, j]) for i in range(N) for j in range(N))
+            xa, Pa = kf_update(xa, Pa, M(Ha), M(st["R"]), V(st["y"]))
+            post = max(abs(Pa[i, j]) for i in range(N) for j in range(N))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=[float(xa[i]) for i in range(n)],
+                       d=[float(xa[n + i]) for i in range(p)],
+                       P=[[float(Pa[i, j]) for j in range(n)] for i in range(n)],
+                       Pd=[[float(Pa[n + i, n + j]) for j in range(p)] for i in range(p)],
+                       cond_H=float(np.linalg.cond(Ha)), rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "aug_n%d_p%d" % (n, p), "n": n, "m": m, "p": p,
+                      "note": "augmented state pinned each update (m = n + p), 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "d0": d0.tolist(),
+                      "Pd0": Pd0.tolist(), "steps": steps})
+    return cases
+
+
+# ---- information filter: the KF on the stacked measurement -------------------
+
+def info_cases():
+    """Two sensors (m_j = n/2 rows each, together n), P0 eigenvalues in
+    [1e4, 1e6], R_j eigenvalues in [1e-4, 1e-3]: the fused step equals the
+    KF update on the stacked (C, blockdiag R, z); 5 predict + fuse steps."""
+    rng = np.random.default_rng(20261203)
+    cases = []
+    for n in (4, 6):
+        mj = n // 2
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e4, 1e6, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            sens = [{"C": f32(rng.standard_normal((mj, n))),
+                     "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, mj)),
+                     "z": f32(100 * rng.standard_normal(mj))} for _ in range(2)]
+            rec = {}
+            if k > 0:
+                F = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                Q = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                x, P = kf_predict(x, P, M(F), M(Q))
+                rec["F"], rec["Q"] = F.tolist(), Q.tolist()
+            C = np.vstack([s_["C"] for s_ in sens])
+            R = np.zeros((n, n))
+            R[:mj, :mj], R[mj:, mj:] = sens[0]["R"], sens[1]["R"]
+            z = np.concatenate([s_["z"] for s_ in sens])
+            x, P = kf_update(x, P, M(C), M(R), V(z))
+            rec["sensors"] = [{kk: v.tolist() for kk, v in s_.items()} for s_ in sens]
+            rec.update(x=tovec(x), P=tolist(P), cond_H=float(np.linalg.cond(C)))
+            steps.append(rec)
+        cases.append({"name": "info_n%d" % n, "n": n, "note": "2 sensors of n/2 rows, 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
+def write(name, doc):
+    os.makedirs(OUT, exist_ok=True)
+    path = os.path.join(OUT, name + ".json")
+    text = json.dumps(doc, separators=(",", ":")) + "\n"
+    if "--check-only" in sys.argv:
+        with open(path) as f:
+            if f.read() != text:
+                sys.exit("make_stress_vectors: %s differs from a fresh run" % path)
+        return
+    with open(path, "w") as f:
+        f.write(text)
+
+
+def main():
+    write("kf", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, x0, P0, steps[] {F, Q (predict first, if present), "
+                  "H, R, y, and the reference x, P after the update, P_min_eig, "
+                  "cond_H (2-norm condition number of H, for the tests' bounds)}",
+        "cases": kf_cases()})
+    write("aug", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0, d0, Pd0, steps[] {F, Q, B, Rd (predict first, "
+                  "if present), H, A, R, y, reference x, P, d, Pd after the update, cond_H "
+                  "(of [H A]), rho = max|P^a_{k|k-1}| / max|P^a_{k|k}|}",
+        "cases": aug_cases()})
+    write("info", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, x0, P0, steps[] {F, Q (predict first, if present), sensors[] "
+                  "{C, R, z}, reference x, P after the fusion, cond_H (of the stacked C)}",
+        "cases": info_cases()})
+
+
+if __name__ == "__main__":
+    main()

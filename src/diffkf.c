@@ -439,6 +439,14 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
     dkf__mul_nt(L.Cn, L.T3, L.G, p, m, p);
     for (i = 0; i < p * p; ++i) L.Cn[i] = -L.Cn[i];
     meas_products(f, &L, meas_next, L.ApHn, L.ApRApn);
+
+    /* Finite inputs whose products overflow: refused here, whichever rows a
+     * masked gain keeps, so the memo never holds a non-finite block. */
+    if (!dkf__all_finite(L.G, p * m) || !dkf__all_finite(L.GH, p * n) ||
+        !dkf__all_finite(L.M, p * n) || !dkf__all_finite(L.Ru, p * p) ||
+        !dkf__all_finite(L.S, n * p) || !dkf__all_finite(L.Cn, p * p) ||
+        !dkf__all_finite(L.ApHn, p * n) || !dkf__all_finite(L.ApRApn, p * p))
+        return DKF_ERR_NONFINITE;
     return DKF_OK;
 }
 

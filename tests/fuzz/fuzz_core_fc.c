@@ -166,13 +166,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 FZ_CHECK(dkf_diffkf_fc_save(&fc, ck, cklen) == DKF_OK);
                 continue;
             }
-            if (cklen == 0) continue;
-            if (code & 16) {
-                ck[fz_byte(&z) % cklen] = fz_real(&z);
-                sym = 0;
-            }
+            len = fz_ckpt_restore_len(&z, code, ck, cklen, &sym);
+            if (len == 0) continue;
             fz_take(&snap);
-            s = dkf_diffkf_fc_restore(&fc, ck, cklen - (code & 32 ? 1 : 0));
+            s = dkf_diffkf_fc_restore(&fc, ck, len);
             break;
         }
         if (fz_after(&snap, s)) check_ok(&fc, sym);

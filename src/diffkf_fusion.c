@@ -27,7 +27,8 @@
  *
  * Atomicity: everything that can fail (replica gains, rank of K^i, the
  * central gain, the updates' overflow checks) runs against snapshots of
- * the replicas and of the central filter's struct; a failure restores them.
+ * the replicas and of the central filter (struct and state part of its
+ * storage, caches included); a failure restores them.
  */
 #include "dkf/diffkf_fusion.h"
 
@@ -216,14 +217,25 @@ static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_
     return DKF_OK;
 }
 
-/* Storage order: replicas and snapshots, central, stacked H A R B Rd,
- * recovered z dz (committed) and their pending copies, (K^i)^+, work. */
+/* Storage order: the state first (dkf_diffkf_fc_state_len: the replicas'
+ * storage, the committed z dz, the central filter's storage, whose first
+ * DKF_DIFFKF_STATE_LEN reals end the state), then scratch: the replicas'
+ * snapshots, the snapshot of the central state, stacked H A R B Rd, the
+ * pending z dz, (K^i)^+, work. */
+static size_t state_len_of(size_t n, size_t l, const size_t m[], const size_t p[], size_t ms,
+                           size_t ps)
+{
+    size_t i, len = 0;
+    for (i = 0; i < l; ++i) len += DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
+    return len + 2 * ps + DKF_DIFFKF_STATE_LEN(n, ms, ps);
+}
+
 static size_t layout_len(size_t n, size_t l, const size_t m[], const size_t p[], size_t ms,
                          size_t ps, size_t pmax, size_t work)
 {
     size_t i, len = 0;
     for (i = 0; i < l; ++i) len += 2 * DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
-    len += DKF_DIFFKF_STORAGE_LEN(n, ms, ps);
+    len += DKF_DIFFKF_STORAGE_LEN(n, ms, ps) + DKF_DIFFKF_STATE_LEN(n, ms, ps);
     len += ms * n + ms * ps + ms * ms + 2 * ps * ps;
     len += 4 * ps + pmax * n + work;
     return len;
@@ -235,6 +247,14 @@ size_t dkf_diffkf_fc_storage_len(size_t n, size_t l, const size_t m[], const siz
     if (m == NULL || p == NULL) return 0;
     if (check_dims(n, l, m, p, &ms, &ps, &pmax, &work, NULL) != DKF_OK) return 0;
     return layout_len(n, l, m, p, ms, ps, pmax, work);
+}
+
+size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_t p[])
+{
+    size_t ms, ps, pmax, work;
+    if (m == NULL || p == NULL) return 0;
+    if (check_dims(n, l, m, p, &ms, &ps, &pmax, &work, NULL) != DKF_OK) return 0;
+    return state_len_of(n, l, m, p, ms, ps);
 }
 
 static dkf_status_t report(dkf_diffkf_fc_fault_t *f, dkf_status_t st, dkf_diffkf_fc_cond_t which,
@@ -256,8 +276,8 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
 {
     const dkf_diffkf_fc_cond_t arg = DKF_DIFFKF_FC_ARG;
     const size_t none = DKF_DIFFKF_FC_NO_NODE;
-    size_t ms, ps, pmax, work, i, off = 0, zoff = 0;
-    dkf_real_t *cur;
+    size_t ms, ps, pmax, work, i, zoff = 0;
+    dkf_real_t *cur, *zs;
     dkf_status_t st;
     dkf_diffkf_fc_t g;
     if (fc == NULL || nodes == NULL || m == NULL || p == NULL || storage == NULL || x0 == NULL ||
@@ -288,27 +308,38 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i < l ? i : none);
     }
 
+    /* the state: replicas, committed z dz, central */
     cur = storage;
     for (i = 0; i < l; ++i) {
-        const size_t len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
         nodes[i].store = cur;
-        nodes[i].saved_store = cur + len;
-        nodes[i].store_len = len;
-        cur += 2 * len;
+        nodes[i].store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
+        cur += nodes[i].store_len;
     }
-    off = (size_t)(cur - storage);
+    zs = cur;
+    memset(zs, 0, 2 * ps * sizeof(dkf_real_t));
+    cur += 2 * ps;
     {
         const size_t clen = DKF_DIFFKF_STORAGE_LEN(n, ms, ps);
         /* cannot fail: dimensions, storage and the SPD prior are checked */
-        st = dkf_diffkf_init(&g.central, n, ms, ps, storage + off, clen, x0, P0);
+        st = dkf_diffkf_init(&g.central, n, ms, ps, cur, clen, x0, P0);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
+        g.central_store = cur;
         cur += clen;
     }
+    /* scratch */
+    for (i = 0; i < l; ++i) {
+        nodes[i].saved_store = cur;
+        cur += nodes[i].store_len;
+    }
+    g.central_snap = cur, cur += DKF_DIFFKF_STATE_LEN(n, ms, ps);
     g.H.rows = ms, g.H.cols = n, g.H.data = cur, cur += ms * n;
     g.A.rows = ms, g.A.cols = ps, g.A.data = cur, cur += ms * ps;
     g.R.rows = ms, g.R.cols = ms, g.R.data = cur, cur += ms * ms;
     g.B.rows = ps, g.B.cols = ps, g.B.data = cur, cur += ps * ps;
     g.Rd.rows = ps, g.Rd.cols = ps, g.Rd.data = cur, cur += ps * ps;
+    g.pend = cur;
+    memset(cur, 0, 2 * ps * sizeof(dkf_real_t));
+    cur += 2 * ps; /* pending z, dz */
     for (i = 0; i < l; ++i) {
         const dkf_mat_t *Pi = P0_local != NULL && P0_local[i] != NULL ? P0_local[i] : P0;
         st = dkf_diffkf_init(&nodes[i].rep, n, m[i], p[i], nodes[i].store, nodes[i].store_len, x0,
@@ -316,14 +347,12 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i);
         nodes[i].m = m[i];
         nodes[i].p = p[i];
-        nodes[i].z.rows = p[i], nodes[i].z.cols = 1, nodes[i].z.data = cur + zoff;
-        nodes[i].dz.rows = p[i], nodes[i].dz.cols = 1, nodes[i].dz.data = cur + ps + zoff;
+        nodes[i].z.rows = p[i], nodes[i].z.cols = 1, nodes[i].z.data = zs + zoff;
+        nodes[i].dz.rows = p[i], nodes[i].dz.cols = 1, nodes[i].dz.data = zs + ps + zoff;
         zoff += p[i];
         nodes[i].sync = 1; /* the first step has no previous innovation */
         nodes[i].saved = nodes[i].rep;
     }
-    memset(cur, 0, 4 * ps * sizeof(dkf_real_t));
-    cur += 4 * ps; /* committed z, dz; pending z, dz */
     g.Kp = cur;
     g.nodes = nodes;
     g.ready = 1;
@@ -362,15 +391,30 @@ static void refresh_saved(dkf_diffkf_fc_t *fc)
     for (i = 0; i < fc->l; ++i) fc->nodes[i].saved = fc->nodes[i].rep;
 }
 
-/* Restores replicas and the central filter's struct (its committed
- * estimates and carry were never written: only its pending area was) and
- * reports the failure. */
+static size_t central_state_len(const dkf_diffkf_fc_t *fc)
+{
+    return DKF_DIFFKF_STATE_LEN(fc->n, fc->ms, fc->ps);
+}
+
+/* Snapshots of everything a call may change before it can fail: the
+ * replicas, the central filter's struct and the state part of its storage
+ * (a successful central gain commits its caches of A^+, B^{-1} and the
+ * model block, which a later failure must take back too). */
+static void save_state(dkf_diffkf_fc_t *fc, dkf_diffkf_t *central_saved)
+{
+    save_replicas(fc);
+    *central_saved = fc->central;
+    dkf__copy(fc->central_snap, fc->central_store, central_state_len(fc));
+}
+
+/* Restores what save_state saved and reports the failure. */
 static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_saved,
                               dkf_diffkf_fc_fault_t *fault, dkf_status_t st,
                               dkf_diffkf_fc_cond_t which, size_t node)
 {
     restore_replicas(fc);
     fc->central = *central_saved;
+    dkf__copy(fc->central_store, fc->central_snap, central_state_len(fc));
     return report(fault, st, which, node);
 }
 
@@ -475,8 +519,7 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     cmeas.A = &fc->A;
     cmeas.R = &fc->R;
 
-    save_replicas(fc);
-    central_saved = fc->central;
+    save_state(fc, &central_saved);
     for (i = 0; i < fc->l; ++i) {
         st = dkf_diffkf_start(&fc->nodes[i].rep, F0, Q0, &sensors[i].meas, NULL);
         if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), i);
@@ -605,17 +648,16 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     DKF_TRY(check_sensors(fc, sensors, 1, fault));
     st = stack_model(fc, sensors, 1);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
-    zs = fc->nodes[0].z.data; /* committed z, dz, then pending z, dz */
-    zt = zs + 2 * fc->ps;
-    dzt = zs + 3 * fc->ps;
+    zs = fc->nodes[0].z.data; /* committed z, dz */
+    zt = fc->pend;            /* pending z, dz */
+    dzt = fc->pend + fc->ps;
     /* the sync rule: z^i_k needs the true dz^i_{k-1} (its zcorr) */
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
         contrib[i] = (unsigned char)(here[i] && fc->nodes[i].sync);
         for (j = 0; j < fc->nodes[i].p; ++j) rows[off + j] = contrib[i];
     }
 
-    save_replicas(fc);
-    central_saved = fc->central;
+    save_state(fc, &central_saved);
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
         st = recover_node(fc, i, F, Q, &sensors[i], here[i] ? &msgs[i] : NULL, zt + off, dzt + off,
                           &which);

@@ -69,11 +69,13 @@ DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A
 
 /* Elementwise helpers on n reals that do not overlap (restrict parameters
  * are what lets GCC vectorise them once inlined): d = -a and y += alpha x. */
+#if !DKF_JOSEPH /* only the short form uses it (clang: -Wunused-function) */
 DKF__INLINE void negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
 {
     size_t i;
     for (i = 0; i < n; ++i) d[i] = -a[i];
 }
+#endif
 
 DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t *restrict x,
                       size_t n)

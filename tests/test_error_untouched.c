@@ -703,6 +703,334 @@ static void test_diffkf(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_DIM, dkf_diffkf_restore(&k.f, ck, len), "diffkf_restore: n");
 }
 
+/* ---- Difference-KF fusion centre ------------------------------------------------------ */
+
+#define FN 3
+#define FL 2
+
+typedef struct {
+    dkf_diffkf_fc_t fc;
+    dkf_diffkf_fc_node_t nodes[FL];
+    dkf_real_t st[DKF_DIFFKF_FC_STORAGE_MAX(FN, FL, 3, 2)];
+    mbuf_t F, Q, B[FL], Rd[FL], H[FL], A[FL], R[FL], P;
+    dkf_diffkf_sensor_t s[FL];
+    dkf_diffkf_msg_t msgs[FL];
+    unsigned char present[FL];
+    dkf_diffkf_fc_fault_t fault;
+    size_t node, k_start;
+    dkf_real_t ck[4096];
+    size_t ck_len;
+    regions_t g;
+} fc_ctx_t;
+
+static const size_t FM[FL] = {3, 2}, FP[FL] = {2, 1};
+
+static dkf_status_t fc_start_call(void *c)
+{
+    fc_ctx_t *k = c;
+    return dkf_diffkf_fc_start(&k->fc, &k->F.v, &k->Q.v, k->s, &k->fault);
+}
+static dkf_status_t fc_step_call(void *c)
+{
+    fc_ctx_t *k = c;
+    return dkf_diffkf_fc_step(&k->fc, &k->F.v, &k->Q.v, k->s, k->msgs, &k->fault);
+}
+static dkf_status_t fc_partial_call(void *c)
+{
+    fc_ctx_t *k = c;
+    unsigned char contributed[FL];
+    return dkf_diffkf_fc_step_partial(&k->fc, &k->F.v, &k->Q.v, k->s, k->msgs, k->present,
+                                      contributed, &k->fault);
+}
+static dkf_status_t fc_restart_call(void *c)
+{
+    fc_ctx_t *k = c;
+    return dkf_diffkf_fc_restart_node(&k->fc, k->node, k->k_start, &k->P.v, &k->s[k->node],
+                                      &k->fault);
+}
+
+static void fc_model(fc_ctx_t *k)
+{
+    static const double H1[6] = {0.0, 1.0, 0.0, 0.0, 0.0, 1.0}, A1[2] = {1.0, 0.5};
+    static const double R1[4] = {0.2, 0.0, 0.0, 0.2}, B1[1] = {0.8}, Rd1[1] = {0.05};
+    size_t i;
+    mset(&k->F, FN, FN, F3), mset(&k->Q, FN, FN, Q3), mset(&k->P, FN, FN, P3);
+    mset(&k->H[0], 3, FN, DH), mset(&k->A[0], 3, 2, DA), mset(&k->R[0], 3, 3, DR);
+    mset(&k->B[0], 2, 2, B2), mset(&k->Rd[0], 2, 2, Rd2);
+    mset(&k->H[1], 2, FN, H1), mset(&k->A[1], 2, 1, A1), mset(&k->R[1], 2, 2, R1);
+    mset(&k->B[1], 1, 1, B1), mset(&k->Rd[1], 1, 1, Rd1);
+    for (i = 0; i < FL; ++i) {
+        k->s[i].B = &k->B[i].v, k->s[i].Rd = &k->Rd[i].v;
+        k->s[i].meas.H = &k->H[i].v, k->s[i].meas.A = &k->A[i].v, k->s[i].meas.R = &k->R[i].v;
+        k->present[i] = 1;
+    }
+}
+
+/* Node messages of the FC's next step: x_{k|k-1} = x3 + k/10, x_{k|k} a
+ * little off it (any finite pair is a valid message). */
+static void fc_msgs(fc_ctx_t *k)
+{
+    size_t i, j;
+    for (i = 0; i < FL; ++i) {
+        memset(&k->msgs[i], 0, sizeof k->msgs[i]);
+        k->msgs[i].node = (uint16_t)i;
+        k->msgs[i].k = (uint32_t)(k->fc.k + 1);
+        k->msgs[i].n = FN;
+        for (j = 0; j < FN; ++j) {
+            k->msgs[i].xp[j] = (dkf_real_t)(x3[j] + 0.1 * (double)k->fc.k);
+            k->msgs[i].xf[j] = k->msgs[i].xp[j] + (dkf_real_t)(0.05 * (double)(i + j + 1));
+        }
+    }
+}
+
+static void fc_regions(fc_ctx_t *k)
+{
+    reg_clear(&k->g);
+    reg_add(&k->g, &k->fc, sizeof k->fc);
+    reg_add(&k->g, k->nodes, sizeof k->nodes);
+    reg_add(&k->g, k->st, dkf_diffkf_fc_state_len(FN, FL, FM, FP) * sizeof(dkf_real_t));
+}
+
+/* The model views of a start or step: F, Q, then each sensor's B, Rd, H,
+ * A, R (Rd is no input of start: nv leaves it out there). */
+static size_t fc_views(fc_ctx_t *k, dkf_mat_t *v[], const char *names[], int with_rd)
+{
+    static const char *const sn[FL][5] = {{"B0", "Rd0", "H0", "A0", "R0"},
+                                          {"B1", "Rd1", "H1", "A1", "R1"}};
+    size_t i, nv = 0;
+    v[nv] = &k->F.v, names[nv++] = "F";
+    v[nv] = &k->Q.v, names[nv++] = "Q";
+    for (i = 0; i < FL; ++i) {
+        v[nv] = &k->B[i].v, names[nv++] = sn[i][0];
+        if (with_rd) v[nv] = &k->Rd[i].v, names[nv++] = sn[i][1];
+        v[nv] = &k->H[i].v, names[nv++] = sn[i][2];
+        v[nv] = &k->A[i].v, names[nv++] = sn[i][3];
+        v[nv] = &k->R[i].v, names[nv++] = sn[i][4];
+    }
+    return nv;
+}
+
+/* Rank, singularity and definiteness faults of sensor i's model, each a
+ * model the caches have not seen. */
+static void fc_model_failures(fc_ctx_t *k, call_fn call, const char *what, int with_spd)
+{
+    static const double Arank1[6] = {1.0, 2.0, 0.0, 0.0, 1.0, 2.0}, A0[2] = {0.0, 0.0};
+    char label[120];
+    size_t i;
+    for (i = 0; i < FL; ++i) {
+        const mbuf_t Asv = k->A[i];
+        if (i == 0)
+            mset(&k->A[0], 3, 2, Arank1);
+        else
+            mset(&k->A[1], 2, 1, A0);
+        snprintf(label, sizeof label, "%s: rank A%zu deficient", what, i);
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_RANK, call(k), label);
+        k->A[i] = Asv, k->A[i].v.data = k->A[i].d;
+        meye(&k->B[i], FP[i], 0.0);
+        snprintf(label, sizeof label, "%s: B%zu = 0", what, i);
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_SINGULAR, call(k), label);
+        if (i == 0)
+            mset(&k->B[0], 2, 2, B2);
+        else
+            meye(&k->B[1], 1, 0.8);
+        if (with_spd) {
+            const mbuf_t Rsv = k->R[i];
+            meye(&k->R[i], FM[i], -10.0);
+            snprintf(label, sizeof label, "%s: R%zu = -10 I (L not SPD)", what, i);
+            EXPECT_UNTOUCHED(&k->g, DKF_ERR_NOT_SPD, call(k), label);
+            k->R[i] = Rsv, k->R[i].v.data = k->R[i].d;
+        }
+    }
+    meye(&k->F, FN, (double)huge_value());
+    snprintf(label, sizeof label, "%s: F P F^T overflows", what);
+    EXPECT_UNTOUCHED(&k->g, ANY_ERR, call(k), label);
+    mset(&k->F, FN, FN, F3);
+}
+
+/* The message faults, in each node's message: node, step, n, NaN/Inf. */
+static void fc_msg_failures(fc_ctx_t *k, call_fn call, const char *what)
+{
+    char label[120];
+    size_t i, j;
+    for (i = 0; i < FL; ++i) {
+        const dkf_diffkf_msg_t ok = k->msgs[i];
+        snprintf(label, sizeof label, "%s: msg %zu node", what, i);
+        k->msgs[i].node = (uint16_t)(FL - 1 - i);
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_ARG, call(k), label);
+        k->msgs[i] = ok;
+        snprintf(label, sizeof label, "%s: msg %zu out of sequence", what, i);
+        k->msgs[i].k += 1;
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_STATE, call(k), label);
+        k->msgs[i].k -= 2;
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_STATE, call(k), label);
+        k->msgs[i] = ok;
+        snprintf(label, sizeof label, "%s: msg %zu n", what, i);
+        k->msgs[i].n = FN + 1;
+        EXPECT_UNTOUCHED(&k->g, DKF_ERR_DIM, call(k), label);
+        k->msgs[i] = ok;
+        for (j = 0; j < FN; ++j) {
+            snprintf(label, sizeof label, "%s: msg %zu NaN/Inf", what, i);
+            k->msgs[i].xf[j] = (dkf_real_t)NAN;
+            EXPECT_UNTOUCHED(&k->g, DKF_ERR_NONFINITE, call(k), label);
+            k->msgs[i] = ok;
+            k->msgs[i].xp[j] = -(dkf_real_t)INFINITY;
+            EXPECT_UNTOUCHED(&k->g, DKF_ERR_NONFINITE, call(k), label);
+            k->msgs[i] = ok;
+        }
+    }
+}
+
+/* A failure after the central gain has committed new cache entries (the
+ * bug this guards against: the rollback restored the central struct but
+ * not its caches). Node messages of size 0.9 s, s = REAL_MAX / 2^e (the
+ * first e that succeeds), drive the fused estimate near REAL_MAX; then a
+ * step with ordinary messages and F = 2^q F3 (a model no cache has seen)
+ * passes every gain and overflows in the central update (F x_{k|k-1}).
+ * Each failed call must leave the FC untouched; returns the number of
+ * failures in the central filter's update (fault node NO_NODE). The FC
+ * is put back as it was before. */
+static size_t fc_overflow_failures(fc_ctx_t *k, call_fn call, const char *what)
+{
+    static unsigned char base[SNAP_CAP];
+    char label[120];
+    size_t i, j, e, q, central = 0;
+    dkf_real_t s = DKF_REAL_MAX;
+    dkf_status_t st = DKF_ERR_ARG;
+    snap_take(&k->g);
+    memcpy(base, snap_bytes, sizeof base);
+    for (e = 0; e < 12 && st != DKF_OK; ++e, s /= DKF_R(2.0)) {
+        fc_msgs(k);
+        for (i = 0; i < FL; ++i)
+            for (j = 0; j < FN; ++j) k->msgs[i].xp[j] = k->msgs[i].xf[j] = s * DKF_R(0.9);
+        snprintf(label, sizeof label, "%s: messages of size REAL_MAX / 2^%zu", what, e);
+        snap_take(&k->g);
+        st = call(k);
+        if (st != DKF_OK) check_failed(&k->g, ANY_ERR, st, label, e);
+    }
+    assert_int_equal(st, DKF_OK);
+    for (q = 0; q < 12; ++q) {
+        fc_msgs(k);
+        mset(&k->F, FN, FN, F3);
+        for (i = 0; i < FN * FN; ++i) k->F.d[i] *= (dkf_real_t)(1u << q);
+        snprintf(label, sizeof label, "%s: fused x near REAL_MAX, F = 2^%zu F3", what, q);
+        snap_take(&k->g);
+        st = call(k);
+        if (st != DKF_OK) {
+            check_failed(&k->g, ANY_ERR, st, label, q);
+            central += k->fault.node == DKF_DIFFKF_FC_NO_NODE;
+        }
+        snap_restore(&k->g);
+    }
+    memcpy(snap_bytes, base, sizeof base);
+    snap_restore(&k->g);
+    mset(&k->F, FN, FN, F3);
+    fc_msgs(k);
+    return central;
+}
+
+static void test_diffkf_fc(void **state)
+{
+    static fc_ctx_t k;
+    dkf_mat_t *v[2 + 5 * FL];
+    const char *names[2 + 5 * FL];
+    mbuf_t x0;
+    size_t nv, len;
+    (void)state;
+    fc_model(&k);
+    mset(&x0, FN, 1, x3);
+    assert_true(dkf_diffkf_fc_storage_len(FN, FL, FM, FP) <= sizeof k.st / sizeof k.st[0]);
+    assert_int_equal(dkf_diffkf_fc_init(&k.fc, k.nodes, FL, FN, FM, FP, k.st,
+                                        dkf_diffkf_fc_storage_len(FN, FL, FM, FP), &x0.v, &k.P.v,
+                                        NULL, &k.fault),
+                     DKF_OK);
+    fc_regions(&k);
+    fc_msgs(&k);
+    /* out of sequence before the start */
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_step_call(&k), "fc_step before start");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_partial_call(&k), "fc_step_partial before start");
+    k.node = 0, k.k_start = 1;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_restart_call(&k), "fc_restart_node before start");
+    nv = fc_views(&k, v, names, 0);
+    sweep("fc_start", fc_start_call, &k, v, names, nv, &k.g);
+    fc_model_failures(&k, fc_start_call, "fc_start", 0);
+    assert_int_equal(fc_start_call(&k), DKF_OK);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_start_call(&k), "fc_start twice");
+    fc_msgs(&k);
+    assert_int_equal(fc_step_call(&k), DKF_OK);
+    fc_msgs(&k);
+    assert_int_equal(fc_step_call(&k), DKF_OK); /* caches, memo, carries live */
+    fc_msgs(&k);
+
+    nv = fc_views(&k, v, names, 1);
+    sweep("fc_step", fc_step_call, &k, v, names, nv, &k.g);
+    fc_model_failures(&k, fc_step_call, "fc_step", 1);
+    fc_msg_failures(&k, fc_step_call, "fc_step");
+    assert_true(fc_overflow_failures(&k, fc_step_call, "fc_step") > 0);
+
+    /* degraded: node 1 absent (its message is not checked), node 0 present */
+    k.present[1] = 0;
+    sweep("fc_step_partial", fc_partial_call, &k, v, names, nv, &k.g);
+    fc_model_failures(&k, fc_partial_call, "fc_step_partial", 1);
+    assert_true(fc_overflow_failures(&k, fc_partial_call, "fc_step_partial") > 0);
+    assert_int_equal(fc_partial_call(&k), DKF_OK); /* node 1 out of sync now */
+    fc_msgs(&k);
+    k.present[1] = 1;
+    fc_msg_failures(&k, fc_partial_call, "fc_step_partial");
+    sweep("fc_step_partial (node 1 out of sync)", fc_partial_call, &k, v, names, nv, &k.g);
+    assert_true(fc_overflow_failures(&k, fc_partial_call, "fc_step_partial (out of sync)") > 0);
+
+    /* restart of a node: prior, model, node index, sequence */
+    {
+        dkf_mat_t *rv[4];
+        static const char *const rn[] = {"P_prior", "H", "A", "R"};
+        static const double Pbad[9] = {1.0, 2.0, 0.0, 2.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+        k.node = 0, k.k_start = k.fc.k + 1;
+        rv[0] = &k.P.v, rv[1] = &k.H[0].v, rv[2] = &k.A[0].v, rv[3] = &k.R[0].v;
+        sweep("fc_restart_node", fc_restart_call, &k, rv, rn, 4, &k.g);
+        mset(&k.P, FN, FN, Pbad);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, fc_restart_call(&k), "fc_restart_node: P not SPD");
+        mset(&k.P, FN, FN, P3);
+        {
+            static const double Arank1[6] = {1.0, 2.0, 0.0, 0.0, 1.0, 2.0};
+            mset(&k.A[0], 3, 2, Arank1);
+            EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, fc_restart_call(&k), "fc_restart_node: rank A");
+            mset(&k.A[0], 3, 2, DA);
+        }
+        k.node = FL;
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, fc_restart_call(&k), "fc_restart_node: node >= l");
+        k.node = 1, k.k_start = k.fc.k + 2;
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_restart_call(&k), "fc_restart_node: k_start");
+        k.k_start = k.fc.k;
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, fc_restart_call(&k), "fc_restart_node: k_start");
+    }
+
+    /* checkpoints: a corrupted one is refused, the FC untouched */
+    len = dkf_diffkf_fc_checkpoint_len(&k.fc);
+    assert_true(len > 0 && len <= sizeof k.ck / sizeof k.ck[0]);
+    assert_int_equal(dkf_diffkf_fc_save(&k.fc, k.ck, len), DKF_OK);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_diffkf_fc_restore(&k.fc, k.ck, len - 1),
+                     "fc_restore: short");
+    k.ck[len - 1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_diffkf_fc_restore(&k.fc, k.ck, len),
+                     "fc_restore: NaN");
+    k.ck[len - 1] = DKF_R(0.0);
+    k.ck[1] += DKF_R(1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_DIM, dkf_diffkf_fc_restore(&k.fc, k.ck, len), "fc_restore: n");
+    k.ck[1] -= DKF_R(1.0);
+    k.ck[0] += DKF_R(1.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, dkf_diffkf_fc_restore(&k.fc, k.ck, len), "fc_restore: tag");
+    k.ck[0] -= DKF_R(1.0);
+    k.ck[9] = DKF_R(2.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, dkf_diffkf_fc_restore(&k.fc, k.ck, len),
+                     "fc_restore: start flag");
+    k.ck[9] = DKF_R(1.0);
+    /* the intact checkpoint restores, and a failed step after it is
+     * untouched too (the central caches were reset by the restore) */
+    assert_int_equal(dkf_diffkf_fc_restore(&k.fc, k.ck, len), DKF_OK);
+    fc_msgs(&k);
+    assert_true(fc_overflow_failures(&k, fc_step_call, "fc_step after restore") > 0);
+}
+
 /* ---- UIF ---------------------------------------------------------------------------------- */
 
 typedef struct {
@@ -994,6 +1322,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_kf),          cmocka_unit_test(test_info),
         cmocka_unit_test(test_askf_otskf),  cmocka_unit_test(test_diffkf),
+        cmocka_unit_test(test_diffkf_fc),
         cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
         cmocka_unit_test(test_tw_net),
     };

@@ -130,6 +130,10 @@ typedef struct {
     dkf_diffkf_t central; /* the Difference KF on the stacked model: its xf, Pf,
                              xn, Pn are the fused estimates; z, dz stacked */
     dkf_mat_t H, A, R, B, Rd; /* the stacked model of the running call */
+    dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
+                                  reals are state) */
+    dkf_real_t *central_snap;  /* scratch: that state as before the running call */
+    dkf_real_t *pend; /* scratch: the running call's z, dz (2 sum p_i) */
     dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
     dkf_real_t *work; /* SVD / LU / rank workspace */
     size_t work_len;
@@ -140,11 +144,19 @@ typedef struct {
  * dimensions m[i], p[i]; 0 if a dimension is 0, above DKF_MAX_DIM, or the
  * stacked dimensions exceed DKF_MAX_DIM. */
 size_t dkf_diffkf_fc_storage_len(size_t n, size_t l, const size_t m[], const size_t p[]);
+/* The state part of that storage: its first dkf_diffkf_fc_state_len reals
+ * (each replica's storage, the recovered z, dz, and the central filter's
+ * first DKF_DIFFKF_STATE_LEN(n, sum m_i, sum p_i) reals); the rest is
+ * scratch any call may overwrite. Every failed call that takes the FC
+ * leaves these reals, *fc and nodes[0..l-1] bit-identical. 0 where
+ * dkf_diffkf_fc_storage_len is 0. */
+size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_t p[]);
 
 /* An upper bound of dkf_diffkf_fc_storage_len for l sensors with
  * m_i <= mx, p_i <= px, for static declarations. */
 #define DKF_DIFFKF_FC_STORAGE_MAX(n, l, mx, px) \
     (2 * (l) * DKF_DIFFKF_STORAGE_LEN(n, mx, px) + DKF_DIFFKF_STORAGE_LEN(n, (l) * (mx), (l) * (px)) \
+     + DKF_DIFFKF_STATE_LEN(n, (l) * (mx), (l) * (px)) \
      + (l) * (mx) * ((n) + (l) * (mx) + (l) * (px)) + 2 * (l) * (px) * (l) * (px) \
      + 4 * (l) * (px) + (px) * (n) + 2 * ((n) + (mx)) * ((n) + (mx)) + 2 * ((n) + (mx)))
 

@@ -211,6 +211,24 @@ static inline int fz_after(const fz_snap_t *s, dkf_status_t st)
     return 1;
 }
 
+/* ---- checkpoints ------------------------------------------------------------------ */
+
+/* The restore operation of a harness that saved cklen reals at ck (0: none
+ * saved, skip it): with code & 16 one byte-chosen element takes a
+ * byte-chosen real (restore accepts any finite values, so no symmetry is
+ * promised afterwards: *sym = 0); returns the length to restore, one short
+ * with code & 32. */
+static inline size_t fz_ckpt_restore_len(fz_t *z, uint8_t code, dkf_real_t *ck, size_t cklen,
+                                         int *sym)
+{
+    if (cklen == 0) return 0;
+    if (code & 16) {
+        ck[fz_byte(z) % cklen] = fz_real(z);
+        *sym = 0;
+    }
+    return cklen - (code & 32 ? 1 : 0);
+}
+
 /* ---- the unknown-input model of dkf/ui_model.h ---------------------------------- */
 
 #include "dkf/ui_model.h"

@@ -383,9 +383,17 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
         dkf__mul_nt_sym(L.Ppn, L.T1, F0->data, Q0->data, n, n);
         if (!dkf__all_finite(L.Ppn, n * n) || !dkf__all_finite(L.T2, n)) return DKF_ERR_NONFINITE;
     }
+    /* A_1^+ H_1, A_1^+ R_1 A_1^{+T}, A_1^+ y_1 into scratch: finite inputs
+     * may overflow, and the carry is written only once nothing can fail */
+    meas_products(f, &L, meas1, L.ApHn, L.ApRApn);
+    if (y1 != NULL) dkf__mul_vec(L.T3, L.Ap, y1->data, p, f->m);
+    if (!dkf__all_finite(L.ApHn, p * n) || !dkf__all_finite(L.ApRApn, p * p) ||
+        (y1 != NULL && !dkf__all_finite(L.T3, p)))
+        return DKF_ERR_NONFINITE;
     commit_caches(f, &L);
-    meas_products(f, &L, meas1, L.ApH, L.ApRAp);
-    if (y1 != NULL) dkf__mul_vec(L.Apy, L.Ap, y1->data, p, f->m);
+    dkf__copy(L.ApH, L.ApHn, p * n);
+    dkf__copy(L.ApRAp, L.ApRApn, p * p);
+    if (y1 != NULL) dkf__copy(L.Apy, L.T3, p);
     /* no previous innovation: every term with L_0^{-1} vanishes (an empty
      * carry, pc = 0; the zeros are for inspection only) */
     memset(L.C, 0, p * p * sizeof(dkf_real_t));

@@ -259,6 +259,96 @@ def info_cases():
     return cases
 
 
+# ---- uif RTSF: joint state and input, rank H = m -----------------------------
+
+def rtsf_step(x, P, Pd, Pxd, dyn, C, H, R, y):
+    """One RTSF step at 60 digits from docs/uif.md (T = I, B = H); dyn =
+    (A, G, Q, d_{k-1|k-1}) or None. Time
+    update (27) (skipped when dyn is None: the first step uses the prior),
+    R~ = C P C^T + R (14), Pd = (H^T R~^-1 H)^-1, M = Pd H^T R~^-1, d = M ytil
+    (15)-(16), K = P C^T R~^-1, L = K (I - H M) (21), x = x_pred + L ytil,
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (20), Pxd = -K H Pd (29)."""
+    if dyn is not None:
+        A, G, Q = dyn[:3]
+        AG = mp.matrix(A.rows, A.cols + G.cols)
+        for i in range(A.rows):
+            for j in range(A.cols):
+                AG[i, j] = A[i, j]
+            for j in range(G.cols):
+                AG[i, A.cols + j] = G[i, j]
+        n, m = A.rows, G.cols
+        J = mp.matrix(n + m, n + m)
+        for i in range(n + m):
+            for j in range(n + m):
+                if i < n and j < n:
+                    J[i, j] = P[i, j]
+                elif i < n:
+                    J[i, j] = Pxd[i, j - n]
+                elif j < n:
+                    J[i, j] = Pxd[j, i - n]
+                else:
+                    J[i, j] = Pd[i - n, j - n]
+        xd = mp.matrix(n + m, 1)
+        for i in range(n):
+            xd[i] = x[i]
+        for i in range(m):
+            xd[n + i] = dyn[3][i]
+        x, P = AG * xd, AG * J * AG.T + Q
+    Rt = C * P * C.T + R
+    Ri = mp.inverse(Rt)
+    Pd = mp.inverse(H.T * Ri * H)
+    Mg = Pd * H.T * Ri
+    yt = y - C * x
+    d = Mg * yt
+    K = P * C.T * Ri
+    L = K * (mp.eye(C.rows) - H * Mg)
+    A_ = mp.eye(P.rows) - L * C
+    Pn = A_ * P * A_.T + L * R * L.T
+    Pn = (Pn + Pn.T) / 2
+    Pd = (Pd + Pd.T) / 2
+    return x + L * yt, Pn, d, Pd, -K * H * Pd, P
+
+
+def uif_cases():
+    """RTSF with p = n + m (the measurements pin [x; d]): P0 = 1e6..1e8 I
+    (eigenvalues log-uniform), R eigenvalues in [1e-4, 1e-3], Q in [1e3,
+    1e5] (so every prior P_{k|k-1} stays ~1e3..1e5 while P_{k|k} ~ 1e-4),
+    5 steps, the first without a time update."""
+    rng = np.random.default_rng(20261204)
+    cases = []
+    for n, m in ((3, 1), (4, 2)):
+        p = n + m
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        Pd, Pxd, d = mp.zeros(m, m), mp.zeros(n, m), mp.zeros(m, 1)
+        steps = []
+        for k in range(5):
+            st = {"C": f32(rng.standard_normal((p, n))), "H": f32(rng.standard_normal((p, m))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            dyn = None
+            if k > 0:
+                st["A"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["G"] = f32(rng.standard_normal((n, m)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                dyn = (M(st["A"]), M(st["G"]), M(st["Q"]), d)
+            x, P, d, Pd, Pxd, Pp = rtsf_step(x, P, Pd, Pxd, dyn, M(st["C"]), M(st["H"]),
+                                             M(st["R"]), V(st["y"]))
+            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+                       P_min_eig=float(min_eig(P)),
+                       cond_H=float(np.linalg.cond(np.hstack([st["C"], st["H"]]))),
+                       rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "rtsf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
+                      "note": "RTSF, p = n + m, P0 in [1e6, 1e8], R in [1e-4, 1e-3], 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 def write(name, doc):
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".json")
@@ -290,6 +380,12 @@ def main():
         "layout": "cases[]: n, x0, P0, steps[] {F, Q (predict first, if present), sensors[] "
                   "{C, R, z}, reference x, P after the fusion, cond_H (of the stacked C)}",
         "cases": info_cases()})
+    write("uif", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0, steps[] {A, G, Q (time update first, if "
+                  "present), C, H, R, y, reference x, P (Px), d, Pd, Pxd after the step, "
+                  "P_min_eig, cond_H (of [C H]), rho = max|P_{k|k-1}| / max|P_{k|k}|}",
+        "cases": uif_cases()})
 
 
 if __name__ == "__main__":

@@ -72,7 +72,7 @@ static void note(double *w, const json_t *st, const char *key, const dkf_real_t 
 }
 
 /* worst observed, [case][x Px d Pd Pxd]; -1: the case's first step is
- * refused here (float n4_m2: R~ not SPD once rounded), no numbers */
+ * refused here (float n4_m2, DKF_ERR_NOT_SPD), no numbers */
 #if DKF_USE_FLOAT
 static const double seen[2][NOUT] = {{1.22e-5, 9.3e-3, 5.6e-6, 7.2e3, 1.02e4}, {-1, -1, -1, -1, -1}};
 #else

@@ -349,6 +349,85 @@ def uif_cases():
     return cases
 
 
+# ---- the Difference KF (seed 000): differenced measurements, correlated noise --
+
+def pinv_fcr(A):
+    """A^+ = (A^T A)^{-1} A^T for A of full column rank."""
+    return mp.inverse(A.T * A) * A.T
+
+
+def diffkf_cases():
+    """Theorem 1 of docs/diffkf.md, (8)-(20) with the corrected lag of C_k,
+    at 60 digits, from the prior (x_{1|0}, P_{1|0}) = (x0, P0) (the start
+    with F0 = Q0 = NULL). p = n, so each z_k pins the state: P0 eigenvalues
+    in [1e6, 1e8], Q, R, Rd eigenvalues in [1e-4, 1e-3]; 5 steps. Step k
+    takes dyn_k (F, Q, B, Rd) and the model at k+1 (H, A, R) with y_{k+1};
+    the first (H, A, R, y) are the start's (meas_1, y_1)."""
+    rng = np.random.default_rng(20261205)
+    cases = []
+    for n, m in ((3, 4), (4, 4)):
+        p = n
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+
+        def meas():
+            return {"H": f32(rng.standard_normal((m, n))), "A": f32(rng.standard_normal((m, p))),
+                    "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, m)),
+                    "y": f32(100 * rng.standard_normal(m))}
+        first = meas()
+        xp, P = V(x0), M(P0)
+        Hk, Ak, Rk, yk = M(first["H"]), M(first["A"]), M(first["R"]), V(first["y"])
+        Akp = pinv_fcr(Ak)
+        Gprev = Linv = dz_prev = Wprev = None
+        steps = []
+        for k in range(5):
+            st = {"F": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))),
+                  "Q": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, n)),
+                  "B": f32(np.eye(p) + 0.1 * rng.standard_normal((p, p))),
+                  "Rd": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p))}
+            st.update(meas())
+            F, Q, B, Rd = M(st["F"]), M(st["Q"]), M(st["B"]), M(st["Rd"])
+            H1, A1, R1, y1 = M(st["H"]), M(st["A"]), M(st["R"]), V(st["y"])
+            A1p, Bi = pinv_fcr(A1), mp.inverse(B)
+            G = Bi * A1p                                            # (8)
+            z = G * y1 - Akp * yk                                   # (8)
+            Mk = G * H1 * F - Akp * Hk                              # (11)
+            S = Q * H1.T * G.T                                      # (13)
+            Ru = (G * H1 * Q * H1.T * G.T + Bi * Rd * Bi.T + G * R1 * G.T
+                  + Akp * Rk * Akp.T)                               # (14)
+            dz = z - Mk * xp                                        # (18)
+            J = P * Mk.T                                            # (19)
+            L = Mk * P * Mk.T + Ru                                  # (20)
+            if Gprev is not None:
+                C = -Akp * Rk * Gprev.T                             # (15), lag k-1
+                dz = dz - C * Linv * dz_prev
+                J = J - Wprev * C.T
+                L = L - Mk * Wprev * C.T - C * Wprev.T * Mk.T - C * Linv * C.T
+            Li = mp.inverse(L)
+            K = J * Li
+            xf, Pf = xp + K * dz, P - K * J.T
+            W = (F * J + S) * Li
+            xn, Pn = F * xp + W * dz, F * P * F.T + Q - W * L * W.T  # (16), (17)
+            Pf, Pn = (Pf + Pf.T) / 2, (Pn + Pn.T) / 2
+            big = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(xf=tovec(xf), Pf=tolist(Pf), xn=tovec(xn), Pn=tolist(Pn),
+                       Pf_min_eig=float(min_eig(Pf)), Pn_min_eig=float(min_eig(Pn)),
+                       cond_M=float(mp.svd_r(Mk, compute_uv=False)[0]
+                                    / mp.svd_r(Mk, compute_uv=False)[Mk.rows - 1]),
+                       rho=float(big / max(abs(Pf[i, j]) for i in range(n) for j in range(n))))
+            steps.append(rec)
+            xp, P = xn, Pn
+            Gprev, Linv, dz_prev, Wprev = G, Li, dz, W
+            Hk, Ak, Rk, yk, Akp = H1, A1, R1, y1, A1p
+        cases.append({"name": "diffkf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
+                      "note": "p = n (z pins the state), P0 in [1e6, 1e8], Q, R, Rd in "
+                              "[1e-4, 1e-3], 5 steps from the prior (x_{1|0}, P_{1|0})",
+                      "x0": x0.tolist(), "P0": P0.tolist(),
+                      "meas1": {kk: v.tolist() for kk, v in first.items()}, "steps": steps})
+    return cases
+
+
 def write(name, doc):
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".json")
@@ -386,6 +465,14 @@ def main():
                   "present), C, H, R, y, reference x, P (Px), d, Pd, Pxd after the step, "
                   "P_min_eig, cond_H (of [C H]), rho = max|P_{k|k-1}| / max|P_{k|k}|}",
         "cases": uif_cases()})
+    write("diffkf", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0 (the prior x_{1|0}, P_{1|0}), meas1 {H, A, R, y} "
+                  "(the start's y_1), steps[] {F, Q, B, Rd (dynamics at k), H, A, R, y (model "
+                  "and measurement at k+1), reference xf, Pf (x_{k|k}), xn, Pn (x_{k+1|k}), "
+                  "Pf_min_eig, Pn_min_eig, cond_M (2-norm condition number of M_k), rho = "
+                  "max|P_{k|k-1}| / max|P_{k|k}|}",
+        "cases": diffkf_cases()})
 
 
 if __name__ == "__main__":

@@ -428,6 +428,66 @@ def diffkf_cases():
     return cases
 
 
+# ---- tw: seed 003's centralized two-stage filter (Algorithm 1) ----------------
+
+def tw_cases():
+    """Algorithm 1 (dkf/tw.h, docs/graph-filters.md) at 60 digits, in the
+    forms the header prints rather than the information form src/tw.c
+    uses: phi+, Phi+ as the KF update of (phi-, Phi-) on the stacked
+    sensors, G = (I - Phi+ Q) B (8a), S = B^T (Q - Q Phi+ Q) B (11)-(12),
+    z^ = S^-1 G^T (s - Q phi-) (18), psi = phi+ + G z^, Ploc = Phi+ +
+    G S^-1 G^T ((8b), (8c) corrected). N = 3 sensors of 2 rows (the stacked
+    H has full column rank: they pin x_n; z_{n-1} is then seen through
+    x_n - A x_{n-1}, S ~ B^T Phi-^-1 B): P0 eigenvalues in [1e6, 1e8], Sw in [1e-4, 1e-3],
+    Sv in [1e3, 1e5] (every prior stays large), 5 steps."""
+    rng = np.random.default_rng(20261206)
+    cases = []
+    for n, m in ((4, 1), (3, 2)):
+        N, pl = 3, 2
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            st = {"A": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))),
+                  "B": f32(rng.standard_normal((n, m))),
+                  "Sv": spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n)),
+                  "sensors": [{"H": f32(rng.standard_normal((pl, n))),
+                               "Sw": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, pl)),
+                               "y": f32(100 * rng.standard_normal(pl))} for _ in range(N)]}
+            A, B = M(st["A"]), M(st["B"])
+            phim, Phim = A * x, A * P * A.T + M(st["Sv"])                    # (6a)-(6b)
+            Hs = np.vstack([se["H"] for se in st["sensors"]])
+            Rs = np.zeros((N * pl, N * pl))
+            for i, se in enumerate(st["sensors"]):
+                Rs[i * pl:(i + 1) * pl, i * pl:(i + 1) * pl] = se["Sw"]
+            ys = np.concatenate([se["y"] for se in st["sensors"]])
+            Hm, Rm, ym = M(Hs), M(Rs), V(ys)
+            Ri = mp.inverse(Rm)
+            Q, sv = Hm.T * Ri * Hm, Hm.T * Ri * ym                            # (17), (21)
+            phip, Phip = kf_update(phim, Phim, Hm, Rm, ym)                   # (7b), (20)
+            G = (mp.eye(n) - Phip * Q) * B                                   # (8a)
+            S = B.T * (Q - Q * Phip * Q) * B                                 # (11)-(12)
+            Si = mp.inverse(S)
+            z = Si * G.T * (sv - Q * phim)                                   # (18)
+            x = phip + G * z                                                 # (8b)
+            P = Phip + G * Si * G.T                                          # (8c)
+            P = (P + P.T) / 2
+            big = max(abs(Phim[i, j]) for i in range(n) for j in range(n))
+            rec = {"A": st["A"].tolist(), "B": st["B"].tolist(), "Sv": st["Sv"].tolist(),
+                   "sensors": [{kk: v.tolist() for kk, v in se.items()} for se in st["sensors"]]}
+            rec.update(x=tovec(x), P=tolist(P), z=tovec(z), Phi_post=tolist(Phip),
+                       S=tolist(S), P_min_eig=float(min_eig(P)),
+                       cond_H=float(np.linalg.cond(Hs)),
+                       rho=float(big / max(abs(P[i, j]) for i in range(n) for j in range(n))))
+            steps.append(rec)
+        cases.append({"name": "tw_n%d_m%d" % (n, m), "n": n, "m": m, "N": N, "p": pl,
+                      "note": "Algorithm 1, 3 sensors of 2 rows, P0 in [1e6, 1e8], Sw in "
+                              "[1e-4, 1e-3], Sv in [1e3, 1e5], 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 def write(name, doc):
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".json")
@@ -473,6 +533,12 @@ def main():
                   "Pf_min_eig, Pn_min_eig, cond_M (2-norm condition number of M_k), rho = "
                   "max|P_{k|k-1}| / max|P_{k|k}|}",
         "cases": diffkf_cases()})
+    write("tw", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, N (sensors), p (rows per sensor), x0, P0, steps[] {A, B, Sv "
+                  "(the model of n-1), sensors[] {H, Sw, y}, reference x (psi), P (Ploc), z "
+                  "(z^ of z_{n-1}), Phi_post, S, P_min_eig, cond_H (of the stacked H), rho = max|Phi_{n|n-1}| / max|P_{n|n}|}",
+        "cases": tw_cases()})
 
 
 if __name__ == "__main__":

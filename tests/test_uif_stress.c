@@ -1,11 +1,14 @@
 /*
- * The RTSF (dkf/uif.h, DKF_UIF_RTSF) where the measurements pin the state
- * and the input, against 60-digit references (tests/vectors/stress/uif.json,
+ * The RTSF and the NRTSF (dkf/uif.h) where the measurements pin the
+ * state, against 60-digit references (tests/vectors/stress/uif.json,
  * written by tools/make_stress_vectors.py from docs/uif.md's equations, not
- * from src/uif.c; every input float32-exact): p = n + m, P0 eigenvalues in
- * [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps (the first
- * without a time update). P_{k|k} ~ 1e-4 lies rho = 1e5..3e11 below
- * P_{k|k-1} (rho per step in the vector).
+ * from src/uif.c; every input float32-exact). RTSF: p = n + m (y pins x
+ * and d), P0 eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3,
+ * 1e5], 5 steps (the first without a time update). NRTSF: p = n (C pins
+ * x_k, d_{k-1} is seen through x_k - A x_{k-1}), the same scales, G of
+ * full column rank and of rank 2 of 3 (G = [g1, g2, -2 g1]). P_{k|k} ~
+ * 1e-4 lies rho = 1e5..3e11 below P_{k|k-1} (rho per step in the vector).
+ * (cond([C H]) for RTSF, cond(C) for NRTSF below.)
  *
  * Bounds, per case (kappa = the largest cond([C H]) of its steps, rho the
  * largest prior/posterior ratio). Double, external: R~ = C P C^T + R has
@@ -15,7 +18,9 @@
  * L R L^T carries the error of L to P_{k|k} without a further |P_{k|k-1}| /
  * |P_{k|k}| amplification (the short form P - K R~ K^T + Z Pd Z^T would add
  * rho eps on top). So the external bound is 10 (n + p) rho kappa^2 eps on
- * every output. Float: rho kappa^2 eps exceeds 1 in every case, so the
+ * every output. (NRTSF's Pxd = Z Pdbar T^+T with Z = Gbar - K C Gbar, a
+ * cancellation when K C ~ I: it loses ~rho eps, 2e-5 here, in both
+ * forms; within the bound.) Float: rho kappa^2 eps exceeds 1 in every case, so the
  * external promise is every committed Px, Pd PSD (or the step refused,
  * DKF_ERR_NOT_SPD / DKF_ERR_RANK with the filter bit-identical, which ends
  * that case) and errors below 1 (relative: the estimate at least has the
@@ -34,7 +39,7 @@
 #include "dkf_test.h"
 
 #define NX 4 /* largest n in the vectors */
-#define MX 2 /* largest m */
+#define MX 3 /* largest m */
 #define PX 6 /* largest p */
 
 typedef struct {
@@ -55,10 +60,13 @@ static void load_step(uif_step_t *s, const json_t *st)
         s->dyn.A = &s->Am, s->dyn.G = &s->Gm, s->dyn.Q = &s->Qm;
     }
     test_json_mat(test_json_get(st, "C"), s->C, PX * NX, &s->Cm);
-    test_json_mat(test_json_get(st, "H"), s->H, PX * MX, &s->Hm);
     test_json_mat(test_json_get(st, "R"), s->R, PX * PX, &s->Rm);
     test_json_mat(test_json_get(st, "y"), s->y, PX, &s->ym);
-    s->meas.C = &s->Cm, s->meas.H = &s->Hm, s->meas.R = &s->Rm;
+    s->meas.C = &s->Cm, s->meas.H = NULL, s->meas.R = &s->Rm;
+    if (json_object_get(st, "H") != NULL) { /* RTSF; NRTSF has none */
+        test_json_mat(test_json_get(st, "H"), s->H, PX * MX, &s->Hm);
+        s->meas.H = &s->Hm;
+    }
 }
 
 /* worst relative errors over a case: x, Px, d, Pd, Pxd */
@@ -74,28 +82,36 @@ static void note(double *w, const json_t *st, const char *key, const dkf_real_t 
 /* worst observed, [case][x Px d Pd Pxd]; -1: the case's first step is
  * refused here (float n4_m2, DKF_ERR_NOT_SPD), no numbers */
 #if DKF_USE_FLOAT
-static const double seen[2][NOUT] = {{1.22e-5, 9.3e-3, 5.6e-6, 7.2e3, 1.02e4}, {-1, -1, -1, -1, -1}};
+static const double seen_rtsf[2][NOUT] = {{1.22e-5, 9.3e-3, 5.6e-6, 7.2e3, 1.02e4}, {-1, -1, -1, -1, -1}};
 #else
-static const double seen[2][NOUT] = {{2.7e-13, 2.5e-15, 3.8e-13, 5.2e-6, 1.31e-5},
+static const double seen_rtsf[2][NOUT] = {{2.7e-13, 2.5e-15, 3.8e-13, 5.2e-6, 1.31e-5},
                                      {9.7e-14, 8.9e-15, 1.17e-13, 1.04e-5, 4.4e-5}};
+#endif
+#if DKF_USE_FLOAT
+static const double seen_nrtsf[2][NOUT] = {{1.37e-6, 2.9e-3, 9.1e-7, 2.03e-6, 2.22e4},
+                                           {1.82e-6, 7.9e-3, 3.6e-6, 4.7e-6, 8.4e3}};
+#else
+static const double seen_nrtsf[2][NOUT] = {{6.7e-15, 3.2e-16, 7.4e-15, 3.2e-15, 1.98e-5},
+                                           {3.5e-15, 2.6e-16, 1.13e-14, 5.1e-15, 7.8e-6}};
 #endif
 
 typedef struct {
     DKF_UIF_DECLARE(, f, NX, MX, PX);
 } uif_box_t;
 
-static void test_rtsf_pinned(void **state)
+/* Runs the two cases `names` through a filter of `kind` and checks them
+ * against the reference and the bounds (see the top). */
+static void run_cases(const json_t *root, dkf_uif_kind_t kind,
+                      const char *const names[2], const double seen[2][NOUT])
 {
-    static const char *names[] = {"rtsf_n3_m1", "rtsf_n4_m2"};
     static const char *what[NOUT] = {"x", "Px", "d", "Pd", "Pxd"};
     static uif_box_t b;
     static uif_step_t s;
     static dkf_real_t snap[DKF_UIF_STATE_LEN(NX, MX, PX)];
-    json_t *root = test_load_vector("stress/uif.json");
     size_t c;
-    (void)state;
     for (c = 0; c < 2; ++c) {
-        const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
+        const json_t *cs = test_json_case(root, names[c]);
+        const json_t *steps = test_json_get(cs, "steps");
         const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
         const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
         const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
@@ -108,7 +124,7 @@ static void test_rtsf_pinned(void **state)
         char msg[64];
         test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
         test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
-        assert_int_equal(dkf_uif_init(&b.f, DKF_UIF_RTSF, n, m, p, b.f_storage,
+        assert_int_equal(dkf_uif_init(&b.f, kind, n, m, p, b.f_storage,
                                       DKF_UIF_STORAGE_LEN(n, m, p), &x0, &P0),
                          DKF_OK);
         for (j = 0; j < json_array_size(steps) && !refused; ++j) {
@@ -153,6 +169,23 @@ static void test_rtsf_pinned(void **state)
 #endif
         }
     }
+}
+
+static void test_rtsf_pinned(void **state)
+{
+    static const char *const names[] = {"rtsf_n3_m1", "rtsf_n4_m2"};
+    json_t *root = test_load_vector("stress/uif.json");
+    (void)state;
+    run_cases(root, DKF_UIF_RTSF, names, seen_rtsf);
+    json_decref(root);
+}
+
+static void test_nrtsf_pinned(void **state)
+{
+    static const char *const names[] = {"nrtsf_n3_m2_r2", "nrtsf_n4_m3_r2"};
+    json_t *root = test_load_vector("stress/uif.json");
+    (void)state;
+    run_cases(root, DKF_UIF_NRTSF, names, seen_nrtsf);
     json_decref(root);
 }
 
@@ -160,6 +193,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rtsf_pinned),
+        cmocka_unit_test(test_nrtsf_pinned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

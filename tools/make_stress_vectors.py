@@ -349,6 +349,78 @@ def uif_cases():
     return cases
 
 
+def nrtsf_step(x, P, A, G1, Tp, Q, C, R, y):
+    """One NRTSF step at 60 digits from docs/uif.md (no feedthrough; G =
+    G1 T a full-rank decomposition, Tp = T^+, B = F = C G1): x_pred = A x,
+    P_pred = A P A^T + Q (51); R~ = C P C^T + R (42); Pdbar = (F^T R~^-1
+    F)^-1, Mbar = Pdbar F^T R~^-1, dbar = Mbar ytil (43)-(44); K = P C^T
+    R~^-1, Z = G1 - K F, L = K + Z Mbar (48), x = x_pred + L ytil;
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (47); d = T^+ dbar, Pd =
+    T^+ Pdbar T^+T, Pxd = Z Pdbar T^+T (53, note)."""
+    xp, Pp = A * x, A * P * A.T + Q
+    Rt = C * Pp * C.T + R
+    Ri = mp.inverse(Rt)
+    F = C * G1
+    Pdb = mp.inverse(F.T * Ri * F)
+    Mb = Pdb * F.T * Ri
+    yt = y - C * xp
+    K = Pp * C.T * Ri
+    Z = G1 - K * F
+    L = K + Z * Mb
+    A_ = mp.eye(P.rows) - L * C
+    Pn = A_ * Pp * A_.T + L * R * L.T
+    Pd = Tp * Pdb * Tp.T
+    return (xp + L * yt, (Pn + Pn.T) / 2, Tp * (Mb * yt), (Pd + Pd.T) / 2,
+            Z * Pdb * Tp.T, Pp)
+
+
+def nrtsf_cases():
+    """NRTSF with p = n (C pins x_k; d_{k-1} is seen through x_k - A
+    x_{k-1}): P0 = x_{0|0} covariance with eigenvalues in [1e6, 1e8], R in
+    [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps; G of full column rank (n3_m2)
+    or of rank 2 of 3 (n4_m3, G = [g1, g2, -2 g1] = G1 T, exact in
+    float32; T^+ = T^T (T T^T)^-1, which docs/uif.md says the outputs do
+    not depend on)."""
+    rng = np.random.default_rng(20261207)
+    cases = []
+    for n, m, r in ((3, 2, 2), (4, 3, 2)):
+        p = n
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            G1 = f32(rng.standard_normal((n, r)))
+            if r < m:
+                # G = G1 T exactly in float32: the third column is -2 g1
+                T = np.array([[1.0, 0.0, -2.0], [0.0, 1.0, 0.0]])
+                G = G1 @ T
+                Tm = M(T)
+                G1m, Tpm = M(G1), Tm.T * mp.inverse(Tm * Tm.T)
+            else:
+                G, G1m, Tpm = G1, M(G1), mp.eye(m)
+            st = {"A": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))), "G": G,
+                  "Q": spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n)),
+                  "C": f32(rng.standard_normal((p, n))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            x, P, d, Pd, Pxd, Pp = nrtsf_step(x, P, M(st["A"]), G1m, Tpm, M(st["Q"]),
+                                              M(st["C"]), M(st["R"]), V(st["y"]))
+            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+                       P_min_eig=float(min_eig(P)), cond_H=float(np.linalg.cond(st["C"])),
+                       rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "nrtsf_n%d_m%d_r%d" % (n, m, r), "n": n, "m": m, "p": p,
+                      "rank": r,
+                      "note": "NRTSF, p = n, rank G = %d, P0 in [1e6, 1e8], R in [1e-4, 1e-3], "
+                              "Q in [1e3, 1e5], 5 steps" % r,
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 # ---- the Difference KF (seed 000): differenced measurements, correlated noise --
 
 def pinv_fcr(A):
@@ -524,7 +596,10 @@ def main():
         "layout": "cases[]: n, m, p, x0, P0, steps[] {A, G, Q (time update first, if "
                   "present), C, H, R, y, reference x, P (Px), d, Pd, Pxd after the step, "
                   "P_min_eig, cond_H (of [C H]), rho = max|P_{k|k-1}| / max|P_{k|k}|}",
-        "cases": uif_cases()})
+        "nrtsf_layout": "cases named nrtsf_*: n, m, p, rank, x0, P0 (x_{0|0}), steps[] {A, G, "
+                        "Q, C, R, y (no H), reference x, P, d (d_{k-1|k}), Pd, Pxd, "
+                        "P_min_eig, cond_H (of C), rho}",
+        "cases": uif_cases() + nrtsf_cases()})
     write("diffkf", {
         "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
         "layout": "cases[]: n, m, p, x0, P0 (the prior x_{1|0}, P_{1|0}), meas1 {H, A, R, y} "

@@ -70,14 +70,6 @@ static void load_step(tw_step_t *s, const json_t *st)
 
 /* worst relative errors over a case: x, P, z, Phi_post, S */
 #define NOUT 5
-static void note(double *w, const json_t *st, const char *key, const dkf_real_t *got, size_t len)
-{
-    double r[NX * NX], e;
-    assert_int_equal(test_json_array(test_json_get(st, key), r, NX * NX, NULL, NULL), len);
-    e = test_rel_err(got, r, len);
-    if (!(e <= *w)) *w = e;
-}
-
 /* 2-norm condition number of the symmetric positive definite m x m S (m
  * <= 2): the eigenvalues in closed form. */
 static double cond_spd2(const double *S, size_t m)
@@ -105,7 +97,7 @@ typedef struct {
 static void test_tw_central_pinned(void **state)
 {
     static const char *names[] = {"tw_n4_m1", "tw_n3_m2"};
-    static const char *what[NOUT] = {"x", "P", "z", "Phi_post", "S"};
+    static const char *const what[NOUT] = {"x", "P", "z", "Phi_post", "S"};
     static tw_box_t b;
     static tw_step_t s;
     json_t *root = test_load_vector("stress/tw.json");
@@ -117,9 +109,8 @@ static void test_tw_central_pinned(void **state)
         const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
-        double w[NOUT] = {0, 0, 0, 0, 0}, k2 = 0, cS = 0, ext[2];
+        double w[NOUT] = {0, 0, 0, 0, 0}, k2 = 0, cS = 0, ext[2], ev[NOUT];
         size_t j, i;
-        char msg[64];
         test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
         test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
         assert_int_equal(dkf_tw_node_init(&b.nd, n, m, NS * PL, b.nd_storage,
@@ -134,11 +125,11 @@ static void test_tw_central_pinned(void **state)
             if (cond_spd2(Sr, m) > cS) cS = cond_spd2(Sr, m);
             load_step(&s, st);
             assert_int_equal(dkf_tw_central_step(&b.nd, &s.md, s.sn, NS), DKF_OK);
-            note(&w[0], st, "x", b.nd.x.data, n);
-            note(&w[1], st, "P", b.nd.P.data, n * n);
-            note(&w[2], st, "z", b.nd.z.data, m);
-            note(&w[3], st, "Phi_post", b.nd.Phi_post.data, n * n);
-            note(&w[4], st, "S", b.nd.S.data, m * m);
+            test_note_rel_err(&w[0], test_json_get(st, "x"), b.nd.x.data, n);
+            test_note_rel_err(&w[1], test_json_get(st, "P"), b.nd.P.data, n * n);
+            test_note_rel_err(&w[2], test_json_get(st, "z"), b.nd.z.data, m);
+            test_note_rel_err(&w[3], test_json_get(st, "Phi_post"), b.nd.Phi_post.data, n * n);
+            test_note_rel_err(&w[4], test_json_get(st, "S"), b.nd.S.data, m * m);
             assert_true(test_psd_within(b.nd.P.data, n, 4.0 * NX * TEST_EPS));
         }
         ext[0] = 100.0 * (double)(n + NS * PL) * k2 * TEST_EPS;
@@ -146,12 +137,8 @@ static void test_tw_central_pinned(void **state)
         print_message("%s: worst rel error x %.3e P %.3e z %.3e Phi+ %.3e S %.3e "
                       "(cond^2 %.3g, cond S %.3g, bounds %.3e %.3e)\n",
                       names[c], w[0], w[1], w[2], w[3], w[4], k2, cS, ext[0], ext[1]);
-        for (i = 0; i < NOUT; ++i) {
-            snprintf(msg, sizeof msg, "%s %s external", names[c], what[i]);
-            test_assert_below(msg, w[i], i == 2 || i == 4 ? ext[1] : ext[0]);
-            snprintf(msg, sizeof msg, "%s %s regression", names[c], what[i]);
-            test_assert_below(msg, w[i], 4 * seen[c][i]);
-        }
+        for (i = 0; i < NOUT; ++i) ev[i] = i == 2 || i == 4 ? ext[1] : ext[0];
+        test_assert_stress_bounds(names[c], what, w, NOUT, ev, seen[c]);
     }
     json_decref(root);
 }

@@ -259,6 +259,307 @@ def info_cases():
     return cases
 
 
+# ---- uif RTSF: joint state and input, rank H = m -----------------------------
+
+def rtsf_step(x, P, Pd, Pxd, dyn, C, H, R, y):
+    """One RTSF step at 60 digits from docs/uif.md (T = I, B = H); dyn =
+    (A, G, Q, d_{k-1|k-1}) or None. Time
+    update (27) (skipped when dyn is None: the first step uses the prior),
+    R~ = C P C^T + R (14), Pd = (H^T R~^-1 H)^-1, M = Pd H^T R~^-1, d = M ytil
+    (15)-(16), K = P C^T R~^-1, L = K (I - H M) (21), x = x_pred + L ytil,
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (20), Pxd = -K H Pd (29)."""
+    if dyn is not None:
+        A, G, Q = dyn[:3]
+        AG = mp.matrix(A.rows, A.cols + G.cols)
+        for i in range(A.rows):
+            for j in range(A.cols):
+                AG[i, j] = A[i, j]
+            for j in range(G.cols):
+                AG[i, A.cols + j] = G[i, j]
+        n, m = A.rows, G.cols
+        J = mp.matrix(n + m, n + m)
+        for i in range(n + m):
+            for j in range(n + m):
+                if i < n and j < n:
+                    J[i, j] = P[i, j]
+                elif i < n:
+                    J[i, j] = Pxd[i, j - n]
+                elif j < n:
+                    J[i, j] = Pxd[j, i - n]
+                else:
+                    J[i, j] = Pd[i - n, j - n]
+        xd = mp.matrix(n + m, 1)
+        for i in range(n):
+            xd[i] = x[i]
+        for i in range(m):
+            xd[n + i] = dyn[3][i]
+        x, P = AG * xd, AG * J * AG.T + Q
+    Rt = C * P * C.T + R
+    Ri = mp.inverse(Rt)
+    Pd = mp.inverse(H.T * Ri * H)
+    Mg = Pd * H.T * Ri
+    yt = y - C * x
+    d = Mg * yt
+    K = P * C.T * Ri
+    L = K * (mp.eye(C.rows) - H * Mg)
+    A_ = mp.eye(P.rows) - L * C
+    Pn = A_ * P * A_.T + L * R * L.T
+    Pn = (Pn + Pn.T) / 2
+    Pd = (Pd + Pd.T) / 2
+    return x + L * yt, Pn, d, Pd, -K * H * Pd, P
+
+
+def uif_cases():
+    """RTSF with p = n + m (the measurements pin [x; d]): P0 = 1e6..1e8 I
+    (eigenvalues log-uniform), R eigenvalues in [1e-4, 1e-3], Q in [1e3,
+    1e5] (so every prior P_{k|k-1} stays ~1e3..1e5 while P_{k|k} ~ 1e-4),
+    5 steps, the first without a time update."""
+    rng = np.random.default_rng(20261204)
+    cases = []
+    for n, m in ((3, 1), (4, 2)):
+        p = n + m
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        Pd, Pxd, d = mp.zeros(m, m), mp.zeros(n, m), mp.zeros(m, 1)
+        steps = []
+        for k in range(5):
+            st = {"C": f32(rng.standard_normal((p, n))), "H": f32(rng.standard_normal((p, m))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            dyn = None
+            if k > 0:
+                st["A"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["G"] = f32(rng.standard_normal((n, m)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                dyn = (M(st["A"]), M(st["G"]), M(st["Q"]), d)
+            x, P, d, Pd, Pxd, Pp = rtsf_step(x, P, Pd, Pxd, dyn, M(st["C"]), M(st["H"]),
+                                             M(st["R"]), V(st["y"]))
+            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+                       P_min_eig=float(min_eig(P)),
+                       cond_H=float(np.linalg.cond(np.hstack([st["C"], st["H"]]))),
+                       rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "rtsf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
+                      "note": "RTSF, p = n + m, P0 in [1e6, 1e8], R in [1e-4, 1e-3], 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
+def nrtsf_step(x, P, A, G1, Tp, Q, C, R, y):
+    """One NRTSF step at 60 digits from docs/uif.md (no feedthrough; G =
+    G1 T a full-rank decomposition, Tp = T^+, B = F = C G1): x_pred = A x,
+    P_pred = A P A^T + Q (51); R~ = C P C^T + R (42); Pdbar = (F^T R~^-1
+    F)^-1, Mbar = Pdbar F^T R~^-1, dbar = Mbar ytil (43)-(44); K = P C^T
+    R~^-1, Z = G1 - K F, L = K + Z Mbar (48), x = x_pred + L ytil;
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (47); d = T^+ dbar, Pd =
+    T^+ Pdbar T^+T, Pxd = Z Pdbar T^+T (53, note)."""
+    xp, Pp = A * x, A * P * A.T + Q
+    Rt = C * Pp * C.T + R
+    Ri = mp.inverse(Rt)
+    F = C * G1
+    Pdb = mp.inverse(F.T * Ri * F)
+    Mb = Pdb * F.T * Ri
+    yt = y - C * xp
+    K = Pp * C.T * Ri
+    Z = G1 - K * F
+    L = K + Z * Mb
+    A_ = mp.eye(P.rows) - L * C
+    Pn = A_ * Pp * A_.T + L * R * L.T
+    Pd = Tp * Pdb * Tp.T
+    return (xp + L * yt, (Pn + Pn.T) / 2, Tp * (Mb * yt), (Pd + Pd.T) / 2,
+            Z * Pdb * Tp.T, Pp)
+
+
+def nrtsf_cases():
+    """NRTSF with p = n (C pins x_k; d_{k-1} is seen through x_k - A
+    x_{k-1}): P0 = x_{0|0} covariance with eigenvalues in [1e6, 1e8], R in
+    [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps; G of full column rank (n3_m2)
+    or of rank 2 of 3 (n4_m3, G = [g1, g2, -2 g1] = G1 T, exact in
+    float32; T^+ = T^T (T T^T)^-1, which docs/uif.md says the outputs do
+    not depend on)."""
+    rng = np.random.default_rng(20261207)
+    cases = []
+    for n, m, r in ((3, 2, 2), (4, 3, 2)):
+        p = n
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            G1 = f32(rng.standard_normal((n, r)))
+            if r < m:
+                # G = G1 T exactly in float32: the third column is -2 g1
+                T = np.array([[1.0, 0.0, -2.0], [0.0, 1.0, 0.0]])
+                G = G1 @ T
+                Tm = M(T)
+                G1m, Tpm = M(G1), Tm.T * mp.inverse(Tm * Tm.T)
+            else:
+                G, G1m, Tpm = G1, M(G1), mp.eye(m)
+            st = {"A": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))), "G": G,
+                  "Q": spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n)),
+                  "C": f32(rng.standard_normal((p, n))),
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            x, P, d, Pd, Pxd, Pp = nrtsf_step(x, P, M(st["A"]), G1m, Tpm, M(st["Q"]),
+                                              M(st["C"]), M(st["R"]), V(st["y"]))
+            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+                       P_min_eig=float(min_eig(P)), cond_H=float(np.linalg.cond(st["C"])),
+                       rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "nrtsf_n%d_m%d_r%d" % (n, m, r), "n": n, "m": m, "p": p,
+                      "rank": r,
+                      "note": "NRTSF, p = n, rank G = %d, P0 in [1e6, 1e8], R in [1e-4, 1e-3], "
+                              "Q in [1e3, 1e5], 5 steps" % r,
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
+# ---- the Difference KF (seed 000): differenced measurements, correlated noise --
+
+def pinv_fcr(A):
+    """A^+ = (A^T A)^{-1} A^T for A of full column rank."""
+    return mp.inverse(A.T * A) * A.T
+
+
+def diffkf_cases():
+    """Theorem 1 of docs/diffkf.md, (8)-(20) with the corrected lag of C_k,
+    at 60 digits, from the prior (x_{1|0}, P_{1|0}) = (x0, P0) (the start
+    with F0 = Q0 = NULL). p = n, so each z_k pins the state: P0 eigenvalues
+    in [1e6, 1e8], Q, R, Rd eigenvalues in [1e-4, 1e-3]; 5 steps. Step k
+    takes dyn_k (F, Q, B, Rd) and the model at k+1 (H, A, R) with y_{k+1};
+    the first (H, A, R, y) are the start's (meas_1, y_1)."""
+    rng = np.random.default_rng(20261205)
+    cases = []
+    for n, m in ((3, 4), (4, 4)):
+        p = n
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+
+        def meas():
+            return {"H": f32(rng.standard_normal((m, n))), "A": f32(rng.standard_normal((m, p))),
+                    "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, m)),
+                    "y": f32(100 * rng.standard_normal(m))}
+        first = meas()
+        xp, P = V(x0), M(P0)
+        Hk, Ak, Rk, yk = M(first["H"]), M(first["A"]), M(first["R"]), V(first["y"])
+        Akp = pinv_fcr(Ak)
+        Gprev = Linv = dz_prev = Wprev = None
+        steps = []
+        for k in range(5):
+            st = {"F": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))),
+                  "Q": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, n)),
+                  "B": f32(np.eye(p) + 0.1 * rng.standard_normal((p, p))),
+                  "Rd": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p))}
+            st.update(meas())
+            F, Q, B, Rd = M(st["F"]), M(st["Q"]), M(st["B"]), M(st["Rd"])
+            H1, A1, R1, y1 = M(st["H"]), M(st["A"]), M(st["R"]), V(st["y"])
+            A1p, Bi = pinv_fcr(A1), mp.inverse(B)
+            G = Bi * A1p                                            # (8)
+            z = G * y1 - Akp * yk                                   # (8)
+            Mk = G * H1 * F - Akp * Hk                              # (11)
+            S = Q * H1.T * G.T                                      # (13)
+            Ru = (G * H1 * Q * H1.T * G.T + Bi * Rd * Bi.T + G * R1 * G.T
+                  + Akp * Rk * Akp.T)                               # (14)
+            dz = z - Mk * xp                                        # (18)
+            J = P * Mk.T                                            # (19)
+            L = Mk * P * Mk.T + Ru                                  # (20)
+            if Gprev is not None:
+                C = -Akp * Rk * Gprev.T                             # (15), lag k-1
+                dz = dz - C * Linv * dz_prev
+                J = J - Wprev * C.T
+                L = L - Mk * Wprev * C.T - C * Wprev.T * Mk.T - C * Linv * C.T
+            Li = mp.inverse(L)
+            K = J * Li
+            xf, Pf = xp + K * dz, P - K * J.T
+            W = (F * J + S) * Li
+            xn, Pn = F * xp + W * dz, F * P * F.T + Q - W * L * W.T  # (16), (17)
+            Pf, Pn = (Pf + Pf.T) / 2, (Pn + Pn.T) / 2
+            big = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(xf=tovec(xf), Pf=tolist(Pf), xn=tovec(xn), Pn=tolist(Pn),
+                       Pf_min_eig=float(min_eig(Pf)), Pn_min_eig=float(min_eig(Pn)),
+                       cond_M=float(mp.svd_r(Mk, compute_uv=False)[0]
+                                    / mp.svd_r(Mk, compute_uv=False)[Mk.rows - 1]),
+                       rho=float(big / max(abs(Pf[i, j]) for i in range(n) for j in range(n))))
+            steps.append(rec)
+            xp, P = xn, Pn
+            Gprev, Linv, dz_prev, Wprev = G, Li, dz, W
+            Hk, Ak, Rk, yk, Akp = H1, A1, R1, y1, A1p
+        cases.append({"name": "diffkf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
+                      "note": "p = n (z pins the state), P0 in [1e6, 1e8], Q, R, Rd in "
+                              "[1e-4, 1e-3], 5 steps from the prior (x_{1|0}, P_{1|0})",
+                      "x0": x0.tolist(), "P0": P0.tolist(),
+                      "meas1": {kk: v.tolist() for kk, v in first.items()}, "steps": steps})
+    return cases
+
+
+# ---- tw: seed 003's centralized two-stage filter (Algorithm 1) ----------------
+
+def tw_cases():
+    """Algorithm 1 (dkf/tw.h, docs/graph-filters.md) at 60 digits, in the
+    forms the header prints rather than the information form src/tw.c
+    uses: phi+, Phi+ as the KF update of (phi-, Phi-) on the stacked
+    sensors, G = (I - Phi+ Q) B (8a), S = B^T (Q - Q Phi+ Q) B (11)-(12),
+    z^ = S^-1 G^T (s - Q phi-) (18), psi = phi+ + G z^, Ploc = Phi+ +
+    G S^-1 G^T ((8b), (8c) corrected). N = 3 sensors of 2 rows (the stacked
+    H has full column rank: they pin x_n; z_{n-1} is then seen through
+    x_n - A x_{n-1}, S ~ B^T Phi-^-1 B): P0 eigenvalues in [1e6, 1e8], Sw in [1e-4, 1e-3],
+    Sv in [1e3, 1e5] (every prior stays large), 5 steps."""
+    rng = np.random.default_rng(20261206)
+    cases = []
+    for n, m in ((4, 1), (3, 2)):
+        N, pl = 3, 2
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        steps = []
+        for k in range(5):
+            st = {"A": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))),
+                  "B": f32(rng.standard_normal((n, m))),
+                  "Sv": spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n)),
+                  "sensors": [{"H": f32(rng.standard_normal((pl, n))),
+                               "Sw": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, pl)),
+                               "y": f32(100 * rng.standard_normal(pl))} for _ in range(N)]}
+            A, B = M(st["A"]), M(st["B"])
+            phim, Phim = A * x, A * P * A.T + M(st["Sv"])                    # (6a)-(6b)
+            Hs = np.vstack([se["H"] for se in st["sensors"]])
+            Rs = np.zeros((N * pl, N * pl))
+            for i, se in enumerate(st["sensors"]):
+                Rs[i * pl:(i + 1) * pl, i * pl:(i + 1) * pl] = se["Sw"]
+            ys = np.concatenate([se["y"] for se in st["sensors"]])
+            Hm, Rm, ym = M(Hs), M(Rs), V(ys)
+            Ri = mp.inverse(Rm)
+            Q, sv = Hm.T * Ri * Hm, Hm.T * Ri * ym                            # (17), (21)
+            phip, Phip = kf_update(phim, Phim, Hm, Rm, ym)                   # (7b), (20)
+            G = (mp.eye(n) - Phip * Q) * B                                   # (8a)
+            S = B.T * (Q - Q * Phip * Q) * B                                 # (11)-(12)
+            Si = mp.inverse(S)
+            z = Si * G.T * (sv - Q * phim)                                   # (18)
+            x = phip + G * z                                                 # (8b)
+            P = Phip + G * Si * G.T                                          # (8c)
+            P = (P + P.T) / 2
+            big = max(abs(Phim[i, j]) for i in range(n) for j in range(n))
+            rec = {"A": st["A"].tolist(), "B": st["B"].tolist(), "Sv": st["Sv"].tolist(),
+                   "sensors": [{kk: v.tolist() for kk, v in se.items()} for se in st["sensors"]]}
+            rec.update(x=tovec(x), P=tolist(P), z=tovec(z), Phi_post=tolist(Phip),
+                       S=tolist(S), P_min_eig=float(min_eig(P)),
+                       cond_H=float(np.linalg.cond(Hs)),
+                       rho=float(big / max(abs(P[i, j]) for i in range(n) for j in range(n))))
+            steps.append(rec)
+        cases.append({"name": "tw_n%d_m%d" % (n, m), "n": n, "m": m, "N": N, "p": pl,
+                      "note": "Algorithm 1, 3 sensors of 2 rows, P0 in [1e6, 1e8], Sw in "
+                              "[1e-4, 1e-3], Sv in [1e3, 1e5], 5 steps",
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 def write(name, doc):
     os.makedirs(OUT, exist_ok=True)
     path = os.path.join(OUT, name + ".json")
@@ -290,6 +591,29 @@ def main():
         "layout": "cases[]: n, x0, P0, steps[] {F, Q (predict first, if present), sensors[] "
                   "{C, R, z}, reference x, P after the fusion, cond_H (of the stacked C)}",
         "cases": info_cases()})
+    write("uif", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0, steps[] {A, G, Q (time update first, if "
+                  "present), C, H, R, y, reference x, P (Px), d, Pd, Pxd after the step, "
+                  "P_min_eig, cond_H (of [C H]), rho = max|P_{k|k-1}| / max|P_{k|k}|}",
+        "nrtsf_layout": "cases named nrtsf_*: n, m, p, rank, x0, P0 (x_{0|0}), steps[] {A, G, "
+                        "Q, C, R, y (no H), reference x, P, d (d_{k-1|k}), Pd, Pxd, "
+                        "P_min_eig, cond_H (of C), rho}",
+        "cases": uif_cases() + nrtsf_cases()})
+    write("diffkf", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, p, x0, P0 (the prior x_{1|0}, P_{1|0}), meas1 {H, A, R, y} "
+                  "(the start's y_1), steps[] {F, Q, B, Rd (dynamics at k), H, A, R, y (model "
+                  "and measurement at k+1), reference xf, Pf (x_{k|k}), xn, Pn (x_{k+1|k}), "
+                  "Pf_min_eig, Pn_min_eig, cond_M (2-norm condition number of M_k), rho = "
+                  "max|P_{k|k-1}| / max|P_{k|k}|}",
+        "cases": diffkf_cases()})
+    write("tw", {
+        "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
+        "layout": "cases[]: n, m, N (sensors), p (rows per sensor), x0, P0, steps[] {A, B, Sv "
+                  "(the model of n-1), sensors[] {H, Sw, y}, reference x (psi), P (Ploc), z "
+                  "(z^ of z_{n-1}), Phi_post, S, P_min_eig, cond_H (of the stacked H), rho = max|Phi_{n|n-1}| / max|P_{n|n}|}",
+        "cases": tw_cases()})
 
 
 if __name__ == "__main__":

@@ -302,3 +302,29 @@ const json_t *test_json_case(const json_t *root, const char *name)
     fail();
     return NULL;
 }
+
+void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, size_t len)
+{
+    double r[DKF_MAX_DIM * DKF_MAX_DIM], e;
+    assert_true(len <= DKF_MAX_DIM * DKF_MAX_DIM);
+    assert_int_equal(test_json_array(ref, r, DKF_MAX_DIM * DKF_MAX_DIM, NULL, NULL), len);
+    e = test_rel_err(got, r, len);
+    if (!(e <= *worst)) *worst = e;
+}
+
+void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
+                               size_t k, const double *ext, const double *seen)
+{
+    char msg[96];
+    size_t i;
+    for (i = 0; i < k; ++i) {
+        if (ext != NULL && ext[i] > 0) {
+            snprintf(msg, sizeof msg, "%s %s external", who, what[i]);
+            test_assert_below(msg, worst[i], ext[i]);
+        }
+        if (seen != NULL && seen[i] >= 0) {
+            snprintf(msg, sizeof msg, "%s %s regression", who, what[i]);
+            test_assert_below(msg, worst[i], 4 * seen[i]);
+        }
+    }
+}

@@ -106,5 +106,15 @@ json_t *test_json_get(const json_t *obj, const char *key);
 /* The element of root's "cases" array whose "name" is `name` (fails the
  * test if none). */
 const json_t *test_json_case(const json_t *root, const char *name);
+/* Stress tests (tests/vectors/stress/): *worst = max(*worst,
+ * test_rel_err(got, ref)) with the reference node ref of len numbers
+ * (fails the test on another count). */
+void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, size_t len);
+/* For each of the k outputs what[i]: worst[i] <= ext[i] ("external",
+ * skipped if ext is NULL or ext[i] <= 0) and worst[i] <= 4 seen[i]
+ * ("regression": 4x the worst observed; skipped if seen is NULL or
+ * seen[i] < 0). Failures name who and what[i]. */
+void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
+                               size_t k, const double *ext, const double *seen);
 
 #endif /* DKF_TEST_H */

@@ -1,0 +1,184 @@
+/*
+ * The RTSF and the NRTSF (dkf/uif.h) where the measurements pin the
+ * state, against 60-digit references (tests/vectors/stress/uif.json,
+ * written by tools/make_stress_vectors.py from docs/uif.md's equations, not
+ * from src/uif.c; every input float32-exact). RTSF: p = n + m (y pins x
+ * and d), P0 eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3,
+ * 1e5], 5 steps (the first without a time update). NRTSF: p = n (C pins
+ * x_k, d_{k-1} is seen through x_k - A x_{k-1}), the same scales, G of
+ * full column rank and of rank 2 of 3 (G = [g1, g2, -2 g1]). P_{k|k} ~
+ * 1e-4 lies rho = 1e5..3e11 below P_{k|k-1} (rho per step in the vector).
+ * (cond([C H]) for RTSF, cond(C) for NRTSF below.)
+ *
+ * Bounds, per case (kappa = the largest cond([C H]) of its steps, rho the
+ * largest prior/posterior ratio). Double, external: R~ = C P C^T + R has
+ * cond(R~) <~ rho kappa^2, and both the input estimate (Pd = (H^T R~^-1
+ * H)^-1) and the gain L = K (I - H M) pass through R~'s Cholesky, whose
+ * relative error is cond(R~) eps; the Joseph form (I - LC) P (I - LC)^T +
+ * L R L^T carries the error of L to P_{k|k} without a further |P_{k|k-1}| /
+ * |P_{k|k}| amplification (the short form P - K R~ K^T + Z Pd Z^T would add
+ * rho eps on top). So the external bound is 10 (n + p) rho kappa^2 eps on
+ * every output. (NRTSF's Pxd = Z Pdbar T^+T with Z = Gbar - K C Gbar, a
+ * cancellation when K C ~ I: it loses ~rho eps, 2e-5 here, in both
+ * forms; within the bound.) Float: rho kappa^2 eps exceeds 1 in every case, so the
+ * external promise is every committed Px, Pd PSD (or the step refused,
+ * DKF_ERR_NOT_SPD / DKF_ERR_RANK with the filter bit-identical, which ends
+ * that case) and errors below 1 (relative: the estimate at least has the
+ * right scale). Regression bounds: 4x the worst observed (printed by the
+ * test). Short form (DKF_JOSEPH=0): the PSD property (or a refusal) and
+ * the external bound, no regression bound.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "dkf/uif.h"
+#include "dkf_test.h"
+
+#define NX 4 /* largest n in the vectors */
+#define MX 3 /* largest m */
+#define PX 6 /* largest p */
+
+typedef struct {
+    dkf_real_t A[NX * NX], G[NX * MX], Q[NX * NX], C[PX * NX], H[PX * MX], R[PX * PX], y[PX];
+    dkf_mat_t Am, Gm, Qm, Cm, Hm, Rm, ym;
+    dkf_uif_dyn_t dyn;
+    dkf_uif_meas_t meas;
+    int has_dyn;
+} uif_step_t;
+
+static void load_step(uif_step_t *s, const json_t *st)
+{
+    s->has_dyn = json_object_get(st, "A") != NULL;
+    if (s->has_dyn) {
+        test_json_mat(test_json_get(st, "A"), s->A, NX * NX, &s->Am);
+        test_json_mat(test_json_get(st, "G"), s->G, NX * MX, &s->Gm);
+        test_json_mat(test_json_get(st, "Q"), s->Q, NX * NX, &s->Qm);
+        s->dyn.A = &s->Am, s->dyn.G = &s->Gm, s->dyn.Q = &s->Qm;
+    }
+    test_json_mat(test_json_get(st, "C"), s->C, PX * NX, &s->Cm);
+    test_json_mat(test_json_get(st, "R"), s->R, PX * PX, &s->Rm);
+    test_json_mat(test_json_get(st, "y"), s->y, PX, &s->ym);
+    s->meas.C = &s->Cm, s->meas.H = NULL, s->meas.R = &s->Rm;
+    if (json_object_get(st, "H") != NULL) { /* RTSF; NRTSF has none */
+        test_json_mat(test_json_get(st, "H"), s->H, PX * MX, &s->Hm);
+        s->meas.H = &s->Hm;
+    }
+}
+
+/* worst relative errors over a case: x, Px, d, Pd, Pxd */
+#define NOUT 5
+/* worst observed, [case][x Px d Pd Pxd]; -1: the case's first step is
+ * refused here (float n4_m2, DKF_ERR_NOT_SPD), no numbers */
+#if DKF_USE_FLOAT
+static const double seen_rtsf[2][NOUT] = {{1.22e-5, 9.3e-3, 5.6e-6, 7.2e3, 1.02e4}, {-1, -1, -1, -1, -1}};
+#else
+static const double seen_rtsf[2][NOUT] = {{2.7e-13, 2.5e-15, 3.8e-13, 5.2e-6, 1.31e-5},
+                                     {9.7e-14, 8.9e-15, 1.17e-13, 1.04e-5, 4.4e-5}};
+#endif
+#if DKF_USE_FLOAT
+static const double seen_nrtsf[2][NOUT] = {{1.37e-6, 2.9e-3, 9.1e-7, 2.03e-6, 2.22e4},
+                                           {1.82e-6, 7.9e-3, 3.6e-6, 4.7e-6, 8.4e3}};
+#else
+static const double seen_nrtsf[2][NOUT] = {{6.7e-15, 3.2e-16, 7.4e-15, 3.2e-15, 1.98e-5},
+                                           {3.5e-15, 2.6e-16, 1.13e-14, 5.1e-15, 7.8e-6}};
+#endif
+
+typedef struct {
+    DKF_UIF_DECLARE(, f, NX, MX, PX);
+} uif_box_t;
+
+/* Runs the two cases `names` through a filter of `kind` and checks them
+ * against the reference and the bounds (see the top). */
+static void run_cases(const json_t *root, dkf_uif_kind_t kind,
+                      const char *const names[2], const double seen[2][NOUT])
+{
+    static const char *const what[NOUT] = {"x", "Px", "d", "Pd", "Pxd"};
+    static uif_box_t b;
+    static uif_step_t s;
+    static dkf_real_t snap[DKF_UIF_STATE_LEN(NX, MX, PX)];
+    size_t c;
+    for (c = 0; c < 2; ++c) {
+        const json_t *cs = test_json_case(root, names[c]);
+        const json_t *steps = test_json_get(cs, "steps");
+        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
+        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
+        const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t len = DKF_UIF_STATE_LEN(n, m, p);
+        dkf_real_t xs[NX], Ps[NX * NX];
+        dkf_mat_t x0, P0;
+        double w[NOUT] = {0, 0, 0, 0, 0}, rk2 = 0, ext, ev[NOUT];
+        size_t j, i;
+        int refused = 0;
+        test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
+        test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
+        assert_int_equal(dkf_uif_init(&b.f, kind, n, m, p, b.f_storage,
+                                      DKF_UIF_STORAGE_LEN(n, m, p), &x0, &P0),
+                         DKF_OK);
+        for (j = 0; j < json_array_size(steps) && !refused; ++j) {
+            const json_t *st = json_array_get(steps, j);
+            const double k = json_number_value(test_json_get(st, "cond_H"));
+            const double rho = json_number_value(test_json_get(st, "rho"));
+            dkf_status_t rc;
+            if (rho * k * k > rk2) rk2 = rho * k * k;
+            load_step(&s, st);
+            memcpy(snap, b.f_storage, len * sizeof *snap);
+            rc = dkf_uif_step(&b.f, s.has_dyn ? &s.dyn : NULL, &s.meas, &s.ym);
+            if (rc != DKF_OK && (DKF_USE_FLOAT || !DKF_JOSEPH) &&
+                (rc == DKF_ERR_NOT_SPD || rc == DKF_ERR_RANK)) {
+                /* a refusal is allowed where the bounds exceed 1: the
+                 * filter must be bit-identical */
+                print_message("%s step %zu: refused (%d)\n", names[c], j, (int)rc);
+                assert_memory_equal(snap, b.f_storage, len * sizeof *snap);
+                refused = 1;
+                break;
+            }
+            assert_int_equal(rc, DKF_OK);
+            test_note_rel_err(&w[0], test_json_get(st, "x"), b.f.x.data, n);
+            test_note_rel_err(&w[1], test_json_get(st, "P"), b.f.Px.data, n * n);
+            test_note_rel_err(&w[2], test_json_get(st, "d"), b.f.d.data, m);
+            test_note_rel_err(&w[3], test_json_get(st, "Pd"), b.f.Pd.data, m * m);
+            test_note_rel_err(&w[4], test_json_get(st, "Pxd"), b.f.Pxd.data, n * m);
+            assert_true(test_psd_within(b.f.Px.data, n, 4.0 * NX * TEST_EPS));
+            assert_true(test_psd_within(b.f.Pd.data, m, 4.0 * NX * TEST_EPS));
+        }
+        ext = 10.0 * (double)(n + p) * rk2 * TEST_EPS;
+        print_message("%s (%zu steps): worst rel error x %.3e Px %.3e d %.3e Pd %.3e Pxd %.3e "
+                      "(rho cond^2 %.3g, bound %.3e)\n",
+                      names[c], j, w[0], w[1], w[2], w[3], w[4], rk2, ext);
+        for (i = 0; i < NOUT; ++i) ev[i] = ext < 1 ? ext : 0; /* vacuous in float */
+        test_assert_stress_bounds(names[c], what, w, NOUT, ev,
+                                  DKF_JOSEPH || DKF_USE_FLOAT ? seen[c] : NULL);
+    }
+}
+
+static void test_rtsf_pinned(void **state)
+{
+    static const char *const names[] = {"rtsf_n3_m1", "rtsf_n4_m2"};
+    json_t *root = test_load_vector("stress/uif.json");
+    (void)state;
+    run_cases(root, DKF_UIF_RTSF, names, seen_rtsf);
+    json_decref(root);
+}
+
+static void test_nrtsf_pinned(void **state)
+{
+    static const char *const names[] = {"nrtsf_n3_m2_r2", "nrtsf_n4_m3_r2"};
+    json_t *root = test_load_vector("stress/uif.json");
+    (void)state;
+    run_cases(root, DKF_UIF_NRTSF, names, seen_nrtsf);
+    json_decref(root);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_rtsf_pinned),
+        cmocka_unit_test(test_nrtsf_pinned),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

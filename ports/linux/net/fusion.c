@@ -64,6 +64,7 @@ typedef struct {
     int64_t got;         /* distinct messages accepted (their own step) */
     long k_max;          /* newest step of a message accepted from it (0: none) */
     int64_t last_recv;   /* its arrival (recv_utime; INT64_MIN: never heard) */
+    int64_t last_mono;   /* the same arrival on the centre's monotonic clock */
 } peer_t;
 
 /* What is recorded of every step (for the result file). */
@@ -109,6 +110,8 @@ struct dkf_net_fusion {
     FILE *journal;                /* one JSON line per computed step (NULL: none) */
     int64_t done_mono;            /* when it was first published (monotonic): step
                                      done_k + 1 opens then at the latest */
+    int64_t linger_us;            /* after step N: how long a node still sending may
+                                     be waited for (settled) */
     dkf_diffkf_msg_t *msgs;       /* l: the running step's messages */
     unsigned char *present, *contrib; /* l */
     dkf_net_fused_t out;
@@ -525,10 +528,35 @@ static void next_step(dkf_net_fusion_t *fu, int64_t now)
     fu->done_mono = now;
     if (k >= fu->join_k) publish_step(fu, k, 0);
     journal_step(fu, k, k >= fu->join_k);
-    if (k >= fu->N) {
-        fu->state = DKF_NET_DONE;
-        dkf_net_fusion_report(fu);
+}
+
+/* 1 once step N is out and nothing more is coming that could revise a step:
+ * every node heard from has every payload its epochs own of the steps still
+ * revisable, or has been silent for linger_us (docs/network.md, "End of a
+ * run"). Without it a payload held back at the end (reordered, or a node
+ * slowed down by the load) would leave its last steps degraded for good. */
+static int settled(dkf_net_fusion_t *fu, int64_t now)
+{
+    const long k0 = fu->N - DKF_NET_CKPT + 1 > fu->join_k ? fu->N - DKF_NET_CKPT + 1 : fu->join_k;
+    size_t i;
+    long k;
+    if (fu->done_k < fu->N) return 0;
+    for (i = 0; i < fu->l; ++i) {
+        const peer_t *p = &fu->peer[i];
+        if (p->last_mono == INT64_MIN || now - p->last_mono >= fu->linger_us) continue;
+        for (k = k0; k <= fu->N; ++k) {
+            const epoch_t *e = owner(fu, i, k);
+            if (e != NULL && e->usable && payload(fu, i, k) == NULL) return 0;
+        }
     }
+    return 1;
+}
+
+static void finish_if_settled(dkf_net_fusion_t *fu, int64_t now)
+{
+    if (fu->state != DKF_NET_RUNNING || !settled(fu, now)) return;
+    fu->state = DKF_NET_DONE;
+    dkf_net_fusion_report(fu);
 }
 
 /* New data for step j <= done_k: back to the checkpoint after step j-1,
@@ -595,6 +623,7 @@ static void advance(dkf_net_fusion_t *fu)
         if (!step_ready(fu, fu->done_k + 1)) break;
         next_step(fu, dkf_net_mono_us());
     }
+    finish_if_settled(fu, dkf_net_mono_us());
 }
 
 /* A payload of step k arrived: the window follows it. Steps more than
@@ -698,6 +727,7 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     /* arrivals (the clock of given_up) and the newest step heard of */
     if (recv_utime > fu->newest_recv) fu->newest_recv = recv_utime;
     p->last_recv = recv_utime;
+    p->last_mono = dkf_net_mono_us();
     if ((long)fu->in.k > p->k_max) p->k_max = (long)fu->in.k;
     if ((long)fu->in.k > fu->newest_k) fu->newest_k = (long)fu->in.k;
     follow_window(fu, (long)fu->in.k);
@@ -734,6 +764,7 @@ void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbea
         next_step(fu, mono_us);
         advance(fu);
     }
+    finish_if_settled(fu, mono_us);
     if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
     if (fu->last_beat != INT64_MIN && mono_us - fu->last_beat < heartbeat_us) return;
     fu->last_beat = mono_us;
@@ -774,6 +805,7 @@ static int fu_alloc(dkf_net_fusion_t *fu)
     for (j = 0; j < l; ++j) {
         peer_t *p = &fu->peer[j];
         p->last_recv = INT64_MIN;
+        p->last_mono = INT64_MIN;
         /* until a message says otherwise, node j started normally at step 1 */
         p->nep = 1;
         p->ep[0].epoch = 0;
@@ -880,6 +912,8 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
     dkf_net_chan(fu->chan_out, prefix, "FUSED");
     fu->model_id = dkf_net_model_id(s);
     fu->deadline_us = deadline_us > 0 ? deadline_us : DKF_NET_DEADLINE_US;
+    fu->linger_us = 2 * fu->deadline_us > DKF_NET_LINGER_US ? 2 * fu->deadline_us
+                                                             : DKF_NET_LINGER_US;
     fu->state = DKF_NET_RUNNING;
     fu->last_beat = INT64_MIN;
     fu->first_recv = fu->newest_recv = INT64_MIN;

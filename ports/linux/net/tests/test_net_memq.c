@@ -433,6 +433,14 @@ static void test_memq_drop_dup_reorder(void **state)
     fx.seed = 3;
     dkf_net_node_faults(n1, &fx);
     run(net, sim, NULL, fu);
+    /* step N is out, but node 1's payload of a step still revisable was
+     * lost for good: the centre waits for it (docs/network.md, "End of a
+     * run") until node 1 has been silent for the linger time */
+    assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
+    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
+    dkf_net_fusion_tick(fu, dkf_net_mono_us() + DKF_NET_LINGER_US / 2, 0);
+    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
+    dkf_net_fusion_tick(fu, dkf_net_mono_us() + DKF_NET_LINGER_US + 1, 0);
     assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
     dkf_net_node_fault_counts(n1, &dropped, &dup, &reo);
     doc = dkf_net_fusion_result(fu);

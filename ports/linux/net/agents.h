@@ -30,16 +30,17 @@
 #include <jansson.h>
 
 #include "codec.h"
+#include "fc_runtime.h"
 #include "net.h"
 #include "scenario.h"
 
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
-#define DKF_NET_WINDOW 32           /* steps the fusion centre buffers ahead (it follows
-                                       the arrivals: docs/network.md) */
+#define DKF_NET_WINDOW DKF_FCR_WINDOW /* steps the fusion centre buffers ahead (it
+                                         follows the arrivals: docs/network.md) */
 #define DKF_NET_LINGER_US 1000000  /* after step N, a node still sending is waited for
                                        this long, or two deadlines if longer */
-#define DKF_NET_CKPT 8              /* published steps a late payload can still revise */
+#define DKF_NET_CKPT DKF_FCR_CKPT  /* published steps a late payload can still revise */
 
 /* Counters every agent keeps (published in its status messages). */
 typedef struct {

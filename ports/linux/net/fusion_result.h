@@ -1,0 +1,56 @@
+/*
+ * fusion_result.h - the result file and the journal of a fusion centre run
+ * by fc_runtime.h (host side; docs/network.md, "dkf-fusion's result file").
+ *
+ * The runtime's record (status, contributors, revisions, epochs, latency,
+ * counters) is written here for any centre; the centre adds its own
+ * estimates: the result document's "outputs" object, and its fields of each
+ * journal line (dkf_fcr_json_set_rows / dkf_fcr_json_set_block).
+ */
+#ifndef DKF_NET_FUSION_RESULT_H
+#define DKF_NET_FUSION_RESULT_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <jansson.h>
+
+#include "codec.h" /* dkf_net_rejects_t */
+#include "fc_runtime.h"
+
+/* What the result and the journal say of the run besides the runtime's record. */
+typedef struct {
+    const char *scenario;          /* the scenario file */
+    int64_t model_id;
+    int64_t deadline_us;
+    int64_t rejected;              /* messages refused by validation (codec.h) */
+    const dkf_net_rejects_t *why;  /* and why */
+} dkf_fcr_doc_info_t;
+
+/* The result document of the run so far (new reference): scenario, real,
+ * model_id, N, deadline_us, checkpoints, joined_at, k, outputs (the
+ * caller's, reference stolen), status, contributors, revisions,
+ * first_status, first_contributors, epochs, latency_us, counters,
+ * last_note. */
+json_t *dkf_fcr_result_doc(const dkf_fcr_t *rt, const dkf_fcr_doc_info_t *info, json_t *outputs);
+
+/* o[key] = the published steps' blocks: steps rows x cols doubles each
+ * (cols == 0: a vector of rows), from v (steps x rows x cols). */
+void dkf_fcr_json_set_rows(json_t *o, const char *key, const double *v, size_t steps,
+                           size_t rows, size_t cols);
+/* o[key] = one rows x cols block (cols == 0: a vector). */
+void dkf_fcr_json_set_block(json_t *o, const char *key, const double *v, size_t rows,
+                            size_t cols);
+
+/* The journal's header line (one per run of the centre: a restarted one
+ * appends its own), written at utime. 0, or -1 (not written). */
+int dkf_fcr_journal_header(FILE *f, const dkf_fcr_t *rt, const dkf_fcr_doc_info_t *info,
+                           int64_t utime);
+/* A journal line of step st as computed now (new reference): k, revision,
+ * status, contributors, published; the centre adds its estimates. */
+json_t *dkf_fcr_journal_line(const dkf_fcr_step_t *st, int published);
+/* Appends line (with utime last), flushed, and releases it. 0 or -1. */
+int dkf_fcr_journal_write(FILE *f, json_t *line, int64_t utime);
+
+#endif /* DKF_NET_FUSION_RESULT_H */

@@ -565,12 +565,22 @@ dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_sta
     return DKF_NET_ACCEPT;
 }
 
-/* ---- graph-filter packet (the wire side of tw_agent.h) ---------------------------- */
+/* ---- graph-filter packet (tw_agent.h's) --------------------------------------------- */
 
-int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_wire_t *p)
+void dkf_net_tw_shape(const dkf_net_tw_expect_t *ex, size_t round, int *kind, size_t *len)
 {
+    const int info = round < ex->info_rounds;
+    *kind = info ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
+    *len = info ? ex->info_len : ex->est_len;
+}
+
+int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_pkt_t *p)
+{
+    double v[DKF_NET_TW_MAX_LEN];
     dkf_lcm_tw_packet_t w;
+    size_t i;
     if (p->len > DKF_NET_TW_MAX_LEN || cap > 0x7fffffff) return -1;
+    for (i = 0; i < p->len; ++i) v[i] = (double)p->v[i];
     w.utime = p->utime;
     w.model_id = p->model_id;
     w.node = (int32_t)p->node;
@@ -579,30 +589,56 @@ int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_wire_
     w.kind = (int8_t)p->kind;
     w.retransmit = (int8_t)(p->retransmit != 0);
     w.len = (int32_t)p->len;
-    w.v = (double *)p->v;
+    w.v = v;
     return encoded(dkf_lcm_tw_packet_t_encode(buf, 0, (int)cap, &w), len);
 }
 
-dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, dkf_net_tw_wire_t *p)
+/* The checks after the wire layout's, in codec.h's order. */
+static dkf_net_verdict_t check_tw(const dkf_lcm_tw_packet_t *w, size_t len,
+                                  const dkf_net_tw_expect_t *ex)
+{
+    int kind;
+    size_t want;
+    if (w->kind < 0 || w->kind > DKF_TW_KIND_DONE) return DKF_NET_REJ_MALFORMED;
+    if (w->node < 0 || (size_t)w->node >= ex->nnodes || (ex->node >= 0 && w->node != ex->node))
+        return DKF_NET_REJ_NODE;
+    if (w->model_id != ex->model_id) return DKF_NET_REJ_MODEL;
+    if (w->kind == DKF_TW_KIND_DONE) {
+        if (len != 0) return DKF_NET_REJ_DIM;
+        return (w->k == (long)ex->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT
+                                                               : DKF_NET_REJ_STEP;
+    }
+    if (w->round < 0 || (size_t)w->round >= ex->rounds) return DKF_NET_REJ_STEP;
+    dkf_net_tw_shape(ex, (size_t)w->round, &kind, &want);
+    if (len != want) return DKF_NET_REJ_DIM;
+    if (w->k < 1 || (size_t)w->k > ex->steps || w->kind != kind) return DKF_NET_REJ_STEP;
+    return finite_all(w->v, len) == 0 ? DKF_NET_ACCEPT : DKF_NET_REJ_NONFINITE;
+}
+
+dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, const dkf_net_tw_expect_t *ex,
+                                    dkf_net_tw_pkt_t *out, dkf_net_rejects_t *rej)
 {
     dkf_lcm_tw_packet_t w;
     long count[WIRE_NSLOTS];
-    if (wire_decode(&tw_packet_wire, buf, len, &w, count) != 0) return DKF_NET_REJ_MALFORMED;
-    if (w.kind < 0 || w.kind > 2) {
-        dkf_lcm_tw_packet_t_decode_cleanup(&w);
-        return DKF_NET_REJ_MALFORMED;
+    dkf_net_verdict_t v;
+    size_t i, n;
+    if (wire_decode(&tw_packet_wire, buf, len, &w, count) != 0)
+        return reject(rej, DKF_NET_REJ_MALFORMED);
+    n = (size_t)count[0];
+    v = check_tw(&w, n, ex);
+    if (v == DKF_NET_ACCEPT) {
+        out->utime = w.utime;
+        out->model_id = w.model_id;
+        out->node = w.node;
+        out->k = w.k;
+        out->round = w.round;
+        out->kind = w.kind;
+        out->retransmit = w.retransmit;
+        out->len = n;
+        for (i = 0; i < n; ++i) out->v[i] = (dkf_real_t)w.v[i]; /* n 0: w.v is NULL */
     }
-    p->utime = w.utime;
-    p->model_id = w.model_id;
-    p->node = w.node;
-    p->k = w.k;
-    p->round = w.round;
-    p->kind = w.kind;
-    p->retransmit = w.retransmit;
-    p->len = (size_t)count[0];
-    if (p->len > 0) memcpy(p->v, w.v, p->len * sizeof(double)); /* len 0: w.v is NULL */
     dkf_lcm_tw_packet_t_decode_cleanup(&w);
-    return DKF_NET_ACCEPT;
+    return reject(rej, v);
 }
 
 /* ---- channels ---------------------------------------------------------------- */

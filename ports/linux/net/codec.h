@@ -21,9 +21,9 @@
  * and counts each rejection in a dkf_net_rejects_t. Outputs are written
  * only on DKF_NET_ACCEPT.
  *
- * Every decoder of network input in ports/linux (these, and the graph
- * filters' packet through dkf_net_decode_tw) runs the bytes through one
- * checked path in codec.c: the type's wire layout is checked against the
+ * Every decoder of network input in ports/linux (these, the graph filters'
+ * packet dkf_net_decode_tw among them) runs the bytes through one checked
+ * path in codec.c: the type's wire layout is checked against the
  * datagram before lcm-gen's decoder (which trusts the lengths it reads)
  * runs. tests/fuzz/fuzz_net.c fuzzes them all (docs/fuzzing.md).
  */
@@ -154,21 +154,42 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
 dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
                                         dkf_net_rejects_t *rej);
 
-/* A graph-filter packet as on the wire (lcmtypes/tw_packet_t.lcm), in host
- * doubles; tw_agent.h's dkf_tw_encode / dkf_tw_decode are its users. */
+/* A graph-filter packet (lcmtypes/tw_packet_t.lcm; tw_agent.h is its user):
+ * kind INFO (Algorithm 2 round 0 / Algorithm 3 rounds < eta: the
+ * information pair), EST (an estimate) or DONE (the node's last step is
+ * over; no reals). */
+enum { DKF_TW_KIND_INFO = 0, DKF_TW_KIND_EST = 1, DKF_TW_KIND_DONE = 2 };
 #define DKF_NET_TW_MAX_LEN DKF_TW_PKT_LEN(DKF_MAX_DIM)
 typedef struct {
     int64_t utime, model_id;
     long node, k, round;
-    int kind, retransmit; /* kind 0..2 (tw_agent.h), retransmit 0/1 */
+    int kind, retransmit; /* retransmit 0/1 */
     size_t len;           /* reals in v, <= DKF_NET_TW_MAX_LEN */
-    double v[DKF_NET_TW_MAX_LEN];
-} dkf_net_tw_wire_t;
+    dkf_real_t v[DKF_NET_TW_MAX_LEN];
+} dkf_net_tw_pkt_t;
+
+/* What a graph-filter receiver expects (dkf_tw_expect fills it from the
+ * scenario): rounds 0..info_rounds-1 of a step are INFO packets of
+ * info_len reals, the rest up to rounds-1 EST packets of est_len. */
+typedef struct {
+    int64_t model_id;
+    size_t nnodes;       /* node ids 0..nnodes-1 */
+    long node;           /* the channel's node, or -1 for any */
+    size_t steps;        /* k in 1..steps (DONE: steps + 1, round 0) */
+    size_t rounds, info_rounds, info_len, est_len;
+} dkf_net_tw_expect_t;
+
+/* Kind and length a packet of round r must have. */
+void dkf_net_tw_shape(const dkf_net_tw_expect_t *ex, size_t round, int *kind, size_t *len);
 /* 0, or -1 if len is too large or the packet does not fit in cap bytes. */
-int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_wire_t *p);
-/* MALFORMED (the wire layout, kind outside 0..2) or ACCEPT; p is written
- * only on ACCEPT. Counts nothing: dkf_tw_decode checks the rest and counts. */
-dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, dkf_net_tw_wire_t *p);
+int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_pkt_t *p);
+/* In codec.h's order: MALFORMED (the wire layout, kind outside 0..2, a
+ * flag not 0/1), NODE (outside 0..nnodes-1 or not ex->node when >= 0),
+ * MODEL, DIM (len not the round's; DONE: not 0), STEP (k outside 1..steps,
+ * round outside 0..rounds-1 or of the other kind; DONE: k != steps + 1 or
+ * round != 0), NONFINITE (also after conversion to dkf_real_t). */
+dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, const dkf_net_tw_expect_t *ex,
+                                    dkf_net_tw_pkt_t *out, dkf_net_rejects_t *rej);
 
 /* Channel names: "<prefix>_MEAS_<i>", "<prefix>_NODE_<i>", "<prefix>_FUSED",
  * "<prefix>_TRUTH", "<prefix>_STATUS". out has DKF_NET_CHAN_LEN bytes. */

@@ -6,7 +6,6 @@
 
 #include "tw_agent.h"
 
-#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -201,87 +200,38 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c)
 
 /* ---- packets -------------------------------------------------------------------- */
 
+dkf_net_tw_expect_t dkf_tw_expect(const dkf_tw_scn_t *c, long chan_node)
+{
+    dkf_net_tw_expect_t ex;
+    ex.model_id = c->model_id;
+    ex.nnodes = c->N;
+    ex.node = chan_node;
+    ex.steps = c->steps;
+    ex.rounds = c->rounds;
+    /* Alg 2: round 0 the information pair, round 1 psi (n reals); Alg 3:
+     * eta rounds of information pairs, eta of estimates with covariance */
+    ex.info_rounds = c->alg == 2 ? 1 : c->eta;
+    ex.info_len = DKF_TW_PKT_LEN(c->n);
+    ex.est_len = c->alg == 2 ? c->n : DKF_TW_PKT_LEN(c->n);
+    return ex;
+}
+
 void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *len)
 {
-    if (c->alg == 2) {
-        *kind = round == 0 ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
-        *len = round == 0 ? DKF_TW_PKT_LEN(c->n) : c->n;
-    } else {
-        *kind = round < c->eta ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
-        *len = DKF_TW_PKT_LEN(c->n);
-    }
+    const dkf_net_tw_expect_t ex = dkf_tw_expect(c, -1);
+    dkf_net_tw_shape(&ex, round, kind, len);
 }
 
 int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p)
 {
-    dkf_net_tw_wire_t w;
-    size_t i;
-    if (p->len > DKF_TW_MAX_PKT) return -1;
-    for (i = 0; i < p->len; ++i) w.v[i] = (double)p->v[i];
-    w.utime = p->utime;
-    w.model_id = p->model_id;
-    w.node = p->node;
-    w.k = p->k;
-    w.round = p->round;
-    w.kind = p->kind;
-    w.retransmit = p->retransmit != 0;
-    w.len = p->len;
-    return dkf_net_encode_tw(buf, cap, len, &w);
-}
-
-/* The checks after the wire layout's (codec.c), in codec.h's order. */
-static dkf_net_verdict_t check_fields(const dkf_net_tw_wire_t *w, const dkf_tw_scn_t *c,
-                                      long chan_node)
-{
-    int kind;
-    size_t len;
-    if (w->node < 0 || (size_t)w->node >= c->N || (chan_node >= 0 && w->node != chan_node))
-        return DKF_NET_REJ_NODE;
-    if (w->model_id != c->model_id) return DKF_NET_REJ_MODEL;
-    if (w->kind == DKF_TW_KIND_DONE) {
-        if (w->len != 0) return DKF_NET_REJ_DIM;
-        return (w->k == (long)c->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT : DKF_NET_REJ_STEP;
-    }
-    if (w->round < 0 || (size_t)w->round >= c->rounds) return DKF_NET_REJ_STEP;
-    dkf_tw_round_shape(c, (size_t)w->round, &kind, &len);
-    if (w->len != len) return DKF_NET_REJ_DIM;
-    if (w->k < 1 || (size_t)w->k > c->steps || w->kind != kind) return DKF_NET_REJ_STEP;
-    return DKF_NET_ACCEPT;
-}
-
-static dkf_net_verdict_t reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v)
-{
-    if (rej != NULL && v != DKF_NET_ACCEPT) {
-        ++rej->total;
-        ++rej->by[v];
-    }
-    return v;
+    return dkf_net_encode_tw(buf, cap, len, p);
 }
 
 dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t *c,
                                 long chan_node, dkf_tw_pkt_t *out, dkf_net_rejects_t *rej)
 {
-    dkf_net_tw_wire_t w;
-    dkf_real_t tmp[DKF_TW_MAX_PKT];
-    dkf_net_verdict_t v = dkf_net_decode_tw(buf, len, &w);
-    size_t i;
-    if (v == DKF_NET_ACCEPT) v = check_fields(&w, c, chan_node);
-    for (i = 0; v == DKF_NET_ACCEPT && i < w.len; ++i) {
-        tmp[i] = (dkf_real_t)w.v[i];
-        if (!isfinite(w.v[i]) || !isfinite((double)tmp[i])) v = DKF_NET_REJ_NONFINITE;
-    }
-    if (v == DKF_NET_ACCEPT) {
-        out->utime = w.utime;
-        out->model_id = w.model_id;
-        out->node = w.node;
-        out->k = w.k;
-        out->round = w.round;
-        out->kind = w.kind;
-        out->retransmit = w.retransmit;
-        out->len = w.len;
-        memcpy(out->v, tmp, w.len * sizeof tmp[0]);
-    }
-    return reject(rej, v);
+    const dkf_net_tw_expect_t ex = dkf_tw_expect(c, chan_node);
+    return dkf_net_decode_tw(buf, len, &ex, out, rej);
 }
 
 void dkf_tw_chan(char *out, const char *prefix, size_t node)

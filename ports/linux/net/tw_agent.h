@@ -72,29 +72,26 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c);
 
 /* ---- packets (lcmtypes/tw_packet_t.lcm) ---------------------------------------- */
 
-enum { DKF_TW_KIND_INFO = 0, DKF_TW_KIND_EST = 1, DKF_TW_KIND_DONE = 2 };
+/* DKF_TW_KIND_INFO, _EST, _DONE and the packet itself are codec.h's. */
 #define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_MAX_DIM) */
 #define DKF_TW_MAX_MSG (64 + 8 * DKF_TW_MAX_PKT)
 #define DKF_TW_MAX_DEG 256 /* |N_l| including l */
 
-typedef struct {
-    int64_t utime, model_id;
-    long node, k, round;
-    int kind, retransmit;
-    size_t len;
-    dkf_real_t v[DKF_TW_MAX_PKT];
-} dkf_tw_pkt_t;
+typedef dkf_net_tw_pkt_t dkf_tw_pkt_t;
 
+/* What a node of scenario c expects of a packet on the channel of node
+ * chan_node (-1: any). */
+dkf_net_tw_expect_t dkf_tw_expect(const dkf_tw_scn_t *c, long chan_node);
 /* Kind and length a packet of round r must have. */
 void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *len);
 
-/* Encodes p into buf (cap bytes); *len its size. 0 or -1. */
+/* Encodes p into buf (cap bytes); *len its size. 0 or -1 (dkf_net_encode_tw). */
 int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p);
 
-/* Decodes (dkf_net_decode_tw: codec.c's one checked path) and validates
- * (codec.h order): MALFORMED (bytes, len outside 0..DKF_TW_MAX_PKT or not
- * what the datagram holds, kind, flag), NODE (node outside 0..N-1 or != chan_node when
- * chan_node >= 0), MODEL, DIM (len not the round's), STEP (k outside
+/* dkf_net_decode_tw (codec.c's one checked path) with dkf_tw_expect(c,
+ * chan_node): MALFORMED (bytes, len outside 0..DKF_TW_MAX_PKT or not what
+ * the datagram holds, kind, flag), NODE (node outside 0..N-1 or != chan_node
+ * when chan_node >= 0), MODEL, DIM (len not the round's), STEP (k outside
  * 1..steps, round outside 0..rounds-1 or of the other kind; DONE: k =
  * steps + 1, round 0), NONFINITE (also after conversion to dkf_real_t).
  * out is written only on DKF_NET_ACCEPT; rej (may be NULL) counts. */

@@ -522,7 +522,7 @@ static int64_t made_by(const peer_t *p)
 static int msg_in_range(const dkf_fcr_t *rt, const dkf_fcr_msg_t *m)
 {
     return m->node < rt->l && m->k >= 1 && m->k <= rt->N && m->epoch >= 0 &&
-           m->k_start >= 1 && m->k_start <= m->k && m->seq >= 0 && m->pay != NULL &&
+           m->k_start >= 1 && m->k_start <= m->k && m->pay != NULL &&
            (m->prev == NULL || m->k - 1 >= m->k_start);
 }
 

@@ -115,7 +115,8 @@ typedef struct {
     size_t node;
     long k;               /* 1..N */
     long epoch, k_start;  /* the node's local filter run: epoch >= 0, 1 <= k_start <= k */
-    int64_t seq;          /* the message's number within the run (0, 1, ...) */
+    int64_t seq;          /* the message's number within the run (0, 1, ...; any value
+                             is taken: it only counts the messages made) */
     int64_t meas_utime;   /* time stamp of the measurement that completed step k (0: unknown) */
     int64_t recv_utime;   /* arrival, wall clock (compared only with other arrivals) */
     const void *pay;      /* payload of step k (payload_size bytes) */

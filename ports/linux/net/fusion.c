@@ -12,8 +12,6 @@
  * runtime checkpoints (dkf_diffkf_fc_save / _restore) and restarts
  * (dkf_diffkf_fc_restart_node).
  */
-#include <limits.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,8 +89,8 @@ static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_statu
                        const dkf_diffkf_fc_fault_t *fault)
 {
     if (fault->node == DKF_DIFFKF_FC_NO_NODE)
-        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s)", k, call, dkf_status_str(st),
-                cond_str(fault->which));
+        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s)", k, call,
+                      dkf_status_str(st), cond_str(fault->which));
     else
         dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s, node %zu)", k, call,
                       dkf_status_str(st), cond_str(fault->which), fault->node);
@@ -407,8 +405,8 @@ static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
     return 0;
 }
 
-/* The runtime over the core centre just started (its checkpoint before
- * step 1 is taken now). -1 with err. */
+/* The runtime over the core centre just started: the checkpoint ring, and
+ * the state after the start (before step 1) saved now. -1 with err. */
 static int rt_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
 {
     dkf_fcr_config_t cfg;

@@ -261,6 +261,39 @@ def info_cases():
 
 # ---- uif RTSF: joint state and input, rank H = m -----------------------------
 
+def joint_time_update(x, P, Pd, Pxd, dyn):
+    """The feedthrough filters' time update (27) = (9), (11) at 60 digits:
+    x_{k|k-1} = A x + G d, P_{k|k-1} = [A G] [[P, Pxd], [Pxd^T, Pd]] [A G]^T
+    + Q, with dyn = (A, G, Q, d_{k-1|k-1}); dyn None: the prior as is."""
+    if dyn is None:
+        return x, P
+    A, G, Q = dyn[:3]
+    AG = mp.matrix(A.rows, A.cols + G.cols)
+    for i in range(A.rows):
+        for j in range(A.cols):
+            AG[i, j] = A[i, j]
+        for j in range(G.cols):
+            AG[i, A.cols + j] = G[i, j]
+    n, m = A.rows, G.cols
+    J = mp.matrix(n + m, n + m)
+    for i in range(n + m):
+        for j in range(n + m):
+            if i < n and j < n:
+                J[i, j] = P[i, j]
+            elif i < n:
+                J[i, j] = Pxd[i, j - n]
+            elif j < n:
+                J[i, j] = Pxd[j, i - n]
+            else:
+                J[i, j] = Pd[i - n, j - n]
+    xd = mp.matrix(n + m, 1)
+    for i in range(n):
+        xd[i] = x[i]
+    for i in range(m):
+        xd[n + i] = dyn[3][i]
+    return AG * xd, AG * J * AG.T + Q
+
+
 def rtsf_step(x, P, Pd, Pxd, dyn, C, H, R, y):
     """One RTSF step at 60 digits from docs/uif.md (T = I, B = H); dyn =
     (A, G, Q, d_{k-1|k-1}) or None. Time
@@ -268,32 +301,7 @@ def rtsf_step(x, P, Pd, Pxd, dyn, C, H, R, y):
     R~ = C P C^T + R (14), Pd = (H^T R~^-1 H)^-1, M = Pd H^T R~^-1, d = M ytil
     (15)-(16), K = P C^T R~^-1, L = K (I - H M) (21), x = x_pred + L ytil,
     P = (I - L C) P_pred (I - L C)^T + L R L^T (20), Pxd = -K H Pd (29)."""
-    if dyn is not None:
-        A, G, Q = dyn[:3]
-        AG = mp.matrix(A.rows, A.cols + G.cols)
-        for i in range(A.rows):
-            for j in range(A.cols):
-                AG[i, j] = A[i, j]
-            for j in range(G.cols):
-                AG[i, A.cols + j] = G[i, j]
-        n, m = A.rows, G.cols
-        J = mp.matrix(n + m, n + m)
-        for i in range(n + m):
-            for j in range(n + m):
-                if i < n and j < n:
-                    J[i, j] = P[i, j]
-                elif i < n:
-                    J[i, j] = Pxd[i, j - n]
-                elif j < n:
-                    J[i, j] = Pxd[j, i - n]
-                else:
-                    J[i, j] = Pd[i - n, j - n]
-        xd = mp.matrix(n + m, 1)
-        for i in range(n):
-            xd[i] = x[i]
-        for i in range(m):
-            xd[n + i] = dyn[3][i]
-        x, P = AG * xd, AG * J * AG.T + Q
+    x, P = joint_time_update(x, P, Pd, Pxd, dyn)
     Rt = C * P * C.T + R
     Ri = mp.inverse(Rt)
     Pd = mp.inverse(H.T * Ri * H)

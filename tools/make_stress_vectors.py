@@ -429,6 +429,103 @@ def nrtsf_cases():
     return cases
 
 
+def nrtsf_df_step(x, P, Pd, Pxd, dyn, C, Hb, Tp, R, y):
+    """One NRTSF-DF step at 60 digits from docs/uif.md (H = Hb T a
+    full-rank decomposition, Tp = T^+, B = Hb); dyn = (A, G, Q,
+    d_{k-1|k-1}) or None (the first step: x, P are the prior of x_0).
+    Time update (27) with the minimum-norm d, Pd, Pxd of the step before;
+    R~ = C P C^T + R (14); Pdbar = (Hb^T R~^-1 Hb)^-1, Mbar = Pdbar Hb^T
+    R~^-1, dbar = Mbar ytil (15)-(16), (28); K = P C^T R~^-1, Z = -K Hb,
+    x = x_pred + K ytil + Z dbar, L = K + Z Mbar (= K (I - Hb Mbar), (21));
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (20); d = T^+ dbar, Pd =
+    T^+ Pdbar T^+T, Pxd = Z Pdbar T^+T (29). Checks at 60 digits that the
+    short form P_pred - K R~ K^T + Z Pdbar Z^T ((24)/(29)) agrees and that
+    L Hb = 0 (19)."""
+    xp, Pp = joint_time_update(x, P, Pd, Pxd, dyn)
+    Rt = C * Pp * C.T + R
+    Ri = mp.inverse(Rt)
+    Pdb = mp.inverse(Hb.T * Ri * Hb)
+    Mb = Pdb * Hb.T * Ri
+    yt = y - C * xp
+    db = Mb * yt
+    K = Pp * C.T * Ri
+    Z = -K * Hb
+    L = K + Z * Mb
+    A_ = mp.eye(P.rows) - L * C
+    Pn = A_ * Pp * A_.T + L * R * L.T
+    Ps = Pp - K * Rt * K.T + Z * Pdb * Z.T
+    scale = mp.mnorm(Pn, 1)
+    assert mp.mnorm(Pn - Ps, 1) < mp.mpf(10) ** -30 * scale, "Joseph and short forms differ"
+    assert mp.mnorm(L * Hb, 1) < mp.mpf(10) ** -30 * mp.mnorm(L, 1) * mp.mnorm(Hb, 1)
+    Pd = Tp * Pdb * Tp.T
+    return (xp + K * yt + Z * db, (Pn + Pn.T) / 2, Tp * db, (Pd + Pd.T) / 2,
+            Z * Pdb * Tp.T, Pp)
+
+
+def cond_on_rank(a, r):
+    """sigma_1 / sigma_r of a (its condition number on its rank r; for [C
+    H] with rank H = r_H it is cond([C Hbar]) for an Hbar = H T^T with
+    orthonormal-row T, the decomposition src/uif.c uses, and for every
+    other T the same up to T's own conditioning)."""
+    s = np.linalg.svd(a, compute_uv=False)
+    return float(s[0] / s[r - 1])
+
+
+def nrtsf_df_cases():
+    """NRTSF-DF with p = n + r (y pins x and dbar; [C Hbar] of full column
+    rank): P0 (the prior of x_0; the first step has no time update)
+    eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3, 1e5], 5
+    steps; H of full column rank (n3_m2_r2, Hbar = H, T = I) or of rank
+    2 of 3 (n4_m3_r2, H = [h1, h2, -2 h1] = Hbar T, exact in float32,
+    Hbar = [h1, h2], T^+ = T^T (T T^T)^-1). G is a random n x m (the time
+    update carries the minimum-norm d; the bias it may inject into the
+    true state is not the reference's business)."""
+    rng = np.random.default_rng(20261208)
+    cases = []
+    for n, m, r in ((3, 2, 2), (4, 3, 2)):
+        p = n + r
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        Pd, Pxd, d = mp.zeros(m, m), mp.zeros(n, m), mp.zeros(m, 1)
+        steps = []
+        for k in range(5):
+            Hb = f32(rng.standard_normal((p, r)))
+            if r < m:
+                # H = Hb T exactly in float32: the third column is -2 h1
+                T = np.array([[1.0, 0.0, -2.0], [0.0, 1.0, 0.0]])
+                H = Hb @ T
+                Tm = M(T)
+                Tpm = Tm.T * mp.inverse(Tm * Tm.T)
+            else:
+                H, Tpm = Hb, mp.eye(m)
+            st = {"C": f32(rng.standard_normal((p, n))), "H": H,
+                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            dyn = None
+            if k > 0:
+                st["A"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["G"] = f32(rng.standard_normal((n, m)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                dyn = (M(st["A"]), M(st["G"]), M(st["Q"]), d)
+            x, P, d, Pd, Pxd, Pp = nrtsf_df_step(x, P, Pd, Pxd, dyn, M(st["C"]), M(Hb), Tpm,
+                                                 M(st["R"]), V(st["y"]))
+            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+            rec = {kk: v.tolist() for kk, v in st.items()}
+            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+                       P_min_eig=float(min_eig(P)),
+                       cond_H=cond_on_rank(np.hstack([st["C"], H]), n + r),
+                       rho=float(prior / post))
+            steps.append(rec)
+        cases.append({"name": "nrtsf_df_n%d_m%d_r%d" % (n, m, r), "n": n, "m": m, "p": p,
+                      "rank": r,
+                      "note": "NRTSF-DF, p = n + r, rank H = %d, P0 (prior of x_0) in [1e6, "
+                              "1e8], R in [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps" % r,
+                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
+    return cases
+
+
 # ---- the Difference KF (seed 000): differenced measurements, correlated noise --
 
 def pinv_fcr(A):
@@ -607,7 +704,11 @@ def main():
         "nrtsf_layout": "cases named nrtsf_*: n, m, p, rank, x0, P0 (x_{0|0}), steps[] {A, G, "
                         "Q, C, R, y (no H), reference x, P, d (d_{k-1|k}), Pd, Pxd, "
                         "P_min_eig, cond_H (of C), rho}",
-        "cases": uif_cases() + nrtsf_cases()})
+        "nrtsf_df_layout": "cases named nrtsf_df_*: n, m, p, rank, x0, P0 (the prior of x_0), "
+                           "steps[] as the RTSF's (H may be rank-deficient: H = Hbar T), "
+                           "reference d, Pd, Pxd minimum norm (d = T^+ dbar), cond_H = "
+                           "sigma_1 / sigma_{n+rank} of [C H]",
+        "cases": uif_cases() + nrtsf_cases() + nrtsf_df_cases()})
     write("diffkf", {
         "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
         "layout": "cases[]: n, m, p, x0, P0 (the prior x_{1|0}, P_{1|0}), meas1 {H, A, R, y} "

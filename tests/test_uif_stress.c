@@ -97,8 +97,8 @@ static const double seen_rtsf[2][NOUT] = {{2.7e-13, 2.5e-15, 3.8e-13, 5.2e-6, 1.
 #if DKF_USE_FLOAT
 static const double seen_nrtsf_df[2][NOUT] = {{-1, -1, -1, -1, -1}, {-1, -1, -1, -1, -1}};
 #else
-static const double seen_nrtsf_df[2][NOUT] = {{2.4e-13, 6.7e-15, 1.62e-13, 1.02e-7, 5.3e-7},
-                                              {6.8e-13, 9.9e-13, 4.5e-12, 4.7e-6, 8.1e-6}};
+static const double seen_nrtsf_df[2][NOUT] = {{2.9e-11, 5.4e-12, 2.94e-11, 1.03e-6, 1.5e-6},
+                                              {1.28e-13, 5.3e-15, 1.29e-13, 1.14e-6, 4.1e-6}};
 #endif
 #if DKF_USE_FLOAT
 static const double seen_nrtsf[2][NOUT] = {{1.37e-6, 2.9e-3, 9.1e-7, 2.03e-6, 2.22e4},

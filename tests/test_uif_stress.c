@@ -12,7 +12,8 @@
  * the choice). NRTSF: p = n (C pins
  * x_k, d_{k-1} is seen through x_k - A x_{k-1}), the same scales, G of
  * full column rank and of rank 2 of 3 (G = [g1, g2, -2 g1]). P_{k|k} ~
- * 1e-4 lies rho = 1e5..3e11 below P_{k|k-1} (rho per step in the vector).
+ * 1e-4 lies rho = 1e5..3e11 (NRTSF-DF: 2e3..2e9) below P_{k|k-1} (rho
+ * per step in the vector).
  * (cond([C H]) for RTSF, cond(C) for NRTSF below; for NRTSF-DF cond_H
  * is sigma_1 / sigma_{n+r} of [C H], which is cond([C Hbar]) for the
  * orthonormal-row T that src/uif.c uses: [C H] = [C Hbar] diag(I, T).)

@@ -195,6 +195,7 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
     set_view(&g.U, n, p, &cur);
     set_view(&g.V, n, p, &cur);
     g.work = cur;
+    g.A_ok = storage + DKF_OTSKF_STORAGE_LEN(n, m, p) - m * p;
     /* V_0 = 0: x~_{0|0} = x_{0|0}, P^x_{0|0} = P_{0|0} */
     dkf__copy(g.xt.data, x0->data, n);
     dkf__copy(g.x.data, x0->data, n);
@@ -307,10 +308,30 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
                               n >= p ? s.N2 : s.W1);
 }
 
+/* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
+ * tolerance (docs/matrix.md), before anything is computed; skipped when A_k
+ * is bitwise the last matrix that passed (A_ok), *is_new = 1 otherwise.
+ * The SVD's workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the
+ * update scratch (DKF_OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of
+ * it). DKF_ERR_RANK unless rank A_k = p. */
+static dkf_status_t check_rank_of_A(const dkf_otskf_t *f, const dkf_mat_t *A, int *is_new)
+{
+    size_t rank = 0;
+    *is_new = 0;
+    if (f->a_checked && memcmp(f->A_ok, A->data, f->m * f->p * sizeof *A->data) == 0)
+        return DKF_OK;
+    DKF_TRY(dkf_mat_rank(&rank, A, DKF_RANK_TOL_DEFAULT, f->work));
+    if (rank != f->p) return DKF_ERR_RANK;
+    *is_new = 1;
+    return DKF_OK;
+}
+
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
 {
     dkf_real_t inv[DKF_MAX_DIM];
-    size_t n, m, p, i, rank = 0;
+    size_t n, m, p, i;
+    int a_new;
+    dkf_status_t st;
     const dkf_real_t *H, *A, *R, *Bl;
     upd_scratch_t s;
     DKF_CHECK_NULL(f);
@@ -323,12 +344,7 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     DKF_TRY(dkf__check_input(meas->A, m, p));
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
-    /* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
-     * tolerance (docs/matrix.md), before anything is computed; its
-     * workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the update
-     * scratch (DKF_OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of it) */
-    DKF_TRY(dkf_mat_rank(&rank, meas->A, DKF_RANK_TOL_DEFAULT, f->work));
-    if (rank != p) return DKF_ERR_RANK;
+    DKF_TRY(check_rank_of_A(f, meas->A, &a_new));
     H = meas->H->data;
     A = meas->A->data;
     R = meas->R->data;
@@ -377,5 +393,12 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
 
     /* V = U - K^x S;  x = x~ + V d;  P = P^x + V P^d V^T */
     sub_atb(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
-    return combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn, s.J);
+    st = combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn, s.J);
+    /* A_k passed the check: remembered only with a step that succeeded, so
+     * a failed update leaves all of *f and its storage as they were */
+    if (st == DKF_OK && a_new) {
+        dkf__copy(f->A_ok, A, m * p);
+        f->a_checked = 1;
+    }
+    return st;
 }

@@ -467,7 +467,7 @@ static void test_otskf_failure_atomicity(void **state)
 {
     static otskf_box_t fb, tb;
     static model_t good, md;
-    static dkf_real_t snap[DKF_OTSKF_STATE_LEN(NMAX, PMAX)];
+    static dkf_real_t snap[DKF_OTSKF_STATE_LEN(NMAX, PMAX)], snapA[2 * 2];
     dkf_real_t x0[3] = {DKF_R(1.0), DKF_R(-2.0), DKF_R(0.5)}, d0[2] = {DKF_R(0.3), DKF_R(-0.1)};
     dkf_real_t P0[9] = {DKF_R(2.0), DKF_R(0.3), DKF_R(0.0), DKF_R(0.3), DKF_R(1.0),
                         DKF_R(0.1), DKF_R(0.0), DKF_R(0.1), DKF_R(0.5)};
@@ -499,11 +499,13 @@ static void test_otskf_failure_atomicity(void **state)
             }
             memcpy(&before, &fb.o, sizeof before);
             memcpy(snap, fb.o_storage, slen * sizeof(dkf_real_t));
+            memcpy(snapA, fb.o.A_ok, sizeof snapA);
             if (fl.call == CALL_PREDICT)
                 assert_int_equal(dkf_otskf_predict(&fb.o, &md.dyn), fl.st);
             else
                 assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), fl.st);
             if (memcmp(snap, fb.o_storage, slen * sizeof(dkf_real_t)) != 0 ||
+                memcmp(snapA, fb.o.A_ok, sizeof snapA) != 0 ||
                 memcmp(&before, &fb.o, sizeof before) != 0) {
                 print_error("OTSKF state changed by failing call: %s\n", fl.what);
                 fail();
@@ -516,6 +518,59 @@ static void test_otskf_failure_atomicity(void **state)
             assert_memory_equal(fb.o_storage, tb.o_storage, slen * sizeof(dkf_real_t));
         }
     assert_true(i == 18);
+}
+
+/* The rank check of A_k is remembered for A_k's bits (dkf/otskf.h): a
+ * filter reusing one A agrees bit for bit with one that sees a fresh copy
+ * of it each step (same bits, new address); a different, rank-deficient A
+ * is still refused; an A that passes the check in a step that then fails
+ * (R not SPD) is not remembered. */
+static void test_otskf_rank_memo(void **state)
+{
+    static otskf_box_t fb, tb;
+    static model_t md, bad;
+    dkf_real_t x0[3] = {DKF_R(1.0), DKF_R(-2.0), DKF_R(0.5)}, d0[2] = {DKF_R(0.3), DKF_R(-0.1)};
+    dkf_real_t P0[9] = {DKF_R(2.0), DKF_R(0.3), DKF_R(0.0), DKF_R(0.3), DKF_R(1.0),
+                        DKF_R(0.1), DKF_R(0.0), DKF_R(0.1), DKF_R(0.5)};
+    dkf_real_t Pd0[4] = {DKF_R(1.0), DKF_R(0.2), DKF_R(0.2), DKF_R(1.0)}, Acopy[4];
+    dkf_mat_t mx0 = test_view(3, 1, x0), mP0 = test_view(3, 3, P0), md0 = test_view(2, 1, d0),
+              mPd0 = test_view(2, 2, Pd0), mAcopy = test_view(2, 2, Acopy);
+    const size_t len = DKF_OTSKF_STORAGE_LEN(3, 2, 2);
+    dkf_ui_meas_t fresh;
+    int k;
+    (void)state;
+    fixed_model(&md);
+    assert_int_equal(dkf_otskf_init(&fb.o, 3, 2, 2, fb.o_storage, len, &mx0, &mP0, &md0, &mPd0),
+                     DKF_OK);
+    assert_int_equal(dkf_otskf_init(&tb.o, 3, 2, 2, tb.o_storage, len, &mx0, &mP0, &md0, &mPd0),
+                     DKF_OK);
+    assert_int_equal(fb.o.a_checked, 0);
+    fresh = md.meas;
+    fresh.A = &mAcopy;
+    for (k = 0; k < 5; ++k) {
+        assert_int_equal(dkf_otskf_predict(&fb.o, &md.dyn), DKF_OK);
+        assert_int_equal(dkf_otskf_predict(&tb.o, &md.dyn), DKF_OK);
+        assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), DKF_OK);
+        memcpy(Acopy, md.A, sizeof Acopy);
+        tb.o.a_checked = 0; /* the twin checks every step */
+        assert_int_equal(dkf_otskf_update(&tb.o, &fresh, &md.my), DKF_OK);
+        assert_memory_equal(fb.o_storage, tb.o_storage,
+                            DKF_OTSKF_STATE_LEN(3, 2) * sizeof(dkf_real_t));
+    }
+    assert_int_equal(fb.o.a_checked, 1);
+    assert_memory_equal(fb.o.A_ok, md.A, 4 * sizeof(dkf_real_t));
+    /* rank A = 1 (second column = 2 x first): refused although a full-rank A is remembered */
+    fixed_model(&bad);
+    bad.A[1] = DKF_R(2.0) * bad.A[0];
+    bad.A[3] = DKF_R(2.0) * bad.A[2];
+    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.my), DKF_ERR_RANK);
+    /* a new full-rank A in an update that fails later (R = -I): not remembered */
+    fixed_model(&bad);
+    bad.A[1] = DKF_R(0.25);
+    bad.R[0] = bad.R[3] = DKF_R(-1.0);
+    bad.R[1] = bad.R[2] = DKF_R(0.0);
+    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.my), DKF_ERR_NOT_SPD);
+    assert_memory_equal(fb.o.A_ok, md.A, 4 * sizeof(dkf_real_t));
 }
 
 static void test_askf_failure_atomicity(void **state)
@@ -657,6 +712,7 @@ int main(void)
         cmocka_unit_test(test_otskf_matches_ex1_vector),
         cmocka_unit_test(test_otskf_equals_askf_random),
         cmocka_unit_test(test_otskf_failure_atomicity),
+        cmocka_unit_test(test_otskf_rank_memo),
         cmocka_unit_test(test_askf_failure_atomicity),
         cmocka_unit_test(test_init_and_argument_errors),
     };

@@ -26,7 +26,9 @@
 
 /* Storage, in reals, for state n, measurement m, input p: the state
  * (x~, x, P^x, P, d, P^d, U, V), then scratch for the larger of the two
- * steps (exact: dkf_otskf_init accepts no less). */
+ * steps, then a copy of the last A_k found of full column rank (m p; the
+ * rank check's SVD is skipped while A_k is bitwise that matrix). Exact:
+ * dkf_otskf_init accepts no less. */
 #define DKF_OTSKF_STATE_LEN(n, p) \
     (2 * (n) + 2 * (n) * (n) + (p) + (p) * (p) + 2 * (n) * (p))
 #define DKF_OTSKF_PREDICT_LEN(n, p) \
@@ -40,7 +42,8 @@
     (DKF_OTSKF_STATE_LEN(n, p) + \
      (DKF_OTSKF_PREDICT_LEN(n, p) > DKF_OTSKF_UPDATE_LEN(n, m, p) \
           ? DKF_OTSKF_PREDICT_LEN(n, p) \
-          : DKF_OTSKF_UPDATE_LEN(n, m, p)))
+          : DKF_OTSKF_UPDATE_LEN(n, m, p)) + \
+     (m) * (p))
 
 typedef struct {
     size_t n, m, p;
@@ -50,6 +53,8 @@ typedef struct {
     dkf_mat_t x, P;    /* combined estimate x = x~ + U d (or V d) and its
                           covariance P = P^x + U P^d U^T (or V P^d V^T) */
     dkf_real_t *work;  /* step scratch (not state) */
+    dkf_real_t *A_ok;  /* m x p: the last A_k that passed the rank check */
+    int a_checked;     /* 1 once A_ok holds such a matrix */
     int blend_is_v;    /* 1 after init/update (x = x~ + V d), 0 after predict */
     int ready;
 } dkf_otskf_t;
@@ -73,7 +78,8 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
 /* Measurement update with y_k and the model at k. DKF_ERR_RANK if A_k
  * lacks full column rank p (numerical rank by SVD with
- * DKF_RANK_TOL_DEFAULT; so also whenever p > m), DKF_ERR_NOT_SPD if the
+ * DKF_RANK_TOL_DEFAULT; so also whenever p > m; skipped while A_k is
+ * bitwise the last A that passed), DKF_ERR_NOT_SPD if the
  * bias-free innovation covariance H P^x H^T + R or the bias filter's
  * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD, or if the updated
  * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in

@@ -259,7 +259,7 @@ def info_cases():
     return cases
 
 
-# ---- uif RTSF: joint state and input, rank H = m -----------------------------
+# ---- uif RTSF, NRTSF-DF, NRTSF: joint state and input -------------------------
 
 def joint_time_update(x, P, Pd, Pxd, dyn):
     """The feedthrough filters' time update (27) = (9), (11) at 60 digits:
@@ -296,8 +296,9 @@ def joint_time_update(x, P, Pd, Pxd, dyn):
 
 def nrtsf_df_step(x, P, Pd, Pxd, dyn, C, Hb, Tp, R, y):
     """One NRTSF-DF step at 60 digits from docs/uif.md (H = Hb T a
-    full-rank decomposition, Tp = T^+, B = Hb; RTSF: Hb = H, Tp = I); dyn = (A, G, Q,
-    d_{k-1|k-1}) or None (the first step: x, P are the prior of x_0).
+    full-rank decomposition, Tp = T^+, B = Hb; the RTSF step is Hb = H,
+    Tp = I); dyn = (A, G, Q, d_{k-1|k-1}) or None (the first step: x, P
+    are the prior of x_0).
     Time update (27) with the minimum-norm d, Pd, Pxd of the step before;
     R~ = C P C^T + R (14); Pdbar = (Hb^T R~^-1 Hb)^-1, Mbar = Pdbar Hb^T
     R~^-1, dbar = Mbar ytil (15)-(16), (28); K = P C^T R~^-1, Z = -K Hb,

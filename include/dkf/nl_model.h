@@ -60,18 +60,7 @@ typedef struct dkf_nl_model {
     void (*y_diff)(void *ctx, const dkf_real_t *a, const dkf_real_t *b, dkf_real_t *out);
 } dkf_nl_model_t;
 
-/* Relative step of the forward differences: component j of the point v
- * moves by DKF_NL_FD_STEP * max(1, |v_j|). Double: 1e-5, seed 001's
- * eq. 44. Float: 3e-4 ~ sqrt(FLT_EPSILON), the step that balances the
- * truncation error (~ step) against the rounding error (~ eps / step);
- * 1e-5 in float would leave ~1 % of rounding error in every derivative. */
-#ifndef DKF_NL_FD_STEP
-#if DKF_USE_FLOAT
-#define DKF_NL_FD_STEP 3e-4f
-#else
-#define DKF_NL_FD_STEP 1e-5
-#endif
-#endif
+/* The forward differences' step: DKF_NL_FD_STEP (dkf/config.h). */
 
 /* Scratch, in reals, of dkf_nl_f_jacobian / dkf_nl_h_jacobian: the two
  * Jacobians (r x (n + p), r = max(n, m)), two function values (r each)

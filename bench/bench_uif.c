@@ -85,7 +85,7 @@ static void make_model(void)
         md0[i] = (dkf_real_t)d0[i];
     }
     dyn.F = &vF, dyn.Q = &vQ, dyn.B = &vB, dyn.Rd = &vRd;
-    meas.H = &vH, meas.A = &vA, meas.R = &vR;
+    meas.H = &vH, meas.D = &vA, meas.R = &vR;
 
     /* x_{k+1} = F x_k + v, d_{k+1} = B d_k + wd, y_k = H x_k + A d_k + w */
     rng.s = UINT64_C(0x5EED000E1);

@@ -117,14 +117,14 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     p = f->p;
     N = n + p;
     DKF_TRY(dkf__check_input(meas->H, m, n));
-    DKF_TRY(dkf__check_input(meas->A, m, p));
+    DKF_TRY(dkf__check_input(meas->D, m, p));
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
     /* H^a = [H  A] */
     Ha.rows = m, Ha.cols = N, Ha.data = aug_ha(f);
     for (i = 0; i < m; ++i) {
         dkf__copy(Ha.data + i * N, meas->H->data + i * n, n);
-        dkf__copy(Ha.data + i * N + n, meas->A->data + i * p, p);
+        dkf__copy(Ha.data + i * N + n, meas->D->data + i * p, p);
     }
     return dkf_kf_update(&f->kf, &Ha, meas->R, y);
 }

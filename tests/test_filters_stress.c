@@ -71,7 +71,7 @@ static void load_aug_step(aug_step_t *s, const json_t *st)
     test_json_mat(test_json_get(st, "A"), s->A, NM * NM, &s->Am);
     test_json_mat(test_json_get(st, "R"), s->R, NM * NM, &s->Rm);
     test_json_mat(test_json_get(st, "y"), s->y, NM, &s->ym);
-    s->meas.H = &s->Hm, s->meas.A = &s->Am, s->meas.R = &s->Rm;
+    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
 }
 
 /* Worst relative errors of one filter over a case: x, P, d, Pd. */
@@ -326,7 +326,7 @@ static void test_indefinite_covariance_refused(void **state)
         TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_otskf_predict(&ot, &dyn), ot_storage, len);
     }
     { /* uif, NRTSF-DF with H = 0: a Kalman step with R = -1.5 */
-        dkf_uif_meas_t meas = {&C, &Z1, &Rn};
+        dkf_ui_meas_t meas = {&C, &Z1, &Rn};
         const size_t len = DKF__UIF_OUT_LEN(2, 1, 1);
         assert_int_equal(dkf_uif_init(&uf, DKF_UIF_NRTSF_DF, 2, 1, 1, uf_storage,
                                       DKF_UIF_STORAGE_LEN(2, 1, 1), &x0, &I2),

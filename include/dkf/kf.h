@@ -21,6 +21,19 @@
 
 #include "dkf/mat.h"
 
+/* The model of one step without an unknown input (letters of
+ * dkf/ui_model.h). kf and info take the dynamics and the measurement model
+ * as these structs; dkf/tw.h's sensors are dkf_kf_meas_t. */
+typedef struct {
+    const dkf_mat_t *F; /* F_k, n x n */
+    const dkf_mat_t *Q; /* Q_k, n x n, symmetric PSD */
+} dkf_kf_dyn_t;
+
+typedef struct {
+    const dkf_mat_t *H; /* H_k, m x n */
+    const dkf_mat_t *R; /* R_k, m x m, SPD */
+} dkf_kf_meas_t;
+
 /* Reals a filter of state dimension n and measurement capacity m needs:
  * x, P, nu, S, and scratch for one step (Joseph form included). */
 #define DKF_KF_STORAGE_LEN(n, m) \

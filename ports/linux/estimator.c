@@ -659,7 +659,7 @@ static int group_init(group_t *g, const dkf_scenario_t *s, const size_t *idx, si
     q += n * n;
     g->work = q;
     g->meas.H = &g->H;
-    g->meas.A = &g->A;
+    g->meas.D = &g->A;
     g->meas.R = &g->R;
     return 0;
 }

@@ -245,13 +245,13 @@ typedef struct {
 static dkf_status_t kf_predict_call(void *c)
 {
     kf_ctx_t *k = c;
-    return dkf_kf_predict(&k->kf, &k->F.v, &k->Q.v, &k->u.v);
+    return dkf_kf_predict(&k->kf, &(dkf_kf_dyn_t){&k->F.v, &k->Q.v}, &k->u.v);
 }
 
 static dkf_status_t kf_update_call(void *c)
 {
     kf_ctx_t *k = c;
-    return dkf_kf_update(&k->kf, &k->H.v, &k->R.v, &k->y.v);
+    return dkf_kf_update(&k->kf, &(dkf_kf_meas_t){&k->H.v, &k->R.v}, &k->y.v);
 }
 
 static void test_kf(void **state)
@@ -284,7 +284,7 @@ static void test_kf(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, kf_update_call(&k), "kf_update: R = -I");
     mset(&k.R, 2, 2, R);
     mset(&H3, 3, 3, F3);
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_kf_update(&k.kf, &H3.v, &k.R.v, &k.y.v),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_kf_update(&k.kf, &(dkf_kf_meas_t){&H3.v, &k.R.v}, &k.y.v),
                      "kf_update: m > m_max");
     meye(&k.F, 3, (double)huge_value());
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, kf_predict_call(&k), "kf_predict: F P F^T overflows");
@@ -293,9 +293,9 @@ static void test_kf(void **state)
     memset(&blank, 0, sizeof blank);
     reg_clear(&k.g);
     reg_add(&k.g, &blank, sizeof blank);
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_predict(&blank, &k.F.v, &k.Q.v, NULL),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_predict(&blank, &(dkf_kf_dyn_t){&k.F.v, &k.Q.v}, NULL),
                      "kf_predict before init");
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_update(&blank, &k.H.v, &k.R.v, &k.y.v),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_update(&blank, &(dkf_kf_meas_t){&k.H.v, &k.R.v}, &k.y.v),
                      "kf_update before init");
     /* a failed init never writes *kf */
     reg_clear(&k.g);
@@ -321,7 +321,7 @@ typedef struct {
 static dkf_status_t info_predict_call(void *c)
 {
     info_ctx_t *k = c;
-    return dkf_info_predict(&k->f, &k->F.v, &k->Q.v);
+    return dkf_info_predict(&k->f, &(dkf_kf_dyn_t){&k->F.v, &k->Q.v});
 }
 
 static dkf_status_t info_fuse_call(void *c)
@@ -339,7 +339,7 @@ typedef struct {
 static dkf_status_t contrib_call(void *c)
 {
     contrib_ctx_t *k = c;
-    return dkf_info_contribution(&k->i.v, &k->I.v, &k->C.v, &k->R.v, &k->z.v, k->work);
+    return dkf_info_contribution(&k->i.v, &k->I.v, &(dkf_kf_meas_t){&k->C.v, &k->R.v}, &k->z.v, k->work);
 }
 
 static void test_info(void **state)

@@ -256,7 +256,7 @@ static void test_info_pinned(void **state)
             if (json_object_get(st, "F") != NULL) {
                 test_json_mat(test_json_get(st, "F"), F, NM * NM, &Fm);
                 test_json_mat(test_json_get(st, "Q"), Q, NM * NM, &Qm);
-                assert_int_equal(dkf_info_predict(&b.f, &Fm, &Qm), DKF_OK);
+                assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&Fm, &Qm}), DKF_OK);
             }
             for (s = 0; s < 2; ++s) {
                 const json_t *se = json_array_get(sens, s);
@@ -265,7 +265,7 @@ static void test_info_pinned(void **state)
                 test_json_mat(test_json_get(se, "z"), z, NM, &zm);
                 ivm[s] = test_view(n, 1, iv[s]);
                 Imm[s] = test_view(n, n, Im[s]);
-                assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &Cm, &Rm, &zm, work),
+                assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &(dkf_kf_meas_t){&Cm, &Rm}, &zm, work),
                                  DKF_OK);
                 assert_true(test_psd_within(Im[s], n, 4.0 * NM * TEST_EPS));
             }

@@ -96,11 +96,11 @@ dkf_status_t m4_demo_run(dkf_real_t x_out[4])
                     sizeof filter_storage / sizeof filter_storage[0], &x0, &P0);
     if (s != DKF_OK) return s;
     for (k = 0; k < DEMO_STEPS; ++k) {
-        s = dkf_kf_predict(&filter, &F, &Q, NULL);
+        s = dkf_kf_predict(&filter, &(dkf_kf_dyn_t){&F, &Q}, NULL);
         if (s != DKF_OK) return s;
         y_data[0] = track[k][0];
         y_data[1] = track[k][1];
-        s = dkf_kf_update(&filter, &H, &R, &y);
+        s = dkf_kf_update(&filter, &(dkf_kf_meas_t){&H, &R}, &y);
         if (s != DKF_OK) return s;
     }
     for (i = 0; i < DEMO_N; ++i) {

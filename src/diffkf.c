@@ -2,7 +2,10 @@
  * The Difference Kalman filter (dkf/diffkf.h): seed 000 Theorem 1 in the
  * corrected form of docs/diffkf.md §3-4.
  *
- * Notation (library dimensions n state, m measurement, p input):
+ * Notation (library dimensions n state, m measurement, p input; A_k is the
+ * paper's letter for the feedthrough, the API's meas->D, kept here and in
+ * the names below so that the code reads beside the paper; G_k is the
+ * paper's differencing matrix):
  *   G_k   = B_k^{-1} A_{k+1}^+                            p x m   (8)
  *   M_k   = G_k H_{k+1} F_k - A_k^+ H_k                   p x n   (11)
  *   Ru_k  = Cov(u_k) = G H Q H^T G^T + B^{-1} Rd B^{-T}

@@ -11,7 +11,8 @@
  * and Y = Rd - Rd (P^d)^{-1} Rd, which is symmetric, so P^x stays exactly
  * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: note §5.)
  *
- * Measurement update, from x = x~ + U d (U = U_k after a predict):
+ * Measurement update, from x = x~ + U d (U = U_k after a predict; A is the
+ * feedthrough meas->D, the paper's A_k):
  *   S   = H U + A                         Sx = H P^x H^T + R
  *   K^x = P^x H^T Sx^{-1}                 x~ += K^x (y - H x~)
  *   P^x = (I - K^x H) P^x (I - K^x H)^T + K^x R K^x^T   (Joseph; DKF_JOSEPH=0:

@@ -2,7 +2,9 @@
  * Seed 003's centralized two-stage filter (Algorithm 1,
  * dkf_tw_central_step) where the sensors pin the state, against 60-digit
  * references (tests/vectors/stress/tw.json, written by
- * tools/make_stress_vectors.py in the covariance forms dkf/tw.h prints --
+ * tools/make_stress_vectors.py in the covariance forms, in the paper's
+ * letters throughout this comment (B = the API's G, Q = I, Sv = Q, Sw = R,
+ * p = rows per sensor, z = d) --
  * the stacked KF update for phi+, Phi+, G = (I - Phi+ Q) B, S = B^T (Q -
  * Q Phi+ Q) B -- not in src/tw.c's information form; every input
  * float32-exact): N = 3 sensors of 2 rows (the stacked H has full column

@@ -36,14 +36,14 @@ static void assemble_blocks(dkf_real_t *Out, const dkf_real_t *X, const dkf_real
 {
     const size_t N = n + p;
     size_t i, j;
-    for (i = 0; i < n; ++i) {
-        dkf__copy(Out + i * N, X + i * n, n);
-        for (j = 0; j < p; ++j) Out[i * N + n + j] = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
-    }
-    for (i = 0; i < p; ++i) {
-        for (j = 0; j < n; ++j) Out[(n + i) * N + j] = Y != NULL ? Y[j * p + i] : DKF_R(0.0);
-        dkf__copy(Out + (n + i) * N + n, Z + i * p, p);
-    }
+    dkf__put_block(Out, N, 0, 0, X, n, n);
+    dkf__put_block(Out, N, n, n, Z, p, p);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < p; ++j) {
+            const dkf_real_t y = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
+            Out[i * N + n + j] = y;
+            Out[(n + j) * N + i] = y;
+        }
 }
 
 dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
@@ -108,7 +108,7 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
 dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
 {
     dkf_mat_t Ha;
-    size_t n, m, p, N, i;
+    size_t n, m, p, N;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
@@ -121,11 +121,9 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
     /* H^a = [H  A] */
-    Ha.rows = m, Ha.cols = N, Ha.data = aug_ha(f);
-    for (i = 0; i < m; ++i) {
-        dkf__copy(Ha.data + i * N, meas->H->data + i * n, n);
-        dkf__copy(Ha.data + i * N + n, meas->A->data + i * p, p);
-    }
+    dkf__view(&Ha, m, N, aug_ha(f));
+    dkf__put_block(Ha.data, N, 0, 0, meas->H->data, m, n);
+    dkf__put_block(Ha.data, N, 0, n, meas->A->data, m, p);
     return dkf_kf_update(&f->kf, &Ha, meas->R, y);
 }
 

@@ -197,9 +197,8 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
         for (e = 0; e < n * n; ++e) s.C[e] += I[j].data[e];
         for (e = 0; e < n; ++e) s.yn[e] += i[j].data[e];
     }
-#if DKF_SYMMETRISE
+    /* the I_j come from outside: Y's factorisation reads one triangle */
     dkf__symmetrise(s.C, n);
-#endif
     /* P = Y^{-1}, x = P y (an overflow of the sums is NONFINITE) */
     DKF_TRY(invert_spd(s.B, s.xn, s.A, s.C, s.yn, n));
     return commit(f, s.xn, s.B, s.yn, s.C, s.A);

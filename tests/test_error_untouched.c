@@ -1471,6 +1471,50 @@ static void test_exact_storage(void **state)
     print_message("exact storage: %zu shapes checked\n", checked);
 }
 
+/* Every DKF_*_DECLARE gives an array of exactly *_STORAGE_LEN reals that
+ * init accepts; the fusion centre's, one for sensors up to (mx, px), also
+ * serves smaller ones (here (3, 2) and (2, 1)). */
+DKF_KF_DECLARE(static, dk_kf, 4, 2);
+DKF_INFO_DECLARE(static, dk_info, 3);
+DKF_ASKF_DECLARE(static, dk_askf, 3, 2, 1);
+DKF_OTSKF_DECLARE(static, dk_otskf, 3, 2, 1);
+DKF_DIFFKF_DECLARE(static, dk_diffkf, 3, 2, 1);
+DKF_DIFFKF_FC_DECLARE(static, dk_fc, 3, 2, 3, 2);
+
+#define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
+
+static void test_declare_macros(void **state)
+{
+    static const size_t fm[2] = {3, 2}, fp[2] = {2, 1};
+    dkf_mat_t x = xs_x(3), P = xs_eye(3), d = xs_x(1), Pd = xs_eye_in(1, 1);
+    (void)state;
+    assert_int_equal(ARRAY_LEN(dk_kf_storage), DKF_KF_STORAGE_LEN(4, 2));
+    assert_int_equal(ARRAY_LEN(dk_info_storage), DKF_INFO_STORAGE_LEN(3));
+    assert_int_equal(ARRAY_LEN(dk_askf_storage), DKF_ASKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_otskf_storage), DKF_OTSKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_diffkf_storage), DKF_DIFFKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_fc_storage), DKF_DIFFKF_FC_STORAGE_LEN(3, 2, 3, 2));
+    assert_int_equal(ARRAY_LEN(dk_fc_nodes), 2);
+    assert_true(dkf_diffkf_fc_storage_len(3, 2, fm, fp) <= ARRAY_LEN(dk_fc_storage));
+    assert_int_equal(dkf_info_init(&dk_info, 3, dk_info_storage, ARRAY_LEN(dk_info_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(dkf_askf_init(&dk_askf, 3, 2, 1, dk_askf_storage, ARRAY_LEN(dk_askf_storage),
+                                   &x, &P, &d, &Pd, NULL),
+                     DKF_OK);
+    assert_int_equal(dkf_otskf_init(&dk_otskf, 3, 2, 1, dk_otskf_storage,
+                                    ARRAY_LEN(dk_otskf_storage), &x, &P, &d, &Pd),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_init(&dk_diffkf, 3, 2, 1, dk_diffkf_storage,
+                                     ARRAY_LEN(dk_diffkf_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_fc_init(&dk_fc, dk_fc_nodes, 2, 3, fm, fp, dk_fc_storage,
+                                        ARRAY_LEN(dk_fc_storage), &x, &P, NULL, NULL),
+                     DKF_OK);
+    x = xs_x(4), P = xs_eye(4);
+    assert_int_equal(dkf_kf_init(&dk_kf, 4, 2, dk_kf_storage, ARRAY_LEN(dk_kf_storage), &x, &P),
+                     DKF_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1480,6 +1524,7 @@ int main(void)
         cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
         cmocka_unit_test(test_tw_net),
         cmocka_unit_test(test_exact_storage),
+        cmocka_unit_test(test_declare_macros),
     };
     const int failed = cmocka_run_group_tests(tests, NULL, NULL);
     print_message("%zu failing calls checked\n", n_checked);

@@ -45,7 +45,7 @@
 #define DKF_JOSEPH 1
 #endif
 
-/* DKF_SYMMETRISE is gone (docs/decisions.md item 18): every covariance a
+/* DKF_SYMMETRISE is gone (docs/decisions.md item 19): every covariance a
  * filter stores is symmetric by construction (upper triangle formed and
  * mirrored), and the two sums that are symmetrised, (P + P^T)/2, always
  * are. Defining it 1 is accepted (what the library does); 0 is refused. */
@@ -132,7 +132,7 @@ typedef double dkf_real_t;
 #error "DKF_JOSEPH must be 0 or 1"
 #endif
 #if defined(DKF_SYMMETRISE) && DKF_SYMMETRISE != 1
-#error "DKF_SYMMETRISE must be 1 if defined: the switch was removed (docs/decisions.md item 18)"
+#error "DKF_SYMMETRISE must be 1 if defined: the switch was removed (docs/decisions.md item 19)"
 #endif
 #if DKF_SVD_MAX_SWEEPS < 1
 #error "DKF_SVD_MAX_SWEEPS must be at least 1"

@@ -16,17 +16,29 @@
 #include "internal.h"
 #include "kernels.h"
 
-/* Storage after the KF's: Phi | Q^a | H^a. */
-static dkf_real_t *aug_phi(const dkf_askf_t *f) { return f->aug; }
-static dkf_real_t *aug_qa(const dkf_askf_t *f)
+/* The storage: the KF's on N = n + p states, then the augmented model
+ * built per step, Phi and Q^a (N x N each) and H^a (m x N). With base ==
+ * NULL it only counts (DKF_ASKF_STORAGE_LEN). */
+typedef struct {
+    dkf_real_t *kf, *phi, *qa, *ha;
+} askf_layout_t;
+
+static size_t askf_layout(askf_layout_t *L, dkf_real_t *base, size_t N, size_t m)
 {
-    const size_t N = f->n + f->p;
-    return f->aug + N * N;
+    size_t used = 0;
+    DKF_TAKE(L->kf, DKF_KF_STORAGE_LEN(N, m));
+    DKF_TAKE(L->phi, N * N);
+    DKF_TAKE(L->qa, N * N);
+    DKF_TAKE(L->ha, m * N);
+    return used;
 }
-static dkf_real_t *aug_ha(const dkf_askf_t *f)
+
+/* The layout of an initialised filter (its storage starts with the KF's x). */
+static askf_layout_t layout_of(const dkf_askf_t *f)
 {
-    const size_t N = f->n + f->p;
-    return f->aug + 2 * N * N;
+    askf_layout_t L;
+    (void)askf_layout(&L, f->kf.x.data, f->n + f->p, f->m);
+    return L;
 }
 
 /* Out (N x N, N = n + p) = [[X, Y], [Y^T, Z]] with X n x n, Z p x p and
@@ -52,13 +64,15 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
 {
     dkf_askf_t g;
     dkf_mat_t X0, Pa0;
-    size_t N, kf_len;
+    askf_layout_t L;
+    size_t N;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(storage);
     if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM ||
         n + p > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    if (storage_len < DKF_ASKF_STORAGE_LEN(n, m, p)) return DKF_ERR_CAPACITY;
+    N = n + p;
+    if (storage_len < askf_layout(&L, NULL, N, m)) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     DKF_TRY(dkf__check_input(d0, p, 1));
@@ -69,16 +83,15 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
     g.n = n;
     g.m = m;
     g.p = p;
-    N = n + p;
-    kf_len = DKF_KF_STORAGE_LEN(N, m);
-    g.aug = storage + kf_len;
+    (void)askf_layout(&L, storage, N, m);
+    g.aug = L.phi;
     /* X0 and P^a_0 are staged in the (still unused) Q^a and Phi areas */
-    X0.rows = N, X0.cols = 1, X0.data = aug_qa(&g);
-    Pa0.rows = N, Pa0.cols = N, Pa0.data = aug_phi(&g);
+    dkf__view(&X0, N, 1, L.qa);
+    dkf__view(&Pa0, N, N, L.phi);
     dkf__copy(X0.data, x0->data, n);
     dkf__copy(X0.data + n, d0->data, p);
     assemble_blocks(Pa0.data, P0->data, Pxd0 != NULL ? Pxd0->data : NULL, Pd0->data, n, p);
-    DKF_TRY(dkf_kf_init(&g.kf, N, m, storage, kf_len, &X0, &Pa0));
+    DKF_TRY(dkf_kf_init(&g.kf, N, m, L.kf, DKF_KF_STORAGE_LEN(N, m), &X0, &Pa0));
     g.ready = 1;
     *f = g;
     return DKF_OK;
@@ -87,6 +100,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
 dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
 {
     dkf_mat_t Phi, Qa;
+    askf_layout_t L;
     size_t n, p, N;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
@@ -98,8 +112,9 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
     DKF_TRY(dkf__check_input(dyn->Q, n, n));
     DKF_TRY(dkf__check_input(dyn->B, p, p));
     DKF_TRY(dkf__check_input(dyn->Rd, p, p));
-    Phi.rows = Phi.cols = N, Phi.data = aug_phi(f);
-    Qa.rows = Qa.cols = N, Qa.data = aug_qa(f);
+    L = layout_of(f);
+    dkf__view(&Phi, N, N, L.phi);
+    dkf__view(&Qa, N, N, L.qa);
     assemble_blocks(Phi.data, dyn->F->data, NULL, dyn->B->data, n, p);
     assemble_blocks(Qa.data, dyn->Q->data, NULL, dyn->Rd->data, n, p);
     return dkf_kf_predict(&f->kf, &Phi, &Qa, NULL);
@@ -121,7 +136,7 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
     /* H^a = [H  A] */
-    dkf__view(&Ha, m, N, aug_ha(f));
+    dkf__view(&Ha, m, N, layout_of(f).ha);
     dkf__put_block(Ha.data, N, 0, 0, meas->H->data, m, n);
     dkf__put_block(Ha.data, N, 0, n, meas->A->data, m, p);
     return dkf_kf_update(&f->kf, &Ha, meas->R, y);

@@ -362,12 +362,9 @@ static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_
 static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
                         const dkf_real_t *inv, size_t r, size_t p, dkf_real_t *tmp)
 {
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < p; ++j) tmp[j * r + i] = Y[i * p + j];
+    dkf__transpose(tmp, Y, r, p);
     dkf__chol_solve(Lc, inv, tmp, p, r);
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < p; ++j) Out[i * p + j] = tmp[j * r + i];
+    dkf__transpose(Out, tmp, p, r);
 }
 
 /* The data-independent part of the next-step carry that depends only on

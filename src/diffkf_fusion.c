@@ -84,11 +84,11 @@ static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_
 /* The storage, state first (dkf_diffkf_fc_state_len: the replicas'
  * storage, the committed z dz, the central filter's storage, whose first
  * DKF_DIFFKF_STATE_LEN reals end the state), then scratch: the replicas'
- * snapshots, the snapshot of the central state, the stacked H A R B Rd,
+ * snapshots, the snapshot of the central state, the stacked H D R B Rd,
  * the pending z dz, (K^i)^+, the workspace. */
 typedef struct {
     dkf_real_t *zs, *central;                    /* state (with the replicas') */
-    dkf_real_t *central_snap, *H, *A, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
+    dkf_real_t *central_snap, *H, *D, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
     size_t state_len;
 } fc_layout_t;
 
@@ -114,7 +114,7 @@ static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *
     }
     DKF_TAKE(L->central_snap, DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps));
     DKF_TAKE(L->H, d->ms * n);
-    DKF_TAKE(L->A, d->ms * d->ps);
+    DKF_TAKE(L->D, d->ms * d->ps);
     DKF_TAKE(L->R, d->ms * d->ms);
     DKF_TAKE(L->B, d->ps * d->ps);
     DKF_TAKE(L->Rd, d->ps * d->ps);
@@ -206,7 +206,7 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     g.central_store = L.central;
     g.central_snap = L.central_snap;
     dkf__view(&g.H, d.ms, n, L.H);
-    dkf__view(&g.A, d.ms, d.ps, L.A);
+    dkf__view(&g.D, d.ms, d.ps, L.D);
     dkf__view(&g.R, d.ms, d.ms, L.R);
     dkf__view(&g.B, d.ps, d.ps, L.B);
     dkf__view(&g.Rd, d.ps, d.ps, L.Rd);
@@ -292,7 +292,7 @@ static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_s
 static dkf_diffkf_fc_cond_t cond_of(dkf_status_t st)
 {
     switch (st) {
-    case DKF_ERR_RANK: return DKF_DIFFKF_FC_A_RANK;
+    case DKF_ERR_RANK: return DKF_DIFFKF_FC_D_RANK;
     case DKF_ERR_SINGULAR: return DKF_DIFFKF_FC_B_SINGULAR;
     case DKF_ERR_NOT_SPD: return DKF_DIFFKF_FC_L_NOT_SPD;
     case DKF_ERR_NONFINITE: return DKF_DIFFKF_FC_NONFINITE;
@@ -308,7 +308,7 @@ static dkf_status_t check_sensor(const dkf_diffkf_fc_t *fc, size_t i, const dkf_
 {
     const size_t n = fc->n, mi = fc->nodes[i].m, pi = fc->nodes[i].p;
     DKF_TRY(dkf__check_input(s->meas.H, mi, n));
-    DKF_TRY(dkf__check_input(s->meas.A, mi, pi));
+    DKF_TRY(dkf__check_input(s->meas.D, mi, pi));
     DKF_TRY(dkf__check_input(s->meas.R, mi, mi));
     DKF_TRY(dkf__check_input(s->B, pi, pi));
     if (want_rd) DKF_TRY(dkf__check_input(s->Rd, pi, pi));
@@ -326,7 +326,7 @@ static dkf_status_t check_sensors(const dkf_diffkf_fc_t *fc, const dkf_diffkf_se
     return DKF_OK;
 }
 
-/* fc->H, A, R (and B, Rd when want_input) from the sensors' models. */
+/* fc->H, D, R (and B, Rd when want_input) from the sensors' models. */
 static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
                                 int want_input)
 {
@@ -338,12 +338,12 @@ static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
         Bi[i] = sensors[i].B;
         Rdi[i] = sensors[i].Rd;
     }
-    DKF_TRY(dkf_diffkf_stack_meas(&fc->H, &fc->A, &fc->R, meas, fc->l));
+    DKF_TRY(dkf_diffkf_stack_meas(&fc->H, &fc->D, &fc->R, meas, fc->l));
     if (want_input) DKF_TRY(dkf_diffkf_stack_input(&fc->B, &fc->Rd, Bi, Rdi, fc->l));
     return DKF_OK;
 }
 
-/* The set-up conditions on sensor i's model at one time: A^i of full
+/* The set-up conditions on sensor i's model at one time: D^i of full
  * column rank (rank by SVD with the library's default tolerance) and B^i
  * nonsingular (LU pivot test of dkf_mat_lu). */
 static dkf_status_t check_ranks(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
@@ -354,9 +354,9 @@ static dkf_status_t check_ranks(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
     for (i = 0; i < fc->l; ++i) {
         const size_t pi = fc->nodes[i].p;
         dkf_mat_t LU = DKF_MAT(pi, pi, fc->work);
-        st = dkf_mat_rank(&rank, sensors[i].meas.A, DKF_RANK_TOL_DEFAULT, fc->work);
+        st = dkf_mat_rank(&rank, sensors[i].meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, i);
-        if (rank != pi) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_A_RANK, i);
+        if (rank != pi) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, i);
         st = dkf_mat_lu(&LU, piv, sensors[i].B, fc->work + pi * pi);
         if (st == DKF_ERR_SINGULAR)
             return report(fault, DKF_ERR_SINGULAR, DKF_DIFFKF_FC_B_SINGULAR, i);
@@ -386,7 +386,7 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     st = stack_model(fc, sensors, 0);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
     cmeas.H = &fc->H;
-    cmeas.A = &fc->A;
+    cmeas.D = &fc->D;
     cmeas.R = &fc->R;
 
     save_state(fc, &central_saved);
@@ -540,7 +540,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     cdyn.B = &fc->B;
     cdyn.Rd = &fc->Rd;
     cmeas.H = &fc->H;
-    cmeas.A = &fc->A;
+    cmeas.D = &fc->D;
     cmeas.R = &fc->R;
     st = dkf_diffkf_gain_masked(&fc->central, &cdyn, &cmeas, rows);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
@@ -604,12 +604,12 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
     if (st == DKF_OK) st = dkf_mat_chol(&Lc, P_prior, fc->work + fc->n * fc->n);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, node);
     st = dkf__check_input(sensor_at_kstart->meas.H, nd->m, fc->n);
-    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.A, nd->m, nd->p);
+    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.D, nd->m, nd->p);
     if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.R, nd->m, nd->m);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
-    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.A, DKF_RANK_TOL_DEFAULT, fc->work);
+    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
-    if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_A_RANK, node);
+    if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, node);
 
     /* as the node: init (its x prior is irrelevant: the replica's x is the
      * message's) and a start at k_start with no previous innovation */

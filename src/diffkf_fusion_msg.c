@@ -3,7 +3,7 @@
  * Difference KF (dkf/diffkf_fusion.h, docs/diffkf-fusion.md): what a node
  * sends after its local step, and the block matrices of the model the
  * fusion centre's central filter runs on,
- *   H = [H^1; ...; H^l], A = blkdiag(A^i), R = blkdiag(R^i),
+ *   H = [H^1; ...; H^l], D = blkdiag(D^i), R = blkdiag(R^i),
  *   B = blkdiag(B^i),    Rd = blkdiag(Rd^i)        (seed 000 (27)-(29)).
  */
 #include "dkf/diffkf_fusion.h"
@@ -46,7 +46,7 @@ static int overlaps_any(const dkf_mat_t *X, const dkf_mat_t *Y)
 }
 #endif
 
-dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *A, dkf_mat_t *R,
+dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *D, dkf_mat_t *R,
                                    const dkf_ui_meas_t *const meas[], size_t l)
 {
     size_t i, n = 0, ms = 0, ps = 0, r0 = 0, c0 = 0;
@@ -56,36 +56,36 @@ dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *A, dkf_mat_t *R,
         const dkf_ui_meas_t *s = meas[i];
         DKF_CHECK_NULL(s);
         DKF_TRY(dkf__check_mat(s->H));
-        DKF_TRY(dkf__check_mat(s->A));
+        DKF_TRY(dkf__check_mat(s->D));
         DKF_TRY(dkf__check_mat(s->R));
         if (i == 0) n = s->H->cols;
-        if (s->H->cols != n || s->A->rows != s->H->rows ||
+        if (s->H->cols != n || s->D->rows != s->H->rows ||
             s->R->rows != s->H->rows || s->R->cols != s->H->rows)
             return DKF_ERR_DIM;
         ms += s->H->rows;
-        ps += s->A->cols;
+        ps += s->D->cols;
     }
     if (ms > DKF_MAX_DIM || ps > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
     DKF_TRY(check_out(H, ms, n));
-    DKF_TRY(check_out(A, ms, ps));
+    DKF_TRY(check_out(D, ms, ps));
     DKF_TRY(check_out(R, ms, ms));
 #if DKF_DEBUG_CHECKS
-    if (overlaps_any(H, A) || overlaps_any(H, R) || overlaps_any(A, R)) return DKF_ERR_ALIAS;
+    if (overlaps_any(H, D) || overlaps_any(H, R) || overlaps_any(D, R)) return DKF_ERR_ALIAS;
     for (i = 0; i < l; ++i) {
         const dkf_ui_meas_t *s = meas[i];
-        if (overlaps_any(H, s->H) || overlaps_any(H, s->A) || overlaps_any(H, s->R) ||
-            overlaps_any(A, s->H) || overlaps_any(A, s->A) || overlaps_any(A, s->R) ||
-            overlaps_any(R, s->H) || overlaps_any(R, s->A) || overlaps_any(R, s->R))
+        if (overlaps_any(H, s->H) || overlaps_any(H, s->D) || overlaps_any(H, s->R) ||
+            overlaps_any(D, s->H) || overlaps_any(D, s->D) || overlaps_any(D, s->R) ||
+            overlaps_any(R, s->H) || overlaps_any(R, s->D) || overlaps_any(R, s->R))
             return DKF_ERR_ALIAS;
     }
 #endif
-    if (A != NULL) memset(A->data, 0, ms * ps * sizeof(dkf_real_t));
+    if (D != NULL) memset(D->data, 0, ms * ps * sizeof(dkf_real_t));
     if (R != NULL) memset(R->data, 0, ms * ms * sizeof(dkf_real_t));
     for (i = 0; i < l; ++i) {
         const dkf_ui_meas_t *s = meas[i];
-        const size_t mi = s->H->rows, pi = s->A->cols;
+        const size_t mi = s->H->rows, pi = s->D->cols;
         if (H != NULL) dkf__put_block(H->data, n, r0, 0, s->H->data, mi, n);
-        if (A != NULL) dkf__put_block(A->data, ps, r0, c0, s->A->data, mi, pi);
+        if (D != NULL) dkf__put_block(D->data, ps, r0, c0, s->D->data, mi, pi);
         if (R != NULL) dkf__put_block(R->data, ms, r0, r0, s->R->data, mi, mi);
         r0 += mi;
         c0 += pi;

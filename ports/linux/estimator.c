@@ -218,14 +218,14 @@ static dkf_status_t kf_init(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *
 static dkf_status_t kf_predict(dkf_est_t *e, const char **what)
 {
     *what = "dkf_kf_predict";
-    return dkf_kf_predict(&e->kf, &e->F, &e->Q, NULL);
+    return dkf_kf_predict(&e->kf, &(dkf_kf_dyn_t){&e->F, &e->Q}, NULL);
 }
 
 static dkf_status_t kf_update(dkf_est_t *e, const char **what)
 {
     group_t *g = &e->groups[0];
     *what = "dkf_kf_update";
-    return dkf_kf_update(&e->kf, &g->H, &g->R, &g->y);
+    return dkf_kf_update(&e->kf, &(dkf_kf_meas_t){&g->H, &g->R}, &g->y);
 }
 
 static void record_info(dkf_est_t *e, const char *ykey, const char *Ykey)
@@ -250,7 +250,7 @@ static dkf_status_t info_predict(dkf_est_t *e, const char **what)
 {
     dkf_status_t st;
     *what = "dkf_info_predict";
-    st = dkf_info_predict(&e->info, &e->F, &e->Q);
+    st = dkf_info_predict(&e->info, &(dkf_kf_dyn_t){&e->F, &e->Q});
     if (st == DKF_OK) record_info(e, e->names->yp, e->names->Yp);
     return st;
 }
@@ -261,7 +261,8 @@ static dkf_status_t info_update(dkf_est_t *e, const char **what)
     size_t j;
     for (j = 0; j < e->ngroups; ++j) {
         group_t *g = &e->groups[j];
-        st = dkf_info_contribution(&g->i, &g->I, &g->H, &g->R, &g->y, g->work);
+        st = dkf_info_contribution(&g->i, &g->I, &(dkf_kf_meas_t){&g->H, &g->R}, &g->y,
+                                   g->work);
         if (st != DKF_OK) {
             if (e->mode == DKF_EST_FUSED)
                 snprintf(e->what, sizeof e->what, "dkf_info_contribution of sensor %zu",
@@ -659,7 +660,7 @@ static int group_init(group_t *g, const dkf_scenario_t *s, const size_t *idx, si
     q += n * n;
     g->work = q;
     g->meas.H = &g->H;
-    g->meas.A = &g->A;
+    g->meas.D = &g->A;
     g->meas.R = &g->R;
     return 0;
 }

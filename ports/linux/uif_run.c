@@ -116,9 +116,9 @@ static void record_step(json_t *series, const dkf_uif_t *f)
     put_mat(series, "K", &f->K);
     put_mat(series, "M", &f->M);
     put(series, "rank", json_integer((json_int_t)f->rank));
-    /* proj is m x m even when m = 1 */
+    /* proj is p x p even when p = 1 */
     put(series, "proj", dkf_json_from_mat(&f->proj, 0));
-    for (i = 0; i < f->m; ++i) json_array_append_new(est, json_integer(f->estimable[i]));
+    for (i = 0; i < f->p; ++i) json_array_append_new(est, json_integer(f->estimable[i]));
     put(series, "estimable", est);
     put(series, "bias_risk", json_integer(f->bias_risk));
     put(series, "bias_steps", json_integer((json_int_t)f->bias_steps));
@@ -136,14 +136,14 @@ static void summarise(dkf_uifrun_summary_t *sum, const dkf_scenario_t *s, const 
         }
         ++*nx;
     }
-    if (dt != NULL && s->m_u == f->m) {
-        for (i = 0; i < f->m; ++i) {
+    if (dt != NULL && s->m_u == f->p) {
+        for (i = 0; i < f->p; ++i) {
             const double e = (double)f->d.data[i] - dt[i];
             sd[i] += e * e;
         }
         ++*nd;
     }
-    for (i = 0; i < f->m; ++i) sum->est_count[i][f->estimable[i] <= 2 ? f->estimable[i] : 0]++;
+    for (i = 0; i < f->p; ++i) sum->est_count[i][f->estimable[i] <= 2 ? f->estimable[i] : 0]++;
     if (f->rank < sum->rank_min) sum->rank_min = f->rank;
     if (f->rank > sum->rank_max) sum->rank_max = f->rank;
 }
@@ -154,7 +154,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     const dkf_scn_mat_t *mA = dkf_scn_model(s, "A"), *mG = dkf_scn_model(s, "G");
     const dkf_scn_mat_t *mQ = dkf_scn_model(s, "Q"), *mC = dkf_scn_model(s, "C");
     const dkf_scn_mat_t *mH = dkf_scn_model(s, "H"), *mR = dkf_scn_model(s, "R");
-    size_t n, m, p, len, i, nx = 0, nd = 0, dmax;
+    size_t n, p, m, len, i, nx = 0, nd = 0, dmax;
     dkf_real_t *mem = NULL;
     slot_t A, G, Q, C, H, R, y, x0, P0;
     dkf_uif_t f;
@@ -164,13 +164,13 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     int rc = check_file(s, kind, err, errlen);
     if (rc != DKF_RUN_OK) return rc;
     n = s->n;
-    m = mG->cols;
-    p = mC->rows;
+    p = mG->cols;
+    m = mC->rows;
     len = DKF_UIF_STORAGE_LEN(n, m, p);
-    /* model scratch: 7 matrices of at most max(n, m, p)^2 reals, y, x0 */
-    dmax = n > p ? n : p;
-    if (m > dmax) dmax = m;
-    mem = calloc(len + 8 * dmax * dmax + 2 * (n + p + m), sizeof *mem);
+    /* model scratch: 7 matrices of at most max(n, p, m)^2 reals, y, x0 */
+    dmax = n > m ? n : m;
+    if (p > dmax) dmax = p;
+    mem = calloc(len + 8 * dmax * dmax + 2 * (n + m + p), sizeof *mem);
     if (mem == NULL) return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
     {
         dkf_real_t *q = mem + len;
@@ -189,31 +189,31 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
                      kind_labels[kind], dkf_status_str(st), (int)st);
     }
     memset(sum, 0, sizeof *sum);
-    sum->m = m;
+    sum->m = p; /* the summary's m counts the inputs */
     sum->rank_min = (size_t)-1;
     for (k = s->k_first; k < s->k_first + (long)s->steps; ++k) {
         dkf_uif_dyn_t dyn;
-        dkf_uif_meas_t meas;
+        dkf_ui_meas_t meas;
         const int first_df = kind != DKF_UIF_NRTSF && k == 0;
         if (!first_df) {
             load_at(&A, mA, k - 1);
             load_at(&G, mG, k - 1);
             load_at(&Q, mQ, k - 1);
-            dyn.A = &A.view;
+            dyn.F = &A.view;
             dyn.G = &G.view;
             dyn.Q = &Q.view;
         }
         load_at(&C, mC, k);
         load_at(&R, mR, k);
-        meas.C = &C.view;
+        meas.H = &C.view;
         meas.R = &R.view;
-        meas.H = NULL;
+        meas.D = NULL;
         if (kind != DKF_UIF_NRTSF) {
             load_at(&H, mH, k);
-            meas.H = &H.view;
+            meas.D = &H.view;
         }
-        dkf_scn_to_real(y.buf, dkf_scn_y(s, 0, k), p);
-        dkf_mat_init(&y.view, p, 1, y.buf);
+        dkf_scn_to_real(y.buf, dkf_scn_y(s, 0, k), m);
+        dkf_mat_init(&y.view, m, 1, y.buf);
         st = dkf_uif_step(&f, first_df ? NULL : &dyn, &meas, &y.view);
         if (st != DKF_OK) {
             free(mem);
@@ -226,7 +226,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     sum->steps = s->steps;
     sum->bias_steps = f.bias_steps;
     sum->rmse_x = nx > 0 ? sqrt(sx / (double)(nx * n)) : NAN;
-    for (i = 0; i < m; ++i) sum->rmse_d[i] = nd > 0 ? sqrt(sd[i] / (double)nd) : NAN;
+    for (i = 0; i < p; ++i) sum->rmse_d[i] = nd > 0 ? sqrt(sd[i] / (double)nd) : NAN;
     free(mem);
     return DKF_RUN_OK;
 }

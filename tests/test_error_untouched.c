@@ -1355,6 +1355,12 @@ static union {
         dkf_diffkf_fc_t fc;
         dkf_diffkf_fc_node_t nodes[XS_NODES];
     } fc;
+    dkf_uif_t uif;
+    dkf_tw_node_t tw_node;
+    struct {
+        dkf_tw_net_t net;
+        dkf_tw_node_t nodes[XS_NODES];
+    } tw_net;
 } xs_obj;
 static dkf_real_t xs_st[XS_CAP + 1];
 static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[2][DKF_MAX_DIM * DKF_MAX_DIM];
@@ -1424,6 +1430,48 @@ static dkf_status_t fc_init(dims_t d, dkf_real_t *st, size_t len)
                               NULL, NULL);
 }
 
+static size_t uif_len(dims_t d) { return DKF_UIF_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t uif_init(dkf_uif_kind_t kind, dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_uif_init(&xs_obj.uif, kind, d.n, d.m, d.p, st, len, &x, &P);
+}
+static dkf_status_t rtsf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_RTSF, d, st, len);
+}
+static dkf_status_t nrtsf_df_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_NRTSF_DF, d, st, len);
+}
+static dkf_status_t nrtsf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_NRTSF, d, st, len);
+}
+
+static size_t tw_node_len(dims_t d) { return DKF_TW_NODE_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t tw_node_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_tw_node_init(&xs_obj.tw_node, d.n, d.m, d.p, st, len, &x, &P);
+}
+
+/* l nodes on a path */
+static size_t tw_net_len(dims_t d) { return DKF_TW_NET_STORAGE_LEN(d.l, d.n, d.m, d.p); }
+static dkf_status_t tw_net_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    static size_t start[XS_NODES + 1], nbr[DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1)];
+    static dkf_graph_t g;
+    size_t edges[2 * XS_NODES], e;
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    for (e = 0; e + 1 < d.l; ++e) edges[2 * e] = e, edges[2 * e + 1] = e + 1;
+    assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1),
+                                          d.l, edges, d.l - 1),
+                     DKF_OK);
+    return dkf_tw_net_init(&xs_obj.tw_net.net, &g, xs_obj.tw_net.nodes, d.n, d.m, d.p, st, len, &x,
+                           &P);
+}
+
 static const xs_module_t xs_modules[] = {
     {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}}},
     {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}},
@@ -1434,6 +1482,12 @@ static const xs_module_t xs_modules[] = {
      {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 2, 0}, {3, 5, 4, 0}, {6, 6, 6, 0}}},
     {"diffkf_fc", fc_len, fc_init,
      {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 3, 1, 4}, {6, 2, 1, 2}, {2, 4, 2, 2}}},
+    {"uif RTSF", uif_len, rtsf_init, {{1, 1, 1, 0}, {4, 3, 2, 0}, {2, 5, 4, 0}, {6, 2, 2, 0}}},
+    {"uif NRTSF-DF", uif_len, nrtsf_df_init,
+     {{1, 1, 1, 0}, {4, 2, 3, 0}, {2, 5, 4, 0}, {6, 3, 1, 0}}},
+    {"uif NRTSF", uif_len, nrtsf_init, {{1, 1, 1, 0}, {4, 2, 3, 0}, {3, 5, 2, 0}, {6, 1, 4, 0}}},
+    {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
+    {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
 };
 
 static void test_exact_storage(void **state)
@@ -1481,6 +1535,9 @@ DKF_ASKF_DECLARE(static, dk_askf, 3, 2, 1);
 DKF_OTSKF_DECLARE(static, dk_otskf, 3, 2, 1);
 DKF_DIFFKF_DECLARE(static, dk_diffkf, 3, 2, 1);
 DKF_DIFFKF_FC_DECLARE(static, dk_fc, 3, 2, 3, 2);
+DKF_UIF_DECLARE(static, dk_uif, 3, 2, 1);
+DKF_TW_NODE_DECLARE(static, dk_tw_node, 3, 2, 1);
+DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -1511,6 +1568,26 @@ static void test_declare_macros(void **state)
     assert_int_equal(dkf_diffkf_fc_init(&dk_fc, dk_fc_nodes, 2, 3, fm, fp, dk_fc_storage,
                                         ARRAY_LEN(dk_fc_storage), &x, &P, NULL, NULL),
                      DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_uif_storage), DKF_UIF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(dkf_uif_init(&dk_uif, DKF_UIF_RTSF, 3, 2, 1, dk_uif_storage,
+                                  ARRAY_LEN(dk_uif_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_tw_node_storage), DKF_TW_NODE_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(dkf_tw_node_init(&dk_tw_node, 3, 2, 1, dk_tw_node_storage,
+                                      ARRAY_LEN(dk_tw_node_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_tw_net_storage), DKF_TW_NET_STORAGE_LEN(2, 3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_tw_net_nodes), 2);
+    {
+        static size_t start[3], nbr[DKF_GRAPH_NNZ(2, 1)];
+        static const size_t edge[2] = {0, 1};
+        static dkf_graph_t g;
+        assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(2, 1), 2, edge, 1),
+                         DKF_OK);
+        assert_int_equal(dkf_tw_net_init(&dk_tw_net, &g, dk_tw_net_nodes, 3, 2, 1, dk_tw_net_storage,
+                                         ARRAY_LEN(dk_tw_net_storage), &x, &P),
+                         DKF_OK);
+    }
     x = xs_x(4), P = xs_eye(4);
     assert_int_equal(dkf_kf_init(&dk_kf, 4, 2, dk_kf_storage, ARRAY_LEN(dk_kf_storage), &x, &P),
                      DKF_OK);

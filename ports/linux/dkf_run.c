@@ -23,9 +23,8 @@
 #include "scenario.h"
 #include "tw_run.h"
 #include "uif_run.h"
+#include "util.h"
 
-#define EXIT_BAD_INPUT 2
-#define EXIT_FILTER 3
 #define MAX_D00 64
 
 /* One row per filter. A single-sensor scenario gets one estimator written
@@ -289,62 +288,62 @@ static int check_filter(const options_t *o, const filter_t *f, const dkf_scenari
     const dkf_scn_mat_t *A;
     if (o->eta >= 0 && strcmp(f->name, "tw3") != 0) {
         fprintf(stderr, "dkf-run: %s: --eta: only for tw3\n", s->file);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (o->metrics_only && f->fam != FAM_TW) {
         fprintf(stderr, "dkf-run: %s: --metrics-only: only for tw1, tw2, tw3\n", s->file);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->fam != FAM_KF && (o->errors != NULL || o->run != 0)) {
         fprintf(stderr, "dkf-run: %s: %s: not available for filter %s (steps-layout files "
                 "have one run)\n", s->file, o->errors != NULL ? "--errors" : "--run", f->name);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->fam == FAM_KF && s->layout == DKF_SCN_LAYOUT_STEPS) {
         fprintf(stderr, "dkf-run: %s: steps: filter %s reads the canonical or cases layout; "
                 "this seed-%s file runs with %s\n", s->file, f->name,
                 s->family == DKF_SCN_FAMILY_TW ? "003" : "004",
                 s->family == DKF_SCN_FAMILY_TW ? "tw1, tw2, tw3" : "rtsf, nrtsf_df, nrtsf");
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->fam != FAM_KF) return 0; /* uif_run / tw_run check the rest */
     if ((o->has_d00 || o->Pd00_scale > 0) && f->ui != 2) {
         fprintf(stderr, "dkf-run: %s: --d00/--Pd00-scale: only for askf and otskf\n", s->file);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->ui == 2 && s->multi) {
         fprintf(stderr, "dkf-run: %s: model.sensors: filter %s supports single-sensor "
                 "scenarios only\n", s->file, f->name);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->ui != 0 &&
         dkf_scn_require_ui(s, f->ui == 1 ? s->steps : s->steps - 1,
                            f->ui == 1 ? s->steps + 1 : s->steps, f->ui == 2 && !o->has_d00,
                            f->name, err, sizeof err) != 0) {
         fprintf(stderr, "dkf-run: %s\n", err);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (f->ui == 2) {
         A = dkf_scn_sensor_model(s, 0, "A");
         if (o->has_d00 && o->nd00 != A->cols) {
             fprintf(stderr, "dkf-run: %s: --d00: expected %zu values (the columns of A), got %zu\n",
                     s->file, A->cols, o->nd00);
-            return EXIT_BAD_INPUT;
+            return DKF_EXIT_USAGE;
         }
         if (o->has_d00 && dkf_scn_init(s, "Pd00") == NULL) {
             fprintf(stderr, "dkf-run: %s: init.Pd00: missing key (filter %s needs it)\n",
                     s->file, f->name);
-            return EXIT_BAD_INPUT;
+            return DKF_EXIT_USAGE;
         }
     }
     if (o->errors != NULL && dkf_scn_require_truth(s, err, sizeof err) != 0) {
         fprintf(stderr, "dkf-run: %s\n", err);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     if (o->errors == NULL && (size_t)o->run >= s->nruns) {
         fprintf(stderr, "dkf-run: %s: --run %ld: the file has %zu run%s (0..%zu)\n", s->file,
                 o->run, s->nruns, s->nruns == 1 ? "" : "s", s->nruns - 1);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     return 0;
 }
@@ -369,7 +368,7 @@ static int make_slots(const filter_t *f, const dkf_scenario_t *s, const dkf_est_
         fprintf(stderr, "dkf-run: out of memory\n");
         free(all);
         free(slots);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     for (i = 0; i < s->nsensors; ++i) all[i] = i;
     if (!s->multi) {
@@ -401,7 +400,7 @@ static int make_slots(const filter_t *f, const dkf_scenario_t *s, const dkf_est_
         if (slots[i].est == NULL) {
             fprintf(stderr, "dkf-run: %s: %s: %s\n", s->file, slots[i].name, err);
             free_slots(slots, n);
-            return EXIT_FILTER;
+            return DKF_EXIT_RUN;
         }
     *out = slots;
     *count = n;
@@ -425,7 +424,7 @@ static int run_steps(const dkf_scenario_t *s, slot_t *slots, size_t count)
                 else
                     fprintf(stderr, "dkf-run: %s: step k=%ld: %s: %s failed: %s (%d)\n", s->file,
                             k, slots[i].name, what, dkf_status_str(st), (int)st);
-                return EXIT_FILTER;
+                return DKF_EXIT_RUN;
             }
         }
     return 0;
@@ -495,7 +494,7 @@ static int write_doc(json_t *doc, const char *path)
     if (doc == NULL || json_dump_file(doc, path, JSON_COMPACT | JSON_REAL_PRECISION(17)) != 0) {
         fprintf(stderr, "dkf-run: %s: cannot write the output: %s\n", path,
                 errno != 0 ? strerror(errno) : "error");
-        rc = EXIT_BAD_INPUT;
+        rc = DKF_EXIT_USAGE;
     }
     json_decref(doc);
     return rc;
@@ -549,14 +548,9 @@ static double avg_tracking_error(const double *e, size_t nruns, size_t N)
 
 static json_t *errors_json(const double *e, size_t nruns, size_t N, json_t **mean)
 {
-    json_t *runs = json_array();
+    json_t *runs = dkf_json_doubles(e, nruns, N);
     size_t r, k;
     *mean = json_array();
-    for (r = 0; r < nruns; ++r) {
-        json_t *row = json_array();
-        for (k = 0; k < N; ++k) json_array_append_new(row, json_real(e[r * N + k]));
-        json_array_append_new(runs, row);
-    }
     for (k = 0; k < N; ++k) {
         double m = 0;
         for (r = 0; r < nruns; ++r) m += e[r * N + k];
@@ -582,11 +576,11 @@ static int run_errors(const options_t *o, const filter_t *f, dkf_scenario_t *s,
                 snprintf(errs[i].name, sizeof errs[i].name, "%s", slots[i].name);
                 errs[i].sq[0] = calloc(R * N, sizeof(double));
                 errs[i].sq[1] = calloc(R * N, sizeof(double));
-                if (errs[i].sq[0] == NULL || errs[i].sq[1] == NULL) rc = EXIT_BAD_INPUT;
+                if (errs[i].sq[0] == NULL || errs[i].sq[1] == NULL) rc = DKF_EXIT_USAGE;
             }
             if (errs == NULL || rc != 0) {
                 fprintf(stderr, "dkf-run: out of memory\n");
-                rc = EXIT_BAD_INPUT;
+                rc = DKF_EXIT_USAGE;
             }
         }
         if (rc == 0) rc = run_steps(s, slots, count);
@@ -604,7 +598,7 @@ static int run_errors(const options_t *o, const filter_t *f, dkf_scenario_t *s,
         slot_t *names = calloc(count, sizeof *names);
         if (values == NULL || names == NULL) {
             fprintf(stderr, "dkf-run: out of memory\n");
-            rc = EXIT_BAD_INPUT;
+            rc = DKF_EXIT_USAGE;
         }
         for (i = 0; rc == 0 && i < count; ++i) {
             json_t *mf, *mp;
@@ -758,19 +752,19 @@ int main(int argc, char **argv)
     char err[DKF_SCN_ERR_LEN];
     int rc = parse_options(argc, argv, &o);
 
-    if (rc != 0) return rc > 0 ? 0 : EXIT_BAD_INPUT;
+    if (rc != 0) return rc > 0 ? 0 : DKF_EXIT_USAGE;
     f = find_filter(o.filter);
     if (f == NULL) {
         fprintf(stderr, "dkf-run: %s: --filter %s: unknown filter (one of:", o.scenario,
                 o.filter);
         for (i = 0; i < NFILTERS; ++i) fprintf(stderr, " %s", filters[i].name);
         fprintf(stderr, ")\n");
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     s = dkf_scenario_load(o.scenario, o.case_sel, err, sizeof err);
     if (s == NULL) {
         fprintf(stderr, "dkf-run: %s\n", err);
-        return EXIT_BAD_INPUT;
+        return DKF_EXIT_USAGE;
     }
     rc = check_filter(&o, f, s);
     if (rc == 0 && f->fam != FAM_KF) {

@@ -20,6 +20,7 @@
 #include "dkf/kf.h"
 #include "dkf/otskf.h"
 #include "dkf/diffkf_fusion.h"
+#include "util.h"
 
 typedef struct {
     const char *xp, *Pp, *xf, *Pf, *yp, *Yp, *yf, *Yf, *i, *I;
@@ -96,39 +97,10 @@ struct kind {
 
 /* ---- JSON recording ---------------------------------------------------------- */
 
-json_t *dkf_json_from_mat(const dkf_mat_t *A, int as_vector)
-{
-    size_t r, c;
-    json_t *out = json_array();
-    if (out == NULL) return NULL;
-    for (r = 0; r < A->rows; ++r) {
-        json_t *row = as_vector ? out : json_array();
-        if (row == NULL) goto oom;
-        for (c = 0; c < A->cols; ++c)
-            if (json_array_append_new(row, json_real((double)DKF_AT(A, r, c))) != 0) goto oom;
-        if (!as_vector && json_array_append_new(out, row) != 0) goto oom;
-    }
-    return out;
-oom:
-    json_decref(out);
-    return NULL;
-}
-
-/* series[key].append(value); the value reference is stolen. */
-static void record(dkf_est_t *e, const char *key, json_t *value)
-{
-    json_t *list = json_object_get(e->series, key);
-    if (list == NULL) {
-        list = json_array();
-        json_object_set_new(e->series, key, list);
-    }
-    json_array_append_new(list, value);
-}
-
 static void record_mat(dkf_est_t *e, const char *key, const dkf_mat_t *A, int as_vector)
 {
     if (e->opts.no_record) return;
-    record(e, key, dkf_json_from_mat(A, as_vector));
+    dkf_json_append(e->series, key, dkf_json_from_mat(A, as_vector));
 }
 
 /* ---- model loading ------------------------------------------------------------- */
@@ -280,8 +252,8 @@ static dkf_status_t info_update(dkf_est_t *e, const char **what)
             json_array_append_new(il, dkf_json_from_mat(&e->groups[j].i, 1));
             json_array_append_new(Il, dkf_json_from_mat(&e->groups[j].I, 0));
         }
-        record(e, e->names->i, il);
-        record(e, e->names->I, Il);
+        dkf_json_append(e->series, e->names->i, il);
+        dkf_json_append(e->series, e->names->I, Il);
     }
     *what = "dkf_info_fuse";
     st = dkf_info_fuse(&e->info, e->ivec, e->Imat, e->ngroups);
@@ -588,8 +560,8 @@ static dkf_status_t dkf_fused_step(dkf_est_t *e, long k, const char **what)
                                                  dkf_json_from_mat(&e->nodes[i].z, 1), "K",
                                                  dkf_json_from_mat(&e->nodes[i].rep.K, 0)));
         }
-        record(e, "messages", msgs);
-        record(e, "fc_recovered", rec);
+        dkf_json_append(e->series, "messages", msgs);
+        dkf_json_append(e->series, "fc_recovered", rec);
     }
     return DKF_OK;
 }

@@ -85,8 +85,4 @@ const double *dkf_est_sqerr(const dkf_est_t *e, int predicted);
 double dkf_est_trace_P(const dkf_est_t *e);
 size_t dkf_est_rmse(const dkf_est_t *e, double *rmse, double *rmse_comp);
 
-/* A as JSON: a flat list of numbers when as_vector (A is n x 1), else a
- * list of rows. New reference; NULL if out of memory. */
-json_t *dkf_json_from_mat(const dkf_mat_t *A, int as_vector);
-
 #endif /* DKF_HOST_ESTIMATOR_H */

@@ -7,14 +7,13 @@
 #include "tw_run.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "dkf/graph.h"
 #include "dkf/tw.h"
-#include "estimator.h"
+#include "util.h"
 
 static const char *const alg_names[] = {"", "alg1", "alg2", "alg3"};
 
@@ -24,18 +23,6 @@ int dkf_twrun_alg(const char *name)
     if (strcmp(name, "tw2") == 0) return 2;
     if (strcmp(name, "tw3") == 0) return 3;
     return 0;
-}
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static int failf(char *err, size_t errlen, int rc, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return rc;
 }
 
 /* Everything a run owns (freed by ctx_free). */
@@ -97,16 +84,16 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
     if (key == NULL) {
         st = doubly ? dkf_graph_weights_metropolis(w, &c->g) : dkf_graph_weights_uniform(w, &c->g);
         if (st != DKF_OK)
-            return failf(err, errlen, DKF_RUN_FILTER, "%s: graph: default %s weights failed: %s",
+            return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: graph: default %s weights failed: %s",
                          s->file, doubly ? "Metropolis" : "uniform", dkf_status_str(st));
-        return DKF_RUN_OK;
+        return DKF_EXIT_OK;
     }
     {
         size_t *ri = malloc((cnt ? cnt : 1) * sizeof *ri), *ci = malloc((cnt ? cnt : 1) * sizeof *ci);
         dkf_real_t *vv = malloc((cnt ? cnt : 1) * sizeof *vv);
         if (ri == NULL || ci == NULL || vv == NULL) {
             free(ri), free(ci), free(vv);
-            return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
         }
         for (t = 0; t < cnt; ++t) {
             size_t pos;
@@ -115,7 +102,7 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
             vv[t] = (dkf_real_t)v[t];
             if (dkf_graph_find(&pos, &c->g, ri[t], ci[t]) != DKF_OK) {
                 free(ri), free(ci), free(vv);
-                return failf(err, errlen, DKF_RUN_BAD_INPUT,
+                return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                              "%s: %s: entry (%zu, %zu) is not a link of graph.edges", s->file,
                              key, rc[2 * t], rc[2 * t + 1]);
             }
@@ -127,12 +114,12 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
         st = doubly ? dkf_graph_check_doubly_stochastic(&c->g, w)
                     : dkf_graph_check_row_stochastic(&c->g, w);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: %s: %s (%s)", s->file, key,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: %s (%s)", s->file, key,
                      st == DKF_ERR_WEIGHTS ? (doubly ? "not doubly stochastic and non-negative"
                                                      : "not row-stochastic and non-negative")
                                            : "invalid weights",
                      dkf_status_str(st));
-    return DKF_RUN_OK;
+    return DKF_EXIT_OK;
 }
 
 static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
@@ -168,14 +155,14 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
     if (!c->start || !c->nbr || !c->W || !c->alpha || !c->nodes || !c->net_mem ||
         !c->central_mem || !c->H || !c->Sw || !c->y || !c->mH || !c->mSw || !c->my || !c->sens ||
         !c->A)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
     c->B = c->A + c->n * c->n;
     c->Sv = c->B + c->n * c->m;
     c->P0 = c->Sv + c->n * c->n;
     c->x0 = c->P0 + c->n * c->n;
     st = dkf_graph_from_edges(&c->g, c->start, c->nbr, nnz, c->N, net->edges, net->E);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: graph.edges: not a simple undirected graph (a self loop or a repeated "
                      "edge): %s", s->file, dkf_status_str(st));
     if ((rc = bind_weights(c, s, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
@@ -201,10 +188,10 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
         st = dkf_tw_net_init(&c->net, &c->g, c->nodes, c->n, c->m, c->pmax, c->net_mem, node_len,
                              &c->mx0, &c->mP0);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_FILTER, "%s: %s: %s failed: %s (%d)", s->file,
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s (%d)", s->file,
                      alg_names[o->alg], o->alg == 1 ? "dkf_tw_node_init" : "dkf_tw_net_init",
                      dkf_status_str(st), (int)st);
-    return DKF_RUN_OK;
+    return DKF_EXIT_OK;
 }
 
 /* The model and measurements of step k (absolute time n = k). */
@@ -229,16 +216,6 @@ static void load_step(ctx_t *c, const dkf_scenario_t *s, long k)
 }
 
 /* ---- recording ------------------------------------------------------------------ */
-
-static void put(json_t *series, const char *key, json_t *value)
-{
-    json_t *list = json_object_get(series, key);
-    if (list == NULL) {
-        list = json_array();
-        json_object_set_new(series, key, list);
-    }
-    json_array_append_new(list, value);
-}
 
 static json_t *mat_json(const dkf_mat_t *A)
 {
@@ -276,14 +253,14 @@ static void record_nodes(json_t *series, int alg, const dkf_tw_node_t *nodes, si
     size_t i, l;
     for (i = 0; i < nf; ++i) {
         if (alg == 1) {
-            put(series, fs[i].key, mat_json(field(&nodes[0], fs[i].off)));
+            dkf_json_append(series, fs[i].key, mat_json(field(&nodes[0], fs[i].off)));
             continue;
         }
         {
             json_t *all = json_array();
             for (l = 0; l < count; ++l)
                 json_array_append_new(all, mat_json(field(&nodes[l], fs[i].off)));
-            put(series, fs[i].key, all);
+            dkf_json_append(series, fs[i].key, all);
         }
     }
 }
@@ -322,14 +299,6 @@ typedef struct {
     size_t nx, nz;
 } acc_t;
 
-static json_t *vec_json(const double *v, size_t n)
-{
-    json_t *a = json_array();
-    size_t i;
-    for (i = 0; i < n; ++i) json_array_append_new(a, json_real(v[i]));
-    return a;
-}
-
 static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
                     const dkf_tw_node_t *nodes, size_t count, const dkf_tw_node_t *ref,
                     acc_t *acc)
@@ -364,11 +333,11 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
         }
         acc->nx += n;
         if (series != NULL) {
-            put(series, "mse_x", vec_json(mx, n));
-            put(series, "nees", json_real(ne));
-            put(series, "spread_x", vec_json(sp, n));
+            dkf_json_append(series, "mse_x", dkf_json_doubles(mx, n, 0));
+            dkf_json_append(series, "nees", json_real(ne));
+            dkf_json_append(series, "spread_x", dkf_json_doubles(sp, n, 0));
             for (i = 0; i < n; ++i) hi[i] -= lo[i];
-            put(series, "range_x", vec_json(hi, n));
+            dkf_json_append(series, "range_x", dkf_json_doubles(hi, n, 0));
         }
     }
     if (zt != NULL && s->m_u == m) {
@@ -379,7 +348,7 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
             }
         for (i = 0; i < m; ++i) acc->sz += mz[i];
         acc->nz += m;
-        if (series != NULL) put(series, "mse_z", vec_json(mz, m));
+        if (series != NULL) dkf_json_append(series, "mse_z", dkf_json_doubles(mz, m, 0));
     }
     if (alg == 1 || ref == NULL) return;
     for (i = 0; i < n; ++i) {
@@ -405,10 +374,10 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
     if (grel > acc->gap_rel_max) acc->gap_rel_max = grel;
     if (ginf > acc->gap_vec_max) acc->gap_vec_max = ginf;
     if (series != NULL) {
-        put(series, "gap_x", json_real(gx));
-        put(series, "gap_z", json_real(gz));
-        put(series, "gap_x_rel_max", json_real(grel));
-        put(series, "gap_x_vec_rule", json_real(ginf));
+        dkf_json_append(series, "gap_x", json_real(gx));
+        dkf_json_append(series, "gap_z", json_real(gz));
+        dkf_json_append(series, "gap_x_rel_max", json_real(grel));
+        dkf_json_append(series, "gap_x_vec_rule", json_real(ginf));
     }
 }
 
@@ -419,15 +388,15 @@ static int check_file(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, char *
 {
     const char *who = o->alg == 1 ? "tw1" : o->alg == 2 ? "tw2" : "tw3";
     if (s->layout != DKF_SCN_LAYOUT_STEPS)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: steps: missing key (filter %s reads the seed-003 steps layout)", s->file,
                      who);
     if (s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: graph: missing key (filter %s needs a seed-003 network file)", s->file,
                      who);
     if (s->k_first != 1)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: steps[0].n: filter %s starts at n = 1 ((x0, P0) = x_{0|0}, y_0 "
                      "unused), got %ld", s->file, who, s->k_first);
     *eta = 0;
@@ -437,10 +406,10 @@ static int check_file(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, char *
         else if (s->net->eta >= 0)
             *eta = (size_t)s->net->eta;
         else
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: eta: missing key (filter tw3 needs eta or --eta N)", s->file);
     }
-    return DKF_RUN_OK;
+    return DKF_EXIT_OK;
 }
 
 int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series,
@@ -453,10 +422,10 @@ int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series
     int rc;
     memset(sum, 0, sizeof *sum);
     memset(&acc, 0, sizeof acc);
-    if ((rc = check_file(s, o, err, errlen, &eta)) != DKF_RUN_OK) return rc;
+    if ((rc = check_file(s, o, err, errlen, &eta)) != DKF_EXIT_OK) return rc;
     memset(&c, 0, sizeof c);
     rc = setup(&c, s, o, sum, err, errlen);
-    for (k = s->k_first; rc == DKF_RUN_OK && k < s->k_first + (long)s->steps; ++k) {
+    for (k = s->k_first; rc == DKF_EXIT_OK && k < s->k_first + (long)s->steps; ++k) {
         dkf_status_t st;
         const char *what;
         load_step(&c, s, k);
@@ -470,7 +439,7 @@ int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series
             st = dkf_tw_net_consensus_step(&c.net, c.W, eta, &c.model, c.sens);
         }
         if (st != DKF_OK) {
-            rc = failf(err, errlen, DKF_RUN_FILTER, "%s: step n=%ld: %s: %s failed: %s (%d)",
+            rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step n=%ld: %s: %s failed: %s (%d)",
                        s->file, k, alg_names[o->alg], what, dkf_status_str(st), (int)st);
             break;
         }
@@ -480,7 +449,7 @@ int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series
         metrics(series, s, k, o->alg, o->alg == 1 ? &c.central : c.nodes, o->alg == 1 ? 1 : c.N,
                 &c.central, &acc);
     }
-    if (rc == DKF_RUN_OK) {
+    if (rc == DKF_EXIT_OK) {
         sum->N = c.N;
         sum->E = s->net->E;
         sum->steps = s->steps;

@@ -34,7 +34,7 @@
 #include <jansson.h>
 
 #include "scenario.h"
-#include "uif_run.h" /* DKF_RUN_* return codes */
+#include "util.h"
 
 typedef struct {
     int alg;        /* 1, 2, 3 */
@@ -57,7 +57,7 @@ typedef struct {
 int dkf_twrun_alg(const char *name);
 
 /* Runs every step; series receives the per-step lists (NULL: nothing).
- * Returns DKF_RUN_OK or DKF_RUN_BAD_INPUT / DKF_RUN_FILTER with a one-line
+ * Returns DKF_EXIT_OK or DKF_EXIT_USAGE / DKF_EXIT_RUN with a one-line
  * message in err. */
 int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series,
               dkf_twrun_summary_t *sum, char *err, size_t errlen);

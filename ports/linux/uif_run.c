@@ -4,12 +4,11 @@
 #include "uif_run.h"
 
 #include <math.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-#include "estimator.h"
+#include "util.h"
 
 static const char *const kind_names[] = {"rtsf", "nrtsf_df", "nrtsf"};
 static const char *const kind_labels[] = {"RTSF", "NRTSF_DF", "NRTSF"};
@@ -25,18 +24,6 @@ int dkf_uifrun_kind(const char *name)
 const char *dkf_uifrun_label(dkf_uif_kind_t kind)
 {
     return (unsigned)kind < 3 ? kind_labels[kind] : "?";
-}
-
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static int failf(char *err, size_t errlen, int rc, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return rc;
 }
 
 /* A model matrix at absolute time k, converted into buf (a view on it). */
@@ -56,48 +43,38 @@ static int check_file(const dkf_scenario_t *s, dkf_uif_kind_t kind, char *err, s
 {
     const char *who = kind_names[kind];
     if (s->layout != DKF_SCN_LAYOUT_STEPS)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: steps: missing key (filter %s reads the seed-004 steps layout)",
                      s->file, who);
     if (s->family != DKF_SCN_FAMILY_UIF)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: graph: filter %s needs a seed-004 file (model A, G, Q, C, H, R), not a "
                      "seed-003 network", s->file, who);
     if (kind == DKF_UIF_NRTSF) {
         if (dkf_scn_model(s, "H") != NULL)
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: %s: filter nrtsf has no direct feedthrough (H = 0): the file must "
                          "not give H", s->file, dkf_scn_model(s, "H")->path);
         if (s->k_first != 1)
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: steps[0].k: filter nrtsf starts at k = 1 ((x0, P0) = x_{0|0}, "
                          "y_0 unused), got %ld", s->file, s->k_first);
     } else {
         if (dkf_scn_model(s, "H") == NULL)
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: model.H: missing key (filter %s needs the feedthrough H)", s->file,
                          who);
         if (s->k_first != 0)
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: steps[0].k: filter %s starts at k = 0 ((x0, P0) is the prior of "
                          "x_0), got %ld", s->file, who, s->k_first);
     }
-    return DKF_RUN_OK;
-}
-
-static void put(json_t *series, const char *key, json_t *value)
-{
-    json_t *list = json_object_get(series, key);
-    if (list == NULL) {
-        list = json_array();
-        json_object_set_new(series, key, list);
-    }
-    json_array_append_new(list, value);
+    return DKF_EXIT_OK;
 }
 
 static void put_mat(json_t *series, const char *key, const dkf_mat_t *A)
 {
-    put(series, key, dkf_json_from_mat(A, A->cols == 1));
+    dkf_json_append(series, key, dkf_json_from_mat(A, A->cols == 1));
 }
 
 static void record_step(json_t *series, const dkf_uif_t *f)
@@ -115,13 +92,13 @@ static void record_step(json_t *series, const dkf_uif_t *f)
     put_mat(series, "L", &f->L);
     put_mat(series, "K", &f->K);
     put_mat(series, "M", &f->M);
-    put(series, "rank", json_integer((json_int_t)f->rank));
+    dkf_json_append(series, "rank", json_integer((json_int_t)f->rank));
     /* proj is m x m even when m = 1 */
-    put(series, "proj", dkf_json_from_mat(&f->proj, 0));
+    dkf_json_append(series, "proj", dkf_json_from_mat(&f->proj, 0));
     for (i = 0; i < f->m; ++i) json_array_append_new(est, json_integer(f->estimable[i]));
-    put(series, "estimable", est);
-    put(series, "bias_risk", json_integer(f->bias_risk));
-    put(series, "bias_steps", json_integer((json_int_t)f->bias_steps));
+    dkf_json_append(series, "estimable", est);
+    dkf_json_append(series, "bias_risk", json_integer(f->bias_risk));
+    dkf_json_append(series, "bias_steps", json_integer((json_int_t)f->bias_steps));
 }
 
 static void summarise(dkf_uifrun_summary_t *sum, const dkf_scenario_t *s, const dkf_uif_t *f,
@@ -162,7 +139,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     double sx = 0, sd[DKF_MAX_DIM] = {0};
     long k;
     int rc = check_file(s, kind, err, errlen);
-    if (rc != DKF_RUN_OK) return rc;
+    if (rc != DKF_EXIT_OK) return rc;
     n = s->n;
     m = mG->cols;
     p = mC->rows;
@@ -171,7 +148,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     dmax = n > p ? n : p;
     if (m > dmax) dmax = m;
     mem = calloc(len + 8 * dmax * dmax + 2 * (n + p + m), sizeof *mem);
-    if (mem == NULL) return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
+    if (mem == NULL) return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
     {
         dkf_real_t *q = mem + len;
         const size_t sq = dmax * dmax;
@@ -185,7 +162,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     st = dkf_uif_init(&f, kind, n, m, p, mem, len, &x0.view, &P0.view);
     if (st != DKF_OK) {
         free(mem);
-        return failf(err, errlen, DKF_RUN_FILTER, "%s: %s: dkf_uif_init failed: %s (%d)", s->file,
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: dkf_uif_init failed: %s (%d)", s->file,
                      kind_labels[kind], dkf_status_str(st), (int)st);
     }
     memset(sum, 0, sizeof *sum);
@@ -217,7 +194,7 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
         st = dkf_uif_step(&f, first_df ? NULL : &dyn, &meas, &y.view);
         if (st != DKF_OK) {
             free(mem);
-            return failf(err, errlen, DKF_RUN_FILTER, "%s: step k=%ld: %s: dkf_uif_step failed: "
+            return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step k=%ld: %s: dkf_uif_step failed: "
                          "%s (%d)", s->file, k, kind_labels[kind], dkf_status_str(st), (int)st);
         }
         if (series != NULL) record_step(series, &f);
@@ -228,5 +205,5 @@ int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
     sum->rmse_x = nx > 0 ? sqrt(sx / (double)(nx * n)) : NAN;
     for (i = 0; i < m; ++i) sum->rmse_d[i] = nd > 0 ? sqrt(sd[i] / (double)nd) : NAN;
     free(mem);
-    return DKF_RUN_OK;
+    return DKF_EXIT_OK;
 }

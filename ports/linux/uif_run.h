@@ -23,11 +23,7 @@
 
 #include "dkf/uif.h"
 #include "scenario.h"
-
-/* Return codes of the run functions (dkf-run's exit statuses). */
-#define DKF_RUN_OK 0
-#define DKF_RUN_BAD_INPUT 2
-#define DKF_RUN_FILTER 3
+#include "util.h"
 
 /* What a run measured against the file's truth (NaN where absent). */
 typedef struct {
@@ -47,8 +43,8 @@ int dkf_uifrun_kind(const char *name);
 const char *dkf_uifrun_label(dkf_uif_kind_t kind);
 
 /* Runs every step of s with filter `kind`. series: an object receiving the
- * per-step lists (NULL: record nothing). Returns DKF_RUN_OK, or
- * DKF_RUN_BAD_INPUT / DKF_RUN_FILTER with a one-line message in err
+ * per-step lists (NULL: record nothing). Returns DKF_EXIT_OK, or
+ * DKF_EXIT_USAGE / DKF_EXIT_RUN with a one-line message in err
  * ("FILE: KEY: problem" / "FILE: step k=K: RTSF: dkf_uif_step failed: ..."). */
 int dkf_uifrun(const dkf_scenario_t *s, dkf_uif_kind_t kind, json_t *series,
                dkf_uifrun_summary_t *sum, char *err, size_t errlen);

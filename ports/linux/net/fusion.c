@@ -23,6 +23,7 @@
 #include "agents.h"
 #include "dkf/diffkf_fusion.h"
 #include "model.h"
+#include "util.h"
 
 /* Payloads kept per node: DKF_NET_CKPT revisable steps, the present one and
  * DKF_NET_WINDOW ahead, indexed by k modulo RING. */
@@ -450,23 +451,6 @@ static void publish_step(dkf_net_fusion_t *fu, long k, int revision)
     }
 }
 
-/* rows x cols doubles as a list (cols == 0: a flat vector of rows). */
-static json_t *json_block(const double *v, size_t rows, size_t cols)
-{
-    json_t *a = json_array();
-    size_t i, j;
-    for (i = 0; i < rows; ++i) {
-        if (cols == 0) {
-            json_array_append_new(a, json_real(v[i]));
-        } else {
-            json_t *r = json_array();
-            for (j = 0; j < cols; ++j) json_array_append_new(r, json_real(v[i * cols + j]));
-            json_array_append_new(a, r);
-        }
-    }
-    return a;
-}
-
 /* The node indices whose flag is set in row j of an N x l bitmap. */
 static json_t *json_nodes(const unsigned char *bits, size_t l)
 {
@@ -496,10 +480,10 @@ static void journal_step(dkf_net_fusion_t *fu, long k, int published)
     json_object_set_new(o, "status", json_string(fu->rec.degraded[j] ? "degraded" : "complete"));
     json_object_set_new(o, "contributors", json_nodes(fu->rec.contributed + j * l, l));
     json_object_set_new(o, "published", json_boolean(published));
-    json_object_set_new(o, "xf", json_block(fu->rec.xf + j * n, n, 0));
-    json_object_set_new(o, "xp", json_block(fu->rec.xp + j * n, n, 0));
-    json_object_set_new(o, "Pf", json_block(fu->rec.Pf + j * n * n, n, n));
-    json_object_set_new(o, "Pp", json_block(fu->rec.Pp + j * n * n, n, n));
+    json_object_set_new(o, "xf", dkf_json_doubles(fu->rec.xf + j * n, n, 0));
+    json_object_set_new(o, "xp", dkf_json_doubles(fu->rec.xp + j * n, n, 0));
+    json_object_set_new(o, "Pf", dkf_json_doubles(fu->rec.Pf + j * n * n, n, n));
+    json_object_set_new(o, "Pp", dkf_json_doubles(fu->rec.Pp + j * n * n, n, n));
     set_int(o, "utime", dkf_net_now_us());
     if (json_dumpf(o, fu->journal, JSON_COMPACT | JSON_REAL_PRECISION(17)) != 0 ||
         fputc('\n', fu->journal) == EOF || fflush(fu->journal) != 0) {
@@ -1049,10 +1033,10 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     int64_t degraded = 0, revised = 0;
     for (j = 0; j < K; ++j) {
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
-        json_array_append_new(xf, json_block(fu->rec.xf + j * n, n, 0));
-        json_array_append_new(xp, json_block(fu->rec.xp + j * n, n, 0));
-        json_array_append_new(Pf, json_block(fu->rec.Pf + j * n * n, n, n));
-        json_array_append_new(Pp, json_block(fu->rec.Pp + j * n * n, n, n));
+        json_array_append_new(xf, dkf_json_doubles(fu->rec.xf + j * n, n, 0));
+        json_array_append_new(xp, dkf_json_doubles(fu->rec.xp + j * n, n, 0));
+        json_array_append_new(Pf, dkf_json_doubles(fu->rec.Pf + j * n * n, n, n));
+        json_array_append_new(Pp, dkf_json_doubles(fu->rec.Pp + j * n * n, n, n));
         json_array_append_new(status, json_string(fu->rec.degraded[j] ? "degraded" : "complete"));
         json_array_append_new(fstatus,
                               json_string(fu->rec.first_degraded[j] ? "degraded" : "complete"));

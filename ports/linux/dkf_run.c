@@ -299,11 +299,12 @@ static int check_filter(const options_t *o, const filter_t *f, const dkf_scenari
                 "have one run)\n", s->file, o->errors != NULL ? "--errors" : "--run", f->name);
         return DKF_EXIT_USAGE;
     }
-    if (f->fam == FAM_KF && s->layout == DKF_SCN_LAYOUT_STEPS) {
+    if (f->fam == FAM_KF &&
+        (s->layout == DKF_SCN_LAYOUT_STEPS || s->layout == DKF_SCN_LAYOUT_NETWORK)) {
         fprintf(stderr, "dkf-run: %s: steps: filter %s reads the canonical or cases layout; "
                 "this seed-%s file runs with %s\n", s->file, f->name,
-                s->family == DKF_SCN_FAMILY_TW ? "003" : "004",
-                s->family == DKF_SCN_FAMILY_TW ? "tw1, tw2, tw3" : "rtsf, nrtsf_df, nrtsf");
+                s->layout == DKF_SCN_LAYOUT_NETWORK ? "003" : "004",
+                s->layout == DKF_SCN_LAYOUT_NETWORK ? "tw1, tw2, tw3" : "rtsf, nrtsf_df, nrtsf");
         return DKF_EXIT_USAGE;
     }
     if (f->fam != FAM_KF) return 0; /* uif_run / tw_run check the rest */

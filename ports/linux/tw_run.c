@@ -387,11 +387,11 @@ static int check_file(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, char *
                       size_t errlen, size_t *eta)
 {
     const char *who = o->alg == 1 ? "tw1" : o->alg == 2 ? "tw2" : "tw3";
-    if (s->layout != DKF_SCN_LAYOUT_STEPS)
+    if (s->layout != DKF_SCN_LAYOUT_STEPS && s->layout != DKF_SCN_LAYOUT_NETWORK)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: steps: missing key (filter %s reads the seed-003 steps layout)", s->file,
                      who);
-    if (s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
+    if (s->layout != DKF_SCN_LAYOUT_NETWORK || s->net == NULL)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: graph: missing key (filter %s needs a seed-003 network file)", s->file,
                      who);

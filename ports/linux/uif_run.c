@@ -42,11 +42,11 @@ static void load_at(slot_t *sl, const dkf_scn_mat_t *m, long k)
 static int check_file(const dkf_scenario_t *s, dkf_uif_kind_t kind, char *err, size_t errlen)
 {
     const char *who = kind_names[kind];
-    if (s->layout != DKF_SCN_LAYOUT_STEPS)
+    if (s->layout != DKF_SCN_LAYOUT_STEPS && s->layout != DKF_SCN_LAYOUT_NETWORK)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: steps: missing key (filter %s reads the seed-004 steps layout)",
                      s->file, who);
-    if (s->family != DKF_SCN_FAMILY_UIF)
+    if (s->layout != DKF_SCN_LAYOUT_STEPS)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                      "%s: graph: filter %s needs a seed-004 file (model A, G, Q, C, H, R), not a "
                      "seed-003 network", s->file, who);

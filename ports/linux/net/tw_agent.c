@@ -100,7 +100,7 @@ static int64_t model_id(const dkf_tw_scn_t *c)
 static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, size_t errlen)
 {
     if (alg != 2 && alg != 3) return failf(err, errlen, "--alg %d: expected 2 or 3", alg);
-    if (s->layout != DKF_SCN_LAYOUT_STEPS || s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
+    if (s->layout != DKF_SCN_LAYOUT_NETWORK || s->net == NULL)
         return failf(err, errlen, "%s: graph: missing key (a seed-003 steps-layout file with a "
                      "graph is needed)", s->file);
     if (s->k_first != 1)

@@ -61,6 +61,24 @@ void dkf_json_append(json_t *series, const char *key, json_t *value)
     json_array_append_new(list, value);
 }
 
+void dkf_json_place(json_t *outs, const char *name, json_t *value)
+{
+    const char *br = strchr(name, '[');
+    char key[64];
+    json_t *list;
+    if (br == NULL || (size_t)(br - name) >= sizeof key) {
+        json_object_set_new(outs, name, value);
+        return;
+    }
+    memcpy(key, name, (size_t)(br - name));
+    key[br - name] = '\0';
+    if ((list = json_object_get(outs, key)) == NULL) {
+        list = json_array();
+        json_object_set_new(outs, key, list);
+    }
+    json_array_append_new(list, value);
+}
+
 #define FNV1A_PRIME 0x100000001b3ull
 
 uint64_t dkf_fnv1a_u64(uint64_t h, uint64_t v)

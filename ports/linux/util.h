@@ -40,6 +40,11 @@ json_t *dkf_json_doubles(const double *v, size_t rows, size_t cols);
  * reference is stolen. The per-step series of every runner. */
 void dkf_json_append(json_t *series, const char *key, json_t *value);
 
+/* value into outs under name: outs[name] = value, or, for a name
+ * "key[i]", appended to the list outs[key] (estimators "local[0]",
+ * "local[1]", ... become outputs.local). The value reference is stolen. */
+void dkf_json_place(json_t *outs, const char *name, json_t *value);
+
 /* 64-bit FNV-1a. Integers and doubles are hashed by value, most
  * significant byte first (a double by its IEEE-754 bit pattern), so a hash
  * does not depend on the host's byte order. Start from DKF_FNV1A_OFFSET. */

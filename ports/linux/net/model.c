@@ -8,12 +8,18 @@
 #include <string.h>
 
 #include "codec.h"
+#include "registry.h"
 #include "util.h"
 
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
 {
+    const dkf_filter_t *f = dkf_registry_find("dkf");
+    dkf_run_opts_t o;
     size_t i, ms = 0, ps = 0;
-    if (dkf_scn_require_ui(s, s->steps, s->steps + 1, 0, "DKF", err, errlen) != 0) return -1;
+    /* what the Difference KF needs of the file: the registry's check */
+    memset(&o, 0, sizeof o);
+    o.eta = -1;
+    if (f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
     if (s->nsensors > DKF_NET_MAX_NODES) {
         snprintf(err, errlen, "%s: model.sensors: %zu sensors, at most %d", s->file, s->nsensors,
                  DKF_NET_MAX_NODES);

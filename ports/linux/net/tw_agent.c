@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "net.h"
+#include "registry.h"
 #include "util.h"
 
 /* every error of this file: a message in err, -1 */
@@ -97,18 +98,15 @@ static int64_t model_id(const dkf_tw_scn_t *c)
     return (int64_t)h;
 }
 
+/* What Algorithm alg needs of the file: the registry's check of tw2 / tw3. */
 static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, size_t errlen)
 {
+    const dkf_filter_t *f = dkf_registry_find(alg == 2 ? "tw2" : "tw3");
+    dkf_run_opts_t o;
     if (alg != 2 && alg != 3) return failf(err, errlen, "--alg %d: expected 2 or 3", alg);
-    if (s->layout != DKF_SCN_LAYOUT_NETWORK || s->net == NULL)
-        return failf(err, errlen, "%s: graph: missing key (a seed-003 steps-layout file with a "
-                     "graph is needed)", s->file);
-    if (s->k_first != 1)
-        return failf(err, errlen, "%s: steps[0].n: must be 1, got %ld", s->file, s->k_first);
-    if (alg == 3 && eta < 0 && s->net->eta < 0)
-        return failf(err, errlen, "%s: eta: missing key (Algorithm 3 needs eta or --eta N)",
-                     s->file);
-    return 0;
+    memset(&o, 0, sizeof o);
+    o.eta = eta;
+    return f->family->check(f, &o, s, err, errlen) == DKF_EXIT_OK ? 0 : -1;
 }
 
 int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta, char *err,

@@ -58,8 +58,9 @@ static dkf_status_t askf_update(dkf_est_t *e, const char **what)
     return DKF_OK;
 }
 
-const dkf_est_kind_t dkf_est_askf = {"askf", 1, 0, 0, 1, askf_init, askf_predict, askf_update,
-                                     NULL};
+static const dkf_est_kind_t dkf_est_askf = {
+    "askf", /* needs_ui */ 1, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 1,
+    askf_init, askf_predict, askf_update, NULL};
 
 /* ---- the registry family (est_run.c's operations) ---- */
 

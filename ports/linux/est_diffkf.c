@@ -219,8 +219,9 @@ static dkf_status_t dkf_kind_step(dkf_est_t *e, long k, const char **what)
     return dkf_stacked_step(e, k, what);
 }
 
-const dkf_est_kind_t dkf_est_dkf = {"dkf", 1, 1, 1, 0, dkf_kind_init, NULL, NULL,
-                                    dkf_kind_step};
+static const dkf_est_kind_t dkf_est_dkf = {
+    "dkf", /* needs_ui */ 1, /* fused */ 1, /* y_ahead */ 1, /* input_prior */ 0,
+    dkf_kind_init, NULL, NULL, dkf_kind_step};
 
 /* ---- the registry family (est_run.c's operations) ---- */
 

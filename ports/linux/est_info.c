@@ -70,8 +70,9 @@ static dkf_status_t info_update(dkf_est_t *e, const char **what)
     return st;
 }
 
-const dkf_est_kind_t dkf_est_info = {"info", 0, 1, 0, 0, info_init, info_predict, info_update,
-                                     NULL};
+static const dkf_est_kind_t dkf_est_info = {
+    "info", /* needs_ui */ 0, /* fused */ 1, /* y_ahead */ 0, /* input_prior */ 0,
+    info_init, info_predict, info_update, NULL};
 
 /* ---- the registry family (est_run.c's operations) ---- */
 

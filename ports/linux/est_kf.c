@@ -32,7 +32,9 @@ static dkf_status_t kf_update(dkf_est_t *e, const char **what)
     return dkf_kf_update(&e->kf, &g->H, &g->R, &g->y);
 }
 
-const dkf_est_kind_t dkf_est_kf = {"kf", 0, 0, 0, 0, kf_init, kf_predict, kf_update, NULL};
+static const dkf_est_kind_t dkf_est_kf = {
+    "kf", /* needs_ui */ 0, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 0,
+    kf_init, kf_predict, kf_update, NULL};
 
 /* ---- the registry family (est_run.c's operations) ---- */
 

@@ -53,8 +53,9 @@ static dkf_status_t otskf_update(dkf_est_t *e, const char **what)
     return DKF_OK;
 }
 
-const dkf_est_kind_t dkf_est_otskf = {"otskf", 1, 0, 0, 1, otskf_init, otskf_predict,
-                                      otskf_update, NULL};
+static const dkf_est_kind_t dkf_est_otskf = {
+    "otskf", /* needs_ui */ 1, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 1,
+    otskf_init, otskf_predict, otskf_update, NULL};
 
 /* ---- the registry family (est_run.c's operations) ---- */
 

@@ -36,8 +36,11 @@
 typedef struct dkf_est dkf_est_t;
 
 /* A filter kind: what it needs of the scenario and the operations that
- * drive its core filter (est_kf.c, est_info.c, est_diffkf.c, est_askf.c,
- * est_otskf.c; est_internal.h has what they share). */
+ * drive its core filter. Each kind is one file, which also defines its
+ * registry family (DKF_EST_FAMILY, est_internal.h): est_kf.c (dkf/kf.h,
+ * covariance form; ignores A, B, Rd), est_info.c (dkf/info.h), est_diffkf.c
+ * (dkf/diffkf.h, the Difference KF; fused: dkf/diffkf_fusion.h),
+ * est_askf.c (dkf/askf.h), est_otskf.c (dkf/otskf.h). */
 typedef struct dkf_est_kind {
     const char *name;
     int needs_ui;    /* reads A, B, Rd (dkf_scn_require_ui before create) */
@@ -53,12 +56,6 @@ typedef struct dkf_est_kind {
     /* whole-step kinds (NULL for the others): fill xpk, run step k */
     dkf_status_t (*step)(dkf_est_t *e, long k, const char **what);
 } dkf_est_kind_t;
-
-extern const dkf_est_kind_t dkf_est_kf;    /* dkf/kf.h, covariance form (ignores A, B, Rd) */
-extern const dkf_est_kind_t dkf_est_info;  /* dkf/info.h, information form (ignores A, B, Rd) */
-extern const dkf_est_kind_t dkf_est_dkf;   /* dkf/diffkf.h, the Difference KF */
-extern const dkf_est_kind_t dkf_est_askf;  /* dkf/askf.h, augmented-state KF (needs d00, Pd00) */
-extern const dkf_est_kind_t dkf_est_otskf; /* dkf/otskf.h, optimal two-stage KF (d00, Pd00) */
 
 typedef enum {
     DKF_EST_STACKED = 0, /* one measurement: the listed sensors stacked */

@@ -10,7 +10,12 @@
  *  - cases (the infofusion golden-vector layout): `cases[c]` with `x0`, `P0`,
  *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`;
  *  - steps (the seed-003/004 uif golden-vector layout): top-level `steps[]`
- *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below).
+ *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below); with a
+ *    `graph` key it is the network layout (seed 003: per-node H, Sw, y).
+ *
+ * The reader knows these layouts and no filter: which filter runs on a file
+ * is the runner registry's business (registry.h). Its files, one per
+ * layout: scn_parse.h.
  *
  * Numbers stay in double here, whatever the library's real type is;
  * dkf_scn_to_real converts at the point where the core is called.
@@ -145,8 +150,9 @@ typedef struct {
     char truth_u_key[16];     /* its key in steps[].truth: d, d_prev or z_prev */
 } dkf_scenario_t;
 
-/* Steps layout (docs/scenario-format.md, "Steps layout"): a top-level
- * `steps` list of {k or n, inputs: {y, ...}, truth, expected}, normalised as
+/* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
+ * top-level `steps` list of {k or n, inputs: {y, ...}, truth, expected},
+ * normalised as
  *   init.x0, init.P0          -> init x00, P00
  *   model.<M> (bare matrix)   -> model <M> (constant)
  *   steps[j].inputs.<M>       -> model <M> per_k, entry at k = steps[j].k

@@ -16,7 +16,7 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 if(DKF_SANITIZE)
-  target_link_options(dkf INTERFACE $<INSTALL_INTERFACE:-fsanitize=address,undefined>)
+  target_link_options(dkf INTERFACE $<INSTALL_INTERFACE:-fsanitize=address,undefined,float-cast-overflow>)
 endif()
 
 # (The include directory reaches the export through the INSTALL_INTERFACE

@@ -1,32 +1,43 @@
 /*
- * The RTSF and the NRTSF (dkf/uif.h) where the measurements pin the
- * state, against 60-digit references (tests/vectors/stress/uif.json,
+ * The RTSF, the NRTSF-DF and the NRTSF (dkf/uif.h) where the measurements
+ * pin the state, against 60-digit references (tests/vectors/stress/uif.json,
  * written by tools/make_stress_vectors.py from docs/uif.md's equations, not
  * from src/uif.c; every input float32-exact). RTSF: p = n + m (y pins x
  * and d), P0 eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3,
- * 1e5], 5 steps (the first without a time update). NRTSF: p = n (C pins
+ * 1e5], 5 steps (the first without a time update). NRTSF-DF: the same
+ * scales and sequence (P0 the prior of x_0), p = n + r (y pins x and
+ * dbar), H of full column rank (n = 3, m = 2) and of rank 2 of 3 (n = 4,
+ * m = 3, H = [h1, h2, -2 h1]; the reference uses Hbar = [h1, h2], T^+ =
+ * T^T (T T^T)^-1, src/uif.c its SVD factors: the outputs do not depend on
+ * the choice). NRTSF: p = n (C pins
  * x_k, d_{k-1} is seen through x_k - A x_{k-1}), the same scales, G of
  * full column rank and of rank 2 of 3 (G = [g1, g2, -2 g1]). P_{k|k} ~
- * 1e-4 lies rho = 1e5..3e11 below P_{k|k-1} (rho per step in the vector).
- * (cond([C H]) for RTSF, cond(C) for NRTSF below.)
+ * 1e-4 lies rho = 1e5..3e11 (NRTSF-DF: 2e3..2e9) below P_{k|k-1} (rho
+ * per step in the vector).
+ * (cond([C H]) for RTSF, cond(C) for NRTSF below; for NRTSF-DF cond_H
+ * is sigma_1 / sigma_{n+r} of [C H], which is cond([C Hbar]) for the
+ * orthonormal-row T that src/uif.c uses: [C H] = [C Hbar] diag(I, T).)
  *
  * Bounds, per case (kappa = the largest cond([C H]) of its steps, rho the
  * largest prior/posterior ratio). Double, external: R~ = C P C^T + R has
  * cond(R~) <~ rho kappa^2, and both the input estimate (Pd = (H^T R~^-1
  * H)^-1) and the gain L = K (I - H M) pass through R~'s Cholesky, whose
- * relative error is cond(R~) eps; the Joseph form (I - LC) P (I - LC)^T +
- * L R L^T carries the error of L to P_{k|k} without a further |P_{k|k-1}| /
- * |P_{k|k}| amplification (the short form P - K R~ K^T + Z Pd Z^T would add
- * rho eps on top). So the external bound is 10 (n + p) rho kappa^2 eps on
- * every output. (NRTSF's Pxd = Z Pdbar T^+T with Z = Gbar - K C Gbar, a
- * cancellation when K C ~ I: it loses ~rho eps, 2e-5 here, in both
- * forms; within the bound.) Float: rho kappa^2 eps exceeds 1 in every case, so the
- * external promise is every committed Px, Pd PSD (or the step refused,
- * DKF_ERR_NOT_SPD / DKF_ERR_RANK with the filter bit-identical, which ends
- * that case) and errors below 1 (relative: the estimate at least has the
- * right scale). Regression bounds: 4x the worst observed (printed by the
- * test). Short form (DKF_JOSEPH=0): the PSD property (or a refusal) and
- * the external bound, no regression bound.
+ * relative error is cond(R~) eps (NRTSF-DF: Hbar for H, and d = T^T dbar,
+ * Pd = T^T Pdbar T with orthonormal T add no amplification); the Joseph
+ * form (I - LC) P (I - LC)^T + L R L^T carries the error of L to P_{k|k}
+ * without a further |P_{k|k-1}| / |P_{k|k}| amplification (the short
+ * form P - K R~ K^T + Z Pd Z^T would add rho eps on top). So the external bound is
+ * 10 (n + p) rho kappa^2 eps on every output. (NRTSF's Pxd = Z Pdbar T^+T
+ * with Z = Gbar - K C Gbar, a cancellation when K C ~ I: it loses ~rho eps,
+ * 2e-5 here, in both forms; within the bound.) Float: rho kappa^2 eps
+ * exceeds 1 in every case, so the external promise is every committed Px,
+ * Pd PSD (or the step refused, DKF_ERR_NOT_SPD / DKF_ERR_RANK with the
+ * filter bit-identical, which ends that case), no external error bound
+ * (RTSF's committed Pd is 7e3 off: docs/uif.md). NRTSF-DF in float refuses
+ * the first step of both cases. The filter's rank r_k must equal the case's
+ * rank (NRTSF, NRTSF-DF). Regression bounds: 4x the worst observed (printed
+ * by the test). Short form (DKF_JOSEPH=0): the PSD property (or a refusal)
+ * and the external bound, no regression bound.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -80,6 +91,16 @@ static const double seen_rtsf[2][NOUT] = {{1.22e-5, 9.3e-3, 5.6e-6, 7.2e3, 1.02e
 static const double seen_rtsf[2][NOUT] = {{2.7e-13, 2.5e-15, 3.8e-13, 5.2e-6, 1.31e-5},
                                      {9.7e-14, 8.9e-15, 1.17e-13, 1.04e-5, 4.4e-5}};
 #endif
+/* NRTSF-DF: in float both cases' first step is refused (DKF_ERR_NOT_SPD):
+ * with p = n + r > n, p - n eigenvalues of R~ = C P0 C^T + R are ~R =
+ * 1e-4 under C P0 C^T ~ 1e8, below float's rounding, so R~ is singular to
+ * float precision (RTSF's rtsf_n3_m1 gets two steps through anyway) */
+#if DKF_USE_FLOAT
+static const double seen_nrtsf_df[2][NOUT] = {{-1, -1, -1, -1, -1}, {-1, -1, -1, -1, -1}};
+#else
+static const double seen_nrtsf_df[2][NOUT] = {{2.9e-11, 5.4e-12, 2.94e-11, 1.03e-6, 1.5e-6},
+                                              {1.28e-13, 5.3e-15, 1.29e-13, 1.14e-6, 4.1e-6}};
+#endif
 #if DKF_USE_FLOAT
 static const double seen_nrtsf[2][NOUT] = {{1.37e-6, 2.9e-3, 9.1e-7, 2.03e-6, 2.22e4},
                                            {1.82e-6, 7.9e-3, 3.6e-6, 4.7e-6, 8.4e3}};
@@ -109,6 +130,7 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
         const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
         const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
         const size_t len = DKF_UIF_STATE_LEN(n, m, p);
+        const json_t *rank = json_object_get(cs, "rank"); /* NRTSF, NRTSF-DF */
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
         double w[NOUT] = {0, 0, 0, 0, 0}, rk2 = 0, ext, ev[NOUT];
@@ -138,6 +160,7 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
                 break;
             }
             assert_int_equal(rc, DKF_OK);
+            if (rank != NULL) assert_int_equal(b.f.rank, json_integer_value(rank));
             test_note_rel_err(&w[0], test_json_get(st, "x"), b.f.x.data, n);
             test_note_rel_err(&w[1], test_json_get(st, "P"), b.f.Px.data, n * n);
             test_note_rel_err(&w[2], test_json_get(st, "d"), b.f.d.data, m);
@@ -174,11 +197,21 @@ static void test_nrtsf_pinned(void **state)
     json_decref(root);
 }
 
+static void test_nrtsf_df_pinned(void **state)
+{
+    static const char *const names[] = {"nrtsf_df_n3_m2_r2", "nrtsf_df_n4_m3_r2"};
+    json_t *root = test_load_vector("stress/uif.json");
+    (void)state;
+    run_cases(root, DKF_UIF_NRTSF_DF, names, seen_nrtsf_df);
+    json_decref(root);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_rtsf_pinned),
         cmocka_unit_test(test_nrtsf_pinned),
+        cmocka_unit_test(test_nrtsf_df_pinned),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

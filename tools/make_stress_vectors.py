@@ -259,94 +259,99 @@ def info_cases():
     return cases
 
 
-# ---- uif RTSF: joint state and input, rank H = m -----------------------------
+# ---- uif RTSF, NRTSF-DF, NRTSF: joint state and input -------------------------
 
-def rtsf_step(x, P, Pd, Pxd, dyn, C, H, R, y):
-    """One RTSF step at 60 digits from docs/uif.md (T = I, B = H); dyn =
-    (A, G, Q, d_{k-1|k-1}) or None. Time
-    update (27) (skipped when dyn is None: the first step uses the prior),
-    R~ = C P C^T + R (14), Pd = (H^T R~^-1 H)^-1, M = Pd H^T R~^-1, d = M ytil
-    (15)-(16), K = P C^T R~^-1, L = K (I - H M) (21), x = x_pred + L ytil,
-    P = (I - L C) P_pred (I - L C)^T + L R L^T (20), Pxd = -K H Pd (29)."""
-    if dyn is not None:
-        A, G, Q = dyn[:3]
-        AG = mp.matrix(A.rows, A.cols + G.cols)
-        for i in range(A.rows):
-            for j in range(A.cols):
-                AG[i, j] = A[i, j]
-            for j in range(G.cols):
-                AG[i, A.cols + j] = G[i, j]
-        n, m = A.rows, G.cols
-        J = mp.matrix(n + m, n + m)
-        for i in range(n + m):
-            for j in range(n + m):
-                if i < n and j < n:
-                    J[i, j] = P[i, j]
-                elif i < n:
-                    J[i, j] = Pxd[i, j - n]
-                elif j < n:
-                    J[i, j] = Pxd[j, i - n]
-                else:
-                    J[i, j] = Pd[i - n, j - n]
-        xd = mp.matrix(n + m, 1)
-        for i in range(n):
-            xd[i] = x[i]
-        for i in range(m):
-            xd[n + i] = dyn[3][i]
-        x, P = AG * xd, AG * J * AG.T + Q
-    Rt = C * P * C.T + R
+def joint_time_update(x, P, Pd, Pxd, dyn):
+    """The feedthrough filters' time update (27) = (9), (11) at 60 digits:
+    x_{k|k-1} = A x + G d, P_{k|k-1} = [A G] [[P, Pxd], [Pxd^T, Pd]] [A G]^T
+    + Q, with dyn = (A, G, Q, d_{k-1|k-1}); dyn None: the prior as is."""
+    if dyn is None:
+        return x, P
+    A, G, Q = dyn[:3]
+    AG = mp.matrix(A.rows, A.cols + G.cols)
+    for i in range(A.rows):
+        for j in range(A.cols):
+            AG[i, j] = A[i, j]
+        for j in range(G.cols):
+            AG[i, A.cols + j] = G[i, j]
+    n, m = A.rows, G.cols
+    J = mp.matrix(n + m, n + m)
+    for i in range(n + m):
+        for j in range(n + m):
+            if i < n and j < n:
+                J[i, j] = P[i, j]
+            elif i < n:
+                J[i, j] = Pxd[i, j - n]
+            elif j < n:
+                J[i, j] = Pxd[j, i - n]
+            else:
+                J[i, j] = Pd[i - n, j - n]
+    xd = mp.matrix(n + m, 1)
+    for i in range(n):
+        xd[i] = x[i]
+    for i in range(m):
+        xd[n + i] = dyn[3][i]
+    return AG * xd, AG * J * AG.T + Q
+
+
+def nrtsf_df_step(x, P, Pd, Pxd, dyn, C, Hb, Tp, R, y):
+    """One NRTSF-DF step at 60 digits from docs/uif.md (H = Hb T a
+    full-rank decomposition, Tp = T^+, B = Hb; the RTSF step is Hb = H,
+    Tp = I); dyn = (A, G, Q, d_{k-1|k-1}) or None (the first step: x, P
+    are the prior of x_0).
+    Time update (27) with the minimum-norm d, Pd, Pxd of the step before;
+    R~ = C P C^T + R (14); Pdbar = (Hb^T R~^-1 Hb)^-1, Mbar = Pdbar Hb^T
+    R~^-1, dbar = Mbar ytil (15)-(16), (28); K = P C^T R~^-1, Z = -K Hb,
+    x = x_pred + K ytil + Z dbar, L = K + Z Mbar (= K (I - Hb Mbar), (21));
+    P = (I - L C) P_pred (I - L C)^T + L R L^T (20); d = T^+ dbar, Pd =
+    T^+ Pdbar T^+T, Pxd = Z Pdbar T^+T (29). Checks at 60 digits that the
+    short form P_pred - K R~ K^T + Z Pdbar Z^T ((24)/(29)) agrees and that
+    L Hb = 0 (19)."""
+    xp, Pp = joint_time_update(x, P, Pd, Pxd, dyn)
+    Rt = C * Pp * C.T + R
     Ri = mp.inverse(Rt)
-    Pd = mp.inverse(H.T * Ri * H)
-    Mg = Pd * H.T * Ri
-    yt = y - C * x
-    d = Mg * yt
-    K = P * C.T * Ri
-    L = K * (mp.eye(C.rows) - H * Mg)
+    Pdb = mp.inverse(Hb.T * Ri * Hb)
+    Mb = Pdb * Hb.T * Ri
+    yt = y - C * xp
+    db = Mb * yt
+    K = Pp * C.T * Ri
+    Z = -K * Hb
+    L = K + Z * Mb
     A_ = mp.eye(P.rows) - L * C
-    Pn = A_ * P * A_.T + L * R * L.T
-    Pn = (Pn + Pn.T) / 2
-    Pd = (Pd + Pd.T) / 2
-    return x + L * yt, Pn, d, Pd, -K * H * Pd, P
+    Pn = A_ * Pp * A_.T + L * R * L.T
+    Ps = Pp - K * Rt * K.T + Z * Pdb * Z.T
+    scale = mp.mnorm(Pn, 1)
+    assert mp.mnorm(Pn - Ps, 1) < mp.mpf(10) ** -30 * scale, "Joseph and short forms differ"
+    assert mp.mnorm(L * Hb, 1) < mp.mpf(10) ** -30 * mp.mnorm(L, 1) * mp.mnorm(Hb, 1)
+    Pd = Tp * Pdb * Tp.T
+    return (xp + K * yt + Z * db, (Pn + Pn.T) / 2, Tp * db, (Pd + Pd.T) / 2,
+            Z * Pdb * Tp.T, Pp)
 
 
-def uif_cases():
-    """RTSF with p = n + m (the measurements pin [x; d]): P0 = 1e6..1e8 I
-    (eigenvalues log-uniform), R eigenvalues in [1e-4, 1e-3], Q in [1e3,
-    1e5] (so every prior P_{k|k-1} stays ~1e3..1e5 while P_{k|k} ~ 1e-4),
-    5 steps, the first without a time update."""
-    rng = np.random.default_rng(20261204)
-    cases = []
-    for n, m in ((3, 1), (4, 2)):
-        p = n + m
-        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
-        x0 = f32(rng.standard_normal(n))
-        x, P = V(x0), M(P0)
-        Pd, Pxd, d = mp.zeros(m, m), mp.zeros(n, m), mp.zeros(m, 1)
-        steps = []
-        for k in range(5):
-            st = {"C": f32(rng.standard_normal((p, n))), "H": f32(rng.standard_normal((p, m))),
-                  "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
-                  "y": f32(100 * rng.standard_normal(p))}
-            dyn = None
-            if k > 0:
-                st["A"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
-                st["G"] = f32(rng.standard_normal((n, m)))
-                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
-                dyn = (M(st["A"]), M(st["G"]), M(st["Q"]), d)
-            x, P, d, Pd, Pxd, Pp = rtsf_step(x, P, Pd, Pxd, dyn, M(st["C"]), M(st["H"]),
-                                             M(st["R"]), V(st["y"]))
-            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
-            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
-            rec = {kk: v.tolist() for kk, v in st.items()}
-            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
-                       P_min_eig=float(min_eig(P)),
-                       cond_H=float(np.linalg.cond(np.hstack([st["C"], st["H"]]))),
-                       rho=float(prior / post))
-            steps.append(rec)
-        cases.append({"name": "rtsf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
-                      "note": "RTSF, p = n + m, P0 in [1e6, 1e8], R in [1e-4, 1e-3], 5 steps",
-                      "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
-    return cases
+def uif_record(st, x, P, d, Pd, Pxd, Pp, cond_H):
+    """A uif.json step: the inputs st, the reference after the step,
+    P_min_eig, cond_H and rho = max|P_{k|k-1}| / max|P_{k|k}|."""
+    n = P.rows
+    prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
+    post = max(abs(P[i, j]) for i in range(n) for j in range(n))
+    rec = {kk: v.tolist() for kk, v in st.items()}
+    rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
+               P_min_eig=float(min_eig(P)), cond_H=cond_H, rho=float(prior / post))
+    return rec
+
+
+def rank_deficient(rng, rows, r, m):
+    """A rows x m input matrix of rank r with a full-rank decomposition
+    Bbar T: Bbar random (float32); r = m: the matrix is Bbar, T = I; r = 2,
+    m = 3: Bbar T with T = [[1, 0, -2], [0, 1, 0]] (the third column is -2
+    times the first, exact in float32). Returns (matrix, Bbar, T^+ = T^T
+    (T T^T)^-1 at 60 digits)."""
+    Bb = f32(rng.standard_normal((rows, r)))
+    if r == m:
+        return Bb, Bb, mp.eye(m)
+    T = np.array([[1.0, 0.0, -2.0], [0.0, 1.0, 0.0]])
+    Tm = M(T)
+    return Bb @ T, Bb, Tm.T * mp.inverse(Tm * Tm.T)
 
 
 def nrtsf_step(x, P, A, G1, Tp, Q, C, R, y):
@@ -390,15 +395,8 @@ def nrtsf_cases():
         x, P = V(x0), M(P0)
         steps = []
         for k in range(5):
-            G1 = f32(rng.standard_normal((n, r)))
-            if r < m:
-                # G = G1 T exactly in float32: the third column is -2 g1
-                T = np.array([[1.0, 0.0, -2.0], [0.0, 1.0, 0.0]])
-                G = G1 @ T
-                Tm = M(T)
-                G1m, Tpm = M(G1), Tm.T * mp.inverse(Tm * Tm.T)
-            else:
-                G, G1m, Tpm = G1, M(G1), mp.eye(m)
+            G, G1, Tpm = rank_deficient(rng, n, r, m)
+            G1m = M(G1)
             st = {"A": f32(np.eye(n) + 0.1 * rng.standard_normal((n, n))), "G": G,
                   "Q": spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n)),
                   "C": f32(rng.standard_normal((p, n))),
@@ -406,19 +404,83 @@ def nrtsf_cases():
                   "y": f32(100 * rng.standard_normal(p))}
             x, P, d, Pd, Pxd, Pp = nrtsf_step(x, P, M(st["A"]), G1m, Tpm, M(st["Q"]),
                                               M(st["C"]), M(st["R"]), V(st["y"]))
-            prior = max(abs(Pp[i, j]) for i in range(n) for j in range(n))
-            post = max(abs(P[i, j]) for i in range(n) for j in range(n))
-            rec = {kk: v.tolist() for kk, v in st.items()}
-            rec.update(x=tovec(x), P=tolist(P), d=tovec(d), Pd=tolist(Pd), Pxd=tolist(Pxd),
-                       P_min_eig=float(min_eig(P)), cond_H=float(np.linalg.cond(st["C"])),
-                       rho=float(prior / post))
-            steps.append(rec)
+            steps.append(uif_record(st, x, P, d, Pd, Pxd, Pp,
+                                    float(np.linalg.cond(st["C"]))))
         cases.append({"name": "nrtsf_n%d_m%d_r%d" % (n, m, r), "n": n, "m": m, "p": p,
                       "rank": r,
                       "note": "NRTSF, p = n, rank G = %d, P0 in [1e6, 1e8], R in [1e-4, 1e-3], "
                               "Q in [1e3, 1e5], 5 steps" % r,
                       "x0": x0.tolist(), "P0": P0.tolist(), "steps": steps})
     return cases
+
+
+def cond_on_rank(a, r):
+    """sigma_1 / sigma_r of a (its condition number on its rank r; for [C
+    H] with rank H = r_H it is cond([C Hbar]) for an Hbar = H T^T with
+    orthonormal-row T, the decomposition src/uif.c uses, and for every
+    other T the same up to T's own conditioning)."""
+    s = np.linalg.svd(a, compute_uv=False)
+    return float(s[0] / s[r - 1])
+
+
+def nrtsf_df_cases():
+    """NRTSF-DF with p = n + r (y pins x and dbar; [C Hbar] of full column
+    rank), H of full column rank (n3_m2_r2, Hbar = H, T = I) or of rank 2
+    of 3 (n4_m3_r2, H = [h1, h2, -2 h1] = Hbar T, exact in float32, Hbar =
+    [h1, h2], T^+ = T^T (T T^T)^-1). G is a random n x m (the time update
+    carries the minimum-norm d; the bias it may inject into the true state
+    is not the reference's business)."""
+    return feedthrough_cases("nrtsf_df", 20261208, ((3, 2, 2), (4, 3, 2)))
+
+
+def feedthrough_cases(kind, seed, shapes):
+    """RTSF or NRTSF-DF (kind "rtsf" / "nrtsf_df") with p = n + r (the
+    measurements pin x and dbar): for (n, m, r) in shapes, P0 (the prior of
+    x_0) eigenvalues log-uniform in [1e6, 1e8], R in [1e-4, 1e-3], Q in
+    [1e3, 1e5] (so every prior P_{k|k-1} stays ~1e3..1e5 while P_{k|k} ~
+    1e-4), 5 steps, the first without a time update; H = Hbar T of rank r
+    (rank_deficient: H random for r = m)."""
+    rng = np.random.default_rng(seed)
+    cases = []
+    for n, m, r in shapes:
+        p = n + r
+        P0 = spd_with_eigs(rng, logspace_eigs(rng, 1e6, 1e8, n))
+        x0 = f32(rng.standard_normal(n))
+        x, P = V(x0), M(P0)
+        Pd, Pxd, d = mp.zeros(m, m), mp.zeros(n, m), mp.zeros(m, 1)
+        steps = []
+        for k in range(5):
+            C = f32(rng.standard_normal((p, n)))
+            H, Hb, Tpm = rank_deficient(rng, p, r, m)
+            st = {"C": C, "H": H, "R": spd_with_eigs(rng, logspace_eigs(rng, 1e-4, 1e-3, p)),
+                  "y": f32(100 * rng.standard_normal(p))}
+            dyn = None
+            if k > 0:
+                st["A"] = f32(np.eye(n) + 0.1 * rng.standard_normal((n, n)))
+                st["G"] = f32(rng.standard_normal((n, m)))
+                st["Q"] = spd_with_eigs(rng, logspace_eigs(rng, 1e3, 1e5, n))
+                dyn = (M(st["A"]), M(st["G"]), M(st["Q"]), d)
+            x, P, d, Pd, Pxd, Pp = nrtsf_df_step(x, P, Pd, Pxd, dyn, M(C), M(Hb), Tpm,
+                                                 M(st["R"]), V(st["y"]))
+            steps.append(uif_record(st, x, P, d, Pd, Pxd, Pp,
+                                    cond_on_rank(np.hstack([C, H]), n + r)))
+        if kind == "rtsf":
+            case = {"name": "rtsf_n%d_m%d" % (n, m), "n": n, "m": m, "p": p,
+                    "note": "RTSF, p = n + m, P0 in [1e6, 1e8], R in [1e-4, 1e-3], 5 steps"}
+        else:
+            case = {"name": "nrtsf_df_n%d_m%d_r%d" % (n, m, r), "n": n, "m": m, "p": p,
+                    "rank": r,
+                    "note": "NRTSF-DF, p = n + r, rank H = %d, P0 (prior of x_0) in [1e6, "
+                            "1e8], R in [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps" % r}
+        case.update(x0=x0.tolist(), P0=P0.tolist(), steps=steps)
+        cases.append(case)
+    return cases
+
+
+def uif_cases():
+    """RTSF = NRTSF-DF with T = I (docs/uif.md: Hbar = H, T = I), p = n + m
+    (the measurements pin [x; d]), (n, m) = (3, 1) and (4, 2)."""
+    return feedthrough_cases("rtsf", 20261204, ((3, 1, 1), (4, 2, 2)))
 
 
 # ---- the Difference KF (seed 000): differenced measurements, correlated noise --
@@ -599,7 +661,11 @@ def main():
         "nrtsf_layout": "cases named nrtsf_*: n, m, p, rank, x0, P0 (x_{0|0}), steps[] {A, G, "
                         "Q, C, R, y (no H), reference x, P, d (d_{k-1|k}), Pd, Pxd, "
                         "P_min_eig, cond_H (of C), rho}",
-        "cases": uif_cases() + nrtsf_cases()})
+        "nrtsf_df_layout": "cases named nrtsf_df_*: n, m, p, rank, x0, P0 (the prior of x_0), "
+                           "steps[] as the RTSF's (H may be rank-deficient: H = Hbar T), "
+                           "reference d, Pd, Pxd minimum norm (d = T^+ dbar), cond_H = "
+                           "sigma_1 / sigma_{n+rank} of [C H]",
+        "cases": uif_cases() + nrtsf_cases() + nrtsf_df_cases()})
     write("diffkf", {
         "generator": "tools/make_stress_vectors.py (mpmath, 60 digits)",
         "layout": "cases[]: n, m, p, x0, P0 (the prior x_{1|0}, P_{1|0}), meas1 {H, A, R, y} "

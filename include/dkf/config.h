@@ -88,6 +88,20 @@
 #define DKF_SIMD 1
 #endif
 
+/* Relative step of the forward-difference Jacobians of a nonlinear model
+ * without Jacobian callbacks (dkf/nl_model.h): component v of the point
+ * moves by DKF_NL_FD_STEP * max(1, |v|). Double: 1e-5, seed 001's eq. 44.
+ * Float: 3e-4 ~ sqrt(FLT_EPSILON), which balances the truncation error
+ * (~ step) against the rounding error (~ eps / step); 1e-5 in float would
+ * leave ~1 % of rounding error in every derivative. */
+#ifndef DKF_NL_FD_STEP
+#if DKF_USE_FLOAT
+#define DKF_NL_FD_STEP 3e-4f
+#else
+#define DKF_NL_FD_STEP 1e-5
+#endif
+#endif
+
 /* Sweeps of the one-sided Jacobi SVD before it reports
  * DKF_ERR_NO_CONVERGENCE. Jacobi converges quadratically; 6-10 sweeps are
  * typical for the sizes dkf meets. */

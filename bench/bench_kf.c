@@ -69,8 +69,8 @@ static double run(long steps)
         return NAN;
     for (k = 0; k < steps; ++k) {
         y.data = cur.Y + (size_t)(k % BENCH_NMEAS) * m;
-        if (dkf_kf_predict(&kf, &F, &Q, NULL) != DKF_OK) return NAN;
-        if (dkf_kf_update(&kf, &H, &R, &y) != DKF_OK) return NAN;
+        if (dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&F, &Q}, NULL) != DKF_OK) return NAN;
+        if (dkf_kf_update(&kf, &(dkf_kf_meas_t){&H, &R}, &y) != DKF_OK) return NAN;
     }
     for (i = 0; i < n; ++i) sum += (double)kf.x.data[i] + (double)DKF_AT(&kf.P, i, i);
     return sum;

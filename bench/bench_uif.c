@@ -8,7 +8,7 @@
  * Model: tests/vectors/diffkf/ex1_single.json `model` (library notation:
  * state n = 4, measurement m = 2, unknown input p = 2), constant:
  *   F = [1 1 0 0; 0 1 0 0; 0 0 1 1; 0 0 0 1], Q = diag(1, .1, 1, .1),
- *   H = [1 0 0 0; 0 0 1 0], A = I2, R = I2, B = 0.9 I2, Rd = I2;
+ *   H = [1 0 0 0; 0 0 1 0], D = I2, R = I2, B = 0.9 I2, Rd = I2;
  * priors of `init`: x00 = (50, 1, 50, 1), P00 = diag(1, .1, 1, .1),
  * d00 = (5, 5), Pd00 = I2 (ASKF, OTSKF; the DKF needs no d prior).
  * Data: one trajectory of that model simulated in double with
@@ -43,12 +43,12 @@
 #define UM 2
 #define UP 2
 
-static dkf_real_t mF[UN * UN], mQ[UN * UN], mH[UM * UN], mA[UM * UP], mR[UM * UM], mB[UP * UP],
+static dkf_real_t mF[UN * UN], mQ[UN * UN], mH[UM * UN], mD[UM * UP], mR[UM * UM], mB[UP * UP],
     mRd[UP * UP], mx0[UN], mP0[UN * UN], md0[UP], mPd0[UP * UP];
 static dkf_real_t mY[BENCH_NMEAS * UM];
 
 static dkf_mat_t vF = DKF_MAT(UN, UN, mF), vQ = DKF_MAT(UN, UN, mQ), vH = DKF_MAT(UM, UN, mH),
-                 vA = DKF_MAT(UM, UP, mA), vR = DKF_MAT(UM, UM, mR), vB = DKF_MAT(UP, UP, mB),
+                 vD = DKF_MAT(UM, UP, mD), vR = DKF_MAT(UM, UM, mR), vB = DKF_MAT(UP, UP, mB),
                  vRd = DKF_MAT(UP, UP, mRd), vx0 = DKF_MAT(UN, 1, mx0),
                  vP0 = DKF_MAT(UN, UN, mP0), vd0 = DKF_MAT(UP, 1, md0),
                  vPd0 = DKF_MAT(UP, UP, mPd0);
@@ -75,7 +75,7 @@ static void make_model(void)
         mx0[i] = (dkf_real_t)x0[i];
     }
     for (i = 0; i < UM; ++i) {
-        mA[i * UP + i] = 1;
+        mD[i * UP + i] = 1;
         mR[i * UM + i] = 1;
     }
     for (i = 0; i < UP; ++i) {
@@ -85,9 +85,9 @@ static void make_model(void)
         md0[i] = (dkf_real_t)d0[i];
     }
     dyn.F = &vF, dyn.Q = &vQ, dyn.B = &vB, dyn.Rd = &vRd;
-    meas.H = &vH, meas.A = &vA, meas.R = &vR;
+    meas.H = &vH, meas.D = &vD, meas.R = &vR;
 
-    /* x_{k+1} = F x_k + v, d_{k+1} = B d_k + wd, y_k = H x_k + A d_k + w */
+    /* x_{k+1} = F x_k + v, d_{k+1} = B d_k + wd, y_k = H x_k + D d_k + w */
     rng.s = UINT64_C(0x5EED000E1);
     for (i = 0; i < UN; ++i) xt[i] = x0[i];
     for (i = 0; i < UP; ++i) dt[i] = d0[i];

@@ -4,7 +4,7 @@
  * bias d is unknown and drifts:
  *
  *   x_{k+1} = F x_k + v_k          x = [position; velocity], F = [1 1; 0 1]
- *   y_k     = H x_k + A d_k + w_k  H = [1 0], A = [1]: the bias adds to y
+ *   y_k     = H x_k + D d_k + w_k  H = [1 0], D = [1]: the bias adds to y
  *   d_{k+1} = B d_k + wd_k         B = [0.9]
  *
  * The filter removes d by differencing consecutive measurements, so it
@@ -31,7 +31,7 @@ DKF_DIFFKF_DECLARE(static, f, 2, 1, 1); /* n = 2 states, m = 1 measurement, p = 
 DKF_MAT_DECLARE(static, F, 2, 2);
 DKF_MAT_DECLARE(static, Q, 2, 2);
 DKF_MAT_DECLARE(static, H, 1, 2);
-DKF_MAT_DECLARE(static, A, 1, 1);
+DKF_MAT_DECLARE(static, D, 1, 1);
 DKF_MAT_DECLARE(static, R, 1, 1);
 DKF_MAT_DECLARE(static, B, 1, 1);
 DKF_MAT_DECLARE(static, Rd, 1, 1);
@@ -60,7 +60,7 @@ int main(void)
 {
     double x[2] = {0.0, 1.0}, d = 20.0, truth[2] = {0.0, 0.0}, nees = 0.0;
     const dkf_ui_dyn_t dyn = {&F, &Q, &B, &Rd};
-    const dkf_ui_meas_t meas = {&H, &A, &R};
+    const dkf_ui_meas_t meas = {&H, &D, &R};
     dkf_status_t s;
     int k;
 
@@ -68,7 +68,7 @@ int main(void)
     F_data[0] = 1; F_data[1] = 1; F_data[3] = 1;
     Q_data[3] = (dkf_real_t)(0.1 * 0.1 / 3.0);
     H_data[0] = 1;
-    A_data[0] = 1;
+    D_data[0] = 1;
     R_data[0] = (dkf_real_t)(0.5 * 0.5 / 3.0);
     B_data[0] = DKF_R(0.9);
     Rd_data[0] = (dkf_real_t)(0.3 * 0.3 / 3.0);

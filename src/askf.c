@@ -1,6 +1,6 @@
 /*
  * Augmented-state Kalman filter (dkf/askf.h): a dkf_kf on X = [x; d] with
- *   Phi = blockdiag(F, B),  Q^a = blockdiag(Q, Rd),  H^a = [H  A].
+ *   Phi = blockdiag(F, B),  Q^a = blockdiag(Q, Rd),  H^a = [H  D].
  *
  * The augmented matrices are assembled into the filter's scratch (`aug`)
  * from the model of the step, then the KF step runs on them. Nothing but
@@ -87,6 +87,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
 dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
 {
     dkf_mat_t Phi, Qa;
+    dkf_kf_dyn_t aug; /* {Phi, Q^a} */
     size_t n, p, N;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
@@ -102,12 +103,15 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
     Qa.rows = Qa.cols = N, Qa.data = aug_qa(f);
     assemble_blocks(Phi.data, dyn->F->data, NULL, dyn->B->data, n, p);
     assemble_blocks(Qa.data, dyn->Q->data, NULL, dyn->Rd->data, n, p);
-    return dkf_kf_predict(&f->kf, &Phi, &Qa, NULL);
+    aug.F = &Phi;
+    aug.Q = &Qa;
+    return dkf_kf_predict(&f->kf, &aug, NULL);
 }
 
 dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
 {
     dkf_mat_t Ha;
+    dkf_kf_meas_t aug; /* {H^a, R} */
     size_t n, m, p, N, i;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
@@ -117,16 +121,18 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     p = f->p;
     N = n + p;
     DKF_TRY(dkf__check_input(meas->H, m, n));
-    DKF_TRY(dkf__check_input(meas->A, m, p));
+    DKF_TRY(dkf__check_input(meas->D, m, p));
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
-    /* H^a = [H  A] */
+    /* H^a = [H  D] */
     Ha.rows = m, Ha.cols = N, Ha.data = aug_ha(f);
     for (i = 0; i < m; ++i) {
         dkf__copy(Ha.data + i * N, meas->H->data + i * n, n);
-        dkf__copy(Ha.data + i * N + n, meas->A->data + i * p, p);
+        dkf__copy(Ha.data + i * N + n, meas->D->data + i * p, p);
     }
-    return dkf_kf_update(&f->kf, &Ha, meas->R, y);
+    aug.H = &Ha;
+    aug.R = meas->R;
+    return dkf_kf_update(&f->kf, &aug, y);
 }
 
 /* v (may be NULL) = view of `len` entries of X from `off`; Pb (may be

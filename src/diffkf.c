@@ -2,7 +2,10 @@
  * The Difference Kalman filter (dkf/diffkf.h): seed 000 Theorem 1 in the
  * corrected form of docs/diffkf.md §3-4.
  *
- * Notation (library dimensions n state, m measurement, p input):
+ * Notation (library dimensions n state, m measurement, p input; A_k is the
+ * paper's letter for the feedthrough, the API's meas->D, kept here and in
+ * the names below so that the code reads beside the paper; G_k is the
+ * paper's differencing matrix):
  *   G_k   = B_k^{-1} A_{k+1}^+                            p x m   (8)
  *   M_k   = G_k H_{k+1} F_k - A_k^+ H_k                   p x n   (11)
  *   Ru_k  = Cov(u_k) = G H Q H^T G^T + B^{-1} Rd B^{-T}
@@ -220,7 +223,7 @@ static dkf_status_t check_meas(const dkf_diffkf_t *f, const dkf_ui_meas_t *meas)
 {
     DKF_CHECK_NULL(meas);
     DKF_TRY(dkf__check_input(meas->H, f->m, f->n));
-    DKF_TRY(dkf__check_input(meas->A, f->m, f->p));
+    DKF_TRY(dkf__check_input(meas->D, f->m, f->p));
     return dkf__check_input(meas->R, f->m, f->m);
 }
 
@@ -235,14 +238,14 @@ static dkf_status_t check_model_shapes(const dkf_diffkf_t *f, const dkf_ui_dyn_t
     DKF_TRY(dkf__check_shape(dyn->B, p, p));
     DKF_TRY(dkf__check_shape(dyn->Rd, p, p));
     DKF_TRY(dkf__check_shape(meas->H, m, n));
-    DKF_TRY(dkf__check_shape(meas->A, m, p));
+    DKF_TRY(dkf__check_shape(meas->D, m, p));
     return dkf__check_shape(meas->R, m, m);
 }
 
 /* Finiteness of every model input (shapes already checked). */
 static dkf_status_t check_model_finite(const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas)
 {
-    const dkf_mat_t *const all[] = {dyn->F, dyn->Q, dyn->B, dyn->Rd, meas->H, meas->A, meas->R};
+    const dkf_mat_t *const all[] = {dyn->F, dyn->Q, dyn->B, dyn->Rd, meas->H, meas->D, meas->R};
     size_t i;
     for (i = 0; i < sizeof all / sizeof all[0]; ++i)
         if (!dkf__all_finite(all[i]->data, all[i]->rows * all[i]->cols)) return DKF_ERR_NONFINITE;
@@ -263,7 +266,7 @@ static dkf_status_t pinv_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_ma
     const size_t m = f->m, p = f->p;
     size_t rank = 0;
     dkf_mat_t Ap = DKF_MAT(p, m, L->Apn);
-    if (f->a_cached && same_bits(L->Alast, A->data, m * p)) return DKF_OK;
+    if (f->d_cached && same_bits(L->Alast, A->data, m * p)) return DKF_OK;
     DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
     if (rank != p) return DKF_ERR_RANK;
     L->Ap = L->Apn;
@@ -294,7 +297,7 @@ static void commit_caches(dkf_diffkf_t *f, const layout_t *L)
     if (L->newA != NULL) {
         dkf__copy(L->Alast, L->newA->data, m * p);
         dkf__copy(L->cAp, L->Apn, p * m);
-        f->a_cached = 1;
+        f->d_cached = 1;
     }
     if (L->newB != NULL) {
         dkf__copy(L->Blast, L->newB->data, p * p);
@@ -309,7 +312,7 @@ static void commit_caches(dkf_diffkf_t *f, const layout_t *L)
         dkf__copy(L->mB, dyn->B->data, p * p);
         dkf__copy(L->mRd, dyn->Rd->data, p * p);
         dkf__copy(L->mH, meas->H->data, m * n);
-        dkf__copy(L->mA, meas->A->data, m * p);
+        dkf__copy(L->mA, meas->D->data, m * p);
         dkf__copy(L->mR, meas->R->data, m * m);
         dkf__copy(L->mApH, L->ApH, p * n);
         dkf__copy(L->mApRAp, L->ApRAp, p * p);
@@ -375,7 +378,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     DKF_TRY(check_meas(f, meas1));
     if (y1 != NULL) DKF_TRY(dkf__check_input(y1, f->m, 1));
     L = mem_of(f);
-    DKF_TRY(pinv_cached(f, &L, meas1->A));
+    DKF_TRY(pinv_cached(f, &L, meas1->D));
     /* predict to the first measured time, into pending slots */
     if (F0 != NULL) {
         dkf__mul_vec(L.T2, F0->data, f->xf.data, n, n);
@@ -422,7 +425,7 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
     layout_t L;
     const size_t n = f->n, m = f->m, p = f->p;
     size_t i;
-    DKF_TRY(pinv_cached(f, L_, meas_next->A));
+    DKF_TRY(pinv_cached(f, L_, meas_next->D));
     DKF_TRY(inverse_cached(f, L_, dyn->B));
     L = *L_;
 
@@ -473,7 +476,7 @@ static dkf_status_t model_block_memo(const dkf_diffkf_t *f, layout_t *L, const d
     if (f->model_cached && same_bits(L->mF, dyn->F->data, n * n) &&
         same_bits(L->mQ, dyn->Q->data, n * n) && same_bits(L->mB, dyn->B->data, p * p) &&
         same_bits(L->mRd, dyn->Rd->data, p * p) && same_bits(L->mH, meas_next->H->data, m * n) &&
-        same_bits(L->mA, meas_next->A->data, m * p) && same_bits(L->mR, meas_next->R->data, m * m) &&
+        same_bits(L->mA, meas_next->D->data, m * p) && same_bits(L->mR, meas_next->R->data, m * m) &&
         same_bits(L->mApH, L->ApH, p * n) && same_bits(L->mApRAp, L->ApRAp, p * p)) {
         L->G = L->oG;
         L->M = L->oM;
@@ -928,6 +931,6 @@ dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t l
      * on their inputs and would stay valid, but recomputing them is cheap
      * and gives the same bits */
     f->pending = 0;
-    f->a_cached = f->b_cached = f->model_cached = 0;
+    f->d_cached = f->b_cached = f->model_cached = 0;
     return DKF_OK;
 }

@@ -78,7 +78,7 @@ static int overlaps_any(const dkf_mat_t *X, const dkf_mat_t *Y)
 }
 #endif
 
-dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *A, dkf_mat_t *R,
+dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *D, dkf_mat_t *R,
                                    const dkf_ui_meas_t *const meas[], size_t l)
 {
     size_t i, n = 0, ms = 0, ps = 0, r0 = 0, c0 = 0;
@@ -88,36 +88,36 @@ dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *A, dkf_mat_t *R,
         const dkf_ui_meas_t *s = meas[i];
         DKF_CHECK_NULL(s);
         DKF_TRY(dkf__check_mat(s->H));
-        DKF_TRY(dkf__check_mat(s->A));
+        DKF_TRY(dkf__check_mat(s->D));
         DKF_TRY(dkf__check_mat(s->R));
         if (i == 0) n = s->H->cols;
-        if (s->H->cols != n || s->A->rows != s->H->rows ||
+        if (s->H->cols != n || s->D->rows != s->H->rows ||
             s->R->rows != s->H->rows || s->R->cols != s->H->rows)
             return DKF_ERR_DIM;
         ms += s->H->rows;
-        ps += s->A->cols;
+        ps += s->D->cols;
     }
     if (ms > DKF_MAX_DIM || ps > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
     DKF_TRY(check_out(H, ms, n));
-    DKF_TRY(check_out(A, ms, ps));
+    DKF_TRY(check_out(D, ms, ps));
     DKF_TRY(check_out(R, ms, ms));
 #if DKF_DEBUG_CHECKS
-    if (overlaps_any(H, A) || overlaps_any(H, R) || overlaps_any(A, R)) return DKF_ERR_ALIAS;
+    if (overlaps_any(H, D) || overlaps_any(H, R) || overlaps_any(D, R)) return DKF_ERR_ALIAS;
     for (i = 0; i < l; ++i) {
         const dkf_ui_meas_t *s = meas[i];
-        if (overlaps_any(H, s->H) || overlaps_any(H, s->A) || overlaps_any(H, s->R) ||
-            overlaps_any(A, s->H) || overlaps_any(A, s->A) || overlaps_any(A, s->R) ||
-            overlaps_any(R, s->H) || overlaps_any(R, s->A) || overlaps_any(R, s->R))
+        if (overlaps_any(H, s->H) || overlaps_any(H, s->D) || overlaps_any(H, s->R) ||
+            overlaps_any(D, s->H) || overlaps_any(D, s->D) || overlaps_any(D, s->R) ||
+            overlaps_any(R, s->H) || overlaps_any(R, s->D) || overlaps_any(R, s->R))
             return DKF_ERR_ALIAS;
     }
 #endif
-    if (A != NULL) memset(A->data, 0, ms * ps * sizeof(dkf_real_t));
+    if (D != NULL) memset(D->data, 0, ms * ps * sizeof(dkf_real_t));
     if (R != NULL) memset(R->data, 0, ms * ms * sizeof(dkf_real_t));
     for (i = 0; i < l; ++i) {
         const dkf_ui_meas_t *s = meas[i];
-        const size_t mi = s->H->rows, pi = s->A->cols;
+        const size_t mi = s->H->rows, pi = s->D->cols;
         if (H != NULL) put_block(H->data, n, r0, 0, s->H->data, mi, n);
-        if (A != NULL) put_block(A->data, ps, r0, c0, s->A->data, mi, pi);
+        if (D != NULL) put_block(D->data, ps, r0, c0, s->D->data, mi, pi);
         if (R != NULL) put_block(R->data, ms, r0, r0, s->R->data, mi, mi);
         r0 += mi;
         c0 += pi;
@@ -172,7 +172,7 @@ dkf_status_t dkf_diffkf_stack_input(dkf_mat_t *B, dkf_mat_t *Rd, const dkf_mat_t
 
 static size_t max_sz(size_t a, size_t b) { return a > b ? a : b; }
 
-/* Workspace reals: SVD of K^i (n x p_i) and of A^i (m_i x p_i), LU of B^i
+/* Workspace reals: SVD of K^i (n x p_i) and of D^i (m_i x p_i), LU of B^i
  * (LU + work), Cholesky of a prior (factor + work). */
 static size_t work_len_of(size_t n, size_t mi, size_t pi)
 {
@@ -220,7 +220,7 @@ static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_
 /* Storage order: the state first (dkf_diffkf_fc_state_len: the replicas'
  * storage, the committed z dz, the central filter's storage, whose first
  * DKF_DIFFKF_STATE_LEN reals end the state), then scratch: the replicas'
- * snapshots, the snapshot of the central state, stacked H A R B Rd, the
+ * snapshots, the snapshot of the central state, stacked H D R B Rd, the
  * pending z dz, (K^i)^+, work. */
 static size_t state_len_of(size_t n, size_t l, const size_t m[], const size_t p[], size_t ms,
                            size_t ps)
@@ -333,7 +333,7 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     }
     g.central_snap = cur, cur += DKF_DIFFKF_STATE_LEN(n, ms, ps);
     g.H.rows = ms, g.H.cols = n, g.H.data = cur, cur += ms * n;
-    g.A.rows = ms, g.A.cols = ps, g.A.data = cur, cur += ms * ps;
+    g.D.rows = ms, g.D.cols = ps, g.D.data = cur, cur += ms * ps;
     g.R.rows = ms, g.R.cols = ms, g.R.data = cur, cur += ms * ms;
     g.B.rows = ps, g.B.cols = ps, g.B.data = cur, cur += ps * ps;
     g.Rd.rows = ps, g.Rd.cols = ps, g.Rd.data = cur, cur += ps * ps;
@@ -422,7 +422,7 @@ static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_s
 static dkf_diffkf_fc_cond_t cond_of(dkf_status_t st)
 {
     switch (st) {
-    case DKF_ERR_RANK: return DKF_DIFFKF_FC_A_RANK;
+    case DKF_ERR_RANK: return DKF_DIFFKF_FC_D_RANK;
     case DKF_ERR_SINGULAR: return DKF_DIFFKF_FC_B_SINGULAR;
     case DKF_ERR_NOT_SPD: return DKF_DIFFKF_FC_L_NOT_SPD;
     case DKF_ERR_NONFINITE: return DKF_DIFFKF_FC_NONFINITE;
@@ -438,7 +438,7 @@ static dkf_status_t check_sensor(const dkf_diffkf_fc_t *fc, size_t i, const dkf_
 {
     const size_t n = fc->n, mi = fc->nodes[i].m, pi = fc->nodes[i].p;
     DKF_TRY(dkf__check_input(s->meas.H, mi, n));
-    DKF_TRY(dkf__check_input(s->meas.A, mi, pi));
+    DKF_TRY(dkf__check_input(s->meas.D, mi, pi));
     DKF_TRY(dkf__check_input(s->meas.R, mi, mi));
     DKF_TRY(dkf__check_input(s->B, pi, pi));
     if (want_rd) DKF_TRY(dkf__check_input(s->Rd, pi, pi));
@@ -456,7 +456,7 @@ static dkf_status_t check_sensors(const dkf_diffkf_fc_t *fc, const dkf_diffkf_se
     return DKF_OK;
 }
 
-/* fc->H, A, R (and B, Rd when want_input) from the sensors' models. */
+/* fc->H, D, R (and B, Rd when want_input) from the sensors' models. */
 static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
                                 int want_input)
 {
@@ -468,12 +468,12 @@ static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
         Bi[i] = sensors[i].B;
         Rdi[i] = sensors[i].Rd;
     }
-    DKF_TRY(dkf_diffkf_stack_meas(&fc->H, &fc->A, &fc->R, meas, fc->l));
+    DKF_TRY(dkf_diffkf_stack_meas(&fc->H, &fc->D, &fc->R, meas, fc->l));
     if (want_input) DKF_TRY(dkf_diffkf_stack_input(&fc->B, &fc->Rd, Bi, Rdi, fc->l));
     return DKF_OK;
 }
 
-/* The set-up conditions on sensor i's model at one time: A^i of full
+/* The set-up conditions on sensor i's model at one time: D^i of full
  * column rank (rank by SVD with the library's default tolerance) and B^i
  * nonsingular (LU pivot test of dkf_mat_lu). */
 static dkf_status_t check_ranks(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
@@ -484,9 +484,9 @@ static dkf_status_t check_ranks(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
     for (i = 0; i < fc->l; ++i) {
         const size_t pi = fc->nodes[i].p;
         dkf_mat_t LU = DKF_MAT(pi, pi, fc->work);
-        st = dkf_mat_rank(&rank, sensors[i].meas.A, DKF_RANK_TOL_DEFAULT, fc->work);
+        st = dkf_mat_rank(&rank, sensors[i].meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, i);
-        if (rank != pi) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_A_RANK, i);
+        if (rank != pi) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, i);
         st = dkf_mat_lu(&LU, piv, sensors[i].B, fc->work + pi * pi);
         if (st == DKF_ERR_SINGULAR)
             return report(fault, DKF_ERR_SINGULAR, DKF_DIFFKF_FC_B_SINGULAR, i);
@@ -516,7 +516,7 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     st = stack_model(fc, sensors, 0);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
     cmeas.H = &fc->H;
-    cmeas.A = &fc->A;
+    cmeas.D = &fc->D;
     cmeas.R = &fc->R;
 
     save_state(fc, &central_saved);
@@ -670,7 +670,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     cdyn.B = &fc->B;
     cdyn.Rd = &fc->Rd;
     cmeas.H = &fc->H;
-    cmeas.A = &fc->A;
+    cmeas.D = &fc->D;
     cmeas.R = &fc->R;
     st = dkf_diffkf_gain_masked(&fc->central, &cdyn, &cmeas, rows);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
@@ -734,12 +734,12 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
     if (st == DKF_OK) st = dkf_mat_chol(&Lc, P_prior, fc->work + fc->n * fc->n);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, node);
     st = dkf__check_input(sensor_at_kstart->meas.H, nd->m, fc->n);
-    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.A, nd->m, nd->p);
+    if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.D, nd->m, nd->p);
     if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.R, nd->m, nd->m);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
-    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.A, DKF_RANK_TOL_DEFAULT, fc->work);
+    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
-    if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_A_RANK, node);
+    if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, node);
 
     /* as the node: init (its x prior is irrelevant: the replica's x is the
      * message's) and a start at k_start with no previous innovation */

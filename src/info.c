@@ -88,12 +88,16 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     return DKF_OK;
 }
 
-dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t *Q)
+dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_kf_dyn_t *dyn)
 {
+    const dkf_mat_t *F, *Q;
     size_t n;
     info_scratch_t s;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(dyn);
+    F = dyn->F;
+    Q = dyn->Q;
     n = f->n;
     DKF_TRY(dkf__check_input(F, n, n));
     DKF_TRY(dkf__check_input(Q, n, n));
@@ -107,11 +111,15 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_mat_t *F, const dkf_mat_t
     return commit(f, s.xn, s.C, s.yn, s.B, s.A);
 }
 
-dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_mat_t *C,
-                                   const dkf_mat_t *R, const dkf_mat_t *z, dkf_real_t *work)
+dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_kf_meas_t *meas,
+                                   const dkf_mat_t *z, dkf_real_t *work)
 {
+    const dkf_mat_t *C, *R; /* C = meas->H: the measurement matrix (seed 001's C_j) */
     size_t n, m, a, b, l, pass;
     dkf_real_t *L, *W, inv[DKF_MAX_DIM], w[DKF_MAX_DIM];
+    DKF_CHECK_NULL(meas);
+    C = meas->H;
+    R = meas->R;
     DKF_TRY(dkf__check_mat(C));
     n = C->cols;
     m = C->rows;

@@ -169,13 +169,16 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     return DKF_OK;
 }
 
-dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
-                            const dkf_mat_t *u)
+dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_kf_dyn_t *dyn, const dkf_mat_t *u)
 {
     const dkf_real_t *ud = NULL;
+    const dkf_mat_t *F, *Q;
     size_t n;
     DKF_CHECK_NULL(kf);
     if (!kf->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(dyn);
+    F = dyn->F;
+    Q = dyn->Q;
     n = kf->n;
     /* shapes here; finiteness in the step (see above) */
     DKF_TRY(dkf__check_shape(F, n, n));
@@ -262,12 +265,15 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     return DKF_OK;
 }
 
-dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
-                           const dkf_mat_t *y)
+dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_mat_t *y)
 {
+    const dkf_mat_t *H, *R;
     size_t n, m;
     DKF_CHECK_NULL(kf);
     if (!kf->ready) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(meas);
+    H = meas->H;
+    R = meas->R;
     n = kf->n;
     DKF_TRY(dkf__check_mat(H));
     m = H->rows;

@@ -11,7 +11,8 @@
  * and Y = Rd - Rd (P^d)^{-1} Rd, which is symmetric, so P^x stays exactly
  * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: note §5.)
  *
- * Measurement update, from x = x~ + U d (U = U_k after a predict):
+ * Measurement update, from x = x~ + U d (U = U_k after a predict; A is the
+ * feedthrough meas->D, the paper's A_k):
  *   S   = H U + A                         Sx = H P^x H^T + R
  *   K^x = P^x H^T Sx^{-1}                 x~ += K^x (y - H x~)
  *   P^x = (I - K^x H) P^x (I - K^x H)^T + K^x R K^x^T   (Joseph; DKF_JOSEPH=0:
@@ -195,7 +196,7 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
     set_view(&g.U, n, p, &cur);
     set_view(&g.V, n, p, &cur);
     g.work = cur;
-    g.A_ok = storage + DKF_OTSKF_STORAGE_LEN(n, m, p) - m * p;
+    g.D_ok = storage + DKF_OTSKF_STORAGE_LEN(n, m, p) - m * p;
     /* V_0 = 0: x~_{0|0} = x_{0|0}, P^x_{0|0} = P_{0|0} */
     dkf__copy(g.xt.data, x0->data, n);
     dkf__copy(g.x.data, x0->data, n);
@@ -310,15 +311,15 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
 
 /* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
  * tolerance (docs/matrix.md), before anything is computed; skipped when A_k
- * is bitwise the last matrix that passed (A_ok), *is_new = 1 otherwise.
+ * is bitwise the last matrix that passed (D_ok), *is_new = 1 otherwise.
  * The SVD's workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the
  * update scratch (DKF_OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of
  * it). DKF_ERR_RANK unless rank A_k = p. */
-static dkf_status_t check_rank_of_A(const dkf_otskf_t *f, const dkf_mat_t *A, int *is_new)
+static dkf_status_t check_rank_of_D(const dkf_otskf_t *f, const dkf_mat_t *A, int *is_new)
 {
     size_t rank = 0;
     *is_new = 0;
-    if (f->a_checked && memcmp(f->A_ok, A->data, f->m * f->p * sizeof *A->data) == 0)
+    if (f->d_checked && memcmp(f->D_ok, A->data, f->m * f->p * sizeof *A->data) == 0)
         return DKF_OK;
     DKF_TRY(dkf_mat_rank(&rank, A, DKF_RANK_TOL_DEFAULT, f->work));
     if (rank != f->p) return DKF_ERR_RANK;
@@ -341,12 +342,12 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     m = f->m;
     p = f->p;
     DKF_TRY(dkf__check_input(meas->H, m, n));
-    DKF_TRY(dkf__check_input(meas->A, m, p));
+    DKF_TRY(dkf__check_input(meas->D, m, p));
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
-    DKF_TRY(check_rank_of_A(f, meas->A, &a_new));
+    DKF_TRY(check_rank_of_D(f, meas->D, &a_new));
     H = meas->H->data;
-    A = meas->A->data;
+    A = meas->D->data;
     R = meas->R->data;
     Bl = blend(f);
     s = upd_scratch(f);
@@ -397,8 +398,8 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     /* A_k passed the check: remembered only with a step that succeeded, so
      * a failed update leaves all of *f and its storage as they were */
     if (st == DKF_OK && a_new) {
-        dkf__copy(f->A_ok, A, m * p);
-        f->a_checked = 1;
+        dkf__copy(f->D_ok, A, m * p);
+        f->d_checked = 1;
     }
     return st;
 }

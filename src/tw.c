@@ -2,14 +2,17 @@
  * Talebi-Werner filters with unknown actuations (dkf/tw.h): seed 003
  * Algorithms 1-3 as corrected in docs/graph-filters.md.
  *
- * The local step evaluates the information form (9)-(20) through product
- * identities that avoid the cancellations of the printed formulas
- * (Psi = Phi-^{-1} + Q, Phi+ = Psi^{-1}, Lambda = I - Q Psi^{-1}):
- *   Lambda = Phi-^{-1} Phi+          since (Psi - Q) Psi^{-1} = Phi-^{-1} Psi^{-1}
- *   Phi- Lambda = Phi+               so (19)-(20): phi+ = phi- + Phi+ (s - Q phi-)
- *   (I - Phi- Pi) = I - Phi+ Q = Phi+ Phi-^{-1}   so (8a): G = Phi+ (Phi-^{-1} B)
- *   Pi = Lambda Q,  B^T Lambda = G^T  so (12): S = G^T (Q B), (18): z = S^{-1} G^T (s - Q phi-)
- * Pi = Q - Q Psi^{-1} Q itself is never formed: with 200 nodes Q is ~1e3
+ * Letters of dkf/tw.h: F, G, Q, R, d, I, i, Gpost are the paper's A, B,
+ * Sv, Sw, z, Q (Upsilon), s (varphi), G. The local step evaluates the
+ * information form (9)-(20) through product identities that avoid the
+ * cancellations of the printed formulas (Psi = Phi-^{-1} + I,
+ * Phi+ = Psi^{-1}, Lambda = I_n - I Psi^{-1}):
+ *   Lambda = Phi-^{-1} Phi+          since (Psi - I) Psi^{-1} = Phi-^{-1} Psi^{-1}
+ *   Phi- Lambda = Phi+               so (19)-(20): phi+ = phi- + Phi+ (i - I phi-)
+ *   (I_n - Phi- Pi) = I_n - Phi+ I = Phi+ Phi-^{-1}   so (8a): Gpost = Phi+ (Phi-^{-1} G)
+ *   Pi = Lambda I,  G^T Lambda = Gpost^T  so (12): S = Gpost^T (I G),
+ *   (18): d = S^{-1} Gpost^T (i - I phi-)
+ * Pi = I - I Psi^{-1} I itself is never formed: with 200 nodes I is ~1e3
  * times Pi and the subtraction would cost three digits (float: all of
  * the margin). Every product above has positive factors only.
  */
@@ -20,27 +23,27 @@
 #include "internal.h"
 #include "kernels.h"
 
-/* What a step shows: z and the views, in this order, once committed and
+/* What a step shows: d and the views, in this order, once committed and
  * once pending, so a commit is one copy. */
 typedef struct {
-    dkf_real_t *z, *phi, *Phi, *Q, *s, *phi_post, *Phi_post, *S, *G, *psi, *Ploc;
+    dkf_real_t *d, *phi, *Phi, *I, *i, *phi_post, *Phi_post, *S, *Gpost, *psi, *Ploc;
 } block_t;
 
-static size_t block_len(size_t n, size_t m) { return m + 4 * n + 4 * n * n + m * m + n * m; }
+static size_t block_len(size_t n, size_t p) { return p + 4 * n + 4 * n * n + p * p + n * p; }
 
-static block_t block_at(dkf_real_t *b, size_t n, size_t m)
+static block_t block_at(dkf_real_t *b, size_t n, size_t p)
 {
     block_t k;
-    k.z = b;
-    k.phi = k.z + m;
+    k.d = b;
+    k.phi = k.d + p;
     k.Phi = k.phi + n;
-    k.Q = k.Phi + n * n;
-    k.s = k.Q + n * n;
-    k.phi_post = k.s + n;
+    k.I = k.Phi + n * n;
+    k.i = k.I + n * n;
+    k.phi_post = k.i + n;
     k.Phi_post = k.phi_post + n;
     k.S = k.Phi_post + n * n;
-    k.G = k.S + m * m;
-    k.psi = k.G + n * m;
+    k.Gpost = k.S + p * p;
+    k.psi = k.Gpost + n * p;
     k.Ploc = k.psi + n;
     return k;
 }
@@ -49,41 +52,41 @@ static block_t block_at(dkf_real_t *b, size_t n, size_t m)
 typedef struct {
     dkf_real_t *pend;
     dkf_real_t *J, *C, *T;       /* n x n: Phi-^{-1}, Cholesky factors, Psi / unpacked P */
-    dkf_real_t *JB, *QB, *GSi;   /* n x m */
-    dkf_real_t *Sc, *Si;         /* m x m: Cholesky of S, S^{-1} */
-    dkf_real_t *r;               /* n: s - Q phi- */
-    dkf_real_t *Lw, *RiH, *Riy;  /* measurement: chol(Sw) = Lw, Lw^{-1} H, Lw^{-1} y */
+    dkf_real_t *JG, *IG, *GSi;   /* n x p */
+    dkf_real_t *Sc, *Si;         /* p x p: Cholesky of S, S^{-1} */
+    dkf_real_t *r;               /* n: i - I phi- */
+    dkf_real_t *Lw, *RiH, *Riy;  /* measurement: chol(R) = Lw, Lw^{-1} H, Lw^{-1} y */
     dkf_real_t *stage, *acc;     /* packets: one being built, the central sum */
 } layout_t;
 
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     size_t used = 0;
-    DKF_TAKE(L->pend, block_len(n, m));
+    DKF_TAKE(L->pend, block_len(n, p));
     DKF_TAKE(L->J, n * n);
     DKF_TAKE(L->C, n * n);
     DKF_TAKE(L->T, n * n);
-    DKF_TAKE(L->JB, n * m);
-    DKF_TAKE(L->QB, n * m);
-    DKF_TAKE(L->GSi, n * m);
-    DKF_TAKE(L->Sc, m * m);
-    DKF_TAKE(L->Si, m * m);
+    DKF_TAKE(L->JG, n * p);
+    DKF_TAKE(L->IG, n * p);
+    DKF_TAKE(L->GSi, n * p);
+    DKF_TAKE(L->Sc, p * p);
+    DKF_TAKE(L->Si, p * p);
     DKF_TAKE(L->r, n);
-    DKF_TAKE(L->Lw, p * p);
-    DKF_TAKE(L->RiH, p * n);
-    DKF_TAKE(L->Riy, p);
+    DKF_TAKE(L->Lw, m * m);
+    DKF_TAKE(L->RiH, m * n);
+    DKF_TAKE(L->Riy, m);
     DKF_TAKE(L->stage, DKF_TW_PKT_LEN(n));
     DKF_TAKE(L->acc, DKF_TW_PKT_LEN(n));
     return used;
 }
 
 /* committed: x, P, block */
-static size_t committed_len(size_t n, size_t m) { return n + n * n + block_len(n, m); }
+static size_t committed_len(size_t n, size_t p) { return n + n * n + block_len(n, p); }
 
 static layout_t mem_of(const dkf_tw_node_t *nd)
 {
     layout_t L;
-    (void)layout(&L, nd->mem, nd->n, nd->m, nd->p_max);
+    (void)layout(&L, nd->mem, nd->n, nd->m_max, nd->p);
     return L;
 }
 
@@ -95,25 +98,25 @@ static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
 }
 
 /* Packed upper triangle <-> full symmetric n x n. */
-static void pack_sym(dkf_real_t *p, const dkf_real_t *A, size_t n)
+static void pack_sym(dkf_real_t *pk, const dkf_real_t *A, size_t n)
 {
     size_t i, j, e = 0;
     for (i = 0; i < n; ++i)
-        for (j = i; j < n; ++j) p[e++] = A[i * n + j];
+        for (j = i; j < n; ++j) pk[e++] = A[i * n + j];
 }
 
-static void unpack_sym(dkf_real_t *A, const dkf_real_t *p, size_t n)
+static void unpack_sym(dkf_real_t *A, const dkf_real_t *pk, size_t n)
 {
     size_t i, j, e = 0;
     for (i = 0; i < n; ++i)
         for (j = i; j < n; ++j) {
-            A[i * n + j] = p[e];
-            A[j * n + i] = p[e];
+            A[i * n + j] = pk[e];
+            A[j * n + i] = pk[e];
             ++e;
         }
 }
 
-dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m, size_t p_max,
+dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t p,
                               dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
                               const dkf_mat_t *P0)
 {
@@ -124,18 +127,18 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m, size_t p_ma
     size_t total;
     DKF_CHECK_NULL(nd);
     DKF_CHECK_NULL(storage);
-    if (n == 0 || m == 0 || p_max == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p_max > DKF_MAX_DIM)
+    if (n == 0 || p == 0 || m_max == 0 || n > DKF_MAX_DIM || p > DKF_MAX_DIM || m_max > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    if (m > n) return DKF_ERR_RANK;
-    total = committed_len(n, m) + layout(&L, NULL, n, m, p_max);
+    if (p > n) return DKF_ERR_RANK;
+    total = committed_len(n, p) + layout(&L, NULL, n, m_max, p);
     if (storage_len < total) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     memset(&g, 0, sizeof g);
     g.n = n;
-    g.m = m;
-    g.p_max = p_max;
-    g.mem = storage + committed_len(n, m);
+    g.p = p;
+    g.m_max = m_max;
+    g.mem = storage + committed_len(n, p);
     L = mem_of(&g);
     /* P0 must be SPD. The test factorisation writes into the scratch part
      * of storage only: every caller-visible value is set after it. */
@@ -143,16 +146,16 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m, size_t p_ma
     memset(storage, 0, total * sizeof *storage);
     set_view(&g.x, n, 1, storage);
     set_view(&g.P, n, n, storage + n);
-    b = block_at(storage + n + n * n, n, m);
-    set_view(&g.z, m, 1, b.z);
+    b = block_at(storage + n + n * n, n, p);
+    set_view(&g.d, p, 1, b.d);
     set_view(&g.phi, n, 1, b.phi);
     set_view(&g.Phi, n, n, b.Phi);
-    set_view(&g.Q, n, n, b.Q);
-    set_view(&g.s, n, 1, b.s);
+    set_view(&g.I, n, n, b.I);
+    set_view(&g.i, n, 1, b.i);
     set_view(&g.phi_post, n, 1, b.phi_post);
     set_view(&g.Phi_post, n, n, b.Phi_post);
-    set_view(&g.S, m, m, b.S);
-    set_view(&g.G, n, m, b.G);
+    set_view(&g.S, p, p, b.S);
+    set_view(&g.Gpost, n, p, b.Gpost);
     set_view(&g.psi, n, 1, b.psi);
     set_view(&g.Ploc, n, n, b.Ploc);
     dkf__copy(g.x.data, x0->data, n);
@@ -162,35 +165,35 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m, size_t p_ma
     return DKF_OK;
 }
 
-/* Builds scale * [H^T Sw^{-1} y | packed H^T Sw^{-1} H] in L.stage. */
-static dkf_status_t meas_info(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw_sensor_t *sn,
-                              dkf_real_t scale)
+/* Builds scale * [H^T R^{-1} y | packed H^T R^{-1} H] in L.stage. */
+static dkf_status_t meas_info(dkf_tw_node_t *nd, const layout_t *L, const dkf_kf_meas_t *meas,
+                              const dkf_mat_t *y, dkf_real_t scale)
 {
     dkf_real_t inv[DKF_MAX_DIM];
     const size_t n = nd->n;
-    size_t p, a, b, l, e;
-    DKF_CHECK_NULL(sn);
-    DKF_TRY(dkf__check_mat(sn->H));
-    p = sn->H->rows;
-    if (p > nd->p_max) return DKF_ERR_CAPACITY;
-    DKF_TRY(dkf__check_input(sn->H, p, n));
-    DKF_TRY(dkf__check_input(sn->Sw, p, p));
-    DKF_TRY(dkf__check_input(sn->y, p, 1));
+    size_t m, a, b, l, e;
+    DKF_CHECK_NULL(meas);
+    DKF_TRY(dkf__check_mat(meas->H));
+    m = meas->H->rows;
+    if (m > nd->m_max) return DKF_ERR_CAPACITY;
+    DKF_TRY(dkf__check_input(meas->H, m, n));
+    DKF_TRY(dkf__check_input(meas->R, m, m));
+    DKF_TRY(dkf__check_input(y, m, 1));
     if (!dkf__all_finite(&scale, 1)) return DKF_ERR_NONFINITE;
-    /* (17), (21) in square-root form: Sw = Lw Lw^T, W = Lw^{-1} H and
-     * w = Lw^{-1} y (in RiH, Riy), H^T Sw^{-1} H = W^T W (a Gram matrix:
-     * PSD up to rounding, which H^T (Sw^{-1} H) is not for an
-     * ill-conditioned Sw) and H^T Sw^{-1} y = W^T w */
-    if (dkf__chol(L->Lw, inv, sn->Sw->data, p) != 0) return DKF_ERR_NOT_SPD;
-    dkf__whiten(L->RiH, L->Riy, L->Lw, inv, sn->H->data, sn->y->data, p, n);
+    /* (17), (21) in square-root form: R = Lw Lw^T, W = Lw^{-1} H and
+     * w = Lw^{-1} y (in RiH, Riy), H^T R^{-1} H = W^T W (a Gram matrix:
+     * PSD up to rounding, which H^T (R^{-1} H) is not for an
+     * ill-conditioned R) and H^T R^{-1} y = W^T w */
+    if (dkf__chol(L->Lw, inv, meas->R->data, m) != 0) return DKF_ERR_NOT_SPD;
+    dkf__whiten(L->RiH, L->Riy, L->Lw, inv, meas->H->data, y->data, m, n);
     e = n;
     for (a = 0; a < n; ++a) {
         dkf_real_t v = DKF_R(0.0);
-        for (l = 0; l < p; ++l) v += L->RiH[l * n + a] * L->Riy[l];
+        for (l = 0; l < m; ++l) v += L->RiH[l * n + a] * L->Riy[l];
         L->stage[a] = scale * v;
         for (b = a; b < n; ++b) {
             dkf_real_t w = DKF_R(0.0);
-            for (l = 0; l < p; ++l) w += L->RiH[l * n + a] * L->RiH[l * n + b];
+            for (l = 0; l < m; ++l) w += L->RiH[l * n + a] * L->RiH[l * n + b];
             L->stage[e++] = scale * w;
         }
     }
@@ -198,110 +201,110 @@ static dkf_status_t meas_info(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw
     return DKF_OK;
 }
 
-dkf_status_t dkf_tw_meas_packet(dkf_real_t *pkt, dkf_tw_node_t *nd, const dkf_tw_sensor_t *sn,
-                                dkf_real_t scale)
+dkf_status_t dkf_tw_meas_packet(dkf_real_t *pkt, dkf_tw_node_t *nd, const dkf_kf_meas_t *meas,
+                                const dkf_mat_t *y, dkf_real_t scale)
 {
     layout_t L;
     DKF_CHECK_NULL(pkt);
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
     L = mem_of(nd);
-    DKF_TRY(meas_info(nd, &L, sn, scale));
+    DKF_TRY(meas_info(nd, &L, meas, y, scale));
     dkf__copy(pkt, L.stage, DKF_TW_PKT_LEN(nd->n));
     return DKF_OK;
 }
 
 /* S must be numerically positive definite: a Cholesky pivot below
- * 16 m eps of the largest diagonal entry means rank(H B) < m for the
- * information at hand (S = B^T Pi B is then singular up to rounding). */
-static int chol_rank_ok(dkf_real_t *Lc, dkf_real_t *inv, const dkf_real_t *S, size_t m)
+ * 16 p eps of the largest diagonal entry means rank(H G) < p for the
+ * information at hand (S = G^T Pi G is then singular up to rounding). */
+static int chol_rank_ok(dkf_real_t *Lc, dkf_real_t *inv, const dkf_real_t *S, size_t p)
 {
     dkf_real_t dmax = DKF_R(0.0);
     size_t i;
-    if (dkf__chol(Lc, inv, S, m) != 0) return 0;
-    for (i = 0; i < m; ++i)
-        if (S[i * m + i] > dmax) dmax = S[i * m + i];
-    for (i = 0; i < m; ++i)
-        if (Lc[i * m + i] * Lc[i * m + i] <= DKF_R(16.0) * (dkf_real_t)m * DKF_REAL_EPSILON * dmax)
+    if (dkf__chol(Lc, inv, S, p) != 0) return 0;
+    for (i = 0; i < p; ++i)
+        if (S[i * p + i] > dmax) dmax = S[i * p + i];
+    for (i = 0; i < p; ++i)
+        if (Lc[i * p + i] * Lc[i * p + i] <= DKF_R(16.0) * (dkf_real_t)p * DKF_REAL_EPSILON * dmax)
             return 0;
     return 1;
 }
 
-static dkf_status_t check_model(const dkf_tw_node_t *nd, const dkf_tw_model_t *md)
+static dkf_status_t check_model(const dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn)
 {
-    DKF_CHECK_NULL(md);
-    DKF_TRY(dkf__check_input(md->A, nd->n, nd->n));
-    DKF_TRY(dkf__check_input(md->B, nd->n, nd->m));
-    return dkf__check_input(md->Sv, nd->n, nd->n);
+    DKF_CHECK_NULL(dyn);
+    DKF_TRY(dkf__check_input(dyn->F, nd->n, nd->n));
+    DKF_TRY(dkf__check_input(dyn->G, nd->n, nd->p));
+    return dkf__check_input(dyn->Q, nd->n, nd->n);
 }
 
 /* The local step into the pending block (see the top of the file). */
-static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_tw_model_t *md,
+static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_uif_dyn_t *dyn,
                                const dkf_real_t *info)
 {
     dkf_real_t inv[DKF_MAX_DIM], u[DKF_MAX_DIM];
-    const size_t n = nd->n, m = nd->m;
-    const block_t b = block_at(L->pend, n, m);
-    const dkf_real_t *A = md->A->data, *B = md->B->data;
+    const size_t n = nd->n, p = nd->p;
+    const block_t b = block_at(L->pend, n, p);
+    const dkf_real_t *F = dyn->F->data, *G = dyn->G->data;
     size_t i, j, a;
 
     /* unpack the info first: info may live in the caller's est buffer */
-    dkf__copy(b.s, info, n);
-    unpack_sym(b.Q, info + n, n);
+    dkf__copy(b.i, info, n);
+    unpack_sym(b.I, info + n, n);
 
-    /* (6a)-(6b): phi- = A x, Phi- = A P A^T + Sv */
-    dkf__mul_vec(b.phi, A, nd->x.data, n, n);
-    dkf__mul_nn(L->T, A, nd->P.data, n, n, n);
-    dkf__mul_nt_sym(b.Phi, L->T, A, md->Sv->data, n, n);
+    /* (6a)-(6b): phi- = F x, Phi- = F P F^T + Q */
+    dkf__mul_vec(b.phi, F, nd->x.data, n, n);
+    dkf__mul_nn(L->T, F, nd->P.data, n, n, n);
+    dkf__mul_nt_sym(b.Phi, L->T, F, dyn->Q->data, n, n);
     if (dkf__chol(L->C, inv, b.Phi, n) != 0) return DKF_ERR_NOT_SPD;
     dkf__chol_inverse(L->J, L->C, inv, n);
 
-    /* (10), (7b): Psi = Phi-^{-1} + Q, Phi+ = Psi^{-1} */
-    for (i = 0; i < n * n; ++i) L->T[i] = L->J[i] + b.Q[i];
+    /* (10), (7b): Psi = Phi-^{-1} + I, Phi+ = Psi^{-1} */
+    for (i = 0; i < n * n; ++i) L->T[i] = L->J[i] + b.I[i];
     if (dkf__chol(L->C, inv, L->T, n) != 0) return DKF_ERR_NOT_SPD;
     dkf__chol_inverse(b.Phi_post, L->C, inv, n);
 
-    /* (14), (17): r = s - Q phi- (the summed xi_l);  (20): phi+ = phi- + Phi+ r */
-    dkf__mul_vec(L->r, b.Q, b.phi, n, n);
-    for (i = 0; i < n; ++i) L->r[i] = b.s[i] - L->r[i];
+    /* (14), (17): r = i - I phi- (the summed xi_l);  (20): phi+ = phi- + Phi+ r */
+    dkf__mul_vec(L->r, b.I, b.phi, n, n);
+    for (i = 0; i < n; ++i) L->r[i] = b.i[i] - L->r[i];
     dkf__mul_vec(b.phi_post, b.Phi_post, L->r, n, n);
     for (i = 0; i < n; ++i) b.phi_post[i] += b.phi[i];
 
-    /* (8a): G = Phi+ (Phi-^{-1} B);  (12): S = G^T (Q B), symmetrised */
-    dkf__mul_nn(L->JB, L->J, B, n, n, m);
-    dkf__mul_nn(b.G, b.Phi_post, L->JB, n, n, m);
-    dkf__mul_nn(L->QB, b.Q, B, n, n, m);
-    for (i = 0; i < m; ++i)
-        for (j = 0; j < m; ++j) {
+    /* (8a): Gpost = Phi+ (Phi-^{-1} G);  (12): S = Gpost^T (I G), symmetrised */
+    dkf__mul_nn(L->JG, L->J, G, n, n, p);
+    dkf__mul_nn(b.Gpost, b.Phi_post, L->JG, n, n, p);
+    dkf__mul_nn(L->IG, b.I, G, n, n, p);
+    for (i = 0; i < p; ++i)
+        for (j = 0; j < p; ++j) {
             dkf_real_t v = DKF_R(0.0);
-            for (a = 0; a < n; ++a) v += b.G[a * m + i] * L->QB[a * m + j];
-            b.S[i * m + j] = v;
+            for (a = 0; a < n; ++a) v += b.Gpost[a * p + i] * L->IG[a * p + j];
+            b.S[i * p + j] = v;
         }
-    dkf__symmetrise(b.S, m);
-    if (!dkf__all_finite(b.S, m * m)) return DKF_ERR_NONFINITE;
-    if (!chol_rank_ok(L->Sc, inv, b.S, m)) return DKF_ERR_RANK;
+    dkf__symmetrise(b.S, p);
+    if (!dkf__all_finite(b.S, p * p)) return DKF_ERR_NONFINITE;
+    if (!chol_rank_ok(L->Sc, inv, b.S, p)) return DKF_ERR_RANK;
 
-    /* (18): z = S^{-1} G^T r;  (8b): psi = phi+ + G z */
-    for (i = 0; i < m; ++i) {
+    /* (18): d = S^{-1} Gpost^T r;  (8b): psi = phi+ + Gpost d */
+    for (i = 0; i < p; ++i) {
         dkf_real_t v = DKF_R(0.0);
-        for (a = 0; a < n; ++a) v += b.G[a * m + i] * L->r[a];
+        for (a = 0; a < n; ++a) v += b.Gpost[a * p + i] * L->r[a];
         u[i] = v;
     }
-    dkf__chol_solve(L->Sc, inv, u, m, 1);
-    dkf__copy(b.z, u, m);
-    dkf__mul_vec(b.psi, b.G, b.z, n, m);
+    dkf__chol_solve(L->Sc, inv, u, p, 1);
+    dkf__copy(b.d, u, p);
+    dkf__mul_vec(b.psi, b.Gpost, b.d, n, p);
     for (i = 0; i < n; ++i) b.psi[i] += b.phi_post[i];
 
-    /* (8c) corrected: Ploc = Phi+ + G S^{-1} G^T */
-    dkf__chol_inverse(L->Si, L->Sc, inv, m);
-    dkf__mul_nn(L->GSi, b.G, L->Si, n, m, m);
-    dkf__mul_nt_sym(b.Ploc, L->GSi, b.G, b.Phi_post, n, m);
+    /* (8c) corrected: Ploc = Phi+ + Gpost S^{-1} Gpost^T */
+    dkf__chol_inverse(L->Si, L->Sc, inv, p);
+    dkf__mul_nn(L->GSi, b.Gpost, L->Si, n, p, p);
+    dkf__mul_nt_sym(b.Ploc, L->GSi, b.Gpost, b.Phi_post, n, p);
 
-    if (!dkf__all_finite(L->pend, block_len(n, m))) return DKF_ERR_NONFINITE;
+    if (!dkf__all_finite(L->pend, block_len(n, p))) return DKF_ERR_NONFINITE;
     return DKF_OK;
 }
 
-dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_tw_model_t *md, const dkf_real_t *info,
+dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, const dkf_real_t *info,
                                dkf_real_t *est)
 {
     layout_t L;
@@ -311,13 +314,13 @@ dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_tw_model_t *md, cons
     /* any failure from here on cancels a pending step (tw.h) */
     nd->pending = 0;
     DKF_CHECK_NULL(info);
-    DKF_TRY(check_model(nd, md));
+    DKF_TRY(check_model(nd, dyn));
     if (!dkf__all_finite(info, DKF_TW_PKT_LEN(nd->n))) return DKF_ERR_NONFINITE;
     L = mem_of(nd);
-    st = local_step(nd, &L, md, info);
+    st = local_step(nd, &L, dyn, info);
     if (st != DKF_OK) return st;
     if (est != NULL) {
-        const block_t b = block_at(L.pend, nd->n, nd->m);
+        const block_t b = block_at(L.pend, nd->n, nd->p);
         dkf__copy(est, b.psi, nd->n);
         pack_sym(est + nd->n, b.Ploc, nd->n);
     }
@@ -332,7 +335,7 @@ static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, con
 {
     dkf_real_t inv[DKF_MAX_DIM];
     const size_t n = nd->n;
-    const block_t b = block_at(L->pend, n, nd->m);
+    const block_t b = block_at(L->pend, n, nd->p);
     if (!nd->pending) return DKF_ERR_STATE;
     if (x != NULL && !dkf__all_finite(x, n)) return DKF_ERR_NONFINITE;
     if (Ppacked != NULL) {
@@ -348,10 +351,10 @@ static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, con
 static void apply_commit(dkf_tw_node_t *nd, const layout_t *L, const dkf_real_t *x)
 {
     const size_t n = nd->n;
-    const block_t b = block_at(L->pend, n, nd->m);
+    const block_t b = block_at(L->pend, n, nd->p);
     dkf__copy(nd->x.data, x != NULL ? x : b.psi, n);
     dkf__copy(nd->P.data, L->T, n * n);
-    dkf__copy(nd->z.data, L->pend, block_len(n, nd->m));
+    dkf__copy(nd->d.data, L->pend, block_len(n, nd->p));
     nd->pending = 0;
     ++nd->k;
 }
@@ -367,8 +370,8 @@ dkf_status_t dkf_tw_node_commit(dkf_tw_node_t *nd, const dkf_real_t *x, const dk
     return DKF_OK;
 }
 
-dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
-                                 const dkf_tw_sensor_t sensors[], size_t N)
+dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
+                                 const dkf_kf_meas_t meas[], const dkf_mat_t y[], size_t N)
 {
     layout_t L;
     size_t l, e, len;
@@ -376,16 +379,17 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
     len = DKF_TW_PKT_LEN(nd->n);
-    DKF_CHECK_NULL(sensors);
+    DKF_CHECK_NULL(meas);
+    DKF_CHECK_NULL(y);
     if (N == 0) return DKF_ERR_ARG;
     L = mem_of(nd);
-    /* the fusion centre's sums Q = sum H^T Sw^{-1} H (21), sum H^T Sw^{-1} y */
+    /* the fusion centre's sums I = sum H^T R^{-1} H (21), i = sum H^T R^{-1} y */
     for (e = 0; e < len; ++e) L.acc[e] = DKF_R(0.0);
     for (l = 0; l < N; ++l) {
-        DKF_TRY(meas_info(nd, &L, &sensors[l], DKF_R(1.0)));
+        DKF_TRY(meas_info(nd, &L, &meas[l], &y[l], DKF_R(1.0)));
         for (e = 0; e < len; ++e) L.acc[e] += L.stage[e];
     }
-    DKF_TRY(dkf_tw_node_local(nd, md, L.acc, NULL));
+    DKF_TRY(dkf_tw_node_local(nd, dyn, L.acc, NULL));
     st = dkf_tw_node_commit(nd, NULL, NULL);
     /* a local estimate whose P (Ploc) is not numerically SPD is refused by
      * the commit: the local step of this call is not left pending */
@@ -396,7 +400,7 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_tw_model_t *md,
 /* ---- whole-graph simulation --------------------------------------------- */
 
 dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_node_t *nodes,
-                             size_t n, size_t m, size_t p_max, dkf_real_t *storage,
+                             size_t n, size_t m_max, size_t p, dkf_real_t *storage,
                              size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
     dkf_graph_t chk;
@@ -407,20 +411,20 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
     DKF_CHECK_NULL(nodes);
     DKF_CHECK_NULL(storage);
     DKF_TRY(dkf_graph_init(&chk, g->N, g->start, g->nbr));
-    if (n == 0 || m == 0 || p_max == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p_max > DKF_MAX_DIM)
+    if (n == 0 || p == 0 || m_max == 0 || n > DKF_MAX_DIM || p > DKF_MAX_DIM || m_max > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    node_len = DKF_TW_NODE_STORAGE_LEN(n, m, p_max);
+    node_len = DKF_TW_NODE_STORAGE_LEN(n, m_max, p);
     pkt = DKF_TW_PKT_LEN(n);
     if (storage_len / g->N < node_len + 3 * pkt) return DKF_ERR_CAPACITY;
-    /* node 0 checks (x0, P0, m <= n); the others cannot fail after it */
-    DKF_TRY(dkf_tw_node_init(&nodes[0], n, m, p_max, storage, node_len, x0, P0));
+    /* node 0 checks (x0, P0, p <= n); the others cannot fail after it */
+    DKF_TRY(dkf_tw_node_init(&nodes[0], n, m_max, p, storage, node_len, x0, P0));
     for (l = 1; l < g->N; ++l)
-        (void)dkf_tw_node_init(&nodes[l], n, m, p_max, storage + l * node_len, node_len, x0, P0);
+        (void)dkf_tw_node_init(&nodes[l], n, m_max, p, storage + l * node_len, node_len, x0, P0);
     memset(&t, 0, sizeof t);
     t.g = g;
     t.N = g->N;
     t.n = n;
-    t.m = m;
+    t.p = p;
     t.nodes = nodes;
     t.out = storage + g->N * node_len;
     t.mix = t.out + g->N * pkt;
@@ -429,34 +433,35 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
     return DKF_OK;
 }
 
-static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_tw_model_t *md,
-                              const dkf_tw_sensor_t sensors[])
+static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn,
+                              const dkf_kf_meas_t meas[], const dkf_mat_t y[])
 {
     DKF_CHECK_NULL(net);
     if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
-    DKF_CHECK_NULL(sensors);
-    (void)sensors; /* only the NULL check above uses it */
-    return check_model(&net->nodes[0], md);
+    DKF_CHECK_NULL(meas);
+    DKF_CHECK_NULL(y);
+    return check_model(&net->nodes[0], dyn);
 }
 
 /* Every node's info packet, scaled, into net->out. */
-static dkf_status_t all_meas(dkf_tw_net_t *net, const dkf_tw_sensor_t sensors[], dkf_real_t scale)
+static dkf_status_t all_meas(dkf_tw_net_t *net, const dkf_kf_meas_t meas[], const dkf_mat_t y[],
+                             dkf_real_t scale)
 {
     const size_t pkt = DKF_TW_PKT_LEN(net->n);
     size_t l;
     for (l = 0; l < net->N; ++l)
-        DKF_TRY(dkf_tw_meas_packet(net->out + l * pkt, &net->nodes[l], &sensors[l], scale));
+        DKF_TRY(dkf_tw_meas_packet(net->out + l * pkt, &net->nodes[l], &meas[l], &y[l], scale));
     return DKF_OK;
 }
 
 /* Local step of every node on its row of `info`, estimate packets to est. */
-static dkf_status_t all_local(dkf_tw_net_t *net, const dkf_tw_model_t *md, const dkf_real_t *info,
+static dkf_status_t all_local(dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn, const dkf_real_t *info,
                               dkf_real_t *est)
 {
     const size_t pkt = DKF_TW_PKT_LEN(net->n);
     size_t l;
     for (l = 0; l < net->N; ++l)
-        DKF_TRY(dkf_tw_node_local(&net->nodes[l], md, info + l * pkt, est + l * pkt));
+        DKF_TRY(dkf_tw_node_local(&net->nodes[l], dyn, info + l * pkt, est + l * pkt));
     return DKF_OK;
 }
 
@@ -491,16 +496,17 @@ static dkf_status_t commit_all(dkf_tw_net_t *net, const dkf_real_t *xs, const dk
 }
 
 dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alpha,
-                                       const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[])
+                                       const dkf_uif_dyn_t *dyn, const dkf_kf_meas_t meas[],
+                                       const dkf_mat_t y[])
 {
     size_t pkt;
-    DKF_TRY(check_net(net, md, sensors));
+    DKF_TRY(check_net(net, dyn, meas, y));
     DKF_TRY(dkf_graph_check_row_stochastic(net->g, alpha));
     pkt = DKF_TW_PKT_LEN(net->n);
     /* broadcast 1: info packets; (24c) and the data sum of (25a) over N_l */
-    DKF_TRY(all_meas(net, sensors, DKF_R(1.0)));
+    DKF_TRY(all_meas(net, meas, y, DKF_R(1.0)));
     DKF_TRY(dkf_graph_mix_all(net->tmp, net->out, pkt, pkt, net->g, NULL));
-    DKF_TRY(cancel_all(net, all_local(net, md, net->tmp, net->mix)));
+    DKF_TRY(cancel_all(net, all_local(net, dyn, net->tmp, net->mix)));
     /* broadcast 2: psi_k (the first n reals of the estimate packet); (26b) */
     DKF_TRY(cancel_all(net, dkf_graph_mix_all(net->out, net->mix, net->n, pkt, net->g, alpha)));
     DKF_TRY(cancel_all(net, commit_all(net, net->out, NULL)));
@@ -511,17 +517,18 @@ dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alph
 }
 
 dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, size_t eta,
-                                       const dkf_tw_model_t *md, const dkf_tw_sensor_t sensors[])
+                                       const dkf_uif_dyn_t *dyn, const dkf_kf_meas_t meas[],
+                                       const dkf_mat_t y[])
 {
     size_t pkt;
-    DKF_TRY(check_net(net, md, sensors));
+    DKF_TRY(check_net(net, dyn, meas, y));
     if (eta > DKF_TW_MAX_ETA) return DKF_ERR_ARG;
     DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
     pkt = DKF_TW_PKT_LEN(net->n);
-    /* (32c), (33a): ACF of |N| H^T Sw^{-1} [y | H], one packet per iteration */
-    DKF_TRY(all_meas(net, sensors, (dkf_real_t)net->N));
+    /* (32c), (33a): ACF of |N| H^T R^{-1} [y | H], one packet per iteration */
+    DKF_TRY(all_meas(net, meas, y, (dkf_real_t)net->N));
     DKF_TRY(dkf_graph_acf(net->out, pkt, net->g, W, eta, net->tmp));
-    DKF_TRY(cancel_all(net, all_local(net, md, net->out, net->mix)));
+    DKF_TRY(cancel_all(net, all_local(net, dyn, net->out, net->mix)));
     /* (34b)-(34c): ACF of [psi_k | Ploc_k] */
     DKF_TRY(cancel_all(net, dkf_graph_acf(net->mix, pkt, net->g, W, eta, net->tmp)));
     DKF_TRY(cancel_all(net, commit_all(net, net->mix, net->mix + net->n)));

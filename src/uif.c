@@ -1,30 +1,32 @@
 /*
  * Joint state and unknown-input filters (dkf/uif.h): RTSF, NRTSF-DF and
- * NRTSF of seed 004 in the corrected form of docs/uif.md.
+ * NRTSF of seed 004 in the corrected form of docs/uif.md. Letters as in
+ * dkf/ui_model.h: the paper's A, C, H (and its F = C Gbar) are F, H, D
+ * (and HG = H Gbar) here, its input dimension m is p, its p is m.
  *
- * The three filters share one measurement step. With B the p x r matrix
+ * The three filters share one measurement step. With B the m x r matrix
  * through which the (virtual) input reaches the innovation
- *   y~ = y - C x_{k|k-1} = B dbar + e,   e ~ (0, R~),  R~ = C P_{k|k-1} C^T + R
- * (B = H (RTSF), Hbar (NRTSF-DF, H = Hbar T), F = C Gbar (NRTSF,
+ *   y~ = y - H x_{k|k-1} = B dbar + e,   e ~ (0, R~),  R~ = H P_{k|k-1} H^T + R
+ * (B = D (RTSF), Dbar (NRTSF-DF, D = Dbar T), HG = H Gbar (NRTSF,
  * G_{k-1} = Gbar T)), the input is the weighted least-squares estimate
  *   Pdbar = (B^T R~^-1 B)^-1,  Mbar = Pdbar B^T R~^-1,  dbar = Mbar y~   (28), (52)
- * and, with K = P_{k|k-1} C^T R~^-1 and
- *   Z = -K Hbar (feedthrough)   or   Z = (I - K C) Gbar (NRTSF),
+ * and, with K = P_{k|k-1} H^T R~^-1 and
+ *   Z = -K Dbar (feedthrough)   or   Z = (I - K H) Gbar (NRTSF),
  * both papers' state updates are the one formula
  *   x_{k|k} = x_{k|k-1} + K y~ + Z dbar,     L = K + Z Mbar             (29), (53)
  *   P_{k|k} = P_{k|k-1} - K R~ K^T + Z Pdbar Z^T                        (24), (50)
  *   Pxd = Z Pdbar T^+T,  d = T^+ dbar,  Pd = T^+ Pdbar T^+T,  M = T^+ Mbar
- * (for feedthrough x = x_pred + K (y~ - Hbar dbar); for NRTSF L = K + (I -
- * K C) Gbar Mbar; Pxd = -K Hbar Pdbar T^+T (29) and (I - K C) Gbar Pdbar
+ * (for feedthrough x = x_pred + K (y~ - Dbar dbar); for NRTSF L = K + (I -
+ * K H) Gbar Mbar; Pxd = -K Dbar Pdbar T^+T (29) and (I - K H) Gbar Pdbar
  * T^+T (note §1, added)). With DKF_JOSEPH the covariance is the Joseph
- * form (20)/(47), (I - L C) P (I - L C)^T + L R L^T, valid for any L that
- * meets the unbiasedness constraint L Hbar = 0 (19) / L C Gbar = Gbar (46).
- * T comes from the SVD (dkf_mat_frd), so T^+ = T^T; RTSF uses B = H, T = I.
+ * form (20)/(47), (I - L H) P (I - L H)^T + L R L^T, valid for any L that
+ * meets the unbiasedness constraint L Dbar = 0 (19) / L H Gbar = Gbar (46).
+ * T comes from the SVD (dkf_mat_frd), so T^+ = T^T; RTSF uses B = D, T = I.
  *
  * A step computes every output into a pending copy of the output block
  * and copies it over the state only when every check has passed. The
  * full-rank decomposition is cached against a bitwise copy of the matrix
- * it came from (a time-invariant H or G costs one SVD in all); a new one
+ * it came from (a time-invariant D or G costs one SVD in all); a new one
  * is computed into scratch and enters the cache with the commit, so a
  * failed step leaves the cache (and its fields in the struct) as it was.
  */
@@ -41,27 +43,27 @@ typedef struct {
 } out_t;
 
 typedef struct {
-    /* cache: the decomposed matrix, Dbar (rows x r), T (r x m); part of
+    /* cache: the decomposed matrix, Dbar (rows x r), T (r x p); part of
      * the DKF_UIF_STATE_LEN reals a failed step leaves untouched */
     dkf_real_t *Dlast, *Dbar, *Tc;
     out_t nx; /* pending outputs */
     /* scratch */
-    dkf_real_t *Dbn, *Tn; /* a new decomposition, cached on commit  rows x r, r x m */
-    dkf_real_t *CP;   /* C P_{k|k-1}                       p x n */
-    dkf_real_t *Kt;   /* K^T = R~^-1 C P                   p x n */
-    dkf_real_t *Lr;   /* Cholesky factor of R~             p x p */
-    dkf_real_t *Bm;   /* F = C Gbar (NRTSF)                p x r */
-    dkf_real_t *W;    /* R~^-1 B                           p x r */
-    dkf_real_t *Bt;   /* B^T, then T^T                     r x p, m x r */
-    dkf_real_t *Mbar; /* Pdbar B^T R~^-1                   r x p */
+    dkf_real_t *Dbn, *Tn; /* a new decomposition, cached on commit  rows x r, r x p */
+    dkf_real_t *HP;   /* H P_{k|k-1}                       m x n */
+    dkf_real_t *Kt;   /* K^T = R~^-1 H P                   m x n */
+    dkf_real_t *Lr;   /* Cholesky factor of R~             m x m */
+    dkf_real_t *Bm;   /* HG = H Gbar (NRTSF)               m x r */
+    dkf_real_t *W;    /* R~^-1 B                           m x r */
+    dkf_real_t *Bt;   /* B^T, then T^T                     r x m, p x r */
+    dkf_real_t *Mbar; /* Pdbar B^T R~^-1                   r x m */
     dkf_real_t *S;    /* B^T R~^-1 B                       r x r */
     dkf_real_t *Ls;   /* its Cholesky factor               r x r */
     dkf_real_t *Pdb;  /* Pdbar = S^-1                      r x r */
-    dkf_real_t *X;    /* Pdbar T                           r x m */
-    dkf_real_t *T1;   /* A P + G Pxd^T; (I - L C) P        n x n */
-    dkf_real_t *Z;    /* A Pxd + G Pd; then Z              n x m, n x r */
-    dkf_real_t *ZP;   /* G Pd; then Z Pdbar                n x m, n x r */
-    dkf_real_t *T3;   /* L^T (Joseph); -K (short form)     p x n, n x p */
+    dkf_real_t *X;    /* Pdbar T                           r x p */
+    dkf_real_t *T1;   /* F P + G Pxd^T; (I - L H) P        n x n */
+    dkf_real_t *Z;    /* F Pxd + G Pd; then Z              n x p, n x r */
+    dkf_real_t *ZP;   /* G Pd; then Z Pdbar                n x p, n x r */
+    dkf_real_t *T3;   /* L^T (Joseph); -K (short form)     m x n, n x m */
     dkf_real_t *svdw;
     dkf_real_t *J;    /* dkf__joseph's workspace; the PSD check's factor */
 } layout_t;
@@ -71,47 +73,47 @@ static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t 
     size_t used = 0;
     DKF_TAKE(o->x, n);
     DKF_TAKE(o->Px, n * n);
-    DKF_TAKE(o->d, m);
-    DKF_TAKE(o->Pd, m * m);
-    DKF_TAKE(o->Pxd, n * m);
+    DKF_TAKE(o->d, p);
+    DKF_TAKE(o->Pd, p * p);
+    DKF_TAKE(o->Pxd, n * p);
     DKF_TAKE(o->xp, n);
     DKF_TAKE(o->Pp, n * n);
-    DKF_TAKE(o->Rt, p * p);
-    DKF_TAKE(o->K, n * p);
-    DKF_TAKE(o->L, n * p);
-    DKF_TAKE(o->M, m * p);
-    DKF_TAKE(o->proj, m * m);
+    DKF_TAKE(o->Rt, m * m);
+    DKF_TAKE(o->K, n * m);
+    DKF_TAKE(o->L, n * m);
+    DKF_TAKE(o->M, p * m);
+    DKF_TAKE(o->proj, p * p);
     return used;
 }
 
 /* Everything after the output block; with base == NULL it only counts. */
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
-    const size_t q = DKF__UIF_Q(n, p);
+    const size_t q = DKF__UIF_Q(n, m);
     size_t used = 0;
-    DKF_TAKE(L->Dlast, q * m);
-    DKF_TAKE(L->Dbar, q * m);
-    DKF_TAKE(L->Tc, m * m);
+    DKF_TAKE(L->Dlast, q * p);
+    DKF_TAKE(L->Dbar, q * p);
+    DKF_TAKE(L->Tc, p * p);
     used += out_layout(&L->nx, base != NULL ? base + used : NULL, n, m, p);
-    DKF_TAKE(L->Dbn, q * m);
-    DKF_TAKE(L->Tn, m * m);
-    DKF_TAKE(L->CP, p * n);
-    DKF_TAKE(L->Kt, p * n);
-    DKF_TAKE(L->Lr, p * p);
-    DKF_TAKE(L->Bm, p * m);
-    DKF_TAKE(L->W, p * m);
-    DKF_TAKE(L->Bt, m * p);
-    DKF_TAKE(L->Mbar, m * p);
-    DKF_TAKE(L->S, m * m);
-    DKF_TAKE(L->Ls, m * m);
-    DKF_TAKE(L->Pdb, m * m);
-    DKF_TAKE(L->X, m * m);
+    DKF_TAKE(L->Dbn, q * p);
+    DKF_TAKE(L->Tn, p * p);
+    DKF_TAKE(L->HP, m * n);
+    DKF_TAKE(L->Kt, m * n);
+    DKF_TAKE(L->Lr, m * m);
+    DKF_TAKE(L->Bm, m * p);
+    DKF_TAKE(L->W, m * p);
+    DKF_TAKE(L->Bt, p * m);
+    DKF_TAKE(L->Mbar, p * m);
+    DKF_TAKE(L->S, p * p);
+    DKF_TAKE(L->Ls, p * p);
+    DKF_TAKE(L->Pdb, p * p);
+    DKF_TAKE(L->X, p * p);
     DKF_TAKE(L->T1, n * n);
-    DKF_TAKE(L->Z, n * m);
-    DKF_TAKE(L->ZP, n * m);
-    DKF_TAKE(L->T3, n * p);
-    DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(q, m));
-    DKF_TAKE(L->J, DKF__JOSEPH_WORK(n, p));
+    DKF_TAKE(L->Z, n * p);
+    DKF_TAKE(L->ZP, n * p);
+    DKF_TAKE(L->T3, n * m);
+    DKF_TAKE(L->svdw, DKF_MAT_SVD_WORK(q, p));
+    DKF_TAKE(L->J, DKF__JOSEPH_WORK(n, m));
     return used;
 }
 
@@ -163,10 +165,10 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
     DKF_CHECK_NULL(storage);
     if (kind != DKF_UIF_RTSF && kind != DKF_UIF_NRTSF_DF && kind != DKF_UIF_NRTSF)
         return DKF_ERR_ARG;
-    if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
+    if (n == 0 || p == 0 || m == 0 || n > DKF_MAX_DIM || p > DKF_MAX_DIM || m > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    /* RTSF needs rank H = m, impossible with fewer measurements */
-    if (kind == DKF_UIF_RTSF && p < m) return DKF_ERR_RANK;
+    /* RTSF needs rank D = p, impossible with fewer measurements */
+    if (kind == DKF_UIF_RTSF && m < p) return DKF_ERR_RANK;
     total = out_layout(&o, NULL, n, m, p) + layout(&L, NULL, n, m, p);
     if (storage_len < total) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
@@ -174,8 +176,8 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
 
     memset(&g, 0, sizeof g);
     g.n = n;
-    g.m = m;
     g.p = p;
+    g.m = m;
     g.kind = kind;
     g.mem = storage + out_layout(&o, storage, n, m, p);
     L = mem_of(&g);
@@ -184,16 +186,16 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
     memset(storage, 0, total * sizeof *storage);
     set_view(&g.x, n, 1, o.x);
     set_view(&g.Px, n, n, o.Px);
-    set_view(&g.d, m, 1, o.d);
-    set_view(&g.Pd, m, m, o.Pd);
-    set_view(&g.Pxd, n, m, o.Pxd);
+    set_view(&g.d, p, 1, o.d);
+    set_view(&g.Pd, p, p, o.Pd);
+    set_view(&g.Pxd, n, p, o.Pxd);
     set_view(&g.x_pred, n, 1, o.xp);
     set_view(&g.P_pred, n, n, o.Pp);
-    set_view(&g.Rtilde, p, p, o.Rt);
-    set_view(&g.K, n, p, o.K);
-    set_view(&g.L, n, p, o.L);
-    set_view(&g.M, m, p, o.M);
-    set_view(&g.proj, m, m, o.proj);
+    set_view(&g.Rtilde, m, m, o.Rt);
+    set_view(&g.K, n, m, o.K);
+    set_view(&g.L, n, m, o.L);
+    set_view(&g.M, p, m, o.M);
+    set_view(&g.proj, p, p, o.proj);
     dkf__copy(o.x, x0->data, n);
     dkf__copy(o.Px, P0->data, n * n);
     g.rank_tol = DKF_RANK_TOL_DEFAULT;
@@ -205,36 +207,36 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
 /* Shapes and finiteness of everything a step reads, and the call sequence:
  * a feedthrough filter's first step has no dynamics, every other step has. */
 static dkf_status_t check_step_args(const dkf_uif_t *f, const dkf_uif_dyn_t *dyn,
-                                    const dkf_uif_meas_t *meas, const dkf_mat_t *y)
+                                    const dkf_ui_meas_t *meas, const dkf_mat_t *y)
 {
-    const size_t n = f->n, m = f->m, p = f->p;
+    const size_t n = f->n, p = f->p, m = f->m;
     const int want_dyn = f->kind == DKF_UIF_NRTSF || f->k > 0;
     DKF_CHECK_NULL(meas);
     if ((dyn != NULL) != want_dyn) return DKF_ERR_STATE;
     if (dyn != NULL) {
-        DKF_TRY(dkf__check_input(dyn->A, n, n));
-        DKF_TRY(dkf__check_input(dyn->G, n, m));
+        DKF_TRY(dkf__check_input(dyn->F, n, n));
+        DKF_TRY(dkf__check_input(dyn->G, n, p));
         DKF_TRY(dkf__check_input(dyn->Q, n, n));
     }
-    DKF_TRY(dkf__check_input(meas->C, p, n));
-    DKF_TRY(dkf__check_input(meas->R, p, p));
+    DKF_TRY(dkf__check_input(meas->H, m, n));
+    DKF_TRY(dkf__check_input(meas->R, m, m));
     if (f->kind == DKF_UIF_NRTSF) {
-        if (meas->H != NULL) return DKF_ERR_ARG;
+        if (meas->D != NULL) return DKF_ERR_ARG;
     } else {
-        DKF_TRY(dkf__check_input(meas->H, p, m));
+        DKF_TRY(dkf__check_input(meas->D, m, p));
     }
-    return dkf__check_input(y, p, 1);
+    return dkf__check_input(y, m, 1);
 }
 
 /* x_{k|k-1}, P_{k|k-1} into the pending block:
- *   feedthrough  x = A x + G d,  P = [A G] [Px Pxd; Pxd^T Pd] [A G]^T + Q   (27)
- *   NRTSF        x = A x,        P = A P A^T + Q                           (51)
+ *   feedthrough  x = F x + G d,  P = [F G] [Px Pxd; Pxd^T Pd] [F G]^T + Q   (27)
+ *   NRTSF        x = F x,        P = F P F^T + Q                           (51)
  * and the prior itself at the first feedthrough step. The two congruence
  * terms are each non-symmetric but their sum is not, so the upper triangles
  * are accumulated and mirrored (dkf__mul_nt_sym). */
 static void predict(const dkf_uif_t *f, const layout_t *L, const dkf_uif_dyn_t *dyn)
 {
-    const size_t n = f->n, m = f->m;
+    const size_t n = f->n, p = f->p;
     dkf_real_t Gd[DKF_MAX_DIM];
     size_t i;
     if (dyn == NULL) {
@@ -242,46 +244,46 @@ static void predict(const dkf_uif_t *f, const layout_t *L, const dkf_uif_dyn_t *
         dkf__copy(L->nx.Pp, f->Px.data, n * n);
         return;
     }
-    dkf__mul_vec(L->nx.xp, dyn->A->data, f->x.data, n, n);
-    dkf__mul_nn(L->T1, dyn->A->data, f->Px.data, n, n, n);
+    dkf__mul_vec(L->nx.xp, dyn->F->data, f->x.data, n, n);
+    dkf__mul_nn(L->T1, dyn->F->data, f->Px.data, n, n, n);
     if (f->kind == DKF_UIF_NRTSF) {
-        dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->A->data, dyn->Q->data, n, n);
+        dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->F->data, dyn->Q->data, n, n);
         return;
     }
-    dkf__mul_vec(Gd, dyn->G->data, f->d.data, n, m);
+    dkf__mul_vec(Gd, dyn->G->data, f->d.data, n, p);
     for (i = 0; i < n; ++i) L->nx.xp[i] += Gd[i];
-    /* T1 = A Px + G Pxd^T, Z = A Pxd + G Pd (pending Px as a temporary) */
-    dkf__mul_nt(L->nx.Px, dyn->G->data, f->Pxd.data, n, m, n);
+    /* T1 = F Px + G Pxd^T, Z = F Pxd + G Pd (pending Px as a temporary) */
+    dkf__mul_nt(L->nx.Px, dyn->G->data, f->Pxd.data, n, p, n);
     for (i = 0; i < n * n; ++i) L->T1[i] += L->nx.Px[i];
-    dkf__mul_nn(L->Z, dyn->A->data, f->Pxd.data, n, n, m);
-    dkf__mul_nn(L->ZP, dyn->G->data, f->Pd.data, n, m, m);
-    for (i = 0; i < n * m; ++i) L->Z[i] += L->ZP[i];
-    dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->A->data, dyn->Q->data, n, n);
-    dkf__mul_nt_sym(L->nx.Pp, L->Z, dyn->G->data, L->nx.Pp, n, m);
+    dkf__mul_nn(L->Z, dyn->F->data, f->Pxd.data, n, n, p);
+    dkf__mul_nn(L->ZP, dyn->G->data, f->Pd.data, n, p, p);
+    for (i = 0; i < n * p; ++i) L->Z[i] += L->ZP[i];
+    dkf__mul_nt_sym(L->nx.Pp, L->T1, dyn->F->data, dyn->Q->data, n, n);
+    dkf__mul_nt_sym(L->nx.Pp, L->Z, dyn->G->data, L->nx.Pp, n, p);
 }
 
-/* R~ = C P C^T + R (upper triangle of R), its Cholesky factor, K, and the
- * innovation y~ = y - C x_{k|k-1}. DKF_ERR_NOT_SPD if R~ is not SPD. */
-static dkf_status_t innovation(const dkf_uif_t *f, const layout_t *L, const dkf_uif_meas_t *meas,
+/* R~ = H P H^T + R (upper triangle of R), its Cholesky factor, K, and the
+ * innovation y~ = y - H x_{k|k-1}. DKF_ERR_NOT_SPD if R~ is not SPD. */
+static dkf_status_t innovation(const dkf_uif_t *f, const layout_t *L, const dkf_ui_meas_t *meas,
                                const dkf_mat_t *y, dkf_real_t *invr, dkf_real_t *yt)
 {
-    const size_t n = f->n, p = f->p;
+    const size_t n = f->n, m = f->m;
     size_t i;
     if (!dkf__all_finite(L->nx.xp, n) || !dkf__all_finite(L->nx.Pp, n * n))
         return DKF_ERR_NONFINITE; /* overflow in the time update */
-    dkf__mul_nn(L->CP, meas->C->data, L->nx.Pp, p, n, n);
-    dkf__mul_nt_sym(L->nx.Rt, L->CP, meas->C->data, meas->R->data, p, n);
-    if (dkf__chol(L->Lr, invr, L->nx.Rt, p) != 0) return DKF_ERR_NOT_SPD;
-    /* K^T = R~^-1 (C P)  (P, R~ symmetric) */
-    dkf__copy(L->Kt, L->CP, p * n);
-    dkf__chol_solve(L->Lr, invr, L->Kt, p, n);
-    transpose(L->nx.K, L->Kt, p, n);
-    dkf__mul_vec(yt, meas->C->data, L->nx.xp, p, n);
-    for (i = 0; i < p; ++i) yt[i] = y->data[i] - yt[i];
+    dkf__mul_nn(L->HP, meas->H->data, L->nx.Pp, m, n, n);
+    dkf__mul_nt_sym(L->nx.Rt, L->HP, meas->H->data, meas->R->data, m, n);
+    if (dkf__chol(L->Lr, invr, L->nx.Rt, m) != 0) return DKF_ERR_NOT_SPD;
+    /* K^T = R~^-1 (H P)  (P, R~ symmetric) */
+    dkf__copy(L->Kt, L->HP, m * n);
+    dkf__chol_solve(L->Lr, invr, L->Kt, m, n);
+    transpose(L->nx.K, L->Kt, m, n);
+    dkf__mul_vec(yt, meas->H->data, L->nx.xp, m, n);
+    for (i = 0; i < m; ++i) yt[i] = y->data[i] - yt[i];
     return DKF_OK;
 }
 
-/* The full-rank decomposition D = Dbar T (rows x m) a step uses: the
+/* The full-rank decomposition D = Dbar T (rows x p) a step uses: the
  * cached one while D and the tolerance are bitwise unchanged, else a new
  * one in scratch (fresh = 1), which cache_commit stores once the step has
  * succeeded. */
@@ -297,10 +299,10 @@ typedef struct {
 static dkf_status_t decompose(const dkf_uif_t *f, const layout_t *L, const dkf_mat_t *D,
                               frd_t *d)
 {
-    const size_t rows = D->rows, m = f->m;
-    const size_t bytes = rows * m * sizeof(dkf_real_t);
-    dkf_mat_t Dbar = DKF_MAT(rows, m, L->Dbn);
-    dkf_mat_t T = DKF_MAT(m, m, L->Tn);
+    const size_t rows = D->rows, p = f->p;
+    const size_t bytes = rows * p * sizeof(dkf_real_t);
+    dkf_mat_t Dbar = DKF_MAT(rows, p, L->Dbn);
+    dkf_mat_t T = DKF_MAT(p, p, L->Tn);
     dkf_status_t st;
     size_t r = 0;
     d->D = D;
@@ -328,43 +330,43 @@ static dkf_status_t decompose(const dkf_uif_t *f, const layout_t *L, const dkf_m
 /* The commit of a new decomposition into the cache. */
 static void cache_commit(dkf_uif_t *f, const layout_t *L, const frd_t *d)
 {
-    const size_t rows = d->D->rows, m = f->m;
+    const size_t rows = d->D->rows, p = f->p;
     if (!d->fresh) return;
-    dkf__copy(L->Dlast, d->D->data, rows * m);
-    dkf__copy(L->Dbar, d->Dbar, rows * m);
-    dkf__copy(L->Tc, d->T, m * m);
+    dkf__copy(L->Dlast, d->D->data, rows * p);
+    dkf__copy(L->Dbar, d->Dbar, rows * p);
+    dkf__copy(L->Tc, d->T, p * p);
     f->cache_rows = rows;
     f->cache_rank = d->rank;
     f->cache_tol = f->rank_tol;
     f->cached = 1;
 }
 
-/* The input direction matrix B (p x r) and T (r x m, NULL for T = I) of
+/* The input direction matrix B (m x r) and T (r x p, NULL for T = I) of
  * this step, with the existence conditions of each filter. */
 static dkf_status_t input_directions(const dkf_uif_t *f, const layout_t *L,
-                                     const dkf_uif_dyn_t *dyn, const dkf_uif_meas_t *meas,
+                                     const dkf_uif_dyn_t *dyn, const dkf_ui_meas_t *meas,
                                      frd_t *d, const dkf_real_t **B, const dkf_real_t **T)
 {
-    const size_t n = f->n, m = f->m, p = f->p;
+    const size_t n = f->n, p = f->p, m = f->m;
     size_t r, rf;
     if (f->kind == DKF_UIF_RTSF) {
-        DKF_TRY(decompose(f, L, meas->H, d));
-        if (d->rank < m) return DKF_ERR_RANK; /* H^T R~^-1 H singular */
-        *B = meas->H->data;
+        DKF_TRY(decompose(f, L, meas->D, d));
+        if (d->rank < p) return DKF_ERR_RANK; /* D^T R~^-1 D singular */
+        *B = meas->D->data;
         *T = NULL;
     } else if (f->kind == DKF_UIF_NRTSF_DF) {
-        DKF_TRY(decompose(f, L, meas->H, d));
+        DKF_TRY(decompose(f, L, meas->D, d));
         *B = d->Dbar;
         *T = d->T;
     } else {
         DKF_TRY(decompose(f, L, dyn->G, d));
         r = d->rank;
         if (r > 0) {
-            dkf_mat_t F = DKF_MAT(p, r, L->Bm);
-            /* F = C_k Gbar_{k-1} must keep the rank of G_{k-1} (Theorem 5) */
-            if (r > p) return DKF_ERR_RANK;
-            dkf__mul_nn(L->Bm, meas->C->data, d->Dbar, p, n, r);
-            DKF_TRY(dkf_mat_rank(&rf, &F, f->rank_tol, L->svdw));
+            dkf_mat_t HG = DKF_MAT(m, r, L->Bm);
+            /* HG = C_k Gbar_{k-1} must keep the rank of G_{k-1} (Theorem 5) */
+            if (r > m) return DKF_ERR_RANK;
+            dkf__mul_nn(L->Bm, meas->H->data, d->Dbar, m, n, r);
+            DKF_TRY(dkf_mat_rank(&rf, &HG, f->rank_tol, L->svdw));
             if (rf < r) return DKF_ERR_RANK;
         }
         *B = L->Bm;
@@ -379,20 +381,20 @@ static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dk
                                  const dkf_real_t *T, const dkf_real_t *Dbar, size_t r,
                                  const dkf_real_t *invr, const dkf_real_t *yt)
 {
-    const size_t n = f->n, m = f->m, p = f->p;
+    const size_t n = f->n, p = f->p, m = f->m;
     dkf_real_t invs[DKF_MAX_DIM], db[DKF_MAX_DIM], v[DKF_MAX_DIM];
     size_t i;
-    dkf__copy(L->W, B, p * r);
-    dkf__chol_solve(L->Lr, invr, L->W, p, r);
-    transpose(L->Bt, B, p, r);
-    dkf__mul_nn_sym(L->S, L->Bt, L->W, NULL, r, p);
+    dkf__copy(L->W, B, m * r);
+    dkf__chol_solve(L->Lr, invr, L->W, m, r);
+    transpose(L->Bt, B, m, r);
+    dkf__mul_nn_sym(L->S, L->Bt, L->W, NULL, r, m);
     if (dkf__chol(L->Ls, invs, L->S, r) != 0) return DKF_ERR_RANK;
     dkf__chol_inverse(L->Pdb, L->Ls, invs, r);
-    dkf__mul_nt(L->Mbar, L->Pdb, L->W, r, r, p);
-    dkf__mul_vec(db, L->Mbar, yt, r, p);
+    dkf__mul_nt(L->Mbar, L->Pdb, L->W, r, r, m);
+    dkf__mul_vec(db, L->Mbar, yt, r, m);
 
-    /* Z = -K Hbar (feedthrough) or Gbar - K F (NRTSF); Z Pdbar */
-    dkf__mul_nn(L->Z, L->nx.K, B, n, p, r);
+    /* Z = -K Dbar (feedthrough) or Gbar - K HG (NRTSF); Z Pdbar */
+    dkf__mul_nn(L->Z, L->nx.K, B, n, m, r);
     if (f->kind == DKF_UIF_NRTSF)
         for (i = 0; i < n * r; ++i) L->Z[i] = Dbar[i] - L->Z[i];
     else
@@ -401,48 +403,48 @@ static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dk
     /* x += Z dbar;  L = K + Z Mbar */
     dkf__mul_vec(v, L->Z, db, n, r);
     for (i = 0; i < n; ++i) L->nx.x[i] += v[i];
-    dkf__mul_nn(L->nx.L, L->Z, L->Mbar, n, r, p);
-    for (i = 0; i < n * p; ++i) L->nx.L[i] += L->nx.K[i];
+    dkf__mul_nn(L->nx.L, L->Z, L->Mbar, n, r, m);
+    for (i = 0; i < n * m; ++i) L->nx.L[i] += L->nx.K[i];
 
-    if (T == NULL) { /* RTSF: T = I, r = m */
-        dkf__copy(L->nx.d, db, m);
-        dkf__copy(L->nx.M, L->Mbar, m * p);
-        dkf__copy(L->nx.Pd, L->Pdb, m * m);
-        dkf__copy(L->nx.Pxd, L->ZP, n * m);
-        for (i = 0; i < m * m; ++i) L->nx.proj[i] = DKF_R(0.0);
-        for (i = 0; i < m; ++i) L->nx.proj[i * m + i] = DKF_R(1.0);
+    if (T == NULL) { /* RTSF: T = I, r = p */
+        dkf__copy(L->nx.d, db, p);
+        dkf__copy(L->nx.M, L->Mbar, p * m);
+        dkf__copy(L->nx.Pd, L->Pdb, p * p);
+        dkf__copy(L->nx.Pxd, L->ZP, n * p);
+        for (i = 0; i < p * p; ++i) L->nx.proj[i] = DKF_R(0.0);
+        for (i = 0; i < p; ++i) L->nx.proj[i * p + i] = DKF_R(1.0);
         return DKF_OK;
     }
     /* d = T^T dbar, M = T^T Mbar, Pd = T^T Pdbar T, Pxd = Z Pdbar T, proj = T^T T */
-    mul_tn(L->nx.d, T, db, r, m, 1);
-    mul_tn(L->nx.M, T, L->Mbar, r, m, p);
-    dkf__mul_nn(L->X, L->Pdb, T, r, r, m);
-    transpose(L->Bt, T, r, m); /* r <= p, so T^T fits where B^T was */
-    dkf__mul_nn_sym(L->nx.Pd, L->Bt, L->X, NULL, m, r);
-    dkf__mul_nn(L->nx.Pxd, L->ZP, T, n, r, m);
-    dkf__mul_nn_sym(L->nx.proj, L->Bt, T, NULL, m, r);
+    mul_tn(L->nx.d, T, db, r, p, 1);
+    mul_tn(L->nx.M, T, L->Mbar, r, p, m);
+    dkf__mul_nn(L->X, L->Pdb, T, r, r, p);
+    transpose(L->Bt, T, r, p); /* r <= m, so T^T fits where B^T was */
+    dkf__mul_nn_sym(L->nx.Pd, L->Bt, L->X, NULL, p, r);
+    dkf__mul_nn(L->nx.Pxd, L->ZP, T, n, r, p);
+    dkf__mul_nn_sym(L->nx.proj, L->Bt, T, NULL, p, r);
     return DKF_OK;
 }
 
 /* P_{k|k}: Joseph form (20)/(47) or the short form (24)/(50). */
-static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_uif_meas_t *meas,
+static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui_meas_t *meas,
                              size_t r)
 {
-    const size_t n = f->n, p = f->p;
+    const size_t n = f->n, m = f->m;
 #if DKF_JOSEPH
-    /* (I - L C) P (I - L C)^T + L R L^T as written, A = I - L C formed
+    /* (I - L H) P (I - L H)^T + L R L^T as written, A = I - L H formed
      * (dkf__joseph: accurate also when P_{k|k} << P_{k|k-1}; the rewrite
-     * P - L (C P) + (L R - (P - L C P) C^T) L^T used before subtracted
+     * P - L (H P) + (L R - (P - L H P) H^T) L^T used before subtracted
      * from P; docs/decisions.md item 17) */
-    transpose(L->T3, L->nx.L, n, p); /* T3 = L^T */
-    dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->C->data, meas->R->data, n, p, L->J);
+    transpose(L->T3, L->nx.L, n, m); /* T3 = L^T */
+    dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->H->data, meas->R->data, n, m, L->J);
     (void)r;
 #else
-    /* P - K R~ K^T = P - K (C P), then + (Z Pdbar) Z^T */
+    /* P - K R~ K^T = P - K (H P), then + (Z Pdbar) Z^T */
     size_t i;
     (void)meas;
-    for (i = 0; i < n * p; ++i) L->T3[i] = -L->nx.K[i];
-    dkf__mul_nn_sym(L->nx.Px, L->T3, L->CP, L->nx.Pp, n, p);
+    for (i = 0; i < n * m; ++i) L->T3[i] = -L->nx.K[i];
+    dkf__mul_nn_sym(L->nx.Px, L->T3, L->HP, L->nx.Pp, n, m);
     if (r > 0) dkf__mul_nt_sym(L->nx.Px, L->ZP, L->Z, L->nx.Px, n, r);
 #endif
 }
@@ -452,16 +454,16 @@ static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui
  * an estimate. */
 static int bias_risk(const dkf_mat_t *G, const dkf_real_t *proj)
 {
-    const size_t n = G->rows, m = G->cols;
+    const size_t n = G->rows, p = G->cols;
     const dkf_real_t *g = G->data;
     dkf_real_t gmax = DKF_R(0.0), worst = DKF_R(0.0);
     size_t i, j, l;
-    for (i = 0; i < n * m; ++i)
+    for (i = 0; i < n * p; ++i)
         if (DKF_FABS(g[i]) > gmax) gmax = DKF_FABS(g[i]);
     for (i = 0; i < n; ++i)
-        for (j = 0; j < m; ++j) {
-            dkf_real_t acc = g[i * m + j];
-            for (l = 0; l < m; ++l) acc -= g[i * m + l] * proj[l * m + j];
+        for (j = 0; j < p; ++j) {
+            dkf_real_t acc = g[i * p + j];
+            for (l = 0; l < p; ++l) acc -= g[i * p + l] * proj[l * p + j];
             if (DKF_FABS(acc) > worst) worst = DKF_FABS(acc);
         }
     return worst > DKF_SQRT(DKF_REAL_EPSILON) * gmax;
@@ -475,7 +477,7 @@ static unsigned char classify(dkf_real_t diag)
     return DKF_UIF_EST_PARTIAL;
 }
 
-dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_meas_t *meas,
+dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_ui_meas_t *meas,
                           const dkf_mat_t *y)
 {
     dkf_real_t invr[DKF_MAX_DIM], yt[DKF_MAX_DIM];
@@ -489,8 +491,8 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     if (!f->ready) return DKF_ERR_STATE;
     DKF_TRY(check_step_args(f, dyn, meas, y));
     n = f->n;
-    m = f->m;
     p = f->p;
+    m = f->m;
     L = mem_of(f);
 
     predict(f, &L, dyn);
@@ -498,17 +500,17 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     DKF_TRY(input_directions(f, &L, dyn, meas, &d, &B, &T));
     r = d.rank;
     /* x = x_{k|k-1} + K y~ (+ Z dbar below); L = K when r = 0 */
-    dkf__mul_vec(L.nx.x, L.nx.K, yt, n, p);
+    dkf__mul_vec(L.nx.x, L.nx.K, yt, n, m);
     for (i = 0; i < n; ++i) L.nx.x[i] += L.nx.xp[i];
     if (r > 0) {
         DKF_TRY(input_update(f, &L, B, T, d.Dbar, r, invr, yt));
     } else { /* nothing to estimate: a Kalman step, d = 0 */
-        dkf__copy(L.nx.L, L.nx.K, n * p);
-        memset(L.nx.d, 0, m * sizeof(dkf_real_t));
-        memset(L.nx.M, 0, m * p * sizeof(dkf_real_t));
-        memset(L.nx.Pd, 0, m * m * sizeof(dkf_real_t));
-        memset(L.nx.Pxd, 0, n * m * sizeof(dkf_real_t));
-        memset(L.nx.proj, 0, m * m * sizeof(dkf_real_t));
+        dkf__copy(L.nx.L, L.nx.K, n * m);
+        memset(L.nx.d, 0, p * sizeof(dkf_real_t));
+        memset(L.nx.M, 0, p * m * sizeof(dkf_real_t));
+        memset(L.nx.Pd, 0, p * p * sizeof(dkf_real_t));
+        memset(L.nx.Pxd, 0, n * p * sizeof(dkf_real_t));
+        memset(L.nx.proj, 0, p * p * sizeof(dkf_real_t));
     }
     state_covariance(f, &L, meas, r);
     if (f->kind == DKF_UIF_NRTSF_DF && dyn != NULL) risk = bias_risk(dyn->G, f->proj.data);
@@ -523,7 +525,7 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_uif_
     dkf__copy(f->x.data, L.nx.x, olen);
     cache_commit(f, &L, &d);
     f->rank = r;
-    for (i = 0; i < m; ++i) f->estimable[i] = classify(f->proj.data[i * m + i]);
+    for (i = 0; i < p; ++i) f->estimable[i] = classify(f->proj.data[i * p + i]);
     f->bias_risk = risk;
     if (risk) ++f->bias_steps;
     ++f->k;

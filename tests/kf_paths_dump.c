@@ -172,7 +172,7 @@ static void run_case(size_t c)
             want = DKF_ERR_NONFINITE;
         }
         state_of(&before);
-        record(c, k, "predict", dkf_kf_predict(&kf, &Fm, &Qm, k % 3 ? NULL : &um), want, &before);
+        record(c, k, "predict", dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&Fm, &Qm}, k % 3 ? NULL : &um), want, &before);
 
         rand_mat(H, m, n, 0.0, 1.0);
         rand_spd(R, m, 0.1);
@@ -193,7 +193,7 @@ static void run_case(size_t c)
             want = DKF_ERR_NOT_SPD;
         }
         state_of(&before);
-        record(c, k, "update", dkf_kf_update(&kf, &Hm, &Rm, &ym), want, &before);
+        record(c, k, "update", dkf_kf_update(&kf, &(dkf_kf_meas_t){&Hm, &Rm}, &ym), want, &before);
     }
 }
 

@@ -58,7 +58,7 @@ static void load_model(model_t *s, const json_t *dynamics, const json_t *sensor,
     s->dyn.B = &s->mB;
     s->dyn.Rd = &s->mRd;
     s->meas.H = &s->mH;
-    s->meas.A = &s->mA;
+    s->meas.D = &s->mA;
     s->meas.R = &s->mR;
 }
 

@@ -118,7 +118,7 @@ static void make_model(model_t *m)
     m->dyn.B = &m->mB;
     m->dyn.Rd = &m->mRd;
     m->meas.H = &m->mH;
-    m->meas.A = &m->mA;
+    m->meas.D = &m->mA;
     m->meas.R = &m->mR;
 }
 

@@ -132,7 +132,7 @@ static void load_step(step_model_t *sm, const json_t *model, size_t l, size_t k,
         sm->sensors[i].B = &b->mB;
         sm->sensors[i].Rd = &b->mRd;
         sm->sensors[i].meas.H = &b->mH;
-        sm->sensors[i].meas.A = &b->mA;
+        sm->sensors[i].meas.D = &b->mA;
         sm->sensors[i].meas.R = &b->mR;
         sm->dyn[i].F = &sm->mF;
         sm->dyn[i].Q = &sm->mQ;
@@ -171,7 +171,7 @@ static void stack(stacked_t *st, step_model_t *sm, size_t l, size_t n, size_t ms
     st->dyn.B = &st->mB;
     st->dyn.Rd = &st->mRd;
     st->meas.H = &st->mH;
-    st->meas.A = &st->mA;
+    st->meas.D = &st->mA;
     st->meas.R = &st->mR;
 }
 
@@ -501,7 +501,7 @@ static void hmodel(hmodel_t *h, size_t l, const size_t *m, const size_t *p, uint
         h->sens[i].B = &h->mB[i];
         h->sens[i].Rd = &h->mRd[i];
         h->sens[i].meas.H = &h->mH[i];
-        h->sens[i].meas.A = &h->mA[i];
+        h->sens[i].meas.D = &h->mA[i];
         h->sens[i].meas.R = &h->mR[i];
         h->dyn[i].F = &h->mF;
         h->dyn[i].Q = &h->mQ;
@@ -683,7 +683,7 @@ static void test_fc_setup_conditions(void **state)
         for (r = 0; r < m[2]; ++r) w.h.A[2][r * 2 + 1] = w.h.A[2][r * 2];
         snap_take(&s, &w);
         assert_int_equal(dkf_diffkf_fc_start(&w.fc, &w.h.mF, &w.h.mQ, w.h.sens, &f), DKF_ERR_RANK);
-        expect_fault(&f, DKF_DIFFKF_FC_A_RANK, 2);
+        expect_fault(&f, DKF_DIFFKF_FC_D_RANK, 2);
         assert_state_same(&s, &w);
         memcpy(w.h.A[2], keep, sizeof keep);
         /* B^0_1 singular */
@@ -781,7 +781,7 @@ static void test_fc_message_validation_and_atomicity(void **state)
                 w.h.A[1][1] = 0;
                 w.h.A[1][0] = 0; /* A^1 (2 x 1) = 0 */
                 assert_int_equal(h_fc_step(&w, &f), DKF_ERR_RANK);
-                expect_fault(&f, DKF_DIFFKF_FC_A_RANK, 1);
+                expect_fault(&f, DKF_DIFFKF_FC_D_RANK, 1);
                 assert_state_same(&s, &w);
                 w.h.A[1][0] = 1;
                 w.h.A[1][1] = a0;
@@ -1184,7 +1184,7 @@ static void test_fc_degraded_atomicity(void **state)
     for (r = 0; r < m[2]; ++r) w.h.A[2][r * 2 + 1] = w.h.A[2][r * 2];
     assert_int_equal(dkf_diffkf_fc_restart_node(&w.fc, 2, w.fc.k + 1, &w.h.mP0, &w.h.sens[2], &f),
                      DKF_ERR_RANK);
-    expect_fault(&f, DKF_DIFFKF_FC_A_RANK, 2);
+    expect_fault(&f, DKF_DIFFKF_FC_D_RANK, 2);
     assert_state_same(&s, &w);
     memcpy(w.h.A[2], twin.h.A[2], sizeof w.h.A[2]);
 

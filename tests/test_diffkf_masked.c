@@ -290,7 +290,7 @@ static void build_world(world_t *w, uint64_t seed, size_t n, size_t m, size_t p)
         w->dyn[k].B = &w->mB[k];
         w->dyn[k].Rd = &w->mRd[k];
         w->meas[k].H = &w->mH[k];
-        w->meas[k].A = &w->mA[k];
+        w->meas[k].D = &w->mA[k];
         w->meas[k].R = &w->mR[k];
     }
 }

@@ -60,7 +60,7 @@ static void load_step(dkf_step_t *s, const json_t *st, int with_dyn)
     test_json_mat(test_json_get(st, "A"), s->A, MX * NX, &s->Am);
     test_json_mat(test_json_get(st, "R"), s->R, MX * MX, &s->Rm);
     test_json_mat(test_json_get(st, "y"), s->y, MX, &s->ym);
-    s->meas.H = &s->Hm, s->meas.A = &s->Am, s->meas.R = &s->Rm;
+    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
 }
 
 /* worst relative errors over a case: xf, Pf, xn, Pn */

@@ -245,13 +245,13 @@ typedef struct {
 static dkf_status_t kf_predict_call(void *c)
 {
     kf_ctx_t *k = c;
-    return dkf_kf_predict(&k->kf, &k->F.v, &k->Q.v, &k->u.v);
+    return dkf_kf_predict(&k->kf, &(dkf_kf_dyn_t){&k->F.v, &k->Q.v}, &k->u.v);
 }
 
 static dkf_status_t kf_update_call(void *c)
 {
     kf_ctx_t *k = c;
-    return dkf_kf_update(&k->kf, &k->H.v, &k->R.v, &k->y.v);
+    return dkf_kf_update(&k->kf, &(dkf_kf_meas_t){&k->H.v, &k->R.v}, &k->y.v);
 }
 
 static void test_kf(void **state)
@@ -284,7 +284,7 @@ static void test_kf(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, kf_update_call(&k), "kf_update: R = -I");
     mset(&k.R, 2, 2, R);
     mset(&H3, 3, 3, F3);
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_kf_update(&k.kf, &H3.v, &k.R.v, &k.y.v),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_CAPACITY, dkf_kf_update(&k.kf, &(dkf_kf_meas_t){&H3.v, &k.R.v}, &k.y.v),
                      "kf_update: m > m_max");
     meye(&k.F, 3, (double)huge_value());
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, kf_predict_call(&k), "kf_predict: F P F^T overflows");
@@ -293,9 +293,9 @@ static void test_kf(void **state)
     memset(&blank, 0, sizeof blank);
     reg_clear(&k.g);
     reg_add(&k.g, &blank, sizeof blank);
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_predict(&blank, &k.F.v, &k.Q.v, NULL),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_predict(&blank, &(dkf_kf_dyn_t){&k.F.v, &k.Q.v}, NULL),
                      "kf_predict before init");
-    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_update(&blank, &k.H.v, &k.R.v, &k.y.v),
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_kf_update(&blank, &(dkf_kf_meas_t){&k.H.v, &k.R.v}, &k.y.v),
                      "kf_update before init");
     /* a failed init never writes *kf */
     reg_clear(&k.g);
@@ -321,7 +321,7 @@ typedef struct {
 static dkf_status_t info_predict_call(void *c)
 {
     info_ctx_t *k = c;
-    return dkf_info_predict(&k->f, &k->F.v, &k->Q.v);
+    return dkf_info_predict(&k->f, &(dkf_kf_dyn_t){&k->F.v, &k->Q.v});
 }
 
 static dkf_status_t info_fuse_call(void *c)
@@ -339,7 +339,7 @@ typedef struct {
 static dkf_status_t contrib_call(void *c)
 {
     contrib_ctx_t *k = c;
-    return dkf_info_contribution(&k->i.v, &k->I.v, &k->C.v, &k->R.v, &k->z.v, k->work);
+    return dkf_info_contribution(&k->i.v, &k->I.v, &(dkf_kf_meas_t){&k->C.v, &k->R.v}, &k->z.v, k->work);
 }
 
 static void test_info(void **state)
@@ -459,7 +459,7 @@ static void ui_model(ui_ctx_t *k, dkf_mat_t *dv[4], dkf_mat_t *mv[4])
     mv[0] = mset(&k->H, 2, 3, H23), mv[1] = mset(&k->A, 2, 2, A22);
     mv[2] = mset(&k->R, 2, 2, R22), mv[3] = mset(&k->y, 2, 1, y2);
     k->dyn.F = &k->F.v, k->dyn.Q = &k->Q.v, k->dyn.B = &k->B.v, k->dyn.Rd = &k->Rd.v;
-    k->meas.H = &k->H.v, k->meas.A = &k->A.v, k->meas.R = &k->R.v;
+    k->meas.H = &k->H.v, k->meas.D = &k->A.v, k->meas.R = &k->R.v;
 }
 
 static void test_askf_otskf(void **state)
@@ -562,7 +562,7 @@ static void dkf_model(dkf_ctx_t *k, dkf_mat_t *v[8])
     v[6] = mset(&k->R, DM, DM, DR), v[7] = mset(&k->y, DM, 1, Dy);
     mset(&k->z, DP, 1, z);
     k->dyn.F = &k->F.v, k->dyn.Q = &k->Q.v, k->dyn.B = &k->B.v, k->dyn.Rd = &k->Rd.v;
-    k->meas.H = &k->H.v, k->meas.A = &k->A.v, k->meas.R = &k->R.v;
+    k->meas.H = &k->H.v, k->meas.D = &k->A.v, k->meas.R = &k->R.v;
     k->rows[0] = k->rows[1] = 1;
 }
 
@@ -761,7 +761,7 @@ static void fc_model(fc_ctx_t *k)
     mset(&k->B[1], 1, 1, B1), mset(&k->Rd[1], 1, 1, Rd1);
     for (i = 0; i < FL; ++i) {
         k->s[i].B = &k->B[i].v, k->s[i].Rd = &k->Rd[i].v;
-        k->s[i].meas.H = &k->H[i].v, k->s[i].meas.A = &k->A[i].v, k->s[i].meas.R = &k->R[i].v;
+        k->s[i].meas.H = &k->H[i].v, k->s[i].meas.D = &k->A[i].v, k->s[i].meas.R = &k->R[i].v;
         k->present[i] = 1;
     }
 }
@@ -1038,7 +1038,7 @@ typedef struct {
     dkf_real_t st[DKF_UIF_STORAGE_LEN(3, 2, 2)];
     mbuf_t A, G, Q, C, H, R, y;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     int with_dyn;
     regions_t g;
 } uif_ctx_t;
@@ -1049,7 +1049,7 @@ static dkf_status_t uif_step_call(void *c)
     return dkf_uif_step(&k->f, k->with_dyn ? &k->dyn : NULL, &k->meas, &k->y.v);
 }
 
-static void uif_case(dkf_uif_kind_t kind, size_t m, const double *Hv, const char *what)
+static void uif_case(dkf_uif_kind_t kind, size_t p, const double *Hv, const char *what)
 {
     static uif_ctx_t k;
     static const double G[6] = {1.0, 0.0, 0.0, 1.0, 0.5, 0.0};
@@ -1059,14 +1059,14 @@ static void uif_case(dkf_uif_kind_t kind, size_t m, const double *Hv, const char
     char label[120];
     dkf_mat_t *v[7];
     mbuf_t x0, P0;
-    const size_t p = 2;
+    const size_t m = 2;
     size_t nv;
-    v[0] = mset(&k.A, 3, 3, F3), v[1] = mset(&k.G, 3, m, G), v[2] = mset(&k.Q, 3, 3, Q3);
-    v[3] = mset(&k.C, p, 3, C), v[4] = mset(&k.R, p, p, R), v[5] = mset(&k.y, p, 1, y);
-    v[6] = Hv != NULL ? mset(&k.H, p, m, Hv) : NULL;
+    v[0] = mset(&k.A, 3, 3, F3), v[1] = mset(&k.G, 3, p, G), v[2] = mset(&k.Q, 3, 3, Q3);
+    v[3] = mset(&k.C, m, 3, C), v[4] = mset(&k.R, m, m, R), v[5] = mset(&k.y, m, 1, y);
+    v[6] = Hv != NULL ? mset(&k.H, m, p, Hv) : NULL;
     nv = Hv != NULL ? 7 : 6;
-    k.dyn.A = &k.A.v, k.dyn.G = &k.G.v, k.dyn.Q = &k.Q.v;
-    k.meas.C = &k.C.v, k.meas.H = Hv != NULL ? &k.H.v : NULL, k.meas.R = &k.R.v;
+    k.dyn.F = &k.A.v, k.dyn.G = &k.G.v, k.dyn.Q = &k.Q.v;
+    k.meas.H = &k.C.v, k.meas.D = Hv != NULL ? &k.H.v : NULL, k.meas.R = &k.R.v;
     mset(&x0, 3, 1, x3), mset(&P0, 3, 3, P3);
     assert_int_equal(dkf_uif_init(&k.f, kind, 3, m, p, k.st, DKF_UIF_STORAGE_LEN(3, m, p), &x0.v,
                                   &P0.v),
@@ -1084,36 +1084,36 @@ static void uif_case(dkf_uif_kind_t kind, size_t m, const double *Hv, const char
     k.with_dyn = 0;
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, uif_step_call(&k), "uif_step: dyn NULL");
     k.with_dyn = 1;
-    meye(&k.R, p, -10.0);
+    meye(&k.R, m, -10.0);
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, uif_step_call(&k), "uif_step: R = -10 I");
-    mset(&k.R, p, p, R);
+    mset(&k.R, m, m, R);
     meye(&k.A, 3, (double)huge_value());
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, uif_step_call(&k), "uif_step: overflow");
     mset(&k.A, 3, 3, F3);
     if (kind == DKF_UIF_RTSF) {
-        /* a new H of rank 1 < m: decided after a new decomposition (a
+        /* a new H of rank 1 < p: decided after a new decomposition (a
          * cache miss), refused with the cache as it was */
         static const double Hr[4] = {1.0, 2.0, 2.0, 4.0};
-        mset(&k.H, p, m, Hr);
+        mset(&k.H, m, p, Hr);
         EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, uif_step_call(&k), "uif_step RTSF: rank H = 1");
-        mset(&k.H, p, m, Hv);
+        mset(&k.H, m, p, Hv);
     }
     if (kind == DKF_UIF_NRTSF) {
         /* C G loses the rank of a new G: G's columns in null(C) */
         static const double Gn[6] = {0.0, 0.0, 0.0, 0.0, 1.0, 0.5};
-        mset(&k.G, 3, m, Gn);
+        mset(&k.G, 3, p, Gn);
         EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, uif_step_call(&k), "uif_step NRTSF: rank C G");
-        mset(&k.G, 3, m, G);
-        k.meas.H = &k.C.v;
+        mset(&k.G, 3, p, G);
+        k.meas.D = &k.C.v;
         EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, uif_step_call(&k), "uif_step NRTSF: H given");
-        k.meas.H = NULL;
+        k.meas.D = NULL;
     }
 }
 
 static void test_uif(void **state)
 {
     static const double Hfull[4] = {1.0, 0.0, 0.2, 1.0};
-    static const double Hdef[4] = {1.0, 1.0, 0.0, 0.0}; /* rank 1 < m = 2 */
+    static const double Hdef[4] = {1.0, 1.0, 0.0, 0.0}; /* rank 1 < p = 2 */
     (void)state;
     uif_case(DKF_UIF_RTSF, 2, Hfull, "RTSF");
     uif_case(DKF_UIF_NRTSF_DF, 2, Hdef, "NRTSF-DF");
@@ -1123,16 +1123,16 @@ static void test_uif(void **state)
 /* ---- Talebi-Werner nodes and networks ------------------------------------------------------- */
 
 #define TN 3
-#define TM 1
+#define TP 1
 #define TPK DKF_TW_PKT_LEN(TN)
 #define TNODES 4
 
 typedef struct {
     dkf_tw_node_t nd;
-    dkf_real_t st[DKF_TW_NODE_STORAGE_LEN(TN, TM, 2)];
+    dkf_real_t st[DKF_TW_NODE_STORAGE_LEN(TN, 2, TP)];
     mbuf_t A, B, Sv, H, Sw, y;
-    dkf_tw_model_t md;
-    dkf_tw_sensor_t sn;
+    dkf_uif_dyn_t md;
+    dkf_kf_meas_t sn;
     dkf_real_t info[TPK + 1], pkt[TPK];
     regions_t g;
 } tw_ctx_t;
@@ -1145,12 +1145,12 @@ static dkf_status_t tw_local_call(void *c)
 static dkf_status_t tw_packet_call(void *c)
 {
     tw_ctx_t *k = c;
-    return dkf_tw_meas_packet(k->pkt, &k->nd, &k->sn, DKF_R(1.0));
+    return dkf_tw_meas_packet(k->pkt, &k->nd, &k->sn, &k->y.v, DKF_R(1.0));
 }
 static dkf_status_t tw_central_call(void *c)
 {
     tw_ctx_t *k = c;
-    return dkf_tw_central_step(&k->nd, &k->md, &k->sn, 1);
+    return dkf_tw_central_step(&k->nd, &k->md, &k->sn, &k->y.v, 1);
 }
 
 static const double TB[3] = {0.0, 0.0, 1.0};
@@ -1161,7 +1161,7 @@ static void tw_regions(tw_ctx_t *k)
 {
     reg_clear(&k->g);
     reg_add(&k->g, &k->nd, sizeof k->nd);
-    reg_add(&k->g, k->st, DKF_TW_NODE_STATE_LEN(TN, TM) * sizeof(dkf_real_t));
+    reg_add(&k->g, k->st, DKF_TW_NODE_STATE_LEN(TN, TP) * sizeof(dkf_real_t));
 }
 
 static void test_tw_node(void **state)
@@ -1174,15 +1174,15 @@ static void test_tw_node(void **state)
     mbuf_t x0, P0;
     size_t i;
     (void)state;
-    mv[0] = mset(&k.A, TN, TN, F3), mv[1] = mset(&k.B, TN, TM, TB), mv[2] = mset(&k.Sv, TN, TN, Q3);
+    mv[0] = mset(&k.A, TN, TN, F3), mv[1] = mset(&k.B, TN, TP, TB), mv[2] = mset(&k.Sv, TN, TN, Q3);
     sv[0] = mset(&k.H, 2, TN, TH), sv[1] = mset(&k.Sw, 2, 2, TSw), sv[2] = mset(&k.y, 2, 1, Ty);
-    k.md.A = &k.A.v, k.md.B = &k.B.v, k.md.Sv = &k.Sv.v;
-    k.sn.H = &k.H.v, k.sn.Sw = &k.Sw.v, k.sn.y = &k.y.v;
+    k.md.F = &k.A.v, k.md.G = &k.B.v, k.md.Q = &k.Sv.v;
+    k.sn.H = &k.H.v, k.sn.R = &k.Sw.v;
     mset(&x0, TN, 1, x3), mset(&P0, TN, TN, P3);
-    assert_int_equal(dkf_tw_node_init(&k.nd, TN, TM, 2, k.st, DKF_TW_NODE_STORAGE_LEN(TN, TM, 2),
+    assert_int_equal(dkf_tw_node_init(&k.nd, TN, 2, TP, k.st, DKF_TW_NODE_STORAGE_LEN(TN, 2, TP),
                                       &x0.v, &P0.v),
                      DKF_OK);
-    assert_true(k.nd.mem == k.st + DKF_TW_NODE_STATE_LEN(TN, TM));
+    assert_true(k.nd.mem == k.st + DKF_TW_NODE_STATE_LEN(TN, TP));
     assert_int_equal(tw_central_call(&k), DKF_OK);
     tw_regions(&k);
     sweep("tw_central_step", tw_central_call, &k, sv, sn, 3, &k.g);
@@ -1237,7 +1237,7 @@ static void test_tw_node(void **state)
                      "tw_node_commit: nothing pending");
     assert_int_equal(tw_local_call(&k), DKF_OK);
     tw_regions(&k);
-    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TM) - TN - TN * TN) * sizeof(dkf_real_t));
+    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
     for (i = 0; i < TN; ++i) xs[i] = DKF_R(0.0);
     for (i = 0; i < TPK - TN; ++i) Pp[i] = DKF_R(0.0);
     Pp[0] = DKF_R(-1.0);
@@ -1262,59 +1262,60 @@ static void test_tw_node(void **state)
 static void test_tw_net(void **state)
 {
     static dkf_tw_node_t nodes[TNODES];
-    static dkf_real_t st[DKF_TW_NET_STORAGE_LEN(TNODES, TN, TM, 2)];
+    static dkf_real_t st[DKF_TW_NET_STORAGE_LEN(TNODES, TN, 2, TP)];
     static const size_t edges[] = {0, 1, 1, 2, 2, 3};
     static size_t start[TNODES + 1], nbr[DKF_GRAPH_NNZ(TNODES, 3)];
     static const double Hz[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
     dkf_real_t alpha[DKF_GRAPH_NNZ(TNODES, 3)], W[DKF_GRAPH_NNZ(TNODES, 3)];
     mbuf_t A, B, Sv, H, H0, Sw, y, x0, P0;
-    dkf_tw_sensor_t sens[TNODES];
-    dkf_tw_model_t md;
+    dkf_kf_meas_t sens[TNODES];
+    dkf_mat_t ys[TNODES];
+    dkf_uif_dyn_t md;
     dkf_graph_t g;
     dkf_tw_net_t net;
     regions_t rg;
     size_t l;
-    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(TN, TM, 2);
+    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(TN, 2, TP);
     (void)state;
     assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(TNODES, 3), TNODES, edges, 3),
                      DKF_OK);
     assert_int_equal(dkf_graph_weights_uniform(alpha, &g), DKF_OK);
     assert_int_equal(dkf_graph_weights_metropolis(W, &g), DKF_OK);
-    mset(&A, TN, TN, F3), mset(&B, TN, TM, TB), mset(&Sv, TN, TN, Q3);
+    mset(&A, TN, TN, F3), mset(&B, TN, TP, TB), mset(&Sv, TN, TN, Q3);
     mset(&H, 2, TN, TH), mset(&H0, 2, TN, Hz), mset(&Sw, 2, 2, TSw), mset(&y, 2, 1, Ty);
     mset(&x0, TN, 1, x3), mset(&P0, TN, TN, P3);
-    md.A = &A.v, md.B = &B.v, md.Sv = &Sv.v;
+    md.F = &A.v, md.G = &B.v, md.Q = &Sv.v;
     for (l = 0; l < TNODES; ++l) {
         sens[l].H = &H.v;
-        sens[l].Sw = &Sw.v;
-        sens[l].y = &y.v;
+        sens[l].R = &Sw.v;
+        ys[l] = y.v;
     }
-    assert_int_equal(dkf_tw_net_init(&net, &g, nodes, TN, TM, 2, st, sizeof st / sizeof st[0],
+    assert_int_equal(dkf_tw_net_init(&net, &g, nodes, TN, 2, TP, st, sizeof st / sizeof st[0],
                                      &x0.v, &P0.v),
                      DKF_OK);
-    assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &md, sens), DKF_OK);
+    assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys), DKF_OK);
     reg_clear(&rg);
     reg_add(&rg, &net, sizeof net);
     reg_add(&rg, nodes, sizeof nodes);
     for (l = 0; l < TNODES; ++l)
-        reg_add(&rg, st + l * node_len, DKF_TW_NODE_STATE_LEN(TN, TM) * sizeof(dkf_real_t));
+        reg_add(&rg, st + l * node_len, DKF_TW_NODE_STATE_LEN(TN, TP) * sizeof(dkf_real_t));
     sens[2].H = sens[3].H = &H0.v;
-    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_diffusion_step(&net, alpha, &md, sens),
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys),
                      "tw_net_diffusion_step: nodes 2, 3 without information on z");
-    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_consensus_step(&net, W, 0, &md, sens),
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_RANK, dkf_tw_net_consensus_step(&net, W, 0, &md, sens, ys),
                      "tw_net_consensus_step: nodes 2, 3 without information on z");
     sens[2].H = sens[3].H = &H.v;
-    EXPECT_UNTOUCHED(&rg, DKF_ERR_WEIGHTS, dkf_tw_net_consensus_step(&net, alpha, 2, &md, sens),
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_WEIGHTS, dkf_tw_net_consensus_step(&net, alpha, 2, &md, sens, ys),
                      "tw_net_consensus_step: alpha is not doubly stochastic");
     Sw.d[0] = DKF_R(-1.0);
-    EXPECT_UNTOUCHED(&rg, DKF_ERR_NOT_SPD, dkf_tw_net_diffusion_step(&net, alpha, &md, sens),
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_NOT_SPD, dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys),
                      "tw_net_diffusion_step: Sw not SPD");
     Sw.d[0] = (dkf_real_t)TSw[0];
     A.d[4] = (dkf_real_t)NAN;
-    EXPECT_UNTOUCHED(&rg, DKF_ERR_NONFINITE, dkf_tw_net_consensus_step(&net, W, 2, &md, sens),
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_NONFINITE, dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys),
                      "tw_net_consensus_step: A NaN");
     A.d[4] = (dkf_real_t)F3[4];
-    assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens), DKF_OK);
+    assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
 }
 
 int main(void)

@@ -71,7 +71,7 @@ static void load_aug_step(aug_step_t *s, const json_t *st)
     test_json_mat(test_json_get(st, "A"), s->A, NM * NM, &s->Am);
     test_json_mat(test_json_get(st, "R"), s->R, NM * NM, &s->Rm);
     test_json_mat(test_json_get(st, "y"), s->y, NM, &s->ym);
-    s->meas.H = &s->Hm, s->meas.A = &s->Am, s->meas.R = &s->Rm;
+    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
 }
 
 /* Worst relative errors of one filter over a case: x, P, d, Pd. */
@@ -256,7 +256,7 @@ static void test_info_pinned(void **state)
             if (json_object_get(st, "F") != NULL) {
                 test_json_mat(test_json_get(st, "F"), F, NM * NM, &Fm);
                 test_json_mat(test_json_get(st, "Q"), Q, NM * NM, &Qm);
-                assert_int_equal(dkf_info_predict(&b.f, &Fm, &Qm), DKF_OK);
+                assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&Fm, &Qm}), DKF_OK);
             }
             for (s = 0; s < 2; ++s) {
                 const json_t *se = json_array_get(sens, s);
@@ -265,7 +265,7 @@ static void test_info_pinned(void **state)
                 test_json_mat(test_json_get(se, "z"), z, NM, &zm);
                 ivm[s] = test_view(n, 1, iv[s]);
                 Imm[s] = test_view(n, n, Im[s]);
-                assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &Cm, &Rm, &zm, work),
+                assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &(dkf_kf_meas_t){&Cm, &Rm}, &zm, work),
                                  DKF_OK);
                 assert_true(test_psd_within(Im[s], n, 4.0 * NM * TEST_EPS));
             }
@@ -326,7 +326,7 @@ static void test_indefinite_covariance_refused(void **state)
         TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_otskf_predict(&ot, &dyn), ot_storage, len);
     }
     { /* uif, NRTSF-DF with H = 0: a Kalman step with R = -1.5 */
-        dkf_uif_meas_t meas = {&C, &Z1, &Rn};
+        dkf_ui_meas_t meas = {&C, &Z1, &Rn};
         const size_t len = DKF__UIF_OUT_LEN(2, 1, 1);
         assert_int_equal(dkf_uif_init(&uf, DKF_UIF_NRTSF_DF, 2, 1, 1, uf_storage,
                                       DKF_UIF_STORAGE_LEN(2, 1, 1), &x0, &I2),

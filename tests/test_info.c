@@ -83,14 +83,14 @@ static void test_info_matches_lif_vector(void **state)
         const json_t *st = json_array_get(steps, j), *e = test_json_get(st, "expected");
         const json_t *zs = test_json_get(st, "z");
         load(test_json_get(st, "F"), Fd, &F);
-        assert_int_equal(dkf_info_predict(&b.f, &F, &Q), DKF_OK);
+        assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&F, &Q}), DKF_OK);
         expect("x_pred", b.f.x.data, test_json_get(e, "x_pred"));
         expect("P_pred", b.f.P.data, test_json_get(e, "P_pred"));
         expect("Y_pred", b.f.Y.data, test_json_get(e, "Y_pred"));
         expect("y_pred", b.f.y.data, test_json_get(e, "y_pred"));
         for (s = 0; s < ns; ++s) {
             load(json_array_get(zs, s), zd, &z);
-            assert_int_equal(dkf_info_contribution(&i[s], &I[s], &C[s], &R[s], &z, work), DKF_OK);
+            assert_int_equal(dkf_info_contribution(&i[s], &I[s], &(dkf_kf_meas_t){&C[s], &R[s]}, &z, work), DKF_OK);
             expect("i_j", i[s].data, json_array_get(test_json_get(e, "i"), s));
             expect("I_j", I[s].data, json_array_get(test_json_get(e, "I"), s));
         }
@@ -159,7 +159,7 @@ static void test_info_fusion_equals_stacked_kf(void **state)
             test_to_real(zr[s], z, dims[s]);
             i[s] = (dkf_mat_t)DKF_MAT(n, 1, id[s]);
             I[s] = (dkf_mat_t)DKF_MAT(n, n, Id[s]);
-            assert_int_equal(dkf_info_contribution(&i[s], &I[s], &Cm, &Rsm, &zm, work), DKF_OK);
+            assert_int_equal(dkf_info_contribution(&i[s], &I[s], &(dkf_kf_meas_t){&Cm, &Rsm}, &zm, work), DKF_OK);
             /* stacked H, block-diagonal R, stacked y */
             for (a = 0; a < dims[s]; ++a) {
                 for (c = 0; c < n; ++c) Hs[(row + a) * n + c] = Cr[s][a * n + c];
@@ -168,10 +168,10 @@ static void test_info_fusion_equals_stacked_kf(void **state)
             }
             row += dims[s];
         }
-        assert_int_equal(dkf_info_predict(&b.f, &Fm, &Qm), DKF_OK);
+        assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&Fm, &Qm}), DKF_OK);
         assert_int_equal(dkf_info_fuse(&b.f, i, I, 3), DKF_OK);
-        assert_int_equal(dkf_kf_predict(&k.kf, &Fm, &Qm, NULL), DKF_OK);
-        assert_int_equal(dkf_kf_update(&k.kf, &Hm, &Rm, &Ym), DKF_OK);
+        assert_int_equal(dkf_kf_predict(&k.kf, &(dkf_kf_dyn_t){&Fm, &Qm}, NULL), DKF_OK);
+        assert_int_equal(dkf_kf_update(&k.kf, &(dkf_kf_meas_t){&Hm, &Rm}, &Ym), DKF_OK);
         {
             double xk[N], Pk[N * N];
             test_to_double(xk, k.kf.x.data, n);
@@ -200,18 +200,18 @@ static void test_info_failures_leave_state_untouched(void **state)
     (void)state;
     assert_int_equal(dkf_info_init(&b.f, 2, b.f_storage, DKF_INFO_STORAGE_LEN(2), &x0, &P0),
                      DKF_OK);
-    assert_int_equal(dkf_info_predict(&b.f, &F, &Q), DKF_OK);
-    assert_int_equal(dkf_info_contribution(&i, &I, &C, &R, &z, work), DKF_OK);
+    assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&F, &Q}), DKF_OK);
+    assert_int_equal(dkf_info_contribution(&i, &I, &(dkf_kf_meas_t){&C, &R}, &z, work), DKF_OK);
     memcpy(keep_i, id, sizeof id);
     memcpy(keep_I, Id, sizeof Id);
     /* a singular R: contribution refused, outputs untouched */
-    assert_int_equal(dkf_info_contribution(&i, &I, &C, &Rb, &z, work), DKF_ERR_NOT_SPD);
+    assert_int_equal(dkf_info_contribution(&i, &I, &(dkf_kf_meas_t){&C, &Rb}, &z, work), DKF_ERR_NOT_SPD);
     assert_memory_equal(keep_i, id, sizeof id);
     assert_memory_equal(keep_I, Id, sizeof Id);
     /* outputs aliasing inputs are refused */
     {
         dkf_mat_t z_in_i = DKF_MAT(1, 1, id);
-        assert_int_equal(dkf_info_contribution(&i, &I, &C, &R, &z_in_i, work), DKF_ERR_ALIAS);
+        assert_int_equal(dkf_info_contribution(&i, &I, &(dkf_kf_meas_t){&C, &R}, &z_in_i, work), DKF_ERR_ALIAS);
     }
 
     fbefore = b.f;
@@ -225,7 +225,7 @@ static void test_info_failures_leave_state_untouched(void **state)
     assert_memory_equal(before, b.f.x.data, state_len * sizeof(dkf_real_t));
     /* wrong shapes */
     assert_int_equal(dkf_info_fuse(&b.f, &I, &I, 1), DKF_ERR_DIM);
-    assert_int_equal(dkf_info_predict(&b.f, &C, &Q), DKF_ERR_DIM);
+    assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&C, &Q}), DKF_ERR_DIM);
     assert_memory_equal(before, b.f.x.data, state_len * sizeof(dkf_real_t));
     /* a fuse with no contributions just recomputes x, P from the same Y, y */
     assert_int_equal(dkf_info_fuse(&b.f, NULL, NULL, 0), DKF_OK);

@@ -70,10 +70,10 @@ static void test_kf_matches_ex1_vector(void **state)
         test_json_mat(test_json_model_at(model, "R", k), Rs, NMAX * NMAX, &R);
         /* y lists y_1..y_{N+1}; entry j is y_{j+1} */
         test_json_mat(json_array_get(yv, j), ys, NMAX, &y);
-        assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, NULL), DKF_OK);
+        assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), DKF_OK);
         compare_step("KF xp", b.kf.x.data, test_json_get(out, "xp"), j);
         compare_step("KF Pp", b.kf.P.data, test_json_get(out, "Pp"), j);
-        assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+        assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
         compare_step("KF xf", b.kf.x.data, test_json_get(out, "xf"), j);
         compare_step("KF Pf", b.kf.P.data, test_json_get(out, "Pf"), j);
     }
@@ -195,8 +195,8 @@ static void test_kf_matches_reference_time_varying(void **state)
             Rm = (dkf_mat_t)DKF_MAT(m, m, Rr);
             Ym = (dkf_mat_t)DKF_MAT(m, 1, yr);
             ref_kf_step(x, P, F, Q, H, R, y, n, m);
-            assert_int_equal(dkf_kf_predict(&b.kf, &Fm, &Qm, NULL), DKF_OK);
-            assert_int_equal(dkf_kf_update(&b.kf, &Hm, &Rm, &Ym), DKF_OK);
+            assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&Fm, &Qm}, NULL), DKF_OK);
+            assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&Hm, &Rm}, &Ym), DKF_OK);
             test_assert_close("x vs reference", b.kf.x.data, x, n, rel);
             test_assert_close("P vs reference", b.kf.P.data, P, n * n, rel);
             assert_int_equal(b.kf.nu.rows, m);
@@ -218,7 +218,7 @@ static void test_kf_exposes_innovation(void **state)
     assert_int_equal(
         dkf_kf_init(&b.kf, 2, MMAX, b.kf_storage, DKF_KF_STORAGE_LEN(NMAX, MMAX), &x0, &P0),
         DKF_OK);
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
     /* nu = 4 - 3 = 1; S = 2 + 1 + 2*0.5 + 0.5 = 4.5; NIS = 1/4.5 */
     assert_int_equal(b.kf.nu.rows, 1);
     assert_true(fabs((double)b.kf.nu.data[0] - 1.0) < 10 * TEST_EPS);
@@ -268,46 +268,46 @@ static void test_kf_failed_steps_leave_state_bit_identical(void **state)
     /* a small filter: m_max = 1 so a 2-dim measurement exceeds capacity */
     assert_int_equal(dkf_kf_init(&b.kf, 2, 1, b.kf_storage, DKF_KF_STORAGE_LEN(2, 1), &x0, &P0),
                      DKF_OK);
-    assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, NULL), DKF_OK);
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), DKF_OK);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
     snapshot(&snap, &b.kf);
 
     /* non-finite measurement */
     yd[0] = (dkf_real_t)NAN;
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_ERR_NONFINITE);
     assert_unchanged(&snap, &b.kf);
     yd[0] = (dkf_real_t)INFINITY;
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_ERR_NONFINITE);
     assert_unchanged(&snap, &b.kf);
     yd[0] = 1.5;
     /* S = H P H^T + R not SPD */
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &Rn, &y), DKF_ERR_NOT_SPD);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &Rn}, &y), DKF_ERR_NOT_SPD);
     assert_unchanged(&snap, &b.kf);
     /* measurement larger than the capacity */
-    assert_int_equal(dkf_kf_update(&b.kf, &H2, &R2, &y2), DKF_ERR_CAPACITY);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H2, &R2}, &y2), DKF_ERR_CAPACITY);
     assert_unchanged(&snap, &b.kf);
     /* dimension mismatch: y 2x1 for H 1x2 */
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y2), DKF_ERR_DIM);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y2), DKF_ERR_DIM);
     assert_unchanged(&snap, &b.kf);
     /* non-finite and wrongly shaped model in the time update */
     memcpy(bad, Fd, sizeof bad);
     bad[1] = (dkf_real_t)NAN;
     B = (dkf_mat_t)DKF_MAT(2, 2, bad);
-    assert_int_equal(dkf_kf_predict(&b.kf, &B, &Q, NULL), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&B, &Q}, NULL), DKF_ERR_NONFINITE);
     assert_unchanged(&snap, &b.kf);
-    assert_int_equal(dkf_kf_predict(&b.kf, &F, &H, NULL), DKF_ERR_DIM);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &H}, NULL), DKF_ERR_DIM);
     assert_unchanged(&snap, &b.kf);
     /* overflow inside the step: F with huge entries makes P infinite */
     bad[0] = bad[3] = (dkf_real_t)(4.0 * sqrt((double)DKF_REAL_MAX));
     bad[1] = bad[2] = 0;
-    assert_int_equal(dkf_kf_predict(&b.kf, &B, &Q, NULL), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&B, &Q}, NULL), DKF_ERR_NONFINITE);
     assert_unchanged(&snap, &b.kf);
     /* NULL arguments */
-    assert_int_equal(dkf_kf_predict(&b.kf, NULL, &Q, NULL), DKF_ERR_NULL);
-    assert_int_equal(dkf_kf_update(&b.kf, &H, NULL, &y), DKF_ERR_NULL);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){NULL, &Q}, NULL), DKF_ERR_NULL);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, NULL}, &y), DKF_ERR_NULL);
     assert_unchanged(&snap, &b.kf);
     /* and the filter still works afterwards */
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
 }
 
 /* Every entry of every model input, set to NaN, +Inf or -Inf in turn, must
@@ -328,8 +328,8 @@ static void inject_each(kf_box_t *b, dkf_real_t *v, size_t len, int update, cons
         const dkf_real_t keep = v[i];
         for (t = 0; t < 3; ++t) {
             v[i] = (dkf_real_t)bad[t];
-            assert_int_equal(update ? dkf_kf_update(&b->kf, M1, M2, M3)
-                                    : dkf_kf_predict(&b->kf, M1, M2, M3),
+            assert_int_equal(update ? dkf_kf_update(&b->kf, &(dkf_kf_meas_t){M1, M2}, M3)
+                                    : dkf_kf_predict(&b->kf, &(dkf_kf_dyn_t){M1, M2}, M3),
                              DKF_ERR_NONFINITE);
             assert_unchanged(&snap, &b->kf);
         }
@@ -370,7 +370,7 @@ static void test_kf_nonfinite_inputs_anywhere(void **state)
                                          DKF_KF_STORAGE_LEN(NMAX, MMAX), &x0, &P0),
                              DKF_OK);
             if (zero) { /* F = 0, Q = 0: x = 0 and P = 0 exactly */
-                assert_int_equal(dkf_kf_predict(&b.kf, &Z, &Z, NULL), DKF_OK);
+                assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&Z, &Z}, NULL), DKF_OK);
                 for (i = 0; i < n * n; ++i) assert_true(b.kf.P.data[i] == 0);
             }
             inject_each(&b, Fd, n * n, 0, &F, &Q, &u);
@@ -380,8 +380,8 @@ static void test_kf_nonfinite_inputs_anywhere(void **state)
             inject_each(&b, Rd, m * m, 1, &H, &R, &y);
             inject_each(&b, yd, m, 1, &H, &R, &y);
             /* the clean inputs still work */
-            assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, &u), DKF_OK);
-            assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+            assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, &u), DKF_OK);
+            assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
         }
     }
 }
@@ -399,7 +399,7 @@ static void test_kf_init_errors(void **state)
     memset(&b.kf, 0, sizeof b.kf);
     before = b.kf;
     /* calling a step before init */
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &x0), DKF_ERR_STATE);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &x0), DKF_ERR_STATE);
     assert_int_equal(dkf_kf_init(&b.kf, 2, 1, b.kf_storage, DKF_KF_STORAGE_LEN(2, 1) - 1, &x0,
                                  &P),
                      DKF_ERR_CAPACITY);
@@ -480,8 +480,8 @@ static void test_kf_monte_carlo_nees(void **state)
             }
             yr[0] = (dkf_real_t)(xt[0] + sqrt(r) * test_rng_normal(&rng));
             yr[1] = (dkf_real_t)(xt[2] + sqrt(r) * test_rng_normal(&rng));
-            assert_int_equal(dkf_kf_predict(&b.kf, &F, &Q, NULL), DKF_OK);
-            assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+            assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), DKF_OK);
+            assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
             nis_sum += (double)b.kf.nis;
             for (i = 0; i < 4; ++i) e[i] = xt[i] - (double)b.kf.x.data[i];
             test_to_double(Pd, b.kf.P.data, 16);

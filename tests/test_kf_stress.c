@@ -48,12 +48,12 @@ static dkf_status_t run_step(kf_box_t *b, const json_t *st)
     if (json_object_get(st, "F") != NULL) {
         test_json_mat(test_json_get(st, "F"), Fs, NMAX * NMAX, &F);
         test_json_mat(test_json_get(st, "Q"), Qs, NMAX * NMAX, &Q);
-        assert_int_equal(dkf_kf_predict(&b->kf, &F, &Q, NULL), DKF_OK);
+        assert_int_equal(dkf_kf_predict(&b->kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), DKF_OK);
     }
     test_json_mat(test_json_get(st, "H"), Hs, NMAX * NMAX, &H);
     test_json_mat(test_json_get(st, "R"), Rs, NMAX * NMAX, &R);
     test_json_mat(test_json_get(st, "y"), ys, NMAX, &y);
-    return dkf_kf_update(&b->kf, &H, &R, &y);
+    return dkf_kf_update(&b->kf, &(dkf_kf_meas_t){&H, &R}, &y);
 }
 
 /* Runs case `name` and returns the worst relative errors of x and P over
@@ -244,23 +244,23 @@ static void test_kf_refuses_indefinite_p(void **state)
     assert_int_equal(dkf_kf_init(&b.kf, 2, NMAX, b.kf_storage, DKF_KF_STORAGE_LEN(NMAX, NMAX),
                                  &x0, &P0),
                      DKF_OK);
-    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_kf_predict(&b.kf, &F, &Q, NULL), b.kf.x.data,
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), b.kf.x.data,
                          6);
     /* a negative R makes a P+ = A P A^T + K R K^T indefinite while S stays
      * positive: P = I, H = [1 1], R = -1.5: S = 0.5 */
     Rd[0] = DKF_R(-1.5);
-    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_kf_update(&b.kf, &H, &R, &y), b.kf.x.data, 6);
+    TEST_FAILS_UNTOUCHED(snap, DKF_ERR_NOT_SPD, dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), b.kf.x.data, 6);
     /* P = 0 stays 0 and passes */
     Rd[0] = DKF_R(1.0);
     memset(P0d, 0, sizeof P0d);
     P0d[0] = 1;
     b.kf.P.data[0] = 0, b.kf.P.data[3] = 0;
-    assert_int_equal(dkf_kf_predict(&b.kf, &F, &Z, NULL), DKF_OK);
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+    assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Z}, NULL), DKF_OK);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
     assert_true(b.kf.P.data[0] == 0 && b.kf.P.data[3] == 0);
     /* P = diag(1, 0), PSD and singular: an update passes, P stays PSD */
     b.kf.P.data[0] = 1;
-    assert_int_equal(dkf_kf_update(&b.kf, &H, &R, &y), DKF_OK);
+    assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
     assert_true(test_psd_within(b.kf.P.data, 2, 8 * TEST_EPS));
     (void)P0;
 }

@@ -25,7 +25,7 @@ static dkf_real_t storage2[DKF_TW_NET_STORAGE_LEN(TW_NMAX, TW_N, TW_M, TW_P)];
 static dkf_tw_node_t central;
 static dkf_real_t central_storage[NODE_LEN];
 /* Algorithm 1's trajectory: x, P, z per step */
-static double ref_x[TW_STEPS][TW_N], ref_P[TW_STEPS][TW_N * TW_N], ref_z[TW_STEPS][TW_M];
+static double ref_x[TW_STEPS][TW_N], ref_P[TW_STEPS][TW_N * TW_N], ref_z[TW_STEPS][TW_P];
 
 static void load(const char *file)
 {
@@ -42,10 +42,10 @@ static void run_central(void)
                      DKF_OK);
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.N), DKF_OK);
+        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
         test_to_double(ref_x[k], central.x.data, TW_N);
         test_to_double(ref_P[k], central.P.data, TW_N * TW_N);
-        test_to_double(ref_z[k], central.z.data, TW_M);
+        test_to_double(ref_z[k], central.d.data, TW_P);
     }
 }
 
@@ -57,10 +57,10 @@ typedef struct {
 static void gap_update(gap_t *gp, const dkf_tw_node_t *nd, size_t k)
 {
     const double sx = fmax(1.0, test_max_abs(ref_x[k], TW_N));
-    const double sz = fmax(1.0, test_max_abs(ref_z[k], TW_M));
+    const double sz = fmax(1.0, test_max_abs(ref_z[k], TW_P));
     const double sP = fmax(1.0, test_max_abs(ref_P[k], TW_N * TW_N));
     gp->x = fmax(gp->x, test_max_abs_diff(nd->x.data, ref_x[k], TW_N) / sx);
-    gp->z = fmax(gp->z, test_max_abs_diff(nd->z.data, ref_z[k], TW_M) / sz);
+    gp->z = fmax(gp->z, test_max_abs_diff(nd->d.data, ref_z[k], TW_P) / sz);
     gp->P = fmax(gp->P, test_max_abs_diff(nd->P.data, ref_P[k], TW_N * TW_N) / sP);
 }
 
@@ -77,9 +77,9 @@ static gap_t run_net(const dkf_graph_t *g, const dkf_real_t *alpha, const dkf_re
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
         if (W == NULL)
-            assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &C.model, C.sens), DKF_OK);
+            assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &C.model, C.sens, C.my), DKF_OK);
         else
-            assert_int_equal(dkf_tw_net_consensus_step(&net, W, eta, &C.model, C.sens), DKF_OK);
+            assert_int_equal(dkf_tw_net_consensus_step(&net, W, eta, &C.model, C.sens, C.my), DKF_OK);
         for (l = 0; l < g->N; ++l) gap_update(&gp, &nodes[l], k);
     }
     return gp;
@@ -198,11 +198,11 @@ static void test_tw_node_api_matches_simulation(void **state)
             tw_sensors_at(&C, k);
             /* every node: its own info packet, the one it broadcasts */
             for (l = 0; l < C.N; ++l)
-                assert_int_equal(dkf_tw_meas_packet(pkt[l], &nodes2[l], &C.sens[l],
+                assert_int_equal(dkf_tw_meas_packet(pkt[l], &nodes2[l], &C.sens[l], &C.my[l],
                                                     alg == 2 ? DKF_R(1.0) : (dkf_real_t)C.N),
                                  DKF_OK);
             if (alg == 2) {
-                assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens), DKF_OK);
+                assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens, C.my), DKF_OK);
                 for (l = 0; l < C.N; ++l) { /* sum of the received packets */
                     for (e = C.start[l]; e < C.start[l + 1]; ++e) in[e - C.start[l]] = pkt[C.nbr[e]];
                     assert_int_equal(dkf_graph_mix(info[l], TW_PKT, in, NULL, C.start[l + 1] - C.start[l]),
@@ -219,7 +219,7 @@ static void test_tw_node_api_matches_simulation(void **state)
                 for (l = 0; l < C.N; ++l)
                     assert_int_equal(dkf_tw_node_commit(&nodes2[l], xmix[l], NULL), DKF_OK);
             } else {
-                assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens), DKF_OK);
+                assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens, C.my), DKF_OK);
                 for (it = 0; it < 2 * C.eta; ++it) {
                     if (it == C.eta) /* info consensus done: local steps */
                         for (l = 0; l < C.N; ++l) {
@@ -241,7 +241,7 @@ static void test_tw_node_api_matches_simulation(void **state)
             for (l = 0; l < C.N; ++l) {
                 assert_memory_equal(nodes2[l].x.data, nodes[l].x.data, TW_N * sizeof(dkf_real_t));
                 assert_memory_equal(nodes2[l].P.data, nodes[l].P.data, TW_N * TW_N * sizeof(dkf_real_t));
-                assert_memory_equal(nodes2[l].z.data, nodes[l].z.data, TW_M * sizeof(dkf_real_t));
+                assert_memory_equal(nodes2[l].d.data, nodes[l].d.data, TW_P * sizeof(dkf_real_t));
                 assert_int_equal(nodes2[l].k, k + 1);
             }
         }
@@ -251,7 +251,7 @@ static void test_tw_node_api_matches_simulation(void **state)
 /* A copy of everything a step may change in the nodes' caller-visible
  * state: x, P, z, k and the views of the last step. */
 typedef struct {
-    dkf_real_t v[TW_NMAX][TW_N + 5 * TW_N * TW_N + TW_M * TW_M + TW_N * TW_M + 4 * TW_N + TW_M];
+    dkf_real_t v[TW_NMAX][TW_N + 5 * TW_N * TW_N + TW_P * TW_P + TW_N * TW_P + 4 * TW_N + TW_P];
     size_t k[TW_NMAX];
 } snap_t;
 
@@ -259,9 +259,9 @@ static void take(snap_t *s, const dkf_tw_node_t *nd, size_t N)
 {
     size_t l;
     for (l = 0; l < N; ++l) {
-        const dkf_mat_t *v[] = {&nd[l].x,   &nd[l].P,        &nd[l].z,        &nd[l].phi,
-                                &nd[l].Phi, &nd[l].Q,        &nd[l].s,        &nd[l].phi_post,
-                                &nd[l].Phi_post, &nd[l].S,   &nd[l].G,        &nd[l].psi,
+        const dkf_mat_t *v[] = {&nd[l].x,   &nd[l].P,        &nd[l].d,        &nd[l].phi,
+                                &nd[l].Phi, &nd[l].I,        &nd[l].i,        &nd[l].phi_post,
+                                &nd[l].Phi_post, &nd[l].S,   &nd[l].Gpost,        &nd[l].psi,
                                 &nd[l].Ploc};
         size_t i, used = 0;
         for (i = 0; i < sizeof v / sizeof v[0]; ++i) {
@@ -285,7 +285,7 @@ static void test_tw_failures_are_atomic(void **state)
 {
     static dkf_tw_net_t net;
     static snap_t s;
-    static dkf_real_t Hrank1[TW_NMAX][TW_N], Sbad[TW_P * TW_P];
+    static dkf_real_t Hrank1[TW_NMAX][TW_N], Sbad[TW_M * TW_M];
     static dkf_mat_t mH1[TW_NMAX];
     static dkf_real_t neg[TW_NNZ];
     dkf_real_t pkt[TW_PKT], snap_pkt[TW_PKT], info[TW_PKT];
@@ -298,13 +298,13 @@ static void test_tw_failures_are_atomic(void **state)
     /* two good steps so the state is not the initial one */
     for (l = 0; l < 2; ++l) {
         tw_sensors_at(&C, l);
-        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens), DKF_OK);
+        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens, C.my), DKF_OK);
     }
     tw_sensors_at(&C, 2);
     take(&s, nodes, C.N);
 
     /* Alg 2: the neighbourhood of node 0 = {0, 1, 5} only measures x1
-     * (H = [1 0 0 0]), so H_{N_0} B = [0.5 0] has rank 1 < m: S_0 is
+     * (H = [1 0 0 0]), so H_{N_0} G = [0.5 0] has rank 1 < p: S_0 is
      * singular. Other nodes are fine; no node may change. */
     for (l = 0; l < C.N; ++l) {
         memset(Hrank1[l], 0, sizeof Hrank1[l]);
@@ -314,23 +314,25 @@ static void test_tw_failures_are_atomic(void **state)
     {
         static dkf_mat_t Sw1[TW_NMAX], y1[TW_NMAX];
         static dkf_real_t sw1[TW_NMAX], yv[TW_NMAX];
-        static dkf_tw_sensor_t sens[TW_NMAX];
+        static dkf_kf_meas_t sens[TW_NMAX];
+        static dkf_mat_t ys[TW_NMAX];
         for (l = 0; l < C.N; ++l) {
             sw1[l] = C.Sw[l][0];
             yv[l] = C.y[2][l][0];
             Sw1[l] = test_view(1, 1, &sw1[l]);
             y1[l] = test_view(1, 1, &yv[l]);
             sens[l] = C.sens[l];
-            if (l == 0 || l == 1 || l == 5) sens[l].H = &mH1[l], sens[l].Sw = &Sw1[l], sens[l].y = &y1[l];
+            ys[l] = C.my[l];
+            if (l == 0 || l == 1 || l == 5) sens[l].H = &mH1[l], sens[l].R = &Sw1[l], ys[l] = y1[l];
         }
-        assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, sens), DKF_ERR_RANK);
+        assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, sens, ys), DKF_ERR_RANK);
         assert_unchanged(&s, nodes, C.N);
         /* Alg 1 on the same rank-1 data everywhere */
-        for (l = 0; l < C.N; ++l) sens[l].H = &mH1[l], sens[l].Sw = &Sw1[l], sens[l].y = &y1[l];
-        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, sens), DKF_ERR_RANK);
+        for (l = 0; l < C.N; ++l) sens[l].H = &mH1[l], sens[l].R = &Sw1[l];
+        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, sens, y1), DKF_ERR_RANK);
         assert_unchanged(&s, nodes, C.N);
         take(&s, &nodes[3], 1);
-        assert_int_equal(dkf_tw_central_step(&nodes[3], &C.model, sens, C.N), DKF_ERR_RANK);
+        assert_int_equal(dkf_tw_central_step(&nodes[3], &C.model, sens, y1, C.N), DKF_ERR_RANK);
         assert_unchanged(&s, &nodes[3], 1);
         take(&s, nodes, C.N);
     }
@@ -338,37 +340,37 @@ static void test_tw_failures_are_atomic(void **state)
     /* a Sw that is not SPD at node 4; a NaN in node 2's y */
     Sbad[0] = DKF_R(1.0), Sbad[1] = DKF_R(2.0), Sbad[2] = DKF_R(2.0), Sbad[3] = DKF_R(1.0);
     {
-        dkf_mat_t mS = test_view(TW_P, TW_P, Sbad);
-        const dkf_mat_t *save = C.sens[4].Sw;
-        C.sens[4].Sw = &mS;
-        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens), DKF_ERR_NOT_SPD);
-        assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens), DKF_ERR_NOT_SPD);
+        dkf_mat_t mS = test_view(TW_M, TW_M, Sbad);
+        const dkf_mat_t *save = C.sens[4].R;
+        C.sens[4].R = &mS;
+        assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens, C.my), DKF_ERR_NOT_SPD);
+        assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens, C.my), DKF_ERR_NOT_SPD);
         assert_unchanged(&s, nodes, C.N);
         /* the packet a failing call would have written stays as it was */
         test_fill(pkt, TW_PKT, DKF_R(-7.0));
         memcpy(snap_pkt, pkt, sizeof pkt);
-        assert_int_equal(dkf_tw_meas_packet(pkt, &nodes[4], &C.sens[4], DKF_R(1.0)), DKF_ERR_NOT_SPD);
+        assert_int_equal(dkf_tw_meas_packet(pkt, &nodes[4], &C.sens[4], &C.my[4], DKF_R(1.0)), DKF_ERR_NOT_SPD);
         assert_memory_equal(pkt, snap_pkt, sizeof pkt);
-        C.sens[4].Sw = save;
+        C.sens[4].R = save;
     }
     C.y[2][2][1] = (dkf_real_t)NAN;
-    assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens, C.my), DKF_ERR_NONFINITE);
     assert_unchanged(&s, nodes, C.N);
     C.y[2][2][1] = DKF_R(0.0);
 
     /* an eta above DKF_TW_MAX_ETA (e.g. read from a file) is refused before
      * any iteration, not run for hours */
     assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, (size_t)DKF_TW_MAX_ETA + 1, &C.model,
-                                               C.sens), DKF_ERR_ARG);
+                                               C.sens, C.my), DKF_ERR_ARG);
     assert_unchanged(&s, nodes, C.N);
 
     /* weights: uniform alpha is not doubly stochastic on this irregular
      * graph; a negative alpha with unit row sums */
-    assert_int_equal(dkf_tw_net_consensus_step(&net, C.alpha, C.eta, &C.model, C.sens), DKF_ERR_WEIGHTS);
+    assert_int_equal(dkf_tw_net_consensus_step(&net, C.alpha, C.eta, &C.model, C.sens, C.my), DKF_ERR_WEIGHTS);
     memcpy(neg, C.alpha, sizeof neg);
     for (e = C.start[0]; e < C.start[1]; ++e)
         neg[e] = C.nbr[e] == 0 ? DKF_R(2.0) : DKF_R(-0.5);
-    assert_int_equal(dkf_tw_net_diffusion_step(&net, neg, &C.model, C.sens), DKF_ERR_WEIGHTS);
+    assert_int_equal(dkf_tw_net_diffusion_step(&net, neg, &C.model, C.sens, C.my), DKF_ERR_WEIGHTS);
     assert_unchanged(&s, nodes, C.N);
 
     /* node level: Psi = Phi-^{-1} + Q indefinite for a hostile info packet */
@@ -380,7 +382,7 @@ static void test_tw_failures_are_atomic(void **state)
     /* a failed local step cancels the pending one: commit is out of sequence */
     assert_int_equal(dkf_tw_node_commit(&nodes[1], NULL, NULL), DKF_ERR_STATE);
     /* a good local step, then a commit with a P that is not SPD, then NaN x */
-    assert_int_equal(dkf_tw_meas_packet(info, &nodes[1], &C.sens[1], DKF_R(1.0)), DKF_OK);
+    assert_int_equal(dkf_tw_meas_packet(info, &nodes[1], &C.sens[1], &C.my[1], DKF_R(1.0)), DKF_OK);
     assert_int_equal(dkf_tw_node_local(&nodes[1], &C.model, info, pkt), DKF_OK);
     memcpy(snap_pkt, pkt, sizeof pkt);
     snap_pkt[TW_N] = DKF_R(-1.0); /* P(0, 0) < 0 */
@@ -394,17 +396,17 @@ static void test_tw_failures_are_atomic(void **state)
     assert_int_equal(nodes[1].k, s.k[0] + 1);
 }
 
-/* The storage macros are exact: one real less is refused. m > n refused. */
+/* The storage macros are exact: one real less is refused. p > n refused. */
 static void test_tw_storage_macros_are_exact(void **state)
 {
-    static const size_t dims[][3] = {{4, 2, 2}, {1, 1, 1}, {6, 3, 5}, {5, 5, 1}};
+    static const size_t dims[][3] = {{4, 2, 2}, {1, 1, 1}, {6, 3, 5}, {5, 5, 1}}; /* n, p, m */
     static dkf_tw_net_t net;
     dkf_real_t x[6] = {0}, P[36] = {0};
     dkf_tw_node_t nd;
     size_t d, i;
     (void)state;
     for (d = 0; d < sizeof dims / sizeof dims[0]; ++d) {
-        const size_t n = dims[d][0], m = dims[d][1], p = dims[d][2];
+        const size_t n = dims[d][0], p = dims[d][1], m = dims[d][2];
         const size_t len = DKF_TW_NODE_STORAGE_LEN(n, m, p);
         dkf_mat_t X = test_view(n, 1, x), P0 = test_view(n, n, P);
         memset(P, 0, sizeof P);
@@ -416,10 +418,10 @@ static void test_tw_storage_macros_are_exact(void **state)
     {
         dkf_mat_t X = test_view(2, 1, x), P0 = test_view(2, 2, P);
         P[0] = P[3] = 1, P[1] = P[2] = 0;
-        assert_int_equal(dkf_tw_node_init(&nd, 2, 3, 2, storage, DKF_TW_NODE_STORAGE_LEN(2, 3, 2), &X, &P0),
+        assert_int_equal(dkf_tw_node_init(&nd, 2, 2, 3, storage, DKF_TW_NODE_STORAGE_LEN(2, 2, 3), &X, &P0),
                          DKF_ERR_RANK);
         P[0] = -1;
-        assert_int_equal(dkf_tw_node_init(&nd, 2, 1, 2, storage, DKF_TW_NODE_STORAGE_LEN(2, 1, 2), &X, &P0),
+        assert_int_equal(dkf_tw_node_init(&nd, 2, 2, 1, storage, DKF_TW_NODE_STORAGE_LEN(2, 2, 1), &X, &P0),
                          DKF_ERR_NOT_SPD);
     }
     load("uif/s003_200node_alg1.json");

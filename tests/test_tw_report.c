@@ -41,8 +41,8 @@ static void accumulate(acc_t *a, const dkf_tw_node_t *nd, size_t k)
         else
             a->vel += e * e;
     }
-    for (i = 0; i < TW_M; ++i) {
-        const double e = (double)nd->z.data[i] - C.zprev[k][i];
+    for (i = 0; i < TW_P; ++i) {
+        const double e = (double)nd->d.data[i] - C.zprev[k][i];
         a->z += e * e;
     }
     ++a->count;
@@ -80,7 +80,7 @@ static void test_tw_report_200node(void **state)
                      DKF_OK);
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.N), DKF_OK);
+        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
         accumulate(&a1, &central, k);
     }
 
@@ -89,7 +89,7 @@ static void test_tw_report_200node(void **state)
                      DKF_OK);
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &C.model, C.sens), DKF_OK);
+        assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &C.model, C.sens, C.my), DKF_OK);
         for (l = 0; l < C.N; ++l) accumulate(&a2, &nodes[l], k);
     }
     per2 = (double)net.reals_sent / (double)(C.N * net.steps);
@@ -99,7 +99,7 @@ static void test_tw_report_200node(void **state)
                      DKF_OK);
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_net_consensus_step(&net, W, eta, &C.model, C.sens), DKF_OK);
+        assert_int_equal(dkf_tw_net_consensus_step(&net, W, eta, &C.model, C.sens, C.my), DKF_OK);
         for (l = 0; l < C.N; ++l) accumulate(&a3, &nodes[l], k);
     }
     per3 = (double)net.reals_sent / (double)(C.N * net.steps);

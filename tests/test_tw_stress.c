@@ -2,7 +2,9 @@
  * Seed 003's centralized two-stage filter (Algorithm 1,
  * dkf_tw_central_step) where the sensors pin the state, against 60-digit
  * references (tests/vectors/stress/tw.json, written by
- * tools/make_stress_vectors.py in the covariance forms dkf/tw.h prints --
+ * tools/make_stress_vectors.py in the covariance forms, in the paper's
+ * letters throughout this comment (B = the API's G, Q = I, Sv = Q, Sw = R,
+ * p = rows per sensor, z = d) --
  * the stacked KF update for phi+, Phi+, G = (I - Phi+ Q) B, S = B^T (Q -
  * Q Phi+ Q) B -- not in src/tw.c's information form; every input
  * float32-exact): N = 3 sensors of 2 rows (the stacked H has full column
@@ -39,15 +41,15 @@
 #include "dkf_test.h"
 
 #define NX 4 /* largest n */
-#define MX 2 /* largest m */
-#define PL 2 /* rows per sensor */
+#define PX 2 /* largest p (unknown inputs) */
+#define ML 2 /* rows per sensor */
 #define NS 3 /* sensors */
 
 typedef struct {
-    dkf_real_t A[NX * NX], B[NX * MX], Sv[NX * NX], H[NS][PL * NX], Sw[NS][PL * PL], y[NS][PL];
+    dkf_real_t A[NX * NX], B[NX * PX], Sv[NX * NX], H[NS][ML * NX], Sw[NS][ML * ML], y[NS][ML];
     dkf_mat_t Am, Bm, Svm, Hm[NS], Swm[NS], ym[NS];
-    dkf_tw_model_t md;
-    dkf_tw_sensor_t sn[NS];
+    dkf_uif_dyn_t md;
+    dkf_kf_meas_t sn[NS];
 } tw_step_t;
 
 static void load_step(tw_step_t *s, const json_t *st)
@@ -55,16 +57,16 @@ static void load_step(tw_step_t *s, const json_t *st)
     const json_t *sens = test_json_get(st, "sensors");
     size_t l;
     test_json_mat(test_json_get(st, "A"), s->A, NX * NX, &s->Am);
-    test_json_mat(test_json_get(st, "B"), s->B, NX * MX, &s->Bm);
+    test_json_mat(test_json_get(st, "B"), s->B, NX * PX, &s->Bm);
     test_json_mat(test_json_get(st, "Sv"), s->Sv, NX * NX, &s->Svm);
-    s->md.A = &s->Am, s->md.B = &s->Bm, s->md.Sv = &s->Svm;
+    s->md.F = &s->Am, s->md.G = &s->Bm, s->md.Q = &s->Svm;
     assert_int_equal(json_array_size(sens), NS);
     for (l = 0; l < NS; ++l) {
         const json_t *se = json_array_get(sens, l);
-        test_json_mat(test_json_get(se, "H"), s->H[l], PL * NX, &s->Hm[l]);
-        test_json_mat(test_json_get(se, "Sw"), s->Sw[l], PL * PL, &s->Swm[l]);
-        test_json_mat(test_json_get(se, "y"), s->y[l], PL, &s->ym[l]);
-        s->sn[l].H = &s->Hm[l], s->sn[l].Sw = &s->Swm[l], s->sn[l].y = &s->ym[l];
+        test_json_mat(test_json_get(se, "H"), s->H[l], ML * NX, &s->Hm[l]);
+        test_json_mat(test_json_get(se, "Sw"), s->Sw[l], ML * ML, &s->Swm[l]);
+        test_json_mat(test_json_get(se, "y"), s->y[l], ML, &s->ym[l]);
+        s->sn[l].H = &s->Hm[l], s->sn[l].R = &s->Swm[l];
     }
 }
 
@@ -91,7 +93,7 @@ static const double seen[2][NOUT] = {{1.3e-15, 1.2e-15, 2.4e-15, 1.02e-15, 2.8e-
 #endif
 
 typedef struct {
-    DKF_TW_NODE_DECLARE(, nd, NX, MX, NS * PL);
+    DKF_TW_NODE_DECLARE(, nd, NX, NS * ML, PX);
 } tw_box_t;
 
 static void test_tw_central_pinned(void **state)
@@ -106,33 +108,33 @@ static void test_tw_central_pinned(void **state)
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
         const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
+        const size_t p = (size_t)json_integer_value(test_json_get(cs, "m")); /* the file's m: inputs */
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
         double w[NOUT] = {0, 0, 0, 0, 0}, k2 = 0, cS = 0, ext[2], ev[NOUT];
         size_t j, i;
         test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
         test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
-        assert_int_equal(dkf_tw_node_init(&b.nd, n, m, NS * PL, b.nd_storage,
-                                          DKF_TW_NODE_STORAGE_LEN(n, m, NS * PL), &x0, &P0),
+        assert_int_equal(dkf_tw_node_init(&b.nd, n, NS * ML, p, b.nd_storage,
+                                          DKF_TW_NODE_STORAGE_LEN(n, NS * ML, p), &x0, &P0),
                          DKF_OK);
         for (j = 0; j < json_array_size(steps); ++j) {
             const json_t *st = json_array_get(steps, j);
             const double k = json_number_value(test_json_get(st, "cond_H"));
-            double Sr[MX * MX];
+            double Sr[PX * PX];
             if (k * k > k2) k2 = k * k;
-            test_json_array(test_json_get(st, "S"), Sr, MX * MX, NULL, NULL);
-            if (cond_spd2(Sr, m) > cS) cS = cond_spd2(Sr, m);
+            test_json_array(test_json_get(st, "S"), Sr, PX * PX, NULL, NULL);
+            if (cond_spd2(Sr, p) > cS) cS = cond_spd2(Sr, p);
             load_step(&s, st);
-            assert_int_equal(dkf_tw_central_step(&b.nd, &s.md, s.sn, NS), DKF_OK);
+            assert_int_equal(dkf_tw_central_step(&b.nd, &s.md, s.sn, s.ym, NS), DKF_OK);
             test_note_rel_err(&w[0], test_json_get(st, "x"), b.nd.x.data, n);
             test_note_rel_err(&w[1], test_json_get(st, "P"), b.nd.P.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "z"), b.nd.z.data, m);
+            test_note_rel_err(&w[2], test_json_get(st, "z"), b.nd.d.data, p);
             test_note_rel_err(&w[3], test_json_get(st, "Phi_post"), b.nd.Phi_post.data, n * n);
-            test_note_rel_err(&w[4], test_json_get(st, "S"), b.nd.S.data, m * m);
+            test_note_rel_err(&w[4], test_json_get(st, "S"), b.nd.S.data, p * p);
             assert_true(test_psd_within(b.nd.P.data, n, 4.0 * NX * TEST_EPS));
         }
-        ext[0] = 100.0 * (double)(n + NS * PL) * k2 * TEST_EPS;
+        ext[0] = 100.0 * (double)(n + NS * ML) * k2 * TEST_EPS;
         ext[1] = ext[0] * cS;
         print_message("%s: worst rel error x %.3e P %.3e z %.3e Phi+ %.3e S %.3e "
                       "(cond^2 %.3g, cond S %.3g, bounds %.3e %.3e)\n",

@@ -39,7 +39,8 @@ static dkf_real_t net_storage[DKF_TW_NET_STORAGE_LEN(TW_NMAX, TW_N, TW_M, TW_P)]
 static double expect[TW_NMAX * TW_N * TW_N];
 static dkf_real_t gathered[TW_NMAX * TW_N * TW_N];
 
-/* The node field an expected key names. */
+/* The node field an expected key names (the vectors keep the paper's names:
+ * z = d, G = Gpost, Q and Ups = I, vphi = i). */
 static size_t field_offset(const char *key)
 {
     static const struct {
@@ -47,12 +48,12 @@ static size_t field_offset(const char *key)
         size_t off;
     } map[] = {
         {"x", offsetof(dkf_tw_node_t, x)},       {"P", offsetof(dkf_tw_node_t, P)},
-        {"z", offsetof(dkf_tw_node_t, z)},       {"phi", offsetof(dkf_tw_node_t, phi)},
+        {"z", offsetof(dkf_tw_node_t, d)},       {"phi", offsetof(dkf_tw_node_t, phi)},
         {"Phi", offsetof(dkf_tw_node_t, Phi)},   {"phi_post", offsetof(dkf_tw_node_t, phi_post)},
         {"Phi_post", offsetof(dkf_tw_node_t, Phi_post)},
-        {"S", offsetof(dkf_tw_node_t, S)},       {"G", offsetof(dkf_tw_node_t, G)},
-        {"psi", offsetof(dkf_tw_node_t, psi)},   {"Q", offsetof(dkf_tw_node_t, Q)},
-        {"Ups", offsetof(dkf_tw_node_t, Q)},     {"vphi", offsetof(dkf_tw_node_t, s)},
+        {"S", offsetof(dkf_tw_node_t, S)},       {"G", offsetof(dkf_tw_node_t, Gpost)},
+        {"psi", offsetof(dkf_tw_node_t, psi)},   {"Q", offsetof(dkf_tw_node_t, I)},
+        {"Ups", offsetof(dkf_tw_node_t, I)},     {"vphi", offsetof(dkf_tw_node_t, i)},
         {"Ploc", offsetof(dkf_tw_node_t, Ploc)},
     };
     size_t i;
@@ -112,7 +113,7 @@ static void run_alg1(const char *file)
                      DKF_OK);
     for (k = 0; k < C.steps; ++k) {
         tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.N), DKF_OK);
+        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
         assert_int_equal(central.k, k + 1);
         fields += compare_block("alg1", k + 1, expected_at(k, "alg1"), &central, 1);
     }
@@ -139,9 +140,9 @@ static void run_alg23(const char *file)
         for (k = 0; k < C.steps; ++k) {
             tw_sensors_at(&C, k);
             if (alg == 2)
-                assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens), DKF_OK);
+                assert_int_equal(dkf_tw_net_diffusion_step(&net, C.alpha, &C.model, C.sens, C.my), DKF_OK);
             else
-                assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens),
+                assert_int_equal(dkf_tw_net_consensus_step(&net, C.W, C.eta, &C.model, C.sens, C.my),
                                  DKF_OK);
             fields += compare_block(name, k + 1, expected_at(k, name), nodes, C.N);
         }

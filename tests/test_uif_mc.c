@@ -18,8 +18,8 @@
 #include "dkf_test.h"
 
 #define N 5
-#define M 3
-#define P 5
+#define P 3
+#define M 5
 #define RUNS 1000
 #define STEPS 40
 
@@ -114,9 +114,9 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
     dkf_real_t rA[25], rG[15], rQ[25], rC[25], rH[15], rR[25], x0r[5] = {0}, P0r[25], yr[5];
     dkf_mat_t mA, mG, mQ, mC, mH, mR, mx0, mP0, my;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     test_rng_t rng;
-    size_t run, k, i, j, est[M], ne = 0, avg_n = 0;
+    size_t run, k, i, j, est[P], ne = 0, avg_n = 0;
     double H[15], C[25] = {0};
     memset(out, 0, sizeof *out);
     for (i = 0; i < 25; ++i) Q[i] = 1e-2 * PR[i];
@@ -132,8 +132,8 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
     mA = test_view(5, 5, rA), mG = test_view(5, 3, rG), mQ = test_view(5, 5, rQ);
     mC = test_view(5, 5, rC), mH = test_view(5, 3, rH), mR = test_view(5, 5, rR);
     mx0 = test_view(5, 1, x0r), mP0 = test_view(5, 5, P0r), my = test_view(5, 1, yr);
-    dyn.A = &mA, dyn.G = &mG, dyn.Q = &mQ;
-    meas.C = &mC, meas.H = df ? &mH : NULL, meas.R = &mR;
+    dyn.F = &mA, dyn.G = &mG, dyn.Q = &mQ;
+    meas.H = &mC, meas.D = df ? &mH : NULL, meas.R = &mR;
     test_rng_seed(&rng, 2021 + (uint64_t)kind * 7 + (uint64_t)(d1amp * 3));
 
     for (run = 0; run < RUNS; ++run) {

@@ -31,8 +31,8 @@
 #include "dkf_test.h"
 
 #define MAXN 6
-#define MAXM 4
-#define MAXP 5
+#define MAXP 4
+#define MAXM 5
 #define CAP 64
 #define STEPS 40
 
@@ -145,37 +145,37 @@ static void rand_rank(test_rng_t *r, double *A, double *T, size_t rows, size_t c
 /* ---- a time-varying model in double, and its library views ------------ */
 
 typedef struct {
-    size_t n, m, p;
+    size_t n, p, m;
     double A[CAP], G[CAP], Q[CAP], C[CAP], H[CAP], R[CAP];
     double Tlast[CAP]; /* right factor of the previous H (rank rlast) */
     size_t rlast;
     dkf_real_t rA[CAP], rG[CAP], rQ[CAP], rC[CAP], rH[CAP], rR[CAP];
     dkf_mat_t mA, mG, mQ, mC, mH, mR;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
 } model_t;
 
 /* Converts the double model to the library type and wires the views. */
 static void model_views(model_t *s, int with_h)
 {
-    const size_t n = s->n, m = s->m, p = s->p;
+    const size_t n = s->n, p = s->p, m = s->m;
     test_to_real(s->rA, s->A, n * n);
-    test_to_real(s->rG, s->G, n * m);
+    test_to_real(s->rG, s->G, n * p);
     test_to_real(s->rQ, s->Q, n * n);
-    test_to_real(s->rC, s->C, p * n);
-    test_to_real(s->rH, s->H, p * m);
-    test_to_real(s->rR, s->R, p * p);
+    test_to_real(s->rC, s->C, m * n);
+    test_to_real(s->rH, s->H, m * p);
+    test_to_real(s->rR, s->R, m * m);
     s->mA = test_view(n, n, s->rA);
-    s->mG = test_view(n, m, s->rG);
+    s->mG = test_view(n, p, s->rG);
     s->mQ = test_view(n, n, s->rQ);
-    s->mC = test_view(p, n, s->rC);
-    s->mH = test_view(p, m, s->rH);
-    s->mR = test_view(p, p, s->rR);
-    s->dyn.A = &s->mA;
+    s->mC = test_view(m, n, s->rC);
+    s->mH = test_view(m, p, s->rH);
+    s->mR = test_view(m, m, s->rR);
+    s->dyn.F = &s->mA;
     s->dyn.G = &s->mG;
     s->dyn.Q = &s->mQ;
-    s->meas.C = &s->mC;
-    s->meas.H = with_h ? &s->mH : NULL;
+    s->meas.H = &s->mC;
+    s->meas.D = with_h ? &s->mH : NULL;
     s->meas.R = &s->mR;
 }
 
@@ -183,34 +183,34 @@ static void model_views(model_t *s, int with_h)
  * (|G| |C| / |H| ~ 1/8) keep the input observable enough that the
  * covariances stay O(1) and cond(R~) moderate, so rounding, not the model,
  * sets the error levels the tests bound; H_k of rank
- * rh (p x m); G_{k-1} of rank rg, or (g_in_row_h) G_{k-1} = G1 T_{k-1}
+ * rh (m x p); G_{k-1} of rank rg, or (g_in_row_h) G_{k-1} = G1 T_{k-1}
  * with T_{k-1} the right factor of the previous call's H, so that
  * null(H_{k-1}) is in null(G_{k-1}). Set s->rlast = 0 before the first
  * call. */
-static void rand_model(test_rng_t *r, model_t *s, size_t n, size_t m, size_t p, size_t rh,
+static void rand_model(test_rng_t *r, model_t *s, size_t n, size_t p, size_t m, size_t rh,
                        size_t rg, int g_in_row_h)
 {
     double G1[CAP];
     size_t i;
-    s->n = n, s->m = m, s->p = p;
+    s->n = n, s->p = p, s->m = m;
     rand_dyadic(r, s->A, n, n, 0.6 / sqrt((double)n));
-    rand_dyadic(r, s->C, p, n, 0.5);
+    rand_dyadic(r, s->C, m, n, 0.5);
     test_rand_spd(r, s->Q, n, 10.0, 1e-2);
-    test_rand_spd(r, s->R, p, 10.0, 1e-1);
+    test_rand_spd(r, s->R, m, 10.0, 1e-1);
     if (g_in_row_h) {
-        for (i = 0; i < n * m; ++i) s->G[i] = 0.0;
+        for (i = 0; i < n * p; ++i) s->G[i] = 0.0;
         if (s->rlast > 0) {
             rand_dyadic(r, G1, n, s->rlast, 0.25);
-            dmul(s->G, G1, s->Tlast, n, s->rlast, m);
+            dmul(s->G, G1, s->Tlast, n, s->rlast, p);
         }
     } else {
-        rand_rank(r, s->G, NULL, n, m, rg, 0.25);
+        rand_rank(r, s->G, NULL, n, p, rg, 0.25);
     }
-    rand_rank(r, s->H, s->Tlast, p, m, rh, 1.0);
+    rand_rank(r, s->H, s->Tlast, m, p, rh, 1.0);
     s->rlast = rh;
 }
 
-static void init_filter(box_t *b, dkf_uif_kind_t kind, size_t n, size_t m, size_t p,
+static void init_filter(box_t *b, dkf_uif_kind_t kind, size_t n, size_t p, size_t m,
                         const double *x0, double p0)
 {
     dkf_real_t xs[MAXN], Ps[MAXN * MAXN];
@@ -228,10 +228,10 @@ static void init_filter(box_t *b, dkf_uif_kind_t kind, size_t n, size_t m, size_
 
 static dkf_status_t step_with(box_t *b, model_t *s, const double *y, int first)
 {
-    dkf_real_t ys[MAXP];
+    dkf_real_t ys[MAXM];
     dkf_mat_t Y;
-    test_to_real(ys, y, s->p);
-    Y = test_view(s->p, 1, ys);
+    test_to_real(ys, y, s->m);
+    Y = test_view(s->m, 1, ys);
     return dkf_uif_step(&b->f, first ? NULL : &s->dyn, &s->meas, &Y);
 }
 
@@ -250,7 +250,7 @@ static void test_uif_storage_macro_is_exact(void **state)
     (void)state;
     for (d = 0; d < sizeof dims / sizeof dims[0]; ++d)
         for (kind = 0; kind < 3; ++kind) {
-            const size_t n = dims[d][0], m = dims[d][1], p = dims[d][2];
+            const size_t n = dims[d][0], p = dims[d][1], m = dims[d][2];
             const size_t len = DKF_UIF_STORAGE_LEN(n, m, p);
             dkf_mat_t X = test_view(n, 1, x), P0 = test_view(n, n, P);
             assert_true(len <= sizeof st / sizeof st[0]);
@@ -289,30 +289,30 @@ static void assert_same_filter(const dkf_uif_t *a, const dkf_uif_t *b)
 static void test_uif_nrtsf_df_equals_rtsf_full_rank(void **state)
 {
     static box_t a, b;
-    /* (p = m would leave no measurement for the state: P_{k|k-1} then
+    /* (m = p would leave no measurement for the state: P_{k|k-1} then
      * grows without bound, a valid but degenerate case not used here) */
     static const size_t dims[][3] = {{4, 2, 3}, {6, 3, 5}, {5, 4, 5}, {3, 1, 2}};
     test_rng_t rng;
     model_t s;
-    double x0[MAXN] = {0}, y[MAXP];
+    double x0[MAXN] = {0}, y[MAXM];
     size_t d, k, i;
     (void)state;
     test_rng_seed(&rng, 4004);
     test_reset_worst_rel();
     for (d = 0; d < sizeof dims / sizeof dims[0]; ++d) {
-        const size_t n = dims[d][0], m = dims[d][1], p = dims[d][2];
-        init_filter(&a, DKF_UIF_RTSF, n, m, p, x0, 1.0);
-        init_filter(&b, DKF_UIF_NRTSF_DF, n, m, p, x0, 1.0);
+        const size_t n = dims[d][0], p = dims[d][1], m = dims[d][2];
+        init_filter(&a, DKF_UIF_RTSF, n, p, m, x0, 1.0);
+        init_filter(&b, DKF_UIF_NRTSF_DF, n, p, m, x0, 1.0);
         for (k = 0; k < STEPS; ++k) {
-            rand_model(&rng, &s, n, m, p, m, m, 0);
+            rand_model(&rng, &s, n, p, m, p, p, 0);
             model_views(&s, 1);
-            for (i = 0; i < p; ++i) y[i] = test_rng_normal(&rng);
+            for (i = 0; i < m; ++i) y[i] = test_rng_normal(&rng);
             assert_int_equal(step_with(&a, &s, y, k == 0), DKF_OK);
             assert_int_equal(step_with(&b, &s, y, k == 0), DKF_OK);
             assert_same_filter(&b.f, &a.f);
-            assert_int_equal(b.f.rank, m);
+            assert_int_equal(b.f.rank, p);
             assert_int_equal(b.f.bias_risk, 0);
-            for (i = 0; i < m; ++i) assert_int_equal(b.f.estimable[i], DKF_UIF_EST_FULL);
+            for (i = 0; i < p; ++i) assert_int_equal(b.f.estimable[i], DKF_UIF_EST_FULL);
         }
     }
     print_message("NRTSF-DF vs RTSF, 4 shapes x %d steps: worst relative difference %.3e\n",
@@ -322,61 +322,61 @@ static void test_uif_nrtsf_df_equals_rtsf_full_rank(void **state)
 /* ---- independent reference with the appendix decomposition ------------- */
 
 typedef struct {
-    double x[MAXN], Px[CAP], d[MAXM], Pd[CAP], Pxd[CAP];
+    double x[MAXN], Px[CAP], d[MAXP], Pd[CAP], Pxd[CAP];
 } ref_t;
 
 /* The paper's appendix: a nonsingular rank x rank minor H[I, J] found by
  * complete pivoting, Hbar = H[:, J], T = H[I, J]^-1 H[I, :]. */
-static void appendix_frd(double *Hbar, double *T, const double *H, size_t p, size_t m, size_t r)
+static void appendix_frd(double *Hbar, double *T, const double *H, size_t m, size_t p, size_t r)
 {
     double W[CAP], Mi[CAP], Min[CAP], HI[CAP];
-    size_t I[MAXP], J[MAXM], t, i, j;
-    memcpy(W, H, p * m * sizeof *W);
+    size_t I[MAXM], J[MAXP], t, i, j;
+    memcpy(W, H, m * p * sizeof *W);
     for (t = 0; t < r; ++t) {
         size_t bi = 0, bj = 0;
         double best = -1.0;
-        for (i = 0; i < p; ++i)
-            for (j = 0; j < m; ++j)
-                if (fabs(W[i * m + j]) > best) best = fabs(W[i * m + j]), bi = i, bj = j;
+        for (i = 0; i < m; ++i)
+            for (j = 0; j < p; ++j)
+                if (fabs(W[i * p + j]) > best) best = fabs(W[i * p + j]), bi = i, bj = j;
         assert_true(best > 0.0);
         I[t] = bi, J[t] = bj;
-        for (i = 0; i < p; ++i) /* eliminate column bj with row bi */
+        for (i = 0; i < m; ++i) /* eliminate column bj with row bi */
             if (i != bi) {
-                const double f = W[i * m + bj] / W[bi * m + bj];
-                for (j = 0; j < m; ++j) W[i * m + j] -= f * W[bi * m + j];
+                const double f = W[i * p + bj] / W[bi * p + bj];
+                for (j = 0; j < p; ++j) W[i * p + j] -= f * W[bi * p + j];
             }
-        for (j = 0; j < m; ++j) W[bi * m + j] = 0.0;
+        for (j = 0; j < p; ++j) W[bi * p + j] = 0.0;
     }
-    for (i = 0; i < p; ++i)
-        for (t = 0; t < r; ++t) Hbar[i * r + t] = H[i * m + J[t]];
+    for (i = 0; i < m; ++i)
+        for (t = 0; t < r; ++t) Hbar[i * r + t] = H[i * p + J[t]];
     for (t = 0; t < r; ++t)
-        for (j = 0; j < r; ++j) Min[t * r + j] = H[I[t] * m + J[j]];
+        for (j = 0; j < r; ++j) Min[t * r + j] = H[I[t] * p + J[j]];
     for (t = 0; t < r; ++t)
-        for (j = 0; j < m; ++j) HI[t * m + j] = H[I[t] * m + j];
+        for (j = 0; j < p; ++j) HI[t * p + j] = H[I[t] * p + j];
     dinv(Mi, Min, r);
-    dmul(T, Mi, HI, r, r, m);
+    dmul(T, Mi, HI, r, r, p);
 }
 
 /* One NRTSF-DF step, (27)-(29) literally, in double. */
 static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, int first)
 {
-    const size_t n = s->n, m = s->m, p = s->p;
-    double xp[MAXN], Pp[CAP], t1[CAP], t2[CAP], t3[CAP], Rt[CAP], Rti[CAP], K[CAP], yt[MAXP];
-    double Hbar[CAP], T[CAP], Tt[CAP], Tp[CAP], Pdb[CAP], Mb[CAP], db[MAXM], e[MAXP];
+    const size_t n = s->n, p = s->p, m = s->m;
+    double xp[MAXN], Pp[CAP], t1[CAP], t2[CAP], t3[CAP], Rt[CAP], Rti[CAP], K[CAP], yt[MAXM];
+    double Hbar[CAP], T[CAP], Tt[CAP], Tp[CAP], Pdb[CAP], Mb[CAP], db[MAXP], e[MAXM];
     size_t i;
     if (first) {
         memcpy(xp, f->x, n * sizeof *xp);
         memcpy(Pp, f->Px, n * n * sizeof *Pp);
     } else { /* [A G] [Px Pxd; Pxd^T Pd] [A G]^T + Q */
-        double AG[CAP * 2], J[4 * CAP], JA[4 * CAP], AGt[4 * CAP], xd[MAXN + MAXM];
-        const size_t q = n + m;
+        double AG[CAP * 2], J[4 * CAP], JA[4 * CAP], AGt[4 * CAP], xd[MAXN + MAXP];
+        const size_t q = n + p;
         size_t j;
         for (i = 0; i < n; ++i)
-            for (j = 0; j < q; ++j) AG[i * q + j] = j < n ? s->A[i * n + j] : s->G[i * m + j - n];
+            for (j = 0; j < q; ++j) AG[i * q + j] = j < n ? s->A[i * n + j] : s->G[i * p + j - n];
         for (i = 0; i < q; ++i)
             for (j = 0; j < q; ++j)
-                J[i * q + j] = i < n ? (j < n ? f->Px[i * n + j] : f->Pxd[i * m + j - n])
-                                     : (j < n ? f->Pxd[j * m + i - n] : f->Pd[(i - n) * m + j - n]);
+                J[i * q + j] = i < n ? (j < n ? f->Px[i * n + j] : f->Pxd[i * p + j - n])
+                                     : (j < n ? f->Pxd[j * p + i - n] : f->Pd[(i - n) * p + j - n]);
         for (i = 0; i < q; ++i) xd[i] = i < n ? f->x[i] : f->d[i - n];
         dmul(xp, AG, xd, n, q, 1);
         dmul(JA, AG, J, n, q, q);
@@ -384,67 +384,67 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         dmul(Pp, JA, AGt, n, q, n);
         for (i = 0; i < n * n; ++i) Pp[i] += s->Q[i];
     }
-    dmul(t1, s->C, Pp, p, n, n);
-    dtr(t2, s->C, p, n);
-    dmul(Rt, t1, t2, p, n, p);
-    for (i = 0; i < p * p; ++i) Rt[i] += s->R[i];
-    dinv(Rti, Rt, p);
-    dmul(t3, Pp, t2, n, n, p);
-    dmul(K, t3, Rti, n, p, p);
-    dmul(e, s->C, xp, p, n, 1);
-    for (i = 0; i < p; ++i) yt[i] = y[i] - e[i];
+    dmul(t1, s->C, Pp, m, n, n);
+    dtr(t2, s->C, m, n);
+    dmul(Rt, t1, t2, m, n, m);
+    for (i = 0; i < m * m; ++i) Rt[i] += s->R[i];
+    dinv(Rti, Rt, m);
+    dmul(t3, Pp, t2, n, n, m);
+    dmul(K, t3, Rti, n, m, m);
+    dmul(e, s->C, xp, m, n, 1);
+    for (i = 0; i < m; ++i) yt[i] = y[i] - e[i];
     memset(f->d, 0, sizeof f->d);
     memset(f->Pd, 0, sizeof f->Pd);
     memset(f->Pxd, 0, sizeof f->Pxd);
     if (r == 0) {
-        dmul(e, K, yt, n, p, 1);
+        dmul(e, K, yt, n, m, 1);
         for (i = 0; i < n; ++i) f->x[i] = xp[i] + e[i];
-        dmul(t1, K, Rt, n, p, p);
-        dtr(t2, K, n, p);
-        dmul(t3, t1, t2, n, p, n);
+        dmul(t1, K, Rt, n, m, m);
+        dtr(t2, K, n, m);
+        dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         return;
     }
-    appendix_frd(Hbar, T, s->H, p, m, r);
+    appendix_frd(Hbar, T, s->H, m, p, r);
     { /* Pdbar = (Hbar^T R~^-1 Hbar)^-1, Mbar = Pdbar Hbar^T R~^-1 (28) */
         double Hbt[CAP], HR[CAP], S[CAP];
-        dtr(Hbt, Hbar, p, r);
-        dmul(HR, Hbt, Rti, r, p, p);
-        dmul(S, HR, Hbar, r, p, r);
+        dtr(Hbt, Hbar, m, r);
+        dmul(HR, Hbt, Rti, r, m, m);
+        dmul(S, HR, Hbar, r, m, r);
         dinv(Pdb, S, r);
-        dmul(Mb, Pdb, HR, r, r, p);
-        dmul(db, Mb, yt, r, p, 1);
+        dmul(Mb, Pdb, HR, r, r, m);
+        dmul(db, Mb, yt, r, m, 1);
         /* x = xp + K (y~ - Hbar dbar) */
-        dmul(e, Hbar, db, p, r, 1);
-        for (i = 0; i < p; ++i) e[i] = yt[i] - e[i];
-        dmul(t1, K, e, n, p, 1);
+        dmul(e, Hbar, db, m, r, 1);
+        for (i = 0; i < m; ++i) e[i] = yt[i] - e[i];
+        dmul(t1, K, e, n, m, 1);
         for (i = 0; i < n; ++i) f->x[i] = xp[i] + t1[i];
         /* Px = Pp - K (R~ - Hbar Pdbar Hbar^T) K^T */
-        dmul(t1, Hbar, Pdb, p, r, r);
-        dmul(t2, t1, Hbt, p, r, p);
-        for (i = 0; i < p * p; ++i) t2[i] = Rt[i] - t2[i];
-        dmul(t1, K, t2, n, p, p);
-        dtr(t2, K, n, p);
-        dmul(t3, t1, t2, n, p, n);
+        dmul(t1, Hbar, Pdb, m, r, r);
+        dmul(t2, t1, Hbt, m, r, m);
+        for (i = 0; i < m * m; ++i) t2[i] = Rt[i] - t2[i];
+        dmul(t1, K, t2, n, m, m);
+        dtr(t2, K, n, m);
+        dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         /* T^+ = T^T (T T^T)^-1; d = T^+ dbar, Pd = T^+ Pdbar T^+T,
          * Pxd = -K Hbar Pdbar T^+T */
-        dtr(Tt, T, r, m);
-        dmul(t1, T, Tt, r, m, r);
+        dtr(Tt, T, r, p);
+        dmul(t1, T, Tt, r, p, r);
         dinv(t2, t1, r);
-        dmul(Tp, Tt, t2, m, r, r);
-        dmul(f->d, Tp, db, m, r, 1);
-        dmul(t1, Tp, Pdb, m, r, r);
-        dtr(t2, Tp, m, r);
-        dmul(f->Pd, t1, t2, m, r, m);
-        dmul(t1, K, Hbar, n, p, r);
+        dmul(Tp, Tt, t2, p, r, r);
+        dmul(f->d, Tp, db, p, r, 1);
+        dmul(t1, Tp, Pdb, p, r, r);
+        dtr(t2, Tp, p, r);
+        dmul(f->Pd, t1, t2, p, r, p);
+        dmul(t1, K, Hbar, n, m, r);
         dmul(t3, t1, Pdb, n, r, r);
-        dmul(f->Pxd, t3, t2, n, r, m);
-        for (i = 0; i < n * m; ++i) f->Pxd[i] = -f->Pxd[i];
+        dmul(f->Pxd, t3, t2, n, r, p);
+        for (i = 0; i < n * p; ++i) f->Pxd[i] = -f->Pxd[i];
     }
 }
 
-/* NRTSF-DF with H_k of rank 3, 2, 1, 0, 2, 3, 1, ... (m = 3) against the
+/* NRTSF-DF with H_k of rank 3, 2, 1, 0, 2, 3, 1, ... (p = 3) against the
  * reference. Tolerance: both are backward stable evaluations of the same
  * formulas with different decompositions; cond(Hbar^T R~^-1 Hbar) stays
  * below ~1e3, so 1e4 * eps relative per field (double 2.2e-12, float
@@ -453,11 +453,11 @@ static void test_uif_nrtsf_df_rank_changes_match_reference(void **state)
 {
     static box_t b;
     static const size_t ranks[] = {3, 2, 1, 0, 2, 3, 1, 2, 0, 3};
-    const size_t n = 5, m = 3, p = 4;
+    const size_t n = 5, p = 3, m = 4;
     test_rng_t rng;
     model_t s;
     ref_t ref;
-    double x0[MAXN] = {0.5, -1, 0, 2, 1}, y[MAXP], e[CAP];
+    double x0[MAXN] = {0.5, -1, 0, 2, 1}, y[MAXM], e[CAP];
     size_t k, i, seen[4] = {0, 0, 0, 0};
     (void)state;
     test_rng_seed(&rng, 77);
@@ -465,34 +465,34 @@ static void test_uif_nrtsf_df_rank_changes_match_reference(void **state)
     memset(&ref, 0, sizeof ref);
     memcpy(ref.x, x0, n * sizeof *x0);
     for (i = 0; i < n; ++i) ref.Px[i * n + i] = 0.5;
-    init_filter(&b, DKF_UIF_NRTSF_DF, n, m, p, x0, 0.5);
+    init_filter(&b, DKF_UIF_NRTSF_DF, n, p, m, x0, 0.5);
     for (k = 0; k < STEPS; ++k) {
         const size_t r = ranks[k % (sizeof ranks / sizeof ranks[0])];
-        rand_model(&rng, &s, n, m, p, r, m, 0);
+        rand_model(&rng, &s, n, p, m, r, p, 0);
         model_views(&s, 1);
-        for (i = 0; i < p; ++i) y[i] = 3.0 * test_rng_normal(&rng);
+        for (i = 0; i < m; ++i) y[i] = 3.0 * test_rng_normal(&rng);
         assert_int_equal(step_with(&b, &s, y, k == 0), DKF_OK);
         ref_df_step(&ref, &s, y, r, k == 0);
         assert_int_equal(b.f.rank, r);
         ++seen[r];
         test_assert_close("x", b.f.x.data, ref.x, n, 1e4 * TEST_EPS);
         test_assert_close("Px", b.f.Px.data, ref.Px, n * n, 1e4 * TEST_EPS);
-        test_assert_close("d", b.f.d.data, ref.d, m, 1e4 * TEST_EPS);
-        test_assert_close("Pd", b.f.Pd.data, ref.Pd, m * m, 1e4 * TEST_EPS);
-        test_assert_close("Pxd", b.f.Pxd.data, ref.Pxd, n * m, 1e4 * TEST_EPS);
+        test_assert_close("d", b.f.d.data, ref.d, p, 1e4 * TEST_EPS);
+        test_assert_close("Pd", b.f.Pd.data, ref.Pd, p * p, 1e4 * TEST_EPS);
+        test_assert_close("Pxd", b.f.Pxd.data, ref.Pxd, n * p, 1e4 * TEST_EPS);
         /* the projector is T^+ T of the reference decomposition too */
         if (r == 0) {
-            for (i = 0; i < m * m; ++i) e[i] = 0.0;
+            for (i = 0; i < p * p; ++i) e[i] = 0.0;
         } else {
             double Hbar[CAP], T[CAP], Tt[CAP], t1[CAP], t2[CAP], Tp[CAP];
-            appendix_frd(Hbar, T, s.H, p, m, r);
-            dtr(Tt, T, r, m);
-            dmul(t1, T, Tt, r, m, r);
+            appendix_frd(Hbar, T, s.H, m, p, r);
+            dtr(Tt, T, r, p);
+            dmul(t1, T, Tt, r, p, r);
             dinv(t2, t1, r);
-            dmul(Tp, Tt, t2, m, r, r);
-            dmul(e, Tp, T, m, r, m);
+            dmul(Tp, Tt, t2, p, r, r);
+            dmul(e, Tp, T, p, r, p);
         }
-        test_assert_close("proj", b.f.proj.data, e, m * m, 1e4 * TEST_EPS);
+        test_assert_close("proj", b.f.proj.data, e, p * p, 1e4 * TEST_EPS);
     }
     for (i = 0; i <= 3; ++i) assert_true(seen[i] > 0);
     print_message("NRTSF-DF with r_k in {0..3} vs appendix reference, %d steps: worst %.3e\n",
@@ -517,37 +517,37 @@ static double input_at(size_t k, size_t i)
  * (x_0 known exactly) and returns the worst state error relative to
  * max(1, max|x|) and the worst error of the estimable input part
  * (d_hat - proj d) relative to the input amplitude. */
-static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t m, size_t p, size_t rh, size_t rg,
+static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t p, size_t m, size_t rh, size_t rg,
                            int g_in_row_h, uint64_t seed, double *xerr, double *derr)
 {
     static box_t b;
     test_rng_t rng;
     model_t s;
-    double x[MAXN], xn[MAXN], dprev[MAXM], d[MAXM], y[MAXP], t[MAXP], xmax = 1.0;
+    double x[MAXN], xn[MAXN], dprev[MAXP], d[MAXP], y[MAXM], t[MAXM], xmax = 1.0;
     double x0[MAXN] = {3, -1, 2, 0.5, -2, 1};
     size_t k, i, j;
     const int df = kind != DKF_UIF_NRTSF;
     test_rng_seed(&rng, seed);
     s.rlast = 0;
     memcpy(x, x0, n * sizeof *x);
-    init_filter(&b, kind, n, m, p, x0, 1.0);
+    init_filter(&b, kind, n, p, m, x0, 1.0);
     *xerr = *derr = 0.0;
-    for (i = 0; i < m; ++i) dprev[i] = input_at(0, i);
+    for (i = 0; i < p; ++i) dprev[i] = input_at(0, i);
     for (k = 0; k < STEPS; ++k) {
-        rand_model(&rng, &s, n, m, p, df ? rh : 0, rg, g_in_row_h);
+        rand_model(&rng, &s, n, p, m, df ? rh : 0, rg, g_in_row_h);
         if (!df) memset(s.H, 0, sizeof s.H);
         model_views(&s, df);
-        for (i = 0; i < m; ++i) d[i] = input_at(k + 1, i);
+        for (i = 0; i < p; ++i) d[i] = input_at(k + 1, i);
         if (k > 0 || !df) { /* x_k = A x_{k-1} + G d_{k-1} (s holds A_{k-1}, G_{k-1}) */
             double Gd[MAXN];
             dmul(xn, s.A, x, n, n, 1);
-            dmul(Gd, s.G, dprev, n, m, 1);
+            dmul(Gd, s.G, dprev, n, p, 1);
             for (i = 0; i < n; ++i) x[i] = xn[i] + Gd[i];
         }
-        dmul(y, s.C, x, p, n, 1);
+        dmul(y, s.C, x, m, n, 1);
         if (df) {
-            dmul(t, s.H, d, p, m, 1);
-            for (i = 0; i < p; ++i) y[i] += t[i];
+            dmul(t, s.H, d, m, p, 1);
+            for (i = 0; i < m; ++i) y[i] += t[i];
         }
         assert_int_equal(step_with(&b, &s, y, df && k == 0), DKF_OK);
         for (i = 0; i < n; ++i)
@@ -558,20 +558,20 @@ static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t m, size_t p, si
         }
         /* the estimable part of the input the filter estimated: d_k (DF)
          * or d_{k-1} (NRTSF) */
-        for (i = 0; i < m; ++i) {
+        for (i = 0; i < p; ++i) {
             const double *dd = df ? d : dprev;
             double pd = 0.0, er;
-            for (j = 0; j < m; ++j) pd += (double)b.f.proj.data[i * m + j] * dd[j];
+            for (j = 0; j < p; ++j) pd += (double)b.f.proj.data[i * p + j] * dd[j];
             er = fabs((double)b.f.d.data[i] - pd) / 1e3;
             if (er > *derr) *derr = er;
         }
         assert_int_equal(b.f.bias_risk, 0);
-        memcpy(dprev, d, m * sizeof *d);
+        memcpy(dprev, d, p * sizeof *d);
     }
 }
 
 /* Tolerances: the inputs are 1e3, the states up to ~1e4, and every error
- * is rounding of O(p) Cholesky solves and products amplified by the
+ * is rounding of O(m) Cholesky solves and products amplified by the
  * conditioning of the weighted least squares (< 1e3 here), without growth
  * (the error dynamics are contractive): 1e4 * eps relative (2.2e-12
  * double, 1.2e-3 float); the note measured <= 7e-14 in double. */
@@ -584,17 +584,17 @@ static void test_uif_unbiased_zero_noise(void **state)
     zero_noise_run(DKF_UIF_RTSF, 4, 2, 5, 2, 2, 0, 11, &xe, &de);
     print_message("RTSF        zero noise: state %.2e, input %.2e\n", xe, de);
     assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 2 < m = 3 and G = G1 T (null(H) in null(G)): the
+    /* NRTSF-DF, rank H = 2 < p = 3 and G = G1 T (null(H) in null(G)): the
      * input has a component in null(H), which the filter cannot see and
      * does not need */
     zero_noise_run(DKF_UIF_NRTSF_DF, 5, 3, 5, 2, 0, 1, 12, &xe, &de);
     print_message("NRTSF-DF    zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
     assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 1 of m = 2 */
+    /* NRTSF-DF, rank H = 1 of p = 2 */
     zero_noise_run(DKF_UIF_NRTSF_DF, 6, 2, 5, 1, 0, 1, 13, &xe, &de);
     print_message("NRTSF-DF r1 zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
     assert_true(xe <= tol && de <= tol);
-    /* NRTSF, rank G = 2 < m = 3 */
+    /* NRTSF, rank G = 2 < p = 3 */
     zero_noise_run(DKF_UIF_NRTSF, 5, 3, 5, 0, 2, 0, 14, &xe, &de);
     print_message("NRTSF       zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
     assert_true(xe <= tol && de <= tol);
@@ -616,7 +616,7 @@ static const double PR[25] = {1e-2, 0, 0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e
 static void paper_model(model_t *s, int with_h)
 {
     size_t i;
-    s->n = 5, s->m = 3, s->p = 5;
+    s->n = 5, s->p = 3, s->m = 5;
     memcpy(s->A, PA, sizeof PA);
     memcpy(s->G, PG, sizeof PG);
     memcpy(s->H, PH, sizeof PH);
@@ -626,7 +626,7 @@ static void paper_model(model_t *s, int with_h)
     for (i = 0; i < 5; ++i) s->C[i * 5 + i] = 1.0;
     if (!with_h) memset(s->H, 0, sizeof s->H);
     model_views(s, 1);
-    if (!with_h) s->meas.H = NULL;
+    if (!with_h) s->meas.D = NULL;
 }
 
 /* Zero noise, the paper's system; d1 = d1amp sin, d2 steps, d3 square
@@ -734,7 +734,7 @@ static void test_uif_partial_estimability(void **state)
     static box_t b;
     test_rng_t rng;
     model_t s;
-    double y[MAXP] = {1, 2, 3, 4}, x0[MAXN] = {0}, tr = 0.0;
+    double y[MAXM] = {1, 2, 3, 4}, x0[MAXN] = {0}, tr = 0.0;
     size_t i;
     (void)state;
     test_rng_seed(&rng, 5);
@@ -788,7 +788,7 @@ static void test_uif_failure_atomicity(void **state)
     double y[5] = {0.3, -0.1, 0.2, 0.4, -0.3}, x0[5] = {0};
     dkf_real_t ys[5], Cb[25];
     dkf_mat_t Y, Yshort, mCb;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     size_t k, i;
     (void)state;
     test_to_real(ys, y, 5);
@@ -840,7 +840,7 @@ static void test_uif_failure_atomicity(void **state)
             Cb[0] = DKF_R(0.0);
             mCb = test_view(5, 5, Cb);
             meas = bad.meas;
-            meas.C = &mCb;
+            meas.H = &mCb;
             assert_int_equal(dkf_uif_step(&b.f, &bad.dyn, &meas, &Y), DKF_ERR_RANK);
             snap_check(&snap, &b.f);
         }
@@ -850,7 +850,7 @@ static void test_uif_failure_atomicity(void **state)
         assert_int_equal(dkf_uif_step(&b.f, &s.dyn, &s.meas, &Yshort), DKF_ERR_DIM);
         snap_check(&snap, &b.f);
         meas = s.meas;
-        meas.H = df ? NULL : &s.mH;
+        meas.D = df ? NULL : &s.mH;
         assert_int_equal(dkf_uif_step(&b.f, &s.dyn, &meas, &Y), df ? DKF_ERR_NULL : DKF_ERR_ARG);
         snap_check(&snap, &b.f);
         /* the failures changed nothing: both filters agree bit for bit */
@@ -876,14 +876,14 @@ static void test_uif_init_and_sequence_errors(void **state)
     (void)state;
     memset(&f, 0, sizeof f);
     paper_model(&s, 1);
-    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 5, 3, 5, st, len, &X, &P), DKF_ERR_NOT_SPD);
+    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 5, 5, 3, st, len, &X, &P), DKF_ERR_NOT_SPD);
     for (size_t i = 0; i < 5; ++i) Ps[i * 6] = 1;
-    assert_int_equal(dkf_uif_init(&f, (dkf_uif_kind_t)7, 5, 3, 5, st, len, &X, &P), DKF_ERR_ARG);
-    assert_int_equal(dkf_uif_init(&f, DKF_UIF_RTSF, 5, 4, 3, st, len, &X, &P), DKF_ERR_RANK);
-    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 0, 3, 5, st, len, &X, &P),
+    assert_int_equal(dkf_uif_init(&f, (dkf_uif_kind_t)7, 5, 5, 3, st, len, &X, &P), DKF_ERR_ARG);
+    assert_int_equal(dkf_uif_init(&f, DKF_UIF_RTSF, 5, 3, 4, st, len, &X, &P), DKF_ERR_RANK);
+    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 0, 5, 3, st, len, &X, &P),
                      DKF_ERR_CAPACITY);
-    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 4, 3, 5, st, len, &X, &P), DKF_ERR_DIM);
-    assert_int_equal(dkf_uif_init(&b.f, DKF_UIF_RTSF, 5, 3, 5, b.f_storage, len, &X, &P), DKF_OK);
+    assert_int_equal(dkf_uif_init(&f, DKF_UIF_NRTSF_DF, 4, 5, 3, st, len, &X, &P), DKF_ERR_DIM);
+    assert_int_equal(dkf_uif_init(&b.f, DKF_UIF_RTSF, 5, 5, 3, b.f_storage, len, &X, &P), DKF_OK);
     s.H[3 * 3] = 1.0;
     model_views(&s, 1);
     assert_int_equal(dkf_uif_step(&b.f, &s.dyn, &s.meas, &Y), DKF_ERR_STATE);

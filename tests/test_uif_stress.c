@@ -2,18 +2,20 @@
  * The RTSF, the NRTSF-DF and the NRTSF (dkf/uif.h) where the measurements
  * pin the state, against 60-digit references (tests/vectors/stress/uif.json,
  * written by tools/make_stress_vectors.py from docs/uif.md's equations, not
- * from src/uif.c; every input float32-exact). RTSF: p = n + m (y pins x
- * and d), P0 eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3,
- * 1e5], 5 steps (the first without a time update). NRTSF-DF: the same
- * scales and sequence (P0 the prior of x_0), p = n + r (y pins x and
- * dbar), H of full column rank (n = 3, m = 2) and of rank 2 of 3 (n = 4,
- * m = 3, H = [h1, h2, -2 h1]; the reference uses Hbar = [h1, h2], T^+ =
- * T^T (T T^T)^-1, src/uif.c its SVD factors: the outputs do not depend on
- * the choice). NRTSF: p = n (C pins
- * x_k, d_{k-1} is seen through x_k - A x_{k-1}), the same scales, G of
- * full column rank and of rank 2 of 3 (G = [g1, g2, -2 g1]). P_{k|k} ~
- * 1e-4 lies rho = 1e5..3e11 (NRTSF-DF: 2e3..2e9) below P_{k|k-1} (rho
- * per step in the vector).
+ * from src/uif.c; every input float32-exact). Dimensions in dkf's letters
+ * (n state, m measurement, p unknown input; the vector's own keys are
+ * mapped when read), matrices in the paper's (C measurement, H
+ * feedthrough, A transition). RTSF: m = n + p (y pins x and d), P0
+ * eigenvalues in [1e6, 1e8], R in [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps
+ * (the first without a time update). NRTSF-DF: the same scales and
+ * sequence (P0 the prior of x_0), m = n + r (y pins x and dbar), H of full
+ * column rank (n = 3, p = 2) and of rank 2 of 3 (n = 4, p = 3, H = [h1,
+ * h2, -2 h1]; the reference uses Hbar = [h1, h2], T^+ = T^T (T T^T)^-1,
+ * src/uif.c its SVD factors: the outputs do not depend on the choice).
+ * NRTSF: m = n (C pins x_k, d_{k-1} is seen through x_k - A x_{k-1}), the
+ * same scales, G of full column rank and of rank 2 of 3 (G = [g1, g2, -2
+ * g1]). P_{k|k} ~ 1e-4 lies rho = 1e5..3e11 (NRTSF-DF: 2e3..2e9) below
+ * P_{k|k-1} (rho per step in the vector).
  * (cond([C H]) for RTSF, cond(C) for NRTSF below; for NRTSF-DF cond_H
  * is sigma_1 / sigma_{n+r} of [C H], which is cond([C Hbar]) for the
  * orthonormal-row T that src/uif.c uses: [C H] = [C Hbar] diag(I, T).)
@@ -26,18 +28,19 @@
  * Pd = T^T Pdbar T with orthonormal T add no amplification); the Joseph
  * form (I - LC) P (I - LC)^T + L R L^T carries the error of L to P_{k|k}
  * without a further |P_{k|k-1}| / |P_{k|k}| amplification (the short
- * form P - K R~ K^T + Z Pd Z^T would add rho eps on top). So the external bound is
- * 10 (n + p) rho kappa^2 eps on every output. (NRTSF's Pxd = Z Pdbar T^+T
- * with Z = Gbar - K C Gbar, a cancellation when K C ~ I: it loses ~rho eps,
- * 2e-5 here, in both forms; within the bound.) Float: rho kappa^2 eps
- * exceeds 1 in every case, so the external promise is every committed Px,
- * Pd PSD (or the step refused, DKF_ERR_NOT_SPD / DKF_ERR_RANK with the
- * filter bit-identical, which ends that case), no external error bound
- * (RTSF's committed Pd is 7e3 off: docs/uif.md). NRTSF-DF in float refuses
- * the first step of both cases. The filter's rank r_k must equal the case's
- * rank (NRTSF, NRTSF-DF). Regression bounds: 4x the worst observed (printed
- * by the test). Short form (DKF_JOSEPH=0): the PSD property (or a refusal)
- * and the external bound, no regression bound.
+ * form P - K R~ K^T + Z Pd Z^T would add rho eps on top). So the external
+ * bound is 10 (n + m) rho kappa^2 eps on every output. (NRTSF's Pxd = Z
+ * Pdbar T^+T with Z = Gbar - K C Gbar, a cancellation when K C ~ I: it
+ * loses ~rho eps, 2e-5 here, in both forms; within the bound.) Float: rho
+ * kappa^2 eps exceeds 1 in every case, so the external promise is every
+ * committed Px, Pd PSD (or the step refused, DKF_ERR_NOT_SPD /
+ * DKF_ERR_RANK with the filter bit-identical, which ends that case), no
+ * external error bound (RTSF's committed Pd is 7e3 off: docs/uif.md).
+ * NRTSF-DF in float refuses the first step of both cases. The filter's
+ * rank r_k must equal the case's rank (NRTSF, NRTSF-DF). Regression
+ * bounds: 4x the worst observed (printed by the test). Short form
+ * (DKF_JOSEPH=0): the PSD property (or a refusal) and the external bound,
+ * no regression bound.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -51,14 +54,14 @@
 #include "dkf_test.h"
 
 #define NX 4 /* largest n in the vectors */
-#define MX 3 /* largest m */
-#define PX 6 /* largest p */
+#define PX 3 /* largest p */
+#define MX 6 /* largest m */
 
 typedef struct {
-    dkf_real_t A[NX * NX], G[NX * MX], Q[NX * NX], C[PX * NX], H[PX * MX], R[PX * PX], y[PX];
+    dkf_real_t A[NX * NX], G[NX * PX], Q[NX * NX], C[MX * NX], H[MX * PX], R[MX * MX], y[MX];
     dkf_mat_t Am, Gm, Qm, Cm, Hm, Rm, ym;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     int has_dyn;
 } uif_step_t;
 
@@ -67,17 +70,17 @@ static void load_step(uif_step_t *s, const json_t *st)
     s->has_dyn = json_object_get(st, "A") != NULL;
     if (s->has_dyn) {
         test_json_mat(test_json_get(st, "A"), s->A, NX * NX, &s->Am);
-        test_json_mat(test_json_get(st, "G"), s->G, NX * MX, &s->Gm);
+        test_json_mat(test_json_get(st, "G"), s->G, NX * PX, &s->Gm);
         test_json_mat(test_json_get(st, "Q"), s->Q, NX * NX, &s->Qm);
-        s->dyn.A = &s->Am, s->dyn.G = &s->Gm, s->dyn.Q = &s->Qm;
+        s->dyn.F = &s->Am, s->dyn.G = &s->Gm, s->dyn.Q = &s->Qm;
     }
-    test_json_mat(test_json_get(st, "C"), s->C, PX * NX, &s->Cm);
-    test_json_mat(test_json_get(st, "R"), s->R, PX * PX, &s->Rm);
-    test_json_mat(test_json_get(st, "y"), s->y, PX, &s->ym);
-    s->meas.C = &s->Cm, s->meas.H = NULL, s->meas.R = &s->Rm;
+    test_json_mat(test_json_get(st, "C"), s->C, MX * NX, &s->Cm);
+    test_json_mat(test_json_get(st, "R"), s->R, MX * MX, &s->Rm);
+    test_json_mat(test_json_get(st, "y"), s->y, MX, &s->ym);
+    s->meas.H = &s->Cm, s->meas.D = NULL, s->meas.R = &s->Rm;
     if (json_object_get(st, "H") != NULL) { /* RTSF; NRTSF has none */
-        test_json_mat(test_json_get(st, "H"), s->H, PX * MX, &s->Hm);
-        s->meas.H = &s->Hm;
+        test_json_mat(test_json_get(st, "H"), s->H, MX * PX, &s->Hm);
+        s->meas.D = &s->Hm;
     }
 }
 
@@ -127,8 +130,8 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
         const json_t *cs = test_json_case(root, names[c]);
         const json_t *steps = test_json_get(cs, "steps");
         const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t p = (size_t)json_integer_value(test_json_get(cs, "m"));
+        const size_t m = (size_t)json_integer_value(test_json_get(cs, "p"));
         const size_t len = DKF_UIF_STATE_LEN(n, m, p);
         const json_t *rank = json_object_get(cs, "rank"); /* NRTSF, NRTSF-DF */
         dkf_real_t xs[NX], Ps[NX * NX];
@@ -163,13 +166,13 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
             if (rank != NULL) assert_int_equal(b.f.rank, json_integer_value(rank));
             test_note_rel_err(&w[0], test_json_get(st, "x"), b.f.x.data, n);
             test_note_rel_err(&w[1], test_json_get(st, "P"), b.f.Px.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "d"), b.f.d.data, m);
-            test_note_rel_err(&w[3], test_json_get(st, "Pd"), b.f.Pd.data, m * m);
-            test_note_rel_err(&w[4], test_json_get(st, "Pxd"), b.f.Pxd.data, n * m);
+            test_note_rel_err(&w[2], test_json_get(st, "d"), b.f.d.data, p);
+            test_note_rel_err(&w[3], test_json_get(st, "Pd"), b.f.Pd.data, p * p);
+            test_note_rel_err(&w[4], test_json_get(st, "Pxd"), b.f.Pxd.data, n * p);
             assert_true(test_psd_within(b.f.Px.data, n, 4.0 * NX * TEST_EPS));
-            assert_true(test_psd_within(b.f.Pd.data, m, 4.0 * NX * TEST_EPS));
+            assert_true(test_psd_within(b.f.Pd.data, p, 4.0 * NX * TEST_EPS));
         }
-        ext = 10.0 * (double)(n + p) * rk2 * TEST_EPS;
+        ext = 10.0 * (double)(n + m) * rk2 * TEST_EPS;
         print_message("%s (%zu steps): worst rel error x %.3e Px %.3e d %.3e Pd %.3e Pxd %.3e "
                       "(rho cond^2 %.3g, bound %.3e)\n",
                       names[c], j, w[0], w[1], w[2], w[3], w[4], rk2, ext);

@@ -15,8 +15,8 @@
 #include "dkf_test.h"
 
 #define NX 5
-#define NM 3
-#define NP 5
+#define NP 3
+#define NM 5
 #define CAP 64
 
 /* Vector tolerance (README rule: max|got - exp| <= rel * max(1, max|exp|)
@@ -41,7 +41,7 @@ typedef struct {
     dkf_real_t A[CAP], G[CAP], Q[CAP], C[CAP], H[CAP], R[CAP], y[CAP];
     dkf_mat_t mA, mG, mQ, mC, mH, mR, my;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
 } model_t;
 
 /* A model matrix of step `st`: its per-step input `key` (time-varying
@@ -61,15 +61,15 @@ static void load_step(model_t *s, const json_t *root, const json_t *st, dkf_uif_
     test_json_mat(model_at(root, st, "C", "C"), s->C, CAP, &s->mC);
     test_json_mat(model_at(root, st, "R", "R"), s->R, CAP, &s->mR);
     test_json_mat(test_json_get(test_json_get(st, "inputs"), "y"), s->y, CAP, &s->my);
-    s->dyn.A = &s->mA;
+    s->dyn.F = &s->mA;
     s->dyn.G = &s->mG;
     s->dyn.Q = &s->mQ;
-    s->meas.C = &s->mC;
+    s->meas.H = &s->mC;
     s->meas.R = &s->mR;
-    s->meas.H = NULL;
+    s->meas.D = NULL;
     if (kind != DKF_UIF_NRTSF) {
         test_json_mat(model_at(root, st, "H", "H"), s->H, CAP, &s->mH);
-        s->meas.H = &s->mH;
+        s->meas.D = &s->mH;
     }
 }
 
@@ -90,8 +90,8 @@ static void init_from(box_t *b, const json_t *root, dkf_uif_kind_t kind)
     test_json_mat(test_json_get(init, "x0"), xs, CAP, &x0);
     test_json_mat(test_json_get(init, "P0"), Ps, CAP, &P0);
     assert_int_equal(json_integer_value(test_json_get(dims, "n")), NX);
-    assert_int_equal(json_integer_value(test_json_get(dims, "m")), NM);
-    assert_int_equal(json_integer_value(test_json_get(dims, "p")), NP);
+    assert_int_equal(json_integer_value(test_json_get(dims, "m")), NP);
+    assert_int_equal(json_integer_value(test_json_get(dims, "p")), NM);
     assert_int_equal(dkf_uif_init(&b->f, kind, NX, NM, NP, b->f_storage,
                                   DKF_UIF_STORAGE_LEN(NX, NM, NP), &x0, &P0),
                      DKF_OK);
@@ -129,10 +129,10 @@ static void run_vector(const char *file, dkf_uif_kind_t kind, dkf_uif_kind_t fil
         else
             compare("Pxd", &b.f.Pxd, exp, "Pxd");
         if (file_kind == DKF_UIF_RTSF) { /* full-rank H: proj = I */
-            double eye[NM * NM] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            double eye[NP * NP] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
             compare("M", &b.f.M, exp, "M");
-            assert_int_equal(b.f.rank, NM);
-            test_assert_close("proj", b.f.proj.data, eye, NM * NM, VEC_REL);
+            assert_int_equal(b.f.rank, NP);
+            test_assert_close("proj", b.f.proj.data, eye, NP * NP, VEC_REL);
         } else {
             assert_int_equal(b.f.rank, json_integer_value(test_json_get(exp, "rank")));
             compare("proj", &b.f.proj, exp, "proj");
@@ -214,13 +214,13 @@ static void test_uif_rtsf_refuses_rank_deficient_h(void **state)
     const json_t *st1 = json_array_get(test_json_get(root, "steps"), 1);
     dkf_real_t Hb[CAP];
     dkf_mat_t mHb;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     (void)state;
     test_json_mat(bad, Hb, CAP, &mHb);
     init_from(&b, root, DKF_UIF_RTSF);
     load_step(&s, root, st0, DKF_UIF_RTSF);
     meas = s.meas;
-    meas.H = &mHb;
+    meas.D = &mHb;
     snap_take(&snap, &b.f);
     assert_int_equal(dkf_uif_step(&b.f, NULL, &meas, &s.my), DKF_ERR_RANK);
     snap_check(&snap, &b.f);
@@ -228,7 +228,7 @@ static void test_uif_rtsf_refuses_rank_deficient_h(void **state)
     assert_int_equal(dkf_uif_step(&b.f, NULL, &s.meas, &s.my), DKF_OK);
     load_step(&s, root, st1, DKF_UIF_RTSF);
     meas = s.meas;
-    meas.H = &mHb;
+    meas.D = &mHb;
     snap_take(&snap, &b.f);
     assert_int_equal(dkf_uif_step(&b.f, &s.dyn, &meas, &s.my), DKF_ERR_RANK);
     snap_check(&snap, &b.f);

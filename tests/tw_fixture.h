@@ -19,8 +19,8 @@
 #define TW_NNZ DKF_GRAPH_NNZ(TW_NMAX, TW_EMAX)
 #define TW_STEPS 30
 #define TW_N 4 /* state */
-#define TW_M 2 /* unknown input */
-#define TW_P 2 /* measurement per node */
+#define TW_P 2 /* unknown input */
+#define TW_M 2 /* measurement per node */
 #define TW_PKT DKF_TW_PKT_LEN(TW_N)
 
 typedef struct {
@@ -30,15 +30,15 @@ typedef struct {
     dkf_graph_t g;
     dkf_real_t W[TW_NNZ], alpha[TW_NNZ]; /* from the file (zero if absent) */
     int has_weights;
-    dkf_real_t A[TW_N * TW_N], B[TW_N * TW_M], Sv[TW_N * TW_N], x0[TW_N], P0[TW_N * TW_N];
+    dkf_real_t A[TW_N * TW_N], B[TW_N * TW_P], Sv[TW_N * TW_N], x0[TW_N], P0[TW_N * TW_N];
     dkf_mat_t mA, mB, mSv, mx0, mP0;
-    dkf_tw_model_t model;
-    dkf_real_t H[TW_NMAX][TW_P * TW_N], Sw[TW_NMAX][TW_P * TW_P];
-    dkf_real_t y[TW_STEPS][TW_NMAX][TW_P];
+    dkf_uif_dyn_t model;
+    dkf_real_t H[TW_NMAX][TW_M * TW_N], Sw[TW_NMAX][TW_M * TW_M];
+    dkf_real_t y[TW_STEPS][TW_NMAX][TW_M];
     dkf_mat_t mH[TW_NMAX], mSw[TW_NMAX], my[TW_NMAX];
-    dkf_tw_sensor_t sens[TW_NMAX];
+    dkf_kf_meas_t sens[TW_NMAX]; /* node l's model; its y is my[l] */
     /* truth (plots/metrics only) */
-    double xtrue[TW_STEPS][TW_N], zprev[TW_STEPS][TW_M];
+    double xtrue[TW_STEPS][TW_N], zprev[TW_STEPS][TW_P];
     const json_t *steps_json;
 } tw_case_t;
 
@@ -103,7 +103,7 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
     c->eta = (size_t)json_integer_value(test_json_get(root, "eta"));
     assert_true(c->N <= TW_NMAX && c->steps <= TW_STEPS);
     assert_int_equal(json_integer_value(test_json_get(dims, "n")), TW_N);
-    assert_int_equal(json_integer_value(test_json_get(dims, "m")), TW_M);
+    assert_int_equal(json_integer_value(test_json_get(dims, "m")), TW_P); /* the file's m: inputs */
     assert_false(json_is_true(test_json_get(root, "time_varying")));
     c->E = json_array_size(edges);
     assert_true(c->E <= TW_EMAX);
@@ -130,31 +130,31 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
         c->has_weights = 1;
     }
     tw_flat_real(test_json_get(model, "A"), c->A, TW_N * TW_N);
-    tw_flat_real(test_json_get(model, "B"), c->B, TW_N * TW_M);
+    tw_flat_real(test_json_get(model, "B"), c->B, TW_N * TW_P);
     tw_flat_real(test_json_get(model, "Sv"), c->Sv, TW_N * TW_N);
     tw_flat_real(test_json_get(test_json_get(root, "init"), "x0"), c->x0, TW_N);
     tw_flat_real(test_json_get(test_json_get(root, "init"), "P0"), c->P0, TW_N * TW_N);
     c->mA = test_view(TW_N, TW_N, c->A);
-    c->mB = test_view(TW_N, TW_M, c->B);
+    c->mB = test_view(TW_N, TW_P, c->B);
     c->mSv = test_view(TW_N, TW_N, c->Sv);
     c->mx0 = test_view(TW_N, 1, c->x0);
     c->mP0 = test_view(TW_N, TW_N, c->P0);
-    c->model.A = &c->mA;
-    c->model.B = &c->mB;
-    c->model.Sv = &c->mSv;
+    c->model.F = &c->mA;
+    c->model.G = &c->mB;
+    c->model.Q = &c->mSv;
     for (l = 0; l < c->N; ++l) {
-        tw_flat_real(json_array_get(test_json_get(model, "H"), l), c->H[l], TW_P * TW_N);
-        tw_flat_real(json_array_get(test_json_get(model, "Sw"), l), c->Sw[l], TW_P * TW_P);
-        c->mH[l] = test_view(TW_P, TW_N, c->H[l]);
-        c->mSw[l] = test_view(TW_P, TW_P, c->Sw[l]);
+        tw_flat_real(json_array_get(test_json_get(model, "H"), l), c->H[l], TW_M * TW_N);
+        tw_flat_real(json_array_get(test_json_get(model, "Sw"), l), c->Sw[l], TW_M * TW_M);
+        c->mH[l] = test_view(TW_M, TW_N, c->H[l]);
+        c->mSw[l] = test_view(TW_M, TW_M, c->Sw[l]);
     }
     for (k = 0; k < c->steps; ++k) {
         const json_t *st = json_array_get(steps, k), *ys = test_json_get(test_json_get(st, "inputs"), "y");
         const json_t *truth = test_json_get(st, "truth");
         assert_int_equal(json_integer_value(test_json_get(st, "n")), k + 1);
-        for (l = 0; l < c->N; ++l) tw_flat_real(json_array_get(ys, l), c->y[k][l], TW_P);
+        for (l = 0; l < c->N; ++l) tw_flat_real(json_array_get(ys, l), c->y[k][l], TW_M);
         assert_int_equal(tw_flat(test_json_get(truth, "x"), c->xtrue[k], TW_N), TW_N);
-        assert_int_equal(tw_flat(test_json_get(truth, "z_prev"), c->zprev[k], TW_M), TW_M);
+        assert_int_equal(tw_flat(test_json_get(truth, "z_prev"), c->zprev[k], TW_P), TW_P);
     }
     c->steps_json = steps;
 }
@@ -164,10 +164,9 @@ static inline void tw_sensors_at(tw_case_t *c, size_t k)
 {
     size_t l;
     for (l = 0; l < c->N; ++l) {
-        c->my[l] = test_view(TW_P, 1, c->y[k][l]);
+        c->my[l] = test_view(TW_M, 1, c->y[k][l]);
         c->sens[l].H = &c->mH[l];
-        c->sens[l].Sw = &c->mSw[l];
-        c->sens[l].y = &c->my[l];
+        c->sens[l].R = &c->mSw[l];
     }
 }
 

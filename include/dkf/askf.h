@@ -2,14 +2,14 @@
  * dkf/askf.h - the augmented-state Kalman filter (ASKF), the classical
  * baseline of seed 000: a Kalman filter on X = [x; d] with
  *   Phi_k = blockdiag(F_k, B_k),  Q^a_k = blockdiag(Q_k, Rd_k),
- *   H^a_k = [H_k  A_k],           R_k,
+ *   H^a_k = [H_k  D_k],           R_k,
  * for the model of dkf/ui_model.h. It needs a prior for d_0 (d00, Pd00);
  * with a wrong d00 its estimates suffer, which is what the Difference KF
  * avoids.
  *
  * The augmented matrices are rebuilt from the model at every step, so
  * every model matrix may change with k (the dimensions may not). The ASKF
- * itself needs neither B_k nonsingular nor A_k of full column rank (the
+ * itself needs neither B_k nonsingular nor D_k of full column rank (the
  * model of ui_model.h asks for both; the DKF and the OTSKF use them).
  * A failed call leaves the filter bit-identical (dkf_kf_* are atomic and
  * the augmented matrices are scratch).

@@ -2,13 +2,13 @@
  * dkf/diffkf.h - the Difference Kalman filter (seed 000, Ruan-Luo-Zhu 2018,
  * Theorem 1, with the corrections of docs/diffkf.md).
  *
- * Model: dkf/ui_model.h (state n, measurement m, unknown input p; A_k of
+ * Model: dkf/ui_model.h (state n, measurement m, unknown input p; D_k of
  * full column rank, B_k nonsingular; every matrix may change with k, the
  * dimensions may not).
  *
  * The unknown input d is never estimated: it is removed by differencing
- *   z_k = G_k y_{k+1} - A_k^+ y_k,   G_k = B_k^{-1} A_{k+1}^+          (8)
- *       = M_k x_k + u_k,             M_k = G_k H_{k+1} F_k - A_k^+ H_k   (10)-(11)
+ *   z_k = G_k y_{k+1} - D_k^+ y_k,   G_k = B_k^{-1} D_{k+1}^+          (8)
+ *       = M_k x_k + u_k,             M_k = G_k H_{k+1} F_k - D_k^+ H_k   (10)-(11)
  * whose noise u_k is correlated with v_k and with u_{k-1}; the filter is
  * the optimal (MMSE given z) recursion for that model. It never needs d_0.
  *
@@ -46,16 +46,16 @@
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
      + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
-     /* carried, caches of A^+ and B^{-1}, pending gain, row selection and data, scratch */ \
+     /* carried, caches of D^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
      + 2 * (m) * (p) + 4 * (n) * (p) + 4 * (p) * (p) \
-     /* the memoised block, new A^+ and B^{-1} before they are cached */ \
+     /* the memoised block, new D^+ and B^{-1} before they are cached */ \
      + DKF_MAT_SVD_WORK(m, p) + DKF_MAT_INV_WORK(p) \
      + 3 * (n) * (n) + 4 * (n) * (p) /* scratch of the Joseph-type covariances */)
 /* The first DKF_DIFFKF_STATE_LEN(n, m, p) reals of the storage hold the
  * estimates and the step's views, the carry between steps, and the caches
- * of A^+, B^{-1} and the model-only block: every failed call leaves them
+ * of D^+, B^{-1} and the model-only block: every failed call leaves them
  * and the struct bit-identical (a failed dkf_diffkf_gain(_masked) also
  * sets pending = 0 and pk = z.rows, cancelling a pending gain). The next
  * reals, up to DKF_DIFFKF_STORAGE_LEN, are the pending gain (state while
@@ -63,7 +63,7 @@
 #define DKF_DIFFKF_STATE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
      + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */ \
-     + 2 * (m) * (p) + 2 * (p) * (p) /* A, B caches */ \
+     + 2 * (m) * (p) + 2 * (p) * (p) /* D, B caches */ \
      + 2 * (n) * (n) + 5 * (n) * (p) + 6 * (p) * (p) + 2 * (m) * (p) + (m) * (n) + (m) * (m))
 /* The pending gain: the DKF_DIFFKF_PENDING_LEN(n, m, p) reals after the
  * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
@@ -97,11 +97,11 @@ typedef struct {
     dkf_real_t *mem; /* everything else (carry, caches, scratch) */
     int ready;       /* dkf_diffkf_init done */
     int started;     /* dkf_diffkf_start done */
-    int has_y;       /* A_k^+ y_k is stored, so dkf_diffkf_step can difference */
+    int has_y;       /* D_k^+ y_k is stored, so dkf_diffkf_step can difference */
     int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
-    /* caches of A^+, B^{-1} and the model-only block (valid flags): derived
+    /* caches of D^+, B^{-1} and the model-only block (valid flags): derived
      * data, changed only by a successful call */
-    int a_cached, b_cached, model_cached;
+    int d_cached, b_cached, model_cached;
 } dkf_diffkf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):
@@ -124,7 +124,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
                               const dkf_ui_meas_t *meas1, const dkf_mat_t *y1);
 
 /* One step of Theorem 1 with y_{k+1}: the dynamics at k and the model at
- * k+1. Statuses: DKF_ERR_RANK if A_{k+1} lacks full column rank,
+ * k+1. Statuses: DKF_ERR_RANK if D_{k+1} lacks full column rank,
  * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD
  * or P_{k|k}, P_{k+1|k} is not PSD within 4 n eps tr P (an indefinite Q,
  * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/diffkf.md),
@@ -160,7 +160,7 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
                                 dkf_mat_t *zcorr);
 /* Applies z_k (its f->pk kept rows, pk x 1) to the pending gain and
  * completes the step. With pk = 0, z may be NULL (or a 0 x 1 view). y_next
- * may be NULL; if given, A_{k+1}^+ y_{k+1} is stored so that a later
+ * may be NULL; if given, D_{k+1}^+ y_{k+1} is stored so that a later
  * dkf_diffkf_step can difference against it. */
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next);
 

@@ -4,7 +4,7 @@
  * from the nodes' local estimates (docs/diffkf-fusion.md).
  *
  * l sensors share the state x (n) and the dynamics (F_k, Q_k); sensor i has
- * its own (H^i, A^i, R^i) (m_i rows, p_i unknown inputs) and (B^i, Rd^i).
+ * its own (H^i, D^i, R^i) (m_i rows, p_i unknown inputs) and (B^i, Rd^i).
  * Node i runs the local Difference KF (dkf/diffkf.h) on its own y^i and
  * sends, after each step k, the message {x^i_{k|k}, x^i_{k|k-1}}. The FC
  * knows every model and every local prior covariance. It replays each
@@ -54,11 +54,11 @@ dkf_status_t dkf_diffkf_msg_fill(dkf_diffkf_msg_t *msg, uint16_t node, const dkf
 
 /* ---- the stacked (centralized) model ------------------------------------ */
 
-/* H = [H^1; ...; H^l] (sum m_i x n), A = blkdiag(A^i) (sum m_i x sum p_i),
+/* H = [H^1; ...; H^l] (sum m_i x n), D = blkdiag(D^i) (sum m_i x sum p_i),
  * R = blkdiag(R^i) (sum m_i x sum m_i), from l per-sensor models; the
  * output views must have exactly these shapes (DKF_ERR_DIM otherwise).
- * Any of H, A, R may be NULL if not wanted. No alias. */
-dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *A, dkf_mat_t *R,
+ * Any of H, D, R may be NULL if not wanted. No alias. */
+dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *D, dkf_mat_t *R,
                                    const dkf_ui_meas_t *const meas[], size_t l);
 /* B = blkdiag(B^i), Rd = blkdiag(Rd^i) (sum p_i square); either output may
  * be NULL (then the matching input array may be NULL too). No alias. */
@@ -73,11 +73,11 @@ typedef enum {
     DKF_DIFFKF_FC_ARG,            /* bad l, dimension 0, NULL model matrix */
     DKF_DIFFKF_FC_STORAGE,        /* storage smaller than dkf_diffkf_fc_storage_len */
     DKF_DIFFKF_FC_INPUT_DIM,      /* p_i > n: z^i cannot be recovered from n-vectors */
-    DKF_DIFFKF_FC_INPUT_MEAS,     /* p_i > m_i: A^i cannot have full column rank */
+    DKF_DIFFKF_FC_INPUT_MEAS,     /* p_i > m_i: D^i cannot have full column rank */
     DKF_DIFFKF_FC_STACK_CAPACITY, /* sum m_i or sum p_i above DKF_MAX_DIM */
     DKF_DIFFKF_FC_PRIOR,          /* a prior is non-finite, misshaped or not SPD */
     DKF_DIFFKF_FC_MODEL,          /* a model matrix is misshaped or non-finite */
-    DKF_DIFFKF_FC_A_RANK,         /* A^i lacks full column rank */
+    DKF_DIFFKF_FC_D_RANK,         /* D^i lacks full column rank */
     DKF_DIFFKF_FC_B_SINGULAR,     /* B^i is singular */
     DKF_DIFFKF_FC_L_NOT_SPD,      /* L_k of a replica (node) or of the central filter */
     DKF_DIFFKF_FC_K_RANK,         /* rank K^i_k < p_i: dz^i_k is not recoverable */
@@ -104,7 +104,7 @@ typedef struct {
 typedef struct {
     const dkf_mat_t *B;  /* B^i_k, p_i x p_i, nonsingular */
     const dkf_mat_t *Rd; /* Rd^i_k, p_i x p_i */
-    dkf_ui_meas_t meas;  /* H^i (m_i x n), A^i (m_i x p_i), R^i (m_i x m_i) */
+    dkf_ui_meas_t meas;  /* H^i (m_i x n), D^i (m_i x p_i), R^i (m_i x m_i) */
 } dkf_diffkf_sensor_t;
 
 /* One node's replica at the FC (caller-owned array of l). Read-only for
@@ -129,7 +129,7 @@ typedef struct {
     dkf_diffkf_fc_node_t *nodes;
     dkf_diffkf_t central; /* the Difference KF on the stacked model: its xf, Pf,
                              xn, Pn are the fused estimates; z, dz stacked */
-    dkf_mat_t H, A, R, B, Rd; /* the stacked model of the running call */
+    dkf_mat_t H, D, R, B, Rd; /* the stacked model of the running call */
     dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
                                   reals are state) */
     dkf_real_t *central_snap;  /* scratch: that state as before the running call */
@@ -171,7 +171,7 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
                                 const dkf_mat_t *const P0_local[], dkf_diffkf_fc_fault_t *fault);
 
 /* Start (as every node's dkf_diffkf_start): the prediction to time 1 with
- * (F0, Q0) and the measurement models at 1, sensors[i].meas. Checks A^i_1
+ * (F0, Q0) and the measurement models at 1, sensors[i].meas. Checks D^i_1
  * full column rank and B^i_1 (sensors[i].B, the B of step 1) nonsingular. */
 dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const dkf_mat_t *Q0,
                                  const dkf_diffkf_sensor_t sensors[], dkf_diffkf_fc_fault_t *fault);
@@ -181,8 +181,8 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
  * fc->central holds the fused x_{k|k}, P_{k|k}, x_{k+1|k}, P_{k+1|k}.
  * Statuses (with *fault): message node -> DKF_ERR_ARG, step -> DKF_ERR_STATE,
  * n -> DKF_ERR_DIM, NaN/Inf -> DKF_ERR_NONFINITE (all before anything is
- * computed); rank K^i_k < p_i -> DKF_ERR_RANK (K_RANK); A^i_{k+1} rank ->
- * DKF_ERR_RANK (A_RANK); B^i_k singular -> DKF_ERR_SINGULAR; L_k not SPD ->
+ * computed); rank K^i_k < p_i -> DKF_ERR_RANK (K_RANK); D^i_{k+1} rank ->
+ * DKF_ERR_RANK (D_RANK); B^i_k singular -> DKF_ERR_SINGULAR; L_k not SPD ->
  * DKF_ERR_NOT_SPD. */
 dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const dkf_mat_t *Q,
                                 const dkf_diffkf_sensor_t sensors[], const dkf_diffkf_msg_t msgs[],
@@ -222,7 +222,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
  * (else DKF_ERR_STATE, SEQUENCE). sensor_at_kstart->meas is the model at
  * k_start (B, Rd are not used and may be NULL). A node that starts late is
  * a restart with k_start > 1. Faults: node >= l -> DKF_ERR_ARG (ARG);
- * P_prior -> PRIOR; meas -> MODEL / A_RANK. The FC is unchanged on
+ * P_prior -> PRIOR; meas -> MODEL / D_RANK. The FC is unchanged on
  * failure. */
 dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t k_start,
                                         const dkf_mat_t *P_prior,

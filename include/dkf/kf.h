@@ -21,6 +21,20 @@
 
 #include "dkf/mat.h"
 
+/* The model of one step without an unknown input (letters of
+ * dkf/ui_model.h; docs/decisions.md item 18). kf and info take the
+ * dynamics and the measurement model as these structs, the data (y, u)
+ * as arguments; dkf/tw.h's sensors are dkf_kf_meas_t. */
+typedef struct {
+    const dkf_mat_t *F; /* F_k, n x n */
+    const dkf_mat_t *Q; /* Q_k, n x n, symmetric PSD */
+} dkf_kf_dyn_t;
+
+typedef struct {
+    const dkf_mat_t *H; /* H_k, m x n */
+    const dkf_mat_t *R; /* R_k, m x m, SPD */
+} dkf_kf_meas_t;
+
 /* Reals a filter of state dimension n and measurement capacity m needs:
  * x, P, nu, S, and scratch for one step (Joseph form included). */
 #define DKF_KF_STORAGE_LEN(n, m) \
@@ -59,21 +73,19 @@ typedef struct {
 dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0);
 
-/* Time update: x = F x + u, P = F P F^T + Q. u may be NULL (no known
+/* Time update with dyn = {F, Q}: x = F x + u, P = F P F^T + Q. u may be NULL (no known
  * input). Q must be finite and symmetric positive semi-definite:
  * DKF_ERR_NONFINITE if it is not finite, DKF_ERR_NOT_SPD if the new P is
  * not PSD within 4 n eps tr(P) (an indefinite Q). */
-dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_mat_t *F, const dkf_mat_t *Q,
-                            const dkf_mat_t *u);
+dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_kf_dyn_t *dyn, const dkf_mat_t *u);
 
-/* Measurement update with y (m x 1), H (m x n), R (m x m), m <= m_max:
+/* Measurement update with y (m x 1) and meas = {H (m x n), R (m x m)}, m <= m_max:
  *   nu = y - H x, S = H P H^T + R, K = P H^T S^{-1},
  *   x = x + K nu, P = (I-KH) P (I-KH)^T + K R K^T (DKF_JOSEPH=1, A = I-KH
  *   formed) or P - K H P (DKF_JOSEPH=0).
  * DKF_ERR_NOT_SPD if S is not SPD or the new P is not PSD within
  * 4 n eps tr(P) (an indefinite R; the short form when P+ << P),
  * DKF_ERR_NONFINITE for NaN/Inf in y, H, R or an overflow. */
-dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_mat_t *H, const dkf_mat_t *R,
-                           const dkf_mat_t *y);
+dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_mat_t *y);
 
 #endif /* DKF_KF_H */

@@ -9,7 +9,7 @@
  * 1e-9), at lower cost: it never forms an (n+p)-dimensional matrix.
  *
  * Every model matrix may change with k (the dimensions may not). B_k must
- * be nonsingular (Ubar_k = F V B^{-1}) and A_k of full column rank (the
+ * be nonsingular (Ubar_k = F V B^{-1}) and D_k of full column rank (the
  * model of dkf/ui_model.h; checked at every update). Predict and update need not
  * alternate: a predict without an update (missing measurement) or several
  * updates at one time (sequential sensors sharing d) are exact, because
@@ -26,8 +26,8 @@
 
 /* Storage, in reals, for state n, measurement m, input p: the state
  * (x~, x, P^x, P, d, P^d, U, V), then scratch for the larger of the two
- * steps, then a copy of the last A_k found of full column rank (m p; the
- * rank check's SVD is skipped while A_k is bitwise that matrix). Exact:
+ * steps, then a copy of the last D_k found of full column rank (m p; the
+ * rank check's SVD is skipped while D_k is bitwise that matrix). Exact:
  * dkf_otskf_init accepts no less. */
 #define DKF_OTSKF_STATE_LEN(n, p) \
     (2 * (n) + 2 * (n) * (n) + (p) + (p) * (p) + 2 * (n) * (p))
@@ -53,8 +53,8 @@ typedef struct {
     dkf_mat_t x, P;    /* combined estimate x = x~ + U d (or V d) and its
                           covariance P = P^x + U P^d U^T (or V P^d V^T) */
     dkf_real_t *work;  /* step scratch (not state) */
-    dkf_real_t *A_ok;  /* m x p: the last A_k that passed the rank check */
-    int a_checked;     /* 1 once A_ok holds such a matrix */
+    dkf_real_t *D_ok;  /* m x p: the last D_k that passed the rank check */
+    int d_checked;     /* 1 once D_ok holds such a matrix */
     int blend_is_v;    /* 1 after init/update (x = x~ + V d), 0 after predict */
     int ready;
 } dkf_otskf_t;
@@ -76,12 +76,12 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
  * DKF_ERR_NOT_SPD if P^d_{k|k-1} = B P^d B^T + Rd is not SPD, or if
  * P^x, P^d or P is not PSD within 4 n eps tr (an indefinite Q or Rd). */
 dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
-/* Measurement update with y_k and the model at k. DKF_ERR_RANK if A_k
+/* Measurement update with y_k and the model at k. DKF_ERR_RANK if D_k
  * lacks full column rank p (numerical rank by SVD with
- * DKF_RANK_TOL_DEFAULT; so also whenever p > m; skipped while A_k is
- * bitwise the last A that passed), DKF_ERR_NOT_SPD if the
+ * DKF_RANK_TOL_DEFAULT; so also whenever p > m; skipped while D_k is
+ * bitwise the last D that passed), DKF_ERR_NOT_SPD if the
  * bias-free innovation covariance H P^x H^T + R or the bias filter's
- * H P^x H^T + R + S P^d S^T (S = H U + A) is not SPD, or if the updated
+ * H P^x H^T + R + S P^d S^T (S = H U + D) is not SPD, or if the updated
  * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in
  * Joseph form (DKF_JOSEPH; docs/diffkf.md). */
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);

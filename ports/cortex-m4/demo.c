@@ -67,6 +67,8 @@ dkf_status_t m4_demo_run(dkf_real_t x_out[4])
     DKF_MAT_DECLARE(, P0, DEMO_N, DEMO_N);
     dkf_real_t y_data[DEMO_M];
     dkf_mat_t y = DKF_MAT(DEMO_M, 1, y_data);
+    const dkf_kf_dyn_t dyn = {&F, &Q};   /* x' = F x + v, v ~ (0, Q) */
+    const dkf_kf_meas_t meas = {&H, &R}; /* y = H x + w, w ~ (0, R) */
     dkf_status_t s;
     size_t k, i;
 
@@ -96,11 +98,11 @@ dkf_status_t m4_demo_run(dkf_real_t x_out[4])
                     sizeof filter_storage / sizeof filter_storage[0], &x0, &P0);
     if (s != DKF_OK) return s;
     for (k = 0; k < DEMO_STEPS; ++k) {
-        s = dkf_kf_predict(&filter, &F, &Q, NULL);
+        s = dkf_kf_predict(&filter, &dyn, NULL);
         if (s != DKF_OK) return s;
         y_data[0] = track[k][0];
         y_data[1] = track[k][1];
-        s = dkf_kf_update(&filter, &H, &R, &y);
+        s = dkf_kf_update(&filter, &meas, &y);
         if (s != DKF_OK) return s;
     }
     for (i = 0; i < DEMO_N; ++i) {

@@ -31,7 +31,7 @@ static dkf_status_t info_predict(dkf_est_t *e, const char **what)
 {
     dkf_status_t st;
     *what = "dkf_info_predict";
-    st = dkf_info_predict(&e->info, &e->F, &e->Q);
+    st = dkf_info_predict(&e->info, &(dkf_kf_dyn_t){&e->F, &e->Q});
     if (st == DKF_OK) record_info(e, e->names->yp, e->names->Yp);
     return st;
 }
@@ -42,7 +42,8 @@ static dkf_status_t info_update(dkf_est_t *e, const char **what)
     size_t j;
     for (j = 0; j < e->ngroups; ++j) {
         dkf_est_group_t *g = &e->groups[j];
-        st = dkf_info_contribution(&g->i, &g->I, &g->H, &g->R, &g->y, g->work);
+        st = dkf_info_contribution(&g->i, &g->I, &(dkf_kf_meas_t){&g->H, &g->R}, &g->y,
+                                   g->work);
         if (st != DKF_OK) {
             if (e->mode == DKF_EST_FUSED)
                 snprintf(e->what, sizeof e->what, "dkf_info_contribution of sensor %zu",

@@ -22,14 +22,14 @@ static dkf_status_t kf_init(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *
 static dkf_status_t kf_predict(dkf_est_t *e, const char **what)
 {
     *what = "dkf_kf_predict";
-    return dkf_kf_predict(&e->kf, &e->F, &e->Q, NULL);
+    return dkf_kf_predict(&e->kf, &(dkf_kf_dyn_t){&e->F, &e->Q}, NULL);
 }
 
 static dkf_status_t kf_update(dkf_est_t *e, const char **what)
 {
     dkf_est_group_t *g = &e->groups[0];
     *what = "dkf_kf_update";
-    return dkf_kf_update(&e->kf, &g->H, &g->R, &g->y);
+    return dkf_kf_update(&e->kf, &(dkf_kf_meas_t){&g->H, &g->R}, &g->y);
 }
 
 static const dkf_est_kind_t dkf_est_kf = {

@@ -145,7 +145,7 @@ static int group_init(dkf_est_group_t *g, const dkf_scenario_t *s, const size_t 
     q += n * n;
     g->work = q;
     g->meas.H = &g->H;
-    g->meas.A = &g->A;
+    g->meas.D = &g->A;
     g->meas.R = &g->R;
     return 0;
 }

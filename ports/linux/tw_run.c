@@ -61,7 +61,7 @@ typedef struct {
 
 /* Everything a run owns (freed by ctx_free). */
 typedef struct {
-    size_t N, n, m, pmax;
+    size_t N, n, p, mmax; /* p inputs, mmax the largest sensor */
     size_t *start, *nbr;
     dkf_graph_t g;
     dkf_real_t *W, *alpha;     /* nnz each */
@@ -70,12 +70,12 @@ typedef struct {
     dkf_tw_net_t net;
     dkf_tw_node_t central;     /* alg 1, or the reference beside alg 2/3 */
     dkf_real_t *central_mem;
-    dkf_real_t *H, *Sw, *y;    /* N * pmax * n, N * pmax^2, N * pmax */
+    dkf_real_t *H, *Sw, *y;    /* N * mmax * n, N * mmax^2, N * mmax */
     dkf_mat_t *mH, *mSw, *my;
-    dkf_tw_sensor_t *sens;
-    dkf_real_t *A, *B, *Sv, *x0, *P0; /* n^2, n m, n^2, n, n^2 */
+    dkf_kf_meas_t *sens; /* node l: H, R; its y is my[l] */
+    dkf_real_t *A, *B, *Sv, *x0, *P0; /* n^2, n p, n^2, n, n^2 */
     dkf_mat_t mA, mB, mSv, mx0, mP0;
-    dkf_tw_model_t model;
+    dkf_uif_dyn_t model;
 } ctx_t;
 
 static void ctx_free(ctx_t *c)
@@ -166,32 +166,32 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
     int rc, dflt;
     c->N = net->N;
     c->n = s->n;
-    c->m = mB->cols;
+    c->p = mB->cols;
     for (l = 0; l < c->N; ++l)
-        if (s->sensors[l].m > c->pmax) c->pmax = s->sensors[l].m;
+        if (s->sensors[l].m > c->mmax) c->mmax = s->sensors[l].m;
     nnz = DKF_GRAPH_NNZ(c->N, net->E);
     c->start = calloc(c->N + 1, sizeof *c->start);
     c->nbr = calloc(nnz, sizeof *c->nbr);
     c->W = calloc(nnz, sizeof *c->W);
     c->alpha = calloc(nnz, sizeof *c->alpha);
     c->nodes = calloc(c->N, sizeof *c->nodes);
-    node_len = DKF_TW_NET_STORAGE_LEN(c->N, c->n, c->m, c->pmax);
+    node_len = DKF_TW_NET_STORAGE_LEN(c->N, c->n, c->mmax, c->p);
     c->net_mem = calloc(node_len, sizeof *c->net_mem);
-    c->central_mem = calloc(DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax), sizeof *c->central_mem);
-    c->H = calloc(c->N * c->pmax * c->n, sizeof *c->H);
-    c->Sw = calloc(c->N * c->pmax * c->pmax, sizeof *c->Sw);
-    c->y = calloc(c->N * c->pmax, sizeof *c->y);
+    c->central_mem = calloc(DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p), sizeof *c->central_mem);
+    c->H = calloc(c->N * c->mmax * c->n, sizeof *c->H);
+    c->Sw = calloc(c->N * c->mmax * c->mmax, sizeof *c->Sw);
+    c->y = calloc(c->N * c->mmax, sizeof *c->y);
     c->mH = calloc(c->N, sizeof *c->mH);
     c->mSw = calloc(c->N, sizeof *c->mSw);
     c->my = calloc(c->N, sizeof *c->my);
     c->sens = calloc(c->N, sizeof *c->sens);
-    c->A = calloc(3 * c->n * c->n + c->n * c->m + c->n, sizeof *c->A);
+    c->A = calloc(3 * c->n * c->n + c->n * c->p + c->n, sizeof *c->A);
     if (!c->start || !c->nbr || !c->W || !c->alpha || !c->nodes || !c->net_mem ||
         !c->central_mem || !c->H || !c->Sw || !c->y || !c->mH || !c->mSw || !c->my || !c->sens ||
         !c->A)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
     c->B = c->A + c->n * c->n;
-    c->Sv = c->B + c->n * c->m;
+    c->Sv = c->B + c->n * c->p;
     c->P0 = c->Sv + c->n * c->n;
     c->x0 = c->P0 + c->n * c->n;
     st = dkf_graph_from_edges(&c->g, c->start, c->nbr, nnz, c->N, net->edges, net->E);
@@ -206,20 +206,19 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
         const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
-        to_mat(&c->mH[l], c->H + l * c->pmax * c->n, dkf_scn_at(H, (size_t)s->k_first),
+        to_mat(&c->mH[l], c->H + l * c->mmax * c->n, dkf_scn_at(H, (size_t)s->k_first),
                H->rows, c->n);
-        to_mat(&c->mSw[l], c->Sw + l * c->pmax * c->pmax, dkf_scn_at(Sw, (size_t)s->k_first),
+        to_mat(&c->mSw[l], c->Sw + l * c->mmax * c->mmax, dkf_scn_at(Sw, (size_t)s->k_first),
                Sw->rows, Sw->rows);
         c->sens[l].H = &c->mH[l];
-        c->sens[l].Sw = &c->mSw[l];
-        c->sens[l].y = &c->my[l];
+        c->sens[l].R = &c->mSw[l];
     }
     to_mat(&c->mx0, c->x0, dkf_scn_init(s, "x00")->data, c->n, 1);
     to_mat(&c->mP0, c->P0, dkf_scn_init(s, "P00")->data, c->n, c->n);
-    st = dkf_tw_node_init(&c->central, c->n, c->m, c->pmax, c->central_mem,
-                          DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax), &c->mx0, &c->mP0);
+    st = dkf_tw_node_init(&c->central, c->n, c->mmax, c->p, c->central_mem,
+                          DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p), &c->mx0, &c->mP0);
     if (st == DKF_OK && o->alg != 1)
-        st = dkf_tw_net_init(&c->net, &c->g, c->nodes, c->n, c->m, c->pmax, c->net_mem, node_len,
+        st = dkf_tw_net_init(&c->net, &c->g, c->nodes, c->n, c->mmax, c->p, c->net_mem, node_len,
                              &c->mx0, &c->mP0);
     if (st != DKF_OK)
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s (%d)", s->file,
@@ -233,19 +232,19 @@ static void load_step(ctx_t *c, const dkf_scenario_t *s, long k)
 {
     size_t l;
     to_mat(&c->mA, c->A, dkf_scn_at(dkf_scn_model(s, "A"), (size_t)(k - 1)), c->n, c->n);
-    to_mat(&c->mB, c->B, dkf_scn_at(dkf_scn_model(s, "B"), (size_t)(k - 1)), c->n, c->m);
+    to_mat(&c->mB, c->B, dkf_scn_at(dkf_scn_model(s, "B"), (size_t)(k - 1)), c->n, c->p);
     to_mat(&c->mSv, c->Sv, dkf_scn_at(dkf_scn_model(s, "Sv"), (size_t)(k - 1)), c->n, c->n);
-    c->model.A = &c->mA;
-    c->model.B = &c->mB;
-    c->model.Sv = &c->mSv;
+    c->model.F = &c->mA;
+    c->model.G = &c->mB;
+    c->model.Q = &c->mSv;
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
         const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
         /* per node H_l, Sw_l of time k (constant, or given per step) */
-        to_mat(&c->mH[l], c->H + l * c->pmax * c->n, dkf_scn_at(H, (size_t)k), H->rows, c->n);
-        to_mat(&c->mSw[l], c->Sw + l * c->pmax * c->pmax, dkf_scn_at(Sw, (size_t)k), Sw->rows,
+        to_mat(&c->mH[l], c->H + l * c->mmax * c->n, dkf_scn_at(H, (size_t)k), H->rows, c->n);
+        to_mat(&c->mSw[l], c->Sw + l * c->mmax * c->mmax, dkf_scn_at(Sw, (size_t)k), Sw->rows,
                Sw->rows);
-        to_mat(&c->my[l], c->y + l * c->pmax, dkf_scn_y(s, l, k), s->sensors[l].m, 1);
+        to_mat(&c->my[l], c->y + l * c->mmax, dkf_scn_y(s, l, k), s->sensors[l].m, 1);
     }
 }
 
@@ -261,16 +260,17 @@ typedef struct {
     size_t off;
 } field_t;
 
+/* JSON keys: the paper's names (z = d, G = Gpost, Q / Ups = I, vphi = i) */
 #define F(key, member) {key, offsetof(dkf_tw_node_t, member)}
-static const field_t fields1[] = {F("x", x), F("P", P), F("z", z), F("phi", phi), F("Phi", Phi),
+static const field_t fields1[] = {F("x", x), F("P", P), F("z", d), F("phi", phi), F("Phi", Phi),
                                   F("phi_post", phi_post), F("Phi_post", Phi_post), F("S", S),
-                                  F("G", G)};
-static const field_t fields2[] = {F("x", x), F("P", P), F("z", z), F("psi", psi), F("Q", Q),
+                                  F("G", Gpost)};
+static const field_t fields2[] = {F("x", x), F("P", P), F("z", d), F("psi", psi), F("Q", I),
                                   F("phi_post", phi_post), F("Phi_post", Phi_post), F("S", S),
-                                  F("G", G)};
-static const field_t fields3[] = {F("x", x), F("P", P), F("z", z), F("Ups", Q), F("vphi", s),
+                                  F("G", Gpost)};
+static const field_t fields3[] = {F("x", x), F("P", P), F("z", d), F("Ups", I), F("vphi", i),
                                   F("psi", psi), F("Ploc", Ploc), F("phi_post", phi_post),
-                                  F("Phi_post", Phi_post), F("S", S), F("G", G)};
+                                  F("Phi_post", Phi_post), F("S", S), F("G", Gpost)};
 #undef F
 
 static const dkf_mat_t *field(const dkf_tw_node_t *nd, size_t off)
@@ -338,7 +338,7 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
                     acc_t *acc)
 {
     const double *xt = dkf_scn_truth(s, k), *zt = dkf_scn_truth_u(s, k);
-    const size_t n = nodes[0].n, m = nodes[0].m;
+    const size_t n = nodes[0].n, p = nodes[0].p;
     double mx[DKF_MAX_DIM] = {0}, mz[DKF_MAX_DIM] = {0}, mean[DKF_MAX_DIM] = {0};
     double lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     double sp[DKF_MAX_DIM] = {0}, ne = 0, gx = 0, gz = 0, grel = 0, nref = 0, ginf = 0,
@@ -374,15 +374,15 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
             dkf_json_append(series, "range_x", dkf_json_doubles(hi, n, 0));
         }
     }
-    if (zt != NULL && s->m_u == m) {
+    if (zt != NULL && s->m_u == p) {
         for (l = 0; l < count; ++l)
-            for (i = 0; i < m; ++i) {
-                const double e = (double)nodes[l].z.data[i] - zt[i];
+            for (i = 0; i < p; ++i) {
+                const double e = (double)nodes[l].d.data[i] - zt[i];
                 mz[i] += e * e / (double)count;
             }
-        for (i = 0; i < m; ++i) acc->sz += mz[i];
-        acc->nz += m;
-        if (series != NULL) dkf_json_append(series, "mse_z", dkf_json_doubles(mz, m, 0));
+        for (i = 0; i < p; ++i) acc->sz += mz[i];
+        acc->nz += p;
+        if (series != NULL) dkf_json_append(series, "mse_z", dkf_json_doubles(mz, p, 0));
     }
     if (alg == 1 || ref == NULL) return;
     for (i = 0; i < n; ++i) {
@@ -397,8 +397,8 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
             dx += d * d;
             if (fabs(d) / xinf > ginf) ginf = fabs(d) / xinf;
         }
-        for (i = 0; i < m; ++i) {
-            const double d = (double)nodes[l].z.data[i] - (double)ref->z.data[i];
+        for (i = 0; i < p; ++i) {
+            const double d = (double)nodes[l].d.data[i] - (double)ref->d.data[i];
             dz += d * d;
         }
         gx += dx / (double)count;
@@ -517,13 +517,13 @@ static int tw_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     const char *what;
     load_step(c, t->s, k);
     what = "dkf_tw_central_step";
-    st = dkf_tw_central_step(&c->central, &c->model, c->sens, c->N);
+    st = dkf_tw_central_step(&c->central, &c->model, c->sens, c->my, c->N);
     if (st == DKF_OK && alg == 2) {
         what = "dkf_tw_net_diffusion_step";
-        st = dkf_tw_net_diffusion_step(&c->net, c->alpha, &c->model, c->sens);
+        st = dkf_tw_net_diffusion_step(&c->net, c->alpha, &c->model, c->sens, c->my);
     } else if (st == DKF_OK && alg == 3) {
         what = "dkf_tw_net_consensus_step";
-        st = dkf_tw_net_consensus_step(&c->net, c->W, t->eta, &c->model, c->sens);
+        st = dkf_tw_net_consensus_step(&c->net, c->W, t->eta, &c->model, c->sens, c->my);
     }
     if (st != DKF_OK)
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step n=%ld: %s: %s failed: %s (%d)",

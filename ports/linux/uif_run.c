@@ -102,9 +102,9 @@ static void record_step(json_t *series, const dkf_uif_t *f)
     put_mat(series, "K", &f->K);
     put_mat(series, "M", &f->M);
     dkf_json_append(series, "rank", json_integer((json_int_t)f->rank));
-    /* proj is m x m even when m = 1 */
+    /* proj is p x p even when p = 1 */
     dkf_json_append(series, "proj", dkf_json_from_mat(&f->proj, 0));
-    for (i = 0; i < f->m; ++i) json_array_append_new(est, json_integer(f->estimable[i]));
+    for (i = 0; i < f->p; ++i) json_array_append_new(est, json_integer(f->estimable[i]));
     dkf_json_append(series, "estimable", est);
     dkf_json_append(series, "bias_risk", json_integer(f->bias_risk));
     dkf_json_append(series, "bias_steps", json_integer((json_int_t)f->bias_steps));
@@ -122,14 +122,14 @@ static void summarise(counts_t *sum, const dkf_scenario_t *s, const dkf_uif_t *f
         }
         ++*nx;
     }
-    if (dt != NULL && s->m_u == f->m) {
-        for (i = 0; i < f->m; ++i) {
+    if (dt != NULL && s->m_u == f->p) {
+        for (i = 0; i < f->p; ++i) {
             const double e = (double)f->d.data[i] - dt[i];
             sd[i] += e * e;
         }
         ++*nd;
     }
-    for (i = 0; i < f->m; ++i) sum->est_count[i][f->estimable[i] <= 2 ? f->estimable[i] : 0]++;
+    for (i = 0; i < f->p; ++i) sum->est_count[i][f->estimable[i] <= 2 ? f->estimable[i] : 0]++;
     if (f->rank < sum->rank_min) sum->rank_min = f->rank;
     if (f->rank > sum->rank_max) sum->rank_max = f->rank;
 }
@@ -141,7 +141,7 @@ typedef struct {
     const dkf_scenario_t *s;
     dkf_uif_kind_t kind;
     const dkf_scn_mat_t *mA, *mG, *mQ, *mC, *mH, *mR;
-    size_t n, m, p;
+    size_t n, m, p; /* state, measurement (rows of C), unknown input (columns of G) */
     dkf_real_t *mem;
     slot_t A, G, Q, C, H, R, y, x0, P0;
     dkf_uif_t f;
@@ -180,13 +180,13 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     u->mH = dkf_scn_model(s, "H");
     u->mR = dkf_scn_model(s, "R");
     u->n = s->n;
-    u->m = u->mG->cols;
-    u->p = u->mC->rows;
+    u->p = u->mG->cols;
+    u->m = u->mC->rows;
     len = DKF_UIF_STORAGE_LEN(u->n, u->m, u->p);
     /* model scratch: 7 matrices of at most max(n, m, p)^2 reals, y, x0 */
-    dmax = u->n > u->p ? u->n : u->p;
-    if (u->m > dmax) dmax = u->m;
-    u->mem = calloc(len + 8 * dmax * dmax + 2 * (u->n + u->p + u->m), sizeof *u->mem);
+    dmax = u->n > u->m ? u->n : u->m;
+    if (u->p > dmax) dmax = u->p;
+    u->mem = calloc(len + 8 * dmax * dmax + 2 * (u->n + u->m + u->p), sizeof *u->mem);
     u->series = o->record ? json_object() : NULL;
     if (u->mem == NULL || (o->record && u->series == NULL)) {
         uif_destroy((dkf_runner_t *)(void *)u);
@@ -199,7 +199,7 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
         slot_t *all[] = {&u->A, &u->G, &u->Q, &u->C, &u->H, &u->R, &u->P0};
         for (i = 0; i < 7; ++i, q += sq) all[i]->buf = q;
         u->y.buf = q;
-        u->x0.buf = q + u->p + u->m;
+        u->x0.buf = q + u->m + u->p;
     }
     load_at(&u->x0, dkf_scn_init(s, "x00"), 0);
     load_at(&u->P0, dkf_scn_init(s, "P00"), 0);
@@ -210,7 +210,7 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
         uif_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
-    u->sum.m = u->m;
+    u->sum.m = u->p; /* the summary's m counts the inputs */
     u->sum.rank_min = (size_t)-1;
     *rc = DKF_EXIT_OK;
     return (dkf_runner_t *)(void *)u;
@@ -221,28 +221,28 @@ static int uif_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     uif_runner_t *u = (uif_runner_t *)(void *)r;
     const dkf_scenario_t *s = u->s;
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     dkf_status_t st;
     const int first_df = u->kind != DKF_UIF_NRTSF && k == 0;
     if (!first_df) {
         load_at(&u->A, u->mA, k - 1);
         load_at(&u->G, u->mG, k - 1);
         load_at(&u->Q, u->mQ, k - 1);
-        dyn.A = &u->A.view;
+        dyn.F = &u->A.view;
         dyn.G = &u->G.view;
         dyn.Q = &u->Q.view;
     }
     load_at(&u->C, u->mC, k);
     load_at(&u->R, u->mR, k);
-    meas.C = &u->C.view;
+    meas.H = &u->C.view;
     meas.R = &u->R.view;
-    meas.H = NULL;
+    meas.D = NULL;
     if (u->kind != DKF_UIF_NRTSF) {
         load_at(&u->H, u->mH, k);
-        meas.H = &u->H.view;
+        meas.D = &u->H.view;
     }
-    dkf_scn_to_real(u->y.buf, dkf_scn_y(s, 0, k), u->p);
-    dkf_mat_init(&u->y.view, u->p, 1, u->y.buf);
+    dkf_scn_to_real(u->y.buf, dkf_scn_y(s, 0, k), u->m);
+    dkf_mat_init(&u->y.view, u->m, 1, u->y.buf);
     st = dkf_uif_step(&u->f, first_df ? NULL : &dyn, &meas, &u->y.view);
     if (st != DKF_OK)
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step k=%ld: %s: dkf_uif_step failed: "

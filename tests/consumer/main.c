@@ -94,9 +94,9 @@ int main(void)
         return 1;
     }
     for (k = 0; k < STEPS; ++k) {
-        dkf_status_t s = dkf_kf_predict(&kf, &F, &Q, NULL);
+        dkf_status_t s = dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&F, &Q}, NULL);
         y_data[0] = (dkf_real_t)ys[k];
-        if (s == DKF_OK) s = dkf_kf_update(&kf, &H, &R, &y);
+        if (s == DKF_OK) s = dkf_kf_update(&kf, &(dkf_kf_meas_t){&H, &R}, &y);
         if (s != DKF_OK) {
             printf("step %d: %s\n", k, dkf_status_str(s));
             return 1;

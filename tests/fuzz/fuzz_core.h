@@ -253,7 +253,7 @@ static inline void fz_ui_default(fz_ui_t *u, size_t n, size_t m, size_t p)
     fz_set(&u->R, m, m, DKF_R(0.5), DKF_R(0.0));
     fz_set(&u->y, m, 1, DKF_R(0.3), DKF_R(0.3));
     u->dyn.F = &u->F.v, u->dyn.Q = &u->Q.v, u->dyn.B = &u->B.v, u->dyn.Rd = &u->Rd.v;
-    u->meas.H = &u->H.v, u->meas.A = &u->A.v, u->meas.R = &u->R.v;
+    u->meas.H = &u->H.v, u->meas.D = &u->A.v, u->meas.R = &u->R.v;
 }
 
 static inline void fz_ui_edit(fz_t *z, fz_ui_t *u, int dyn)

@@ -51,7 +51,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             fz_set(&Q, n, n, DKF_R(0.1), DKF_R(0.0));
             fz_edit(&z, pred_m, 2);
             fz_take(&snap);
-            s = dkf_info_predict(&f, &F.v, &Q.v);
+            s = dkf_info_predict(&f, &(dkf_kf_dyn_t){&F.v, &Q.v});
         } else if (code % 3 == 1) {
             /* a sensor's contribution into slot j (touches no filter) */
             const size_t m = fz_dim(&z, MMAX);
@@ -64,7 +64,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             fz_region(&out, ci[j].d, sizeof ci[j].d);
             fz_region(&out, cI[j].d, sizeof cI[j].d);
             fz_take(&out);
-            s = dkf_info_contribution(&ci[j].v, &cI[j].v, &C.v, &R.v, &zm.v, work);
+            s = dkf_info_contribution(&ci[j].v, &cI[j].v, &(dkf_kf_meas_t){&C.v, &R.v}, &zm.v, work);
             if (fz_after(&out, s)) {
                 fz_finite(ci[j].d, n);
                 fz_finite(cI[j].d, n * n);

@@ -50,7 +50,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             fz_set(&u, n, 1, DKF_R(0.0), DKF_R(0.01));
             fz_edit(&z, pred_m, 3);
             fz_take(&snap);
-            s = dkf_kf_predict(&kf, &F.v, &Q.v, code & 2 ? &u.v : NULL);
+            s = dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&F.v, &Q.v}, code & 2 ? &u.v : NULL);
         } else {
             m = 1 + (size_t)(code >> 1) % mmax;
             fz_set(&H, m, n, DKF_R(1.0), DKF_R(0.0));
@@ -58,7 +58,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             fz_set(&y, m, 1, DKF_R(0.3), DKF_R(0.3));
             fz_edit(&z, upd_m, 3);
             fz_take(&snap);
-            s = dkf_kf_update(&kf, &H.v, &R.v, &y.v);
+            s = dkf_kf_update(&kf, &(dkf_kf_meas_t){&H.v, &R.v}, &y.v);
         }
         if (fz_after(&snap, s)) {
             fz_finite(st, DKF_KF_STATE_LEN(n, mmax));

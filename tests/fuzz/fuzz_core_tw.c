@@ -13,8 +13,8 @@
 #include "fuzz_core.h"
 
 #define NMAX 4
-#define MMAX 3
 #define PMAX 3
+#define MMAX 3
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -28,17 +28,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_mat_t *const init_m[] = {&x0, &P0}, *const md_m[] = {&A, &B, &Sv},
                     *const sn_m[] = {&H[0], &Sw[0], &y[0], &H[1], &Sw[1], &y[1], &H[2], &Sw[2], &y[2]};
     fz_t z = {data, size, 0};
-    dkf_tw_sensor_t sn[3];
-    dkf_tw_model_t md;
+    dkf_kf_meas_t sn[3];
+    dkf_mat_t ys[3];
+    dkf_uif_dyn_t md;
     dkf_tw_node_t nd, before;
     dkf_status_t s;
-    size_t n, m, pm, op, i, len, blk;
+    size_t n, p, m, op, i, len, blk;
     int have_pkt = 0;
     n = fz_dim(&z, NMAX);
+    p = fz_dim(&z, PMAX);
     m = fz_dim(&z, MMAX);
-    pm = fz_dim(&z, PMAX);
     len = DKF_TW_PKT_LEN(n);
-    blk = DKF_TW_NODE_STATE_LEN(n, m) - n - n * n;
+    blk = DKF_TW_NODE_STATE_LEN(n, p) - n - n * n;
     memset(&nd, 0, sizeof nd);
     fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
     fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
@@ -49,33 +50,34 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_regions_clear(&snap);
     fz_region(&snap, &nd, sizeof nd);
     fz_take(&snap);
-    s = dkf_tw_node_init(&nd, n, m, pm, st, DKF_TW_NODE_STORAGE_LEN(n, m, pm), &x0.v, &P0.v);
+    s = dkf_tw_node_init(&nd, n, m, p, st, DKF_TW_NODE_STORAGE_LEN(n, m, p), &x0.v, &P0.v);
     if (!fz_after(&snap, s)) return 0;
-    md.A = &A.v, md.B = &B.v, md.Sv = &Sv.v;
+    md.F = &A.v, md.G = &B.v, md.Q = &Sv.v;
     for (op = 0; op < 24 && fz_more(&z); ++op) {
         const uint8_t code = fz_byte(&z);
         const size_t ns = 1 + (size_t)(code >> 4) % 3;
         fz_regions_clear(&snap);
         fz_region(&snap, &nd, sizeof nd);
-        fz_region(&snap, st, (DKF_TW_NODE_STATE_LEN(n, m) + (nd.pending ? blk : 0)) * sizeof(dkf_real_t));
+        fz_region(&snap, st, (DKF_TW_NODE_STATE_LEN(n, p) + (nd.pending ? blk : 0)) * sizeof(dkf_real_t));
         fz_set(&A, n, n, DKF_R(0.9), DKF_R(0.05));
-        fz_set(&B, n, m, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&B, n, p, DKF_R(1.0), DKF_R(0.0));
         fz_set(&Sv, n, n, DKF_R(0.1), DKF_R(0.0));
         for (i = 0; i < 3; ++i) {
-            fz_set(&H[i], pm, n, DKF_R(1.0), DKF_R(0.1));
-            fz_set(&Sw[i], pm, pm, DKF_R(0.5), DKF_R(0.0));
-            fz_set(&y[i], pm, 1, DKF_R(0.3), DKF_R(0.3));
-            sn[i].H = &H[i].v, sn[i].Sw = &Sw[i].v, sn[i].y = &y[i].v;
+            fz_set(&H[i], m, n, DKF_R(1.0), DKF_R(0.1));
+            fz_set(&Sw[i], m, m, DKF_R(0.5), DKF_R(0.0));
+            fz_set(&y[i], m, 1, DKF_R(0.3), DKF_R(0.3));
+            sn[i].H = &H[i].v, sn[i].R = &Sw[i].v;
         }
         fz_edit(&z, md_m, 3);
         fz_edit(&z, sn_m, 9);
+        for (i = 0; i < 3; ++i) ys[i] = y[i].v;
         before = nd;
         switch (code % 4) {
         case 0: { /* an info packet: the packet is untouched on failure */
             fz_snap_t *ps = &snap;
             fz_region(ps, pkt, sizeof pkt);
             fz_take(ps);
-            s = dkf_tw_meas_packet(pkt, &nd, &sn[0], code & 8 ? fz_real(&z) : DKF_R(1.0));
+            s = dkf_tw_meas_packet(pkt, &nd, &sn[0], &ys[0], code & 8 ? fz_real(&z) : DKF_R(1.0));
             if (fz_after(ps, s)) {
                 fz_finite(pkt, len);
                 have_pkt = 1;
@@ -87,7 +89,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             memcpy(info, pkt, len * sizeof *info);
             if (code & 8) info[fz_byte(&z) % len] = fz_real(&z);
             fz_regions_clear(&snap);
-            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, m) * sizeof(dkf_real_t));
+            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, p) * sizeof(dkf_real_t));
             fz_take(&snap);
             s = dkf_tw_node_local(&nd, &md, info, NULL);
             if (s != DKF_OK) {
@@ -105,9 +107,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         default:
             fz_regions_clear(&snap);
-            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, m) * sizeof(dkf_real_t));
+            fz_region(&snap, st, DKF_TW_NODE_STATE_LEN(n, p) * sizeof(dkf_real_t));
             fz_take(&snap);
-            s = dkf_tw_central_step(&nd, &md, sn, ns);
+            s = dkf_tw_central_step(&nd, &md, sn, ys, ns);
             if (s != DKF_OK && memcmp(&before, &nd, sizeof nd) != 0) {
                 /* only a failure in its local step may change the node, by
                  * cancelling a pending step */
@@ -118,7 +120,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
         if (fz_after(&snap, s)) {
-            fz_finite(st, DKF_TW_NODE_STATE_LEN(n, m));
+            fz_finite(st, DKF_TW_NODE_STATE_LEN(n, p));
             fz_symmetric(nd.P.data, n, sym);
         }
     }

@@ -12,8 +12,8 @@
 #include "fuzz_core.h"
 
 #define NMAX 4
-#define MMAX 3
-#define PMAX 4
+#define PMAX 3
+#define MMAX 4
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -25,14 +25,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_mat_t *const init_m[] = {&x0, &P0}, *const step_m[] = {&A, &G, &Q, &C, &H, &R, &y};
     fz_t z = {data, size, 0};
     dkf_uif_dyn_t dyn;
-    dkf_uif_meas_t meas;
+    dkf_ui_meas_t meas;
     dkf_uif_t f;
     dkf_status_t s;
-    size_t n, m, p, op;
+    size_t n, p, m, op;
     const uint8_t kind = fz_byte(&z) % 4; /* 3 is not a kind */
     n = fz_dim(&z, NMAX);
-    m = fz_dim(&z, MMAX);
     p = fz_dim(&z, PMAX);
+    m = fz_dim(&z, MMAX);
     memset(&f, 0, sizeof f);
     fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
     fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
@@ -47,33 +47,33 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                      &P0.v);
     if (!fz_after(&snap, s)) return 0;
     fz_region(&snap, st, DKF_UIF_STATE_LEN(n, m, p) * sizeof(dkf_real_t));
-    dyn.A = &A.v, dyn.G = &G.v, dyn.Q = &Q.v;
-    meas.C = &C.v, meas.R = &R.v;
+    dyn.F = &A.v, dyn.G = &G.v, dyn.Q = &Q.v;
+    meas.H = &C.v, meas.R = &R.v;
     for (op = 0; op < 24 && fz_more(&z); ++op) {
         const uint8_t code = fz_byte(&z);
         int with_dyn = f.kind == DKF_UIF_NRTSF || f.k > 0;
         if (code & 1) with_dyn = !with_dyn; /* out of sequence */
         if (code & 2) f.rank_tol = fz_real(&z) * DKF_R(1e-3);
         fz_set(&A, n, n, DKF_R(0.9), DKF_R(0.05));
-        fz_set(&G, n, m, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&G, n, p, DKF_R(1.0), DKF_R(0.0));
         fz_set(&Q, n, n, DKF_R(0.1), DKF_R(0.0));
-        fz_set(&C, p, n, DKF_R(1.0), DKF_R(0.0));
-        fz_set(&H, p, m, DKF_R(1.0), DKF_R(0.0));
-        fz_set(&R, p, p, DKF_R(0.5), DKF_R(0.0));
-        fz_set(&y, p, 1, DKF_R(0.3), DKF_R(0.3));
+        fz_set(&C, m, n, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&H, m, p, DKF_R(1.0), DKF_R(0.0));
+        fz_set(&R, m, m, DKF_R(0.5), DKF_R(0.0));
+        fz_set(&y, m, 1, DKF_R(0.3), DKF_R(0.3));
         if (code & 4) { /* G (or H) loses a rank: a column of zeros */
             size_t i;
-            for (i = 0; i < n; ++i) G.d[i * m] = DKF_R(0.0);
-            for (i = 0; i < p; ++i) H.d[i * m] = DKF_R(0.0);
+            for (i = 0; i < n; ++i) G.d[i * p] = DKF_R(0.0);
+            for (i = 0; i < m; ++i) H.d[i * p] = DKF_R(0.0);
         }
         fz_edit(&z, step_m, 7);
-        meas.H = (f.kind == DKF_UIF_NRTSF) != ((code & 8) != 0) ? NULL : &H.v;
+        meas.D = (f.kind == DKF_UIF_NRTSF) != ((code & 8) != 0) ? NULL : &H.v;
         fz_take(&snap);
         s = dkf_uif_step(&f, with_dyn ? &dyn : NULL, &meas, &y.v);
         if (fz_after(&snap, s)) {
             fz_finite(st, DKF__UIF_OUT_LEN(n, m, p));
             fz_symmetric(f.Px.data, n, sym);
-            fz_symmetric(f.Pd.data, m, sym);
+            fz_symmetric(f.Pd.data, p, sym);
         }
     }
     return 0;

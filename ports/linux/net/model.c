@@ -61,7 +61,7 @@ int dkf_net_model_init(dkf_net_model_t *md, const dkf_scenario_t *s, size_t i)
     md->dyn.B = &md->B;
     md->dyn.Rd = &md->Rd;
     md->meas.H = &md->H;
-    md->meas.A = &md->A;
+    md->meas.D = &md->A;
     md->meas.R = &md->R;
     return 0;
 }

@@ -307,8 +307,8 @@ struct dkf_tw_agent {
     /* model / sensor of the step */
     dkf_real_t *A, *B, *Sv, *H, *Sw, *y;
     dkf_mat_t mA, mB, mSv, mH, mSw, my, mx0, mP0;
-    dkf_tw_model_t model;
-    dkf_tw_sensor_t sens;
+    dkf_uif_dyn_t model;
+    dkf_kf_meas_t sens;
     /* results */
     double *xs, *Ps, *zs;
     unsigned char *deg_step;    /* per step: degraded */
@@ -325,7 +325,7 @@ static void to_real(dkf_real_t *dst, const double *src, size_t n)
 static int alloc_agent(dkf_tw_agent_t *a)
 {
     const dkf_tw_scn_t *c = a->c;
-    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax);
+    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->pmax, c->m);
     const size_t nm = 2 * c->n * c->n + c->n * c->m + c->pmax * c->n + c->pmax * c->pmax +
                       c->pmax + 2 * c->n;
     a->mem = calloc(node_len + 2 * a->deg * a->pkt + 4 * a->pkt + nm, sizeof *a->mem);
@@ -405,19 +405,18 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
     to_real(a->A, dkf_scn_init(c->s, "P00")->data, c->n * c->n);
     dkf_mat_init(&a->mx0, c->n, 1, a->B);
     dkf_mat_init(&a->mP0, c->n, c->n, a->A);
-    st = dkf_tw_node_init(&a->nd, c->n, c->m, c->pmax, a->mem,
-                          DKF_TW_NODE_STORAGE_LEN(c->n, c->m, c->pmax), &a->mx0, &a->mP0);
+    st = dkf_tw_node_init(&a->nd, c->n, c->pmax, c->m, a->mem,
+                          DKF_TW_NODE_STORAGE_LEN(c->n, c->pmax, c->m), &a->mx0, &a->mP0);
     if (st != DKF_OK) {
         failf(err, errlen, "node %zu: dkf_tw_node_init: %s", id, dkf_status_str(st));
         dkf_tw_agent_free(a);
         return NULL;
     }
-    a->model.A = &a->mA;
-    a->model.B = &a->mB;
-    a->model.Sv = &a->mSv;
+    a->model.F = &a->mA;
+    a->model.G = &a->mB;
+    a->model.Q = &a->mSv;
     a->sens.H = &a->mH;
-    a->sens.Sw = &a->mSw;
-    a->sens.y = &a->my;
+    a->sens.R = &a->mSw;
     return a;
 }
 
@@ -512,7 +511,7 @@ static void record_step(dkf_tw_agent_t *a)
     size_t i;
     for (i = 0; i < c->n; ++i) a->xs[j * c->n + i] = (double)a->nd.x.data[i];
     for (i = 0; i < c->n * c->n; ++i) a->Ps[j * c->n * c->n + i] = (double)a->nd.P.data[i];
-    for (i = 0; i < c->m; ++i) a->zs[j * c->m + i] = (double)a->nd.z.data[i];
+    for (i = 0; i < c->m; ++i) a->zs[j * c->m + i] = (double)a->nd.d.data[i];
     memcpy(a->miss_step + j * a->deg, a->missed, a->deg);
     for (i = 0; i < a->deg; ++i) a->deg_step[j] |= a->missed[i];
     if (a->deg_step[j]) ++a->cnt.degraded_steps;
@@ -538,7 +537,7 @@ static int begin_step(dkf_tw_agent_t *a, int64_t now)
     dkf_status_t st;
     while (a->k <= c->steps) {
         load_step(a);
-        st = dkf_tw_meas_packet(a->mix, &a->nd, &a->sens,
+        st = dkf_tw_meas_packet(a->mix, &a->nd, &a->sens, &a->my,
                                 c->alg == 2 ? DKF_R(1.0) : (dkf_real_t)c->N);
         if (st != DKF_OK) return fail_agent(a, "dkf_tw_meas_packet", st);
         if (c->rounds > 0) return enter_round(a, (long)((a->k - 1) * c->rounds), a->mix, now);

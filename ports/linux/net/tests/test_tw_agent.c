@@ -177,20 +177,20 @@ typedef struct {
 static void reference(ref_t *r, const dkf_tw_scn_t *c)
 {
     const dkf_scenario_t *s = c->s;
-    const size_t N = c->N, n = c->n, m = c->m, p = c->pmax;
+    const size_t N = c->N, n = c->n, m = c->pmax, p = c->m; /* c->m: inputs */
     const size_t len = DKF_TW_NET_STORAGE_LEN(N, n, m, p);
-    dkf_real_t *mem = calloc(len, sizeof *mem), *H = calloc(N * p * n, sizeof *H),
-               *Sw = calloc(N * p * p, sizeof *Sw), *y = calloc(N * p, sizeof *y),
-               *mod = calloc(3 * n * n + n * m + n, sizeof *mod);
+    dkf_real_t *mem = calloc(len, sizeof *mem), *H = calloc(N * m * n, sizeof *H),
+               *Sw = calloc(N * m * m, sizeof *Sw), *y = calloc(N * m, sizeof *y),
+               *mod = calloc(3 * n * n + n * p + n, sizeof *mod);
     dkf_tw_node_t *nodes = calloc(N, sizeof *nodes);
     dkf_mat_t *mH = calloc(N, sizeof *mH), *mSw = calloc(N, sizeof *mSw), *my = calloc(N, sizeof *my);
-    dkf_tw_sensor_t *sens = calloc(N, sizeof *sens);
+    dkf_kf_meas_t *sens = calloc(N, sizeof *sens);
     dkf_mat_t mA, mB, mSv, mx0, mP0;
-    dkf_tw_model_t md;
+    dkf_uif_dyn_t md;
     dkf_tw_net_t net;
     size_t k, l, i;
     assert_true(mem && H && Sw && y && mod && nodes && mH && mSw && my && sens);
-    r->x = calloc(c->steps * N * (n + n * n + m), sizeof *r->x);
+    r->x = calloc(c->steps * N * (n + n * n + p), sizeof *r->x);
     assert_non_null(r->x);
     r->P = r->x + c->steps * N * n;
     r->z = r->P + c->steps * N * n * n;
@@ -201,37 +201,36 @@ static void reference(ref_t *r, const dkf_tw_scn_t *c)
     assert_int_equal(dkf_tw_net_init(&net, &c->g, nodes, n, m, p, mem, len, &mx0, &mP0), DKF_OK);
     for (l = 0; l < N; ++l) {
         const dkf_scn_mat_t *h = dkf_scn_sensor_model(s, l, "H"), *w = dkf_scn_sensor_model(s, l, "Sw");
-        dkf_scn_to_real(H + l * p * n, h->data, h->rows * n);
-        dkf_scn_to_real(Sw + l * p * p, w->data, w->rows * w->rows);
-        dkf_mat_init(&mH[l], h->rows, n, H + l * p * n);
-        dkf_mat_init(&mSw[l], w->rows, w->rows, Sw + l * p * p);
+        dkf_scn_to_real(H + l * m * n, h->data, h->rows * n);
+        dkf_scn_to_real(Sw + l * m * m, w->data, w->rows * w->rows);
+        dkf_mat_init(&mH[l], h->rows, n, H + l * m * n);
+        dkf_mat_init(&mSw[l], w->rows, w->rows, Sw + l * m * m);
         sens[l].H = &mH[l];
-        sens[l].Sw = &mSw[l];
-        sens[l].y = &my[l];
+        sens[l].R = &mSw[l];
     }
     dkf_mat_init(&mA, n, n, mod);
     dkf_mat_init(&mSv, n, n, mod + n * n);
-    dkf_mat_init(&mB, n, m, mod + 2 * n * n);
-    md.A = &mA;
-    md.B = &mB;
-    md.Sv = &mSv;
+    dkf_mat_init(&mB, n, p, mod + 2 * n * n);
+    md.F = &mA;
+    md.G = &mB;
+    md.Q = &mSv;
     for (k = 1; k <= c->steps; ++k) {
         dkf_scn_to_real(mod, dkf_scn_at(dkf_scn_model(s, "A"), k - 1), n * n);
         dkf_scn_to_real(mod + n * n, dkf_scn_at(dkf_scn_model(s, "Sv"), k - 1), n * n);
-        dkf_scn_to_real(mod + 2 * n * n, dkf_scn_at(dkf_scn_model(s, "B"), k - 1), n * m);
+        dkf_scn_to_real(mod + 2 * n * n, dkf_scn_at(dkf_scn_model(s, "B"), k - 1), n * p);
         for (l = 0; l < N; ++l) {
-            dkf_scn_to_real(y + l * p, dkf_scn_y(s, l, (long)k), mH[l].rows);
-            dkf_mat_init(&my[l], mH[l].rows, 1, y + l * p);
+            dkf_scn_to_real(y + l * m, dkf_scn_y(s, l, (long)k), mH[l].rows);
+            dkf_mat_init(&my[l], mH[l].rows, 1, y + l * m);
         }
         if (c->alg == 2)
-            assert_int_equal(dkf_tw_net_diffusion_step(&net, c->alpha, &md, sens), DKF_OK);
+            assert_int_equal(dkf_tw_net_diffusion_step(&net, c->alpha, &md, sens, my), DKF_OK);
         else
-            assert_int_equal(dkf_tw_net_consensus_step(&net, c->W, c->eta, &md, sens), DKF_OK);
+            assert_int_equal(dkf_tw_net_consensus_step(&net, c->W, c->eta, &md, sens, my), DKF_OK);
         for (l = 0; l < N; ++l) {
             const size_t j = (k - 1) * N + l;
             for (i = 0; i < n; ++i) r->x[j * n + i] = (double)nodes[l].x.data[i];
             for (i = 0; i < n * n; ++i) r->P[j * n * n + i] = (double)nodes[l].P.data[i];
-            for (i = 0; i < m; ++i) r->z[j * m + i] = (double)nodes[l].z.data[i];
+            for (i = 0; i < p; ++i) r->z[j * p + i] = (double)nodes[l].d.data[i];
         }
     }
     free(mem), free(H), free(Sw), free(y), free(mod), free(nodes), free(mH), free(mSw), free(my);

@@ -59,11 +59,10 @@ static dkf_status_t askf_update(dkf_est_t *e, const char **what)
 }
 
 static const dkf_est_kind_t dkf_est_askf = {
-    "askf", /* needs_ui */ 1, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 1,
-    askf_init, askf_predict, askf_update, NULL};
+    .name = "askf", .needs_ui = 1, .input_prior = 1, .init = askf_init, .predict = askf_predict,
+    .update = askf_update};
 
-/* ---- the registry family (est_run.c's operations) ---- */
-
+/* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(askf, "ASKF", DKF_RUN_OPT_D00,
               "augmented-state KF (dkf/askf.h) on [x; d]; needs A, B,\n"
               "                           Rd, init.d00, init.Pd00; one sensor");

@@ -220,11 +220,10 @@ static dkf_status_t dkf_kind_step(dkf_est_t *e, long k, const char **what)
 }
 
 static const dkf_est_kind_t dkf_est_dkf = {
-    "dkf", /* needs_ui */ 1, /* fused */ 1, /* y_ahead */ 1, /* input_prior */ 0,
-    dkf_kind_init, NULL, NULL, dkf_kind_step};
+    .name = "dkf", .needs_ui = 1, .fused = 1, .y_ahead = 1, .init = dkf_kind_init,
+    .step = dkf_kind_step};
 
-/* ---- the registry family (est_run.c's operations) ---- */
-
+/* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(dkf, "DKF", 0,
               "Difference KF (dkf/diffkf.h); needs A, B, Rd and\n"
               "                           y_1..y_{N+1}; xp = x_{k|k-1}. With several sensors\n"

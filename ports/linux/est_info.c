@@ -72,11 +72,9 @@ static dkf_status_t info_update(dkf_est_t *e, const char **what)
 }
 
 static const dkf_est_kind_t dkf_est_info = {
-    "info", /* needs_ui */ 0, /* fused */ 1, /* y_ahead */ 0, /* input_prior */ 0,
-    info_init, info_predict, info_update, NULL};
+    .name = "info", .fused = 1, .init = info_init, .predict = info_predict, .update = info_update};
 
-/* ---- the registry family (est_run.c's operations) ---- */
-
+/* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(info, "IF", 0,
               "information filter (dkf/info.h); with several\n"
               "                           sensors it also writes `fused`");

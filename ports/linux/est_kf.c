@@ -33,11 +33,9 @@ static dkf_status_t kf_update(dkf_est_t *e, const char **what)
 }
 
 static const dkf_est_kind_t dkf_est_kf = {
-    "kf", /* needs_ui */ 0, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 0,
-    kf_init, kf_predict, kf_update, NULL};
+    .name = "kf", .init = kf_init, .predict = kf_predict, .update = kf_update};
 
-/* ---- the registry family (est_run.c's operations) ---- */
-
+/* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(kf, "KF", 0,
               "Kalman filter (dkf/kf.h) on F, Q, H, R;\n"
               "                           unknown-input terms (A, B, Rd, ...) are ignored");

@@ -54,10 +54,9 @@ static dkf_status_t otskf_update(dkf_est_t *e, const char **what)
 }
 
 static const dkf_est_kind_t dkf_est_otskf = {
-    "otskf", /* needs_ui */ 1, /* fused */ 0, /* y_ahead */ 0, /* input_prior */ 1,
-    otskf_init, otskf_predict, otskf_update, NULL};
+    .name = "otskf", .needs_ui = 1, .input_prior = 1, .init = otskf_init,
+    .predict = otskf_predict, .update = otskf_update};
 
-/* ---- the registry family (est_run.c's operations) ---- */
-
+/* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(otskf, "OTSKF", DKF_RUN_OPT_D00,
               "optimal two-stage KF (dkf/otskf.h); like askf");

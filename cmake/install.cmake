@@ -7,7 +7,7 @@
 #
 # What a consumer must agree on is in the installed dkf/build_config.h,
 # generated from this build's options (DKF_USE_FLOAT, DKF_MAX_DIM,
-# DKF_JOSEPH, DKF_SYMMETRISE, DKF_DEBUG_CHECKS, DKF_SVD_MAX_SWEEPS): it
+# DKF_JOSEPH, DKF_DEBUG_CHECKS, DKF_SVD_MAX_SWEEPS): it
 # sets them, and a consumer that defines another value gets an #error. The
 # exported target also carries the DKF_USE_FLOAT / DKF_JOSEPH definitions
 # (the same values), libm, and, for a DKF_SANITIZE build, the sanitizer

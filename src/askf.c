@@ -16,17 +16,29 @@
 #include "internal.h"
 #include "kernels.h"
 
-/* Storage after the KF's: Phi | Q^a | H^a. */
-static dkf_real_t *aug_phi(const dkf_askf_t *f) { return f->aug; }
-static dkf_real_t *aug_qa(const dkf_askf_t *f)
+/* The storage: the KF's on N = n + p states, then the augmented model
+ * built per step, Phi and Q^a (N x N each) and H^a (m x N). With base ==
+ * NULL it only counts (DKF_ASKF_STORAGE_LEN). */
+typedef struct {
+    dkf_real_t *kf, *phi, *qa, *ha;
+} askf_layout_t;
+
+static size_t askf_layout(askf_layout_t *L, dkf_real_t *base, size_t N, size_t m)
 {
-    const size_t N = f->n + f->p;
-    return f->aug + N * N;
+    size_t used = 0;
+    DKF_TAKE(L->kf, DKF_KF_STORAGE_LEN(N, m));
+    DKF_TAKE(L->phi, N * N);
+    DKF_TAKE(L->qa, N * N);
+    DKF_TAKE(L->ha, m * N);
+    return used;
 }
-static dkf_real_t *aug_ha(const dkf_askf_t *f)
+
+/* The layout of an initialised filter (its storage starts with the KF's x). */
+static askf_layout_t layout_of(const dkf_askf_t *f)
 {
-    const size_t N = f->n + f->p;
-    return f->aug + 2 * N * N;
+    askf_layout_t L;
+    (void)askf_layout(&L, f->kf.x.data, f->n + f->p, f->m);
+    return L;
 }
 
 /* Out (N x N, N = n + p) = [[X, Y], [Y^T, Z]] with X n x n, Z p x p and
@@ -36,14 +48,14 @@ static void assemble_blocks(dkf_real_t *Out, const dkf_real_t *X, const dkf_real
 {
     const size_t N = n + p;
     size_t i, j;
-    for (i = 0; i < n; ++i) {
-        dkf__copy(Out + i * N, X + i * n, n);
-        for (j = 0; j < p; ++j) Out[i * N + n + j] = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
-    }
-    for (i = 0; i < p; ++i) {
-        for (j = 0; j < n; ++j) Out[(n + i) * N + j] = Y != NULL ? Y[j * p + i] : DKF_R(0.0);
-        dkf__copy(Out + (n + i) * N + n, Z + i * p, p);
-    }
+    dkf__put_block(Out, N, 0, 0, X, n, n);
+    dkf__put_block(Out, N, n, n, Z, p, p);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < p; ++j) {
+            const dkf_real_t y = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
+            Out[i * N + n + j] = y;
+            Out[(n + j) * N + i] = y;
+        }
 }
 
 dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
@@ -52,13 +64,15 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
 {
     dkf_askf_t g;
     dkf_mat_t X0, Pa0;
-    size_t N, kf_len;
+    askf_layout_t L;
+    size_t N;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(storage);
     if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM ||
         n + p > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    if (storage_len < DKF_ASKF_STORAGE_LEN(n, m, p)) return DKF_ERR_CAPACITY;
+    N = n + p;
+    if (storage_len < askf_layout(&L, NULL, N, m)) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     DKF_TRY(dkf__check_input(d0, p, 1));
@@ -69,16 +83,15 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
     g.n = n;
     g.m = m;
     g.p = p;
-    N = n + p;
-    kf_len = DKF_KF_STORAGE_LEN(N, m);
-    g.aug = storage + kf_len;
+    (void)askf_layout(&L, storage, N, m);
+    g.aug = L.phi;
     /* X0 and P^a_0 are staged in the (still unused) Q^a and Phi areas */
-    X0.rows = N, X0.cols = 1, X0.data = aug_qa(&g);
-    Pa0.rows = N, Pa0.cols = N, Pa0.data = aug_phi(&g);
+    dkf__view(&X0, N, 1, L.qa);
+    dkf__view(&Pa0, N, N, L.phi);
     dkf__copy(X0.data, x0->data, n);
     dkf__copy(X0.data + n, d0->data, p);
     assemble_blocks(Pa0.data, P0->data, Pxd0 != NULL ? Pxd0->data : NULL, Pd0->data, n, p);
-    DKF_TRY(dkf_kf_init(&g.kf, N, m, storage, kf_len, &X0, &Pa0));
+    DKF_TRY(dkf_kf_init(&g.kf, N, m, L.kf, DKF_KF_STORAGE_LEN(N, m), &X0, &Pa0));
     g.ready = 1;
     *f = g;
     return DKF_OK;
@@ -87,6 +100,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
 dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
 {
     dkf_mat_t Phi, Qa;
+    askf_layout_t L;
     dkf_kf_dyn_t aug; /* {Phi, Q^a} */
     size_t n, p, N;
     DKF_CHECK_NULL(f);
@@ -99,8 +113,9 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
     DKF_TRY(dkf__check_input(dyn->Q, n, n));
     DKF_TRY(dkf__check_input(dyn->B, p, p));
     DKF_TRY(dkf__check_input(dyn->Rd, p, p));
-    Phi.rows = Phi.cols = N, Phi.data = aug_phi(f);
-    Qa.rows = Qa.cols = N, Qa.data = aug_qa(f);
+    L = layout_of(f);
+    dkf__view(&Phi, N, N, L.phi);
+    dkf__view(&Qa, N, N, L.qa);
     assemble_blocks(Phi.data, dyn->F->data, NULL, dyn->B->data, n, p);
     assemble_blocks(Qa.data, dyn->Q->data, NULL, dyn->Rd->data, n, p);
     aug.F = &Phi;
@@ -112,7 +127,7 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
 {
     dkf_mat_t Ha;
     dkf_kf_meas_t aug; /* {H^a, R} */
-    size_t n, m, p, N, i;
+    size_t n, m, p, N;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
@@ -125,11 +140,9 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     DKF_TRY(dkf__check_input(meas->R, m, m));
     DKF_TRY(dkf__check_input(y, m, 1));
     /* H^a = [H  D] */
-    Ha.rows = m, Ha.cols = N, Ha.data = aug_ha(f);
-    for (i = 0; i < m; ++i) {
-        dkf__copy(Ha.data + i * N, meas->H->data + i * n, n);
-        dkf__copy(Ha.data + i * N + n, meas->D->data + i * p, p);
-    }
+    dkf__view(&Ha, m, N, layout_of(f).ha);
+    dkf__put_block(Ha.data, N, 0, 0, meas->H->data, m, n);
+    dkf__put_block(Ha.data, N, 0, n, meas->D->data, m, p);
     aug.H = &Ha;
     aug.R = meas->R;
     return dkf_kf_update(&f->kf, &aug, y);

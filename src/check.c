@@ -40,3 +40,30 @@ int dkf__all_finite(const dkf_real_t *p, size_t n)
     for (i = 0; i < n; ++i) acc += p[i] - p[i];
     return acc == acc;
 }
+
+void dkf__ckpt_put_k(dkf_real_t *d, size_t k)
+{
+    size_t i;
+    for (i = 0; i < DKF__CKPT_K_LEN; ++i, k = (k >> 8) >> 8) d[i] = (dkf_real_t)(k & 0xFFFFu);
+}
+
+dkf_status_t dkf__ckpt_get_k(const dkf_real_t *d, size_t *k)
+{
+    size_t i, v = 0, digit = 0;
+    for (i = DKF__CKPT_K_LEN; i-- > 0;) {
+        if (!dkf__ckpt_int(d[i], 0xFFFFu, &digit)) return DKF_ERR_ARG;
+#if SIZE_MAX <= 0xFFFFFFFFu
+        if (i >= 2 && digit != 0) return DKF_ERR_CAPACITY;
+#endif
+        v = ((v << 8) << 8) + digit;
+    }
+    *k = v;
+    return DKF_OK;
+}
+
+int dkf__ckpt_int(dkf_real_t x, size_t hi, size_t *v)
+{
+    if (!(x >= DKF_R(0.0) && x <= (dkf_real_t)hi) || x != (dkf_real_t)(size_t)x) return 0;
+    *v = (size_t)x;
+    return 1;
+}

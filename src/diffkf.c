@@ -159,8 +159,36 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     return used;
 }
 
-/* outputs: xf, Pf, xn, Pn, z, dz, J, L, K, xp */
-static size_t outputs_len(size_t n, size_t p) { return 3 * n + 2 * n * n + 2 * p + 2 * n * p + p * p; }
+/* The start of the storage: the output views xf, Pf, xn, Pn, z, dz, J, L,
+ * K, xp (their full p-row size), then `mem`, the layout above. */
+typedef struct {
+    dkf_real_t *xf, *Pf, *xn, *Pn, *z, *dz, *J, *L, *K, *xp;
+    dkf_real_t *mem;
+} outputs_t;
+
+/* Walks the outputs; with base == NULL it only counts. */
+static size_t outputs_layout(outputs_t *o, dkf_real_t *base, size_t n, size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(o->xf, n);
+    DKF_TAKE(o->Pf, n * n);
+    DKF_TAKE(o->xn, n);
+    DKF_TAKE(o->Pn, n * n);
+    DKF_TAKE(o->z, p);
+    DKF_TAKE(o->dz, p);
+    DKF_TAKE(o->J, n * p);
+    DKF_TAKE(o->L, p * p);
+    DKF_TAKE(o->K, n * p);
+    DKF_TAKE(o->xp, n);
+    o->mem = base != NULL ? base + used : NULL;
+    return used;
+}
+
+static size_t outputs_len(size_t n, size_t p)
+{
+    outputs_t o;
+    return outputs_layout(&o, NULL, n, p);
+}
 
 static layout_t mem_of(const dkf_diffkf_t *f)
 {
@@ -169,48 +197,43 @@ static layout_t mem_of(const dkf_diffkf_t *f)
     return L;
 }
 
-static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t **cursor)
-{
-    v->rows = r;
-    v->cols = c;
-    v->data = *cursor;
-    *cursor += r * c;
-}
-
 dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                              size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
     dkf_diffkf_t g;
-    dkf_real_t *cur = storage;
+    outputs_t o;
     layout_t L;
+    size_t len;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(storage);
     if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
     /* A has full column rank, so p <= m */
     if (p > m) return DKF_ERR_RANK;
-    if (storage_len < outputs_len(n, p) + layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
+    len = outputs_len(n, p) + layout(&L, NULL, n, m, p);
+    if (storage_len < len) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     memset(&g, 0, sizeof g);
     g.n = n;
     g.m = m;
     g.p = p;
-    set_view(&g.xf, n, 1, &cur);
-    set_view(&g.Pf, n, n, &cur);
-    set_view(&g.xn, n, 1, &cur);
-    set_view(&g.Pn, n, n, &cur);
-    set_view(&g.z, p, 1, &cur);
-    set_view(&g.dz, p, 1, &cur);
-    set_view(&g.J, n, p, &cur);
-    set_view(&g.L, p, p, &cur);
-    set_view(&g.K, n, p, &cur);
-    set_view(&g.xp, n, 1, &cur);
-    g.mem = cur;
+    (void)outputs_layout(&o, storage, n, p);
+    dkf__view(&g.xf, n, 1, o.xf);
+    dkf__view(&g.Pf, n, n, o.Pf);
+    dkf__view(&g.xn, n, 1, o.xn);
+    dkf__view(&g.Pn, n, n, o.Pn);
+    dkf__view(&g.z, p, 1, o.z);
+    dkf__view(&g.dz, p, 1, o.dz);
+    dkf__view(&g.J, n, p, o.J);
+    dkf__view(&g.L, p, p, o.L);
+    dkf__view(&g.K, n, p, o.K);
+    dkf__view(&g.xp, n, 1, o.xp);
+    g.mem = o.mem;
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
     if (dkf__chol(L.T1, L.T2, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
-    memset(storage, 0, (outputs_len(n, p) + layout(&L, NULL, n, m, p)) * sizeof *storage);
+    memset(storage, 0, len * sizeof *storage);
     dkf__copy(g.xf.data, x0->data, n);
     dkf__copy(g.Pf.data, P0->data, n * n);
     g.pk = p;
@@ -342,12 +365,9 @@ static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_
 static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
                         const dkf_real_t *inv, size_t r, size_t p, dkf_real_t *tmp)
 {
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < p; ++j) tmp[j * r + i] = Y[i * p + j];
+    dkf__transpose(tmp, Y, r, p);
     dkf__chol_solve(Lc, inv, tmp, p, r);
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < p; ++j) Out[i * p + j] = tmp[j * r + i];
+    dkf__transpose(Out, tmp, p, r);
 }
 
 /* The data-independent part of the next-step carry that depends only on
@@ -833,19 +853,20 @@ dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
 }
 
 /* ---- checkpoints ------------------------------------------------------------
- * Layout (reals): a header of CKPT_HEAD small integers, each exact in any
- * real type (< 2^16): tag, n, m, p, k in four 16-bit digits (least
- * significant first), the last step's kept rows (the views' size), the
- * carry's columns pc, flags (started, has_y); then the output views and
- * the carry, verbatim (they are contiguous at the start of the storage). */
+ * Layout (reals): a header of CKPT_HEAD small integers (internal.h's
+ * checkpoint header: each exact in any real type): tag, n, m, p, k in
+ * DKF__CKPT_K_LEN 16-bit digits, the last step's kept rows (the views'
+ * size), the carry's columns pc, flags (started, has_y); then the output
+ * views and the carry, verbatim (they are contiguous at the start of the
+ * storage, up to the caches: layout()). */
 #define CKPT_TAG 17478 /* "DF" */
-#define CKPT_HEAD 11
-
-static size_t carry_len(size_t n, size_t p) { return 3 * p * p + 2 * n * p + 2 * p; }
+#define CKPT_K 4       /* where k starts */
+#define CKPT_HEAD (CKPT_K + DKF__CKPT_K_LEN + 3)
 
 static size_t state_len(const dkf_diffkf_t *f)
 {
-    return outputs_len(f->n, f->p) + carry_len(f->n, f->p);
+    const layout_t L = mem_of(f);
+    return (size_t)(L.Alast - f->xf.data);
 }
 
 size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)
@@ -855,7 +876,7 @@ size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)
 
 dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
 {
-    size_t i, k;
+    dkf_real_t *const tail = buf + CKPT_K + DKF__CKPT_K_LEN;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(buf);
     if (!f->ready) return DKF_ERR_STATE;
@@ -864,69 +885,63 @@ dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
     buf[1] = (dkf_real_t)f->n;
     buf[2] = (dkf_real_t)f->m;
     buf[3] = (dkf_real_t)f->p;
-    for (i = 0, k = f->k; i < 4; ++i, k = (k >> 8) >> 8) buf[4 + i] = (dkf_real_t)(k & 0xFFFFu);
-    buf[8] = (dkf_real_t)f->z.rows;
-    buf[9] = (dkf_real_t)f->pc;
-    buf[10] = (dkf_real_t)((f->started ? 1 : 0) + (f->has_y ? 2 : 0));
+    dkf__ckpt_put_k(buf + CKPT_K, f->k);
+    tail[0] = (dkf_real_t)f->z.rows;
+    tail[1] = (dkf_real_t)f->pc;
+    tail[2] = (dkf_real_t)((f->started ? 1 : 0) + (f->has_y ? 2 : 0));
     dkf__copy(buf + CKPT_HEAD, f->xf.data, state_len(f));
     return DKF_OK;
 }
 
-/* v = buf[i] if it is an integer in [0, hi], else 0 with *ok cleared. */
-static size_t small_int(const dkf_real_t *buf, size_t i, size_t hi, int *ok)
+/* The header's fields after k: the views' rows, pc and the flags. */
+typedef struct {
+    size_t pk, pc, flags;
+} ckpt_tail_t;
+
+static int ckpt_tail(const dkf_diffkf_t *f, const dkf_real_t *buf, ckpt_tail_t *t)
 {
-    const dkf_real_t x = buf[i];
-    if (!(x >= DKF_R(0.0) && x <= (dkf_real_t)hi) || x != (dkf_real_t)(size_t)x) {
-        *ok = 0;
-        return 0;
-    }
-    return (size_t)x;
+    const dkf_real_t *const tail = buf + CKPT_K + DKF__CKPT_K_LEN;
+    return dkf__ckpt_int(tail[0], f->p, &t->pk) && dkf__ckpt_int(tail[1], f->p, &t->pc) &&
+           dkf__ckpt_int(tail[2], 3, &t->flags);
 }
 
 dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t *buf,
                                          size_t len)
 {
-    int ok = 1;
-    size_t i;
+    ckpt_tail_t t;
+    size_t k = 0;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(buf);
     if (!f->ready) return DKF_ERR_STATE;
     if (len < dkf_diffkf_checkpoint_len(f)) return DKF_ERR_CAPACITY;
-    if (small_int(buf, 0, 0xFFFFu, &ok) != CKPT_TAG || !ok) return DKF_ERR_ARG;
-    if (small_int(buf, 1, 0xFFFFu, &ok) != f->n || small_int(buf, 2, 0xFFFFu, &ok) != f->m ||
-        small_int(buf, 3, 0xFFFFu, &ok) != f->p || !ok)
+    if (!dkf__ckpt_is(buf[0], CKPT_TAG)) return DKF_ERR_ARG;
+    if (!dkf__ckpt_is(buf[1], f->n) || !dkf__ckpt_is(buf[2], f->m) || !dkf__ckpt_is(buf[3], f->p))
         return DKF_ERR_DIM;
-    for (i = 0; i < 4; ++i) (void)small_int(buf, 4 + i, 0xFFFFu, &ok);
-#if SIZE_MAX <= 0xFFFFFFFFu
-    if (buf[6] != DKF_R(0.0) || buf[7] != DKF_R(0.0)) return DKF_ERR_CAPACITY;
-#endif
-    (void)small_int(buf, 8, f->p, &ok);
-    (void)small_int(buf, 9, f->p, &ok);
-    (void)small_int(buf, 10, 3, &ok);
-    if (!ok) return DKF_ERR_ARG;
+    DKF_TRY(dkf__ckpt_get_k(buf + CKPT_K, &k));
+    if (!ckpt_tail(f, buf, &t)) return DKF_ERR_ARG;
     if (!dkf__all_finite(buf + CKPT_HEAD, state_len(f))) return DKF_ERR_NONFINITE;
     return DKF_OK;
 }
 
 dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t len)
 {
-    int ok = 1;
-    size_t i, k = 0, pk;
+    ckpt_tail_t t;
+    size_t k = 0;
     DKF_TRY(dkf_diffkf_checkpoint_check(f, buf, len));
-    for (i = 4; i-- > 0;) k = ((k << 8) << 8) + small_int(buf, 4 + i, 0xFFFFu, &ok);
-    pk = small_int(buf, 8, f->p, &ok);
+    (void)dkf__ckpt_get_k(buf + CKPT_K, &k);
+    (void)ckpt_tail(f, buf, &t);
     dkf__copy(f->xf.data, buf + CKPT_HEAD, state_len(f));
     f->k = k;
-    f->pk = pk;
-    f->z.rows = pk;
-    f->dz.rows = pk;
-    f->J.cols = pk;
-    f->L.rows = pk;
-    f->L.cols = pk;
-    f->K.cols = pk;
-    f->pc = small_int(buf, 9, f->p, &ok);
-    f->started = (small_int(buf, 10, 3, &ok) & 1u) != 0;
-    f->has_y = (small_int(buf, 10, 3, &ok) & 2u) != 0;
+    f->pk = t.pk;
+    f->z.rows = t.pk;
+    f->dz.rows = t.pk;
+    f->J.cols = t.pk;
+    f->L.rows = t.pk;
+    f->L.cols = t.pk;
+    f->K.cols = t.pk;
+    f->pc = t.pc;
+    f->started = (t.flags & 1u) != 0;
+    f->has_y = (t.flags & 2u) != 0;
     /* a pending gain belongs to the abandoned state; the caches are keyed
      * on their inputs and would stay valid, but recomputing them is cheap
      * and gives the same bits */

@@ -34,160 +34,24 @@
 
 #include <string.h>
 
+#include "diffkf_fusion_internal.h"
 #include "internal.h"
 #include "kernels.h"
 
-/* ---- message ------------------------------------------------------------- */
-
-dkf_status_t dkf_diffkf_msg_fill(dkf_diffkf_msg_t *msg, uint16_t node, const dkf_diffkf_t *f)
-{
-    DKF_CHECK_NULL(msg);
-    DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started || f->k == 0) return DKF_ERR_STATE;
-#if SIZE_MAX > UINT32_MAX
-    if (f->k > (size_t)UINT32_MAX) return DKF_ERR_CAPACITY;
-#endif
-    memset(msg, 0, sizeof *msg);
-    msg->node = node;
-    msg->k = (uint32_t)f->k;
-    msg->n = (uint16_t)f->n;
-    dkf__copy(msg->xf, f->xf.data, f->n);
-    dkf__copy(msg->xp, f->xp.data, f->n);
-    return DKF_OK;
-}
-
-/* ---- stacked model ------------------------------------------------------- */
-
-/* Block (r0, c0) of the rows x cols row-major D = the r x c block S. */
-static void put_block(dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_real_t *S,
-                      size_t r, size_t c)
-{
-    size_t i;
-    for (i = 0; i < r; ++i) dkf__copy(D + (r0 + i) * cols + c0, S + i * c, c);
-}
-
-static dkf_status_t check_out(const dkf_mat_t *X, size_t rows, size_t cols)
-{
-    return X == NULL ? DKF_OK : dkf__check_shape(X, rows, cols);
-}
-
-#if DKF_DEBUG_CHECKS
-static int overlaps_any(const dkf_mat_t *X, const dkf_mat_t *Y)
-{
-    return X != NULL && Y != NULL && dkf__overlap(X, Y);
-}
-#endif
-
-dkf_status_t dkf_diffkf_stack_meas(dkf_mat_t *H, dkf_mat_t *D, dkf_mat_t *R,
-                                   const dkf_ui_meas_t *const meas[], size_t l)
-{
-    size_t i, n = 0, ms = 0, ps = 0, r0 = 0, c0 = 0;
-    DKF_CHECK_NULL(meas);
-    if (l == 0 || l > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
-    for (i = 0; i < l; ++i) {
-        const dkf_ui_meas_t *s = meas[i];
-        DKF_CHECK_NULL(s);
-        DKF_TRY(dkf__check_mat(s->H));
-        DKF_TRY(dkf__check_mat(s->D));
-        DKF_TRY(dkf__check_mat(s->R));
-        if (i == 0) n = s->H->cols;
-        if (s->H->cols != n || s->D->rows != s->H->rows ||
-            s->R->rows != s->H->rows || s->R->cols != s->H->rows)
-            return DKF_ERR_DIM;
-        ms += s->H->rows;
-        ps += s->D->cols;
-    }
-    if (ms > DKF_MAX_DIM || ps > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
-    DKF_TRY(check_out(H, ms, n));
-    DKF_TRY(check_out(D, ms, ps));
-    DKF_TRY(check_out(R, ms, ms));
-#if DKF_DEBUG_CHECKS
-    if (overlaps_any(H, D) || overlaps_any(H, R) || overlaps_any(D, R)) return DKF_ERR_ALIAS;
-    for (i = 0; i < l; ++i) {
-        const dkf_ui_meas_t *s = meas[i];
-        if (overlaps_any(H, s->H) || overlaps_any(H, s->D) || overlaps_any(H, s->R) ||
-            overlaps_any(D, s->H) || overlaps_any(D, s->D) || overlaps_any(D, s->R) ||
-            overlaps_any(R, s->H) || overlaps_any(R, s->D) || overlaps_any(R, s->R))
-            return DKF_ERR_ALIAS;
-    }
-#endif
-    if (D != NULL) memset(D->data, 0, ms * ps * sizeof(dkf_real_t));
-    if (R != NULL) memset(R->data, 0, ms * ms * sizeof(dkf_real_t));
-    for (i = 0; i < l; ++i) {
-        const dkf_ui_meas_t *s = meas[i];
-        const size_t mi = s->H->rows, pi = s->D->cols;
-        if (H != NULL) put_block(H->data, n, r0, 0, s->H->data, mi, n);
-        if (D != NULL) put_block(D->data, ps, r0, c0, s->D->data, mi, pi);
-        if (R != NULL) put_block(R->data, ms, r0, r0, s->R->data, mi, mi);
-        r0 += mi;
-        c0 += pi;
-    }
-    return DKF_OK;
-}
-
-dkf_status_t dkf_diffkf_stack_input(dkf_mat_t *B, dkf_mat_t *Rd, const dkf_mat_t *const Bi[],
-                                    const dkf_mat_t *const Rdi[], size_t l)
-{
-    size_t i, ps = 0, c0 = 0;
-    if (l == 0 || l > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
-    if ((B != NULL && Bi == NULL) || (Rd != NULL && Rdi == NULL)) return DKF_ERR_NULL;
-    for (i = 0; i < l; ++i) {
-        size_t pi = 0;
-        if (B != NULL) {
-            DKF_TRY(dkf__check_mat(Bi[i]));
-            if (Bi[i]->rows != Bi[i]->cols) return DKF_ERR_DIM;
-            pi = Bi[i]->rows;
-        }
-        if (Rd != NULL) {
-            DKF_TRY(dkf__check_mat(Rdi[i]));
-            if (Rdi[i]->rows != Rdi[i]->cols || (B != NULL && Rdi[i]->rows != pi))
-                return DKF_ERR_DIM;
-            pi = Rdi[i]->rows;
-        }
-        ps += pi;
-    }
-    if (B == NULL && Rd == NULL) return DKF_OK;
-    if (ps > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
-    DKF_TRY(check_out(B, ps, ps));
-    DKF_TRY(check_out(Rd, ps, ps));
-#if DKF_DEBUG_CHECKS
-    if (overlaps_any(B, Rd)) return DKF_ERR_ALIAS;
-    for (i = 0; i < l; ++i)
-        if ((B != NULL && (dkf__overlap(B, Bi[i]) || (Rd != NULL && dkf__overlap(B, Rdi[i])))) ||
-            (Rd != NULL && (dkf__overlap(Rd, Rdi[i]) || (B != NULL && dkf__overlap(Rd, Bi[i])))))
-            return DKF_ERR_ALIAS;
-#endif
-    if (B != NULL) memset(B->data, 0, ps * ps * sizeof(dkf_real_t));
-    if (Rd != NULL) memset(Rd->data, 0, ps * ps * sizeof(dkf_real_t));
-    for (i = 0; i < l; ++i) {
-        const size_t pi = B != NULL ? Bi[i]->rows : Rdi[i]->rows;
-        if (B != NULL) put_block(B->data, ps, c0, c0, Bi[i]->data, pi, pi);
-        if (Rd != NULL) put_block(Rd->data, ps, c0, c0, Rdi[i]->data, pi, pi);
-        c0 += pi;
-    }
-    return DKF_OK;
-}
-
 /* ---- fusion centre: storage ---------------------------------------------- */
 
-static size_t max_sz(size_t a, size_t b) { return a > b ? a : b; }
+/* The dimensions check_dims derives: sum m_i, sum p_i, max p_i and the
+ * workspace (the largest DKF__DIFFKF_FC_WORK of a sensor). */
+typedef struct {
+    size_t ms, ps, pmax, work;
+} fc_dims_t;
 
-/* Workspace reals: SVD of K^i (n x p_i) and of D^i (m_i x p_i), LU of B^i
- * (LU + work), Cholesky of a prior (factor + work). */
-static size_t work_len_of(size_t n, size_t mi, size_t pi)
-{
-    size_t w = max_sz(DKF_MAT_PINV_WORK(n, pi), DKF_MAT_RANK_WORK(mi, pi));
-    w = max_sz(w, pi * pi + DKF_MAT_LU_WORK(pi));
-    return max_sz(w, n * n + DKF_MAT_CHOL_WORK(n));
-}
-
-/* Validates the dimensions; on success *ms, *ps, *pmax, *work are set. */
+/* Validates the dimensions; on success *d is set. */
 static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_t p[],
-                               size_t *ms, size_t *ps, size_t *pmax, size_t *work,
-                               dkf_diffkf_fc_fault_t *f)
+                               fc_dims_t *d, dkf_diffkf_fc_fault_t *f)
 {
     size_t i;
-    *ms = *ps = *pmax = *work = 0;
+    d->ms = d->ps = d->pmax = d->work = 0;
     if (l == 0 || l > DKF_MAX_DIM || n == 0 || n > DKF_MAX_DIM) {
         if (f) f->which = DKF_DIFFKF_FC_ARG, f->node = DKF_DIFFKF_FC_NO_NODE;
         return DKF_ERR_CAPACITY;
@@ -205,56 +69,78 @@ static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_
             if (f) f->which = DKF_DIFFKF_FC_INPUT_MEAS, f->node = i;
             return DKF_ERR_RANK;
         }
-        *ms += m[i];
-        *ps += p[i];
-        *pmax = max_sz(*pmax, p[i]);
-        *work = max_sz(*work, work_len_of(n, m[i], p[i]));
+        d->ms += m[i];
+        d->ps += p[i];
+        d->pmax = DKF__DIFFKF_FC_MAX(d->pmax, p[i]);
+        d->work = DKF__DIFFKF_FC_MAX(d->work, DKF__DIFFKF_FC_WORK(n, m[i], p[i]));
     }
-    if (*ms > DKF_MAX_DIM || *ps > DKF_MAX_DIM) {
+    if (d->ms > DKF_MAX_DIM || d->ps > DKF_MAX_DIM) {
         if (f) f->which = DKF_DIFFKF_FC_STACK_CAPACITY, f->node = DKF_DIFFKF_FC_NO_NODE;
         return DKF_ERR_CAPACITY;
     }
     return DKF_OK;
 }
 
-/* Storage order: the state first (dkf_diffkf_fc_state_len: the replicas'
+/* The storage, state first (dkf_diffkf_fc_state_len: the replicas'
  * storage, the committed z dz, the central filter's storage, whose first
  * DKF_DIFFKF_STATE_LEN reals end the state), then scratch: the replicas'
- * snapshots, the snapshot of the central state, stacked H D R B Rd, the
- * pending z dz, (K^i)^+, work. */
-static size_t state_len_of(size_t n, size_t l, const size_t m[], const size_t p[], size_t ms,
-                           size_t ps)
-{
-    size_t i, len = 0;
-    for (i = 0; i < l; ++i) len += DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
-    return len + 2 * ps + DKF_DIFFKF_STATE_LEN(n, ms, ps);
-}
+ * snapshots, the snapshot of the central state, the stacked H D R B Rd,
+ * the pending z dz, (K^i)^+, the workspace. */
+typedef struct {
+    dkf_real_t *zs, *central;                    /* state (with the replicas') */
+    dkf_real_t *central_snap, *H, *D, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
+    size_t state_len;
+} fc_layout_t;
 
-static size_t layout_len(size_t n, size_t l, const size_t m[], const size_t p[], size_t ms,
-                         size_t ps, size_t pmax, size_t work)
+/* Walks the storage in the order above; with base == NULL it only counts.
+ * nodes (may be NULL) get their replica's storage and its snapshot. */
+static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *nodes, size_t n,
+                        size_t l, const size_t m[], const size_t p[], const fc_dims_t *d)
 {
-    size_t i, len = 0;
-    for (i = 0; i < l; ++i) len += 2 * DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
-    len += DKF_DIFFKF_STORAGE_LEN(n, ms, ps) + DKF_DIFFKF_STATE_LEN(n, ms, ps);
-    len += ms * n + ms * ps + ms * ms + 2 * ps * ps;
-    len += 4 * ps + pmax * n + work;
-    return len;
+    const size_t clen = DKF_DIFFKF_STORAGE_LEN(n, d->ms, d->ps);
+    dkf_real_t *rep;
+    size_t used = 0, i;
+    for (i = 0; i < l; ++i) {
+        DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
+        if (nodes != NULL) nodes[i].store = rep;
+        if (nodes != NULL) nodes[i].store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
+    }
+    DKF_TAKE(L->zs, 2 * d->ps);
+    DKF_TAKE(L->central, clen);
+    L->state_len = used - clen + DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps);
+    for (i = 0; i < l; ++i) {
+        DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
+        if (nodes != NULL) nodes[i].saved_store = rep;
+    }
+    DKF_TAKE(L->central_snap, DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps));
+    DKF_TAKE(L->H, d->ms * n);
+    DKF_TAKE(L->D, d->ms * d->ps);
+    DKF_TAKE(L->R, d->ms * d->ms);
+    DKF_TAKE(L->B, d->ps * d->ps);
+    DKF_TAKE(L->Rd, d->ps * d->ps);
+    DKF_TAKE(L->pend, 2 * d->ps);
+    DKF_TAKE(L->Kp, d->pmax * n);
+    DKF_TAKE(L->work, d->work);
+    return used;
 }
 
 size_t dkf_diffkf_fc_storage_len(size_t n, size_t l, const size_t m[], const size_t p[])
 {
-    size_t ms, ps, pmax, work;
+    fc_dims_t d;
+    fc_layout_t L;
     if (m == NULL || p == NULL) return 0;
-    if (check_dims(n, l, m, p, &ms, &ps, &pmax, &work, NULL) != DKF_OK) return 0;
-    return layout_len(n, l, m, p, ms, ps, pmax, work);
+    if (check_dims(n, l, m, p, &d, NULL) != DKF_OK) return 0;
+    return fc_layout(&L, NULL, NULL, n, l, m, p, &d);
 }
 
 size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_t p[])
 {
-    size_t ms, ps, pmax, work;
+    fc_dims_t d;
+    fc_layout_t L;
     if (m == NULL || p == NULL) return 0;
-    if (check_dims(n, l, m, p, &ms, &ps, &pmax, &work, NULL) != DKF_OK) return 0;
-    return state_len_of(n, l, m, p, ms, ps);
+    if (check_dims(n, l, m, p, &d, NULL) != DKF_OK) return 0;
+    (void)fc_layout(&L, NULL, NULL, n, l, m, p, &d);
+    return L.state_len;
 }
 
 static dkf_status_t report(dkf_diffkf_fc_fault_t *f, dkf_status_t st, dkf_diffkf_fc_cond_t which,
@@ -276,16 +162,17 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
 {
     const dkf_diffkf_fc_cond_t arg = DKF_DIFFKF_FC_ARG;
     const size_t none = DKF_DIFFKF_FC_NO_NODE;
-    size_t ms, ps, pmax, work, i, zoff = 0;
-    dkf_real_t *cur, *zs;
+    size_t i, zoff = 0;
+    fc_dims_t d;
+    fc_layout_t L;
     dkf_status_t st;
     dkf_diffkf_fc_t g;
     if (fc == NULL || nodes == NULL || m == NULL || p == NULL || storage == NULL || x0 == NULL ||
         P0 == NULL)
         return report(fault, DKF_ERR_NULL, arg, none);
-    st = check_dims(n, l, m, p, &ms, &ps, &pmax, &work, fault);
+    st = check_dims(n, l, m, p, &d, fault);
     if (st != DKF_OK) return st;
-    if (storage_len < layout_len(n, l, m, p, ms, ps, pmax, work))
+    if (storage_len < fc_layout(&L, NULL, NULL, n, l, m, p, &d))
         return report(fault, DKF_ERR_CAPACITY, DKF_DIFFKF_FC_STORAGE, none);
     st = dkf__check_input(x0, n, 1);
     if (st == DKF_OK) st = dkf__check_input(P0, n, n);
@@ -293,13 +180,14 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
 
     /* every prior must be SPD before anything is initialised (the work
      * area at the end of storage is the scratch) */
+    (void)fc_layout(&L, storage, NULL, n, l, m, p, &d);
     memset(&g, 0, sizeof g);
     g.n = n;
     g.l = l;
-    g.ms = ms;
-    g.ps = ps;
-    g.work_len = work;
-    g.work = storage + layout_len(n, l, m, p, ms, ps, pmax, work) - work;
+    g.ms = d.ms;
+    g.ps = d.ps;
+    g.work_len = d.work;
+    g.work = L.work;
     for (i = 0; i <= l; ++i) {
         const dkf_mat_t *Pi = i < l && P0_local != NULL && P0_local[i] != NULL ? P0_local[i] : P0;
         dkf_mat_t Lc = DKF_MAT(n, n, g.work);
@@ -308,38 +196,22 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i < l ? i : none);
     }
 
-    /* the state: replicas, committed z dz, central */
-    cur = storage;
-    for (i = 0; i < l; ++i) {
-        nodes[i].store = cur;
-        nodes[i].store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
-        cur += nodes[i].store_len;
-    }
-    zs = cur;
-    memset(zs, 0, 2 * ps * sizeof(dkf_real_t));
-    cur += 2 * ps;
-    {
-        const size_t clen = DKF_DIFFKF_STORAGE_LEN(n, ms, ps);
-        /* cannot fail: dimensions, storage and the SPD prior are checked */
-        st = dkf_diffkf_init(&g.central, n, ms, ps, cur, clen, x0, P0);
-        if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
-        g.central_store = cur;
-        cur += clen;
-    }
-    /* scratch */
-    for (i = 0; i < l; ++i) {
-        nodes[i].saved_store = cur;
-        cur += nodes[i].store_len;
-    }
-    g.central_snap = cur, cur += DKF_DIFFKF_STATE_LEN(n, ms, ps);
-    g.H.rows = ms, g.H.cols = n, g.H.data = cur, cur += ms * n;
-    g.D.rows = ms, g.D.cols = ps, g.D.data = cur, cur += ms * ps;
-    g.R.rows = ms, g.R.cols = ms, g.R.data = cur, cur += ms * ms;
-    g.B.rows = ps, g.B.cols = ps, g.B.data = cur, cur += ps * ps;
-    g.Rd.rows = ps, g.Rd.cols = ps, g.Rd.data = cur, cur += ps * ps;
-    g.pend = cur;
-    memset(cur, 0, 2 * ps * sizeof(dkf_real_t));
-    cur += 2 * ps; /* pending z, dz */
+    /* the state: replicas, committed z dz, central; then the scratch */
+    (void)fc_layout(&L, storage, nodes, n, l, m, p, &d);
+    memset(L.zs, 0, 2 * d.ps * sizeof(dkf_real_t));
+    /* cannot fail: dimensions, storage and the SPD prior are checked */
+    st = dkf_diffkf_init(&g.central, n, d.ms, d.ps, L.central,
+                         DKF_DIFFKF_STORAGE_LEN(n, d.ms, d.ps), x0, P0);
+    if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
+    g.central_store = L.central;
+    g.central_snap = L.central_snap;
+    dkf__view(&g.H, d.ms, n, L.H);
+    dkf__view(&g.D, d.ms, d.ps, L.D);
+    dkf__view(&g.R, d.ms, d.ms, L.R);
+    dkf__view(&g.B, d.ps, d.ps, L.B);
+    dkf__view(&g.Rd, d.ps, d.ps, L.Rd);
+    g.pend = L.pend;
+    memset(g.pend, 0, 2 * d.ps * sizeof(dkf_real_t)); /* pending z, dz */
     for (i = 0; i < l; ++i) {
         const dkf_mat_t *Pi = P0_local != NULL && P0_local[i] != NULL ? P0_local[i] : P0;
         st = dkf_diffkf_init(&nodes[i].rep, n, m[i], p[i], nodes[i].store, nodes[i].store_len, x0,
@@ -347,13 +219,13 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i);
         nodes[i].m = m[i];
         nodes[i].p = p[i];
-        nodes[i].z.rows = p[i], nodes[i].z.cols = 1, nodes[i].z.data = zs + zoff;
-        nodes[i].dz.rows = p[i], nodes[i].dz.cols = 1, nodes[i].dz.data = zs + ps + zoff;
+        dkf__view(&nodes[i].z, p[i], 1, L.zs + zoff);
+        dkf__view(&nodes[i].dz, p[i], 1, L.zs + d.ps + zoff);
         zoff += p[i];
         nodes[i].sync = 1; /* the first step has no previous innovation */
         nodes[i].saved = nodes[i].rep;
     }
-    g.Kp = cur;
+    g.Kp = L.Kp;
     g.nodes = nodes;
     g.ready = 1;
     *fc = g;
@@ -382,10 +254,8 @@ static void restore_replicas(dkf_diffkf_fc_t *fc)
     }
 }
 
-/* After a successful call the snapshot structs equal the replicas, so a
- * later failed call (snapshot, fail, restore) leaves the node array
- * bit-identical, not just the replicas. */
-static void refresh_saved(dkf_diffkf_fc_t *fc)
+/* (diffkf_fusion_internal.h) */
+void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc)
 {
     size_t i;
     for (i = 0; i < fc->l; ++i) fc->nodes[i].saved = fc->nodes[i].rep;
@@ -526,7 +396,7 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     }
     st = dkf_diffkf_start(&fc->central, F0, Q0, &cmeas, NULL);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
-    refresh_saved(fc);
+    dkf__fc_refresh_saved(fc);
     fc->started = 1;
     fc->k = 0;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
@@ -695,7 +565,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
         fc->nodes[i].sync = here[i];
         if (contributed != NULL) contributed[i] = contrib[i];
     }
-    refresh_saved(fc);
+    dkf__fc_refresh_saved(fc);
     fc->k += 1;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
@@ -757,106 +627,4 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
     nd->saved = nd->rep;
     nd->sync = 1;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
-}
-
-/* FC checkpoint header (reals, small integers): tag, n, l, sum m_i,
- * sum p_i, k as four 16-bit digits (least significant first), started. */
-#define FC_CKPT_TAG 17987 /* "FC" */
-#define FC_CKPT_HEAD 10
-
-size_t dkf_diffkf_fc_checkpoint_len(const dkf_diffkf_fc_t *fc)
-{
-    size_t i, len;
-    if (fc == NULL || !fc->ready) return 0;
-    len = FC_CKPT_HEAD + dkf_diffkf_checkpoint_len(&fc->central) + fc->l + 2 * fc->ps;
-    for (i = 0; i < fc->l; ++i) len += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
-    return len;
-}
-
-dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size_t len)
-{
-    size_t i, k, off = FC_CKPT_HEAD;
-    DKF_CHECK_NULL(fc);
-    DKF_CHECK_NULL(buf);
-    if (!fc->ready) return DKF_ERR_STATE;
-    if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
-    buf[0] = (dkf_real_t)FC_CKPT_TAG;
-    buf[1] = (dkf_real_t)fc->n;
-    buf[2] = (dkf_real_t)fc->l;
-    buf[3] = (dkf_real_t)fc->ms;
-    buf[4] = (dkf_real_t)fc->ps;
-    for (i = 0, k = fc->k; i < 4; ++i, k = (k >> 8) >> 8) buf[5 + i] = (dkf_real_t)(k & 0xFFFFu);
-    buf[9] = (dkf_real_t)(fc->started ? 1 : 0);
-    DKF_TRY(dkf_diffkf_save(&fc->central, buf + off, len - off));
-    off += dkf_diffkf_checkpoint_len(&fc->central);
-    for (i = 0; i < fc->l; ++i) {
-        DKF_TRY(dkf_diffkf_save(&fc->nodes[i].rep, buf + off, len - off));
-        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
-    }
-    for (i = 0; i < fc->l; ++i) buf[off++] = (dkf_real_t)(fc->nodes[i].sync ? 1 : 0);
-    dkf__copy(buf + off, fc->nodes[0].z.data, 2 * fc->ps);
-    return DKF_OK;
-}
-
-/* 1 if x is the integer v (v < 2^16: exact in any real type). */
-static int is_int(dkf_real_t x, size_t v)
-{
-    return x == (dkf_real_t)v;
-}
-
-/* The header's k, or DKF_ERR_ARG if a digit is not an integer in
- * [0, 2^16), DKF_ERR_CAPACITY if k does not fit in size_t. */
-static dkf_status_t header_k(const dkf_real_t *d, size_t *k)
-{
-    size_t i, v = 0;
-    for (i = 4; i-- > 0;) {
-        const dkf_real_t x = d[i];
-        if (!(x >= DKF_R(0.0) && x < DKF_R(65536.0)) || x != (dkf_real_t)(size_t)x)
-            return DKF_ERR_ARG;
-#if SIZE_MAX <= 0xFFFFFFFFu
-        if (i >= 2 && x != DKF_R(0.0)) return DKF_ERR_CAPACITY;
-#endif
-        v = ((v << 8) << 8) + (size_t)x;
-    }
-    *k = v;
-    return DKF_OK;
-}
-
-dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, size_t len)
-{
-    size_t i, k = 0, off = FC_CKPT_HEAD;
-    DKF_CHECK_NULL(fc);
-    DKF_CHECK_NULL(buf);
-    if (!fc->ready) return DKF_ERR_STATE;
-    if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
-    /* validate everything before writing anything */
-    if (!is_int(buf[0], FC_CKPT_TAG)) return DKF_ERR_ARG;
-    if (!is_int(buf[1], fc->n) || !is_int(buf[2], fc->l) || !is_int(buf[3], fc->ms) ||
-        !is_int(buf[4], fc->ps))
-        return DKF_ERR_DIM;
-    DKF_TRY(header_k(buf + 5, &k));
-    if (!is_int(buf[9], 0) && !is_int(buf[9], 1)) return DKF_ERR_ARG;
-    DKF_TRY(dkf_diffkf_checkpoint_check(&fc->central, buf + off, len - off));
-    off += dkf_diffkf_checkpoint_len(&fc->central);
-    for (i = 0; i < fc->l; ++i) {
-        DKF_TRY(dkf_diffkf_checkpoint_check(&fc->nodes[i].rep, buf + off, len - off));
-        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
-    }
-    for (i = 0; i < fc->l; ++i)
-        if (!is_int(buf[off + i], 0) && !is_int(buf[off + i], 1)) return DKF_ERR_ARG;
-    if (!dkf__all_finite(buf + off + fc->l, 2 * fc->ps)) return DKF_ERR_NONFINITE;
-
-    off = FC_CKPT_HEAD;
-    (void)dkf_diffkf_restore(&fc->central, buf + off, len - off);
-    off += dkf_diffkf_checkpoint_len(&fc->central);
-    for (i = 0; i < fc->l; ++i) {
-        (void)dkf_diffkf_restore(&fc->nodes[i].rep, buf + off, len - off);
-        off += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
-    }
-    for (i = 0; i < fc->l; ++i) fc->nodes[i].sync = is_int(buf[off + i], 1);
-    dkf__copy(fc->nodes[0].z.data, buf + off + fc->l, 2 * fc->ps);
-    refresh_saved(fc);
-    fc->k = k;
-    fc->started = is_int(buf[9], 1);
-    return DKF_OK;
 }

@@ -9,21 +9,35 @@
 #include "internal.h"
 #include "kernels.h"
 
-/* Scratch: xn (n), yn (n), A, B, C (n*n each) = DKF_INFO_STORAGE_LEN - state. */
+/* Storage layout (info_layout; its count is DKF_INFO_STORAGE_LEN): the
+ * state x, P, y, Y (DKF_INFO_STATE_LEN), then the scratch of one step,
+ * xn, yn (n each) and A, B, C (n*n each). */
 typedef struct {
-    dkf_real_t *xn, *yn, *A, *B, *C;
-} info_scratch_t;
+    dkf_real_t *x, *P, *y, *Y;      /* state */
+    dkf_real_t *xn, *yn, *A, *B, *C; /* scratch */
+} info_layout_t;
 
-static info_scratch_t info_scratch(const dkf_info_t *f)
+/* Walks the storage in the order above; with base == NULL it only counts. */
+static size_t info_layout(info_layout_t *L, dkf_real_t *base, size_t n)
 {
-    const size_t n = f->n;
-    info_scratch_t s;
-    s.xn = f->work;
-    s.yn = s.xn + n;
-    s.A = s.yn + n;
-    s.B = s.A + n * n;
-    s.C = s.B + n * n;
-    return s;
+    size_t used = 0;
+    DKF_TAKE(L->x, n);
+    DKF_TAKE(L->P, n * n);
+    DKF_TAKE(L->y, n);
+    DKF_TAKE(L->Y, n * n);
+    DKF_TAKE(L->xn, n);
+    DKF_TAKE(L->yn, n);
+    DKF_TAKE(L->A, n * n);
+    DKF_TAKE(L->B, n * n);
+    DKF_TAKE(L->C, n * n);
+    return used;
+}
+
+static info_layout_t info_scratch(const dkf_info_t *f)
+{
+    info_layout_t L;
+    (void)info_layout(&L, f->x.data, f->n);
+    return L;
 }
 
 /* From the SPD matrix M (n x n, in `spd`) computes its inverse into `inv`
@@ -66,21 +80,21 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
                            const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
     dkf_info_t g; /* built aside so a failed init leaves *f as it was */
-    info_scratch_t s;
+    info_layout_t s;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(storage);
-    if (n == 0 || n > DKF_MAX_DIM || storage_len < DKF_INFO_STORAGE_LEN(n))
+    if (n == 0 || n > DKF_MAX_DIM || storage_len < info_layout(&s, NULL, n))
         return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
+    (void)info_layout(&s, storage, n);
     g.n = n;
-    g.x.rows = n, g.x.cols = 1, g.x.data = storage;
-    g.P.rows = n, g.P.cols = n, g.P.data = storage + n;
-    g.y.rows = n, g.y.cols = 1, g.y.data = g.P.data + n * n;
-    g.Y.rows = n, g.Y.cols = n, g.Y.data = g.y.data + n;
-    g.work = g.Y.data + n * n;
+    dkf__view(&g.x, n, 1, s.x);
+    dkf__view(&g.P, n, n, s.P);
+    dkf__view(&g.y, n, 1, s.y);
+    dkf__view(&g.Y, n, n, s.Y);
+    g.work = s.xn;
     g.ready = 1;
-    s = info_scratch(&g);
     /* Y0 = P0^{-1}, y0 = Y0 x0 */
     DKF_TRY(invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n));
     DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B, s.C));
@@ -92,7 +106,7 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_kf_dyn_t *dyn)
 {
     const dkf_mat_t *F, *Q;
     size_t n;
-    info_scratch_t s;
+    info_layout_t s;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(dyn);
@@ -171,7 +185,7 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
                            size_t count)
 {
     size_t n, j, e;
-    info_scratch_t s;
+    info_layout_t s;
     DKF_CHECK_NULL(f);
     if (!f->ready) return DKF_ERR_STATE;
     if (count > 0) {
@@ -191,9 +205,8 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
         for (e = 0; e < n * n; ++e) s.C[e] += I[j].data[e];
         for (e = 0; e < n; ++e) s.yn[e] += i[j].data[e];
     }
-#if DKF_SYMMETRISE
+    /* the I_j come from outside: Y's factorisation reads one triangle */
     dkf__symmetrise(s.C, n);
-#endif
     /* P = Y^{-1}, x = P y (an overflow of the sums is NONFINITE) */
     DKF_TRY(invert_spd(s.B, s.xn, s.A, s.C, s.yn, n));
     return commit(f, s.xn, s.B, s.yn, s.C, s.A);

@@ -53,6 +53,32 @@
         used += (count); \
     } while (0)
 
+/* Points the view v at r x c reals at data (a region of a layout). */
+static inline void dkf__view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
+{
+    v->rows = r;
+    v->cols = c;
+    v->data = data;
+}
+
+/* Checkpoint headers (dkf_diffkf_save, dkf_diffkf_fc_save) are small
+ * integers stored as reals, each below 2^16 and so exact in any real
+ * type. A time index k takes DKF__CKPT_K_LEN of them: its 16-bit digits,
+ * least significant first. */
+#define DKF__CKPT_K_LEN 4
+void dkf__ckpt_put_k(dkf_real_t *d, size_t k);
+/* The k that dkf__ckpt_put_k wrote at d: DKF_ERR_ARG if a digit is not an
+ * integer in [0, 2^16), DKF_ERR_CAPACITY if k does not fit in size_t. */
+dkf_status_t dkf__ckpt_get_k(const dkf_real_t *d, size_t *k);
+/* 1 if x is an integer in [0, hi] (hi < 2^16), then stored in *v. */
+int dkf__ckpt_int(dkf_real_t x, size_t hi, size_t *v);
+/* 1 if x is the integer v (v < 2^16). */
+static inline int dkf__ckpt_is(dkf_real_t x, size_t v)
+{
+    size_t got = 0;
+    return dkf__ckpt_int(x, v, &got) && got == v;
+}
+
 /* DKF_ERR_NULL for a NULL view or data pointer, DKF_ERR_CAPACITY for a
  * dimension of 0 or above DKF_MAX_DIM. Inline: every step of every filter
  * runs a few of these, and a call costs as much as the test. */

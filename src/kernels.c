@@ -113,6 +113,73 @@ void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_
     dots_row(y, x, A, c, r);
 }
 
+void dkf__transpose(dkf_real_t *At, const dkf_real_t *A, size_t r, size_t c)
+{
+    inl_transpose(At, A, r, c);
+}
+
+void dkf__mul_tn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
+                 size_t k, size_t r, size_t c)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) {
+            dkf_real_t v = D != NULL ? D[i * c + j] : DKF_R(0.0);
+            for (l = 0; l < k; ++l) v += A[l * r + i] * B[l * c + j];
+            C[i * c + j] = v;
+        }
+}
+
+void dkf__sub_tn(dkf_real_t *C, const dkf_real_t *D, const dkf_real_t *A, const dkf_real_t *B,
+                 size_t k, size_t r, size_t c)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) {
+            dkf_real_t v = D[i * c + j];
+            for (l = 0; l < k; ++l) v -= A[l * r + i] * B[l * c + j];
+            C[i * c + j] = v;
+        }
+}
+
+void dkf__sub_tn_sym(dkf_real_t *C, const dkf_real_t *D, const dkf_real_t *A, const dkf_real_t *B,
+                     size_t k, size_t r)
+{
+    size_t i, j, l;
+    for (i = 0; i < r; ++i)
+        for (j = i; j < r; ++j) {
+            dkf_real_t v = D[i * r + j];
+            for (l = 0; l < k; ++l) v -= A[l * r + i] * B[l * r + j];
+            C[i * r + j] = v;
+            C[j * r + i] = v;
+        }
+}
+
+void dkf__put_block(dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_real_t *S,
+                    size_t r, size_t c)
+{
+    size_t i;
+    for (i = 0; i < r; ++i) dkf__copy(D + (r0 + i) * cols + c0, S + i * c, c);
+}
+
+void dkf__pack_sym(dkf_real_t *p, const dkf_real_t *A, size_t n)
+{
+    size_t i, j, e = 0;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j) p[e++] = A[i * n + j];
+}
+
+void dkf__unpack_sym(dkf_real_t *A, const dkf_real_t *p, size_t n)
+{
+    size_t i, j, e = 0;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j) {
+            A[i * n + j] = p[e];
+            A[j * n + i] = p[e];
+            ++e;
+        }
+}
+
 void dkf__symmetrise(dkf_real_t *A, size_t n)
 {
     size_t i, j;
@@ -177,10 +244,8 @@ void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, cons
                  const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work)
 {
     dkf_real_t *AK = work, *G = AK + (n + m) * n, *Rs = G + (n + m) * n;
-    size_t i, j;
     memcpy(AK + n * n, Kt, m * n * sizeof *AK);
-    for (i = 0; i < m; ++i) /* G starts as H^T (inl_joseph reads it first) */
-        for (j = 0; j < n; ++j) G[j * m + i] = H[i * n + j];
+    inl_transpose(G, H, m, n); /* G starts as H^T (inl_joseph reads it first) */
     inl_joseph(Pn, AK, G, Rs, P, G, R, n, m);
 }
 

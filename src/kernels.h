@@ -39,6 +39,30 @@ void dkf__mul_nn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, co
                      size_t r, size_t k);
 /* y (r) = A (r x c) x (c). y must not overlap A or x. */
 void dkf__mul_vec(dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x, size_t r, size_t c);
+/* At (c x r) = A^T for A r x c. At must not overlap A. */
+void dkf__transpose(dkf_real_t *At, const dkf_real_t *A, size_t r, size_t c);
+/* C (r x c) = D + A^T B for A k x r, B k x c (D r x c, or NULL for 0):
+ * element (i, j) is D(i,j) + A(0,i) B(0,j) + A(1,i) B(1,j) + ..., summed
+ * in that order. C must not overlap A or B; D may be C. */
+void dkf__mul_tn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, const dkf_real_t *D,
+                 size_t k, size_t r, size_t c);
+/* C (r x c) = D - A^T B (D r x c, not NULL), in the order of
+ * dkf__mul_tn: D(i,j) - A(0,i) B(0,j) - A(1,i) B(1,j) - ... */
+void dkf__sub_tn(dkf_real_t *C, const dkf_real_t *D, const dkf_real_t *A, const dkf_real_t *B,
+                 size_t k, size_t r, size_t c);
+/* dkf__sub_tn for a result known to be symmetric (A, B k x r): the upper
+ * triangle is formed and mirrored, only D's upper triangle is read. */
+void dkf__sub_tn_sym(dkf_real_t *C, const dkf_real_t *D, const dkf_real_t *A, const dkf_real_t *B,
+                     size_t k, size_t r);
+/* The r x c block S into the row-major D (`cols` columns) at (r0, c0):
+ * the stacking of block matrices (block-diagonal and stacked models). */
+void dkf__put_block(dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_real_t *S,
+                    size_t r, size_t c);
+/* Packed upper triangle of the symmetric n x n A, row by row (A(0,0..n-1),
+ * A(1,1..n-1), ...): n (n + 1) / 2 reals into p; unpack_sym writes both
+ * triangles of A back from p. */
+void dkf__pack_sym(dkf_real_t *p, const dkf_real_t *A, size_t n);
+void dkf__unpack_sym(dkf_real_t *A, const dkf_real_t *p, size_t n);
 /* A = (A + A^T) / 2 for n x n A. */
 void dkf__symmetrise(dkf_real_t *A, size_t n);
 

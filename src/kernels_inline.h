@@ -397,6 +397,16 @@ DKF__INLINE void inl_mul_tn_sym(dkf_real_t *C, const dkf_real_t *A, const dkf_re
     sym_product(C, A, 1, r, B, D, r, k);
 }
 
+/* At (c x r) = A^T for A r x c (At must not overlap A). Inline: the
+ * fixed-size Kalman steps transpose F and H with constant sizes. */
+DKF__INLINE void inl_transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r,
+                               size_t c)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
 /* One chain, summed in index order (dot4 and dot2 in kernels.c keep
  * exactly this order per pair). */
 DKF__INLINE dkf_real_t inl_dot(const dkf_real_t *a, const dkf_real_t *b, size_t k)

@@ -13,8 +13,9 @@
 #include "kernels.h"
 #include "kernels_inline.h"
 
-/* Scratch layout for state n, measurement capacity m (DKF_KF_STORAGE_LEN
- * gives n + n^2 + 2 max(n^2, n m) + 2 n m + 2 m^2 reals of scratch):
+/* Storage layout for state n, measurement capacity m (kf_layout; its
+ * count is DKF_KF_STORAGE_LEN): the state x, P, nu, S
+ * (DKF_KF_STATE_LEN), then the scratch of one step:
  *   xn  n           new state
  *   Pn  n*n         new P (right after xn: one finiteness scan and one
  *                   commit copy cover both, as x and P are adjacent)
@@ -26,7 +27,7 @@
  *                check's factor (n*n); (short form) Gt = -K^T (m x n)
  *   HP  m*n         H P (= (P H^T)^T, P symmetric)
  *   Kt  m*n         K^T = S^{-1} H P, right after HP
- *   S   m*m         innovation covariance H P H^T + R
+ *   Sc  m*m         innovation covariance H P H^T + R
  *   L   m*m         its Cholesky factor; then (Joseph) R mirrored from
  *                   its upper triangle
  * Joseph form: At = A^T = I - H^T K^T (n*n) ends where Kt starts, so
@@ -38,33 +39,49 @@
  * copies F^T and H^T, O(n^2) and O(n m), are what makes that possible
  * (F x and H x too run as x^T F^T and x^T H^T). */
 typedef struct {
+    dkf_real_t *x, *P, *nu, *S;                 /* state */
+    dkf_real_t *xn, *Pn, *W, *HP, *Kt, *Sc, *L; /* scratch */
+} kf_layout_t;
+
+/* Walks the storage in the order above; with base == NULL it only counts. */
+DKF__INLINE size_t kf_layout(kf_layout_t *L, dkf_real_t *base, size_t n, size_t m)
+{
+    size_t used = 0;
+    DKF_TAKE(L->x, n);
+    DKF_TAKE(L->P, n * n);
+    DKF_TAKE(L->nu, m);
+    DKF_TAKE(L->S, m * m);
+    DKF_TAKE(L->xn, n);
+    DKF_TAKE(L->Pn, n * n);
+    DKF_TAKE(L->W, 2 * (n > m ? n * n : n * m));
+    DKF_TAKE(L->HP, m * n);
+    DKF_TAKE(L->Kt, m * n);
+    DKF_TAKE(L->Sc, m * m);
+    DKF_TAKE(L->L, m * m);
+    return used;
+}
+
+/* A step's scratch: the layout's regions and the aliases above. */
+typedef struct {
     dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *At, *S, *L;
 } kf_scratch_t;
 
 DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
 {
-    const size_t n = kf->n, m = kf->m_max;
+    const size_t n = kf->n;
+    kf_layout_t L;
     kf_scratch_t s;
-    s.xn = kf->work;
-    s.Pn = s.xn + n;
-    s.T = s.Pn + n * n;
-    s.Ft = s.T + n * n;
-    s.Ht = s.Gt = s.T;
-    s.HP = s.T + 2 * (n > m ? n * n : n * m);
-    s.Kt = s.HP + m * n;
-    s.At = s.Kt - n * n;
-    s.S = s.Kt + m * n;
-    s.L = s.S + m * m;
+    (void)kf_layout(&L, kf->x.data, n, kf->m_max);
+    s.xn = L.xn;
+    s.Pn = L.Pn;
+    s.T = s.Ht = s.Gt = L.W;
+    s.Ft = L.W + n * n;
+    s.HP = L.HP;
+    s.Kt = L.Kt;
+    s.At = L.Kt - n * n;
+    s.S = L.Sc;
+    s.L = L.L;
     return s;
-}
-
-/* At (c x r) = A^T for A r x c. */
-DKF__INLINE void transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r,
-                           size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
 }
 
 /* Elementwise helpers on n reals that do not overlap (restrict parameters
@@ -87,23 +104,25 @@ DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t
 dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
+    kf_layout_t L;
     size_t i;
     DKF_CHECK_NULL(kf);
     DKF_CHECK_NULL(storage);
     if (n == 0 || m_max == 0 || n > DKF_MAX_DIM || m_max > DKF_MAX_DIM) return DKF_ERR_CAPACITY;
-    if (storage_len < DKF_KF_STORAGE_LEN(n, m_max)) return DKF_ERR_CAPACITY;
+    if (storage_len < kf_layout(&L, NULL, n, m_max)) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     /* P0 must be SPD: factor it into the storage, which holds no state yet */
     if (dkf__chol(storage, storage + n * n, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
 
+    (void)kf_layout(&L, storage, n, m_max);
     kf->n = n;
     kf->m_max = m_max;
-    kf->x.rows = n, kf->x.cols = 1, kf->x.data = storage;
-    kf->P.rows = n, kf->P.cols = n, kf->P.data = storage + n;
-    kf->nu.rows = m_max, kf->nu.cols = 1, kf->nu.data = kf->P.data + n * n;
-    kf->S.rows = m_max, kf->S.cols = m_max, kf->S.data = kf->nu.data + m_max;
-    kf->work = kf->S.data + m_max * m_max;
+    dkf__view(&kf->x, n, 1, L.x);
+    dkf__view(&kf->P, n, n, L.P);
+    dkf__view(&kf->nu, m_max, 1, L.nu);
+    dkf__view(&kf->S, m_max, m_max, L.S);
+    kf->work = L.xn;
     dkf__copy(kf->x.data, x0->data, n);
     dkf__copy(kf->P.data, P0->data, n * n);
     for (i = 0; i < m_max * (m_max + 1); ++i) kf->nu.data[i] = DKF_R(0.0);
@@ -155,7 +174,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     size_t i;
     if (inl_any_nonfinite(Q, n * n)) return DKF_ERR_NONFINITE; /* F, u: see above */
     /* x = (x^T F^T)^T + u; P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
-    transpose(s.Ft, F, n, n);
+    inl_transpose(s.Ft, F, n, n);
     inl_mul_nn(s.xn, kf->x.data, s.Ft, 1, n, n);
     if (u != NULL)
         for (i = 0; i < n; ++i) s.xn[i] += u[i];
@@ -225,7 +244,7 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     size_t i, j;
     int spd;
     /* HP = H P;  S = HP H^T + R (upper triangle of R read), factored */
-    transpose(s.Ht, H, m, n);
+    inl_transpose(s.Ht, H, m, n);
     inl_mul_nn(s.HP, H, kf->P.data, m, n, n);
     inl_mul_nn_sym(s.S, s.HP, s.Ht, R, m, n);
     spd = inl_chol(s.L, inv, s.S, m) == 0;

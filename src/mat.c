@@ -64,17 +64,10 @@ dkf_status_t dkf_mat_copy(dkf_mat_t *B, const dkf_mat_t *A)
 
 dkf_status_t dkf_mat_transpose(dkf_mat_t *B, const dkf_mat_t *A)
 {
-    size_t i, j, r, c;
     DKF_TRY(dkf__check_mat(B));
     DKF_TRY(dkf__check_shape(A, B->cols, B->rows));
     DKF_CHECK_NO_ALIAS(B, A);
-    r = A->rows;
-    c = A->cols;
-    /* write B row by row (contiguous), gathering a column of A */
-    for (i = 0; i < c; ++i) {
-        dkf_real_t *bi = B->data + i * r;
-        for (j = 0; j < r; ++j) bi[j] = A->data[j * c + i];
-    }
+    dkf__transpose(B->data, A->data, A->rows, A->cols);
     return DKF_OK;
 }
 

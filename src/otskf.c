@@ -35,110 +35,107 @@
 #include "internal.h"
 #include "kernels.h"
 
-/* Scratch of the time update (DKF_OTSKF_PREDICT_LEN). W1, W2 are the LU
+/* Scratch of the time update (DKF__OTSKF_PREDICT_LEN). W1, W2 are the LU
  * workspace of B^{-1} (2 p^2, contiguous), then hold T^T = P^d^{-1} Rd
  * and Y. Lpd first holds B P^d. FV (F Bl) later holds Ubar T. */
 typedef struct {
     dkf_real_t *Binv, *W1, *W2, *Pdn, *Lpd, *FV, *Ubar, *Un, *T, *N1, *N2, *Pn, *dn, *xtn, *xn;
 } pred_scratch_t;
 
-/* Scratch of the measurement update (DKF_OTSKF_UPDATE_LEN). Sd holds its
+/* Scratch of the measurement update (DKF__OTSKF_UPDATE_LEN). Sd holds its
  * own Cholesky factor. */
 typedef struct {
     dkf_real_t *Sk, *HP, *Sx, *Lx, *KxT, *Sd, *SkPd, *KdT, *Pxn, *Pn, *Pdn, *Vn, *T, *r, *xtn,
         *dn, *xn, *J;
 } upd_scratch_t;
 
-static dkf_real_t *take(dkf_real_t **cursor, size_t count)
+/* Walks the time update's scratch from base (DKF__OTSKF_PREDICT_LEN
+ * reals); with base == NULL it only counts. */
+static size_t pred_layout(pred_scratch_t *s, dkf_real_t *base, size_t n, size_t p)
 {
-    dkf_real_t *p = *cursor;
-    *cursor += count;
-    return p;
+    size_t used = 0;
+    DKF_TAKE(s->Binv, p * p);
+    DKF_TAKE(s->W1, p * p);
+    DKF_TAKE(s->W2, p * p);
+    DKF_TAKE(s->Pdn, p * p);
+    DKF_TAKE(s->Lpd, p * p);
+    DKF_TAKE(s->FV, n * p);
+    DKF_TAKE(s->Ubar, n * p);
+    DKF_TAKE(s->Un, n * p);
+    DKF_TAKE(s->T, n * p);
+    DKF_TAKE(s->N1, n * n);
+    DKF_TAKE(s->N2, n * n);
+    DKF_TAKE(s->Pn, n * n);
+    DKF_TAKE(s->dn, p);
+    DKF_TAKE(s->xtn, n);
+    DKF_TAKE(s->xn, n);
+    return used;
+}
+
+/* The measurement update's scratch likewise (DKF__OTSKF_UPDATE_LEN). */
+static size_t upd_layout(upd_scratch_t *s, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(s->Sk, m * p);
+    DKF_TAKE(s->HP, m * n);
+    DKF_TAKE(s->Sx, m * m);
+    DKF_TAKE(s->Lx, m * m);
+    DKF_TAKE(s->KxT, m * n);
+    DKF_TAKE(s->Sd, m * m);
+    DKF_TAKE(s->SkPd, m * p);
+    DKF_TAKE(s->KdT, m * p);
+    DKF_TAKE(s->Pxn, n * n);
+    DKF_TAKE(s->Pn, n * n);
+    DKF_TAKE(s->Pdn, p * p);
+    DKF_TAKE(s->Vn, n * p);
+    DKF_TAKE(s->T, n * p);
+    DKF_TAKE(s->r, m);
+    DKF_TAKE(s->xtn, n);
+    DKF_TAKE(s->dn, p);
+    DKF_TAKE(s->xn, n);
+    DKF_TAKE(s->J, DKF__JOSEPH_WORK(n > p ? n : p, m));
+    return used;
+}
+
+/* The whole storage: the state (DKF_OTSKF_STATE_LEN), the scratch both
+ * steps share (the larger of their layouts), then the last D_k that
+ * passed the rank check (m p). */
+typedef struct {
+    dkf_real_t *xt, *x, *Px, *P, *d, *Pd, *U, *V; /* state */
+    dkf_real_t *work, *D_ok;
+} otskf_layout_t;
+
+static size_t otskf_layout(otskf_layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    pred_scratch_t ps;
+    upd_scratch_t us;
+    const size_t pl = pred_layout(&ps, NULL, n, p), ul = upd_layout(&us, NULL, n, m, p);
+    size_t used = 0;
+    DKF_TAKE(L->xt, n);
+    DKF_TAKE(L->x, n);
+    DKF_TAKE(L->Px, n * n);
+    DKF_TAKE(L->P, n * n);
+    DKF_TAKE(L->d, p);
+    DKF_TAKE(L->Pd, p * p);
+    DKF_TAKE(L->U, n * p);
+    DKF_TAKE(L->V, n * p);
+    DKF_TAKE(L->work, pl > ul ? pl : ul);
+    DKF_TAKE(L->D_ok, m * p);
+    return used;
 }
 
 static pred_scratch_t pred_scratch(const dkf_otskf_t *f)
 {
-    const size_t n = f->n, p = f->p;
-    dkf_real_t *c = f->work;
     pred_scratch_t s;
-    s.Binv = take(&c, p * p);
-    s.W1 = take(&c, p * p);
-    s.W2 = take(&c, p * p);
-    s.Pdn = take(&c, p * p);
-    s.Lpd = take(&c, p * p);
-    s.FV = take(&c, n * p);
-    s.Ubar = take(&c, n * p);
-    s.Un = take(&c, n * p);
-    s.T = take(&c, n * p);
-    s.N1 = take(&c, n * n);
-    s.N2 = take(&c, n * n);
-    s.Pn = take(&c, n * n);
-    s.dn = take(&c, p);
-    s.xtn = take(&c, n);
-    s.xn = take(&c, n);
+    (void)pred_layout(&s, f->work, f->n, f->p);
     return s;
 }
 
 static upd_scratch_t upd_scratch(const dkf_otskf_t *f)
 {
-    const size_t n = f->n, m = f->m, p = f->p;
-    dkf_real_t *c = f->work;
     upd_scratch_t s;
-    s.Sk = take(&c, m * p);
-    s.HP = take(&c, m * n);
-    s.Sx = take(&c, m * m);
-    s.Lx = take(&c, m * m);
-    s.KxT = take(&c, m * n);
-    s.Sd = take(&c, m * m);
-    s.SkPd = take(&c, m * p);
-    s.KdT = take(&c, m * p);
-    s.Pxn = take(&c, n * n);
-    s.Pn = take(&c, n * n);
-    s.Pdn = take(&c, p * p);
-    s.Vn = take(&c, n * p);
-    s.T = take(&c, n * p);
-    s.r = take(&c, m);
-    s.xtn = take(&c, n);
-    s.dn = take(&c, p);
-    s.xn = take(&c, n);
-    s.J = take(&c, DKF_OTSKF_JOSEPH_LEN(n > p ? n : p, m));
+    (void)upd_layout(&s, f->work, f->n, f->m, f->p);
     return s;
-}
-
-static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t **cursor)
-{
-    v->rows = r;
-    v->cols = c;
-    v->data = take(cursor, r * c);
-}
-
-/* Out (r x c) = P - At^T Bt, At k x r, Bt k x c. */
-static void sub_atb(dkf_real_t *Out, const dkf_real_t *P, const dkf_real_t *At,
-                    const dkf_real_t *Bt, size_t k, size_t r, size_t c)
-{
-    size_t i, j, l;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) {
-            dkf_real_t v = P[i * c + j];
-            for (l = 0; l < k; ++l) v -= At[l * r + i] * Bt[l * c + j];
-            Out[i * c + j] = v;
-        }
-}
-
-/* Out (r x r) = P - At^T Bt for a product known to be symmetric (At, Bt
- * k x r): the upper triangle is formed and mirrored, only P's upper
- * triangle is read. */
-static void sub_atb_sym(dkf_real_t *Out, const dkf_real_t *P, const dkf_real_t *At,
-                        const dkf_real_t *Bt, size_t k, size_t r)
-{
-    size_t i, j, l;
-    for (i = 0; i < r; ++i)
-        for (j = i; j < r; ++j) {
-            dkf_real_t v = P[i * r + j];
-            for (l = 0; l < k; ++l) v -= At[l * r + i] * Bt[l * r + j];
-            Out[i * r + j] = v;
-            Out[j * r + i] = v;
-        }
 }
 
 /* y (n) = a (n) + A (n x c) b (c). */
@@ -149,54 +146,41 @@ static void add_mul_vec(dkf_real_t *y, const dkf_real_t *a, const dkf_real_t *A,
     for (i = 0; i < n; ++i) y[i] = a[i] + dkf__dot(A + i * c, b, c);
 }
 
-/* y (n) = a (n) + At^T b, At c x n. */
-static void add_mul_tvec(dkf_real_t *y, const dkf_real_t *a, const dkf_real_t *At,
-                         const dkf_real_t *b, size_t c, size_t n)
-{
-    size_t i, l;
-    for (i = 0; i < n; ++i) {
-        dkf_real_t v = a[i];
-        for (l = 0; l < c; ++l) v += At[l * n + i] * b[l];
-        y[i] = v;
-    }
-}
-
 dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                             const dkf_mat_t *d0, const dkf_mat_t *Pd0)
 {
     dkf_real_t inv[DKF_MAX_DIM];
-    dkf_real_t *cur = storage;
+    otskf_layout_t L;
     dkf_otskf_t g;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(storage);
     if (n == 0 || m == 0 || p == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
-    if (storage_len < DKF_OTSKF_STORAGE_LEN(n, m, p)) return DKF_ERR_CAPACITY;
+    if (storage_len < otskf_layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     DKF_TRY(dkf__check_input(d0, p, 1));
     DKF_TRY(dkf__check_input(Pd0, p, p));
     /* both priors must be SPD (factored in the scratch, which holds nothing) */
-    cur = storage + DKF_OTSKF_STATE_LEN(n, p);
-    if (dkf__chol(cur, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
-    if (dkf__chol(cur, inv, Pd0->data, p) != 0) return DKF_ERR_NOT_SPD;
+    (void)otskf_layout(&L, storage, n, m, p);
+    if (dkf__chol(L.work, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+    if (dkf__chol(L.work, inv, Pd0->data, p) != 0) return DKF_ERR_NOT_SPD;
 
     memset(&g, 0, sizeof g);
     g.n = n;
     g.m = m;
     g.p = p;
-    cur = storage;
-    set_view(&g.xt, n, 1, &cur);
-    set_view(&g.x, n, 1, &cur);
-    set_view(&g.Px, n, n, &cur);
-    set_view(&g.P, n, n, &cur);
-    set_view(&g.d, p, 1, &cur);
-    set_view(&g.Pd, p, p, &cur);
-    set_view(&g.U, n, p, &cur);
-    set_view(&g.V, n, p, &cur);
-    g.work = cur;
-    g.D_ok = storage + DKF_OTSKF_STORAGE_LEN(n, m, p) - m * p;
+    dkf__view(&g.xt, n, 1, L.xt);
+    dkf__view(&g.x, n, 1, L.x);
+    dkf__view(&g.Px, n, n, L.Px);
+    dkf__view(&g.P, n, n, L.P);
+    dkf__view(&g.d, p, 1, L.d);
+    dkf__view(&g.Pd, p, p, L.Pd);
+    dkf__view(&g.U, n, p, L.U);
+    dkf__view(&g.V, n, p, L.V);
+    g.work = L.work;
+    g.D_ok = L.D_ok;
     /* V_0 = 0: x~_{0|0} = x_{0|0}, P^x_{0|0} = P_{0|0} */
     dkf__copy(g.xt.data, x0->data, n);
     dkf__copy(g.x.data, x0->data, n);
@@ -287,7 +271,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
     /* W1 = T^T = P^d^{-1} Rd;  W2 = Y = Rd - Rd P^d^{-1} Rd (symmetric) */
     dkf__copy(s.W1, Rd, p * p);
     dkf__chol_solve(s.Lpd, inv, s.W1, p, p);
-    sub_atb_sym(s.W2, Rd, Rd, s.W1, p, p); /* Rd^T = Rd */
+    dkf__sub_tn_sym(s.W2, Rd, Rd, s.W1, p, p); /* Rd^T = Rd */
 
     /* Ubar = F Bl B^{-1};  FV := Ubar T;  U = Ubar - Ubar T */
     dkf__mul_nn(s.FV, F, blend(f), n, n, p);
@@ -313,7 +297,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
  * tolerance (docs/matrix.md), before anything is computed; skipped when A_k
  * is bitwise the last matrix that passed (D_ok), *is_new = 1 otherwise.
  * The SVD's workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the
- * update scratch (DKF_OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of
+ * update scratch (DKF__OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of
  * it). DKF_ERR_RANK unless rank A_k = p. */
 static dkf_status_t check_rank_of_D(const dkf_otskf_t *f, const dkf_mat_t *A, int *is_new)
 {
@@ -367,11 +351,11 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
      * form P^x - (H P^x)^T K^x^T otherwise) */
     dkf__mul_vec(s.r, H, f->xt.data, m, n);
     for (i = 0; i < m; ++i) s.r[i] = y->data[i] - s.r[i];
-    add_mul_tvec(s.xtn, f->xt.data, s.KxT, s.r, m, n);
+    dkf__mul_tn(s.xtn, s.KxT, s.r, f->xt.data, m, n, 1);
 #if DKF_JOSEPH
     dkf__joseph(s.Pxn, f->Px.data, s.KxT, H, R, n, m, s.J);
 #else
-    sub_atb_sym(s.Pxn, f->Px.data, s.HP, s.KxT, m, n);
+    dkf__sub_tn_sym(s.Pxn, f->Px.data, s.HP, s.KxT, m, n);
 #endif
 
     /* bias filter: Sd = Sx + S P^d S^T;  K^d^T = Sd^{-1} S P^d */
@@ -385,15 +369,15 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
      * (I - K^d S) P^d (I - K^d S)^T + K^d Sx K^d^T (short form
      * P^d - (S P^d)^T K^d^T without DKF_JOSEPH) */
     for (i = 0; i < m; ++i) s.r[i] -= dkf__dot(s.Sk + i * p, f->d.data, p);
-    add_mul_tvec(s.dn, f->d.data, s.KdT, s.r, m, p);
+    dkf__mul_tn(s.dn, s.KdT, s.r, f->d.data, m, p, 1);
 #if DKF_JOSEPH
     dkf__joseph(s.Pdn, f->Pd.data, s.KdT, s.Sk, s.Sx, p, m, s.J);
 #else
-    sub_atb_sym(s.Pdn, f->Pd.data, s.SkPd, s.KdT, m, p);
+    dkf__sub_tn_sym(s.Pdn, f->Pd.data, s.SkPd, s.KdT, m, p);
 #endif
 
     /* V = U - K^x S;  x = x~ + V d;  P = P^x + V P^d V^T */
-    sub_atb(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
+    dkf__sub_tn(s.Vn, Bl, s.KxT, s.Sk, m, n, p);
     st = combine_and_commit(f, s.xtn, s.Pxn, s.dn, s.Pdn, s.Vn, 1, s.T, s.xn, s.Pn, s.J);
     /* A_k passed the check: remembered only with a step that succeeded, so
      * a failed update leaves all of *f and its storage as they were */

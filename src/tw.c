@@ -29,23 +29,50 @@ typedef struct {
     dkf_real_t *d, *phi, *Phi, *I, *i, *phi_post, *Phi_post, *S, *Gpost, *psi, *Ploc;
 } block_t;
 
-static size_t block_len(size_t n, size_t p) { return p + 4 * n + 4 * n * n + p * p + n * p; }
+/* Walks a block; with base == NULL it only counts. */
+static size_t block_layout(block_t *k, dkf_real_t *base, size_t n, size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(k->d, p);
+    DKF_TAKE(k->phi, n);
+    DKF_TAKE(k->Phi, n * n);
+    DKF_TAKE(k->I, n * n);
+    DKF_TAKE(k->i, n);
+    DKF_TAKE(k->phi_post, n);
+    DKF_TAKE(k->Phi_post, n * n);
+    DKF_TAKE(k->S, p * p);
+    DKF_TAKE(k->Gpost, n * p);
+    DKF_TAKE(k->psi, n);
+    DKF_TAKE(k->Ploc, n * n);
+    return used;
+}
+
+static size_t block_len(size_t n, size_t p)
+{
+    block_t k;
+    return block_layout(&k, NULL, n, p);
+}
 
 static block_t block_at(dkf_real_t *b, size_t n, size_t p)
 {
     block_t k;
-    k.d = b;
-    k.phi = k.d + p;
-    k.Phi = k.phi + n;
-    k.I = k.Phi + n * n;
-    k.i = k.I + n * n;
-    k.phi_post = k.i + n;
-    k.Phi_post = k.phi_post + n;
-    k.S = k.Phi_post + n * n;
-    k.Gpost = k.S + p * p;
-    k.psi = k.Gpost + n * p;
-    k.Ploc = k.psi + n;
+    (void)block_layout(&k, b, n, p);
     return k;
+}
+
+/* The start of node storage, the committed state: x, P and the committed
+ * block (DKF_TW_NODE_STATE_LEN together with the pending block of mem). */
+typedef struct {
+    dkf_real_t *x, *P, *blk;
+} committed_t;
+
+static size_t committed_layout(committed_t *c, dkf_real_t *base, size_t n, size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(c->x, n);
+    DKF_TAKE(c->P, n * n);
+    DKF_TAKE(c->blk, block_len(n, p));
+    return used;
 }
 
 /* nd->mem: pending block, then scratch. */
@@ -80,40 +107,11 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     return used;
 }
 
-/* committed: x, P, block */
-static size_t committed_len(size_t n, size_t p) { return n + n * n + block_len(n, p); }
-
 static layout_t mem_of(const dkf_tw_node_t *nd)
 {
     layout_t L;
     (void)layout(&L, nd->mem, nd->n, nd->m_max, nd->p);
     return L;
-}
-
-static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
-{
-    v->rows = r;
-    v->cols = c;
-    v->data = data;
-}
-
-/* Packed upper triangle <-> full symmetric n x n. */
-static void pack_sym(dkf_real_t *pk, const dkf_real_t *A, size_t n)
-{
-    size_t i, j, e = 0;
-    for (i = 0; i < n; ++i)
-        for (j = i; j < n; ++j) pk[e++] = A[i * n + j];
-}
-
-static void unpack_sym(dkf_real_t *A, const dkf_real_t *pk, size_t n)
-{
-    size_t i, j, e = 0;
-    for (i = 0; i < n; ++i)
-        for (j = i; j < n; ++j) {
-            A[i * n + j] = pk[e];
-            A[j * n + i] = pk[e];
-            ++e;
-        }
 }
 
 dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t p,
@@ -123,6 +121,7 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t 
     dkf_tw_node_t g;
     dkf_real_t inv[DKF_MAX_DIM];
     layout_t L;
+    committed_t c;
     block_t b;
     size_t total;
     DKF_CHECK_NULL(nd);
@@ -130,7 +129,7 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t 
     if (n == 0 || p == 0 || m_max == 0 || n > DKF_MAX_DIM || p > DKF_MAX_DIM || m_max > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
     if (p > n) return DKF_ERR_RANK;
-    total = committed_len(n, p) + layout(&L, NULL, n, m_max, p);
+    total = committed_layout(&c, NULL, n, p) + layout(&L, NULL, n, m_max, p);
     if (storage_len < total) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
@@ -138,26 +137,26 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t 
     g.n = n;
     g.p = p;
     g.m_max = m_max;
-    g.mem = storage + committed_len(n, p);
+    g.mem = storage + committed_layout(&c, storage, n, p);
     L = mem_of(&g);
     /* P0 must be SPD. The test factorisation writes into the scratch part
      * of storage only: every caller-visible value is set after it. */
     if (dkf__chol(L.C, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
     memset(storage, 0, total * sizeof *storage);
-    set_view(&g.x, n, 1, storage);
-    set_view(&g.P, n, n, storage + n);
-    b = block_at(storage + n + n * n, n, p);
-    set_view(&g.d, p, 1, b.d);
-    set_view(&g.phi, n, 1, b.phi);
-    set_view(&g.Phi, n, n, b.Phi);
-    set_view(&g.I, n, n, b.I);
-    set_view(&g.i, n, 1, b.i);
-    set_view(&g.phi_post, n, 1, b.phi_post);
-    set_view(&g.Phi_post, n, n, b.Phi_post);
-    set_view(&g.S, p, p, b.S);
-    set_view(&g.Gpost, n, p, b.Gpost);
-    set_view(&g.psi, n, 1, b.psi);
-    set_view(&g.Ploc, n, n, b.Ploc);
+    dkf__view(&g.x, n, 1, c.x);
+    dkf__view(&g.P, n, n, c.P);
+    b = block_at(c.blk, n, p);
+    dkf__view(&g.d, p, 1, b.d);
+    dkf__view(&g.phi, n, 1, b.phi);
+    dkf__view(&g.Phi, n, n, b.Phi);
+    dkf__view(&g.I, n, n, b.I);
+    dkf__view(&g.i, n, 1, b.i);
+    dkf__view(&g.phi_post, n, 1, b.phi_post);
+    dkf__view(&g.Phi_post, n, n, b.Phi_post);
+    dkf__view(&g.S, p, p, b.S);
+    dkf__view(&g.Gpost, n, p, b.Gpost);
+    dkf__view(&g.psi, n, 1, b.psi);
+    dkf__view(&g.Ploc, n, n, b.Ploc);
     dkf__copy(g.x.data, x0->data, n);
     dkf__copy(g.P.data, P0->data, n * n);
     g.ready = 1;
@@ -246,11 +245,11 @@ static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_u
     const size_t n = nd->n, p = nd->p;
     const block_t b = block_at(L->pend, n, p);
     const dkf_real_t *F = dyn->F->data, *G = dyn->G->data;
-    size_t i, j, a;
+    size_t i;
 
     /* unpack the info first: info may live in the caller's est buffer */
     dkf__copy(b.i, info, n);
-    unpack_sym(b.I, info + n, n);
+    dkf__unpack_sym(b.I, info + n, n);
 
     /* (6a)-(6b): phi- = F x, Phi- = F P F^T + Q */
     dkf__mul_vec(b.phi, F, nd->x.data, n, n);
@@ -274,22 +273,13 @@ static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_u
     dkf__mul_nn(L->JG, L->J, G, n, n, p);
     dkf__mul_nn(b.Gpost, b.Phi_post, L->JG, n, n, p);
     dkf__mul_nn(L->IG, b.I, G, n, n, p);
-    for (i = 0; i < p; ++i)
-        for (j = 0; j < p; ++j) {
-            dkf_real_t v = DKF_R(0.0);
-            for (a = 0; a < n; ++a) v += b.Gpost[a * p + i] * L->IG[a * p + j];
-            b.S[i * p + j] = v;
-        }
+    dkf__mul_tn(b.S, b.Gpost, L->IG, NULL, n, p, p);
     dkf__symmetrise(b.S, p);
     if (!dkf__all_finite(b.S, p * p)) return DKF_ERR_NONFINITE;
     if (!chol_rank_ok(L->Sc, inv, b.S, p)) return DKF_ERR_RANK;
 
     /* (18): d = S^{-1} Gpost^T r;  (8b): psi = phi+ + Gpost d */
-    for (i = 0; i < p; ++i) {
-        dkf_real_t v = DKF_R(0.0);
-        for (a = 0; a < n; ++a) v += b.Gpost[a * p + i] * L->r[a];
-        u[i] = v;
-    }
+    dkf__mul_tn(u, b.Gpost, L->r, NULL, n, p, 1);
     dkf__chol_solve(L->Sc, inv, u, p, 1);
     dkf__copy(b.d, u, p);
     dkf__mul_vec(b.psi, b.Gpost, b.d, n, p);
@@ -322,7 +312,7 @@ dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, cons
     if (est != NULL) {
         const block_t b = block_at(L.pend, nd->n, nd->p);
         dkf__copy(est, b.psi, nd->n);
-        pack_sym(est + nd->n, b.Ploc, nd->n);
+        dkf__pack_sym(est + nd->n, b.Ploc, nd->n);
     }
     nd->pending = 1;
     return DKF_OK;
@@ -340,7 +330,7 @@ static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, con
     if (x != NULL && !dkf__all_finite(x, n)) return DKF_ERR_NONFINITE;
     if (Ppacked != NULL) {
         if (!dkf__all_finite(Ppacked, n * (n + 1) / 2)) return DKF_ERR_NONFINITE;
-        unpack_sym(L->T, Ppacked, n);
+        dkf__unpack_sym(L->T, Ppacked, n);
     } else {
         dkf__copy(L->T, b.Ploc, n * n);
     }
@@ -399,13 +389,32 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
 
 /* ---- whole-graph simulation --------------------------------------------- */
 
+/* The network's storage (DKF_TW_NET_STORAGE_LEN): the N nodes' storage
+ * (node l's from node0 + l DKF_TW_NODE_STORAGE_LEN), then three buffers of
+ * N packets. With base == NULL it only counts. */
+typedef struct {
+    dkf_real_t *node0, *out, *mix, *tmp;
+} net_layout_t;
+
+static size_t net_layout(net_layout_t *L, dkf_real_t *base, size_t N, size_t n, size_t m_max,
+                         size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(L->node0, N * DKF_TW_NODE_STORAGE_LEN(n, m_max, p));
+    DKF_TAKE(L->out, N * DKF_TW_PKT_LEN(n));
+    DKF_TAKE(L->mix, N * DKF_TW_PKT_LEN(n));
+    DKF_TAKE(L->tmp, N * DKF_TW_PKT_LEN(n));
+    return used;
+}
+
 dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_node_t *nodes,
                              size_t n, size_t m_max, size_t p, dkf_real_t *storage,
                              size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0)
 {
     dkf_graph_t chk;
     dkf_tw_net_t t;
-    size_t node_len, pkt, l;
+    net_layout_t L;
+    size_t node_len, l;
     DKF_CHECK_NULL(net);
     DKF_CHECK_NULL(g);
     DKF_CHECK_NULL(nodes);
@@ -413,22 +422,22 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
     DKF_TRY(dkf_graph_init(&chk, g->N, g->start, g->nbr));
     if (n == 0 || p == 0 || m_max == 0 || n > DKF_MAX_DIM || p > DKF_MAX_DIM || m_max > DKF_MAX_DIM)
         return DKF_ERR_CAPACITY;
+    if (storage_len < net_layout(&L, NULL, g->N, n, m_max, p)) return DKF_ERR_CAPACITY;
+    (void)net_layout(&L, storage, g->N, n, m_max, p);
     node_len = DKF_TW_NODE_STORAGE_LEN(n, m_max, p);
-    pkt = DKF_TW_PKT_LEN(n);
-    if (storage_len / g->N < node_len + 3 * pkt) return DKF_ERR_CAPACITY;
     /* node 0 checks (x0, P0, p <= n); the others cannot fail after it */
-    DKF_TRY(dkf_tw_node_init(&nodes[0], n, m_max, p, storage, node_len, x0, P0));
+    DKF_TRY(dkf_tw_node_init(&nodes[0], n, m_max, p, L.node0, node_len, x0, P0));
     for (l = 1; l < g->N; ++l)
-        (void)dkf_tw_node_init(&nodes[l], n, m_max, p, storage + l * node_len, node_len, x0, P0);
+        (void)dkf_tw_node_init(&nodes[l], n, m_max, p, L.node0 + l * node_len, node_len, x0, P0);
     memset(&t, 0, sizeof t);
     t.g = g;
     t.N = g->N;
     t.n = n;
     t.p = p;
     t.nodes = nodes;
-    t.out = storage + g->N * node_len;
-    t.mix = t.out + g->N * pkt;
-    t.tmp = t.mix + g->N * pkt;
+    t.out = L.out;
+    t.mix = L.mix;
+    t.tmp = L.tmp;
     *net = t;
     return DKF_OK;
 }
@@ -440,6 +449,9 @@ static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn,
     if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
     DKF_CHECK_NULL(y);
+    /* only those checks read them, and DKF_DEBUG_CHECKS=0 compiles them out */
+    (void)meas;
+    (void)y;
     return check_model(&net->nodes[0], dyn);
 }
 

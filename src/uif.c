@@ -124,34 +124,6 @@ static layout_t mem_of(const dkf_uif_t *f)
     return L;
 }
 
-static void set_view(dkf_mat_t *v, size_t r, size_t c, dkf_real_t *data)
-{
-    v->rows = r;
-    v->cols = c;
-    v->data = data;
-}
-
-/* At (c x r) = A^T for A r x c. */
-static void transpose(dkf_real_t *At, const dkf_real_t *A, size_t r, size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
-}
-
-/* C (r x c) = A^T B for A k x r, B k x c (rows of B accumulated). */
-static void mul_tn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t k, size_t r,
-                   size_t c)
-{
-    size_t i, j, l;
-    for (i = 0; i < r * c; ++i) C[i] = DKF_R(0.0);
-    for (l = 0; l < k; ++l)
-        for (i = 0; i < r; ++i) {
-            const dkf_real_t a = A[l * r + i];
-            for (j = 0; j < c; ++j) C[i * c + j] += a * B[l * c + j];
-        }
-}
-
 dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m, size_t p,
                           dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
                           const dkf_mat_t *P0)
@@ -184,18 +156,18 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
     if (dkf__chol(L.T1, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
     memset(storage, 0, total * sizeof *storage);
-    set_view(&g.x, n, 1, o.x);
-    set_view(&g.Px, n, n, o.Px);
-    set_view(&g.d, p, 1, o.d);
-    set_view(&g.Pd, p, p, o.Pd);
-    set_view(&g.Pxd, n, p, o.Pxd);
-    set_view(&g.x_pred, n, 1, o.xp);
-    set_view(&g.P_pred, n, n, o.Pp);
-    set_view(&g.Rtilde, m, m, o.Rt);
-    set_view(&g.K, n, m, o.K);
-    set_view(&g.L, n, m, o.L);
-    set_view(&g.M, p, m, o.M);
-    set_view(&g.proj, p, p, o.proj);
+    dkf__view(&g.x, n, 1, o.x);
+    dkf__view(&g.Px, n, n, o.Px);
+    dkf__view(&g.d, p, 1, o.d);
+    dkf__view(&g.Pd, p, p, o.Pd);
+    dkf__view(&g.Pxd, n, p, o.Pxd);
+    dkf__view(&g.x_pred, n, 1, o.xp);
+    dkf__view(&g.P_pred, n, n, o.Pp);
+    dkf__view(&g.Rtilde, m, m, o.Rt);
+    dkf__view(&g.K, n, m, o.K);
+    dkf__view(&g.L, n, m, o.L);
+    dkf__view(&g.M, p, m, o.M);
+    dkf__view(&g.proj, p, p, o.proj);
     dkf__copy(o.x, x0->data, n);
     dkf__copy(o.Px, P0->data, n * n);
     g.rank_tol = DKF_RANK_TOL_DEFAULT;
@@ -277,7 +249,7 @@ static dkf_status_t innovation(const dkf_uif_t *f, const layout_t *L, const dkf_
     /* K^T = R~^-1 (H P)  (P, R~ symmetric) */
     dkf__copy(L->Kt, L->HP, m * n);
     dkf__chol_solve(L->Lr, invr, L->Kt, m, n);
-    transpose(L->nx.K, L->Kt, m, n);
+    dkf__transpose(L->nx.K, L->Kt, m, n);
     dkf__mul_vec(yt, meas->H->data, L->nx.xp, m, n);
     for (i = 0; i < m; ++i) yt[i] = y->data[i] - yt[i];
     return DKF_OK;
@@ -386,7 +358,7 @@ static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dk
     size_t i;
     dkf__copy(L->W, B, m * r);
     dkf__chol_solve(L->Lr, invr, L->W, m, r);
-    transpose(L->Bt, B, m, r);
+    dkf__transpose(L->Bt, B, m, r);
     dkf__mul_nn_sym(L->S, L->Bt, L->W, NULL, r, m);
     if (dkf__chol(L->Ls, invs, L->S, r) != 0) return DKF_ERR_RANK;
     dkf__chol_inverse(L->Pdb, L->Ls, invs, r);
@@ -416,10 +388,10 @@ static dkf_status_t input_update(const dkf_uif_t *f, const layout_t *L, const dk
         return DKF_OK;
     }
     /* d = T^T dbar, M = T^T Mbar, Pd = T^T Pdbar T, Pxd = Z Pdbar T, proj = T^T T */
-    mul_tn(L->nx.d, T, db, r, p, 1);
-    mul_tn(L->nx.M, T, L->Mbar, r, p, m);
+    dkf__mul_tn(L->nx.d, T, db, NULL, r, p, 1);
+    dkf__mul_tn(L->nx.M, T, L->Mbar, NULL, r, p, m);
     dkf__mul_nn(L->X, L->Pdb, T, r, r, p);
-    transpose(L->Bt, T, r, p); /* r <= m, so T^T fits where B^T was */
+    dkf__transpose(L->Bt, T, r, p); /* r <= m, so T^T fits where B^T was */
     dkf__mul_nn_sym(L->nx.Pd, L->Bt, L->X, NULL, p, r);
     dkf__mul_nn(L->nx.Pxd, L->ZP, T, n, r, p);
     dkf__mul_nn_sym(L->nx.proj, L->Bt, T, NULL, p, r);
@@ -436,7 +408,7 @@ static void state_covariance(const dkf_uif_t *f, const layout_t *L, const dkf_ui
      * (dkf__joseph: accurate also when P_{k|k} << P_{k|k-1}; the rewrite
      * P - L (H P) + (L R - (P - L H P) H^T) L^T used before subtracted
      * from P; docs/decisions.md item 17) */
-    transpose(L->T3, L->nx.L, n, m); /* T3 = L^T */
+    dkf__transpose(L->T3, L->nx.L, n, m); /* T3 = L^T */
     dkf__joseph(L->nx.Px, L->nx.Pp, L->T3, meas->H->data, meas->R->data, n, m, L->J);
     (void)r;
 #else

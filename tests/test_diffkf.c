@@ -146,34 +146,11 @@ static void test_diffkf_matches_ex3_local_vectors(void **state)
     json_decref(root);
 }
 
-/* The storage macro is exact: init accepts DKF_DIFFKF_STORAGE_LEN reals
- * and refuses one less, for several shapes (a macro that under-counts
- * would overrun the caller's array; one that over-counts wastes RAM). */
-static void test_diffkf_storage_macro_is_exact(void **state)
-{
-    static dkf_real_t st[DKF_DIFFKF_STORAGE_LEN(NX, NY, NP)];
-    static const size_t dims[][3] = {{4, 2, 2}, {1, 1, 1}, {6, 3, 2}, {3, 5, 4}, {6, 6, 6}};
-    dkf_real_t x[NX] = {0}, P[CAP] = {0};
-    dkf_diffkf_t f;
-    size_t d, i;
-    (void)state;
-    for (d = 0; d < sizeof dims / sizeof dims[0]; ++d) {
-        const size_t n = dims[d][0], m = dims[d][1], p = dims[d][2];
-        const size_t len = DKF_DIFFKF_STORAGE_LEN(n, m, p);
-        dkf_mat_t X = test_view(n, 1, x), P0 = test_view(n, n, P);
-        memset(P, 0, sizeof P);
-        for (i = 0; i < n; ++i) P[i * n + i] = 1;
-        assert_int_equal(dkf_diffkf_init(&f, n, m, p, st, len - 1, &X, &P0), DKF_ERR_CAPACITY);
-        assert_int_equal(dkf_diffkf_init(&f, n, m, p, st, len, &X, &P0), DKF_OK);
-    }
-}
-
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_diffkf_matches_ex1_vector),
         cmocka_unit_test(test_diffkf_matches_ex3_local_vectors),
-        cmocka_unit_test(test_diffkf_storage_macro_is_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -10,6 +10,8 @@
  * few successful calls first, so that the caches and carries are live.
  * A "huge" variant (one input scaled by 2 sqrt(REAL_MAX)) may fail or
  * not; if it fails it must leave the object untouched too.
+ * test_exact_storage runs one table over every module: each init refuses
+ * one real less than its *_STORAGE_LEN, untouched, and accepts exactly it.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -1318,6 +1320,279 @@ static void test_tw_net(void **state)
     assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
 }
 
+/* ---- exact storage, every module ------------------------------------------------------------ */
+
+/* For every module and several shapes: init refuses storage_len one less
+ * than the module's *_STORAGE_LEN (DKF_ERR_CAPACITY, the object
+ * untouched) and accepts exactly *_STORAGE_LEN without writing past it.
+ * A macro that under-counts would let a filter overrun the caller's array
+ * (the layout needs more than the macro says: the first check fails); one
+ * that over-counts wastes RAM (init accepts less: the first check fails). */
+
+typedef struct {
+    size_t n, m, p, l; /* l: sensors or nodes (fusion centre, network) */
+} dims_t;
+
+#define XS_SHAPES 6
+#define XS_CAP 60000
+#define XS_NODES 4
+
+typedef struct {
+    const char *name;
+    size_t (*len)(dims_t d);
+    dkf_status_t (*init)(dims_t d, dkf_real_t *st, size_t len);
+    dims_t shape[XS_SHAPES];
+} xs_module_t;
+
+/* the object under test (one of), with room for its node arrays */
+static union {
+    dkf_kf_t kf;
+    dkf_info_t info;
+    dkf_askf_t askf;
+    dkf_otskf_t otskf;
+    dkf_diffkf_t diffkf;
+    struct {
+        dkf_diffkf_fc_t fc;
+        dkf_diffkf_fc_node_t nodes[XS_NODES];
+    } fc;
+    dkf_uif_t uif;
+    dkf_tw_node_t tw_node;
+    struct {
+        dkf_tw_net_t net;
+        dkf_tw_node_t nodes[XS_NODES];
+    } tw_net;
+} xs_obj;
+static dkf_real_t xs_st[XS_CAP + 1];
+static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[2][DKF_MAX_DIM * DKF_MAX_DIM];
+
+/* x0 = 0 (n), P0 = I (n x n): a prior every init accepts; the input
+ * prior d0 = 0, Pd0 = I (p x p) of askf and otskf likewise (buffer 1). */
+static dkf_mat_t xs_x(size_t n) { return test_view(n, 1, xs_x0); }
+static dkf_mat_t xs_eye_in(size_t b, size_t n)
+{
+    size_t i;
+    memset(xs_P0[b], 0, sizeof xs_P0[b]);
+    for (i = 0; i < n; ++i) xs_P0[b][i * n + i] = DKF_R(1.0);
+    return test_view(n, n, xs_P0[b]);
+}
+static dkf_mat_t xs_eye(size_t n) { return xs_eye_in(0, n); }
+
+static size_t kf_len(dims_t d) { return DKF_KF_STORAGE_LEN(d.n, d.m); }
+static dkf_status_t kf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_kf_init(&xs_obj.kf, d.n, d.m, st, len, &x, &P);
+}
+
+static size_t info_len(dims_t d) { return DKF_INFO_STORAGE_LEN(d.n); }
+static dkf_status_t info_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_info_init(&xs_obj.info, d.n, st, len, &x, &P);
+}
+
+static size_t askf_len(dims_t d) { return DKF_ASKF_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t askf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n), dd = xs_x(d.p), Pd = xs_eye_in(1, d.p);
+    return dkf_askf_init(&xs_obj.askf, d.n, d.m, d.p, st, len, &x, &P, &dd, &Pd, NULL);
+}
+
+static size_t otskf_len(dims_t d) { return DKF_OTSKF_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t otskf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n), dd = xs_x(d.p), Pd = xs_eye_in(1, d.p);
+    return dkf_otskf_init(&xs_obj.otskf, d.n, d.m, d.p, st, len, &x, &P, &dd, &Pd);
+}
+
+static size_t diffkf_len(dims_t d) { return DKF_DIFFKF_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t diffkf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_diffkf_init(&xs_obj.diffkf, d.n, d.m, d.p, st, len, &x, &P);
+}
+
+/* l sensors of dimensions (m, p); the runtime size must equal the macro */
+static size_t fc_len(dims_t d)
+{
+    size_t m[XS_NODES], p[XS_NODES], i;
+    for (i = 0; i < d.l; ++i) m[i] = d.m, p[i] = d.p;
+    assert_int_equal(dkf_diffkf_fc_storage_len(d.n, d.l, m, p),
+                     DKF_DIFFKF_FC_STORAGE_LEN(d.n, d.l, d.m, d.p));
+    return DKF_DIFFKF_FC_STORAGE_LEN(d.n, d.l, d.m, d.p);
+}
+static dkf_status_t fc_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    size_t m[XS_NODES], p[XS_NODES], i;
+    for (i = 0; i < d.l; ++i) m[i] = d.m, p[i] = d.p;
+    return dkf_diffkf_fc_init(&xs_obj.fc.fc, xs_obj.fc.nodes, d.l, d.n, m, p, st, len, &x, &P,
+                              NULL, NULL);
+}
+
+static size_t uif_len(dims_t d) { return DKF_UIF_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t uif_init(dkf_uif_kind_t kind, dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_uif_init(&xs_obj.uif, kind, d.n, d.m, d.p, st, len, &x, &P);
+}
+static dkf_status_t rtsf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_RTSF, d, st, len);
+}
+static dkf_status_t nrtsf_df_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_NRTSF_DF, d, st, len);
+}
+static dkf_status_t nrtsf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return uif_init(DKF_UIF_NRTSF, d, st, len);
+}
+
+static size_t tw_node_len(dims_t d) { return DKF_TW_NODE_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t tw_node_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_tw_node_init(&xs_obj.tw_node, d.n, d.m, d.p, st, len, &x, &P);
+}
+
+/* l nodes on a path */
+static size_t tw_net_len(dims_t d) { return DKF_TW_NET_STORAGE_LEN(d.l, d.n, d.m, d.p); }
+static dkf_status_t tw_net_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    static size_t start[XS_NODES + 1], nbr[DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1)];
+    static dkf_graph_t g;
+    size_t edges[2 * XS_NODES], e;
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    for (e = 0; e + 1 < d.l; ++e) edges[2 * e] = e, edges[2 * e + 1] = e + 1;
+    assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1),
+                                          d.l, edges, d.l - 1),
+                     DKF_OK);
+    return dkf_tw_net_init(&xs_obj.tw_net.net, &g, xs_obj.tw_net.nodes, d.n, d.m, d.p, st, len, &x,
+                           &P);
+}
+
+static const xs_module_t xs_modules[] = {
+    {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}}},
+    {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}},
+    {"askf", askf_len, askf_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {3, 5, 1, 0}, {6, 3, 4, 0}}},
+    {"otskf", otskf_len, otskf_init,
+     {{1, 1, 1, 0}, {4, 2, 2, 0}, {2, 5, 4, 0}, {6, 3, 2, 0}, {3, 1, 6, 0}}},
+    {"diffkf", diffkf_len, diffkf_init,
+     {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 2, 0}, {3, 5, 4, 0}, {6, 6, 6, 0}}},
+    {"diffkf_fc", fc_len, fc_init,
+     {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 3, 1, 4}, {6, 2, 1, 2}, {2, 4, 2, 2}}},
+    {"uif RTSF", uif_len, rtsf_init, {{1, 1, 1, 0}, {4, 3, 2, 0}, {2, 5, 4, 0}, {6, 2, 2, 0}}},
+    {"uif NRTSF-DF", uif_len, nrtsf_df_init,
+     {{1, 1, 1, 0}, {4, 2, 3, 0}, {2, 5, 4, 0}, {6, 3, 1, 0}}},
+    {"uif NRTSF", uif_len, nrtsf_init, {{1, 1, 1, 0}, {4, 2, 3, 0}, {3, 5, 2, 0}, {6, 1, 4, 0}}},
+    {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
+    {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
+};
+
+static void test_exact_storage(void **state)
+{
+    static unsigned char before[sizeof xs_obj];
+    const dkf_real_t sentinel = DKF_R(1234.5);
+    size_t i, s, checked = 0;
+    (void)state;
+    for (i = 0; i < sizeof xs_modules / sizeof xs_modules[0]; ++i) {
+        const xs_module_t *md = &xs_modules[i];
+        for (s = 0; s < XS_SHAPES && md->shape[s].n != 0; ++s) {
+            const dims_t d = md->shape[s];
+            const size_t len = md->len(d);
+            dkf_status_t st;
+            assert_true(len > 0 && len <= XS_CAP);
+            memset(&xs_obj, 0x5a, sizeof xs_obj);
+            memcpy(before, &xs_obj, sizeof xs_obj);
+            st = md->init(d, xs_st, len - 1);
+            if (st != DKF_ERR_CAPACITY || memcmp(before, &xs_obj, sizeof xs_obj) != 0) {
+                print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu - 1: status %s%s\n", md->name,
+                            d.n, d.m, d.p, d.l, len, dkf_status_str(st),
+                            st == DKF_ERR_CAPACITY ? ", the object changed" : "");
+                fail();
+            }
+            xs_st[len] = sentinel;
+            st = md->init(d, xs_st, len);
+            if (st != DKF_OK || xs_st[len] != sentinel) {
+                print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu: status %s%s\n", md->name,
+                            d.n, d.m, d.p, d.l, len, dkf_status_str(st),
+                            st == DKF_OK ? ", wrote past the storage" : "");
+                fail();
+            }
+            ++checked;
+        }
+    }
+    print_message("exact storage: %zu shapes checked\n", checked);
+}
+
+/* Every DKF_*_DECLARE gives an array of exactly *_STORAGE_LEN reals that
+ * init accepts; the fusion centre's, one for sensors up to (mx, px), also
+ * serves smaller ones (here (3, 2) and (2, 1)). */
+DKF_KF_DECLARE(static, dk_kf, 4, 2);
+DKF_INFO_DECLARE(static, dk_info, 3);
+DKF_ASKF_DECLARE(static, dk_askf, 3, 2, 1);
+DKF_OTSKF_DECLARE(static, dk_otskf, 3, 2, 1);
+DKF_DIFFKF_DECLARE(static, dk_diffkf, 3, 2, 1);
+DKF_DIFFKF_FC_DECLARE(static, dk_fc, 3, 2, 3, 2);
+DKF_UIF_DECLARE(static, dk_uif, 3, 2, 1);
+DKF_TW_NODE_DECLARE(static, dk_tw_node, 3, 2, 1);
+DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
+
+#define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
+
+static void test_declare_macros(void **state)
+{
+    static const size_t fm[2] = {3, 2}, fp[2] = {2, 1};
+    dkf_mat_t x = xs_x(3), P = xs_eye(3), d = xs_x(1), Pd = xs_eye_in(1, 1);
+    (void)state;
+    assert_int_equal(ARRAY_LEN(dk_kf_storage), DKF_KF_STORAGE_LEN(4, 2));
+    assert_int_equal(ARRAY_LEN(dk_info_storage), DKF_INFO_STORAGE_LEN(3));
+    assert_int_equal(ARRAY_LEN(dk_askf_storage), DKF_ASKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_otskf_storage), DKF_OTSKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_diffkf_storage), DKF_DIFFKF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_fc_storage), DKF_DIFFKF_FC_STORAGE_LEN(3, 2, 3, 2));
+    assert_int_equal(ARRAY_LEN(dk_fc_nodes), 2);
+    assert_true(dkf_diffkf_fc_storage_len(3, 2, fm, fp) <= ARRAY_LEN(dk_fc_storage));
+    assert_int_equal(dkf_info_init(&dk_info, 3, dk_info_storage, ARRAY_LEN(dk_info_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(dkf_askf_init(&dk_askf, 3, 2, 1, dk_askf_storage, ARRAY_LEN(dk_askf_storage),
+                                   &x, &P, &d, &Pd, NULL),
+                     DKF_OK);
+    assert_int_equal(dkf_otskf_init(&dk_otskf, 3, 2, 1, dk_otskf_storage,
+                                    ARRAY_LEN(dk_otskf_storage), &x, &P, &d, &Pd),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_init(&dk_diffkf, 3, 2, 1, dk_diffkf_storage,
+                                     ARRAY_LEN(dk_diffkf_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_fc_init(&dk_fc, dk_fc_nodes, 2, 3, fm, fp, dk_fc_storage,
+                                        ARRAY_LEN(dk_fc_storage), &x, &P, NULL, NULL),
+                     DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_uif_storage), DKF_UIF_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(dkf_uif_init(&dk_uif, DKF_UIF_RTSF, 3, 2, 1, dk_uif_storage,
+                                  ARRAY_LEN(dk_uif_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_tw_node_storage), DKF_TW_NODE_STORAGE_LEN(3, 2, 1));
+    assert_int_equal(dkf_tw_node_init(&dk_tw_node, 3, 2, 1, dk_tw_node_storage,
+                                      ARRAY_LEN(dk_tw_node_storage), &x, &P),
+                     DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_tw_net_storage), DKF_TW_NET_STORAGE_LEN(2, 3, 2, 1));
+    assert_int_equal(ARRAY_LEN(dk_tw_net_nodes), 2);
+    {
+        static size_t start[3], nbr[DKF_GRAPH_NNZ(2, 1)];
+        static const size_t edge[2] = {0, 1};
+        static dkf_graph_t g;
+        assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(2, 1), 2, edge, 1),
+                         DKF_OK);
+        assert_int_equal(dkf_tw_net_init(&dk_tw_net, &g, dk_tw_net_nodes, 3, 2, 1, dk_tw_net_storage,
+                                         ARRAY_LEN(dk_tw_net_storage), &x, &P),
+                         DKF_OK);
+    }
+    x = xs_x(4), P = xs_eye(4);
+    assert_int_equal(dkf_kf_init(&dk_kf, 4, 2, dk_kf_storage, ARRAY_LEN(dk_kf_storage), &x, &P),
+                     DKF_OK);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1326,6 +1601,8 @@ int main(void)
         cmocka_unit_test(test_diffkf_fc),
         cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
         cmocka_unit_test(test_tw_net),
+        cmocka_unit_test(test_exact_storage),
+        cmocka_unit_test(test_declare_macros),
     };
     const int failed = cmocka_run_group_tests(tests, NULL, NULL);
     print_message("%zu failing calls checked\n", n_checked);

@@ -5,8 +5,8 @@
  * without CMake takes config.h's defaults). A CMake build generates its own
  * from cmake/build_config.h.in into <build>/include/dkf/, which comes
  * first on the library's include path, and `cmake --install` installs that
- * one: it fixes DKF_USE_FLOAT, DKF_MAX_DIM, DKF_JOSEPH, DKF_SYMMETRISE,
- * DKF_DEBUG_CHECKS and DKF_SVD_MAX_SWEEPS to the built values and stops a
+ * one: it fixes DKF_USE_FLOAT, DKF_MAX_DIM, DKF_JOSEPH, DKF_DEBUG_CHECKS
+ * and DKF_SVD_MAX_SWEEPS to the built values and stops a
  * consumer that defines others with an #error (docs/build.md).
  */
 #ifndef DKF_BUILD_CONFIG_H

@@ -45,10 +45,10 @@
 #define DKF_JOSEPH 1
 #endif
 
-/* 1: every covariance a filter stores is symmetrised, (P + P^T)/2. */
-#ifndef DKF_SYMMETRISE
-#define DKF_SYMMETRISE 1
-#endif
+/* DKF_SYMMETRISE is gone (docs/decisions.md item 19): every covariance a
+ * filter stores is symmetric by construction (upper triangle formed and
+ * mirrored), and the two sums that are symmetrised, (P + P^T)/2, always
+ * are. Defining it 1 is accepted (what the library does); 0 is refused. */
 
 /* 1: check argument preconditions that a correct program never violates
  * (NULL pointers, aliasing). 0 compiles them out for a lean firmware
@@ -145,8 +145,8 @@ typedef double dkf_real_t;
 #if DKF_JOSEPH != 0 && DKF_JOSEPH != 1
 #error "DKF_JOSEPH must be 0 or 1"
 #endif
-#if DKF_SYMMETRISE != 0 && DKF_SYMMETRISE != 1
-#error "DKF_SYMMETRISE must be 0 or 1"
+#if defined(DKF_SYMMETRISE) && DKF_SYMMETRISE != 1
+#error "DKF_SYMMETRISE must be 1 if defined: the switch was removed (docs/decisions.md item 19)"
 #endif
 #if DKF_SVD_MAX_SWEEPS < 1
 #error "DKF_SVD_MAX_SWEEPS must be at least 1"

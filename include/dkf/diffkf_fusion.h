@@ -152,6 +152,26 @@ size_t dkf_diffkf_fc_storage_len(size_t n, size_t l, const size_t m[], const siz
  * dkf_diffkf_fc_storage_len is 0. */
 size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_t p[]);
 
+/* Private (the sizing of src/diffkf_fusion.c, here for the macros below):
+ * the workspace for a sensor (m, p), the largest of the SVD of K^i
+ * (n x p) and of A^i (m x p), the LU of B^i (LU + work) and the Cholesky
+ * factor of a prior (factor + work). */
+#define DKF__DIFFKF_FC_MAX(a, b) ((a) > (b) ? (a) : (b))
+#define DKF__DIFFKF_FC_WORK(n, m, p) \
+    DKF__DIFFKF_FC_MAX(DKF__DIFFKF_FC_MAX(DKF_MAT_PINV_WORK(n, p), DKF_MAT_RANK_WORK(m, p)), \
+                       DKF__DIFFKF_FC_MAX((p) * (p) + DKF_MAT_LU_WORK(p), \
+                                          (n) * (n) + DKF_MAT_CHOL_WORK(n)))
+
+/* dkf_diffkf_fc_storage_len for l sensors that all have dimensions
+ * (m, p): exact for them (dkf_diffkf_fc_init accepts no less), and an
+ * upper bound for l sensors with m_i <= m, p_i <= p (every term grows with
+ * m_i and p_i). */
+#define DKF_DIFFKF_FC_STORAGE_LEN(n, l, m, p) \
+    (2 * (l) * DKF_DIFFKF_STORAGE_LEN(n, m, p) + DKF_DIFFKF_STORAGE_LEN(n, (l) * (m), (l) * (p)) \
+     + DKF_DIFFKF_STATE_LEN(n, (l) * (m), (l) * (p)) \
+     + (l) * (m) * ((n) + (l) * (p) + (l) * (m)) + 2 * (l) * (p) * (l) * (p) \
+     + 4 * (l) * (p) + (p) * (n) + DKF__DIFFKF_FC_WORK(n, m, p))
+
 /* An upper bound of dkf_diffkf_fc_storage_len for l sensors with
  * m_i <= mx, p_i <= px, for static declarations. */
 #define DKF_DIFFKF_FC_STORAGE_MAX(n, l, mx, px) \
@@ -159,6 +179,15 @@ size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_
      + DKF_DIFFKF_STATE_LEN(n, (l) * (mx), (l) * (px)) \
      + (l) * (mx) * ((n) + (l) * (mx) + (l) * (px)) + 2 * (l) * (px) * (l) * (px) \
      + 4 * (l) * (px) + (px) * (n) + 2 * ((n) + (mx)) * ((n) + (mx)) + 2 * ((n) + (mx)))
+
+/* Declares a fusion centre `name`, its node array `name_nodes` (l) and
+ * storage `name_storage` for l sensors with m_i <= mx, p_i <= px
+ * (DKF_DIFFKF_FC_STORAGE_LEN(n, l, mx, px) reals), all with the storage
+ * class sc: the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_DIFFKF_FC_DECLARE(sc, name, n, l, mx, px) \
+    sc dkf_real_t name##_storage[DKF_DIFFKF_FC_STORAGE_LEN(n, l, mx, px)]; \
+    sc dkf_diffkf_fc_node_t name##_nodes[l]; \
+    sc dkf_diffkf_fc_t name
 
 /* Set-up: binds fc to nodes[0..l-1] and storage; the central filter starts
  * from (x0, P0) and replica i from P0_local[i] (the prior covariance node i

@@ -24,25 +24,30 @@
 
 #include "dkf/ui_model.h"
 
-/* Storage, in reals, for state n, measurement m, input p: the state
- * (x~, x, P^x, P, d, P^d, U, V), then scratch for the larger of the two
- * steps, then a copy of the last D_k found of full column rank (m p; the
- * rank check's SVD is skipped while D_k is bitwise that matrix). Exact:
- * dkf_otskf_init accepts no less. */
+/* The first DKF_OTSKF_STATE_LEN(n, p) reals of the storage hold the state
+ * (x~, x, P^x, P, d, P^d, U, V): a failed call leaves them and the struct
+ * bit-identical. */
 #define DKF_OTSKF_STATE_LEN(n, p) \
     (2 * (n) + 2 * (n) * (n) + (p) + (p) * (p) + 2 * (n) * (p))
-#define DKF_OTSKF_PREDICT_LEN(n, p) \
+/* Private (the layouts of src/otskf.c, named here only because
+ * DKF_OTSKF_STORAGE_LEN must be a constant expression): the scratch of
+ * the time update, of the measurement update, and the Joseph-form
+ * workspace of the updates of P^x (N = n) and P^d (N = p) in it. */
+#define DKF__OTSKF_PREDICT_LEN(n, p) \
     (5 * (p) * (p) + 4 * (n) * (p) + 3 * (n) * (n) + (p) + 2 * (n))
-#define DKF_OTSKF_UPDATE_LEN(n, m, p) \
+#define DKF__OTSKF_UPDATE_LEN(n, m, p) \
     (3 * (m) * (m) + 2 * (m) * (n) + 3 * (m) * (p) + 2 * (n) * (n) + (p) * (p) + \
-     2 * (n) * (p) + (m) + 2 * (n) + (p) + DKF_OTSKF_JOSEPH_LEN((n) > (p) ? (n) : (p), m))
-/* Workspace of the Joseph updates of P^x (N = n) and P^d (N = p). */
-#define DKF_OTSKF_JOSEPH_LEN(N, m) (2 * ((N) + (m)) * (N) + (m) * (m))
+     2 * (n) * (p) + (m) + 2 * (n) + (p) + DKF__OTSKF_JOSEPH_LEN((n) > (p) ? (n) : (p), m))
+#define DKF__OTSKF_JOSEPH_LEN(N, m) (2 * ((N) + (m)) * (N) + (m) * (m))
+/* Storage, in reals, for state n, measurement m, input p: the state, then
+ * scratch for the larger of the two steps, then a copy of the last D_k
+ * found of full column rank (m p; the rank check's SVD is skipped while
+ * D_k is bitwise that matrix). Exact: dkf_otskf_init accepts no less. */
 #define DKF_OTSKF_STORAGE_LEN(n, m, p) \
     (DKF_OTSKF_STATE_LEN(n, p) + \
-     (DKF_OTSKF_PREDICT_LEN(n, p) > DKF_OTSKF_UPDATE_LEN(n, m, p) \
-          ? DKF_OTSKF_PREDICT_LEN(n, p) \
-          : DKF_OTSKF_UPDATE_LEN(n, m, p)) + \
+     (DKF__OTSKF_PREDICT_LEN(n, p) > DKF__OTSKF_UPDATE_LEN(n, m, p) \
+          ? DKF__OTSKF_PREDICT_LEN(n, p) \
+          : DKF__OTSKF_UPDATE_LEN(n, m, p)) + \
      (m) * (p))
 
 typedef struct {

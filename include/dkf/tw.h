@@ -170,6 +170,14 @@ typedef struct {
     size_t steps;
 } dkf_tw_net_t;
 
+/* Declares a network `name`, its node array `name_nodes` (N) and storage
+ * `name_storage` (DKF_TW_NET_STORAGE_LEN(N, n, m, p) reals), all with the
+ * storage class sc: the form of DKF_KF_DECLARE (dkf/kf.h). */
+#define DKF_TW_NET_DECLARE(sc, name, N, n, m, p) \
+    sc dkf_real_t name##_storage[DKF_TW_NET_STORAGE_LEN(N, n, m, p)]; \
+    sc dkf_tw_node_t name##_nodes[N]; \
+    sc dkf_tw_net_t name
+
 /* Binds the simulation to the graph g (checked: DKF_ERR_GRAPH), the array
  * nodes[0..g->N-1] and storage, and initialises every node with (x0, P0). */
 dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_node_t *nodes,

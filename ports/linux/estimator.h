@@ -33,12 +33,28 @@
 #include "dkf/status.h"
 #include "scenario.h"
 
-typedef enum {
-    DKF_EST_KF = 0,    /* dkf/kf.h, covariance form (ignores A, B, Rd) */
-    DKF_EST_INFO = 1,  /* dkf/info.h, information form (ignores A, B, Rd) */
-    DKF_EST_DKF = 2,   /* dkf/diffkf.h, the Difference KF */
-    DKF_EST_ASKF = 3,  /* dkf/askf.h, augmented-state KF (needs d00, Pd00) */
-    DKF_EST_OTSKF = 4  /* dkf/otskf.h, optimal two-stage KF (needs d00, Pd00) */
+typedef struct dkf_est dkf_est_t;
+
+/* A filter kind: what it needs of the scenario and the operations that
+ * drive its core filter. Each kind is one file, which also defines its
+ * registry family (DKF_EST_FAMILY, est_internal.h): est_kf.c (dkf/kf.h,
+ * covariance form; ignores A, B, Rd), est_info.c (dkf/info.h), est_diffkf.c
+ * (dkf/diffkf.h, the Difference KF; fused: dkf/diffkf_fusion.h),
+ * est_askf.c (dkf/askf.h), est_otskf.c (dkf/otskf.h). */
+typedef struct dkf_est_kind {
+    const char *name;
+    int needs_ui;    /* reads A, B, Rd (dkf_scn_require_ui before create) */
+    int fused;       /* has a fused mode (DKF_EST_FUSED) */
+    int y_ahead;     /* step k takes y_{k+1} (the Difference KF: y up to N+1) */
+    int input_prior; /* starts from d00, Pd00 (init or the options); one sensor */
+    dkf_status_t (*init)(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                         const char **what);
+    /* predict/update kinds: step k = predict with F_{k-1}, Q_{k-1}, B_{k-1},
+     * Rd_{k-1}, then update with the model and y at k */
+    dkf_status_t (*predict)(dkf_est_t *e, const char **what);
+    dkf_status_t (*update)(dkf_est_t *e, const char **what);
+    /* whole-step kinds (NULL for the others): fill xpk, run step k */
+    dkf_status_t (*step)(dkf_est_t *e, long k, const char **what);
 } dkf_est_kind_t;
 
 typedef enum {
@@ -53,15 +69,14 @@ typedef struct {
     double Pd00_scale; /* ASKF/OTSKF: P_{d0|0} = scale * init.Pd00 (0 means 1) */
 } dkf_est_opts_t;
 
-typedef struct dkf_est dkf_est_t;
-
 /* Creates an estimator of `kind` over sensors[0..count-1] of s, started from
  * x00 and the given P00 (n x n doubles). The scenario must have passed
  * dkf_scn_require_ui for DKF, ASKF, OTSKF. On failure returns NULL and
  * writes a one-line message (naming the core call and its status) into err. */
-dkf_est_t *dkf_est_create(dkf_est_kind_t kind, dkf_est_mode_t mode, const dkf_scenario_t *s,
-                          const size_t *sensors, size_t count, const double *P00,
-                          const dkf_est_opts_t *opts, char *err, size_t errlen);
+dkf_est_t *dkf_est_create(const dkf_est_kind_t *kind, dkf_est_mode_t mode,
+                          const dkf_scenario_t *s, const size_t *sensors, size_t count,
+                          const double *P00, const dkf_est_opts_t *opts, char *err,
+                          size_t errlen);
 void dkf_est_free(dkf_est_t *e);
 
 /* Step k (k = 1, 2, ... in order). On a core error returns its status and
@@ -84,9 +99,5 @@ const double *dkf_est_sqerr(const dkf_est_t *e, int predicted);
  * NULL). Returns the number of steps compared (0: no truth, RMSE = NaN). */
 double dkf_est_trace_P(const dkf_est_t *e);
 size_t dkf_est_rmse(const dkf_est_t *e, double *rmse, double *rmse_comp);
-
-/* A as JSON: a flat list of numbers when as_vector (A is n x 1), else a
- * list of rows. New reference; NULL if out of memory. */
-json_t *dkf_json_from_mat(const dkf_mat_t *A, int as_vector);
 
 #endif /* DKF_HOST_ESTIMATOR_H */

@@ -10,7 +10,12 @@
  *  - cases (the infofusion golden-vector layout): `cases[c]` with `x0`, `P0`,
  *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`;
  *  - steps (the seed-003/004 uif golden-vector layout): top-level `steps[]`
- *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below).
+ *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below); with a
+ *    `graph` key it is the network layout (seed 003: per-node H, Sw, y).
+ *
+ * The reader knows these layouts and no filter: which filter runs on a file
+ * is the runner registry's business (registry.h). Its files, one per
+ * layout: scn_parse.h.
  *
  * Numbers stay in double here, whatever the library's real type is;
  * dkf_scn_to_real converts at the point where the core is called.
@@ -45,15 +50,10 @@
 typedef enum {
     DKF_SCN_LAYOUT_CANONICAL = 0, /* model / init / y (diffkf vectors) */
     DKF_SCN_LAYOUT_CASES = 1,     /* cases[].steps[] (infofusion vectors) */
-    DKF_SCN_LAYOUT_STEPS = 2      /* steps[].inputs (seed-003/004 uif vectors) */
+    DKF_SCN_LAYOUT_STEPS = 2,     /* steps[].inputs, one sensor (seed-004 uif vectors) */
+    DKF_SCN_LAYOUT_NETWORK = 3    /* steps[].inputs with a graph: per-node H, Sw, y
+                                   * (seed-003 vectors); s->net holds the graph */
 } dkf_scn_layout_t;
-
-/* The family of a steps-layout file (what its model describes). */
-typedef enum {
-    DKF_SCN_FAMILY_KF = 0,  /* canonical / cases layouts */
-    DKF_SCN_FAMILY_UIF = 1, /* seed 004: A, G, Q, C, (H), R; one sensor */
-    DKF_SCN_FAMILY_TW = 2   /* seed 003: A, B, Sv, per-node H, Sw; a graph */
-} dkf_scn_family_t;
 
 /* A named matrix that is either constant or given per absolute k, or (for
  * init entries such as P00_local) a plain list of same-shape matrices.
@@ -140,10 +140,9 @@ typedef struct {
     dkf_scn_run_t *runs;
     size_t run;               /* the selected run (dkf_scn_select_run) */
     json_t *root;             /* the parsed document (read-only), for keys not modelled */
-    /* steps layout (seed-003/004 vectors); see dkf_scn_steps_* below */
-    dkf_scn_family_t family;  /* DKF_SCN_FAMILY_KF for the other layouts */
+    /* steps layout and its network form (seed-004/003 vectors), below */
     long k_first;             /* the first step's absolute k (1 for the other layouts) */
-    dkf_scn_network_t *net;   /* seed 003: graph and weights; NULL otherwise */
+    dkf_scn_network_t *net;   /* network layout: graph and weights; NULL otherwise */
     size_t ntruth_u;          /* true unknown input at the steps' times truth_u_k */
     long *truth_u_k;
     double *truth_u;          /* ntruth_u * m_u */
@@ -151,8 +150,9 @@ typedef struct {
     char truth_u_key[16];     /* its key in steps[].truth: d, d_prev or z_prev */
 } dkf_scenario_t;
 
-/* Steps layout (docs/scenario-format.md, "Steps layout"): a top-level
- * `steps` list of {k or n, inputs: {y, ...}, truth, expected}, normalised as
+/* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
+ * top-level `steps` list of {k or n, inputs: {y, ...}, truth, expected},
+ * normalised as
  *   init.x0, init.P0          -> init x00, P00
  *   model.<M> (bare matrix)   -> model <M> (constant)
  *   steps[j].inputs.<M>       -> model <M> per_k, entry at k = steps[j].k

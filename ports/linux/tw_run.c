@@ -1,42 +1,63 @@
 /*
- * tw_run.c - dkf/tw.h Algorithms 1-3 over a steps-layout scenario (see
- * tw_run.h). All filtering is the library's: the in-process simulation is
- * dkf_tw_net_*, Algorithm 1 is dkf_tw_central_step; this file converts the
- * scenario, binds the graph and weights, records, and measures.
+ * tw_run.c - the seed-003 filters (dkf/tw.h: Talebi-Werner Algorithms 1, 2,
+ * 3) over a network-layout scenario, with the whole graph simulated in
+ * process by dkf_tw_net_*: the registry family "tw" (registry.h), filters
+ * tw1, tw2, tw3. All filtering is the library's (Algorithm 1 is
+ * dkf_tw_central_step); this file converts the scenario, binds the graph
+ * and weights, records, and measures.
+ *
+ * The graph comes from graph.edges (graph.neighbours_incl_self is
+ * informational); alpha_diffusion[_sparse] and W_consensus[_sparse] from
+ * the file or, when absent, the library's uniform alpha = 1/|N_l| and
+ * Metropolis W (note §2's defaults). Steps start at n = 1.
+ *
+ * Recorded per step under the vectors' names (alg2/alg3: one entry per
+ * node, [N][...]):
+ *   alg1: x P z phi Phi phi_post Phi_post S G
+ *   alg2: x P z psi Q phi_post Phi_post S G
+ *   alg3: x P z Ups vphi psi Ploc phi_post Phi_post S G
+ * and, when the file has truth, metrics per step (extra keys):
+ *   mse_x[i], mse_z[i]  mean over nodes of the squared error of component i
+ *                       (z against z_prev: the step that takes y_n estimates
+ *                       z_{n-1})
+ *   nees                mean over nodes of e^T P^-1 e / n
+ *   spread_x[i]         RMS over nodes of x_l,i - mean_l x_l,i
+ *   range_x[i]          max over nodes of x_l,i minus the min
+ * and for alg2/alg3 the gap to Algorithm 1 run alongside on the same data:
+ *   gap_x, gap_z        mean over nodes of ||x_l - x_alg1||^2, ||z_l - z_alg1||^2
+ *   gap_x_rel_max       max over nodes of ||x_l - x_alg1|| / ||x_alg1||
+ *   gap_x_vec_rule      max over nodes of max_i |x_l,i - x_alg1,i| / max(1, max_i |x_alg1,i|)
+ *                       (the golden-vector comparison rule with Alg 1 as reference)
  */
-#include "tw_run.h"
-
 #include <math.h>
-#include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "dkf/graph.h"
 #include "dkf/tw.h"
-#include "estimator.h"
+#include "registry.h"
+#include "util.h"
 
 static const char *const alg_names[] = {"", "alg1", "alg2", "alg3"};
 
-int dkf_twrun_alg(const char *name)
-{
-    if (strcmp(name, "tw1") == 0) return 1;
-    if (strcmp(name, "tw2") == 0) return 2;
-    if (strcmp(name, "tw3") == 0) return 3;
-    return 0;
-}
+typedef struct {
+    int alg;        /* 1, 2, 3 */
+    long eta;       /* alg 3: >= 0 overrides the file's eta; -1: the file's */
+    int no_nodes;   /* 1: record only the metrics, not the per-node arrays */
+} tw_opts_t;
 
-#if defined(__GNUC__)
-__attribute__((format(printf, 4, 5)))
-#endif
-static int failf(char *err, size_t errlen, int rc, const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return rc;
-}
+typedef struct {
+    size_t N, E, steps;
+    size_t eta;                   /* alg 3 */
+    int W_default, alpha_default; /* 1: weights computed (not in the file) */
+    double reals_per_node_step;   /* broadcast by a node per step (alg 1: sent to the centre) */
+    double broadcasts_per_node_step;
+    double rmse_x, rmse_z;        /* root mean over steps, nodes, components (NaN: no truth) */
+    double gap_x_rel_max;         /* alg 2/3: max over steps and nodes */
+    double gap_x_vec_rule;        /* alg 2/3: max over steps, nodes of the vector rule */
+} tw_summary_t;
 
 /* Everything a run owns (freed by ctx_free). */
 typedef struct {
@@ -97,16 +118,16 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
     if (key == NULL) {
         st = doubly ? dkf_graph_weights_metropolis(w, &c->g) : dkf_graph_weights_uniform(w, &c->g);
         if (st != DKF_OK)
-            return failf(err, errlen, DKF_RUN_FILTER, "%s: graph: default %s weights failed: %s",
-                         s->file, doubly ? "Metropolis" : "uniform", dkf_status_str(st));
-        return DKF_RUN_OK;
+            return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: graph: default %s weights failed: %s",
+                             s->file, doubly ? "Metropolis" : "uniform", dkf_status_str(st));
+        return DKF_EXIT_OK;
     }
     {
         size_t *ri = malloc((cnt ? cnt : 1) * sizeof *ri), *ci = malloc((cnt ? cnt : 1) * sizeof *ci);
         dkf_real_t *vv = malloc((cnt ? cnt : 1) * sizeof *vv);
         if (ri == NULL || ci == NULL || vv == NULL) {
             free(ri), free(ci), free(vv);
-            return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
         }
         for (t = 0; t < cnt; ++t) {
             size_t pos;
@@ -115,9 +136,9 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
             vv[t] = (dkf_real_t)v[t];
             if (dkf_graph_find(&pos, &c->g, ri[t], ci[t]) != DKF_OK) {
                 free(ri), free(ci), free(vv);
-                return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                             "%s: %s: entry (%zu, %zu) is not a link of graph.edges", s->file,
-                             key, rc[2 * t], rc[2 * t + 1]);
+                return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                                 "%s: %s: entry (%zu, %zu) is not a link of graph.edges", s->file,
+                                 key, rc[2 * t], rc[2 * t + 1]);
             }
         }
         st = dkf_graph_weights_from_triplets(w, &c->g, ri, ci, vv, cnt);
@@ -127,16 +148,16 @@ static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_
         st = doubly ? dkf_graph_check_doubly_stochastic(&c->g, w)
                     : dkf_graph_check_row_stochastic(&c->g, w);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: %s: %s (%s)", s->file, key,
-                     st == DKF_ERR_WEIGHTS ? (doubly ? "not doubly stochastic and non-negative"
-                                                     : "not row-stochastic and non-negative")
-                                           : "invalid weights",
-                     dkf_status_str(st));
-    return DKF_RUN_OK;
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: %s (%s)", s->file, key,
+                         st == DKF_ERR_WEIGHTS ? (doubly ? "not doubly stochastic and non-negative"
+                                                         : "not row-stochastic and non-negative")
+                                               : "invalid weights",
+                         dkf_status_str(st));
+    return DKF_EXIT_OK;
 }
 
-static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
-                 dkf_twrun_summary_t *sum, char *err, size_t errlen)
+static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
+                 tw_summary_t *sum, char *err, size_t errlen)
 {
     const dkf_scn_network_t *net = s->net;
     const dkf_scn_mat_t *mB = dkf_scn_model(s, "B");
@@ -168,16 +189,16 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
     if (!c->start || !c->nbr || !c->W || !c->alpha || !c->nodes || !c->net_mem ||
         !c->central_mem || !c->H || !c->Sw || !c->y || !c->mH || !c->mSw || !c->my || !c->sens ||
         !c->A)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT, "%s: out of memory", s->file);
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
     c->B = c->A + c->n * c->n;
     c->Sv = c->B + c->n * c->p;
     c->P0 = c->Sv + c->n * c->n;
     c->x0 = c->P0 + c->n * c->n;
     st = dkf_graph_from_edges(&c->g, c->start, c->nbr, nnz, c->N, net->edges, net->E);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                     "%s: graph.edges: not a simple undirected graph (a self loop or a repeated "
-                     "edge): %s", s->file, dkf_status_str(st));
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "%s: graph.edges: not a simple undirected graph (a self loop or a "
+                         "repeated edge): %s", s->file, dkf_status_str(st));
     if ((rc = bind_weights(c, s, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
     sum->alpha_default = dflt;
     if ((rc = bind_weights(c, s, 1, c->W, &dflt, err, errlen)) != 0) return rc;
@@ -200,10 +221,10 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const dkf_twrun_opts_t *o,
         st = dkf_tw_net_init(&c->net, &c->g, c->nodes, c->n, c->mmax, c->p, c->net_mem, node_len,
                              &c->mx0, &c->mP0);
     if (st != DKF_OK)
-        return failf(err, errlen, DKF_RUN_FILTER, "%s: %s: %s failed: %s (%d)", s->file,
-                     alg_names[o->alg], o->alg == 1 ? "dkf_tw_node_init" : "dkf_tw_net_init",
-                     dkf_status_str(st), (int)st);
-    return DKF_RUN_OK;
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s (%d)", s->file,
+                         alg_names[o->alg], o->alg == 1 ? "dkf_tw_node_init" : "dkf_tw_net_init",
+                         dkf_status_str(st), (int)st);
+    return DKF_EXIT_OK;
 }
 
 /* The model and measurements of step k (absolute time n = k). */
@@ -228,16 +249,6 @@ static void load_step(ctx_t *c, const dkf_scenario_t *s, long k)
 }
 
 /* ---- recording ------------------------------------------------------------------ */
-
-static void put(json_t *series, const char *key, json_t *value)
-{
-    json_t *list = json_object_get(series, key);
-    if (list == NULL) {
-        list = json_array();
-        json_object_set_new(series, key, list);
-    }
-    json_array_append_new(list, value);
-}
 
 static json_t *mat_json(const dkf_mat_t *A)
 {
@@ -276,14 +287,14 @@ static void record_nodes(json_t *series, int alg, const dkf_tw_node_t *nodes, si
     size_t i, l;
     for (i = 0; i < nf; ++i) {
         if (alg == 1) {
-            put(series, fs[i].key, mat_json(field(&nodes[0], fs[i].off)));
+            dkf_json_append(series, fs[i].key, mat_json(field(&nodes[0], fs[i].off)));
             continue;
         }
         {
             json_t *all = json_array();
             for (l = 0; l < count; ++l)
                 json_array_append_new(all, mat_json(field(&nodes[l], fs[i].off)));
-            put(series, fs[i].key, all);
+            dkf_json_append(series, fs[i].key, all);
         }
     }
 }
@@ -322,14 +333,6 @@ typedef struct {
     size_t nx, nz;
 } acc_t;
 
-static json_t *vec_json(const double *v, size_t n)
-{
-    json_t *a = json_array();
-    size_t i;
-    for (i = 0; i < n; ++i) json_array_append_new(a, json_real(v[i]));
-    return a;
-}
-
 static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
                     const dkf_tw_node_t *nodes, size_t count, const dkf_tw_node_t *ref,
                     acc_t *acc)
@@ -364,11 +367,11 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
         }
         acc->nx += n;
         if (series != NULL) {
-            put(series, "mse_x", vec_json(mx, n));
-            put(series, "nees", json_real(ne));
-            put(series, "spread_x", vec_json(sp, n));
+            dkf_json_append(series, "mse_x", dkf_json_doubles(mx, n, 0));
+            dkf_json_append(series, "nees", json_real(ne));
+            dkf_json_append(series, "spread_x", dkf_json_doubles(sp, n, 0));
             for (i = 0; i < n; ++i) hi[i] -= lo[i];
-            put(series, "range_x", vec_json(hi, n));
+            dkf_json_append(series, "range_x", dkf_json_doubles(hi, n, 0));
         }
     }
     if (zt != NULL && s->m_u == p) {
@@ -379,7 +382,7 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
             }
         for (i = 0; i < p; ++i) acc->sz += mz[i];
         acc->nz += p;
-        if (series != NULL) put(series, "mse_z", vec_json(mz, p));
+        if (series != NULL) dkf_json_append(series, "mse_z", dkf_json_doubles(mz, p, 0));
     }
     if (alg == 1 || ref == NULL) return;
     for (i = 0; i < n; ++i) {
@@ -405,31 +408,31 @@ static void metrics(json_t *series, const dkf_scenario_t *s, long k, int alg,
     if (grel > acc->gap_rel_max) acc->gap_rel_max = grel;
     if (ginf > acc->gap_vec_max) acc->gap_vec_max = ginf;
     if (series != NULL) {
-        put(series, "gap_x", json_real(gx));
-        put(series, "gap_z", json_real(gz));
-        put(series, "gap_x_rel_max", json_real(grel));
-        put(series, "gap_x_vec_rule", json_real(ginf));
+        dkf_json_append(series, "gap_x", json_real(gx));
+        dkf_json_append(series, "gap_z", json_real(gz));
+        dkf_json_append(series, "gap_x_rel_max", json_real(grel));
+        dkf_json_append(series, "gap_x_vec_rule", json_real(ginf));
     }
 }
 
 /* ---- the run ---------------------------------------------------------------------- */
 
-static int check_file(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, char *err,
+static int check_file(const dkf_scenario_t *s, const tw_opts_t *o, char *err,
                       size_t errlen, size_t *eta)
 {
     const char *who = o->alg == 1 ? "tw1" : o->alg == 2 ? "tw2" : "tw3";
-    if (s->layout != DKF_SCN_LAYOUT_STEPS)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                     "%s: steps: missing key (filter %s reads the seed-003 steps layout)", s->file,
-                     who);
-    if (s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                     "%s: graph: missing key (filter %s needs a seed-003 network file)", s->file,
-                     who);
+    if (s->layout != DKF_SCN_LAYOUT_STEPS && s->layout != DKF_SCN_LAYOUT_NETWORK)
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "%s: steps: missing key (filter %s reads the seed-003 steps layout)",
+                         s->file, who);
+    if (s->layout != DKF_SCN_LAYOUT_NETWORK || s->net == NULL)
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "%s: graph: missing key (filter %s needs a seed-003 network file)",
+                         s->file, who);
     if (s->k_first != 1)
-        return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                     "%s: steps[0].n: filter %s starts at n = 1 ((x0, P0) = x_{0|0}, y_0 "
-                     "unused), got %ld", s->file, who, s->k_first);
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "%s: steps[0].n: filter %s starts at n = 1 ((x0, P0) = x_{0|0}, y_0 "
+                         "unused), got %ld", s->file, who, s->k_first);
     *eta = 0;
     if (o->alg == 3) {
         if (o->eta >= 0)
@@ -437,69 +440,178 @@ static int check_file(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, char *
         else if (s->net->eta >= 0)
             *eta = (size_t)s->net->eta;
         else
-            return failf(err, errlen, DKF_RUN_BAD_INPUT,
-                         "%s: eta: missing key (filter tw3 needs eta or --eta N)", s->file);
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                             "%s: eta: missing key (filter tw3 needs eta or --eta N)", s->file);
     }
-    return DKF_RUN_OK;
+    return DKF_EXIT_OK;
 }
 
-int dkf_twrun(const dkf_scenario_t *s, const dkf_twrun_opts_t *o, json_t *series,
-              dkf_twrun_summary_t *sum, char *err, size_t errlen)
-{
+/* A running filter: the graph and nodes (ctx_t), what it records and
+ * measures. */
+typedef struct {
+    const dkf_filter_t *fl;
+    const dkf_scenario_t *s;
+    tw_opts_t o;
+    size_t eta;
     ctx_t c;
     acc_t acc;
-    size_t eta;
-    long k;
-    int rc;
-    memset(sum, 0, sizeof *sum);
-    memset(&acc, 0, sizeof acc);
-    if ((rc = check_file(s, o, err, errlen, &eta)) != DKF_RUN_OK) return rc;
-    memset(&c, 0, sizeof c);
-    rc = setup(&c, s, o, sum, err, errlen);
-    for (k = s->k_first; rc == DKF_RUN_OK && k < s->k_first + (long)s->steps; ++k) {
-        dkf_status_t st;
-        const char *what;
-        load_step(&c, s, k);
-        what = "dkf_tw_central_step";
-        st = dkf_tw_central_step(&c.central, &c.model, c.sens, c.my, c.N);
-        if (st == DKF_OK && o->alg == 2) {
-            what = "dkf_tw_net_diffusion_step";
-            st = dkf_tw_net_diffusion_step(&c.net, c.alpha, &c.model, c.sens, c.my);
-        } else if (st == DKF_OK && o->alg == 3) {
-            what = "dkf_tw_net_consensus_step";
-            st = dkf_tw_net_consensus_step(&c.net, c.W, eta, &c.model, c.sens, c.my);
-        }
-        if (st != DKF_OK) {
-            rc = failf(err, errlen, DKF_RUN_FILTER, "%s: step n=%ld: %s: %s failed: %s (%d)",
-                       s->file, k, alg_names[o->alg], what, dkf_status_str(st), (int)st);
-            break;
-        }
-        if (series != NULL && !o->no_nodes)
-            record_nodes(series, o->alg, o->alg == 1 ? &c.central : c.nodes,
-                         o->alg == 1 ? 1 : c.N);
-        metrics(series, s, k, o->alg, o->alg == 1 ? &c.central : c.nodes, o->alg == 1 ? 1 : c.N,
-                &c.central, &acc);
-    }
-    if (rc == DKF_RUN_OK) {
-        sum->N = c.N;
-        sum->E = s->net->E;
-        sum->steps = s->steps;
-        sum->eta = eta;
-        if (o->alg == 1) {
-            /* every node sends its info packet [H^T Sw^-1 y | packed H^T Sw^-1 H] to the
-             * centre once per step */
-            sum->reals_per_node_step = (double)DKF_TW_PKT_LEN(c.n);
-            sum->broadcasts_per_node_step = 1;
-        } else {
-            sum->reals_per_node_step = (double)c.net.reals_sent / (double)(c.N * c.net.steps);
-            sum->broadcasts_per_node_step =
-                (double)c.net.broadcasts / (double)(c.N * c.net.steps);
-        }
-        sum->rmse_x = acc.nx > 0 ? sqrt(acc.sx / (double)acc.nx) : NAN;
-        sum->rmse_z = acc.nz > 0 ? sqrt(acc.sz / (double)acc.nz) : NAN;
-        sum->gap_x_rel_max = o->alg == 1 ? 0 : acc.gap_rel_max;
-        sum->gap_x_vec_rule = o->alg == 1 ? 0 : acc.gap_vec_max;
-    }
-    ctx_free(&c);
-    return rc;
+    tw_summary_t sum;  /* the weights' origin (setup); the rest: tw_finish */
+    json_t *series;    /* NULL: record nothing */
+} tw_runner_t;
+
+static tw_opts_t tw_opts(const dkf_filter_t *fl, const dkf_run_opts_t *o)
+{
+    tw_opts_t t;
+    t.alg = *(const int *)fl->impl;
+    t.eta = o->eta;
+    t.no_nodes = o->metrics_only;
+    return t;
 }
+
+static int tw_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_scenario_t *s,
+                    char *err, size_t errlen)
+{
+    const tw_opts_t t = tw_opts(fl, o);
+    size_t eta;
+    return check_file(s, &t, err, errlen, &eta);
+}
+
+static void tw_destroy(dkf_runner_t *r)
+{
+    tw_runner_t *t = (tw_runner_t *)(void *)r;
+    if (t == NULL) return;
+    ctx_free(&t->c);
+    json_decref(t->series);
+    free(t);
+}
+
+static dkf_runner_t *tw_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
+                               const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
+{
+    tw_runner_t *t = calloc(1, sizeof *t);
+    if (t == NULL) {
+        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
+        return NULL;
+    }
+    t->fl = fl;
+    t->s = s;
+    t->o = tw_opts(fl, o);
+    t->series = o->record ? json_object() : NULL;
+    *rc = check_file(s, &t->o, err, errlen, &t->eta);
+    if (*rc == DKF_EXIT_OK && o->record && t->series == NULL)
+        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
+    if (*rc == DKF_EXIT_OK) *rc = setup(&t->c, s, &t->o, &t->sum, err, errlen);
+    if (*rc != DKF_EXIT_OK) {
+        tw_destroy((dkf_runner_t *)(void *)t);
+        return NULL;
+    }
+    return (dkf_runner_t *)(void *)t;
+}
+
+static int tw_step(dkf_runner_t *r, long k, char *err, size_t errlen)
+{
+    tw_runner_t *t = (tw_runner_t *)(void *)r;
+    ctx_t *c = &t->c;
+    const int alg = t->o.alg;
+    dkf_status_t st;
+    const char *what;
+    load_step(c, t->s, k);
+    what = "dkf_tw_central_step";
+    st = dkf_tw_central_step(&c->central, &c->model, c->sens, c->my, c->N);
+    if (st == DKF_OK && alg == 2) {
+        what = "dkf_tw_net_diffusion_step";
+        st = dkf_tw_net_diffusion_step(&c->net, c->alpha, &c->model, c->sens, c->my);
+    } else if (st == DKF_OK && alg == 3) {
+        what = "dkf_tw_net_consensus_step";
+        st = dkf_tw_net_consensus_step(&c->net, c->W, t->eta, &c->model, c->sens, c->my);
+    }
+    if (st != DKF_OK)
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step n=%ld: %s: %s failed: %s (%d)",
+                         t->s->file, k, alg_names[alg], what, dkf_status_str(st), (int)st);
+    if (t->series != NULL && !t->o.no_nodes)
+        record_nodes(t->series, alg, alg == 1 ? &c->central : c->nodes, alg == 1 ? 1 : c->N);
+    metrics(t->series, t->s, k, alg, alg == 1 ? &c->central : c->nodes, alg == 1 ? 1 : c->N,
+            &c->central, &t->acc);
+    return DKF_EXIT_OK;
+}
+
+/* The run's totals (after its steps). */
+static tw_summary_t tw_finish(const tw_runner_t *t)
+{
+    const ctx_t *c = &t->c;
+    tw_summary_t sum = t->sum;
+    sum.N = c->N;
+    sum.E = t->s->net->E;
+    sum.steps = t->s->steps;
+    sum.eta = t->eta;
+    if (t->o.alg == 1) {
+        /* every node sends its info packet [H^T Sw^-1 y | packed H^T Sw^-1 H] to the
+         * centre once per step */
+        sum.reals_per_node_step = (double)DKF_TW_PKT_LEN(c->n);
+        sum.broadcasts_per_node_step = 1;
+    } else {
+        sum.reals_per_node_step = (double)c->net.reals_sent / (double)(c->N * c->net.steps);
+        sum.broadcasts_per_node_step = (double)c->net.broadcasts / (double)(c->N * c->net.steps);
+    }
+    sum.rmse_x = t->acc.nx > 0 ? sqrt(t->acc.sx / (double)t->acc.nx) : NAN;
+    sum.rmse_z = t->acc.nz > 0 ? sqrt(t->acc.sz / (double)t->acc.nz) : NAN;
+    sum.gap_x_rel_max = t->o.alg == 1 ? 0 : t->acc.gap_rel_max;
+    sum.gap_x_vec_rule = t->o.alg == 1 ? 0 : t->acc.gap_vec_max;
+    return sum;
+}
+
+static void tw_record(const dkf_runner_t *r, json_t *doc)
+{
+    const tw_runner_t *t = (const tw_runner_t *)(const void *)r;
+    const tw_summary_t sum = tw_finish(t);
+    json_t *outs = json_object();
+    json_object_set_new(outs, t->fl->label, json_copy(t->series));
+    json_object_set_new(doc, "outputs", outs);
+    if (t->o.alg == 3) json_object_set_new(doc, "eta", json_integer((json_int_t)sum.eta));
+    json_object_set_new(doc, "communication",
+                        json_pack("{s:f, s:f, s:i, s:i}", "reals_per_node_step",
+                                  sum.reals_per_node_step, "messages_per_node_step",
+                                  sum.broadcasts_per_node_step, "N", (json_int_t)sum.N, "edges",
+                                  (json_int_t)sum.E));
+}
+
+static void tw_summary(const dkf_runner_t *r, FILE *out)
+{
+    const tw_runner_t *t = (const tw_runner_t *)(const void *)r;
+    const tw_summary_t sum = tw_finish(t);
+    fprintf(out, "scenario %s: %zu steps, %zu nodes, %zu edges, n = %zu; filter %s (%s)",
+            t->s->file, sum.steps, sum.N, sum.E, t->s->n, t->fl->name,
+            DKF_USE_FLOAT ? "float" : "double");
+    if (t->o.alg == 3) fprintf(out, ", eta = %zu", sum.eta);
+    fprintf(out, "\n  weights: alpha %s, W %s\n",
+            sum.alpha_default ? "uniform (computed)" : "from file",
+            sum.W_default ? "Metropolis (computed)" : "from file");
+    fprintf(out, "  RMSE x %.6g, z %.6g (over steps, nodes, components)\n", sum.rmse_x,
+            sum.rmse_z);
+    fprintf(out, "  reals sent per node per step %.6g (%.6g messages)\n",
+            sum.reals_per_node_step, sum.broadcasts_per_node_step);
+    if (t->o.alg != 1)
+        fprintf(out, "  gap to Algorithm 1 (max over steps, nodes): ||dx||/||x1|| %.6g, "
+                "max|dx|/max(1, max|x1|) %.6g\n", sum.gap_x_rel_max, sum.gap_x_vec_rule);
+}
+
+/* ---- the registry family ---- */
+
+extern const dkf_family_t dkf_family_tw;
+static const int algs[] = {1, 2, 3};
+static const dkf_filter_t filters[] = {
+    {"tw1", "alg1",
+     "seed 003: Algorithm 1, centralized filter with unknown\n"
+     "                           actuations (dkf/tw.h) over every node",
+     DKF_RUN_OPT_METRICS, &dkf_family_tw, &algs[0]},
+    {"tw2", "alg2", "seed 003: Algorithm 2, diffusion, whole graph in process",
+     DKF_RUN_OPT_METRICS, &dkf_family_tw, &algs[1]},
+    {"tw3", "alg3",
+     "seed 003: Algorithm 3, consensus (eta ACF iterations:\n"
+     "                           the file's eta or --eta N), whole graph in process",
+     DKF_RUN_OPT_METRICS | DKF_RUN_OPT_ETA, &dkf_family_tw, &algs[2]},
+};
+const dkf_family_t dkf_family_tw = {
+    "tw", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_NETWORK,
+    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy,
+};

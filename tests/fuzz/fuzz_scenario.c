@@ -9,7 +9,8 @@
  *     values, every truth x_k n values, every model/init matrix its rows x
  *     cols for each k it covers (all read here, so a buffer sized smaller
  *     than its accessor's promise is an ASan report), and the checks the
- *     filters run before starting answer 0 or a message.
+ *     filters run before starting (every registry family's check, as
+ *     dkf-run and the network processes call it) answer 0 or a message.
  */
 #define _POSIX_C_SOURCE 200809L
 
@@ -19,6 +20,7 @@
 #include <unistd.h>
 
 #include "fuzz_check.h"
+#include "registry.h"
 #include "scenario.h"
 
 static char path[4096];
@@ -95,6 +97,22 @@ static void require_message(const char *err)
     FUZZ_REQUIRE(err[0] != '\0' && strchr(err, '\n') == NULL);
 }
 
+/* Every filter's check (default options): 0 or a message. */
+static void check_every_filter(const dkf_scenario_t *s, char *err)
+{
+    dkf_run_opts_t o;
+    size_t i, j;
+    memset(&o, 0, sizeof o);
+    o.eta = -1;
+    for (i = 0; dkf_registry[i] != NULL; ++i)
+        for (j = 0; j < dkf_registry[i]->nfilters; ++j) {
+            const dkf_filter_t *f = &dkf_registry[i]->filters[j];
+            memset(err, 'x', DKF_SCN_ERR_LEN);
+            if (f->family->check(f, &o, s, err, DKF_SCN_ERR_LEN) != DKF_EXIT_OK)
+                require_message(err);
+        }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static char err[DKF_SCN_ERR_LEN];
@@ -117,9 +135,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     dkf_scn_select_run(s, 0);
     read_values(dkf_scn_P00_central(s), s->n * s->n);
     if (dkf_scn_require_truth(s, err, sizeof err) != 0) require_message(err);
-    if (s->layout != DKF_SCN_LAYOUT_STEPS &&
+    if (s->layout != DKF_SCN_LAYOUT_STEPS && s->layout != DKF_SCN_LAYOUT_NETWORK &&
         dkf_scn_require_ui(s, s->steps, s->steps, 0, "fuzz", err, sizeof err) != 0)
         require_message(err);
+    check_every_filter(s, err);
     dkf_scenario_free(s);
     return 0;
 }

@@ -3,7 +3,7 @@
  * parsing helpers, scenario loading, files. Every error is one line
  * "PROG: problem" on stderr.
  *
- * Exit statuses of the three programs: 0 done, 2 bad options or input,
+ * Exit statuses (DKF_EXIT_*, util.h): 0 done, 2 bad options or input,
  * 3 a run failure (core call failed, a peer failed, a wait timed out),
  * 4 interrupted (SIGINT/SIGTERM or --timeout) before the end.
  */
@@ -17,11 +17,7 @@
 
 #include "net.h"
 #include "scenario.h"
-
-#define DKF_EXIT_OK 0
-#define DKF_EXIT_USAGE 2
-#define DKF_EXIT_RUN 3
-#define DKF_EXIT_STOPPED 4
+#include "util.h"
 
 extern volatile sig_atomic_t dkf_cli_stop;
 

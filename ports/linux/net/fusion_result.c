@@ -6,23 +6,7 @@
 
 #include "dkf/config.h"
 #include "fusion_result.h"
-
-/* rows x cols doubles as a list (cols == 0: a flat vector of rows). */
-static json_t *json_block(const double *v, size_t rows, size_t cols)
-{
-    json_t *a = json_array();
-    size_t i, j;
-    for (i = 0; i < rows; ++i) {
-        if (cols == 0) {
-            json_array_append_new(a, json_real(v[i]));
-        } else {
-            json_t *r = json_array();
-            for (j = 0; j < cols; ++j) json_array_append_new(r, json_real(v[i * cols + j]));
-            json_array_append_new(a, r);
-        }
-    }
-    return a;
-}
+#include "util.h"
 
 /* The node indices whose flag is set in row j of an N x l bitmap. */
 static json_t *json_nodes(const unsigned char *bits, size_t l)
@@ -49,7 +33,7 @@ static void set_model_id(json_t *o, int64_t model_id)
 void dkf_fcr_json_set_block(json_t *o, const char *key, const double *v, size_t rows,
                             size_t cols)
 {
-    json_object_set_new(o, key, json_block(v, rows, cols));
+    json_object_set_new(o, key, dkf_json_doubles(v, rows, cols));
 }
 
 void dkf_fcr_json_set_rows(json_t *o, const char *key, const double *v, size_t steps,
@@ -58,7 +42,7 @@ void dkf_fcr_json_set_rows(json_t *o, const char *key, const double *v, size_t s
     const size_t len = rows * (cols ? cols : 1);
     json_t *a = json_array();
     size_t j;
-    for (j = 0; j < steps; ++j) json_array_append_new(a, json_block(v + j * len, rows, cols));
+    for (j = 0; j < steps; ++j) json_array_append_new(a, dkf_json_doubles(v + j * len, rows, cols));
     json_object_set_new(o, key, a);
 }
 

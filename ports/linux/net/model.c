@@ -8,11 +8,18 @@
 #include <string.h>
 
 #include "codec.h"
+#include "registry.h"
+#include "util.h"
 
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
 {
+    const dkf_filter_t *f = dkf_registry_find("dkf");
+    dkf_run_opts_t o;
     size_t i, ms = 0, ps = 0;
-    if (dkf_scn_require_ui(s, s->steps, s->steps + 1, 0, "DKF", err, errlen) != 0) return -1;
+    /* what the Difference KF needs of the file: the registry's check */
+    memset(&o, 0, sizeof o);
+    o.eta = -1;
+    if (f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
     if (s->nsensors > DKF_NET_MAX_NODES) {
         snprintf(err, errlen, "%s: model.sensors: %zu sensors, at most %d", s->file, s->nsensors,
                  DKF_NET_MAX_NODES);
@@ -94,53 +101,29 @@ int dkf_net_model_meas(dkf_net_model_t *md, const dkf_scenario_t *s, size_t i, s
 
 /* ---- model id ---------------------------------------------------------------- */
 
-#define FNV_OFFSET 0xcbf29ce484222325ull
-#define FNV_PRIME 0x100000001b3ull
-
-static uint64_t fnv_u64(uint64_t h, uint64_t v)
-{
-    int i;
-    for (i = 56; i >= 0; i -= 8) {
-        h ^= (v >> i) & 0xffu;
-        h *= FNV_PRIME;
-    }
-    return h;
-}
-
-static uint64_t fnv_doubles(uint64_t h, const double *v, size_t len)
-{
-    size_t i;
-    for (i = 0; i < len; ++i) {
-        uint64_t bits;
-        memcpy(&bits, &v[i], sizeof bits);
-        h = fnv_u64(h, bits);
-    }
-    return h;
-}
-
 /* Shape, number of entries and every value of a scenario matrix (or a
  * marker for an absent one). */
 static uint64_t fnv_mat(uint64_t h, const dkf_scn_mat_t *m)
 {
-    if (m == NULL) return fnv_u64(h, 0xffffffffffffffffull);
-    h = fnv_u64(fnv_u64(fnv_u64(h, m->rows), m->cols), m->count);
-    return fnv_doubles(h, m->data, (m->count ? m->count : 1) * m->rows * m->cols);
+    if (m == NULL) return dkf_fnv1a_u64(h, 0xffffffffffffffffull);
+    h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, m->rows), m->cols), m->count);
+    return dkf_fnv1a_doubles(h, m->data, (m->count ? m->count : 1) * m->rows * m->cols);
 }
 
 int64_t dkf_net_model_id(const dkf_scenario_t *s)
 {
     static const char *const sensor_keys[] = {"H", "A", "R", "B", "Rd"};
-    uint64_t h = FNV_OFFSET;
+    uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, j;
-    h = fnv_u64(fnv_u64(fnv_u64(h, s->n), s->nsensors), s->steps);
+    h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, s->n), s->nsensors), s->steps);
     h = fnv_mat(h, dkf_scn_model(s, "F"));
     h = fnv_mat(h, dkf_scn_model(s, "Q"));
     for (i = 0; i < s->nsensors; ++i) {
         for (j = 0; j < sizeof sensor_keys / sizeof sensor_keys[0]; ++j)
             h = fnv_mat(h, dkf_scn_sensor_model(s, i, sensor_keys[j]));
-        h = fnv_doubles(h, dkf_scn_P00_local(s, i), s->n * s->n);
+        h = dkf_fnv1a_doubles(h, dkf_scn_P00_local(s, i), s->n * s->n);
     }
     h = fnv_mat(h, dkf_scn_init(s, "x00"));
-    h = fnv_doubles(h, dkf_scn_P00_central(s), s->n * s->n);
+    h = dkf_fnv1a_doubles(h, dkf_scn_P00_central(s), s->n * s->n);
     return (int64_t)h;
 }

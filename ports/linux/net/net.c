@@ -6,13 +6,17 @@
 #include "net.h"
 
 #include <errno.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
 #include <lcm/lcm.h>
+
+#include "util.h"
+
+/* every error of this file: a message in err, -1 */
+#define fail(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
 
 #define DKF_NET_QUEUE 4096 /* messages a subscription may queue */
 
@@ -24,16 +28,6 @@ struct dkf_net {
         void *user;
     } sub[16];
 };
-
-static int fail(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (err == NULL || errlen == 0) return -1;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
 
 /* Parses a decimal number in [lo, hi] from s[0..len-1]; -1 if not one. */
 static long parse_dec(const char *s, size_t len, long lo, long hi)

@@ -6,22 +6,16 @@
 
 #include "tw_agent.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "net.h"
+#include "registry.h"
+#include "util.h"
 
-static int failf(char *err, size_t errlen, const char *fmt, ...)
-{
-    va_list ap;
-    if (err == NULL || errlen == 0) return -1;
-    va_start(ap, fmt);
-    vsnprintf(err, errlen, fmt, ap);
-    va_end(ap);
-    return -1;
-}
+/* every error of this file: a message in err, -1 */
+#define failf(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
 
 /* ---- scenario ------------------------------------------------------------------- */
 
@@ -65,38 +59,6 @@ static int bind_weights(dkf_tw_scn_t *c, int doubly, dkf_real_t *w, int *dflt, c
     return 0;
 }
 
-typedef struct {
-    uint64_t h;
-} fnv_t;
-
-static void fnv_bytes(fnv_t *f, const unsigned char *b, size_t n)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) {
-        f->h ^= b[i];
-        f->h *= 1099511628211ULL;
-    }
-}
-
-/* Integers and doubles by value, most significant byte first. */
-static void fnv_u64(fnv_t *f, uint64_t v)
-{
-    unsigned char b[8];
-    int i;
-    for (i = 0; i < 8; ++i) b[i] = (unsigned char)(v >> (56 - 8 * i));
-    fnv_bytes(f, b, 8);
-}
-
-static void fnv_doubles(fnv_t *f, const double *v, size_t n)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) {
-        uint64_t u;
-        memcpy(&u, &v[i], sizeof u);
-        fnv_u64(f, u);
-    }
-}
-
 /* Everything that must agree between the nodes of one run: dimensions,
  * the model at every step, every sensor's H and Sw, the prior, the graph,
  * the weights, alg and eta (measurements excluded: each node reads its own). */
@@ -104,48 +66,46 @@ static int64_t model_id(const dkf_tw_scn_t *c)
 {
     static const char *const dyn[] = {"A", "B", "Sv"};
     const dkf_scenario_t *s = c->s;
-    fnv_t f = {14695981039346656037ULL};
+    uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, k, l;
-    fnv_u64(&f, (uint64_t)c->alg);
-    fnv_u64(&f, (uint64_t)c->eta);
-    fnv_u64(&f, (uint64_t)c->N);
-    fnv_u64(&f, (uint64_t)c->n);
-    fnv_u64(&f, (uint64_t)c->m);
-    fnv_u64(&f, (uint64_t)c->steps);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->alg);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->eta);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->N);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->n);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->m);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->steps);
     for (i = 0; i < 3; ++i) {
         const dkf_scn_mat_t *M = dkf_scn_model(s, dyn[i]);
-        for (k = 0; k < c->steps; ++k) fnv_doubles(&f, dkf_scn_at(M, k), M->rows * M->cols);
+        for (k = 0; k < c->steps; ++k)
+            h = dkf_fnv1a_doubles(h, dkf_scn_at(M, k), M->rows * M->cols);
     }
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
         const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
-        fnv_doubles(&f, H->data, H->rows * H->cols);
-        fnv_doubles(&f, Sw->data, Sw->rows * Sw->cols);
+        h = dkf_fnv1a_doubles(h, H->data, H->rows * H->cols);
+        h = dkf_fnv1a_doubles(h, Sw->data, Sw->rows * Sw->cols);
     }
-    fnv_doubles(&f, dkf_scn_init(s, "x00")->data, c->n);
-    fnv_doubles(&f, dkf_scn_init(s, "P00")->data, c->n * c->n);
-    for (i = 0; i <= c->N; ++i) fnv_u64(&f, (uint64_t)c->start[i]);
+    h = dkf_fnv1a_doubles(h, dkf_scn_init(s, "x00")->data, c->n);
+    h = dkf_fnv1a_doubles(h, dkf_scn_init(s, "P00")->data, c->n * c->n);
+    for (i = 0; i <= c->N; ++i) h = dkf_fnv1a_u64(h, (uint64_t)c->start[i]);
     for (i = 0; i < c->g.nnz; ++i) {
         const double a = (double)c->alpha[i], w = (double)c->W[i];
-        fnv_u64(&f, (uint64_t)c->nbr[i]);
-        fnv_doubles(&f, &a, 1);
-        fnv_doubles(&f, &w, 1);
+        h = dkf_fnv1a_u64(h, (uint64_t)c->nbr[i]);
+        h = dkf_fnv1a_doubles(h, &a, 1);
+        h = dkf_fnv1a_doubles(h, &w, 1);
     }
-    return (int64_t)f.h;
+    return (int64_t)h;
 }
 
+/* What Algorithm alg needs of the file: the registry's check of tw2 / tw3. */
 static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, size_t errlen)
 {
+    const dkf_filter_t *f = dkf_registry_find(alg == 2 ? "tw2" : "tw3");
+    dkf_run_opts_t o;
     if (alg != 2 && alg != 3) return failf(err, errlen, "--alg %d: expected 2 or 3", alg);
-    if (s->layout != DKF_SCN_LAYOUT_STEPS || s->family != DKF_SCN_FAMILY_TW || s->net == NULL)
-        return failf(err, errlen, "%s: graph: missing key (a seed-003 steps-layout file with a "
-                     "graph is needed)", s->file);
-    if (s->k_first != 1)
-        return failf(err, errlen, "%s: steps[0].n: must be 1, got %ld", s->file, s->k_first);
-    if (alg == 3 && eta < 0 && s->net->eta < 0)
-        return failf(err, errlen, "%s: eta: missing key (Algorithm 3 needs eta or --eta N)",
-                     s->file);
-    return 0;
+    memset(&o, 0, sizeof o);
+    o.eta = eta;
+    return f->family->check(f, &o, s, err, errlen) == DKF_EXIT_OK ? 0 : -1;
 }
 
 int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta, char *err,
@@ -743,22 +703,6 @@ const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a) { return &a->nd;
 
 /* ---- result --------------------------------------------------------------------- */
 
-static json_t *reals(const double *v, size_t n)
-{
-    json_t *l = json_array();
-    size_t i;
-    for (i = 0; i < n; ++i) json_array_append_new(l, json_real(v[i]));
-    return l;
-}
-
-static json_t *matrix(const double *v, size_t r, size_t cc)
-{
-    json_t *l = json_array();
-    size_t i;
-    for (i = 0; i < r; ++i) json_array_append_new(l, reals(v + i * cc, cc));
-    return l;
-}
-
 static json_t *counters(const dkf_tw_agent_t *a)
 {
     const dkf_tw_counters_t *c = &a->cnt;
@@ -806,9 +750,9 @@ json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
     for (j = 0; j < done; ++j) {
         json_t *miss = json_array();
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
-        json_array_append_new(xs, reals(a->xs + j * c->n, c->n));
-        json_array_append_new(Ps, matrix(a->Ps + j * c->n * c->n, c->n, c->n));
-        json_array_append_new(zs, reals(a->zs + j * c->m, c->m));
+        json_array_append_new(xs, dkf_json_doubles(a->xs + j * c->n, c->n, 0));
+        json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * c->n * c->n, c->n, c->n));
+        json_array_append_new(zs, dkf_json_doubles(a->zs + j * c->m, c->m, 0));
         json_array_append_new(dg, json_boolean(a->deg_step[j]));
         for (e = 0; e < a->deg; ++e)
             if (a->miss_step[j * a->deg + e])

@@ -1,0 +1,230 @@
+/*
+ * est_diffkf.c - the Difference KF kind (dkf/diffkf.h) of the estimator: step k
+ * consumes y_{k+1}; fused: one local filter per sensor and the fusion
+ * centre (dkf/diffkf_fusion.h) fed with their messages.
+ */
+#include "est_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "util.h"
+
+/* Start: x_{1|0} = F_0 x_{0|0} and the first measurement y_1 (diffkf.h). */
+static dkf_status_t dkf_stacked_init(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                                     const char **what)
+{
+    dkf_est_group_t *g = &e->groups[0];
+    size_t len = DKF_DIFFKF_STORAGE_LEN(e->n, g->m, g->p);
+    dkf_status_t st;
+    *what = "dkf_diffkf_init";
+    e->storage = calloc(len, sizeof *e->storage);
+    if (e->storage == NULL) return DKF_ERR_CAPACITY;
+    st = dkf_diffkf_init(&e->dkf, e->n, g->m, g->p, e->storage, len, x0, P0);
+    if (st != DKF_OK) return st;
+    dkf_est_load_FQ(e, 0);
+    dkf_est_group_meas(g, e->s, 1);
+    *what = "dkf_diffkf_start";
+    e->x = &e->dkf.xf;
+    e->P = &e->dkf.Pf;
+    return dkf_diffkf_start(&e->dkf, &e->F, &e->Q, &g->meas, &g->y);
+}
+
+static void record_dkf_step(dkf_est_t *e, const dkf_diffkf_t *f)
+{
+    dkf_est_record_mat(e, "z", &f->z, 1);
+    dkf_est_record_mat(e, "dz", &f->dz, 1);
+    dkf_est_record_mat(e, "J", &f->J, 0);
+    dkf_est_record_mat(e, "L", &f->L, 0);
+    dkf_est_record_mat(e, "K", &f->K, 0);
+}
+
+/* Step k consumes y_{k+1}: dynamics at k (F, Q, B, Rd), model at k+1. */
+static dkf_status_t dkf_stacked_step(dkf_est_t *e, long k, const char **what)
+{
+    dkf_est_group_t *g = &e->groups[0];
+    dkf_ui_dyn_t dyn = dkf_est_group_dyn(e, g);
+    dkf_status_t st;
+    dkf_est_load_FQ(e, k);
+    dkf_est_group_load_dyn(g, e->s, k);
+    dkf_est_group_meas(g, e->s, k + 1);
+    *what = "dkf_diffkf_step";
+    st = dkf_diffkf_step(&e->dkf, &dyn, &g->meas, &g->y);
+    if (st == DKF_OK) record_dkf_step(e, &e->dkf);
+    return st;
+}
+
+static const char *fc_cond_str(dkf_diffkf_fc_cond_t c)
+{
+    static const char *const names[] = {
+        "no fault", "bad argument", "storage", "p_i > n", "p_i > m_i", "stacked capacity",
+        "prior", "model", "A rank", "B singular", "L not SPD", "K rank", "non-finite",
+        "message node", "message step", "message dimension", "message non-finite", "sequence"};
+    size_t i = (size_t)c;
+    return i < sizeof names / sizeof names[0] ? names[i] : "?";
+}
+
+static const char *fc_what(dkf_est_t *e, const char *call, const dkf_diffkf_fc_fault_t *f)
+{
+    if (f->node == DKF_DIFFKF_FC_NO_NODE)
+        snprintf(e->what, sizeof e->what, "%s (%s)", call, fc_cond_str(f->which));
+    else
+        snprintf(e->what, sizeof e->what, "%s (node %zu: %s)", call, f->node,
+                 fc_cond_str(f->which));
+    return e->what;
+}
+
+static dkf_status_t dkf_fused_init(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                                   const char **what)
+{
+    size_t l = e->ngroups, n = e->n, i, len;
+    size_t *m = calloc(l, sizeof *m), *p = calloc(l, sizeof *p);
+    dkf_real_t *Pl = calloc(l * n * n, sizeof *Pl);
+    const dkf_mat_t **Pv = calloc(l, sizeof *Pv);
+    dkf_mat_t *Pm = calloc(l, sizeof *Pm);
+    dkf_diffkf_fc_fault_t fault;
+    dkf_status_t st = DKF_ERR_CAPACITY;
+    *what = "out of memory";
+    e->locals = calloc(l, sizeof *e->locals);
+    e->local_storage = calloc(l, sizeof *e->local_storage);
+    e->nodes = calloc(l, sizeof *e->nodes);
+    e->msgs = calloc(l, sizeof *e->msgs);
+    e->fcs = calloc(l, sizeof *e->fcs);
+    if (m == NULL || p == NULL || Pl == NULL || Pv == NULL || Pm == NULL || e->locals == NULL ||
+        e->local_storage == NULL || e->nodes == NULL || e->msgs == NULL || e->fcs == NULL)
+        goto done;
+    /* node filters, each from its own prior P00_local[i] */
+    for (i = 0; i < l; ++i) {
+        dkf_est_group_t *g = &e->groups[i];
+        m[i] = g->m;
+        p[i] = g->p;
+        dkf_scn_to_real(Pl + i * n * n, dkf_scn_P00_local(e->s, g->idx[0]), n * n);
+        Pm[i] = (dkf_mat_t)DKF_MAT(n, n, Pl + i * n * n);
+        Pv[i] = &Pm[i];
+        len = DKF_DIFFKF_STORAGE_LEN(n, g->m, g->p);
+        if ((e->local_storage[i] = calloc(len, sizeof **e->local_storage)) == NULL) goto done;
+        st = dkf_diffkf_init(&e->locals[i], n, g->m, g->p, e->local_storage[i], len, x0, &Pm[i]);
+        if (st != DKF_OK) {
+            snprintf(e->what, sizeof e->what, "dkf_diffkf_init of node %zu", i);
+            *what = e->what;
+            goto done;
+        }
+    }
+    len = dkf_diffkf_fc_storage_len(n, l, m, p);
+    st = DKF_ERR_CAPACITY;
+    *what = "dkf_diffkf_fc_storage_len";
+    if (len == 0 || (e->fc_storage = calloc(len, sizeof *e->fc_storage)) == NULL) goto done;
+    st = dkf_diffkf_fc_init(&e->fc, e->nodes, l, n, m, p, e->fc_storage, len, x0, P0,
+                            (const dkf_mat_t *const *)Pv, &fault);
+    if (st != DKF_OK) {
+        *what = fc_what(e, "dkf_diffkf_fc_init", &fault);
+        goto done;
+    }
+    /* start: every node and the FC predict to k = 1 and take y_1 */
+    dkf_est_load_FQ(e, 0);
+    for (i = 0; i < l; ++i) {
+        dkf_est_group_t *g = &e->groups[i];
+        dkf_est_group_meas(g, e->s, 1);
+        dkf_est_group_load_dyn(g, e->s, 1); /* fc_start checks B of step 1 */
+        st = dkf_diffkf_start(&e->locals[i], &e->F, &e->Q, &g->meas, &g->y);
+        if (st != DKF_OK) {
+            snprintf(e->what, sizeof e->what, "dkf_diffkf_start of node %zu", i);
+            *what = e->what;
+            goto done;
+        }
+        e->fcs[i].B = &g->B;
+        e->fcs[i].Rd = NULL;
+        e->fcs[i].meas = g->meas;
+    }
+    st = dkf_diffkf_fc_start(&e->fc, &e->F, &e->Q, e->fcs, &fault);
+    if (st != DKF_OK) *what = fc_what(e, "dkf_diffkf_fc_start", &fault);
+    e->x = &e->fc.central.xf;
+    e->P = &e->fc.central.Pf;
+done:
+    free(m);
+    free(p);
+    free(Pl);
+    free(Pv);
+    free(Pm);
+    return st;
+}
+
+static json_t *json_vec(const dkf_real_t *v, size_t n)
+{
+    dkf_mat_t M = DKF_MAT(n, 1, (dkf_real_t *)v);
+    return dkf_json_from_mat(&M, 1);
+}
+
+static dkf_status_t dkf_fused_step(dkf_est_t *e, long k, const char **what)
+{
+    size_t l = e->ngroups, i, n = e->n;
+    dkf_diffkf_fc_fault_t fault;
+    dkf_status_t st;
+    dkf_est_load_FQ(e, k);
+    for (i = 0; i < l; ++i) {
+        dkf_est_group_t *g = &e->groups[i];
+        dkf_ui_dyn_t dyn = dkf_est_group_dyn(e, g);
+        dkf_est_group_load_dyn(g, e->s, k);
+        dkf_est_group_meas(g, e->s, k + 1);
+        st = dkf_diffkf_step(&e->locals[i], &dyn, &g->meas, &g->y);
+        if (st == DKF_OK) st = dkf_diffkf_msg_fill(&e->msgs[i], (uint16_t)i, &e->locals[i]);
+        if (st != DKF_OK) {
+            snprintf(e->what, sizeof e->what, "node %zu: dkf_diffkf_step", i);
+            *what = e->what;
+            return st;
+        }
+        e->fcs[i].B = &g->B;
+        e->fcs[i].Rd = &g->Rd;
+        e->fcs[i].meas = g->meas;
+    }
+    st = dkf_diffkf_fc_step(&e->fc, &e->F, &e->Q, e->fcs, e->msgs, &fault);
+    if (st != DKF_OK) {
+        *what = fc_what(e, "dkf_diffkf_fc_step", &fault);
+        return st;
+    }
+    record_dkf_step(e, &e->fc.central);
+    if (!e->opts.no_record) {
+        json_t *msgs = json_array(), *rec = json_array();
+        for (i = 0; i < l; ++i) {
+            json_array_append_new(msgs, json_pack("{s:o, s:o}", "xf", json_vec(e->msgs[i].xf, n),
+                                                  "xp", json_vec(e->msgs[i].xp, n)));
+            json_array_append_new(rec, json_pack("{s:o, s:o, s:o}", "dz",
+                                                 dkf_json_from_mat(&e->nodes[i].dz, 1), "z",
+                                                 dkf_json_from_mat(&e->nodes[i].z, 1), "K",
+                                                 dkf_json_from_mat(&e->nodes[i].rep.K, 0)));
+        }
+        dkf_json_append(e->series, "messages", msgs);
+        dkf_json_append(e->series, "fc_recovered", rec);
+    }
+    return DKF_OK;
+}
+
+static dkf_status_t dkf_kind_init(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *P0,
+                                  const char **what)
+{
+    if (e->mode == DKF_EST_FUSED) return dkf_fused_init(e, x0, P0, what);
+    return dkf_stacked_init(e, x0, P0, what);
+}
+
+/* Records x_{k|k-1} (before the step: the DKF's step k updates it), then steps. */
+static dkf_status_t dkf_kind_step(dkf_est_t *e, long k, const char **what)
+{
+    const dkf_diffkf_t *f = &e->dkf;
+    if (e->mode == DKF_EST_FUSED) f = &e->fc.central;
+    memcpy(e->xpk.data, f->xn.data, e->n * sizeof *e->xpk.data);
+    dkf_est_record_mat(e, e->names->xp, &f->xn, 1);
+    dkf_est_record_mat(e, e->names->Pp, &f->Pn, 0);
+    if (e->mode == DKF_EST_FUSED) return dkf_fused_step(e, k, what);
+    return dkf_stacked_step(e, k, what);
+}
+
+static const dkf_est_kind_t dkf_est_dkf = {
+    .name = "dkf", .needs_ui = 1, .fused = 1, .y_ahead = 1, .init = dkf_kind_init,
+    .step = dkf_kind_step};
+
+/* its registry family (est_run.c's operations) */
+DKF_EST_FAMILY(dkf, "DKF", 0,
+              "Difference KF (dkf/diffkf.h); needs A, B, Rd and\n"
+              "                           y_1..y_{N+1}; xp = x_{k|k-1}. With several sensors\n"
+              "                           also `fused` (fusion centre, dkf/diffkf_fusion.h)");

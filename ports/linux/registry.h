@@ -1,0 +1,112 @@
+/*
+ * registry.h - the host's filter families: one const table of operations
+ * per family and one registry array listing them (the style of LCM's
+ * provider vtables). dkf-run (one run or the Monte-Carlo error mode that
+ * tools/dkf_mc.py uses) and the network processes' scenario checks reach a
+ * filter only through it:
+ *
+ *   const dkf_filter_t *f = dkf_registry_find("askf");
+ *   const dkf_family_t *fam = f->family;
+ *   rc = fam->check(f, &o, s, err, len);             0 or DKF_EXIT_USAGE
+ *   r = fam->create(f, &o, s, err, len, &rc);        NULL: rc, message
+ *   for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
+ *       rc = fam->step(r, k, err, len);              0 or DKF_EXIT_RUN
+ *   fam->record(r, doc);                             outputs.<...> into doc
+ *   fam->summary(r, stdout);
+ *   fam->destroy(r);
+ *
+ * Adding a family on the host is one file defining its dkf_family_t (and
+ * its dkf_filter_t rows) plus one row in registry.c: docs/layout.md,
+ * "Adding a filter family on the host".
+ */
+#ifndef DKF_HOST_REGISTRY_H
+#define DKF_HOST_REGISTRY_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include <jansson.h>
+
+#include "scenario.h"
+#include "util.h"
+
+/* What a run was asked for (dkf-run's options; zeroed = the defaults, but
+ * eta = -1 means "not given"). */
+typedef struct {
+    int record;            /* 1: keep every step's values for record() (an --output) */
+    int errors;            /* 1: Monte-Carlo error mode (every run, squared errors only) */
+    long run;              /* the run to process without errors (checked by check()) */
+    int has_d00;           /* askf/otskf: d00 given */
+    const double *d00;     /* d_{0|0} (nd00 values) instead of init.d00 */
+    size_t nd00;
+    double Pd00_scale;     /* P_{d0|0} = scale * init.Pd00 (0: not given, means 1) */
+    long eta;              /* tw3: >= 0 overrides the file's eta; -1: the file's */
+    int metrics_only;      /* tw1-3: record the metrics, not the per-node arrays */
+} dkf_run_opts_t;
+
+/* Options a filter takes beyond the common ones (dkf-run refuses the
+ * others naming the filters that do take them). */
+#define DKF_RUN_OPT_D00 1u     /* --d00, --Pd00-scale */
+#define DKF_RUN_OPT_ETA 2u     /* --eta */
+#define DKF_RUN_OPT_METRICS 4u /* --metrics-only */
+
+typedef struct dkf_runner dkf_runner_t; /* a family's running filter (its own struct) */
+typedef struct dkf_family dkf_family_t;
+
+/* One --filter NAME. */
+typedef struct {
+    const char *name;   /* --filter NAME */
+    const char *label;  /* outputs.<label> of a single-estimator run */
+    const char *help;   /* dkf-run --help text */
+    unsigned options;   /* DKF_RUN_OPT_* */
+    const dkf_family_t *family;
+    const void *impl;   /* the family's own data for this filter (kind, algorithm) */
+} dkf_filter_t;
+
+/* A family: its filters and the operations every one of them runs with.
+ * Every operation returns DKF_EXIT_OK or the exit status to give, with a
+ * one-line "FILE: ..." message in err. */
+struct dkf_family {
+    const char *name;               /* "kf", "uif", "tw", ... */
+    const dkf_filter_t *filters;    /* its --filter names, in --help order */
+    size_t nfilters;
+    unsigned layouts;               /* 1u << dkf_scn_layout_t of every layout it reads */
+    /* What filter f needs of the options and of the scenario beyond the
+     * reader's own checks (layout, keys, shapes, time coverage, run index).
+     * DKF_EXIT_OK or DKF_EXIT_USAGE. */
+    int (*check)(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_scenario_t *s,
+                 char *err, size_t errlen);
+    /* f over s (which passed check) started from the file's initial
+     * estimate, on the selected run. NULL with *rc = DKF_EXIT_RUN (a core
+     * init failed) or DKF_EXIT_USAGE (out of memory). */
+    dkf_runner_t *(*create)(const dkf_filter_t *f, const dkf_run_opts_t *o,
+                            const dkf_scenario_t *s, char *err, size_t errlen, int *rc);
+    /* Step k (k = s->k_first, k_first + 1, ... in order); with o->record the
+     * step's values are kept as JSON. DKF_EXIT_OK or DKF_EXIT_RUN naming
+     * the step and the failing call. */
+    int (*step)(dkf_runner_t *r, long k, char *err, size_t errlen);
+    /* The recorded steps into the output document: outputs.<...> and any
+     * top-level key of the family. */
+    void (*record)(const dkf_runner_t *r, json_t *doc);
+    /* Monte-Carlo error mode (NULL: the family has none): estimator i's
+     * name ("KF", "local[1]", "central", ...) and squared errors per step
+     * ||x_{k|k} - x_k||^2 (sq_f) and ||x_{k|k-1} - x_k||^2 (sq_p); returns
+     * 0 once i is past the last estimator. */
+    int (*errors)(const dkf_runner_t *r, size_t i, const char **name, const double **sq_f,
+                  const double **sq_p);
+    /* The run's summary (errors against the truth, ...) on out. */
+    void (*summary)(const dkf_runner_t *r, FILE *out);
+    void (*destroy)(dkf_runner_t *r);
+};
+
+/* The registry: every family, in --help order; NULL-terminated. */
+extern const dkf_family_t *const dkf_registry[];
+
+/* The filter called name, or NULL. */
+const dkf_filter_t *dkf_registry_find(const char *name);
+
+/* The names of the filters that take option bit opt / read layout, joined
+ * as "a", "a and b" or "a, b, c" into out (cap bytes). Returns out. */
+const char *dkf_registry_names(char *out, size_t cap, unsigned opt, int layout);
+
+#endif /* DKF_HOST_REGISTRY_H */

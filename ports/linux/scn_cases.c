@@ -1,0 +1,229 @@
+/*
+ * scn_cases.c - the cases layout (the infofusion golden-vector file):
+ * cases[c] with x0, P0, Q, C[j], R[j] and steps[] carrying k, F, z[j]
+ * (docs/scenario-format.md, "Cases layout").
+ */
+#include "scn_parse.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int select_case(dkf_scn_ctx_t *c, const json_t *cases, const char *sel, size_t *idx)
+{
+    size_t i, n = json_array_size(cases);
+    char *end;
+    unsigned long v;
+    if (n == 0) return dkf_scn_fail(c, "cases", "expected a non-empty list of cases");
+    if (sel == NULL) {
+        *idx = 0;
+        return 0;
+    }
+    for (i = 0; i < n; ++i) {
+        const json_t *name = json_object_get(json_array_get(cases, i), "name");
+        if (json_is_string(name) && strcmp(json_string_value(name), sel) == 0) {
+            *idx = i;
+            return 0;
+        }
+    }
+    errno = 0;
+    v = strtoul(sel, &end, 10);
+    if (sel[0] >= '0' && sel[0] <= '9' && *end == '\0' && errno == 0) {
+        if (v >= n)
+            return dkf_scn_fail(c, "cases", "case index %lu out of range (file has %zu)", v, n);
+        *idx = (size_t)v;
+        return 0;
+    }
+    return dkf_scn_fail(c, "cases", "no case named '%s' (use a name or an index 0..%zu)", sel,
+                        n - 1);
+}
+
+/* Model matrix `name` from every step (per_k: step k gives entry k-1, the
+ * matrix that propagates k-1 -> k) or from the case itself. */
+static int cases_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const json_t *steps,
+                       const char *cpath, const char *name)
+{
+    const json_t *first = json_object_get(json_array_get(steps, 0), name);
+    dkf_scn_mat_t *m;
+    size_t j, N = json_array_size(steps);
+    dkf_scn_block_t b;
+    char p[DKF_SCN_PATH_LEN], sp[DKF_SCN_PATH_LEN];
+    if (first == NULL) {
+        const json_t *v = json_object_get(cj, name);
+        dkf_scn_subkey(p, cpath, name);
+        if (v == NULL)
+            return dkf_scn_fail(c, p, "missing key (give it in the case or in every step)");
+        if ((m = dkf_scn_mats_add(c, &s->model, name, p)) == NULL) return -1;
+        if (dkf_scn_parse_matrix(c, v, p, &m->rows, &m->cols, &m->data) != 0) return -1;
+        return dkf_scn_check_dims(c, m);
+    }
+    dkf_scn_pathf(p, "%s.steps[].%s", cpath, name);
+    if ((m = dkf_scn_mats_add(c, &s->model, name, p)) == NULL) return -1;
+    for (j = 0; j < N; ++j) {
+        const json_t *v = json_object_get(json_array_get(steps, j), name);
+        dkf_scn_pathf(sp, "%s.steps[%zu].%s", cpath, j, name);
+        if (v == NULL)
+            return dkf_scn_fail(c, sp, "missing key (step 0 has it, so every step needs it)");
+        if (dkf_scn_stack_matrix(c, m, &b, j, N, v, sp) != 0) return -1;
+    }
+    m->count = N;
+    return 0;
+}
+
+/* Sensor j's matrix from the case list `list` (C or R), renamed to `as`. */
+static int cases_sensor_mat(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *list,
+                            const char *lpath,
+                            size_t j, const char *as)
+{
+    dkf_scn_mat_t *m;
+    char p[DKF_SCN_PATH_LEN];
+    dkf_scn_subidx(p, lpath, j);
+    if ((m = dkf_scn_mats_add(c, &s->sensors[j].mats, as, p)) == NULL) return -1;
+    if (dkf_scn_parse_matrix(c, json_array_get(list, j), p, &m->rows, &m->cols, &m->data) != 0)
+        return -1;
+    return dkf_scn_check_dims(c, m);
+}
+
+static int cases_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath,
+                      const char *key, const char *as)
+{
+    const json_t *v = json_object_get(cj, key);
+    char p[DKF_SCN_PATH_LEN];
+    dkf_scn_subkey(p, cpath, key);
+    if (v == NULL) return dkf_scn_fail(c, p, "missing key");
+    return dkf_scn_parse_init_entry(c, &s->init, as, v, p);
+}
+
+static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
+                              const char *cpath)
+{
+    size_t j, i, N = json_array_size(steps);
+    char p[DKF_SCN_PATH_LEN], pz[DKF_SCN_PATH_LEN];
+    dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
+    int rc = -1;
+    if (y == NULL) return -1;
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        se->m = dkf_scn_sensor_model(s, i, "H")->rows;
+        se->ny = N;
+        se->yk = dkf_scn_calloc(c, N, sizeof *se->yk);
+        if (se->yk == NULL || dkf_scn_block_alloc(c, &y[i], N, se->m, cpath) != 0) goto done;
+        se->y = y[i].v;
+    }
+    for (j = 0; j < N; ++j) {
+        const json_t *st = json_array_get(steps, j), *z;
+        long k;
+        dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
+        if (!json_is_object(st)) {
+            dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(st));
+            goto done;
+        }
+        dkf_scn_subkey(pz, p, "k");
+        if (json_object_get(st, "k") == NULL) {
+            dkf_scn_fail(c, pz, "missing key");
+            goto done;
+        }
+        if (dkf_scn_get_integer(c, json_object_get(st, "k"), pz, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
+            goto done;
+        if (k != (long)j + 1) {
+            dkf_scn_fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+            goto done;
+        }
+        z = json_object_get(st, "z");
+        dkf_scn_subkey(pz, p, "z");
+        if (z == NULL) {
+            dkf_scn_fail(c, pz, "missing key");
+            goto done;
+        }
+        if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
+            dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
+                         s->nsensors, dkf_scn_json_kind(z));
+            goto done;
+        }
+        for (i = 0; i < s->nsensors; ++i) {
+            char pzi[DKF_SCN_PATH_LEN];
+            size_t len;
+            double *v;
+            int st_rc;
+            dkf_scn_subidx(pzi, pz, i);
+            if (dkf_scn_parse_vector(c, json_array_get(z, i), pzi, &len, &v) != 0) goto done;
+            st_rc = dkf_scn_store(c, pzi, &y[i], j, v, len);
+            free(v);
+            if (st_rc != 0) goto done;
+            s->sensors[i].yk[j] = k;
+        }
+    }
+    rc = 0;
+done:
+    free(y);
+    return rc;
+}
+
+int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, const char *sel)
+{
+    const json_t *cases = json_object_get(root, "cases"), *cj, *steps, *C, *R, *name;
+    size_t i;
+    char cpath[DKF_SCN_PATH_LEN], p[DKF_SCN_PATH_LEN], pr[DKF_SCN_PATH_LEN];
+
+    if (!json_is_array(cases))
+        return dkf_scn_fail(c, "cases", "expected a list, got %s", dkf_scn_json_kind(cases));
+    if (select_case(c, cases, sel, &s->case_index) != 0) return -1;
+    dkf_scn_subidx(cpath, "cases", s->case_index);
+    cj = json_array_get(cases, s->case_index);
+    if (!json_is_object(cj))
+        return dkf_scn_fail(c, cpath, "expected an object, got %s", dkf_scn_json_kind(cj));
+    name = json_object_get(cj, "name");
+    s->case_name = dkf_scn_dupstr(json_is_string(name) ? json_string_value(name) : "");
+    s->layout = DKF_SCN_LAYOUT_CASES;
+    s->multi = 1;
+
+    steps = json_object_get(cj, "steps");
+    dkf_scn_subkey(p, cpath, "steps");
+    if (steps == NULL) return dkf_scn_fail(c, p, "missing key");
+    if (!json_is_array(steps) || json_array_size(steps) == 0)
+        return dkf_scn_fail(c, p, "expected a non-empty list of steps, got %s",
+                            dkf_scn_json_kind(steps));
+    s->steps = json_array_size(steps);
+    if (s->steps > DKF_SCN_MAX_STEPS)
+        return dkf_scn_fail(c, p, "%zu steps, more than the %lu allowed", s->steps,
+                            DKF_SCN_MAX_STEPS);
+    if (!json_is_object(json_array_get(steps, 0)))
+        return dkf_scn_fail(c, p, "expected a list of step objects");
+    if (cases_model(c, s, cj, steps, cpath, "F") != 0) return -1;
+    if (cases_model(c, s, cj, steps, cpath, "Q") != 0) return -1;
+
+    C = json_object_get(cj, "C");
+    R = json_object_get(cj, "R");
+    dkf_scn_subkey(p, cpath, "C");
+    dkf_scn_subkey(pr, cpath, "R");
+    if (C == NULL) return dkf_scn_fail(c, p, "missing key");
+    if (R == NULL) return dkf_scn_fail(c, pr, "missing key");
+    if (!json_is_array(C) || json_array_size(C) == 0)
+        return dkf_scn_fail(c, p, "expected a non-empty list of sensor matrices, got %s",
+                            dkf_scn_json_kind(C));
+    s->nsensors = json_array_size(C);
+    if (s->nsensors > DKF_SCN_MAX_SENSORS)
+        return dkf_scn_fail(c, p, "%zu sensors, more than the %lu allowed", s->nsensors,
+                            DKF_SCN_MAX_SENSORS);
+    if (!json_is_array(R) || json_array_size(R) != s->nsensors)
+        return dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per C), got %s",
+                            s->nsensors,
+                            dkf_scn_json_kind(R));
+    if ((s->sensors = dkf_scn_calloc(c, s->nsensors, sizeof *s->sensors)) == NULL) return -1;
+    for (i = 0; i < s->nsensors; ++i) {
+        if (cases_sensor_mat(c, s, C, p, i, "H") != 0) return -1;
+        if (cases_sensor_mat(c, s, R, pr, i, "R") != 0) return -1;
+    }
+    if (cases_init(c, s, cj, cpath, "x0", "x00") != 0) return -1;
+    if (cases_init(c, s, cj, cpath, "P0", "P00") != 0) return -1;
+    if (cases_measurements(c, s, steps, cpath) != 0) return -1;
+    if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
+    dkf_scn_adopt_y(s, 0);
+    dkf_scn_pathf(p, "%s.C[%%zu]", cpath);
+    if (dkf_scn_validate(c, s, cpath, p) != 0) return -1;
+    dkf_scn_subkey(p, cpath, "truth");
+    if (dkf_scn_parse_run_truth(c, s, 0, json_object_get(cj, "truth"), p) != 0) return -1;
+    dkf_scn_select_run(s, 0);
+    return 0;
+}

@@ -1,0 +1,181 @@
+/*
+ * The runner registry (registry.h) and the host utility file (util.h):
+ * every --filter name is found once, every family has its operations, the
+ * option/layout name lists dkf-run prints, a run driven through the
+ * operations alone (kf on ex1, rtsf on the seed-004 vector), the JSON
+ * placement of "local[i]" estimators, and the FNV-1a hash against values
+ * computed independently (Python, the FNV-1a definition over the bytes
+ * most significant first).
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "registry.h"
+#include "util.h"
+
+static void test_every_filter_found_once(void **state)
+{
+    size_t i, j, i2, j2, count = 0;
+    (void)state;
+    for (i = 0; dkf_registry[i] != NULL; ++i)
+        for (j = 0; j < dkf_registry[i]->nfilters; ++j) {
+            const dkf_filter_t *f = &dkf_registry[i]->filters[j];
+            assert_ptr_equal(dkf_registry_find(f->name), f);
+            assert_ptr_equal(f->family, dkf_registry[i]);
+            for (i2 = 0; dkf_registry[i2] != NULL; ++i2)
+                for (j2 = 0; j2 < dkf_registry[i2]->nfilters; ++j2)
+                    if (i2 != i || j2 != j)
+                        assert_string_not_equal(dkf_registry[i2]->filters[j2].name, f->name);
+            ++count;
+        }
+    /* kf info dkf askf otskf rtsf nrtsf_df nrtsf tw1 tw2 tw3 */
+    assert_int_equal(count, 11);
+    assert_null(dkf_registry_find("ukf"));
+}
+
+static void test_every_family_complete(void **state)
+{
+    size_t i;
+    (void)state;
+    for (i = 0; dkf_registry[i] != NULL; ++i) {
+        const dkf_family_t *fam = dkf_registry[i];
+        assert_non_null(fam->name);
+        assert_true(fam->nfilters >= 1);
+        assert_true(fam->layouts != 0);
+        assert_non_null(fam->check);
+        assert_non_null(fam->create);
+        assert_non_null(fam->step);
+        assert_non_null(fam->record);
+        assert_non_null(fam->summary);
+        assert_non_null(fam->destroy);
+    }
+}
+
+static void test_names_lists(void **state)
+{
+    char out[128];
+    (void)state;
+    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_D00, -1),
+                        "askf and otskf");
+    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_ETA, -1), "tw3");
+    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_METRICS, -1),
+                        "tw1, tw2, tw3");
+    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_STEPS),
+                        "rtsf, nrtsf_df, nrtsf");
+    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_NETWORK),
+                        "tw1, tw2, tw3");
+    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_CASES),
+                        "kf, info, dkf, askf, otskf");
+}
+
+/* Loads path, runs filter `name` through the registry's operations only
+ * (recording), returns the output document. */
+static json_t *run(const char *path, const char *name, dkf_scenario_t **sp,
+                   const dkf_filter_t **fp, dkf_runner_t **rp)
+{
+    char err[DKF_SCN_ERR_LEN];
+    const dkf_filter_t *f = dkf_registry_find(name);
+    dkf_scenario_t *s = dkf_scenario_load(path, NULL, err, sizeof err);
+    dkf_run_opts_t o;
+    dkf_runner_t *r;
+    json_t *doc = json_object();
+    long k;
+    int rc = -1;
+    if (s == NULL) fail_msg("%s", err);
+    assert_non_null(f);
+    memset(&o, 0, sizeof o);
+    o.eta = -1;
+    o.record = 1;
+    if (f->family->check(f, &o, s, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
+    r = f->family->create(f, &o, s, err, sizeof err, &rc);
+    if (r == NULL) fail_msg("%s", err);
+    assert_int_equal(rc, DKF_EXIT_OK);
+    for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
+        if (f->family->step(r, k, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
+    f->family->record(r, doc);
+    *sp = s;
+    *fp = f;
+    *rp = r;
+    return doc;
+}
+
+static void test_kf_through_the_operations(void **state)
+{
+    dkf_scenario_t *s;
+    const dkf_filter_t *f;
+    dkf_runner_t *r;
+    json_t *doc = run(DKF_VECTOR_DIR "/diffkf/ex1_single.json", "kf", &s, &f, &r);
+    const char *name = NULL;
+    const double *sf = NULL, *sp = NULL;
+    json_t *xf = json_object_get(json_object_get(json_object_get(doc, "outputs"), "KF"), "xf");
+    size_t k, finite = 0;
+    (void)state;
+    assert_int_equal(json_array_size(xf), s->steps);
+    assert_int_equal(f->family->errors(r, 0, &name, &sf, &sp), 1);
+    assert_string_equal(name, "KF");
+    for (k = 0; k < s->steps; ++k) finite += isfinite(sf[k]) && sf[k] >= 0 && sp[k] >= 0;
+    assert_true(finite > 0); /* ex1 has truth */
+    assert_int_equal(f->family->errors(r, 1, &name, &sf, &sp), 0);
+    f->family->destroy(r);
+    json_decref(doc);
+    dkf_scenario_free(s);
+}
+
+static void test_rtsf_through_the_operations(void **state)
+{
+    dkf_scenario_t *s;
+    const dkf_filter_t *f;
+    dkf_runner_t *r;
+    json_t *doc = run(DKF_VECTOR_DIR "/uif/s004_rtsf.json", "rtsf", &s, &f, &r);
+    json_t *x = json_object_get(json_object_get(json_object_get(doc, "outputs"), "RTSF"), "x");
+    (void)state;
+    assert_int_equal(json_array_size(x), s->steps);
+    assert_null(f->family->errors); /* one run per steps-layout file */
+    f->family->destroy(r);
+    json_decref(doc);
+    dkf_scenario_free(s);
+}
+
+static void test_json_place(void **state)
+{
+    json_t *outs = json_object();
+    (void)state;
+    dkf_json_place(outs, "local[0]", json_integer(10));
+    dkf_json_place(outs, "local[1]", json_integer(11));
+    dkf_json_place(outs, "central", json_integer(2));
+    assert_int_equal(json_array_size(json_object_get(outs, "local")), 2);
+    assert_int_equal(json_integer_value(json_array_get(json_object_get(outs, "local"), 1)), 11);
+    assert_int_equal(json_integer_value(json_object_get(outs, "central")), 2);
+    assert_int_equal(json_object_size(outs), 2);
+    json_decref(outs);
+}
+
+static void test_fnv1a(void **state)
+{
+    const double v = 1.5;
+    (void)state;
+    /* FNV-1a 64 of 8 zero bytes, of bytes 01..08, of the bytes of 1.5 (0x3ff8000000000000) */
+    assert_true(dkf_fnv1a_u64(DKF_FNV1A_OFFSET, 0) == 0xa8c7f832281a39c5ull);
+    assert_true(dkf_fnv1a_u64(DKF_FNV1A_OFFSET, 0x0102030405060708ull) == 0x7eb5108b368a78edull);
+    assert_true(dkf_fnv1a_doubles(DKF_FNV1A_OFFSET, &v, 1) == 0xd2227d9462d46a12ull);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_every_filter_found_once),
+        cmocka_unit_test(test_every_family_complete),
+        cmocka_unit_test(test_names_lists),
+        cmocka_unit_test(test_kf_through_the_operations),
+        cmocka_unit_test(test_rtsf_through_the_operations),
+        cmocka_unit_test(test_json_place),
+        cmocka_unit_test(test_fnv1a),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -143,6 +143,18 @@ size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_
     return L.state_len;
 }
 
+const char *dkf_diffkf_fc_cond_str(dkf_diffkf_fc_cond_t which)
+{
+    static const char *const names[] = {
+        "no fault",      "argument",          "storage",         "p_i > n",
+        "p_i > m_i",     "stacked capacity",  "prior",           "model",
+        "D rank",        "B singular",        "L not SPD",       "K rank",
+        "non-finite",    "message node",      "message step",    "message dimension",
+        "message non-finite", "sequence"};
+    const size_t i = (size_t)which;
+    return i < sizeof names / sizeof names[0] ? names[i] : "unknown condition";
+}
+
 static dkf_status_t report(dkf_diffkf_fc_fault_t *f, dkf_status_t st, dkf_diffkf_fc_cond_t which,
                            size_t node)
 {

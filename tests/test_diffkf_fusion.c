@@ -1221,9 +1221,28 @@ static void test_fc_degraded_atomicity(void **state)
     assert_int_equal(w.fc.central.pk, p[0] + p[1] + p[2]);
 }
 
+/* Every condition has its own text, none of them the fallback; a value
+ * past the enum gets the fallback (one table for every host program). */
+static void test_cond_str(void **state)
+{
+    const char *seen[DKF_DIFFKF_FC_SEQUENCE + 1];
+    int c, j;
+    (void)state;
+    for (c = DKF_DIFFKF_FC_NO_FAULT; c <= DKF_DIFFKF_FC_SEQUENCE; ++c) {
+        seen[c] = dkf_diffkf_fc_cond_str((dkf_diffkf_fc_cond_t)c);
+        assert_non_null(seen[c]);
+        assert_string_not_equal(seen[c], "unknown condition");
+        for (j = 0; j < c; ++j) assert_string_not_equal(seen[j], seen[c]);
+    }
+    assert_string_equal(dkf_diffkf_fc_cond_str(DKF_DIFFKF_FC_D_RANK), "D rank");
+    assert_string_equal(dkf_diffkf_fc_cond_str((dkf_diffkf_fc_cond_t)(DKF_DIFFKF_FC_SEQUENCE + 1)),
+                        "unknown condition");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cond_str),
         cmocka_unit_test(test_stack_helpers),
         cmocka_unit_test(test_msg_fill_checks),
         cmocka_unit_test(test_fc_ex3_vector),

@@ -89,6 +89,11 @@ typedef enum {
     DKF_DIFFKF_FC_SEQUENCE        /* call out of order (step before start, ...) */
 } dkf_diffkf_fc_cond_t;
 
+/* Short constant description of a condition, e.g. "D rank" (the same
+ * text for every host program). Never NULL; unknown values give
+ * "unknown condition". */
+const char *dkf_diffkf_fc_cond_str(dkf_diffkf_fc_cond_t which);
+
 /* `node` for a fault that belongs to no single sensor (central filter,
  * storage, stacked dimensions). */
 #define DKF_DIFFKF_FC_NO_NODE ((size_t)-1)

@@ -55,23 +55,13 @@ static dkf_status_t dkf_stacked_step(dkf_est_t *e, long k, const char **what)
     return st;
 }
 
-static const char *fc_cond_str(dkf_diffkf_fc_cond_t c)
-{
-    static const char *const names[] = {
-        "no fault", "bad argument", "storage", "p_i > n", "p_i > m_i", "stacked capacity",
-        "prior", "model", "A rank", "B singular", "L not SPD", "K rank", "non-finite",
-        "message node", "message step", "message dimension", "message non-finite", "sequence"};
-    size_t i = (size_t)c;
-    return i < sizeof names / sizeof names[0] ? names[i] : "?";
-}
-
 static const char *fc_what(dkf_est_t *e, const char *call, const dkf_diffkf_fc_fault_t *f)
 {
     if (f->node == DKF_DIFFKF_FC_NO_NODE)
-        snprintf(e->what, sizeof e->what, "%s (%s)", call, fc_cond_str(f->which));
+        snprintf(e->what, sizeof e->what, "%s (%s)", call, dkf_diffkf_fc_cond_str(f->which));
     else
         snprintf(e->what, sizeof e->what, "%s (node %zu: %s)", call, f->node,
-                 fc_cond_str(f->which));
+                 dkf_diffkf_fc_cond_str(f->which));
     return e->what;
 }
 

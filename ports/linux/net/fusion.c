@@ -59,15 +59,6 @@ static void to_double(double *dst, const dkf_real_t *src, size_t len)
     for (i = 0; i < len; ++i) dst[i] = (double)src[i];
 }
 
-static const char *cond_str(dkf_diffkf_fc_cond_t c)
-{
-    static const char *const names[] = {
-        "no fault", "argument", "storage", "p_i > n", "p_i > m_i", "stacked capacity",
-        "prior", "model", "A rank", "B singular", "L not SPD", "K rank", "non-finite",
-        "message node", "message step", "message dimension", "message non-finite", "sequence"};
-    return (size_t)c < sizeof names / sizeof names[0] ? names[c] : "?";
-}
-
 /* ---- one step of the core fusion centre (the runtime's operations) ----------------- */
 
 /* Loads every sensor's share of step k (dynamics at k, model at kmeas). */
@@ -90,10 +81,10 @@ static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_statu
 {
     if (fault->node == DKF_DIFFKF_FC_NO_NODE)
         dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s)", k, call,
-                      dkf_status_str(st), cond_str(fault->which));
+                      dkf_status_str(st), dkf_diffkf_fc_cond_str(fault->which));
     else
         dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s, node %zu)", k, call,
-                      dkf_status_str(st), cond_str(fault->which), fault->node);
+                      dkf_status_str(st), dkf_diffkf_fc_cond_str(fault->which), fault->node);
 }
 
 /* Mirrors the (re)start of node i's local filter at step k (dkf_fcr_ops_t
@@ -396,10 +387,10 @@ static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
     if (st != DKF_OK) {
         if (fault.node == DKF_DIFFKF_FC_NO_NODE)
             snprintf(err, errlen, "%s: fusion: %s failed: %s (%s)", s->file, call,
-                     dkf_status_str(st), cond_str(fault.which));
+                     dkf_status_str(st), dkf_diffkf_fc_cond_str(fault.which));
         else
             snprintf(err, errlen, "%s: fusion: %s failed: %s (%s, node %zu)", s->file, call,
-                     dkf_status_str(st), cond_str(fault.which), fault.node);
+                     dkf_status_str(st), dkf_diffkf_fc_cond_str(fault.which), fault.node);
         return -1;
     }
     return 0;

@@ -97,7 +97,7 @@ case "$mode" in
     [[ -x $DKF_LCM_LOGGER && -x $DKF_LCM_LOGPLAYER ]] ||
       { echo "FAIL: lcm-logger / lcm-logplayer not found"; exit 1; }
     log=$out/run.lcmlog
-    "$DKF_LCM_LOGGER" --lcm-url="$URL" -f -q --flush-interval=10 "$log" & pids+=($!); logger=$!
+    start_logger "$URL" "$log"
     start_peers live || exit 1
     # the heartbeats reach the log only once the logger is subscribed
     for ((i = 0; i < 1000; ++i)); do [[ -s $log ]] && break; sleep 0.01; done

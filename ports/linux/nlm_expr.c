@@ -81,14 +81,19 @@ static int eval(dkf_nlm_t *m, const expr_t *x, double *out)
     }
     if (isfinite(*out)) return 0;
     {
-        char at[160];
+        char at[160], text[96];
         size_t len = 0;
+        /* muparser keeps the expression with a space appended */
+        snprintf(text, sizeof text, "%s", mupGetExpr(x->h));
+        len = strlen(text);
+        while (len > 0 && text[len - 1] == ' ') text[--len] = '\0';
+        len = 0;
         for (i = 0; i < e->n + e->p && len < sizeof at; ++i)
             len += (size_t)snprintf(at + len, sizeof at - len, "%s%c%zu=%.6g", i ? " " : "",
                                     i < e->n ? 'x' : 'd', i < e->n ? i + 1 : i - e->n + 1,
                                     e->vars[i]);
         dkf_nlm_set_failure(m, "%s: '%s' = %g at %s (division by zero or a value outside "
-                            "the function's domain)", x->key, mupGetExpr(x->h), *out, at);
+                            "the function's domain)", x->key, text, *out, at);
     }
     return -1;
 }

@@ -92,8 +92,9 @@ static int eval(dkf_nlm_t *m, const expr_t *x, double *out)
             len += (size_t)snprintf(at + len, sizeof at - len, "%s%c%zu=%.6g", i ? " " : "",
                                     i < e->n ? 'x' : 'd', i < e->n ? i + 1 : i - e->n + 1,
                                     e->vars[i]);
-        dkf_nlm_set_failure(m, "%s: '%s' = %g at %s (division by zero or a value outside "
-                            "the function's domain)", x->key, text, *out, at);
+        dkf_nlm_set_failure(m, "%s: '%s' = %s at %s (division by zero or a value outside "
+                            "the function's domain)", x->key, text,
+                            isnan(*out) ? "NaN" : *out > 0 ? "inf" : "-inf", at);
     }
     return -1;
 }

@@ -3,7 +3,8 @@
  * here from the vector files' `equations` texts, independent of the
  * library: the lin_x_sin_d model (nertsif.json) and the constant-turn
  * radar (dnertsif_single.json), each with analytic Jacobians, and the
- * bearing's wrapped difference. Static: each test file gets its own copy.
+ * bearing's wrapped difference. Static inline: each test file gets its own
+ * copy of what it uses.
  */
 #ifndef NERTS_FIXTURE_H
 #define NERTS_FIXTURE_H
@@ -26,12 +27,12 @@ typedef struct {
     int linear;         /* f = A x + B d (sin dropped): a linear model */
 } lxs_t;
 
-static double lxs_s(const lxs_t *c, double d)
+static inline double lxs_s(const lxs_t *c, double d)
 {
     return c->linear ? d : sin(d);
 }
 
-static int lxs_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int lxs_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                  const dkf_real_t *u, dkf_real_t *xn)
 {
     const lxs_t *c = ctx;
@@ -47,7 +48,7 @@ static int lxs_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
     return 0;
 }
 
-static int lxs_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int lxs_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                  const dkf_real_t *u, dkf_real_t *y)
 {
     const lxs_t *c = ctx;
@@ -64,7 +65,7 @@ static int lxs_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
     return 0;
 }
 
-static int lxs_f_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int lxs_f_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                      const dkf_real_t *u, dkf_real_t *Fx, dkf_real_t *Fd)
 {
     const lxs_t *c = ctx;
@@ -79,7 +80,7 @@ static int lxs_f_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t 
     return 0;
 }
 
-static int lxs_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int lxs_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                      const dkf_real_t *u, dkf_real_t *Hx, dkf_real_t *Hd)
 {
     const lxs_t *c = ctx;
@@ -91,7 +92,7 @@ static int lxs_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t 
     return 0;
 }
 
-static dkf_nl_model_t lxs_model(lxs_t *c, int jacobians)
+static inline dkf_nl_model_t lxs_model(lxs_t *c, int jacobians)
 {
     dkf_nl_model_t md;
     md.ctx = c;
@@ -115,7 +116,7 @@ typedef struct {
 } radar_t;
 
 /* F_CT(w) x, T = 1 (eq 62). */
-static void radar_ct(double w, const dkf_real_t *x, dkf_real_t *xn)
+static inline void radar_ct(double w, const dkf_real_t *x, dkf_real_t *xn)
 {
     const double s = sin(w), c = cos(w);
     const double a = fabs(w) > 1e-12 ? s / w : 1.0, b = fabs(w) > 1e-12 ? (1.0 - c) / w : 0.0;
@@ -126,7 +127,7 @@ static void radar_ct(double w, const dkf_real_t *x, dkf_real_t *xn)
     xn[3] = (dkf_real_t)(s * xd + c * ed);
 }
 
-static int radar_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int radar_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                    const dkf_real_t *u, dkf_real_t *xn)
 {
     const radar_t *r = ctx;
@@ -135,7 +136,7 @@ static int radar_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d
     return 0;
 }
 
-static int radar_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int radar_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                    const dkf_real_t *u, dkf_real_t *y)
 {
     const radar_t *r = ctx;
@@ -147,7 +148,7 @@ static int radar_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d
     return 0;
 }
 
-static int radar_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+static inline int radar_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                        const dkf_real_t *u, dkf_real_t *Hx, dkf_real_t *Hd)
 {
     const radar_t *r = ctx;
@@ -169,7 +170,7 @@ static int radar_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_
 }
 
 /* v wrapped into [-pi, pi). */
-static double fx_wrap(double v)
+static inline double fx_wrap(double v)
 {
     double w = fmod(v + FX_PI, 2.0 * FX_PI);
     if (w < 0) w += 2.0 * FX_PI;
@@ -177,7 +178,7 @@ static double fx_wrap(double v)
 }
 
 /* a - b with the bearing (channel 1) wrapped. */
-static void radar_y_diff(void *ctx, const dkf_real_t *a, const dkf_real_t *b, dkf_real_t *out)
+static inline void radar_y_diff(void *ctx, const dkf_real_t *a, const dkf_real_t *b, dkf_real_t *out)
 {
     const radar_t *r = ctx;
     out[0] = a[0] - b[0];
@@ -185,7 +186,7 @@ static void radar_y_diff(void *ctx, const dkf_real_t *a, const dkf_real_t *b, dk
     if (r->with_omega) out[2] = a[2] - b[2];
 }
 
-static dkf_nl_model_t radar_model(radar_t *r, int jacobian)
+static inline dkf_nl_model_t radar_model(radar_t *r, int jacobian)
 {
     dkf_nl_model_t md;
     md.ctx = r;

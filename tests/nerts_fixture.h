@@ -113,6 +113,8 @@ typedef struct {
     double sx, sy;      /* sensor position */
     int with_omega;     /* m = 3 (range, bearing, 10 omega) or 2 (DF-CKF) */
     double omega_fixed; /* p = 0 (DF-CKF): the frozen turn rate */
+    double rot;         /* the bearing is measured from direction rot (0: the x axis),
+                           so its branch cut lies at rot + pi */
 } radar_t;
 
 /* F_CT(w) x, T = 1 (eq 62). */
@@ -136,14 +138,37 @@ static inline int radar_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_re
     return 0;
 }
 
+/* Fx = F_CT(w), Fd = d(F_CT(w) x)/dw (radar's d = [w]). */
+static inline int radar_f_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
+                              const dkf_real_t *u, dkf_real_t *Fx, dkf_real_t *Fd)
+{
+    const radar_t *r = ctx;
+    const double w = r->with_omega ? (double)d[0] : r->omega_fixed, s = sin(w), c = cos(w);
+    const double a = s / w, b = (1.0 - c) / w;
+    const double da = (w * c - s) / (w * w), db = (w * s - (1.0 - c)) / (w * w);
+    const double xd = (double)x[1], ed = (double)x[3];
+    const double J[16] = {1, a, 0, -b, 0, c, 0, -s, 0, b, 1, a, 0, s, 0, c};
+    size_t i;
+    (void)k, (void)u;
+    for (i = 0; i < 16; ++i) Fx[i] = (dkf_real_t)J[i];
+    if (r->with_omega) {
+        Fd[0] = (dkf_real_t)(da * xd - db * ed);
+        Fd[1] = (dkf_real_t)(-s * xd - c * ed);
+        Fd[2] = (dkf_real_t)(db * xd + da * ed);
+        Fd[3] = (dkf_real_t)(c * xd - s * ed);
+    }
+    return 0;
+}
+
 static inline int radar_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                    const dkf_real_t *u, dkf_real_t *y)
 {
     const radar_t *r = ctx;
     const double dx = (double)x[0] - r->sx, dy = (double)x[2] - r->sy;
+    const double c = cos(r->rot), s = sin(r->rot);
     (void)k, (void)u;
     y[0] = (dkf_real_t)hypot(dx, dy);
-    y[1] = (dkf_real_t)atan2(dy, dx);
+    y[1] = (dkf_real_t)atan2(c * dy - s * dx, c * dx + s * dy);
     if (r->with_omega) y[2] = (dkf_real_t)(10.0 * (double)d[0]);
     return 0;
 }
@@ -196,7 +221,7 @@ static inline dkf_nl_model_t radar_model(radar_t *r, int jacobian)
     md.q = 0;
     md.f = radar_f;
     md.h = radar_h;
-    md.f_jac = NULL;
+    md.f_jac = jacobian ? radar_f_jac : NULL;
     md.h_jac = jacobian ? radar_h_jac : NULL;
     md.y_diff = radar_y_diff;
     return md;

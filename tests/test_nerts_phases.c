@@ -64,6 +64,7 @@ static void run_node(const char *tag, const json_t *c, size_t j)
     dkf_nerts_t f;
     dkf_mat_t mx, mP, mdd, mPd, mPxd, Q, R, z, Y, y;
     size_t s;
+    memset(&rc, 0, sizeof rc);
     test_json_array(test_json_get(nm, "sensor_xy"), sxy, 2, NULL, NULL);
     rc.sx = sxy[0];
     rc.sy = sxy[1];

@@ -190,6 +190,7 @@ static void radar_file(dkf_nerts_kind_t kind, double *worst_single, double *wors
     dkf_nl_model_t md;
     dkf_mat_t Q, R, RS;
     size_t j, a, b;
+    memset(sensors, 0, sizeof sensors);
     assert_int_equal(json_array_size(test_json_get(root, "cases")), 2);
     /* one radar at sensor_xy */
     test_json_array(test_json_get(model, "sensor_xy"), sxy, 2, NULL, NULL);

@@ -18,8 +18,8 @@
  * `expected` names (docs/scenario-format.md, "Nonlinear cases"):
  *   every kind      x_pred P_pred z_hat nu R_tilde Pzz Pxz H (= Hd) M
  *                   x Px d Pd Pxd
- *   EKF kinds       A, G (= Fx, Fd at the previous posterior, the
- *                   Jacobians the time update used)
+ *   EKF kinds       A, G (Fx, Fd: the time update's Jacobians at the
+ *                   previous posterior); nertsf also C (= Hx)
  *   information     Y_pred y_pred C Rbar Rbar_inv i I Y y
  * so tools/dkf_compare.py compares them with `cases[c].steps[*].expected`.
  */
@@ -47,9 +47,9 @@ typedef struct {
     dkf_nl_model_t model;      /* the node's table or the stack */
     dkf_nl_model_t *tables;    /* the nodes' tables, for the stack */
     dkf_nerts_stack_t stack;
-    dkf_real_t *mem;           /* the filter's storage, then Q R z Fx Fd work */
-    dkf_real_t *Q, *R, *z, *Fx, *Fd, *work;
-    dkf_mat_t Qv, Rv, zv, Fxv, Fdv;
+    dkf_real_t *mem;           /* the filter's storage, then Q R z */
+    dkf_real_t *Q, *R, *z;
+    dkf_mat_t Qv, Rv, zv;
     dkf_nerts_t f;
     json_t *series;            /* NULL: record nothing */
     double sx, sd;             /* squared errors against the truth */
@@ -200,8 +200,7 @@ static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *
     }
     u->m = u->model.m;
     len = DKF_NERTS_STORAGE_LEN(u->n, u->m, u->p);
-    extra = u->n * u->n + u->m * u->m + u->m + u->n * u->n + u->n * u->p +
-            DKF_NL_JAC_WORK(u->n, u->m, u->p);
+    extra = u->n * u->n + u->m * u->m + u->m;
     u->mem = calloc(len + extra, sizeof *u->mem);
     u->series = o->record ? json_object() : NULL;
     if (u->mem == NULL || (o->record && u->series == NULL)) {
@@ -212,18 +211,11 @@ static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *
     u->Q = u->mem + len;
     u->R = u->Q + u->n * u->n;
     u->z = u->R + u->m * u->m;
-    u->Fx = u->z + u->m;
-    u->Fd = u->Fx + u->n * u->n;
-    u->work = u->Fd + u->n * u->p;
     for (i = 0; i < u->n * u->n; ++i) u->Q[i] = (dkf_real_t)s->nl->models[0]->Q[i];
     load_R(u);
     dkf_mat_init(&u->Qv, u->n, u->n, u->Q);
     dkf_mat_init(&u->Rv, u->m, u->m, u->R);
     dkf_mat_init(&u->zv, u->m, 1, u->z);
-    dkf_mat_init(&u->Fxv, u->n, u->n, u->Fx);
-    u->Fdv.rows = u->n;
-    u->Fdv.cols = u->p;
-    u->Fdv.data = u->Fd;
     st = start(u, len);
     if (st != DKF_OK) {
         *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu]: %s: dkf_nerts_init failed: "
@@ -236,9 +228,10 @@ static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *
     return (dkf_runner_t *)(void *)u;
 }
 
+/* A matrix as a list of rows (also when it has one column: G, H, Pd, Pxd). */
 static void put(json_t *series, const char *key, const dkf_mat_t *A)
 {
-    dkf_json_append(series, key, dkf_json_from_mat(A, A->cols == 1 && A->rows != 0 ? 1 : 0));
+    dkf_json_append(series, key, dkf_json_from_mat(A, 0));
 }
 
 /* A vector view (n x 1) as a flat list, also when n = 0. */
@@ -247,11 +240,12 @@ static void put_vec(json_t *series, const char *key, const dkf_mat_t *v)
     dkf_json_append(series, key, dkf_json_from_mat(v, 1));
 }
 
-static void record_step(json_t *series, const dkf_nerts_t *f, const nerts_runner_t *u)
+static void record_step(json_t *series, const dkf_nerts_t *f)
 {
     if (is_ekf(f->kind)) {
-        put(series, "A", &u->Fxv);
-        put(series, "G", &u->Fdv);
+        put(series, "A", &f->Fx);
+        put(series, "G", &f->Fd);
+        if (!is_info(f->kind)) put(series, "C", &f->Hx);
     }
     put_vec(series, "x_pred", &f->x_pred);
     put(series, "P_pred", &f->P_pred);
@@ -304,29 +298,20 @@ static int nerts_step(dkf_runner_t *r, long k, char *err, size_t errlen)
 {
     nerts_runner_t *u = (nerts_runner_t *)(void *)r;
     const dkf_scenario_t *s = u->s;
-    dkf_status_t st = DKF_OK;
-    const char *call = "dkf_nerts_step";
+    dkf_status_t st;
     size_t i;
     load_z(u, k);
-    if (is_ekf(u->impl.kind) && u->series != NULL) {
-        /* the time update's Jacobians at the posterior, for the record */
-        call = "dkf_nl_f_jacobian";
-        st = dkf_nl_f_jacobian(&u->model, u->f.k, u->f.x.data, u->p > 0 ? u->f.d.data : NULL,
-                               NULL, u->Fx, u->Fd, u->work);
-    }
-    if (st == DKF_OK) {
-        call = "dkf_nerts_step";
-        st = dkf_nerts_step(&u->f, &u->model, NULL, &u->Qv, NULL, &u->Rv, &u->zv);
-    }
+    st = dkf_nerts_step(&u->f, &u->model, NULL, &u->Qv, NULL, &u->Rv, &u->zv);
     if (st != DKF_OK) {
         const char *why = "";
         for (i = 0; i < s->nsensors && why[0] == '\0'; ++i)
             why = dkf_nlm_failure(s->nl->models[i]);
-        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu] step k=%ld: %s: %s failed: "
-                         "%s (%d)%s%s", s->file, s->case_index, k, u->fl->label, call,
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu] step k=%ld: %s: "
+                         "dkf_nerts_step failed: %s (%d)%s%s", s->file, s->case_index, k,
+                         u->fl->label,
                          dkf_status_str(st), (int)st, why[0] != '\0' ? "; " : "", why);
     }
-    if (u->series != NULL) record_step(u->series, &u->f, u);
+    if (u->series != NULL) record_step(u->series, &u->f);
     errors_against_truth(u, k);
     return DKF_EXIT_OK;
 }

@@ -112,13 +112,14 @@ static int cb_h_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *
     return jac(m, m->ops->h_jac, m->m, x, d, Hx, Hd, "C", "H");
 }
 
-/* v wrapped into [-pi, pi). */
+/* v wrapped into [-pi, pi). fmod is exact, so the result is right for any
+ * finite v (v - 2 pi floor(...) lost every digit past |v| ~ 1e16). */
 static double wrap_angle(double v)
 {
-    const double two_pi = 6.283185307179586476925286766559;
-    double w = v - two_pi * floor((v + 0.5 * two_pi) / two_pi);
-    if (w >= 0.5 * two_pi) w -= two_pi;
-    return w;
+    const double pi = 3.14159265358979323846, two_pi = 2 * pi;
+    const double w = fmod(v, two_pi); /* exact, in (-2 pi, 2 pi) */
+    if (w >= pi) return w - two_pi;
+    return w < -pi ? w + two_pi : w;
 }
 
 /* a - b, the angle channels wrapped (seed 001's bearings, note section 2). */

@@ -458,6 +458,19 @@ static void test_angle_wrap(void **state)
     b->model.y_diff(b->model.ctx, c, a, out);
     assert_true(fabs((double)out[1] - ((double)c[1] - (double)a[1] + 2 * PI)) < 1e-6);
     assert_true((double)out[1] >= -PI && (double)out[1] < PI);
+    /* far from the range too (a diverged filter's bearings): still in
+     * [-pi, pi) (in float to the cast's rounding, 4e-7); v - 2 pi floor(...)
+     * gave -4 for 1e16 */
+    {
+        static const double big[] = {1e16, 3e17, -7e25, 1e30};
+        size_t i;
+        for (i = 0; i < sizeof big / sizeof big[0]; ++i) {
+            a[1] = (dkf_real_t)big[i];
+            c[1] = (dkf_real_t)0.5;
+            b->model.y_diff(b->model.ctx, a, c, out);
+            assert_true((double)out[1] >= -PI - 4e-7 && (double)out[1] < PI + 4e-7);
+        }
+    }
     dkf_nlm_free(b);
 }
 

@@ -141,7 +141,7 @@ static int square_matrix(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
 {
     const json_t *v = json_object_get(j, key);
     char p[DKF_SCN_PATH_LEN];
-    size_t rows, cols, i;
+    size_t rows, cols;
     double *a;
     dkf_scn_subkey(p, path, key);
     if (v == NULL) {
@@ -154,11 +154,10 @@ static int square_matrix(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
         free(a);
         return dkf_scn_fail(c, p, "expected %zu x %zu, got %zu x %zu", r, r, rows, cols);
     }
-    for (i = 0; i < r * r; ++i)
-        if (a[i] != a[(i % r) * r + i / r]) {
-            free(a);
-            return dkf_scn_fail(c, p, "not symmetric (entry [%zu][%zu])", i / r, i % r);
-        }
+    if (dkf_scn_check_symmetric(c, p, a, r) != 0) {
+        free(a);
+        return -1;
+    }
     free(*out);
     *out = a;
     return 0;

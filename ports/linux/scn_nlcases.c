@@ -37,9 +37,11 @@ static int is_empty_list(const json_t *v)
 }
 
 /* init[key] of node `node` into its mats as `as`, of shape r x cc (cc = 1:
- * a vector); p = 0 entries must be empty lists and are not stored. */
+ * a vector; cov: a covariance, symmetric); p = 0 entries must be empty lists
+ * and are not stored. */
 static int init_entry(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t node, const json_t *init,
-                      const char *ipath, const char *key, const char *as, size_t r, size_t cc)
+                      const char *ipath, const char *key, const char *as, size_t r, size_t cc,
+                      int cov)
 {
     const json_t *v = json_object_get(init, key);
     dkf_scn_mats_t *set = &s->sensors[node].mats;
@@ -54,7 +56,8 @@ static int init_entry(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t node, const js
     if (dkf_scn_parse_init_entry(c, set, as, v, p) != 0) return -1;
     m = dkf_scn_mats_find(set, as);
     if (m == NULL || m->count != 0) return dkf_scn_fail(c, p, "expected a vector or a matrix");
-    return dkf_scn_require_shape(c, m, p, r, cc);
+    if (dkf_scn_require_shape(c, m, p, r, cc) != 0) return -1;
+    return cov ? dkf_scn_check_symmetric(c, p, m->data, r) : 0;
 }
 
 /* Node i's init object: n from x0, p from d0 (the first node fixes them). */
@@ -84,11 +87,11 @@ static int node_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t
         return dkf_scn_fail(c, ipath, "x0 of %zu and d0 of %zu values; node 0 has %zu and %zu",
                             n, pp, s->n, s->nl->p);
     }
-    if (init_entry(c, s, i, init, ipath, "x0", "x00", n, 1) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "Px0", "P00", n, n) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "d0", "d00", pp, 1) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "Pd0", "Pd00", pp, pp) != 0) return -1;
-    return init_entry(c, s, i, init, ipath, "Pxd0", "Pxd00", pp == 0 ? 0 : n, pp);
+    if (init_entry(c, s, i, init, ipath, "x0", "x00", n, 1, 0) != 0) return -1;
+    if (init_entry(c, s, i, init, ipath, "Px0", "P00", n, n, 1) != 0) return -1;
+    if (init_entry(c, s, i, init, ipath, "d0", "d00", pp, 1, 0) != 0) return -1;
+    if (init_entry(c, s, i, init, ipath, "Pd0", "Pd00", pp, pp, 1) != 0) return -1;
+    return init_entry(c, s, i, init, ipath, "Pxd0", "Pxd00", pp == 0 ? 0 : n, pp, 0);
 }
 
 static int node_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t *mj,

@@ -102,6 +102,9 @@ int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
 long dkf_scn_find_time(const long *ks, size_t n, long k);
 
 /* ---- checks every layout shares (scn_check.c) ---- */
+/* The n x n covariance a (read from the file at path) symmetric within
+ * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
+int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s);
 int dkf_scn_require_shape(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path,
                           size_t r, size_t cc);

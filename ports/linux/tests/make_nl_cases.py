@@ -87,6 +87,7 @@ def main():
         lambda c: c["model"]["expr"]["f"].__setitem__(2, "0.9*x3/(x1 - x1)"))
     bad("bad_nl_z_len.json", lambda c: c["steps"][3].__setitem__("z", [0.1, 0.2]))
     bad("bad_nl_init.json", lambda c: c["init"].__setitem__("Px0", [[0.1, 0], [0, 0.1]]))
+    bad("bad_nl_asym.json", lambda c: c["init"]["Px0"][0].__setitem__(1, 0.05))
     bad("bad_nl_family.json",
         lambda c: c.__setitem__("model", {"family": "ct_radar", "Q": c["model"]["Q"]}))
     # run time: finite at x0 = 0, a division by zero once the estimate has x1 > 0.05

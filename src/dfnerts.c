@@ -102,6 +102,7 @@ static void restore(dkf_dfnerts_node_t *nd, const layout_t *L)
     dkf__copy(L->f, L->snap, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
     nd->pending = 0;
     nd->tau = 0;
+    nd->scale = DKF_R(0.0);
 }
 
 /* PAPER: pkt = [y_pred | Y_pred], contrib = s [i | I]        (Alg. 3, (56)-(57)) */
@@ -242,10 +243,11 @@ static dkf_status_t joint_commit(dkf_dfnerts_node_t *nd, const layout_t *L)
     return DKF_OK;
 }
 
-dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd)
+/* The commit without accepting it: the snapshot stays (the network may
+ * still undo it). */
+static dkf_status_t commit_step(dkf_dfnerts_node_t *nd)
 {
     layout_t L;
-    DKF_CHECK_NULL(nd);
     if (!nd->ready || !nd->pending || nd->tau == 0) return DKF_ERR_STATE;
     L = mem_of(nd);
     if (nd->variant == DKF_DFNERTS_JOINT) {
@@ -259,6 +261,17 @@ dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd)
         DKF_TRY(dkf_nerts_commit_info(&nd->f, &Y, &y));
     }
     nd->pending = 0;
+    nd->tau = 0;
+    nd->scale = DKF_R(0.0);
+    return DKF_OK;
+}
+
+/* Between steps saved == f, so a failed call leaves the struct as it was. */
+dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd)
+{
+    DKF_CHECK_NULL(nd);
+    DKF_TRY(commit_step(nd));
+    nd->saved = nd->f;
     return DKF_OK;
 }
 
@@ -389,9 +402,10 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
         if (st != DKF_OK) return undo(net, net->N, st);
     }
     for (l = 0; l < net->N; ++l) {
-        const dkf_status_t st = dkf_dfnerts_node_commit(&net->nodes[l]);
+        const dkf_status_t st = commit_step(&net->nodes[l]);
         if (st != DKF_OK) return undo(net, net->N, st);
     }
+    for (l = 0; l < net->N; ++l) net->nodes[l].saved = net->nodes[l].f;
     net->reals_sent += (unsigned long)(net->N * Tp * net->nodes[0].pkt_len);
     net->broadcasts += (unsigned long)(net->N * Tp);
     ++net->steps;

@@ -118,9 +118,9 @@ typedef struct {
     size_t n, m, p;
     size_t q;       /* agreed dimension: n (PAPER) or n + p (JOINT) */
     size_t pkt_len; /* DKF_DFNERTS_PKT_LEN(q) */
-    size_t tau;     /* rounds mixed in the pending step */
+    size_t tau;     /* rounds mixed in the pending step (0 between steps) */
     int pending;    /* local done, not committed or cancelled */
-    dkf_real_t scale;     /* s of the pending step */
+    dkf_real_t scale;     /* s of the pending step (0 between steps) */
     const dkf_real_t *pkt; /* the node's current packet (pkt_len reals) */
     /* private */
     dkf_nerts_t saved; /* the filter before the pending step */

@@ -79,7 +79,7 @@
  * innovation is nu = y_diff(z, z_hat), and the cubature kinds unwrap the
  * points' images around h(x_pred, d): Z_l = h_c + y_diff(h(x_l, d), h_c),
  * so a bearing near +-pi does not average to 0. With y_diff == NULL the
- * images are used as they are (and h_c is not evaluated).
+ * images are used as they are.
  * dkf_nerts_stack composes the sensors' y_diff.
  *
  * Statuses (the filter, its views and every output are bit-identical
@@ -124,11 +124,11 @@ enum {
 /* Reals of the state region: the posterior (x, Px, d, Pd, Pxd), the
  * prediction (x_pred, P_pred, Y_pred, y_pred), the local statistics
  * (z_hat, nu, h_c, R_tilde, Pzz, Pxz, Hd, C, Rbar, Rbar_inv, M, d_loc,
- * Pd_loc, Pxd_loc, i, I) and the committed (Y, y). */
+ * Pd_loc, Pxd_loc, i, I) and the committed (Y, y); Fx, Fd, Hx beside. */
 #define DKF__NERTS_OUT_LEN(n, m, p) \
-    ((n) + (n) * (n) + (p) + (p) * (p) + (n) * (p) /* posterior */ \
-     + 2 * (n) + 2 * (n) * (n)                     /* prediction */ \
-     + 3 * (m) + 4 * (m) * (m) + (n) * (m) + (m) * (p) + (m) * (n) + (p) * (m) /* local */ \
+    ((n) + (n) * (n) + (p) + (p) * (p) + (n) * (p)      /* posterior */ \
+     + 2 * (n) + 3 * (n) * (n) + (n) * (p)             /* prediction, Fx, Fd */ \
+     + 3 * (m) + 4 * (m) * (m) + (n) * (m) + (m) * (p) + 2 * (m) * (n) + (p) * (m) /* local */ \
      + (p) + (p) * (p) + (n) * (p) + (n) + (n) * (n) /* d_loc .. I */ \
      + (n) + (n) * (n) /* Y, y */)
 /* The larger of two sizes. */
@@ -136,13 +136,14 @@ enum {
 /* Scratch of one phase: the results of a phase staged before they are
  * copied into the state (DKF__NERTS_OUT_LEN), cubature points (2 (n + p)
  * of n + p reals, and their images: 2 (n + p) x max(n, m)), factors and
- * products (6 max(n + p, m)^2), and the Jacobians' workspace. */
+ * products (8 max(n + p, m)^2), the Jacobians' workspace, the
+ * contribution's workspace and an information filter (dkf/info.h). */
 #define DKF__NERTS_R(n, m, p) DKF__NERTS_MAX((n) + (p), (m))
 #define DKF__NERTS_SCRATCH_LEN(n, m, p) \
     (DKF__NERTS_OUT_LEN(n, m, p) + 2 * ((n) + (p)) * ((n) + (p)) + \
      2 * ((n) + (p)) * DKF__NERTS_MAX(n, m) + \
-     6 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + DKF_NL_JAC_WORK(n, m, p) + \
-     DKF_INFO_CONTRIB_WORK(n, m))
+     8 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + DKF_NL_JAC_WORK(n, m, p) + \
+     DKF_INFO_CONTRIB_WORK(n, m) + DKF_INFO_STORAGE_LEN(n))
 
 /* The first DKF_NERTS_STATE_LEN(n, m, p) reals of the storage hold every
  * view of dkf_nerts_t: a failed call leaves them and the struct
@@ -166,10 +167,12 @@ typedef struct {
     /* prediction (valid in phases PREDICTED and LOCAL) */
     dkf_mat_t x_pred, P_pred; /* x_{k|k-1}, P_{x,k|k-1} */
     dkf_mat_t Y_pred, y_pred; /* P_pred^{-1}, Y_pred x_pred (information kinds) */
+    dkf_mat_t Fx, Fd;         /* EKF kinds: df/dx (n x n), df/dd (n x p) at (x, d), eqs 6-7 */
     /* local statistics of the last dkf_nerts_local (phase LOCAL) */
     dkf_mat_t z_hat;    /* predicted measurement (input part removed), m x 1 */
     dkf_mat_t nu;       /* innovation y_diff(z, z_hat), m x 1 */
-    dkf_mat_t h_c;      /* h(x_pred, d) (cubature: the unwrap centre), m x 1 */
+    dkf_mat_t h_c;      /* h(x_pred, d) (cubature: the images' unwrap centre), m x 1 */
+    dkf_mat_t Hx;       /* dh/dx at (x_pred, d) (the paper's C_k, eq 8), m x n */
     dkf_mat_t R_tilde;  /* m x m */
     dkf_mat_t Pzz;      /* cubature sample covariance (EKF: Hx P_pred Hx^T), m x m */
     dkf_mat_t Pxz;      /* n x m */

@@ -13,8 +13,9 @@
  *    failing one too); the JOINT variant runs the same data;
  *  - out-of-order calls, bad arguments and bad input: specific statuses,
  *    nodes bit-identical.
- * Models are linear (tests/lin_model.h): the cubature kinds are exact on
- * them, so the comparisons have no linearisation error.
+ * Models are linear (tests/nerts_fixture.h's lin_x_sin_d without the
+ * sine): the cubature kinds are exact on them, so the comparisons have no
+ * linearisation error.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -28,7 +29,7 @@
 #include "dkf/dfnerts.h"
 #include "dkf/info.h"
 #include "dkf_test.h"
-#include "lin_model.h"
+#include "nerts_fixture.h"
 
 /* Equalities: the two sides are different algebra over the same numbers
  * (consensus sums of information vs one stacked update), so they agree to
@@ -58,7 +59,7 @@ static const double Rs[NN][2] = {{0.1, 0.05}, {0.2, 0.1}, {0.05, 0.3}, {0.1, 0.1
 
 typedef struct {
     size_t N, p;
-    lin_ctx_t ctx[NN];
+    lxs_t ctx[NN];
     dkf_nl_model_t md[NN];
     dkf_real_t Q[XN * XN], R[NN][ZM * ZM], z[NN][ZM];
     dkf_mat_t mQ[NN], mR[NN], mz[NN];
@@ -96,17 +97,18 @@ static void scen_make(size_t N, size_t p, int ring)
     S.P0[0] = S.P0[3] = DKF_R(1.0);
     S.Pd0[0] = DKF_R(1.0);
     for (l = 0; l < N; ++l) {
-        lin_ctx_t *c = &S.ctx[l];
+        lxs_t *c = &S.ctx[l];
         c->n = XN;
         c->m = ZM;
         c->p = p;
-        memcpy(c->F, F2, sizeof F2);
-        memcpy(c->H, Hs[l], sizeof Hs[l]);
+        c->linear = 1;
+        memcpy(c->A, F2, sizeof F2);
+        memcpy(c->C, Hs[l], sizeof Hs[l]);
         if (p > 0) {
-            memcpy(c->G, G2, sizeof G2);
-            memcpy(c->D, Ds[l], sizeof Ds[l]);
+            memcpy(c->B, G2, sizeof G2);
+            memcpy(c->H, Ds[l], sizeof Ds[l]);
         }
-        S.md[l] = lin_model(c);
+        S.md[l] = lxs_model(c, 1);
         S.R[l][0] = (dkf_real_t)Rs[l][0];
         S.R[l][3] = (dkf_real_t)Rs[l][1];
         S.mQ[l] = test_view(XN, XN, S.Q);
@@ -258,7 +260,7 @@ static void test_central_joint(void **state)
  * Pi removes the only x channel, I = 0, but Pxd = -P_pred, Pd = P_pred +
  * R). After consensus Px ~ 1 / 100 and node 1's Schur complement
  * Pd - Pdx Px^-1 Pxd = 1.02 - 1.01^2 / 0.0099 < 0. */
-static lin_ctx_t ic[2];
+static lxs_t ic[2];
 static dkf_nl_model_t imd[2];
 static dkf_real_t iQ[1] = {0.01}, iR[4] = {0.01, 0, 0, 1}, iz[2][2] = {{0.4, -0.3}, {0.7, 0.2}};
 static dkf_real_t ix0[1] = {0}, iP0[1] = {1}, id0[1] = {0}, iPd0[1] = {1}, iPxd0[1] = {0};
@@ -276,8 +278,9 @@ static void indef_make(void)
         ic[l].n = 1;
         ic[l].m = 2;
         ic[l].p = 1;
-        ic[l].F[0] = 1;
-        ic[l].H[0] = 1;
+        ic[l].linear = 1;
+        ic[l].A[0] = 1;
+        ic[l].C[0] = 1;
         imQ[l] = test_view(1, 1, iQ);
         imR[l] = test_view(2, 2, iR);
         imz[l] = test_view(2, 1, iz[l]);
@@ -287,10 +290,10 @@ static void indef_make(void)
         imPd0[l] = test_view(1, 1, iPd0);
         imPxd0[l] = test_view(1, 1, iPxd0);
     }
-    ic[0].D[1] = 1; /* node 0: z = [x; d] */
-    ic[1].D[0] = 1; /* node 1: z = [x + d; 0] */
-    imd[0] = lin_model(&ic[0]);
-    imd[1] = lin_model(&ic[1]);
+    ic[0].H[1] = 1; /* node 0: z = [x; d] */
+    ic[1].H[0] = 1; /* node 1: z = [x + d; 0] */
+    imd[0] = lxs_model(&ic[0], 1);
+    imd[1] = lxs_model(&ic[1], 1);
     assert_int_equal(dkf_graph_from_edges(&ig, istart, inbr, 4, 2, edge, 1), DKF_OK);
     assert_int_equal(dkf_graph_weights_metropolis(iW, &ig), DKF_OK);
     assert_int_equal(dkf_dfnerts_net_init(&net, &ig, nodes, DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER,
@@ -413,16 +416,18 @@ static void test_joint_commit_by_hand(void **state)
 
 /* ---- statuses and untouched nodes ---------------------------------------- */
 
-static void test_errors_untouched(void **state)
+/* One network (ring) of the variant with input dimension p, after a
+ * successful step: every failure leaves every node as it was. */
+static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
 {
+    const size_t STATE = DKF_DFNERTS_NODE_STATE_LEN(XN, ZM, p);
     const dkf_real_t *in[NN];
     dkf_real_t Wbad[DKF_GRAPH_NNZ(NN, 6)], pkt[DKF_DFNERTS_PKT_MAX(XN, DP)];
     test_rng_t rng;
     double x[XN] = {0.1, 0.2};
     size_t l;
-    (void)state;
-    scen_make(NN, DP, 1);
-    net_make(DKF_DFNERTS_PAPER);
+    scen_make(NN, p, 1);
+    net_make(variant);
     test_rng_seed(&rng, 12003);
     truth_step(&rng, x, 1);
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
@@ -430,7 +435,7 @@ static void test_errors_untouched(void **state)
                      DKF_OK);
     truth_step(&rng, x, 2);
 
-    snap_all(NN, STATE_LEN);
+    snap_all(NN, STATE);
     /* arguments */
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 0,
                                           DKF_R(1.0)),
@@ -449,25 +454,25 @@ static void test_errors_untouched(void **state)
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, Wbad, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_WEIGHTS);
-    assert_all_untouched("bad arguments", NN, STATE_LEN);
+    assert_all_untouched("bad arguments", NN, STATE);
     /* bad input at the last node: the nodes before it ran their local step */
     S.z[NN - 1][1] = (dkf_real_t)NAN;
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_NONFINITE);
-    assert_all_untouched("z NaN at the last node", NN, STATE_LEN);
+    assert_all_untouched("z NaN at the last node", NN, STATE);
     S.z[NN - 1][1] = DKF_R(0.5);
     S.ctx[2].fail_h = 1;
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_MODEL);
-    assert_all_untouched("failing h at node 2", NN, STATE_LEN);
+    assert_all_untouched("failing h at node 2", NN, STATE);
     S.ctx[2].fail_h = 0;
     S.R[1][0] = DKF_R(-1.0);
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_NOT_SPD);
-    assert_all_untouched("R not SPD at node 1", NN, STATE_LEN);
+    assert_all_untouched("R not SPD at node 1", NN, STATE);
     S.R[1][0] = (dkf_real_t)Rs[1][0];
 
     /* the node API out of order */
@@ -477,7 +482,7 @@ static void test_errors_untouched(void **state)
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(-1.0), pkt),
                      DKF_ERR_ARG);
-    assert_all_untouched("node calls out of order", NN, STATE_LEN);
+    assert_all_untouched("node calls out of order", NN, STATE);
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), pkt),
                      DKF_OK);
@@ -496,7 +501,7 @@ static void test_errors_untouched(void **state)
     }
     /* cancel puts the filter back exactly */
     assert_int_equal(dkf_dfnerts_node_cancel(&nodes[0]), DKF_OK);
-    assert_all_untouched("local then cancel", NN, STATE_LEN);
+    assert_all_untouched("local then cancel", NN, STATE);
     /* a failed local after a pending one: no step pending, filter as before */
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), NULL),
@@ -505,9 +510,21 @@ static void test_errors_untouched(void **state)
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), NULL),
                      DKF_ERR_NONFINITE);
-    assert_all_untouched("failed local over a pending step", NN, STATE_LEN);
+    assert_all_untouched("failed local over a pending step", NN, STATE);
     S.z[0][0] = DKF_R(0.0);
-    /* init */
+}
+
+static void test_errors_untouched(void **state)
+{
+    (void)state;
+    errors_run(DKF_DFNERTS_JOINT, DP);
+    errors_run(DKF_DFNERTS_PAPER, 0); /* DF-CKF form: Algorithm 3 with p = 0 */
+}
+
+static void test_init_statuses(void **state)
+{
+    (void)state;
+    scen_make(NN, DP, 1);
     {
         static dkf_dfnerts_node_t nd;
         static dkf_real_t st[NODE_LEN];
@@ -530,6 +547,7 @@ static void test_errors_untouched(void **state)
     }
 }
 
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -538,6 +556,7 @@ int main(void)
         cmocka_unit_test(test_indefinite_mixed_covariance),
         cmocka_unit_test(test_joint_commit_by_hand),
         cmocka_unit_test(test_errors_untouched),
+        cmocka_unit_test(test_init_statuses),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -23,17 +23,15 @@
 /* Vector tolerance: the file's rule, |got - exp| <= 1e-10 + 1e-8 max(1,
  * max|exp|), applied as 1e-8 max(1, max|exp|) per field, step and node
  * (slightly stricter). Double beside it: a regression bound, 8x the
- * worst relative error measured when this test was written (printed;
- * REG_SEEN below). Float: 2e-3. The inputs rounded to float move the
- * bearings' residuals by ~1e-7 rad against sigma_theta = 0.015 and
- * R_phi = 8.8e-8 (sigma 3e-4 rad/s) against 10 omega = -0.52: the phi
- * channel's innovation nu_phi = z_phi - 10 omega carries the absolute
- * rounding of z_phi, 0.52 * 6e-8 = 3e-8, i.e. 1e-4 sigma_phi, into d and
- * through Rbar_inv = 1/R into i and I (entries ~1e3-1e4: float rounding
- * there is 1e-3 of max|expected| after the Y = sum of 10 steps' terms).
- * Measured worst in float: printed by the test; the bound leaves >= 4x. */
+ * worst relative error measured when this test was written (1.5e-13,
+ * REG_SEEN). Float: 5e-4. The consensus Y is inverted at every step and
+ * its condition number reaches ~1e3 (eigenvalues 0.25 .. 50 of Y at step
+ * 1, wider later), so float rounding (6e-8) of the inputs and of every
+ * product is amplified to ~1e3 * 6e-8 = 6e-5 in Px, x and the next
+ * step's statistics; measured worst 4.1e-5 (Tp45_scale4, Y), the bound
+ * leaves 12x. */
 #if DKF_USE_FLOAT
-#define VEC_REL 2e-3
+#define VEC_REL 5e-4
 #else
 #define VEC_REL 1e-8
 #endif

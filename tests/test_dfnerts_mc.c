@@ -32,6 +32,7 @@
 
 #include "dkf/dfnerts.h"
 #include "dkf_test.h"
+#include "dfnerts_fixture.h"
 #include "nerts_fixture.h"
 #include "nerts_sim.h"
 
@@ -45,10 +46,6 @@
 #define TP 45
 #define BAND_SD 4.5
 
-static const double F2[4] = {1, 1, 0, 1}, G2[2] = {0.5, 1}, Q2[4] = {0.01, 0, 0, 0.04};
-static const double Hs[NN][4] = {{1, 0, 0.5, 0.2}, {1, 0, 0, 1}, {0, 1, 1, 0.3}, {1, 1, 2, 0}};
-static const double Ds[NN][2] = {{0, 1}, {0, 1}, {1, 0.5}, {0.5, 1}};
-static const double Rs[NN][2] = {{0.1, 0.05}, {0.2, 0.1}, {0.05, 0.3}, {0.1, 0.1}};
 
 static lxs_t ctx[NN];
 static dkf_nl_model_t md[NN], stacked;
@@ -80,14 +77,14 @@ static void setup_models(void)
         ctx[l].m = ZM;
         ctx[l].p = DP;
         ctx[l].linear = 1;
-        memcpy(ctx[l].A, F2, sizeof F2);
-        memcpy(ctx[l].B, G2, sizeof G2);
-        memcpy(ctx[l].C, Hs[l], sizeof Hs[l]);
-        memcpy(ctx[l].H, Ds[l], sizeof Ds[l]);
+        memcpy(ctx[l].A, dfn_F, sizeof dfn_F);
+        memcpy(ctx[l].B, dfn_G, sizeof dfn_G);
+        memcpy(ctx[l].C, dfn_H[l], sizeof dfn_H[l]);
+        memcpy(ctx[l].H, dfn_D[l], sizeof dfn_D[l]);
         md[l] = lxs_model(&ctx[l], 1);
         memset(Rr[l], 0, sizeof Rr[l]);
-        Rr[l][0] = (dkf_real_t)Rs[l][0];
-        Rr[l][3] = (dkf_real_t)Rs[l][1];
+        Rr[l][0] = (dkf_real_t)dfn_R[l][0];
+        Rr[l][3] = (dkf_real_t)dfn_R[l][1];
         mQ[l] = test_view(XN, XN, Qr);
         mR[l] = test_view(ZM, ZM, Rr[l]);
         mz[l] = test_view(ZM, 1, zr[l]);
@@ -97,7 +94,7 @@ static void setup_models(void)
         mPd0[l] = test_view(DP, DP, Pd0);
         mPxd0[l] = test_view(XN, DP, Pxd0);
     }
-    test_to_real(Qr, Q2, XN * XN);
+    test_to_real(Qr, dfn_Q, XN * XN);
     assert_int_equal(dkf_nerts_stack(&stacked, &stk, md, NN), DKF_OK);
     assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(NN, NN), NN, edges, NN),
                      DKF_OK);
@@ -112,7 +109,7 @@ static void make_run(test_rng_t *rng)
     size_t l, r;
     memset(Rst, 0, sizeof Rst);
     for (l = 0; l < NN; ++l)
-        for (r = 0; r < ZM; ++r) Rst[(l * ZM + r) * (NN * ZM) + l * ZM + r] = Rs[l][r];
+        for (r = 0; r < ZM; ++r) Rst[(l * ZM + r) * (NN * ZM) + l * ZM + r] = dfn_R[l][r];
     xt0[0] = (dkf_real_t)test_rng_normal(rng);
     xt0[1] = (dkf_real_t)test_rng_normal(rng);
     d0[0] = (dkf_real_t)(input(0, 0) + test_rng_normal(rng));
@@ -121,7 +118,7 @@ static void make_run(test_rng_t *rng)
     P0[0] = P0[3] = DKF_R(1.0);
     Pd0[0] = DKF_R(1.0);
     memset(Pxd0, 0, sizeof Pxd0);
-    sim_run(&sim, &stacked, xt0, input, Q2, Rst, STEPS, rng);
+    sim_run(&sim, &stacked, xt0, input, dfn_Q, Rst, STEPS, rng);
 }
 
 static void net_start(dkf_dfnerts_variant_t v)

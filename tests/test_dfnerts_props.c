@@ -29,6 +29,7 @@
 #include "dkf/dfnerts.h"
 #include "dkf/info.h"
 #include "dkf_test.h"
+#include "dfnerts_fixture.h"
 #include "nerts_fixture.h"
 
 /* Equalities: the two sides are different algebra over the same numbers
@@ -51,11 +52,6 @@
 #define NODE_LEN0 DKF_DFNERTS_NODE_STORAGE_LEN(XN, ZM, 0)
 #define STATE_LEN DKF_DFNERTS_NODE_STATE_LEN(XN, ZM, DP)
 
-static const double F2[4] = {1, 1, 0, 1}, G2[2] = {0.5, 1}, Q2[4] = {0.01, 0, 0, 0.04};
-/* four sensors: H, D (D = 0 for the p = 0 tests), R diagonal */
-static const double Hs[NN][4] = {{1, 0, 0.5, 0.2}, {1, 0, 0, 1}, {0, 1, 1, 0.3}, {1, 1, 2, 0}};
-static const double Ds[NN][2] = {{0, 1}, {0, 1}, {1, 0.5}, {0.5, 1}};
-static const double Rs[NN][2] = {{0.1, 0.05}, {0.2, 0.1}, {0.05, 0.3}, {0.1, 0.1}};
 
 typedef struct {
     size_t N, p;
@@ -93,7 +89,7 @@ static void scen_make(size_t N, size_t p, int ring)
     assert_int_equal(dkf_graph_from_edges(&S.g, S.start, S.nbr, DKF_GRAPH_NNZ(NN, 6), N, edges, E),
                      DKF_OK);
     assert_int_equal(dkf_graph_weights_metropolis(S.W, &S.g), DKF_OK);
-    test_to_real(S.Q, Q2, XN * XN);
+    test_to_real(S.Q, dfn_Q, XN * XN);
     S.P0[0] = S.P0[3] = DKF_R(1.0);
     S.Pd0[0] = DKF_R(1.0);
     for (l = 0; l < N; ++l) {
@@ -102,15 +98,15 @@ static void scen_make(size_t N, size_t p, int ring)
         c->m = ZM;
         c->p = p;
         c->linear = 1;
-        memcpy(c->A, F2, sizeof F2);
-        memcpy(c->C, Hs[l], sizeof Hs[l]);
+        memcpy(c->A, dfn_F, sizeof dfn_F);
+        memcpy(c->C, dfn_H[l], sizeof dfn_H[l]);
         if (p > 0) {
-            memcpy(c->B, G2, sizeof G2);
-            memcpy(c->H, Ds[l], sizeof Ds[l]);
+            memcpy(c->B, dfn_G, sizeof dfn_G);
+            memcpy(c->H, dfn_D[l], sizeof dfn_D[l]);
         }
         S.md[l] = lxs_model(c, 1);
-        S.R[l][0] = (dkf_real_t)Rs[l][0];
-        S.R[l][3] = (dkf_real_t)Rs[l][1];
+        S.R[l][0] = (dkf_real_t)dfn_R[l][0];
+        S.R[l][3] = (dkf_real_t)dfn_R[l][1];
         S.mQ[l] = test_view(XN, XN, S.Q);
         S.mR[l] = test_view(ZM, ZM, S.R[l]);
         S.mz[l] = test_view(ZM, 1, S.z[l]);
@@ -136,16 +132,16 @@ static void truth_step(test_rng_t *rng, double *x, size_t k)
 {
     const double d_prev = sin(0.3 * (double)(k - 1)) + 0.5, d = sin(0.3 * (double)k) + 0.5;
     const double w0 = 0.1 * test_rng_normal(rng), w1 = 0.2 * test_rng_normal(rng);
-    const double x0 = x[0] + x[1] + (S.p ? G2[0] * d_prev : 0) + w0;
-    const double x1 = x[1] + (S.p ? G2[1] * d_prev : 0) + w1;
+    const double x0 = x[0] + x[1] + (S.p ? dfn_G[0] * d_prev : 0) + w0;
+    const double x1 = x[1] + (S.p ? dfn_G[1] * d_prev : 0) + w1;
     size_t l, r;
     x[0] = x0;
     x[1] = x1;
     for (l = 0; l < S.N; ++l)
         for (r = 0; r < ZM; ++r) {
-            double v = Hs[l][2 * r] * x[0] + Hs[l][2 * r + 1] * x[1];
-            if (S.p) v += Ds[l][r] * d;
-            S.z[l][r] = (dkf_real_t)(v + sqrt(Rs[l][r]) * test_rng_normal(rng));
+            double v = dfn_H[l][2 * r] * x[0] + dfn_H[l][2 * r + 1] * x[1];
+            if (S.p) v += dfn_D[l][r] * d;
+            S.z[l][r] = (dkf_real_t)(v + sqrt(dfn_R[l][r]) * test_rng_normal(rng));
         }
 }
 
@@ -164,10 +160,10 @@ static void test_central_info_p0(void **state)
     scen_make(NN, 0, 0);
     net_make(DKF_DFNERTS_PAPER);
     test_rng_seed(&rng, 12001);
-    test_to_real(Fr, F2, 4);
+    test_to_real(Fr, dfn_F, 4);
     mF = test_view(XN, XN, Fr);
     for (l = 0; l < NN; ++l) {
-        test_to_real(Hr[l], Hs[l], 4);
+        test_to_real(Hr[l], dfn_H[l], 4);
         mH[l] = test_view(ZM, XN, Hr[l]);
         mi[l] = test_view(XN, 1, iv[l]);
         mI[l] = test_view(XN, XN, Iv[l]);
@@ -473,7 +469,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
                                           DKF_R(1.0)),
                      DKF_ERR_NOT_SPD);
     assert_all_untouched("R not SPD at node 1", NN, STATE);
-    S.R[1][0] = (dkf_real_t)Rs[1][0];
+    S.R[1][0] = (dkf_real_t)dfn_R[1][0];
 
     /* the node API out of order */
     assert_int_equal(dkf_dfnerts_node_mix(&nodes[0], in, S.W, 1, pkt), DKF_ERR_STATE);

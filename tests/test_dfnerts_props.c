@@ -52,7 +52,6 @@
 #define NODE_LEN0 DKF_DFNERTS_NODE_STORAGE_LEN(XN, ZM, 0)
 #define STATE_LEN DKF_DFNERTS_NODE_STATE_LEN(XN, ZM, DP)
 
-
 typedef struct {
     size_t N, p;
     lxs_t ctx[NN];

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "graph_weights.h"
 #include "net.h"
 #include "registry.h"
 #include "util.h"
@@ -18,46 +19,6 @@
 #define failf(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
 
 /* ---- scenario ------------------------------------------------------------------- */
-
-/* The file's weights (triplets) or the library default (uniform alpha,
- * Metropolis W), checked: the rule of tw_run.c, so both runners agree. */
-static int bind_weights(dkf_tw_scn_t *c, int doubly, dkf_real_t *w, int *dflt, char *err,
-                        size_t errlen)
-{
-    const dkf_scn_network_t *net = c->s->net;
-    const size_t cnt = doubly ? net->nW : net->nalpha;
-    const size_t *rc = doubly ? net->W_rc : net->alpha_rc;
-    const double *v = doubly ? net->W_v : net->alpha_v;
-    size_t *ri = NULL, *ci;
-    dkf_real_t *vv;
-    dkf_status_t st;
-    size_t t;
-    *dflt = (doubly ? net->W_key : net->alpha_key) == NULL;
-    if (*dflt)
-        st = doubly ? dkf_graph_weights_metropolis(w, &c->g) : dkf_graph_weights_uniform(w, &c->g);
-    else {
-        ri = malloc((cnt + 1) * (2 * sizeof *ri + sizeof *vv));
-        if (ri == NULL) return failf(err, errlen, "%s: out of memory", c->s->file);
-        ci = ri + cnt + 1;
-        vv = (dkf_real_t *)(void *)(ci + cnt + 1);
-        for (t = 0; t < cnt; ++t) {
-            ri[t] = rc[2 * t];
-            ci[t] = rc[2 * t + 1];
-            vv[t] = (dkf_real_t)v[t];
-        }
-        st = dkf_graph_weights_from_triplets(w, &c->g, ri, ci, vv, cnt);
-        free(ri);
-    }
-    if (st == DKF_OK)
-        st = doubly ? dkf_graph_check_doubly_stochastic(&c->g, w)
-                    : dkf_graph_check_row_stochastic(&c->g, w);
-    if (st != DKF_OK)
-        return failf(err, errlen, "%s: %s: %s", c->s->file,
-                     doubly ? (net->W_key ? net->W_key : "W (Metropolis)")
-                            : (net->alpha_key ? net->alpha_key : "alpha (uniform)"),
-                     dkf_status_str(st));
-    return 0;
-}
 
 /* Everything that must agree between the nodes of one run: dimensions,
  * the model at every step, every sensor's H and Sw, the prior, the graph,
@@ -72,7 +33,7 @@ static int64_t model_id(const dkf_tw_scn_t *c)
     h = dkf_fnv1a_u64(h, (uint64_t)c->eta);
     h = dkf_fnv1a_u64(h, (uint64_t)c->N);
     h = dkf_fnv1a_u64(h, (uint64_t)c->n);
-    h = dkf_fnv1a_u64(h, (uint64_t)c->m);
+    h = dkf_fnv1a_u64(h, (uint64_t)c->p);
     h = dkf_fnv1a_u64(h, (uint64_t)c->steps);
     for (i = 0; i < 3; ++i) {
         const dkf_scn_mat_t *M = dkf_scn_model(s, dyn[i]);
@@ -120,12 +81,12 @@ int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
     c->N = s->net->N;
     c->E = s->net->E;
     c->n = s->n;
-    c->m = dkf_scn_model(s, "B")->cols;
+    c->p = dkf_scn_model(s, "B")->cols;
     c->steps = s->steps;
     c->eta = alg == 3 ? (size_t)(eta >= 0 ? eta : s->net->eta) : 0;
     c->rounds = alg == 2 ? 2 : 2 * c->eta;
     for (l = 0; l < c->N; ++l)
-        if (s->sensors[l].m > c->pmax) c->pmax = s->sensors[l].m;
+        if (s->sensors[l].m > c->mmax) c->mmax = s->sensors[l].m;
     nnz = DKF_GRAPH_NNZ(c->N, c->E);
     c->start = calloc(c->N + 1, sizeof *c->start);
     c->nbr = calloc(nnz, sizeof *c->nbr);
@@ -140,8 +101,8 @@ int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
         dkf_tw_scn_free(c);
         return failf(err, errlen, "%s: graph.edges: %s", s->file, dkf_status_str(st));
     }
-    if (bind_weights(c, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
-        bind_weights(c, 1, c->W, &c->W_default, err, errlen) != 0) {
+    if (dkf_graph_weights_bind(c->s, &c->g, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
+        dkf_graph_weights_bind(c->s, &c->g, 1, c->W, &c->W_default, err, errlen) != 0) {
         dkf_tw_scn_free(c);
         return -1;
     }
@@ -275,12 +236,12 @@ static void to_real(dkf_real_t *dst, const double *src, size_t n)
 static int alloc_agent(dkf_tw_agent_t *a)
 {
     const dkf_tw_scn_t *c = a->c;
-    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->pmax, c->m);
-    const size_t nm = 2 * c->n * c->n + c->n * c->m + c->pmax * c->n + c->pmax * c->pmax +
-                      c->pmax + 2 * c->n;
+    const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p);
+    const size_t nm = 2 * c->n * c->n + c->n * c->p + c->mmax * c->n + c->mmax * c->mmax +
+                      c->mmax + 2 * c->n;
     a->mem = calloc(node_len + 2 * a->deg * a->pkt + 4 * a->pkt + nm, sizeof *a->mem);
     a->have = calloc(5 * a->deg + c->steps + c->steps * a->deg, 1);
-    a->xs = calloc(c->steps * (c->n + c->n * c->n + c->m), sizeof *a->xs);
+    a->xs = calloc(c->steps * (c->n + c->n * c->n + c->p), sizeof *a->xs);
     a->heard = calloc(a->deg, sizeof *a->heard);
     if (a->mem == NULL || a->have == NULL || a->xs == NULL || a->heard == NULL) return -1;
     a->rx = a->mem + node_len;
@@ -292,9 +253,9 @@ static int alloc_agent(dkf_tw_agent_t *a)
     a->A = a->est + a->pkt;
     a->Sv = a->A + c->n * c->n;
     a->B = a->Sv + c->n * c->n;
-    a->H = a->B + c->n * c->m;
-    a->Sw = a->H + c->pmax * c->n;
-    a->y = a->Sw + c->pmax * c->pmax;
+    a->H = a->B + c->n * c->p;
+    a->Sw = a->H + c->mmax * c->n;
+    a->y = a->Sw + c->mmax * c->mmax;
     a->have_nx = a->have + a->deg;
     a->absent = a->have_nx + a->deg;
     a->done = a->absent + a->deg;
@@ -347,7 +308,7 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
     dkf_mat_init(&a->mH, H->rows, c->n, a->H);
     dkf_mat_init(&a->mSw, Sw->rows, Sw->rows, a->Sw);
     dkf_mat_init(&a->mA, c->n, c->n, a->A);
-    dkf_mat_init(&a->mB, c->n, c->m, a->B);
+    dkf_mat_init(&a->mB, c->n, c->p, a->B);
     dkf_mat_init(&a->mSv, c->n, c->n, a->Sv);
     dkf_mat_init(&a->my, H->rows, 1, a->y);
     /* x0, P0 through the scratch of the step model (A, Sv) before the first step */
@@ -355,8 +316,8 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
     to_real(a->A, dkf_scn_init(c->s, "P00")->data, c->n * c->n);
     dkf_mat_init(&a->mx0, c->n, 1, a->B);
     dkf_mat_init(&a->mP0, c->n, c->n, a->A);
-    st = dkf_tw_node_init(&a->nd, c->n, c->pmax, c->m, a->mem,
-                          DKF_TW_NODE_STORAGE_LEN(c->n, c->pmax, c->m), &a->mx0, &a->mP0);
+    st = dkf_tw_node_init(&a->nd, c->n, c->mmax, c->p, a->mem,
+                          DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p), &a->mx0, &a->mP0);
     if (st != DKF_OK) {
         failf(err, errlen, "node %zu: dkf_tw_node_init: %s", id, dkf_status_str(st));
         dkf_tw_agent_free(a);
@@ -449,7 +410,7 @@ static void load_step(dkf_tw_agent_t *a)
     const dkf_tw_scn_t *c = a->c;
     const size_t k = a->k;
     to_real(a->A, dkf_scn_at(dkf_scn_model(c->s, "A"), k - 1), c->n * c->n);
-    to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "B"), k - 1), c->n * c->m);
+    to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "B"), k - 1), c->n * c->p);
     to_real(a->Sv, dkf_scn_at(dkf_scn_model(c->s, "Sv"), k - 1), c->n * c->n);
     to_real(a->y, dkf_scn_y(c->s, a->id, (long)k), a->mH.rows);
 }
@@ -461,7 +422,7 @@ static void record_step(dkf_tw_agent_t *a)
     size_t i;
     for (i = 0; i < c->n; ++i) a->xs[j * c->n + i] = (double)a->nd.x.data[i];
     for (i = 0; i < c->n * c->n; ++i) a->Ps[j * c->n * c->n + i] = (double)a->nd.P.data[i];
-    for (i = 0; i < c->m; ++i) a->zs[j * c->m + i] = (double)a->nd.d.data[i];
+    for (i = 0; i < c->p; ++i) a->zs[j * c->p + i] = (double)a->nd.d.data[i];
     memcpy(a->miss_step + j * a->deg, a->missed, a->deg);
     for (i = 0; i < a->deg; ++i) a->deg_step[j] |= a->missed[i];
     if (a->deg_step[j]) ++a->cnt.degraded_steps;
@@ -752,7 +713,7 @@ json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
         json_array_append_new(xs, dkf_json_doubles(a->xs + j * c->n, c->n, 0));
         json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * c->n * c->n, c->n, c->n));
-        json_array_append_new(zs, dkf_json_doubles(a->zs + j * c->m, c->m, 0));
+        json_array_append_new(zs, dkf_json_doubles(a->zs + j * c->p, c->p, 0));
         json_array_append_new(dg, json_boolean(a->deg_step[j]));
         for (e = 0; e < a->deg; ++e)
             if (a->miss_step[j * a->deg + e])

@@ -55,7 +55,7 @@
 typedef struct {
     const dkf_scenario_t *s;
     int alg;                   /* 2 or 3 */
-    size_t N, E, n, m, pmax, steps, eta;
+    size_t N, E, n, p, mmax, steps, eta; /* p inputs, mmax the largest m_l */
     size_t rounds;             /* exchanges per step: Alg 2: 2, Alg 3: 2 eta */
     size_t *start, *nbr;       /* the graph (dkf/graph.h CSR) */
     dkf_graph_t g;

@@ -334,25 +334,28 @@ static dkf_status_t local_cubature(const dkf_nerts_t *f, layout_t *L, const dkf_
 }
 
 /* The input estimate from R_tilde = L L^T (Lr, inv) and Hd: W = L^{-1} Hd
- * must have full column rank p (dkf_mat_rank's default tolerance, else
- * DKF_ERR_RANK); Pd_loc = (Hd^T R_tilde^{-1} Hd)^{-1} = M R_tilde M^T (15),
- * M = Pd_loc Hd^T R_tilde^{-1} (13), d_loc = M nu (14),
+ * must have full column rank p, decided on the Cholesky factor of the Gram
+ * matrix G = W^T W = Hd^T R_tilde^{-1} Hd: DKF_ERR_RANK unless every pivot
+ * satisfies L_ii^2 > 16 p eps G_ii, i.e. no column of W lies within an
+ * angle of ~ sqrt(16 p eps) (1e-7 in double) of the span of the others
+ * (a bare Cholesky would accept the rounding noise of a rank-deficient G
+ * whenever it comes out positive). Then Pd_loc = G^{-1} = M R_tilde M^T
+ * (15), M = Pd_loc Hd^T R_tilde^{-1} (13), d_loc = M nu (14),
  * Pxd_loc = -Pxz M^T (20). Rinv = R_tilde^{-1}. */
 static dkf_status_t input_estimate(const dkf_nerts_t *f, layout_t *L, const dkf_real_t *Lr,
                                    const dkf_real_t *inv, const dkf_real_t *Rinv)
 {
     const size_t n = f->n, m = f->m, p = f->p;
+    const dkf_real_t tol = DKF_R(16.0) * (dkf_real_t)p * DKF_REAL_EPSILON;
     out_t *s = &L->s;
     dkf_real_t *W = L->w[4], *G = L->w[5], *Lg = L->w[6], *Mt = L->w[7];
     dkf_real_t w[DKF_MAX_DIM], ginv[DKF_MAX_DIM];
-    dkf_mat_t Wv;
-    size_t rank = 0, e;
+    size_t e;
     dkf__whiten(W, w, Lr, inv, s->Hd, s->nu, m, p);
-    dkf__view(&Wv, m, p, W);
-    DKF_TRY(dkf_mat_rank(&rank, &Wv, DKF_RANK_TOL_DEFAULT, L->w[5]));
-    if (rank < p) return DKF_ERR_RANK;
     dkf__mul_tn(G, W, W, NULL, m, p, p);
     if (dkf__chol(Lg, ginv, G, p) != 0) return DKF_ERR_RANK;
+    for (e = 0; e < p; ++e)
+        if (!(Lg[e * p + e] * Lg[e * p + e] > tol * G[e * p + e])) return DKF_ERR_RANK;
     dkf__chol_inverse(s->Pd_loc, Lg, ginv, p);
     /* M^T = R_tilde^{-1} Hd Pd_loc (m x p) */
     dkf__mul_nn(G, Rinv, s->Hd, m, m, p);

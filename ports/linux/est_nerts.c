@@ -29,6 +29,7 @@
 #include <string.h>
 
 #include "dkf/nerts.h"
+#include "est_nerts.h"
 #include "nlm.h"
 #include "registry.h"
 #include "util.h"
@@ -240,7 +241,7 @@ static void put_vec(json_t *series, const char *key, const dkf_mat_t *v)
     dkf_json_append(series, key, dkf_json_from_mat(v, 1));
 }
 
-static void record_step(json_t *series, const dkf_nerts_t *f)
+void dkf_nerts_record(json_t *series, const dkf_nerts_t *f)
 {
     if (is_ekf(f->kind)) {
         put(series, "A", &f->Fx);
@@ -311,7 +312,7 @@ static int nerts_step(dkf_runner_t *r, long k, char *err, size_t errlen)
                          u->fl->label,
                          dkf_status_str(st), (int)st, why[0] != '\0' ? "; " : "", why);
     }
-    if (u->series != NULL) record_step(u->series, &u->f);
+    if (u->series != NULL) dkf_nerts_record(u->series, &u->f);
     errors_against_truth(u, k);
     return DKF_EXIT_OK;
 }

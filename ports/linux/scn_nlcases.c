@@ -9,7 +9,8 @@
  *                 steps [{k, z: [m]}], optional x_true / d_true (x_k, d_k
  *                 for k = 1..N) or truth {X, omega} (k = 0..N)
  *   network:      node_models [N models], init_per_node [N inits],
- *                 W (N x N), optional edges, Tp, scale,
+ *                 W (N x N, or W_sparse triplets), optional edges (else
+ *                 the links of W's nonzero entries), Tp, scale,
  *                 steps [{k, z: [N lists]}], optional truth
  *
  * The models are built here (nlm.h); p = 0 (d0 = []) is a model without
@@ -269,6 +270,20 @@ static int consensus(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, cons
         dkf_scn_subkey(p, cpath, "W");
         return dkf_scn_fail(c, p, "missing key (the %zu x %zu consensus weights)", net->N,
                             net->N);
+    }
+    if (edges == NULL) {
+        /* the graph of W: a link i - j for every W_ij != 0 with i < j (an
+         * entry below the diagonal without its mirror is then off the graph,
+         * which binding the weights refuses) */
+        size_t t, e = 0;
+        if ((net->edges = dkf_scn_calloc(c, 2 * net->nW, sizeof *net->edges)) == NULL) return -1;
+        for (t = 0; t < net->nW; ++t) {
+            if (net->W_rc[2 * t] >= net->W_rc[2 * t + 1]) continue;
+            net->edges[2 * e] = net->W_rc[2 * t];
+            net->edges[2 * e + 1] = net->W_rc[2 * t + 1];
+            ++e;
+        }
+        net->E = e;
     }
     dkf_scn_subkey(p, cpath, "Tp");
     if (tp == NULL) return dkf_scn_fail(c, p, "missing key (consensus iterations per step)");

@@ -51,35 +51,39 @@ static int to_real(dkf_nlm_t *m, dkf_real_t *dst, const double *src, size_t n, c
     return 0;
 }
 
+typedef int (*value_fn)(dkf_nlm_t *m, const double *x, const double *d, double *out);
+
+/* out (count) = fn(x, d), converted and checked. */
+static int value(dkf_nlm_t *m, value_fn fn, const dkf_real_t *x, const dkf_real_t *d,
+                 dkf_real_t *out, size_t count, const char *what)
+{
+    double xd[DKF_MAX_DIM], dd[DKF_MAX_DIM], o[DKF_MAX_DIM];
+    to_double(xd, x, m->n);
+    to_double(dd, d, m->p);
+    if (fn(m, xd, dd, o) != 0) return -1;
+    return to_real(m, out, o, count, what);
+}
+
 static int cb_f(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                 const dkf_real_t *u, dkf_real_t *x_next)
 {
     dkf_nlm_t *m = ctx;
-    double xd[DKF_MAX_DIM], dd[DKF_MAX_DIM], out[DKF_MAX_DIM];
     (void)k;
     (void)u;
-    to_double(xd, x, m->n);
-    to_double(dd, d, m->p);
-    if (m->ops->f(m, xd, dd, out) != 0) return -1;
-    return to_real(m, x_next, out, m->n, "f");
+    return value(m, m->ops->f, x, d, x_next, m->n, "f");
 }
 
 static int cb_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
                 const dkf_real_t *u, dkf_real_t *z)
 {
     dkf_nlm_t *m = ctx;
-    double xd[DKF_MAX_DIM], dd[DKF_MAX_DIM], out[DKF_MAX_DIM];
     (void)k;
     (void)u;
-    to_double(xd, x, m->n);
-    to_double(dd, d, m->p);
-    if (m->ops->h(m, xd, dd, out) != 0) return -1;
-    return to_real(m, z, out, m->m, "g");
+    return value(m, m->ops->h, x, d, z, m->m, "g");
 }
 
-/* The Jacobians' two blocks (r x n, r x p) through one scratch of
- * DKF_MAX_DIM x 2 DKF_MAX_DIM doubles on the heap-free stack of the
- * caller: at most 48 x 96 doubles = 36 KiB, host only. */
+/* The Jacobians' two blocks (r x n, r x p) through two DKF_MAX_DIM^2
+ * double arrays on the stack (36 KiB at most; host only). */
 typedef int (*jac_fn)(dkf_nlm_t *m, const double *x, const double *d, double *J1, double *J2);
 
 static int jac(dkf_nlm_t *m, jac_fn fn, size_t rows, const dkf_real_t *x, const dkf_real_t *d,

@@ -145,14 +145,7 @@ static dkf_status_t check_model(const dkf_nerts_t *f, const dkf_nl_model_t *md,
 static void joint_cov(dkf_real_t *J, const dkf_real_t *Px, const dkf_real_t *Pd,
                       const dkf_real_t *Pxd, size_t n, size_t p)
 {
-    const size_t nx = n + p;
-    size_t a, b;
-    dkf__put_block(J, nx, 0, 0, Px, n, n);
-    if (p == 0) return;
-    dkf__put_block(J, nx, 0, n, Pxd, n, p);
-    dkf__put_block(J, nx, n, n, Pd, p, p);
-    for (a = 0; a < n; ++a)
-        for (b = 0; b < p; ++b) J[(n + b) * nx + a] = Pxd[a * p + b];
+    dkf__put_sym_blocks(J, Px, p > 0 ? Pxd : NULL, Pd, n, p);
 }
 
 /* Out (ra x rb) = D + (1/count) sum_l A_l B_l^T for the rows A_l (ra), B_l

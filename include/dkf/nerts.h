@@ -230,8 +230,8 @@ dkf_status_t dkf_nerts_update(dkf_nerts_t *f);
  * consensus (Algorithm 3): Px = Y^{-1}, x = Px y, d = d_loc, Pd = Pd_loc,
  * Pxd = Pxd_loc, k += 1. DKF_ERR_NOT_SPD if Y is not SPD or the joint
  * covariance [[Px, Pxd_loc], [Pxd_loc^T, Pd_loc]] is not positive
- * definite. Y and y may be f->Y_pred / f->I's neighbours' data, never
- * f's own views other than f->Y and f->y. */
+ * definite. Y and y are copied before anything is written, so they may
+ * be any arrays, f's own views (f->Y, f->y, f->Y_pred, ...) included. */
 dkf_status_t dkf_nerts_commit_info(dkf_nerts_t *f, const dkf_mat_t *Y, const dkf_mat_t *y);
 
 /* The three phases in one call: predict with (u_prev, Q), local with

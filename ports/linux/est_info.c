@@ -75,6 +75,6 @@ static const dkf_est_kind_t dkf_est_info = {
     .name = "info", .fused = 1, .init = info_init, .predict = info_predict, .update = info_update};
 
 /* its registry family (est_run.c's operations) */
-DKF_EST_FAMILY(info, "IF", 0,
+DKF_EST_FAMILY(info, "IF", 0, NULL,
               "information filter (dkf/info.h); with several\n"
               "                           sensors it also writes `fused`");

@@ -97,11 +97,14 @@ int dkf_est_run_errors(const dkf_runner_t *r, size_t i, const char **name, const
 void dkf_est_run_summary(const dkf_runner_t *r, FILE *out);
 void dkf_est_run_destroy(dkf_runner_t *r);
 
+/* The dkf family's sensor-node role (est_diffkf_node.c). */
+extern const dkf_node_ops_t dkf_diffkf_node_ops;
+
 /* Defines the registry family dkf_family_<fam> of the kind dkf_est_<fam>:
  * one filter (--filter <fam>, outputs.<label>, the --help text and the
  * DKF_RUN_OPT_* options it takes), the canonical and cases layouts, the
  * operations above. */
-#define DKF_EST_FAMILY(fam, label, options, help)                                           \
+#define DKF_EST_FAMILY(fam, label, options, node, help)                                     \
     extern const dkf_family_t dkf_family_##fam;                                             \
     static const dkf_filter_t fam##_filters[] = {                                           \
         {#fam, label, help, options, &dkf_family_##fam, &dkf_est_##fam}};                   \
@@ -109,6 +112,6 @@ void dkf_est_run_destroy(dkf_runner_t *r);
         #fam, fam##_filters, 1,                                                             \
         (1u << DKF_SCN_LAYOUT_CANONICAL) | (1u << DKF_SCN_LAYOUT_CASES), dkf_est_run_check, \
         dkf_est_run_create, dkf_est_run_step, dkf_est_run_record, dkf_est_run_errors,       \
-        dkf_est_run_summary, dkf_est_run_destroy}
+        dkf_est_run_summary, dkf_est_run_destroy, node}
 
 #endif /* DKF_HOST_EST_INTERNAL_H */

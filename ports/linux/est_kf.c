@@ -36,6 +36,6 @@ static const dkf_est_kind_t dkf_est_kf = {
     .name = "kf", .init = kf_init, .predict = kf_predict, .update = kf_update};
 
 /* its registry family (est_run.c's operations) */
-DKF_EST_FAMILY(kf, "KF", 0,
+DKF_EST_FAMILY(kf, "KF", 0, NULL,
               "Kalman filter (dkf/kf.h) on F, Q, H, R;\n"
               "                           unknown-input terms (A, B, Rd, ...) are ignored");

@@ -58,5 +58,5 @@ static const dkf_est_kind_t dkf_est_otskf = {
     .predict = otskf_predict, .update = otskf_update};
 
 /* its registry family (est_run.c's operations) */
-DKF_EST_FAMILY(otskf, "OTSKF", DKF_RUN_OPT_D00,
+DKF_EST_FAMILY(otskf, "OTSKF", DKF_RUN_OPT_D00, NULL,
               "optimal two-stage KF (dkf/otskf.h); like askf");

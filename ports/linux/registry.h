@@ -2,8 +2,8 @@
  * registry.h - the host's filter families: one const table of operations
  * per family and one registry array listing them (the style of LCM's
  * provider vtables). dkf-run (one run or the Monte-Carlo error mode that
- * tools/dkf_mc.py uses) and the network processes' scenario checks reach a
- * filter only through it:
+ * tools/dkf_mc.py uses), dkf-node (a family's node role, below) and the
+ * network processes' scenario checks reach a filter only through it:
  *
  *   const dkf_filter_t *f = dkf_registry_find("askf");
  *   const dkf_family_t *fam = f->family;
@@ -23,10 +23,12 @@
 #define DKF_HOST_REGISTRY_H
 
 #include <stddef.h>
+#include <stdint.h>
 #include <stdio.h>
 
 #include <jansson.h>
 
+#include "dkf/diffkf_fusion.h" /* dkf_diffkf_msg_t: the node payload */
 #include "scenario.h"
 #include "util.h"
 
@@ -52,6 +54,7 @@ typedef struct {
 
 typedef struct dkf_runner dkf_runner_t; /* a family's running filter (its own struct) */
 typedef struct dkf_family dkf_family_t;
+typedef struct dkf_node_ops dkf_node_ops_t;
 
 /* One --filter NAME. */
 typedef struct {
@@ -97,6 +100,33 @@ struct dkf_family {
     /* The run's summary (errors against the truth, ...) on out. */
     void (*summary)(const dkf_runner_t *r, FILE *out);
     void (*destroy)(dkf_runner_t *r);
+    /* The family's sensor-node role (dkf-node; NULL: it has none). */
+    const dkf_node_ops_t *node;
+};
+
+/* ---- a family's sensor-node role ----------------------------------------------
+ * What one networked sensor node computes: its local filter, fed its own
+ * measurements one time at a time, whose estimate after every step goes to
+ * a fusion centre as the node message's payload (x_{k|k}, x_{k|k-1};
+ * lcmtypes/node_msg_t.lcm). dkf-node (net/node.c) owns everything else:
+ * the transport, measurement order and gaps, epochs, faults, status. */
+typedef struct dkf_node_filter dkf_node_filter_t; /* the family's own struct */
+struct dkf_node_ops {
+    /* Sensor id's local filter of f over s (s passed f's check and id <
+     * s->nsensors); the prior is checked now, so a bad file fails at
+     * start-up. NULL with a one-line "FILE: ..." err. */
+    dkf_node_filter_t *(*create)(const dkf_filter_t *f, const dkf_scenario_t *s, size_t id,
+                                 char *err, size_t errlen);
+    /* (Re)starts the filter from the scenario's prior on y (sensor id's m
+     * values) of time k0 >= 1, which completes no step. DKF_EXIT_OK or
+     * DKF_EXIT_RUN with err naming the step and the failing call. */
+    int (*start)(dkf_node_filter_t *nf, long k0, const double *y, char *err, size_t errlen);
+    /* Completes step k (> the start's k0 - 1) with y_{k+1}. As start. */
+    int (*step)(dkf_node_filter_t *nf, long k, const double *y, char *err, size_t errlen);
+    /* The payload of the step just completed (after a successful step):
+     * msg->k, x_{k|k}, x_{k|k-1} of node id. 0, or -1 (k out of range). */
+    int (*payload)(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg_t *msg);
+    void (*destroy)(dkf_node_filter_t *nf);
 };
 
 /* The registry: every family, in --help order; NULL-terminated. */

@@ -37,6 +37,7 @@
 
 #include "dkf/graph.h"
 #include "dkf/tw.h"
+#include "graph_weights.h"
 #include "registry.h"
 #include "util.h"
 
@@ -103,59 +104,6 @@ static void to_mat(dkf_mat_t *v, dkf_real_t *buf, const double *src, size_t r, s
     dkf_mat_init(v, r, cc, buf);
 }
 
-/* The file's weights (triplets) or the library default; checked. */
-static int bind_weights(ctx_t *c, const dkf_scenario_t *s, int doubly, dkf_real_t *w, int *dflt,
-                        char *err, size_t errlen)
-{
-    const dkf_scn_network_t *net = s->net;
-    const char *key = doubly ? net->W_key : net->alpha_key;
-    const size_t cnt = doubly ? net->nW : net->nalpha;
-    const size_t *rc = doubly ? net->W_rc : net->alpha_rc;
-    const double *v = doubly ? net->W_v : net->alpha_v;
-    dkf_status_t st;
-    size_t t;
-    *dflt = key == NULL;
-    if (key == NULL) {
-        st = doubly ? dkf_graph_weights_metropolis(w, &c->g) : dkf_graph_weights_uniform(w, &c->g);
-        if (st != DKF_OK)
-            return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: graph: default %s weights failed: %s",
-                             s->file, doubly ? "Metropolis" : "uniform", dkf_status_str(st));
-        return DKF_EXIT_OK;
-    }
-    {
-        size_t *ri = malloc((cnt ? cnt : 1) * sizeof *ri), *ci = malloc((cnt ? cnt : 1) * sizeof *ci);
-        dkf_real_t *vv = malloc((cnt ? cnt : 1) * sizeof *vv);
-        if (ri == NULL || ci == NULL || vv == NULL) {
-            free(ri), free(ci), free(vv);
-            return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        }
-        for (t = 0; t < cnt; ++t) {
-            size_t pos;
-            ri[t] = rc[2 * t];
-            ci[t] = rc[2 * t + 1];
-            vv[t] = (dkf_real_t)v[t];
-            if (dkf_graph_find(&pos, &c->g, ri[t], ci[t]) != DKF_OK) {
-                free(ri), free(ci), free(vv);
-                return dkf_failf(err, errlen, DKF_EXIT_USAGE,
-                                 "%s: %s: entry (%zu, %zu) is not a link of graph.edges", s->file,
-                                 key, rc[2 * t], rc[2 * t + 1]);
-            }
-        }
-        st = dkf_graph_weights_from_triplets(w, &c->g, ri, ci, vv, cnt);
-        free(ri), free(ci), free(vv);
-    }
-    if (st == DKF_OK)
-        st = doubly ? dkf_graph_check_doubly_stochastic(&c->g, w)
-                    : dkf_graph_check_row_stochastic(&c->g, w);
-    if (st != DKF_OK)
-        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: %s (%s)", s->file, key,
-                         st == DKF_ERR_WEIGHTS ? (doubly ? "not doubly stochastic and non-negative"
-                                                         : "not row-stochastic and non-negative")
-                                               : "invalid weights",
-                         dkf_status_str(st));
-    return DKF_EXIT_OK;
-}
-
 static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
                  tw_summary_t *sum, char *err, size_t errlen)
 {
@@ -199,9 +147,9 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: graph.edges: not a simple undirected graph (a self loop or a "
                          "repeated edge): %s", s->file, dkf_status_str(st));
-    if ((rc = bind_weights(c, s, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
+    if ((rc = dkf_graph_weights_bind(s, &c->g, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
     sum->alpha_default = dflt;
-    if ((rc = bind_weights(c, s, 1, c->W, &dflt, err, errlen)) != 0) return rc;
+    if ((rc = dkf_graph_weights_bind(s, &c->g, 1, c->W, &dflt, err, errlen)) != 0) return rc;
     sum->W_default = dflt;
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
@@ -613,5 +561,5 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_tw = {
     "tw", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_NETWORK,
-    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy,
+    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy, NULL,
 };

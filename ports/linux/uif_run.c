@@ -26,7 +26,7 @@
 /* What a run counts for its summary. */
 typedef struct {
     size_t steps;
-    size_t m;
+    size_t p;                         /* unknown inputs */
     size_t est_count[DKF_MAX_DIM][3]; /* steps with estimable[i] = NONE, PARTIAL, FULL */
     size_t rank_min, rank_max;
 } counts_t;
@@ -210,7 +210,7 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
         uif_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
-    u->sum.m = u->p; /* the summary's m counts the inputs */
+    u->sum.p = u->p;
     u->sum.rank_min = (size_t)-1;
     *rc = DKF_EXIT_OK;
     return (dkf_runner_t *)(void *)u;
@@ -269,13 +269,14 @@ static void uif_summary(const dkf_runner_t *r, FILE *out)
     const counts_t *sm = &u->sum;
     const double rmse_x = u->nx > 0 ? sqrt(u->sx / (double)(u->nx * u->n)) : NAN;
     size_t i;
-    fprintf(out, "scenario %s: %zu steps (k = %ld..%ld), n = %zu, m = %zu; filter %s (%s)\n",
-            s->file, s->steps, s->k_first, s->k_first + (long)s->steps - 1, s->n, sm->m,
+    fprintf(out,
+            "scenario %s: %zu steps (k = %ld..%ld), n = %zu, m = %zu, p = %zu; filter %s (%s)\n",
+            s->file, s->steps, s->k_first, s->k_first + (long)s->steps - 1, s->n, u->m, sm->p,
             u->fl->name, DKF_USE_FLOAT ? "float" : "double");
     fprintf(out, "  rank %zu..%zu; steps with bias risk: %zu\n", sm->rank_min, sm->rank_max,
             u->f.bias_steps);
     fprintf(out, "  RMSE(x) %s%.6g\n", isnan(rmse_x) ? "(no truth) " : "", rmse_x);
-    for (i = 0; i < sm->m; ++i) {
+    for (i = 0; i < sm->p; ++i) {
         const double rmse_d = u->nd > 0 ? sqrt(u->sd[i] / (double)u->nd) : NAN;
         size_t e, best = 0;
         for (e = 1; e < 3; ++e)
@@ -306,5 +307,5 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_uif = {
     "uif", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_STEPS,
-    uif_check, uif_create, uif_step, uif_record, NULL, uif_summary, uif_destroy,
+    uif_check, uif_create, uif_step, uif_record, NULL, uif_summary, uif_destroy, NULL,
 };

@@ -53,7 +53,7 @@ static inline dkf_tw_scn_t fuzz_net_tw_scn(int alg)
     c.alg = alg;
     c.N = 4;
     c.n = 3;
-    c.m = 1;
+    c.p = 1;
     c.steps = 10;
     c.eta = alg == 3 ? 2 : 0;
     c.rounds = alg == 3 ? 2 * c.eta : 2;

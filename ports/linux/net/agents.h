@@ -32,6 +32,7 @@
 #include "codec.h"
 #include "fc_runtime.h"
 #include "net.h"
+#include "registry.h"
 #include "scenario.h"
 
 #define DKF_NET_HEARTBEAT_US 500000 /* default heartbeat period */
@@ -72,9 +73,12 @@ typedef struct {
 } dkf_net_faults_t;
 
 /* Node `id` of scenario s (which must outlive the node and have passed
- * dkf_net_check_scenario): subscribes <prefix>_MEAS_<id>. NULL + err. */
-dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, size_t id,
-                                    const char *prefix, char *err, size_t errlen);
+ * dkf_net_check_scenario) running filter f's node role (registry.h; the
+ * dkf family's: dkf_registry_find("dkf")): subscribes <prefix>_MEAS_<id>.
+ * NULL + err (also when f's family has no node role). */
+dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s,
+                                    const dkf_filter_t *f, size_t id, const char *prefix,
+                                    char *err, size_t errlen);
 void dkf_net_node_free(dkf_net_node_t *nd);
 /* Publishes a heartbeat if one is due (every heartbeat_us; 0: the default). */
 void dkf_net_node_tick(dkf_net_node_t *nd, int64_t mono_us, int64_t heartbeat_us);

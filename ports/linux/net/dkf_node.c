@@ -1,7 +1,7 @@
 /*
- * dkf-node - one sensor node: runs the local Difference KF on its
- * measurements and publishes {x^i_{k|k}, x^i_{k|k-1}} after every step
- * (docs/network.md).
+ * dkf-node - one sensor node: runs a filter's node role (registry.h; the
+ * local Difference KF by default) on its measurements and publishes
+ * {x^i_{k|k}, x^i_{k|k-1}} after every step (docs/network.md).
  *
  *   dkf-node --id 0 tests/vectors/diffkf/ex3_multi.json
  */
@@ -13,8 +13,22 @@
 #include "agents.h"
 #include "cli.h"
 #include "net.h"
+#include "registry.h"
 
 static const char *prog = "dkf-node";
+
+/* The filters whose family has a node role, "a, b" (registry.h). */
+static const char *node_filters(void)
+{
+    static char out[256];
+    size_t i, j, len = 0;
+    out[0] = '\0';
+    for (i = 0; dkf_registry[i] != NULL; ++i)
+        for (j = 0; dkf_registry[i]->node != NULL && j < dkf_registry[i]->nfilters; ++j)
+            len += (size_t)snprintf(out + len, len < sizeof out ? sizeof out - len : 0, "%s%s",
+                                    len ? ", " : "", dkf_registry[i]->filters[j].name);
+    return out;
+}
 
 static void usage(FILE *f)
 {
@@ -25,6 +39,8 @@ static void usage(FILE *f)
             "every step, with a heartbeat on <prefix>_STATUS. Exits after step N.\n"
             "\n"
             "  -i, --id I              sensor index (0-based), required\n"
+            "  -f, --filter NAME       the filter whose node role to run (default dkf;\n"
+            "                          the filters with one: %s)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
@@ -45,13 +61,15 @@ static void usage(FILE *f)
             "  -h, --help              this text\n"
             "Exit: 0 done, 2 bad options/scenario, 3 filter or transport failure,\n"
             "4 interrupted (SIGINT/SIGTERM/--timeout) before step N.\n",
-            prog, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_HEARTBEAT_US / 1000);
+            prog, node_filters(), DKF_NET_DEFAULT_URL, DKF_NET_PREFIX,
+            DKF_NET_HEARTBEAT_US / 1000);
 }
 
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
         {"id", required_argument, NULL, 'i'},       {"url", required_argument, NULL, 'u'},
+        {"filter", required_argument, NULL, 'f'},
         {"prefix", required_argument, NULL, 'p'},   {"heartbeat-ms", required_argument, NULL, 'H'},
         {"timeout", required_argument, NULL, 't'},  {"ready-file", required_argument, NULL, 'R'},
         {"quiet", no_argument, NULL, 'q'},          {"help", no_argument, NULL, 'h'},
@@ -62,6 +80,7 @@ int main(int argc, char **argv)
     dkf_net_faults_t fx;
     double seed = 0, exit_at = 0, join_at = 0, epoch = 0;
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL;
+    const dkf_filter_t *filter = dkf_registry_find("dkf");
     double id = -1, hb_ms = DKF_NET_HEARTBEAT_US / 1000, timeout = 0;
     int quiet = 0, c, code;
     char err[DKF_SCN_ERR_LEN];
@@ -71,9 +90,17 @@ int main(int argc, char **argv)
     int64_t start;
     memset(&fx, 0, sizeof fx);
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":i:u:p:t:qh", longopts, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":i:f:u:p:t:qh", longopts, NULL)) != -1) {
         switch (c) {
         case 'i': if (dkf_cli_num(prog, "--id", optarg, 0, 1e6, &id)) return DKF_EXIT_USAGE; break;
+        case 'f':
+            filter = dkf_registry_find(optarg);
+            if (filter == NULL || filter->family->node == NULL) {
+                fprintf(stderr, "%s: --filter %s: %s (filters with a node role: %s)\n", prog,
+                        optarg, filter ? "has no node role" : "unknown filter", node_filters());
+                return DKF_EXIT_USAGE;
+            }
+            break;
         case 'u': url = optarg; break;
         case 'p': prefix = optarg; break;
         case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
@@ -113,7 +140,7 @@ int main(int argc, char **argv)
         const int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
         if (st != DKF_EXIT_OK) return st;
     }
-    nd = dkf_net_node_create(net, s, (size_t)id, prefix, err, sizeof err);
+    nd = dkf_net_node_create(net, s, filter, (size_t)id, prefix, err, sizeof err);
     if (nd == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_net_close(net);

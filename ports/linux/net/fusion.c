@@ -36,7 +36,7 @@ struct dkf_net_fusion {
     char chan_out[DKF_NET_CHAN_LEN];
     int64_t model_id, deadline_us;
     dkf_fcr_t *rt;                /* ring, epochs, deadlines, checkpoints, linger */
-    dkf_net_model_t *md;          /* l per-sensor models of the running step */
+    dkf_sensor_model_t *md;          /* l per-sensor models of the running step */
     dkf_diffkf_sensor_t *sens;    /* l, pointing into md */
     dkf_diffkf_fc_t fc;
     dkf_diffkf_fc_node_t *fcn;
@@ -66,8 +66,8 @@ static int load_sensors(dkf_net_fusion_t *fu, size_t k, size_t kmeas)
 {
     size_t i;
     for (i = 0; i < fu->l; ++i) {
-        if (dkf_net_model_dyn(&fu->md[i], fu->s, i, k) != 0 ||
-            dkf_net_model_meas(&fu->md[i], fu->s, i, kmeas) != 0)
+        if (dkf_sensor_model_dyn(&fu->md[i], fu->s, i, k) != 0 ||
+            dkf_sensor_model_meas(&fu->md[i], fu->s, i, kmeas) != 0)
             return -1;
         fu->sens[i].B = &fu->md[i].B;
         fu->sens[i].Rd = &fu->md[i].Rd;
@@ -97,7 +97,7 @@ static int op_restart(void *user, size_t i, long k)
     dkf_mat_t P0 = DKF_MAT(n, n, fu->P0_local + i * n * n);
     dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
     dkf_status_t st;
-    if (dkf_net_model_meas(&fu->md[i], fu->s, i, (size_t)k) != 0) return -1;
+    if (dkf_sensor_model_meas(&fu->md[i], fu->s, i, (size_t)k) != 0) return -1;
     sk.B = NULL;
     sk.Rd = NULL;
     sk.meas = fu->md[i].meas;
@@ -326,7 +326,7 @@ static int fu_alloc(dkf_net_fusion_t *fu)
         !fu->contrib || !fu->rec.xf || !fu->rec.xp || !fu->rec.Pf || !fu->rec.Pp)
         return -1;
     for (j = 0; j < l; ++j) {
-        if (dkf_net_model_init(&fu->md[j], fu->s, j) != 0) return -1;
+        if (dkf_sensor_model_init(&fu->md[j], fu->s, j) != 0) return -1;
         dkf_scn_to_real(fu->P0_local + j * n * n, dkf_scn_P00_local(fu->s, j), n * n);
     }
     return 0;
@@ -374,7 +374,7 @@ static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
         call = "dkf_diffkf_fc_start";
         F0m = (dkf_mat_t)DKF_MAT(n, n, F0);
         Q0m = (dkf_mat_t)DKF_MAT(n, n, F0 + n * n);
-        if (dkf_net_model_dyn(&fu->md[0], s, 0, 0) != 0 || load_sensors(fu, 1, 1) != 0) {
+        if (dkf_sensor_model_dyn(&fu->md[0], s, 0, 0) != 0 || load_sensors(fu, 1, 1) != 0) {
             st = DKF_ERR_ARG;
         } else {
             dkf_scn_to_real(F0, dkf_scn_at(dkf_scn_model(s, "F"), 0), n * n);
@@ -461,7 +461,7 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
     size_t j;
     if (fu == NULL) return;
     dkf_fcr_free(fu->rt);
-    for (j = 0; fu->md != NULL && j < fu->l; ++j) dkf_net_model_free(&fu->md[j]);
+    for (j = 0; fu->md != NULL && j < fu->l; ++j) dkf_sensor_model_free(&fu->md[j]);
     free(fu->md);
     free(fu->sens);
     free(fu->fcn);

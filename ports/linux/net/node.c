@@ -1,6 +1,7 @@
 /*
- * node.c - node i: the local Difference KF on sensor i's measurements
- * (agents.h).
+ * node.c - node i: a family's node role (registry.h, dkf_node_ops_t: the
+ * dkf family's local Difference KF) on sensor i's measurements, with the
+ * transport, measurement order, epochs and test faults (agents.h).
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -8,9 +9,8 @@
 #include <string.h>
 
 #include "agents.h"
-#include "dkf/diffkf.h"
-#include "dkf/diffkf_fusion.h"
 #include "model.h"
+#include "registry.h"
 
 struct dkf_net_node {
     dkf_net_t *net;
@@ -20,13 +20,8 @@ struct dkf_net_node {
     char chan_out[DKF_NET_CHAN_LEN];
     int64_t model_id;
     size_t *m;                /* every sensor's m (the codec checks ours) */
-    dkf_net_model_t md;
-    dkf_diffkf_t f;
-    dkf_real_t *store;
-    size_t store_len;
-    dkf_real_t *P0;           /* the scenario's P00_local[id] (every (re)start) */
-    dkf_real_t x0[DKF_MAX_DIM];
-    dkf_real_t y[DKF_MAX_DIM];
+    const dkf_node_ops_t *ops; /* the filter's node role */
+    dkf_node_filter_t *nf;    /* its local filter */
     dkf_net_meas_t ybuf;      /* the measurement being handled */
     dkf_diffkf_msg_t msg;     /* the message being sent */
     dkf_diffkf_msg_t prev;    /* the previous step's payload (redundancy 1) */
@@ -118,30 +113,13 @@ static int node_send(dkf_net_node_t *nd, const unsigned char *buf, size_t len)
     return rc;
 }
 
-/* (Re)starts the local filter on y_{k0} with the scenario's prior: the
- * normal start (F_0, Q_0 from x_{0|0}, P_{0|0}) at k0 = 1, else the general
- * start with (x00, P00_local[id]) as the prior of time k0 (F0 = Q0 = NULL),
- * which the fusion centre mirrors with dkf_diffkf_fc_restart_node. */
-static dkf_status_t node_start(dkf_net_node_t *nd, long k0, const dkf_mat_t *y)
-{
-    const size_t n = nd->s->n;
-    dkf_mat_t mx0 = DKF_MAT(n, 1, nd->x0), mP0 = DKF_MAT(n, n, nd->P0);
-    dkf_status_t st = dkf_diffkf_init(&nd->f, n, nd->md.m, nd->md.p, nd->store, nd->store_len,
-                                      &mx0, &mP0);
-    if (st != DKF_OK) return st;
-    if (k0 == 1) return dkf_diffkf_start(&nd->f, &nd->md.F, &nd->md.Q, &nd->md.meas, y);
-    st = dkf_diffkf_start(&nd->f, NULL, NULL, &nd->md.meas, y);
-    /* the filter counts from 0: its steps (and messages) carry absolute times */
-    return st != DKF_OK ? st : dkf_diffkf_set_time(&nd->f, (size_t)k0 - 1);
-}
-
 /* Encodes and sends the message of the step just completed. */
 static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 {
     unsigned char buf[DKF_NET_MAX_MSG];
     dkf_net_meta_t meta;
     size_t len;
-    if (dkf_diffkf_msg_fill(&nd->msg, (uint16_t)nd->id, &nd->f) != DKF_OK) return -1;
+    if (nd->ops->payload(nd->nf, (uint16_t)nd->id, &nd->msg) != 0) return -1;
     meta.utime = dkf_net_now_us();
     meta.model_id = nd->model_id;
     meta.seq = nd->seq;
@@ -162,46 +140,37 @@ static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 static void node_advance(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 {
     const int starting = nd->next == 0;
-    const size_t k = starting ? (size_t)y->k : (size_t)y->k - 1;
-    dkf_mat_t yv = DKF_MAT(nd->md.m, 1, nd->y);
-    dkf_status_t st;
-    dkf_scn_to_real(nd->y, y->y, y->m);
-    /* start: (F_0, Q_0) and the model at k0; step k: dynamics at k, model at k+1 */
-    if (dkf_net_model_dyn(&nd->md, nd->s, nd->id, starting ? 0 : k) != 0 ||
-        dkf_net_model_meas(&nd->md, nd->s, nd->id, starting ? k : k + 1) != 0) {
-        node_fail(nd, "node %zu: the scenario has no model for step k=%zu", nd->id, k);
-        return;
-    }
+    const long k = starting ? y->k : y->k - 1;
+    char why[sizeof nd->error];
     if (starting) {
-        st = node_start(nd, y->k, &yv);
-        if (st == DKF_OK) {
-            nd->k_start = y->k;
-            nd->has_prev = 0;
-            nd->seq = 0;
+        if (nd->ops->start(nd->nf, y->k, y->y, why, sizeof why) != DKF_EXIT_OK) {
+            node_fail(nd, "%s", why);
+            return;
         }
+        nd->k_start = y->k;
+        nd->has_prev = 0;
+        nd->seq = 0;
     } else {
-        if (nd->fx.exit_at > 0 && (long)k >= nd->fx.exit_at) {
+        if (nd->fx.exit_at > 0 && k >= nd->fx.exit_at) {
             /* a crash before step k's message: no final status, nothing flushed */
             nd->exited = 1;
-            snprintf(nd->error, sizeof nd->error, "node %zu: exiting at step k=%zu (--exit-at)",
+            snprintf(nd->error, sizeof nd->error, "node %zu: exiting at step k=%ld (--exit-at)",
                      nd->id, k);
             return;
         }
-        st = dkf_diffkf_step(&nd->f, &nd->md.dyn, &nd->md.meas, &yv);
-    }
-    if (st != DKF_OK) {
-        node_fail(nd, "node %zu: step k=%zu: %s failed: %s (%d)", nd->id, k,
-                  starting ? "dkf_diffkf_start" : "dkf_diffkf_step", dkf_status_str(st), (int)st);
-        return;
+        if (nd->ops->step(nd->nf, k, y->y, why, sizeof why) != DKF_EXIT_OK) {
+            node_fail(nd, "%s", why);
+            return;
+        }
     }
     nd->next = y->k + 1;
     nd->state = DKF_NET_RUNNING;
     if (starting) return;
     if (node_emit(nd, y) != 0) {
-        node_fail(nd, "node %zu: step k=%zu: cannot publish the message", nd->id, k);
+        node_fail(nd, "node %zu: step k=%ld: cannot publish the message", nd->id, k);
         return;
     }
-    if (k >= nd->s->steps) {
+    if (k >= (long)nd->s->steps) {
         if (node_flush(nd) != 0) {
             node_fail(nd, "node %zu: cannot publish the held message", nd->id);
             return;
@@ -278,25 +247,28 @@ void dkf_net_node_fault_counts(const dkf_net_node_t *nd, int64_t *dropped, int64
 long dkf_net_node_epoch(const dkf_net_node_t *nd) { return nd->epoch; }
 long dkf_net_node_k_start(const dkf_net_node_t *nd) { return nd->next ? nd->k_start : 0; }
 
-dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, size_t id,
-                                    const char *prefix, char *err, size_t errlen)
+dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s,
+                                    const dkf_filter_t *f, size_t id, const char *prefix,
+                                    char *err, size_t errlen)
 {
     dkf_net_node_t *nd;
     char chan[DKF_NET_CHAN_LEN];
     size_t i;
-    dkf_status_t st;
+    if (f->family->node == NULL) {
+        snprintf(err, errlen, "--filter %s: has no node role", f->name);
+        return NULL;
+    }
     if (id >= s->nsensors) {
         snprintf(err, errlen, "%s: --id %zu: the scenario has %zu sensors (0..%zu)", s->file, id,
                  s->nsensors, s->nsensors - 1);
         return NULL;
     }
     nd = calloc(1, sizeof *nd);
-    if (nd == NULL || dkf_net_model_init(&nd->md, s, id) != 0) goto oom;
-    nd->m = calloc(s->nsensors, sizeof *nd->m);
-    nd->store_len = DKF_DIFFKF_STORAGE_LEN(s->n, nd->md.m, nd->md.p);
-    nd->store = calloc(nd->store_len, sizeof *nd->store);
-    nd->P0 = calloc(s->n * s->n, sizeof *nd->P0);
-    if (nd->m == NULL || nd->store == NULL || nd->P0 == NULL) goto oom;
+    if (nd == NULL || (nd->m = calloc(s->nsensors, sizeof *nd->m)) == NULL) {
+        snprintf(err, errlen, "node %zu: out of memory", id);
+        free(nd);
+        return NULL;
+    }
     for (i = 0; i < s->nsensors; ++i) nd->m[i] = s->sensors[i].m;
     nd->net = net;
     nd->s = s;
@@ -308,17 +280,8 @@ dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, siz
     nd->state = DKF_NET_STARTING;
     nd->last_beat = INT64_MIN;
     nd->rng = (uint64_t)id + 1;
-    dkf_scn_to_real(nd->x0, dkf_scn_at(dkf_scn_init(s, "x00"), 0), s->n);
-    dkf_scn_to_real(nd->P0, dkf_scn_P00_local(s, id), s->n * s->n);
-    {
-        /* the prior is checked now, so a bad file fails at start-up */
-        dkf_mat_t mx0 = DKF_MAT(s->n, 1, nd->x0), mP0 = DKF_MAT(s->n, s->n, nd->P0);
-        st = dkf_diffkf_init(&nd->f, s->n, nd->md.m, nd->md.p, nd->store, nd->store_len, &mx0,
-                             &mP0);
-    }
-    if (st != DKF_OK) {
-        snprintf(err, errlen, "%s: node %zu: dkf_diffkf_init failed: %s (%d)", s->file, id,
-                 dkf_status_str(st), (int)st);
+    nd->ops = f->family->node;
+    if ((nd->nf = nd->ops->create(f, s, id, err, errlen)) == NULL) {
         dkf_net_node_free(nd);
         return NULL;
     }
@@ -329,18 +292,12 @@ dkf_net_node_t *dkf_net_node_create(dkf_net_t *net, const dkf_scenario_t *s, siz
         return NULL;
     }
     return nd;
-oom:
-    snprintf(err, errlen, "node %zu: out of memory", id);
-    dkf_net_node_free(nd);
-    return NULL;
 }
 
 void dkf_net_node_free(dkf_net_node_t *nd)
 {
     if (nd == NULL) return;
-    dkf_net_model_free(&nd->md);
-    free(nd->store);
-    free(nd->P0);
+    if (nd->nf != NULL) nd->ops->destroy(nd->nf);
     free(nd->m);
     free(nd);
 }

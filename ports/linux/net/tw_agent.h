@@ -49,13 +49,14 @@
 
 #include "codec.h" /* dkf_net_verdict_t, dkf_net_rejects_t */
 #include "dkf/tw.h"
+#include "round_agent.h"
 #include "scenario.h"
 
 /* Everything a node derives from the scenario (identical in every node). */
 typedef struct {
     const dkf_scenario_t *s;
     int alg;                   /* 2 or 3 */
-    size_t N, E, n, m, pmax, steps, eta;
+    size_t N, E, n, p, mmax, steps, eta; /* p inputs, mmax the largest m_l */
     size_t rounds;             /* exchanges per step: Alg 2: 2, Alg 3: 2 eta */
     size_t *start, *nbr;       /* the graph (dkf/graph.h CSR) */
     dkf_graph_t g;
@@ -74,8 +75,8 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c);
 
 /* DKF_TW_KIND_INFO, _EST, _DONE and the packet itself are codec.h's. */
 #define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_MAX_DIM) */
-#define DKF_TW_MAX_MSG (64 + 8 * DKF_TW_MAX_PKT)
-#define DKF_TW_MAX_DEG 256 /* |N_l| including l */
+#define DKF_TW_MAX_MSG DKF_RA_MAX_MSG
+#define DKF_TW_MAX_DEG DKF_RA_MAX_DEG /* |N_l| including l */
 
 typedef dkf_net_tw_pkt_t dkf_tw_pkt_t;
 
@@ -109,26 +110,16 @@ int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char
 
 /* ---- the agent -------------------------------------------------------------------- */
 
-typedef int (*dkf_tw_send_fn)(void *user, const void *data, size_t len);
-
-typedef struct {
-    dkf_tw_send_fn send;
-    void *user;
-    int64_t round_timeout_us; /* > 0 */
-    int64_t start_timeout_us; /* first round of step 1; > 0 */
-    int64_t retry_us;         /* quiet period before a re-publication; > 0 */
-} dkf_tw_agent_opts_t;
-
-enum { DKF_TW_RUNNING = 0, DKF_TW_LINGER = 1, DKF_TW_FINISHED = 2, DKF_TW_FAILED = 3 };
-
-typedef struct {
-    /* sent: every publication; reals_sent: the reals of first publications
-     * only (the filter's traffic, DONE has none); retransmits, answers: loss
-     * recovery (tw_agent.h top) */
-    unsigned long sent, reals_sent, retransmits, answers, received, duplicates, stale, ahead,
-        absent_marks, degraded_steps;
-    dkf_net_rejects_t rej;
-} dkf_tw_counters_t;
+/* The rounds with the neighbours are round_agent.h's (these names are its). */
+typedef dkf_ra_send_fn dkf_tw_send_fn;
+typedef dkf_ra_opts_t dkf_tw_agent_opts_t;
+enum {
+    DKF_TW_RUNNING = DKF_RA_RUNNING,
+    DKF_TW_LINGER = DKF_RA_LINGER,
+    DKF_TW_FINISHED = DKF_RA_FINISHED,
+    DKF_TW_FAILED = DKF_RA_FAILED
+};
+typedef dkf_ra_counters_t dkf_tw_counters_t;
 
 typedef struct dkf_tw_agent dkf_tw_agent_t;
 

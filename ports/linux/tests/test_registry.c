@@ -2,7 +2,8 @@
  * The runner registry (registry.h) and the host utility file (util.h):
  * every --filter name is found once, every family has its operations, the
  * option/layout name lists dkf-run prints, a run driven through the
- * operations alone (kf on ex1, rtsf on the seed-004 vector), the JSON
+ * operations alone (kf on ex1, rtsf on the seed-004 vector), the dkf
+ * family's node role against its whole-scenario run, the JSON
  * placement of "local[i]" estimators, and the FNV-1a hash against values
  * computed independently (Python, the FNV-1a definition over the bytes
  * most significant first).
@@ -127,6 +128,54 @@ static void test_kf_through_the_operations(void **state)
     dkf_scenario_free(s);
 }
 
+/* The node role (what dkf-node runs) on ex1's single sensor gives, step for
+ * step and bit for bit, the DKF that dkf-run's dkf runner records: the
+ * two go through different code (est_diffkf_node.c's per-sensor model
+ * loading and start/step vs est_diffkf.c's stacked run) over one file. A
+ * restart on a bad measurement is refused with a message, and only the dkf
+ * family has a node role (so dkf-node refuses every other --filter). */
+static void test_dkf_node_role(void **state)
+{
+    dkf_scenario_t *s;
+    const dkf_filter_t *f;
+    dkf_runner_t *r;
+    json_t *doc = run(DKF_VECTOR_DIR "/diffkf/ex1_single.json", "dkf", &s, &f, &r);
+    json_t *out = json_object_get(json_object_get(doc, "outputs"), "DKF");
+    const dkf_node_ops_t *ops = f->family->node;
+    char err[DKF_SCN_ERR_LEN];
+    dkf_node_filter_t *nf;
+    dkf_diffkf_msg_t msg;
+    size_t i, k, nroles = 0;
+    (void)state;
+    assert_non_null(ops);
+    for (i = 0; dkf_registry[i] != NULL; ++i) nroles += dkf_registry[i]->node != NULL;
+    assert_int_equal(nroles, 1);
+    nf = ops->create(f, s, 0, err, sizeof err);
+    if (nf == NULL) fail_msg("%s", err);
+    if (ops->start(nf, 1, dkf_scn_y(s, 0, 1), err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
+    for (k = 1; k <= s->steps; ++k) {
+        json_t *xf = json_array_get(json_object_get(out, "xf"), k - 1);
+        if (ops->step(nf, (long)k, dkf_scn_y(s, 0, (long)k + 1), err, sizeof err) != DKF_EXIT_OK)
+            fail_msg("%s", err);
+        assert_int_equal(ops->payload(nf, 0, &msg), 0);
+        assert_int_equal(msg.k, k);
+        for (i = 0; i < s->n; ++i)
+            assert_true((double)msg.xf[i] == json_real_value(json_array_get(xf, i)));
+    }
+    /* a restart on a non-finite measurement is refused naming the call */
+    {
+        double ybad[DKF_MAX_DIM];
+        memcpy(ybad, dkf_scn_y(s, 0, 3), s->sensors[0].m * sizeof *ybad);
+        ybad[0] = NAN;
+        assert_int_equal(ops->start(nf, 3, ybad, err, sizeof err), DKF_EXIT_RUN);
+        assert_non_null(strstr(err, "node 0: step k=3: dkf_diffkf_start failed"));
+    }
+    ops->destroy(nf);
+    f->family->destroy(r);
+    json_decref(doc);
+    dkf_scenario_free(s);
+}
+
 static void test_rtsf_through_the_operations(void **state)
 {
     dkf_scenario_t *s;
@@ -174,6 +223,7 @@ int main(void)
         cmocka_unit_test(test_names_lists),
         cmocka_unit_test(test_kf_through_the_operations),
         cmocka_unit_test(test_rtsf_through_the_operations),
+        cmocka_unit_test(test_dkf_node_role),
         cmocka_unit_test(test_json_place),
         cmocka_unit_test(test_fnv1a),
     };

@@ -21,6 +21,9 @@
 #include "model.h"
 #include "net.h"
 
+/* Every node here runs the dkf family's node role (the local DKF). */
+#define DKF_NODE_FILTER dkf_registry_find("dkf")
+
 #define EX3 DKF_VECTOR_DIR "/diffkf/ex3_multi.json"
 
 /* Tolerance relative to max(1, max|expected|) per series. Double: the
@@ -133,8 +136,8 @@ static void test_memq_ex3_fused_equals_central(void **state)
     (void)state;
     assert_non_null(net);
     sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
     fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
     assert_non_null(sim);
     assert_non_null(n0);
@@ -212,8 +215,8 @@ static void test_memq_rejects_hostile_messages(void **state)
     dkf_scenario_t *s = load();
     dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
     dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    dkf_net_node_t *n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
     dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
     const dkf_net_counts_t *c;
     (void)state;
@@ -252,7 +255,7 @@ static void test_memq_wrong_model_node_degrades(void **state)
     dkf_scenario_t *s = load(), *other = load();
     dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
     dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
     dkf_net_node_t *n1;
     dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 1000, err, sizeof err);
     dkf_scn_mat_t *Q = (dkf_scn_mat_t *)dkf_scn_model(other, "Q");
@@ -264,7 +267,7 @@ static void test_memq_wrong_model_node_degrades(void **state)
     (void)state;
     Q->data[0] *= 1.5;
     assert_true(dkf_net_model_id(other) != dkf_net_model_id(s));
-    n1 = dkf_net_node_create(net, other, 1, "T", err, sizeof err);
+    n1 = dkf_net_node_create(net, other, DKF_NODE_FILTER, 1, "T", err, sizeof err);
     assert_non_null(n1);
     assert_non_null(fu);
     dkf_net_node_tick(n1, 0, 0);
@@ -323,7 +326,7 @@ static void test_memq_node_measurement_checks(void **state)
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s = load();
     dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
     unsigned char buf[DKF_NET_MAX_MSG];
     dkf_net_meas_t y;
     size_t len;
@@ -416,8 +419,8 @@ static void test_memq_drop_dup_reorder(void **state)
     dkf_scenario_t *s = load();
     dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
     dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    dkf_net_node_t *n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
     dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 1000, err, sizeof err);
     dkf_net_faults_t fx;
     json_t *doc;
@@ -500,9 +503,9 @@ static void memq_restart(long epoch)
     dkf_scenario_t *s = load();
     dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
     dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
-    dkf_net_node_t *n1b = dkf_net_node_create(net, s, 1, "T", err, sizeof err);
+    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    dkf_net_node_t *n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
+    dkf_net_node_t *n1b = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
     dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 1000, err, sizeof err);
     dkf_net_faults_t fx;
     json_t *doc;
@@ -575,8 +578,8 @@ static void rig_open(rig_t *r, int with_n1, int64_t deadline_us)
     r->net = dkf_net_open("memq://", err, sizeof err);
     assert_non_null(r->net);
     r->sim = dkf_net_sim_create(r->net, r->s, "T", err, sizeof err);
-    r->n0 = dkf_net_node_create(r->net, r->s, 0, "T", err, sizeof err);
-    r->n1 = with_n1 ? dkf_net_node_create(r->net, r->s, 1, "T", err, sizeof err) : NULL;
+    r->n0 = dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    r->n1 = with_n1 ? dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 1, "T", err, sizeof err) : NULL;
     r->fu = dkf_net_fusion_create(r->net, r->s, "T", deadline_us, err, sizeof err);
     assert_non_null(r->sim);
     assert_non_null(r->n0);

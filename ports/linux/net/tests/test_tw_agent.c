@@ -177,7 +177,7 @@ typedef struct {
 static void reference(ref_t *r, const dkf_tw_scn_t *c)
 {
     const dkf_scenario_t *s = c->s;
-    const size_t N = c->N, n = c->n, m = c->pmax, p = c->m; /* c->m: inputs */
+    const size_t N = c->N, n = c->n, m = c->mmax, p = c->p;
     const size_t len = DKF_TW_NET_STORAGE_LEN(N, n, m, p);
     dkf_real_t *mem = calloc(len, sizeof *mem), *H = calloc(N * m * n, sizeof *H),
                *Sw = calloc(N * m * m, sizeof *Sw), *y = calloc(N * m, sizeof *y),
@@ -259,7 +259,7 @@ static void assert_same_as_reference(const dkf_tw_agent_t *a, const ref_t *r,
 {
     json_t *d = dkf_tw_agent_result(a);
     static double got[4096];
-    const size_t n = c->n, m = c->m, N = c->N;
+    const size_t n = c->n, m = c->p, N = c->N;
     size_t k, i;
     assert_int_equal(dkf_tw_agent_steps_done(a), c->steps);
     for (k = 0; k < c->steps; ++k) {
@@ -286,7 +286,7 @@ static double check_vector(const dkf_tw_scn_t *c, const ref_t *r)
         const json_t *ex = json_object_get(json_object_get(json_array_get(steps, k), "expected"),
                                            c->alg == 2 ? "alg2" : "alg3");
         for (f = 0; f < 3; ++f) {
-            const size_t len = f == 0 ? c->n : f == 1 ? c->n * c->n : c->m;
+            const size_t len = f == 0 ? c->n : f == 1 ? c->n * c->n : c->p;
             const double *got = f == 0 ? r->x : f == 1 ? r->P : r->z;
             double scale = 1, dmax = 0;
             size_t cnt = flat(json_object_get(ex, keys[f]), e, 4096);

@@ -1,0 +1,241 @@
+/*
+ * The neighbour-round protocol (round_agent.h) with a filter of its own,
+ * not the seed-003 one (test_tw_agent covers that): three nodes on a path
+ * 0 - 1 - 2 average their neighbours' values, three rounds per step, the
+ * step's value carried into the next step. Driven in one process by an
+ * in-memory delivery to the neighbours and a fake clock:
+ *   - every round's value equals the same averages computed here directly
+ *     (bit for bit: the same sums in the same row order);
+ *   - the counters add up (one first publication per round and node);
+ *   - a node that never starts: after the start timeout its neighbour
+ *     completes the round without it (have[e] = 0), every step of that
+ *     neighbour is degraded with the node missing, and it finishes.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "round_agent.h"
+
+#define NN 3
+#define STEPS 2
+#define ROUNDS 3
+
+static const size_t rows[NN][NN] = {{0, 1}, {0, 1, 2}, {1, 2}};
+static const size_t degs[NN] = {2, 3, 2};
+
+typedef struct {
+    size_t id, self;
+    dkf_real_t v;              /* the value carried from step to step */
+    dkf_real_t seen[STEPS * ROUNDS];
+    unsigned char full[STEPS * ROUNDS];
+} avg_t;
+
+static int avg_begin(void *filter, size_t k, dkf_real_t *pkt, char *err, size_t errlen)
+{
+    avg_t *f = filter;
+    (void)k, (void)err, (void)errlen;
+    pkt[0] = f->v;
+    return 0;
+}
+
+static int avg_complete(void *filter, size_t k, size_t r, const dkf_real_t *rx, size_t stride,
+                        const unsigned char *have, dkf_real_t *next, char *err, size_t errlen)
+{
+    avg_t *f = filter;
+    dkf_real_t sum = DKF_R(0.0);
+    size_t e, cnt = 0;
+    (void)err, (void)errlen;
+    assert_true(have[f->self]);
+    for (e = 0; e < degs[f->id]; ++e)
+        if (have[e]) {
+            sum += rx[e * stride];
+            ++cnt;
+        }
+    f->v = sum / (dkf_real_t)cnt;
+    f->seen[(k - 1) * ROUNDS + r] = f->v;
+    f->full[(k - 1) * ROUNDS + r] = cnt == degs[f->id];
+    if (r + 1 < ROUNDS) {
+        next[0] = f->v;
+        return 0;
+    }
+    return 1;
+}
+
+static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete};
+
+/* ---- delivery: every publication reaches the sender's neighbours -------------- */
+
+typedef struct msg {
+    size_t from, to, len;
+    unsigned char data[DKF_RA_MAX_MSG];
+    struct msg *next;
+} msg_t;
+
+static msg_t *head, *tail;
+static size_t sender_id[NN];
+
+static int send_to_neighbours(void *user, const void *data, size_t len)
+{
+    const size_t from = *(const size_t *)user;
+    size_t e;
+    for (e = 0; e < degs[from]; ++e) {
+        msg_t *m;
+        if (rows[from][e] == from) continue;
+        m = calloc(1, sizeof *m);
+        assert_non_null(m);
+        memcpy(m->data, data, len);
+        m->from = from;
+        m->to = rows[from][e];
+        m->len = len;
+        if (tail) tail->next = m;
+        else head = m;
+        tail = m;
+    }
+    return 0;
+}
+
+static dkf_ra_t *make(size_t id, avg_t *f)
+{
+    dkf_ra_config_t c;
+    dkf_ra_opts_t o;
+    char err[128];
+    dkf_ra_t *a;
+    size_t e;
+    memset(f, 0, sizeof *f);
+    f->id = id;
+    f->v = (dkf_real_t)(id + 1) * DKF_R(0.7);
+    for (e = 0; e < degs[id]; ++e)
+        if (rows[id][e] == id) f->self = e;
+    memset(&c, 0, sizeof c);
+    c.ops = &avg_ops;
+    c.filter = f;
+    c.id = id;
+    c.row = rows[id];
+    c.deg = degs[id];
+    c.ex.model_id = 77;
+    c.ex.nnodes = NN;
+    c.ex.node = -1;
+    c.ex.steps = STEPS;
+    c.ex.rounds = ROUNDS;
+    c.ex.info_rounds = ROUNDS;
+    c.ex.info_len = 1;
+    c.ex.est_len = 1;
+    sender_id[id] = id;
+    o.send = send_to_neighbours;
+    o.user = &sender_id[id];
+    o.round_timeout_us = 1000;
+    o.start_timeout_us = 5000;
+    o.retry_us = 100;
+    a = dkf_ra_new(&c, &o, err, sizeof err);
+    if (a == NULL) fail_msg("%s", err);
+    return a;
+}
+
+/* Delivers everything queued, polls every live agent; the clock moves by
+ * tick each round of this loop. Returns the final time. */
+static int64_t run(dkf_ra_t *a[NN], int64_t now, int64_t tick, int64_t until)
+{
+    size_t i;
+    for (; now < until; now += tick) {
+        int busy = 0;
+        while (head != NULL) {
+            msg_t *m = head;
+            head = m->next;
+            if (head == NULL) tail = NULL;
+            if (a[m->to] != NULL)
+                assert_int_equal(dkf_ra_receive(a[m->to], (long)m->from, m->data, m->len, now),
+                                 DKF_NET_ACCEPT);
+            free(m);
+        }
+        for (i = 0; i < NN; ++i)
+            if (a[i] != NULL && dkf_ra_poll(a[i], now) != DKF_RA_FINISHED) busy = 1;
+        if (!busy) break;
+    }
+    return now;
+}
+
+static void test_averages_bit_for_bit(void **state)
+{
+    avg_t f[NN];
+    dkf_ra_t *a[NN];
+    dkf_real_t v[NN], w[NN];
+    size_t i, e, t;
+    (void)state;
+    for (i = 0; i < NN; ++i) a[i] = make(i, &f[i]);
+    for (i = 0; i < NN; ++i) v[i] = f[i].v;
+    for (i = 0; i < NN; ++i) assert_int_equal(dkf_ra_start(a[i], 0), DKF_RA_RUNNING);
+    run(a, 0, 10, 1000000);
+    for (t = 0; t < STEPS * ROUNDS; ++t) {
+        for (i = 0; i < NN; ++i) {
+            dkf_real_t sum = DKF_R(0.0);
+            for (e = 0; e < degs[i]; ++e) sum += v[rows[i][e]];
+            w[i] = sum / (dkf_real_t)degs[i];
+        }
+        for (i = 0; i < NN; ++i) {
+            v[i] = w[i];
+            assert_true(f[i].seen[t] == v[i]);
+            assert_true(f[i].full[t]);
+        }
+    }
+    for (i = 0; i < NN; ++i) {
+        const dkf_ra_counters_t *c = dkf_ra_counters(a[i]);
+        assert_int_equal(dkf_ra_state(a[i]), DKF_RA_FINISHED);
+        assert_int_equal(dkf_ra_steps_done(a[i]), STEPS);
+        assert_int_equal(c->reals_sent, STEPS * ROUNDS);
+        assert_int_equal(c->degraded_steps, 0);
+        assert_int_equal(c->rej.total, 0);
+        assert_false(dkf_ra_step_degraded(a[i], 1));
+        dkf_ra_free(a[i]);
+    }
+}
+
+static void test_silent_node_degrades_its_neighbour(void **state)
+{
+    avg_t f[NN];
+    dkf_ra_t *a[NN];
+    size_t j;
+    int64_t end;
+    (void)state;
+    a[0] = make(0, &f[0]);
+    a[1] = make(1, &f[1]);
+    a[2] = NULL; /* node 2 never starts */
+    assert_int_equal(dkf_ra_start(a[0], 0), DKF_RA_RUNNING);
+    assert_int_equal(dkf_ra_start(a[1], 0), DKF_RA_RUNNING);
+    end = run(a, 0, 10, 1000000);
+    assert_true(end >= 5000); /* the first round waited for the start timeout */
+    assert_int_equal(dkf_ra_state(a[0]), DKF_RA_FINISHED);
+    assert_int_equal(dkf_ra_state(a[1]), DKF_RA_FINISHED);
+    assert_int_equal(dkf_ra_counters(a[1])->degraded_steps, STEPS);
+    assert_int_equal(dkf_ra_counters(a[1])->absent_marks, 1); /* marked once, not per round */
+    assert_int_equal(dkf_ra_counters(a[0])->degraded_steps, 0);
+    for (j = 1; j <= STEPS; ++j) {
+        assert_true(dkf_ra_step_degraded(a[1], j));
+        assert_true(dkf_ra_step_missing(a[1], j, 2));  /* row position of node 2 */
+        assert_false(dkf_ra_step_missing(a[1], j, 0));
+    }
+    /* node 1's first round averaged over {0, 1} only */
+    {
+        dkf_real_t sum = DKF_R(0.0);
+        sum += (dkf_real_t)1 * DKF_R(0.7);
+        sum += (dkf_real_t)2 * DKF_R(0.7);
+        assert_true(f[1].seen[0] == sum / DKF_R(2.0));
+        assert_false(f[1].full[0]);
+    }
+    dkf_ra_free(a[0]);
+    dkf_ra_free(a[1]);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_averages_bit_for_bit),
+        cmocka_unit_test(test_silent_node_degrades_its_neighbour),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

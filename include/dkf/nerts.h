@@ -136,13 +136,15 @@ enum {
 /* Scratch of one phase: the results of a phase staged before they are
  * copied into the state (DKF__NERTS_OUT_LEN), cubature points (2 (n + p)
  * of n + p reals, and their images: 2 (n + p) x max(n, m)), factors and
- * products (8 max(n + p, m)^2), the Jacobians' workspace, the
- * contribution's workspace and an information filter (dkf/info.h). */
+ * products (8 max(n + p, m)^2) and vectors (8 max(n + p, m)), the
+ * Jacobians' workspace, the contribution's workspace and an information
+ * filter (dkf/info.h). */
 #define DKF__NERTS_R(n, m, p) DKF__NERTS_MAX((n) + (p), (m))
 #define DKF__NERTS_SCRATCH_LEN(n, m, p) \
     (DKF__NERTS_OUT_LEN(n, m, p) + 2 * ((n) + (p)) * ((n) + (p)) + \
      2 * ((n) + (p)) * DKF__NERTS_MAX(n, m) + \
-     8 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + DKF_NL_JAC_WORK(n, m, p) + \
+     8 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + 8 * DKF__NERTS_R(n, m, p) + \
+     DKF_NL_JAC_WORK(n, m, p) + \
      DKF_INFO_CONTRIB_WORK(n, m) + DKF_INFO_STORAGE_LEN(n))
 
 /* The first DKF_NERTS_STATE_LEN(n, m, p) reals of the storage hold every

@@ -1,7 +1,7 @@
 /*
  * dkf/nerts.h - single-node nonlinear joint state and unknown-input
- * filters of seed 001 (Ding, Xiao, Zhang 2014), with the corrections of
- * docs/infofusion.md.
+ * filters of seed 001 (Ding, Xiao, Zhang 2014), with the corrections
+ * docs/nerts.md lists.
  *
  *   x_{k+1} = f(x_k, d_k, u_k) + w_k,   w ~ N(0, Q_k)
  *   z_k     = h(x_k, d_k, u_k) + v_k,   v ~ N(0, R_k), R_k > 0
@@ -30,12 +30,13 @@
  *                          information kinds Y_pred = P_pred^{-1},
  *                          y_pred = Y_pred x_pred.
  *   2. dkf_nerts_local     the local measurement statistics of z_k: z_hat,
- *                          nu, R_tilde, Pxz, M, the input estimate d_loc,
- *                          Pd_loc, Pxd_loc, and for the information kinds
- *                          C, Rbar, Rbar_inv and the contributions i, I.
+ *                          nu, R_tilde, Pxz, C, Rbar, M, the input estimate
+ *                          d_loc, Pd_loc, Pxd_loc, and for the information
+ *                          kinds Rbar_inv and the contributions i, I.
  *   3. dkf_nerts_update    commits the filter's own measurement update
  *      or                  (covariance form: x = x_pred + L nu, Px =
- *                          P_pred - L Pxz^T; information form: Y = Y_pred
+ *                          P_pred - L Pxz^T, or its equal Joseph form with
+ *                          DKF_JOSEPH; information form: Y = Y_pred
  *                          + I, y = y_pred + i, Px = Y^{-1}, x = Px y);
  *      dkf_nerts_commit_info commits a given (Y, y) (e.g. after consensus):
  *                          Px = Y^{-1}, x = Px y.
@@ -50,7 +51,7 @@
  * f->k. The model is an argument of each phase (it may differ between
  * calls, its n, m, p may not).
  *
- * Equations (docs/infofusion.md; nu = y_diff(z, z_hat)):
+ * Equations (docs/nerts.md; nu = y_diff(z, z_hat)):
  *   EKF (NERTSF / NERTSIF): Fx, Fd at (x, d); x_pred = f(x, d);
  *     P_pred = [Fx Fd] [[Px, Pxd], [Pxd^T, Pd]] [Fx Fd]^T + Q   (10)-(11)
  *     Hx, Hd at (x_pred, d); z_hat = h(x_pred, d) - Hd d;
@@ -91,8 +92,10 @@
  *                      covariance [[Px, Pxd], [Pxd^T, Pd]] a commit would
  *                      store is not positive definite (Algorithm 3 mixing a
  *                      consensus Px with local Pd, Pxd: note section 4 item 6)
- *   DKF_ERR_RANK       Hd not of full column rank p (Hd^T R_tilde^{-1} Hd
- *                      numerically singular), or m < p at init
+ *   DKF_ERR_RANK       Hd not of full column rank p: a pivot of the
+ *                      Cholesky factor of G = Hd^T R_tilde^{-1} Hd with
+ *                      L_ii^2 <= 16 p eps G_ii (docs/nerts.md), or m < p
+ *                      at init
  *   DKF_ERR_DIM        a model, Q, R, z, Y or y of the wrong size
  *   DKF_ERR_STATE      out of order (see above), or commit_info on a
  *                      covariance kind

@@ -155,9 +155,9 @@ dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t
     dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
-    if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
     L = mem_of(nd);
     if (nd->pending) restore(nd, &L);
+    if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
     nd->saved = nd->f;
     dkf__copy(L.snap, L.f, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
     st = dkf_nerts_predict(&nd->f, model, u_prev, Q);

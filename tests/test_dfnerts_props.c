@@ -117,13 +117,18 @@ static void scen_make(size_t N, size_t p, int ring)
     }
 }
 
-static void net_make(dkf_dfnerts_variant_t v)
+static void net_make_kind(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t v)
 {
-    assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF, v, XN, ZM, S.p,
+    assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, kind, v, XN, ZM, S.p,
                                           storage, sizeof storage / sizeof storage[0], S.mx0,
                                           S.mP0, S.p ? S.md0 : NULL, S.p ? S.mPd0 : NULL,
                                           S.p ? S.mPxd0 : NULL),
                      DKF_OK);
+}
+
+static void net_make(dkf_dfnerts_variant_t v)
+{
+    net_make_kind(DKF_NERTS_DNERTSIF, v);
 }
 
 /* Truth: x_{k} = F x_{k-1} + G d_{k-1} + w, z_l = H_l x_k + D_l d_k + v_l. */
@@ -196,7 +201,8 @@ static void test_central_info_p0(void **state)
                   test_worst_rel(), STEPS, NN);
 }
 
-static void test_central_joint(void **state)
+/* The JOINT network of the given kind against the centralised NERTSF. */
+static void central_joint(dkf_nerts_kind_t kind, const char *name)
 {
     DKF_NERTS_DECLARE(static, cf, XN, NN * ZM, DP);
     static dkf_nerts_stack_t st;
@@ -206,9 +212,8 @@ static void test_central_joint(void **state)
     test_rng_t rng;
     double x[XN] = {0.3, -0.2};
     size_t k, l, r;
-    (void)state;
     scen_make(NN, DP, 0);
-    net_make(DKF_DFNERTS_JOINT);
+    net_make_kind(kind, DKF_DFNERTS_JOINT);
     test_rng_seed(&rng, 12002);
     assert_int_equal(dkf_nerts_stack(&stacked, &st, S.md, NN), DKF_OK);
     memset(Rst, 0, sizeof Rst);
@@ -243,9 +248,16 @@ static void test_central_joint(void **state)
             test_assert_close("Pxd", f->Pxd.data, e, XN * DP, EQ_REL);
         }
     }
-    print_message("JOINT, W = 11^T/N, s = N: worst relative difference to the centralised NERTSF "
-                  "(x, Px, d, Pd, Pxd) %.3e over %d steps x %d nodes\n",
-                  test_worst_rel(), STEPS, NN);
+    print_message("JOINT %s, W = 11^T/N, s = N: worst relative difference to the centralised "
+                  "NERTSF (x, Px, d, Pd, Pxd) %.3e over %d steps x %d nodes\n",
+                  name, test_worst_rel(), STEPS, NN);
+}
+
+static void test_central_joint(void **state)
+{
+    (void)state;
+    central_joint(DKF_NERTS_DNERTSIF, "DNERTSIF");
+    central_joint(DKF_NERTS_NERTSIF, "NERTSIF");
 }
 
 /* ---- the indefinite mixed covariance (note section 4 item 6) -------------- */

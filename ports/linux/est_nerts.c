@@ -16,11 +16,11 @@
  * Step k (k = 1..N): dkf_nerts_step with the model's Q and R and z_k.
  * Recorded per step under outputs.<LABEL>, with the vector files'
  * `expected` names (docs/scenario-format.md, "Nonlinear cases"):
- *   every kind      x_pred P_pred z_hat nu R_tilde Pzz Pxz H (= Hd) M
- *                   x Px d Pd Pxd
+ *   every kind      x_pred P_pred z_hat nu R_tilde Pzz Pxz H (= Hd) M C
+ *                   Rbar x Px d Pd Pxd
  *   EKF kinds       A, G (Fx, Fd: the time update's Jacobians at the
- *                   previous posterior); nertsf also C (= Hx)
- *   information     Y_pred y_pred C Rbar Rbar_inv i I Y y
+ *                   previous posterior)
+ *   information     Y_pred y_pred Rbar_inv i I Y y
  * so tools/dkf_compare.py compares them with `cases[c].steps[*].expected`.
  */
 #include <math.h>
@@ -246,7 +246,6 @@ void dkf_nerts_record(json_t *series, const dkf_nerts_t *f)
     if (is_ekf(f->kind)) {
         put(series, "A", &f->Fx);
         put(series, "G", &f->Fd);
-        if (!is_info(f->kind)) put(series, "C", &f->Hx);
     }
     put_vec(series, "x_pred", &f->x_pred);
     put(series, "P_pred", &f->P_pred);
@@ -257,11 +256,11 @@ void dkf_nerts_record(json_t *series, const dkf_nerts_t *f)
     put(series, "Pxz", &f->Pxz);
     put(series, "H", &f->Hd);
     put(series, "M", &f->M);
+    put(series, "C", &f->C);
+    put(series, "Rbar", &f->Rbar);
     if (is_info(f->kind)) {
         put(series, "Y_pred", &f->Y_pred);
         put_vec(series, "y_pred", &f->y_pred);
-        put(series, "C", &f->C);
-        put(series, "Rbar", &f->Rbar);
         put(series, "Rbar_inv", &f->Rbar_inv);
         put_vec(series, "i", &f->i);
         put(series, "I", &f->I);

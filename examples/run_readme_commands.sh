@@ -3,8 +3,8 @@
 #   run_readme_commands.sh README.md SOURCE_DIR BUILD_DIR WORK_DIR
 # Takes the shell block that follows "<!-- readme-commands -->" in README.md
 # and runs it, unchanged, with `sh -e` in WORK_DIR laid out like the
-# repository after the Quick start: build/double is BUILD_DIR, tests/ and
-# tools/ are SOURCE_DIR's. Fails if the block is missing, runs no dkf-run or
+# repository after the Quick start: build/double is BUILD_DIR, tests/,
+# tools/ and scenarios/ are SOURCE_DIR's. Fails if the block is missing, runs no dkf-run or
 # no dkf_compare.py, or any of its commands fails (dkf_compare.py exits 1 on
 # a mismatch, on nothing compared and on only integer arrays compared).
 set -eu
@@ -14,6 +14,7 @@ mkdir -p "$work/build"
 ln -s "$build" "$work/build/double"
 ln -s "$src/tests" "$work/tests"
 ln -s "$src/tools" "$work/tools"
+ln -s "$src/scenarios" "$work/scenarios"
 awk '/^<!-- readme-commands -->$/ {on = 1; next}
      on && /^```sh$/ {inb = 1; next}
      inb && /^```$/ {exit}

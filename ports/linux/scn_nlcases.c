@@ -40,12 +40,11 @@ static int is_empty_list(const json_t *v)
 /* init[key] of node `node` into its mats as `as`, of shape r x cc (cc = 1:
  * a vector; cov: a covariance, symmetric); p = 0 entries must be empty lists
  * and are not stored. */
-static int init_entry(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t node, const json_t *init,
+static int init_entry(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const json_t *init,
                       const char *ipath, const char *key, const char *as, size_t r, size_t cc,
                       int cov)
 {
     const json_t *v = json_object_get(init, key);
-    dkf_scn_mats_t *set = &s->sensors[node].mats;
     const dkf_scn_mat_t *m;
     char p[DKF_SCN_PATH_LEN];
     dkf_scn_subkey(p, ipath, key);
@@ -67,7 +66,7 @@ static int node_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t
 {
     const json_t *x0 = json_object_get(init, "x0"), *d0 = json_object_get(init, "d0");
     char p[DKF_SCN_PATH_LEN];
-    size_t n, pp;
+    size_t n, pp, k;
     if (!json_is_object(init))
         return dkf_scn_fail(c, ipath, "expected {x0, Px0, d0, Pd0, Pxd0}, got %s",
                             dkf_scn_json_kind(init));
@@ -88,11 +87,18 @@ static int node_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t
         return dkf_scn_fail(c, ipath, "x0 of %zu and d0 of %zu values; node 0 has %zu and %zu",
                             n, pp, s->n, s->nl->p);
     }
-    if (init_entry(c, s, i, init, ipath, "x0", "x00", n, 1, 0) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "Px0", "P00", n, n, 1) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "d0", "d00", pp, 1, 0) != 0) return -1;
-    if (init_entry(c, s, i, init, ipath, "Pd0", "Pd00", pp, pp, 1) != 0) return -1;
-    return init_entry(c, s, i, init, ipath, "Pxd0", "Pxd00", pp == 0 ? 0 : n, pp, 0);
+    /* node 0's is also the file's init (dkf_scn_init, dkf_scn_P00_central:
+     * the centralised filter's prior) */
+    for (k = 0; k < (i == 0 ? 2u : 1u); ++k) {
+        dkf_scn_mats_t *set = k == 0 ? &s->sensors[i].mats : &s->init;
+        if (init_entry(c, set, init, ipath, "x0", "x00", n, 1, 0) != 0) return -1;
+        if (init_entry(c, set, init, ipath, "Px0", "P00", n, n, 1) != 0) return -1;
+        if (init_entry(c, set, init, ipath, "d0", "d00", pp, 1, 0) != 0) return -1;
+        if (init_entry(c, set, init, ipath, "Pd0", "Pd00", pp, pp, 1) != 0) return -1;
+        if (init_entry(c, set, init, ipath, "Pxd0", "Pxd00", pp == 0 ? 0 : n, pp, 0) != 0)
+            return -1;
+    }
+    return 0;
 }
 
 static int node_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t *mj,

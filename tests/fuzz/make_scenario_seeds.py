@@ -51,6 +51,22 @@ def cases(rel):
     return d
 
 
+def nl_case(rel, index):
+    """Case `index` of a nonlinear cases file (seed 001) alone, cut to STEPS
+    steps, its truth to STEPS + 1 times."""
+    c = load(rel)["cases"][index]
+    c["steps"] = c["steps"][:STEPS]
+    for st in c["steps"]:
+        st.pop("expected", None)
+        st.pop("expected_per_node", None)
+    for key in ("x_true", "d_true"):
+        if key in c:
+            c[key] = c[key][:STEPS]
+    if isinstance(c.get("truth"), dict):
+        c["truth"] = {k: v[:STEPS + 1] for k, v in c["truth"].items() if k in ("X", "omega")}
+    return {"cases": [c]}
+
+
 def steps(rel):
     d = load(rel)
     d["steps"] = d["steps"][:STEPS]
@@ -71,6 +87,13 @@ def main():
         "steps_uif_nrtsf_df.json": steps("tests/vectors/uif/s004_nrtsf_df.json"),
         "steps_tw_6node.json": steps("tests/vectors/uif/s003_6node.json"),
     }
+    # nonlinear cases (seed 001): built-in families, a network, p = 0, expressions
+    seeds["nl_nertsif.json"] = nl_case("tests/vectors/infofusion/nertsif.json", 0)
+    seeds["nl_dnertsif_radar.json"] = nl_case("tests/vectors/infofusion/dnertsif_single.json", 0)
+    seeds["nl_df_network.json"] = nl_case("tests/vectors/infofusion/df_dnertsif.json", 0)
+    seeds["nl_df_ckf.json"] = nl_case("tests/vectors/infofusion/df_dnertsif.json", 4)
+    seeds["nl_expr_lin.json"] = nl_case("scenarios/nl_lin_x_sin_d_expr.json", 0)
+    seeds["nl_expr_radar.json"] = nl_case("scenarios/nl_radar_expr.json", 0)
     # a steps file whose model has no C, H (the reader then sizes y as one
     # value per step): y of one value
     d = steps("tests/vectors/uif/s004_rtsf.json")

@@ -84,7 +84,15 @@ static int nerts_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dk
                          s->case_index, fl->name);
     if (im->central && s->nl->network) {
         size_t i, m = 0;
+        const size_t n = s->n;
         for (i = 0; i < s->nsensors; ++i) m += s->nl->models[i]->m;
+        /* one system: node 0's f and Q are the stacked model's dynamics */
+        for (i = 1; i < s->nsensors; ++i)
+            if (memcmp(s->nl->models[i]->Q, s->nl->models[0]->Q, n * n * sizeof(double)) != 0)
+                return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                                 "%s: cases[%zu].node_models[%zu].Q: differs from node 0's (the "
+                                 "centralised filter has one dynamics: node 0's f and Q)",
+                                 s->file, s->case_index, i);
         if (m > DKF_MAX_DIM)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                              "%s: cases[%zu].node_models: the stacked measurement has %zu "

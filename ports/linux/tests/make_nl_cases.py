@@ -100,6 +100,9 @@ def main():
     net["Tp"] = 0
     write(out, "bad_nl_tp.json", {"cases": [net]})
     net["Tp"] = 3
+    q = copy.deepcopy(net)
+    q["node_models"][2]["Q"] = [[2 * v for v in row] for row in q["node_models"][2]["Q"]]
+    write(out, "bad_nl_cf_q.json", {"cases": [q]})
     net["W"] = net["W"][:3]
     write(out, "bad_nl_w_shape.json", {"cases": [net]})
 

@@ -16,6 +16,8 @@ scenarios (SCENARIO_DIR/nl_*_expr.json):
   df_expr.json       df_dnertsif.json's first case with every node's
                      s1_radar model written as expressions (for the
                      network filters)
+  df_no_edges.json   its case 3 without `edges` (the graph of W), and
+  df_w_sparse.json   the same with W as W_sparse triplets
   bad_*.json         one deliberate error each, refused with one line
 """
 import copy
@@ -73,6 +75,17 @@ def main():
     for s in c0["steps"]:
         s.pop("expected_per_node", None)
     write(out, "df_expr.json", {"cases": [c0]})
+
+    # the graph from W alone (no edges), and W as sparse triplets
+    c1 = copy.deepcopy(df["cases"][3])
+    for s_ in c1["steps"]:
+        s_.pop("expected_per_node", None)
+    del c1["edges"]
+    write(out, "df_no_edges.json", {"cases": [c1]})
+    c2 = copy.deepcopy(c1)
+    W = c2.pop("W")
+    c2["W_sparse"] = [[i, j, w] for i, row in enumerate(W) for j, w in enumerate(row) if w != 0]
+    write(out, "df_w_sparse.json", {"cases": [c2]})
 
     # bad inputs: (file, change of the lin expression case)
     def bad(name, change):

@@ -18,11 +18,17 @@ scenarios (SCENARIO_DIR/nl_*_expr.json):
                      network filters)
   df_no_edges.json   its case 3 without `edges` (the graph of W), and
   df_w_sparse.json   the same with W as W_sparse triplets
+  pendulum.json      a model of no vector file, written as expressions: a
+                     pendulum driven by an unknown torque d1, measured as
+                     angle (an angle channel), rate and d1 + 0.1 rate;
+                     the truth simulated here (fixed seed)
   bad_*.json         one deliberate error each, refused with one line
 """
 import copy
 import json
+import math
 import os
+import random
 import sys
 
 
@@ -37,6 +43,35 @@ def radar_expr(sx, sy, with_phi=True, omega=None):
     if with_phi:
         g.append("10*d1")
     return {"f": f, "g": g, "angles": [1]}
+
+
+def pendulum(steps=40, seed=20260001):
+    """theta' = omega, omega' = -(g/L) sin theta + d; T = 0.1, g/L = 4."""
+    T, a = 0.1, 4.0
+    rng = random.Random(seed)
+    q = [[1e-6, 0.0], [0.0, 1e-4]]
+    r = [[1e-4, 0.0, 0.0], [0.0, 4e-4, 0.0], [0.0, 0.0, 1e-4]]
+    x = [1.0, 0.0]
+    xs, ds, st = [], [], []
+    for k in range(1, steps + 1):
+        d_prev = 0.5 * math.sin(0.3 * (k - 1))  # the torque, unknown to the filter
+        x = [x[0] + T * x[1] + rng.gauss(0, 1e-3),
+             x[1] - T * a * math.sin(x[0]) + T * d_prev + rng.gauss(0, 1e-2)]
+        d = 0.5 * math.sin(0.3 * k)
+        z = [math.atan2(math.sin(x[0]), math.cos(x[0])) + rng.gauss(0, 1e-2),
+             x[1] + rng.gauss(0, 2e-2), d + 0.1 * x[1] + rng.gauss(0, 1e-2)]
+        xs.append(x)
+        ds.append([d])
+        st.append({"k": k, "z": z})
+    return {"cases": [{
+        "name": "pendulum",
+        "model": {"expr": {"f": ["x1 + 0.1*x2", "x2 - 0.1*4*sin(x1) + 0.1*d1"],
+                           "g": ["x1", "x2", "d1 + 0.1*x2"],
+                           "angles": [0]},
+                  "Q": q, "R": r},
+        "init": {"x0": [0.9, 0.1], "Px0": [[0.01, 0.0], [0.0, 0.01]], "d0": [0.0],
+                 "Pd0": [[1.0]], "Pxd0": [[0.0], [0.0]]},
+        "x_true": xs, "d_true": ds, "steps": st}]}
 
 
 def write(out, name, doc):
@@ -75,6 +110,8 @@ def main():
     for s in c0["steps"]:
         s.pop("expected_per_node", None)
     write(out, "df_expr.json", {"cases": [c0]})
+
+    write(out, "pendulum.json", pendulum())
 
     # the graph from W alone (no edges), and W as sparse triplets
     c1 = copy.deepcopy(df["cases"][3])

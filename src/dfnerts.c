@@ -285,6 +285,33 @@ dkf_status_t dkf_dfnerts_node_cancel(dkf_dfnerts_node_t *nd)
     return DKF_OK;
 }
 
+dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dkf_mat_t *x0,
+                                      const dkf_mat_t *P0, const dkf_mat_t *d0,
+                                      const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
+{
+    dkf_nerts_t g;
+    layout_t L;
+    dkf_status_t st;
+    size_t sl;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    sl = DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p);
+    L = mem_of(nd);
+    if (nd->pending) restore(nd, &L);
+    /* dkf_nerts_init writes the filter's storage before its last check */
+    dkf__copy(L.snap, L.f, sl);
+    st = dkf_nerts_init(&g, nd->f.kind, nd->n, nd->m, nd->p, L.f,
+                        DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0);
+    if (st != DKF_OK) {
+        dkf__copy(L.f, L.snap, sl);
+        return st;
+    }
+    g.k = k;
+    nd->f = g;
+    nd->saved = g;
+    return DKF_OK;
+}
+
 /* ---- whole network -------------------------------------------------------- */
 
 /* The network's storage: N nodes' storage, then the two packet buffers. */

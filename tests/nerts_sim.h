@@ -15,7 +15,7 @@
 #include "dkf_test.h"
 
 #define SIM_STEPS 120
-#define SIM_DIM 8
+#define SIM_DIM 36
 
 typedef struct {
     size_t n, m, p, steps;

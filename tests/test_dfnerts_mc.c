@@ -135,25 +135,17 @@ static void load_z(size_t k)
     for (l = 0; l < NN; ++l) memcpy(zr[l], &sim.Z[k][l * ZM], sizeof zr[l]);
 }
 
-/* NEES of node l's joint error e (QD), by a double Cholesky of P_X. */
+/* NEES of node l's joint error e (QD) with its P_X = [[Px, Pxd], [Pdx, Pd]]. */
 static double joint_nees(const dkf_nerts_t *f, const double *e)
 {
-    double P[QD * QD], L[QD * QD], v[QD], s = 0;
+    double P[QD * QD];
     size_t i, j;
     for (i = 0; i < XN; ++i) {
         for (j = 0; j < XN; ++j) P[i * QD + j] = (double)f->Px.data[i * XN + j];
         P[i * QD + XN] = P[XN * QD + i] = (double)f->Pxd.data[i];
     }
     P[XN * QD + XN] = (double)f->Pd.data[0];
-    sim_chol(L, P, QD);
-    for (i = 0; i < QD; ++i) {
-        double w = e[i];
-        for (j = 0; j < i; ++j) w -= L[i * QD + j] * v[j];
-        assert_true(L[i * QD + i] > 0);
-        v[i] = w / L[i * QD + i];
-        s += v[i] * v[i];
-    }
-    return s;
+    return test_nees(e, P, QD);
 }
 
 static void run_mc(dkf_dfnerts_variant_t v, dkf_real_t scale, uint64_t seed)

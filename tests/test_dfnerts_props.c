@@ -421,6 +421,60 @@ static void test_joint_commit_by_hand(void **state)
                      DKF_OK);
 }
 
+/* A node that restarts from a prior at step k rejoins: restarted from its
+ * own posterior, the network continues bit-identically to one that ran
+ * undisturbed; a refused prior (P0 not SPD) leaves the node as it was. */
+static void test_restart_rejoins(void **state)
+{
+    DKF_DFNERTS_NET_DECLARE(static, ref, NN, XN, ZM, DP);
+    static dkf_real_t cx[XN], cP[XN * XN], cd[DP], cPd[DP * DP], cPxd[XN * DP], bad[XN * XN];
+    dkf_mat_t mx = test_view(XN, 1, cx), mP = test_view(XN, XN, cP), md = test_view(DP, 1, cd);
+    dkf_mat_t mPd = test_view(DP, DP, cPd), mPxd = test_view(XN, DP, cPxd);
+    dkf_mat_t mbad = test_view(XN, XN, bad);
+    test_rng_t rng;
+    double x[XN] = {0.3, -0.2};
+    size_t k, l;
+    (void)state;
+    scen_make(NN, DP, 1);
+    net_make(DKF_DFNERTS_JOINT);
+    assert_int_equal(dkf_dfnerts_net_init(&ref, &S.g, ref_nodes, DKF_NERTS_DNERTSIF,
+                                          DKF_DFNERTS_JOINT, XN, ZM, DP, ref_storage,
+                                          sizeof ref_storage / sizeof ref_storage[0], S.mx0,
+                                          S.mP0, S.md0, S.mPd0, S.mPxd0),
+                     DKF_OK);
+    test_rng_seed(&rng, 12004);
+    for (k = 1; k <= 10; ++k) {
+        truth_step(&rng, x, k);
+        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
+                                              (dkf_real_t)NN),
+                         DKF_OK);
+        assert_int_equal(dkf_dfnerts_net_step(&ref, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
+                                              (dkf_real_t)NN),
+                         DKF_OK);
+        if (k == 5) {
+            const dkf_nerts_t *f = &nodes[2].f;
+            memcpy(cx, f->x.data, sizeof cx);
+            memcpy(cP, f->Px.data, sizeof cP);
+            memcpy(cd, f->d.data, sizeof cd);
+            memcpy(cPd, f->Pd.data, sizeof cPd);
+            memcpy(cPxd, f->Pxd.data, sizeof cPxd);
+            memset(bad, 0, sizeof bad);
+            bad[0] = DKF_R(-1.0), bad[3] = DKF_R(1.0);
+            snap_all(NN, STATE_LEN);
+            assert_int_equal(dkf_dfnerts_node_restart(&nodes[2], 5, &mx, &mbad, &md, &mPd, &mPxd),
+                             DKF_ERR_NOT_SPD);
+            assert_all_untouched("restart with P0 not SPD", NN, STATE_LEN);
+            assert_int_equal(dkf_dfnerts_node_restart(&nodes[2], 5, &mx, &mP, &md, &mPd, &mPxd),
+                             DKF_OK);
+            assert_int_equal(nodes[2].f.k, 5);
+        }
+        if (k > 5)
+            for (l = 0; l < NN; ++l)
+                assert_memory_equal(nodes[l].mem, ref_nodes[l].mem,
+                                    STATE_LEN * sizeof(dkf_real_t));
+    }
+}
+
 /* ---- statuses and untouched nodes ---------------------------------------- */
 
 /* One network (ring) of the variant with input dimension p, after a
@@ -562,6 +616,7 @@ int main(void)
         cmocka_unit_test(test_central_joint),
         cmocka_unit_test(test_indefinite_mixed_covariance),
         cmocka_unit_test(test_joint_commit_by_hand),
+        cmocka_unit_test(test_restart_rejoins),
         cmocka_unit_test(test_errors_untouched),
         cmocka_unit_test(test_init_statuses),
     };

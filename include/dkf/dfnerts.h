@@ -1,8 +1,8 @@
 /*
  * dkf/dfnerts.h - the consensus network of seed 001: DF-DNERTSIF
  * (Algorithm 3, Ding-Xiao-Zhang 2014) and DF-CKF (its p = 0 case), with
- * the corrections of docs/infofusion.md, and a consistent variant that
- * agrees on the joint information of [x; d].
+ * the corrections of docs/nerts.md, and a consistent variant that
+ * agrees on the joint information of [x; d] (docs/dfnerts.md).
  *
  * Every node l runs its own single-node filter (dkf/nerts.h, an
  * information kind: DKF_NERTS_DNERTSIF for the paper's DF-DNERTSIF,
@@ -56,6 +56,7 @@
  *                            its next packet (tau = 1 adds s * contribution)
  *   dkf_dfnerts_node_commit  the posterior from its current packet
  *   dkf_dfnerts_node_cancel  drops a pending step (node as before local)
+ *   dkf_dfnerts_node_restart a new prior at step k (a node that rejoins)
  * A failed call leaves the node bit-identical (a failed local also leaves
  * no step pending).
  *
@@ -168,6 +169,14 @@ dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd);
 /* Drops a pending step: the filter is as before dkf_dfnerts_node_local.
  * DKF_ERR_STATE without one. */
 dkf_status_t dkf_dfnerts_node_cancel(dkf_dfnerts_node_t *nd);
+
+/* A new prior mid-run (a node that restarts and rejoins): the posterior
+ * at step k is x0, P0, d0, Pd0, Pxd0 (as for init); the next local is the
+ * step k -> k + 1. A pending step is dropped first; a failure (a prior
+ * init refuses) leaves the node as it was otherwise. */
+dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dkf_mat_t *x0,
+                                      const dkf_mat_t *P0, const dkf_mat_t *d0,
+                                      const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);
 
 /* ---- in-process whole network ------------------------------------------- */
 

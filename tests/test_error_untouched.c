@@ -28,10 +28,12 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
+#include "dkf/nerts.h"
 #include "dkf/otskf.h"
 #include "dkf/tw.h"
 #include "dkf/uif.h"
 #include "dkf_test.h"
+#include "nerts_fixture.h"
 
 /* ---- snapshots ------------------------------------------------------------ */
 
@@ -1320,6 +1322,215 @@ static void test_tw_net(void **state)
     assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
 }
 
+/* ---- nerts (seed 001's single-node filters) --------------------------------------------------- */
+
+#define NN 3
+#define NM 3
+#define NP 1
+
+typedef struct {
+    dkf_nerts_t f;
+    dkf_real_t st[DKF_NERTS_STORAGE_LEN(NN, NM, NP)];
+    lxs_t c;
+    dkf_nl_model_t md;
+    mbuf_t Q, R, z, Y, y;
+    regions_t g;
+} nerts_ctx_t;
+
+static dkf_status_t nerts_predict_call(void *c)
+{
+    nerts_ctx_t *k = c;
+    return dkf_nerts_predict(&k->f, &k->md, NULL, &k->Q.v);
+}
+static dkf_status_t nerts_local_call(void *c)
+{
+    nerts_ctx_t *k = c;
+    return dkf_nerts_local(&k->f, &k->md, NULL, &k->R.v, &k->z.v);
+}
+static dkf_status_t nerts_step_call(void *c)
+{
+    nerts_ctx_t *k = c;
+    return dkf_nerts_step(&k->f, &k->md, NULL, &k->Q.v, NULL, &k->R.v, &k->z.v);
+}
+static dkf_status_t nerts_commit_call(void *c)
+{
+    nerts_ctx_t *k = c;
+    return dkf_nerts_commit_info(&k->f, &k->Y.v, &k->y.v);
+}
+
+/* nertsif.json's lin_x_sin_d model */
+static void nerts_model(nerts_ctx_t *k, int jacobians)
+{
+    static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
+    static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
+    memset(&k->c, 0, sizeof k->c);
+    k->c.n = NN, k->c.m = NM, k->c.p = NP;
+    memcpy(k->c.A, A, sizeof A);
+    memcpy(k->c.B, b, sizeof b);
+    memcpy(k->c.C, C, sizeof C);
+    memcpy(k->c.H, H, sizeof H);
+    k->md = lxs_model(&k->c, jacobians);
+}
+
+/* Every way a phase can fail, with the filter live (two steps done). */
+static void nerts_case(dkf_nerts_kind_t kind, int jacobians, const char *what)
+{
+    static nerts_ctx_t k;
+    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
+    static const double z3[3] = {0.1, 0.6, 0.5}, Pd[1] = {0.25}, d0[1] = {0.1};
+    static const double Pxd0[3] = {0.01, -0.02, 0.0};
+    static const char *const qname[] = {"Q"}, *const rz[] = {"R", "z"},
+                             *const qrz[] = {"Q", "R", "z"}, *const yy[] = {"Y", "y"};
+    const int info = kind == DKF_NERTS_NERTSIF || kind == DKF_NERTS_DNERTSIF;
+    char label[160];
+    dkf_mat_t *v[3];
+    mbuf_t x0, P0, dd, PPd, PPxd;
+    dkf_nl_model_t other;
+    nerts_model(&k, jacobians);
+    mset(&k.Q, NN, NN, Q3), mset(&k.R, NM, NM, R3), mset(&k.z, NM, 1, z3);
+    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
+    mset(&PPxd, NN, NP, Pxd0);
+    assert_int_equal(dkf_nerts_init(&k.f, kind, NN, NM, NP, k.st, DKF_NERTS_STORAGE_LEN(NN, NM, NP),
+                                    &x0.v, &P0.v, &dd.v, &PPd.v, &PPxd.v),
+                     DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.f, sizeof k.f);
+    reg_add(&k.g, k.st, DKF_NERTS_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+    assert_int_equal(nerts_step_call(&k), DKF_OK);
+    assert_int_equal(nerts_step_call(&k), DKF_OK);
+    /* every kind of bad matrix in every input of every phase */
+    v[0] = &k.Q.v;
+    snprintf(label, sizeof label, "nerts_predict %s", what);
+    sweep(label, nerts_predict_call, &k, v, qname, 1, &k.g);
+    v[0] = &k.Q.v, v[1] = &k.R.v, v[2] = &k.z.v;
+    snprintf(label, sizeof label, "nerts_step %s", what);
+    sweep(label, nerts_step_call, &k, v, qrz, 3, &k.g);
+    /* out of sequence */
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, nerts_local_call(&k), "nerts_local before predict");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_nerts_update(&k.f), "nerts_update before local");
+    assert_int_equal(nerts_predict_call(&k), DKF_OK);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_nerts_update(&k.f), "nerts_update after predict");
+    v[0] = &k.R.v, v[1] = &k.z.v;
+    snprintf(label, sizeof label, "nerts_local %s", what);
+    sweep(label, nerts_local_call, &k, v, rz, 2, &k.g);
+    /* the model */
+    other = k.md;
+    other.m = 2;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_DIM, dkf_nerts_local(&k.f, &other, NULL, &k.R.v, &k.z.v),
+                     "nerts_local: model m = 2");
+    other = k.md;
+    other.h = NULL;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NULL, dkf_nerts_local(&k.f, &other, NULL, &k.R.v, &k.z.v),
+                     "nerts_local: h NULL");
+    k.c.fail_h = 1;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_MODEL, nerts_local_call(&k), "nerts_local: h fails");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_MODEL, nerts_step_call(&k), "nerts_step: h fails");
+    k.c.fail_h = 0;
+    k.c.nan_h = 1;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, nerts_local_call(&k), "nerts_local: h gives NaN");
+    k.c.nan_h = 0;
+    k.c.fail_f = 1;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_MODEL, nerts_predict_call(&k), "nerts_predict: f fails");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_MODEL, nerts_step_call(&k), "nerts_step: f fails");
+    k.c.fail_f = 0;
+    meye(&k.R, NM, -0.01);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, nerts_local_call(&k), "nerts_local: R = -0.01 I");
+    mset(&k.R, NM, NM, R3);
+    meye(&k.Q, NN, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, nerts_step_call(&k), "nerts_step: Q = -10 I");
+    mset(&k.Q, NN, NN, Q3);
+    /* rank Hd = 0 < p */
+    k.c.H[0] = k.c.H[1] = k.c.H[2] = 0;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, nerts_local_call(&k), "nerts_local: Hd = 0");
+    nerts_model(&k, jacobians);
+    /* the commits */
+    assert_int_equal(nerts_local_call(&k), DKF_OK);
+    if (info) {
+        static const double Yd[9] = {20, 1, 0, 1, 30, 2, 0, 2, 25}, yd[3] = {1, -2, 0.5};
+        static const char *const ynames[] = {"Y", "y"};
+        mset(&k.Y, NN, NN, Yd), mset(&k.y, NN, 1, yd);
+        v[0] = &k.Y.v, v[1] = &k.y.v;
+        snprintf(label, sizeof label, "nerts_commit_info %s", what);
+        sweep(label, nerts_commit_call, &k, v, ynames, 2, &k.g);
+        meye(&k.Y, NN, -1.0);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, nerts_commit_call(&k), "nerts_commit_info: Y = -I");
+        /* a consensus Px far below the local Pxd: the joint covariance
+         * [[Px, Pxd], [Pxd^T, Pd]] is indefinite (note section 4 item 6) */
+        meye(&k.Y, NN, 1e8);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, nerts_commit_call(&k),
+                         "nerts_commit_info: joint covariance indefinite");
+        (void)yy;
+    } else {
+        meye(&k.Y, NN, 1.0), mset(&k.y, NN, 1, x3);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, nerts_commit_call(&k),
+                         "nerts_commit_info on a covariance kind");
+        (void)yy;
+    }
+    assert_int_equal(dkf_nerts_update(&k.f), DKF_OK);
+}
+
+/* p = 2 with Hd's columns parallel (rank 1): Hd^T R_tilde^{-1} Hd is
+ * singular only up to rounding, so a Cholesky of it may pass; the rank is
+ * decided on the whitened Hd by singular values. */
+static void nerts_rank_p2(dkf_nerts_kind_t kind)
+{
+    static dkf_nerts_t f;
+    static dkf_real_t st[DKF_NERTS_STORAGE_LEN(3, 4, 2)];
+    static lxs_t c;
+    static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9};
+    static const double B[6] = {0, 0.1, 0.1, 0, 0.05, 0.05}, C[12] = {1, 0, 0, 0, 0, 1, 1, 1, 0, 0, 1, 1};
+    static const double Hpar[8] = {0.3, 0.21, 0.5, 0.35, 1.0, 0.7, 0.1, 0.07}; /* col 2 = 0.7 col 1 */
+    static const double R4[16] = {0.02, 0, 0, 0, 0, 0.03, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 0.02};
+    static const double z4[4] = {0.1, 0.2, -0.1, 0.3}, zero[6] = {0}, I2[4] = {1, 0, 0, 1};
+    mbuf_t x0, P0, d0, Pd0, Pxd0, Q, R, z;
+    regions_t g;
+    dkf_nl_model_t md;
+    memset(&c, 0, sizeof c);
+    c.n = 3, c.m = 4, c.p = 2;
+    memcpy(c.A, A, sizeof A), memcpy(c.B, B, sizeof B), memcpy(c.C, C, sizeof C);
+    memcpy(c.H, Hpar, sizeof Hpar);
+    md = lxs_model(&c, 1);
+    mset(&x0, 3, 1, x3), mset(&P0, 3, 3, P3), mset(&d0, 2, 1, zero), mset(&Pd0, 2, 2, I2);
+    mset(&Pxd0, 3, 2, zero), mset(&Q, 3, 3, Q3), mset(&R, 4, 4, R4), mset(&z, 4, 1, z4);
+    assert_int_equal(dkf_nerts_init(&f, kind, 3, 4, 2, st, DKF_NERTS_STORAGE_LEN(3, 4, 2), &x0.v,
+                                    &P0.v, &d0.v, &Pd0.v, &Pxd0.v),
+                     DKF_OK);
+    reg_clear(&g);
+    reg_add(&g, &f, sizeof f);
+    reg_add(&g, st, DKF_NERTS_STATE_LEN(3, 4, 2) * sizeof(dkf_real_t));
+    EXPECT_UNTOUCHED(&g, DKF_ERR_RANK, dkf_nerts_step(&f, &md, NULL, &Q.v, NULL, &R.v, &z.v),
+                     "nerts_step p = 2: Hd of rank 1");
+    /* rank 2 in exact arithmetic, but sigma_2 / sigma_1 ~ 1e-10: G's
+     * rounding (~ eps G) swamps its smallest eigenvalue */
+    {
+        static const double pert[4] = {3e-8, 1e-8, 1e-9, 1e-11};
+        char what[96];
+        size_t i;
+        for (i = 0; i < 4; ++i) {
+            c.H[7] = 0.07 + pert[i];
+            snprintf(what, sizeof what, "nerts_step p = 2: Hd of rank 2, sigma ratio ~ %.0e", pert[i]);
+            EXPECT_UNTOUCHED(&g, DKF_ERR_RANK,
+                             dkf_nerts_step(&f, &md, NULL, &Q.v, NULL, &R.v, &z.v), what);
+        }
+    }
+    c.H[7] = 0.25; /* well conditioned again */
+    assert_int_equal(dkf_nerts_step(&f, &md, NULL, &Q.v, NULL, &R.v, &z.v), DKF_OK);
+}
+
+static void test_nerts(void **state)
+{
+    static const char *const names[] = {"NERTSF", "NERTSIF", "DNERTSF", "DNERTSIF"};
+    char what[64];
+    int kind, jac;
+    (void)state;
+    for (kind = 0; kind < 4; ++kind)
+        for (jac = 0; jac < 2; ++jac) {
+            snprintf(what, sizeof what, "%s %s", names[kind], jac ? "analytic" : "differences");
+            nerts_case((dkf_nerts_kind_t)kind, jac, what);
+        }
+    for (kind = 0; kind < 4; ++kind) nerts_rank_p2((dkf_nerts_kind_t)kind);
+}
+
 /* ---- exact storage, every module ------------------------------------------------------------ */
 
 /* For every module and several shapes: init refuses storage_len one less
@@ -1356,6 +1567,7 @@ static union {
         dkf_diffkf_fc_node_t nodes[XS_NODES];
     } fc;
     dkf_uif_t uif;
+    dkf_nerts_t nerts;
     dkf_tw_node_t tw_node;
     struct {
         dkf_tw_net_t net;
@@ -1449,6 +1661,24 @@ static dkf_status_t nrtsf_init(dims_t d, dkf_real_t *st, size_t len)
     return uif_init(DKF_UIF_NRTSF, d, st, len);
 }
 
+static size_t nerts_len(dims_t d) { return DKF_NERTS_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t nerts_init_kind(dkf_nerts_kind_t kind, dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n), dd = xs_x(d.p), Pd = xs_eye_in(1, d.p);
+    dkf_mat_t Pxd = test_view(d.n, d.p, xs_x0); /* zeros */
+    const int p = d.p > 0;
+    return dkf_nerts_init(&xs_obj.nerts, kind, d.n, d.m, d.p, st, len, &x, &P, p ? &dd : NULL,
+                          p ? &Pd : NULL, p ? &Pxd : NULL);
+}
+static dkf_status_t nertsf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return nerts_init_kind(DKF_NERTS_NERTSF, d, st, len);
+}
+static dkf_status_t dnertsif_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return nerts_init_kind(DKF_NERTS_DNERTSIF, d, st, len);
+}
+
 static size_t tw_node_len(dims_t d) { return DKF_TW_NODE_STORAGE_LEN(d.n, d.m, d.p); }
 static dkf_status_t tw_node_init(dims_t d, dkf_real_t *st, size_t len)
 {
@@ -1486,6 +1716,10 @@ static const xs_module_t xs_modules[] = {
     {"uif NRTSF-DF", uif_len, nrtsf_df_init,
      {{1, 1, 1, 0}, {4, 2, 3, 0}, {2, 5, 4, 0}, {6, 3, 1, 0}}},
     {"uif NRTSF", uif_len, nrtsf_init, {{1, 1, 1, 0}, {4, 2, 3, 0}, {3, 5, 2, 0}, {6, 1, 4, 0}}},
+    {"nerts NERTSF", nerts_len, nertsf_init,
+     {{1, 1, 0, 0}, {3, 3, 1, 0}, {4, 3, 1, 0}, {2, 6, 4, 0}, {6, 2, 2, 0}, {4, 36, 1, 0}}},
+    {"nerts DNERTSIF", nerts_len, dnertsif_init,
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}},
     {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
     {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
 };
@@ -1537,6 +1771,7 @@ DKF_DIFFKF_DECLARE(static, dk_diffkf, 3, 2, 1);
 DKF_DIFFKF_FC_DECLARE(static, dk_fc, 3, 2, 3, 2);
 DKF_UIF_DECLARE(static, dk_uif, 3, 2, 1);
 DKF_TW_NODE_DECLARE(static, dk_tw_node, 3, 2, 1);
+DKF_NERTS_DECLARE(static, dk_nerts, 4, 3, 1);
 DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
@@ -1572,6 +1807,14 @@ static void test_declare_macros(void **state)
     assert_int_equal(dkf_uif_init(&dk_uif, DKF_UIF_RTSF, 3, 2, 1, dk_uif_storage,
                                   ARRAY_LEN(dk_uif_storage), &x, &P),
                      DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_nerts_storage), DKF_NERTS_STORAGE_LEN(4, 3, 1));
+    {
+        static dkf_real_t I4[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        dkf_mat_t x4 = xs_x(4), P4 = test_view(4, 4, I4), Pxd = test_view(4, 1, xs_x0);
+        assert_int_equal(dkf_nerts_init(&dk_nerts, DKF_NERTS_DNERTSIF, 4, 3, 1, dk_nerts_storage,
+                                        ARRAY_LEN(dk_nerts_storage), &x4, &P4, &d, &Pd, &Pxd),
+                         DKF_OK);
+    }
     assert_int_equal(ARRAY_LEN(dk_tw_node_storage), DKF_TW_NODE_STORAGE_LEN(3, 2, 1));
     assert_int_equal(dkf_tw_node_init(&dk_tw_node, 3, 2, 1, dk_tw_node_storage,
                                       ARRAY_LEN(dk_tw_node_storage), &x, &P),
@@ -1601,6 +1844,7 @@ int main(void)
         cmocka_unit_test(test_diffkf_fc),
         cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
         cmocka_unit_test(test_tw_net),
+        cmocka_unit_test(test_nerts),
         cmocka_unit_test(test_exact_storage),
         cmocka_unit_test(test_declare_macros),
     };

@@ -41,23 +41,6 @@ static askf_layout_t layout_of(const dkf_askf_t *f)
     return L;
 }
 
-/* Out (N x N, N = n + p) = [[X, Y], [Y^T, Z]] with X n x n, Z p x p and
- * Y n x p (Y NULL: zero blocks). */
-static void assemble_blocks(dkf_real_t *Out, const dkf_real_t *X, const dkf_real_t *Y,
-                            const dkf_real_t *Z, size_t n, size_t p)
-{
-    const size_t N = n + p;
-    size_t i, j;
-    dkf__put_block(Out, N, 0, 0, X, n, n);
-    dkf__put_block(Out, N, n, n, Z, p, p);
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < p; ++j) {
-            const dkf_real_t y = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
-            Out[i * N + n + j] = y;
-            Out[(n + j) * N + i] = y;
-        }
-}
-
 dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                            size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                            const dkf_mat_t *d0, const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
@@ -90,7 +73,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
     dkf__view(&Pa0, N, N, L.phi);
     dkf__copy(X0.data, x0->data, n);
     dkf__copy(X0.data + n, d0->data, p);
-    assemble_blocks(Pa0.data, P0->data, Pxd0 != NULL ? Pxd0->data : NULL, Pd0->data, n, p);
+    dkf__put_sym_blocks(Pa0.data, P0->data, Pxd0 != NULL ? Pxd0->data : NULL, Pd0->data, n, p);
     DKF_TRY(dkf_kf_init(&g.kf, N, m, L.kf, DKF_KF_STORAGE_LEN(N, m), &X0, &Pa0));
     g.ready = 1;
     *f = g;
@@ -116,8 +99,8 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
     L = layout_of(f);
     dkf__view(&Phi, N, N, L.phi);
     dkf__view(&Qa, N, N, L.qa);
-    assemble_blocks(Phi.data, dyn->F->data, NULL, dyn->B->data, n, p);
-    assemble_blocks(Qa.data, dyn->Q->data, NULL, dyn->Rd->data, n, p);
+    dkf__put_sym_blocks(Phi.data, dyn->F->data, NULL, dyn->B->data, n, p);
+    dkf__put_sym_blocks(Qa.data, dyn->Q->data, NULL, dyn->Rd->data, n, p);
     aug.F = &Phi;
     aug.Q = &Qa;
     return dkf_kf_predict(&f->kf, &aug, NULL);

@@ -162,6 +162,21 @@ void dkf__put_block(dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_
     for (i = 0; i < r; ++i) dkf__copy(D + (r0 + i) * cols + c0, S + i * c, c);
 }
 
+void dkf__put_sym_blocks(dkf_real_t *Out, const dkf_real_t *X, const dkf_real_t *Y,
+                         const dkf_real_t *Z, size_t n, size_t p)
+{
+    const size_t N = n + p;
+    size_t i, j;
+    dkf__put_block(Out, N, 0, 0, X, n, n);
+    dkf__put_block(Out, N, n, n, Z, p, p);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < p; ++j) {
+            const dkf_real_t y = Y != NULL ? Y[i * p + j] : DKF_R(0.0);
+            Out[i * N + n + j] = y;
+            Out[(n + j) * N + i] = y;
+        }
+}
+
 void dkf__pack_sym(dkf_real_t *p, const dkf_real_t *A, size_t n)
 {
     size_t i, j, e = 0;

@@ -58,6 +58,11 @@ void dkf__sub_tn_sym(dkf_real_t *C, const dkf_real_t *D, const dkf_real_t *A, co
  * the stacking of block matrices (block-diagonal and stacked models). */
 void dkf__put_block(dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_real_t *S,
                     size_t r, size_t c);
+/* Out (N x N, N = n + p) = [[X, Y], [Y^T, Z]] with X n x n, Z p x p and
+ * Y n x p (Y NULL: zero blocks): an augmented or joint covariance (askf's
+ * P^a, nerts' [[Px, Pxd], [Pxd^T, Pd]]). p may be 0. */
+void dkf__put_sym_blocks(dkf_real_t *Out, const dkf_real_t *X, const dkf_real_t *Y,
+                         const dkf_real_t *Z, size_t n, size_t p);
 /* Packed upper triangle of the symmetric n x n A, row by row (A(0,0..n-1),
  * A(1,1..n-1), ...): n (n + 1) / 2 reals into p; unpack_sym writes both
  * triangles of A back from p. */

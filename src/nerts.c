@@ -67,15 +67,17 @@ static size_t out_layout(out_t *o, dkf_real_t *base, size_t n, size_t m, size_t 
 }
 
 #define NERTS_NW 8 /* square scratch matrices */
+#define NERTS_NV 8 /* scratch vectors (kept off the stack: Cortex-M4 budget) */
 
 /* The storage: the state (o), its staged copy (s), then scratch: cubature
  * offsets (pts, 2 (n + p) x (n + p)) and images (img, 2 (n + p) x
- * max(n, m)), NERTS_NW matrices of max(n + p, m)^2, the Jacobians' and
- * the contribution's workspace and an information filter's storage. */
+ * max(n, m)), NERTS_NW matrices of max(n + p, m)^2, NERTS_NV vectors of
+ * max(n + p, m), the Jacobians' and the contribution's workspace and an
+ * information filter's storage. */
 typedef struct {
     out_t o, s;
     size_t out_len;
-    dkf_real_t *pts, *img, *w[NERTS_NW], *jac, *cw, *info;
+    dkf_real_t *pts, *img, *w[NERTS_NW], *v[NERTS_NV], *jac, *cw, *info;
 } layout_t;
 
 static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
@@ -88,6 +90,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
     DKF_TAKE(L->pts, 2 * nx * nx);
     DKF_TAKE(L->img, 2 * nx * mx);
     for (j = 0; j < NERTS_NW; ++j) DKF_TAKE(L->w[j], r * r);
+    for (j = 0; j < NERTS_NV; ++j) DKF_TAKE(L->v[j], r);
     DKF_TAKE(L->jac, DKF_NL_JAC_WORK(n, m, p));
     DKF_TAKE(L->cw, DKF_INFO_CONTRIB_WORK(n, m));
     DKF_TAKE(L->info, DKF_INFO_STORAGE_LEN(n));
@@ -145,14 +148,7 @@ static dkf_status_t check_model(const dkf_nerts_t *f, const dkf_nl_model_t *md,
 static void joint_cov(dkf_real_t *J, const dkf_real_t *Px, const dkf_real_t *Pd,
                       const dkf_real_t *Pxd, size_t n, size_t p)
 {
-    const size_t nx = n + p;
-    size_t a, b;
-    dkf__put_block(J, nx, 0, 0, Px, n, n);
-    if (p == 0) return;
-    dkf__put_block(J, nx, 0, n, Pxd, n, p);
-    dkf__put_block(J, nx, n, n, Pd, p, p);
-    for (a = 0; a < n; ++a)
-        for (b = 0; b < p; ++b) J[(n + b) * nx + a] = Pxd[a * p + b];
+    dkf__put_sym_blocks(J, Px, p > 0 ? Pxd : NULL, Pd, n, p);
 }
 
 /* Out (ra x rb) = D + (1/count) sum_l A_l B_l^T for the rows A_l (ra), B_l
@@ -196,11 +192,10 @@ static void centre_rows(dkf_real_t *mean, dkf_real_t *img, size_t count, size_t 
 
 /* DKF_ERR_NOT_SPD unless the joint covariance of (x, d) is positive
  * definite (the next cubature step factors it); W: (n + p)^2 scratch,
- * chol: another. */
+ * chol: another, inv: n + p. */
 static dkf_status_t check_joint(const out_t *s, size_t n, size_t p, dkf_real_t *W,
-                                dkf_real_t *chol)
+                                dkf_real_t *chol, dkf_real_t *inv)
 {
-    dkf_real_t inv[DKF_MAX_DIM];
     joint_cov(W, s->Px, s->Pd, s->Pxd, n, p);
     return dkf__chol(chol, inv, W, n + p) == 0 ? DKF_OK : DKF_ERR_NOT_SPD;
 }
@@ -232,7 +227,7 @@ static dkf_status_t predict_cubature(const dkf_nerts_t *f, layout_t *L, const dk
 {
     const size_t n = f->n, p = f->p, nx = n + p, count = 2 * nx;
     out_t *s = &L->s;
-    dkf_real_t *Pj = L->w[0], *S = L->w[1], inv[DKF_MAX_DIM], pt[DKF_MAX_DIM];
+    dkf_real_t *Pj = L->w[0], *S = L->w[1], *inv = L->v[0], *pt = L->v[1];
     size_t l, a;
     joint_cov(Pj, s->Px, s->Pd, s->Pxd, n, p);
     if (dkf__chol(S, inv, Pj, nx) != 0) return DKF_ERR_NOT_SPD;
@@ -269,8 +264,7 @@ static dkf_status_t predict_staged(const dkf_nerts_t *f, layout_t *L, const dkf_
         dkf__copy(L->s.Y_pred, inf.Y.data, n * n);
         dkf__copy(L->s.y_pred, inf.y.data, n);
     } else {
-        dkf_real_t inv[DKF_MAX_DIM];
-        if (dkf__chol(L->w[0], inv, L->s.P_pred, n) != 0) return DKF_ERR_NOT_SPD;
+        if (dkf__chol(L->w[0], L->v[0], L->s.P_pred, n) != 0) return DKF_ERR_NOT_SPD;
     }
     return DKF_OK;
 }
@@ -305,7 +299,7 @@ static dkf_status_t local_cubature(const dkf_nerts_t *f, layout_t *L, const dkf_
     const size_t n = f->n, m = f->m, p = f->p, count = 2 * n;
     out_t *s = &L->s;
     dkf_real_t *S = L->w[0], *V = L->w[1], *Ct = L->w[2];
-    dkf_real_t inv[DKF_MAX_DIM], pt[DKF_MAX_DIM], v[DKF_MAX_DIM];
+    dkf_real_t *inv = L->v[0], *pt = L->v[1], *v = L->v[2];
     size_t l, a;
     DKF_TRY(dkf_nl_h_jacobian(md, f->k + 1, s->x_pred, input_arg(s->d, p), u, s->Hx, s->Hd,
                               L->jac));
@@ -349,7 +343,7 @@ static dkf_status_t input_estimate(const dkf_nerts_t *f, layout_t *L, const dkf_
     const dkf_real_t tol = DKF_R(16.0) * (dkf_real_t)p * DKF_REAL_EPSILON;
     out_t *s = &L->s;
     dkf_real_t *W = L->w[4], *G = L->w[5], *Lg = L->w[6], *Mt = L->w[7];
-    dkf_real_t w[DKF_MAX_DIM], ginv[DKF_MAX_DIM];
+    dkf_real_t *w = L->v[5], *ginv = L->v[6];
     size_t e;
     dkf__whiten(W, w, Lr, inv, s->Hd, s->nu, m, p);
     dkf__mul_tn(G, W, W, NULL, m, p, p);
@@ -379,7 +373,7 @@ static dkf_status_t info_contribution(const dkf_nerts_t *f, layout_t *L)
 {
     const size_t n = f->n, m = f->m, p = f->p, q = m - p;
     out_t *s = &L->s;
-    dkf_real_t zc[DKF_MAX_DIM], zn[DKF_MAX_DIM], tau[DKF_MAX_DIM];
+    dkf_real_t *zc = L->v[0], *zn = L->v[1], *tau = L->v[2];
     dkf_real_t *QR = L->w[0], *Q = L->w[1], *N = L->w[2], *CN = L->w[3], *T = L->w[4];
     dkf_real_t *RN = L->w[5], *RNinv = L->w[6];
     dkf_mat_t iv, Iv, Hv, Rv, zv, A, B;
@@ -432,7 +426,8 @@ static dkf_status_t local_staged(const dkf_nerts_t *f, layout_t *L, const dkf_nl
 {
     const size_t m = f->m, p = f->p;
     out_t *s = &L->s;
-    dkf_real_t inv[DKF_MAX_DIM], zbar[DKF_MAX_DIM];
+    /* v[0..2] are local_cubature's, v[5..6] input_estimate's */
+    dkf_real_t *inv = L->v[3], *zbar = L->v[4];
     /* w[0..2] are local_cubature's; Lr, Rinv reuse w[0], w[1] after it */
     dkf_real_t *Rs = L->w[3], *Lr = L->w[0], *Rinv = L->w[1];
     size_t e;
@@ -477,13 +472,12 @@ static dkf_status_t finish_commit(const dkf_nerts_t *f, layout_t *L)
 {
     const size_t n = f->n, p = f->p;
     out_t *s = &L->s;
-    dkf_real_t inv[DKF_MAX_DIM];
     dkf__copy(s->d, s->d_loc, p);
     dkf__copy(s->Pd, s->Pd_loc, p * p);
     dkf__copy(s->Pxd, s->Pxd_loc, n * p);
     if (!dkf__all_finite(s->x, n) || !dkf__all_finite(s->Px, n * n)) return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(L->w[0], inv, s->Px, n)) return DKF_ERR_NOT_SPD;
-    return check_joint(s, n, p, L->w[0], L->w[1]);
+    if (!dkf__psd_within_rounding(L->w[0], L->v[0], s->Px, n)) return DKF_ERR_NOT_SPD;
+    return check_joint(s, n, p, L->w[0], L->w[1], L->v[0]);
 }
 
 /* Covariance form: K = Pxz R_tilde^{-1} (16), Lg = K (I - Hd M) (17),
@@ -495,7 +489,7 @@ static dkf_status_t update_covariance(const dkf_nerts_t *f, layout_t *L)
     const size_t n = f->n, m = f->m, p = f->p;
     out_t *s = &L->s;
     dkf_real_t *Lr = L->w[0], *Rinv = L->w[1], *K = L->w[2], *IHM = L->w[3], *Lg = L->w[4];
-    dkf_real_t inv[DKF_MAX_DIM];
+    dkf_real_t *inv = L->v[0];
     size_t a, b;
     if (dkf__chol(Lr, inv, s->R_tilde, m) != 0) return DKF_ERR_NOT_SPD;
     dkf__chol_inverse(Rinv, Lr, inv, m);
@@ -631,7 +625,7 @@ dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, siz
         dkf__symmetrise(L.o.Pd, p);
         dkf__copy(L.o.Pxd, Pxd0->data, n * p);
     }
-    DKF_TRY(check_joint(&L.o, n, p, L.w[0], L.w[1]));
+    DKF_TRY(check_joint(&L.o, n, p, L.w[0], L.w[1], L.v[0]));
     g.n = n;
     g.m = m;
     g.p = p;

@@ -1,8 +1,8 @@
 /*
  * Simulated data for the nerts tests: truth x_k = f(x_{k-1}, d_{k-1}) +
  * w_{k-1}, z_k = h(x_k, d_k) + v_k with w ~ N(0, Q), v ~ N(0, R) drawn
- * from the fixed-seed test PRNG through Cholesky factors computed here in
- * double (independent of the library), and d_k a deterministic function
+ * from the fixed-seed test PRNG through Cholesky factors in double
+ * (test_dchol, independent of the library), and d_k a deterministic function
  * of k given by the test. Static inline, as nerts_fixture.h.
  */
 #ifndef NERTS_SIM_H
@@ -15,7 +15,7 @@
 #include "dkf_test.h"
 
 #define SIM_STEPS 120
-#define SIM_DIM 8
+#define SIM_DIM 36
 
 typedef struct {
     size_t n, m, p, steps;
@@ -23,36 +23,6 @@ typedef struct {
     dkf_real_t D[SIM_STEPS + 1][SIM_DIM]; /* d_0 .. d_steps */
     dkf_real_t Z[SIM_STEPS + 1][SIM_DIM]; /* z_1 .. z_steps (Z[0] unused) */
 } sim_t;
-
-/* Lower L (n x n, double) with A = L L^T; A symmetric PSD (a zero pivot
- * gives a zero column: Q may be singular). */
-static inline void sim_chol(double *L, const double *A, size_t n)
-{
-    size_t i, j, l;
-    for (i = 0; i < n * n; ++i) L[i] = 0.0;
-    for (j = 0; j < n; ++j) {
-        double v = A[j * n + j];
-        for (l = 0; l < j; ++l) v -= L[j * n + l] * L[j * n + l];
-        L[j * n + j] = v > 0 ? sqrt(v) : 0.0;
-        for (i = j + 1; i < n; ++i) {
-            double w = A[i * n + j];
-            for (l = 0; l < j; ++l) w -= L[i * n + l] * L[j * n + l];
-            L[i * n + j] = L[j * n + j] > 0 ? w / L[j * n + j] : 0.0;
-        }
-    }
-}
-
-/* out (n) = L e, e ~ N(0, I). */
-static inline void sim_noise(test_rng_t *rng, const double *L, size_t n, double *out)
-{
-    double e[SIM_DIM];
-    size_t i, j;
-    for (i = 0; i < n; ++i) e[i] = test_rng_normal(rng);
-    for (i = 0; i < n; ++i) {
-        out[i] = 0.0;
-        for (j = 0; j <= i; ++j) out[i] += L[i * n + j] * e[j];
-    }
-}
 
 typedef double (*sim_input_fn)(size_t k, size_t j);
 
@@ -67,17 +37,17 @@ static inline void sim_run(sim_t *s, const dkf_nl_model_t *md, const dkf_real_t 
     s->m = md->m;
     s->p = md->p;
     s->steps = steps;
-    sim_chol(LQ, Q, md->n);
-    sim_chol(LR, R, md->m);
+    test_dchol(LQ, Q, md->n);
+    test_dchol(LR, R, md->m);
     for (i = 0; i < md->n; ++i) s->X[0][i] = x0[i];
     for (k = 0; k <= steps; ++k)
         for (i = 0; i < md->p; ++i) s->D[k][i] = (dkf_real_t)dfun(k, i);
     for (k = 1; k <= steps; ++k) {
         (void)md->f(md->ctx, k - 1, s->X[k - 1], s->D[k - 1], NULL, s->X[k]);
-        sim_noise(rng, LQ, md->n, w);
+        test_draw(rng, w, LQ, md->n);
         for (i = 0; i < md->n; ++i) s->X[k][i] += (dkf_real_t)w[i];
         (void)md->h(md->ctx, k, s->X[k], s->D[k], NULL, y);
-        sim_noise(rng, LR, md->m, w);
+        test_draw(rng, w, LR, md->m);
         for (i = 0; i < md->m; ++i) s->Z[k][i] = y[i] + (dkf_real_t)w[i];
     }
 }

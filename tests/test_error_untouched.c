@@ -28,6 +28,7 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
+#include "dkf/dfnerts.h"
 #include "dkf/nerts.h"
 #include "dkf/otskf.h"
 #include "dkf/tw.h"
@@ -1531,6 +1532,120 @@ static void test_nerts(void **state)
     for (kind = 0; kind < 4; ++kind) nerts_rank_p2((dkf_nerts_kind_t)kind);
 }
 
+/* ---- dfnerts (seed 001's consensus network) ---------------------------------------------------- */
+
+typedef struct {
+    dkf_dfnerts_node_t nd;
+    dkf_real_t st[DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP)];
+    lxs_t c;
+    dkf_nl_model_t md;
+    mbuf_t Q, R, z;
+    regions_t g;
+} dfn_ctx_t;
+
+static dkf_status_t dfn_local_call(void *c)
+{
+    dfn_ctx_t *k = c;
+    return dkf_dfnerts_node_local(&k->nd, &k->md, NULL, &k->Q.v, NULL, &k->R.v, &k->z.v,
+                                  DKF_R(1.0), NULL);
+}
+
+/* One node alone (its graph row is itself, weight 1, s = 1: the node's
+ * own DNERTSIF / NERTSIF step): local, one round of its own packet, commit. */
+static dkf_status_t dfn_step(dfn_ctx_t *k)
+{
+    static dkf_real_t own[DKF_DFNERTS_PKT_MAX(NN, NP)];
+    const dkf_real_t *in[1] = {own};
+    const dkf_real_t one = DKF_R(1.0);
+    dkf_status_t st = dfn_local_call(k);
+    if (st != DKF_OK) return st;
+    memcpy(own, k->nd.pkt, k->nd.pkt_len * sizeof(dkf_real_t));
+    st = dkf_dfnerts_node_mix(&k->nd, in, &one, 1, NULL);
+    return st != DKF_OK ? st : dkf_dfnerts_node_commit(&k->nd);
+}
+
+static void dfnerts_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, const char *what)
+{
+    static dfn_ctx_t k;
+    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
+    static const double z3[3] = {0.1, 0.6, 0.5}, Pd[1] = {0.25}, d0[1] = {0.1};
+    static const double Pxd0[3] = {0.01, -0.02, 0.0};
+    static const char *const qrz[] = {"Q", "R", "z"};
+    static dkf_real_t bad[DKF_DFNERTS_PKT_MAX(NN, NP)];
+    const dkf_real_t *in[1] = {bad};
+    const dkf_real_t one = DKF_R(1.0);
+    char label[160];
+    dkf_mat_t *v[3];
+    mbuf_t x0, P0, dd, PPd, PPxd;
+    size_t e, q;
+    memset(&k.c, 0, sizeof k.c);
+    {
+        static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
+        static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
+        k.c.n = NN, k.c.m = NM, k.c.p = NP;
+        memcpy(k.c.A, A, sizeof A);
+        memcpy(k.c.B, b, sizeof b);
+        memcpy(k.c.C, C, sizeof C);
+        memcpy(k.c.H, H, sizeof H);
+        k.md = lxs_model(&k.c, 1);
+    }
+    mset(&k.Q, NN, NN, Q3), mset(&k.R, NM, NM, R3), mset(&k.z, NM, 1, z3);
+    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
+    mset(&PPxd, NN, NP, Pxd0);
+    assert_int_equal(dkf_dfnerts_node_init(&k.nd, kind, variant, NN, NM, NP, k.st,
+                                           DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP), &x0.v, &P0.v,
+                                           &dd.v, &PPd.v, &PPxd.v),
+                     DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.nd, sizeof k.nd);
+    reg_add(&k.g, k.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+    assert_int_equal(dfn_step(&k), DKF_OK);
+    assert_int_equal(dfn_step(&k), DKF_OK);
+    v[0] = &k.Q.v, v[1] = &k.R.v, v[2] = &k.z.v;
+    snprintf(label, sizeof label, "dfnerts_node_local %s", what);
+    sweep(label, dfn_local_call, &k, v, qrz, 3, &k.g);
+    k.c.fail_h = 1;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_MODEL, dfn_local_call(&k), "dfnerts_node_local: h fails");
+    k.c.fail_h = 0;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_dfnerts_node_mix(&k.nd, in, &one, 1, NULL),
+                     "dfnerts_node_mix: nothing pending");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_dfnerts_node_commit(&k.nd),
+                     "dfnerts_node_commit: nothing pending");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_dfnerts_node_cancel(&k.nd),
+                     "dfnerts_node_cancel: nothing pending");
+    /* pending from here: the pending packet is state too */
+    assert_int_equal(dfn_local_call(&k), DKF_OK);
+    reg_add(&k.g, k.nd.pkt, k.nd.pkt_len * sizeof(dkf_real_t));
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_dfnerts_node_commit(&k.nd),
+                     "dfnerts_node_commit: before the first round");
+    memcpy(bad, k.nd.pkt, k.nd.pkt_len * sizeof(dkf_real_t));
+    bad[1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_dfnerts_node_mix(&k.nd, in, &one, 1, NULL),
+                     "dfnerts_node_mix: NaN in a packet");
+    /* an agreed Y of -1e6 I: not SPD at commit */
+    q = variant == DKF_DFNERTS_JOINT ? NN + NP : NN;
+    for (e = 0; e < k.nd.pkt_len; ++e) bad[e] = DKF_R(0.0);
+    for (e = 0; e < q; ++e) bad[q + e * q - e * (e - 1) / 2] = DKF_R(-1e6);
+    assert_int_equal(dkf_dfnerts_node_mix(&k.nd, in, &one, 1, NULL), DKF_OK);
+    reg_clear(&k.g);
+    reg_add(&k.g, &k.nd, sizeof k.nd);
+    reg_add(&k.g, k.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+    reg_add(&k.g, k.nd.pkt, k.nd.pkt_len * sizeof(dkf_real_t));
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, dkf_dfnerts_node_commit(&k.nd),
+                     "dfnerts_node_commit: agreed Y not SPD");
+    assert_int_equal(dkf_dfnerts_node_cancel(&k.nd), DKF_OK);
+    assert_int_equal(dfn_step(&k), DKF_OK);
+}
+
+static void test_dfnerts(void **state)
+{
+    (void)state;
+    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, "DNERTSIF PAPER");
+    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT, "DNERTSIF JOINT");
+    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_PAPER, "NERTSIF PAPER");
+    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_JOINT, "NERTSIF JOINT");
+}
+
 /* ---- exact storage, every module ------------------------------------------------------------ */
 
 /* For every module and several shapes: init refuses storage_len one less
@@ -1568,6 +1683,11 @@ static union {
     } fc;
     dkf_uif_t uif;
     dkf_nerts_t nerts;
+    dkf_dfnerts_node_t dfn_node;
+    struct {
+        dkf_dfnerts_net_t net;
+        dkf_dfnerts_node_t nodes[XS_NODES];
+    } dfn_net;
     dkf_tw_node_t tw_node;
     struct {
         dkf_tw_net_t net;
@@ -1679,6 +1799,46 @@ static dkf_status_t dnertsif_init(dims_t d, dkf_real_t *st, size_t len)
     return nerts_init_kind(DKF_NERTS_DNERTSIF, d, st, len);
 }
 
+static size_t dfn_node_len(dims_t d) { return DKF_DFNERTS_NODE_STORAGE_LEN(d.n, d.m, d.p); }
+static dkf_status_t dfn_node_init(dkf_dfnerts_variant_t v, dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n), dd = xs_x(d.p), Pd = xs_eye_in(1, d.p);
+    dkf_mat_t Pxd = test_view(d.n, d.p, xs_x0); /* zeros */
+    const int p = d.p > 0;
+    return dkf_dfnerts_node_init(&xs_obj.dfn_node, DKF_NERTS_DNERTSIF, v, d.n, d.m, d.p, st, len,
+                                 &x, &P, p ? &dd : NULL, p ? &Pd : NULL, p ? &Pxd : NULL);
+}
+static dkf_status_t dfn_paper_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return dfn_node_init(DKF_DFNERTS_PAPER, d, st, len);
+}
+static dkf_status_t dfn_joint_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    return dfn_node_init(DKF_DFNERTS_JOINT, d, st, len);
+}
+
+/* l nodes on a path, every node the same prior */
+static size_t dfn_net_len(dims_t d) { return DKF_DFNERTS_NET_STORAGE_LEN(d.l, d.n, d.m, d.p); }
+static dkf_status_t dfn_net_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    static size_t start[XS_NODES + 1], nbr[DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1)];
+    static dkf_graph_t g;
+    static dkf_mat_t x[XS_NODES], P[XS_NODES], dd[XS_NODES], Pd[XS_NODES], Pxd[XS_NODES];
+    size_t edges[2 * XS_NODES] = {0}, e;
+    const int p = d.p > 0;
+    for (e = 0; e + 1 < d.l; ++e) edges[2 * e] = e, edges[2 * e + 1] = e + 1;
+    assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1),
+                                          d.l, edges, d.l - 1),
+                     DKF_OK);
+    for (e = 0; e < d.l; ++e) {
+        x[e] = xs_x(d.n), P[e] = xs_eye(d.n), dd[e] = xs_x(d.p), Pd[e] = xs_eye_in(1, d.p);
+        Pxd[e] = test_view(d.n, d.p, xs_x0);
+    }
+    return dkf_dfnerts_net_init(&xs_obj.dfn_net.net, &g, xs_obj.dfn_net.nodes, DKF_NERTS_DNERTSIF,
+                                DKF_DFNERTS_JOINT, d.n, d.m, d.p, st, len, x, P, p ? dd : NULL,
+                                p ? Pd : NULL, p ? Pxd : NULL);
+}
+
 static size_t tw_node_len(dims_t d) { return DKF_TW_NODE_STORAGE_LEN(d.n, d.m, d.p); }
 static dkf_status_t tw_node_init(dims_t d, dkf_real_t *st, size_t len)
 {
@@ -1720,6 +1880,12 @@ static const xs_module_t xs_modules[] = {
      {{1, 1, 0, 0}, {3, 3, 1, 0}, {4, 3, 1, 0}, {2, 6, 4, 0}, {6, 2, 2, 0}, {4, 36, 1, 0}}},
     {"nerts DNERTSIF", nerts_len, dnertsif_init,
      {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}},
+    {"dfnerts node PAPER", dfn_node_len, dfn_paper_init,
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}},
+    {"dfnerts node JOINT", dfn_node_len, dfn_joint_init,
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {3, 5, 2, 0}}},
+    {"dfnerts net", dfn_net_len, dfn_net_init,
+     {{1, 1, 1, 1}, {4, 3, 1, 4}, {4, 2, 0, 3}, {2, 3, 2, 2}}},
     {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
     {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
 };
@@ -1772,6 +1938,8 @@ DKF_DIFFKF_FC_DECLARE(static, dk_fc, 3, 2, 3, 2);
 DKF_UIF_DECLARE(static, dk_uif, 3, 2, 1);
 DKF_TW_NODE_DECLARE(static, dk_tw_node, 3, 2, 1);
 DKF_NERTS_DECLARE(static, dk_nerts, 4, 3, 1);
+DKF_DFNERTS_NODE_DECLARE(static, dk_dfn_node, 4, 3, 1);
+DKF_DFNERTS_NET_DECLARE(static, dk_dfn_net, 2, 4, 3, 1);
 DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
@@ -1815,6 +1983,33 @@ static void test_declare_macros(void **state)
                                         ARRAY_LEN(dk_nerts_storage), &x4, &P4, &d, &Pd, &Pxd),
                          DKF_OK);
     }
+    assert_int_equal(ARRAY_LEN(dk_dfn_node_storage), DKF_DFNERTS_NODE_STORAGE_LEN(4, 3, 1));
+    assert_int_equal(ARRAY_LEN(dk_dfn_net_storage), DKF_DFNERTS_NET_STORAGE_LEN(2, 4, 3, 1));
+    assert_int_equal(ARRAY_LEN(dk_dfn_net_nodes), 2);
+    {
+        static dkf_real_t I4[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+        static size_t start[3], nbr[DKF_GRAPH_NNZ(2, 1)];
+        static const size_t edge[2] = {0, 1};
+        static dkf_graph_t g;
+        dkf_mat_t x4[2], P4[2], dv[2], Pdv[2], Pxd[2];
+        size_t l;
+        for (l = 0; l < 2; ++l) {
+            x4[l] = xs_x(4), P4[l] = test_view(4, 4, I4), Pxd[l] = test_view(4, 1, xs_x0);
+            dv[l] = d, Pdv[l] = Pd;
+        }
+        assert_int_equal(dkf_dfnerts_node_init(&dk_dfn_node, DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT,
+                                               4, 3, 1, dk_dfn_node_storage,
+                                               ARRAY_LEN(dk_dfn_node_storage), &x4[0], &P4[0], &d,
+                                               &Pd, &Pxd[0]),
+                         DKF_OK);
+        assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(2, 1), 2, edge, 1),
+                         DKF_OK);
+        assert_int_equal(dkf_dfnerts_net_init(&dk_dfn_net, &g, dk_dfn_net_nodes,
+                                              DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, 4, 3, 1,
+                                              dk_dfn_net_storage, ARRAY_LEN(dk_dfn_net_storage),
+                                              x4, P4, dv, Pdv, Pxd),
+                         DKF_OK);
+    }
     assert_int_equal(ARRAY_LEN(dk_tw_node_storage), DKF_TW_NODE_STORAGE_LEN(3, 2, 1));
     assert_int_equal(dkf_tw_node_init(&dk_tw_node, 3, 2, 1, dk_tw_node_storage,
                                       ARRAY_LEN(dk_tw_node_storage), &x, &P),
@@ -1845,6 +2040,7 @@ int main(void)
         cmocka_unit_test(test_uif),         cmocka_unit_test(test_tw_node),
         cmocka_unit_test(test_tw_net),
         cmocka_unit_test(test_nerts),
+        cmocka_unit_test(test_dfnerts),
         cmocka_unit_test(test_exact_storage),
         cmocka_unit_test(test_declare_macros),
     };

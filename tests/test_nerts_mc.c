@@ -57,21 +57,6 @@ static double input(size_t k, size_t j)
     return 0.8 * sin(0.3 * (double)k) + 0.2 * cos(0.11 * (double)k);
 }
 
-/* e^T S^{-1} e for the SPD S (dim x dim), by a Cholesky factor in double. */
-static double nees(const double *S, const double *e, size_t dim)
-{
-    double L[NX * NX], w[NX], v = 0;
-    size_t i, j;
-    sim_chol(L, S, dim);
-    for (i = 0; i < dim; ++i) {
-        double t = e[i];
-        for (j = 0; j < i; ++j) t -= L[i * dim + j] * w[j];
-        w[i] = t / L[i * dim + i];
-        v += w[i] * w[i];
-    }
-    return v;
-}
-
 typedef struct {
     double err[STEPS + 1][NX], var[STEPS + 1][NX], nees_x[STEPS + 1], nees_j[STEPS + 1];
 } acc_t;
@@ -111,8 +96,8 @@ static void run_mc(dkf_nerts_kind_t kind, int drop_pxd, int linear, size_t runs,
          * N(d_0, Pd0) around the deterministic d_0 (a d0_hat fixed at 0
          * would bias x_1 by b sin(d_0), as a first run of this test showed:
          * 3.6 s.e. at k = 1, decaying) */
-        sim_chol(Lp, P0d, N);
-        sim_noise(&rng, Lp, N, e0);
+        test_dchol(Lp, P0d, N);
+        test_draw(&rng, e0, Lp, N);
         for (i = 0; i < N; ++i) x0[i] = 0, xt[i] = (dkf_real_t)e0[i];
         d0[0] = (dkf_real_t)(input(0, 0) + 0.5 * test_rng_normal(&rng));
         sim_run(&sim, &md, xt, input, Qd, Rd, STEPS, &rng);
@@ -133,9 +118,9 @@ static void run_mc(dkf_nerts_kind_t kind, int drop_pxd, int linear, size_t runs,
                 double Sx[N * N];
                 for (i = 0; i < N; ++i)
                     for (j = 0; j < N; ++j) Sx[i * N + j] = S[i * NX + j];
-                a->nees_x[k] += nees(Sx, e, N) / (double)runs;
+                a->nees_x[k] += test_nees(e, Sx, N) / (double)runs;
             }
-            a->nees_j[k] += nees(S, e, NX) / (double)runs;
+            a->nees_j[k] += test_nees(e, S, NX) / (double)runs;
             for (i = 0; i < NX; ++i) {
                 a->err[k][i] += e[i] / (double)runs;
                 a->var[k][i] += S[i * NX + i] / (double)runs;

@@ -35,51 +35,6 @@ static const double PR[25] = {1e-2, 0, 0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e
                               0,    0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2};
 #define P0_DIAG 0.1
 
-/* Lower Cholesky factor of the SPD n x n A, in double. */
-static void dchol(double *L, const double *A, size_t n)
-{
-    size_t i, j, k;
-    memset(L, 0, n * n * sizeof *L);
-    for (j = 0; j < n; ++j) {
-        double s = A[j * n + j];
-        for (k = 0; k < j; ++k) s -= L[j * n + k] * L[j * n + k];
-        assert_true(s > 0.0);
-        L[j * n + j] = sqrt(s);
-        for (i = j + 1; i < n; ++i) {
-            double t = A[i * n + j];
-            for (k = 0; k < j; ++k) t -= L[i * n + k] * L[j * n + k];
-            L[i * n + j] = t / L[j * n + j];
-        }
-    }
-}
-
-/* e^T S^-1 e for SPD S (k x k), in double. */
-static double nees(const double *e, const double *S, size_t k)
-{
-    double L[64], w[8], s = 0.0;
-    size_t i, j;
-    dchol(L, S, k);
-    for (i = 0; i < k; ++i) {
-        double t = e[i];
-        for (j = 0; j < i; ++j) t -= L[i * k + j] * w[j];
-        w[i] = t / L[i * k + i];
-        s += w[i] * w[i];
-    }
-    return s;
-}
-
-/* x = L z, z ~ N(0, I). */
-static void draw(test_rng_t *r, double *x, const double *L, size_t n)
-{
-    double z[8];
-    size_t i, j;
-    for (i = 0; i < n; ++i) z[i] = test_rng_normal(r);
-    for (i = 0; i < n; ++i) {
-        x[i] = 0.0;
-        for (j = 0; j <= i; ++j) x[i] += L[i * n + j] * z[j];
-    }
-}
-
 /* Two-sided 99.9 % band of chi2(nu) / R (Wilson-Hilferty, accurate to a
  * fraction of a percent for nu >= 100). */
 static void chi2_band(double nu, double runs, double *lo, double *hi)
@@ -124,8 +79,8 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
     memcpy(H, PH, sizeof H);
     H[3 * 3 + 0] = h30;
     if (!df) memset(H, 0, sizeof H);
-    dchol(LQ, Q, 5);
-    dchol(LR, PR, 5);
+    test_dchol(LQ, Q, 5);
+    test_dchol(LR, PR, 5);
     test_to_real(rA, PA, 25), test_to_real(rG, PG, 15), test_to_real(rQ, Q, 25);
     test_to_real(rC, C, 25), test_to_real(rH, H, 15), test_to_real(rR, PR, 25);
     test_to_real(P0r, P0, 25);
@@ -149,7 +104,7 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
             input_at(t, d1amp, d);
             if (t > 0) { /* x_t = A x + G d_{t-1} + w */
                 double xn[5];
-                draw(&rng, w, LQ, 5);
+                test_draw(&rng, w, LQ, 5);
                 for (i = 0; i < 5; ++i) {
                     xn[i] = w[i];
                     for (j = 0; j < 5; ++j) xn[i] += PA[i * 5 + j] * x[j];
@@ -157,7 +112,7 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
                 }
                 memcpy(x, xn, sizeof x);
             }
-            draw(&rng, v, LR, 5);
+            test_draw(&rng, v, LR, 5);
             for (i = 0; i < 5; ++i) {
                 double yi = x[i] + v[i]; /* C = I */
                 for (j = 0; j < 3; ++j) yi += H[i * 3 + j] * d[j];
@@ -170,7 +125,7 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
                 for (i = 0; i < 5; ++i) ex[i] = x[i] - (double)b.f.x.data[i];
                 test_to_double(Px, b.f.Px.data, 25);
                 if (k >= 10) {
-                    out->x_avg += nees(ex, Px, 5);
+                    out->x_avg += test_nees(ex, Px, 5);
                     ++avg_n;
                 }
                 if (k == STEPS - 1) {
@@ -185,8 +140,8 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
                         ed[i] = dd[est[i]] - (double)b.f.d.data[est[i]];
                         for (j = 0; j < ne; ++j) Pd[i * ne + j] = (double)b.f.Pd.data[est[i] * 3 + est[j]];
                     }
-                    out->x_nees += nees(ex, Px, 5) / RUNS;
-                    out->d_nees += nees(ed, Pd, ne) / RUNS;
+                    out->x_nees += test_nees(ex, Px, 5) / RUNS;
+                    out->d_nees += test_nees(ed, Pd, ne) / RUNS;
                     out->d_dof = ne;
                     if (kind == DKF_UIF_RTSF) { /* joint [x; d] with Pxd */
                         for (i = 0; i < 8; ++i) ej[i] = i < 5 ? ex[i] : dd[i - 5] - (double)b.f.d.data[i - 5];
@@ -194,7 +149,7 @@ static void monte_carlo(dkf_uif_kind_t kind, double h30, double d1amp, mc_t *out
                             for (j = 0; j < 8; ++j)
                                 Pj[i * 8 + j] = (double)(i < 5 ? (j < 5 ? b.f.Px.data[i * 5 + j] : b.f.Pxd.data[i * 3 + j - 5])
                                                                : (j < 5 ? b.f.Pxd.data[j * 3 + i - 5] : b.f.Pd.data[(i - 5) * 3 + j - 5]));
-                        out->j_nees += nees(ej, Pj, 8) / RUNS;
+                        out->j_nees += test_nees(ej, Pj, 8) / RUNS;
                     }
                 }
             }

@@ -1,7 +1,7 @@
 /*
  * dkf/nerts.h - single-node nonlinear joint state and unknown-input
- * filters of seed 001 (Ding, Xiao, Zhang 2014), with the corrections of
- * docs/infofusion.md.
+ * filters of seed 001 (Ding, Xiao, Zhang 2014), with the corrections
+ * docs/nerts.md lists.
  *
  *   x_{k+1} = f(x_k, d_k, u_k) + w_k,   w ~ N(0, Q_k)
  *   z_k     = h(x_k, d_k, u_k) + v_k,   v ~ N(0, R_k), R_k > 0
@@ -30,12 +30,13 @@
  *                          information kinds Y_pred = P_pred^{-1},
  *                          y_pred = Y_pred x_pred.
  *   2. dkf_nerts_local     the local measurement statistics of z_k: z_hat,
- *                          nu, R_tilde, Pxz, M, the input estimate d_loc,
- *                          Pd_loc, Pxd_loc, and for the information kinds
- *                          C, Rbar, Rbar_inv and the contributions i, I.
+ *                          nu, R_tilde, Pxz, C, Rbar, M, the input estimate
+ *                          d_loc, Pd_loc, Pxd_loc, and for the information
+ *                          kinds Rbar_inv and the contributions i, I.
  *   3. dkf_nerts_update    commits the filter's own measurement update
  *      or                  (covariance form: x = x_pred + L nu, Px =
- *                          P_pred - L Pxz^T; information form: Y = Y_pred
+ *                          P_pred - L Pxz^T, or its equal Joseph form with
+ *                          DKF_JOSEPH; information form: Y = Y_pred
  *                          + I, y = y_pred + i, Px = Y^{-1}, x = Px y);
  *      dkf_nerts_commit_info commits a given (Y, y) (e.g. after consensus):
  *                          Px = Y^{-1}, x = Px y.
@@ -50,7 +51,7 @@
  * f->k. The model is an argument of each phase (it may differ between
  * calls, its n, m, p may not).
  *
- * Equations (docs/infofusion.md; nu = y_diff(z, z_hat)):
+ * Equations (docs/nerts.md; nu = y_diff(z, z_hat)):
  *   EKF (NERTSF / NERTSIF): Fx, Fd at (x, d); x_pred = f(x, d);
  *     P_pred = [Fx Fd] [[Px, Pxd], [Pxd^T, Pd]] [Fx Fd]^T + Q   (10)-(11)
  *     Hx, Hd at (x_pred, d); z_hat = h(x_pred, d) - Hd d;
@@ -91,8 +92,10 @@
  *                      covariance [[Px, Pxd], [Pxd^T, Pd]] a commit would
  *                      store is not positive definite (Algorithm 3 mixing a
  *                      consensus Px with local Pd, Pxd: note section 4 item 6)
- *   DKF_ERR_RANK       Hd not of full column rank p (Hd^T R_tilde^{-1} Hd
- *                      numerically singular), or m < p at init
+ *   DKF_ERR_RANK       Hd not of full column rank p: a pivot of the
+ *                      Cholesky factor of G = Hd^T R_tilde^{-1} Hd with
+ *                      L_ii^2 <= 16 p eps G_ii (docs/nerts.md), or m < p
+ *                      at init
  *   DKF_ERR_DIM        a model, Q, R, z, Y or y of the wrong size
  *   DKF_ERR_STATE      out of order (see above), or commit_info on a
  *                      covariance kind
@@ -136,13 +139,15 @@ enum {
 /* Scratch of one phase: the results of a phase staged before they are
  * copied into the state (DKF__NERTS_OUT_LEN), cubature points (2 (n + p)
  * of n + p reals, and their images: 2 (n + p) x max(n, m)), factors and
- * products (8 max(n + p, m)^2), the Jacobians' workspace, the
- * contribution's workspace and an information filter (dkf/info.h). */
+ * products (8 max(n + p, m)^2) and vectors (8 max(n + p, m)), the
+ * Jacobians' workspace, the contribution's workspace and an information
+ * filter (dkf/info.h). */
 #define DKF__NERTS_R(n, m, p) DKF__NERTS_MAX((n) + (p), (m))
 #define DKF__NERTS_SCRATCH_LEN(n, m, p) \
     (DKF__NERTS_OUT_LEN(n, m, p) + 2 * ((n) + (p)) * ((n) + (p)) + \
      2 * ((n) + (p)) * DKF__NERTS_MAX(n, m) + \
-     8 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + DKF_NL_JAC_WORK(n, m, p) + \
+     8 * DKF__NERTS_R(n, m, p) * DKF__NERTS_R(n, m, p) + 8 * DKF__NERTS_R(n, m, p) + \
+     DKF_NL_JAC_WORK(n, m, p) + \
      DKF_INFO_CONTRIB_WORK(n, m) + DKF_INFO_STORAGE_LEN(n))
 
 /* The first DKF_NERTS_STATE_LEN(n, m, p) reals of the storage hold every
@@ -230,8 +235,8 @@ dkf_status_t dkf_nerts_update(dkf_nerts_t *f);
  * consensus (Algorithm 3): Px = Y^{-1}, x = Px y, d = d_loc, Pd = Pd_loc,
  * Pxd = Pxd_loc, k += 1. DKF_ERR_NOT_SPD if Y is not SPD or the joint
  * covariance [[Px, Pxd_loc], [Pxd_loc^T, Pd_loc]] is not positive
- * definite. Y and y may be f->Y_pred / f->I's neighbours' data, never
- * f's own views other than f->Y and f->y. */
+ * definite. Y and y are copied before anything is written, so they may
+ * be any arrays, f's own views (f->Y, f->y, f->Y_pred, ...) included. */
 dkf_status_t dkf_nerts_commit_info(dkf_nerts_t *f, const dkf_mat_t *Y, const dkf_mat_t *y);
 
 /* The three phases in one call: predict with (u_prev, Q), local with

@@ -328,3 +328,48 @@ void test_assert_stress_bounds(const char *who, const char *const what[], const 
         }
     }
 }
+
+void test_dchol(double *L, const double *A, size_t n)
+{
+    size_t i, j, k;
+    memset(L, 0, n * n * sizeof *L);
+    for (j = 0; j < n; ++j) {
+        double s = A[j * n + j];
+        for (k = 0; k < j; ++k) s -= L[j * n + k] * L[j * n + k];
+        assert_true(s >= 0.0);
+        L[j * n + j] = sqrt(s);
+        for (i = j + 1; i < n; ++i) {
+            double t = A[i * n + j];
+            for (k = 0; k < j; ++k) t -= L[i * n + k] * L[j * n + k];
+            L[i * n + j] = s > 0.0 ? t / L[j * n + j] : 0.0;
+        }
+    }
+}
+
+void test_draw(test_rng_t *r, double *x, const double *L, size_t n)
+{
+    double z[DKF_MAX_DIM];
+    size_t i, j;
+    assert_true(n <= DKF_MAX_DIM);
+    for (i = 0; i < n; ++i) z[i] = test_rng_normal(r);
+    for (i = 0; i < n; ++i) {
+        x[i] = 0.0;
+        for (j = 0; j <= i; ++j) x[i] += L[i * n + j] * z[j];
+    }
+}
+
+double test_nees(const double *e, const double *S, size_t k)
+{
+    static double L[DKF_MAX_DIM * DKF_MAX_DIM];
+    double w[DKF_MAX_DIM], s = 0.0;
+    size_t i, j;
+    assert_true(k <= DKF_MAX_DIM);
+    test_dchol(L, S, k);
+    for (i = 0; i < k; ++i) {
+        double t = e[i];
+        for (j = 0; j < i; ++j) t -= L[i * k + j] * w[j];
+        w[i] = t / L[i * k + i];
+        s += w[i] * w[i];
+    }
+    return s;
+}

@@ -40,6 +40,16 @@ void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t
  * [1, cond], scaled by `scale`). */
 void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale);
 
+/* Lower L (n x n, double) with A = L L^T for the symmetric PSD A,
+ * independent of the library's Cholesky; a zero pivot gives a zero column
+ * (a singular Q), a negative one fails the test. */
+void test_dchol(double *L, const double *A, size_t n);
+/* x (n) = L z with z ~ N(0, I) drawn first (n normals, in order). */
+void test_draw(test_rng_t *r, double *x, const double *L, size_t n);
+/* e^T S^{-1} e for the SPD S (k x k, k <= DKF_MAX_DIM), in double (the
+ * normalised estimation error squared of Monte-Carlo tests). */
+double test_nees(const double *e, const double *S, size_t k);
+
 /* Double-precision reference products: C = A B (A r x k, B k x c). */
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
 

@@ -1,0 +1,440 @@
+/*
+ * DF-DNERTSIF / DF-CKF (dkf/dfnerts.h): seed 001 Algorithm 3 on top of the
+ * single-node phases of dkf/nerts.h, and the joint-information variant.
+ * Equation numbers are the paper's; docs/infofusion.md has the
+ * corrections (the tau = 1 contribution scaled by s, the mixed joint
+ * covariance of section 4 item 6).
+ */
+#include "dkf/dfnerts.h"
+
+#include <string.h>
+
+#include "internal.h"
+#include "kernels.h"
+
+/* Node storage (DKF_DFNERTS_NODE_STORAGE_LEN): the filter's storage (its
+ * state first), the current packet, s * contribution, the snapshot of
+ * the filter's state, then scratch. With base == NULL it only counts. */
+typedef struct {
+    dkf_real_t *f, *pkt, *contrib, *snap;
+    dkf_real_t *mixed;         /* a round's mix before it is accepted */
+    dkf_real_t *A, *Lc, *Pinv; /* q x q: unpacked Y, its factor, its inverse */
+    dkf_real_t *Yx;            /* q x q: the x marginal's information (JOINT) */
+    dkf_real_t *v, *yx, *inv;  /* q: vectors, the factor's inverse diagonal */
+    dkf_real_t *CH, *Wh;       /* m x q: [C Hd], its whitened form */
+    dkf_real_t *Lr;            /* m x m: chol(Rbar) */
+    dkf_real_t *zt, *w;        /* m: nu + C x_pred, whitened */
+} layout_t;
+
+static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+{
+    const size_t q = n + p, pkt = DKF_DFNERTS_PKT_MAX(n, p);
+    size_t used = 0;
+    DKF_TAKE(L->f, DKF_NERTS_STORAGE_LEN(n, m, p));
+    DKF_TAKE(L->pkt, pkt);
+    DKF_TAKE(L->contrib, pkt);
+    DKF_TAKE(L->snap, DKF_NERTS_STATE_LEN(n, m, p));
+    DKF_TAKE(L->mixed, pkt);
+    DKF_TAKE(L->A, q * q);
+    DKF_TAKE(L->Lc, q * q);
+    DKF_TAKE(L->Pinv, q * q);
+    DKF_TAKE(L->Yx, q * q);
+    DKF_TAKE(L->v, q);
+    DKF_TAKE(L->yx, q);
+    DKF_TAKE(L->inv, q);
+    DKF_TAKE(L->CH, m * q);
+    DKF_TAKE(L->Wh, m * q);
+    DKF_TAKE(L->Lr, m * m);
+    DKF_TAKE(L->zt, m);
+    DKF_TAKE(L->w, m);
+    return used;
+}
+
+static layout_t mem_of(const dkf_dfnerts_node_t *nd)
+{
+    layout_t L;
+    (void)layout(&L, nd->mem, nd->n, nd->m, nd->p);
+    return L;
+}
+
+static int dims_ok(size_t n, size_t m, size_t p)
+{
+    return n > 0 && m > 0 && n <= DKF_MAX_DIM && m <= DKF_MAX_DIM && p <= DKF_MAX_DIM &&
+           n + p <= DKF_MAX_DIM;
+}
+
+dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind,
+                                   dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
+                                   dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                                   const dkf_mat_t *P0, const dkf_mat_t *d0,
+                                   const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
+{
+    dkf_dfnerts_node_t g;
+    layout_t L;
+    DKF_CHECK_NULL(nd);
+    DKF_CHECK_NULL(storage);
+    if (kind != DKF_NERTS_NERTSIF && kind != DKF_NERTS_DNERTSIF) return DKF_ERR_ARG;
+    if (variant != DKF_DFNERTS_PAPER && variant != DKF_DFNERTS_JOINT) return DKF_ERR_ARG;
+    if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
+    if (storage_len < layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
+    (void)layout(&L, storage, n, m, p);
+    memset(&g, 0, sizeof g);
+    DKF_TRY(dkf_nerts_init(&g.f, kind, n, m, p, L.f, DKF_NERTS_STORAGE_LEN(n, m, p), x0, P0, d0,
+                           Pd0, Pxd0));
+    g.variant = variant;
+    g.n = n;
+    g.m = m;
+    g.p = p;
+    g.q = variant == DKF_DFNERTS_JOINT ? n + p : n;
+    g.pkt_len = DKF_DFNERTS_PKT_LEN(g.q);
+    g.pkt = L.pkt;
+    g.mem = storage;
+    g.ready = 1;
+    g.saved = g.f;
+    *nd = g;
+    return DKF_OK;
+}
+
+/* The filter back to the snapshot taken by the last local. */
+static void restore(dkf_dfnerts_node_t *nd, const layout_t *L)
+{
+    nd->f = nd->saved;
+    dkf__copy(L->f, L->snap, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
+    nd->pending = 0;
+    nd->tau = 0;
+    nd->scale = DKF_R(0.0);
+}
+
+/* PAPER: pkt = [y_pred | Y_pred], contrib = s [i | I]        (Alg. 3, (56)-(57)) */
+static void paper_packets(const dkf_dfnerts_node_t *nd, const layout_t *L, dkf_real_t s)
+{
+    const size_t n = nd->n;
+    size_t e;
+    dkf__copy(L->pkt, nd->f.y_pred.data, n);
+    dkf__pack_sym(L->pkt + n, nd->f.Y_pred.data, n);
+    dkf__copy(L->contrib, nd->f.i.data, n);
+    dkf__pack_sym(L->contrib + n, nd->f.I.data, n);
+    for (e = 0; e < nd->pkt_len; ++e) L->contrib[e] *= s;
+}
+
+/* JOINT: pkt = [y_pred; 0 | blkdiag(Y_pred, 0)] and contrib = s [j | J],
+ * J = [C Hd]^T Rbar^{-1} [C Hd], j = [C Hd]^T Rbar^{-1} (nu + C x_pred),
+ * in square-root form (Rbar = Lr Lr^T, Wh = Lr^{-1} [C Hd]: J = Wh^T Wh,
+ * a Gram matrix). DKF_ERR_NOT_SPD if Rbar is not. */
+static dkf_status_t joint_packets(const dkf_dfnerts_node_t *nd, const layout_t *L, dkf_real_t s)
+{
+    dkf_real_t inv[DKF_MAX_DIM];
+    const dkf_nerts_t *f = &nd->f;
+    const size_t n = nd->n, m = nd->m, p = nd->p, q = nd->q;
+    size_t r, e;
+    for (e = 0; e < q * q; ++e) L->A[e] = DKF_R(0.0);
+    dkf__put_block(L->A, q, 0, 0, f->Y_pred.data, n, n);
+    dkf__copy(L->pkt, f->y_pred.data, n);
+    for (e = n; e < q; ++e) L->pkt[e] = DKF_R(0.0);
+    dkf__pack_sym(L->pkt + q, L->A, q);
+
+    dkf__put_block(L->CH, q, 0, 0, f->C.data, m, n);
+    if (p > 0) dkf__put_block(L->CH, q, 0, n, f->Hd.data, m, p);
+    dkf__mul_vec(L->zt, f->C.data, f->x_pred.data, m, n);
+    for (r = 0; r < m; ++r) L->zt[r] += f->nu.data[r];
+    if (dkf__chol(L->Lr, inv, f->Rbar.data, m) != 0) return DKF_ERR_NOT_SPD;
+    dkf__whiten(L->Wh, L->w, L->Lr, inv, L->CH, L->zt, m, q);
+    dkf__mul_tn(L->A, L->Wh, L->Wh, NULL, m, q, q);
+    dkf__mul_tn(L->contrib, L->Wh, L->w, NULL, m, q, 1);
+    dkf__pack_sym(L->contrib + q, L->A, q);
+    for (e = 0; e < nd->pkt_len; ++e) L->contrib[e] *= s;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t *model,
+                                    const dkf_real_t *u_prev, const dkf_mat_t *Q,
+                                    const dkf_real_t *u, const dkf_mat_t *R, const dkf_mat_t *z,
+                                    dkf_real_t scale, dkf_real_t *pkt)
+{
+    layout_t L;
+    dkf_status_t st;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    if (nd->pending) restore(nd, &L);
+    if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
+    nd->saved = nd->f;
+    dkf__copy(L.snap, L.f, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
+    st = dkf_nerts_predict(&nd->f, model, u_prev, Q);
+    if (st == DKF_OK) st = dkf_nerts_local(&nd->f, model, u, R, z);
+    if (st == DKF_OK) {
+        if (nd->variant == DKF_DFNERTS_JOINT) st = joint_packets(nd, &L, scale);
+        else
+            paper_packets(nd, &L, scale);
+    }
+    if (st == DKF_OK && (!dkf__all_finite(L.pkt, nd->pkt_len) ||
+                         !dkf__all_finite(L.contrib, nd->pkt_len)))
+        st = DKF_ERR_NONFINITE;
+    if (st != DKF_OK) {
+        restore(nd, &L);
+        return st;
+    }
+    nd->scale = scale;
+    nd->tau = 0;
+    nd->pending = 1;
+    if (pkt != NULL) dkf__copy(pkt, L.pkt, nd->pkt_len);
+    return DKF_OK;
+}
+
+/* Accepts a round's mix (in L->mixed): + s contribution at tau = 1
+ * (Remark 1), then it becomes the node's packet. */
+static dkf_status_t absorb(dkf_dfnerts_node_t *nd, const layout_t *L, dkf_real_t *mixed)
+{
+    size_t e;
+    if (nd->tau == 0)
+        for (e = 0; e < nd->pkt_len; ++e) mixed[e] += L->contrib[e];
+    if (!dkf__all_finite(mixed, nd->pkt_len)) return DKF_ERR_NONFINITE;
+    dkf__copy(L->pkt, mixed, nd->pkt_len);
+    ++nd->tau;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_dfnerts_node_mix(dkf_dfnerts_node_t *nd, const dkf_real_t *const in[],
+                                  const dkf_real_t *w, size_t count, dkf_real_t *out)
+{
+    layout_t L;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    DKF_TRY(dkf_graph_mix(L.mixed, nd->pkt_len, in, w, count));
+    DKF_TRY(absorb(nd, &L, L.mixed));
+    if (out != NULL) dkf__copy(out, L.pkt, nd->pkt_len);
+    return DKF_OK;
+}
+
+/* JOINT commit: P_X = Y_X^{-1}, X = P_X y_X; the blocks into the filter
+ * as a commit of dkf/nerts.h would leave them (phase POSTERIOR, k + 1),
+ * with its Y = Px^{-1}, y = Y x. Everything is formed in scratch first. */
+static dkf_status_t joint_commit(dkf_dfnerts_node_t *nd, const layout_t *L)
+{
+    dkf_nerts_t *f = &nd->f;
+    const size_t n = nd->n, p = nd->p, q = nd->q;
+    size_t r, c;
+    dkf__unpack_sym(L->A, L->pkt + q, q);
+    if (dkf__chol(L->Lc, L->inv, L->A, q) != 0) return DKF_ERR_NOT_SPD;
+    dkf__chol_inverse(L->Pinv, L->Lc, L->inv, q);
+    dkf__mul_vec(L->v, L->Pinv, L->pkt, q, q);
+    if (!dkf__all_finite(L->Pinv, q * q) || !dkf__all_finite(L->v, q)) return DKF_ERR_NONFINITE;
+    /* the x marginal's information Px^{-1} (Lc, A reused: n x n) */
+    for (r = 0; r < n; ++r)
+        for (c = 0; c < n; ++c) L->A[r * n + c] = L->Pinv[r * q + c];
+    if (dkf__chol(L->Lc, L->inv, L->A, n) != 0) return DKF_ERR_NOT_SPD;
+    dkf__chol_inverse(L->Yx, L->Lc, L->inv, n);
+    dkf__mul_vec(L->yx, L->Yx, L->v, n, n);
+    if (!dkf__all_finite(L->Yx, n * n) || !dkf__all_finite(L->yx, n)) return DKF_ERR_NONFINITE;
+    /* apply */
+    dkf__copy(f->x.data, L->v, n);
+    dkf__copy(f->Px.data, L->A, n * n);
+    for (r = 0; r < n; ++r)
+        for (c = 0; c < p; ++c) f->Pxd.data[r * p + c] = L->Pinv[r * q + n + c];
+    for (r = 0; r < p; ++r) {
+        f->d.data[r] = L->v[n + r];
+        for (c = 0; c < p; ++c) f->Pd.data[r * p + c] = L->Pinv[(n + r) * q + n + c];
+    }
+    dkf__copy(f->Y.data, L->Yx, n * n);
+    dkf__copy(f->y.data, L->yx, n);
+    f->phase = DKF_NERTS_POSTERIOR;
+    ++f->k;
+    return DKF_OK;
+}
+
+/* The commit without accepting it: the snapshot stays (the network may
+ * still undo it). */
+static dkf_status_t commit_step(dkf_dfnerts_node_t *nd)
+{
+    layout_t L;
+    if (!nd->ready || !nd->pending || nd->tau == 0) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    if (nd->variant == DKF_DFNERTS_JOINT) {
+        DKF_TRY(joint_commit(nd, &L));
+    } else {
+        dkf_mat_t Y, y;
+        dkf__view(&Y, nd->n, nd->n, L.A);
+        dkf__view(&y, nd->n, 1, L.v);
+        dkf__unpack_sym(L.A, L.pkt + nd->n, nd->n);
+        dkf__copy(L.v, L.pkt, nd->n);
+        DKF_TRY(dkf_nerts_commit_info(&nd->f, &Y, &y));
+    }
+    nd->pending = 0;
+    nd->tau = 0;
+    nd->scale = DKF_R(0.0);
+    return DKF_OK;
+}
+
+/* Between steps saved == f, so a failed call leaves the struct as it was. */
+dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd)
+{
+    DKF_CHECK_NULL(nd);
+    DKF_TRY(commit_step(nd));
+    nd->saved = nd->f;
+    return DKF_OK;
+}
+
+dkf_status_t dkf_dfnerts_node_cancel(dkf_dfnerts_node_t *nd)
+{
+    layout_t L;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
+    L = mem_of(nd);
+    restore(nd, &L);
+    return DKF_OK;
+}
+
+dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dkf_mat_t *x0,
+                                      const dkf_mat_t *P0, const dkf_mat_t *d0,
+                                      const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
+{
+    dkf_nerts_t g;
+    layout_t L;
+    dkf_status_t st;
+    size_t sl;
+    DKF_CHECK_NULL(nd);
+    if (!nd->ready) return DKF_ERR_STATE;
+    sl = DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p);
+    L = mem_of(nd);
+    if (nd->pending) restore(nd, &L);
+    /* dkf_nerts_init writes the filter's storage before its last check */
+    dkf__copy(L.snap, L.f, sl);
+    st = dkf_nerts_init(&g, nd->f.kind, nd->n, nd->m, nd->p, L.f,
+                        DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0);
+    if (st != DKF_OK) {
+        dkf__copy(L.f, L.snap, sl);
+        return st;
+    }
+    g.k = k;
+    nd->f = g;
+    nd->saved = g;
+    return DKF_OK;
+}
+
+/* ---- whole network -------------------------------------------------------- */
+
+/* The network's storage: N nodes' storage, then the two packet buffers. */
+typedef struct {
+    dkf_real_t *node0, *cur, *nxt;
+} net_layout_t;
+
+static size_t net_layout(net_layout_t *L, dkf_real_t *base, size_t N, size_t n, size_t m,
+                         size_t p)
+{
+    size_t used = 0;
+    DKF_TAKE(L->node0, N * DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p));
+    DKF_TAKE(L->cur, N * DKF_DFNERTS_PKT_MAX(n, p));
+    DKF_TAKE(L->nxt, N * DKF_DFNERTS_PKT_MAX(n, p));
+    return used;
+}
+
+dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
+                                  dkf_dfnerts_node_t *nodes, dkf_nerts_kind_t kind,
+                                  dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
+                                  dkf_real_t *storage, size_t storage_len, const dkf_mat_t x0[],
+                                  const dkf_mat_t P0[], const dkf_mat_t d0[],
+                                  const dkf_mat_t Pd0[], const dkf_mat_t Pxd0[])
+{
+    dkf_graph_t chk;
+    dkf_dfnerts_net_t t;
+    net_layout_t L;
+    size_t node_len, l;
+    DKF_CHECK_NULL(net);
+    DKF_CHECK_NULL(g);
+    DKF_CHECK_NULL(nodes);
+    DKF_CHECK_NULL(storage);
+    DKF_CHECK_NULL(x0);
+    DKF_CHECK_NULL(P0);
+    DKF_TRY(dkf_graph_init(&chk, g->N, g->start, g->nbr));
+    if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
+    if (p > 0 && (d0 == NULL || Pd0 == NULL || Pxd0 == NULL)) return DKF_ERR_NULL;
+    if (storage_len / g->N < DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p) ||
+        storage_len < net_layout(&L, NULL, g->N, n, m, p))
+        return DKF_ERR_CAPACITY;
+    (void)net_layout(&L, storage, g->N, n, m, p);
+    node_len = DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p);
+    for (l = 0; l < g->N; ++l)
+        DKF_TRY(dkf_dfnerts_node_init(&nodes[l], kind, variant, n, m, p, L.node0 + l * node_len,
+                                      node_len, &x0[l], &P0[l], p > 0 ? &d0[l] : NULL,
+                                      p > 0 ? &Pd0[l] : NULL, p > 0 ? &Pxd0[l] : NULL));
+    memset(&t, 0, sizeof t);
+    t.g = g;
+    t.N = g->N;
+    t.n = n;
+    t.m = m;
+    t.p = p;
+    t.nodes = nodes;
+    t.cur = L.cur;
+    t.nxt = L.nxt;
+    *net = t;
+    return DKF_OK;
+}
+
+/* Nodes 0 .. count-1 back to before the step (those committed too). */
+static dkf_status_t undo(dkf_dfnerts_net_t *net, size_t count, dkf_status_t st)
+{
+    size_t l;
+    for (l = 0; l < count; ++l) {
+        const layout_t L = mem_of(&net->nodes[l]);
+        restore(&net->nodes[l], &L);
+    }
+    return st;
+}
+
+/* T_p rounds (61) over the whole graph, in net->cur on return. */
+static dkf_status_t rounds(dkf_dfnerts_net_t *net, const dkf_real_t *W, size_t Tp)
+{
+    const size_t stride = DKF_DFNERTS_PKT_MAX(net->n, net->p);
+    const size_t len = net->nodes[0].pkt_len;
+    size_t t, l;
+    for (t = 0; t < Tp; ++t) {
+        dkf_real_t *sw;
+        DKF_TRY(dkf_graph_mix_all(net->nxt, net->cur, len, stride, net->g, W));
+        for (l = 0; l < net->N; ++l) {
+            const layout_t L = mem_of(&net->nodes[l]);
+            DKF_TRY(absorb(&net->nodes[l], &L, net->nxt + l * stride));
+        }
+        sw = net->cur;
+        net->cur = net->nxt;
+        net->nxt = sw;
+    }
+    return DKF_OK;
+}
+
+dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t models[],
+                                  const dkf_real_t *u_prev, const dkf_mat_t Q[],
+                                  const dkf_real_t *u, const dkf_mat_t R[], const dkf_mat_t z[],
+                                  const dkf_real_t *W, size_t Tp, dkf_real_t scale)
+{
+    size_t stride, l;
+    DKF_CHECK_NULL(net);
+    if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
+    DKF_CHECK_NULL(models);
+    DKF_CHECK_NULL(Q);
+    DKF_CHECK_NULL(R);
+    DKF_CHECK_NULL(z);
+    if (Tp == 0 || Tp > DKF_DFNERTS_MAX_TP) return DKF_ERR_ARG;
+    if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
+    DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
+    stride = DKF_DFNERTS_PKT_MAX(net->n, net->p);
+    for (l = 0; l < net->N; ++l) {
+        const dkf_status_t st = dkf_dfnerts_node_local(&net->nodes[l], &models[l], u_prev, &Q[l],
+                                                       u, &R[l], &z[l], scale,
+                                                       net->cur + l * stride);
+        if (st != DKF_OK) return undo(net, l, st);
+    }
+    {
+        const dkf_status_t st = rounds(net, W, Tp);
+        if (st != DKF_OK) return undo(net, net->N, st);
+    }
+    for (l = 0; l < net->N; ++l) {
+        const dkf_status_t st = commit_step(&net->nodes[l]);
+        if (st != DKF_OK) return undo(net, net->N, st);
+    }
+    for (l = 0; l < net->N; ++l) net->nodes[l].saved = net->nodes[l].f;
+    net->reals_sent += (unsigned long)(net->N * Tp * net->nodes[0].pkt_len);
+    net->broadcasts += (unsigned long)(net->N * Tp);
+    ++net->steps;
+    return DKF_OK;
+}

@@ -49,6 +49,11 @@ int dkf_est_run_check(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_
                          "or cases layout; this seed-%s file runs with %s", s->file, f->name,
                          s->layout == DKF_SCN_LAYOUT_NETWORK ? "003" : "004",
                          dkf_registry_names(names, sizeof names, 0, (int)s->layout));
+    if (s->layout == DKF_SCN_LAYOUT_NLCASES)
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu]: filter %s is linear; "
+                         "this case has a nonlinear model and runs with %s", s->file,
+                         s->case_index, f->name,
+                         dkf_registry_names(names, sizeof names, 0, (int)s->layout));
     if ((o->has_d00 || o->Pd00_scale > 0) && !(f->options & DKF_RUN_OPT_D00))
         return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: --d00/--Pd00-scale: only for %s",
                          s->file, dkf_registry_names(names, sizeof names, DKF_RUN_OPT_D00, -1));

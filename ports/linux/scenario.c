@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "nlm.h"
 #include "scn_parse.h"
 
 /* ---- runs ------------------------------------------------------------------- */
@@ -188,6 +189,11 @@ void dkf_scenario_free(dkf_scenario_t *s)
     }
     free(s->truth_u_k);
     free(s->truth_u);
+    if (s->nl != NULL) {
+        for (i = 0; s->nl->models != NULL && i < s->nsensors; ++i) dkf_nlm_free(s->nl->models[i]);
+        free(s->nl->models);
+        free(s->nl);
+    }
     json_decref(s->root);
     free(s);
 }
@@ -207,6 +213,13 @@ const dkf_scn_mat_t *dkf_scn_sensor_model(const dkf_scenario_t *s, size_t i, con
 const dkf_scn_mat_t *dkf_scn_init(const dkf_scenario_t *s, const char *name)
 {
     return dkf_scn_mats_find(&s->init, name);
+}
+
+const dkf_scn_mat_t *dkf_scn_node_init(const dkf_scenario_t *s, size_t i, const char *name)
+{
+    const dkf_scn_mat_t *m = NULL;
+    if (i < s->nsensors) m = dkf_scn_mats_find(&s->sensors[i].mats, name);
+    return m != NULL ? m : dkf_scn_mats_find(&s->init, name);
 }
 
 const double *dkf_scn_at(const dkf_scn_mat_t *m, size_t k)

@@ -51,8 +51,11 @@ typedef enum {
     DKF_SCN_LAYOUT_CANONICAL = 0, /* model / init / y (diffkf vectors) */
     DKF_SCN_LAYOUT_CASES = 1,     /* cases[].steps[] (infofusion vectors) */
     DKF_SCN_LAYOUT_STEPS = 2,     /* steps[].inputs, one sensor (seed-004 uif vectors) */
-    DKF_SCN_LAYOUT_NETWORK = 3    /* steps[].inputs with a graph: per-node H, Sw, y
+    DKF_SCN_LAYOUT_NETWORK = 3,   /* steps[].inputs with a graph: per-node H, Sw, y
                                    * (seed-003 vectors); s->net holds the graph */
+    DKF_SCN_LAYOUT_NLCASES = 4    /* cases[] with a nonlinear model (built-in family or
+                                   * expressions) per node (seed-001 vectors); s->nl
+                                   * holds the models, s->net the graph of a network */
 } dkf_scn_layout_t;
 
 /* A named matrix that is either constant or given per absolute k, or (for
@@ -85,6 +88,26 @@ typedef struct {
     double *alpha_v;
     long eta;               /* consensus iterations, -1 if absent */
 } dkf_scn_network_t;
+
+/* Nonlinear cases (seed-001 vectors, expression scenarios): one model
+ * per node, built while loading (nlm.h: built-in family or expressions).
+ * A single-node case (`model`, `init`) has nsensors = 1; a network case
+ * (`node_models`, `init_per_node`, `W`, `Tp`, `scale`) one sensor per
+ * node and its graph in s->net (W as triplets, eta = Tp). Each node's
+ * initial estimate is in its sensor's mats as x00, P00, d00, Pd00, Pxd00
+ * (dkf_scn_node_init; the d entries absent when p = 0). z_k of node i is
+ * sensor i's y_k, k = 1..steps. */
+struct dkf_nlm;
+typedef struct {
+    size_t p;                /* unknown input (every node) */
+    struct dkf_nlm **models; /* nsensors models */
+    int network;             /* 1: node_models / W layout */
+    double scale;            /* consensus scale s (1 if the file has none) */
+    int has_scale;
+} dkf_scn_nl_t;
+
+/* Consensus iterations a file may ask for (Tp). */
+#define DKF_SCN_MAX_TP 100000L
 
 /* A named set of matrices (model, one sensor, init). */
 typedef struct {
@@ -148,6 +171,7 @@ typedef struct {
     double *truth_u;          /* ntruth_u * m_u */
     size_t m_u;
     char truth_u_key[16];     /* its key in steps[].truth: d, d_prev or z_prev */
+    dkf_scn_nl_t *nl;         /* nonlinear cases layout: the models; NULL otherwise */
 } dkf_scenario_t;
 
 /* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
@@ -184,6 +208,10 @@ const dkf_scn_mat_t *dkf_scn_init(const dkf_scenario_t *s, const char *name);
 /* The matrix valid at absolute time k (per_k), the constant one, or entry k
  * of a list. NULL if k is outside a per_k / list range. */
 const double *dkf_scn_at(const dkf_scn_mat_t *m, size_t k);
+
+/* Node i's initial-estimate entry `name` (its sensor's mats, else the
+ * file's init). NULL if absent. */
+const dkf_scn_mat_t *dkf_scn_node_init(const dkf_scenario_t *s, size_t i, const char *name);
 
 /* Initial covariance for the filter of sensor i alone (P00_local[i], else
  * P00) or for a filter using every sensor (P00_central, else P00). Never

@@ -95,47 +95,65 @@ static int cases_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, con
     return dkf_scn_parse_init_entry(c, &s->init, as, v, p);
 }
 
+/* Every sensor's y series of N steps (sensor i's m set), blocks y[i]. */
+int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
+                          const char *cpath)
+{
+    size_t i;
+    for (i = 0; i < s->nsensors; ++i) {
+        dkf_scn_sensor_t *se = &s->sensors[i];
+        se->ny = N;
+        se->yk = dkf_scn_calloc(c, N, sizeof *se->yk);
+        if (se->yk == NULL || dkf_scn_block_alloc(c, &y[i], N, se->m, cpath) != 0) return -1;
+        se->y = y[i].v;
+    }
+    return 0;
+}
+
+/* steps[j] (of the case at cpath): an object with k = j + 1 and a z, which
+ * is returned (its key path in pz); NULL after the message. */
+const json_t *dkf_scn_cases_step_z(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
+                                   const char *cpath, char *pz)
+{
+    const json_t *st = json_array_get(steps, j), *z;
+    char p[DKF_SCN_PATH_LEN];
+    long k;
+    dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
+    if (!json_is_object(st)) {
+        dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(st));
+        return NULL;
+    }
+    dkf_scn_subkey(pz, p, "k");
+    if (json_object_get(st, "k") == NULL) {
+        dkf_scn_fail(c, pz, "missing key");
+        return NULL;
+    }
+    if (dkf_scn_get_integer(c, json_object_get(st, "k"), pz, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
+        return NULL;
+    if (k != (long)j + 1) {
+        dkf_scn_fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+        return NULL;
+    }
+    z = json_object_get(st, "z");
+    dkf_scn_subkey(pz, p, "z");
+    if (z == NULL) dkf_scn_fail(c, pz, "missing key");
+    return z;
+}
+
 static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
                               const char *cpath)
 {
     size_t j, i, N = json_array_size(steps);
-    char p[DKF_SCN_PATH_LEN], pz[DKF_SCN_PATH_LEN];
+    char pz[DKF_SCN_PATH_LEN];
     dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
     int rc = -1;
     if (y == NULL) return -1;
-    for (i = 0; i < s->nsensors; ++i) {
-        dkf_scn_sensor_t *se = &s->sensors[i];
-        se->m = dkf_scn_sensor_model(s, i, "H")->rows;
-        se->ny = N;
-        se->yk = dkf_scn_calloc(c, N, sizeof *se->yk);
-        if (se->yk == NULL || dkf_scn_block_alloc(c, &y[i], N, se->m, cpath) != 0) goto done;
-        se->y = y[i].v;
-    }
+    for (i = 0; i < s->nsensors; ++i) s->sensors[i].m = dkf_scn_sensor_model(s, i, "H")->rows;
+    if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
     for (j = 0; j < N; ++j) {
-        const json_t *st = json_array_get(steps, j), *z;
-        long k;
-        dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
-        if (!json_is_object(st)) {
-            dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(st));
-            goto done;
-        }
-        dkf_scn_subkey(pz, p, "k");
-        if (json_object_get(st, "k") == NULL) {
-            dkf_scn_fail(c, pz, "missing key");
-            goto done;
-        }
-        if (dkf_scn_get_integer(c, json_object_get(st, "k"), pz, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
-            goto done;
-        if (k != (long)j + 1) {
-            dkf_scn_fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
-            goto done;
-        }
-        z = json_object_get(st, "z");
-        dkf_scn_subkey(pz, p, "z");
-        if (z == NULL) {
-            dkf_scn_fail(c, pz, "missing key");
-            goto done;
-        }
+        const json_t *z;
+        const long k = (long)j + 1;
+        if ((z = dkf_scn_cases_step_z(c, steps, j, cpath, pz)) == NULL) goto done;
         if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
             dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
                          s->nsensors, dkf_scn_json_kind(z));
@@ -175,6 +193,8 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
         return dkf_scn_fail(c, cpath, "expected an object, got %s", dkf_scn_json_kind(cj));
     name = json_object_get(cj, "name");
     s->case_name = dkf_scn_dupstr(json_is_string(name) ? json_string_value(name) : "");
+    if (json_object_get(cj, "model") != NULL || json_object_get(cj, "node_models") != NULL)
+        return dkf_scn_load_nlcases(c, s, cj, cpath);
     s->layout = DKF_SCN_LAYOUT_CASES;
     s->multi = 1;
 

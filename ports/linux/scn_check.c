@@ -20,27 +20,37 @@
  * transposed entry is far above 8 eps. */
 #define DKF_SCN_SYM_TOL 8.0
 
+int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n)
+{
+    double amax = 0.0, worst = 0.0;
+    size_t i, j, wi = 0, wj = 0;
+    char va[32], vb[32];
+    for (i = 0; i < n * n; ++i) amax = fmax(amax, fabs(a[i]));
+    for (i = 0; i < n; ++i)
+        for (j = i + 1; j < n; ++j)
+            if (fabs(a[i * n + j] - a[j * n + i]) > worst) {
+                worst = fabs(a[i * n + j] - a[j * n + i]);
+                wi = i;
+                wj = j;
+            }
+    if (worst <= DKF_SCN_SYM_TOL * DBL_EPSILON * amax) return 0;
+    return dkf_scn_fail(c, path,
+                        "not symmetric (a covariance): entries (%zu,%zu) = %s and (%zu,%zu) "
+                        "= %s differ by %.3g > %g eps max|entry| = %.3g", wi, wj,
+                        dkf_scn_num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
+                        dkf_scn_num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
+                        DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
+}
+
 static int require_symmetric(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
                              int is_list)
 {
-    size_t e, i, j, n, count;
-    char p[DKF_SCN_PATH_LEN], va[32], vb[32];
+    size_t e, n, count;
+    char p[DKF_SCN_PATH_LEN];
     if (m == NULL || m->rows != m->cols) return 0; /* shapes are checked elsewhere */
     n = m->rows;
     count = m->count > 0 ? m->count : 1;
     for (e = 0; e < count; ++e) {
-        const double *a = m->data + e * n * n;
-        double amax = 0.0, worst = 0.0;
-        size_t wi = 0, wj = 0;
-        for (i = 0; i < n * n; ++i) amax = fmax(amax, fabs(a[i]));
-        for (i = 0; i < n; ++i)
-            for (j = i + 1; j < n; ++j)
-                if (fabs(a[i * n + j] - a[j * n + i]) > worst) {
-                    worst = fabs(a[i * n + j] - a[j * n + i]);
-                    wi = i;
-                    wj = j;
-                }
-        if (worst <= DKF_SCN_SYM_TOL * DBL_EPSILON * amax) continue;
         if (m->count == 0)
             dkf_scn_pathf(p, "%s", m->path);
         else if (is_list)
@@ -49,12 +59,7 @@ static int require_symmetric(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dk
             dkf_scn_pathf(p, "%s.per_k[%zu]", m->path, e);
         else
             dkf_scn_pathf(p, "%s (entry for k = %zu)", m->path, m->k0 + e);
-        return dkf_scn_fail(c, p,
-                            "not symmetric (a covariance): entries (%zu,%zu) = %s and (%zu,%zu) "
-                            "= %s differ by %.3g > %g eps max|entry| = %.3g", wi, wj,
-                            dkf_scn_num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
-                            dkf_scn_num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
-                            DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
+        if (dkf_scn_check_symmetric(c, p, m->data + e * n * n, n) != 0) return -1;
     }
     return 0;
 }

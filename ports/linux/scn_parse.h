@@ -11,6 +11,9 @@
  *   scn_steps.c      the steps layout (steps[].inputs; seed-004 vectors) and
  *                    its network form (seed-003 vectors: per-node H, Sw, y)
  *   scn_network.c    the network form's graph, weights and eta
+ *   scn_nlcases.c    the nonlinear cases layout (seed-001 vectors): models
+ *                    (nlm.c, nlm_builtin.c, nlm_expr.c use this toolkit
+ *                    too), per-node init, z, the consensus graph
  *   scenario.c       layout dispatch, the public accessors, runs, free
  * None of them knows a filter: a layout fixes which keys a file has and
  * their shapes, nothing about what runs on it.
@@ -31,7 +34,7 @@
 /* Key paths longer than this are cut short: they only label messages. */
 #define DKF_SCN_PATH_LEN 256
 
-typedef struct {
+typedef struct dkf_scn_ctx {
     const char *file;
     char *err;
     size_t errlen;
@@ -99,6 +102,9 @@ int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
 long dkf_scn_find_time(const long *ks, size_t n, long k);
 
 /* ---- checks every layout shares (scn_check.c) ---- */
+/* The n x n covariance a (read from the file at path) symmetric within
+ * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
+int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s);
 int dkf_scn_require_shape(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path,
                           size_t r, size_t cc);
@@ -123,6 +129,27 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
 int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root,
                        const char *sel);
 int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
+/* The cases layouts' measurements (scn_cases.c): every sensor's y series
+ * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and the z
+ * of steps[j] after checking that step (an object, k = j + 1; pz: z's key
+ * path; NULL after the message). */
+int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
+                          const char *cpath);
+const json_t *dkf_scn_cases_step_z(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
+                                   const char *cpath, char *pz);
+/* Case cj (at cpath) of a cases file whose case has `model` or
+ * `node_models` (the nonlinear cases layout). */
+int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
+                         const char *cpath);
+/* The undirected edges [[i, j], ...] at path into net (net->N set; `who`
+ * names what sized N in messages) / the weights obj[key] (dense N x N,
+ * nonzeros kept) or obj[key_sparse] ([[i, j, v], ...]) as triplets
+ * (which: the key found, NULL if neither; base: obj's key path). */
+int dkf_scn_parse_edges(dkf_scn_ctx_t *c, dkf_scn_network_t *net, const json_t *edges,
+                        const char *path, const char *who);
+int dkf_scn_parse_weights(dkf_scn_ctx_t *c, size_t N, const json_t *obj, const char *base,
+                          const char *key, const char **which, size_t *count, size_t **rc,
+                          double **v);
 /* graph.edges, the weights, eta of a network-form steps file. */
 int dkf_scn_load_network(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
 

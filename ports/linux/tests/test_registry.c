@@ -35,8 +35,9 @@ static void test_every_filter_found_once(void **state)
                         assert_string_not_equal(dkf_registry[i2]->filters[j2].name, f->name);
             ++count;
         }
-    /* kf info dkf askf otskf rtsf nrtsf_df nrtsf tw1 tw2 tw3 */
-    assert_int_equal(count, 11);
+    /* kf info dkf askf otskf rtsf nrtsf_df nrtsf tw1 tw2 tw3 nertsf nertsif dnertsf dnertsif
+     * cf_dnertsf df_dnertsif df_ckf df_dnertsif_joint */
+    assert_int_equal(count, 19);
     assert_null(dkf_registry_find("ukf"));
 }
 
@@ -73,6 +74,9 @@ static void test_names_lists(void **state)
                         "tw1, tw2, tw3");
     assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_CASES),
                         "kf, info, dkf, askf, otskf");
+    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_NLCASES),
+                        "nertsf, nertsif, dnertsf, dnertsif, cf_dnertsf, df_dnertsif, df_ckf, "
+                        "df_dnertsif_joint");
 }
 
 /* Loads path, runs filter `name` through the registry's operations only

@@ -272,8 +272,8 @@ json_t *dkf_df_agent_result(const dkf_df_agent_t *a)
 {
     const size_t done = dkf_ra_steps_done(a->ra), n = a->n, p = a->p;
     json_t *d = json_object(), *ks = json_array(), *xs = json_array(), *Ps = json_array(),
-           *ds = json_array(), *dg = json_array(), *ms = json_array(), *nb = json_array();
-    size_t j, e;
+           *ds = json_array();
+    size_t j;
     char id[32];
     snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)a->model_id);
     json_object_set_new(d, "node", json_integer((json_int_t)a->id));
@@ -285,27 +285,16 @@ json_t *dkf_df_agent_result(const dkf_df_agent_t *a)
     json_object_set_new(d, "steps", json_integer((json_int_t)a->s->steps));
     json_object_set_new(d, "Tp", json_integer((json_int_t)a->Tp));
     json_object_set_new(d, "scale", json_real(a->s->nl->scale));
-    for (e = 0; e < a->deg; ++e)
-        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)a->nbr[a->row0 + e]));
-    json_object_set_new(d, "neighbours", nb);
-    for (j = 1; j <= done; ++j) {
-        json_t *miss = json_array();
-        json_array_append_new(ks, json_integer((json_int_t)j));
-        json_array_append_new(xs, dkf_json_doubles(a->xs + (j - 1) * n, n, 0));
-        json_array_append_new(Ps, dkf_json_doubles(a->Ps + (j - 1) * n * n, n, n));
-        json_array_append_new(ds, dkf_json_doubles(a->ds + (j - 1) * p, p, 0));
-        json_array_append_new(dg, json_boolean(dkf_ra_step_degraded(a->ra, j)));
-        for (e = 0; e < a->deg; ++e)
-            if (dkf_ra_step_missing(a->ra, j, e))
-                json_array_append_new(miss, json_integer((json_int_t)a->nbr[a->row0 + e]));
-        json_array_append_new(ms, miss);
+    for (j = 0; j < done; ++j) {
+        json_array_append_new(ks, json_integer((json_int_t)j + 1));
+        json_array_append_new(xs, dkf_json_doubles(a->xs + j * n, n, 0));
+        json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * n * n, n, n));
+        json_array_append_new(ds, dkf_json_doubles(a->ds + j * p, p, 0));
     }
     json_object_set_new(d, "k", ks);
     json_object_set_new(d, "x", xs);
     json_object_set_new(d, "Px", Ps);
     json_object_set_new(d, "d", ds);
-    json_object_set_new(d, "degraded", dg);
-    json_object_set_new(d, "missing", ms);
-    json_object_set_new(d, "counters", dkf_ra_counters_json(a->ra));
+    dkf_ra_result_json(a->ra, done, d);
     return d;
 }

@@ -387,7 +387,7 @@ int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, si
     return dkf_ra_subscription(out, cap, prefix, a->cfg.row, a->deg, a->cfg.id);
 }
 
-json_t *dkf_ra_counters_json(const dkf_ra_t *a)
+static json_t *counters_json(const dkf_ra_t *a)
 {
     const dkf_ra_counters_t *c = &a->cnt;
     json_t *o = json_object(), *by = json_object();
@@ -408,6 +408,26 @@ json_t *dkf_ra_counters_json(const dkf_ra_t *a)
                             json_integer((json_int_t)c->rej.by[v]));
     json_object_set_new(o, "rejected_by_reason", by);
     return o;
+}
+
+void dkf_ra_result_json(const dkf_ra_t *a, size_t steps, json_t *doc)
+{
+    json_t *nb = json_array(), *dg = json_array(), *ms = json_array();
+    size_t j, e;
+    for (e = 0; e < a->deg; ++e)
+        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)a->cfg.row[e]));
+    for (j = 1; j <= steps; ++j) {
+        json_t *miss = json_array();
+        json_array_append_new(dg, json_boolean(dkf_ra_step_degraded(a, j)));
+        for (e = 0; e < a->deg; ++e)
+            if (dkf_ra_step_missing(a, j, e))
+                json_array_append_new(miss, json_integer((json_int_t)a->cfg.row[e]));
+        json_array_append_new(ms, miss);
+    }
+    json_object_set_new(doc, "neighbours", nb);
+    json_object_set_new(doc, "degraded", dg);
+    json_object_set_new(doc, "missing", ms);
+    json_object_set_new(doc, "counters", counters_json(a));
 }
 
 int dkf_ra_state(const dkf_ra_t *a) { return a->state; }

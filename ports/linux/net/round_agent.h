@@ -114,9 +114,10 @@ int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, si
 int dkf_ra_state(const dkf_ra_t *a);
 const char *dkf_ra_error(const dkf_ra_t *a);
 const dkf_ra_counters_t *dkf_ra_counters(const dkf_ra_t *a);
-/* The counters as a JSON object (new reference): sent, reals_sent, ...,
- * rejected and rejected_by_reason {verdict: count}. */
-json_t *dkf_ra_counters_json(const dkf_ra_t *a);
+/* Into a node's result document: "neighbours" (the row without the node),
+ * per step 1..steps "degraded" (bool) and "missing" (node ids), and
+ * "counters" {sent, reals_sent, ..., rejected, rejected_by_reason}. */
+void dkf_ra_result_json(const dkf_ra_t *a, size_t steps, json_t *doc);
 /* Steps completed so far; of step j (1-based, <= that): degraded, and
  * whether row position e was missing in it. */
 size_t dkf_ra_steps_done(const dkf_ra_t *a);

@@ -439,8 +439,8 @@ json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
     const dkf_tw_scn_t *c = a->c;
     const size_t done = a->nd.k;
     json_t *d = json_object(), *ks = json_array(), *xs = json_array(), *Ps = json_array(),
-           *zs = json_array(), *dg = json_array(), *ms = json_array(), *nb = json_array();
-    size_t j, e;
+           *zs = json_array();
+    size_t j;
     char id[32];
     snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)c->model_id);
     json_object_set_new(d, "node", json_integer((json_int_t)a->id));
@@ -452,27 +452,16 @@ json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
     json_object_set_new(d, "E", json_integer((json_int_t)c->E));
     json_object_set_new(d, "steps", json_integer((json_int_t)c->steps));
     json_object_set_new(d, "rounds_per_step", json_integer((json_int_t)c->rounds));
-    for (e = 0; e < a->deg; ++e)
-        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)c->nbr[a->row0 + e]));
-    json_object_set_new(d, "neighbours", nb);
     for (j = 0; j < done; ++j) {
-        json_t *miss = json_array();
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
         json_array_append_new(xs, dkf_json_doubles(a->xs + j * c->n, c->n, 0));
         json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * c->n * c->n, c->n, c->n));
         json_array_append_new(zs, dkf_json_doubles(a->zs + j * c->p, c->p, 0));
-        json_array_append_new(dg, json_boolean(dkf_ra_step_degraded(a->ra, j + 1)));
-        for (e = 0; e < a->deg; ++e)
-            if (dkf_ra_step_missing(a->ra, j + 1, e))
-                json_array_append_new(miss, json_integer((json_int_t)c->nbr[a->row0 + e]));
-        json_array_append_new(ms, miss);
     }
     json_object_set_new(d, "n", ks);
     json_object_set_new(d, "x", xs);
     json_object_set_new(d, "P", Ps);
     json_object_set_new(d, "z", zs);
-    json_object_set_new(d, "degraded", dg);
-    json_object_set_new(d, "missing", ms);
-    json_object_set_new(d, "counters", dkf_ra_counters_json(a->ra));
+    dkf_ra_result_json(a->ra, done, d);
     return d;
 }

@@ -49,25 +49,30 @@ trap cleanup EXIT
 vrel=1e-9
 [[ ${DKF_REAL:-double} == float ]] && vrel=1e-3
 
-# run_nodes SCN ALG DIR SKIP EXTRA... : one process per node (SKIP: a node
-# not started, or -1), waits for all; fails if one fails.
-run_nodes() {
-  local scn=$1 alg=$2 dir=$3 skip=$4; shift 4
-  local N i rc=0 t0 t1
-  N=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
+# nodes SCN N DIR SKIP WHAT ARGS...: one dkf-tw-node per node 0..N-1 with ARGS
+# (SKIP: a node not started, or -1), waits for all; fails if one fails.
+nodes() {
+  local scn=$1 N=$2 dir=$3 skip=$4 what=$5; shift 5
+  local i rc=0 t0 t1 mine=()
   mkdir -p "$dir"
-  local mine=()
   t0=$(date +%s.%N)
   for ((i = 0; i < N; ++i)); do
     [[ $i == "$skip" ]] && continue
-    "$DKF_TW_NODE" --url "$URL" --id $i --alg "$alg" --timeout $T --quiet \
-      --output "$dir/node$i.json" "$@" "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
+    "$DKF_TW_NODE" --url "$URL" --id $i --timeout $T --quiet --output "$dir/node$i.json" "$@" \
+      "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
   done
   for p in "${mine[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
   t1=$(date +%s.%N)
-  echo "alg $alg: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
+  echo "$what: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
   [[ $rc == 0 ]] || cat "$dir"/node*.log
   return $rc
+}
+
+# run_nodes SCN ALG DIR SKIP EXTRA...: seed 003, Algorithm ALG
+run_nodes() {
+  local scn=$1 alg=$2 dir=$3 skip=$4 N; shift 4
+  N=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
+  nodes "$scn" "$N" "$dir" "$skip" "alg $alg" --alg "$alg" "$@"
 }
 
 check() { # SCN ALG DIR [tw_check args]
@@ -77,23 +82,10 @@ check() { # SCN ALG DIR [tw_check args]
     --runner "$dir/runner.json" --vector-rel $vrel --runner-rel 0 "$@"
 }
 
-# df_nodes SCN CASE FILTER N DIR SKIP EXTRA...: one dkf-tw-node --filter per
-# node of a seed-001 network case (SKIP: a node not started, or -1).
+# df_nodes SCN CASE FILTER N DIR SKIP EXTRA...: seed 001's network case CASE
 df_nodes() {
   local scn=$1 cs=$2 flt=$3 N=$4 dir=$5 skip=$6; shift 6
-  local i rc=0 t0 t1 mine=()
-  mkdir -p "$dir"
-  t0=$(date +%s.%N)
-  for ((i = 0; i < N; ++i)); do
-    [[ $i == "$skip" ]] && continue
-    "$DKF_TW_NODE" --url "$URL" --id $i --filter "$flt" --case "$cs" --timeout $T --quiet \
-      --output "$dir/node$i.json" "$@" "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
-  done
-  for p in "${mine[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
-  t1=$(date +%s.%N)
-  echo "$flt $cs: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
-  [[ $rc == 0 ]] || cat "$dir"/node*.log
-  return $rc
+  nodes "$scn" "$N" "$dir" "$skip" "$flt $cs" --filter "$flt" --case "$cs" "$@"
 }
 
 # df_same SCN CASE FILTER LABEL N DIR: processes == dkf-run in process

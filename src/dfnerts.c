@@ -69,7 +69,6 @@ dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind
                                    const dkf_mat_t *P0, const dkf_mat_t *d0,
                                    const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
 {
-    dkf_dfnerts_node_t g;
     layout_t L;
     DKF_CHECK_NULL(nd);
     DKF_CHECK_NULL(storage);
@@ -78,20 +77,23 @@ dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind
     if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
     if (storage_len < layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
     (void)layout(&L, storage, n, m, p);
-    memset(&g, 0, sizeof g);
-    DKF_TRY(dkf_nerts_init(&g.f, kind, n, m, p, L.f, DKF_NERTS_STORAGE_LEN(n, m, p), x0, P0, d0,
-                           Pd0, Pxd0));
-    g.variant = variant;
-    g.n = n;
-    g.m = m;
-    g.p = p;
-    g.q = variant == DKF_DFNERTS_JOINT ? n + p : n;
-    g.pkt_len = DKF_DFNERTS_PKT_LEN(g.q);
-    g.pkt = L.pkt;
-    g.mem = storage;
-    g.ready = 1;
-    g.saved = g.f;
-    *nd = g;
+    /* a failed dkf_nerts_init leaves nd->f as it was; nothing fails after
+     * it (no copy of the node on the stack: it is ~1 KiB on a Cortex-M) */
+    DKF_TRY(dkf_nerts_init(&nd->f, kind, n, m, p, L.f, DKF_NERTS_STORAGE_LEN(n, m, p), x0, P0,
+                           d0, Pd0, Pxd0));
+    nd->variant = variant;
+    nd->n = n;
+    nd->m = m;
+    nd->p = p;
+    nd->q = variant == DKF_DFNERTS_JOINT ? n + p : n;
+    nd->pkt_len = DKF_DFNERTS_PKT_LEN(nd->q);
+    nd->tau = 0;
+    nd->pending = 0;
+    nd->scale = DKF_R(0.0);
+    nd->pkt = L.pkt;
+    nd->mem = storage;
+    nd->ready = 1;
+    nd->saved = nd->f;
     return DKF_OK;
 }
 
@@ -289,7 +291,6 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
                                       const dkf_mat_t *P0, const dkf_mat_t *d0,
                                       const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
 {
-    dkf_nerts_t g;
     layout_t L;
     dkf_status_t st;
     size_t sl;
@@ -298,17 +299,17 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
     sl = DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p);
     L = mem_of(nd);
     if (nd->pending) restore(nd, &L);
-    /* dkf_nerts_init writes the filter's storage before its last check */
+    /* a failed dkf_nerts_init leaves nd->f as it was, but may have written
+     * the filter's storage before its last check */
     dkf__copy(L.snap, L.f, sl);
-    st = dkf_nerts_init(&g, nd->f.kind, nd->n, nd->m, nd->p, L.f,
+    st = dkf_nerts_init(&nd->f, nd->f.kind, nd->n, nd->m, nd->p, L.f,
                         DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0);
     if (st != DKF_OK) {
         dkf__copy(L.f, L.snap, sl);
         return st;
     }
-    g.k = k;
-    nd->f = g;
-    nd->saved = g;
+    nd->f.k = k;
+    nd->saved = nd->f;
     return DKF_OK;
 }
 

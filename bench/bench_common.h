@@ -243,6 +243,94 @@ static inline void bench_perturb(bench_model_t *md, const char *impl)
 }
 
 /* Runs the cases and prints one line per case; returns the exit status. */
+/* Steps per repeat for about target_ms: double until one run takes >= 1/8
+ * of the target (also warms caches and the branch predictor), then scale
+ * to the target; the first runs are often slow (frequency ramp, page
+ * faults), so the scaled count is timed once more and rescaled. */
+static inline long bench_calibrate(bench_run_fn run, double target_ms)
+{
+    long steps = 16;
+    double t, t0;
+    for (;;) {
+        t0 = bench_now_ns();
+        bench_sink = run(steps);
+        t = bench_now_ns() - t0;
+        if (t >= target_ms * 1e6 / 8.0 || steps > (1L << 28)) break;
+        steps *= 2;
+    }
+    steps = (long)((double)steps * (target_ms * 1e6) / t) + 1;
+    t0 = bench_now_ns();
+    bench_sink = run(steps);
+    t = bench_now_ns() - t0;
+    return (long)((double)steps * (target_ms * 1e6) / t) + 1;
+}
+
+/* A benchmark of named filters on one model (bench_uif, bench_nerts): the
+ * options --filter NAME (default every one, back to back), --repeats R,
+ * --target-ms T, --steps S; per filter a checksum run of check_steps
+ * (NaN: the filter failed, exit 1), then the timed repeats, one output
+ * line "<prefix>-<name> type n m ns steps repeats checksum". */
+typedef struct {
+    const char *name;
+    bench_run_fn run;
+} bench_filter_t;
+
+static inline int bench_filters_main(int argc, char **argv, const char *prefix, const char *type,
+                                     int n, int m, const bench_filter_t *filters, int count,
+                                     long check_steps)
+{
+    static double per_step[BENCH_REPEATS_MAX];
+    const char *only = NULL;
+    int repeats = 31, i, f;
+    double target_ms = 20.0;
+    long fixed_steps = -1;
+    for (i = 1; i < argc; ++i) {
+        const char *a = argv[i];
+        const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
+        if (v != NULL && strcmp(a, "--filter") == 0) only = v;
+        else if (v != NULL && strcmp(a, "--repeats") == 0) repeats = atoi(v);
+        else if (v != NULL && strcmp(a, "--target-ms") == 0) target_ms = atof(v);
+        else if (v != NULL && strcmp(a, "--steps") == 0) fixed_steps = atol(v);
+        else {
+            fprintf(stderr, "usage: %s [--filter NAME] [--repeats R] [--target-ms T] "
+                            "[--steps S]\n  NAME:",
+                    argv[0]);
+            for (f = 0; f < count; ++f) fprintf(stderr, " %s", filters[f].name);
+            fprintf(stderr, "\n");
+            return 2;
+        }
+        ++i;
+    }
+    if (repeats < 1 || repeats > BENCH_REPEATS_MAX || !(target_ms > 0.0)) return 2;
+    for (f = 0; only != NULL && f < count && strcmp(only, filters[f].name) != 0; ++f) {
+    }
+    if (f == count) {
+        fprintf(stderr, "%s: --filter %s: unknown\n", argv[0], only);
+        return 2;
+    }
+    for (f = 0; f < count; ++f) {
+        double checksum, ns;
+        long steps;
+        if (only != NULL && strcmp(only, filters[f].name) != 0) continue;
+        checksum = filters[f].run(check_steps);
+        if (!(checksum == checksum)) {
+            fprintf(stderr, "%s-%s: a filter step failed\n", prefix, filters[f].name);
+            return 1;
+        }
+        steps = fixed_steps >= 0 ? fixed_steps : bench_calibrate(filters[f].run, target_ms);
+        for (i = 0; i < repeats; ++i) {
+            double t0 = bench_now_ns();
+            bench_sink = filters[f].run(steps);
+            per_step[i] = (bench_now_ns() - t0) / (double)(steps > 0 ? steps : 1);
+        }
+        ns = bench_median(per_step, repeats);
+        printf("%s-%s %s %d %d %.2f %ld %d %.17g\n", prefix, filters[f].name, type, n, m, ns,
+               steps, repeats, checksum);
+        fflush(stdout);
+    }
+    return 0;
+}
+
 static inline int bench_main(int argc, char **argv, const char *impl, const char *type,
                              bench_prepare_fn prepare, bench_run_fn run)
 {
@@ -285,30 +373,7 @@ static inline int bench_main(int argc, char **argv, const char *impl, const char
             return 1;
         }
 
-        if (fixed_steps >= 0) {
-            steps = fixed_steps;
-        } else {
-            /* Double until one run takes >= 1/8 of the target (also warms
-             * caches and the branch predictor), then scale to the target. */
-            double t = 0.0;
-            steps = 16;
-            for (;;) {
-                double t0 = bench_now_ns();
-                bench_sink = run(steps);
-                t = bench_now_ns() - t0;
-                if (t >= target_ms * 1e6 / 8.0 || steps > (1L << 28)) break;
-                steps *= 2;
-            }
-            steps = (long)((double)steps * (target_ms * 1e6) / t) + 1;
-            /* The first runs are often slow (frequency ramp, page faults):
-             * time the scaled count once more and rescale. */
-            {
-                double t0 = bench_now_ns();
-                bench_sink = run(steps);
-                t = bench_now_ns() - t0;
-            }
-            steps = (long)((double)steps * (target_ms * 1e6) / t) + 1;
-        }
+        steps = fixed_steps >= 0 ? fixed_steps : bench_calibrate(run, target_ms);
 
         for (i = 0; i < repeats; ++i) {
             double t0 = bench_now_ns();

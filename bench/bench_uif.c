@@ -167,77 +167,11 @@ static double run_otskf(long steps)
     return trace_plus_sum(f.x.data, f.P.data);
 }
 
-static const struct {
-    const char *name;
-    bench_run_fn run;
-} filters[3] = {{"dkf", run_dkf}, {"askf", run_askf}, {"otskf", run_otskf}};
-
-/* Steps per repeat for about target_ms (the method of bench_main). */
-static long calibrate(bench_run_fn run, double target_ms)
-{
-    long steps = 16;
-    double t;
-    for (;;) {
-        double t0 = bench_now_ns();
-        bench_sink = run(steps);
-        t = bench_now_ns() - t0;
-        if (t >= target_ms * 1e6 / 8.0 || steps > (1L << 28)) break;
-        steps *= 2;
-    }
-    steps = (long)((double)steps * (target_ms * 1e6) / t) + 1;
-    {
-        double t0 = bench_now_ns();
-        bench_sink = run(steps);
-        t = bench_now_ns() - t0;
-    }
-    return (long)((double)steps * (target_ms * 1e6) / t) + 1;
-}
+static const bench_filter_t filters[3] = {
+    {"dkf", run_dkf}, {"askf", run_askf}, {"otskf", run_otskf}};
 
 int main(int argc, char **argv)
 {
-    static double per_step[BENCH_REPEATS_MAX];
-    const char *only = NULL;
-    int repeats = 31, i, f;
-    double target_ms = 20.0;
-    long fixed_steps = -1;
-
-    for (i = 1; i < argc; ++i) {
-        const char *a = argv[i];
-        const char *v = (i + 1 < argc) ? argv[i + 1] : NULL;
-        if (v != NULL && strcmp(a, "--filter") == 0) only = v;
-        else if (v != NULL && strcmp(a, "--repeats") == 0) repeats = atoi(v);
-        else if (v != NULL && strcmp(a, "--target-ms") == 0) target_ms = atof(v);
-        else if (v != NULL && strcmp(a, "--steps") == 0) fixed_steps = atol(v);
-        else {
-            fprintf(stderr, "usage: %s [--filter dkf|askf|otskf] [--repeats R] [--target-ms T] "
-                            "[--steps S]\n",
-                    argv[0]);
-            return 2;
-        }
-        ++i;
-    }
-    if (repeats < 1 || repeats > BENCH_REPEATS_MAX || !(target_ms > 0.0)) return 2;
-
     make_model();
-    for (f = 0; f < 3; ++f) {
-        double checksum, ns;
-        long steps;
-        if (only != NULL && strcmp(only, filters[f].name) != 0) continue;
-        checksum = filters[f].run(BENCH_CHECK_STEPS);
-        if (!(checksum == checksum)) {
-            fprintf(stderr, "uif-%s: a filter step failed\n", filters[f].name);
-            return 1;
-        }
-        steps = fixed_steps >= 0 ? fixed_steps : calibrate(filters[f].run, target_ms);
-        for (i = 0; i < repeats; ++i) {
-            double t0 = bench_now_ns();
-            bench_sink = filters[f].run(steps);
-            per_step[i] = (bench_now_ns() - t0) / (double)(steps > 0 ? steps : 1);
-        }
-        ns = bench_median(per_step, repeats);
-        printf("uif-%s %s %d %d %.2f %ld %d %.17g\n", filters[f].name, BENCH_TYPE, UN, UM, ns,
-               steps, repeats, checksum);
-        fflush(stdout);
-    }
-    return 0;
+    return bench_filters_main(argc, argv, "uif", BENCH_TYPE, UN, UM, filters, 3, BENCH_CHECK_STEPS);
 }

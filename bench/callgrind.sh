@@ -22,7 +22,8 @@
 #
 # Then the same for bench_uif (Joseph build), one filter at a time
 # (--filter): DKF, ASKF and OTSKF instructions per step on seed 000
-# Example 1.
+# Example 1; and for bench_nerts: seed 001's NERTSIF and DNERTSIF against
+# the plain EKF and cubature KF of the same size.
 #
 # With BENCH_PROFILE=1 it also prints, for dkf, the functions with the most
 # self instructions in the S-step run (callgrind_annotate), to show where a
@@ -101,6 +102,26 @@ for t in $types; do
   done
   awk -v t="$t" -v d="${per[dkf]}" -v a="${per[askf]}" -v o="${per[otskf]}" 'BEGIN {
     printf "%-7s %12.1f %12.1f %12.1f   1 : %.2f : %.2f\n", t, d, a, o, a / d, o / d
+  }'
+  unset per
+done
+
+echo
+printf "%-7s %12s %12s %12s %12s   %s\n" type nertsif_Ir ekf_Ir dnertsif_Ir ckf_Ir "NERTSIF/EKF DNERTSIF/CKF"
+for t in $types; do
+  b="$("$here/build_bench.sh" "$t" "${forms%% *}")"
+  declare -A per=()
+  for flt in nertsif ekf dnertsif ckf; do
+    valgrind --tool=callgrind --callgrind-out-file="$out/nerts.$flt.$t.S" -q \
+      "$b/bench/bench_nerts" --filter "$flt" --steps "$steps" --repeats 1 >/dev/null
+    valgrind --tool=callgrind --callgrind-out-file="$out/nerts.$flt.$t.0" -q \
+      "$b/bench/bench_nerts" --filter "$flt" --steps 0 --repeats 1 >/dev/null
+    a="$(total_ir "$out/nerts.$flt.$t.S")"
+    z="$(total_ir "$out/nerts.$flt.$t.0")"
+    per[$flt]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+  done
+  awk -v t="$t" -v a="${per[nertsif]}" -v e="${per[ekf]}" -v d="${per[dnertsif]}" -v c="${per[ckf]}" 'BEGIN {
+    printf "%-7s %12.1f %12.1f %12.1f %12.1f   %11.2f %12.2f\n", t, a, e, d, c, a / e, d / c
   }'
   unset per
 done

@@ -4,7 +4,8 @@
 # both sides and with the short form P - K H P on both sides, runs them all
 # in ONE run, then prints one table row per (n, m, type, form): times,
 # ratios, checksum verdicts. Then, in the same run, bench_uif (DKF : ASKF :
-# OTSKF per step on seed 000 Example 1, Joseph build) for each type.
+# OTSKF per step on seed 000 Example 1, Joseph build) and bench_nerts (seed
+# 001: NERTSIF / EKF, DNERTSIF / CKF) for each type.
 #
 #   bench/run_bench.sh [extra benchmark args, e.g. --repeats 51 --target-ms 40]
 #
@@ -62,7 +63,8 @@ done
 
 raw="$(mktemp)"
 rawuif="$(mktemp)"
-trap 'rm -f "$raw" "$rawuif"' EXIT
+rawnerts="$(mktemp)"
+trap 'rm -f "$raw" "$rawuif" "$rawnerts"' EXIT
 
 {
   echo "# date:     $(date -u '+%Y-%m-%d %H:%M UTC')"
@@ -99,9 +101,11 @@ for ((r = 1; r <= rounds; ++r)); do
     # The three unknown-input filters, back to back in one process, in the
     # first form's build (the Joseph one by default).
     "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_uif" "$@" | tee -a "$rawuif" >&2
+    # Seed 001's filters against the plain EKF / cubature KF, same build.
+    "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_nerts" "$@" | tee -a "$rawnerts" >&2
   done
 done
-[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" >"$BENCH_RAW"
+[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" >"$BENCH_RAW"
 
 status=0
 awk -v peers="$peers" '
@@ -188,4 +192,19 @@ END {
     printf "%-7s %10.1f %10.1f %10.1f   1 : %.2f : %.2f\n", ty, d, a, o, a / d, o / d
   }
 }' "$rawuif"
+
+# Seed 001: NERTSIF against a plain EKF, DNERTSIF against a plain cubature KF
+# (n = 4, m = 3; p = 1 against p = 0)
+echo
+awk '
+{ key = $1 SUBSEP $2; ns[key] = $5; if (!($2 in seen)) { seen[$2] = 1; order[++nt] = $2 } }
+END {
+  printf "%-7s %10s %10s %10s %10s   %s\n", "type", "nertsif", "ekf", "dnertsif", "ckf", "NERTSIF/EKF  DNERTSIF/CKF"
+  for (i = 1; i <= nt; ++i) {
+    ty = order[i]
+    a = ns["nerts-nertsif" SUBSEP ty]; e = ns["nerts-ekf" SUBSEP ty]
+    d = ns["nerts-dnertsif" SUBSEP ty]; c = ns["nerts-ckf" SUBSEP ty]
+    printf "%-7s %10.1f %10.1f %10.1f %10.1f   %11.2f  %12.2f\n", ty, a, e, d, c, a / e, d / c
+  }
+}' "$rawnerts"
 exit "$status"

@@ -3,7 +3,7 @@
 computes what the independent reference computes. No timing is asserted
 (speed is reported by run_bench.sh, never tested).
 
-usage: smoke.py REL --ref REF --dkf BENCH_KF --uif BENCH_UIF [--peer EIGEN]...
+usage: smoke.py REL --ref REF --dkf BENCH_KF --uif BENCH_UIF --nerts BENCH_NERTS [--peer EIGEN]...
                 [--expect-wrong NAME]
 
 Each program prints lines `impl type n m ns steps repeats checksum`, the
@@ -16,7 +16,8 @@ relative:
     "peer X: wrong answer, excluded" and excluded from any comparison,
     never a failure (a peer's compiler flags are not dkf's problem);
   - ASKF and OTSKF (exactly equivalent filters) agree to REL, and the DKF
-    checksum is finite: else FAIL.
+    checksum is finite: else FAIL;
+  - bench_nerts's four filters (seed 001) give finite checksums: else FAIL.
 
 --expect-wrong NAME checks these verdicts themselves (ctest, with
 BENCH_PERTURB=NAME making NAME wrong on purpose): it passes only if NAME
@@ -45,7 +46,7 @@ def run(exe):
 
 
 def run_uif(exe):
-    """bench_uif: three filters on one (type, n, m): {impl: checksum}."""
+    """bench_uif / bench_nerts: filters on one (type, n, m): {impl: checksum}."""
     return {impl: c for impl, _, _, _, c in lines(exe)}
 
 
@@ -53,7 +54,7 @@ def close(a, b, rel):
     return math.isfinite(a) and abs(a - b) <= rel * max(1.0, abs(b))
 
 
-def verdicts(rel, ref, dkf, peers, uif):
+def verdicts(rel, ref, dkf, peers, uif, nerts):
     """Returns (failures, excluded peers), printing one line per check."""
     failures, excluded = [], set()
     for case, (_, want) in sorted(ref.items(), key=lambda kv: (kv[0][0], int(kv[0][1]))):
@@ -84,6 +85,11 @@ def verdicts(rel, ref, dkf, peers, uif):
     print(f"{'ok  ' if ok else 'FAIL'} DKF checksum finite ({uif_get(uif, 'uif-dkf')!r})")
     if not ok:
         failures.append("uif-dkf")
+    for name in ("nerts-nertsif", "nerts-dnertsif", "nerts-ekf", "nerts-ckf"):
+        ok = math.isfinite(uif_get(nerts, name))
+        print(f"{'ok  ' if ok else 'FAIL'} {name} checksum finite ({uif_get(nerts, name)!r})")
+        if not ok:
+            failures.append(name)
     return failures, excluded
 
 
@@ -97,12 +103,13 @@ def main():
     ap.add_argument("--ref", required=True)
     ap.add_argument("--dkf", required=True)
     ap.add_argument("--uif", required=True)
+    ap.add_argument("--nerts", required=True)
     ap.add_argument("--peer", action="append", default=[])
     ap.add_argument("--expect-wrong", default=None)
     a = ap.parse_args()
     ref, dkf = run(a.ref), run(a.dkf)
     peers = [run(p) for p in a.peer]
-    failures, excluded = verdicts(a.rel, ref, dkf, peers, run_uif(a.uif))
+    failures, excluded = verdicts(a.rel, ref, dkf, peers, run_uif(a.uif), run_uif(a.nerts))
     if excluded:
         print(f"excluded peers: {', '.join(sorted(excluded))}")
     if a.expect_wrong is None:

@@ -74,7 +74,7 @@ check_real() {
 
   echo "-- worst-case stack (bytes; frame sizes in parentheses)"
   local stack_out
-  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" "$bdir" \
+  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" --skip dkf_m4_nerts.dir "$bdir" \
                    dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler 2>&1); then
     echo "$stack_out" | sed 's/^/  /'
     local worst
@@ -89,6 +89,8 @@ check_real() {
     fail "m4-$variant stack analysis (recursion, indirect call or dynamic frame)"
   fi
 
+  check_nerts_image "$variant" "$bdir"
+
   # The same demo.c on the host, against a host library of the same type.
   [[ $checks == ON ]] || return
   if cmake -S . -B "$hdir" -DDKF_REAL="$real" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=OFF \
@@ -102,6 +104,48 @@ check_real() {
   else
     cat "$hdir.configure.log" "$hdir.build.log" "$hdir.demo.log" 2>/dev/null | tail -30
     fail "m4-$variant demo filter on the host"
+  fi
+  if cc -std=c99 -Wall -Wextra -Wpedantic -Werror -O2 -DDKF_USE_FLOAT=$([[ $real == float ]] && echo 1 || echo 0) \
+       -Iinclude -Iports/cortex-m4 ports/cortex-m4/nerts_demo.c ports/cortex-m4/nerts_host_main.c \
+       "$hdir/libdkf.a" -lm -o "$hdir/m4_nerts_host" 2>"$hdir.nerts.log" &&
+     "$hdir/m4_nerts_host"; then
+    pass "m4-$variant DNERTSIF node demo on the host converges (position < 0.5, omega < 1e-3)"
+  else
+    cat "$hdir.nerts.log" 2>/dev/null | tail -20
+    fail "m4-$variant DNERTSIF node demo on the host"
+  fi
+}
+
+# The second image, one seed-001 DNERTSIF node (ports/cortex-m4/nerts_demo.c):
+# no heap, its size, and the stack of the node's calls with the model's
+# callbacks as the only targets of the library's indirect calls.
+check_nerts_image() {
+  local variant=$1 bdir=$2
+  local elf=$bdir/dkf_m4_nerts.elf heap stack_out worst
+  heap=$(arm-none-eabi-nm "$elf" | awk '{print $NF}' | grep -E "$heap_re" || true)
+  if [[ -z "$heap" ]]; then
+    pass "m4-$variant DNERTSIF image: no heap symbols"
+  else
+    fail "m4-$variant DNERTSIF image: heap symbols linked: $(echo $heap)"
+  fi
+  echo "-- DNERTSIF node image: arm-none-eabi-size"
+  arm-none-eabi-size "$elf"
+  echo "-- DNERTSIF node image: bytes per input (from the linker map)"
+  python3 tools/map_summary.py "$bdir/dkf_m4_nerts.map"
+  echo "-- DNERTSIF node image: worst-case stack (the model's f, h, y_diff as the indirect targets)"
+  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" --indirect ct_f,radar_h,wrap_diff \
+                   --skip CMakeFiles/dkf_m4.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run \
+                   Reset_Handler 2>&1); then
+    echo "$stack_out" | sed 's/^/  /'
+    worst=$(echo "$stack_out" | awk '$1 ~ /^dkf_nerts_/ { if ($2 > w) w = $2 } END { print w + 0 }')
+    if (( worst > 0 && worst <= budget )); then
+      pass "m4-$variant DNERTSIF node stack ${worst} B <= budget ${budget} B"
+    else
+      fail "m4-$variant DNERTSIF node stack ${worst} B (budget ${budget} B)"
+    fi
+  else
+    echo "$stack_out" | sed 's/^/  /'
+    fail "m4-$variant DNERTSIF node stack analysis"
   fi
 }
 

@@ -157,3 +157,11 @@ tw_args=(--build-dir "$build")
 echo
 echo "== seed-003 diffusion / consensus filters, one process per node"
 "$here/tw_net_demo.sh" "${tw_args[@]}"
+
+# ---- seed 001's 12 radars, one process per node (tools/seed001_net_demo.sh) ---------
+s001_args=(--build-dir "$build")
+(( do_build )) || s001_args+=(--no-build)
+(( memq )) && s001_args+=(--in-process)
+echo
+echo "== seed 001: DF-DNERTSIF on 12 radars, one process per node"
+"$here/seed001_net_demo.sh" "${s001_args[@]}"

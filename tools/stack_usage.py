@@ -14,10 +14,13 @@ flag) reads the frame and the direct calls from the disassembly of the ELF
 The bound of a function is its frame plus the largest bound among its
 callees (the worst path through the call graph). It is exact for
 non-recursive code without indirect calls; both are reported as errors,
-as is any frame GCC calls "dynamic" (a VLA or alloca).
+as is any frame GCC calls "dynamic" (a VLA or alloca). An indirect call
+is bounded only when --indirect names every function it can reach (the
+callbacks an image gives the library, e.g. a nonlinear model's f, h,
+y_diff): each indirect call site then counts as a call to each of them.
 
 usage: stack_usage.py --elf image.elf --objdump arm-none-eabi-objdump \
-                      BUILD_DIR ROOT [ROOT...]
+                      [--indirect F,G,...] [--skip PATH_PART]... BUILD_DIR ROOT [ROOT...]
 """
 import argparse
 import glob
@@ -31,9 +34,10 @@ EDGE_RE = re.compile(r'edge: \{ sourcename: "([^"]+)" targetname: "([^"]+)"')
 FRAME_RE = re.compile(r'\\n(\d+) bytes \(([a-z,]+)\)')
 
 
-def read_callgraph(build_dir):
+def read_callgraph(build_dir, skip=()):
     frames, kinds, edges, names = {}, {}, {}, {}
-    files = glob.glob(os.path.join(build_dir, '**', '*.ci'), recursive=True)
+    files = [f for f in glob.glob(os.path.join(build_dir, '**', '*.ci'), recursive=True)
+             if not any(s in f for s in skip)]
     for path in files:
         with open(path, encoding='utf-8', errors='replace') as f:
             for line in f:
@@ -110,15 +114,24 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('--elf', required=True)
     ap.add_argument('--objdump', default='arm-none-eabi-objdump')
+    ap.add_argument('--indirect', default='',
+                    help='comma-separated functions every indirect call may reach')
+    ap.add_argument('--skip', action='append', default=[],
+                    help='ignore the *.ci files whose path contains this (another image)')
     ap.add_argument('build_dir')
     ap.add_argument('roots', nargs='+')
     args = ap.parse_args()
 
-    files, frames, kinds, edges, names = read_callgraph(args.build_dir)
+    files, frames, kinds, edges, names = read_callgraph(args.build_dir, args.skip)
     if not files:
         sys.exit('stack_usage: no *.ci files under %s (build with -fcallgraph-info=su)'
                  % args.build_dir)
     dis_frames, dis_calls = read_disassembly(args.elf, args.objdump)
+    indirect = [t for t in args.indirect.split(',') if t]
+    # a static function's node title is "file.c:name": find it by name
+    title_of = {}
+    for title, name in names.items():
+        title_of.setdefault(name, title)
     problems = []
     memo = {}
 
@@ -143,8 +156,15 @@ def main():
             problems.append('recursion: ' + ' -> '.join(stack + [fn]))
             return 0, [fn]
         if fn == '__indirect_call':
-            problems.append('indirect call from ' + stack[-1])
-            return 0, [fn]
+            if not indirect:
+                problems.append('indirect call from ' + stack[-1])
+                return 0, [fn]
+            best, best_path = 0, []
+            for t in indirect:
+                b, p = worst(title_of.get(t, t), stack + [fn])
+                if b > best:
+                    best, best_path = b, p
+            return best, ['(indirect)'] + best_path
         frame, callees, src = frame_and_callees(fn)
         best, best_path = 0, []
         for c in sorted(callees):

@@ -1,9 +1,12 @@
 /*
- * dkf-tw-node - one node of the seed-003 diffusion (Algorithm 2) or
- * consensus (Algorithm 3) filter as its own process (tw_agent.h,
- * docs/network.md "Graph filters over LCM").
+ * dkf-tw-node - one node of a graph filter as its own process, exchanging
+ * packets with its neighbours only (round_agent.h; docs/network.md "Graph
+ * filters over LCM"): the seed-003 diffusion (Algorithm 2) or consensus
+ * (Algorithm 3) filter (tw_agent.h), or seed 001's consensus network
+ * DF-DNERTSIF / DF-CKF (df_agent.h).
  *
  *   dkf-tw-node --id 3 --alg 3 --output n3.json tests/vectors/uif/s003_6node.json
+ *   dkf-tw-node --id 0 --filter df_dnertsif --output n0.json radar12.json
  */
 #include <getopt.h>
 #include <stdio.h>
@@ -11,7 +14,9 @@
 #include <string.h>
 
 #include "cli.h"
+#include "df_agent.h"
 #include "net.h"
+#include "registry.h"
 #include "tw_agent.h"
 
 static const char *prog = "dkf-tw-node";
@@ -19,16 +24,20 @@ static const char *prog = "dkf-tw-node";
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: %s --id I --alg 2|3 [options] SCENARIO.json\n"
-            "Runs node I of a seed-003 scenario (steps layout with a graph): reads its own\n"
-            "y_{I,n} from the file, publishes its packets on <prefix>_I and subscribes only\n"
-            "to its neighbours' channels; Algorithm 2 exchanges twice per step (info\n"
-            "packet, psi), Algorithm 3 2*eta times (two average-consensus filters).\n"
+            "usage: %s --id I (--alg 2|3 | --filter NAME) [options] SCENARIO.json\n"
+            "Runs node I of a graph filter: reads its own measurements from the file,\n"
+            "publishes its packets on <prefix>_I and subscribes only to its neighbours'\n"
+            "channels. Seed 003 (steps layout with a graph): Algorithm 2 exchanges twice\n"
+            "per step (info packet, psi), Algorithm 3 2*eta times (two average-consensus\n"
+            "filters). Seed 001 (a network case of the nonlinear-cases layout): T_p\n"
+            "consensus rounds per step on the information pair.\n"
             "\n"
             "  -i, --id I              node index (0-based), required\n"
-            "  -a, --alg A             2 (diffusion) or 3 (consensus), required\n"
+            "  -a, --alg A             2 (diffusion) or 3 (consensus): --filter tw2 / tw3\n"
+            "  -f, --filter NAME       tw2, tw3, df_dnertsif, df_ckf or df_dnertsif_joint\n"
+            "  -c, --case SEL          a case of a cases-layout file: name or 0-based index\n"
             "  -e, --eta N             Algorithm 3: consensus iterations (default: the file's)\n"
-            "  -o, --output FILE       write x, P, z per step and the counters (JSON)\n"
+            "  -o, --output FILE       write the estimates per step and the counters (JSON)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default DKF_TW; letters, digits, _)\n"
@@ -49,7 +58,7 @@ static void usage(FILE *f)
 
 typedef struct {
     double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
-    const char *url, *prefix, *output, *ready, *scn;
+    const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel;
     int quiet;
 } opts_t;
 
@@ -73,7 +82,9 @@ static int parse(int argc, char **argv, opts_t *o)
         {"retry-ms", required_argument, NULL, 'M'},    {"timeout", required_argument, NULL, 't'},
         {"drop", required_argument, NULL, 'D'},        {"seed", required_argument, NULL, 'Z'},
         {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
-        {"help", no_argument, NULL, 'h'},              {NULL, 0, NULL, 0}};
+        {"help", no_argument, NULL, 'h'},              {"filter", required_argument, NULL, 'f'},
+        {"case", required_argument, NULL, 'c'},
+        {NULL, 0, NULL, 0}};
     int c;
     memset(o, 0, sizeof *o);
     o->id = o->alg = o->eta = -1;
@@ -83,12 +94,14 @@ static int parse(int argc, char **argv, opts_t *o)
     o->url = DKF_NET_DEFAULT_URL;
     o->prefix = "DKF_TW";
     opterr = 0;
-    while ((c = getopt_long(argc, argv, ":i:a:e:o:u:p:t:qh", lo, NULL)) != -1) {
+    while ((c = getopt_long(argc, argv, ":i:a:f:c:e:o:u:p:t:qh", lo, NULL)) != -1) {
         int bad = 0;
         switch (c) {
         case 'i': bad = dkf_cli_num(prog, "--id", optarg, 0, 1e6, &o->id); break;
         case 'a': bad = dkf_cli_num(prog, "--alg", optarg, 2, 3, &o->alg); break;
         case 'e': bad = dkf_cli_num(prog, "--eta", optarg, 0, 1e6, &o->eta); break;
+        case 'f': o->filter = optarg; break;
+        case 'c': o->case_sel = optarg; break;
         case 'o': o->output = optarg; break;
         case 'u': o->url = optarg; break;
         case 'p': o->prefix = optarg; break;
@@ -105,14 +118,20 @@ static int parse(int argc, char **argv, opts_t *o)
         }
         if (bad) return -1;
     }
-    if (optind != argc - 1 || o->id < 0 || o->alg < 0 || o->id != (double)(long)o->id ||
-        o->alg != (double)(int)o->alg || (o->eta >= 0 && o->eta != (double)(long)o->eta)) {
-        fprintf(stderr, "%s: need --id I, --alg 2|3 (integers) and one SCENARIO (see --help)\n",
-                prog);
+    if (o->alg >= 0 && o->filter != NULL) {
+        fprintf(stderr, "%s: --alg and --filter: give one\n", prog);
         return -1;
     }
-    if (o->eta >= 0 && o->alg != 3) {
-        fprintf(stderr, "%s: --eta: only for --alg 3\n", prog);
+    if (o->alg >= 0 && o->alg == (double)(int)o->alg) o->filter = o->alg == 2 ? "tw2" : "tw3";
+    if (optind != argc - 1 || o->id < 0 || o->filter == NULL || o->id != (double)(long)o->id ||
+        (o->alg >= 0 && o->alg != (double)(int)o->alg) ||
+        (o->eta >= 0 && o->eta != (double)(long)o->eta)) {
+        fprintf(stderr, "%s: need --id I, --alg 2|3 or --filter NAME (integers) and one "
+                "SCENARIO (see --help)\n", prog);
+        return -1;
+    }
+    if (o->eta >= 0 && strcmp(o->filter, "tw3") != 0) {
+        fprintf(stderr, "%s: --eta: only for --alg 3 (tw3)\n", prog);
         return -1;
     }
     if (!prefix_ok(o->prefix)) {
@@ -124,9 +143,17 @@ static int parse(int argc, char **argv, opts_t *o)
     return 0;
 }
 
+/* The node's agent, seed 003's or seed 001's, through its rounds. */
+typedef struct {
+    dkf_ra_t *ra;
+    dkf_tw_scn_t tw;            /* seed 003: the bound scenario */
+    dkf_tw_agent_t *tw_agent;
+    dkf_df_agent_t *df_agent;
+} agent_t;
+
 typedef struct {
     dkf_net_t *net;
-    dkf_tw_agent_t *agent;
+    agent_t ag;
     const char *prefix;
     char chan[DKF_NET_CHAN_LEN];
     double drop;
@@ -159,8 +186,8 @@ static void on_packet(const char *channel, const void *data, size_t len, int64_t
 {
     ctx_t *x = user;
     (void)recv_utime;
-    (void)dkf_tw_agent_receive(x->agent, dkf_tw_chan_node(channel, x->prefix), data, len,
-                               dkf_net_mono_us());
+    (void)dkf_ra_receive(x->ag.ra, dkf_ra_chan_node(channel, x->prefix), data, len,
+                         dkf_net_mono_us());
 }
 
 static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, double wall)
@@ -168,7 +195,8 @@ static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, 
     json_t *doc;
     int rc;
     if (o->output == NULL) return 0;
-    doc = dkf_tw_agent_result(x->agent);
+    doc = x->ag.tw_agent ? dkf_tw_agent_result(x->ag.tw_agent)
+                         : dkf_df_agent_result(x->ag.df_agent);
     json_object_set_new(doc, "scenario", json_string(o->scn));
     json_object_set_new(doc, "exit", json_string(exit_what));
     json_object_set_new(doc, "wall_s", json_real(wall));
@@ -182,77 +210,100 @@ static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, 
 static int run(const opts_t *o, ctx_t *x)
 {
     const int64_t t0 = dkf_net_mono_us();
-    int st = dkf_tw_agent_start(x->agent, t0), code;
+    dkf_ra_t *ra = x->ag.ra;
+    int st = dkf_ra_start(ra, t0), code;
     const char *what;
     while (st == DKF_TW_RUNNING || st == DKF_TW_LINGER) {
-        int64_t now = dkf_net_mono_us(), w = dkf_tw_agent_wait_us(x->agent, now) / 1000;
+        int64_t now = dkf_net_mono_us(), w = dkf_ra_wait_us(ra, now) / 1000;
         if (dkf_cli_stop || dkf_cli_expired(t0, o->timeout)) break;
         if (dkf_net_drain(x->net, (int)(w > 100 ? 100 : w)) < 0) {
             fprintf(stderr, "%s: node %.0f: LCM receive failed\n", prog, o->id);
             st = DKF_TW_FAILED;
             break;
         }
-        st = dkf_tw_agent_poll(x->agent, dkf_net_mono_us());
+        st = dkf_ra_poll(ra, dkf_net_mono_us());
     }
     if (st == DKF_TW_FINISHED) {
         code = DKF_EXIT_OK, what = "done";
     } else if (st == DKF_TW_FAILED) {
         code = DKF_EXIT_RUN, what = "failed";
-        if (dkf_tw_agent_error(x->agent)[0] != '\0')
-            fprintf(stderr, "%s: %s\n", prog, dkf_tw_agent_error(x->agent));
+        if (dkf_ra_error(ra)[0] != '\0') fprintf(stderr, "%s: %s\n", prog, dkf_ra_error(ra));
     } else {
         code = DKF_EXIT_STOPPED, what = "stopped";
         fprintf(stderr, "%s: node %.0f: %s after %zu steps\n", prog, o->id,
-                dkf_cli_stop ? "interrupted" : "--timeout", dkf_tw_agent_steps_done(x->agent));
+                dkf_cli_stop ? "interrupted" : "--timeout", dkf_ra_steps_done(ra));
     }
     if (write_result(o, x, what, (double)(dkf_net_mono_us() - t0) * 1e-6) != 0 && code == 0)
         code = DKF_EXIT_RUN;
     if (!o->quiet) {
-        const dkf_tw_counters_t *c = dkf_tw_agent_counters(x->agent);
+        const dkf_ra_counters_t *c = dkf_ra_counters(ra);
         fprintf(stderr,
-                "%s: node %.0f alg %.0f: %s, %zu steps (%lu degraded), sent %lu (%lu "
+                "%s: node %.0f %s: %s, %zu steps (%lu degraded), sent %lu (%lu "
                 "retransmits, %lu answers), received %lu, rejected %llu\n",
-                prog, o->id, o->alg, what, dkf_tw_agent_steps_done(x->agent), c->degraded_steps,
+                prog, o->id, o->filter, what, dkf_ra_steps_done(ra), c->degraded_steps,
                 c->sent, c->retransmits, c->answers, c->received,
                 (unsigned long long)c->rej.total);
     }
     return code;
 }
 
+/* The agent of o->filter for node o->id of s. 0, or -1 with err. */
+static int make_agent(const opts_t *o, const dkf_scenario_t *s, const dkf_ra_opts_t *ao,
+                      agent_t *ag, char *err, size_t errlen)
+{
+    const dkf_filter_t *f = dkf_registry_find(o->filter);
+    memset(ag, 0, sizeof *ag);
+    if (f == NULL) {
+        snprintf(err, errlen, "--filter %s: unknown filter", o->filter);
+        return -1;
+    }
+    if (strcmp(o->filter, "tw2") == 0 || strcmp(o->filter, "tw3") == 0) {
+        if (dkf_tw_scn_bind(&ag->tw, s, o->filter[2] - '0', (long)o->eta, err, errlen) != 0)
+            return -1;
+        if ((ag->tw_agent = dkf_tw_agent_new(&ag->tw, (size_t)o->id, ao, err, errlen)) == NULL)
+            return -1;
+        ag->ra = dkf_tw_agent_rounds(ag->tw_agent);
+        return 0;
+    }
+    if ((ag->df_agent = dkf_df_agent_new(f, s, (size_t)o->id, ao, err, errlen)) == NULL) return -1;
+    ag->ra = dkf_df_agent_rounds(ag->df_agent);
+    return 0;
+}
+
+static void free_agent(agent_t *ag)
+{
+    dkf_tw_agent_free(ag->tw_agent);
+    dkf_df_agent_free(ag->df_agent);
+    dkf_tw_scn_free(&ag->tw);
+}
+
 int main(int argc, char **argv)
 {
     opts_t o;
     ctx_t x;
-    dkf_tw_scn_t c;
-    dkf_tw_agent_opts_t ao;
+    dkf_ra_opts_t ao;
     dkf_scenario_t *s;
     char err[DKF_SCN_ERR_LEN], sub[4096];
     int code = DKF_EXIT_USAGE;
     if (parse(argc, argv, &o) != 0) return DKF_EXIT_USAGE;
     dkf_cli_signals();
-    if ((s = dkf_scenario_load(o.scn, NULL, err, sizeof err)) == NULL) {
+    if ((s = dkf_scenario_load(o.scn, o.case_sel, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
-        return DKF_EXIT_USAGE;
-    }
-    if (dkf_tw_scn_bind(&c, s, (int)o.alg, (long)o.eta, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        dkf_scenario_free(s);
         return DKF_EXIT_USAGE;
     }
     memset(&x, 0, sizeof x);
     x.prefix = o.prefix;
     x.drop = o.drop;
     x.rng = (uint64_t)o.seed * 1000003ULL + (uint64_t)o.id;
-    dkf_tw_chan(x.chan, o.prefix, (size_t)o.id);
+    dkf_ra_chan(x.chan, o.prefix, (size_t)o.id);
     ao.send = send_own;
     ao.user = &x;
     ao.round_timeout_us = (int64_t)(o.round_to * 1e6);
     ao.start_timeout_us = (int64_t)(o.start_to * 1e6);
     ao.retry_us = (int64_t)(o.retry_ms * 1e3);
-    x.agent = dkf_tw_agent_new(&c, (size_t)o.id, &ao, err, sizeof err);
-    if (x.agent == NULL) {
+    if (make_agent(&o, s, &ao, &x.ag, err, sizeof err) != 0) {
         fprintf(stderr, "%s: %s\n", prog, err);
-    } else if (dkf_tw_subscription(sub, sizeof sub, &c, o.prefix, (size_t)o.id) != 0) {
+    } else if (dkf_ra_neighbours_regex(x.ag.ra, o.prefix, sub, sizeof sub) != 0) {
         fprintf(stderr, "%s: node %.0f: no neighbours, or too many for one subscription\n", prog,
                 o.id);
     } else if ((x.net = dkf_net_open(o.url, err, sizeof err)) == NULL) {
@@ -267,8 +318,7 @@ int main(int argc, char **argv)
         code = run(&o, &x);
     }
     dkf_net_close(x.net);
-    dkf_tw_agent_free(x.agent);
-    dkf_tw_scn_free(&c);
+    free_agent(&x.ag);
     dkf_scenario_free(s);
     return code;
 }

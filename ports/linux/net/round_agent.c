@@ -342,6 +342,94 @@ int64_t dkf_ra_wait_us(const dkf_ra_t *a, int64_t now_us)
     return w < 0 ? 0 : w;
 }
 
+void dkf_ra_chan(char *out, const char *prefix, size_t node)
+{
+    snprintf(out, DKF_NET_CHAN_LEN, "%s_%zu", prefix, node);
+}
+
+long dkf_ra_chan_node(const char *channel, const char *prefix)
+{
+    const size_t pl = strlen(prefix);
+    const char *p;
+    long v = 0;
+    if (strncmp(channel, prefix, pl) != 0 || channel[pl] != '_') return -1;
+    p = channel + pl + 1;
+    if (*p == '\0') return -1;
+    if (p[0] == '0' && p[1] != '\0') return -1;
+    for (; *p != '\0'; ++p) {
+        if (*p < '0' || *p > '9' || v > 100000000L) return -1;
+        v = v * 10 + (*p - '0');
+    }
+    return v;
+}
+
+int dkf_ra_subscription(char *out, size_t cap, const char *prefix, const size_t *row, size_t deg,
+                        size_t self)
+{
+    size_t e, used;
+    int r = snprintf(out, cap, "%s_(", prefix), first = 1;
+    if (r < 0 || (size_t)r >= cap) return -1;
+    used = (size_t)r;
+    for (e = 0; e < deg; ++e) {
+        if (row[e] == self) continue;
+        r = snprintf(out + used, cap - used, "%s%zu", first ? "" : "|", row[e]);
+        if (r < 0 || (size_t)r >= cap - used) return -1;
+        used += (size_t)r;
+        first = 0;
+    }
+    if (first) return -1; /* no neighbour: nothing to subscribe to */
+    r = snprintf(out + used, cap - used, ")");
+    return (r < 0 || (size_t)r >= cap - used) ? -1 : 0;
+}
+
+int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, size_t cap)
+{
+    return dkf_ra_subscription(out, cap, prefix, a->cfg.row, a->deg, a->cfg.id);
+}
+
+static json_t *counters_json(const dkf_ra_t *a)
+{
+    const dkf_ra_counters_t *c = &a->cnt;
+    json_t *o = json_object(), *by = json_object();
+    int v;
+    json_object_set_new(o, "sent", json_integer((json_int_t)c->sent));
+    json_object_set_new(o, "reals_sent", json_integer((json_int_t)c->reals_sent));
+    json_object_set_new(o, "retransmits", json_integer((json_int_t)c->retransmits));
+    json_object_set_new(o, "answers", json_integer((json_int_t)c->answers));
+    json_object_set_new(o, "received", json_integer((json_int_t)c->received));
+    json_object_set_new(o, "duplicates", json_integer((json_int_t)c->duplicates));
+    json_object_set_new(o, "stale", json_integer((json_int_t)c->stale));
+    json_object_set_new(o, "ahead", json_integer((json_int_t)c->ahead));
+    json_object_set_new(o, "absent_marks", json_integer((json_int_t)c->absent_marks));
+    json_object_set_new(o, "degraded_steps", json_integer((json_int_t)c->degraded_steps));
+    json_object_set_new(o, "rejected", json_integer((json_int_t)c->rej.total));
+    for (v = 1; v < DKF_NET_NVERDICTS; ++v)
+        json_object_set_new(by, dkf_net_verdict_str((dkf_net_verdict_t)v),
+                            json_integer((json_int_t)c->rej.by[v]));
+    json_object_set_new(o, "rejected_by_reason", by);
+    return o;
+}
+
+void dkf_ra_result_json(const dkf_ra_t *a, size_t steps, json_t *doc)
+{
+    json_t *nb = json_array(), *dg = json_array(), *ms = json_array();
+    size_t j, e;
+    for (e = 0; e < a->deg; ++e)
+        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)a->cfg.row[e]));
+    for (j = 1; j <= steps; ++j) {
+        json_t *miss = json_array();
+        json_array_append_new(dg, json_boolean(dkf_ra_step_degraded(a, j)));
+        for (e = 0; e < a->deg; ++e)
+            if (dkf_ra_step_missing(a, j, e))
+                json_array_append_new(miss, json_integer((json_int_t)a->cfg.row[e]));
+        json_array_append_new(ms, miss);
+    }
+    json_object_set_new(doc, "neighbours", nb);
+    json_object_set_new(doc, "degraded", dg);
+    json_object_set_new(doc, "missing", ms);
+    json_object_set_new(doc, "counters", counters_json(a));
+}
+
 int dkf_ra_state(const dkf_ra_t *a) { return a->state; }
 const char *dkf_ra_error(const dkf_ra_t *a) { return a->err; }
 const dkf_ra_counters_t *dkf_ra_counters(const dkf_ra_t *a) { return &a->cnt; }

@@ -30,6 +30,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include <jansson.h>
+
 #include "codec.h" /* dkf_net_tw_expect_t, dkf_net_verdict_t, dkf_net_rejects_t */
 
 /* Publishes one encoded packet on the node's own channel: 0 or -1. */
@@ -97,9 +99,25 @@ int dkf_ra_poll(dkf_ra_t *a, int64_t now_us);
 /* Microseconds until the next thing poll would do on its own (>= 0). */
 int64_t dkf_ra_wait_us(const dkf_ra_t *a, int64_t now_us);
 
+/* "<prefix>_<node>" (out: DKF_NET_CHAN_LEN bytes): node `node`'s channel,
+ * where it publishes every packet; the node of such a channel, or -1. */
+void dkf_ra_chan(char *out, const char *prefix, size_t node);
+long dkf_ra_chan_node(const char *channel, const char *prefix);
+/* LCM regex of the channels of the row's nodes other than self, e.g.
+ * "DKF_TW_(1|5)"; -1 if there is none or it does not fit in cap bytes. */
+int dkf_ra_subscription(char *out, size_t cap, const char *prefix, const size_t *row, size_t deg,
+                        size_t self);
+
+/* dkf_ra_subscription of agent a's own row. */
+int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, size_t cap);
+
 int dkf_ra_state(const dkf_ra_t *a);
 const char *dkf_ra_error(const dkf_ra_t *a);
 const dkf_ra_counters_t *dkf_ra_counters(const dkf_ra_t *a);
+/* Into a node's result document: "neighbours" (the row without the node),
+ * per step 1..steps "degraded" (bool) and "missing" (node ids), and
+ * "counters" {sent, reals_sent, ..., rejected, rejected_by_reason}. */
+void dkf_ra_result_json(const dkf_ra_t *a, size_t steps, json_t *doc);
 /* Steps completed so far; of step j (1-based, <= that): degraded, and
  * whether row position e was missing in it. */
 size_t dkf_ra_steps_done(const dkf_ra_t *a);

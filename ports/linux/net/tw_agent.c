@@ -155,44 +155,16 @@ dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t 
     return dkf_net_decode_tw(buf, len, &ex, out, rej);
 }
 
-void dkf_tw_chan(char *out, const char *prefix, size_t node)
-{
-    snprintf(out, DKF_NET_CHAN_LEN, "%s_%zu", prefix, node);
-}
-
+void dkf_tw_chan(char *out, const char *prefix, size_t node) { dkf_ra_chan(out, prefix, node); }
 long dkf_tw_chan_node(const char *channel, const char *prefix)
 {
-    const size_t pl = strlen(prefix);
-    const char *p;
-    long v = 0;
-    if (strncmp(channel, prefix, pl) != 0 || channel[pl] != '_') return -1;
-    p = channel + pl + 1;
-    if (*p == '\0') return -1;
-    if (p[0] == '0' && p[1] != '\0') return -1;
-    for (; *p != '\0'; ++p) {
-        if (*p < '0' || *p > '9' || v > 100000000L) return -1;
-        v = v * 10 + (*p - '0');
-    }
-    return v;
+    return dkf_ra_chan_node(channel, prefix);
 }
-
 int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char *prefix,
                         size_t node)
 {
-    size_t e, used;
-    int r = snprintf(out, cap, "%s_(", prefix), first = 1;
-    if (r < 0 || (size_t)r >= cap) return -1;
-    used = (size_t)r;
-    for (e = c->start[node]; e < c->start[node + 1]; ++e) {
-        if (c->nbr[e] == node) continue;
-        r = snprintf(out + used, cap - used, "%s%zu", first ? "" : "|", c->nbr[e]);
-        if (r < 0 || (size_t)r >= cap - used) return -1;
-        used += (size_t)r;
-        first = 0;
-    }
-    if (first) return -1; /* no neighbour: nothing to subscribe to */
-    r = snprintf(out + used, cap - used, ")");
-    return (r < 0 || (size_t)r >= cap - used) ? -1 : 0;
+    return dkf_ra_subscription(out, cap, prefix, c->nbr + c->start[node],
+                               c->start[node + 1] - c->start[node], node);
 }
 
 /* ---- the agent: the filter's side of round_agent.h ------------------------------ */
@@ -458,39 +430,17 @@ const dkf_tw_counters_t *dkf_tw_agent_counters(const dkf_tw_agent_t *a)
     return dkf_ra_counters(a->ra);
 }
 const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a) { return &a->nd; }
+dkf_ra_t *dkf_tw_agent_rounds(dkf_tw_agent_t *a) { return a->ra; }
 
 /* ---- result --------------------------------------------------------------------- */
-
-static json_t *counters(const dkf_tw_agent_t *a)
-{
-    const dkf_tw_counters_t *c = dkf_tw_agent_counters(a);
-    json_t *o = json_object(), *by = json_object();
-    int v;
-    json_object_set_new(o, "sent", json_integer((json_int_t)c->sent));
-    json_object_set_new(o, "reals_sent", json_integer((json_int_t)c->reals_sent));
-    json_object_set_new(o, "retransmits", json_integer((json_int_t)c->retransmits));
-    json_object_set_new(o, "answers", json_integer((json_int_t)c->answers));
-    json_object_set_new(o, "received", json_integer((json_int_t)c->received));
-    json_object_set_new(o, "duplicates", json_integer((json_int_t)c->duplicates));
-    json_object_set_new(o, "stale", json_integer((json_int_t)c->stale));
-    json_object_set_new(o, "ahead", json_integer((json_int_t)c->ahead));
-    json_object_set_new(o, "absent_marks", json_integer((json_int_t)c->absent_marks));
-    json_object_set_new(o, "degraded_steps", json_integer((json_int_t)c->degraded_steps));
-    json_object_set_new(o, "rejected", json_integer((json_int_t)c->rej.total));
-    for (v = 1; v < DKF_NET_NVERDICTS; ++v)
-        json_object_set_new(by, dkf_net_verdict_str((dkf_net_verdict_t)v),
-                            json_integer((json_int_t)c->rej.by[v]));
-    json_object_set_new(o, "rejected_by_reason", by);
-    return o;
-}
 
 json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
 {
     const dkf_tw_scn_t *c = a->c;
     const size_t done = a->nd.k;
     json_t *d = json_object(), *ks = json_array(), *xs = json_array(), *Ps = json_array(),
-           *zs = json_array(), *dg = json_array(), *ms = json_array(), *nb = json_array();
-    size_t j, e;
+           *zs = json_array();
+    size_t j;
     char id[32];
     snprintf(id, sizeof id, "%016llx", (unsigned long long)(uint64_t)c->model_id);
     json_object_set_new(d, "node", json_integer((json_int_t)a->id));
@@ -502,27 +452,16 @@ json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
     json_object_set_new(d, "E", json_integer((json_int_t)c->E));
     json_object_set_new(d, "steps", json_integer((json_int_t)c->steps));
     json_object_set_new(d, "rounds_per_step", json_integer((json_int_t)c->rounds));
-    for (e = 0; e < a->deg; ++e)
-        if (e != a->self) json_array_append_new(nb, json_integer((json_int_t)c->nbr[a->row0 + e]));
-    json_object_set_new(d, "neighbours", nb);
     for (j = 0; j < done; ++j) {
-        json_t *miss = json_array();
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
         json_array_append_new(xs, dkf_json_doubles(a->xs + j * c->n, c->n, 0));
         json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * c->n * c->n, c->n, c->n));
         json_array_append_new(zs, dkf_json_doubles(a->zs + j * c->p, c->p, 0));
-        json_array_append_new(dg, json_boolean(dkf_ra_step_degraded(a->ra, j + 1)));
-        for (e = 0; e < a->deg; ++e)
-            if (dkf_ra_step_missing(a->ra, j + 1, e))
-                json_array_append_new(miss, json_integer((json_int_t)c->nbr[a->row0 + e]));
-        json_array_append_new(ms, miss);
     }
     json_object_set_new(d, "n", ks);
     json_object_set_new(d, "x", xs);
     json_object_set_new(d, "P", Ps);
     json_object_set_new(d, "z", zs);
-    json_object_set_new(d, "degraded", dg);
-    json_object_set_new(d, "missing", ms);
-    json_object_set_new(d, "counters", counters(a));
+    dkf_ra_result_json(a->ra, done, d);
     return d;
 }

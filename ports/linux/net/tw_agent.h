@@ -143,6 +143,8 @@ int dkf_tw_agent_state(const dkf_tw_agent_t *a);
 size_t dkf_tw_agent_steps_done(const dkf_tw_agent_t *a);
 const char *dkf_tw_agent_error(const dkf_tw_agent_t *a);
 const dkf_tw_counters_t *dkf_tw_agent_counters(const dkf_tw_agent_t *a);
+/* Its rounds with the neighbours (round_agent.h). */
+dkf_ra_t *dkf_tw_agent_rounds(dkf_tw_agent_t *a);
 /* The committed node (x, P, z of the last step). */
 const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a);
 

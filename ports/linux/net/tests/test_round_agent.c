@@ -20,6 +20,7 @@
 
 #include <cmocka.h>
 
+#include "ra_bus.h"
 #include "round_agent.h"
 
 #define NN 3
@@ -69,36 +70,7 @@ static int avg_complete(void *filter, size_t k, size_t r, const dkf_real_t *rx, 
 
 static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete};
 
-/* ---- delivery: every publication reaches the sender's neighbours -------------- */
-
-typedef struct msg {
-    size_t from, to, len;
-    unsigned char data[DKF_RA_MAX_MSG];
-    struct msg *next;
-} msg_t;
-
-static msg_t *head, *tail;
-static size_t sender_id[NN];
-
-static int send_to_neighbours(void *user, const void *data, size_t len)
-{
-    const size_t from = *(const size_t *)user;
-    size_t e;
-    for (e = 0; e < degs[from]; ++e) {
-        msg_t *m;
-        if (rows[from][e] == from) continue;
-        m = calloc(1, sizeof *m);
-        assert_non_null(m);
-        memcpy(m->data, data, len);
-        m->from = from;
-        m->to = rows[from][e];
-        m->len = len;
-        if (tail) tail->next = m;
-        else head = m;
-        tail = m;
-    }
-    return 0;
-}
+static ra_bus_t bus;
 
 static dkf_ra_t *make(size_t id, avg_t *f)
 {
@@ -126,38 +98,14 @@ static dkf_ra_t *make(size_t id, avg_t *f)
     c.ex.info_rounds = ROUNDS;
     c.ex.info_len = 1;
     c.ex.est_len = 1;
-    sender_id[id] = id;
-    o.send = send_to_neighbours;
-    o.user = &sender_id[id];
-    o.round_timeout_us = 1000;
-    o.start_timeout_us = 5000;
-    o.retry_us = 100;
+    bus.N = NN;
+    bus.row[id] = rows[id];
+    bus.deg[id] = degs[id];
+    o = ra_bus_opts(&bus, id, 1000, 5000, 100);
     a = dkf_ra_new(&c, &o, err, sizeof err);
     if (a == NULL) fail_msg("%s", err);
+    bus.agent[id] = a;
     return a;
-}
-
-/* Delivers everything queued, polls every live agent; the clock moves by
- * tick each round of this loop. Returns the final time. */
-static int64_t run(dkf_ra_t *a[NN], int64_t now, int64_t tick, int64_t until)
-{
-    size_t i;
-    for (; now < until; now += tick) {
-        int busy = 0;
-        while (head != NULL) {
-            msg_t *m = head;
-            head = m->next;
-            if (head == NULL) tail = NULL;
-            if (a[m->to] != NULL)
-                assert_int_equal(dkf_ra_receive(a[m->to], (long)m->from, m->data, m->len, now),
-                                 DKF_NET_ACCEPT);
-            free(m);
-        }
-        for (i = 0; i < NN; ++i)
-            if (a[i] != NULL && dkf_ra_poll(a[i], now) != DKF_RA_FINISHED) busy = 1;
-        if (!busy) break;
-    }
-    return now;
 }
 
 static void test_averages_bit_for_bit(void **state)
@@ -167,10 +115,12 @@ static void test_averages_bit_for_bit(void **state)
     dkf_real_t v[NN], w[NN];
     size_t i, e, t;
     (void)state;
+    memset(&bus, 0, sizeof bus);
     for (i = 0; i < NN; ++i) a[i] = make(i, &f[i]);
     for (i = 0; i < NN; ++i) v[i] = f[i].v;
     for (i = 0; i < NN; ++i) assert_int_equal(dkf_ra_start(a[i], 0), DKF_RA_RUNNING);
-    run(a, 0, 10, 1000000);
+    ra_bus_run(&bus, 0, 10, 1000000);
+    assert_int_equal(bus.rejected, 0);
     for (t = 0; t < STEPS * ROUNDS; ++t) {
         for (i = 0; i < NN; ++i) {
             dkf_real_t sum = DKF_R(0.0);
@@ -202,12 +152,16 @@ static void test_silent_node_degrades_its_neighbour(void **state)
     size_t j;
     int64_t end;
     (void)state;
+    memset(&bus, 0, sizeof bus);
     a[0] = make(0, &f[0]);
     a[1] = make(1, &f[1]);
     a[2] = NULL; /* node 2 never starts */
+    bus.N = NN;
+    bus.row[2] = rows[2];
+    bus.deg[2] = degs[2];
     assert_int_equal(dkf_ra_start(a[0], 0), DKF_RA_RUNNING);
     assert_int_equal(dkf_ra_start(a[1], 0), DKF_RA_RUNNING);
-    end = run(a, 0, 10, 1000000);
+    end = ra_bus_run(&bus, 0, 10, 1000000);
     assert_true(end >= 5000); /* the first round waited for the start timeout */
     assert_int_equal(dkf_ra_state(a[0]), DKF_RA_FINISHED);
     assert_int_equal(dkf_ra_state(a[1]), DKF_RA_FINISHED);

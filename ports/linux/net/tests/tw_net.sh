@@ -15,9 +15,18 @@
 #           retransmissions recover, results unchanged (bit for bit)
 #   absent  vec6 without node 5: the other five finish every step; nodes 0
 #           and 4 (5's neighbours) degraded at every step, 1-3 never
+# Seed 001's consensus network (dkf-tw-node --filter df_*, df_agent.h):
+#   df4         the 4-node cases of tests/vectors/infofusion/df_dnertsif.json
+#               (DF-DNERTSIF T_p 3 s = 1, T_p 45 s = 4; DF-CKF; the joint
+#               variant): every node's x, Px, d == dkf-run's in-process run,
+#               bit for bit (df_check.py --rel 0)
+#   df_radar12  seed 001's 12 radars (tools/seed001_model.py, run 0, 30 steps,
+#               T_p 45, s = 12), 12 processes: == dkf-run bit for bit
+#   df_absent   df4's first case without node 3: its neighbours 1 and 2
+#               degraded at every step, node 0 never; all finish
 #
 # Environment (set by ctest): DKF_TW_NODE DKF_RUN DKF_PYTHON DKF_NETNS
-# DKF_TW_TOOLS DKF_REAL DKF_VECTORS. Exit 77 (skip) when not root; every
+# DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_TOOLS. Exit 77 (skip) when not root; every
 # process has --timeout and the script is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 out=$2
@@ -40,25 +49,30 @@ trap cleanup EXIT
 vrel=1e-9
 [[ ${DKF_REAL:-double} == float ]] && vrel=1e-3
 
-# run_nodes SCN ALG DIR SKIP EXTRA... : one process per node (SKIP: a node
-# not started, or -1), waits for all; fails if one fails.
-run_nodes() {
-  local scn=$1 alg=$2 dir=$3 skip=$4; shift 4
-  local N i rc=0 t0 t1
-  N=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
+# nodes SCN N DIR SKIP WHAT ARGS...: one dkf-tw-node per node 0..N-1 with ARGS
+# (SKIP: a node not started, or -1), waits for all; fails if one fails.
+nodes() {
+  local scn=$1 N=$2 dir=$3 skip=$4 what=$5; shift 5
+  local i rc=0 t0 t1 mine=()
   mkdir -p "$dir"
-  local mine=()
   t0=$(date +%s.%N)
   for ((i = 0; i < N; ++i)); do
     [[ $i == "$skip" ]] && continue
-    "$DKF_TW_NODE" --url "$URL" --id $i --alg "$alg" --timeout $T --quiet \
-      --output "$dir/node$i.json" "$@" "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
+    "$DKF_TW_NODE" --url "$URL" --id $i --timeout $T --quiet --output "$dir/node$i.json" "$@" \
+      "$scn" 2>"$dir/node$i.log" & pids+=($!); mine+=($!)
   done
   for p in "${mine[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
   t1=$(date +%s.%N)
-  echo "alg $alg: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
+  echo "$what: $N nodes$( [[ $skip != -1 ]] && echo " (node $skip not started)"): $(echo "$t1 - $t0" | bc) s wall"
   [[ $rc == 0 ]] || cat "$dir"/node*.log
   return $rc
+}
+
+# run_nodes SCN ALG DIR SKIP EXTRA...: seed 003, Algorithm ALG
+run_nodes() {
+  local scn=$1 alg=$2 dir=$3 skip=$4 N; shift 4
+  N=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
+  nodes "$scn" "$N" "$dir" "$skip" "alg $alg" --alg "$alg" "$@"
 }
 
 check() { # SCN ALG DIR [tw_check args]
@@ -68,7 +82,24 @@ check() { # SCN ALG DIR [tw_check args]
     --runner "$dir/runner.json" --vector-rel $vrel --runner-rel 0 "$@"
 }
 
+# df_nodes SCN CASE FILTER N DIR SKIP EXTRA...: seed 001's network case CASE
+df_nodes() {
+  local scn=$1 cs=$2 flt=$3 N=$4 dir=$5 skip=$6; shift 6
+  nodes "$scn" "$N" "$dir" "$skip" "$flt $cs" --filter "$flt" --case "$cs" "$@"
+}
+
+# df_same SCN CASE FILTER LABEL N DIR: processes == dkf-run in process
+df_same() {
+  local scn=$1 cs=$2 flt=$3 label=$4 N=$5 dir=$6
+  df_nodes "$scn" "$cs" "$flt" "$N" "$dir" -1 || return 1
+  "$DKF_RUN" --filter "$flt" --case "$cs" --quiet --output "$dir/runner.json" "$scn" ||
+    { echo "FAIL: dkf-run"; return 1; }
+  "$DKF_PYTHON" "$DKF_TW_TOOLS/df_check.py" --nodes-dir "$dir" --nodes "$N" \
+    --runner "$dir/runner.json" --label "$label" --rel 0
+}
+
 v6=$DKF_VECTORS/uif/s003_6node.json
+vdf=$DKF_VECTORS/infofusion/df_dnertsif.json
 rc=0
 case "$mode" in
   vec6)
@@ -104,6 +135,23 @@ PY
         "$DKF_PYTHON" "$DKF_TW_TOOLS/tw_check.py" --scenario "$v6" --alg $alg \
           --nodes-dir "$out/alg$alg" --expect-absent 5 || rc=1
     done
+    ;;
+  df4)
+    df_same "$vdf" s1_4node_Tp3_scale1 df_dnertsif DF_DNERTSIF 4 "$out/tp3s1" || rc=1
+    df_same "$vdf" s1_4node_Tp45_scale4 df_dnertsif DF_DNERTSIF 4 "$out/tp45s4" || rc=1
+    df_same "$vdf" s1_4node_DF_CKF_Tp3_scale1 df_ckf DF_CKF 4 "$out/ckf" || rc=1
+    df_same "$vdf" s1_4node_Tp3_scale4 df_dnertsif_joint DF_DNERTSIF_JOINT 4 "$out/joint" || rc=1
+    ;;
+  df_radar12)
+    "$DKF_PYTHON" "$DKF_TOOLS/seed001_model.py" --run 0 --steps 30 --tp 45 --scale N \
+      --out "$out/radar12.json" || exit 1
+    df_same "$out/radar12.json" 0 df_dnertsif DF_DNERTSIF 12 "$out/nodes" || rc=1
+    ;;
+  df_absent)
+    df_nodes "$vdf" s1_4node_Tp3_scale1 df_dnertsif 4 "$out/nodes" 3 --start-timeout 3 \
+      --round-timeout 1 &&
+      "$DKF_PYTHON" "$DKF_TW_TOOLS/df_check.py" --nodes-dir "$out/nodes" --nodes 4 \
+        --expect-absent 3 --neighbours 1,2 || rc=1
     ;;
   *)
     echo "tw_net.sh: $mode: unknown mode" >&2; exit 2 ;;

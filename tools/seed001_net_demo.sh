@@ -1,0 +1,165 @@
+#!/usr/bin/env bash
+# tools/seed001_net_demo.sh - seed 001's 12 radars with one process per node
+# over LCM, on this machine.
+#
+#   tools/seed001_net_demo.sh [--build-dir DIR] [--no-build] [--steps T] [--in-process]
+#
+# Builds dkf-tw-node and dkf-run, writes seed 001's radar scenario
+# (tools/seed001_model.py: Monte-Carlo run 0, T steps (default 100), the 3 x 4
+# grid, Metropolis W, T_p = 45) and runs DF-DNERTSIF literally (s = 1) and
+# N-scaled (s = 12) with one `dkf-tw-node --filter df_dnertsif` process per
+# radar talking over UDP multicast udpm://239.255.76.67:7667?ttl=0 inside a
+# private network namespace (tools/netns.sh; root only), so nothing can
+# leave the machine; each node subscribes only to its neighbours' channels.
+# The same runs in process (dkf-run --filter df_dnertsif, dkf_dfnerts_net_*),
+# and the centralised CF-DNERTSF (dkf-run --filter cf_dnertsf). Without root
+# (or with --in-process) it says so and runs the in-process filters only.
+# Table: ARMSE of position and velocity over the steps of this run (the
+# 50-run Table 1 is tools/seed001_table1.py), max |process - in-process|
+# over every node, step and x, Px, d (must be 0: the processes compute the
+# same bits), packets and reals per node per step, wall time.
+# Exit 0 only if every process run equals the in-process one.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+build=$root/build/seed001-demo
+do_build=1 steps=100 inproc=0
+URL='udpm://239.255.76.67:7667?ttl=0'
+tests=$root/ports/linux/net/tests
+
+while [[ $# -gt 0 ]]; do
+  case $1 in
+    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
+    --no-build) do_build=0; shift ;;
+    --steps) steps=$2; shift 2 ;;
+    --in-process) inproc=1; shift ;;
+    --inner) shift; break ;;   # internal: the processes, inside the namespace
+    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "seed001_net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+# ---- inside the namespace: every radar its own process -------------------------------
+if [[ ${1:-} != "" && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
+  scn=$1 cs=$2 dir=$3 node=$4
+  if ip -o link | grep -qv ': lo:'; then
+    echo "seed001_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
+  fi
+  pids=()
+  trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
+  rm -rf "$dir" && mkdir -p "$dir"
+  t0=$(date +%s.%N)
+  for ((i = 0; i < 12; ++i)); do
+    "$node" --url "$URL" --id $i --filter df_dnertsif --case "$cs" --timeout 300 --quiet \
+      --output "$dir/node$i.json" "$scn" 2>"$dir/node$i.log" & pids+=($!)
+  done
+  rc=0
+  for p in "${pids[@]}"; do wait "$p" || rc=1; done
+  echo "$(date +%s.%N) - $t0" | bc > "$dir/wall_s"
+  pids=()
+  exit $rc
+fi
+
+if (( do_build )); then
+  echo "== building dkf-tw-node, dkf-run in $build"
+  cmake -S "$root" -B "$build" >/dev/null
+  cmake --build "$build" -j2 --target dkf-tw-node dkf-run >/dev/null
+fi
+node=$build/ports/linux/net/dkf-tw-node
+run=$build/ports/linux/dkf-run
+for p in "$node" "$run"; do
+  [[ -x $p ]] || { echo "seed001_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
+done
+out=$build/seed001-demo
+mkdir -p "$out"
+scn=$out/radar12.json
+python3 "$here/seed001_model.py" --run 0 --steps "$steps" --tp 45 --scale both --out "$scn"
+
+mode=udpm
+if (( inproc )); then
+  mode=inproc
+elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
+  echo "seed001_net_demo.sh: $(sed 's/^netns.sh: //' "$out/netns.err")"
+  echo "seed001_net_demo.sh: one process per radar needs a private network namespace (root),"
+  echo "                     so that nothing can leave this machine; running the in-process"
+  echo "                     filters only."
+  mode=inproc
+fi
+
+"$run" --filter cf_dnertsf --case 0 --quiet --output "$out/cf.json" "$scn"
+for cs in 0 1; do
+  t0=$(date +%s.%N)
+  "$run" --filter df_dnertsif --case $cs --quiet --output "$out/inproc$cs.json" "$scn"
+  echo "$(date +%s.%N) - $t0" | bc > "$out/inproc$cs.wall"
+  if [[ $mode == udpm ]]; then
+    echo "== DF-DNERTSIF case $cs: 12 dkf-tw-node processes over $URL (namespace), T_p = 45"
+    DKF_S001_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $cs "$out/proc$cs" "$node" ||
+      echo "seed001_net_demo.sh: a node process failed (see $out/proc$cs/node*.log)"
+  fi
+done
+
+python3 - "$mode" "$out" "$scn" <<'PY'
+import glob, json, sys
+import numpy as np
+mode, out, scn_path = sys.argv[1:4]
+scn = json.load(open(scn_path))
+X = np.array(scn["cases"][0]["truth"]["X"])[1:]
+def armse(x):  # x [steps, nodes, 4] -> ARMSE pos, vel (node mean) over the steps of this run
+    e = x - X[:, None, :]
+    return (float(np.sqrt(e[..., 0] ** 2 + e[..., 2] ** 2).mean()),
+            float(np.sqrt(e[..., 1] ** 2 + e[..., 3] ** 2).mean()))
+def flat(v):
+    return np.array(v, dtype=float).ravel()
+ok = True
+rows = []
+cf = json.load(open(f"{out}/cf.json"))["outputs"]["CF_DNERTSF"]
+rows.append(("CF-DNERTSF (36-dim stacked)", "in-process", armse(np.array(cf["x"])[:, None, :]), None, None, None))
+for cs, name in ((0, "DF-DNERTSIF literal s=1"), (1, "DF-DNERTSIF N-scaled s=12")):
+    d = json.load(open(f"{out}/inproc{cs}.json"))
+    o = d["outputs"]["DF_DNERTSIF"]
+    wall = float(open(f"{out}/inproc{cs}.wall").read())
+    c = d.get("communication", {})
+    rows.append((name, "in-process", armse(np.array(o["x"])), None, None, wall))
+    if mode != "udpm":
+        continue
+    res = {}
+    for f in glob.glob(f"{out}/proc{cs}/node*.json"):
+        r = json.load(open(f))
+        res[r["node"]] = r
+    if sorted(res) != list(range(12)) or any(r.get("exit") != "done" for r in res.values()):
+        ok = False
+        rows.append((name, "12 processes", None, None, None, None))
+        continue
+    gap = 0.0
+    for i, r in res.items():
+        for key in ("x", "Px", "d"):
+            a = np.concatenate([flat(v) for v in r[key]])
+            b = np.concatenate([flat(o[key][j][i]) for j in range(len(r[key]))])
+            gap = max(gap, float(np.max(np.abs(a - b))))
+    ok &= gap == 0.0 and not any(any(r["degraded"]) for r in res.values())
+    xs = np.stack([np.array(res[i]["x"]) for i in range(12)], axis=1)
+    steps = len(res[0]["k"])
+    pk = sum(r["counters"]["sent"] - r["counters"]["retransmits"] - r["counters"]["answers"]
+             for r in res.values()) / (12 * steps)
+    reals = sum(r["counters"]["reals_sent"] for r in res.values()) / (12 * steps)
+    rows.append((name, "12 processes", armse(xs), gap, (pk, reals),
+                 float(open(f"{out}/proc{cs}/wall_s").read())))
+print()
+print("transport: " + ("udpm://239.255.76.67:7667?ttl=0 in a private network namespace, one "
+                       "dkf-tw-node per radar" if mode == "udpm" else "none (in-process only)"))
+print(f"{'filter':<28}{'run':<14}{'ARMSE pos':>10}{'ARMSE vel':>10}{'max|proc-inproc|':>18}"
+      f"{'pkts/node/step':>16}{'reals/node/step':>17}{'wall s':>8}")
+for name, how, a, gap, pr, wall in rows:
+    if a is None:
+        print(f"{name:<28}{how:<14}  FAILED (no complete result)")
+        continue
+    g = "-" if gap is None else f"{gap:.1e}"
+    p = ("-", "-") if pr is None else (f"{pr[0]:.1f}", f"{pr[1]:.1f}")
+    w = "-" if wall is None else f"{wall:.2f}"
+    print(f"{name:<28}{how:<14}{a[0]:>10.4f}{a[1]:>10.4f}{g:>18}{p[0]:>16}{p[1]:>17}{w:>8}")
+print(f"(one Monte-Carlo run, {len(X)} steps, T_p = 45; ARMSE: mean over the steps of the position /"
+      " velocity error, node mean for DF; the 50-run table: tools/seed001_table1.py."
+      " max|proc-inproc|: absolute, over every node, step and x, Px, d; packets: first"
+      " publications per node per step (DONE and loss recovery excluded))")
+sys.exit(0 if ok else 1)
+PY

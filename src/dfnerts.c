@@ -313,6 +313,49 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
     return DKF_OK;
 }
 
+/* The prior of a joining node from a neighbour's packet (dfnerts.h). The
+ * views point into scratch that dkf_dfnerts_node_restart does not use. */
+dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf_real_t *pkt,
+                                     const dkf_mat_t *d0, const dkf_mat_t *Pd0)
+{
+    layout_t L;
+    dkf_mat_t x0, P0, dj, Pdj, Pxd0;
+    size_t n, p, q, r, c;
+    DKF_CHECK_NULL(nd);
+    DKF_CHECK_NULL(pkt);
+    if (!nd->ready) return DKF_ERR_STATE;
+    n = nd->n, p = nd->p, q = nd->q;
+    if (nd->variant == DKF_DFNERTS_PAPER && p > 0 && (d0 == NULL || Pd0 == NULL))
+        return DKF_ERR_NULL;
+    if (!dkf__all_finite(pkt, nd->pkt_len)) return DKF_ERR_NONFINITE;
+    L = mem_of(nd);
+    /* P_q = Y^{-1}, X = P_q y: the neighbour's information as a prior */
+    dkf__unpack_sym(L.A, pkt + q, q);
+    if (dkf__chol(L.Lc, L.inv, L.A, q) != 0) return DKF_ERR_NOT_SPD;
+    dkf__chol_inverse(L.Pinv, L.Lc, L.inv, q);
+    dkf__mul_vec(L.v, L.Pinv, pkt, q, q);
+    if (!dkf__all_finite(L.Pinv, q * q) || !dkf__all_finite(L.v, q)) return DKF_ERR_NONFINITE;
+    /* the x block (n x n) into A, Pxd into Yx (zero for PAPER), Pd into Lc */
+    for (r = 0; r < n; ++r)
+        for (c = 0; c < n; ++c) L.A[r * n + c] = L.Pinv[r * q + c];
+    for (r = 0; r < n * p; ++r) L.Yx[r] = DKF_R(0.0);
+    dkf__view(&x0, n, 1, L.v);
+    dkf__view(&P0, n, n, L.A);
+    dkf__view(&Pxd0, n, p, L.Yx);
+    if (nd->variant == DKF_DFNERTS_JOINT) {
+        for (r = 0; r < n; ++r)
+            for (c = 0; c < p; ++c) L.Yx[r * p + c] = L.Pinv[r * q + n + c];
+        for (r = 0; r < p; ++r)
+            for (c = 0; c < p; ++c) L.Lc[r * p + c] = L.Pinv[(n + r) * q + n + c];
+        dkf__view(&dj, p, 1, L.v + n);
+        dkf__view(&Pdj, p, p, L.Lc);
+        d0 = &dj;
+        Pd0 = &Pdj;
+    }
+    return dkf_dfnerts_node_restart(nd, k, &x0, &P0, p > 0 ? d0 : NULL, p > 0 ? Pd0 : NULL,
+                                    p > 0 ? &Pxd0 : NULL);
+}
+
 /* ---- whole network -------------------------------------------------------- */
 
 /* The network's storage: N nodes' storage, then the two packet buffers. */

@@ -475,6 +475,47 @@ static void test_restart_rejoins(void **state)
     }
 }
 
+/* A joining node's prior from a neighbour's packet (dkf_dfnerts_node_rejoin):
+ * JOINT, after a step node 1's packet is the final consensus pair it
+ * committed from, so node 2 rejoined from it holds node 1's posterior (the
+ * same operations on the same reals: bit for bit); a packet whose Y is not
+ * SPD is refused and every node is untouched; the network then steps on. */
+static void test_rejoin_from_packet(void **state)
+{
+    dkf_real_t badpkt[DKF_DFNERTS_PKT_MAX(XN, DP)];
+    test_rng_t rng;
+    double x[XN] = {0.3, -0.2};
+    size_t k;
+    (void)state;
+    scen_make(NN, DP, 1);
+    net_make(DKF_DFNERTS_JOINT);
+    test_rng_seed(&rng, 12005);
+    for (k = 1; k <= 4; ++k) {
+        truth_step(&rng, x, k);
+        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
+                                              (dkf_real_t)NN),
+                         DKF_OK);
+    }
+    memset(badpkt, 0, sizeof badpkt);
+    snap_all(NN, STATE_LEN);
+    assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, badpkt, NULL, NULL), DKF_ERR_NOT_SPD);
+    assert_all_untouched("rejoin from a packet with Y = 0", NN, STATE_LEN);
+    badpkt[0] = (dkf_real_t)NAN;
+    assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, badpkt, NULL, NULL), DKF_ERR_NONFINITE);
+    assert_all_untouched("rejoin from a NaN packet", NN, STATE_LEN);
+    assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, nodes[1].pkt, NULL, NULL), DKF_OK);
+    assert_int_equal(nodes[2].f.k, 4);
+    assert_memory_equal(nodes[2].f.x.data, nodes[1].f.x.data, XN * sizeof(dkf_real_t));
+    assert_memory_equal(nodes[2].f.Px.data, nodes[1].f.Px.data, XN * XN * sizeof(dkf_real_t));
+    assert_memory_equal(nodes[2].f.d.data, nodes[1].f.d.data, DP * sizeof(dkf_real_t));
+    assert_memory_equal(nodes[2].f.Pd.data, nodes[1].f.Pd.data, DP * DP * sizeof(dkf_real_t));
+    assert_memory_equal(nodes[2].f.Pxd.data, nodes[1].f.Pxd.data, XN * DP * sizeof(dkf_real_t));
+    truth_step(&rng, x, 5);
+    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
+                                          (dkf_real_t)NN),
+                     DKF_OK);
+}
+
 /* ---- statuses and untouched nodes ---------------------------------------- */
 
 /* One network (ring) of the variant with input dimension p, after a
@@ -617,6 +658,7 @@ int main(void)
         cmocka_unit_test(test_indefinite_mixed_covariance),
         cmocka_unit_test(test_joint_commit_by_hand),
         cmocka_unit_test(test_restart_rejoins),
+        cmocka_unit_test(test_rejoin_from_packet),
         cmocka_unit_test(test_errors_untouched),
         cmocka_unit_test(test_init_statuses),
     };

@@ -178,6 +178,17 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
                                       const dkf_mat_t *P0, const dkf_mat_t *d0,
                                       const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);
 
+/* A node that joins a running network, with its prior taken from a
+ * neighbour's packet `pkt` (pkt_len reals, e.g. of the last round of step
+ * k): P = Y^{-1}, X = P y of the packet's information pair. PAPER: the
+ * posterior at step k is x = X, Px = P, and the input's d0, Pd0 (p > 0:
+ * the caller's, e.g. the file's prior; Pxd = 0); JOINT: x, d, Px, Pxd, Pd
+ * are X's and P's blocks (d0, Pd0 ignored, may be NULL). Then as
+ * dkf_dfnerts_node_restart(k). DKF_ERR_NOT_SPD if the packet's Y is not
+ * SPD, DKF_ERR_NONFINITE, DKF_ERR_NULL; the node is untouched on failure. */
+dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf_real_t *pkt,
+                                     const dkf_mat_t *d0, const dkf_mat_t *Pd0);
+
 /* ---- in-process whole network ------------------------------------------- */
 
 #define DKF_DFNERTS_NET_STORAGE_LEN(N, n, m, p) \

@@ -26,6 +26,7 @@ struct dkf_df_agent {
     dkf_dfnerts_node_t nd;
     dkf_real_t *mem;            /* node storage, then Q, R, z, the prior */
     dkf_mat_t Q, R, z;
+    dkf_mat_t d0, Pd0;          /* the file's input prior (a rejoin's, paper variant) */
     int64_t model_id;
     double *xs, *Ps, *ds;       /* per step: x, Px, d */
 };
@@ -98,7 +99,7 @@ static int bind(dkf_df_agent_t *a, dkf_dfnerts_variant_t variant, char *err, siz
     const size_t N = s->nsensors, n = a->n, m = a->m, p = a->p;
     const size_t nnz = DKF_GRAPH_NNZ(N, s->net->E);
     const size_t len = DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p);
-    dkf_mat_t x0, P0, d0, Pd0, Pxd0;
+    dkf_mat_t x0, P0, Pxd0;
     dkf_real_t *q;
     dkf_status_t st;
     int dflt;
@@ -133,12 +134,12 @@ static int bind(dkf_df_agent_t *a, dkf_dfnerts_variant_t variant, char *err, siz
     init_view(a, "x00", &x0, &q);
     init_view(a, "P00", &P0, &q);
     if (p > 0) {
-        init_view(a, "d00", &d0, &q);
-        init_view(a, "Pd00", &Pd0, &q);
+        init_view(a, "d00", &a->d0, &q);
+        init_view(a, "Pd00", &a->Pd0, &q);
         init_view(a, "Pxd00", &Pxd0, &q);
     }
     st = dkf_dfnerts_node_init(&a->nd, DKF_NERTS_DNERTSIF, variant, n, m, p, a->mem, len, &x0,
-                               &P0, p > 0 ? &d0 : NULL, p > 0 ? &Pd0 : NULL,
+                               &P0, p > 0 ? &a->d0 : NULL, p > 0 ? &a->Pd0 : NULL,
                                p > 0 ? &Pxd0 : NULL);
     if (st != DKF_OK)
         return dkf_failf(err, errlen, -1, "%s: node %zu: dkf_dfnerts_node_init failed: %s (%d)",
@@ -188,7 +189,20 @@ static int df_complete_round(void *filter, size_t k, size_t r, const dkf_real_t 
     return 1;
 }
 
-static const dkf_ra_ops_t df_ops = {df_begin_step, df_complete_round};
+/* Joining after step k: the prior from the neighbour's last-round packet
+ * (its information after T_p - 1 mixes; the input's prior from the file
+ * for the paper's variant), then step k + 1. */
+static int df_rejoin(void *filter, size_t k, const dkf_real_t *pkt, dkf_real_t *next, char *err,
+                     size_t errlen)
+{
+    dkf_df_agent_t *a = filter;
+    dkf_status_t st = dkf_dfnerts_node_rejoin(&a->nd, k, pkt, a->p > 0 ? &a->d0 : NULL,
+                                              a->p > 0 ? &a->Pd0 : NULL);
+    if (st != DKF_OK) return fail_step(err, errlen, a, k + 1, "dkf_dfnerts_node_rejoin", st);
+    return df_begin_step(filter, k + 1, next, err, errlen);
+}
+
+static const dkf_ra_ops_t df_ops = {df_begin_step, df_complete_round, df_rejoin};
 
 dkf_df_agent_t *dkf_df_agent_new(const dkf_filter_t *f, const dkf_scenario_t *s, size_t id,
                                  const dkf_ra_opts_t *o, char *err, size_t errlen)
@@ -284,8 +298,10 @@ json_t *dkf_df_agent_result(const dkf_df_agent_t *a)
     json_object_set_new(d, "N", json_integer((json_int_t)a->s->nsensors));
     json_object_set_new(d, "steps", json_integer((json_int_t)a->s->steps));
     json_object_set_new(d, "Tp", json_integer((json_int_t)a->Tp));
+    json_object_set_new(d, "first_step", json_integer((json_int_t)dkf_ra_first_step(a->ra)));
     json_object_set_new(d, "scale", json_real(a->s->nl->scale));
-    for (j = 0; j < done; ++j) {
+    const size_t first = dkf_ra_first_step(a->ra);
+    for (j = first > 0 ? first - 1 : done; j < done; ++j) {
         json_array_append_new(ks, json_integer((json_int_t)j + 1));
         json_array_append_new(xs, dkf_json_doubles(a->xs + j * n, n, 0));
         json_array_append_new(Ps, dkf_json_doubles(a->Ps + j * n * n, n, n));

@@ -36,6 +36,9 @@ static void usage(FILE *f)
             "  -a, --alg A             2 (diffusion) or 3 (consensus): --filter tw2 / tw3\n"
             "  -f, --filter NAME       tw2, tw3, df_dnertsif, df_ckf or df_dnertsif_joint\n"
             "  -c, --case SEL          a case of a cases-layout file: name or 0-based index\n"
+            "      --join              a node (re)started while the others run (seed 001):\n"
+            "                          wait for a neighbour's last round of a step, take\n"
+            "                          the prior from it and run from the next step\n"
             "  -e, --eta N             Algorithm 3: consensus iterations (default: the file's)\n"
             "  -o, --output FILE       write the estimates per step and the counters (JSON)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
@@ -59,7 +62,7 @@ static void usage(FILE *f)
 typedef struct {
     double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
     const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel;
-    int quiet;
+    int quiet, join;
 } opts_t;
 
 static int prefix_ok(const char *p)
@@ -83,7 +86,7 @@ static int parse(int argc, char **argv, opts_t *o)
         {"drop", required_argument, NULL, 'D'},        {"seed", required_argument, NULL, 'Z'},
         {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},              {"filter", required_argument, NULL, 'f'},
-        {"case", required_argument, NULL, 'c'},
+        {"case", required_argument, NULL, 'c'},        {"join", no_argument, NULL, 'J'},
         {NULL, 0, NULL, 0}};
     int c;
     memset(o, 0, sizeof *o);
@@ -102,6 +105,7 @@ static int parse(int argc, char **argv, opts_t *o)
         case 'e': bad = dkf_cli_num(prog, "--eta", optarg, 0, 1e6, &o->eta); break;
         case 'f': o->filter = optarg; break;
         case 'c': o->case_sel = optarg; break;
+        case 'J': o->join = 1; break;
         case 'o': o->output = optarg; break;
         case 'u': o->url = optarg; break;
         case 'p': o->prefix = optarg; break;
@@ -211,9 +215,9 @@ static int run(const opts_t *o, ctx_t *x)
 {
     const int64_t t0 = dkf_net_mono_us();
     dkf_ra_t *ra = x->ag.ra;
-    int st = dkf_ra_start(ra, t0), code;
+    int st = o->join ? dkf_ra_join(ra, t0) : dkf_ra_start(ra, t0), code;
     const char *what;
-    while (st == DKF_TW_RUNNING || st == DKF_TW_LINGER) {
+    while (st == DKF_RA_RUNNING || st == DKF_RA_LINGER || st == DKF_RA_JOINING) {
         int64_t now = dkf_net_mono_us(), w = dkf_ra_wait_us(ra, now) / 1000;
         if (dkf_cli_stop || dkf_cli_expired(t0, o->timeout)) break;
         if (dkf_net_drain(x->net, (int)(w > 100 ? 100 : w)) < 0) {
@@ -223,9 +227,9 @@ static int run(const opts_t *o, ctx_t *x)
         }
         st = dkf_ra_poll(ra, dkf_net_mono_us());
     }
-    if (st == DKF_TW_FINISHED) {
+    if (st == DKF_RA_FINISHED) {
         code = DKF_EXIT_OK, what = "done";
-    } else if (st == DKF_TW_FAILED) {
+    } else if (st == DKF_RA_FAILED) {
         code = DKF_EXIT_RUN, what = "failed";
         if (dkf_ra_error(ra)[0] != '\0') fprintf(stderr, "%s: %s\n", prog, dkf_ra_error(ra));
     } else {

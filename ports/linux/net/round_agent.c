@@ -24,6 +24,7 @@ struct dkf_ra {
     long t, prev_t;             /* global round index (k - 1) * rounds + round; -1: none */
     long T;                     /* steps * rounds */
     size_t k;                   /* step in progress (1..steps), steps + 1 when finished */
+    size_t k_first;             /* the first step run (1, or after a join) */
     int state;
     int64_t round_start, last_pub, linger_start;
     unsigned char *deg_step;    /* per step: degraded */
@@ -139,7 +140,7 @@ static void shape(const dkf_ra_t *a, long t, int *kind, size_t *len)
 static int enter_round(dkf_ra_t *a, long t, const dkf_real_t *v, int64_t now)
 {
     int kind;
-    size_t len;
+    size_t len, e;
     shape(a, t, &kind, &len);
     if (a->t >= 0) {
         memcpy(a->prev, a->cur, a->cur_len * sizeof *a->cur);
@@ -151,6 +152,8 @@ static int enter_round(dkf_ra_t *a, long t, const dkf_real_t *v, int64_t now)
     a->t = t;
     memcpy(a->rx, a->nx, a->deg * a->pkt * sizeof *a->rx);
     memcpy(a->have, a->have_nx, a->deg);
+    for (e = 0; e < a->deg; ++e)
+        if (a->have[e]) a->absent[e] = 0;
     memset(a->have_nx, 0, a->deg);
     memcpy(a->rx + a->self * a->pkt, a->cur, len * sizeof *v);
     a->have[a->self] = 1;
@@ -209,9 +212,42 @@ static int complete_round(dkf_ra_t *a, int64_t now)
 
 int dkf_ra_start(dkf_ra_t *a, int64_t now_us)
 {
-    if (a->k != 0) return a->state;
-    a->k = 1;
+    if (a->k != 0 || a->state == DKF_RA_JOINING) return a->state;
+    a->k = a->k_first = 1;
     return begin_step(a, now_us);
+}
+
+int dkf_ra_join(dkf_ra_t *a, int64_t now_us)
+{
+    (void)now_us;
+    if (a->k != 0 || a->state == DKF_RA_JOINING) return a->state;
+    if (a->cfg.ops->rejoin == NULL) {
+        snprintf(a->err, sizeof a->err, "node %zu: this filter cannot join a running network",
+                 a->cfg.id);
+        return fail(a);
+    }
+    a->state = DKF_RA_JOINING;
+    return a->state;
+}
+
+/* Joining: the neighbour at row position e sent packet p; join after the
+ * last round of its step if there is a step after it. */
+static void try_join(dkf_ra_t *a, long e, const dkf_net_tw_pkt_t *p, int64_t now)
+{
+    const size_t R = a->cfg.ex.rounds;
+    size_t k;
+    if (p->kind == DKF_TW_KIND_DONE || (size_t)p->round + 1 != R ||
+        (size_t)p->k >= a->cfg.ex.steps)
+        return;
+    k = (size_t)p->k;
+    if (a->cfg.ops->rejoin(a->cfg.filter, k, p->v, a->next, a->err, sizeof a->err) != 0) {
+        fail(a);
+        return;
+    }
+    a->state = DKF_RA_RUNNING;
+    a->k = a->k_first = k + 1;
+    a->heard[e] = now;
+    (void)enter_round(a, (long)(k * R), a->next, now);
 }
 
 /* Row position of node j, or -1. */
@@ -240,6 +276,10 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
         return DKF_NET_REJ_NODE;
     }
     ++a->cnt.received;
+    if (a->state == DKF_RA_JOINING) {
+        try_join(a, e, &p, now_us);
+        return v;
+    }
     if (p.kind == DKF_TW_KIND_DONE || (p.k - 1) * (long)a->cfg.ex.rounds + p.round <= a->t + 1)
         a->heard[e] = now_us; /* alive, and not gone past us */
     if (p.kind == DKF_TW_KIND_DONE) {
@@ -253,9 +293,10 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
         a->have[e] = 1;
         a->absent[e] = 0;
     } else if (t == a->t + 1 && a->state == DKF_RA_RUNNING) {
+        /* present again from round t on (enter_round), not in this round:
+         * a neighbour that joined at t never sends this round's packet */
         memcpy(a->nx + (size_t)e * a->pkt, p.v, p.len * sizeof p.v[0]);
         a->have_nx[e] = 1;
-        a->absent[e] = 0;
     } else if (t < a->t) {
         int kind;
         size_t plen;
@@ -336,6 +377,7 @@ int dkf_ra_poll(dkf_ra_t *a, int64_t now_us)
 int64_t dkf_ra_wait_us(const dkf_ra_t *a, int64_t now_us)
 {
     int64_t w = a->last_pub + a->o.retry_us - now_us;
+    if (a->state == DKF_RA_JOINING) return a->o.retry_us;
     if (a->state == DKF_RA_RUNNING && deadline(a) - now_us < w) w = deadline(a) - now_us;
     if (a->state == DKF_RA_LINGER && a->linger_start + a->o.round_timeout_us - now_us < w)
         w = a->linger_start + a->o.round_timeout_us - now_us;
@@ -434,6 +476,7 @@ int dkf_ra_state(const dkf_ra_t *a) { return a->state; }
 const char *dkf_ra_error(const dkf_ra_t *a) { return a->err; }
 const dkf_ra_counters_t *dkf_ra_counters(const dkf_ra_t *a) { return &a->cnt; }
 size_t dkf_ra_steps_done(const dkf_ra_t *a) { return a->k == 0 ? 0 : a->k - 1; }
+size_t dkf_ra_first_step(const dkf_ra_t *a) { return a->k_first; }
 int dkf_ra_step_degraded(const dkf_ra_t *a, size_t j) { return a->deg_step[j - 1]; }
 int dkf_ra_step_missing(const dkf_ra_t *a, size_t j, size_t e)
 {

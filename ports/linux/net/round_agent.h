@@ -45,7 +45,13 @@ typedef struct {
     int64_t retry_us;         /* quiet period before a re-publication; > 0 */
 } dkf_ra_opts_t;
 
-enum { DKF_RA_RUNNING = 0, DKF_RA_LINGER = 1, DKF_RA_FINISHED = 2, DKF_RA_FAILED = 3 };
+enum {
+    DKF_RA_RUNNING = 0,
+    DKF_RA_LINGER = 1,
+    DKF_RA_FINISHED = 2,
+    DKF_RA_FAILED = 3,
+    DKF_RA_JOINING = 4 /* dkf_ra_join: waiting for a neighbour's last round of a step */
+};
 
 typedef struct {
     /* sent: every publication; reals_sent: the reals of first publications
@@ -68,6 +74,12 @@ typedef struct {
      * 0, or commits the step and returns 1 (r = rounds - 1). */
     int (*complete_round)(void *filter, size_t k, size_t r, const dkf_real_t *rx, size_t stride,
                           const unsigned char *have, dkf_real_t *next, char *err, size_t errlen);
+    /* A node that joins a running network (optional; NULL: it cannot): the
+     * neighbour's packet `pkt` of the last round of step k (k < steps)
+     * gives the node a new prior for the end of step k; then step k + 1
+     * begins as in begin_step (its round-0 packet into next). 0 or -1. */
+    int (*rejoin)(void *filter, size_t k, const dkf_real_t *pkt, dkf_real_t *next, char *err,
+                  size_t errlen);
 } dkf_ra_ops_t;
 
 typedef struct {
@@ -91,6 +103,13 @@ void dkf_ra_free(dkf_ra_t *a);
 
 /* Begins step 1 and publishes its first packet. State. */
 int dkf_ra_start(dkf_ra_t *a, int64_t now_us);
+/* Instead of dkf_ra_start, for a node (re)started while its neighbours
+ * run: publishes nothing until it receives a neighbour's packet of the last
+ * round of some step k < steps; then ops->rejoin takes its prior from it
+ * and the node runs from step k + 1 (its neighbours, which had given it up,
+ * take its packets again from that round on). DKF_RA_JOINING, or
+ * DKF_RA_FAILED if the ops have no rejoin. */
+int dkf_ra_join(dkf_ra_t *a, int64_t now_us);
 /* Takes one message from the channel of node chan_node (-1: any). */
 dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, size_t len,
                                  int64_t now_us);
@@ -121,6 +140,8 @@ void dkf_ra_result_json(const dkf_ra_t *a, size_t steps, json_t *doc);
 /* Steps completed so far; of step j (1-based, <= that): degraded, and
  * whether row position e was missing in it. */
 size_t dkf_ra_steps_done(const dkf_ra_t *a);
+/* The first step the node ran (1, or its join step k + 1; 0 while joining). */
+size_t dkf_ra_first_step(const dkf_ra_t *a);
 int dkf_ra_step_degraded(const dkf_ra_t *a, size_t j);
 int dkf_ra_step_missing(const dkf_ra_t *a, size_t j, size_t e);
 

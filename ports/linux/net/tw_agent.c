@@ -334,7 +334,8 @@ static int tw_complete_round(void *filter, size_t k, size_t r, const dkf_real_t 
     return record_step(a, k);
 }
 
-static const dkf_ra_ops_t tw_ops = {tw_begin_step, tw_complete_round};
+/* (no rejoin: a seed-003 node restarted mid-run is not supported) */
+static const dkf_ra_ops_t tw_ops = {tw_begin_step, tw_complete_round, NULL};
 
 dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_agent_opts_t *o,
                                  char *err, size_t errlen)

@@ -10,7 +10,11 @@
  *     the vector file;
  *   - every node agrees on the model id and no packet is refused;
  *   - a node that never starts: only its neighbours' steps are degraded,
- *     with it missing, and every running node finishes.
+ *     with it missing, and every running node finishes;
+ *   - a node that starts late and joins (dkf_ra_join): it takes its prior
+ *     from a neighbour's last round of a step, runs every later step, its
+ *     neighbours are degraded only before it joined, and at the end it
+ *     agrees with the others (T_p 45: consensus).
  */
 #include <math.h>
 #include <setjmp.h>
@@ -194,11 +198,61 @@ static void test_silent_node(void **state)
     stop_net(&t);
 }
 
+static void test_late_node_joins(void **state)
+{
+    net_t t;
+    size_t i, j, first;
+    int64_t now = 0;
+    json_t *r3, *r0;
+    double gap = 0.0;
+    (void)state;
+    start_net(&t, "s1_4node_Tp45_scale4", "df_dnertsif", 3);
+    set_rows(&t);
+    for (i = 0; i < 3; ++i) assert_int_equal(dkf_ra_start(t.bus.agent[i], 0), 0);
+    while (dkf_ra_steps_done(t.bus.agent[0]) < 4 && now < 100000000)
+        now = ra_bus_run(&t.bus, now, 100, now + 100) + 100;
+    assert_true(dkf_ra_steps_done(t.bus.agent[0]) >= 4);
+    t.bus.agent[3] = dkf_df_agent_rounds(t.ag[3]);
+    assert_int_equal(dkf_ra_join(t.bus.agent[3], now), DKF_RA_JOINING);
+    ra_bus_run(&t.bus, now, 100, now + 100000000);
+    first = dkf_ra_first_step(t.bus.agent[3]);
+    assert_true(first >= 5 && first < t.s->steps);
+    for (i = 0; i < 4; ++i) {
+        if (dkf_ra_state(t.bus.agent[i]) != DKF_RA_FINISHED)
+            fail_msg("node %zu: state %d, %zu steps, first %zu: %s", i, dkf_ra_state(t.bus.agent[i]),
+                     dkf_ra_steps_done(t.bus.agent[i]), dkf_ra_first_step(t.bus.agent[i]),
+                     dkf_ra_error(t.bus.agent[i]));
+        assert_int_equal(dkf_ra_steps_done(t.bus.agent[i]), t.s->steps);
+    }
+    /* nodes 1 and 2 neighbour 3: degraded before it joined, never after */
+    for (i = 1; i <= 2; ++i)
+        for (j = first + 1; j <= t.s->steps; ++j) assert_false(dkf_ra_step_degraded(t.bus.agent[i], j));
+    assert_true(dkf_ra_step_degraded(t.bus.agent[1], 1));
+    r3 = dkf_df_agent_result(t.ag[3]);
+    r0 = dkf_df_agent_result(t.ag[0]);
+    assert_int_equal(json_array_size(json_object_get(r3, "k")), t.s->steps - first + 1);
+    for (j = 0; j < 4; ++j) {
+        const double a = json_number_value(json_array_get(
+            json_array_get(json_object_get(r3, "x"), t.s->steps - first), j));
+        const double b = json_number_value(json_array_get(
+            json_array_get(json_object_get(r0, "x"), t.s->steps - 1), j));
+        if (fabs(a - b) > gap) gap = fabs(a - b);
+    }
+    /* T_p = 45 on the 4-ring (|lambda_2(W)|^45 ~ 1e-21): every node holds the
+     * same information after a step, so the joined node's last x equals node
+     * 0's to rounding; 1e-6 leaves room for the mixes' rounding in float */
+    assert_true(gap < 1e-6 * 100.0);
+    json_decref(r3);
+    json_decref(r0);
+    stop_net(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_vector_case),
         cmocka_unit_test(test_silent_node),
+        cmocka_unit_test(test_late_node_joins),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -68,7 +68,7 @@ static int avg_complete(void *filter, size_t k, size_t r, const dkf_real_t *rx, 
     return 1;
 }
 
-static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete};
+static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete, NULL};
 
 static ra_bus_t bus;
 

@@ -24,6 +24,12 @@
 #               T_p 45, s = 12), 12 processes: == dkf-run bit for bit
 #   df_absent   df4's first case without node 3: its neighbours 1 and 2
 #               degraded at every step, node 0 never; all finish
+#   df_rejoin   the 12 radars (100 steps, T_p 45, s = 12) with node 5 started
+#               0.5 s late with --join, while the others still wait for it in
+#               step 1 (--start-timeout 2): it joins after a step k (the first
+#               whose last round it hears), runs every later step, its
+#               neighbours are degraded only before it joined, and its last
+#               estimate agrees with node 0's
 #
 # Environment (set by ctest): DKF_TW_NODE DKF_RUN DKF_PYTHON DKF_NETNS
 # DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_TOOLS. Exit 77 (skip) when not root; every
@@ -146,6 +152,44 @@ PY
     "$DKF_PYTHON" "$DKF_TOOLS/seed001_model.py" --run 0 --steps 30 --tp 45 --scale N \
       --out "$out/radar12.json" || exit 1
     df_same "$out/radar12.json" 0 df_dnertsif DF_DNERTSIF 12 "$out/nodes" || rc=1
+    ;;
+  df_rejoin)
+    "$DKF_PYTHON" "$DKF_TOOLS/seed001_model.py" --run 1 --steps 100 --tp 45 --scale N \
+      --out "$out/radar12.json" || exit 1
+    mkdir -p "$out/nodes"
+    late=()
+    for ((i = 0; i < 12; ++i)); do
+      [[ $i == 5 ]] && continue
+      "$DKF_TW_NODE" --url "$URL" --id $i --filter df_dnertsif --case 0 --timeout $T --quiet \
+        --start-timeout 2 --round-timeout 0.5 --output "$out/nodes/node$i.json" "$out/radar12.json" \
+        2>"$out/nodes/node$i.log" & pids+=($!); late+=($!)
+    done
+    sleep 0.5
+    "$DKF_TW_NODE" --url "$URL" --id 5 --filter df_dnertsif --case 0 --timeout $T --quiet --join \
+      --start-timeout 2 --round-timeout 0.5 --output "$out/nodes/node5.json" "$out/radar12.json" \
+      2>"$out/nodes/node5.log" & pids+=($!); late+=($!)
+    for p in "${late[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
+    "$DKF_PYTHON" - "$out/nodes" <<'PY' || rc=1
+import glob, json, sys
+r = {d["node"]: d for d in (json.load(open(f)) for f in glob.glob(sys.argv[1] + "/node*.json"))}
+assert sorted(r) == list(range(12)), sorted(r)
+j = r[5]
+first = j["first_step"]
+print(f"node 5 joined after step {first - 1}, ran steps {first}..{j['k'][-1]}")
+assert 1 < first < 100 and j["k"][-1] == 100 and j["exit"] == "done", (first, j["exit"])
+nb = set(j["neighbours"])
+for i, d in r.items():
+    if i == 5:
+        continue
+    bad = [k for k, g in zip(d["k"], d["degraded"]) if g and k > first]
+    assert not bad, f"node {i} degraded after the join: {bad[:5]}"
+    if i in nb:
+        assert any(d["degraded"][: first - 1]), f"neighbour {i} not degraded before the join"
+x5, x0 = j["x"][-1], r[0]["x"][-1]
+gap = max(abs(a - b) for a, b in zip(x5, x0))
+print(f"last step: max |x5 - x0| = {gap:.3g}")
+assert gap < 0.05, gap
+PY
     ;;
   df_absent)
     df_nodes "$vdf" s1_4node_Tp3_scale1 df_dnertsif 4 "$out/nodes" 3 --start-timeout 3 \

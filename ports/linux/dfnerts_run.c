@@ -31,14 +31,9 @@
 #include "util.h"
 
 typedef struct {
-    dkf_dfnerts_variant_t variant;
-    int no_input; /* 1: df_ckf (p = 0), 0: an unknown input (p >= 1) */
-} df_impl_t;
-
-typedef struct {
     const dkf_filter_t *fl;
     const dkf_scenario_t *s;
-    df_impl_t impl;
+    dkf_df_impl_t impl;
     size_t N, n, m, p;           /* nodes, state, the largest m_l, input */
     size_t *start, *nbr;         /* the graph's CSR lists */
     dkf_graph_t g;
@@ -58,7 +53,7 @@ typedef struct {
 static int df_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_scenario_t *s,
                     char *err, size_t errlen)
 {
-    const df_impl_t *im = fl->impl;
+    const dkf_df_impl_t *im = fl->impl;
     (void)o;
     if (s->layout != DKF_SCN_LAYOUT_NLCASES || s->nl == NULL || !s->nl->network)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
@@ -182,7 +177,7 @@ static dkf_runner_t *df_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     }
     u->fl = fl;
     u->s = s;
-    u->impl = *(const df_impl_t *)fl->impl;
+    u->impl = *(const dkf_df_impl_t *)fl->impl;
     u->N = s->nsensors;
     u->n = s->n;
     u->p = s->nl->p;
@@ -321,8 +316,7 @@ static void df_summary(const dkf_runner_t *r, FILE *out)
 
 /* ---- the registry family ---- */
 
-extern const dkf_family_t dkf_family_dfnerts;
-static const df_impl_t impls[] = {
+static const dkf_df_impl_t impls[] = {
     {DKF_DFNERTS_PAPER, 0}, {DKF_DFNERTS_PAPER, 1}, {DKF_DFNERTS_JOINT, 0},
 };
 static const dkf_filter_t filters[] = {

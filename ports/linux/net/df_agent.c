@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "est_nerts.h"
 #include "graph_weights.h"
 #include "nlm.h"
 #include "util.h"
@@ -30,18 +31,6 @@ struct dkf_df_agent {
     int64_t model_id;
     double *xs, *Ps, *ds;       /* per step: x, Px, d */
 };
-
-/* The filters this agent runs and their variant. */
-static int variant_of(const dkf_filter_t *f, dkf_dfnerts_variant_t *v)
-{
-    if (strcmp(f->name, "df_dnertsif") == 0 || strcmp(f->name, "df_ckf") == 0)
-        *v = DKF_DFNERTS_PAPER;
-    else if (strcmp(f->name, "df_dnertsif_joint") == 0)
-        *v = DKF_DFNERTS_JOINT;
-    else
-        return -1;
-    return 0;
-}
 
 /* Everything the nodes of one run must agree on: filter, sizes, T_p, s,
  * the graph and W, every node's model source, Q, R and prior (the
@@ -208,12 +197,11 @@ dkf_df_agent_t *dkf_df_agent_new(const dkf_filter_t *f, const dkf_scenario_t *s,
                                  const dkf_ra_opts_t *o, char *err, size_t errlen)
 {
     dkf_df_agent_t *a;
-    dkf_dfnerts_variant_t variant;
     dkf_run_opts_t ro;
     dkf_ra_config_t rc;
     memset(&ro, 0, sizeof ro);
     ro.eta = -1;
-    if (variant_of(f, &variant) != 0) {
+    if (f->family != &dkf_family_dfnerts) {
         snprintf(err, errlen, "--filter %s: not a consensus-network filter (df_dnertsif, df_ckf, "
                  "df_dnertsif_joint)", f->name);
         return NULL;
@@ -240,7 +228,7 @@ dkf_df_agent_t *dkf_df_agent_new(const dkf_filter_t *f, const dkf_scenario_t *s,
     a->p = s->nl->p;
     a->Tp = (size_t)s->net->eta;
     a->scale = (dkf_real_t)s->nl->scale;
-    if (bind(a, variant, err, errlen) != 0) {
+    if (bind(a, ((const dkf_df_impl_t *)f->impl)->variant, err, errlen) != 0) {
         dkf_df_agent_free(a);
         return NULL;
     }

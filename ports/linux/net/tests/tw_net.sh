@@ -188,7 +188,9 @@ for i, d in r.items():
 x5, x0 = j["x"][-1], r[0]["x"][-1]
 gap = max(abs(a - b) for a, b in zip(x5, x0))
 print(f"last step: max |x5 - x0| = {gap:.3g}")
-assert gap < 0.05, gap
+# the 12-node grid at T_p 45 is not at full consensus (|lambda_2(W)|^45 = 1.4e-3):
+# nodes differ by ~1e-4 (measured 9.2e-5 for node 5 against node 0); bound 1e-3
+assert gap < 1e-3, gap
 PY
     ;;
   df_absent)

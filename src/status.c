@@ -18,6 +18,7 @@ const char *dkf_status_str(dkf_status_t status)
     case DKF_ERR_GRAPH: return "invalid graph";
     case DKF_ERR_WEIGHTS: return "weights not stochastic";
     case DKF_ERR_MODEL: return "model callback failed";
+    case DKF_ERR_UNSTABLE: return "no stabilising solution";
     }
     return "unknown status";
 }

@@ -23,7 +23,9 @@ typedef enum {
     DKF_ERR_ARG = -11,           /* an argument is outside its domain */
     DKF_ERR_GRAPH = -12,         /* malformed graph, or a link that is not in it */
     DKF_ERR_WEIGHTS = -13,       /* weights not (row/doubly) stochastic or negative */
-    DKF_ERR_MODEL = -14          /* a user model callback reported failure (dkf/nl_model.h) */
+    DKF_ERR_MODEL = -14,         /* a user model callback reported failure (dkf/nl_model.h) */
+    DKF_ERR_UNSTABLE = -15       /* no stabilising solution: a Riccati / Stein equation whose
+                                  * closed loop has a mode on or outside the unit circle */
 } dkf_status_t;
 
 /* Short constant description of a status, e.g. "matrix not SPD".

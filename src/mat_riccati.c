@@ -271,6 +271,34 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     return DKF_OK;
 }
 
+/* Scales A_k by 2^-e and B_k by 2^e (r x r, c x c) with e the half
+ * difference of the binary exponents of their norms an, bn (updated):
+ * the terms A_k^j X (B_k^T)^j of (M1) are unchanged (exactly: powers of
+ * two), and both factors shrink together, so neither overflows while
+ * the other underflows when rho(A) > 1 > rho(B) with rho(A) rho(B) < 1.
+ * |e| <= 60 per step keeps 2^e finite in float. */
+static void balance(dkf_real_t *A, dkf_real_t *B, dkf_real_t *an, dkf_real_t *bn, size_t r,
+                    size_t c)
+{
+    int ea, eb, e;
+    dkf_real_t sa, sb;
+    size_t i;
+    if (!(*an > DKF_R(0.0) && *bn > DKF_R(0.0) && *an <= DKF_REAL_MAX && *bn <= DKF_REAL_MAX))
+        return;
+    (void)frexp((double)*an, &ea);
+    (void)frexp((double)*bn, &eb);
+    e = (ea - eb) / 2;
+    if (e > 60) e = 60;
+    if (e < -60) e = -60;
+    if (e == 0) return;
+    sa = (dkf_real_t)ldexp(1.0, -e);
+    sb = (dkf_real_t)ldexp(1.0, e);
+    for (i = 0; i < r * r; ++i) A[i] *= sa;
+    for (i = 0; i < c * c; ++i) B[i] *= sb;
+    *an *= sa;
+    *bn *= sb;
+}
+
 /* ---- Stein ----------------------------------------------------------------- */
 
 /* Work layout of dkf_mat_stein (DKF_MAT_STEIN_WORK(r, c) reals):
@@ -327,8 +355,9 @@ dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
     memcpy(Bk, B->data, c * c * sizeof *Bk);
     memcpy(Xk, C->data, rc * sizeof *Xk); /* X_0 = C (M1) */
     for (k = 0; k < DKF_MAT_DOUBLING_MAX_ITER; ++k) {
-        const dkf_real_t an = norm1(Ak, r, r), bn = norm1(Bk, c, c);
+        dkf_real_t an = norm1(Ak, r, r), bn = norm1(Bk, c, c);
         dkf_real_t dn, xn;
+        balance(Ak, Bk, &an, &bn, r, c);
         /* ||A_k|| ||B_k|| <= 1/2 proves rho(A)^(2^k) rho(B)^(2^k) < 1 */
         if (an * bn <= CONTRACT) certified = 1;
         /* (M1) X_{k+1} = X_k + (A_k X_k) B_k^T */

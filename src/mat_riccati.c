@@ -98,14 +98,33 @@ static int sym_within_rounding(const dkf_real_t *A, size_t n)
     return 1;
 }
 
+/* The certificate window: the largest j with 2^j n eps < 1. A contraction
+ * ||M^(2^j)|| <= 1/2 proves rho(M) <= 2^(-2^-j), i.e. 1 - rho(M) >~
+ * 0.69 / 2^j; a j beyond this window would certify 1 - rho(M) below
+ * ~n eps, which the rounding of M's own entries (and of the products
+ * that square it) can create or remove: such an M is on the unit circle
+ * within rounding, and its equation has no reliable solution (its
+ * condition number is ~1 / (1 - rho^2) >~ 1 / (n eps)). */
+static size_t cert_window(size_t n)
+{
+    dkf_real_t t = (dkf_real_t)n * DKF_REAL_EPSILON;
+    size_t j = 0;
+    while (t * DKF_R(2.0) < DKF_R(1.0) && j < DKF_MAT_DOUBLING_MAX_ITER) {
+        t *= DKF_R(2.0);
+        ++j;
+    }
+    return j;
+}
+
 /* P = M (n x n), then P <- P^2 until ||P||_1 <= CONTRACT (returns 1: M is
- * a contraction, rho(M) < 1) or DKF_MAT_DOUBLING_MAX_ITER squarings or
- * an overflow (returns 0). P, T: n^2 reals each, distinct from M. */
+ * a contraction, rho(M) < 1) or cert_window(n) squarings or an overflow
+ * (returns 0). P, T: n^2 reals each, distinct from M. */
 static int certify_contraction(dkf_real_t *P, dkf_real_t *T, const dkf_real_t *M, size_t n)
 {
+    const size_t jmax = cert_window(n);
     size_t j;
     memcpy(P, M, n * n * sizeof *P);
-    for (j = 0; j <= DKF_MAT_DOUBLING_MAX_ITER; ++j) {
+    for (j = 0; j <= jmax; ++j) {
         const dkf_real_t nrm = norm1(P, n, n);
         dkf_real_t *s;
         if (nrm <= CONTRACT) return 1;
@@ -130,6 +149,69 @@ static dkf_status_t failure(dkf_real_t anorm, int limit)
     return limit ? DKF_ERR_NO_CONVERGENCE : DKF_ERR_NONFINITE;
 }
 
+/* W = P^T L U in place (n x n, partial pivoting, perm[i] = original row
+ * at row i). W_k = I + G_k H_k is nonsingular in exact arithmetic (G_k H_k
+ * is similar to the PSD H_k^{1/2} G_k H_k^{1/2}, so every eigenvalue of
+ * W_k is >= 1), but its entries can be ~||G_k|| ||H_k|| >> 1 (R tiny), so
+ * dkf_mat_lu's relative singularity test (pivot <= n eps max|W|) would
+ * refuse unit pivots that are exact; only a zero or non-finite pivot
+ * fails here (returns -1). */
+static int lu_inplace(dkf_real_t *W, size_t *perm, size_t n)
+{
+    size_t i, j, k;
+    for (i = 0; i < n; ++i) perm[i] = i;
+    for (k = 0; k < n; ++k) {
+        dkf_real_t *wk = W + k * n;
+        dkf_real_t pmax = DKF_FABS(wk[k]), inv;
+        size_t p = k;
+        for (i = k + 1; i < n; ++i)
+            if (DKF_FABS(W[i * n + k]) > pmax) {
+                pmax = DKF_FABS(W[i * n + k]);
+                p = i;
+            }
+        if (!(pmax > DKF_R(0.0) && pmax <= DKF_REAL_MAX)) return -1;
+        if (p != k) {
+            dkf_real_t *wp = W + p * n;
+            const size_t t = perm[k];
+            perm[k] = perm[p];
+            perm[p] = t;
+            for (j = 0; j < n; ++j) {
+                const dkf_real_t v = wk[j];
+                wk[j] = wp[j];
+                wp[j] = v;
+            }
+        }
+        inv = DKF_R(1.0) / wk[k];
+        for (i = k + 1; i < n; ++i) {
+            dkf_real_t *wi = W + i * n;
+            const dkf_real_t l = wi[k] * inv;
+            wi[k] = l;
+            for (j = k + 1; j < n; ++j) wi[j] -= l * wk[j];
+        }
+    }
+    return 0;
+}
+
+/* Y = W^{-1} B for B n x n from lu_inplace's factors, column by column
+ * through the contiguous t. Y must not overlap LU or B. */
+static void lu_solve_nn(dkf_real_t *Y, const dkf_real_t *LU, const size_t *perm,
+                        const dkf_real_t *B, size_t n)
+{
+    dkf_real_t t[DKF_MAX_DIM];
+    size_t i, j, c;
+    for (c = 0; c < n; ++c) {
+        for (i = 0; i < n; ++i) t[i] = B[perm[i] * n + c];
+        for (i = 1; i < n; ++i) t[i] -= dkf__dot(LU + i * n, t, i);
+        for (i = n; i-- > 0;) {
+            const dkf_real_t *ri = LU + i * n;
+            dkf_real_t s = t[i];
+            for (j = i + 1; j < n; ++j) s -= ri[j] * t[j];
+            t[i] = s / ri[i];
+        }
+        for (i = 0; i < n; ++i) Y[i * n + c] = t[i];
+    }
+}
+
 static void swap_ptr(dkf_real_t **a, dkf_real_t **b)
 {
     dkf_real_t *t = *a;
@@ -142,7 +224,7 @@ static void swap_ptr(dkf_real_t **a, dkf_real_t **b)
 /* Work layout of dkf_mat_dare (DKF_MAT_DARE_WORK(n, m) reals):
  *   A, G, Hk   n*n each  the SDA iterates A_k, G_k, H_k (S0)-(S4)
  *   Wb         n*n       W_k and its LU factors; the next G_k / H_k
- *   Lw         n*n       LU scratch; products Y2 A^T, H_k Y1; next A_k
+ *   Lw         n*n       products Y2 A^T, H_k Y1; the next A_k
  *   Y1, Y2     n*n each  W_k^{-1} A_k, W_k^{-1} G_k; A_k^T
  *   Rl         m*m       Cholesky factor of R (for G_0)
  *   Sm         m*m       S = H X H^T + R and its factor (certificate)
@@ -155,7 +237,6 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     size_t piv[DKF_MAX_DIM];
     dkf_real_t *A, *G, *Hk, *Wb, *Lw, *Y1, *Y2, *Rl, *Sm, *Mb, *Kb;
     dkf_real_t anorm = DKF_R(0.0);
-    dkf_mat_t Wv, Lv, Y1v, Y2v, Av, Gv;
     size_t n, m, nn, len, i, j, k;
     int converged = 0;
     DKF_TRY(dkf__check_mat(X));
@@ -220,17 +301,10 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
         /* (S1) W_k = I + G_k H_k, LU-factored in place */
         dkf__mul_nn(Wb, G, Hk, n, n, n);
         for (i = 0; i < n; ++i) Wb[i * n + i] += DKF_R(1.0);
-        dkf__view(&Wv, n, n, Wb);
-        dkf__view(&Lv, n, n, Lw);
-        dkf__view(&Y1v, n, n, Y1);
-        dkf__view(&Y2v, n, n, Y2);
-        dkf__view(&Av, n, n, A);
-        dkf__view(&Gv, n, n, G);
-        if (dkf_mat_lu(&Wv, piv, &Wv, Lw) != DKF_OK) return failure(anorm, 0);
+        if (lu_inplace(Wb, piv, n) != 0) return failure(anorm, 0);
         /* Y1 = W_k^{-1} A_k, Y2 = W_k^{-1} G_k */
-        if (dkf_mat_lu_solve(&Y1v, &Wv, piv, &Av) != DKF_OK ||
-            dkf_mat_lu_solve(&Y2v, &Wv, piv, &Gv) != DKF_OK)
-            return failure(anorm, 0);
+        lu_solve_nn(Y1, Wb, piv, A, n);
+        lu_solve_nn(Y2, Wb, piv, G, n);
         /* (S3) G_{k+1} = G_k + A_k (Y2 A_k^T), symmetric */
         dkf__mul_nt(Lw, Y2, A, n, n, n);
         dkf__mul_nn_sym(Wb, A, Lw, G, n, n);
@@ -311,7 +385,7 @@ dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
                            const dkf_mat_t *C, dkf_real_t *work)
 {
     dkf_real_t *Ak, *An, *Bk, *Bn, *Xk, *Xn, *T;
-    size_t r, c, rc, len, i, j, k;
+    size_t r, c, rc, len, i, j, k, kwin;
     int certified = 0, converged = 0, lyap;
     DKF_TRY(dkf__check_mat(X));
     DKF_TRY(dkf__check_mat(A));
@@ -346,6 +420,7 @@ dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
 
     /* The Lyapunov case (A = B, C exactly symmetric): X_k stays exactly
      * symmetric when the increment is formed as a symmetric product. */
+    kwin = cert_window(r > c ? r : c);
     lyap = r == c && memcmp(A->data, B->data, r * r * sizeof *Ak) == 0;
     for (i = 0; lyap && i < r; ++i)
         for (j = i + 1; j < r; ++j)
@@ -358,7 +433,9 @@ dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
         dkf_real_t an = norm1(Ak, r, r), bn = norm1(Bk, c, c);
         dkf_real_t dn, xn;
         balance(Ak, Bk, &an, &bn, r, c);
-        /* ||A_k|| ||B_k|| <= 1/2 proves rho(A)^(2^k) rho(B)^(2^k) < 1 */
+        /* ||A_k|| ||B_k|| <= 1/2 proves rho(A)^(2^k) rho(B)^(2^k) < 1,
+         * inside the window of cert_window (else on the unit circle) */
+        if (!certified && k > kwin) return DKF_ERR_UNSTABLE;
         if (an * bn <= CONTRACT) certified = 1;
         /* (M1) X_{k+1} = X_k + (A_k X_k) B_k^T */
         dkf__mul_nn(T, Ak, Xk, r, r, c);

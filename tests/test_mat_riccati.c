@@ -603,6 +603,25 @@ static void test_dare_statuses(void **state)
         set_d(rQ, Q, 4);
         rR[0] = 1;
         dare_fails(2, 1, DKF_ERR_UNSTABLE, "rotation, Q = 0");
+        /* the rotation beside an excited, observed stable mode (Q = 0 on
+         * the rotation only): H_k is nonzero on the stable block, stays
+         * zero on the rotation's, and X's closed loop keeps the rotation */
+        {
+            double F3[9] = {0}, H3[3] = {1, 0, 1}, Q3[9] = {0};
+            F3[0] = cos(th);
+            F3[1] = -sin(th);
+            F3[3] = sin(th);
+            F3[4] = cos(th);
+            F3[8] = 0.5;
+            Q3[8] = 1;
+            set_d(rF, F3, 9);
+            set_d(rH, H3, 3);
+            set_d(rQ, Q3, 9);
+            dare_fails(3, 1, DKF_ERR_UNSTABLE, "rotation unreachable beside a stable mode");
+            set_d(rF, F, 4);
+            set_d(rH, H, 2);
+            set_d(rQ, Q, 4);
+        }
         /* the same with Q = 0 but a stable F: X = 0 is stabilising */
         rF[0] = rF[3] = (dkf_real_t)(0.5 * cos(th));
         rF[1] = (dkf_real_t)(-0.5 * sin(th));

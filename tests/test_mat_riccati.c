@@ -663,11 +663,16 @@ static void test_dare_statuses(void **state)
     base2();
     rQ[1] = rQ[2] = (dkf_real_t)(1.0 + 1e-3); /* det < 0 by 2e-3: beyond rounding */
     dare_fails(2, 2, DKF_ERR_NOT_SPD, "Q slightly indefinite");
-    /* Q PSD singular is fine (rank one), Q with a rounding-level negative
-     * eigenvalue is accepted */
+    /* Q PSD singular is fine (rank one) */
     base2();
     rQ[0] = rQ[1] = rQ[2] = rQ[3] = 1;
     assert_int_equal(dare_call(2, 2), DKF_OK);
+    /* lambda_min(Q) ~ -EPS, inside the 4 n EPS tr(Q) = 16 EPS allowance */
+    rQ[3] = 1 - 2 * DKF_REAL_EPSILON;
+    assert_int_equal(dare_call(2, 2), DKF_OK);
+    /* lambda_min(Q) ~ -50 EPS: beyond it */
+    rQ[3] = 1 - 100 * DKF_REAL_EPSILON;
+    dare_fails(2, 2, DKF_ERR_NOT_SPD, "Q indefinite by 50 EPS");
 
     /* shapes */
     base2();

@@ -463,7 +463,8 @@ dkf_status_t dkf_selftune_model_dim(const dkf_selftune_t *id, size_t *n)
 dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est_t *est,
                                 dkf_mat_t *F, dkf_mat_t *Q)
 {
-    dkf_real_t gam[2 * DKF_SELFTUNE_MAX_NA + 1], e[DKF_SELFTUNE_MAX_NA + 3];
+    dkf_real_t gam[2 * DKF_SELFTUNE_MAX_NA + 1], e[DKF_SELFTUNE_MAX_NA + 3],
+        qs[DKF_SELFTUNE_MAX_NA * DKF_SELFTUNE_MAX_NA];
     size_t n, na, ne, i, j;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(est);
@@ -485,6 +486,12 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
     for (i = 0; i < n; ++i) gam[i] = DKF_R(0.0);
     gam[0] = DKF_R(1.0);
     if (id->nc == 1) gam[1] = est->c1;
+    /* the signal block of Q first (an overflow of sigma_w^2 c_1^2 is
+     * NONFINITE, F and Q untouched) */
+    for (i = 0; i < na; ++i)
+        for (j = i; j < na; ++j)
+            qs[i * na + j] = qs[j * na + i] = (gam[i] * est->sigma_w2) * gam[j];
+    if (!dkf__all_finite(qs, na * na)) return DKF_ERR_NONFINITE;
     /* F = blkdiag(Phi_A, Phi_P): first column -a (resp. -p, or 0 if np = 0),
      * ones on the superdiagonal of each block */
     for (i = 0; i < n * n; ++i) F->data[i] = DKF_R(0.0);
@@ -497,10 +504,11 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
         if (i + 1 < ne) F->data[(na + i) * n + na + i + 1] = DKF_R(1.0);
     }
     /* Q = Gamma diag(sigma_w^2, sigma_xi^2) Gamma^T: blkdiag(sigma_w^2 g g^T,
-     * sigma_xi^2 e_1 e_1^T), each entry (g_i sigma^2) g_j */
+     * sigma_xi^2 e_1 e_1^T), entry i <= j (g_i sigma^2) g_j, mirrored (exactly
+     * symmetric) */
     for (i = 0; i < n * n; ++i) Q->data[i] = DKF_R(0.0);
     for (i = 0; i < na; ++i)
-        for (j = 0; j < na; ++j) Q->data[i * n + j] = (gam[i] * est->sigma_w2) * gam[j];
+        for (j = 0; j < na; ++j) Q->data[i * n + j] = qs[i * na + j];
     Q->data[na * n + na] = id->sigma_xi2;
     return DKF_OK;
 }

@@ -17,6 +17,10 @@
  *                  P_ij, P_S, w, P_S0, matrix_weights, P0_matrix), then per
  *                  step x_local, s_fused, x_fused_matrix of the steady
  *                  filters (steps_x_local, steps_s_fused, steps_x_fused_matrix)
+ *   central_kf     the centralized Kalman filter of the stacked
+ *                  measurements [y_1; ...; y_l] (dkf/kf.h, R block-diagonal)
+ *                  beside the fusion, the bound every fusion is measured
+ *                  against: per step x_central, P_central
  *   fusion_selftune  the self-tuning form (dkf/selftune.h): the identifier
  *                  fed with every y_i(t), the local filters, P_ij and both
  *                  fusions on the model of its current estimate; per step
@@ -51,7 +55,7 @@
 #include "util.h"
 #include "wf_model.h"
 
-typedef enum { WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE } wf_kind_t;
+typedef enum { WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE, WF_CENTRAL } wf_kind_t;
 
 /* The self-tuning form's identifier and the model of its estimate. */
 typedef struct {
@@ -81,10 +85,16 @@ typedef struct {
     json_t *series; /* NULL: record nothing */
     /* squared errors against x_true: every local x_i, fused x, fused s */
     double *sq_local;
-    double sq_x, sq_s;
+    double sq_x, sq_s, sq_c; /* sq_c: central_kf's x */
     size_t nerr;
     size_t nonunique; /* steps where the matrix weights were not unique */
     wf_st_t *st;      /* fusion_selftune only */
+    /* central_kf only: the stacked filter, its model and measurement */
+    dkf_kf_t kf;
+    dkf_real_t *kmem, *Hc, *Rc, *yc;
+    dkf_mat_t mHc, mRc, myc;
+    dkf_kf_meas_t cmeas;
+    size_t ms;
 } wf_runner_t;
 
 static void st_free(wf_st_t *st)
@@ -247,6 +257,10 @@ static void wf_destroy(dkf_runner_t *r)
     free(u->mem);
     free(u->sq_local);
     st_free(u->st);
+    free(u->kmem);
+    free(u->Hc);
+    free(u->Rc);
+    free(u->yc);
     json_decref(u->series);
     free(u);
 }
@@ -379,6 +393,50 @@ static int fuse(wf_runner_t *u, char *err, size_t errlen, long k)
     return DKF_EXIT_OK;
 }
 
+/* central_kf: the stacked model H = [H_1; ...; H_l], R = blkdiag(R_i) and
+ * a Kalman filter from the common prior. 0, or -1 (out of memory, or a
+ * stack above DKF_MAX_DIM: *st says which). */
+static int central_setup(wf_runner_t *u, dkf_status_t *st)
+{
+    const size_t n = u->mdl.n;
+    size_t i, r, c, row = 0, ms = 0;
+    for (i = 0; i < u->mdl.l; ++i) ms += u->mdl.m[i];
+    u->ms = ms;
+    u->kmem = calloc(DKF_KF_STORAGE_LEN(n, ms), sizeof *u->kmem);
+    u->Hc = calloc(ms * n, sizeof *u->Hc);
+    u->Rc = calloc(ms * ms, sizeof *u->Rc);
+    u->yc = calloc(ms, sizeof *u->yc);
+    *st = DKF_ERR_CAPACITY;
+    if (u->kmem == NULL || u->Hc == NULL || u->Rc == NULL || u->yc == NULL) return -1;
+    for (i = 0; i < u->mdl.l; row += u->mdl.m[i], ++i)
+        for (r = 0; r < u->mdl.m[i]; ++r) {
+            for (c = 0; c < n; ++c) u->Hc[(row + r) * n + c] = u->mdl.H[i].data[r * n + c];
+            for (c = 0; c < u->mdl.m[i]; ++c)
+                u->Rc[(row + r) * ms + row + c] = u->mdl.R[i].data[r * u->mdl.m[i] + c];
+        }
+    if (dkf_mat_init(&u->mHc, ms, n, u->Hc) != DKF_OK || dkf_mat_init(&u->mRc, ms, ms, u->Rc) != DKF_OK ||
+        dkf_mat_init(&u->myc, ms, 1, u->yc) != DKF_OK)
+        return -1;
+    u->cmeas.H = &u->mHc;
+    u->cmeas.R = &u->mRc;
+    *st = dkf_kf_init(&u->kf, n, ms, u->kmem, DKF_KF_STORAGE_LEN(n, ms), &u->mdl.x0, &u->mdl.P0);
+    return *st == DKF_OK ? 0 : -1;
+}
+
+/* central_kf's step t: predict, then the stacked update with y(t). */
+static int central_step(wf_runner_t *u, char *err, size_t errlen, long k)
+{
+    size_t i, j, row = 0;
+    dkf_status_t st;
+    for (i = 0; i < u->mdl.l; row += u->mdl.m[i], ++i)
+        for (j = 0; j < u->mdl.m[i]; ++j) u->yc[row + j] = u->mdl.y[i].data[j];
+    if ((st = dkf_kf_predict(&u->kf, &u->mdl.dyn, NULL)) != DKF_OK)
+        return fail_core(u, err, errlen, k, "dkf_kf_predict", st);
+    if ((st = dkf_kf_update(&u->kf, &u->cmeas, &u->myc)) != DKF_OK)
+        return fail_core(u, err, errlen, k, "dkf_kf_update", st);
+    return DKF_EXIT_OK;
+}
+
 static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
@@ -415,6 +473,11 @@ static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                           &u->mdl.Hs, &u->mdl.x0, &u->mdl.P0);
     if (st != DKF_OK) {
         *rc = fail_core(u, err, errlen, -1, "dkf_wfusion_init", st);
+        wf_destroy((dkf_runner_t *)(void *)u);
+        return NULL;
+    }
+    if (u->kind == WF_CENTRAL && central_setup(u, &st) != 0) {
+        *rc = fail_core(u, err, errlen, -1, "dkf_kf_init (the stacked sensors)", st);
         wf_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
@@ -462,6 +525,11 @@ static void errors_at(wf_runner_t *u, long k)
     }
     e = (double)u->fu.s0 - st;
     u->sq_s += e * e;
+    if (u->kind == WF_CENTRAL)
+        for (j = 0; j < n; ++j) {
+            e = (double)u->kf.x.data[j] - xt[j];
+            u->sq_c += e * e;
+        }
     u->nerr++;
 }
 
@@ -489,6 +557,7 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
                           u->mdl.y);
     if (st != DKF_OK) return fail_core(u, err, errlen, k, "dkf_wfusion_step", st);
     if ((rc = fuse(u, err, errlen, k)) != DKF_EXIT_OK) return rc;
+    if (u->kind == WF_CENTRAL && (rc = central_step(u, err, errlen, k)) != DKF_EXIT_OK) return rc;
     if (!u->fu.A_unique) u->nonunique++;
     errors_at(u, k);
     if (u->series == NULL) return DKF_EXIT_OK;
@@ -496,6 +565,10 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     case WF_LOCAL: record_local(u->series, u, 0); break;
     case WF_SCALAR: record_scalar(u->series, u, 0); break;
     case WF_MATRIX: record_matrix(u->series, u, 0); break;
+    case WF_CENTRAL:
+        dkf_json_append(u->series, "x_central", mat_json(&u->kf.x, 1));
+        dkf_json_append(u->series, "P_central", mat_json(&u->kf.P, 0));
+        break;
     case WF_STEADY:
         dkf_json_append(u->series, "steps_x_local", per_node(u, 0));
         dkf_json_append(u->series, "steps_s_fused", json_real((double)u->fu.s0));
@@ -561,12 +634,15 @@ static void wf_summary(const dkf_runner_t *r, FILE *out)
                 sqrt(u->sq_local[i] / (ne * (double)u->mdl.n)));
     fprintf(out, "    fused (matrix)  x %.6g\n", sqrt(u->sq_x / (ne * (double)u->mdl.n)));
     fprintf(out, "    fused (scalar)  s %.6g\n", sqrt(u->sq_s / ne));
+    if (u->kind == WF_CENTRAL)
+        fprintf(out, "    centralized     x %.6g\n", sqrt(u->sq_c / (ne * (double)u->mdl.n)));
 }
 
 /* ---- the registry family ---- */
 
 extern const dkf_family_t dkf_family_wfusion;
-static const wf_kind_t kinds[] = {WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE};
+static const wf_kind_t kinds[] = {WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE,
+                                  WF_CENTRAL};
 static const dkf_filter_t filters[] = {
     {"local_kf", "LOCAL_KF",
      "seed 002: every sensor's local KF (Theorem 1) and the\n"
@@ -588,6 +664,10 @@ static const dkf_filter_t filters[] = {
      "seed 002: self-tuning fusion (dkf/selftune.h): A, C,\n"
      "                           sigma_w^2 identified from the y_i, filters on the estimate",
      0, &dkf_family_wfusion, &kinds[4]},
+    {"central_kf", "CENTRAL_KF",
+     "seed 002: the centralized KF of the stacked sensors beside\n"
+     "                           the fusion (the bound): x_central, P_central",
+     0, &dkf_family_wfusion, &kinds[5]},
 };
 const dkf_family_t dkf_family_wfusion = {
     "wfusion", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_WFCASES,

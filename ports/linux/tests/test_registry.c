@@ -37,8 +37,8 @@ static void test_every_filter_found_once(void **state)
         }
     /* kf info dkf askf otskf rtsf nrtsf_df nrtsf tw1 tw2 tw3 nertsf nertsif dnertsf dnertsif
      * cf_dnertsf df_dnertsif df_ckf df_dnertsif_joint local_kf fusion_scalar fusion_matrix
-     * fusion_steady fusion_selftune */
-    assert_int_equal(count, 24);
+     * fusion_steady fusion_selftune central_kf */
+    assert_int_equal(count, 25);
     assert_null(dkf_registry_find("ukf"));
 }
 
@@ -79,7 +79,7 @@ static void test_names_lists(void **state)
                         "nertsf, nertsif, dnertsf, dnertsif, cf_dnertsf, df_dnertsif, df_ckf, "
                         "df_dnertsif_joint");
     assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_WFCASES),
-                        "local_kf, fusion_scalar, fusion_matrix, fusion_steady, fusion_selftune");
+                        "local_kf, fusion_scalar, fusion_matrix, fusion_steady, fusion_selftune, central_kf");
 }
 
 /* Loads path, runs filter `name` through the registry's operations only

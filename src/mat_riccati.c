@@ -262,6 +262,7 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     DKF_CHECK_NO_ALIAS_BUF(H, work, len);
     DKF_CHECK_NO_ALIAS_BUF(Q, work, len);
     DKF_CHECK_NO_ALIAS_BUF(R, work, len);
+    (void)len; /* read only by the alias checks (DKF_DEBUG_CHECKS) */
     if (!dkf__all_finite(F->data, nn) || !dkf__all_finite(H->data, m * n) ||
         !dkf__all_finite(Q->data, nn) || !dkf__all_finite(R->data, m * m))
         return DKF_ERR_NONFINITE;
@@ -406,6 +407,7 @@ dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
     DKF_CHECK_NO_ALIAS_BUF(A, work, len);
     DKF_CHECK_NO_ALIAS_BUF(B, work, len);
     DKF_CHECK_NO_ALIAS_BUF(C, work, len);
+    (void)len; /* read only by the alias checks (DKF_DEBUG_CHECKS) */
     if (!dkf__all_finite(A->data, r * r) || !dkf__all_finite(B->data, c * c) ||
         !dkf__all_finite(C->data, rc))
         return DKF_ERR_NONFINITE;

@@ -10,12 +10,22 @@
 #include "codec.h"
 #include "registry.h"
 #include "util.h"
+#include "wfn_model.h"
 
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
 {
     const dkf_filter_t *f = dkf_registry_find("dkf");
     dkf_run_opts_t o;
     size_t i, ms = 0, ps = 0;
+    if (dkf_wfn_is_wfusion(s)) {
+        /* seed 002's weighted fusion (wfn_model.h): local KFs and their centre */
+        if (s->nsensors > DKF_NET_MAX_NODES) {
+            snprintf(err, errlen, "%s: %zu sensors, at most %d", s->file, s->nsensors,
+                     DKF_NET_MAX_NODES);
+            return -1;
+        }
+        return dkf_wfn_check(s, err, errlen);
+    }
     /* what the Difference KF needs of the file: the registry's check */
     memset(&o, 0, sizeof o);
     o.eta = -1;
@@ -54,6 +64,20 @@ int64_t dkf_net_model_id(const dkf_scenario_t *s)
     uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, j;
     h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, s->n), s->nsensors), s->steps);
+    if (dkf_wfn_is_wfusion(s)) {
+        /* weighted fusion: a tag, F, Q, Hs, every sensor's H, R, x00, P00 */
+        h = dkf_fnv1a_u64(h, 0x57465553ull); /* "WFUS" */
+        h = fnv_mat(h, dkf_scn_model(s, "F"));
+        h = fnv_mat(h, dkf_scn_model(s, "Q"));
+        h = fnv_mat(h, dkf_scn_model(s, "Hs"));
+        for (i = 0; i < s->nsensors; ++i) {
+            h = fnv_mat(h, dkf_scn_sensor_model(s, i, "H"));
+            h = fnv_mat(h, dkf_scn_sensor_model(s, i, "R"));
+        }
+        h = fnv_mat(h, dkf_scn_init(s, "x00"));
+        h = fnv_mat(h, dkf_scn_init(s, "P00"));
+        return (int64_t)h;
+    }
     h = fnv_mat(h, dkf_scn_model(s, "F"));
     h = fnv_mat(h, dkf_scn_model(s, "Q"));
     for (i = 0; i < s->nsensors; ++i) {

@@ -46,6 +46,7 @@
 
 #include "dkf/kf.h"
 #include "dkf/mat.h"
+#include "dkf/mat_riccati.h"
 
 /* ---- one local filter (a node) --------------------------------------------- */
 
@@ -56,7 +57,9 @@
  * leaves them and the struct bit-identical. */
 #define DKF_WFUSION_LOCAL_STATE_LEN(n, m) ((n) + 4 * (n) * (n) + (n) * (m))
 #define DKF__WFUSION_LOCAL_SCRATCH(n, m) \
-    ((n) + 3 * (n) * (n) + 2 * (n) * (m) + 2 * (m) * (m) + (m))
+    (DKF_WFUSION_LOCAL_STATE_LEN(n, m) + 2 * (n) * (n) + 2 * (n) * (m) + 2 * (m) * (m) + \
+     DKF__WFUSION_MAX(2 * ((n) + (m)) * (n) + (m) * (m), DKF_MAT_DARE_WORK(n, m)))
+#define DKF__WFUSION_MAX(a, b) ((a) > (b) ? (a) : (b))
 
 typedef struct {
     size_t n, m;
@@ -110,10 +113,11 @@ size_t dkf_wfusion_storage_len(size_t n, size_t l, const size_t m[]);
     ((l) * DKF_WFUSION_LOCAL_STORAGE_LEN(n, m) + DKF__WFUSION_OWN_LEN(n, l))
 #define DKF__WFUSION_KKT(n, l) ((n) * (l) + (n))
 #define DKF__WFUSION_OWN_LEN(n, l) \
-    (2 * (n) * (l) * (n) * (l) + (n) + (l) + (l) * (l) + (n) * (n) * (l) + (n) + (n) * (n) + \
-     2 * DKF__WFUSION_KKT(n, l) * DKF__WFUSION_KKT(n, l) + \
-     DKF_MAT_PINV_WORK(DKF__WFUSION_KKT(n, l), DKF__WFUSION_KKT(n, l)) + \
-     2 * DKF__WFUSION_KKT(n, l) * (n))
+    (2 * (n) * (l) * (n) * (l) + 2 * DKF__WFUSION_KKT(n, l) * DKF__WFUSION_KKT(n, l) + \
+     2 * (l) * (l) + 2 * (l) + 2 * (n) * (n) * (l) + 3 * (n) + 2 * (n) * (n) + \
+     DKF__WFUSION_KKT(n, l) * (n) + \
+     DKF__WFUSION_MAX(DKF_MAT_PINV_WORK(DKF__WFUSION_KKT(n, l), DKF__WFUSION_KKT(n, l)), \
+                      DKF_MAT_STEIN_WORK(n, n)))
 
 typedef struct {
     size_t n, l;                 /* state, sensors */

@@ -16,11 +16,12 @@ extern const dkf_family_t dkf_family_uif;   /* uif_run.c: dkf/uif.h (seed 004) *
 extern const dkf_family_t dkf_family_tw;    /* tw_run.c: dkf/tw.h (seed 003) */
 extern const dkf_family_t dkf_family_nerts; /* est_nerts.c: dkf/nerts.h (seed 001) */
 extern const dkf_family_t dkf_family_dfnerts; /* dfnerts_run.c: dkf/dfnerts.h (seed 001) */
+extern const dkf_family_t dkf_family_wfusion; /* wfusion_run.c: dkf/wfusion.h (seed 002) */
 
 const dkf_family_t *const dkf_registry[] = {
     &dkf_family_kf, &dkf_family_info, &dkf_family_dkf, &dkf_family_askf, &dkf_family_otskf,
     &dkf_family_uif, &dkf_family_tw, &dkf_family_nerts, &dkf_family_dfnerts,
-    NULL,
+    &dkf_family_wfusion, NULL,
 };
 
 const dkf_filter_t *dkf_registry_find(const char *name)

@@ -53,9 +53,11 @@ typedef enum {
     DKF_SCN_LAYOUT_STEPS = 2,     /* steps[].inputs, one sensor (seed-004 uif vectors) */
     DKF_SCN_LAYOUT_NETWORK = 3,   /* steps[].inputs with a graph: per-node H, Sw, y
                                    * (seed-003 vectors); s->net holds the graph */
-    DKF_SCN_LAYOUT_NLCASES = 4    /* cases[] with a nonlinear model (built-in family or
+    DKF_SCN_LAYOUT_NLCASES = 4,   /* cases[] with a nonlinear model (built-in family or
                                    * expressions) per node (seed-001 vectors); s->nl
                                    * holds the models, s->net the graph of a network */
+    DKF_SCN_LAYOUT_WFCASES = 5    /* cases[] with Phi, Gamma, Qe, H[i], R[i], H_signal
+                                   * (seed-002 weighted fusion); below */
 } dkf_scn_layout_t;
 
 /* A named matrix that is either constant or given per absolute k, or (for
@@ -186,6 +188,17 @@ typedef struct {
  *   steps[j].truth.x          -> truth x_k; truth.d / d_prev / z_prev -> truth_u
  * Steps run k = k_first .. k_first + steps - 1 (k_first = steps[0].k, 0 or 1);
  * `expected` is ignored. */
+
+/* Weighted-fusion cases layout (seed 002, docs/scenario-format.md,
+ * "Weighted-fusion cases"; scn_wfcases.c), normalised as
+ *   Phi                 -> model F (constant)
+ *   Gamma, Qe           -> model Gamma, Qe, and model Q = Gamma Qe Gamma^T
+ *   H_signal (1 x n)    -> model Hs
+ *   H[i], R[i]          -> sensor i's H (m_i x n), R (m_i x m_i, SPD)
+ *   x_hat0, P0          -> init x00, P00
+ *   steps[t-1].y[i]     -> sensor i's y_t, t = 1..N (steps[t-1].t = t)
+ *   x_true[k] (k=0..N)  -> truth x_k (optional)
+ * `expected` (optional) and steady_state are left in s->root. */
 
 /* Loads and validates a scenario. case_sel selects a case of the cases
  * layout by name or decimal index (NULL: case 0); it is an error for a

@@ -195,6 +195,7 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     s->case_name = dkf_scn_dupstr(json_is_string(name) ? json_string_value(name) : "");
     if (json_object_get(cj, "model") != NULL || json_object_get(cj, "node_models") != NULL)
         return dkf_scn_load_nlcases(c, s, cj, cpath);
+    if (dkf_scn_is_wfcase(cj)) return dkf_scn_load_wfcases(c, s, cj, cpath);
     s->layout = DKF_SCN_LAYOUT_CASES;
     s->multi = 1;
 

@@ -14,6 +14,8 @@
  *   scn_nlcases.c    the nonlinear cases layout (seed-001 vectors): models
  *                    (nlm.c, nlm_builtin.c, nlm_expr.c use this toolkit
  *                    too), per-node init, z, the consensus graph
+ *   scn_wfcases.c    the weighted-fusion cases layout (seed-002 vector): Phi,
+ *                    Gamma Qe Gamma^T, H[i], R[i], H_signal, steps[].y
  *   scenario.c       layout dispatch, the public accessors, runs, free
  * None of them knows a filter: a layout fixes which keys a file has and
  * their shapes, nothing about what runs on it.
@@ -140,6 +142,11 @@ const json_t *dkf_scn_cases_step_z(dkf_scn_ctx_t *c, const json_t *steps, size_t
 /* Case cj (at cpath) of a cases file whose case has `model` or
  * `node_models` (the nonlinear cases layout). */
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
+                         const char *cpath);
+/* 1 if case cj has the weighted-fusion keys Phi, Gamma, Qe and H_signal
+ * (seed 002); case cj at cpath of such a file (scn_wfcases.c). */
+int dkf_scn_is_wfcase(const json_t *cj);
+int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
                          const char *cpath);
 /* The undirected edges [[i, j], ...] at path into net (net->N set; `who`
  * names what sized N in messages) / the weights obj[key] (dense N x N,

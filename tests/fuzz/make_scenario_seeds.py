@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Writes the seed corpus of fuzz_scenario (tests/fuzz/corpus/scenario/):
-each layout the reader accepts, cut from a golden vector of tests/vectors/
+each layout the reader accepts (the weighted-fusion cases of seed 002 too),
+cut from a golden vector of tests/vectors/
 to 3 steps without its expected outputs, the reproducers of the reader bugs
 of issue 10, plus the small refused files of ports/linux/tests/bad/
 (docs/fuzzing.md).
@@ -67,6 +68,20 @@ def nl_case(rel, index):
     return {"cases": [c]}
 
 
+def wf_case(rel):
+    """The weighted-fusion cases (seed 002) cut to STEPS steps without
+    expected or steady_state, x_true to k = 0..STEPS."""
+    d = load(rel)
+    for c in d["cases"]:
+        c["steps"] = c["steps"][:STEPS]
+        for st in c["steps"]:
+            st.pop("expected", None)
+        c.pop("steady_state", None)
+        if "x_true" in c:
+            c["x_true"] = c["x_true"][:STEPS + 1]
+    return d
+
+
 def steps(rel):
     d = load(rel)
     d["steps"] = d["steps"][:STEPS]
@@ -94,6 +109,17 @@ def main():
     seeds["nl_df_ckf.json"] = nl_case("tests/vectors/infofusion/df_dnertsif.json", 4)
     seeds["nl_expr_lin.json"] = nl_case("scenarios/nl_lin_x_sin_d_expr.json", 0)
     seeds["nl_expr_radar.json"] = nl_case("scenarios/nl_radar_expr.json", 0)
+    # weighted-fusion cases (seed 002): the vector, and a generated form
+    # (no x_true) whose sensor 1 measures two components (m differs)
+    seeds["wf_seed002.json"] = wf_case("tests/vectors/infofusion/s2_weighted_fusion.json")
+    d = wf_case("tests/vectors/infofusion/s2_weighted_fusion.json")
+    c = d["cases"][0]
+    c.pop("x_true")
+    c["H"][1] = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]]
+    c["R"][1] = [[2.0, 0.5], [0.5, 1.0]]
+    for st in c["steps"]:
+        st["y"][1] = [st["y"][1][0], -1.0]
+    seeds["wf_generated_mixed_m.json"] = d
     # a steps file whose model has no C, H (the reader then sizes y as one
     # value per step): y of one value
     d = steps("tests/vectors/uif/s004_rtsf.json")

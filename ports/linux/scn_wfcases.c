@@ -1,0 +1,323 @@
+/*
+ * scn_wfcases.c - the weighted-fusion cases layout (seed 002, the vector
+ * tests/vectors/infofusion/s2_weighted_fusion.json and scenarios written
+ * like it; docs/scenario-format.md, "Weighted-fusion cases"). One case:
+ *
+ *   Phi (n x n), Gamma (n x r), Qe (r x r), H [l matrices m_i x n],
+ *   R [l matrices m_i x m_i], H_signal (1 x n), P0 (n x n), x_hat0 (n),
+ *   steps [{t: j + 1, y: [l lists of m_i numbers], expected {...}}],
+ *   optional x_true (N + 1 states, k = 0..N)
+ *
+ * normalised onto the accessors every user reads (scenario.h):
+ *   model F = Phi, Q = Gamma Qe Gamma^T (computed here, mirrored so it is
+ *   exactly symmetric), Hs = H_signal, and Gamma, Qe as given;
+ *   sensor i's H = H[i], R = R[i] (m_i = rows of H[i]; the sensors may
+ *   differ); init x00 = x_hat0, P00 = P0; y of sensor i at t = 1..N from
+ *   steps[t-1].y[i]; truth x_k from x_true[k]. `expected` and every other
+ *   key are ignored. R[i] must be positive definite (the local filters of
+ *   seed 002 assume R_i > 0): a Cholesky factorisation in double, here.
+ * Detected (scn_cases.c) by the case keys Phi, Gamma, Qe and H_signal.
+ */
+#include "scn_parse.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Case key `key` as a matrix into set under `as`; rows x cols must be
+ * er x ec (0: any, up to DKF_MAX_DIM). */
+static dkf_scn_mat_t *wf_matrix(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const json_t *cj,
+                                const char *cpath, const char *key, const char *as, size_t er,
+                                size_t ec)
+{
+    const json_t *v = json_object_get(cj, key);
+    dkf_scn_mat_t *m;
+    char p[DKF_SCN_PATH_LEN];
+    dkf_scn_subkey(p, cpath, key);
+    if (v == NULL) {
+        dkf_scn_fail(c, p, "missing key");
+        return NULL;
+    }
+    if ((m = dkf_scn_mats_add(c, set, as, p)) == NULL) return NULL;
+    if (dkf_scn_parse_matrix(c, v, p, &m->rows, &m->cols, &m->data) != 0) return NULL;
+    if (dkf_scn_check_dims(c, m) != 0) return NULL;
+    if ((er != 0 && m->rows != er) || (ec != 0 && m->cols != ec)) {
+        dkf_scn_shape_error(c, p, er != 0 ? er : m->rows, ec != 0 ? ec : m->cols, m->rows,
+                            m->cols);
+        return NULL;
+    }
+    return m;
+}
+
+/* a (n x n, symmetric, at path) positive definite: Cholesky in double. */
+static int check_pd(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
+                    const char *what)
+{
+    double L[DKF_MAX_DIM * DKF_MAX_DIM];
+    size_t i, j, k;
+    for (j = 0; j < n; ++j) {
+        double d = a[j * n + j];
+        for (k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k];
+        if (!(d > 0.0) || !isfinite(d))
+            return dkf_scn_fail(c, path, "not positive definite (%s): Cholesky pivot %zu is "
+                                "%.3g", what, j, d);
+        L[j * n + j] = sqrt(d);
+        for (i = j + 1; i < n; ++i) {
+            double e = a[i * n + j];
+            for (k = 0; k < j; ++k) e -= L[i * n + k] * L[j * n + k];
+            L[i * n + j] = e / L[j * n + j];
+        }
+    }
+    return 0;
+}
+
+/* Q = Gamma Qe Gamma^T (n x n) into model "Q": the upper triangle summed
+ * in one order and mirrored, so Q is exactly symmetric. */
+static int wf_Q(dkf_scn_ctx_t *c, dkf_scenario_t *s, const dkf_scn_mat_t *G,
+                const dkf_scn_mat_t *Qe, const char *cpath)
+{
+    const size_t n = G->rows, r = G->cols;
+    dkf_scn_mat_t *Q;
+    char p[DKF_SCN_PATH_LEN];
+    size_t i, j, a, b;
+    dkf_scn_pathf(p, "%s.Gamma Qe Gamma^T", cpath);
+    if ((Q = dkf_scn_mats_add(c, &s->model, "Q", p)) == NULL) return -1;
+    if ((Q->data = dkf_scn_calloc(c, n * n, sizeof *Q->data)) == NULL) return -1;
+    Q->rows = Q->cols = n;
+    for (i = 0; i < n; ++i)
+        for (j = i; j < n; ++j) {
+            double acc = 0.0;
+            for (a = 0; a < r; ++a) {
+                double t = 0.0;
+                for (b = 0; b < r; ++b) t += Qe->data[a * r + b] * G->data[j * r + b];
+                acc += G->data[i * r + a] * t;
+            }
+            if (!isfinite(acc))
+                return dkf_scn_fail(c, p, "entry (%zu,%zu) is not finite", i, j);
+            Q->data[i * n + j] = Q->data[j * n + i] = acc;
+        }
+    return 0;
+}
+
+/* H[i], R[i] of every sensor (l = len(H) = len(R)). */
+static int wf_sensors(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath)
+{
+    const json_t *H = json_object_get(cj, "H"), *R = json_object_get(cj, "R");
+    char ph[DKF_SCN_PATH_LEN], pr[DKF_SCN_PATH_LEN], p[DKF_SCN_PATH_LEN];
+    size_t i, l;
+    dkf_scn_subkey(ph, cpath, "H");
+    dkf_scn_subkey(pr, cpath, "R");
+    if (H == NULL) return dkf_scn_fail(c, ph, "missing key");
+    if (R == NULL) return dkf_scn_fail(c, pr, "missing key");
+    if (!json_is_array(H) || json_array_size(H) == 0)
+        return dkf_scn_fail(c, ph, "expected a non-empty list of sensor matrices H_i, got %s",
+                            dkf_scn_json_kind(H));
+    l = json_array_size(H);
+    if (l > DKF_SCN_MAX_SENSORS)
+        return dkf_scn_fail(c, ph, "%zu sensors, more than the %lu allowed", l,
+                            DKF_SCN_MAX_SENSORS);
+    if (!json_is_array(R) || json_array_size(R) != l)
+        return json_is_array(R)
+                   ? dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per H_i), got "
+                                  "%zu", l, json_array_size(R))
+                   : dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per H_i), got "
+                                  "%s", l, dkf_scn_json_kind(R));
+    s->nsensors = l;
+    if ((s->sensors = dkf_scn_calloc(c, l, sizeof *s->sensors)) == NULL) return -1;
+    for (i = 0; i < l; ++i) {
+        dkf_scn_mat_t *m;
+        dkf_scn_subidx(p, ph, i);
+        if ((m = dkf_scn_mats_add(c, &s->sensors[i].mats, "H", p)) == NULL) return -1;
+        if (dkf_scn_parse_matrix(c, json_array_get(H, i), p, &m->rows, &m->cols, &m->data) != 0)
+            return -1;
+        if (dkf_scn_check_dims(c, m) != 0) return -1;
+        if (m->cols != s->n)
+            return dkf_scn_shape_error(c, p, m->rows, s->n, m->rows, m->cols);
+        s->sensors[i].m = m->rows;
+        dkf_scn_subidx(p, pr, i);
+        if ((m = dkf_scn_mats_add(c, &s->sensors[i].mats, "R", p)) == NULL) return -1;
+        if (dkf_scn_parse_matrix(c, json_array_get(R, i), p, &m->rows, &m->cols, &m->data) != 0)
+            return -1;
+        if (m->rows != s->sensors[i].m || m->cols != s->sensors[i].m)
+            return dkf_scn_shape_error(c, p, s->sensors[i].m, s->sensors[i].m, m->rows,
+                                       m->cols);
+        if (dkf_scn_check_symmetric(c, p, m->data, m->rows) != 0) return -1;
+        if (check_pd(c, p, m->data, m->rows, "a measurement noise covariance R_i") != 0)
+            return -1;
+    }
+    return 0;
+}
+
+/* steps[j]: an object with t = j + 1 and y, a list of l measurements of
+ * m_i values each (sensor i's y at t). */
+static int wf_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
+                           const char *cpath)
+{
+    size_t j, i, N = json_array_size(steps);
+    char p[DKF_SCN_PATH_LEN], pk[DKF_SCN_PATH_LEN], py[DKF_SCN_PATH_LEN];
+    dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
+    int rc = -1;
+    if (y == NULL) return -1;
+    if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
+    for (j = 0; j < N; ++j) {
+        const json_t *st = json_array_get(steps, j), *yj;
+        long t;
+        dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
+        if (!json_is_object(st)) {
+            dkf_scn_fail(c, p, "expected an object {t, y}, got %s", dkf_scn_json_kind(st));
+            goto done;
+        }
+        dkf_scn_subkey(pk, p, "t");
+        if (json_object_get(st, "t") == NULL) {
+            dkf_scn_fail(c, pk, "missing key");
+            goto done;
+        }
+        if (dkf_scn_get_integer(c, json_object_get(st, "t"), pk, 0.0, DKF_SCN_MAX_TIME, &t) !=
+            0)
+            goto done;
+        if (t != (long)j + 1) {
+            dkf_scn_fail(c, pk, "expected %zu (steps list t = 1..N), got %ld", j + 1, t);
+            goto done;
+        }
+        dkf_scn_subkey(py, p, "y");
+        yj = json_object_get(st, "y");
+        if (yj == NULL) {
+            dkf_scn_fail(c, py, "missing key (the %zu sensors' measurements at t = %ld)",
+                         s->nsensors, t);
+            goto done;
+        }
+        if (!json_is_array(yj) || json_array_size(yj) != s->nsensors) {
+            if (json_is_array(yj))
+                dkf_scn_fail(c, py, "expected a list of %zu measurements (one per sensor, as "
+                             "H), got %zu", s->nsensors, json_array_size(yj));
+            else
+                dkf_scn_fail(c, py, "expected a list of %zu measurements (one per sensor, as "
+                             "H), got %s", s->nsensors, dkf_scn_json_kind(yj));
+            goto done;
+        }
+        for (i = 0; i < s->nsensors; ++i) {
+            char pyi[DKF_SCN_PATH_LEN];
+            size_t len;
+            double *v;
+            int st_rc;
+            dkf_scn_subidx(pyi, py, i);
+            if (dkf_scn_parse_vector(c, json_array_get(yj, i), pyi, &len, &v) != 0) goto done;
+            if (len != s->sensors[i].m) {
+                free(v);
+                dkf_scn_fail(c, pyi, "expected a vector of %zu values (the rows of H[%zu]), "
+                             "got %zu", s->sensors[i].m, i, len);
+                goto done;
+            }
+            st_rc = dkf_scn_store(c, pyi, &y[i], j, v, len);
+            free(v);
+            if (st_rc != 0) goto done;
+            s->sensors[i].yk[j] = t;
+        }
+    }
+    rc = 0;
+done:
+    free(y);
+    return rc;
+}
+
+/* x_true: N + 1 states of n values (k = 0..N), optional. */
+static int wf_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath)
+{
+    const json_t *xt = json_object_get(cj, "x_true");
+    dkf_scn_block_t b = {NULL, 0, 0};
+    char p[DKF_SCN_PATH_LEN], pj[DKF_SCN_PATH_LEN];
+    size_t j, N;
+    dkf_scn_subkey(p, cpath, "x_true");
+    if (xt == NULL || json_is_null(xt)) return 0;
+    if (!json_is_array(xt))
+        return dkf_scn_fail(c, p, "expected a list of %zu states (k = 0..%zu), got %s",
+                            s->steps + 1, s->steps, dkf_scn_json_kind(xt));
+    if (json_array_size(xt) != s->steps + 1)
+        return dkf_scn_fail(c, p, "expected %zu states (k = 0..%zu, one more than the "
+                            "steps), got %zu", s->steps + 1, s->steps, json_array_size(xt));
+    N = json_array_size(xt);
+    if ((s->truth_k = dkf_scn_calloc(c, N, sizeof *s->truth_k)) == NULL) return -1;
+    if (dkf_scn_block_alloc(c, &b, N, s->n, p) != 0) return -1;
+    s->truth_x = b.v;
+    s->ntruth = N;
+    for (j = 0; j < N; ++j) {
+        double *v;
+        size_t len;
+        int rc;
+        dkf_scn_subidx(pj, p, j);
+        if (dkf_scn_parse_vector(c, json_array_get(xt, j), pj, &len, &v) != 0) return -1;
+        if (len != s->n) {
+            free(v);
+            return dkf_scn_fail(c, pj, "expected a vector of %zu values (the rows of Phi), got "
+                                "%zu", s->n, len);
+        }
+        rc = dkf_scn_store(c, pj, &b, j, v, len);
+        free(v);
+        if (rc != 0) return -1;
+        s->truth_k[j] = (long)j;
+    }
+    return 0;
+}
+
+int dkf_scn_is_wfcase(const json_t *cj)
+{
+    return json_object_get(cj, "Phi") != NULL && json_object_get(cj, "Gamma") != NULL &&
+           json_object_get(cj, "Qe") != NULL && json_object_get(cj, "H_signal") != NULL;
+}
+
+int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
+                         const char *cpath)
+{
+    const json_t *steps = json_object_get(cj, "steps"), *x0 = json_object_get(cj, "x_hat0");
+    const dkf_scn_mat_t *F, *G, *Qe, *P0;
+    dkf_scn_mat_t *x;
+    char p[DKF_SCN_PATH_LEN];
+    size_t len;
+
+    s->layout = DKF_SCN_LAYOUT_WFCASES;
+    s->multi = 1;
+    if ((F = wf_matrix(c, &s->model, cj, cpath, "Phi", "F", 0, 0)) == NULL) return -1;
+    if (F->rows != F->cols) {
+        dkf_scn_subkey(p, cpath, "Phi");
+        return dkf_scn_fail(c, p, "expected a square matrix (the transition), got %zux%zu",
+                            F->rows, F->cols);
+    }
+    s->n = F->rows;
+    if ((G = wf_matrix(c, &s->model, cj, cpath, "Gamma", "Gamma", s->n, 0)) == NULL) return -1;
+    if ((Qe = wf_matrix(c, &s->model, cj, cpath, "Qe", "Qe", G->cols, G->cols)) == NULL)
+        return -1;
+    if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, Qe->rows) != 0) return -1;
+    if (wf_Q(c, s, G, Qe, cpath) != 0) return -1;
+    if (wf_matrix(c, &s->model, cj, cpath, "H_signal", "Hs", 1, s->n) == NULL) return -1;
+    if ((P0 = wf_matrix(c, &s->init, cj, cpath, "P0", "P00", s->n, s->n)) == NULL) return -1;
+    if (dkf_scn_check_symmetric(c, P0->path, P0->data, s->n) != 0) return -1;
+    dkf_scn_subkey(p, cpath, "x_hat0");
+    if (x0 == NULL) return dkf_scn_fail(c, p, "missing key");
+    if ((x = dkf_scn_mats_add(c, &s->init, "x00", p)) == NULL) return -1;
+    if (dkf_scn_parse_vector(c, x0, p, &len, &x->data) != 0) return -1;
+    if (len != s->n)
+        return dkf_scn_fail(c, p, "expected a vector of %zu values (the rows of Phi), got %zu",
+                            s->n, len);
+    x->rows = len;
+    x->cols = 1;
+    if (wf_sensors(c, s, cj, cpath) != 0) return -1;
+
+    dkf_scn_subkey(p, cpath, "steps");
+    if (steps == NULL) return dkf_scn_fail(c, p, "missing key");
+    if (!json_is_array(steps) || json_array_size(steps) == 0)
+        return dkf_scn_fail(c, p, "expected a non-empty list of steps, got %s",
+                            dkf_scn_json_kind(steps));
+    s->steps = json_array_size(steps);
+    if (s->steps > DKF_SCN_MAX_STEPS)
+        return dkf_scn_fail(c, p, "%zu steps, more than the %lu allowed", s->steps,
+                            DKF_SCN_MAX_STEPS);
+    if (wf_measurements(c, s, steps, cpath) != 0) return -1;
+    if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
+    dkf_scn_adopt_y(s, 0);
+    if (wf_truth(c, s, cj, cpath) != 0) return -1;
+    dkf_scn_adopt_truth(s, 0);
+    dkf_scn_select_run(s, 0);
+    return 0;
+}

@@ -22,12 +22,12 @@
 #include "dkf/wfusion.h"
 #include "est_internal.h"
 #include "registry.h"
-#include "wfn_model.h"
+#include "wf_model.h"
 
 struct dkf_node_filter {
     const dkf_scenario_t *s;
     size_t id, n, m;
-    dkf_wfn_model_t md;
+    dkf_wf_model_t md;
     dkf_wfusion_local_t loc;
     dkf_real_t *store;
     size_t store_len;
@@ -39,7 +39,7 @@ struct dkf_node_filter {
 static void node_destroy(dkf_node_filter_t *nf)
 {
     if (nf == NULL) return;
-    dkf_wfn_model_free(&nf->md);
+    dkf_wf_model_free(&nf->md);
     free(nf->store);
     free(nf);
 }
@@ -53,12 +53,14 @@ static dkf_status_t node_init(dkf_node_filter_t *nf)
 static dkf_node_filter_t *node_create(const dkf_filter_t *f, const dkf_scenario_t *s, size_t id,
                                       char *err, size_t errlen)
 {
-    dkf_node_filter_t *nf;
+    dkf_node_filter_t *nf = calloc(1, sizeof *nf);
     dkf_status_t st;
     (void)f;
-    if (dkf_wfn_check(s, err, errlen) != 0) return NULL;
-    nf = calloc(1, sizeof *nf);
-    if (nf == NULL || dkf_wfn_model_init(&nf->md, s) != 0) goto oom;
+    if (nf == NULL) goto oom;
+    if (dkf_wf_model_load(s, &nf->md, err, errlen) != 0) {
+        free(nf);
+        return NULL;
+    }
     nf->s = s;
     nf->id = id;
     nf->n = s->n;
@@ -83,8 +85,8 @@ static int node_step(dkf_node_filter_t *nf, long k, const double *y, char *err, 
 {
     dkf_mat_t yv = DKF_MAT(nf->m, 1, nf->y), xp = DKF_MAT(nf->n, 1, nf->xp);
     dkf_status_t st;
-    if (k < 1 || dkf_wfn_model_at(&nf->md, nf->s, (size_t)k) != 0) {
-        snprintf(err, errlen, "node %zu: the scenario has no model for step k=%ld", nf->id, k);
+    if (k < 1 || k > (long)nf->s->steps) {
+        snprintf(err, errlen, "node %zu: the scenario has no step k=%ld", nf->id, k);
         return DKF_EXIT_RUN;
     }
     dkf_scn_to_real(nf->y, y, nf->m);

@@ -129,7 +129,7 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu);
 /* ---- the weighted fusion centre (seed 002; wfusion_centre.c) ------------------------ */
 
 /* dkf_net_fusion_create gives a scenario of seed 002's weighted fusion
- * (wfn_model.h, dkf_wfn_is_wfusion) to this centre, and every
+ * (the layout DKF_SCN_LAYOUT_WFCASES; model: wf_model.h) to this centre, and every
  * dkf_net_fusion_* call above to its dkf_net_wfusion_* twin, so dkf-fusion
  * and dkf-net-local run either centre. The same runtime (fc_runtime.h);
  * step k: every gain and P_ij from the model, the payloads' x_i(k|k) fused

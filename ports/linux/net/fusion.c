@@ -21,7 +21,6 @@
 #include "fc_runtime.h"
 #include "fusion_result.h"
 #include "model.h"
-#include "wfn_model.h"
 
 /* What is recorded of every step's estimate (for the result file). */
 typedef struct {
@@ -434,7 +433,7 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
         snprintf(err, errlen, "fusion: out of memory");
         return NULL;
     }
-    if (dkf_wfn_is_wfusion(s)) {
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
         fu->wf = dkf_net_wfusion_create(net, s, prefix, deadline_us, err, errlen);
         if (fu->wf == NULL) {
             free(fu);

@@ -10,21 +10,25 @@
 #include "codec.h"
 #include "registry.h"
 #include "util.h"
-#include "wfn_model.h"
 
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
 {
     const dkf_filter_t *f = dkf_registry_find("dkf");
     dkf_run_opts_t o;
     size_t i, ms = 0, ps = 0;
-    if (dkf_wfn_is_wfusion(s)) {
-        /* seed 002's weighted fusion (wfn_model.h): local KFs and their centre */
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
+        /* seed 002's weighted fusion: what `dkf-run --filter fusion_matrix`
+         * checks (the wfusion family), and the node count of the messages */
+        f = dkf_registry_find("fusion_matrix");
+        memset(&o, 0, sizeof o);
+        o.eta = -1;
+        if (f == NULL || f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
         if (s->nsensors > DKF_NET_MAX_NODES) {
             snprintf(err, errlen, "%s: %zu sensors, at most %d", s->file, s->nsensors,
                      DKF_NET_MAX_NODES);
             return -1;
         }
-        return dkf_wfn_check(s, err, errlen);
+        return 0;
     }
     /* what the Difference KF needs of the file: the registry's check */
     memset(&o, 0, sizeof o);
@@ -64,7 +68,7 @@ int64_t dkf_net_model_id(const dkf_scenario_t *s)
     uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, j;
     h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, s->n), s->nsensors), s->steps);
-    if (dkf_wfn_is_wfusion(s)) {
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
         /* weighted fusion: a tag, F, Q, Hs, every sensor's H, R, x00, P00 */
         h = dkf_fnv1a_u64(h, 0x57465553ull); /* "WFUS" */
         h = fnv_mat(h, dkf_scn_model(s, "F"));

@@ -27,7 +27,7 @@
 #include "fc_runtime.h"
 #include "fusion_result.h"
 #include "model.h"
-#include "wfn_model.h"
+#include "wf_model.h"
 
 /* What is recorded of every step (the latest computation; the result file). */
 typedef struct {
@@ -47,7 +47,7 @@ struct dkf_net_wfusion {
     char chan_out[DKF_NET_CHAN_LEN];
     int64_t model_id, deadline_us;
     dkf_fcr_t *rt;
-    dkf_wfn_model_t md;
+    dkf_wf_model_t md;
     dkf_wfusion_t fu;
     dkf_wfusion_local_t *nodes;  /* l */
     dkf_real_t *store;
@@ -147,10 +147,6 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
     dkf_status_t st;
     size_t i, used = 0;
     int refused = 0;
-    if (dkf_wfn_model_at(&w->md, w->s, (size_t)k) != 0) {
-        dkf_fcr_notef(w->rt, "wfusion: the scenario has no model for step k=%ld", k);
-        return -1;
-    }
     if ((st = predict(w, &xp, &Pp)) != DKF_OK ||
         (st = dkf_wfusion_step(&w->fu, &w->md.dyn, w->md.meas, NULL)) != DKF_OK) {
         dkf_fcr_notef(w->rt, "wfusion: step k=%ld: dkf_wfusion_step failed: %s", k,
@@ -369,10 +365,7 @@ static int wf_setup(dkf_net_wfusion_t *w, char *err, size_t errlen)
     const size_t n = w->n;
     dkf_fcr_config_t cfg;
     dkf_status_t st;
-    if (dkf_wfn_model_init(&w->md, s) != 0) {
-        snprintf(err, errlen, "%s: wfusion: cannot load the model", s->file);
-        return -1;
-    }
+    if (dkf_wf_model_load(s, &w->md, err, errlen) != 0) return -1;
     w->store_len = dkf_wfusion_storage_len(n, w->l, w->md.m);
     w->store = w->store_len ? calloc(w->store_len, sizeof *w->store) : NULL;
     if (w->store == NULL) {
@@ -448,7 +441,7 @@ void dkf_net_wfusion_free(dkf_net_wfusion_t *w)
 {
     if (w == NULL) return;
     dkf_fcr_free(w->rt);
-    dkf_wfn_model_free(&w->md);
+    dkf_wf_model_free(&w->md);
     free(w->nodes);
     free(w->store);
     free(w->xlast);

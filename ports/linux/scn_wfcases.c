@@ -78,7 +78,10 @@ static int check_pd(dkf_scn_ctx_t *c, const char *path, const double *a, size_t 
 static int wf_Q(dkf_scn_ctx_t *c, dkf_scenario_t *s, const dkf_scn_mat_t *G,
                 const dkf_scn_mat_t *Qe, const char *cpath)
 {
+    /* G and Qe point into s->model's items, which dkf_scn_mats_add below
+     * may move (realloc): keep their data pointers, not the structs */
     const size_t n = G->rows, r = G->cols;
+    const double *Gd = G->data, *Qd = Qe->data;
     dkf_scn_mat_t *Q;
     char p[DKF_SCN_PATH_LEN];
     size_t i, j, a, b;
@@ -91,8 +94,8 @@ static int wf_Q(dkf_scn_ctx_t *c, dkf_scenario_t *s, const dkf_scn_mat_t *G,
             double acc = 0.0;
             for (a = 0; a < r; ++a) {
                 double t = 0.0;
-                for (b = 0; b < r; ++b) t += Qe->data[a * r + b] * G->data[j * r + b];
-                acc += G->data[i * r + a] * t;
+                for (b = 0; b < r; ++b) t += Qd[a * r + b] * Gd[j * r + b];
+                acc += Gd[i * r + a] * t;
             }
             if (!isfinite(acc))
                 return dkf_scn_fail(c, p, "entry (%zu,%zu) is not finite", i, j);

@@ -503,6 +503,14 @@ long dkf_net_wfusion_k(const dkf_net_wfusion_t *w) { return dkf_fcr_done_k(w->rt
 const dkf_net_counts_t *dkf_net_wfusion_counts(const dkf_net_wfusion_t *w) { return &w->c; }
 dkf_fcr_t *dkf_net_wfusion_runtime(dkf_net_wfusion_t *w) { return w->rt; }
 
+static json_t *real_rows(const double *v, size_t K)
+{
+    json_t *a = json_array();
+    size_t j;
+    for (j = 0; j < K; ++j) json_array_append_new(a, json_real(v[j]));
+    return a;
+}
+
 static json_t *int_rows(const int *v, size_t K)
 {
     json_t *a = json_array();
@@ -522,8 +530,8 @@ json_t *dkf_net_wfusion_result(const dkf_net_wfusion_t *w)
     dkf_fcr_json_set_rows(o, "P0", w->rec.P0, K, n, n);
     dkf_fcr_json_set_rows(o, "xp", w->rec.xp, K, n, 0);
     dkf_fcr_json_set_rows(o, "Pp", w->rec.Pp, K, n, n);
-    dkf_fcr_json_set_rows(o, "s0", w->rec.s0, K, 1, 0);
-    dkf_fcr_json_set_rows(o, "PS0", w->rec.PS0, K, 1, 0);
+    json_object_set_new(o, "s0", real_rows(w->rec.s0, K));
+    json_object_set_new(o, "PS0", real_rows(w->rec.PS0, K));
     dkf_fcr_json_set_rows(o, "w", w->rec.w, K, l, 0);
     json_object_set_new(o, "used", int_rows(w->rec.used, K));
     json_object_set_new(o, "A_unique", int_rows(w->rec.A_unique, K));

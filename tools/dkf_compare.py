@@ -23,7 +23,13 @@ vectors' intermediates on the first steps) gathers with null at the other
 steps; null entries of B are skipped, so those steps are compared one by one.
 
 Integer arrays (every value a JSON integer on both sides, e.g. `rank`) must
-match exactly. --require-all makes a numeric array of B that A lacks a
+match exactly, and so must boolean arrays (every value true/false on both
+sides, e.g. `matrix_weights_unique`). --only-where FLAG keeps, of the two
+lists the key paths give, only the entries where the boolean list FLAG (a
+key path in B) is true: the seed-002 vector's matrix weights are unique, so
+comparable, only where `matrix_weights_unique` is (--b-keys
+'cases[0].steps[*].expected.matrix_weights' --only-where
+'cases[0].steps[*].expected.matrix_weights_unique'). --require-all makes a numeric array of B that A lacks a
 failure (by default it is skipped).
 
 A comparison must reach at least one real-valued array: when every array
@@ -135,6 +141,13 @@ def shape_str(x):
     return "x".join(str(d) for d in dims) if dims else "scalar"
 
 
+def all_bools(x):
+    """True if x is a JSON boolean or a nested list of only booleans."""
+    if isinstance(x, list):
+        return bool(x) and all(all_bools(e) for e in x)
+    return isinstance(x, bool)
+
+
 def all_ints(x):
     """True if x is a JSON integer or a nested list of only JSON integers."""
     if isinstance(x, list):
@@ -173,6 +186,11 @@ def compare(a, b, key, args, rows):
                 compare(a[k], b[k], sub, args, rows)
             elif args.require_all and has_numbers(b[k]):
                 rows.append((sub, "missing in A", float("nan"), 0.0, False, True))
+        return
+    if all_bools(a) and all_bools(b):
+        same = json.dumps(a) == json.dumps(b)
+        # a flag is a result (unlike an index such as k): it counts as compared
+        rows.append((key, shape_str(b) + " boolean", 0.0 if same else 1.0, 0.0, same, True))
         return
     fa, fb = flatten(a), flatten(b)
     if fa is not None and fb is not None:
@@ -232,6 +250,9 @@ def main(argv=None):
                     help="apply the rule to each entry of an array's first axis")
     ap.add_argument("--require-all", action="store_true",
                     help="fail when A lacks a numeric array that B has (default: skip it)")
+    ap.add_argument("--only-where", metavar="FLAG",
+                    help="key path in B of a list of booleans: compare only the entries of the "
+                         "two lists where it is true")
     ap.add_argument("--quiet", action="store_true", help="print failures and the verdict only")
     args = ap.parse_args(argv)
 
@@ -239,7 +260,21 @@ def main(argv=None):
         ka = args.a_keys if args.a_keys is not None else args.keys
         kb = args.b_keys if args.b_keys is not None else args.keys
         a = resolve(load(args.a), parse_path(ka) if ka else [])
-        b = resolve(load(args.b), parse_path(kb) if kb else [])
+        bdoc = load(args.b)
+        b = resolve(bdoc, parse_path(kb) if kb else [])
+        if args.only_where is not None:
+            flags = resolve(bdoc, parse_path(args.only_where))
+            if not isinstance(flags, list) or not all(isinstance(f, bool) for f in flags):
+                raise PathError("--only-where %s: expected a list of booleans" % args.only_where)
+            if not isinstance(a, list) or not isinstance(b, list) or \
+                    len(a) != len(flags) or len(b) != len(flags):
+                def what(x):
+                    return "a list of %d" % len(x) if isinstance(x, list) else "not a list"
+                raise PathError("--only-where %s: %d flags; A gives %s, B %s"
+                                % (args.only_where, len(flags), what(a), what(b)))
+            a = [x for x, f in zip(a, flags) if f]
+            b = [x for x, f in zip(b, flags) if f]
+            print("only where %s: %d of %d entries" % (args.only_where, len(b), len(flags)))
     except PathError as e:
         print("dkf_compare: %s" % e, file=sys.stderr)
         return 2

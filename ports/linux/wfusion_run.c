@@ -17,6 +17,19 @@
  *                  P_ij, P_S, w, P_S0, matrix_weights, P0_matrix), then per
  *                  step x_local, s_fused, x_fused_matrix of the steady
  *                  filters (steps_x_local, steps_s_fused, steps_x_fused_matrix)
+ *   fusion_selftune  the self-tuning form (dkf/selftune.h): the identifier
+ *                  fed with every y_i(t), the local filters, P_ij and both
+ *                  fusions on the model of its current estimate; per step
+ *                  a_hat, c1_hat, sigma_w2_hat, guard (dkf_selftune_guard_t),
+ *                  w, P_S0, s_fused, x_fused_matrix. Known: P(q^-1) (the
+ *                  file's noise block of Phi), sigma_xi^2 (Qe[1][1]) and the
+ *                  sigma_vi^2 (R_i); the file's model must be the observer
+ *                  form dkf_selftune_model builds (checked: F and Q of the
+ *                  file's own a, c_1, sigma_w^2 = Qe[0][0] reproduce Phi and
+ *                  Gamma Qe Gamma^T), its H_i = (1 0..0 1 0..0), Hs = (1 0..0);
+ *                  orders na (the second 1 of H), np = n - na, nc = 1 (0 if
+ *                  na = 1), lags K = max(5, na + nc), t_min 50, the guesses
+ *                  a = 0, c_1 = 0, sigma_w^2 = 1 (dkf_selftune_config_default)
  *
  * Every filter runs the whole fusion (dkf_wfusion_step, fuse_scalar,
  * fuse_matrix at every step); the filter chooses what is recorded, under
@@ -33,13 +46,30 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dkf/selftune.h"
 #include "dkf/wfusion.h"
 #include "est_internal.h"
 #include "registry.h"
 #include "util.h"
 #include "wf_model.h"
 
-typedef enum { WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY } wf_kind_t;
+typedef enum { WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE } wf_kind_t;
+
+/* The self-tuning form's identifier and the model of its estimate. */
+typedef struct {
+    dkf_selftune_cfg_t cfg;
+    dkf_selftune_t id;
+    dkf_selftune_est_t est;
+    dkf_real_t *mem;           /* identifier storage */
+    dkf_real_t p[DKF_SELFTUNE_MAX_NP];
+    dkf_real_t *sigma_v2;      /* l */
+    dkf_real_t *ybar_in;       /* l: the step's y_i */
+    dkf_real_t *buf;           /* F_hat, Q_hat: 2 n n */
+    dkf_mat_t F, Q;
+    dkf_kf_dyn_t dyn;
+    /* the file's own parameters (the model checked against Phi, Q) */
+    dkf_real_t a_file[DKF_SELFTUNE_MAX_NA], c1_file, sigma_w2_file;
+} wf_st_t;
 
 typedef struct {
     const dkf_filter_t *fl;
@@ -56,7 +86,135 @@ typedef struct {
     double sq_x, sq_s;
     size_t nerr;
     size_t nonunique; /* steps where the matrix weights were not unique */
+    wf_st_t *st;      /* fusion_selftune only */
 } wf_runner_t;
+
+static void st_free(wf_st_t *st)
+{
+    if (st == NULL) return;
+    free(st->mem);
+    free(st->sigma_v2);
+    free(st->ybar_in);
+    free(st->buf);
+    free(st);
+}
+
+/* The identifier of s's self-tuning form, initialised, with F, Q of the
+ * file's own parameters checked against the file's Phi and Q. NULL with
+ * err (DKF_EXIT_USAGE: the file is not of that form; *rc). */
+static wf_st_t *st_setup(const dkf_filter_t *fl, const dkf_scenario_t *s, char *err,
+                         size_t errlen, int *rc)
+{
+    const dkf_scn_mat_t *F = dkf_scn_model(s, "F"), *Q = dkf_scn_model(s, "Q"),
+                        *G = dkf_scn_model(s, "Gamma"), *Qe = dkf_scn_model(s, "Qe"),
+                        *Hs = dkf_scn_model(s, "Hs");
+    const size_t n = s->n, l = s->nsensors;
+    size_t na = 0, np, i, j, len;
+    double scale = 0.0, worst = 0.0;
+    dkf_status_t stt;
+    wf_st_t *st;
+    *rc = DKF_EXIT_USAGE;
+    /* H_i = (1 0..0 1 0..0), one row each: na is the place of the second 1 */
+    for (i = 0; i < l; ++i) {
+        const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, "H");
+        size_t second = 0;
+        int ok = H->rows == 1 && H->data[0] == 1.0;
+        for (j = 1; ok && j < n; ++j) {
+            if (H->data[j] == 0.0) continue;
+            if (H->data[j] != 1.0 || second != 0) ok = 0;
+            second = j;
+        }
+        if (!ok || second == 0 || (i > 0 && second != na)) {
+            dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: filter %s needs every H_i = "
+                      "(1 0..0 1 0..0) (y_i = s + eta + v_i, one row; the same for every "
+                      "sensor)", s->file, H->path, fl->name);
+            return NULL;
+        }
+        na = second;
+    }
+    np = n - na;
+    if (na > DKF_SELFTUNE_MAX_NA || np > DKF_SELFTUNE_MAX_NP) {
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu].H: filter %s identifies A of "
+                  "order na = %zu with P of order %zu: at most %d and %d", s->file,
+                  s->case_index, fl->name, na, np, DKF_SELFTUNE_MAX_NA, DKF_SELFTUNE_MAX_NP);
+        return NULL;
+    }
+    for (j = 1; j < n; ++j)
+        if (Hs->data[0] != 1.0 || Hs->data[j] != 0.0) {
+            dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: filter %s needs H_signal = "
+                      "(1 0..0) (s = the first state)", s->file, Hs->path, fl->name);
+            return NULL;
+        }
+    if (G->cols != 2) {
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: %s: filter %s needs two noises (w, xi), "
+                  "got %zu columns", s->file, G->path, fl->name, G->cols);
+        return NULL;
+    }
+    if ((st = calloc(1, sizeof *st)) == NULL || (st->sigma_v2 = calloc(l, sizeof *st->sigma_v2)) == NULL ||
+        (st->ybar_in = calloc(l, sizeof *st->ybar_in)) == NULL ||
+        (st->buf = calloc(2 * n * n, sizeof *st->buf)) == NULL) {
+        st_free(st);
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
+        return NULL;
+    }
+    dkf_selftune_config_default(&st->cfg);
+    st->cfg.na = na;
+    st->cfg.np = np;
+    st->cfg.nc = na > 1 ? 1 : 0;
+    st->cfg.lags = na + st->cfg.nc > 5 ? na + st->cfg.nc : 5;
+    st->cfg.L = l;
+    for (j = 0; j < np; ++j) st->p[j] = (dkf_real_t)-F->data[(na + j) * n + na];
+    st->cfg.p = np > 0 ? st->p : NULL;
+    st->cfg.sigma_xi2 = (dkf_real_t)Qe->data[3];
+    for (i = 0; i < l; ++i) st->sigma_v2[i] = (dkf_real_t)dkf_scn_sensor_model(s, i, "R")->data[0];
+    st->cfg.sigma_v2 = st->sigma_v2;
+    len = dkf_selftune_storage_len(na, np, st->cfg.nc, st->cfg.lags);
+    if (len == 0 || (st->mem = calloc(len, sizeof *st->mem)) == NULL) {
+        st_free(st);
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
+        return NULL;
+    }
+    if ((stt = dkf_selftune_init(&st->id, &st->cfg, st->mem, len)) != DKF_OK) {
+        st_free(st);
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu].Phi: filter %s: the noise "
+                  "block's P(q^-1) and Qe, R give no identifier (dkf_selftune_init: %s)",
+                  s->file, s->case_index, fl->name, dkf_status_str(stt));
+        return NULL;
+    }
+    dkf_mat_init(&st->F, n, n, st->buf);
+    dkf_mat_init(&st->Q, n, n, st->buf + n * n);
+    st->dyn.F = &st->F;
+    st->dyn.Q = &st->Q;
+    /* the file's own a, c_1, sigma_w^2 must give back its F and Q */
+    dkf_selftune_estimate(&st->id, &st->est);
+    for (j = 0; j < na; ++j) st->est.a[j] = st->a_file[j] = (dkf_real_t)-F->data[j * n];
+    st->est.c1 = st->c1_file = st->cfg.nc ? (dkf_real_t)G->data[1 * 2 + 0] : (dkf_real_t)0;
+    st->est.sigma_w2 = st->sigma_w2_file = (dkf_real_t)Qe->data[0];
+    if ((stt = dkf_selftune_model(&st->id, &st->est, &st->F, &st->Q)) != DKF_OK) {
+        st_free(st);
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu]: filter %s: "
+                  "dkf_selftune_model: %s", s->file, s->case_index, fl->name,
+                  dkf_status_str(stt));
+        return NULL;
+    }
+    for (i = 0; i < n * n; ++i) {
+        scale = fmax(scale, fmax(fabs(F->data[i]), fabs(Q->data[i])));
+        worst = fmax(worst, fmax(fabs((double)st->F.data[i] - F->data[i]),
+                                 fabs((double)st->Q.data[i] - Q->data[i])));
+    }
+    /* the same numbers up to the rounding of the real type */
+    if (!(worst <= 64.0 * (double)DKF_REAL_EPSILON * fmax(1.0, scale))) {
+        st_free(st);
+        dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu].Phi: filter %s needs the "
+                  "observer form of dkf/selftune.h (F = blkdiag([-a | I; 0], [-p | I; 0]), "
+                  "Gamma = blkdiag([1; c_1; 0..], [1; 0..]), Qe = diag(sigma_w^2, "
+                  "sigma_xi^2)): off by %.3g", s->file, s->case_index, fl->name, worst);
+        return NULL;
+    }
+    dkf_selftune_estimate(&st->id, &st->est);
+    *rc = DKF_EXIT_OK;
+    return st;
+}
 
 static int wf_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_scenario_t *s,
                     char *err, size_t errlen)
@@ -73,6 +231,12 @@ static int wf_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_s
                          "system is n l + n = %zu, above DKF_MAX_DIM = %d", s->file,
                          s->case_index, s->nsensors, s->n, s->n * s->nsensors + s->n,
                          DKF_MAX_DIM);
+    if (*(const wf_kind_t *)fl->impl == WF_SELFTUNE) {
+        int rc;
+        wf_st_t *st = st_setup(fl, s, err, errlen, &rc);
+        if (st == NULL) return rc;
+        st_free(st);
+    }
     return DKF_EXIT_OK;
 }
 
@@ -84,6 +248,7 @@ static void wf_destroy(dkf_runner_t *r)
     free(u->nodes);
     free(u->mem);
     free(u->sq_local);
+    st_free(u->st);
     json_decref(u->series);
     free(u);
 }
@@ -255,6 +420,10 @@ static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
         wf_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
+    if (u->kind == WF_SELFTUNE && (u->st = st_setup(fl, s, err, errlen, rc)) == NULL) {
+        wf_destroy((dkf_runner_t *)(void *)u);
+        return NULL;
+    }
     if (u->kind == WF_STEADY) {
         st = dkf_wfusion_steady(&u->fu, &u->mdl.dyn, u->mdl.meas);
         if (st != DKF_OK) {
@@ -306,7 +475,20 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     if (dkf_wf_model_y(&u->mdl, u->s, k) != 0)
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step t=%ld: no measurement", u->s->file,
                          k);
-    st = dkf_wfusion_step(&u->fu, &u->mdl.dyn, u->mdl.meas, u->mdl.y);
+    if (u->st != NULL) {
+        /* the identifier on y(t), then the model of its estimate for the step */
+        wf_st_t *id = u->st;
+        size_t i;
+        for (i = 0; i < u->mdl.l; ++i) id->ybar_in[i] = u->mdl.y[i].data[0];
+        if ((st = dkf_selftune_update(&id->id, id->ybar_in)) != DKF_OK)
+            return fail_core(u, err, errlen, k, "dkf_selftune_update", st);
+        if ((st = dkf_selftune_estimate(&id->id, &id->est)) != DKF_OK)
+            return fail_core(u, err, errlen, k, "dkf_selftune_estimate", st);
+        if ((st = dkf_selftune_model(&id->id, &id->est, &id->F, &id->Q)) != DKF_OK)
+            return fail_core(u, err, errlen, k, "dkf_selftune_model", st);
+    }
+    st = dkf_wfusion_step(&u->fu, u->st != NULL ? &u->st->dyn : &u->mdl.dyn, u->mdl.meas,
+                          u->mdl.y);
     if (st != DKF_OK) return fail_core(u, err, errlen, k, "dkf_wfusion_step", st);
     if ((rc = fuse(u, err, errlen, k)) != DKF_EXIT_OK) return rc;
     if (!u->fu.A_unique) u->nonunique++;
@@ -321,6 +503,19 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
         dkf_json_append(u->series, "steps_s_fused", json_real((double)u->fu.s0));
         dkf_json_append(u->series, "steps_x_fused_matrix", mat_json(&u->fu.x0, 1));
         break;
+    case WF_SELFTUNE: {
+        const dkf_selftune_est_t *e = &u->st->est;
+        json_t *a = json_array();
+        size_t j;
+        for (j = 0; j < e->na; ++j) json_array_append_new(a, json_real((double)e->a[j]));
+        dkf_json_append(u->series, "a_hat", a);
+        dkf_json_append(u->series, "c1_hat", json_real((double)e->c1));
+        dkf_json_append(u->series, "sigma_w2_hat", json_real((double)e->sigma_w2));
+        dkf_json_append(u->series, "guard", json_integer((json_int_t)e->guard));
+        record_scalar(u->series, u, 0);
+        dkf_json_append(u->series, "x_fused_matrix", mat_json(&u->fu.x0, 1));
+        break;
+    }
     }
     return DKF_EXIT_OK;
 }
@@ -347,6 +542,17 @@ static void wf_summary(const dkf_runner_t *r, FILE *out)
     fprintf(out, "  last step: P_S0 %.9g, tr P0_matrix %.9g; matrix weights not unique at "
             "%zu steps\n", (double)u->fu.PS0, tr,
             u->nonunique);
+    if (u->st != NULL) {
+        const dkf_selftune_est_t *e = &u->st->est;
+        fprintf(out, "  identified (accepted at t = %zu, last guard %d): a =", e->t_accepted,
+                (int)e->guard);
+        for (i = 0; i < e->na; ++i) fprintf(out, " %.6g", (double)e->a[i]);
+        fprintf(out, ", c1 = %.6g, sigma_w^2 = %.6g; the file's: a =", (double)e->c1,
+                (double)e->sigma_w2);
+        for (i = 0; i < e->na; ++i) fprintf(out, " %.6g", (double)u->st->a_file[i]);
+        fprintf(out, ", c1 = %.6g, sigma_w^2 = %.6g\n", (double)u->st->c1_file,
+                (double)u->st->sigma_w2_file);
+    }
     if (u->nerr == 0) {
         fprintf(out, "  (no x_true: no errors)\n");
         return;
@@ -362,7 +568,7 @@ static void wf_summary(const dkf_runner_t *r, FILE *out)
 /* ---- the registry family ---- */
 
 extern const dkf_family_t dkf_family_wfusion;
-static const wf_kind_t kinds[] = {WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY};
+static const wf_kind_t kinds[] = {WF_LOCAL, WF_SCALAR, WF_MATRIX, WF_STEADY, WF_SELFTUNE};
 static const dkf_filter_t filters[] = {
     {"local_kf", "LOCAL_KF",
      "seed 002: every sensor's local KF (Theorem 1) and the\n"
@@ -380,6 +586,10 @@ static const dkf_filter_t filters[] = {
      "seed 002: the steady local filters and weights (DARE,\n"
      "                           Stein): steady_state's keys once, then the steady estimates",
      0, &dkf_family_wfusion, &kinds[3]},
+    {"fusion_selftune", "FUSION_SELFTUNE",
+     "seed 002: self-tuning fusion (dkf/selftune.h): A, C,\n"
+     "                           sigma_w^2 identified from the y_i, filters on the estimate",
+     0, &dkf_family_wfusion, &kinds[4]},
 };
 const dkf_family_t dkf_family_wfusion = {
     "wfusion", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_WFCASES,

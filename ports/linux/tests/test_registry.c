@@ -36,8 +36,9 @@ static void test_every_filter_found_once(void **state)
             ++count;
         }
     /* kf info dkf askf otskf rtsf nrtsf_df nrtsf tw1 tw2 tw3 nertsf nertsif dnertsf dnertsif
-     * cf_dnertsf df_dnertsif df_ckf df_dnertsif_joint */
-    assert_int_equal(count, 19);
+     * cf_dnertsf df_dnertsif df_ckf df_dnertsif_joint local_kf fusion_scalar fusion_matrix
+     * fusion_steady fusion_selftune */
+    assert_int_equal(count, 24);
     assert_null(dkf_registry_find("ukf"));
 }
 
@@ -77,6 +78,8 @@ static void test_names_lists(void **state)
     assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_NLCASES),
                         "nertsf, nertsif, dnertsf, dnertsif, cf_dnertsf, df_dnertsif, df_ckf, "
                         "df_dnertsif_joint");
+    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_WFCASES),
+                        "local_kf, fusion_scalar, fusion_matrix, fusion_steady, fusion_selftune");
 }
 
 /* Loads path, runs filter `name` through the registry's operations only

@@ -38,11 +38,13 @@
 #define VEC DKF_VECTOR_DIR "/infofusion/s2_weighted_fusion.json"
 #define L 5
 
-/* The vector's rule (|a - e| <= atol + rtol max(1, max|e|), 1e-10 + 1e-8);
- * with double it is met with room (the lead's test_wfusion: 2.2e-13);
- * float (eps_f 1.2e-7, a 20 x 20 KKT solve at condition ~1e3): 1e-3. */
+/* The external bound, against the vector's numpy fusion (relative to
+ * max(1, max|e|)): double, the file's rule 1e-8 (measured 1.0e-14); float
+ * (eps_f 1.2e-7; the 20 x 20 KKT solve of the first steps is singular and
+ * solved by pseudo-inverse): 1e-4 (measured 3.1e-6). The tight bound is
+ * the bit-for-bit equality with the core fused in process. */
 #if DKF_USE_FLOAT
-#define VREL 1e-3
+#define VREL 1e-4
 #else
 #define VREL 1e-8
 #endif

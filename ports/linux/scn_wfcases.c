@@ -292,6 +292,8 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     if ((Qe = wf_matrix(c, &s->model, cj, cpath, "Qe", "Qe", G->cols, G->cols)) == NULL)
         return -1;
     if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, Qe->rows) != 0) return -1;
+    /* adding Qe may have moved s->model's items (realloc): G again */
+    G = dkf_scn_model(s, "Gamma");
     if (wf_Q(c, s, G, Qe, cpath) != 0) return -1;
     if (wf_matrix(c, &s->model, cj, cpath, "H_signal", "Hs", 1, s->n) == NULL) return -1;
     if ((P0 = wf_matrix(c, &s->init, cj, cpath, "P0", "P00", s->n, s->n)) == NULL) return -1;

@@ -15,7 +15,8 @@
  * x_i bits. Checked: all nodes (every step complete; also within the
  * vector's own tolerance of its x_fused_matrix and s_fused), one node that
  * never starts (every step degraded, the other four), one killed at step
- * 12 (complete on 1..11, degraded on 12..30 without it), and a node that
+ * 12 (complete on 1..11, degraded on 12..30 without it), one that joins
+ * late (its epoch refused: never fused), and a node that
  * drops, duplicates and reorders messages (rollback and replay: the final
  * result equals the full-data fusion except where a payload was lost).
  */
@@ -266,6 +267,37 @@ static void test_wf_node_killed(void **state)
     dkf_scenario_free(s);
 }
 
+/* A node that starts late (--join-at 10) runs its local filter from the
+ * common prior at time 9, for which the centre's P_ij do not hold: its
+ * epoch is refused (restart) and it never contributes; the others are
+ * fused exactly, every step degraded. */
+static void test_wf_late_node_masked(void **state)
+{
+    dkf_scenario_t *s = load();
+    const int on[L] = {1, 1, 1, 1, 1};
+    dkf_net_faults_t fx[L];
+    int deg[64];
+    netrun_t r;
+    json_t *doc;
+    size_t k, i;
+    (void)state;
+    memset(fx, 0, sizeof fx);
+    fx[1].join_at = 10;
+    setup(&r, s, on, fx);
+    run(&r);
+    assert_int_equal(dkf_net_node_state(r.nodes[1]), DKF_NET_DONE);
+    doc = dkf_net_fusion_result(r.fu);
+    assert_int_equal(check_against_core(doc, s, deg), s->steps);
+    for (k = 0; k < s->steps; ++k) {
+        const json_t *ck = json_array_get(json_object_get(doc, "contributors"), k);
+        assert_int_equal(json_array_size(ck), 4);
+        for (i = 0; i < 4; ++i) assert_int_not_equal(json_integer_value(json_array_get(ck, i)), 1);
+    }
+    json_decref(doc);
+    teardown(&r);
+    dkf_scenario_free(s);
+}
+
 static void test_wf_drop_dup_reorder(void **state)
 {
     dkf_scenario_t *s = load();
@@ -306,6 +338,7 @@ int main(void)
         cmocka_unit_test(test_wf_all_nodes),
         cmocka_unit_test(test_wf_node_never_starts),
         cmocka_unit_test(test_wf_node_killed),
+        cmocka_unit_test(test_wf_late_node_masked),
         cmocka_unit_test(test_wf_drop_dup_reorder),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -24,13 +24,15 @@ esac
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(cd "$here/.." && pwd)"
 b="${BENCH_BUILD_PREFIX:-$root/build-bench}-$t-$form"
-targets=(bench_kf bench_kf_ref bench_kf_eigen_O2 bench_kf_eigen_O3 bench_uif)
+maxdim="${BENCH_MAX_DIM:-48}"
+[[ "$maxdim" != 48 ]] && b="$b-dim$maxdim"
+targets=(bench_kf bench_kf_ref bench_kf_eigen_O2 bench_kf_eigen_O3 bench_uif bench_nerts bench_wfusion)
 native=OFF
 if [[ "${BENCH_NATIVE:-0}" == 1 ]]; then
   native=ON
   targets+=(bench_kf_eigen_O3native)
 fi
-cmake -S "$root" -B "$b" -DDKF_REAL="$t" -DDKF_JOSEPH="$joseph" \
+cmake -S "$root" -B "$b" -DDKF_REAL="$t" -DDKF_JOSEPH="$joseph" -DDKF_MAX_DIM="$maxdim" \
   -DDKF_BUILD_BENCH=ON -DDKF_BENCH_NATIVE="$native" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=OFF \
   -DCMAKE_BUILD_TYPE=Release -DCMAKE_C_FLAGS_RELEASE="-O2 -g -DNDEBUG" >/dev/null
 cmake --build "$b" -j2 --target "${targets[@]}" >/dev/null

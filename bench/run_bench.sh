@@ -24,6 +24,11 @@
 #   BENCH_CPU           if set, pin every benchmark to this CPU with taskset
 #   BENCH_RAW           if set, also keep the raw lines in this file
 #
+# Then bench_wfusion (seed 002: the fusion's cross covariances, scalar and
+# matrix weights against L = 2, 5, 20, 50 sensors), from a third build per
+# type with DKF_MAX_DIM = 256 (the joint covariance is 4 L x 4 L), with the
+# growth exponent log(t(L2)/t(L1)) / log(L2/L1) between successive L.
+#
 # bench/build_bench.sh does the builds: the library and bench_kf in Release
 # with -O2 -DNDEBUG ("without special flags": no -march, no -ffast-math, the
 # default config.h, checks on); Eigen with its own flags (bench/CMakeLists.txt).
@@ -61,10 +66,17 @@ for t in $types; do
   done
 done
 
+declare -A bigdir
+for t in $types; do
+  echo "run_bench: building $t with DKF_MAX_DIM=256 (bench_wfusion)" >&2
+  bigdir[$t]="$(BENCH_MAX_DIM=256 "$here/build_bench.sh" "$t" joseph)"
+done
+
 raw="$(mktemp)"
 rawuif="$(mktemp)"
 rawnerts="$(mktemp)"
-trap 'rm -f "$raw" "$rawuif" "$rawnerts"' EXIT
+rawwf="$(mktemp)"
+trap 'rm -f "$raw" "$rawuif" "$rawnerts" "$rawwf"' EXIT
 
 {
   echo "# date:     $(date -u '+%Y-%m-%d %H:%M UTC')"
@@ -103,9 +115,10 @@ for ((r = 1; r <= rounds; ++r)); do
     "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_uif" "$@" | tee -a "$rawuif" >&2
     # Seed 001's filters against the plain EKF / cubature KF, same build.
     "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_nerts" "$@" | tee -a "$rawnerts" >&2
+    "${pin[@]}" "${bigdir[$t]}/bench/bench_wfusion" "$@" | tee -a "$rawwf" >&2
   done
 done
-[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" >"$BENCH_RAW"
+[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" "$rawwf" >"$BENCH_RAW"
 
 status=0
 awk -v peers="$peers" '
@@ -207,4 +220,25 @@ END {
     printf "%-7s %10.1f %10.1f %10.1f %10.1f   %11.2f  %12.2f\n", ty, a, e, d, c, a / e, d / c
   }
 }' "$rawnerts"
+
+echo
+echo "seed 002 weighted fusion, ns per call against L sensors (n = 4; exponent: growth from the previous L):"
+awk '
+/^wfusion-/ { op = $1; sub(/^wfusion-/, "", op); key = op SUBSEP $2 SUBSEP $4; ns[key] = $5
+  if (!(($2 SUBSEP $4) in seen)) { seen[$2 SUBSEP $4] = 1; rows[++nr] = $2 SUBSEP $4 } }
+END {
+  printf "%-7s %4s %12s %6s %12s %6s %12s %6s\n", "type", "L", "cross", "exp", "scalar", "exp", "matrix", "exp"
+  for (i = 1; i <= nr; ++i) {
+    split(rows[i], f, SUBSEP); ty = f[1]; L = f[2]
+    printf "%-7s %4s", ty, L
+    split("cross scalar matrix", ops, " ")
+    for (o = 1; o <= 3; ++o) {
+      t = ns[ops[o] SUBSEP ty SUBSEP L]
+      if (i > 1) { split(rows[i - 1], g, SUBSEP) }
+      if (i > 1 && g[1] == ty) { tp = ns[ops[o] SUBSEP ty SUBSEP g[2]]; printf " %12.1f %6.2f", t, log(t / tp) / log(L / g[2]) }
+      else printf " %12.1f %6s", t, "-"
+    }
+    printf "\n"
+  }
+}' "$rawwf"
 exit "$status"

@@ -3,7 +3,8 @@
 computes what the independent reference computes. No timing is asserted
 (speed is reported by run_bench.sh, never tested).
 
-usage: smoke.py REL --ref REF --dkf BENCH_KF --uif BENCH_UIF --nerts BENCH_NERTS [--peer EIGEN]...
+usage: smoke.py REL --ref REF --dkf BENCH_KF --uif BENCH_UIF --nerts BENCH_NERTS
+                [--wfusion BENCH_WFUSION] [--peer EIGEN]...
                 [--expect-wrong NAME]
 
 Each program prints lines `impl type n m ns steps repeats checksum`, the
@@ -17,7 +18,9 @@ relative:
     never a failure (a peer's compiler flags are not dkf's problem);
   - ASKF and OTSKF (exactly equivalent filters) agree to REL, and the DKF
     checksum is finite: else FAIL;
-  - bench_nerts's four filters (seed 001) give finite checksums: else FAIL.
+  - bench_nerts's four filters (seed 001) give finite checksums: else FAIL;
+  - bench_wfusion (seed 002) gives, for each L this build fits, three
+    operations with one finite checksum: else FAIL.
 
 --expect-wrong NAME checks these verdicts themselves (ctest, with
 BENCH_PERTURB=NAME making NAME wrong on purpose): it passes only if NAME
@@ -52,6 +55,22 @@ def run_uif(exe):
 
 def close(a, b, rel):
     return math.isfinite(a) and abs(a - b) <= rel * max(1.0, abs(b))
+
+
+def wfusion_verdicts(exe):
+    """bench_wfusion: per L, the ops cross/scalar/matrix with one finite checksum."""
+    by_l = {}
+    for impl, _, _, l, c in lines(exe):
+        by_l.setdefault(l, {})[impl] = c
+    failures = []
+    for l, ops in sorted(by_l.items(), key=lambda kv: int(kv[0])):
+        sums = set(ops.values())
+        ok = (set(ops) == {"wfusion-cross", "wfusion-scalar", "wfusion-matrix"} and len(sums) == 1
+              and all(math.isfinite(v) for v in sums))
+        print(f"{'ok  ' if ok else 'FAIL'} wfusion L={l}: {sorted(ops)} checksum {sorted(sums)!r}")
+        if not ok:
+            failures.append(f"wfusion L={l}")
+    return failures
 
 
 def verdicts(rel, ref, dkf, peers, uif, nerts):
@@ -104,12 +123,15 @@ def main():
     ap.add_argument("--dkf", required=True)
     ap.add_argument("--uif", required=True)
     ap.add_argument("--nerts", required=True)
+    ap.add_argument("--wfusion", default=None)
     ap.add_argument("--peer", action="append", default=[])
     ap.add_argument("--expect-wrong", default=None)
     a = ap.parse_args()
     ref, dkf = run(a.ref), run(a.dkf)
     peers = [run(p) for p in a.peer]
     failures, excluded = verdicts(a.rel, ref, dkf, peers, run_uif(a.uif), run_uif(a.nerts))
+    if a.wfusion:
+        failures += wfusion_verdicts(a.wfusion)
     if excluded:
         print(f"excluded peers: {', '.join(sorted(excluded))}")
     if a.expect_wrong is None:

@@ -388,20 +388,26 @@ static void move_block(dkf_real_t *P, dkf_real_t *out, size_t n, size_t l, size_
 /* The next joint covariance into L->Pn from the nodes' staged gains:
  * P_ij = Psi_i P_ij Psi_j^T + J_i Q J_j^T (i != j), and P_ii the node's
  * own staged P_i (the same recursion with its K_i R_i K_i^T term, which
- * the node has already formed). Scratch: C, X (n*n each). */
-static void cross_step(const dkf_wfusion_t *fu, const fu_layout_t *L, const loc_layout_t ll[],
-                       const dkf_real_t *Q)
+ * the node has already formed). Scratch: C, X (n*n each). The nodes'
+ * layouts are recomputed where needed (pointer arithmetic): an array of
+ * them would cost l * 19 pointers of stack. */
+static void cross_step(const dkf_wfusion_t *fu, const fu_layout_t *L, const dkf_real_t *Q)
 {
     const size_t n = fu->n, l = fu->l;
     size_t i, j, e;
-    for (i = 0; i < l; ++i) dkf__mul_nn(ll[i].JQ, ll[i].nx.J, Q, n, n, n);
     for (i = 0; i < l; ++i) {
-        move_block(L->Pn, ll[i].nx.P, n, l, i, i, 1);
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        dkf__mul_nn(li.JQ, li.nx.J, Q, n, n, n);
+    }
+    for (i = 0; i < l; ++i) {
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        move_block(L->Pn, li.nx.P, n, l, i, i, 1);
         for (j = i + 1; j < l; ++j) {
+            const loc_layout_t lj = loc_mem(&fu->nodes[j]);
             move_block(L->Pj, L->C, n, l, i, j, 0);
-            dkf__mul_nn(L->X, ll[i].nx.Psi, L->C, n, n, n); /* Psi_i P_ij */
-            dkf__mul_nt(L->C, L->X, ll[j].nx.Psi, n, n, n); /* (Psi_i P_ij) Psi_j^T */
-            dkf__mul_nt(L->X, ll[i].JQ, ll[j].nx.J, n, n, n); /* J_i Q J_j^T */
+            dkf__mul_nn(L->X, li.nx.Psi, L->C, n, n, n); /* Psi_i P_ij */
+            dkf__mul_nt(L->C, L->X, lj.nx.Psi, n, n, n); /* (Psi_i P_ij) Psi_j^T */
+            dkf__mul_nt(L->X, li.JQ, lj.nx.J, n, n, n);  /* J_i Q J_j^T */
             for (e = 0; e < n * n; ++e) L->C[e] += L->X[e];
             move_block(L->Pn, L->C, n, l, i, j, 1);
             dkf__transpose(L->X, L->C, n, n);
@@ -413,7 +419,6 @@ static void cross_step(const dkf_wfusion_t *fu, const fu_layout_t *L, const loc_
 dkf_status_t dkf_wfusion_step(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
                               const dkf_kf_meas_t meas[], const dkf_mat_t y[])
 {
-    loc_layout_t ll[DKF_MAX_DIM];
     fu_layout_t L;
     size_t i, N;
     DKF_TRY(check_fusion(fu));
@@ -421,14 +426,17 @@ dkf_status_t dkf_wfusion_step(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
     N = fu->n * fu->l;
     L = fu_mem(fu);
     for (i = 0; i < fu->l; ++i) {
-        ll[i] = loc_mem(&fu->nodes[i]);
-        DKF_TRY(local_compute(&fu->nodes[i], &ll[i], dyn, &meas[i], y != NULL ? &y[i] : NULL));
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        DKF_TRY(local_compute(&fu->nodes[i], &li, dyn, &meas[i], y != NULL ? &y[i] : NULL));
     }
     if (!fu->steady) {
-        cross_step(fu, &L, ll, dyn->Q->data);
+        cross_step(fu, &L, dyn->Q->data);
         if (!dkf__all_finite(L.Pn, N * N)) return DKF_ERR_NONFINITE;
     }
-    for (i = 0; i < fu->l; ++i) local_commit(&fu->nodes[i], &ll[i], 1);
+    for (i = 0; i < fu->l; ++i) {
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        local_commit(&fu->nodes[i], &li, 1);
+    }
     if (!fu->steady) dkf__copy(L.Pj, L.Pn, N * N);
     fu->t++;
     return DKF_OK;
@@ -437,39 +445,40 @@ dkf_status_t dkf_wfusion_step(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
 dkf_status_t dkf_wfusion_steady(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
                                 const dkf_kf_meas_t meas[])
 {
-    loc_layout_t ll[DKF_MAX_DIM];
     fu_layout_t L;
     dkf_mat_t X, Pi, Pj, C;
-    size_t i, j, N;
-    const size_t n = fu != NULL ? fu->n : 0;
+    size_t i, j, n, N;
     DKF_TRY(check_fusion(fu));
     DKF_CHECK_NULL(meas);
+    n = fu->n;
     N = n * fu->l;
     L = fu_mem(fu);
     for (i = 0; i < fu->l; ++i) {
-        ll[i] = loc_mem(&fu->nodes[i]);
-        DKF_TRY(local_steady_compute(&fu->nodes[i], &ll[i], dyn, &meas[i]));
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        DKF_TRY(local_steady_compute(&fu->nodes[i], &li, dyn, &meas[i]));
+        dkf__mul_nn(li.JQ, li.nx.J, dyn->Q->data, n, n, n);
+        move_block(L.Pn, li.nx.P, n, fu->l, i, i, 1);
     }
     /* P_ij = Psi_i P_ij Psi_j^T + J_i Q J_j^T (i != j): a Stein equation
      * per pair; P_ii the node's steady P */
     dkf__view(&X, n, n, L.X);
     dkf__view(&C, n, n, L.C);
     for (i = 0; i < fu->l; ++i) {
-        dkf__mul_nn(ll[i].JQ, ll[i].nx.J, dyn->Q->data, n, n, n);
-        move_block(L.Pn, ll[i].nx.P, n, fu->l, i, i, 1);
-    }
-    for (i = 0; i < fu->l; ++i)
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
         for (j = i + 1; j < fu->l; ++j) {
-            dkf__mul_nt(L.C, ll[i].JQ, ll[j].nx.J, n, n, n);
-            dkf__view(&Pi, n, n, ll[i].nx.Psi);
-            dkf__view(&Pj, n, n, ll[j].nx.Psi);
+            const loc_layout_t lj = loc_mem(&fu->nodes[j]);
+            dkf__mul_nt(L.C, li.JQ, lj.nx.J, n, n, n);
+            dkf__view(&Pi, n, n, li.nx.Psi);
+            dkf__view(&Pj, n, n, lj.nx.Psi);
             DKF_TRY(dkf_mat_stein(&X, &Pi, &Pj, &C, L.sw));
             move_block(L.Pn, L.X, n, fu->l, i, j, 1);
             dkf__transpose(L.C, L.X, n, n);
             move_block(L.Pn, L.C, n, fu->l, j, i, 1);
         }
+    }
     for (i = 0; i < fu->l; ++i) {
-        local_commit(&fu->nodes[i], &ll[i], 0);
+        const loc_layout_t li = loc_mem(&fu->nodes[i]);
+        local_commit(&fu->nodes[i], &li, 0);
         fu->nodes[i].steady = 1;
     }
     dkf__copy(L.Pj, L.Pn, N * N);

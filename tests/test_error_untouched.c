@@ -33,6 +33,7 @@
 #include "dkf/otskf.h"
 #include "dkf/tw.h"
 #include "dkf/uif.h"
+#include "dkf/wfusion.h"
 #include "dkf_test.h"
 #include "nerts_fixture.h"
 
@@ -1693,6 +1694,11 @@ static union {
         dkf_tw_net_t net;
         dkf_tw_node_t nodes[XS_NODES];
     } tw_net;
+    dkf_wfusion_local_t wf_local;
+    struct {
+        dkf_wfusion_t fu;
+        dkf_wfusion_local_t nodes[XS_NODES];
+    } wf;
 } xs_obj;
 static dkf_real_t xs_st[XS_CAP + 1];
 static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[2][DKF_MAX_DIM * DKF_MAX_DIM];
@@ -1862,6 +1868,29 @@ static dkf_status_t tw_net_init(dims_t d, dkf_real_t *st, size_t len)
                            &P);
 }
 
+static size_t wf_local_len(dims_t d) { return DKF_WFUSION_LOCAL_STORAGE_LEN(d.n, d.m); }
+static dkf_status_t wf_local_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n);
+    return dkf_wfusion_local_init(&xs_obj.wf_local, d.n, d.m, st, len, &x, &P);
+}
+
+/* l equal sensors: the macro is exact for them (and the function agrees) */
+static size_t wf_len(dims_t d)
+{
+    const size_t m[XS_NODES] = {d.m, d.m, d.m, d.m};
+    assert_int_equal(dkf_wfusion_storage_len(d.n, d.l, m), DKF_WFUSION_STORAGE_LEN(d.n, d.l, d.m));
+    return DKF_WFUSION_STORAGE_LEN(d.n, d.l, d.m);
+}
+static dkf_status_t wf_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    const size_t m[XS_NODES] = {d.m, d.m, d.m, d.m};
+    dkf_mat_t x = xs_x(d.n), P = xs_eye(d.n), Hs = test_view(1, d.n, xs_P0[1]);
+    memset(xs_P0[1], 0, sizeof xs_P0[1]);
+    xs_P0[1][0] = DKF_R(1.0);
+    return dkf_wfusion_init(&xs_obj.wf.fu, d.n, d.l, m, xs_obj.wf.nodes, st, len, &Hs, &x, &P);
+}
+
 static const xs_module_t xs_modules[] = {
     {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}}},
     {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}},
@@ -1888,6 +1917,9 @@ static const xs_module_t xs_modules[] = {
      {{1, 1, 1, 1}, {4, 3, 1, 4}, {4, 2, 0, 3}, {2, 3, 2, 2}}},
     {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
     {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
+    {"wfusion local", wf_local_len, wf_local_init,
+     {{1, 1, 0, 0}, {4, 1, 0, 0}, {4, 3, 0, 0}, {6, 2, 0, 0}, {2, 7, 0, 0}}},
+    {"wfusion", wf_len, wf_init, {{1, 1, 0, 1}, {4, 1, 0, 4}, {3, 2, 0, 4}, {2, 3, 0, 3}, {6, 4, 0, 2}}},
 };
 
 static void test_exact_storage(void **state)
@@ -1941,6 +1973,8 @@ DKF_NERTS_DECLARE(static, dk_nerts, 4, 3, 1);
 DKF_DFNERTS_NODE_DECLARE(static, dk_dfn_node, 4, 3, 1);
 DKF_DFNERTS_NET_DECLARE(static, dk_dfn_net, 2, 4, 3, 1);
 DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
+DKF_WFUSION_LOCAL_DECLARE(static, dk_wfl, 4, 2);
+DKF_WFUSION_DECLARE(static, dk_wf, 3, 2, 2);
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -2026,7 +2060,20 @@ static void test_declare_macros(void **state)
                                          ARRAY_LEN(dk_tw_net_storage), &x, &P),
                          DKF_OK);
     }
+    assert_int_equal(ARRAY_LEN(dk_wf_storage), DKF_WFUSION_STORAGE_LEN(3, 2, 2));
+    assert_int_equal(ARRAY_LEN(dk_wf_nodes), 2);
+    {
+        const size_t wm[2] = {2, 1}; /* one smaller sensor: the macro is a bound */
+        dkf_mat_t Hs = test_view(1, 3, xs_x0);
+        assert_int_equal(dkf_wfusion_init(&dk_wf, 3, 2, wm, dk_wf_nodes, dk_wf_storage,
+                                          ARRAY_LEN(dk_wf_storage), &Hs, &x, &P),
+                         DKF_OK);
+    }
     x = xs_x(4), P = xs_eye(4);
+    assert_int_equal(ARRAY_LEN(dk_wfl_storage), DKF_WFUSION_LOCAL_STORAGE_LEN(4, 2));
+    assert_int_equal(dkf_wfusion_local_init(&dk_wfl, 4, 2, dk_wfl_storage,
+                                            ARRAY_LEN(dk_wfl_storage), &x, &P),
+                     DKF_OK);
     assert_int_equal(dkf_kf_init(&dk_kf, 4, 2, dk_kf_storage, ARRAY_LEN(dk_kf_storage), &x, &P),
                      DKF_OK);
 }

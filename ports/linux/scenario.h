@@ -9,6 +9,9 @@
  *    (a list of {y, truth}) instead of `y` and `truth`;
  *  - cases (the infofusion golden-vector layout): `cases[c]` with `x0`, `P0`,
  *    `Q`, `C[j]`, `R[j]` and `steps[]` carrying `k`, `F`, `z[j]`;
+ *  - weighted-fusion cases (seed 002, s2_weighted_fusion.json): a case with
+ *    Phi, Gamma, Qe, H[i], R[i], H_signal, x_hat0, P0, steps[].{t, y}
+ *    (below, "Weighted-fusion cases layout");
  *  - steps (the seed-003/004 uif golden-vector layout): top-level `steps[]`
  *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below); with a
  *    `graph` key it is the network layout (seed 003: per-node H, Sw, y).

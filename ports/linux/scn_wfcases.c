@@ -27,7 +27,8 @@
 #include <string.h>
 
 /* Case key `key` as a matrix into set under `as`; rows x cols must be
- * er x ec (0: any, up to DKF_MAX_DIM). */
+ * er x ec (0: any, up to DKF_MAX_DIM). The pointer returned is valid
+ * until the next dkf_scn_mats_add to the same set (it may move the items). */
 static dkf_scn_mat_t *wf_matrix(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const json_t *cj,
                                 const char *cpath, const char *key, const char *as, size_t er,
                                 size_t ec)
@@ -74,33 +75,40 @@ static int check_pd(dkf_scn_ctx_t *c, const char *path, const double *a, size_t 
 }
 
 /* Q = Gamma Qe Gamma^T (n x n) into model "Q": the upper triangle summed
- * in one order and mirrored, so Q is exactly symmetric. */
-static int wf_Q(dkf_scn_ctx_t *c, dkf_scenario_t *s, const dkf_scn_mat_t *G,
-                const dkf_scn_mat_t *Qe, const char *cpath)
+ * in one order and mirrored, so Q is exactly symmetric. (Adding to a set
+ * moves its items: Gamma and Qe are looked up here, and Q is computed
+ * before it is added.) */
+static int wf_Q(dkf_scn_ctx_t *c, dkf_scenario_t *s, const char *cpath)
 {
-    /* G and Qe point into s->model's items, which dkf_scn_mats_add below
-     * may move (realloc): keep their data pointers, not the structs */
+    const dkf_scn_mat_t *G = dkf_scn_mats_find(&s->model, "Gamma"),
+                        *Qe = dkf_scn_mats_find(&s->model, "Qe");
     const size_t n = G->rows, r = G->cols;
-    const double *Gd = G->data, *Qd = Qe->data;
     dkf_scn_mat_t *Q;
+    double *q;
     char p[DKF_SCN_PATH_LEN];
     size_t i, j, a, b;
     dkf_scn_pathf(p, "%s.Gamma Qe Gamma^T", cpath);
-    if ((Q = dkf_scn_mats_add(c, &s->model, "Q", p)) == NULL) return -1;
-    if ((Q->data = dkf_scn_calloc(c, n * n, sizeof *Q->data)) == NULL) return -1;
-    Q->rows = Q->cols = n;
+    if ((q = dkf_scn_calloc(c, n * n, sizeof *q)) == NULL) return -1;
     for (i = 0; i < n; ++i)
         for (j = i; j < n; ++j) {
             double acc = 0.0;
             for (a = 0; a < r; ++a) {
                 double t = 0.0;
-                for (b = 0; b < r; ++b) t += Qd[a * r + b] * Gd[j * r + b];
-                acc += Gd[i * r + a] * t;
+                for (b = 0; b < r; ++b) t += Qe->data[a * r + b] * G->data[j * r + b];
+                acc += G->data[i * r + a] * t;
             }
-            if (!isfinite(acc))
+            if (!isfinite(acc)) {
+                free(q);
                 return dkf_scn_fail(c, p, "entry (%zu,%zu) is not finite", i, j);
-            Q->data[i * n + j] = Q->data[j * n + i] = acc;
+            }
+            q[i * n + j] = q[j * n + i] = acc;
         }
+    if ((Q = dkf_scn_mats_add(c, &s->model, "Q", p)) == NULL) {
+        free(q);
+        return -1;
+    }
+    Q->data = q;
+    Q->rows = Q->cols = n;
     return 0;
 }
 
@@ -277,7 +285,7 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     const dkf_scn_mat_t *F, *G, *Qe, *P0;
     dkf_scn_mat_t *x;
     char p[DKF_SCN_PATH_LEN];
-    size_t len;
+    size_t len, r;
 
     s->layout = DKF_SCN_LAYOUT_WFCASES;
     s->multi = 1;
@@ -288,13 +296,12 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
                             F->rows, F->cols);
     }
     s->n = F->rows;
+    /* every pointer into a set is used before the next add to that set */
     if ((G = wf_matrix(c, &s->model, cj, cpath, "Gamma", "Gamma", s->n, 0)) == NULL) return -1;
-    if ((Qe = wf_matrix(c, &s->model, cj, cpath, "Qe", "Qe", G->cols, G->cols)) == NULL)
-        return -1;
-    if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, Qe->rows) != 0) return -1;
-    /* adding Qe may have moved s->model's items (realloc): G again */
-    G = dkf_scn_model(s, "Gamma");
-    if (wf_Q(c, s, G, Qe, cpath) != 0) return -1;
+    r = G->cols;
+    if ((Qe = wf_matrix(c, &s->model, cj, cpath, "Qe", "Qe", r, r)) == NULL) return -1;
+    if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, r) != 0) return -1;
+    if (wf_Q(c, s, cpath) != 0) return -1;
     if (wf_matrix(c, &s->model, cj, cpath, "H_signal", "Hs", 1, s->n) == NULL) return -1;
     if ((P0 = wf_matrix(c, &s->init, cj, cpath, "P0", "P00", s->n, s->n)) == NULL) return -1;
     if (dkf_scn_check_symmetric(c, P0->path, P0->data, s->n) != 0) return -1;

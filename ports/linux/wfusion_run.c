@@ -8,7 +8,7 @@
  *                  covariances: per step x_local, K, Sigma_pred, s_local
  *                  (= Hs x_i), P_ij (the joint covariance's l x l blocks)
  *   fusion_scalar  the scalar-weight fusion of s (Theorem 2): w, P_S,
- *                  s_fused, P_S0 (and w_unique)
+ *                  s_fused, P_S0
  *   fusion_matrix  the matrix-weight fusion of x (Sun and Deng):
  *                  matrix_weights (the blocks A_i), matrix_weights_unique,
  *                  x_fused_matrix, P0_matrix
@@ -21,7 +21,7 @@
  *                  fed with every y_i(t), the local filters, P_ij and both
  *                  fusions on the model of its current estimate; per step
  *                  a_hat, c1_hat, sigma_w2_hat, guard (dkf_selftune_guard_t),
- *                  w, P_S0, s_fused, x_fused_matrix. Known: P(q^-1) (the
+ *                  w, P_S, s_fused, P_S0, x_fused_matrix. Known: P(q^-1) (the
  *                  file's noise block of Phi), sigma_xi^2 (Qe[1][1]) and the
  *                  sigma_vi^2 (R_i); the file's model must be the observer
  *                  form dkf_selftune_model builds (checked: F and Q of the

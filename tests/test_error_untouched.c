@@ -32,6 +32,7 @@
 #include "dkf/nerts.h"
 #include "dkf/otskf.h"
 #include "dkf/tw.h"
+#include "dkf/selftune.h"
 #include "dkf/uif.h"
 #include "dkf/wfusion.h"
 #include "dkf_test.h"
@@ -1699,6 +1700,7 @@ static union {
         dkf_wfusion_t fu;
         dkf_wfusion_local_t nodes[XS_NODES];
     } wf;
+    dkf_selftune_t selftune;
 } xs_obj;
 static dkf_real_t xs_st[XS_CAP + 1];
 static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[2][DKF_MAX_DIM * DKF_MAX_DIM];
@@ -1891,6 +1893,25 @@ static dkf_status_t wf_init(dims_t d, dkf_real_t *st, size_t len)
     return dkf_wfusion_init(&xs_obj.wf.fu, d.n, d.l, m, xs_obj.wf.nodes, st, len, &Hs, &x, &P);
 }
 
+/* selftune: dims (n, m, p, l) = (na, np, nc, K), the example's noise (L = 2) */
+static size_t selftune_len(dims_t d) { return DKF_SELFTUNE_STORAGE_LEN(d.n, d.m, d.p, d.l); }
+static dkf_status_t selftune_init(dims_t d, dkf_real_t *st, size_t len)
+{
+    static const dkf_real_t p[4] = {DKF_R(-0.5), DKF_R(0.1), DKF_R(0.0), DKF_R(0.0)},
+                            sv[2] = {DKF_R(0.1), DKF_R(0.2)};
+    dkf_selftune_cfg_t c;
+    assert_int_equal(dkf_selftune_config_default(&c), DKF_OK);
+    c.na = d.n;
+    c.np = d.m;
+    c.nc = d.p;
+    c.lags = d.l;
+    c.p = p;
+    c.sigma_xi2 = DKF_R(0.3);
+    c.L = 2;
+    c.sigma_v2 = sv;
+    return dkf_selftune_init(&xs_obj.selftune, &c, st, len);
+}
+
 static const xs_module_t xs_modules[] = {
     {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}}},
     {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}},
@@ -1920,6 +1941,8 @@ static const xs_module_t xs_modules[] = {
     {"wfusion local", wf_local_len, wf_local_init,
      {{1, 1, 0, 0}, {4, 1, 0, 0}, {4, 3, 0, 0}, {6, 2, 0, 0}, {2, 7, 0, 0}}},
     {"wfusion", wf_len, wf_init, {{1, 1, 0, 1}, {4, 1, 0, 4}, {3, 2, 0, 4}, {2, 3, 0, 3}, {6, 4, 0, 2}}},
+    {"selftune", selftune_len, selftune_init,
+     {{1, 0, 0, 1}, {2, 2, 1, 5}, {4, 4, 1, 32}, {3, 1, 0, 7}, {2, 0, 1, 3}}},
 };
 
 static void test_exact_storage(void **state)
@@ -1975,6 +1998,7 @@ DKF_DFNERTS_NET_DECLARE(static, dk_dfn_net, 2, 4, 3, 1);
 DKF_TW_NET_DECLARE(static, dk_tw_net, 2, 3, 2, 1);
 DKF_WFUSION_LOCAL_DECLARE(static, dk_wfl, 4, 2);
 DKF_WFUSION_DECLARE(static, dk_wf, 3, 2, 2);
+DKF_SELFTUNE_DECLARE(static, dk_selftune, 2, 2, 1, 5);
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -2009,6 +2033,16 @@ static void test_declare_macros(void **state)
     assert_int_equal(dkf_uif_init(&dk_uif, DKF_UIF_RTSF, 3, 2, 1, dk_uif_storage,
                                   ARRAY_LEN(dk_uif_storage), &x, &P),
                      DKF_OK);
+    assert_int_equal(ARRAY_LEN(dk_selftune_storage), DKF_SELFTUNE_STORAGE_LEN(2, 2, 1, 5));
+    {
+        static const dkf_real_t p2[2] = {DKF_R(-0.7), DKF_R(0.5)}, sv1[1] = {DKF_R(0.1)};
+        dkf_selftune_cfg_t c;
+        assert_int_equal(dkf_selftune_config_default(&c), DKF_OK);
+        c.np = 2, c.p = p2, c.L = 1, c.sigma_v2 = sv1;
+        assert_int_equal(dkf_selftune_init(&dk_selftune, &c, dk_selftune_storage,
+                                           ARRAY_LEN(dk_selftune_storage)),
+                         DKF_OK);
+    }
     assert_int_equal(ARRAY_LEN(dk_nerts_storage), DKF_NERTS_STORAGE_LEN(4, 3, 1));
     {
         static dkf_real_t I4[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};

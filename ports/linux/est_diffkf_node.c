@@ -130,5 +130,5 @@ static int node_payload(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg
 }
 
 const dkf_node_ops_t dkf_diffkf_node_ops = {
-    node_create, node_start, node_step, node_payload, node_destroy,
+    node_create, node_start, node_step, node_payload, node_destroy, 0,
 };

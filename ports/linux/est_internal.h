@@ -99,6 +99,9 @@ void dkf_est_run_destroy(dkf_runner_t *r);
 
 /* The dkf family's sensor-node role (est_diffkf_node.c). */
 extern const dkf_node_ops_t dkf_diffkf_node_ops;
+/* The wfusion family's sensor-node role (est_wfusion_node.c): seed 002's
+ * local Kalman filter. */
+extern const dkf_node_ops_t dkf_wfusion_node_ops;
 
 /* Defines the registry family dkf_family_<fam> of the kind dkf_est_<fam>:
  * one filter (--filter <fam>, outputs.<label>, the --help text and the

@@ -118,15 +118,21 @@ struct dkf_node_ops {
     dkf_node_filter_t *(*create)(const dkf_filter_t *f, const dkf_scenario_t *s, size_t id,
                                  char *err, size_t errlen);
     /* (Re)starts the filter from the scenario's prior on y (sensor id's m
-     * values) of time k0 >= 1, which completes no step. DKF_EXIT_OK or
+     * values) of time k0 >= 1, which completes no step (same_step: step k0). DKF_EXIT_OK or
      * DKF_EXIT_RUN with err naming the step and the failing call. */
     int (*start)(dkf_node_filter_t *nf, long k0, const double *y, char *err, size_t errlen);
-    /* Completes step k (> the start's k0 - 1) with y_{k+1}. As start. */
+    /* Completes step k (> the start's k0 - 1) with y_{k+1} (same_step: with
+     * y_k, k > k0). As start. */
     int (*step)(dkf_node_filter_t *nf, long k, const double *y, char *err, size_t errlen);
     /* The payload of the step just completed (after a successful step):
      * msg->k, x_{k|k}, x_{k|k-1} of node id. 0, or -1 (k out of range). */
     int (*payload)(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg_t *msg);
     void (*destroy)(dkf_node_filter_t *nf);
+    /* 0 (the Difference KF): step k completes with y_{k+1}, the start
+     * completes no step. 1 (a Kalman filter, seed 002's local filters):
+     * y_k completes step k itself; start(k0, y_{k0}) completes step k0
+     * and step(k, y_k) step k, each followed by its message. */
+    int same_step;
 };
 
 /* The registry: every family, in --help order; NULL-terminated. */

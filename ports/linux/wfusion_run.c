@@ -41,8 +41,9 @@
  * over steps, so tools/dkf_compare.py compares it with
  * cases[c].steps[*].expected (and fusion_steady with cases[c].steady_state).
  * The summary gives the RMSE of every local filter's x and of the fused
- * x and s against x_true, when the file has it. No node role yet (`node`
- * NULL: the network helper adds it).
+ * x and s against x_true, when the file has it. The node role
+ * (est_wfusion_node.c: one sensor's local KF for dkf-node; its fusion
+ * centre is net/wfusion_centre.c, docs/network.md).
  */
 #include <math.h>
 #include <stdio.h>
@@ -51,6 +52,7 @@
 
 #include "dkf/selftune.h"
 #include "dkf/wfusion.h"
+#include "est_internal.h"
 #include "registry.h"
 #include "util.h"
 #include "wf_model.h"
@@ -671,5 +673,6 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_wfusion = {
     "wfusion", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_WFCASES,
-    wf_check, wf_create, wf_step, wf_record, NULL, wf_summary, wf_destroy, NULL,
+    wf_check, wf_create, wf_step, wf_record, NULL, wf_summary, wf_destroy,
+    &dkf_wfusion_node_ops,
 };

@@ -126,6 +126,32 @@ const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu);
  * k, outputs.fused.{xf,xp,Pf,Pp}, status, contributors, latency_us, counters. */
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu);
 
+/* ---- the weighted fusion centre (seed 002; wfusion_centre.c) ------------------------ */
+
+/* dkf_net_fusion_create gives a scenario of seed 002's weighted fusion
+ * (the layout DKF_SCN_LAYOUT_WFCASES; model: wf_model.h) to this centre, and every
+ * dkf_net_fusion_* call above to its dkf_net_wfusion_* twin, so dkf-fusion
+ * and dkf-net-local run either centre. The same runtime (fc_runtime.h);
+ * step k: every gain and P_ij from the model, the payloads' x_i(k|k) fused
+ * with scalar and matrix weights over the nodes present. net == NULL: no
+ * transport (a test feeds dkf_fcr_receive through dkf_net_wfusion_runtime
+ * and reads the result document). */
+typedef struct dkf_net_wfusion dkf_net_wfusion_t;
+dkf_net_wfusion_t *dkf_net_wfusion_create(dkf_net_t *net, const dkf_scenario_t *s,
+                                          const char *prefix, int64_t deadline_us, char *err,
+                                          size_t errlen);
+void dkf_net_wfusion_free(dkf_net_wfusion_t *w);
+void dkf_net_wfusion_journal(dkf_net_wfusion_t *w, FILE *f);
+void dkf_net_wfusion_tick(dkf_net_wfusion_t *w, int64_t mono_us, int64_t heartbeat_us);
+void dkf_net_wfusion_report(dkf_net_wfusion_t *w);
+int dkf_net_wfusion_state(const dkf_net_wfusion_t *w);
+long dkf_net_wfusion_k(const dkf_net_wfusion_t *w);
+const dkf_net_counts_t *dkf_net_wfusion_counts(const dkf_net_wfusion_t *w);
+dkf_fcr_t *dkf_net_wfusion_runtime(dkf_net_wfusion_t *w);
+/* k, outputs.wfusion.{x0, P0, xp, Pp, s0, PS0, w, used, A_unique,
+ * w_unique}, and the runtime's record (fusion_result.h). */
+json_t *dkf_net_wfusion_result(const dkf_net_wfusion_t *w);
+
 /* ---- simulator ------------------------------------------------------------------ */
 
 typedef struct dkf_net_sim dkf_net_sim_t;

@@ -46,6 +46,9 @@ static void usage(FILE *f)
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
             "A centre started or restarted mid-run joins at the first step it gets data of.\n"
+            "A scenario of the weighted-fusion layout (seed 002) runs the weighted fusion\n"
+            "centre instead: the local KFs' x_i(k|k) (dkf-node --filter local_kf) fused with\n"
+            "scalar and matrix weights over the nodes present (docs/network.md).\n"
             "Exit: 0 step N published, 2 bad options/scenario, 3 set-up, core or output failure,\n"
             "4 interrupted (SIGINT/SIGTERM/--timeout) before step N (the file is written).\n",
             prog, DKF_NET_CKPT, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_DEADLINE_US / 1000,

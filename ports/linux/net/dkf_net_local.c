@@ -76,8 +76,12 @@ int main(int argc, char **argv)
     sim = dkf_net_sim_create(net, s, DKF_NET_PREFIX, err, sizeof err);
     fu = sim ? dkf_net_fusion_create(net, s, DKF_NET_PREFIX, 0, err, sizeof err) : NULL;
     for (i = 0; fu != NULL && i < s->nsensors; ++i)
-        if ((nodes[i] = dkf_net_node_create(net, s, dkf_registry_find("dkf"), i, DKF_NET_PREFIX,
-                                            err, sizeof err)) == NULL)
+        /* the node role of the scenario's kind: seed 002's local KF, else the DKF */
+        if ((nodes[i] = dkf_net_node_create(net, s,
+                                            dkf_registry_find(s->layout == DKF_SCN_LAYOUT_WFCASES
+                                                                  ? "local_kf"
+                                                                  : "dkf"),
+                                            i, DKF_NET_PREFIX, err, sizeof err)) == NULL)
             break;
     if (sim == NULL || fu == NULL || i < s->nsensors) {
         fprintf(stderr, "%s: %s\n", prog, err);

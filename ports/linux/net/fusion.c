@@ -28,6 +28,7 @@ typedef struct {
 } record_t;
 
 struct dkf_net_fusion {
+    dkf_net_wfusion_t *wf;        /* a weighted-fusion scenario: that centre, and nothing below */
     dkf_net_t *net;
     const dkf_scenario_t *s;
     size_t l, n;
@@ -297,6 +298,10 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
 
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us)
 {
+    if (fu->wf != NULL) {
+        dkf_net_wfusion_tick(fu->wf, mono_us, heartbeat_us);
+        return;
+    }
     dkf_fcr_tick(fu->rt, mono_us);
     sync_counts(fu);
     if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
@@ -428,6 +433,14 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
         snprintf(err, errlen, "fusion: out of memory");
         return NULL;
     }
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
+        fu->wf = dkf_net_wfusion_create(net, s, prefix, deadline_us, err, errlen);
+        if (fu->wf == NULL) {
+            free(fu);
+            return NULL;
+        }
+        return fu;
+    }
     fu->net = net;
     fu->s = s;
     fu->l = s->nsensors;
@@ -460,6 +473,7 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
 {
     size_t j;
     if (fu == NULL) return;
+    dkf_net_wfusion_free(fu->wf);
     dkf_fcr_free(fu->rt);
     for (j = 0; fu->md != NULL && j < fu->l; ++j) dkf_sensor_model_free(&fu->md[j]);
     free(fu->md);
@@ -480,6 +494,7 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
 /* DKF_NET_RUNNING, DONE, FAILED as the runtime says. */
 int dkf_net_fusion_state(const dkf_net_fusion_t *fu)
 {
+    if (fu->wf != NULL) return dkf_net_wfusion_state(fu->wf);
     switch (dkf_fcr_state(fu->rt)) {
     case DKF_FCR_DONE: return DKF_NET_DONE;
     case DKF_FCR_FAILED: return DKF_NET_FAILED;
@@ -490,6 +505,10 @@ int dkf_net_fusion_state(const dkf_net_fusion_t *fu)
 void dkf_net_fusion_report(dkf_net_fusion_t *fu)
 {
     dkf_net_status_t st;
+    if (fu->wf != NULL) {
+        dkf_net_wfusion_report(fu->wf);
+        return;
+    }
     sync_counts(fu);
     memset(&st, 0, sizeof st);
     st.utime = dkf_net_now_us();
@@ -508,7 +527,12 @@ void dkf_net_fusion_report(dkf_net_fusion_t *fu)
 
 void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f)
 {
-    const dkf_fcr_doc_info_t info = doc_info(fu);
+    dkf_fcr_doc_info_t info;
+    if (fu->wf != NULL) {
+        dkf_net_wfusion_journal(fu->wf, f);
+        return;
+    }
+    info = doc_info(fu);
     fu->journal = f;
     if (f != NULL && dkf_fcr_journal_header(f, fu->rt, &info, dkf_net_now_us()) != 0) {
         dkf_fcr_notef(fu->rt, "fusion: cannot write the journal");
@@ -516,15 +540,25 @@ void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f)
     }
 }
 
-long dkf_net_fusion_k(const dkf_net_fusion_t *fu) { return dkf_fcr_done_k(fu->rt); }
-const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu) { return &fu->c; }
+long dkf_net_fusion_k(const dkf_net_fusion_t *fu)
+{
+    return fu->wf != NULL ? dkf_net_wfusion_k(fu->wf) : dkf_fcr_done_k(fu->rt);
+}
+const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu)
+{
+    return fu->wf != NULL ? dkf_net_wfusion_counts(fu->wf) : &fu->c;
+}
 
 /* The result document (fusion_result.h) with outputs.fused.{xf,xp,Pf,Pp}. */
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
 {
-    const size_t n = fu->n, K = (size_t)dkf_fcr_done_k(fu->rt);
-    const dkf_fcr_doc_info_t info = doc_info(fu);
-    json_t *outputs = json_object(), *fused = json_object();
+    const size_t n = fu->n, K = fu->wf != NULL ? 0 : (size_t)dkf_fcr_done_k(fu->rt);
+    dkf_fcr_doc_info_t info;
+    json_t *outputs, *fused;
+    if (fu->wf != NULL) return dkf_net_wfusion_result(fu->wf);
+    info = doc_info(fu);
+    outputs = json_object();
+    fused = json_object();
     dkf_fcr_json_set_rows(fused, "xf", fu->rec.xf, K, n, 0);
     dkf_fcr_json_set_rows(fused, "xp", fu->rec.xp, K, n, 0);
     dkf_fcr_json_set_rows(fused, "Pf", fu->rec.Pf, K, n, n);

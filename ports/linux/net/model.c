@@ -16,6 +16,20 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
     const dkf_filter_t *f = dkf_registry_find("dkf");
     dkf_run_opts_t o;
     size_t i, ms = 0, ps = 0;
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
+        /* seed 002's weighted fusion: what `dkf-run --filter fusion_matrix`
+         * checks (the wfusion family), and the node count of the messages */
+        f = dkf_registry_find("fusion_matrix");
+        memset(&o, 0, sizeof o);
+        o.eta = -1;
+        if (f == NULL || f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
+        if (s->nsensors > DKF_NET_MAX_NODES) {
+            snprintf(err, errlen, "%s: %zu sensors, at most %d", s->file, s->nsensors,
+                     DKF_NET_MAX_NODES);
+            return -1;
+        }
+        return 0;
+    }
     /* what the Difference KF needs of the file: the registry's check */
     memset(&o, 0, sizeof o);
     o.eta = -1;
@@ -54,6 +68,20 @@ int64_t dkf_net_model_id(const dkf_scenario_t *s)
     uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, j;
     h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, s->n), s->nsensors), s->steps);
+    if (s->layout == DKF_SCN_LAYOUT_WFCASES) {
+        /* weighted fusion: a tag, F, Q, Hs, every sensor's H, R, x00, P00 */
+        h = dkf_fnv1a_u64(h, 0x57465553ull); /* "WFUS" */
+        h = fnv_mat(h, dkf_scn_model(s, "F"));
+        h = fnv_mat(h, dkf_scn_model(s, "Q"));
+        h = fnv_mat(h, dkf_scn_model(s, "Hs"));
+        for (i = 0; i < s->nsensors; ++i) {
+            h = fnv_mat(h, dkf_scn_sensor_model(s, i, "H"));
+            h = fnv_mat(h, dkf_scn_sensor_model(s, i, "R"));
+        }
+        h = fnv_mat(h, dkf_scn_init(s, "x00"));
+        h = fnv_mat(h, dkf_scn_init(s, "P00"));
+        return (int64_t)h;
+    }
     h = fnv_mat(h, dkf_scn_model(s, "F"));
     h = fnv_mat(h, dkf_scn_model(s, "Q"));
     for (i = 0; i < s->nsensors; ++i) {

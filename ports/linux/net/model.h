@@ -18,6 +18,9 @@
  * sensors and sum m_i, sum p_i <= DKF_MAX_DIM. 0, or -1 with a
  * "FILE: KEY: problem" line in err. */
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen);
+/* (A weighted-fusion scenario, DKF_SCN_LAYOUT_WFCASES: the wfusion family's check,
+ * and at most DKF_NET_MAX_NODES sensors; its model id hashes a tag, n, the
+ * number of sensors, N, F, Q, Hs, every sensor's H, R, x00 and P00.) */
 
 /* 64-bit FNV-1a over everything that defines the estimation problem:
  * n, number of sensors, N, F, Q, every sensor's H, A, R, B, Rd (all k),

@@ -140,7 +140,8 @@ static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 static void node_advance(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 {
     const int starting = nd->next == 0;
-    const long k = starting ? y->k : y->k - 1;
+    /* the step y completes (the Difference KF: y_{k+1} completes step k) */
+    const long k = starting || nd->ops->same_step ? y->k : y->k - 1;
     char why[sizeof nd->error];
     if (starting) {
         if (nd->ops->start(nd->nf, y->k, y->y, why, sizeof why) != DKF_EXIT_OK) {
@@ -165,7 +166,7 @@ static void node_advance(dkf_net_node_t *nd, const dkf_net_meas_t *y)
     }
     nd->next = y->k + 1;
     nd->state = DKF_NET_RUNNING;
-    if (starting) return;
+    if (starting && !nd->ops->same_step) return;
     if (node_emit(nd, y) != 0) {
         node_fail(nd, "node %zu: step k=%ld: cannot publish the message", nd->id, k);
         return;
@@ -311,7 +312,8 @@ void dkf_net_node_report(dkf_net_node_t *nd)
     st.role = DKF_NET_ROLE_NODE;
     st.id = (int)nd->id;
     st.state = nd->state;
-    st.k = nd->next >= 2 ? nd->next - 2 : 0; /* last step whose message was made */
+    /* last step whose message was made */
+    st.k = nd->next >= 2 ? nd->next - (nd->ops->same_step ? 1 : 2) : 0;
     st.sent = nd->c.sent;
     st.received = nd->c.received;
     st.rejected = nd->c.rejected;

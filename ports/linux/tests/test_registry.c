@@ -156,7 +156,8 @@ static void test_dkf_node_role(void **state)
     (void)state;
     assert_non_null(ops);
     for (i = 0; dkf_registry[i] != NULL; ++i) nroles += dkf_registry[i]->node != NULL;
-    assert_int_equal(nroles, 1);
+    assert_int_equal(nroles, 2); /* dkf and wfusion */
+    assert_int_equal(ops->same_step, 0);
     nf = ops->create(f, s, 0, err, sizeof err);
     if (nf == NULL) fail_msg("%s", err);
     if (ops->start(nf, 1, dkf_scn_y(s, 0, 1), err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
@@ -222,6 +223,59 @@ static void test_fnv1a(void **state)
     assert_true(dkf_fnv1a_doubles(DKF_FNV1A_OFFSET, &v, 1) == 0xd2227d9462d46a12ull);
 }
 
+/* The wfusion family's node role (one sensor's local KF, what `dkf-node
+ * --filter local_kf` runs) on the seed-002 vector: y_i(k) completes step k
+ * (same_step), and every payload's xf is, bit for bit, the x_local that
+ * dkf-run's local_kf records for that sensor (the registry's in-process
+ * run of all sensors through dkf_wfusion_step); xp = Phi x_i(k-1|k-1). */
+static void test_wfusion_node_role(void **state)
+{
+    dkf_scenario_t *s;
+    const dkf_filter_t *f;
+    dkf_runner_t *r;
+    json_t *doc = run(DKF_VECTOR_DIR "/infofusion/s2_weighted_fusion.json", "local_kf", &s, &f, &r);
+    const json_t *xl = json_object_get(json_object_get(json_object_get(doc, "outputs"),
+                                                       "LOCAL_KF"),
+                                       "x_local");
+    const dkf_node_ops_t *ops = f->family->node;
+    const dkf_scn_mat_t *F = dkf_scn_model(s, "F");
+    char err[DKF_SCN_ERR_LEN];
+    dkf_diffkf_msg_t msg;
+    double prev[DKF_MAX_DIM];
+    size_t id, k, i, j;
+    (void)state;
+    assert_non_null(ops);
+    assert_int_equal(ops->same_step, 1);
+    assert_int_equal(json_array_size(xl), s->steps);
+    for (id = 0; id < s->nsensors; ++id) {
+        dkf_node_filter_t *nf = ops->create(f, s, id, err, sizeof err);
+        if (nf == NULL) fail_msg("%s", err);
+        for (i = 0; i < s->n; ++i) prev[i] = dkf_scn_at(dkf_scn_init(s, "x00"), 0)[i];
+        for (k = 1; k <= s->steps; ++k) {
+            const json_t *x = json_array_get(json_array_get(xl, k - 1), id);
+            const int rc = k == 1 ? ops->start(nf, 1, dkf_scn_y(s, id, 1), err, sizeof err)
+                                  : ops->step(nf, (long)k, dkf_scn_y(s, id, (long)k), err,
+                                              sizeof err);
+            if (rc != DKF_EXIT_OK) fail_msg("%s", err);
+            assert_int_equal(ops->payload(nf, (uint16_t)id, &msg), 0);
+            assert_int_equal(msg.k, k);
+            assert_int_equal(msg.node, id);
+            for (i = 0; i < s->n; ++i) {
+                double xp = 0;
+                assert_true((double)msg.xf[i] == json_real_value(json_array_get(x, i)));
+                for (j = 0; j < s->n; ++j) xp += F->data[i * s->n + j] * prev[j];
+                /* xp: F x(k-1|k-1) (in double here: to rounding) */
+                assert_true(fabs((double)msg.xp[i] - xp) <= 1e-4 * (1 + fabs(xp)));
+            }
+            for (i = 0; i < s->n; ++i) prev[i] = (double)msg.xf[i];
+        }
+        ops->destroy(nf);
+    }
+    f->family->destroy(r);
+    json_decref(doc);
+    dkf_scenario_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -231,6 +285,7 @@ int main(void)
         cmocka_unit_test(test_kf_through_the_operations),
         cmocka_unit_test(test_rtsf_through_the_operations),
         cmocka_unit_test(test_dkf_node_role),
+        cmocka_unit_test(test_wfusion_node_role),
         cmocka_unit_test(test_json_place),
         cmocka_unit_test(test_fnv1a),
     };

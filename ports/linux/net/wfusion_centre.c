@@ -1,0 +1,541 @@
+/*
+ * wfusion_centre.c - the seed-002 weighted fusion centre (agents.h,
+ * docs/network.md "The weighted-fusion centre"): the core's dkf_wfusion_t
+ * (dkf/wfusion.h) as the fusion of a dkf_fcr_t runtime (fc_runtime.h:
+ * payload ring, epochs, deadlines, checkpoints, rollback/replay, linger),
+ * on LCM: node messages (x_i(k|k) in node_msg_t.xf) come in on
+ * <prefix>_NODE_<i>, fused steps go out on <prefix>_FUSED (fused_t).
+ *
+ * The gains of the local Kalman filters do not depend on the data, so the
+ * centre runs every node's gain recursion and every cross covariance P_ij
+ * itself (dkf_wfusion_step with y == NULL) and takes only the estimates
+ * from the nodes. Step k fuses the payloads present:
+ * dkf_wfusion_fuse_scalar (Theorem 2: s0, P_S0, w) and
+ * dkf_wfusion_fuse_matrix (Sun and Deng: x0, P0, A) with x[i] = NULL for
+ * a node whose payload is missing, i.e. over the present sensors' sub-block
+ * of (P_ij). With no payload at all the step is the prediction of the
+ * previous fused estimate. The checkpoint is the whole core state (the
+ * structs and their storage: the core has no save/restore of its own) and
+ * the previous fused estimate.
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "agents.h"
+#include "dkf/wfusion.h"
+#include "fc_runtime.h"
+#include "fusion_result.h"
+#include "model.h"
+#include "wf_model.h"
+
+/* What is recorded of every step (the latest computation; the result file). */
+typedef struct {
+    double *x0, *P0, *xp, *Pp; /* N x n, N x n x n: matrix-weight fusion, its prior */
+    double *s0, *PS0;          /* N: scalar-weight fusion of the signal */
+    double *w;                 /* N x l scalar weights (0: absent) */
+    int *A_unique, *w_unique;  /* N */
+    int *used;                 /* N: sensors fused (0: the prediction alone) */
+} wrecord_t;
+
+struct dkf_net_wfusion {
+    dkf_net_t *net;
+    const dkf_scenario_t *s;
+    size_t l, n;
+    long N;
+    char prefix[DKF_NET_CHAN_LEN / 2];
+    char chan_out[DKF_NET_CHAN_LEN];
+    int64_t model_id, deadline_us;
+    dkf_fcr_t *rt;
+    dkf_wf_model_t md;
+    dkf_wfusion_t fu;
+    dkf_wfusion_local_t *nodes;  /* l */
+    dkf_real_t *store;
+    size_t store_len;
+    /* the fused estimate of the last step (x(0|0), P(0|0) before step 1):
+     * checkpointed with the core state */
+    dkf_real_t *xlast, *Plast;   /* n, n x n */
+    dkf_real_t *scratch;         /* xp, Pp, F P (3 n x n + n) */
+    dkf_real_t *xin;             /* l x n: the payloads as dkf_real_t */
+    size_t ck_size;              /* bytes of a checkpoint */
+    FILE *journal;
+    dkf_diffkf_msg_t in, in_prev;
+    wrecord_t rec;
+    dkf_net_counts_t c;
+    int64_t seq, last_beat;
+};
+
+static void to_double(double *dst, const dkf_real_t *src, size_t len)
+{
+    size_t i;
+    for (i = 0; i < len; ++i) dst[i] = (double)src[i];
+}
+
+/* ---- the runtime's operations ------------------------------------------------------ */
+
+/* A node's local filter (re)started at k (a late start or a restart after
+ * a gap) runs from the common prior at k - 1: the cross covariances the
+ * centre computes do not hold for it, so its epoch is not followed and its
+ * payloads stay masked (the other sensors' fusion is still exact). */
+static int op_restart(void *user, size_t i, long k)
+{
+    dkf_net_wfusion_t *w = user;
+    dkf_fcr_notef(w->rt, "wfusion: node %zu restarted at k=%ld: masked from then on", i, k);
+    return -1;
+}
+
+/* The checkpoint: dkf_wfusion_t, the l local filters, the core storage,
+ * then the last fused estimate (the structs' pointers point into storage
+ * that stays where it is, so a byte copy restores the state exactly). */
+static int op_save(void *user, void *ckpt)
+{
+    dkf_net_wfusion_t *w = user;
+    unsigned char *p = ckpt;
+    const size_t n = w->n;
+    memcpy(p, &w->fu, sizeof w->fu);
+    p += sizeof w->fu;
+    memcpy(p, w->nodes, w->l * sizeof *w->nodes);
+    p += w->l * sizeof *w->nodes;
+    memcpy(p, w->store, w->store_len * sizeof *w->store);
+    p += w->store_len * sizeof *w->store;
+    memcpy(p, w->xlast, (n + n * n) * sizeof *w->xlast);
+    return 0;
+}
+
+static int op_restore(void *user, const void *ckpt)
+{
+    dkf_net_wfusion_t *w = user;
+    const unsigned char *p = ckpt;
+    const size_t n = w->n;
+    memcpy(&w->fu, p, sizeof w->fu);
+    p += sizeof w->fu;
+    memcpy(w->nodes, p, w->l * sizeof *w->nodes);
+    p += w->l * sizeof *w->nodes;
+    memcpy(w->store, p, w->store_len * sizeof *w->store);
+    p += w->store_len * sizeof *w->store;
+    memcpy(w->xlast, p, (n + n * n) * sizeof *w->xlast);
+    return 0;
+}
+
+/* xp = F xlast, Pp = F Plast F^T + Q (the prior of step k in fused_t's xp,
+ * Pp; the step itself when no node is present). */
+static dkf_status_t predict(dkf_net_wfusion_t *w, dkf_mat_t *xp, dkf_mat_t *Pp)
+{
+    const size_t n = w->n;
+    dkf_mat_t xl = DKF_MAT(n, 1, w->xlast), Pl = DKF_MAT(n, n, w->Plast);
+    dkf_mat_t FP = DKF_MAT(n, n, w->scratch + 2 * n * n + n);
+    dkf_status_t st = dkf_mat_mul(xp, &w->md.F, &xl);
+    if (st == DKF_OK) st = dkf_mat_mul(&FP, &w->md.F, &Pl);
+    if (st == DKF_OK) st = dkf_mat_mul_abt(Pp, &FP, &w->md.F);
+    if (st == DKF_OK) st = dkf_mat_add(Pp, Pp, &w->md.Q);
+    if (st == DKF_OK) st = dkf_mat_symmetrise(Pp);
+    return st;
+}
+
+/* Step k: every gain and P_ij (dkf_wfusion_step, y == NULL), then both
+ * fusions over the payloads present. A fusion the core refuses (P_S or the
+ * joint sub-block indefinite beyond rounding) leaves the prediction: one
+ * refusal counted. -1 only if the gain recursion itself fails. */
+static int op_step(void *user, long k, const void *const *pay, unsigned char *contrib)
+{
+    dkf_net_wfusion_t *w = user;
+    const size_t n = w->n, l = w->l, j = (size_t)(k - 1);
+    const dkf_mat_t *x[DKF_NET_MAX_NODES];
+    dkf_mat_t xv[DKF_NET_MAX_NODES];
+    dkf_mat_t xp = DKF_MAT(n, 1, w->scratch), Pp = DKF_MAT(n, n, w->scratch + n);
+    dkf_mat_t xl = DKF_MAT(n, 1, w->xlast), Pl = DKF_MAT(n, n, w->Plast);
+    dkf_status_t st;
+    size_t i, used = 0;
+    int refused = 0;
+    if ((st = predict(w, &xp, &Pp)) != DKF_OK ||
+        (st = dkf_wfusion_step(&w->fu, &w->md.dyn, w->md.meas, NULL)) != DKF_OK) {
+        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: dkf_wfusion_step failed: %s", k,
+                      dkf_status_str(st));
+        return -1;
+    }
+    for (i = 0; i < l; ++i) {
+        x[i] = NULL;
+        contrib[i] = 0;
+        if (pay[i] == NULL) continue;
+        {
+            const dkf_diffkf_msg_t *m = pay[i];
+            memcpy(w->xin + i * n, m->xf, n * sizeof *w->xin);
+        }
+        xv[i] = (dkf_mat_t)DKF_MAT(n, 1, w->xin + i * n);
+        x[i] = &xv[i];
+        ++used;
+    }
+    to_double(w->rec.xp + j * n, xp.data, n);
+    to_double(w->rec.Pp + j * n * n, Pp.data, n * n);
+    memset(w->rec.w + j * l, 0, l * sizeof(double));
+    w->rec.s0[j] = 0;
+    w->rec.PS0[j] = 0;
+    w->rec.A_unique[j] = w->rec.w_unique[j] = 0;
+    if (used > 0) {
+        st = dkf_wfusion_fuse_scalar(&w->fu, x);
+        if (st == DKF_OK) st = dkf_wfusion_fuse_matrix(&w->fu, x);
+        if (st != DKF_OK) {
+            dkf_fcr_notef(w->rt, "wfusion: step k=%ld: the fusion of %zu nodes failed: %s "
+                          "(the prediction is used)", k, used, dkf_status_str(st));
+            ++refused;
+            used = 0;
+        }
+    }
+    if (used > 0) {
+        for (i = 0; i < l; ++i) contrib[i] = x[i] != NULL;
+        (void)dkf_mat_copy(&xl, &w->fu.x0);
+        (void)dkf_mat_copy(&Pl, &w->fu.P0);
+        w->rec.s0[j] = (double)w->fu.s0;
+        w->rec.PS0[j] = (double)w->fu.PS0;
+        to_double(w->rec.w + j * l, w->fu.w.data, l);
+        w->rec.A_unique[j] = w->fu.A_unique;
+        w->rec.w_unique[j] = w->fu.w_unique;
+    } else {
+        /* no estimate to fuse: the prediction alone */
+        (void)dkf_mat_copy(&xl, &xp);
+        (void)dkf_mat_copy(&Pl, &Pp);
+    }
+    w->rec.used[j] = (int)used;
+    to_double(w->rec.x0 + j * n, w->xlast, n);
+    to_double(w->rec.P0 + j * n * n, w->Plast, n * n);
+    return refused;
+}
+
+/* Step st->k on <prefix>_FUSED as fused_t: xf, Pf = x0, P0 (matrix
+ * weights), xp, Pp = their prior F x0(k-1), F P0 F^T + Q. */
+static int op_publish(void *user, const dkf_fcr_step_t *st, int64_t *utime)
+{
+    static unsigned char buf[DKF_NET_MAX_MSG];
+    static dkf_net_fused_t o;
+    dkf_net_wfusion_t *w = user;
+    const size_t n = w->n, l = w->l, j = (size_t)(st->k - 1);
+    size_t len;
+    o.k = st->k;
+    o.nnodes = l;
+    o.n = n;
+    o.degraded = st->degraded;
+    o.revision = st->revision;
+    memcpy(o.contributed, st->contributed, l);
+    o.meas_utime_first = st->meas_utime_first;
+    o.meas_utime_last = st->meas_utime_last;
+    o.msg_utime_last = st->recv_utime_last;
+    memcpy(o.xf, w->rec.x0 + j * n, n * sizeof(double));
+    memcpy(o.xp, w->rec.xp + j * n, n * sizeof(double));
+    memcpy(o.Pf, w->rec.P0 + j * n * n, n * n * sizeof(double));
+    memcpy(o.Pp, w->rec.Pp + j * n * n, n * n * sizeof(double));
+    o.meta.utime = *utime = dkf_net_now_us();
+    o.meta.model_id = w->model_id;
+    o.meta.seq = w->seq++;
+    if (dkf_net_encode_fused(buf, sizeof buf, &len, &o) != 0 ||
+        dkf_net_publish(w->net, w->chan_out, buf, len) != 0) {
+        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: cannot publish", st->k);
+        return -1;
+    }
+    return 0;
+}
+
+static dkf_fcr_doc_info_t doc_info(const dkf_net_wfusion_t *w)
+{
+    dkf_fcr_doc_info_t info;
+    info.scenario = w->s->file;
+    info.model_id = w->model_id;
+    info.deadline_us = w->deadline_us;
+    info.rejected = w->c.rejected;
+    info.why = &w->c.why;
+    return info;
+}
+
+static void op_record(void *user, const dkf_fcr_step_t *st, int published)
+{
+    dkf_net_wfusion_t *w = user;
+    const size_t n = w->n, l = w->l, j = (size_t)(st->k - 1);
+    json_t *o;
+    if (w->journal == NULL) return;
+    o = dkf_fcr_journal_line(st, published);
+    dkf_fcr_json_set_block(o, "x0", w->rec.x0 + j * n, n, 0);
+    dkf_fcr_json_set_block(o, "P0", w->rec.P0 + j * n * n, n, n);
+    json_object_set_new(o, "s0", json_real(w->rec.s0[j]));
+    json_object_set_new(o, "PS0", json_real(w->rec.PS0[j]));
+    dkf_fcr_json_set_block(o, "w", w->rec.w + j * l, l, 0);
+    json_object_set_new(o, "used", json_integer(w->rec.used[j]));
+    if (dkf_fcr_journal_write(w->journal, o, dkf_net_now_us()) != 0) {
+        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: cannot write the journal", st->k);
+        w->journal = NULL;
+    }
+}
+
+static void op_state(void *user, int state)
+{
+    (void)state;
+    dkf_net_wfusion_report(user);
+}
+
+static const dkf_fcr_ops_t wf_ops = {op_step,    op_restart, op_save,  op_restore,
+                                     op_publish, op_record,  op_state};
+
+static void sync_counts(dkf_net_wfusion_t *w)
+{
+    const dkf_fcr_counts_t *c = dkf_fcr_counts(w->rt);
+    w->c.sent = c->sent;
+    w->c.received = c->received;
+    w->c.stale = c->stale;
+    w->c.missed = c->missed;
+}
+
+/* ---- LCM: the node messages, decoded by codec.c ------------------------------------- */
+
+static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
+                        void *user)
+{
+    dkf_net_wfusion_t *w = user;
+    dkf_net_expect_t ex;
+    dkf_net_meta_t meta;
+    dkf_net_verdict_t v;
+    dkf_fcr_msg_t m;
+    if (dkf_fcr_state(w->rt) != DKF_FCR_RUNNING) return;
+    ex.model_id = w->model_id;
+    ex.nnodes = w->l;
+    ex.node = dkf_net_chan_index(channel);
+    if (ex.node < 0) ex.node = (long)w->l;
+    ex.n = w->n;
+    ex.m = NULL;
+    ex.kmax = w->N;
+    v = dkf_net_decode_node_msg(data, len, &ex, &w->in, &w->in_prev, &meta, &w->c.why);
+    if (v != DKF_NET_ACCEPT) {
+        ++w->c.rejected;
+        dkf_fcr_notef(w->rt, "wfusion: message on %s rejected: %s", channel,
+                      dkf_net_verdict_str(v));
+        return;
+    }
+    m.node = w->in.node;
+    m.k = (long)w->in.k;
+    m.epoch = meta.epoch;
+    m.k_start = meta.k_start;
+    m.seq = meta.seq;
+    m.meas_utime = meta.meas_utime;
+    m.recv_utime = recv_utime;
+    m.pay = &w->in;
+    m.prev = meta.has_prev ? &w->in_prev : NULL;
+    (void)dkf_fcr_receive(w->rt, &m, dkf_net_mono_us());
+    sync_counts(w);
+}
+
+void dkf_net_wfusion_tick(dkf_net_wfusion_t *w, int64_t mono_us, int64_t heartbeat_us)
+{
+    dkf_fcr_tick(w->rt, mono_us);
+    sync_counts(w);
+    if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
+    if (w->last_beat != INT64_MIN && mono_us - w->last_beat < heartbeat_us) return;
+    w->last_beat = mono_us;
+    dkf_net_wfusion_report(w);
+}
+
+/* ---- set-up --------------------------------------------------------------------------- */
+
+static int wf_alloc(dkf_net_wfusion_t *w)
+{
+    const size_t l = w->l, n = w->n, N = (size_t)w->N;
+    w->nodes = calloc(l, sizeof *w->nodes);
+    w->xlast = calloc(n + n * n, sizeof *w->xlast);
+    w->scratch = calloc(3 * n * n + n, sizeof *w->scratch);
+    w->xin = calloc(l * n, sizeof *w->xin);
+    w->rec.x0 = calloc(N * n, sizeof(double));
+    w->rec.xp = calloc(N * n, sizeof(double));
+    w->rec.P0 = calloc(N * n * n, sizeof(double));
+    w->rec.Pp = calloc(N * n * n, sizeof(double));
+    w->rec.s0 = calloc(N, sizeof(double));
+    w->rec.PS0 = calloc(N, sizeof(double));
+    w->rec.w = calloc(N * l, sizeof(double));
+    w->rec.A_unique = calloc(N, sizeof(int));
+    w->rec.w_unique = calloc(N, sizeof(int));
+    w->rec.used = calloc(N, sizeof(int));
+    if (!w->nodes || !w->xlast || !w->scratch || !w->xin || !w->rec.x0 || !w->rec.xp ||
+        !w->rec.P0 || !w->rec.Pp || !w->rec.s0 || !w->rec.PS0 || !w->rec.w ||
+        !w->rec.A_unique || !w->rec.w_unique || !w->rec.used)
+        return -1;
+    w->Plast = w->xlast + n;
+    return 0;
+}
+
+/* The core fusion (every local filter from the common prior) and the
+ * runtime with its checkpoint of the state before step 1. -1 with err. */
+static int wf_setup(dkf_net_wfusion_t *w, char *err, size_t errlen)
+{
+    const dkf_scenario_t *s = w->s;
+    const size_t n = w->n;
+    dkf_fcr_config_t cfg;
+    dkf_status_t st;
+    if (dkf_wf_model_load(s, &w->md, err, errlen) != 0) return -1;
+    w->store_len = dkf_wfusion_storage_len(n, w->l, w->md.m);
+    w->store = w->store_len ? calloc(w->store_len, sizeof *w->store) : NULL;
+    if (w->store == NULL) {
+        snprintf(err, errlen, "%s: wfusion: no storage for the fusion (n = %zu, %zu sensors)",
+                 s->file, n, w->l);
+        return -1;
+    }
+    st = dkf_wfusion_init(&w->fu, n, w->l, w->md.m, w->nodes, w->store, w->store_len, &w->md.Hs,
+                          &w->md.x0, &w->md.P0);
+    if (st != DKF_OK) {
+        snprintf(err, errlen, "%s: wfusion: dkf_wfusion_init failed: %s", s->file,
+                 dkf_status_str(st));
+        return -1;
+    }
+    memcpy(w->xlast, w->md.x0.data, n * sizeof *w->xlast);
+    memcpy(w->Plast, w->md.P0.data, n * n * sizeof *w->Plast);
+    w->ck_size = sizeof w->fu + w->l * sizeof *w->nodes + w->store_len * sizeof *w->store +
+                 (n + n * n) * sizeof *w->xlast;
+    cfg.nodes = w->l;
+    cfg.steps = w->N;
+    cfg.payload_size = sizeof(dkf_diffkf_msg_t);
+    cfg.ckpt_size = w->ck_size;
+    cfg.deadline_us = w->deadline_us;
+    cfg.linger_us = 2 * w->deadline_us > DKF_NET_LINGER_US ? 2 * w->deadline_us
+                                                           : DKF_NET_LINGER_US;
+    w->rt = dkf_fcr_create(&cfg, &wf_ops, w);
+    if (w->rt == NULL) {
+        snprintf(err, errlen, "%s: wfusion: no storage for the checkpoints", s->file);
+        return -1;
+    }
+    return 0;
+}
+
+dkf_net_wfusion_t *dkf_net_wfusion_create(dkf_net_t *net, const dkf_scenario_t *s,
+                                          const char *prefix, int64_t deadline_us, char *err,
+                                          size_t errlen)
+{
+    dkf_net_wfusion_t *w = calloc(1, sizeof *w);
+    char chan[DKF_NET_CHAN_LEN + 16];
+    if (w == NULL) {
+        snprintf(err, errlen, "wfusion: out of memory");
+        return NULL;
+    }
+    w->net = net;
+    w->s = s;
+    w->l = s->nsensors;
+    w->n = s->n;
+    w->N = (long)s->steps;
+    snprintf(w->prefix, sizeof w->prefix, "%s", prefix);
+    dkf_net_chan(w->chan_out, prefix, "FUSED");
+    w->model_id = dkf_net_model_id(s);
+    w->deadline_us = deadline_us > 0 ? deadline_us : DKF_NET_DEADLINE_US;
+    w->last_beat = INT64_MIN;
+    if (wf_alloc(w) != 0) {
+        snprintf(err, errlen, "wfusion: out of memory");
+        dkf_net_wfusion_free(w);
+        return NULL;
+    }
+    if (wf_setup(w, err, errlen) != 0) {
+        dkf_net_wfusion_free(w);
+        return NULL;
+    }
+    snprintf(chan, sizeof chan, "%s_NODE_[0-9]+", prefix);
+    if (net != NULL && dkf_net_subscribe(net, chan, on_node_msg, w) != 0) {
+        snprintf(err, errlen, "wfusion: cannot subscribe to %s", chan);
+        dkf_net_wfusion_free(w);
+        return NULL;
+    }
+    return w;
+}
+
+void dkf_net_wfusion_free(dkf_net_wfusion_t *w)
+{
+    if (w == NULL) return;
+    dkf_fcr_free(w->rt);
+    dkf_wf_model_free(&w->md);
+    free(w->nodes);
+    free(w->store);
+    free(w->xlast);
+    free(w->scratch);
+    free(w->xin);
+    free(w->rec.x0);
+    free(w->rec.xp);
+    free(w->rec.P0);
+    free(w->rec.Pp);
+    free(w->rec.s0);
+    free(w->rec.PS0);
+    free(w->rec.w);
+    free(w->rec.A_unique);
+    free(w->rec.w_unique);
+    free(w->rec.used);
+    free(w);
+}
+
+int dkf_net_wfusion_state(const dkf_net_wfusion_t *w)
+{
+    switch (dkf_fcr_state(w->rt)) {
+    case DKF_FCR_DONE: return DKF_NET_DONE;
+    case DKF_FCR_FAILED: return DKF_NET_FAILED;
+    default: return DKF_NET_RUNNING;
+    }
+}
+
+void dkf_net_wfusion_report(dkf_net_wfusion_t *w)
+{
+    dkf_net_status_t st;
+    sync_counts(w);
+    if (w->net == NULL) return;
+    memset(&st, 0, sizeof st);
+    st.utime = dkf_net_now_us();
+    st.model_id = w->model_id;
+    st.role = DKF_NET_ROLE_FUSION;
+    st.id = -1;
+    st.state = dkf_net_wfusion_state(w);
+    st.k = dkf_fcr_done_k(w->rt);
+    st.sent = w->c.sent;
+    st.received = w->c.received;
+    st.rejected = w->c.rejected;
+    st.missed = w->c.missed;
+    snprintf(st.detail, sizeof st.detail, "%s", dkf_fcr_note(w->rt));
+    dkf_net_publish_status(w->net, w->prefix, &st);
+}
+
+void dkf_net_wfusion_journal(dkf_net_wfusion_t *w, FILE *f)
+{
+    const dkf_fcr_doc_info_t info = doc_info(w);
+    w->journal = f;
+    if (f != NULL && dkf_fcr_journal_header(f, w->rt, &info, dkf_net_now_us()) != 0) {
+        dkf_fcr_notef(w->rt, "wfusion: cannot write the journal");
+        w->journal = NULL;
+    }
+}
+
+long dkf_net_wfusion_k(const dkf_net_wfusion_t *w) { return dkf_fcr_done_k(w->rt); }
+const dkf_net_counts_t *dkf_net_wfusion_counts(const dkf_net_wfusion_t *w) { return &w->c; }
+dkf_fcr_t *dkf_net_wfusion_runtime(dkf_net_wfusion_t *w) { return w->rt; }
+
+static json_t *real_rows(const double *v, size_t K)
+{
+    json_t *a = json_array();
+    size_t j;
+    for (j = 0; j < K; ++j) json_array_append_new(a, json_real(v[j]));
+    return a;
+}
+
+static json_t *int_rows(const int *v, size_t K)
+{
+    json_t *a = json_array();
+    size_t j;
+    for (j = 0; j < K; ++j) json_array_append_new(a, json_integer(v[j]));
+    return a;
+}
+
+/* The result document (fusion_result.h) with outputs.wfusion.{x0, P0, xp,
+ * Pp, s0, PS0, w, used, A_unique, w_unique}. */
+json_t *dkf_net_wfusion_result(const dkf_net_wfusion_t *w)
+{
+    const size_t n = w->n, l = w->l, K = (size_t)dkf_fcr_done_k(w->rt);
+    const dkf_fcr_doc_info_t info = doc_info(w);
+    json_t *outputs = json_object(), *o = json_object();
+    dkf_fcr_json_set_rows(o, "x0", w->rec.x0, K, n, 0);
+    dkf_fcr_json_set_rows(o, "P0", w->rec.P0, K, n, n);
+    dkf_fcr_json_set_rows(o, "xp", w->rec.xp, K, n, 0);
+    dkf_fcr_json_set_rows(o, "Pp", w->rec.Pp, K, n, n);
+    json_object_set_new(o, "s0", real_rows(w->rec.s0, K));
+    json_object_set_new(o, "PS0", real_rows(w->rec.PS0, K));
+    dkf_fcr_json_set_rows(o, "w", w->rec.w, K, l, 0);
+    json_object_set_new(o, "used", int_rows(w->rec.used, K));
+    json_object_set_new(o, "A_unique", int_rows(w->rec.A_unique, K));
+    json_object_set_new(o, "w_unique", int_rows(w->rec.w_unique, K));
+    json_object_set_new(outputs, "wfusion", o);
+    return dkf_fcr_result_doc(w->rt, &info, outputs);
+}

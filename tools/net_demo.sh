@@ -165,3 +165,11 @@ s001_args=(--build-dir "$build")
 echo
 echo "== seed 001: DF-DNERTSIF on 12 radars, one process per node"
 "$here/seed001_net_demo.sh" "${s001_args[@]}"
+
+# ---- seed 002's 5 sensors, weighted fusion (tools/seed002_net_demo.sh) --------------
+s002_args=(--build-dir "$build")
+(( do_build )) || s002_args+=(--no-build)
+(( memq )) && s002_args+=(--in-process)
+echo
+echo "== seed 002: weighted fusion of 5 local Kalman filters, one process per sensor"
+"$here/seed002_net_demo.sh" "${s002_args[@]}"

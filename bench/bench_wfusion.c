@@ -13,8 +13,12 @@
  * Model: seed 002's example (n = 4: F, Gamma Qe Gamma^T, H = (1 0 1 0),
  * Hs = (1 0 0 0)); sensor i has R_i = 0.1 + 0.1 (i mod 5) (the example's
  * five repeated). Every fusion runs after 20 steps from a common prior, so
- * the joint covariance is non-singular (the weights are unique: the
- * Cholesky path, the one a running centre takes).
+ * the joint covariance is non-singular in exact arithmetic. Its condition
+ * number grows with L (the local errors share the process noise): where
+ * a Cholesky pivot falls below 64 N eps max diag (float at L = 20, 50) the
+ * matrix fusion takes the KKT pseudo-inverse path (an SVD, much slower)
+ * and may report the weights not unique at that precision; a comment
+ * line "# wfusion L=.. matrix: ..." says so.
  *
  * The joint covariance is n L x n L and the KKT system n (L + 1): with
  * the default DKF_MAX_DIM = 48 only L <= 11 fits. bench/run_bench.sh
@@ -112,8 +116,7 @@ static double prepare(size_t l)
             yb[i] = (dkf_real_t)(xt[0] + xt[2] + sqrt((double)R[i]) * bench_rng_normal(&rng));
         if (dkf_wfusion_step(&fu, &dyn, meas, my) != DKF_OK) return NAN;
     }
-    if (dkf_wfusion_fuse_scalar(&fu, NULL) != DKF_OK || dkf_wfusion_fuse_matrix(&fu, NULL) != DKF_OK ||
-        !fu.A_unique)
+    if (dkf_wfusion_fuse_scalar(&fu, NULL) != DKF_OK || dkf_wfusion_fuse_matrix(&fu, NULL) != DKF_OK)
         return NAN;
     {
         double c = (double)fu.s0 + (double)fu.PS0;
@@ -206,6 +209,9 @@ int main(int argc, char **argv)
             ns = bench_median(per, repeats);
             printf("wfusion-%s %s %d %zu %.2f %ld %d %.17g\n", names[op], BENCH_TYPE, NX, ls[j], ns,
                    calls, repeats, checksum);
+            if (op == 2 && !fu.A_unique)
+                printf("# wfusion L=%zu matrix: the weights are not unique at this precision "
+                       "(the joint covariance is numerically singular: the KKT path)\n", ls[j]);
             fflush(stdout);
         }
     }

@@ -248,16 +248,6 @@ static void op_state(void *user, int state)
 static const dkf_fcr_ops_t dkf_fc_ops = {op_step,    op_restart, op_save,  op_restore,
                                          op_publish, op_record,  op_state};
 
-/* The runtime's counters as the agent's (status messages, the summary). */
-static void sync_counts(dkf_net_fusion_t *fu)
-{
-    const dkf_fcr_counts_t *c = dkf_fcr_counts(fu->rt);
-    fu->c.sent = c->sent;
-    fu->c.received = c->received;
-    fu->c.stale = c->stale;
-    fu->c.missed = c->missed;
-}
-
 /* ---- LCM ---------------------------------------------------------------------------- */
 
 static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
@@ -265,35 +255,13 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
 {
     dkf_net_fusion_t *fu = user;
     dkf_net_expect_t ex;
-    dkf_net_meta_t meta;
-    dkf_net_verdict_t v;
-    dkf_fcr_msg_t m;
-    if (dkf_fcr_state(fu->rt) != DKF_FCR_RUNNING) return;
     ex.model_id = fu->model_id;
     ex.nnodes = fu->l;
-    ex.node = dkf_net_chan_index(channel);
-    if (ex.node < 0) ex.node = (long)fu->l; /* no index in the name: no node matches */
     ex.n = fu->n;
     ex.m = NULL;
     ex.kmax = fu->N;
-    v = dkf_net_decode_node_msg(data, len, &ex, &fu->in, &fu->in_prev, &meta, &fu->c.why);
-    if (v != DKF_NET_ACCEPT) {
-        ++fu->c.rejected;
-        dkf_fcr_notef(fu->rt, "fusion: message on %s rejected: %s", channel,
-                      dkf_net_verdict_str(v));
-        return;
-    }
-    m.node = fu->in.node;
-    m.k = (long)fu->in.k;
-    m.epoch = meta.epoch;
-    m.k_start = meta.k_start;
-    m.seq = meta.seq;
-    m.meas_utime = meta.meas_utime;
-    m.recv_utime = recv_utime;
-    m.pay = &fu->in;
-    m.prev = meta.has_prev ? &fu->in_prev : NULL;
-    (void)dkf_fcr_receive(fu->rt, &m, dkf_net_mono_us());
-    sync_counts(fu);
+    dkf_fcr_node_message(fu->rt, &ex, "fusion", channel, data, len, recv_utime, &fu->in,
+                         &fu->in_prev, &fu->c);
 }
 
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us)
@@ -303,7 +271,7 @@ void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbea
         return;
     }
     dkf_fcr_tick(fu->rt, mono_us);
-    sync_counts(fu);
+    dkf_fcr_sync_counts(fu->rt, &fu->c);
     if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
     if (fu->last_beat != INT64_MIN && mono_us - fu->last_beat < heartbeat_us) return;
     fu->last_beat = mono_us;
@@ -509,7 +477,7 @@ void dkf_net_fusion_report(dkf_net_fusion_t *fu)
         dkf_net_wfusion_report(fu->wf);
         return;
     }
-    sync_counts(fu);
+    dkf_fcr_sync_counts(fu->rt, &fu->c);
     memset(&st, 0, sizeof st);
     st.utime = dkf_net_now_us();
     st.model_id = fu->model_id;

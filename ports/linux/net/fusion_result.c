@@ -203,3 +203,43 @@ int dkf_fcr_journal_write(FILE *f, json_t *line, int64_t utime)
     json_decref(line);
     return r;
 }
+
+/* ---- the node messages ------------------------------------------------------------------ */
+
+void dkf_fcr_sync_counts(const dkf_fcr_t *rt, dkf_net_counts_t *c)
+{
+    const dkf_fcr_counts_t *r = dkf_fcr_counts(rt);
+    c->sent = r->sent;
+    c->received = r->received;
+    c->stale = r->stale;
+    c->missed = r->missed;
+}
+
+void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
+                          const char *channel, const void *data, size_t len, int64_t recv_utime,
+                          dkf_diffkf_msg_t *in, dkf_diffkf_msg_t *in_prev, dkf_net_counts_t *c)
+{
+    dkf_net_meta_t meta;
+    dkf_net_verdict_t v;
+    dkf_fcr_msg_t m;
+    if (dkf_fcr_state(rt) != DKF_FCR_RUNNING) return;
+    ex->node = dkf_net_chan_index(channel);
+    if (ex->node < 0) ex->node = (long)ex->nnodes; /* no index in the name: no node matches */
+    v = dkf_net_decode_node_msg(data, len, ex, in, in_prev, &meta, &c->why);
+    if (v != DKF_NET_ACCEPT) {
+        ++c->rejected;
+        dkf_fcr_notef(rt, "%s: message on %s rejected: %s", who, channel, dkf_net_verdict_str(v));
+        return;
+    }
+    m.node = in->node;
+    m.k = (long)in->k;
+    m.epoch = meta.epoch;
+    m.k_start = meta.k_start;
+    m.seq = meta.seq;
+    m.meas_utime = meta.meas_utime;
+    m.recv_utime = recv_utime;
+    m.pay = in;
+    m.prev = meta.has_prev ? in_prev : NULL;
+    (void)dkf_fcr_receive(rt, &m, dkf_net_mono_us());
+    dkf_fcr_sync_counts(rt, c);
+}

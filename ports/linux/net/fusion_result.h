@@ -5,7 +5,8 @@
  * The runtime's record (status, contributors, revisions, epochs, latency,
  * counters) is written here for any centre; the centre adds its own
  * estimates: the result document's "outputs" object, and its fields of each
- * journal line (dkf_fcr_json_set_rows / dkf_fcr_json_set_block).
+ * journal line (dkf_fcr_json_set_rows / dkf_fcr_json_set_block). Also the
+ * LCM side every centre shares: a node message into the runtime.
  */
 #ifndef DKF_NET_FUSION_RESULT_H
 #define DKF_NET_FUSION_RESULT_H
@@ -16,7 +17,8 @@
 
 #include <jansson.h>
 
-#include "codec.h" /* dkf_net_rejects_t */
+#include "agents.h" /* dkf_net_counts_t */
+#include "codec.h"  /* dkf_net_rejects_t, dkf_net_expect_t */
 #include "fc_runtime.h"
 
 /* What the result and the journal say of the run besides the runtime's record. */
@@ -52,5 +54,19 @@ int dkf_fcr_journal_header(FILE *f, const dkf_fcr_t *rt, const dkf_fcr_doc_info_
 json_t *dkf_fcr_journal_line(const dkf_fcr_step_t *st, int published);
 /* Appends line (with utime last), flushed, and releases it. 0 or -1. */
 int dkf_fcr_journal_write(FILE *f, json_t *line, int64_t utime);
+
+/* ---- the node messages (both centres' LCM handler) ------------------------------------ */
+
+/* One node message received on `channel` (<prefix>_NODE_<i>) into rt,
+ * while rt is RUNNING: decoded against ex (ex->node is set from the
+ * channel's index), a refusal counted in c->rejected and c->why and noted
+ * as "<who>: message on <channel> rejected: <why>"; in and in_prev are the
+ * decoder's buffers (the runtime copies the payload). c's runtime counters
+ * are synced afterwards. */
+void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
+                          const char *channel, const void *data, size_t len, int64_t recv_utime,
+                          dkf_diffkf_msg_t *in, dkf_diffkf_msg_t *in_prev, dkf_net_counts_t *c);
+/* c->sent, received, stale, missed from rt's counters. */
+void dkf_fcr_sync_counts(const dkf_fcr_t *rt, dkf_net_counts_t *c);
 
 #endif /* DKF_NET_FUSION_RESULT_H */

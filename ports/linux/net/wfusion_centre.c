@@ -273,15 +273,6 @@ static void op_state(void *user, int state)
 static const dkf_fcr_ops_t wf_ops = {op_step,    op_restart, op_save,  op_restore,
                                      op_publish, op_record,  op_state};
 
-static void sync_counts(dkf_net_wfusion_t *w)
-{
-    const dkf_fcr_counts_t *c = dkf_fcr_counts(w->rt);
-    w->c.sent = c->sent;
-    w->c.received = c->received;
-    w->c.stale = c->stale;
-    w->c.missed = c->missed;
-}
-
 /* ---- LCM: the node messages, decoded by codec.c ------------------------------------- */
 
 static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
@@ -289,41 +280,19 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
 {
     dkf_net_wfusion_t *w = user;
     dkf_net_expect_t ex;
-    dkf_net_meta_t meta;
-    dkf_net_verdict_t v;
-    dkf_fcr_msg_t m;
-    if (dkf_fcr_state(w->rt) != DKF_FCR_RUNNING) return;
     ex.model_id = w->model_id;
     ex.nnodes = w->l;
-    ex.node = dkf_net_chan_index(channel);
-    if (ex.node < 0) ex.node = (long)w->l;
     ex.n = w->n;
     ex.m = NULL;
     ex.kmax = w->N;
-    v = dkf_net_decode_node_msg(data, len, &ex, &w->in, &w->in_prev, &meta, &w->c.why);
-    if (v != DKF_NET_ACCEPT) {
-        ++w->c.rejected;
-        dkf_fcr_notef(w->rt, "wfusion: message on %s rejected: %s", channel,
-                      dkf_net_verdict_str(v));
-        return;
-    }
-    m.node = w->in.node;
-    m.k = (long)w->in.k;
-    m.epoch = meta.epoch;
-    m.k_start = meta.k_start;
-    m.seq = meta.seq;
-    m.meas_utime = meta.meas_utime;
-    m.recv_utime = recv_utime;
-    m.pay = &w->in;
-    m.prev = meta.has_prev ? &w->in_prev : NULL;
-    (void)dkf_fcr_receive(w->rt, &m, dkf_net_mono_us());
-    sync_counts(w);
+    dkf_fcr_node_message(w->rt, &ex, "wfusion", channel, data, len, recv_utime, &w->in,
+                         &w->in_prev, &w->c);
 }
 
 void dkf_net_wfusion_tick(dkf_net_wfusion_t *w, int64_t mono_us, int64_t heartbeat_us)
 {
     dkf_fcr_tick(w->rt, mono_us);
-    sync_counts(w);
+    dkf_fcr_sync_counts(w->rt, &w->c);
     if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
     if (w->last_beat != INT64_MIN && mono_us - w->last_beat < heartbeat_us) return;
     w->last_beat = mono_us;
@@ -472,7 +441,7 @@ int dkf_net_wfusion_state(const dkf_net_wfusion_t *w)
 void dkf_net_wfusion_report(dkf_net_wfusion_t *w)
 {
     dkf_net_status_t st;
-    sync_counts(w);
+    dkf_fcr_sync_counts(w->rt, &w->c);
     if (w->net == NULL) return;
     memset(&st, 0, sizeof st);
     st.utime = dkf_net_now_us();

@@ -47,7 +47,6 @@ struct dkf_net_fusion {
     FILE *journal;                /* one JSON line per computed step (NULL: none) */
     dkf_diffkf_msg_t *msgs;       /* l: the running step's messages */
     unsigned char *present, *contrib; /* l */
-    dkf_net_fused_t out;
     dkf_diffkf_msg_t in, in_prev; /* the message being decoded */
     record_t rec;
     dkf_net_counts_t c;
@@ -178,33 +177,11 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
 /* Publishes step st->k (revision st->revision) on <prefix>_FUSED. */
 static int op_publish(void *user, const dkf_fcr_step_t *st, int64_t *utime)
 {
-    static unsigned char buf[DKF_NET_MAX_MSG];
     dkf_net_fusion_t *fu = user;
-    dkf_net_fused_t *o = &fu->out;
-    const size_t n = fu->n, l = fu->l, j = (size_t)(st->k - 1);
-    size_t len;
-    o->k = st->k;
-    o->nnodes = l;
-    o->n = n;
-    o->degraded = st->degraded;
-    o->revision = st->revision;
-    memcpy(o->contributed, st->contributed, l);
-    o->meas_utime_first = st->meas_utime_first;
-    o->meas_utime_last = st->meas_utime_last;
-    o->msg_utime_last = st->recv_utime_last;
-    memcpy(o->xf, fu->rec.xf + j * n, n * sizeof(double));
-    memcpy(o->xp, fu->rec.xp + j * n, n * sizeof(double));
-    memcpy(o->Pf, fu->rec.Pf + j * n * n, n * n * sizeof(double));
-    memcpy(o->Pp, fu->rec.Pp + j * n * n, n * n * sizeof(double));
-    o->meta.utime = *utime = dkf_net_now_us();
-    o->meta.model_id = fu->model_id;
-    o->meta.seq = fu->seq++;
-    if (dkf_net_encode_fused(buf, sizeof buf, &len, o) != 0 ||
-        dkf_net_publish(fu->net, fu->chan_out, buf, len) != 0) {
-        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: cannot publish", st->k);
-        return -1;
-    }
-    return 0;
+    const size_t n = fu->n, j = (size_t)(st->k - 1);
+    return dkf_fcr_publish_fused(fu->net, fu->chan_out, fu->rt, "fusion", st, fu->l, n,
+                                 fu->rec.xf + j * n, fu->rec.Pf + j * n * n, fu->rec.xp + j * n,
+                                 fu->rec.Pp + j * n * n, fu->model_id, &fu->seq, utime);
 }
 
 static dkf_fcr_doc_info_t doc_info(const dkf_net_fusion_t *fu)

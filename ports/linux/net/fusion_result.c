@@ -3,6 +3,7 @@
  * (fusion_result.h; docs/network.md, "dkf-fusion's result file").
  */
 #include <stdio.h>
+#include <string.h>
 
 #include "dkf/config.h"
 #include "fusion_result.h"
@@ -242,4 +243,36 @@ void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
     m.prev = meta.has_prev ? in_prev : NULL;
     (void)dkf_fcr_receive(rt, &m, dkf_net_mono_us());
     dkf_fcr_sync_counts(rt, c);
+}
+
+int dkf_fcr_publish_fused(dkf_net_t *net, const char *chan, dkf_fcr_t *rt, const char *who,
+                          const dkf_fcr_step_t *st, size_t nnodes, size_t n, const double *xf,
+                          const double *Pf, const double *xp, const double *Pp,
+                          int64_t model_id, int64_t *seq, int64_t *utime)
+{
+    static unsigned char buf[DKF_NET_MAX_MSG];
+    static dkf_net_fused_t o;
+    size_t len;
+    o.k = st->k;
+    o.nnodes = nnodes;
+    o.n = n;
+    o.degraded = st->degraded;
+    o.revision = st->revision;
+    memcpy(o.contributed, st->contributed, nnodes);
+    o.meas_utime_first = st->meas_utime_first;
+    o.meas_utime_last = st->meas_utime_last;
+    o.msg_utime_last = st->recv_utime_last;
+    memcpy(o.xf, xf, n * sizeof(double));
+    memcpy(o.xp, xp, n * sizeof(double));
+    memcpy(o.Pf, Pf, n * n * sizeof(double));
+    memcpy(o.Pp, Pp, n * n * sizeof(double));
+    o.meta.utime = *utime = dkf_net_now_us();
+    o.meta.model_id = model_id;
+    o.meta.seq = (*seq)++;
+    if (dkf_net_encode_fused(buf, sizeof buf, &len, &o) != 0 ||
+        dkf_net_publish(net, chan, buf, len) != 0) {
+        dkf_fcr_notef(rt, "%s: step k=%ld: cannot publish", who, st->k);
+        return -1;
+    }
+    return 0;
 }

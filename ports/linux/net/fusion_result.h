@@ -66,6 +66,15 @@ int dkf_fcr_journal_write(FILE *f, json_t *line, int64_t utime);
 void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
                           const char *channel, const void *data, size_t len, int64_t recv_utime,
                           dkf_diffkf_msg_t *in, dkf_diffkf_msg_t *in_prev, dkf_net_counts_t *c);
+/* Step st as a fused_t on channel chan: the step's status and
+ * contributors from st, its estimate xf, Pf and prior xp, Pp (n and n x n
+ * doubles) from the centre; *seq is the centre's sequence counter (then
+ * incremented), *utime the publication time. 0, or -1 (noted as
+ * "<who>: step k=..: cannot publish"). */
+int dkf_fcr_publish_fused(dkf_net_t *net, const char *chan, dkf_fcr_t *rt, const char *who,
+                          const dkf_fcr_step_t *st, size_t nnodes, size_t n, const double *xf,
+                          const double *Pf, const double *xp, const double *Pp,
+                          int64_t model_id, int64_t *seq, int64_t *utime);
 /* c->sent, received, stale, missed from rt's counters. */
 void dkf_fcr_sync_counts(const dkf_fcr_t *rt, dkf_net_counts_t *c);
 

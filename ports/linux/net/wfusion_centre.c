@@ -205,33 +205,11 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
  * weights), xp, Pp = their prior F x0(k-1), F P0 F^T + Q. */
 static int op_publish(void *user, const dkf_fcr_step_t *st, int64_t *utime)
 {
-    static unsigned char buf[DKF_NET_MAX_MSG];
-    static dkf_net_fused_t o;
     dkf_net_wfusion_t *w = user;
-    const size_t n = w->n, l = w->l, j = (size_t)(st->k - 1);
-    size_t len;
-    o.k = st->k;
-    o.nnodes = l;
-    o.n = n;
-    o.degraded = st->degraded;
-    o.revision = st->revision;
-    memcpy(o.contributed, st->contributed, l);
-    o.meas_utime_first = st->meas_utime_first;
-    o.meas_utime_last = st->meas_utime_last;
-    o.msg_utime_last = st->recv_utime_last;
-    memcpy(o.xf, w->rec.x0 + j * n, n * sizeof(double));
-    memcpy(o.xp, w->rec.xp + j * n, n * sizeof(double));
-    memcpy(o.Pf, w->rec.P0 + j * n * n, n * n * sizeof(double));
-    memcpy(o.Pp, w->rec.Pp + j * n * n, n * n * sizeof(double));
-    o.meta.utime = *utime = dkf_net_now_us();
-    o.meta.model_id = w->model_id;
-    o.meta.seq = w->seq++;
-    if (dkf_net_encode_fused(buf, sizeof buf, &len, &o) != 0 ||
-        dkf_net_publish(w->net, w->chan_out, buf, len) != 0) {
-        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: cannot publish", st->k);
-        return -1;
-    }
-    return 0;
+    const size_t n = w->n, j = (size_t)(st->k - 1);
+    return dkf_fcr_publish_fused(w->net, w->chan_out, w->rt, "wfusion", st, w->l, n,
+                                 w->rec.x0 + j * n, w->rec.P0 + j * n * n, w->rec.xp + j * n,
+                                 w->rec.Pp + j * n * n, w->model_id, &w->seq, utime);
 }
 
 static dkf_fcr_doc_info_t doc_info(const dkf_net_wfusion_t *w)

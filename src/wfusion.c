@@ -15,8 +15,6 @@
 #include "internal.h"
 #include "kernels.h"
 
-#define WF_MAX(a, b) ((a) > (b) ? (a) : (b))
-
 /* ---- one local filter ------------------------------------------------------ */
 
 /* Storage of a local filter (loc_layout; DKF_WFUSION_LOCAL_STORAGE_LEN):
@@ -60,7 +58,7 @@ static size_t loc_layout(loc_layout_t *L, dkf_real_t *base, size_t n, size_t m)
     DKF_TAKE(L->Kt, m * n);
     DKF_TAKE(L->S, m * m);
     DKF_TAKE(L->Lc, m * m);
-    DKF_TAKE(L->jw, WF_MAX(DKF__JOSEPH_WORK(n, m), DKF_MAT_DARE_WORK(n, m)));
+    DKF_TAKE(L->jw, DKF__WFUSION_MAX(DKF__JOSEPH_WORK(n, m), DKF_MAT_DARE_WORK(n, m)));
     return used;
 }
 
@@ -266,7 +264,7 @@ static size_t fu_layout(fu_layout_t *L, dkf_real_t *base, size_t n, size_t l)
     DKF_TAKE(L->Pn, N * N);
     DKF_TAKE(L->C, k * k);
     DKF_TAKE(L->X, k * k);
-    DKF_TAKE(L->sw, WF_MAX(DKF_MAT_PINV_WORK(k, k), DKF_MAT_STEIN_WORK(n, n)));
+    DKF_TAKE(L->sw, DKF__WFUSION_MAX(DKF_MAT_PINV_WORK(k, k), DKF_MAT_STEIN_WORK(n, n)));
     DKF_TAKE(L->Z, k * n);
     DKF_TAKE(L->wt, l);
     DKF_TAKE(L->At, n * N);
@@ -357,7 +355,7 @@ dkf_status_t dkf_wfusion_init(dkf_wfusion_t *fu, size_t n, size_t l, const size_
     return DKF_OK;
 }
 
-/* The nodes' common argument checks: init'ed, dimensions as bound. */
+/* DKF_ERR_NULL, or DKF_ERR_STATE before dkf_wfusion_init. */
 static dkf_status_t check_fusion(const dkf_wfusion_t *fu)
 {
     DKF_CHECK_NULL(fu);
@@ -504,10 +502,10 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
     size_t i, j, r, rank = 0;
     dkf_mat_t Km, Xm;
     if (!dkf__all_finite(L->Pn, N * N)) return DKF_ERR_NONFINITE;
-    for (i = 0; i < N; ++i) dmax = WF_MAX(dmax, L->Pn[i * N + i]);
+    for (i = 0; i < N; ++i) dmax = DKF__WFUSION_MAX(dmax, L->Pn[i * N + i]);
     if (dkf__chol(L->C, inv, L->Pn, N) == 0) {
         dkf_real_t imax = DKF_R(0.0); /* 1 / the smallest pivot L(i,i) */
-        for (i = 0; i < N; ++i) imax = WF_MAX(imax, inv[i]);
+        for (i = 0; i < N; ++i) imax = DKF__WFUSION_MAX(imax, inv[i]);
         pmin = DKF_R(1.0) / imax;
         if (pmin * pmin > DKF_R(64.0) * (dkf_real_t)N * DKF_REAL_EPSILON * dmax) {
             /* Z = S^{-1} E; M = E^T Z; P0 = M^{-1}; Z <- Z P0 */

@@ -643,3 +643,84 @@ dkf_status_t dkf_wfusion_fuse_matrix(dkf_wfusion_t *fu, const dkf_mat_t *const x
     fu->used = u;
     return DKF_OK;
 }
+
+/* ---- checkpoints ----------------------------------------------------------------- */
+
+#define WF_CKPT_TAG 0x5746u /* "WF" */
+
+/* header: tag, n, l, m_0..m_{l-1}, steady, t (DKF__CKPT_K_LEN digits) */
+static size_t ckpt_header_len(size_t l) { return 4 + l + DKF__CKPT_K_LEN; }
+
+size_t dkf_wfusion_checkpoint_len(const dkf_wfusion_t *fu)
+{
+    size_t i, len;
+    if (fu == NULL || !fu->ready) return 0;
+    len = ckpt_header_len(fu->l) + fu->n * fu->l * fu->n * fu->l;
+    for (i = 0; i < fu->l; ++i)
+        len += DKF__CKPT_K_LEN + DKF_WFUSION_LOCAL_STATE_LEN(fu->n, fu->nodes[i].m);
+    return len;
+}
+
+dkf_status_t dkf_wfusion_save(const dkf_wfusion_t *fu, dkf_real_t *buf, size_t len)
+{
+    size_t i, k = 0, sl;
+    DKF_TRY(check_fusion(fu));
+    DKF_CHECK_NULL(buf);
+    if (len < dkf_wfusion_checkpoint_len(fu)) return DKF_ERR_CAPACITY;
+    buf[k++] = (dkf_real_t)WF_CKPT_TAG;
+    buf[k++] = (dkf_real_t)fu->n;
+    buf[k++] = (dkf_real_t)fu->l;
+    for (i = 0; i < fu->l; ++i) buf[k++] = (dkf_real_t)fu->nodes[i].m;
+    buf[k++] = (dkf_real_t)(fu->steady != 0);
+    dkf__ckpt_put_k(buf + k, (size_t)fu->t);
+    k += DKF__CKPT_K_LEN;
+    for (i = 0; i < fu->l; ++i) {
+        sl = DKF_WFUSION_LOCAL_STATE_LEN(fu->n, fu->nodes[i].m);
+        dkf__ckpt_put_k(buf + k, (size_t)fu->nodes[i].t);
+        k += DKF__CKPT_K_LEN;
+        dkf__copy(buf + k, fu->nodes[i].x.data, sl);
+        k += sl;
+    }
+    dkf__copy(buf + k, fu->Pj.data, fu->n * fu->l * fu->n * fu->l);
+    return DKF_OK;
+}
+
+dkf_status_t dkf_wfusion_restore(dkf_wfusion_t *fu, const dkf_real_t *buf, size_t len)
+{
+    size_t i, k = 0, sl, steady = 0, t = 0, tn[DKF_MAX_DIM];
+    const size_t NN = fu != NULL ? fu->n * fu->l * fu->n * fu->l : 0;
+    DKF_TRY(check_fusion(fu));
+    DKF_CHECK_NULL(buf);
+    if (len < dkf_wfusion_checkpoint_len(fu)) return DKF_ERR_CAPACITY;
+    /* every check first: nothing is written unless all pass */
+    if (!dkf__ckpt_is(buf[0], WF_CKPT_TAG) || !dkf__ckpt_is(buf[1], fu->n) ||
+        !dkf__ckpt_is(buf[2], fu->l))
+        return DKF_ERR_ARG;
+    for (i = 0; i < fu->l; ++i)
+        if (!dkf__ckpt_is(buf[3 + i], fu->nodes[i].m)) return DKF_ERR_ARG;
+    k = 3 + fu->l;
+    if (!dkf__ckpt_int(buf[k++], 1, &steady)) return DKF_ERR_ARG;
+    DKF_TRY(dkf__ckpt_get_k(buf + k, &t));
+    k += DKF__CKPT_K_LEN;
+    for (i = 0; i < fu->l; ++i) {
+        sl = DKF_WFUSION_LOCAL_STATE_LEN(fu->n, fu->nodes[i].m);
+        DKF_TRY(dkf__ckpt_get_k(buf + k, &tn[i]));
+        k += DKF__CKPT_K_LEN;
+        if (!dkf__all_finite(buf + k, sl)) return DKF_ERR_NONFINITE;
+        k += sl;
+    }
+    if (!dkf__all_finite(buf + k, NN)) return DKF_ERR_NONFINITE;
+    k = ckpt_header_len(fu->l);
+    for (i = 0; i < fu->l; ++i) {
+        sl = DKF_WFUSION_LOCAL_STATE_LEN(fu->n, fu->nodes[i].m);
+        k += DKF__CKPT_K_LEN;
+        dkf__copy(fu->nodes[i].x.data, buf + k, sl);
+        fu->nodes[i].t = (unsigned long)tn[i];
+        fu->nodes[i].steady = (int)steady;
+        k += sl;
+    }
+    dkf__copy(fu->Pj.data, buf + k, NN);
+    fu->t = (unsigned long)t;
+    fu->steady = (int)steady;
+    return DKF_OK;
+}

@@ -528,6 +528,64 @@ static void test_local_equals_node(void **state)
 }
 
 
+/* Checkpoints: a fusion restored from a save steps bit-identically to the
+ * one that was saved (nodes' state and P_ij); a corrupted header, a NaN
+ * or a short buffer is refused with the fusion untouched. */
+static void test_checkpoint(void **state)
+{
+    static dkf_real_t ck[4096], after[4096], yb[NL], snap[sizeof fu_storage / sizeof fu_storage[0]];
+    static dkf_real_t snap2[sizeof fu_storage / sizeof fu_storage[0]];
+    static dkf_wfusion_t fsnap;
+    dkf_mat_t y[NL];
+    size_t len, t, i, n_;
+    (void)state;
+    init_fusion();
+    for (i = 0; i < NL; ++i) y[i] = test_view(1, 1, &yb[i]);
+    for (t = 1; t <= 5; ++t) {
+        for (i = 0; i < NL; ++i) yb[i] = (dkf_real_t)cos((double)(t + 3 * i));
+        assert_int_equal(dkf_wfusion_step(&fu, &md.dyn, md.meas, y), DKF_OK);
+    }
+    len = dkf_wfusion_checkpoint_len(&fu);
+    assert_true(len > 0 && len <= 4096);
+    assert_int_equal(dkf_wfusion_save(&fu, ck, len - 1), DKF_ERR_CAPACITY);
+    assert_int_equal(dkf_wfusion_save(&fu, ck, len), DKF_OK);
+    for (t = 6; t <= 10; ++t) {
+        for (i = 0; i < NL; ++i) yb[i] = (dkf_real_t)cos((double)(t + 3 * i));
+        assert_int_equal(dkf_wfusion_step(&fu, &md.dyn, md.meas, y), DKF_OK);
+    }
+    assert_int_equal(dkf_wfusion_save(&fu, after, len), DKF_OK);
+    /* refused restores leave the fusion (at t = 10) untouched */
+    n_ = state_snap(snap);
+    fsnap = fu;
+    ck[2] += 1; /* another l */
+    assert_int_equal(dkf_wfusion_restore(&fu, ck, len), DKF_ERR_ARG);
+    ck[2] -= 1;
+    ck[len - 1] = (dkf_real_t)NAN;
+    assert_int_equal(dkf_wfusion_restore(&fu, ck, len), DKF_ERR_NONFINITE);
+    assert_int_equal(dkf_wfusion_restore(&fu, ck, len - 1), DKF_ERR_CAPACITY);
+    assert_int_equal(state_snap(snap2), n_);
+    assert_memory_equal(snap, snap2, n_ * sizeof(dkf_real_t));
+    assert_memory_equal(&fsnap, &fu, sizeof fu);
+    /* the real one: back to t = 5, the same five steps, the same bits */
+    assert_int_equal(dkf_wfusion_save(&fu, ck, len), DKF_OK); /* overwritten: save t = 10 again */
+    assert_memory_equal(ck, after, len * sizeof(dkf_real_t));
+    init_fusion();
+    for (t = 1; t <= 5; ++t) {
+        for (i = 0; i < NL; ++i) yb[i] = (dkf_real_t)cos((double)(t + 3 * i));
+        assert_int_equal(dkf_wfusion_step(&fu, &md.dyn, md.meas, y), DKF_OK);
+    }
+    assert_int_equal(dkf_wfusion_save(&fu, ck, len), DKF_OK);
+    init_fusion(); /* a fresh fusion (t = 0) restored to t = 5 */
+    assert_int_equal(dkf_wfusion_restore(&fu, ck, len), DKF_OK);
+    assert_int_equal(fu.t, 5);
+    for (t = 6; t <= 10; ++t) {
+        for (i = 0; i < NL; ++i) yb[i] = (dkf_real_t)cos((double)(t + 3 * i));
+        assert_int_equal(dkf_wfusion_step(&fu, &md.dyn, md.meas, y), DKF_OK);
+    }
+    assert_int_equal(dkf_wfusion_save(&fu, ck, len), DKF_OK);
+    assert_memory_equal(ck, after, len * sizeof(dkf_real_t));
+}
+
 /* Sensors of different measurement dimensions (m = 1, 2, 3): the joint
  * covariance against an independent computation in double written here,
  * the stacked error recursion of the three local filters,
@@ -673,6 +731,7 @@ int main(void)
         cmocka_unit_test(test_converges_to_steady), cmocka_unit_test(test_covariance_chain),
         cmocka_unit_test(test_missing_sensor),   cmocka_unit_test(test_errors_untouched),
         cmocka_unit_test(test_local_equals_node), cmocka_unit_test(test_mixed_dimensions),
+        cmocka_unit_test(test_checkpoint),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -184,4 +184,19 @@ dkf_status_t dkf_wfusion_fuse_scalar(dkf_wfusion_t *fu, const dkf_mat_t *const x
  * for the joint sub-block). */
 dkf_status_t dkf_wfusion_fuse_matrix(dkf_wfusion_t *fu, const dkf_mat_t *const x[]);
 
+/* Checkpoints, for a fusion centre's rollback and replay (the form of
+ * dkf_diffkf_fc_save): dkf_wfusion_checkpoint_len(fu) reals (0 if fu is
+ * NULL or not initialised) holding a header (a tag, n, l, every m_i, the
+ * steady flag and t, the integers stored exactly as reals), every local
+ * filter's step count and DKF_WFUSION_LOCAL_STATE_LEN reals, and the joint
+ * covariance. The last fusion's results are not part of it (the next
+ * fuse_* recomputes them). save: DKF_ERR_CAPACITY if len is short.
+ * restore: DKF_ERR_ARG if the header is not this fusion's (another shape,
+ * a corrupted integer), DKF_ERR_NONFINITE for a non-finite value, fu
+ * unchanged on failure. After a restore, fu steps bit-identically to the
+ * fusion that was saved. */
+size_t dkf_wfusion_checkpoint_len(const dkf_wfusion_t *fu);
+dkf_status_t dkf_wfusion_save(const dkf_wfusion_t *fu, dkf_real_t *buf, size_t len);
+dkf_status_t dkf_wfusion_restore(dkf_wfusion_t *fu, const dkf_real_t *buf, size_t len);
+
 #endif /* DKF_WFUSION_H */

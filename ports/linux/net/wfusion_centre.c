@@ -57,7 +57,8 @@ struct dkf_net_wfusion {
     dkf_real_t *xlast, *Plast;   /* n, n x n */
     dkf_real_t *scratch;         /* xp, Pp, F P (3 n x n + n) */
     dkf_real_t *xin;             /* l x n: the payloads as dkf_real_t */
-    size_t ck_size;              /* bytes of a checkpoint */
+    size_t ck_len;               /* reals of the core fusion's checkpoint */
+    size_t ck_size;              /* bytes of a checkpoint (that, then xlast, Plast) */
     FILE *journal;
     dkf_diffkf_msg_t in, in_prev;
     wrecord_t rec;
@@ -87,33 +88,23 @@ static int op_restart(void *user, size_t i, long k)
 /* The checkpoint: dkf_wfusion_t, the l local filters, the core storage,
  * then the last fused estimate (the structs' pointers point into storage
  * that stays where it is, so a byte copy restores the state exactly). */
+/* A checkpoint: the core fusion's (dkf_wfusion_save: every local filter
+ * and P_ij), then the previous fused estimate xlast, Plast. */
 static int op_save(void *user, void *ckpt)
 {
     dkf_net_wfusion_t *w = user;
-    unsigned char *p = ckpt;
-    const size_t n = w->n;
-    memcpy(p, &w->fu, sizeof w->fu);
-    p += sizeof w->fu;
-    memcpy(p, w->nodes, w->l * sizeof *w->nodes);
-    p += w->l * sizeof *w->nodes;
-    memcpy(p, w->store, w->store_len * sizeof *w->store);
-    p += w->store_len * sizeof *w->store;
-    memcpy(p, w->xlast, (n + n * n) * sizeof *w->xlast);
+    dkf_real_t *p = ckpt;
+    if (dkf_wfusion_save(&w->fu, p, w->ck_len) != DKF_OK) return -1;
+    memcpy(p + w->ck_len, w->xlast, (w->n + w->n * w->n) * sizeof *w->xlast);
     return 0;
 }
 
 static int op_restore(void *user, const void *ckpt)
 {
     dkf_net_wfusion_t *w = user;
-    const unsigned char *p = ckpt;
-    const size_t n = w->n;
-    memcpy(&w->fu, p, sizeof w->fu);
-    p += sizeof w->fu;
-    memcpy(w->nodes, p, w->l * sizeof *w->nodes);
-    p += w->l * sizeof *w->nodes;
-    memcpy(w->store, p, w->store_len * sizeof *w->store);
-    p += w->store_len * sizeof *w->store;
-    memcpy(w->xlast, p, (n + n * n) * sizeof *w->xlast);
+    const dkf_real_t *p = ckpt;
+    if (dkf_wfusion_restore(&w->fu, p, w->ck_len) != DKF_OK) return -1;
+    memcpy(w->xlast, p + w->ck_len, (w->n + w->n * w->n) * sizeof *w->xlast);
     return 0;
 }
 
@@ -329,8 +320,8 @@ static int wf_setup(dkf_net_wfusion_t *w, char *err, size_t errlen)
     }
     memcpy(w->xlast, w->md.x0.data, n * sizeof *w->xlast);
     memcpy(w->Plast, w->md.P0.data, n * n * sizeof *w->Plast);
-    w->ck_size = sizeof w->fu + w->l * sizeof *w->nodes + w->store_len * sizeof *w->store +
-                 (n + n * n) * sizeof *w->xlast;
+    w->ck_len = dkf_wfusion_checkpoint_len(&w->fu);
+    w->ck_size = (w->ck_len + n + n * n) * sizeof *w->xlast;
     cfg.nodes = w->l;
     cfg.steps = w->N;
     cfg.payload_size = sizeof(dkf_diffkf_msg_t);

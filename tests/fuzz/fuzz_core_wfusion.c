@@ -5,11 +5,13 @@
  * filter and of the cross covariances (with or without the measurements),
  * the switch to the steady state, scalar and matrix fusion over a
  * byte-chosen set of present sensors (and byte-edited estimates), on
- * byte-edited F, Q, H_i, R_i, y_i (fuzz_core.h). Property: a failed call
+ * byte-edited F, Q, H_i, R_i, y_i (fuzz_core.h), and a restore of a saved
+ * checkpoint with a byte-chosen element edited or one real short
+ * (fz_ckpt_restore_len). Property: a failed call
  * leaves the structs, every node's DKF_WFUSION_LOCAL_STATE_LEN reals and
  * the fusion's joint covariance and results byte-identical; after a
  * successful one they are finite and the joint covariance is exactly
- * symmetric.
+ * symmetric (unless an edited checkpoint was restored).
  */
 #include "dkf/wfusion.h"
 #include "fuzz_core.h"
@@ -32,6 +34,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const dkf_mat_t *xs[LMAX];
     fz_t z = {data, size, 0};
     size_t n, l, m[LMAX], i, op, N, own;
+    int sym = 1; /* 0 once a restore took an edited checkpoint (any finite values) */
     dkf_status_t s;
     n = fz_dim(&z, NMAX);
     l = fz_dim(&z, LMAX);
@@ -90,6 +93,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             fz_edit(&z, meas_m, 3 * l);
             fz_take(&snap);
             s = dkf_wfusion_steady(&fu, &(dkf_kf_dyn_t){&F.v, &Q.v}, meas);
+        } else if (code % 4 == 3 && (code & 64)) {
+            static dkf_real_t ck[DKF_WFUSION_STORAGE_LEN(NMAX, LMAX, MMAX)];
+            const size_t cl = dkf_wfusion_checkpoint_len(&fu);
+            size_t rl;
+            FZ_CHECK(cl > 0 && cl <= sizeof ck / sizeof ck[0]);
+            FZ_CHECK(dkf_wfusion_save(&fu, ck, cl) == DKF_OK);
+            rl = fz_ckpt_restore_len(&z, code, ck, cl, &sym);
+            fz_take(&snap);
+            s = dkf_wfusion_restore(&fu, ck, rl);
         } else {
             /* a fusion over the sensors of a byte's mask, on the nodes' own
              * estimates (code & 8) or byte-edited ones */
@@ -106,7 +118,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             for (i = 0; i < l; ++i)
                 fz_finite(fu_nodes[i].x.data, DKF_WFUSION_LOCAL_STATE_LEN(n, m[i]));
             fz_finite(fu.Pj.data, own);
-            fz_symmetric(fu.Pj.data, N, 1);
+            fz_symmetric(fu.Pj.data, N, sym);
         }
     }
     return 0;

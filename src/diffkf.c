@@ -42,6 +42,7 @@
 
 #include "internal.h"
 #include "kernels.h"
+#include "kernels_inline.h"
 
 typedef struct {
     /* carried from step k-1 to step k; pc = the rows step k-1 kept (0
@@ -360,14 +361,111 @@ static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_
     dkf__mul_nt_sym(Out, tmp, A, Out, r, c);
 }
 
+/* ---- kernels of the step, by size --------------------------------------------
+ * The step's body (gain_core, update_core and what they call) is written
+ * once and forced inline: the entry points expand it with the run-time
+ * sizes (fx = 0: the blocked kernels of kernels.c) and, for the sizes of
+ * DIFFKF_FIXED, with literal sizes (fx = 1: the bodies of kernels_inline.h
+ * expanded with constant trip counts, unrolled, no call or loop set-up on
+ * 2-4-element rows). Both compute every element with the same operations
+ * in the same order (dkf__mul_nt, dkf__mul_nt_sym and dkf__mul_vec sum each
+ * element as one inl_dot chain, kernels.c), so they return the same bits. */
+DKF__INLINE void k_mul_nn(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                          size_t r, size_t k, size_t c)
+{
+    if (fx)
+        inl_mul_nn(C, A, B, r, k, c);
+    else
+        dkf__mul_nn(C, A, B, r, k, c);
+}
+
+DKF__INLINE void k_mul_nn_sym(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                              const dkf_real_t *D, size_t r, size_t k)
+{
+    if (fx)
+        inl_mul_nn_sym(C, A, B, D, r, k);
+    else
+        dkf__mul_nn_sym(C, A, B, D, r, k);
+}
+
+/* C (r x c) = A B^T: element (i, j) = inl_dot(A_i, B_j, k) (dkf__mul_nt). */
+DKF__INLINE void k_mul_nt(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                          size_t r, size_t k, size_t c)
+{
+    size_t i, j;
+    if (!fx) {
+        dkf__mul_nt(C, A, B, r, k, c);
+        return;
+    }
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) C[i * c + j] = inl_dot(A + i * k, B + j * k, k);
+}
+
+/* dkf__mul_nt_sym: the upper triangle A_i . B_j (+ D(i,j)), row by row,
+ * mirrored; D may be C (D(i,j) is read before C(i,j) is written). */
+DKF__INLINE void k_mul_nt_sym(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                              const dkf_real_t *D, size_t r, size_t k)
+{
+    size_t i, j;
+    if (!fx) {
+        dkf__mul_nt_sym(C, A, B, D, r, k);
+        return;
+    }
+    for (i = 0; i < r; ++i) {
+        dkf_real_t *ci = C + i * r;
+        for (j = i; j < r; ++j) {
+            const dkf_real_t v = inl_dot(A + i * k, B + j * k, k);
+            ci[j] = D != NULL ? v + D[i * r + j] : v;
+        }
+        for (j = i + 1; j < r; ++j) C[j * r + i] = ci[j];
+    }
+}
+
+/* y (r) = A x: y(i) = inl_dot(x, A_i, c) (dkf__mul_vec). */
+DKF__INLINE void k_mul_vec(int fx, dkf_real_t *y, const dkf_real_t *A, const dkf_real_t *x,
+                           size_t r, size_t c)
+{
+    size_t i;
+    if (!fx) {
+        dkf__mul_vec(y, A, x, r, c);
+        return;
+    }
+    for (i = 0; i < r; ++i) y[i] = inl_dot(x, A + i * c, c);
+}
+
+DKF__INLINE void k_chol_solve(int fx, const dkf_real_t *Lc, const dkf_real_t *inv, dkf_real_t *B,
+                              size_t n, size_t c)
+{
+    if (fx)
+        inl_chol_solve(Lc, inv, B, n, c);
+    else
+        dkf__chol_solve(Lc, inv, B, n, c);
+}
+
+DKF__INLINE int k_chol(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
+{
+    return fx ? inl_chol(W, inv, A, n) : dkf__chol(W, inv, A, n);
+}
+
+DKF__INLINE int k_psd(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *P, size_t n)
+{
+    return fx ? inl_psd_within_rounding(W, inv, P, n) : dkf__psd_within_rounding(W, inv, P, n);
+}
+
+/* 1 if the n reals at p are all finite (dkf__all_finite). */
+DKF__INLINE int k_finite(int fx, const dkf_real_t *p, size_t n)
+{
+    return fx ? !inl_any_nonfinite(p, n) : dkf__all_finite(p, n);
+}
+
 /* Out (r x p) = Y L^{-1} for Y r x p and L = Lc Lc^T (L symmetric, so
  * Out^T = L^{-1} Y^T is one Cholesky solve); tmp holds r * p reals. */
-static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
-                        const dkf_real_t *inv, size_t r, size_t p, dkf_real_t *tmp)
+DKF__INLINE void right_solve(int fx, dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                             const dkf_real_t *inv, size_t r, size_t p, dkf_real_t *tmp)
 {
-    dkf__transpose(tmp, Y, r, p);
-    dkf__chol_solve(Lc, inv, tmp, p, r);
-    dkf__transpose(Out, tmp, p, r);
+    inl_transpose(tmp, Y, r, p);
+    k_chol_solve(fx, Lc, inv, tmp, p, r);
+    inl_transpose(Out, tmp, p, r);
 }
 
 /* The data-independent part of the next-step carry that depends only on
@@ -528,14 +626,14 @@ static size_t kept_rows(size_t *idx, const unsigned char *rows, size_t p)
  * step's, already applied to the carry's columns):
  *   M' = S M,  Ru' = S Ru S^T,  C'_k = S (C_k S'^T),  C'_k L'^{-1}_{k-1} = S (carry),
  *   C_{k+1} S^T (what the next step will carry). */
-static void select_rows(const dkf_diffkf_t *f, const layout_t *L, const size_t *idx, size_t pk)
+DKF__INLINE void select_rows(const layout_t *L, const size_t *idx, size_t n, size_t p, size_t pk,
+                             size_t pc)
 {
-    const size_t n = f->n, p = f->p, pc = f->pc;
     size_t i, j;
     for (i = 0; i < pk; ++i) {
-        dkf__copy(L->Mk + i * n, L->M + idx[i] * n, n);
-        dkf__copy(L->Ck + i * pc, L->C + idx[i] * pc, pc);
-        dkf__copy(L->CLik + i * pc, L->CLi + idx[i] * pc, pc);
+        memcpy(L->Mk + i * n, L->M + idx[i] * n, n * sizeof *L->Mk);
+        memcpy(L->Ck + i * pc, L->C + idx[i] * pc, pc * sizeof *L->Ck);
+        memcpy(L->CLik + i * pc, L->CLi + idx[i] * pc, pc * sizeof *L->CLik);
         for (j = 0; j < pk; ++j) L->Ruk[i * pk + j] = L->Ru[idx[i] * p + idx[j]];
     }
     for (i = 0; i < p; ++i)
@@ -550,22 +648,22 @@ static void select_rows(const dkf_diffkf_t *f, const layout_t *L, const size_t *
  * pk, symmetric), Sv (n x pk, or NULL for 0) and D (n x n, only its upper
  * triangle counts: the sum is symmetric, its parts need not be). U, E
  * (n x n), V (pk x n), AX (n x pk) are scratch. */
-static void joint_congruence(dkf_real_t *Pn, const dkf_real_t *Ab, const dkf_real_t *Kb,
-                             const dkf_real_t *P, const dkf_real_t *X, const dkf_real_t *Sg,
-                             const dkf_real_t *Sv, const dkf_real_t *D, const layout_t *L,
-                             size_t n, size_t pk)
+DKF__INLINE void joint_congruence(int fx, dkf_real_t *Pn, const dkf_real_t *Ab,
+                                  const dkf_real_t *Kb, const dkf_real_t *P, const dkf_real_t *X,
+                                  const dkf_real_t *Sg, const dkf_real_t *Sv, const dkf_real_t *D,
+                                  const layout_t *L, size_t n, size_t pk)
 {
     size_t i, j;
-    dkf__mul_nt(L->jU, P, Ab, n, n, n); /* U = P Ab^T - X Kb^T */
-    dkf__mul_nt(L->jE, X, Kb, n, pk, n);
+    k_mul_nt(fx, L->jU, P, Ab, n, n, n); /* U = P Ab^T - X Kb^T */
+    k_mul_nt(fx, L->jE, X, Kb, n, pk, n);
     for (i = 0; i < n * n; ++i) L->jU[i] -= L->jE[i];
-    dkf__mul_nt(L->jV, Sg, Kb, pk, pk, n); /* V = Sg Kb^T - (Ab X)^T - Sv^T */
-    dkf__mul_nn(L->jAX, Ab, X, n, n, pk);
+    k_mul_nt(fx, L->jV, Sg, Kb, pk, pk, n); /* V = Sg Kb^T - (Ab X)^T - Sv^T */
+    k_mul_nn(fx, L->jAX, Ab, X, n, n, pk);
     for (i = 0; i < pk; ++i)
         for (j = 0; j < n; ++j)
             L->jV[i * n + j] -= L->jAX[j * pk + i] + (Sv != NULL ? Sv[j * pk + i] : DKF_R(0.0));
-    dkf__mul_nn_sym(L->jE, Ab, L->jU, D, n, n);
-    dkf__mul_nn_sym(Pn, Kb, L->jV, L->jE, n, pk);
+    k_mul_nn_sym(fx, L->jE, Ab, L->jU, D, n, n);
+    k_mul_nn_sym(fx, Pn, Kb, L->jV, L->jE, n, pk);
 }
 
 /* P_{k|k} and P_{k+1|k} in Joseph form (DKF_JOSEPH). With the prior error
@@ -583,27 +681,27 @@ static void joint_congruence(dkf_real_t *Pn, const dkf_real_t *Ab, const dkf_rea
  * Theorem-1 form) subtract from P, which loses the result's digits when
  * the data pin the state (docs/decisions.md item 17). Sg is in L.X, the
  * gains in L.Kn, L.Wn; T1 is scratch. */
-static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
-                               const size_t *idx, size_t pk)
+DKF__INLINE void joseph_covariances(int fx, const dkf_diffkf_t *f, const layout_t *L,
+                                    const dkf_ui_dyn_t *dyn, const size_t *idx, size_t n,
+                                    size_t p, size_t pk, size_t pc)
 {
-    const size_t n = f->n, p = f->p, pc = f->pc;
     const dkf_real_t *Q = dyn->Q->data;
     size_t i, j;
-    dkf__mul_nt(L->jX, L->W, L->Ck, n, pc, pk); /* X = -W'_{k-1} C'^T */
+    k_mul_nt(fx, L->jX, L->W, L->Ck, n, pc, pk); /* X = -W'_{k-1} C'^T */
     for (i = 0; i < n * pk; ++i) L->jX[i] = -L->jX[i];
     /* P_{k|k}: Ab = I - K M' */
-    dkf__mul_nn(L->T1, L->Kn, L->Mk, n, pk, n);
+    k_mul_nn(fx, L->T1, L->Kn, L->Mk, n, pk, n);
     for (i = 0; i < n * n; ++i) L->T1[i] = -L->T1[i];
     for (i = 0; i < n; ++i) L->T1[i * n + i] += DKF_R(1.0);
-    joint_congruence(L->Pfn, L->T1, L->Kn, f->Pn.data, L->jX, L->X, NULL, NULL, L, n, pk);
+    joint_congruence(fx, L->Pfn, L->T1, L->Kn, f->Pn.data, L->jX, L->X, NULL, NULL, L, n, pk);
     /* P_{k+1|k}: Ab = F - W M', D = Q - S' W^T, S' = the kept columns of S */
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L->jS[i * pk + j] = L->S[i * p + idx[j]];
-    dkf__mul_nn(L->T1, L->Wn, L->Mk, n, pk, n);
+    k_mul_nn(fx, L->T1, L->Wn, L->Mk, n, pk, n);
     for (i = 0; i < n * n; ++i) L->T1[i] = dyn->F->data[i] - L->T1[i];
-    dkf__mul_nt(L->jD, L->jS, L->Wn, n, pk, n);
+    k_mul_nt(fx, L->jD, L->jS, L->Wn, n, pk, n);
     for (i = 0; i < n * n; ++i) L->jD[i] = Q[i] - L->jD[i];
-    joint_congruence(L->Ppn, L->T1, L->Wn, f->Pn.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
+    joint_congruence(fx, L->Ppn, L->T1, L->Wn, f->Pn.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
 }
 #endif
 
@@ -613,30 +711,26 @@ static void joseph_covariances(const dkf_diffkf_t *f, const layout_t *L, const d
  * with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and E[v_k u'_k^T] = S_k S^T,
  * so the recursion below is (19)-(20), (16)-(17) with the primed blocks and
  * every dimension p of the innovation replaced by pk (pc for the carry). */
-static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t *dyn,
-                              const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
+DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
+                                   const dkf_ui_dyn_t *dyn, const size_t *idx, size_t n, size_t p,
+                                   size_t pk, size_t pc)
 {
-    layout_t L;
-    const size_t n = f->n, p = f->p, pc = f->pc;
+    const layout_t L = *L_;
     dkf_real_t inv[DKF_MAX_DIM];
     size_t i, j;
-    DKF_TRY(check_model_shapes(f, dyn, meas_next));
-    f->pending = 0;
-    DKF_TRY(model_block_memo(f, L_, dyn, meas_next));
-    L = *L_;
-    select_rows(f, &L, idx, pk);
+    select_rows(&L, idx, n, p, pk, pc);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
-    dkf__mul_nt(L.Jn, f->Pn.data, L.Mk, n, n, pk);
-    dkf__mul_nt(L.T2, L.W, L.Ck, n, pc, pk);
+    k_mul_nt(fx, L.Jn, f->Pn.data, L.Mk, n, n, pk);
+    k_mul_nt(fx, L.T2, L.W, L.Ck, n, pc, pk);
     for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
 
     /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
-    dkf__mul_nn(L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
-    dkf__mul_nt(L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
-    dkf__mul_nn(L.T3, L.Mk, f->Pn.data, pk, n, n);
-    dkf__mul_nt_sym(L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
-    dkf__mul_nt(L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
+    k_mul_nn(fx, L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
+    k_mul_nt(fx, L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
+    k_mul_nn(fx, L.T3, L.Mk, f->Pn.data, pk, n, n);
+    k_mul_nt_sym(fx, L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
+    k_mul_nt(fx, L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
             const dkf_real_t v = L.Ln[i * pk + j] - L.X[i * pk + j] - L.X[j * pk + i] -
@@ -645,8 +739,8 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
             L.Ln[j * pk + i] = v;
         }
     /* an overflow (finite inputs, non-finite L) is not a definiteness question */
-    if (!dkf__all_finite(L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
-    if (dkf__chol(L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
+    if (!k_finite(fx, L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
+    if (k_chol(fx, L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 #if DKF_JOSEPH
     /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
     for (i = 0; i < pk; ++i)
@@ -658,47 +752,67 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored; with
      * DKF_JOSEPH the Joseph form below replaces it, but for pk = 0, where
      * nothing is subtracted and the products below would have no terms) */
-    right_solve(L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
+    right_solve(fx, L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
     if (!DKF_JOSEPH || pk == 0) {
-        dkf__mul_nt_sym(L.Pfn, L.Kn, L.Jn, NULL, n, pk);
+        k_mul_nt_sym(fx, L.Pfn, L.Kn, L.Jn, NULL, n, pk);
         for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
     }
 
     /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
      * S' = S_k S^T: the kept columns of S */
-    dkf__mul_nn(L.T3, dyn->F->data, L.Jn, n, n, pk); /* T3 has p(n+m) >= n p */
+    k_mul_nn(fx, L.T3, dyn->F->data, L.Jn, n, n, pk); /* T3 has p(n+m) >= n p */
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L.T3[i * pk + j] += L.S[i * p + idx[j]];
-    right_solve(L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
+    right_solve(fx, L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
 #if DKF_JOSEPH
-    if (pk > 0) joseph_covariances(f, &L, dyn, idx, pk);
+    if (pk > 0) joseph_covariances(fx, f, &L, dyn, idx, n, p, pk, pc);
 #endif
     if (!DKF_JOSEPH || pk == 0) {
-        dkf__mul_nn(L.T1, dyn->F->data, f->Pn.data, n, n, n);
-        dkf__mul_nt_sym(L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
-        dkf__mul_nt_sym(L.T1, L.T3, L.Wn, NULL, n, pk);
+        k_mul_nn(fx, L.T1, dyn->F->data, f->Pn.data, n, n, n);
+        k_mul_nt_sym(fx, L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
+        k_mul_nt_sym(fx, L.T1, L.T3, L.Wn, NULL, n, pk);
         for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
     }
 
     /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
      * now; T2 holds only n p) */
-    right_solve(L.CLin, L.Cnk, L.Lc, inv, p, pk, L.T3);
+    right_solve(fx, L.CLin, L.Cnk, L.Lc, inv, p, pk, L.T3);
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
-    dkf__mul_vec(L.zc, L.CLik, L.dzp, pk, pc);
-    dkf__copy(L.Fn, dyn->F->data, n * n);
+    k_mul_vec(fx, L.zc, L.CLik, L.dzp, pk, pc);
+    memcpy(L.Fn, dyn->F->data, n * n * sizeof *L.Fn);
 
-    if (!dkf__all_finite(L.Pfn, n * n) || !dkf__all_finite(L.Ppn, n * n) ||
-        !dkf__all_finite(L.Kn, n * pk) || !dkf__all_finite(L.Wn, n * pk) ||
-        !dkf__all_finite(L.CLin, p * pk))
+    if (!k_finite(fx, L.Pfn, n * n) || !k_finite(fx, L.Ppn, n * n) ||
+        !k_finite(fx, L.Kn, n * pk) || !k_finite(fx, L.Wn, n * pk) ||
+        !k_finite(fx, L.CLin, p * pk))
         return DKF_ERR_NONFINITE;
     /* both covariances PSD up to rounding (docs/decisions.md item 17) */
-    if (!dkf__psd_within_rounding(L.T1, inv, L.Pfn, n) ||
-        !dkf__psd_within_rounding(L.T1, inv, L.Ppn, n))
+    if (!k_psd(fx, L.T1, inv, L.Pfn, n) ||
+        !k_psd(fx, L.T1, inv, L.Ppn, n))
         return DKF_ERR_NOT_SPD;
     f->pk = pk;
     f->pending = 1;
     return DKF_OK;
+}
+
+/* gain_core and update_core also at the sizes (n, m, p) of DIFFKF_FIXED
+ * (seed 000 Example 1), for the steps that keep every row once the carry
+ * is full (pk = pc = p): all others take the run-time-size expansion. */
+#define DIFFKF_FIXED(X) X(4, 2, 2)
+
+static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
+                              const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
+{
+    const size_t n = f->n, p = f->p, pc = f->pc;
+    DKF_TRY(check_model_shapes(f, dyn, meas_next));
+    f->pending = 0;
+    DKF_TRY(model_block_memo(f, L, dyn, meas_next));
+#define DIFFKF_GAIN_FIXED(N, M, P) \
+    if ((N) <= DKF_MAX_DIM && n == (N) && p == (P) && pk == (P) && pc == (P)) \
+        return gain_core(1, f, L, dyn, idx, (N), (P), (P), (P));
+    DIFFKF_FIXED(DIFFKF_GAIN_FIXED)
+#undef DIFFKF_GAIN_FIXED
+    return gain_core(0, f, L, dyn, idx, n, p, pk, pc);
 }
 
 dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
@@ -744,57 +858,69 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
 
 /* The update phase on the storage map L; z (f->pk reals) and y_next
  * already checked. */
-static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L_, const dkf_real_t *zk,
-                                const dkf_mat_t *y_next)
+DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
+                                     const dkf_real_t *zk, const dkf_mat_t *y_next, size_t n,
+                                     size_t m, size_t p, size_t pk)
 {
     const layout_t L = *L_;
-    const size_t n = f->n, p = f->p, pk = f->pk;
     dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
-    dkf__mul_vec(dz, L.Mk, f->xn.data, pk, n);
+    k_mul_vec(fx, dz, L.Mk, f->xn.data, pk, n);
     for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
-    dkf__mul_vec(xf, L.Kn, dz, n, pk);
-    dkf__mul_vec(xn, L.Fn, f->xn.data, n, n);
+    k_mul_vec(fx, xf, L.Kn, dz, n, pk);
+    k_mul_vec(fx, xn, L.Fn, f->xn.data, n, n);
     for (i = 0; i < n; ++i) {
         xf[i] += f->xn.data[i];
-        xn[i] += dkf__dot(L.Wn + i * pk, dz, pk);
+        xn[i] += inl_dot(L.Wn + i * pk, dz, pk);
     }
-    if (!dkf__all_finite(dz, pk) || !dkf__all_finite(xf, n) || !dkf__all_finite(xn, n))
+    if (!k_finite(fx, dz, pk) || !k_finite(fx, xf, n) || !k_finite(fx, xn, n))
         return DKF_ERR_NONFINITE;
 
     /* commit: caches (a one-phase step's), estimates, the step's
      * quantities (pk rows), and the carry */
     commit_caches(f, &L);
-    dkf__copy(f->xp.data, f->xn.data, n);
-    dkf__copy(f->xf.data, xf, n);
-    dkf__copy(f->Pf.data, L.Pfn, n * n);
-    dkf__copy(f->xn.data, xn, n);
-    dkf__copy(f->Pn.data, L.Ppn, n * n);
-    dkf__copy(f->z.data, zk, pk);
-    dkf__copy(f->dz.data, dz, pk);
-    dkf__copy(f->J.data, L.Jn, n * pk);
-    dkf__copy(f->L.data, L.Ln, pk * pk);
-    dkf__copy(f->K.data, L.Kn, n * pk);
+    memcpy(f->xp.data, f->xn.data, (n) * sizeof(dkf_real_t));
+    memcpy(f->xf.data, xf, (n) * sizeof(dkf_real_t));
+    memcpy(f->Pf.data, L.Pfn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->xn.data, xn, (n) * sizeof(dkf_real_t));
+    memcpy(f->Pn.data, L.Ppn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->z.data, zk, (pk) * sizeof(dkf_real_t));
+    memcpy(f->dz.data, dz, (pk) * sizeof(dkf_real_t));
+    memcpy(f->J.data, L.Jn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(f->L.data, L.Ln, (pk * pk) * sizeof(dkf_real_t));
+    memcpy(f->K.data, L.Kn, (n * pk) * sizeof(dkf_real_t));
     f->z.rows = pk;
     f->dz.rows = pk;
     f->J.cols = pk;
     f->L.rows = pk;
     f->L.cols = pk;
     f->K.cols = pk;
-    dkf__copy(L.C, L.Cnk, p * pk);
-    dkf__copy(L.CLi, L.CLin, p * pk);
-    dkf__copy(L.W, L.Wn, n * pk);
-    dkf__copy(L.dzp, dz, pk);
+    memcpy(L.C, L.Cnk, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L.CLi, L.CLin, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L.W, L.Wn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(L.dzp, dz, (pk) * sizeof(dkf_real_t));
     f->pc = pk;
-    dkf__copy(L.ApH, L.ApHn, p * n);
-    dkf__copy(L.ApRAp, L.ApRApn, p * p);
+    memcpy(L.ApH, L.ApHn, (p * n) * sizeof(dkf_real_t));
+    memcpy(L.ApRAp, L.ApRApn, (p * p) * sizeof(dkf_real_t));
     f->has_y = y_next != NULL;
-    if (y_next != NULL) dkf__mul_vec(L.Apy, L.Ap, y_next->data, p, f->m);
+    if (y_next != NULL) k_mul_vec(fx, L.Apy, L.Ap, y_next->data, p, m);
     f->k += 1;
     f->pending = 0;
     return DKF_OK;
+}
+
+static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L, const dkf_real_t *zk,
+                                const dkf_mat_t *y_next)
+{
+    const size_t n = f->n, m = f->m, p = f->p, pk = f->pk;
+#define DIFFKF_UPDATE_FIXED(N, M, P) \
+    if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P) && pk == (P)) \
+        return update_core(1, f, L, zk, y_next, (N), (M), (P), (P));
+    DIFFKF_FIXED(DIFFKF_UPDATE_FIXED)
+#undef DIFFKF_UPDATE_FIXED
+    return update_core(0, f, L, zk, y_next, n, m, p, pk);
 }
 
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)

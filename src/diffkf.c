@@ -277,7 +277,7 @@ static dkf_status_t check_model_finite(const dkf_ui_dyn_t *dyn, const dkf_ui_mea
 }
 
 /* 1 if the n reals at a equal those at b bit for bit. */
-static int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
+DKF__INLINE int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
 {
     return memcmp(a, b, n * sizeof *a) == 0;
 }
@@ -585,12 +585,13 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
  * update phase reads (possibly in a later call) are copied to the pending
  * area. A new block is computed into the working area and memoised by
  * commit_caches, so a failure part-way never touches the memo. */
-static dkf_status_t model_block_memo(const dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
-                                     const dkf_ui_meas_t *meas_next)
+DKF__INLINE dkf_status_t model_block_memo(const dkf_diffkf_t *f, layout_t *L,
+                                          const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas_next,
+                                          size_t n, size_t m, size_t p)
 {
-    const size_t n = f->n, m = f->m, p = f->p;
     /* A hit also proves the inputs finite: they equal, bit for bit, inputs
-     * that were checked when the block was computed. */
+     * that were checked when the block was computed. (n, m, p are f's,
+     * literals in gain_impl's fixed-size call: memcmp of a constant size.) */
     if (f->model_cached && same_bits(L->mF, dyn->F->data, n * n) &&
         same_bits(L->mQ, dyn->Q->data, n * n) && same_bits(L->mB, dyn->B->data, p * p) &&
         same_bits(L->mRd, dyn->Rd->data, p * p) && same_bits(L->mH, meas_next->H->data, m * n) &&
@@ -715,80 +716,80 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
                                    const dkf_ui_dyn_t *dyn, const size_t *idx, size_t n, size_t p,
                                    size_t pk, size_t pc)
 {
-    const layout_t L = *L_;
+    const layout_t *const L = L_;
     dkf_real_t inv[DKF_MAX_DIM];
     size_t i, j;
-    select_rows(&L, idx, n, p, pk, pc);
+    select_rows(L, idx, n, p, pk, pc);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
-    k_mul_nt(fx, L.Jn, f->Pn.data, L.Mk, n, n, pk);
-    k_mul_nt(fx, L.T2, L.W, L.Ck, n, pc, pk);
-    for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
+    k_mul_nt(fx, L->Jn, f->Pn.data, L->Mk, n, n, pk);
+    k_mul_nt(fx, L->T2, L->W, L->Ck, n, pc, pk);
+    for (i = 0; i < n * pk; ++i) L->Jn[i] -= L->T2[i];
 
     /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
-    k_mul_nn(fx, L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
-    k_mul_nt(fx, L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
-    k_mul_nn(fx, L.T3, L.Mk, f->Pn.data, pk, n, n);
-    k_mul_nt_sym(fx, L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
-    k_mul_nt(fx, L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
+    k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc);    /* M W      */
+    k_mul_nt(fx, L->X, L->T3, L->Ck, pk, pc, pk);   /* M W C^T  */
+    k_mul_nn(fx, L->T3, L->Mk, f->Pn.data, pk, n, n);
+    k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, L->Ruk, pk, n); /* M P M^T + Ru */
+    k_mul_nt(fx, L->T3, L->CLik, L->Ck, pk, pc, pk); /* C L^{-1} C^T */
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
-            const dkf_real_t v = L.Ln[i * pk + j] - L.X[i * pk + j] - L.X[j * pk + i] -
-                                 DKF_R(0.5) * (L.T3[i * pk + j] + L.T3[j * pk + i]);
-            L.Ln[i * pk + j] = v;
-            L.Ln[j * pk + i] = v;
+            const dkf_real_t v = L->Ln[i * pk + j] - L->X[i * pk + j] - L->X[j * pk + i] -
+                                 DKF_R(0.5) * (L->T3[i * pk + j] + L->T3[j * pk + i]);
+            L->Ln[i * pk + j] = v;
+            L->Ln[j * pk + i] = v;
         }
     /* an overflow (finite inputs, non-finite L) is not a definiteness question */
-    if (!k_finite(fx, L.Ln, pk * pk)) return DKF_ERR_NONFINITE;
-    if (k_chol(fx, L.Lc, inv, L.Ln, pk) != 0) return DKF_ERR_NOT_SPD;
+    if (!k_finite(fx, L->Ln, pk * pk)) return DKF_ERR_NONFINITE;
+    if (k_chol(fx, L->Lc, inv, L->Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 #if DKF_JOSEPH
     /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
     for (i = 0; i < pk; ++i)
         for (j = 0; j < pk; ++j)
-            L.X[i * pk + j] =
-                L.Ruk[i * pk + j] - DKF_R(0.5) * (L.T3[i * pk + j] + L.T3[j * pk + i]);
+            L->X[i * pk + j] =
+                L->Ruk[i * pk + j] - DKF_R(0.5) * (L->T3[i * pk + j] + L->T3[j * pk + i]);
 #endif
 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored; with
      * DKF_JOSEPH the Joseph form below replaces it, but for pk = 0, where
      * nothing is subtracted and the products below would have no terms) */
-    right_solve(fx, L.Kn, L.Jn, L.Lc, inv, n, pk, L.T2);
+    right_solve(fx, L->Kn, L->Jn, L->Lc, inv, n, pk, L->T2);
     if (!DKF_JOSEPH || pk == 0) {
-        k_mul_nt_sym(fx, L.Pfn, L.Kn, L.Jn, NULL, n, pk);
-        for (i = 0; i < n * n; ++i) L.Pfn[i] = f->Pn.data[i] - L.Pfn[i];
+        k_mul_nt_sym(fx, L->Pfn, L->Kn, L->Jn, NULL, n, pk);
+        for (i = 0; i < n * n; ++i) L->Pfn[i] = f->Pn.data[i] - L->Pfn[i];
     }
 
     /* W = (F J + S') L^{-1};  P_{k+1|k} = F P F^T + Q - (F J + S') W^T  (16)-(17),
      * S' = S_k S^T: the kept columns of S */
-    k_mul_nn(fx, L.T3, dyn->F->data, L.Jn, n, n, pk); /* T3 has p(n+m) >= n p */
+    k_mul_nn(fx, L->T3, dyn->F->data, L->Jn, n, n, pk); /* T3 has p(n+m) >= n p */
     for (i = 0; i < n; ++i)
-        for (j = 0; j < pk; ++j) L.T3[i * pk + j] += L.S[i * p + idx[j]];
-    right_solve(fx, L.Wn, L.T3, L.Lc, inv, n, pk, L.T2);
+        for (j = 0; j < pk; ++j) L->T3[i * pk + j] += L->S[i * p + idx[j]];
+    right_solve(fx, L->Wn, L->T3, L->Lc, inv, n, pk, L->T2);
 #if DKF_JOSEPH
-    if (pk > 0) joseph_covariances(fx, f, &L, dyn, idx, n, p, pk, pc);
+    if (pk > 0) joseph_covariances(fx, f, L, dyn, idx, n, p, pk, pc);
 #endif
     if (!DKF_JOSEPH || pk == 0) {
-        k_mul_nn(fx, L.T1, dyn->F->data, f->Pn.data, n, n, n);
-        k_mul_nt_sym(fx, L.Ppn, L.T1, dyn->F->data, dyn->Q->data, n, n);
-        k_mul_nt_sym(fx, L.T1, L.T3, L.Wn, NULL, n, pk);
-        for (i = 0; i < n * n; ++i) L.Ppn[i] -= L.T1[i];
+        k_mul_nn(fx, L->T1, dyn->F->data, f->Pn.data, n, n, n);
+        k_mul_nt_sym(fx, L->Ppn, L->T1, dyn->F->data, dyn->Q->data, n, n);
+        k_mul_nt_sym(fx, L->T1, L->T3, L->Wn, NULL, n, pk);
+        for (i = 0; i < n * n; ++i) L->Ppn[i] -= L->T1[i];
     }
 
     /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
      * now; T2 holds only n p) */
-    right_solve(fx, L.CLin, L.Cnk, L.Lc, inv, p, pk, L.T3);
+    right_solve(fx, L->CLin, L->Cnk, L->Lc, inv, p, pk, L->T3);
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
-    k_mul_vec(fx, L.zc, L.CLik, L.dzp, pk, pc);
-    memcpy(L.Fn, dyn->F->data, n * n * sizeof *L.Fn);
+    k_mul_vec(fx, L->zc, L->CLik, L->dzp, pk, pc);
+    memcpy(L->Fn, dyn->F->data, n * n * sizeof *L->Fn);
 
-    if (!k_finite(fx, L.Pfn, n * n) || !k_finite(fx, L.Ppn, n * n) ||
-        !k_finite(fx, L.Kn, n * pk) || !k_finite(fx, L.Wn, n * pk) ||
-        !k_finite(fx, L.CLin, p * pk))
+    if (!k_finite(fx, L->Pfn, n * n) || !k_finite(fx, L->Ppn, n * n) ||
+        !k_finite(fx, L->Kn, n * pk) || !k_finite(fx, L->Wn, n * pk) ||
+        !k_finite(fx, L->CLin, p * pk))
         return DKF_ERR_NONFINITE;
     /* both covariances PSD up to rounding (docs/decisions.md item 17) */
-    if (!k_psd(fx, L.T1, inv, L.Pfn, n) ||
-        !k_psd(fx, L.T1, inv, L.Ppn, n))
+    if (!k_psd(fx, L->T1, inv, L->Pfn, n) ||
+        !k_psd(fx, L->T1, inv, L->Ppn, n))
         return DKF_ERR_NOT_SPD;
     f->pk = pk;
     f->pending = 1;
@@ -803,10 +804,16 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
 static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
-    const size_t n = f->n, p = f->p, pc = f->pc;
+    const size_t n = f->n, m = f->m, p = f->p, pc = f->pc;
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
-    DKF_TRY(model_block_memo(f, L, dyn, meas_next));
+#define DIFFKF_MEMO_FIXED(N, M, P) \
+    if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
+        DKF_TRY(model_block_memo(f, L, dyn, meas_next, (N), (M), (P))); \
+    else
+    DIFFKF_FIXED(DIFFKF_MEMO_FIXED)
+#undef DIFFKF_MEMO_FIXED
+    DKF_TRY(model_block_memo(f, L, dyn, meas_next, n, m, p));
 #define DIFFKF_GAIN_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && p == (P) && pk == (P) && pc == (P)) \
         return gain_core(1, f, L, dyn, idx, (N), (P), (P), (P));
@@ -862,50 +869,50 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
                                      const dkf_real_t *zk, const dkf_mat_t *y_next, size_t n,
                                      size_t m, size_t p, size_t pk)
 {
-    const layout_t L = *L_;
+    const layout_t *const L = L_;
     dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
-    k_mul_vec(fx, dz, L.Mk, f->xn.data, pk, n);
-    for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L.zc[i];
+    k_mul_vec(fx, dz, L->Mk, f->xn.data, pk, n);
+    for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L->zc[i];
     /* x_{k|k} = x_{k|k-1} + K dz;  x_{k+1|k} = F x_{k|k-1} + W dz */
-    k_mul_vec(fx, xf, L.Kn, dz, n, pk);
-    k_mul_vec(fx, xn, L.Fn, f->xn.data, n, n);
+    k_mul_vec(fx, xf, L->Kn, dz, n, pk);
+    k_mul_vec(fx, xn, L->Fn, f->xn.data, n, n);
     for (i = 0; i < n; ++i) {
         xf[i] += f->xn.data[i];
-        xn[i] += inl_dot(L.Wn + i * pk, dz, pk);
+        xn[i] += inl_dot(L->Wn + i * pk, dz, pk);
     }
     if (!k_finite(fx, dz, pk) || !k_finite(fx, xf, n) || !k_finite(fx, xn, n))
         return DKF_ERR_NONFINITE;
 
     /* commit: caches (a one-phase step's), estimates, the step's
      * quantities (pk rows), and the carry */
-    commit_caches(f, &L);
+    commit_caches(f, L);
     memcpy(f->xp.data, f->xn.data, (n) * sizeof(dkf_real_t));
     memcpy(f->xf.data, xf, (n) * sizeof(dkf_real_t));
-    memcpy(f->Pf.data, L.Pfn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->Pf.data, L->Pfn, (n * n) * sizeof(dkf_real_t));
     memcpy(f->xn.data, xn, (n) * sizeof(dkf_real_t));
-    memcpy(f->Pn.data, L.Ppn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->Pn.data, L->Ppn, (n * n) * sizeof(dkf_real_t));
     memcpy(f->z.data, zk, (pk) * sizeof(dkf_real_t));
     memcpy(f->dz.data, dz, (pk) * sizeof(dkf_real_t));
-    memcpy(f->J.data, L.Jn, (n * pk) * sizeof(dkf_real_t));
-    memcpy(f->L.data, L.Ln, (pk * pk) * sizeof(dkf_real_t));
-    memcpy(f->K.data, L.Kn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(f->J.data, L->Jn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(f->L.data, L->Ln, (pk * pk) * sizeof(dkf_real_t));
+    memcpy(f->K.data, L->Kn, (n * pk) * sizeof(dkf_real_t));
     f->z.rows = pk;
     f->dz.rows = pk;
     f->J.cols = pk;
     f->L.rows = pk;
     f->L.cols = pk;
     f->K.cols = pk;
-    memcpy(L.C, L.Cnk, (p * pk) * sizeof(dkf_real_t));
-    memcpy(L.CLi, L.CLin, (p * pk) * sizeof(dkf_real_t));
-    memcpy(L.W, L.Wn, (n * pk) * sizeof(dkf_real_t));
-    memcpy(L.dzp, dz, (pk) * sizeof(dkf_real_t));
+    memcpy(L->C, L->Cnk, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L->CLi, L->CLin, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L->W, L->Wn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(L->dzp, dz, (pk) * sizeof(dkf_real_t));
     f->pc = pk;
-    memcpy(L.ApH, L.ApHn, (p * n) * sizeof(dkf_real_t));
-    memcpy(L.ApRAp, L.ApRApn, (p * p) * sizeof(dkf_real_t));
+    memcpy(L->ApH, L->ApHn, (p * n) * sizeof(dkf_real_t));
+    memcpy(L->ApRAp, L->ApRApn, (p * p) * sizeof(dkf_real_t));
     f->has_y = y_next != NULL;
-    if (y_next != NULL) k_mul_vec(fx, L.Apy, L.Ap, y_next->data, p, m);
+    if (y_next != NULL) k_mul_vec(fx, L->Apy, L->Ap, y_next->data, p, m);
     f->k += 1;
     f->pending = 0;
     return DKF_OK;

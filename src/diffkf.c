@@ -81,8 +81,10 @@ typedef struct {
     dkf_real_t *jU, *jD, *jE, *jX, *jV, *jAX, *jS;
 } layout_t;
 
-/* Walks the storage in a fixed order; with base == NULL it only counts. */
-static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
+/* Walks the storage in a fixed order; with base == NULL it only counts.
+ * Forced inline: map_of's call, where base is known not to be NULL, then
+ * folds every DKF_TAKE to one addition. */
+DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p)
 {
     size_t used = 0;
     DKF_TAKE(L->C, p * p);
@@ -191,10 +193,22 @@ static size_t outputs_len(size_t n, size_t p)
     return outputs_layout(&o, NULL, n, p);
 }
 
+/* The storage map of an initialised f, written into *L (a step fills it
+ * in place: no copy of the map). */
+static void map_of(const dkf_diffkf_t *f, layout_t *L)
+{
+    if (f->mem != NULL && f->n == 4 && f->m == 2 && f->p == 2) /* DIFFKF_FIXED below */
+        (void)layout(L, f->mem, 4, 2, 2);
+    else if (f->mem != NULL) /* always, once initialised */
+        (void)layout(L, f->mem, f->n, f->m, f->p);
+    else
+        (void)layout(L, NULL, f->n, f->m, f->p);
+}
+
 static layout_t mem_of(const dkf_diffkf_t *f)
 {
     layout_t L;
-    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    map_of(f, &L);
     return L;
 }
 
@@ -397,6 +411,23 @@ DKF__INLINE void k_mul_nt(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_
         dkf__mul_nt(C, A, B, r, k, c);
         return;
     }
+#if DKF__SIMD
+    /* c a multiple of the vector length: B^T formed (k x c, contiguous
+     * along j), and row i summed DKF__VL columns at a time, each lane from
+     * +0 over l = 0, 1, ...: lane j adds A(i,l) B(j,l) in inl_dot's order */
+    if (r >= 2 && c % DKF__VL == 0 && k * c <= 64) {
+        dkf_real_t Bt[64];
+        size_t l;
+        inl_transpose(Bt, B, c, k);
+        for (i = 0; i < r; ++i)
+            for (j = 0; j < c; j += DKF__VL) {
+                dkf__vec_t sum = {0};
+                for (l = 0; l < k; ++l) sum += vload(Bt + l * c + j) * A[i * k + l];
+                vstore(C + i * c + j, sum);
+            }
+        return;
+    }
+#endif
     for (i = 0; i < r; ++i)
         for (j = 0; j < c; ++j) C[i * c + j] = inl_dot(A + i * k, B + j * k, k);
 }
@@ -495,7 +526,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     }
     DKF_TRY(check_meas(f, meas1));
     if (y1 != NULL) DKF_TRY(dkf__check_input(y1, f->m, 1));
-    L = mem_of(f);
+    map_of(f, &L);
     DKF_TRY(pinv_cached(f, &L, meas1->D));
     /* predict to the first measured time, into pending slots */
     if (F0 != NULL) {
@@ -831,7 +862,7 @@ dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     DKF_CHECK_NULL(f);
     if (!f->ready || !f->started) return DKF_ERR_STATE;
     pk = kept_rows(idx, rows, f->p);
-    L = mem_of(f);
+    map_of(f, &L);
     st = gain_impl(f, &L, dyn, meas_next, idx, pk);
     /* no gain pending (also when the failure came before gain_impl could
      * cancel it): pk describes the last completed step again */
@@ -856,7 +887,7 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
     layout_t L;
     DKF_CHECK_NULL(f);
     if (!f->pending) return DKF_ERR_STATE;
-    L = mem_of(f);
+    map_of(f, &L);
     if (M != NULL) M->rows = f->pk, M->cols = f->n, M->data = L.Mk;
     if (K != NULL) K->rows = f->n, K->cols = f->pk, K->data = L.Kn;
     if (zcorr != NULL) zcorr->rows = f->pk, zcorr->cols = 1, zcorr->data = L.zc;
@@ -943,7 +974,7 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
         DKF_TRY(dkf__check_input(z, f->pk, 1));
     }
     if (y_next != NULL) DKF_TRY(dkf__check_input(y_next, f->m, 1));
-    L = mem_of(f);
+    map_of(f, &L);
     return update_impl(f, &L, f->pk == 0 ? empty : z->data, y_next);
 }
 
@@ -960,11 +991,14 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
      * would have to discard it */
     if (!f->ready || !f->started || !f->has_y || f->pending) return DKF_ERR_STATE;
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
-    L = mem_of(f);
+    map_of(f, &L);
     st = gain_impl(f, &L, dyn, meas_next, idx, kept_rows(idx, NULL, f->p));
     if (st == DKF_OK) {
         /* z_k = G y_{k+1} - A_k^+ y_k                                    (8) */
-        dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
+        if (f->p == 2 && f->m == 2)
+            k_mul_vec(1, z, L.G, y_next->data, 2, 2);
+        else
+            dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
         for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
         st = update_impl(f, &L, z, y_next);
     }

@@ -489,6 +489,34 @@ DKF__INLINE int k_finite(int fx, const dkf_real_t *p, size_t n)
     return fx ? !inl_any_nonfinite(p, n) : dkf__all_finite(p, n);
 }
 
+/* d = a - b and d = -a elementwise, n reals (d may be a or b: each vector
+ * is loaded before it is stored); on vectors at fixed sizes, where the
+ * compiler cannot prove the storage map's arrays disjoint. Per element the
+ * scalar operation, so the same bits. */
+DKF__INLINE void k_sub(int fx, dkf_real_t *d, const dkf_real_t *a, const dkf_real_t *b, size_t n)
+{
+    size_t i;
+#if DKF__SIMD
+    if (fx && n % DKF__VL == 0) {
+        for (i = 0; i < n; i += DKF__VL) vstore(d + i, vload(a + i) - vload(b + i));
+        return;
+    }
+#endif
+    for (i = 0; i < n; ++i) d[i] = a[i] - b[i];
+}
+
+DKF__INLINE void k_neg(int fx, dkf_real_t *d, size_t n)
+{
+    size_t i;
+#if DKF__SIMD
+    if (fx && n % DKF__VL == 0) {
+        for (i = 0; i < n; i += DKF__VL) vstore(d + i, -vload(d + i));
+        return;
+    }
+#endif
+    for (i = 0; i < n; ++i) d[i] = -d[i];
+}
+
 /* Out (r x p) = Y L^{-1} for Y r x p and L = Lc Lc^T (L symmetric, so
  * Out^T = L^{-1} Y^T is one Cholesky solve); tmp holds r * p reals. */
 DKF__INLINE void right_solve(int fx, dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
@@ -688,7 +716,7 @@ DKF__INLINE void joint_congruence(int fx, dkf_real_t *Pn, const dkf_real_t *Ab,
     size_t i, j;
     k_mul_nt(fx, L->jU, P, Ab, n, n, n); /* U = P Ab^T - X Kb^T */
     k_mul_nt(fx, L->jE, X, Kb, n, pk, n);
-    for (i = 0; i < n * n; ++i) L->jU[i] -= L->jE[i];
+    k_sub(fx, L->jU, L->jU, L->jE, n * n);
     k_mul_nt(fx, L->jV, Sg, Kb, pk, pk, n); /* V = Sg Kb^T - (Ab X)^T - Sv^T */
     k_mul_nn(fx, L->jAX, Ab, X, n, n, pk);
     for (i = 0; i < pk; ++i)
@@ -720,19 +748,19 @@ DKF__INLINE void joseph_covariances(int fx, const dkf_diffkf_t *f, const layout_
     const dkf_real_t *Q = dyn->Q->data;
     size_t i, j;
     k_mul_nt(fx, L->jX, L->W, L->Ck, n, pc, pk); /* X = -W'_{k-1} C'^T */
-    for (i = 0; i < n * pk; ++i) L->jX[i] = -L->jX[i];
+    k_neg(fx, L->jX, n * pk);
     /* P_{k|k}: Ab = I - K M' */
     k_mul_nn(fx, L->T1, L->Kn, L->Mk, n, pk, n);
-    for (i = 0; i < n * n; ++i) L->T1[i] = -L->T1[i];
+    k_neg(fx, L->T1, n * n);
     for (i = 0; i < n; ++i) L->T1[i * n + i] += DKF_R(1.0);
     joint_congruence(fx, L->Pfn, L->T1, L->Kn, f->Pn.data, L->jX, L->X, NULL, NULL, L, n, pk);
     /* P_{k+1|k}: Ab = F - W M', D = Q - S' W^T, S' = the kept columns of S */
     for (i = 0; i < n; ++i)
         for (j = 0; j < pk; ++j) L->jS[i * pk + j] = L->S[i * p + idx[j]];
     k_mul_nn(fx, L->T1, L->Wn, L->Mk, n, pk, n);
-    for (i = 0; i < n * n; ++i) L->T1[i] = dyn->F->data[i] - L->T1[i];
+    k_sub(fx, L->T1, dyn->F->data, L->T1, n * n);
     k_mul_nt(fx, L->jD, L->jS, L->Wn, n, pk, n);
-    for (i = 0; i < n * n; ++i) L->jD[i] = Q[i] - L->jD[i];
+    k_sub(fx, L->jD, Q, L->jD, n * n);
     joint_congruence(fx, L->Ppn, L->T1, L->Wn, f->Pn.data, L->jX, L->X, L->jS, L->jD, L, n, pk);
 }
 #endif
@@ -755,7 +783,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
     k_mul_nt(fx, L->Jn, f->Pn.data, L->Mk, n, n, pk);
     k_mul_nt(fx, L->T2, L->W, L->Ck, n, pc, pk);
-    for (i = 0; i < n * pk; ++i) L->Jn[i] -= L->T2[i];
+    k_sub(fx, L->Jn, L->Jn, L->T2, n * pk);
 
     /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
     k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc);    /* M W      */

@@ -419,7 +419,33 @@ DKF__INLINE void k_mul_nt(int fx, dkf_real_t *C, const dkf_real_t *A, const dkf_
         dkf_real_t Bt[64];
         size_t l;
         inl_transpose(Bt, B, c, k);
-        for (i = 0; i < r; ++i)
+        if (c == 2 * DKF__VL) { /* and each broadcast of A(i,l) feeds two vectors */
+            for (i = 0; i + 2 <= r; i += 2) {
+                dkf__vec_t s00 = {0}, s01 = {0}, s10 = {0}, s11 = {0};
+                for (l = 0; l < k; ++l) {
+                    const dkf__vec_t b0 = vload(Bt + l * c), b1 = vload(Bt + l * c + DKF__VL);
+                    const dkf_real_t a0 = A[i * k + l], a1 = A[(i + 1) * k + l];
+                    s00 += b0 * a0, s01 += b1 * a0;
+                    s10 += b0 * a1, s11 += b1 * a1;
+                }
+                vstore(C + i * c, s00), vstore(C + i * c + DKF__VL, s01);
+                vstore(C + (i + 1) * c, s10), vstore(C + (i + 1) * c + DKF__VL, s11);
+            }
+        } else {
+            i = 0;
+        }
+        for (; i + 2 <= r; i += 2) /* two rows share each load of B^T */
+            for (j = 0; j < c; j += DKF__VL) {
+                dkf__vec_t s0 = {0}, s1 = {0};
+                for (l = 0; l < k; ++l) {
+                    const dkf__vec_t b = vload(Bt + l * c + j);
+                    s0 += b * A[i * k + l];
+                    s1 += b * A[(i + 1) * k + l];
+                }
+                vstore(C + i * c + j, s0);
+                vstore(C + (i + 1) * c + j, s1);
+            }
+        for (; i < r; ++i)
             for (j = 0; j < c; j += DKF__VL) {
                 dkf__vec_t sum = {0};
                 for (l = 0; l < k; ++l) sum += vload(Bt + l * c + j) * A[i * k + l];

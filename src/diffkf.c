@@ -193,13 +193,25 @@ static size_t outputs_len(size_t n, size_t p)
     return outputs_layout(&o, NULL, n, p);
 }
 
+/* The sizes (n, m, p) whose steps are also compiled with literal sizes
+ * (gain_core, update_core below): seed 000 Example 1 by default. Each
+ * costs ~14 KB of code (x86-64, -O2); define it empty for none. */
+#ifndef DKF_DIFFKF_FIXED_SIZES
+#define DKF_DIFFKF_FIXED_SIZES(X) X(4, 2, 2)
+#endif
+
 /* The storage map of an initialised f, written into *L (a step fills it
- * in place: no copy of the map). */
+ * in place: no copy of the map); at literal sizes for the fixed ones. */
 static void map_of(const dkf_diffkf_t *f, layout_t *L)
 {
-    if (f->mem != NULL && f->n == 4 && f->m == 2 && f->p == 2) /* DIFFKF_FIXED below */
-        (void)layout(L, f->mem, 4, 2, 2);
-    else if (f->mem != NULL) /* always, once initialised */
+#define DIFFKF_MAP_FIXED(N, M, P) \
+    if ((N) <= DKF_MAX_DIM && f->mem != NULL && f->n == (N) && f->m == (M) && f->p == (P)) { \
+        (void)layout(L, f->mem, (N), (M), (P)); \
+        return; \
+    }
+    DKF_DIFFKF_FIXED_SIZES(DIFFKF_MAP_FIXED)
+#undef DIFFKF_MAP_FIXED
+    if (f->mem != NULL) /* always, once initialised */
         (void)layout(L, f->mem, f->n, f->m, f->p);
     else
         (void)layout(L, NULL, f->n, f->m, f->p);
@@ -379,7 +391,7 @@ static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_
  * The step's body (gain_core, update_core and what they call) is written
  * once and forced inline: the entry points expand it with the run-time
  * sizes (fx = 0: the blocked kernels of kernels.c) and, for the sizes of
- * DIFFKF_FIXED, with literal sizes (fx = 1: the bodies of kernels_inline.h
+ * DKF_DIFFKF_FIXED_SIZES, with literal sizes (fx = 1: the bodies of kernels_inline.h
  * expanded with constant trip counts, unrolled, no call or loop set-up on
  * 2-4-element rows). Both compute every element with the same operations
  * in the same order (dkf__mul_nt, dkf__mul_nt_sym and dkf__mul_vec sum each
@@ -881,10 +893,10 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     return DKF_OK;
 }
 
-/* gain_core and update_core also at the sizes (n, m, p) of DIFFKF_FIXED
- * (seed 000 Example 1), for the steps that keep every row once the carry
- * is full (pk = pc = p): all others take the run-time-size expansion. */
-#define DIFFKF_FIXED(X) X(4, 2, 2)
+/* gain_core and update_core are also expanded at the sizes (n, m, p) of
+ * DKF_DIFFKF_FIXED_SIZES (top of the file), for the steps that keep every
+ * row once the carry is full (pk = pc = p): all others take the
+ * run-time-size expansion. */
 
 static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
@@ -896,13 +908,13 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
         DKF_TRY(model_block_memo(f, L, dyn, meas_next, (N), (M), (P))); \
     else
-    DIFFKF_FIXED(DIFFKF_MEMO_FIXED)
+    DKF_DIFFKF_FIXED_SIZES(DIFFKF_MEMO_FIXED)
 #undef DIFFKF_MEMO_FIXED
     DKF_TRY(model_block_memo(f, L, dyn, meas_next, n, m, p));
 #define DIFFKF_GAIN_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && p == (P) && pk == (P) && pc == (P)) \
         return gain_core(1, f, L, dyn, idx, (N), (P), (P), (P));
-    DIFFKF_FIXED(DIFFKF_GAIN_FIXED)
+    DKF_DIFFKF_FIXED_SIZES(DIFFKF_GAIN_FIXED)
 #undef DIFFKF_GAIN_FIXED
     return gain_core(0, f, L, dyn, idx, n, p, pk, pc);
 }
@@ -1010,7 +1022,7 @@ static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L, const dkf_re
 #define DIFFKF_UPDATE_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P) && pk == (P)) \
         return update_core(1, f, L, zk, y_next, (N), (M), (P), (P));
-    DIFFKF_FIXED(DIFFKF_UPDATE_FIXED)
+    DKF_DIFFKF_FIXED_SIZES(DIFFKF_UPDATE_FIXED)
 #undef DIFFKF_UPDATE_FIXED
     return update_core(0, f, L, zk, y_next, n, m, p, pk);
 }
@@ -1049,10 +1061,13 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     st = gain_impl(f, &L, dyn, meas_next, idx, kept_rows(idx, NULL, f->p));
     if (st == DKF_OK) {
         /* z_k = G y_{k+1} - A_k^+ y_k                                    (8) */
-        if (f->p == 2 && f->m == 2)
-            k_mul_vec(1, z, L.G, y_next->data, 2, 2);
-        else
-            dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
+#define DIFFKF_Z_FIXED(N, M, P) \
+    if ((N) <= DKF_MAX_DIM && f->n == (N) && f->m == (M) && f->p == (P)) \
+        k_mul_vec(1, z, L.G, y_next->data, (P), (M)); \
+    else
+        DKF_DIFFKF_FIXED_SIZES(DIFFKF_Z_FIXED)
+#undef DIFFKF_Z_FIXED
+        dkf__mul_vec(z, L.G, y_next->data, f->p, f->m);
         for (i = 0; i < f->p; ++i) z[i] -= L.Apy[i];
         st = update_impl(f, &L, z, y_next);
     }

@@ -370,6 +370,113 @@ static void right_solve(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *
     dkf__transpose(Out, tmp, p, r);
 }
 
+/* ---- sparse products with the correlation C (issue 14) ---------------------
+ * In a stacked model (the fusion centre's central filter, docs/diffkf-fusion.md
+ * §1) C_k is block diagonal: each row of C_k, of C'_k = S C_k S'^T and of
+ * C_{k+1} S^T is zero outside one node's p_i columns. The three products
+ * with C in the gain, M' W' C'^T, C' L'^{-1} C'^T (20) and C_{k+1} S^T
+ * L'^{-1}_k, cost O(p^3) dense. The helpers below skip, for each row of C,
+ * the terms outside that row's nonzero span [lo, hi). Every skipped term
+ * is a finite number times an exact zero, which does not change an IEEE
+ * sum (s + (+-0) = s for s != 0, and +0 + (+-0) = +0; an index-order sum
+ * starts at +0), so the results are those of the dense kernels (at most
+ * the sign of an exact zero differs) and hold for any C, block diagonal or
+ * not; a dense C only costs the span scan. Non-finite factors would not
+ * give the dense result (inf * 0 = NaN) and are refused by the caller
+ * before, as the dense product's non-finite L was. */
+
+/* lo[i], hi[i]: the first nonzero and one past the last nonzero column of
+ * row i of A (r x c); lo = hi for a zero row. */
+static void row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_t c)
+{
+    size_t i, a, b;
+    for (i = 0; i < r; ++i) {
+        const dkf_real_t *ai = A + i * c;
+        for (a = 0; a < c && ai[a] == DKF_R(0.0); ++a) continue;
+        for (b = c; b > a && ai[b - 1] == DKF_R(0.0); --b) continue;
+        lo[i] = a;
+        hi[i] = b;
+    }
+}
+
+/* Out (r x s) = A (r x c) B^T for B (s x c) whose row j is zero outside
+ * [lo[j], hi[j]): element (i, j) is the index-order dot product over the
+ * span, as dkf__mul_nt sums it over all of 0..c-1. */
+static void mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                         size_t c, size_t s, const size_t *lo, const size_t *hi)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < s; ++j)
+            Out[i * s + j] = dkf__dot(A + i * c + lo[j], B + j * c + lo[j], hi[j] - lo[j]);
+}
+
+/* right_solve (Out = Y L^{-1}, Y r x p) for a Y whose row i is zero before
+ * column lo[i]: in Out^T = L^{-1} Y^T, the forward substitution of column
+ * i is zero down to row lo[i], so it starts there (the 4-column blocks of
+ * dkf__chol_solve start at their smallest lo); the backward substitution
+ * is dense. The order of each element's terms is that of dkf__chol_solve
+ * (forward: l ascending; backward: i descending). tmp holds r * p reals. */
+static void right_solve_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                              const dkf_real_t *inv, size_t r, size_t p, const size_t *lo,
+                              dkf_real_t *tmp)
+{
+    size_t i, j, l;
+    dkf__transpose(tmp, Y, r, p); /* tmp = Y^T, p x r */
+    /* forward, 4 columns at a time (registers), then the rest one by one */
+    for (j = 0; j + 4 <= r; j += 4) {
+        size_t s0 = lo[j];
+        s0 = lo[j + 1] < s0 ? lo[j + 1] : s0;
+        s0 = lo[j + 2] < s0 ? lo[j + 2] : s0;
+        s0 = lo[j + 3] < s0 ? lo[j + 3] : s0;
+        for (i = s0; i < p; ++i) {
+            const dkf_real_t *li = Lc + i * p;
+            dkf_real_t *bi = tmp + i * r + j;
+            dkf_real_t t0 = bi[0], t1 = bi[1], t2 = bi[2], t3 = bi[3];
+            for (l = s0; l < i; ++l) {
+                const dkf_real_t a = li[l];
+                const dkf_real_t *bl = tmp + l * r + j;
+                t0 -= a * bl[0];
+                t1 -= a * bl[1];
+                t2 -= a * bl[2];
+                t3 -= a * bl[3];
+            }
+            bi[0] = t0 * inv[i], bi[1] = t1 * inv[i], bi[2] = t2 * inv[i], bi[3] = t3 * inv[i];
+        }
+    }
+    for (; j < r; ++j)
+        for (i = lo[j]; i < p; ++i) {
+            const dkf_real_t *li = Lc + i * p;
+            dkf_real_t t = tmp[i * r + j];
+            for (l = lo[j]; l < i; ++l) t -= li[l] * tmp[l * r + j];
+            tmp[i * r + j] = t * inv[i];
+        }
+    /* backward (dense): L^T X = W, row l of X = (row l of W - sum_{i > l,
+     * descending} L(i,l) X_i) / L(l,l) */
+    for (l = p; l-- > 0;) {
+        dkf_real_t *bl = tmp + l * r;
+        const dkf_real_t d = inv[l];
+        for (j = 0; j + 4 <= r; j += 4) {
+            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
+            for (i = p - 1; i > l; --i) {
+                const dkf_real_t a = Lc[i * p + l];
+                const dkf_real_t *bi = tmp + i * r + j;
+                t0 -= a * bi[0];
+                t1 -= a * bi[1];
+                t2 -= a * bi[2];
+                t3 -= a * bi[3];
+            }
+            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
+        }
+        for (; j < r; ++j) {
+            dkf_real_t t = bl[j];
+            for (i = p - 1; i > l; --i) t -= Lc[i * p + l] * tmp[i * r + j];
+            bl[j] = t * d;
+        }
+    }
+    dkf__transpose(Out, tmp, p, r);
+}
+
 /* The data-independent part of the next-step carry that depends only on
  * the model at k+1: A^+ H, A^+ R A^{+T} (pending copies). */
 static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_meas_t *meas,
@@ -619,7 +726,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     layout_t L;
     const size_t n = f->n, p = f->p, pc = f->pc;
     dkf_real_t inv[DKF_MAX_DIM];
-    size_t i, j;
+    size_t i, j, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
     DKF_TRY(model_block_memo(f, L_, dyn, meas_next));
@@ -631,12 +738,16 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
     dkf__mul_nt(L.T2, L.W, L.Ck, n, pc, pk);
     for (i = 0; i < n * pk; ++i) L.Jn[i] -= L.T2[i];
 
-    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20);
+     * the products with C' over each row's nonzero span (row_spans) */
+    row_spans(lo, hi, L.Ck, pk, pc);
     dkf__mul_nn(L.T3, L.Mk, L.W, pk, n, pc);    /* M W      */
-    dkf__mul_nt(L.X, L.T3, L.Ck, pk, pc, pk);   /* M W C^T  */
+    /* a non-finite M W made the dense M W C^T, hence L, non-finite */
+    if (!dkf__all_finite(L.T3, pk * pc)) return DKF_ERR_NONFINITE;
+    mul_nt_spans(L.X, L.T3, L.Ck, pk, pc, pk, lo, hi); /* M W C^T  */
     dkf__mul_nn(L.T3, L.Mk, f->Pn.data, pk, n, n);
     dkf__mul_nt_sym(L.Ln, L.T3, L.Mk, L.Ruk, pk, n); /* M P M^T + Ru */
-    dkf__mul_nt(L.T3, L.CLik, L.Ck, pk, pc, pk); /* C L^{-1} C^T */
+    mul_nt_spans(L.T3, L.CLik, L.Ck, pk, pc, pk, lo, hi); /* C L^{-1} C^T */
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
             const dkf_real_t v = L.Ln[i * pk + j] - L.X[i * pk + j] - L.X[j * pk + i] -
@@ -682,7 +793,8 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L_, const dkf_ui_dyn_t 
 
     /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
      * now; T2 holds only n p) */
-    right_solve(L.CLin, L.Cnk, L.Lc, inv, p, pk, L.T3);
+    row_spans(lo, hi, L.Cnk, p, pk);
+    right_solve_spans(L.CLin, L.Cnk, L.Lc, inv, p, pk, lo, L.T3);
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
     dkf__mul_vec(L.zc, L.CLik, L.dzp, pk, pc);

@@ -26,7 +26,7 @@ root="$(cd "$here/.." && pwd)"
 b="${BENCH_BUILD_PREFIX:-$root/build-bench}-$t-$form"
 maxdim="${BENCH_MAX_DIM:-48}"
 [[ "$maxdim" != 48 ]] && b="$b-dim$maxdim"
-targets=(bench_kf bench_kf_ref bench_kf_eigen_O2 bench_kf_eigen_O3 bench_uif bench_nerts bench_wfusion)
+targets=(bench_kf bench_kf_ref bench_kf_eigen_O2 bench_kf_eigen_O3 bench_uif bench_nerts bench_wfusion bench_fc)
 native=OFF
 if [[ "${BENCH_NATIVE:-0}" == 1 ]]; then
   native=ON

@@ -28,6 +28,9 @@
 # matrix weights against L = 2, 5, 20, 50 sensors), from a third build per
 # type with DKF_MAX_DIM = 256 (the joint covariance is 4 L x 4 L), with the
 # growth exponent log(t(L2)/t(L1)) / log(L2/L1) between successive L.
+# Then bench_fc (the Difference-KF fusion centre's step against N = 2, 12,
+# 50, 100, 200 nodes), from a build with DKF_MAX_DIM = 1024, with the
+# growth exponent between successive N.
 #
 # bench/build_bench.sh does the builds: the library and bench_kf in Release
 # with -O2 -DNDEBUG ("without special flags": no -march, no -ffast-math, the
@@ -66,17 +69,21 @@ for t in $types; do
   done
 done
 
-declare -A bigdir
+declare -A bigdir fcdir
 for t in $types; do
   echo "run_bench: building $t with DKF_MAX_DIM=256 (bench_wfusion)" >&2
   bigdir[$t]="$(BENCH_MAX_DIM=256 "$here/build_bench.sh" "$t" joseph)"
+  # bench_fc: the stacked model of N = 200 nodes has 500 rows
+  echo "run_bench: building $t with DKF_MAX_DIM=1024 (bench_fc)" >&2
+  fcdir[$t]="$(BENCH_MAX_DIM=1024 "$here/build_bench.sh" "$t" joseph)"
 done
 
 raw="$(mktemp)"
 rawuif="$(mktemp)"
 rawnerts="$(mktemp)"
 rawwf="$(mktemp)"
-trap 'rm -f "$raw" "$rawuif" "$rawnerts" "$rawwf"' EXIT
+rawfc="$(mktemp)"
+trap 'rm -f "$raw" "$rawuif" "$rawnerts" "$rawwf" "$rawfc"' EXIT
 
 {
   echo "# date:     $(date -u '+%Y-%m-%d %H:%M UTC')"
@@ -116,9 +123,11 @@ for ((r = 1; r <= rounds; ++r)); do
     # Seed 001's filters against the plain EKF / cubature KF, same build.
     "${pin[@]}" "${dir[$t.${forms%% *}]}/bench/bench_nerts" "$@" | tee -a "$rawnerts" >&2
     "${pin[@]}" "${bigdir[$t]}/bench/bench_wfusion" "$@" | tee -a "$rawwf" >&2
+    # the Difference-KF fusion centre against N (its own options only)
+    "${pin[@]}" "${fcdir[$t]}/bench/bench_fc" | tee -a "$rawfc" >&2
   done
 done
-[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" "$rawwf" >"$BENCH_RAW"
+[[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" "$rawwf" "$rawfc" >"$BENCH_RAW"
 
 status=0
 awk -v peers="$peers" '
@@ -241,4 +250,13 @@ END {
     printf "\n"
   }
 }' "$rawwf"
+
+echo
+echo "Difference-KF fusion centre (bench_fc), ns per dkf_diffkf_fc_step against N nodes (n = 4, p_i = 2; exponent: growth from the previous N):"
+awk '
+/^fc-step / { ty = $2; N = $4; t = $5
+  if (ty == pty) printf "%-7s %4s %14.1f %6.2f\n", ty, N, t, log(t / pt) / log(N / pN)
+  else printf "%-7s %4s %14.1f %6s\n", ty, N, t, "-"
+  pty = ty; pt = t; pN = N }
+/^# fc-step/ { print }' "$rawfc"
 exit "$status"

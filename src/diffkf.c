@@ -193,13 +193,6 @@ static size_t outputs_len(size_t n, size_t p)
     return outputs_layout(&o, NULL, n, p);
 }
 
-/* The sizes (n, m, p) whose steps are also compiled with literal sizes
- * (gain_core, update_core below): seed 000 Example 1 by default. Each
- * costs ~14 KB of code (x86-64, -O2); define it empty for none. */
-#ifndef DKF_DIFFKF_FIXED_SIZES
-#define DKF_DIFFKF_FIXED_SIZES(X) X(4, 2, 2)
-#endif
-
 /* The storage map of an initialised f, written into *L (a step fills it
  * in place: no copy of the map); at literal sizes for the fixed ones. */
 static void map_of(const dkf_diffkf_t *f, layout_t *L)
@@ -534,6 +527,7 @@ DKF__INLINE int k_finite(int fx, const dkf_real_t *p, size_t n)
 DKF__INLINE void k_sub(int fx, dkf_real_t *d, const dkf_real_t *a, const dkf_real_t *b, size_t n)
 {
     size_t i;
+    (void)fx; /* read only with DKF__SIMD */
 #if DKF__SIMD
     if (fx && n % DKF__VL == 0) {
         for (i = 0; i < n; i += DKF__VL) vstore(d + i, vload(a + i) - vload(b + i));
@@ -546,6 +540,7 @@ DKF__INLINE void k_sub(int fx, dkf_real_t *d, const dkf_real_t *a, const dkf_rea
 DKF__INLINE void k_neg(int fx, dkf_real_t *d, size_t n)
 {
     size_t i;
+    (void)fx; /* read only with DKF__SIMD */
 #if DKF__SIMD
     if (fx && n % DKF__VL == 0) {
         for (i = 0; i < n; i += DKF__VL) vstore(d + i, -vload(d + i));
@@ -563,6 +558,113 @@ DKF__INLINE void right_solve(int fx, dkf_real_t *Out, const dkf_real_t *Y, const
     inl_transpose(tmp, Y, r, p);
     k_chol_solve(fx, Lc, inv, tmp, p, r);
     inl_transpose(Out, tmp, p, r);
+}
+
+/* ---- sparse products with the correlation C (issue 14) ---------------------
+ * In a stacked model (the fusion centre's central filter, docs/diffkf-fusion.md
+ * §1) C_k is block diagonal: each row of C_k, of C'_k = S C_k S'^T and of
+ * C_{k+1} S^T is zero outside one node's p_i columns. The three products
+ * with C in the gain, M' W' C'^T, C' L'^{-1} C'^T (20) and C_{k+1} S^T
+ * L'^{-1}_k, cost O(p^3) dense. The helpers below skip, for each row of C,
+ * the terms outside that row's nonzero span [lo, hi). Every skipped term
+ * is a finite number times an exact zero, which does not change an IEEE
+ * sum (s + (+-0) = s for s != 0, and +0 + (+-0) = +0; an index-order sum
+ * starts at +0), so the results are those of the dense kernels (at most
+ * the sign of an exact zero differs) and hold for any C, block diagonal or
+ * not; a dense C only costs the span scan. Non-finite factors would not
+ * give the dense result (inf * 0 = NaN) and are refused by the caller
+ * before, as the dense product's non-finite L was. */
+
+/* lo[i], hi[i]: the first nonzero and one past the last nonzero column of
+ * row i of A (r x c); lo = hi for a zero row. */
+static void row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_t c)
+{
+    size_t i, a, b;
+    for (i = 0; i < r; ++i) {
+        const dkf_real_t *ai = A + i * c;
+        for (a = 0; a < c && ai[a] == DKF_R(0.0); ++a) continue;
+        for (b = c; b > a && ai[b - 1] == DKF_R(0.0); --b) continue;
+        lo[i] = a;
+        hi[i] = b;
+    }
+}
+
+/* Out (r x s) = A (r x c) B^T for B (s x c) whose row j is zero outside
+ * [lo[j], hi[j]): element (i, j) is the index-order dot product over the
+ * span, as dkf__mul_nt sums it over all of 0..c-1. */
+static void mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                         size_t c, size_t s, const size_t *lo, const size_t *hi)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < s; ++j)
+            Out[i * s + j] = dkf__dot(A + i * c + lo[j], B + j * c + lo[j], hi[j] - lo[j]);
+}
+
+/* right_solve (Out = Y L^{-1}, Y r x p) for a Y whose row i is zero before
+ * column lo[i]: in Out^T = L^{-1} Y^T, the forward substitution of column
+ * i is zero down to row lo[i], so it starts there (the 4-column blocks of
+ * dkf__chol_solve start at their smallest lo); the backward substitution
+ * is dense. The order of each element's terms is that of dkf__chol_solve
+ * (forward: l ascending; backward: i descending). tmp holds r * p reals. */
+static void right_solve_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                              const dkf_real_t *inv, size_t r, size_t p, const size_t *lo,
+                              dkf_real_t *tmp)
+{
+    size_t i, j, l;
+    dkf__transpose(tmp, Y, r, p); /* tmp = Y^T, p x r */
+    /* forward, 4 columns at a time (registers), then the rest one by one */
+    for (j = 0; j + 4 <= r; j += 4) {
+        size_t s0 = lo[j];
+        s0 = lo[j + 1] < s0 ? lo[j + 1] : s0;
+        s0 = lo[j + 2] < s0 ? lo[j + 2] : s0;
+        s0 = lo[j + 3] < s0 ? lo[j + 3] : s0;
+        for (i = s0; i < p; ++i) {
+            const dkf_real_t *li = Lc + i * p;
+            dkf_real_t *bi = tmp + i * r + j;
+            dkf_real_t t0 = bi[0], t1 = bi[1], t2 = bi[2], t3 = bi[3];
+            for (l = s0; l < i; ++l) {
+                const dkf_real_t a = li[l];
+                const dkf_real_t *bl = tmp + l * r + j;
+                t0 -= a * bl[0];
+                t1 -= a * bl[1];
+                t2 -= a * bl[2];
+                t3 -= a * bl[3];
+            }
+            bi[0] = t0 * inv[i], bi[1] = t1 * inv[i], bi[2] = t2 * inv[i], bi[3] = t3 * inv[i];
+        }
+    }
+    for (; j < r; ++j)
+        for (i = lo[j]; i < p; ++i) {
+            const dkf_real_t *li = Lc + i * p;
+            dkf_real_t t = tmp[i * r + j];
+            for (l = lo[j]; l < i; ++l) t -= li[l] * tmp[l * r + j];
+            tmp[i * r + j] = t * inv[i];
+        }
+    /* backward (dense): L^T X = W, row l of X = (row l of W - sum_{i > l,
+     * descending} L(i,l) X_i) / L(l,l) */
+    for (l = p; l-- > 0;) {
+        dkf_real_t *bl = tmp + l * r;
+        const dkf_real_t d = inv[l];
+        for (j = 0; j + 4 <= r; j += 4) {
+            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
+            for (i = p - 1; i > l; --i) {
+                const dkf_real_t a = Lc[i * p + l];
+                const dkf_real_t *bi = tmp + i * r + j;
+                t0 -= a * bi[0];
+                t1 -= a * bi[1];
+                t2 -= a * bi[2];
+                t3 -= a * bi[3];
+            }
+            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
+        }
+        for (; j < r; ++j) {
+            dkf_real_t t = bl[j];
+            for (i = p - 1; i > l; --i) t -= Lc[i * p + l] * tmp[i * r + j];
+            bl[j] = t * d;
+        }
+    }
+    dkf__transpose(Out, tmp, p, r);
 }
 
 /* The data-independent part of the next-step carry that depends only on
@@ -815,7 +917,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
 {
     const layout_t *const L = L_;
     dkf_real_t inv[DKF_MAX_DIM];
-    size_t i, j;
+    size_t i, j, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     select_rows(L, idx, n, p, pk, pc);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
@@ -823,12 +925,25 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     k_mul_nt(fx, L->T2, L->W, L->Ck, n, pc, pk);
     k_sub(fx, L->Jn, L->Jn, L->T2, n * pk);
 
-    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
-    k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc);    /* M W      */
-    k_mul_nt(fx, L->X, L->T3, L->Ck, pk, pc, pk);   /* M W C^T  */
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20);
+     * at run-time sizes the products with C' run over each row's nonzero span
+     * (row_spans: the fusion centre's block-diagonal C; exact zeros skipped,
+     * so the same values) */
+    k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc); /* M W      */
+    if (fx) {
+        k_mul_nt(fx, L->X, L->T3, L->Ck, pk, pc, pk); /* M W C^T  */
+    } else {
+        /* a non-finite M W made the dense M W C^T, hence L, non-finite */
+        if (!dkf__all_finite(L->T3, pk * pc)) return DKF_ERR_NONFINITE;
+        row_spans(lo, hi, L->Ck, pk, pc);
+        mul_nt_spans(L->X, L->T3, L->Ck, pk, pc, pk, lo, hi);
+    }
     k_mul_nn(fx, L->T3, L->Mk, f->Pn.data, pk, n, n);
     k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, L->Ruk, pk, n); /* M P M^T + Ru */
-    k_mul_nt(fx, L->T3, L->CLik, L->Ck, pk, pc, pk); /* C L^{-1} C^T */
+    if (fx)
+        k_mul_nt(fx, L->T3, L->CLik, L->Ck, pk, pc, pk); /* C L^{-1} C^T */
+    else
+        mul_nt_spans(L->T3, L->CLik, L->Ck, pk, pc, pk, lo, hi);
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
             const dkf_real_t v = L->Ln[i * pk + j] - L->X[i * pk + j] - L->X[j * pk + i] -
@@ -874,7 +989,12 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
 
     /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
      * now; T2 holds only n p) */
-    right_solve(fx, L->CLin, L->Cnk, L->Lc, inv, p, pk, L->T3);
+    if (fx) {
+        right_solve(fx, L->CLin, L->Cnk, L->Lc, inv, p, pk, L->T3);
+    } else {
+        row_spans(lo, hi, L->Cnk, p, pk);
+        right_solve_spans(L->CLin, L->Cnk, L->Lc, inv, p, pk, lo, L->T3);
+    }
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
     k_mul_vec(fx, L->zc, L->CLik, L->dzp, pk, pc);

@@ -77,6 +77,19 @@
 #endif
 #endif
 
+/* (n, m, p) sizes whose Difference-KF step (dkf_diffkf_step) is also
+ * compiled with literal sizes (src/diffkf.c: the same operations in the
+ * same order, so the same bits; seed 000 Example 1 by default, ~14 KB of
+ * code per size at -O2). Empty under -Os (firmware), like
+ * DKF_KF_FIXED_SIZES; define it empty for none. */
+#ifndef DKF_DIFFKF_FIXED_SIZES
+#if defined(__OPTIMIZE_SIZE__)
+#define DKF_DIFFKF_FIXED_SIZES(X)
+#else
+#define DKF_DIFFKF_FIXED_SIZES(X) X(4, 2, 2)
+#endif
+#endif
+
 /* 1: the register-blocked products (matrix products and the Kalman step)
  * use the vector extension of GCC and Clang on targets with 16-byte SIMD
  * registers and IEEE vector arithmetic (x86-64 SSE2, AArch64; not 32-bit

@@ -641,29 +641,7 @@ static void right_solve_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_re
             for (l = lo[j]; l < i; ++l) t -= li[l] * tmp[l * r + j];
             tmp[i * r + j] = t * inv[i];
         }
-    /* backward (dense): L^T X = W, row l of X = (row l of W - sum_{i > l,
-     * descending} L(i,l) X_i) / L(l,l) */
-    for (l = p; l-- > 0;) {
-        dkf_real_t *bl = tmp + l * r;
-        const dkf_real_t d = inv[l];
-        for (j = 0; j + 4 <= r; j += 4) {
-            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
-            for (i = p - 1; i > l; --i) {
-                const dkf_real_t a = Lc[i * p + l];
-                const dkf_real_t *bi = tmp + i * r + j;
-                t0 -= a * bi[0];
-                t1 -= a * bi[1];
-                t2 -= a * bi[2];
-                t3 -= a * bi[3];
-            }
-            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
-        }
-        for (; j < r; ++j) {
-            dkf_real_t t = bl[j];
-            for (i = p - 1; i > l; --i) t -= Lc[i * p + l] * tmp[i * r + j];
-            bl[j] = t * d;
-        }
-    }
+    inl_chol_backward(Lc, inv, tmp, p, r); /* backward (dense) */
     dkf__transpose(Out, tmp, p, r);
 }
 

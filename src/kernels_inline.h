@@ -551,6 +551,38 @@ DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *
     for (i = 0; i < n; ++i) b[i] = (b[i] - inl_dot(L + i * n, b, i)) * inv[i];
 }
 
+/* The backward half of inl_chol_solve: L^T X = W in place for W n x c
+ * (the forward half's result), in its order of terms (also used by a
+ * solve whose forward half skips known zeros, src/diffkf.c). */
+DKF__INLINE void inl_chol_backward(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B,
+                                   size_t n, size_t c)
+{
+    size_t i, j, l;
+    /* backward: L^T X = W; row l of X = (row l of W - sum_{i>l, descending}
+     * L(i,l) X_i) / L(l,l) */
+    for (l = n; l-- > 0;) {
+        dkf_real_t *bl = B + l * c;
+        const dkf_real_t d = inv[l];
+        for (j = 0; j + 4 <= c; j += 4) {
+            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
+            for (i = n - 1; i > l; --i) {
+                const dkf_real_t a = L[i * n + l];
+                const dkf_real_t *bi = B + i * c + j;
+                t0 -= a * bi[0];
+                t1 -= a * bi[1];
+                t2 -= a * bi[2];
+                t3 -= a * bi[3];
+            }
+            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
+        }
+        for (; j < c; ++j) {
+            dkf_real_t t = bl[j];
+            for (i = n - 1; i > l; --i) t -= L[i * n + l] * B[i * c + j];
+            bl[j] = t * d;
+        }
+    }
+}
+
 /* Both substitutions work on 4 columns of B at a time kept in registers
  * (row-major friendly, independent chains), and sum each element's terms
  * in the textbook order (forward: l ascending; backward: i descending),
@@ -582,29 +614,7 @@ DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_
             bi[j] = t * d;
         }
     }
-    /* backward: L^T X = W; row l of X = (row l of W - sum_{i>l, descending}
-     * L(i,l) X_i) / L(l,l) */
-    for (l = n; l-- > 0;) {
-        dkf_real_t *bl = B + l * c;
-        const dkf_real_t d = inv[l];
-        for (j = 0; j + 4 <= c; j += 4) {
-            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
-            for (i = n - 1; i > l; --i) {
-                const dkf_real_t a = L[i * n + l];
-                const dkf_real_t *bi = B + i * c + j;
-                t0 -= a * bi[0];
-                t1 -= a * bi[1];
-                t2 -= a * bi[2];
-                t3 -= a * bi[3];
-            }
-            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
-        }
-        for (; j < c; ++j) {
-            dkf_real_t t = bl[j];
-            for (i = n - 1; i > l; --i) t -= L[i * n + l] * B[i * c + j];
-            bl[j] = t * d;
-        }
-    }
+    inl_chol_backward(L, inv, B, n, c);
 }
 
 #endif /* DKF_KERNELS_INLINE_H */

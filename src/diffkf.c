@@ -1065,7 +1065,7 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
                                      size_t m, size_t p, size_t pk)
 {
     const layout_t *const L = L_;
-    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
+    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM], apy[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
     k_mul_vec(fx, dz, L->Mk, f->xn.data, pk, n);
@@ -1079,6 +1079,13 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
     }
     if (!k_finite(fx, dz, pk) || !k_finite(fx, xf, n) || !k_finite(fx, xn, n))
         return DKF_ERR_NONFINITE;
+    /* A_k^+ y_k, the next step's z term, before anything is committed: an
+     * overflow of finite inputs is NONFINITE with the filter untouched
+     * (fuzz_core_diffkf found it committed as inf) */
+    if (y_next != NULL) {
+        k_mul_vec(fx, apy, L->Ap, y_next->data, p, m);
+        if (!k_finite(fx, apy, p)) return DKF_ERR_NONFINITE;
+    }
 
     /* commit: caches (a one-phase step's), estimates, the step's
      * quantities (pk rows), and the carry */
@@ -1107,7 +1114,7 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
     memcpy(L->ApH, L->ApHn, (p * n) * sizeof(dkf_real_t));
     memcpy(L->ApRAp, L->ApRApn, (p * p) * sizeof(dkf_real_t));
     f->has_y = y_next != NULL;
-    if (y_next != NULL) k_mul_vec(fx, L->Apy, L->Ap, y_next->data, p, m);
+    if (y_next != NULL) memcpy(L->Apy, apy, p * sizeof(dkf_real_t));
     f->k += 1;
     f->pending = 0;
     return DKF_OK;

@@ -110,34 +110,36 @@ int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn
     return 0;
 }
 
-/* steps[j] (of the case at cpath): an object with k = j + 1 and a z, which
- * is returned (its key path in pz); NULL after the message. */
-const json_t *dkf_scn_cases_step_z(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                   const char *cpath, char *pz)
+/* steps[j] (of the case at cpath): an object whose time key tkey ("k",
+ * "t") is j + 1 and whose data key dkey ("z", "y") is returned (its key
+ * path in pd); NULL after the message. */
+const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
+                                 const char *cpath, const char *tkey, const char *dkey, char *pd)
 {
-    const json_t *st = json_array_get(steps, j), *z;
+    const json_t *st = json_array_get(steps, j), *d;
     char p[DKF_SCN_PATH_LEN];
     long k;
     dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
     if (!json_is_object(st)) {
-        dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(st));
+        dkf_scn_fail(c, p, "expected an object {%s, %s}, got %s", tkey, dkey,
+                     dkf_scn_json_kind(st));
         return NULL;
     }
-    dkf_scn_subkey(pz, p, "k");
-    if (json_object_get(st, "k") == NULL) {
-        dkf_scn_fail(c, pz, "missing key");
+    dkf_scn_subkey(pd, p, tkey);
+    if (json_object_get(st, tkey) == NULL) {
+        dkf_scn_fail(c, pd, "missing key");
         return NULL;
     }
-    if (dkf_scn_get_integer(c, json_object_get(st, "k"), pz, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
+    if (dkf_scn_get_integer(c, json_object_get(st, tkey), pd, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
         return NULL;
     if (k != (long)j + 1) {
-        dkf_scn_fail(c, pz, "expected %zu (steps list k = 1..N), got %ld", j + 1, k);
+        dkf_scn_fail(c, pd, "expected %zu (steps list %s = 1..N), got %ld", j + 1, tkey, k);
         return NULL;
     }
-    z = json_object_get(st, "z");
-    dkf_scn_subkey(pz, p, "z");
-    if (z == NULL) dkf_scn_fail(c, pz, "missing key");
-    return z;
+    d = json_object_get(st, dkey);
+    dkf_scn_subkey(pd, p, dkey);
+    if (d == NULL) dkf_scn_fail(c, pd, "missing key");
+    return d;
 }
 
 static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
@@ -153,7 +155,7 @@ static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t 
     for (j = 0; j < N; ++j) {
         const json_t *z;
         const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step_z(c, steps, j, cpath, pz)) == NULL) goto done;
+        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", pz)) == NULL) goto done;
         if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
             dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
                          s->nsensors, dkf_scn_json_kind(z));

@@ -127,7 +127,7 @@ static int measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps
     for (j = 0; j < N; ++j) {
         const json_t *z;
         const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step_z(c, steps, j, cpath, pz)) == NULL) goto done;
+        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", pz)) == NULL) goto done;
         if (s->nl->network && (!json_is_array(z) || json_array_size(z) != s->nsensors)) {
             dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per node), got %s",
                          s->nsensors, dkf_scn_json_kind(z));

@@ -132,13 +132,14 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root,
                        const char *sel);
 int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
 /* The cases layouts' measurements (scn_cases.c): every sensor's y series
- * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and the z
- * of steps[j] after checking that step (an object, k = j + 1; pz: z's key
- * path; NULL after the message). */
+ * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and
+ * steps[j] of the case at cpath checked (an object whose time key tkey,
+ * "k" or "t", is j + 1): its data key dkey ("z", "y") with that key's path
+ * in pd, or NULL after the message (every cases layout's step list). */
 int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
                           const char *cpath);
-const json_t *dkf_scn_cases_step_z(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                   const char *cpath, char *pz);
+const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
+                                 const char *cpath, const char *tkey, const char *dkey, char *pd);
 /* Case cj (at cpath) of a cases file whose case has `model` or
  * `node_models` (the nonlinear cases layout). */
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,

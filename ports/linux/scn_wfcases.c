@@ -167,38 +167,14 @@ static int wf_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *st
                            const char *cpath)
 {
     size_t j, i, N = json_array_size(steps);
-    char p[DKF_SCN_PATH_LEN], pk[DKF_SCN_PATH_LEN], py[DKF_SCN_PATH_LEN];
+    char py[DKF_SCN_PATH_LEN];
     dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
     int rc = -1;
     if (y == NULL) return -1;
     if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
     for (j = 0; j < N; ++j) {
-        const json_t *st = json_array_get(steps, j), *yj;
-        long t;
-        dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
-        if (!json_is_object(st)) {
-            dkf_scn_fail(c, p, "expected an object {t, y}, got %s", dkf_scn_json_kind(st));
-            goto done;
-        }
-        dkf_scn_subkey(pk, p, "t");
-        if (json_object_get(st, "t") == NULL) {
-            dkf_scn_fail(c, pk, "missing key");
-            goto done;
-        }
-        if (dkf_scn_get_integer(c, json_object_get(st, "t"), pk, 0.0, DKF_SCN_MAX_TIME, &t) !=
-            0)
-            goto done;
-        if (t != (long)j + 1) {
-            dkf_scn_fail(c, pk, "expected %zu (steps list t = 1..N), got %ld", j + 1, t);
-            goto done;
-        }
-        dkf_scn_subkey(py, p, "y");
-        yj = json_object_get(st, "y");
-        if (yj == NULL) {
-            dkf_scn_fail(c, py, "missing key (the %zu sensors' measurements at t = %ld)",
-                         s->nsensors, t);
-            goto done;
-        }
+        const json_t *yj = dkf_scn_cases_step(c, steps, j, cpath, "t", "y", py);
+        if (yj == NULL) goto done;
         if (!json_is_array(yj) || json_array_size(yj) != s->nsensors) {
             if (json_is_array(yj))
                 dkf_scn_fail(c, py, "expected a list of %zu measurements (one per sensor, as "
@@ -224,7 +200,7 @@ static int wf_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *st
             st_rc = dkf_scn_store(c, pyi, &y[i], j, v, len);
             free(v);
             if (st_rc != 0) goto done;
-            s->sensors[i].yk[j] = t;
+            s->sensors[i].yk[j] = (long)j + 1; /* t, checked = j + 1 */
         }
     }
     rc = 0;

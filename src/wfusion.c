@@ -587,6 +587,9 @@ dkf_status_t dkf_wfusion_fuse_scalar(dkf_wfusion_t *fu, const dkf_mat_t *const x
             for (a = 0; a < n; ++a) v += L.Hs[a] * dkf__dot(B + a * n * l, L.Hs, n);
             L.PSt[i * l + j] = L.PSt[j * l + i] = v;
         }
+    /* every pair's, not only the present ones': an absent sensor's entry
+     * may overflow, and P_S is a result */
+    if (!dkf__all_finite(L.PSt, l * l)) return DKF_ERR_NONFINITE;
     for (i = 0; i < u; ++i)
         for (j = 0; j < u; ++j) L.Pn[i * u + j] = L.PSt[idx[i] * l + idx[j]];
     DKF_TRY(fuse_weights(&L, u, 1, &unique));

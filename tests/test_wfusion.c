@@ -458,6 +458,24 @@ static void test_errors_untouched(void **state)
         UNTOUCHED(DKF_ERR_NONFINITE, dkf_wfusion_fuse_matrix(&fu, xs));
         UNTOUCHED(DKF_ERR_NONFINITE, dkf_wfusion_fuse_scalar(&fu, xs));
     }
+    /* an absent sensor whose P_S entry overflows (Hs P_44 Hs^T with every
+     * entry of P_44's leading 2 x 2 at DKF_REAL_MAX / 2 and Hs = (1 1 0 0)):
+     * refused, not committed as inf (fuzz_core_wfusion) */
+    {
+        static dkf_real_t pj_keep[NX * NL * NX * NL], hs_keep[NX];
+        const dkf_mat_t *xs[NL] = {&fu.nodes[0].x, &fu.nodes[1].x, NULL, NULL, NULL};
+        const size_t NN = NX * NL;
+        size_t r, c;
+        memcpy(pj_keep, fu.Pj.data, sizeof pj_keep);
+        memcpy(hs_keep, fu.Hs.data, sizeof hs_keep);
+        for (r = 0; r < 2; ++r)
+            for (c = 0; c < 2; ++c) fu.Pj.data[(4 * NX + r) * NN + 4 * NX + c] = DKF_REAL_MAX / 2;
+        fu.Hs.data[0] = fu.Hs.data[1] = 1;
+        fu.Hs.data[2] = fu.Hs.data[3] = 0;
+        UNTOUCHED(DKF_ERR_NONFINITE, dkf_wfusion_fuse_scalar(&fu, xs));
+        memcpy(fu.Pj.data, pj_keep, sizeof pj_keep);
+        memcpy(fu.Hs.data, hs_keep, sizeof hs_keep);
+    }
     /* a pair whose cross covariance makes the joint covariance indefinite:
      * P_01 = P_10 = 3 P_00 (|corr| > 1) */
     for (i = 0; i < NX; ++i) {

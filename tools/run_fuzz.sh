@@ -87,6 +87,11 @@ for n in "${names[@]}"; do
   else
     printf 'fuzz: %-24s FAIL  exit %s, input %s (log %s)\n' "$n" "$rc" "${crash:-none}" "$log"
     grep -m1 -E 'ERROR: |runtime error|property broken|deadly signal' "$log" | sed 's/^/      /'
+    # the input itself, so a failure on another machine can be replayed here
+    # (echo ... | base64 -d > crash; build/fuzz/fuzz/fuzz_<name> crash)
+    if [[ -n "$crash" && -f "$crash" ]] && (( $(stat -c %s "$crash") <= 4096 )); then
+      echo "      input (base64): $(base64 -w0 "$crash")"
+    fi
     fail=$((fail + 1))
   fi
   if [[ "${FUZZ_MERGE:-0}" == 1 ]] && (( rc == 0 )); then

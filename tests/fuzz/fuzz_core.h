@@ -18,13 +18,19 @@
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "dkf/mat.h"
 
+/* A broken property names itself in the log (run_fuzz.sh greps
+ * "property broken"), then traps: libFuzzer keeps the input. */
 #define FZ_CHECK(cond) \
     do { \
-        if (!(cond)) __builtin_trap(); \
+        if (!(cond)) { \
+            fprintf(stderr, "property broken: %s:%d: %s\n", __FILE__, __LINE__, #cond); \
+            __builtin_trap(); \
+        } \
     } while (0)
 
 /* ---- bytes ------------------------------------------------------------------ */

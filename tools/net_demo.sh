@@ -106,7 +106,7 @@ import json, sys
 import numpy as np
 mode, rate, out = sys.argv[1], sys.argv[2], sys.argv[3]
 ok = True
-rows = []
+rows, parts = [], []
 for e in sys.argv[4:]:
     tag, scn = e.split(":", 1)
     s = json.load(open(scn))
@@ -132,6 +132,9 @@ for e in sys.argv[4:]:
     ok &= good
     rows.append((tag, len(s["model"]["sensors"]), N, rmse(f["xf"]), rmse(ce["xf"]), dmax,
                  sent, lost, rej, degraded, p50, p99, "ok" if good else "FAIL"))
+    lp = fu["latency_us"]["last_parts"]
+    parts.append((tag, [("last", fu["latency_us"]["last"])] + [(w, lp[w]) for w in
+                                                              ("arrive", "wait", "compute", "publish")]))
 print()
 print(f"transport: {'udpm://239.255.76.67:7667?ttl=0 in a private network namespace' if mode == 'udpm' else 'memq:// (one process)'}"
       + (f", dkf-sim --rate {rate}" if mode == "udpm" else ""))
@@ -145,6 +148,20 @@ print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, P
       " sent/lost/rejected count node messages at the fusion centre; degraded: steps not"
       " complete in the end (docs/network.md, Faults);"
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
+print()
+print("where the latency goes, p50 / p99 in us over the steps (docs/network.md, 'Where the latency goes'):")
+print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][1]))
+for tag, cols in parts:
+    cells = []
+    for w, v in cols:
+        a = np.array([x for x in v if x >= 0], dtype=float)
+        shown = w == "compute" or mode == "udpm"
+        cells.append(f"{np.percentile(a, 50):>9.0f} /{np.percentile(a, 99):>7.0f}"
+                     if shown and len(a) else f"{'-':>18}")
+    print(f"{tag:<9}" + "".join(cells))
+print("(last: the step's newest measurement -> fused publication = arrive + wait + compute + publish;"
+      " arrive: -> its node message at the centre (the node's wake-up and step, two LCM hops);"
+      " wait: -> the centre starts the step; compute: the fusion-centre step itself)")
 sys.exit(0 if ok else 1)
 PY
 

@@ -11,11 +11,14 @@
  * replays every step since with the data now known, which gives exactly what
  * the centre would have computed had the payload been on time.
  */
+#define _POSIX_C_SOURCE 200112L /* clock_gettime */
+
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "fc_runtime.h"
 
@@ -67,6 +70,7 @@ typedef struct {
     int *degraded, *first_degraded, *revisions;
     unsigned char *contributed, *first_contributed;
     int64_t *lat_first, *lat_last;
+    int64_t *t_arrive, *t_wait, *t_compute, *t_publish; /* N: lat_last's parts (-1) */
 } record_t;
 
 struct dkf_fcr {
@@ -88,6 +92,7 @@ struct dkf_fcr {
     long join_k;                  /* first step fused from data (steps before it were
                                      skipped: a centre started or restarted mid-run) */
     int64_t first_recv, newest_recv; /* arrival of the first and the newest message */
+    int64_t comp_begin, comp_end; /* wall clock around the last ops->step */
     int64_t done_mono;            /* when step done_k was first published (monotonic):
                                      step done_k + 1 opens then at the latest */
     record_t rec;
@@ -103,6 +108,15 @@ void dkf_fcr_notef(dkf_fcr_t *rt, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(rt->note, sizeof rt->note, fmt, ap);
     va_end(ap);
+}
+
+/* Wall clock, us (the clock of the time stamps in messages): only recorded,
+ * never used to decide anything. */
+static int64_t wall_us(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_REALTIME, &ts) != 0) return 0;
+    return (int64_t)ts.tv_sec * 1000000 + ts.tv_nsec / 1000;
 }
 
 static size_t round_up(size_t v) { return (v + ALIGN - 1) / ALIGN * ALIGN; }
@@ -292,7 +306,9 @@ static int compute_step(dkf_fcr_t *rt, long k)
         rt->in[i] = payload(rt, i, k) != NULL ? slot_bytes(rt, i, k) : NULL;
         rt->contrib[i] = 0;
     }
+    rt->comp_begin = wall_us();
     refused = rt->ops->step(rt->user, k, rt->in, rt->contrib);
+    rt->comp_end = wall_us();
     if (refused < 0) return -1;
     rt->c.core_masked += refused;
     for (i = 0; i < l; ++i) rt->contrib[i] = rt->contrib[i] != 0 && rt->in[i] != NULL;
@@ -324,6 +340,19 @@ static void step_view(const dkf_fcr_t *rt, long k, dkf_fcr_step_t *st)
     }
 }
 
+/* Step j's first publication at utime split into the parts of lat_last
+ * (docs/network.md, "Where the latency goes"): the last contributing
+ * measurement to its node message's arrival, arrival to the step's
+ * computation, the computation, and its end to the publication. */
+static void record_parts(dkf_fcr_t *rt, size_t j, const dkf_fcr_step_t *st, int64_t utime)
+{
+    const int known = st->meas_utime_last != 0 && st->recv_utime_last != 0 && utime != 0;
+    rt->rec.t_arrive[j] = known ? st->recv_utime_last - st->meas_utime_last : -1;
+    rt->rec.t_wait[j] = known ? rt->comp_begin - st->recv_utime_last : -1;
+    rt->rec.t_compute[j] = rt->comp_end - rt->comp_begin;
+    rt->rec.t_publish[j] = utime != 0 ? utime - rt->comp_end : -1;
+}
+
 /* Publishes (from the join on) and records the step just computed. */
 static void emit_step(dkf_fcr_t *rt, long k)
 {
@@ -339,6 +368,7 @@ static void emit_step(dkf_fcr_t *rt, long k)
             memcpy(rt->rec.first_contributed + j * l, st.contributed, l);
             rt->rec.lat_first[j] = st.meas_utime_first ? utime - st.meas_utime_first : -1;
             rt->rec.lat_last[j] = st.meas_utime_last ? utime - st.meas_utime_last : -1;
+            record_parts(rt, j, &st, utime);
             if (st.degraded) ++rt->c.missed;
         } else {
             ++rt->c.revised_sent;
@@ -612,8 +642,13 @@ static int rec_alloc(record_t *r, size_t N, size_t l)
     r->first_contributed = calloc(N * l, 1);
     r->lat_first = calloc(N, sizeof(int64_t));
     r->lat_last = calloc(N, sizeof(int64_t));
+    r->t_arrive = calloc(N, sizeof(int64_t));
+    r->t_wait = calloc(N, sizeof(int64_t));
+    r->t_compute = calloc(N, sizeof(int64_t));
+    r->t_publish = calloc(N, sizeof(int64_t));
     return r->degraded && r->first_degraded && r->revisions && r->contributed &&
-                   r->first_contributed && r->lat_first && r->lat_last
+                   r->first_contributed && r->lat_first && r->lat_last && r->t_arrive &&
+                   r->t_wait && r->t_compute && r->t_publish
                ? 0
                : -1;
 }
@@ -664,6 +699,10 @@ dkf_fcr_t *dkf_fcr_create(const dkf_fcr_config_t *cfg, const dkf_fcr_ops_t *ops,
     rt->steps.first_contributed = rt->rec.first_contributed;
     rt->steps.lat_first = rt->rec.lat_first;
     rt->steps.lat_last = rt->rec.lat_last;
+    rt->steps.t_arrive = rt->rec.t_arrive;
+    rt->steps.t_wait = rt->rec.t_wait;
+    rt->steps.t_compute = rt->rec.t_compute;
+    rt->steps.t_publish = rt->rec.t_publish;
     save_ckpt(rt, 0); /* the state before step 1 */
     return rt;
 }
@@ -683,6 +722,10 @@ void dkf_fcr_free(dkf_fcr_t *rt)
     free(rt->rec.first_contributed);
     free(rt->rec.lat_first);
     free(rt->rec.lat_last);
+    free(rt->rec.t_arrive);
+    free(rt->rec.t_wait);
+    free(rt->rec.t_compute);
+    free(rt->rec.t_publish);
     free(rt);
 }
 

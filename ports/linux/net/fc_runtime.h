@@ -140,6 +140,10 @@ typedef struct {
     const unsigned char *contributed;       /* N x l: latest */
     const unsigned char *first_contributed; /* N x l: at the first publication */
     const int64_t *lat_first, *lat_last;    /* N: publication - meas_utime_first/last (-1) */
+    /* N: lat_last in parts, at the first publication (-1: unknown): the last
+     * contributing measurement to its message's arrival, the arrival to the
+     * computation, the computation (ops->step), its end to the publication */
+    const int64_t *t_arrive, *t_wait, *t_compute, *t_publish;
 } dkf_fcr_steps_t;
 
 /* An epoch a node's message announced. */

@@ -120,15 +120,23 @@ static json_t *json_counters(const dkf_fcr_t *rt, size_t l, const dkf_fcr_doc_in
     return counts;
 }
 
+static json_t *json_i64s(const int64_t *v, size_t len)
+{
+    json_t *a = json_array();
+    size_t j;
+    for (j = 0; j < len; ++j) json_array_append_new(a, json_integer((json_int_t)v[j]));
+    return a;
+}
+
 json_t *dkf_fcr_result_doc(const dkf_fcr_t *rt, const dkf_fcr_doc_info_t *info, json_t *outputs)
 {
     const dkf_fcr_steps_t *r = dkf_fcr_steps(rt);
     const size_t K = (size_t)dkf_fcr_done_k(rt);
     size_t l, j;
     json_t *doc = json_object(), *ks = json_array(), *status = json_array();
-    json_t *contrib = json_array(), *lf = json_array(), *ll = json_array();
+    json_t *contrib = json_array();
     json_t *fstatus = json_array(), *fcontrib = json_array(), *revs = json_array();
-    json_t *lat = json_object();
+    json_t *lat = json_object(), *parts = json_object();
     int64_t degraded = 0, revised = 0;
     l = dkf_fcr_config(rt)->nodes;
     for (j = 0; j < K; ++j) {
@@ -139,13 +147,16 @@ json_t *dkf_fcr_result_doc(const dkf_fcr_t *rt, const dkf_fcr_doc_info_t *info, 
         json_array_append_new(contrib, json_nodes(r->contributed + j * l, l));
         json_array_append_new(fcontrib, json_nodes(r->first_contributed + j * l, l));
         json_array_append_new(revs, json_integer((json_int_t)r->revisions[j]));
-        json_array_append_new(lf, json_integer((json_int_t)r->lat_first[j]));
-        json_array_append_new(ll, json_integer((json_int_t)r->lat_last[j]));
         degraded += r->degraded[j];
         revised += r->revisions[j] > 0;
     }
-    json_object_set_new(lat, "first", lf);
-    json_object_set_new(lat, "last", ll);
+    json_object_set_new(lat, "first", json_i64s(r->lat_first, K));
+    json_object_set_new(lat, "last", json_i64s(r->lat_last, K));
+    json_object_set_new(parts, "arrive", json_i64s(r->t_arrive, K));
+    json_object_set_new(parts, "wait", json_i64s(r->t_wait, K));
+    json_object_set_new(parts, "compute", json_i64s(r->t_compute, K));
+    json_object_set_new(parts, "publish", json_i64s(r->t_publish, K));
+    json_object_set_new(lat, "last_parts", parts);
     json_object_set_new(doc, "scenario", json_string(info->scenario));
     json_object_set_new(doc, "real", json_string(DKF_USE_FLOAT ? "float" : "double"));
     set_model_id(doc, info->model_id);

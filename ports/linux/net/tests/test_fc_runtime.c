@@ -233,6 +233,33 @@ static void test_fcr_complete_in_order(void **state)
     dkf_fcr_free(rt);
 }
 
+/* lat_last in parts: arrival - measurement (10 us in send_msg), the wait
+ * and the computation on the wall clock, and the publication stamp: they
+ * add up to lat_last exactly; without a publication stamp the parts that
+ * need it are -1 (unknown), the computation is still measured. */
+static void test_fcr_latency_parts(void **state)
+{
+    toy_t t;
+    dkf_fcr_t *rt = open_rt(&t);
+    const dkf_fcr_steps_t *r = dkf_fcr_steps(rt);
+    long i;
+    (void)state;
+    t.utime = T(1) + 500;
+    for (i = 0; i < L; ++i) assert_int_equal(send_msg(rt, i, 1, 0, 1, 1, T(1), T(1)), 0);
+    t.utime = 0;
+    for (i = 0; i < L; ++i) assert_int_equal(send_msg(rt, i, 2, 0, 1, 1, T(2), T(2)), 0);
+    assert_int_equal(dkf_fcr_done_k(rt), 2);
+    assert_int_equal(r->lat_last[0], 510);
+    assert_int_equal(r->t_arrive[0], 10);
+    assert_true(r->t_compute[0] >= 0);
+    assert_int_equal(r->t_arrive[0] + r->t_wait[0] + r->t_compute[0] + r->t_publish[0], 510);
+    assert_int_equal(r->t_arrive[1], -1);
+    assert_int_equal(r->t_wait[1], -1);
+    assert_int_equal(r->t_publish[1], -1);
+    assert_true(r->t_compute[1] >= 0);
+    dkf_fcr_free(rt);
+}
+
 /* Every message of node 1 twice, and node 2's messages of even steps held
  * back until after the next one (its copy arrives first). Nothing changes
  * in the result; the extra copies are counted as duplicates, the reordered
@@ -586,6 +613,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fcr_complete_in_order),
+        cmocka_unit_test(test_fcr_latency_parts),
         cmocka_unit_test(test_fcr_duplicates_and_reorder),
         cmocka_unit_test(test_fcr_late_within_and_outside_window),
         cmocka_unit_test(test_fcr_silent_node),

@@ -82,20 +82,19 @@ static int cb_h(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
     return value(m, m->ops->h, x, d, z, m->m, "g");
 }
 
-/* The Jacobians' two blocks (r x n, r x p) through two DKF_MAX_DIM^2
- * double arrays on the stack (36 KiB at most; host only). */
+/* The Jacobians' two blocks (r x n, r x p) through the model's double
+ * scratch (jac_a, jac_b, sized at load). */
 typedef int (*jac_fn)(dkf_nlm_t *m, const double *x, const double *d, double *J1, double *J2);
 
 static int jac(dkf_nlm_t *m, jac_fn fn, size_t rows, const dkf_real_t *x, const dkf_real_t *d,
                dkf_real_t *J1, dkf_real_t *J2, const char *n1, const char *n2)
 {
     double xd[DKF_MAX_DIM], dd[DKF_MAX_DIM];
-    double a[DKF_MAX_DIM * DKF_MAX_DIM], b[DKF_MAX_DIM * DKF_MAX_DIM];
     to_double(xd, x, m->n);
     to_double(dd, d, m->p);
-    if (fn(m, xd, dd, a, b) != 0) return -1;
-    if (to_real(m, J1, a, rows * m->n, n1) != 0) return -1;
-    return m->p == 0 ? 0 : to_real(m, J2, b, rows * m->p, n2);
+    if (fn(m, xd, dd, m->jac_a, m->jac_b) != 0) return -1;
+    if (to_real(m, J1, m->jac_a, rows * m->n, n1) != 0) return -1;
+    return m->p == 0 ? 0 : to_real(m, J2, m->jac_b, rows * m->p, n2);
 }
 
 static int cb_f_jac(void *ctx, size_t k, const dkf_real_t *x, const dkf_real_t *d,
@@ -197,7 +196,17 @@ void dkf_nlm_free(dkf_nlm_t *m)
     free(m->Q);
     free(m->R);
     free(m->path);
+    free(m->jac_a);
+    free(m->jac_b);
     free(m);
+}
+
+static int alloc_jac(dkf_nlm_t *m)
+{
+    const size_t rows = m->n > m->m ? m->n : m->m;
+    m->jac_a = calloc(rows * m->n, sizeof(double));
+    m->jac_b = calloc(rows * (m->p > 0 ? m->p : 1), sizeof(double));
+    return m->jac_a != NULL && m->jac_b != NULL ? 0 : -1;
 }
 
 static void bind_table(dkf_nlm_t *m)
@@ -272,6 +281,7 @@ dkf_nlm_t *dkf_nlm_load(const json_t *j, const char *file, const char *path, siz
     if (rc == 0 && angles != NULL) rc = parse_angles(&c, m, angles, pk);
     if (rc == 0) rc = square_matrix(&c, j, path, "Q", n, 1, &m->Q);
     if (rc == 0) rc = square_matrix(&c, j, path, "R", m->m, m->R == NULL, &m->R);
+    if (rc == 0 && alloc_jac(m) != 0) rc = dkf_scn_fail(&c, NULL, "out of memory");
     if (rc != 0) {
         dkf_nlm_free(m);
         return NULL;

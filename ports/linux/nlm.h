@@ -63,6 +63,7 @@ struct dkf_nlm {
     const dkf_nlm_ops_t *ops;
     void *impl;            /* the source's own data */
     char failure[256];     /* the last callback failure, "" if none */
+    double *jac_a, *jac_b; /* the Jacobians' blocks in double: max(n, m) x n, x max(p, 1) */
 };
 
 struct dkf_scn_ctx; /* scn_parse.h */

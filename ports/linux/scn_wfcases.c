@@ -19,6 +19,7 @@
  * Detected (scn_cases.c) by the case keys Phi, Gamma, Qe and H_signal.
  */
 #include "scn_parse.h"
+#include "util.h"
 
 #include <float.h>
 #include <math.h>
@@ -56,21 +57,14 @@ static dkf_scn_mat_t *wf_matrix(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const jso
 static int check_pd(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
                     const char *what)
 {
-    double L[DKF_MAX_DIM * DKF_MAX_DIM];
-    size_t i, j, k;
-    for (j = 0; j < n; ++j) {
-        double d = a[j * n + j];
-        for (k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k];
-        if (!(d > 0.0) || !isfinite(d))
-            return dkf_scn_fail(c, path, "not positive definite (%s): Cholesky pivot %zu is "
-                                "%.3g", what, j, d);
-        L[j * n + j] = sqrt(d);
-        for (i = j + 1; i < n; ++i) {
-            double e = a[i * n + j];
-            for (k = 0; k < j; ++k) e -= L[i * n + k] * L[j * n + k];
-            L[i * n + j] = e / L[j * n + j];
-        }
-    }
+    double *L = calloc(n * n, sizeof *L), d = 0;
+    size_t bad;
+    if (L == NULL) return dkf_scn_fail(c, NULL, "out of memory");
+    bad = dkf_chol_double(a, n, L, &d);
+    free(L);
+    if (bad < n)
+        return dkf_scn_fail(c, path, "not positive definite (%s): Cholesky pivot %zu is %.3g",
+                            what, bad, d);
     return 0;
 }
 

@@ -252,27 +252,23 @@ static void record_nodes(json_t *series, int alg, const dkf_tw_node_t *nodes, si
 /* e^T P^-1 e by a double Cholesky of P (n <= DKF_MAX_DIM); NaN if P is not PD. */
 static double nees(const dkf_tw_node_t *nd, const double *xt)
 {
-    double L[DKF_MAX_DIM * DKF_MAX_DIM], v[DKF_MAX_DIM], q = 0;
     const size_t n = nd->n;
-    size_t i, j, k;
-    for (i = 0; i < n; ++i) {
-        for (j = 0; j <= i; ++j) {
-            double sm = (double)nd->P.data[i * n + j];
-            for (k = 0; k < j; ++k) sm -= L[i * n + k] * L[j * n + k];
-            if (i == j) {
-                if (!(sm > 0)) return NAN;
-                L[i * n + i] = sqrt(sm);
-            } else {
-                L[i * n + j] = sm / L[j * n + j];
-            }
-        }
+    double *Pd = malloc(2 * n * n * sizeof *Pd), *L = Pd + n * n, v, q = 0;
+    size_t i, k;
+    if (Pd == NULL) return NAN;
+    for (i = 0; i < n * n; ++i) Pd[i] = (double)nd->P.data[i];
+    if (dkf_chol_double(Pd, n, L, NULL) < n) {
+        free(Pd);
+        return NAN;
     }
-    for (i = 0; i < n; ++i) { /* L v = e */
+    for (i = 0; i < n; ++i) { /* L v = e, v over the rows of Pd (done with) */
         double sm = (double)nd->x.data[i] - xt[i];
-        for (k = 0; k < i; ++k) sm -= L[i * n + k] * v[k];
-        v[i] = sm / L[i * n + i];
-        q += v[i] * v[i];
+        for (k = 0; k < i; ++k) sm -= L[i * n + k] * Pd[k];
+        v = sm / L[i * n + i];
+        Pd[i] = v;
+        q += v * v;
     }
+    free(Pd);
     return q;
 }
 

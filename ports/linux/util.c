@@ -3,6 +3,7 @@
  */
 #include "util.h"
 
+#include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
@@ -100,4 +101,24 @@ uint64_t dkf_fnv1a_doubles(uint64_t h, const double *v, size_t n)
         h = dkf_fnv1a_u64(h, bits);
     }
     return h;
+}
+
+size_t dkf_chol_double(const double *a, size_t n, double *L, double *pivot)
+{
+    size_t i, j, k;
+    for (j = 0; j < n; ++j) {
+        double d = a[j * n + j];
+        for (k = 0; k < j; ++k) d -= L[j * n + k] * L[j * n + k];
+        if (!(d > 0.0) || !isfinite(d)) {
+            if (pivot != NULL) *pivot = d;
+            return j;
+        }
+        L[j * n + j] = sqrt(d);
+        for (i = j + 1; i < n; ++i) {
+            double e = a[i * n + j];
+            for (k = 0; k < j; ++k) e -= L[i * n + k] * L[j * n + k];
+            L[i * n + j] = e / L[j * n + j];
+        }
+    }
+    return n;
 }

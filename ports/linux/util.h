@@ -52,4 +52,11 @@ void dkf_json_place(json_t *outs, const char *name, json_t *value);
 uint64_t dkf_fnv1a_u64(uint64_t h, uint64_t v);
 uint64_t dkf_fnv1a_doubles(uint64_t h, const double *v, size_t n);
 
+/* Cholesky in double: L (n x n, row-major, lower; the rest untouched)
+ * with L L^T = a (symmetric, row-major; its lower triangle read). n, or
+ * the index of the first pivot that is not a finite positive number (its
+ * value in *pivot). Each L_ij = (a_ij - sum_{k<j} L_ik L_jk) / L_jj, k
+ * ascending. */
+size_t dkf_chol_double(const double *a, size_t n, double *L, double *pivot);
+
 #endif /* DKF_HOST_UTIL_H */

@@ -28,7 +28,7 @@ def rand_full_rank(rng, rows, cols, smin=0.3):
             return a / s.max() * 1.5
 
 
-def make(nodes, steps, seed):
+def make(nodes, steps, seed, max_dim=48):
     rng = np.random.default_rng(seed)
     T = 1.0
     F = np.kron(np.eye(2), np.array([[1.0, T], [0.0, 1.0]]))
@@ -49,8 +49,9 @@ def make(nodes, steps, seed):
         sensors.append(dict(H=H, A=A, R=R, B=B, Rd=Rd))
         ms.append(m)
         ps.append(p)
-    if sum(ms) > 48 or sum(ps) > 48:
-        raise SystemExit("stacked dimensions exceed DKF_MAX_DIM = 48")
+    if sum(ms) > max_dim or sum(ps) > max_dim:
+        raise SystemExit(f"stacked dimensions (sum m_i = {sum(ms)}, sum p_i = {sum(ps)}) exceed"
+                         f" --max-dim {max_dim} (the DKF_MAX_DIM of the build that runs it)")
     x00 = np.array([0.0, 1.0, 0.0, 0.5])
     P00 = np.diag([4.0, 1.0, 4.0, 1.0])
     # simulate k = 0..N+1
@@ -88,12 +89,14 @@ def main():
     ap.add_argument("--nodes", type=int, default=12)
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--seed", type=int, default=12)
+    ap.add_argument("--max-dim", type=int, default=48,
+                    help="DKF_MAX_DIM of the build that will run it (default 48)")
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
-    if not 1 <= a.nodes <= 24 or a.steps < 1:
-        print("make_net_scenario.py: --nodes must be 1..24 and --steps >= 1", file=sys.stderr)
+    if not 1 <= a.nodes <= 256 or a.steps < 1:
+        print("make_net_scenario.py: --nodes must be 1..256 and --steps >= 1", file=sys.stderr)
         return 2
-    doc = make(a.nodes, a.steps, a.seed)
+    doc = make(a.nodes, a.steps, a.seed, a.max_dim)
     with open(a.out, "w") as f:
         json.dump(doc, f, separators=(",", ":"))
         f.write("\n")

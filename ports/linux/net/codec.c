@@ -174,20 +174,20 @@ WIRE_GLUE(tw_packet_t)
 static const wire_field_t node_msg_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},                                     /* seq meas_utime */
-    {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}, {W_F64S, 0, 0, 0},     /* n xf xp */
+    {W_COUNT, 0, 1, DKF_NET_MAX_VEC}, {W_F64S, 0, 0, 0}, {W_F64S, 0, 0, 0},     /* n xf xp */
     {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_BOOL, 0, 0, 0}, {W_I32, 0, 0, 0}, /* epoch k_start has_prev prev_k */
     {W_F64S, 0, 0, 0}, {W_F64S, 0, 0, 0}};                                  /* prev_xf prev_xp */
 static const wire_field_t measurement_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I32, 0, 0, 0}, /* utime model_id node k */
-    {W_I64, 0, 0, 0}, {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}};     /* seq m y */
+    {W_I64, 0, 0, 0}, {W_COUNT, 0, 1, DKF_NET_MAX_VEC}, {W_F64S, 0, 0, 0}};     /* seq m y */
 static const wire_field_t truth_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I64, 0, 0, 0}, /* utime model_id k seq */
-    {W_COUNT, 0, 1, DKF_MAX_DIM}, {W_F64S, 0, 0, 0}};                       /* n x */
+    {W_COUNT, 0, 1, DKF_NET_MAX_VEC}, {W_F64S, 0, 0, 0}};                       /* n x */
 static const wire_field_t fused_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I32, 0, 0, 0}, {W_I64, 0, 0, 0}, /* utime model_id k seq */
     {W_I8, 0, 0, 0}, {W_COUNT, 0, 1, DKF_NET_MAX_NODES}, {W_BOOLS, 0, 0, 0}, /* status nnodes contributed */
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0},                   /* meas_utime_first/last msg_utime_last */
-    {W_COUNT, 1, 1, DKF_MAX_DIM}, {W_F64S, 1, 0, 0}, {W_F64S, 1, 0, 0},     /* n xf xp */
+    {W_COUNT, 1, 1, DKF_NET_MAX_VEC}, {W_F64S, 1, 0, 0}, {W_F64S, 1, 0, 0},     /* n xf xp */
     {W_F64SQ, 1, 0, 0}, {W_F64SQ, 1, 0, 0}, {W_I32, 0, 0, 0}};              /* Pf Pp revision */
 static const wire_field_t status_fields[] = {
     {W_I64, 0, 0, 0}, {W_I64, 0, 0, 0}, {W_I8, 0, 0, 0}, {W_I32, 0, 0, 0},  /* utime model_id role id */
@@ -265,10 +265,10 @@ static int encoded(int r, size_t *len)
 int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf_msg_t *msg,
                             const dkf_diffkf_msg_t *prev, const dkf_net_meta_t *meta)
 {
-    double xf[DKF_MAX_DIM], xp[DKF_MAX_DIM], pf[DKF_MAX_DIM], pp[DKF_MAX_DIM];
+    double xf[DKF_NET_MAX_VEC], xp[DKF_NET_MAX_VEC], pf[DKF_NET_MAX_VEC], pp[DKF_NET_MAX_VEC];
     dkf_lcm_node_msg_t w;
     size_t i;
-    if (msg->n == 0 || msg->n > DKF_MAX_DIM || cap > 0x7fffffff) return -1;
+    if (msg->n == 0 || msg->n > DKF_NET_MAX_VEC || cap > 0x7fffffff) return -1;
     if (meta->has_prev && (prev == NULL || prev->n != msg->n)) return -1;
     for (i = 0; i < msg->n; ++i) {
         xf[i] = (double)msg->xf[i];
@@ -354,7 +354,7 @@ dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
 int dkf_net_encode_meas(void *buf, size_t cap, size_t *len, const dkf_net_meas_t *meas)
 {
     dkf_lcm_measurement_t w;
-    if (meas->m == 0 || meas->m > DKF_MAX_DIM || cap > 0x7fffffff) return -1;
+    if (meas->m == 0 || meas->m > DKF_NET_MAX_VEC || cap > 0x7fffffff) return -1;
     w.utime = meas->meta.utime;
     w.model_id = meas->meta.model_id;
     w.node = (int32_t)meas->node;
@@ -397,7 +397,7 @@ dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net
 int dkf_net_encode_truth(void *buf, size_t cap, size_t *len, const dkf_net_truth_t *t)
 {
     dkf_lcm_truth_t w;
-    if (t->n == 0 || t->n > DKF_MAX_DIM || cap > 0x7fffffff) return -1;
+    if (t->n == 0 || t->n > DKF_NET_MAX_VEC || cap > 0x7fffffff) return -1;
     w.utime = t->meta.utime;
     w.model_id = t->meta.model_id;
     w.k = (int32_t)t->k;
@@ -440,7 +440,7 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
     dkf_lcm_fused_t w;
     int8_t contributed[DKF_NET_MAX_NODES];
     size_t i;
-    if (f->n == 0 || f->n > DKF_MAX_DIM || f->nnodes == 0 || f->nnodes > DKF_NET_MAX_NODES ||
+    if (f->n == 0 || f->n > DKF_NET_MAX_VEC || f->nnodes == 0 || f->nnodes > DKF_NET_MAX_NODES ||
         cap > 0x7fffffff)
         return -1;
     for (i = 0; i < f->nnodes; ++i) contributed[i] = f->contributed[i] ? 1 : 0;
@@ -460,7 +460,7 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
     w.revision = (int32_t)f->revision;
     /* LCM's double[n][n] is an array of row pointers */
     {
-        double *pf[DKF_MAX_DIM], *pp[DKF_MAX_DIM];
+        double *pf[DKF_NET_MAX_VEC], *pp[DKF_NET_MAX_VEC];
         for (i = 0; i < f->n; ++i) {
             pf[i] = (double *)f->Pf + i * f->n;
             pp[i] = (double *)f->Pp + i * f->n;

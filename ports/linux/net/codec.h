@@ -8,7 +8,7 @@
  * checks, in this order, and returns the first verdict that fails:
  *   MALFORMED  truncated bytes, trailing bytes, wrong type fingerprint,
  *              an array length outside the protocol's range (n, m in
- *              1..DKF_MAX_DIM, nnodes in 1..DKF_NET_MAX_NODES, a status
+ *              1..DKF_NET_MAX_VEC, nnodes in 1..DKF_NET_MAX_NODES, a status
  *              detail of 1..4096 bytes with its NUL last, a graph-filter
  *              packet of 0..DKF_NET_TW_MAX_LEN reals) or one the datagram
  *              does not hold, negative epoch, a flag (boolean) not 0/1
@@ -36,11 +36,17 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/tw.h"
 
-/* Largest number of nodes a fused message can name (stacked dimensions
- * sum m_i <= DKF_MAX_DIM bound it well below this). */
-#define DKF_NET_MAX_NODES 64
+/* Largest number of nodes a network can have (a fused message names each;
+ * a DKF network's stacked sum m_i <= DKF_MAX_DIM bounds it too). */
+#define DKF_NET_MAX_NODES 256
+/* Largest vector a message carries (a state n, a measurement m_i, a graph
+ * node's state): the core's DKF_MAX_DIM, at most 64. A host build with a
+ * large DKF_MAX_DIM for a big fusion centre (docs/decisions.md, item 23)
+ * keeps the messages and their buffers the size of one node's vectors. */
+#define DKF_NET_MAX_VEC (DKF_MAX_DIM < 64 ? DKF_MAX_DIM : 64)
 /* Largest encoded message of any type (fused: 4 + 2n + 2n^2 doubles). */
-#define DKF_NET_MAX_MSG (128 + DKF_NET_MAX_NODES + 8 * (2 * DKF_MAX_DIM + 2 * DKF_MAX_DIM * DKF_MAX_DIM))
+#define DKF_NET_MAX_MSG \
+    (128 + DKF_NET_MAX_NODES + 8 * (2 * DKF_NET_MAX_VEC + 2 * DKF_NET_MAX_VEC * DKF_NET_MAX_VEC))
 
 typedef enum {
     DKF_NET_ACCEPT = 0,
@@ -88,7 +94,7 @@ typedef struct {
     size_t node;
     long k;
     size_t m;
-    double y[DKF_MAX_DIM];
+    double y[DKF_NET_MAX_VEC];
 } dkf_net_meas_t;
 
 /* The simulated truth. */
@@ -96,7 +102,7 @@ typedef struct {
     dkf_net_meta_t meta;
     long k;
     size_t n;
-    double x[DKF_MAX_DIM];
+    double x[DKF_NET_MAX_VEC];
 } dkf_net_truth_t;
 
 /* A fused estimate (host doubles; matrices row-major n x n). */
@@ -109,8 +115,8 @@ typedef struct {
     unsigned char contributed[DKF_NET_MAX_NODES];
     int64_t meas_utime_first, meas_utime_last, msg_utime_last;
     size_t n;
-    double xf[DKF_MAX_DIM], xp[DKF_MAX_DIM];
-    double Pf[DKF_MAX_DIM * DKF_MAX_DIM], Pp[DKF_MAX_DIM * DKF_MAX_DIM];
+    double xf[DKF_NET_MAX_VEC], xp[DKF_NET_MAX_VEC];
+    double Pf[DKF_NET_MAX_VEC * DKF_NET_MAX_VEC], Pp[DKF_NET_MAX_VEC * DKF_NET_MAX_VEC];
 } dkf_net_fused_t;
 
 /* Process status / heartbeat (lcmtypes/status_t.lcm). */
@@ -159,7 +165,7 @@ dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_sta
  * information pair), EST (an estimate) or DONE (the node's last step is
  * over; no reals). */
 enum { DKF_TW_KIND_INFO = 0, DKF_TW_KIND_EST = 1, DKF_TW_KIND_DONE = 2 };
-#define DKF_NET_TW_MAX_LEN DKF_TW_PKT_LEN(DKF_MAX_DIM)
+#define DKF_NET_TW_MAX_LEN DKF_TW_PKT_LEN(DKF_NET_MAX_VEC)
 typedef struct {
     int64_t utime, model_id;
     long node, k, round;

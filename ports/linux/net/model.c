@@ -11,6 +11,24 @@
 #include "registry.h"
 #include "util.h"
 
+/* The state and every sensor's measurement fit a message (DKF_NET_MAX_VEC). */
+static int vectors_fit(const dkf_scenario_t *s, char *err, size_t errlen)
+{
+    size_t i;
+    if (s->n > DKF_NET_MAX_VEC) {
+        snprintf(err, errlen, "%s: a state of n = %zu: network messages carry at most %d",
+                 s->file, s->n, DKF_NET_MAX_VEC);
+        return -1;
+    }
+    for (i = 0; i < s->nsensors; ++i)
+        if (s->sensors[i].m > DKF_NET_MAX_VEC) {
+            snprintf(err, errlen, "%s: sensor %zu: m = %zu: network messages carry at most %d",
+                     s->file, i, s->sensors[i].m, DKF_NET_MAX_VEC);
+            return -1;
+        }
+    return 0;
+}
+
 int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
 {
     const dkf_filter_t *f = dkf_registry_find("dkf");
@@ -28,7 +46,7 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
                      DKF_NET_MAX_NODES);
             return -1;
         }
-        return 0;
+        return vectors_fit(s, err, errlen);
     }
     /* what the Difference KF needs of the file: the registry's check */
     memset(&o, 0, sizeof o);
@@ -48,7 +66,7 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
                  "%zu, n = %zu) exceed DKF_MAX_DIM = %d", s->file, ms, ps, s->n, DKF_MAX_DIM);
         return -1;
     }
-    return 0;
+    return vectors_fit(s, err, errlen);
 }
 
 /* ---- model id ---------------------------------------------------------------- */

@@ -74,7 +74,7 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c);
 /* ---- packets (lcmtypes/tw_packet_t.lcm) ---------------------------------------- */
 
 /* DKF_TW_KIND_INFO, _EST, _DONE and the packet itself are codec.h's. */
-#define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_MAX_DIM) */
+#define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_NET_MAX_VEC) */
 #define DKF_TW_MAX_MSG DKF_RA_MAX_MSG
 #define DKF_TW_MAX_DEG DKF_RA_MAX_DEG /* |N_l| including l */
 

@@ -582,7 +582,7 @@ static uint32_t get_be32(const unsigned char *p)
 static void test_length_fields_every_type(void **state)
 {
     static const uint32_t bad[] = {0xffffffffu, 0x80000000u, 0x7fffffffu, 0x20000001u,
-                                   0x10000000u, 4097u, DKF_MAX_DIM + 1u, DKF_NET_MAX_NODES + 1u};
+                                   0x10000000u, 4097u, DKF_NET_MAX_VEC + 1u, DKF_NET_MAX_NODES + 1u};
     static unsigned char orig[DKF_NET_MAX_MSG];
     int type;
     (void)state;

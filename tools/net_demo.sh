@@ -3,9 +3,12 @@
 #
 #   tools/net_demo.sh [--build-dir DIR] [--no-build] [--rate HZ] [--memq]
 #
-# Builds dkf, then runs seed-000 Example 3 (2 nodes) and a generated 12-node
-# network (tools/make_net_scenario.py, fixed seed; every node with its own
-# H/R, several with p_i < m_i): dkf-sim --rate HZ, one dkf-node per sensor
+# Builds dkf (DKF_MAX_DIM = 1024: the host's centre is sized by its build,
+# docs/decisions.md item 23), then runs seed-000 Example 3 (2 nodes) and
+# generated networks of 12 and 50 nodes (tools/make_net_scenario.py, fixed
+# seeds; every node with its own H/R, several with p_i < m_i; the 50 nodes in
+# lock step) and 200 nodes (in one process over memq://):
+# dkf-sim --rate HZ, one dkf-node per sensor
 # and dkf-fusion as separate processes talking over UDP multicast
 # udpm://239.255.76.67:7667?ttl=0 inside a private network namespace
 # (tools/netns.sh; root only), so nothing can leave the machine. Without
@@ -21,6 +24,9 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/net-demo
 do_build=1 rate=50 memq=0
+# the host's centre is sized by its build's DKF_MAX_DIM (docs/decisions.md, item 23):
+# 200 nodes of make_net_scenario.py stack about 600 measurements
+maxdim=1024
 URL='udpm://239.255.76.67:7667?ttl=0'
 
 while [[ $# -gt 0 ]]; do
@@ -50,7 +56,9 @@ if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
     "$bin/dkf-node" --url "$URL" --id $i --timeout 120 --quiet "$scn" & pids+=($!)
   done
   for ((i = 0; i < 1000; ++i)); do [[ -e $out.fusion.ready ]] && break; sleep 0.01; done
-  "$bin/dkf-sim" --url "$URL" --rate "$rate" --timeout 120 --quiet "$scn"
+  pace=(--rate "$rate")
+  [[ $rate == lockstep ]] && pace=(--lockstep)
+  "$bin/dkf-sim" --url "$URL" "${pace[@]}" --timeout 120 --quiet "$scn"
   wait $fpid
   for p in "${pids[@]:1}"; do wait $p; done
   exit 0
@@ -61,8 +69,8 @@ if (( do_build )); then
   # installs what is missing when root, else prints the command and stops;
   # the demo does not need the armhf cross libraries
   DKF_BOOTSTRAP_NO_ARMHF=1 "$root/tools/bootstrap.sh"
-  echo "== building dkf in $build"
-  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  echo "== building dkf in $build (DKF_MAX_DIM = $maxdim: the 50- and 200-node centres)"
+  cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DDKF_MAX_DIM="$maxdim" >/dev/null
   cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local >/dev/null
 fi
 bin=$build/ports/linux/net
@@ -75,7 +83,18 @@ mkdir -p "$out"
 
 # ---- scenarios ----------------------------------------------------------------
 python3 "$here/make_net_scenario.py" --nodes 12 --steps 100 --seed 12 --out "$out/net12.json"
-scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json")
+python3 "$here/make_net_scenario.py" --nodes 50 --steps 100 --seed 50 --max-dim "$maxdim" \
+  --out "$out/net50.json"
+python3 "$here/make_net_scenario.py" --nodes 200 --steps 50 --seed 200 --max-dim "$maxdim" \
+  --out "$out/net200.json"
+scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json"
+           "net50:$out/net50.json" "net200:$out/net200.json")
+# in one process over memq:// whatever the mode (200 node processes would be 200 LCM
+# sockets each reading every datagram of the group: a 2-core machine's scheduler, not the centre)
+export DKF_DEMO_INPROC="net200"
+# 52 processes on a small machine: paced, a node starved past a step loses measurements and
+# restarts (docs/network.md, "Load the fusion centre holds"); in lock step every step is whole
+export DKF_DEMO_LOCKSTEP="net50"
 
 mode=udpm
 if (( memq )); then
@@ -92,8 +111,10 @@ for e in "${scenarios[@]}"; do
   tag=${e%%:*} scn=${e#*:}
   rm -f "$out/$tag".*.ready "$out/$tag.fused.json"
   echo "== $tag: $(python3 -c 'import json,sys; print(json.load(open(sys.argv[1])).get("scenario",""))' "$scn")"
-  if [[ $mode == udpm ]]; then
-    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$rate"
+  if [[ $mode == udpm && " $DKF_DEMO_INPROC " != *" $tag "* ]]; then
+    r=$rate
+    [[ " $DKF_DEMO_LOCKSTEP " == *" $tag "* ]] && r=lockstep
+    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r"
   else
     "$bin/dkf-net-local" --quiet --output "$out/$tag.fused.json" "$scn"
   fi
@@ -102,9 +123,11 @@ done
 
 # ---- the table ------------------------------------------------------------------
 python3 - "$mode" "$rate" "$out" "${scenarios[@]}" <<'PY'
-import json, sys
+import json, os, sys
 import numpy as np
 mode, rate, out = sys.argv[1], sys.argv[2], sys.argv[3]
+inproc = set(os.environ.get("DKF_DEMO_INPROC", "").split())
+lockstep = set(os.environ.get("DKF_DEMO_LOCKSTEP", "").split())
 ok = True
 rows, parts = [], []
 for e in sys.argv[4:]:
@@ -125,15 +148,18 @@ for e in sys.argv[4:]:
     c = fu["counters"]
     sent, lost, rej = sum(c["sent_by_node"]), sum(c["not_received"]), c["rejected"]
     lat = np.array([v for v in fu["latency_us"]["first"] if v >= 0]) / 1000.0
-    p50, p99 = (np.percentile(lat, 50), np.percentile(lat, 99)) if mode == "udpm" else (None, None)
+    procs = mode == "udpm" and tag not in inproc
+    p50, p99 = (np.percentile(lat, 50), np.percentile(lat, 99)) if procs else (None, None)
     degraded = sum(1 for st in fu["status"] if st != "complete")
     complete = len(fu["k"]) == N and degraded == 0
     good = complete and dmax <= 1e-9
     ok &= good
     rows.append((tag, len(s["model"]["sensors"]), N, rmse(f["xf"]), rmse(ce["xf"]), dmax,
-                 sent, lost, rej, degraded, p50, p99, "ok" if good else "FAIL"))
+                 sent, lost, rej, degraded, p50, p99,
+                 ("ok" if good else "FAIL") + ("" if procs else " (one process, memq://)")
+                 + (" (lock step)" if procs and tag in lockstep else "")))
     lp = fu["latency_us"]["last_parts"]
-    parts.append((tag, [("last", fu["latency_us"]["last"])] + [(w, lp[w]) for w in
+    parts.append((tag, procs, [("last", fu["latency_us"]["last"])] + [(w, lp[w]) for w in
                                                               ("arrive", "wait", "compute", "publish")]))
 print()
 print(f"transport: {'udpm://239.255.76.67:7667?ttl=0 in a private network namespace' if mode == 'udpm' else 'memq:// (one process)'}"
@@ -150,18 +176,18 @@ print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, P
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
 print()
 print("where the latency goes, p50 / p99 in us over the steps (docs/network.md, 'Where the latency goes'):")
-print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][1]))
-for tag, cols in parts:
+print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][2]))
+for tag, procs, cols in parts:
     cells = []
     for w, v in cols:
         a = np.array([x for x in v if x >= 0], dtype=float)
-        shown = w == "compute" or mode == "udpm"
+        shown = w == "compute" or procs
         cells.append(f"{np.percentile(a, 50):>9.0f} /{np.percentile(a, 99):>7.0f}"
                      if shown and len(a) else f"{'-':>18}")
     print(f"{tag:<9}" + "".join(cells))
 print("(last: the step's newest measurement -> fused publication = arrive + wait + compute + publish;"
       " arrive: -> its node message at the centre (the node's wake-up and step, two LCM hops);"
-      " wait: -> the centre starts the step; compute: the fusion-centre step itself)")
+      " wait: -> the centre starts the step; compute: the fusion-centre step itself, per step)")
 sys.exit(0 if ok else 1)
 PY
 

@@ -70,7 +70,7 @@
 
 #define DKF_FCR_WINDOW 32      /* steps buffered ahead of the last published one */
 #define DKF_FCR_CKPT 8         /* published steps a late payload can still revise */
-#define DKF_FCR_MAX_NODES 64   /* nodes of one centre */
+#define DKF_FCR_MAX_NODES 256  /* nodes of one centre (DKF_NET_MAX_NODES) */
 #define DKF_FCR_MAX_STEPS 100000000L /* steps of one run */
 #define DKF_FCR_NOTE_LEN 160
 

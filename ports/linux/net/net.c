@@ -13,6 +13,7 @@
 
 #include <lcm/lcm.h>
 
+#include "codec.h" /* DKF_NET_MAX_NODES */
 #include "util.h"
 
 /* every error of this file: a message in err, -1 */
@@ -26,7 +27,7 @@ struct dkf_net {
     struct sub {
         dkf_net_handler_t fn;
         void *user;
-    } sub[16];
+    } sub[DKF_NET_MAX_NODES + 16]; /* dkf-net-local: one per node agent, the centre's, the sim's */
 };
 
 /* Parses a decimal number in [lo, hi] from s[0..len-1]; -1 if not one. */

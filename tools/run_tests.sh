@@ -14,6 +14,9 @@
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
 #                    UBSan for FUZZ_SECONDS (60) each (tools/run_fuzz.sh)
+#   demo             the README's demo (tools/net_demo.sh, its own build with
+#                    DKF_MAX_DIM = 1024): every network, 2 to 200 nodes, fused
+#                    == central, and the graph, seed-001 and seed-002 networks
 # Every ctest configuration includes `install_consumer` (install + a
 # separate find_package(dkf) project, tests/consumer/).
 #
@@ -34,7 +37,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware)
+all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware demo)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
@@ -46,7 +49,7 @@ declare -A cfg_args=(
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do
-  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz ]]; then
+  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz && "$c" != demo ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
     exit 2
   fi
@@ -314,13 +317,37 @@ run_fuzz() {
   record fuzz "$p" "$f" "harnesses, not ctest"
 }
 
+run_demo() {
+  step_t0=$SECONDS
+  say demo "the README's demo (tools/net_demo.sh --build-dir build/demo)"
+  local log=$ROOT/build/run_tests.demo.log rc
+  mkdir -p "$ROOT/build"
+  # Progress: its "==" headers and result rows; the whole output in the log.
+  tools/net_demo.sh --build-dir "$ROOT/build/demo" 2>&1 | tee "$log" |
+    while IFS= read -r line; do
+      [[ $line =~ ^==|\ ok|FAIL ]] && say demo "$line"
+    done
+  rc=${PIPESTATUS[0]}
+  if (( rc != 0 )); then
+    echo "run_tests: FAILED: tools/net_demo.sh exited $rc (log: $log)"
+    record demo 0 1 "net_demo.sh, not ctest"
+  else
+    record demo 1 0 "net_demo.sh, not ctest"
+  fi
+}
+
 start=$SECONDS
 for c in "${configs[@]}"; do
   if (( stop )); then
     summary+=("$(printf '%-16s %6s %6s  %s' "$c" - - "not run (earlier failure; DKF_KEEP_GOING=1 runs all)")")
     continue
   fi
-  if [[ $c == firmware ]]; then run_firmware; elif [[ $c == fuzz ]]; then run_fuzz; else run_ctest_config "$c"; fi
+  case $c in
+    firmware) run_firmware ;;
+    fuzz) run_fuzz ;;
+    demo) run_demo ;;
+    *) run_ctest_config "$c" ;;
+  esac
 done
 
 echo

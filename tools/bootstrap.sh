@@ -17,7 +17,7 @@ pkgs=(
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   qemu-user
-  libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind
+  libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind libsodium-dev  # libsodium: node-message MACs (ports/linux/net/auth.c)
   clang-14 libclang-rt-14-dev  # libFuzzer + sanitizer runtimes (tools/run_fuzz.sh)
   python3 python3-pip
 )

@@ -43,22 +43,23 @@ done
 
 # ---- inside the namespace: one scenario, every process separate -------------
 if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 out=$2 bin=$3 rate=$4
+  scn=$1 out=$2 bin=$3 rate=$4 keys=$5
+  auth=(--key-dir "$keys")
   if ip -o link | grep -qv ': lo:'; then
     echo "net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
   fi
   nodes=$(python3 -c 'import json,sys; m=json.load(open(sys.argv[1]))["model"]; print(len(m.get("sensors",[0])))' "$scn")
   pids=()
   trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
-  "$bin/dkf-fusion" --url "$URL" --timeout 120 --quiet --ready-file "$out.fusion.ready" \
+  "$bin/dkf-fusion" --url "$URL" --timeout 120 --quiet "${auth[@]}" --ready-file "$out.fusion.ready" \
     --output "$out.fused.json" "$scn" & pids+=($!); fpid=$!
   for ((i = 0; i < nodes; ++i)); do
-    "$bin/dkf-node" --url "$URL" --id $i --timeout 120 --quiet "$scn" & pids+=($!)
+    "$bin/dkf-node" --url "$URL" --id $i --timeout 120 --quiet "${auth[@]}" "$scn" & pids+=($!)
   done
   for ((i = 0; i < 1000; ++i)); do [[ -e $out.fusion.ready ]] && break; sleep 0.01; done
   pace=(--rate "$rate")
   [[ $rate == lockstep ]] && pace=(--lockstep)
-  "$bin/dkf-sim" --url "$URL" "${pace[@]}" --timeout 120 --quiet "$scn"
+  "$bin/dkf-sim" --url "$URL" "${pace[@]}" --timeout 120 --quiet "${auth[@]}" "$scn"
   wait $fpid
   for p in "${pids[@]:1}"; do wait $p; done
   exit 0
@@ -71,11 +72,12 @@ if (( do_build )); then
   DKF_BOOTSTRAP_NO_ARMHF=1 "$root/tools/bootstrap.sh"
   echo "== building dkf in $build (DKF_MAX_DIM = $maxdim: the 50- and 200-node centres)"
   cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DDKF_MAX_DIM="$maxdim" >/dev/null
-  cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local >/dev/null
+  cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local \
+    dkf-keygen >/dev/null
 fi
 bin=$build/ports/linux/net
 run=$build/ports/linux/dkf-run
-for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-net-local" "$run"; do
+for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-net-local" "$bin/dkf-keygen" "$run"; do
   [[ -x $p ]] || { echo "net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
 done
 out=$build/net-demo
@@ -114,7 +116,11 @@ for e in "${scenarios[@]}"; do
   if [[ $mode == udpm && " $DKF_DEMO_INPROC " != *" $tag "* ]]; then
     r=$rate
     [[ " $DKF_DEMO_LOCKSTEP " == *" $tag "* ]] && r=lockstep
-    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r"
+    # every datagram authenticated (docs/network.md, Authentication): a key per node
+    nn=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["sensors"]))' "$scn")
+    "$bin/dkf-keygen" "$out/keys-$tag" "$nn"
+    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r" \
+      "$out/keys-$tag"
   else
     "$bin/dkf-net-local" --quiet --output "$out/$tag.fused.json" "$scn"
   fi
@@ -129,7 +135,7 @@ mode, rate, out = sys.argv[1], sys.argv[2], sys.argv[3]
 inproc = set(os.environ.get("DKF_DEMO_INPROC", "").split())
 lockstep = set(os.environ.get("DKF_DEMO_LOCKSTEP", "").split())
 ok = True
-rows, parts = [], []
+rows, parts, auths = [], [], []
 for e in sys.argv[4:]:
     tag, scn = e.split(":", 1)
     s = json.load(open(scn))
@@ -152,8 +158,11 @@ for e in sys.argv[4:]:
     p50, p99 = (np.percentile(lat, 50), np.percentile(lat, 99)) if procs else (None, None)
     degraded = sum(1 for st in fu["status"] if st != "complete")
     complete = len(fu["k"]) == N and degraded == 0
-    good = complete and dmax <= 1e-9
+    au = fu.get("auth", {"mode": "off", "datagrams": {}})
+    au_rej = sum(v for r, v in au["datagrams"].items() if r != "accepted")
+    good = complete and dmax <= 1e-9 and (not procs or (au["mode"] != "off" and au_rej == 0))
     ok &= good
+    auths.append((tag, au["mode"], au["datagrams"].get("accepted", 0), au_rej))
     rows.append((tag, len(s["model"]["sensors"]), N, rmse(f["xf"]), rmse(ce["xf"]), dmax,
                  sent, lost, rej, degraded, p50, p99,
                  ("ok" if good else "FAIL") + ("" if procs else " (one process, memq://)")
@@ -174,6 +183,9 @@ print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, P
       " sent/lost/rejected count node messages at the fusion centre; degraded: steps not"
       " complete in the end (docs/network.md, Faults);"
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
+print("authentication at the fusion centre: " + "; ".join(
+    f"{t} {m}" + (f" ({a} datagrams accepted, {r} rejected)" if m != "off" else " (in process)")
+    for t, m, a, r in auths))
 print()
 print("where the latency goes, p50 / p99 in us over the steps (docs/network.md, 'Where the latency goes'):")
 print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][2]))

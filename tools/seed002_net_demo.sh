@@ -51,18 +51,21 @@ if [[ ${1:-} != "" && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
   pids=()
   trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
   rm -rf "$dir" && mkdir -p "$dir"
+  # every datagram authenticated (docs/network.md, Authentication)
+  "$bin/dkf-keygen" "$dir/keys" 5 || exit 1
+  auth=(--key-dir "$dir/keys")
   wait_ready() { for _ in $(seq 100); do [[ -e $1 ]] && return 0; sleep 0.1; done; return 1; }
-  "$bin/dkf-fusion" --url "$URL" --timeout 300 --ready-file "$dir/fusion.ready" \
+  "$bin/dkf-fusion" --url "$URL" --timeout 300 "${auth[@]}" --ready-file "$dir/fusion.ready" \
     --output "$dir/fused.json" "$scn" 2>"$dir/fusion.log" & fpid=$!; pids+=($fpid)
   wait_ready "$dir/fusion.ready"
   npids=()
   for ((i = 0; i < 5; ++i)); do
-    "$bin/dkf-node" --url "$URL" --filter local_kf --id $i --timeout 300 \
+    "$bin/dkf-node" --url "$URL" --filter local_kf --id $i --timeout 300 "${auth[@]}" \
       --ready-file "$dir/n$i.ready" "$scn" 2>"$dir/node$i.log" & npids+=($!); pids+=($!)
     wait_ready "$dir/n$i.ready"
   done
   t0=$(date +%s.%N)
-  "$bin/dkf-sim" --url "$URL" --timeout 300 --lockstep "$scn" 2>"$dir/sim.log"
+  "$bin/dkf-sim" --url "$URL" --timeout 300 --lockstep "${auth[@]}" "$scn" 2>"$dir/sim.log"
   rc=0
   wait $fpid || rc=1
   for p in "${npids[@]}"; do wait "$p" || rc=1; done
@@ -74,11 +77,11 @@ fi
 if (( do_build )); then
   echo "== building dkf-sim, dkf-node, dkf-fusion, dkf-run in $build"
   cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-sim dkf-node dkf-fusion dkf-run >/dev/null
+  cmake --build "$build" -j2 --target dkf-sim dkf-node dkf-fusion dkf-run dkf-keygen >/dev/null
 fi
 bin=$build/ports/linux/net
 run=$build/ports/linux/dkf-run
-for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$run"; do
+for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-keygen" "$run"; do
   [[ -x $p ]] || { echo "seed002_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
 done
 out=$build/seed002-demo

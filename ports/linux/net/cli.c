@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "auth.h"
 #include "model.h"
 #include "net.h"
 
@@ -122,4 +123,37 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, const ch
         return DKF_EXIT_RUN;
     }
     return DKF_EXIT_OK;
+}
+
+int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
+                 size_t nodes)
+{
+    char err[4200];
+    dkf_auth_t *a;
+    if (key_dir == NULL) {
+        fprintf(stderr, "%s: UNAUTHENTICATED: no --key-dir, so anyone on the multicast group "
+                "can speak for any process of this run (docs/network.md, Authentication)\n",
+                prog);
+        return DKF_EXIT_OK;
+    }
+    a = dkf_auth_open(key_dir, self, nodes, err, sizeof err);
+    if (a == NULL) {
+        fprintf(stderr, "%s: --key-dir %s: %s\n", prog, key_dir, err);
+        return DKF_EXIT_USAGE;
+    }
+    dkf_net_set_auth(net, a);
+    return DKF_EXIT_OK;
+}
+
+json_t *dkf_cli_auth_json(const dkf_net_t *net)
+{
+    const dkf_auth_t *a = dkf_net_auth(net);
+    json_t *o = json_object(), *by = json_object();
+    int v;
+    json_object_set_new(o, "mode", json_string(a != NULL ? "hmac-sha512-256" : "off"));
+    for (v = 0; a != NULL && v < DKF_AUTH_NVERDICTS; ++v)
+        json_object_set_new(by, dkf_auth_verdict_str((dkf_auth_verdict_t)v),
+                            json_integer((json_int_t)dkf_auth_counts(a)[v]));
+    json_object_set_new(o, "datagrams", by);
+    return o;
 }

@@ -44,6 +44,17 @@ dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
 int dkf_cli_open(const char *prog, const char *prefix, const char *url, const char *path,
                  long run, dkf_scenario_t **s, dkf_net_t **net);
 
+/* --key-dir: net signs and verifies as `self` (auth.h: dkf_auth_signer)
+ * of a network of `nodes` nodes, with the keys in key_dir. key_dir NULL:
+ * unauthenticated, said in one line on stderr (never silently).
+ * DKF_EXIT_OK, or DKF_EXIT_USAGE after printing why. */
+int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
+                 size_t nodes);
+
+/* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
+ * (mode "off" without one): the result file's "auth". */
+json_t *dkf_cli_auth_json(const dkf_net_t *net);
+
 /* Writes doc (17 significant digits, so doubles round-trip). 0 or -1. */
 int dkf_cli_write_json(const char *prog, const char *path, const json_t *doc);
 

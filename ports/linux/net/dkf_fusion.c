@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "agents.h"
+#include "auth.h"
 #include "cli.h"
 #include "net.h"
 
@@ -42,6 +43,8 @@ static void usage(FILE *f)
             "                          flushed; default with --output: FILE.jsonl)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
+            "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
+            "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
@@ -63,8 +66,10 @@ int main(int argc, char **argv)
         {"journal", required_argument, NULL, 'j'},
         {"heartbeat-ms", required_argument, NULL, 'H'}, {"timeout", required_argument, NULL, 't'},
         {"ready-file", required_argument, NULL, 'R'}, {"quiet", no_argument, NULL, 'q'},
+        {"key-dir", required_argument, NULL, 'K'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL, *out = NULL;
+    const char *key_dir = NULL;
     const char *jpath = NULL;
     char jdefault[4096];
     FILE *jf = NULL;
@@ -87,6 +92,7 @@ int main(int argc, char **argv)
         case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
+        case 'K': key_dir = optarg; break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -97,8 +103,15 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        const int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
         if (st != DKF_EXIT_OK) return st;
+        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_FUSION, 0),
+                          s->nsensors);
+        if (st != DKF_EXIT_OK) {
+            dkf_net_close(net);
+            dkf_scenario_free(s);
+            return st;
+        }
     }
     fu = dkf_net_fusion_create(net, s, prefix, (int64_t)(deadline_ms * 1000), err, sizeof err);
     if (fu == NULL) {
@@ -144,6 +157,7 @@ int main(int argc, char **argv)
     }
     if (out != NULL) {
         json_t *doc = dkf_net_fusion_result(fu);
+        json_object_set_new(doc, "auth", dkf_cli_auth_json(net));
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
         json_decref(doc);
     }

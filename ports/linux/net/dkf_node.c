@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "agents.h"
+#include "auth.h"
 #include "cli.h"
 #include "net.h"
 #include "registry.h"
@@ -46,6 +47,8 @@ static void usage(FILE *f)
             "  -p, --prefix P          channel prefix (default %s)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
+            "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
+            "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "      --join-at K         start on the first measurement y_j with j >= K\n"
             "                          (default: the first one received; a late node)\n"
             "      --epoch E           epoch of this start (a restarted node: previous + 1)\n"
@@ -76,10 +79,12 @@ int main(int argc, char **argv)
         {"drop", required_argument, NULL, 'D'},     {"dup", required_argument, NULL, 'U'},
         {"reorder", required_argument, NULL, 'O'},  {"seed", required_argument, NULL, 'S'},
         {"exit-at", required_argument, NULL, 'X'},  {"join-at", required_argument, NULL, 'J'},
-        {"epoch", required_argument, NULL, 'E'},    {NULL, 0, NULL, 0}};
+        {"epoch", required_argument, NULL, 'E'},    {"key-dir", required_argument, NULL, 'K'},
+        {NULL, 0, NULL, 0}};
     dkf_net_faults_t fx;
     double seed = 0, exit_at = 0, join_at = 0, epoch = 0;
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL;
+    const char *key_dir = NULL;
     const dkf_filter_t *filter = dkf_registry_find("dkf");
     double id = -1, hb_ms = DKF_NET_HEARTBEAT_US / 1000, timeout = 0;
     int quiet = 0, c, code;
@@ -106,6 +111,7 @@ int main(int argc, char **argv)
         case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
+        case 'K': key_dir = optarg; break;
         case 'D': if (dkf_cli_num(prog, "--drop", optarg, 0, 100, &fx.drop_pct)) return DKF_EXIT_USAGE; break;
         case 'U': if (dkf_cli_num(prog, "--dup", optarg, 0, 100, &fx.dup_pct)) return DKF_EXIT_USAGE; break;
         case 'O': if (dkf_cli_num(prog, "--reorder", optarg, 0, 100, &fx.reorder_pct)) return DKF_EXIT_USAGE; break;
@@ -137,8 +143,15 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        const int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, argv[optind], 0, &s, &net);
         if (st != DKF_EXIT_OK) return st;
+        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_NODE, (size_t)id),
+                          s->nsensors);
+        if (st != DKF_EXIT_OK) {
+            dkf_net_close(net);
+            dkf_scenario_free(s);
+            return st;
+        }
     }
     nd = dkf_net_node_create(net, s, filter, (size_t)id, prefix, err, sizeof err);
     if (nd == NULL) {

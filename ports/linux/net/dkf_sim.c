@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "agents.h"
+#include "auth.h"
 #include "cli.h"
 #include "net.h"
 
@@ -39,6 +40,8 @@ static void usage(FILE *f)
             "                          repeatable)\n"
             "      --step-timeout S    lock-step and final wait for a fused step (default 10)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
+            "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
+            "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
             "Exit: 0 every step published (and, unless --no-wait, fused), 2 bad options or\n"
@@ -90,9 +93,9 @@ int main(int argc, char **argv)
         {"run", required_argument, NULL, 'n'},       {"wait-ready", required_argument, NULL, 'w'},
         {"no-wait", no_argument, NULL, 'W'},         {"step-timeout", required_argument, NULL, 's'},
         {"timeout", required_argument, NULL, 't'},   {"quiet", no_argument, NULL, 'q'},
-        {"optional-node", required_argument, NULL, 'O'},
+        {"optional-node", required_argument, NULL, 'O'}, {"key-dir", required_argument, NULL, 'K'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
-    const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX;
+    const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *key_dir = NULL;
     double optional[DKF_NET_MAX_NODES];
     size_t noptional = 0, oi;
     double rate = 0, run = 0, wait_ready = 10, step_timeout = 10, timeout = 0;
@@ -123,6 +126,7 @@ int main(int argc, char **argv)
             ++noptional;
             break;
         case 'q': quiet = 1; break;
+        case 'K': key_dir = optarg; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
@@ -141,8 +145,14 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        const int st = dkf_cli_open(prog, prefix, url, argv[optind], (long)run, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, argv[optind], (long)run, &s, &net);
         if (st != DKF_EXIT_OK) return st;
+        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_SIM, 0), s->nsensors);
+        if (st != DKF_EXIT_OK) {
+            dkf_net_close(net);
+            dkf_scenario_free(s);
+            return st;
+        }
     }
     sim = dkf_net_sim_create(net, s, prefix, err, sizeof err);
     if (sim == NULL) {

@@ -13,6 +13,7 @@
 
 #include <lcm/lcm.h>
 
+#include "auth.h"
 #include "codec.h" /* DKF_NET_MAX_NODES */
 #include "util.h"
 
@@ -23,8 +24,12 @@
 
 struct dkf_net {
     lcm_t *lcm;
+    dkf_auth_t *auth;      /* NULL: unauthenticated (dkf_net_set_auth) */
+    unsigned char *out;    /* message + trailer being published (auth only) */
+    size_t out_cap;
     int subs;              /* number of subscriptions (bounded below) */
     struct sub {
+        dkf_net_t *net;
         dkf_net_handler_t fn;
         void *user;
     } sub[DKF_NET_MAX_NODES + 16]; /* dkf-net-local: one per node agent, the centre's, the sim's */
@@ -122,19 +127,55 @@ void dkf_net_close(dkf_net_t *net)
 {
     if (net == NULL) return;
     lcm_destroy(net->lcm);
+    dkf_auth_free(net->auth);
+    free(net->out);
     free(net);
+}
+
+void dkf_net_set_auth(dkf_net_t *net, dkf_auth_t *auth)
+{
+    if (net->auth != auth) dkf_auth_free(net->auth);
+    net->auth = auth;
+}
+
+const dkf_auth_t *dkf_net_auth(const dkf_net_t *net) { return net->auth; }
+
+/* data + its trailer in net->out; NULL if memory is short or the process
+ * holds no key for channel. */
+static const unsigned char *signed_copy(dkf_net_t *net, const char *channel, const void *data,
+                                        size_t len)
+{
+    if (net->out_cap < len + DKF_AUTH_TRAILER) {
+        unsigned char *p = realloc(net->out, len + DKF_AUTH_TRAILER);
+        if (p == NULL) return NULL;
+        net->out = p;
+        net->out_cap = len + DKF_AUTH_TRAILER;
+    }
+    memcpy(net->out, data, len);
+    return dkf_auth_sign(net->auth, channel, data, len, net->out + len) == 0 ? net->out : NULL;
 }
 
 int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_t len)
 {
-    if (len > 0x7fffffffu) return -1;
+    if (len > 0x7fffffffu - DKF_AUTH_TRAILER) return -1;
+    if (net->auth != NULL) {
+        if ((data = signed_copy(net, channel, data, len)) == NULL) return -1;
+        len += DKF_AUTH_TRAILER;
+    }
     return lcm_publish(net->lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
 }
 
+/* Hands a datagram to its handler; with authentication only an accepted
+ * one, without its trailer (the others are counted by dkf_auth_verify). */
 static void dispatch(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
     const struct sub *s = user;
-    s->fn(channel, rbuf->data, rbuf->data_size, rbuf->recv_utime, s->user);
+    size_t len = rbuf->data_size;
+    if (s->net->auth != NULL &&
+        dkf_auth_verify(s->net->auth, channel, rbuf->data, rbuf->data_size, &len) !=
+            DKF_AUTH_ACCEPT)
+        return;
+    s->fn(channel, rbuf->data, len, rbuf->recv_utime, s->user);
 }
 
 int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler_t handler,
@@ -144,6 +185,7 @@ int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler
     lcm_subscription_t *h;
     if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0])) return -1;
     s = &net->sub[net->subs];
+    s->net = net;
     s->fn = handler;
     s->user = user;
     h = lcm_subscribe(net->lcm, channel_regex, dispatch, s);

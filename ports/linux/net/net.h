@@ -37,7 +37,17 @@ int dkf_net_check_url(const char *url, char *err, size_t errlen);
 dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen);
 void dkf_net_close(dkf_net_t *net);
 
-/* Publishes len bytes on channel. 0 or -1. */
+struct dkf_auth; /* auth.h */
+
+/* From now on every datagram published carries auth's trailer, and only
+ * datagrams that auth accepts reach the handlers (docs/network.md,
+ * "Authentication"). net takes auth over (dkf_net_close frees it); NULL
+ * turns authentication off. */
+void dkf_net_set_auth(dkf_net_t *net, struct dkf_auth *auth);
+/* The authenticator set, or NULL (its counters: auth.h). */
+const struct dkf_auth *dkf_net_auth(const dkf_net_t *net);
+
+/* Publishes len bytes on channel (with the trailer if authenticating). 0 or -1. */
 int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_t len);
 
 /* Subscribes handler to channels matching the regular expression

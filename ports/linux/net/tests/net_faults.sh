@@ -21,6 +21,12 @@
 #   hostile     net_inject publishes 3 bursts of 12 invalid messages during the
 #               run: all rejected and counted by reason, fused output identical
 #               (bit for bit) to a clean run
+#   auth        an authenticated run (dkf-keygen, --key-dir everywhere) and the
+#               same run with net_inject --auth sending 3 bursts of 5 datagrams
+#               the transport must reject (no trailer, bad MAC, a node speaking
+#               for another, an unknown key, a replay): 15 of 15 rejected and
+#               counted by reason, nothing reaches the codec, the fused output
+#               identical (bit for bit) to the clean run
 # At the demo's own settings (tools/net_demo.sh: the generated 12-node
 # network, N = 100, dkf-sim --rate 50, --deadline-ms 1000; SCENARIO is then
 # written by tools/make_net_scenario.py, DKF_GEN):
@@ -68,9 +74,11 @@ trap cleanup EXIT
 # wait_file, wait_log_quiet
 . "$(dirname "$0")/net_common.sh"
 
+AUTH=() # --key-dir DIR for every process (mode auth)
+
 fusion() { # TAG
   rm -f "$out/$1.fusion.ready"
-  "$DKF_FUSION" --url "$URL" --timeout $T --deadline-ms $DEADLINE_MS \
+  "$DKF_FUSION" --url "$URL" --timeout $T --deadline-ms $DEADLINE_MS "${AUTH[@]}" \
     --ready-file "$out/$1.fusion.ready" --output "$out/$1.fused.json" "$scn" \
     2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
   wait_file "$out/$1.fusion.ready" 10
@@ -78,13 +86,15 @@ fusion() { # TAG
 
 node() { # TAG ID [dkf-node options...]; sets npid
   local tag=$1 id=$2; shift 2
-  "$DKF_NODE" --url "$URL" --id "$id" --timeout $T --ready-file "$out/$tag.n$id.ready" "$@" \
+  "$DKF_NODE" --url "$URL" --id "$id" --timeout $T --ready-file "$out/$tag.n$id.ready" \
+    "${AUTH[@]}" "$@" \
     "$scn" 2>>"$out/$tag.n$id.log" & pids+=($!); npid=$!
   wait_file "$out/$tag.n$id.ready" 10
 }
 
 sim() { # [dkf-sim options...]
-  "$DKF_SIM" --url "$URL" --timeout $T --lockstep "$@" "$scn" || { echo "FAIL: dkf-sim exited $?"; return 1; }
+  "$DKF_SIM" --url "$URL" --timeout $T --lockstep "${AUTH[@]}" "$@" "$scn" ||
+    { echo "FAIL: dkf-sim exited $?"; return 1; }
 }
 
 finish() { # TAG PID... : waits for the fusion centre and the given nodes
@@ -210,6 +220,42 @@ PY
       --rejected malformed=12 --rejected "unknown node=6" --rejected "wrong model id=3" \
       --rejected "wrong dimension=3" --rejected "step out of range=6" \
       --rejected "non-finite number=6" || exit 1
+    ;;
+  auth)
+    keys=$out/keys
+    "$DKF_KEYGEN" "$keys" 2 || { echo "FAIL: dkf-keygen"; exit 1; }
+    AUTH=(--key-dir "$keys")
+    for tag in clean attacked; do
+      fusion $tag || exit 1
+      node $tag 0 || exit 1; a=$npid
+      node $tag 1 || exit 1; b=$npid
+      if [[ $tag == attacked ]]; then
+        "$DKF_INJECT" --auth "$keys" --url "$URL" --at 3 --at 20 --at 40 --timeout $T "$scn" \
+          2>"$out/$tag.inject.log" & pids+=($!); inj=$!
+        sleep 0.2 # the injector subscribes before the first fused step
+      fi
+      sim || exit 1
+      finish $tag $a $b || exit 1
+      if [[ $tag == attacked ]]; then
+        wait $inj || { echo "FAIL: net_inject"; cat "$out/$tag.inject.log"; exit 1; }
+        cat "$out/$tag.inject.log"
+      fi
+    done
+    if grep -l UNAUTHENTICATED "$out"/*.log; then echo "FAIL: a process ran unauthenticated"; exit 1; fi
+    check clean --all-complete --no-rejects || exit 1
+    check attacked --all-complete --no-rejects --compare "$out/clean.fused.json" || exit 1
+    "$DKF_PYTHON" - "$out/clean.fused.json" "$out/attacked.fused.json" <<'PY' || exit 1
+import json, sys
+clean, att = (json.load(open(p))["auth"] for p in sys.argv[1:])
+want = {"no trailer": 3, "bad MAC": 3, "foreign": 3, "unknown key": 3, "replayed": 3}
+assert clean["mode"] == att["mode"] == "hmac-sha512-256", (clean, att)
+assert all(v == 0 for r, v in clean["datagrams"].items() if r != "accepted"), clean
+got = {r: v for r, v in att["datagrams"].items() if r != "accepted"}
+assert got == want, got
+print(f"authenticated: {clean['datagrams']['accepted']} datagrams accepted in the clean run; "
+      f"attacked: {sum(got.values())} of 15 injected rejected ({got}), "
+      f"{att['datagrams']['accepted']} accepted, fused output identical")
+PY
     ;;
   demo_dead)
     demo_scenario

@@ -16,8 +16,18 @@
  *   non-finite 2: NaN in xf, +Inf in the previous payload's xp
  * = 12 per burst. Every message would be plausible but for its one defect
  * (valid k, the node's true model id, finite numbers...), so a check that
- * let it through would change the fused output. Exit 0 after the last
- * burst, 3 on a transport error or if --timeout passes first.
+ * let it through would change the fused output.
+ *
+ * With --auth DIR (an authenticated run, keys in DIR: auth.h) a burst is
+ * instead 5 datagrams the transport must reject, one per reason:
+ *   no trailer    a plausible node-0 message, unsigned
+ *   bad MAC       the same with a trailer of node 0 under a wrong key
+ *   foreign       signed with node 1's real key (a compromised node 1),
+ *                 published on node 0's channel
+ *   unknown key   node nsensors+5 with a key of its own
+ *   replayed      node 1's newest genuine datagram, sent again
+ * Exit 0 after the last burst, 3 on a transport error or if --timeout
+ * passes first.
  */
 #include <getopt.h>
 #include <math.h>
@@ -26,6 +36,7 @@
 #include <string.h>
 
 #include "agents.h"
+#include "auth.h"
 #include "cli.h"
 #include "model.h"
 #include "net.h"
@@ -35,6 +46,9 @@
 typedef struct {
     long fused_k;
     dkf_net_expect_t ex;
+    size_t trailer;                    /* bytes to strip from a fused datagram (auth) */
+    unsigned char last1[DKF_NET_MAX_MSG + DKF_AUTH_TRAILER]; /* node 1's newest datagram */
+    size_t last1_len;
 } watch_t;
 
 static void on_fused(const char *channel, const void *data, size_t len, int64_t recv_utime,
@@ -44,8 +58,21 @@ static void on_fused(const char *channel, const void *data, size_t len, int64_t 
     watch_t *w = user;
     (void)channel;
     (void)recv_utime;
-    if (dkf_net_decode_fused(data, len, &w->ex, &f, NULL) == DKF_NET_ACCEPT && f.k > w->fused_k)
+    if (len >= w->trailer &&
+        dkf_net_decode_fused(data, len - w->trailer, &w->ex, &f, NULL) == DKF_NET_ACCEPT &&
+        f.k > w->fused_k)
         w->fused_k = f.k;
+}
+
+static void on_node1(const char *channel, const void *data, size_t len, int64_t recv_utime,
+                     void *user)
+{
+    watch_t *w = user;
+    (void)channel;
+    (void)recv_utime;
+    if (len > sizeof w->last1) return;
+    memcpy(w->last1, data, len);
+    w->last1_len = len;
 }
 
 static int pub(dkf_net_t *net, const char *prefix, size_t node, const void *buf, size_t len)
@@ -135,12 +162,62 @@ static int burst(dkf_net_t *net, const char *prefix, const dkf_scenario_t *s, lo
     return rc ? -1 : 0;
 }
 
+/* msg[0..len-1] with a trailer of a (signed as for channel `as`), published
+ * on node `node`'s channel. */
+static int pub_signed(dkf_net_t *net, const char *prefix, size_t node, dkf_auth_t *a,
+                      const char *as, unsigned char *msg, size_t len)
+{
+    if (a == NULL || dkf_auth_sign(a, as, msg, len, msg + len) != 0) return -1;
+    return pub(net, prefix, node, msg, len + DKF_AUTH_TRAILER);
+}
+
+/* The five datagrams of an authenticated run's burst (see the top). */
+static int auth_burst(dkf_net_t *net, const char *prefix, const dkf_scenario_t *s, long k,
+                      const char *key_dir, const watch_t *w)
+{
+    static unsigned char buf[DKF_NET_MAX_MSG + DKF_AUTH_TRAILER];
+    unsigned char wrong[DKF_AUTH_MAX_KEYS * DKF_AUTH_KEY_LEN], have[DKF_AUTH_MAX_KEYS] = {0};
+    char err[4200], ch0[DKF_NET_CHAN_LEN], ch1[DKF_NET_CHAN_LEN], chx[DKF_NET_CHAN_LEN];
+    const size_t x = s->nsensors + 5;
+    dkf_diffkf_msg_t m, pv;
+    dkf_net_meta_t meta;
+    dkf_auth_t *forger, *node1, *stranger;
+    size_t len;
+    int rc = 0;
+    if (k < 2) k = 2;
+    if (k > (long)s->steps) k = (long)s->steps;
+    memset(wrong, 0x5a, sizeof wrong);
+    have[0] = 1;
+    have[x] = 1;
+    forger = dkf_auth_open_keys(dkf_auth_signer(DKF_NET_ROLE_NODE, 0), wrong, have, NULL, 1);
+    stranger = dkf_auth_open_keys(dkf_auth_signer(DKF_NET_ROLE_NODE, x), wrong, have, NULL, 1);
+    node1 = dkf_auth_open(key_dir, dkf_auth_signer(DKF_NET_ROLE_NODE, 1), s->nsensors, err,
+                          sizeof err);
+    if (node1 == NULL) fprintf(stderr, "net_inject: %s\n", err);
+    dkf_net_chan_node(ch0, prefix, 0);
+    dkf_net_chan_node(ch1, prefix, 1);
+    dkf_net_chan_node(chx, prefix, x);
+    plausible(&m, &pv, &meta, 0, k, s->n, dkf_net_model_id(s));
+    rc |= dkf_net_encode_node_msg(buf, DKF_NET_MAX_MSG, &len, &m, &pv, &meta);
+    rc |= pub(net, prefix, 0, buf, len);                          /* no trailer */
+    rc |= pub_signed(net, prefix, 0, forger, ch0, buf, len);      /* bad MAC */
+    rc |= pub_signed(net, prefix, 0, node1, ch1, buf, len);       /* foreign */
+    rc |= pub_signed(net, prefix, x, stranger, chx, buf, len);    /* unknown key */
+    if (w->last1_len == 0) rc = -1;
+    else rc |= pub(net, prefix, 1, w->last1, w->last1_len);       /* replayed */
+    dkf_auth_free(forger);
+    dkf_auth_free(stranger);
+    dkf_auth_free(node1);
+    return rc ? -1 : 0;
+}
+
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
         {"url", required_argument, NULL, 'u'},     {"prefix", required_argument, NULL, 'p'},
         {"at", required_argument, NULL, 'a'},      {"timeout", required_argument, NULL, 't'},
-        {NULL, 0, NULL, 0}};
+        {"auth", required_argument, NULL, 'K'},    {NULL, 0, NULL, 0}};
+    const char *key_dir = NULL;
     const char *prog = "net_inject", *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX;
     double at[MAX_AT], timeout = 60;
     size_t nat = 0, next = 0;
@@ -160,6 +237,7 @@ int main(int argc, char **argv)
             ++nat;
             break;
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0.1, 1e6, &timeout)) return DKF_EXIT_USAGE; break;
+        case 'K': key_dir = optarg; break;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
     }
@@ -186,8 +264,11 @@ int main(int argc, char **argv)
     w.ex.node = -1;
     w.ex.n = s->n;
     w.ex.kmax = (long)s->steps;
+    w.trailer = key_dir != NULL ? DKF_AUTH_TRAILER : 0;
     dkf_net_chan(chan, prefix, "FUSED");
     if (dkf_net_subscribe(net, chan, on_fused, &w) != 0) code = DKF_EXIT_RUN;
+    dkf_net_chan_node(chan, prefix, 1);
+    if (key_dir != NULL && dkf_net_subscribe(net, chan, on_node1, &w) != 0) code = DKF_EXIT_RUN;
     dkf_cli_signals();
     start = dkf_net_mono_us();
     while (code == DKF_EXIT_OK && next < nat) {
@@ -199,11 +280,14 @@ int main(int argc, char **argv)
         if (dkf_net_handle(net, 10) < 0) code = DKF_EXIT_RUN;
         while (code == DKF_EXIT_OK && next < nat && w.fused_k >= (long)at[next]) {
             /* the next step is in progress: its payloads are on their way */
-            if (burst(net, prefix, s, w.fused_k + 1) != 0) code = DKF_EXIT_RUN;
+            if ((key_dir != NULL ? auth_burst(net, prefix, s, w.fused_k + 1, key_dir, &w)
+                                 : burst(net, prefix, s, w.fused_k + 1)) != 0)
+                code = DKF_EXIT_RUN;
             ++next;
         }
     }
-    fprintf(stderr, "%s: %zu burst(s) of 12 invalid messages sent\n", prog, next);
+    fprintf(stderr, "%s: %zu burst(s) of %d invalid messages sent\n", prog, next,
+            key_dir != NULL ? 5 : 12);
     dkf_net_close(net);
     dkf_scenario_free(s);
     return code;

@@ -1,0 +1,337 @@
+/*
+ * auth.c - authenticated datagrams (auth.h): key files, the trailer, the
+ * channel rule and the replay window, over libsodium's HMAC-SHA-512-256.
+ */
+#define _POSIX_C_SOURCE 200809L /* fstat, mkdir, open flags */
+
+#include "auth.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <sodium.h>
+
+#include "codec.h" /* DKF_NET_ROLE_* */
+#include "net.h"   /* dkf_net_now_us */
+#include "util.h"
+
+#define fail(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
+
+#define NSLOTS (DKF_AUTH_MAX_KEYS + 1) /* node keys, then infra */
+#define INFRA_SLOT DKF_AUTH_MAX_KEYS
+#define HEADER 28                      /* the trailer before the tag */
+
+typedef struct {
+    uint64_t epoch, seq;
+    int seen;
+} last_t;
+
+struct dkf_auth {
+    uint32_t self;
+    uint64_t epoch, seq;                       /* this process's own */
+    unsigned char key[NSLOTS][DKF_AUTH_KEY_LEN];
+    unsigned char have[NSLOTS];
+    last_t last[3][NSLOTS];                    /* by the signer's role and the key */
+    uint64_t count[DKF_AUTH_NVERDICTS];
+};
+
+const char *dkf_auth_verdict_str(dkf_auth_verdict_t v)
+{
+    static const char *const s[DKF_AUTH_NVERDICTS] = {"accepted", "no trailer", "unknown key",
+                                                      "foreign", "bad MAC", "replayed"};
+    return (unsigned)v < DKF_AUTH_NVERDICTS ? s[v] : "?";
+}
+
+uint32_t dkf_auth_signer(int role, size_t index)
+{
+    return (uint32_t)role << 16 | (uint32_t)(index & 0xffffu);
+}
+
+/* ---- key files --------------------------------------------------------------------- */
+
+static int hexval(char c)
+{
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+}
+
+int dkf_auth_parse_key(const char *text, size_t len, unsigned char key[DKF_AUTH_KEY_LEN])
+{
+    size_t i;
+    if (text == NULL || !(len == 2 * DKF_AUTH_KEY_LEN ||
+                          (len == 2 * DKF_AUTH_KEY_LEN + 1 && text[len - 1] == '\n')))
+        return -1;
+    for (i = 0; i < DKF_AUTH_KEY_LEN; ++i) {
+        const int hi = hexval(text[2 * i]), lo = hexval(text[2 * i + 1]);
+        if (hi < 0 || lo < 0) return -1;
+        key[i] = (unsigned char)(hi << 4 | lo);
+    }
+    return 0;
+}
+
+int dkf_auth_read_key(const char *path, unsigned char key[DKF_AUTH_KEY_LEN], char *err,
+                      size_t errlen)
+{
+    char text[2 * DKF_AUTH_KEY_LEN + 2];
+    struct stat st;
+    ssize_t got;
+    int fd = open(path, O_RDONLY);
+    if (fd < 0) return fail(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return fail(err, errlen, "%s: not a regular file", path);
+    }
+    if ((st.st_mode & 077) != 0) {
+        close(fd);
+        return fail(err, errlen, "%s: readable by group or others (mode %03o): refused; "
+                    "chmod 600 it", path, (unsigned)(st.st_mode & 0777));
+    }
+    got = read(fd, text, sizeof text);
+    close(fd);
+    if (got < 0 || dkf_auth_parse_key(text, (size_t)got, key) != 0)
+        return fail(err, errlen, "%s: not a key (64 hex digits and a newline)", path);
+    return 0;
+}
+
+static void key_path(char *out, size_t len, const char *dir, size_t slot)
+{
+    if (slot == INFRA_SLOT)
+        snprintf(out, len, "%s/infra.key", dir);
+    else
+        snprintf(out, len, "%s/node-%zu.key", dir, slot);
+}
+
+static int write_key(const char *path, char *err, size_t errlen)
+{
+    unsigned char k[DKF_AUTH_KEY_LEN];
+    char text[2 * DKF_AUTH_KEY_LEN + 1];
+    size_t i;
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL, 0600), ok;
+    if (fd < 0 && errno == EEXIST) return 0; /* kept */
+    if (fd < 0) return fail(err, errlen, "%s: cannot create: %s", path, strerror(errno));
+    randombytes_buf(k, sizeof k);
+    for (i = 0; i < DKF_AUTH_KEY_LEN; ++i) snprintf(text + 2 * i, 3, "%02x", k[i]);
+    text[2 * DKF_AUTH_KEY_LEN] = '\n';
+    ok = write(fd, text, sizeof text) == (ssize_t)sizeof text;
+    sodium_memzero(k, sizeof k);
+    if (close(fd) != 0 || !ok) return fail(err, errlen, "%s: cannot write", path);
+    return 0;
+}
+
+int dkf_auth_make_keys(const char *dir, size_t nodes, char *err, size_t errlen)
+{
+    char path[4096];
+    size_t i;
+    if (nodes > DKF_AUTH_MAX_KEYS)
+        return fail(err, errlen, "%zu nodes: at most %d keys", nodes, DKF_AUTH_MAX_KEYS);
+    if (sodium_init() < 0) return fail(err, errlen, "libsodium: cannot initialise");
+    if (mkdir(dir, 0700) != 0 && errno != EEXIST)
+        return fail(err, errlen, "%s: cannot create: %s", dir, strerror(errno));
+    for (i = 0; i <= nodes; ++i) {
+        key_path(path, sizeof path, dir, i == nodes ? INFRA_SLOT : i);
+        if (write_key(path, err, errlen) != 0) return -1;
+    }
+    return 0;
+}
+
+/* ---- opening ----------------------------------------------------------------------- */
+
+static dkf_auth_t *auth_new(uint32_t self, int64_t epoch)
+{
+    dkf_auth_t *a;
+    if (sodium_init() < 0 || (a = calloc(1, sizeof *a)) == NULL) return NULL;
+    a->self = self;
+    a->epoch = (uint64_t)epoch;
+    return a;
+}
+
+dkf_auth_t *dkf_auth_open(const char *dir, uint32_t self, size_t nodes, char *err,
+                          size_t errlen)
+{
+    char path[4096];
+    const int role = (int)(self >> 16);
+    const size_t index = self & 0xffffu;
+    dkf_auth_t *a;
+    size_t s;
+    if (nodes > DKF_AUTH_MAX_KEYS || (role == DKF_NET_ROLE_NODE && index >= nodes) ||
+        role < DKF_NET_ROLE_SIM || role > DKF_NET_ROLE_FUSION) {
+        fail(err, errlen, "signer %u of a %zu-node network: no such key", (unsigned)self, nodes);
+        return NULL;
+    }
+    if ((a = auth_new(self, dkf_net_now_us())) == NULL) {
+        fail(err, errlen, "libsodium: cannot initialise, or out of memory");
+        return NULL;
+    }
+    for (s = 0; s < NSLOTS; ++s) {
+        const int wanted = role == DKF_NET_ROLE_NODE ? s == index : (s < nodes || s == INFRA_SLOT);
+        if (!wanted) continue;
+        key_path(path, sizeof path, dir, s);
+        if (dkf_auth_read_key(path, a->key[s], err, errlen) != 0) {
+            dkf_auth_free(a);
+            return NULL;
+        }
+        a->have[s] = 1;
+    }
+    return a;
+}
+
+dkf_auth_t *dkf_auth_open_keys(uint32_t self, const unsigned char *keys,
+                               const unsigned char *have, const unsigned char *infra,
+                               int64_t epoch)
+{
+    dkf_auth_t *a = auth_new(self, epoch);
+    size_t s;
+    if (a == NULL) return NULL;
+    for (s = 0; s < DKF_AUTH_MAX_KEYS && keys != NULL && have != NULL; ++s)
+        if (have[s]) {
+            memcpy(a->key[s], keys + s * DKF_AUTH_KEY_LEN, DKF_AUTH_KEY_LEN);
+            a->have[s] = 1;
+        }
+    if (infra != NULL) {
+        memcpy(a->key[INFRA_SLOT], infra, DKF_AUTH_KEY_LEN);
+        a->have[INFRA_SLOT] = 1;
+    }
+    return a;
+}
+
+void dkf_auth_free(dkf_auth_t *a)
+{
+    if (a == NULL) return;
+    sodium_memzero(a->key, sizeof a->key);
+    free(a);
+}
+
+/* ---- the channel rule ---------------------------------------------------------------- */
+
+static int ends_with(const char *s, size_t len, const char *tail)
+{
+    const size_t t = strlen(tail);
+    return len >= t && memcmp(s + len - t, tail, t) == 0;
+}
+
+/* The node id after a trailing `tag` ("_NODE_", "_MEAS_") and digits, or -1. */
+static long trailing_id(const char *ch, size_t len, const char *tag)
+{
+    const size_t t = strlen(tag);
+    size_t i = len;
+    long v = 0;
+    while (i > 0 && ch[i - 1] >= '0' && ch[i - 1] <= '9') --i;
+    if (i == len || len - i > 3 || i < t || memcmp(ch + i - t, tag, t) != 0) return -1;
+    for (; i < len; ++i) v = v * 10 + (ch[i] - '0');
+    return v < DKF_AUTH_MAX_KEYS ? v : -1;
+}
+
+/* The key slot signer must use on channel, or -1 if it may not speak there. */
+static long slot_for(const char *ch, uint32_t signer)
+{
+    const int role = (int)(signer >> 16);
+    const long index = (long)(signer & 0xffffu);
+    const size_t len = strlen(ch);
+    long id;
+    if (role == DKF_NET_ROLE_NODE && index >= DKF_AUTH_MAX_KEYS) return -1;
+    if ((id = trailing_id(ch, len, "_NODE_")) >= 0)
+        return role == DKF_NET_ROLE_NODE && index == id ? id : -1;
+    if ((id = trailing_id(ch, len, "_MEAS_")) >= 0)
+        return role == DKF_NET_ROLE_SIM && index == 0 ? id : -1;
+    if (ends_with(ch, len, "_FUSED"))
+        return role == DKF_NET_ROLE_FUSION && index == 0 ? INFRA_SLOT : -1;
+    if (ends_with(ch, len, "_TRUTH"))
+        return role == DKF_NET_ROLE_SIM && index == 0 ? INFRA_SLOT : -1;
+    if (role == DKF_NET_ROLE_NODE) return index;
+    return (role == DKF_NET_ROLE_SIM || role == DKF_NET_ROLE_FUSION) && index == 0 ? INFRA_SLOT
+                                                                                   : -1;
+}
+
+/* ---- trailer and MAC ----------------------------------------------------------------- */
+
+static void put_be(unsigned char *p, uint64_t v, int bytes)
+{
+    int i;
+    for (i = bytes - 1; i >= 0; --i, v >>= 8) p[i] = (unsigned char)(v & 0xffu);
+}
+
+static uint64_t get_be(const unsigned char *p, int bytes)
+{
+    uint64_t v = 0;
+    int i;
+    for (i = 0; i < bytes; ++i) v = v << 8 | p[i];
+    return v;
+}
+
+static void mac(const unsigned char *key, const char *channel, const void *msg, size_t len,
+                const unsigned char *header, unsigned char tag[32])
+{
+    crypto_auth_hmacsha512256_state st;
+    unsigned char clen[4];
+    const size_t cl = strlen(channel);
+    put_be(clen, cl, 4);
+    crypto_auth_hmacsha512256_init(&st, key, DKF_AUTH_KEY_LEN);
+    crypto_auth_hmacsha512256_update(&st, clen, sizeof clen);
+    crypto_auth_hmacsha512256_update(&st, (const unsigned char *)channel, cl);
+    crypto_auth_hmacsha512256_update(&st, msg, len);
+    crypto_auth_hmacsha512256_update(&st, header, HEADER);
+    crypto_auth_hmacsha512256_final(&st, tag);
+}
+
+int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
+                  unsigned char trailer[DKF_AUTH_TRAILER])
+{
+    const long s = slot_for(channel, a->self);
+    if (s < 0 || !a->have[s]) return -1;
+    memcpy(trailer, "DKA1", 4);
+    put_be(trailer + 4, a->self, 4);
+    put_be(trailer + 8, s == INFRA_SLOT ? DKF_AUTH_KEY_INFRA : (uint64_t)s, 4);
+    put_be(trailer + 12, a->epoch, 8);
+    put_be(trailer + 20, ++a->seq, 8);
+    mac(a->key[s], channel, msg, len, trailer, trailer + HEADER);
+    return 0;
+}
+
+static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsigned char *d,
+                                size_t len, size_t *msg_len)
+{
+    const unsigned char *t;
+    unsigned char tag[32];
+    uint32_t signer, key_id;
+    uint64_t epoch, seq;
+    long s;
+    last_t *l;
+    if (len < DKF_AUTH_TRAILER) return DKF_AUTH_REJ_FORMAT;
+    t = d + len - DKF_AUTH_TRAILER;
+    if (memcmp(t, "DKA1", 4) != 0) return DKF_AUTH_REJ_FORMAT;
+    signer = (uint32_t)get_be(t + 4, 4);
+    key_id = (uint32_t)get_be(t + 8, 4);
+    epoch = get_be(t + 12, 8);
+    seq = get_be(t + 20, 8);
+    s = slot_for(channel, signer);
+    if (s < 0 || (s == INFRA_SLOT ? key_id != DKF_AUTH_KEY_INFRA : key_id != (uint32_t)s))
+        return DKF_AUTH_REJ_FOREIGN;
+    if (!a->have[s]) return DKF_AUTH_REJ_NO_KEY;
+    mac(a->key[s], channel, d, len - DKF_AUTH_TRAILER, t, tag);
+    if (sodium_memcmp(tag, t + HEADER, sizeof tag) != 0) return DKF_AUTH_REJ_MAC;
+    l = &a->last[signer >> 16][s]; /* the role is 0..2: slot_for accepted it */
+    if (l->seen && (epoch < l->epoch || (epoch == l->epoch && seq <= l->seq)))
+        return DKF_AUTH_REJ_REPLAY;
+    l->seen = 1;
+    l->epoch = epoch;
+    l->seq = seq;
+    *msg_len = len - DKF_AUTH_TRAILER;
+    return DKF_AUTH_ACCEPT;
+}
+
+dkf_auth_verdict_t dkf_auth_verify(dkf_auth_t *a, const char *channel, const void *dgram,
+                                   size_t len, size_t *msg_len)
+{
+    const dkf_auth_verdict_t v = judge(a, channel, dgram, len, msg_len);
+    ++a->count[v];
+    return v;
+}
+
+const uint64_t *dkf_auth_counts(const dkf_auth_t *a) { return a->count; }

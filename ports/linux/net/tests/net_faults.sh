@@ -121,6 +121,26 @@ nodes12() { # TAG [ID OPTION...]: nodes 0..11, node ID with the options; sets np
   done
 }
 
+clean_and_injected() { # TAG [net_inject options...]: a clean run, then run TAG while
+  local tag inj            # net_inject sends its bursts at steps 3, 20 and 40
+  for tag in clean "$1"; do
+    fusion $tag || return 1
+    node $tag 0 || return 1; a=$npid
+    node $tag 1 || return 1; b=$npid
+    if [[ $tag != clean ]]; then
+      "$DKF_INJECT" "${@:2}" --url "$URL" --at 3 --at 20 --at 40 --timeout $T "$scn" \
+        2>"$out/$tag.inject.log" & pids+=($!); inj=$!
+      sleep 0.2 # the injector subscribes before the first fused step
+    fi
+    sim || return 1
+    finish $tag $a $b || return 1
+    if [[ $tag != clean ]]; then
+      wait $inj || { echo "FAIL: net_inject"; cat "$out/$tag.inject.log"; return 1; }
+      cat "$out/$tag.inject.log"
+    fi
+  done
+}
+
 check() { # TAG [check_faults.py options...]
   local f=$out/$1.fused.json; shift
   [[ $f == *.jsonl.fused.json ]] && f=${f%.fused.json}
@@ -199,22 +219,7 @@ PY
     check run --absent 1:1:19 || exit 1
     ;;
   hostile)
-    for tag in clean hostile; do
-      fusion $tag || exit 1
-      node $tag 0 || exit 1; a=$npid
-      node $tag 1 || exit 1; b=$npid
-      if [[ $tag == hostile ]]; then
-        "$DKF_INJECT" --url "$URL" --at 3 --at 20 --at 40 --timeout $T "$scn" \
-          2>"$out/$tag.inject.log" & pids+=($!); inj=$!
-        sleep 0.2 # the injector subscribes before the first fused step
-      fi
-      sim || exit 1
-      finish $tag $a $b || exit 1
-      if [[ $tag == hostile ]]; then
-        wait $inj || { echo "FAIL: net_inject"; cat "$out/$tag.inject.log"; exit 1; }
-        cat "$out/$tag.inject.log"
-      fi
-    done
+    clean_and_injected hostile || exit 1
     check clean --all-complete --no-rejects || exit 1
     check hostile --all-complete --compare "$out/clean.fused.json" \
       --rejected malformed=12 --rejected "unknown node=6" --rejected "wrong model id=3" \
@@ -225,22 +230,7 @@ PY
     keys=$out/keys
     "$DKF_KEYGEN" "$keys" 2 || { echo "FAIL: dkf-keygen"; exit 1; }
     AUTH=(--key-dir "$keys")
-    for tag in clean attacked; do
-      fusion $tag || exit 1
-      node $tag 0 || exit 1; a=$npid
-      node $tag 1 || exit 1; b=$npid
-      if [[ $tag == attacked ]]; then
-        "$DKF_INJECT" --auth "$keys" --url "$URL" --at 3 --at 20 --at 40 --timeout $T "$scn" \
-          2>"$out/$tag.inject.log" & pids+=($!); inj=$!
-        sleep 0.2 # the injector subscribes before the first fused step
-      fi
-      sim || exit 1
-      finish $tag $a $b || exit 1
-      if [[ $tag == attacked ]]; then
-        wait $inj || { echo "FAIL: net_inject"; cat "$out/$tag.inject.log"; exit 1; }
-        cat "$out/$tag.inject.log"
-      fi
-    done
+    clean_and_injected attacked --auth "$keys" || exit 1
     if grep -l UNAUTHENTICATED "$out"/*.log; then echo "FAIL: a process ran unauthenticated"; exit 1; fi
     check clean --all-complete --no-rejects || exit 1
     check attacked --all-complete --no-rejects --compare "$out/clean.fused.json" || exit 1

@@ -553,32 +553,63 @@ DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *
 
 /* The backward half of inl_chol_solve: L^T X = W in place for W n x c
  * (the forward half's result), in its order of terms (also used by a
- * solve whose forward half skips known zeros, src/diffkf.c). */
+ * solve whose forward half skips known zeros, src/diffkf.c). Rows are
+ * taken two at a time, h = l-1 and g = l-2: both sums run together over
+ * i > h (each loaded row of X serves both), then g takes its last term,
+ * i = h, from the finished row h. That is the order of the one-row loop
+ * (i descending), so the bits are the same; it saves a load of X per
+ * multiply-add of row g. */
 DKF__INLINE void inl_chol_backward(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B,
                                    size_t n, size_t c)
 {
     size_t i, j, l;
     /* backward: L^T X = W; row l of X = (row l of W - sum_{i>l, descending}
      * L(i,l) X_i) / L(l,l) */
-    for (l = n; l-- > 0;) {
-        dkf_real_t *bl = B + l * c;
-        const dkf_real_t d = inv[l];
+    for (l = n; l >= 2; l -= 2) {
+        const size_t h = l - 1, g = l - 2;
+        dkf_real_t *bh = B + h * c, *bg = B + g * c;
+        const dkf_real_t dh = inv[h], dg = inv[g], lhg = L[h * n + g];
         for (j = 0; j + 4 <= c; j += 4) {
-            dkf_real_t t0 = bl[j], t1 = bl[j + 1], t2 = bl[j + 2], t3 = bl[j + 3];
-            for (i = n - 1; i > l; --i) {
-                const dkf_real_t a = L[i * n + l];
+            dkf_real_t t0 = bh[j], t1 = bh[j + 1], t2 = bh[j + 2], t3 = bh[j + 3];
+            dkf_real_t u0 = bg[j], u1 = bg[j + 1], u2 = bg[j + 2], u3 = bg[j + 3];
+            for (i = n - 1; i > h; --i) {
+                const dkf_real_t a = L[i * n + h], b = L[i * n + g];
                 const dkf_real_t *bi = B + i * c + j;
                 t0 -= a * bi[0];
                 t1 -= a * bi[1];
                 t2 -= a * bi[2];
                 t3 -= a * bi[3];
+                u0 -= b * bi[0];
+                u1 -= b * bi[1];
+                u2 -= b * bi[2];
+                u3 -= b * bi[3];
             }
-            bl[j] = t0 * d, bl[j + 1] = t1 * d, bl[j + 2] = t2 * d, bl[j + 3] = t3 * d;
+            t0 *= dh, t1 *= dh, t2 *= dh, t3 *= dh;
+            bh[j] = t0, bh[j + 1] = t1, bh[j + 2] = t2, bh[j + 3] = t3;
+            u0 -= lhg * t0;
+            u1 -= lhg * t1;
+            u2 -= lhg * t2;
+            u3 -= lhg * t3;
+            bg[j] = u0 * dg, bg[j + 1] = u1 * dg, bg[j + 2] = u2 * dg, bg[j + 3] = u3 * dg;
         }
         for (; j < c; ++j) {
-            dkf_real_t t = bl[j];
-            for (i = n - 1; i > l; --i) t -= L[i * n + l] * B[i * c + j];
-            bl[j] = t * d;
+            dkf_real_t t = bh[j], u = bg[j];
+            for (i = n - 1; i > h; --i) {
+                t -= L[i * n + h] * B[i * c + j];
+                u -= L[i * n + g] * B[i * c + j];
+            }
+            t *= dh;
+            bh[j] = t;
+            u -= lhg * t;
+            bg[j] = u * dg;
+        }
+    }
+    if (l == 1) { /* row 0 of an odd n */
+        dkf_real_t *b0 = B;
+        for (j = 0; j < c; ++j) {
+            dkf_real_t t = b0[j];
+            for (i = n - 1; i > 0; --i) t -= L[i * n] * B[i * c + j];
+            b0[j] = t * inv[0];
         }
     }
 }

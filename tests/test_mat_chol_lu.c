@@ -317,6 +317,49 @@ static void test_chol_residuals(void **state)
                   worst_spd_fwd, worst_spd_inv);
 }
 
+/* The solve's kernels take 4 columns and (backward) two rows at a time
+ * for speed, and claim to sum every element's terms in the textbook order
+ * (forward: l ascending; backward: i descending; each row times the
+ * reciprocal pivot), so their result is that of the plain row-by-row loops
+ * below, bit for bit. Every n up to 13 (odd and even row counts) and c up
+ * to 9 (full 4-column blocks and remainders). */
+static void textbook_chol_solve(dkf_real_t *X, const dkf_real_t *L, size_t n, size_t c)
+{
+    size_t i, j, l;
+    for (j = 0; j < c; ++j) {
+        for (i = 0; i < n; ++i) {
+            dkf_real_t t = X[i * c + j];
+            for (l = 0; l < i; ++l) t -= L[i * n + l] * X[l * c + j];
+            X[i * c + j] = t * (DKF_R(1.0) / L[i * n + i]);
+        }
+        for (l = n; l-- > 0;) {
+            dkf_real_t t = X[l * c + j];
+            for (i = n - 1; i > l; --i) t -= L[i * n + l] * X[i * c + j];
+            X[l * c + j] = t * (DKF_R(1.0) / L[l * n + l]);
+        }
+    }
+}
+
+static void test_chol_solve_textbook_order(void **state)
+{
+    test_rng_t g;
+    size_t n, c;
+    (void)state;
+    test_rng_seed(&g, 23);
+    for (n = 1; n <= 13 && n <= DKF_MAX_DIM; ++n)
+        for (c = 1; c <= 9 && c <= DKF_MAX_DIM; ++c) {
+            dkf_mat_t A = DKF_MAT(n, n, ra), L = DKF_MAT(n, n, rl), B = DKF_MAT(n, c, rb),
+                      X = DKF_MAT(n, c, rx);
+            spd_pair(&g, ra, da, n, 1e2);
+            assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
+            rand_pair(&g, rb, db, n, c);
+            assert_int_equal(dkf_mat_chol_solve(&X, &L, &B), DKF_OK);
+            memcpy(ry, rb, n * c * sizeof(dkf_real_t));
+            textbook_chol_solve(ry, rl, n, c);
+            assert_memory_equal(rx, ry, n * c * sizeof(dkf_real_t));
+        }
+}
+
 static void test_chol_errors(void **state)
 {
     /* [4 2 2; 2 2 0; 2 0 2] = B B^T, B = [2 0; 1 1; 1 -1]: rank 2 and every
@@ -759,6 +802,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_chol_closed_form),
         cmocka_unit_test(test_chol_residuals),
+        cmocka_unit_test(test_chol_solve_textbook_order),
         cmocka_unit_test(test_chol_errors),
         cmocka_unit_test(test_chol_solve_inverse_errors),
         cmocka_unit_test(test_lu_closed_form),

@@ -603,38 +603,23 @@ static void mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t 
 
 /* Rows i and (if two) i+1 of the forward substitution L W = B (L = Lc,
  * p x p; B p x r, row-major) on the 4 columns j..j+3, the terms l from s0
- * (zeros before): both sums over l < i together (each loaded row of W
- * serves both), then row i+1's last term, l = i, from the finished row i,
- * which is the order of the one-row loop (l ascending): the same bits. */
+ * (zeros before): solve_2x4, both sums over l < i together, then row
+ * i+1's last term, l = i, from the finished row i: the order of the
+ * one-row loop (l ascending), the same bits. A lone last row writes its
+ * second result to a scratch block. */
 DKF__INLINE void forward_rows(dkf_real_t *B, const dkf_real_t *Lc, const dkf_real_t *inv,
                               size_t p, size_t r, size_t j, size_t s0, size_t i, int two)
 {
-    const dkf_real_t *li = Lc + i * p, *lk = two ? li + p : li;
-    dkf_real_t *bi = B + i * r + j, *bk = two ? bi + r : bi;
-    dkf_real_t t0 = bi[0], t1 = bi[1], t2 = bi[2], t3 = bi[3];
-    dkf_real_t u0 = bk[0], u1 = bk[1], u2 = bk[2], u3 = bk[3];
-    size_t l;
-    for (l = s0; l < i; ++l) {
-        const dkf_real_t a = li[l], b = lk[l];
-        const dkf_real_t *bl = B + l * r + j;
-        t0 -= a * bl[0];
-        t1 -= a * bl[1];
-        t2 -= a * bl[2];
-        t3 -= a * bl[3];
-        u0 -= b * bl[0];
-        u1 -= b * bl[1];
-        u2 -= b * bl[2];
-        u3 -= b * bl[3];
+    const dkf_real_t *li = Lc + i * p;
+    dkf_real_t *bi = B + i * r + j, spare[4];
+    if (two)
+        solve_2x4(bi, bi + r, B + s0 * r + j, (ptrdiff_t)r, li + s0, li + p + s0, 1, i - s0,
+                  inv[i], li[p + i], inv[i + 1]);
+    else {
+        memcpy(spare, bi, sizeof spare);
+        solve_2x4(bi, spare, B + s0 * r + j, (ptrdiff_t)r, li + s0, li + s0, 1, i - s0, inv[i],
+                  DKF_R(0.0), DKF_R(1.0));
     }
-    t0 *= inv[i], t1 *= inv[i], t2 *= inv[i], t3 *= inv[i];
-    bi[0] = t0, bi[1] = t1, bi[2] = t2, bi[3] = t3;
-    if (!two) return;
-    u0 -= lk[i] * t0;
-    u1 -= lk[i] * t1;
-    u2 -= lk[i] * t2;
-    u3 -= lk[i] * t3;
-    bk[0] = u0 * inv[i + 1], bk[1] = u1 * inv[i + 1], bk[2] = u2 * inv[i + 1];
-    bk[3] = u3 * inv[i + 1];
 }
 
 /* right_solve (Out = Y L^{-1}, Y r x p) for a Y whose row i is zero before

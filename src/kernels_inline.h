@@ -456,22 +456,86 @@ DKF__INLINE int inl_any_nonfinite(const dkf_real_t *p, size_t n)
 
 /* Cholesky-Banachiewicz: row i of L needs only rows 0..i-1 of L and row i
  * of A, so every inner product runs along two contiguous rows, and W == A
- * works (each element is read before it is overwritten). Divisions by
- * L(j,j) become products with its reciprocal: one division per row. */
+ * works (each element is read before it is overwritten; only the lower
+ * triangle of A is read). Divisions by L(j,j) become products with its
+ * reciprocal: one division per row. Rows are taken two at a time, i and
+ * k = i+1, and columns two at a time, j and j+1 (chol_rows2): the four
+ * sums run together over l < j (each loaded element serves two
+ * products), then the j+1 sums take their last term, l = j, from the
+ * finished column j. Every sum starts at 0 and adds l = 0, 1, ... in
+ * order, as inl_dot does, so L is the one-row loop's, bit for bit. A
+ * failing pivot of row i returns before row k's diagonal, with row k's
+ * columns < i already written (W is scratch on failure). */
+DKF__INLINE void chol_cols2(dkf_real_t *wi, dkf_real_t *wk, const dkf_real_t *ai,
+                            const dkf_real_t *ak, const dkf_real_t *W, const dkf_real_t *inv,
+                            size_t n, size_t i)
+{
+    size_t j, l;
+    for (j = 0; j + 1 < i; j += 2) {
+        const dkf_real_t *wj = W + j * n, *wm = wj + n;
+        dkf_real_t s00 = DKF_R(0.0), s01 = DKF_R(0.0), s10 = DKF_R(0.0), s11 = DKF_R(0.0);
+        for (l = 0; l < j; ++l) {
+            const dkf_real_t x = wi[l], y = wk[l], p = wj[l], q = wm[l];
+            s00 += x * p;
+            s01 += x * q;
+            s10 += y * p;
+            s11 += y * q;
+        }
+        wi[j] = (ai[j] - s00) * inv[j];
+        wk[j] = (ak[j] - s10) * inv[j];
+        s01 += wi[j] * wm[j];
+        s11 += wk[j] * wm[j];
+        wi[j + 1] = (ai[j + 1] - s01) * inv[j + 1];
+        wk[j + 1] = (ak[j + 1] - s11) * inv[j + 1];
+    }
+    if (j < i) { /* the last column of an odd i */
+        const dkf_real_t *wj = W + j * n;
+        dkf_real_t s0 = DKF_R(0.0), s1 = DKF_R(0.0);
+        for (l = 0; l < j; ++l) {
+            s0 += wi[l] * wj[l];
+            s1 += wk[l] * wj[l];
+        }
+        wi[j] = (ai[j] - s0) * inv[j];
+        wk[j] = (ak[j] - s1) * inv[j];
+    }
+}
+
+/* Row i's pivot from its finished columns < i: 0 on success, -1 for a
+ * pivot that is not positive and finite. */
+DKF__INLINE int chol_pivot(dkf_real_t *wi, dkf_real_t *inv, dkf_real_t d, size_t n, size_t i)
+{
+    size_t j;
+    if (!(d > DKF_R(0.0) && d <= DKF_REAL_MAX)) return -1;
+    d = DKF_SQRT(d);
+    wi[i] = d;
+    inv[i] = DKF_R(1.0) / d;
+    for (j = i + 1; j < n; ++j) wi[j] = DKF_R(0.0);
+    return 0;
+}
+
 DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
 {
-    size_t i, j;
-    for (i = 0; i < n; ++i) {
+    size_t i, l;
+    for (i = 0; i + 1 < n; i += 2) {
+        dkf_real_t *wi = W + i * n, *wk = wi + n;
+        const dkf_real_t *ai = A + i * n, *ak = ai + n;
+        dkf_real_t sd = DKF_R(0.0), sx = DKF_R(0.0), sk = DKF_R(0.0);
+        chol_cols2(wi, wk, ai, ak, W, inv, n, i);
+        for (l = 0; l < i; ++l) { /* row i's diagonal, row k's column i */
+            sd += wi[l] * wi[l];
+            sx += wk[l] * wi[l];
+        }
+        if (chol_pivot(wi, inv, ai[i] - sd, n, i) != 0) return -1;
+        wk[i] = (ak[i] - sx) * inv[i];
+        for (l = 0; l <= i; ++l) sk += wk[l] * wk[l];
+        if (chol_pivot(wk, inv, ak[i + 1] - sk, n, i + 1) != 0) return -1;
+    }
+    if (i < n) { /* the last row of an odd n */
         dkf_real_t *wi = W + i * n;
         const dkf_real_t *ai = A + i * n;
-        dkf_real_t d;
+        size_t j;
         for (j = 0; j < i; ++j) wi[j] = (ai[j] - inl_dot(wi, W + j * n, j)) * inv[j];
-        d = ai[i] - inl_dot(wi, wi, i);
-        if (!(d > DKF_R(0.0) && d <= DKF_REAL_MAX)) return -1;
-        d = DKF_SQRT(d);
-        wi[i] = d;
-        inv[i] = DKF_R(1.0) / d;
-        for (j = i + 1; j < n; ++j) wi[j] = DKF_R(0.0);
+        if (chol_pivot(wi, inv, ai[i] - inl_dot(wi, wi, i), n, i) != 0) return -1;
     }
     return 0;
 }
@@ -551,14 +615,65 @@ DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *
     for (i = 0; i < n; ++i) b[i] = (b[i] - inl_dot(L + i * n, b, i)) * inv[i];
 }
 
+/* Two rows of a triangular solve on 4 columns: with x_q = x + q xs (rows
+ * of the solved part, 4 columns each) and coefficients a[q cs], b[q cs],
+ *   t  = (rh - sum_q a_q x_q) dh,          rh = bh[0..3] on entry,
+ *   bg = ((rg - sum_q b_q x_q) - c t) dg,  rg = bg[0..3] on entry,
+ * the sums over q = 0 .. k-1 in that order, then bh = t: row g's last term
+ * comes from the finished row h. Each loaded x_q serves both rows; with
+ * DKF__SIMD the 4 columns are 4 / DKF__VL vectors, whose lanes compute
+ * what the scalars compute in the same order (the same bits). */
+#if DKF__SIMD
+DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+                           const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+{
+    const size_t nv = 4 / DKF__VL;
+    dkf__vec_t t0 = vload(bh), t1 = t0, u0 = vload(bg), u1 = u0;
+    size_t q;
+    if (nv > 1) t1 = vload(bh + DKF__VL), u1 = vload(bg + DKF__VL);
+    for (q = 0; q < k; ++q, x += xs, a += cs, b += cs) {
+        const dkf__vec_t x0 = vload(x);
+        t0 -= *a * x0, u0 -= *b * x0;
+        if (nv > 1) {
+            const dkf__vec_t x1 = vload(x + DKF__VL);
+            t1 -= *a * x1, u1 -= *b * x1;
+        }
+    }
+    t0 *= dh, u0 -= c * t0, u0 *= dg;
+    vstore(bh, t0), vstore(bg, u0);
+    if (nv > 1) {
+        t1 *= dh, u1 -= c * t1, u1 *= dg;
+        vstore(bh + DKF__VL, t1), vstore(bg + DKF__VL, u1);
+    }
+}
+#else
+DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+                           const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+{
+    dkf_real_t t0 = bh[0], t1 = bh[1], t2 = bh[2], t3 = bh[3];
+    dkf_real_t u0 = bg[0], u1 = bg[1], u2 = bg[2], u3 = bg[3];
+    size_t q;
+    for (q = 0; q < k; ++q, x += xs, a += cs, b += cs) {
+        const dkf_real_t p = *a, r = *b;
+        t0 -= p * x[0], t1 -= p * x[1], t2 -= p * x[2], t3 -= p * x[3];
+        u0 -= r * x[0], u1 -= r * x[1], u2 -= r * x[2], u3 -= r * x[3];
+    }
+    t0 *= dh, t1 *= dh, t2 *= dh, t3 *= dh;
+    u0 -= c * t0, u1 -= c * t1, u2 -= c * t2, u3 -= c * t3;
+    bh[0] = t0, bh[1] = t1, bh[2] = t2, bh[3] = t3;
+    bg[0] = u0 * dg, bg[1] = u1 * dg, bg[2] = u2 * dg, bg[3] = u3 * dg;
+}
+#endif
+
 /* The backward half of inl_chol_solve: L^T X = W in place for W n x c
  * (the forward half's result), in its order of terms (also used by a
  * solve whose forward half skips known zeros, src/diffkf.c). Rows are
- * taken two at a time, h = l-1 and g = l-2: both sums run together over
- * i > h (each loaded row of X serves both), then g takes its last term,
- * i = h, from the finished row h. That is the order of the one-row loop
- * (i descending), so the bits are the same; it saves a load of X per
- * multiply-add of row g. */
+ * taken two at a time, h = l-1 and g = l-2 (solve_2x4): both sums run
+ * together over i > h, descending, then g takes its last term, i = h,
+ * from the finished row h. That is the order of the one-row loop (i
+ * descending), so the bits are the same. */
 DKF__INLINE void inl_chol_backward(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B,
                                    size_t n, size_t c)
 {
@@ -569,29 +684,10 @@ DKF__INLINE void inl_chol_backward(const dkf_real_t *L, const dkf_real_t *inv, d
         const size_t h = l - 1, g = l - 2;
         dkf_real_t *bh = B + h * c, *bg = B + g * c;
         const dkf_real_t dh = inv[h], dg = inv[g], lhg = L[h * n + g];
-        for (j = 0; j + 4 <= c; j += 4) {
-            dkf_real_t t0 = bh[j], t1 = bh[j + 1], t2 = bh[j + 2], t3 = bh[j + 3];
-            dkf_real_t u0 = bg[j], u1 = bg[j + 1], u2 = bg[j + 2], u3 = bg[j + 3];
-            for (i = n - 1; i > h; --i) {
-                const dkf_real_t a = L[i * n + h], b = L[i * n + g];
-                const dkf_real_t *bi = B + i * c + j;
-                t0 -= a * bi[0];
-                t1 -= a * bi[1];
-                t2 -= a * bi[2];
-                t3 -= a * bi[3];
-                u0 -= b * bi[0];
-                u1 -= b * bi[1];
-                u2 -= b * bi[2];
-                u3 -= b * bi[3];
-            }
-            t0 *= dh, t1 *= dh, t2 *= dh, t3 *= dh;
-            bh[j] = t0, bh[j + 1] = t1, bh[j + 2] = t2, bh[j + 3] = t3;
-            u0 -= lhg * t0;
-            u1 -= lhg * t1;
-            u2 -= lhg * t2;
-            u3 -= lhg * t3;
-            bg[j] = u0 * dg, bg[j + 1] = u1 * dg, bg[j + 2] = u2 * dg, bg[j + 3] = u3 * dg;
-        }
+        const ptrdiff_t back = -(ptrdiff_t)c, up = -(ptrdiff_t)n;
+        for (j = 0; j + 4 <= c; j += 4)
+            solve_2x4(bh + j, bg + j, B + (n - 1) * c + j, back, L + (n - 1) * n + h,
+                      L + (n - 1) * n + g, up, n - 1 - h, dh, lhg, dg);
         for (; j < c; ++j) {
             dkf_real_t t = bh[j], u = bg[j];
             for (i = n - 1; i > h; --i) {

@@ -48,9 +48,9 @@ typedef struct {
     /* carried from step k-1 to step k; pc = the rows step k-1 kept (0
      * before the first step: no previous innovation), S' its selection */
     dkf_real_t *C;     /* C_k S'^T                                 p x pc */
-    dkf_real_t *CLi;   /* C_k S'^T L'_{k-1}^{-1}                   p x pc */
+    dkf_real_t *Vt;    /* Lc'^{-1}_{k-1} (C_k S'^T)^T              pc x p */
     dkf_real_t *W;     /* W'_{k-1}                                 n x pc */
-    dkf_real_t *dzp;   /* dz'_{k-1}                                pc     */
+    dkf_real_t *wzp;   /* Lc'^{-1}_{k-1} dz'_{k-1}                 pc     */
     dkf_real_t *ApH;   /* A_k^+ H_k                                p x n */
     dkf_real_t *ApRAp; /* A_k^+ R_k A_k^{+T}                       p x p */
     dkf_real_t *Apy;   /* A_k^+ y_k                                p     */
@@ -64,13 +64,15 @@ typedef struct {
     /* (everything above is DKF_DIFFKF_STATE_LEN; the pending area below is
      * state while a gain is pending) */
     /* pending: the gain phase of step k */
-    dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *CLin, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
+    dkf_real_t *G, *M, *Jn, *Ln, *Kn, *Wn, *Cn, *Vtn, *Pfn, *Ppn, *Fn, *ApHn, *ApRApn, *zc;
     /* pending: the row selection of step k (pk kept rows, pc = the previous
      * step's kept rows): Mk = S M, Ruk = S Ru S^T, Ck = S C_k S_{k-1}^T
-     * (= S times the carried C), CLik likewise, Cnk = C_{k+1} S^T */
-    dkf_real_t *Mk, *Ruk, *Ck, *CLik, *Cnk;
+     * (= S times the carried C), Vtk = the carried Vt S^T, Cnk = C_{k+1}
+     * S^T; the Cholesky factor L'_k = Lc Lc^T and the reciprocals Li of
+     * its diagonal, which the update whitens dz with */
+    dkf_real_t *Mk, *Ruk, *Ck, *Vtk, *Cnk, *Lc, *Li;
     /* scratch; Apn, Binvn: a new A^+, B^{-1} until commit_caches */
-    dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *Lc, *X, *Apn, *Binvn, *svdw, *invw;
+    dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *X, *Apn, *Binvn, *svdw, *invw;
     /* not storage: what this call computed anew, for commit_caches (the
      * cache entries, and the model inputs of a new model-only block) */
     dkf_real_t *Ap, *Binv;
@@ -88,9 +90,9 @@ DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, siz
 {
     size_t used = 0;
     DKF_TAKE(L->C, p * p);
-    DKF_TAKE(L->CLi, p * p);
+    DKF_TAKE(L->Vt, p * p);
     DKF_TAKE(L->W, n * p);
-    DKF_TAKE(L->dzp, p);
+    DKF_TAKE(L->wzp, p);
     DKF_TAKE(L->ApH, p * n);
     DKF_TAKE(L->ApRAp, p * p);
     DKF_TAKE(L->Apy, p);
@@ -122,7 +124,7 @@ DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, siz
     DKF_TAKE(L->Kn, n * p);
     DKF_TAKE(L->Wn, n * p);
     DKF_TAKE(L->Cn, p * p);
-    DKF_TAKE(L->CLin, p * p);
+    DKF_TAKE(L->Vtn, p * p);
     DKF_TAKE(L->Pfn, n * n);
     DKF_TAKE(L->Ppn, n * n);
     DKF_TAKE(L->Fn, n * n);
@@ -132,15 +134,16 @@ DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, siz
     DKF_TAKE(L->Mk, p * n);
     DKF_TAKE(L->Ruk, p * p);
     DKF_TAKE(L->Ck, p * p);
-    DKF_TAKE(L->CLik, p * p);
+    DKF_TAKE(L->Vtk, p * p);
     DKF_TAKE(L->Cnk, p * p);
+    DKF_TAKE(L->Lc, p * p);
+    DKF_TAKE(L->Li, p);
     DKF_TAKE(L->T1, n * n);
     DKF_TAKE(L->T2, n * p);
     DKF_TAKE(L->T3, p * (n + m));
     DKF_TAKE(L->GH, p * n);
     DKF_TAKE(L->S, n * p);
     DKF_TAKE(L->Ru, p * p);
-    DKF_TAKE(L->Lc, p * p);
     DKF_TAKE(L->X, p * p);
     DKF_TAKE(L->Apn, p * m);
     DKF_TAKE(L->Binvn, p * p);
@@ -622,39 +625,84 @@ DKF__INLINE void forward_rows(dkf_real_t *B, const dkf_real_t *Lc, const dkf_rea
     }
 }
 
-/* right_solve (Out = Y L^{-1}, Y r x p) for a Y whose row i is zero before
- * column lo[i]: in Out^T = L^{-1} Y^T, the forward substitution of column
- * i is zero down to row lo[i], so it starts there (the 4-column blocks of
- * dkf__chol_solve start at their smallest lo); the backward substitution
- * is dense. The order of each element's terms is that of dkf__chol_solve
- * (forward: l ascending; backward: i descending). tmp holds r * p reals. */
-static void right_solve_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
-                              const dkf_real_t *inv, size_t r, size_t p, const size_t *lo,
-                              dkf_real_t *tmp)
+/* Out (p x r) = Lc^{-1} Y^T for a Y (r x p) whose row i is zero before
+ * column lo[i]: the forward substitution of column i of Y^T is zero down
+ * to row lo[i], so it starts there (the 4-column blocks at their smallest
+ * lo), two rows i, i+1 at a time (forward_rows), then the last columns one
+ * by one; each element's terms in inl_chol_forward's order (l ascending). */
+static void whiten_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                         const dkf_real_t *inv, size_t r, size_t p, const size_t *lo)
 {
     size_t i, j, l;
-    dkf__transpose(tmp, Y, r, p); /* tmp = Y^T, p x r */
-    /* forward, 4 columns at a time (registers) and two rows i, i+1 at a time
-     * (both sums over l < i together, then row i+1's last term l = i from
-     * the finished row i: the order of the one-row loop), then the rest
-     * one by one */
+    dkf__transpose(Out, Y, r, p);
     for (j = 0; j + 4 <= r; j += 4) {
         size_t s0 = lo[j];
         s0 = lo[j + 1] < s0 ? lo[j + 1] : s0;
         s0 = lo[j + 2] < s0 ? lo[j + 2] : s0;
         s0 = lo[j + 3] < s0 ? lo[j + 3] : s0;
         for (i = s0; i < p; i += 2)
-            forward_rows(tmp, Lc, inv, p, r, j, s0, i, i + 1 < p);
+            forward_rows(Out, Lc, inv, p, r, j, s0, i, i + 1 < p);
     }
     for (; j < r; ++j)
         for (i = lo[j]; i < p; ++i) {
             const dkf_real_t *li = Lc + i * p;
-            dkf_real_t t = tmp[i * r + j];
-            for (l = lo[j]; l < i; ++l) t -= li[l] * tmp[l * r + j];
-            tmp[i * r + j] = t * inv[i];
+            dkf_real_t t = Out[i * r + j];
+            for (l = lo[j]; l < i; ++l) t -= li[l] * Out[l * r + j];
+            Out[i * r + j] = t * inv[i];
         }
-    inl_chol_backward(Lc, inv, tmp, p, r); /* backward (dense) */
-    dkf__transpose(Out, tmp, p, r);
+}
+
+/* lo[j]: the first nonzero row of column j of A (k x r); k for a zero
+ * column. */
+static void col_starts(size_t *lo, const dkf_real_t *A, size_t k, size_t r)
+{
+    size_t j, l;
+    for (j = 0; j < r; ++j) {
+        for (l = 0; l < k && A[l * r + j] == DKF_R(0.0); ++l) continue;
+        lo[j] = l;
+    }
+}
+
+/* C (r x r) = A^T A for A (k x r) whose column j is zero above row lo[j]
+ * (a whitened carry Vt'). The upper triangle two rows at a time in the
+ * blocks of inl_mul_tn_sym (8, 4, 2, 1 columns), mirrored; each block's
+ * sums run from l0 = max(min lo of its two rows, min lo of its columns),
+ * before which every product of the block has a zero factor, in index
+ * order: inl_mul_tn_sym's values (at most the sign of a zero differs,
+ * the argument of row_spans). For a block-diagonal C, lo[j] grows with j
+ * and this costs about r^2 k / 6 multiply-adds instead of r^2 k / 2. */
+static void tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k,
+                          const size_t *lo)
+{
+    dkf_real_t s[16];
+    size_t i, j, w, q;
+    for (i = 0; i + 2 <= r; i += 2) {
+        const size_t li = lo[i] < lo[i + 1] ? lo[i] : lo[i + 1];
+        for (j = i; j < r; j += w) {
+            size_t l0 = lo[j];
+            w = r - j >= 8 ? 8 : r - j >= 4 ? 4 : r - j >= 2 ? 2 : 1;
+            for (q = 1; q < w; ++q) l0 = lo[j + q] < l0 ? lo[j + q] : l0;
+            l0 = l0 > li ? l0 : li;
+            if (l0 >= k) {
+                for (q = 0; q < 2 * w; ++q) s[q] = DKF_R(0.0);
+            } else {
+                const dkf_real_t *a = A + l0 * r;
+                if (w == 8)
+                    nn_2x8(s, s + 8, a + i, a + i + 1, r, a + j, k - l0, r);
+                else if (w == 4)
+                    nn_2x4(s, s + 4, a + i, a + i + 1, r, a + j, k - l0, r);
+                else if (w == 2)
+                    block_2x2(s, s + 2, a + i, a + i + 1, r, a + j, k - l0, r, j);
+                else
+                    nn_2x1(s, s + 1, a + i, a + i + 1, r, a + j, k - l0, r);
+            }
+            put_sym_2xw(C + i * r + j, C + (i + 1) * r + j, C + j * r + i, zero_row, zero_row, s,
+                        w, r, j == i);
+        }
+    }
+    if (i < r) /* the last row of an odd count: its diagonal */
+        C[i * r + i] =
+            lo[i] < k ? nn_1x1(A + lo[i] * r + i, r, A + lo[i] * r + i, k - lo[i], r) : DKF_R(0.0);
 }
 
 /* The data-independent part of the next-step carry that depends only on
@@ -707,9 +755,9 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     /* no previous innovation: every term with L_0^{-1} vanishes (an empty
      * carry, pc = 0; the zeros are for inspection only) */
     memset(L.C, 0, p * p * sizeof(dkf_real_t));
-    memset(L.CLi, 0, p * p * sizeof(dkf_real_t));
+    memset(L.Vt, 0, p * p * sizeof(dkf_real_t));
     memset(L.W, 0, n * p * sizeof(dkf_real_t));
-    memset(L.dzp, 0, p * sizeof(dkf_real_t));
+    memset(L.wzp, 0, p * sizeof(dkf_real_t));
     f->pc = 0;
     if (F0 != NULL) {
         dkf__copy(f->xn.data, L.T2, n);
@@ -814,8 +862,8 @@ static size_t kept_rows(size_t *idx, const unsigned char *rows, size_t p)
 
 /* The selected model of step k (S = the kept rows idx, S' = the previous
  * step's, already applied to the carry's columns):
- *   M' = S M,  Ru' = S Ru S^T,  C'_k = S (C_k S'^T),  C'_k L'^{-1}_{k-1} = S (carry),
- *   C_{k+1} S^T (what the next step will carry). */
+ *   M' = S M,  Ru' = S Ru S^T,  C'_k = S (C_k S'^T),  Vt' = (carried Vt) S^T,
+ *   C_{k+1} S^T (what the next step will carry, whitened). */
 DKF__INLINE void select_rows(const layout_t *L, const size_t *idx, size_t n, size_t p, size_t pk,
                              size_t pc)
 {
@@ -823,9 +871,10 @@ DKF__INLINE void select_rows(const layout_t *L, const size_t *idx, size_t n, siz
     for (i = 0; i < pk; ++i) {
         memcpy(L->Mk + i * n, L->M + idx[i] * n, n * sizeof *L->Mk);
         memcpy(L->Ck + i * pc, L->C + idx[i] * pc, pc * sizeof *L->Ck);
-        memcpy(L->CLik + i * pc, L->CLi + idx[i] * pc, pc * sizeof *L->CLik);
         for (j = 0; j < pk; ++j) L->Ruk[i * pk + j] = L->Ru[idx[i] * p + idx[j]];
     }
+    for (i = 0; i < pc; ++i)
+        for (j = 0; j < pk; ++j) L->Vtk[i * pk + j] = L->Vt[i * p + idx[j]];
     for (i = 0; i < p; ++i)
         for (j = 0; j < pk; ++j) L->Cnk[i * pk + j] = L->Cn[i * p + idx[j]];
 }
@@ -906,8 +955,8 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
                                    size_t pk, size_t pc)
 {
     const layout_t *const L = L_;
-    dkf_real_t inv[DKF_MAX_DIM];
-    size_t i, j, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
+    dkf_real_t *const inv = L->Li, pw[DKF_MAX_DIM];
+    size_t i, j, l, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     select_rows(L, idx, n, p, pk, pc);
 
     /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
@@ -930,14 +979,17 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     }
     k_mul_nn(fx, L->T3, L->Mk, f->Pn.data, pk, n, n);
     k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, L->Ruk, pk, n); /* M P M^T + Ru */
-    if (fx)
-        k_mul_nt(fx, L->T3, L->CLik, L->Ck, pk, pc, pk); /* C L^{-1} C^T */
-    else
-        mul_nt_spans(L->T3, L->CLik, L->Ck, pk, pc, pk, lo, hi);
+    /* C' L'^{-1}_{k-1} C'^T = Vt'^T Vt' (symmetric as computed) */
+    if (fx) {
+        inl_mul_tn_sym(L->T3, L->Vtk, L->Vtk, NULL, pk, pc);
+    } else {
+        col_starts(lo, L->Vtk, pc, pk);
+        tn_self_spans(L->T3, L->Vtk, pk, pc, lo);
+    }
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
-            const dkf_real_t v = L->Ln[i * pk + j] - L->X[i * pk + j] - L->X[j * pk + i] -
-                                 DKF_R(0.5) * (L->T3[i * pk + j] + L->T3[j * pk + i]);
+            const dkf_real_t v =
+                L->Ln[i * pk + j] - L->X[i * pk + j] - L->X[j * pk + i] - L->T3[i * pk + j];
             L->Ln[i * pk + j] = v;
             L->Ln[j * pk + i] = v;
         }
@@ -948,8 +1000,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
     for (i = 0; i < pk; ++i)
         for (j = 0; j < pk; ++j)
-            L->X[i * pk + j] =
-                L->Ruk[i * pk + j] - DKF_R(0.5) * (L->T3[i * pk + j] + L->T3[j * pk + i]);
+            L->X[i * pk + j] = L->Ruk[i * pk + j] - L->T3[i * pk + j];
 #endif
 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored; with
@@ -977,26 +1028,31 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
         for (i = 0; i < n * n; ++i) L->Ppn[i] -= L->T1[i];
     }
 
-    /* C_{k+1} S^T L'^{-1}_k for the next step (T3, p(n+m) >= p pk, is free
-     * now; T2 holds only n p) */
+    /* the whitened carry of the next step, Vt = Lc^{-1} (C_{k+1} S^T)^T:
+     * with L'_k = Lc Lc^T, its C L^{-1} C^T is Vt^T Vt and its C L^{-1} dz
+     * is Vt^T (Lc^{-1} dz), so one forward substitution replaces the
+     * Cholesky solve (docs/diffkf-fusion.md §9) */
     if (fx) {
-        right_solve(fx, L->CLin, L->Cnk, L->Lc, inv, p, pk, L->T3);
+        inl_transpose(L->Vtn, L->Cnk, p, pk);
+        inl_chol_forward(L->Lc, inv, L->Vtn, pk, p);
     } else {
         row_spans(lo, hi, L->Cnk, p, pk);
-        right_solve_spans(L->CLin, L->Cnk, L->Lc, inv, p, pk, lo, L->T3);
+        whiten_spans(L->Vtn, L->Cnk, L->Lc, inv, p, pk, lo);
     }
 
-    /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} */
-    k_mul_vec(fx, L->zc, L->CLik, L->dzp, pk, pc);
+    /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} =
+     * Vt'^T wz', wz' = Lc'^{-1}_{k-1} dz'_{k-1} */
+    for (i = 0; i < pk; ++i) L->zc[i] = DKF_R(0.0);
+    for (l = 0; l < pc; ++l) /* each zc[i] summed over l ascending, along rows of Vt' */
+        for (i = 0; i < pk; ++i) L->zc[i] += L->Vtk[l * pk + i] * L->wzp[l];
     memcpy(L->Fn, dyn->F->data, n * n * sizeof *L->Fn);
 
     if (!k_finite(fx, L->Pfn, n * n) || !k_finite(fx, L->Ppn, n * n) ||
         !k_finite(fx, L->Kn, n * pk) || !k_finite(fx, L->Wn, n * pk) ||
-        !k_finite(fx, L->CLin, p * pk))
+        !k_finite(fx, L->Vtn, p * pk))
         return DKF_ERR_NONFINITE;
     /* both covariances PSD up to rounding (docs/decisions.md item 17) */
-    if (!k_psd(fx, L->T1, inv, L->Pfn, n) ||
-        !k_psd(fx, L->T1, inv, L->Ppn, n))
+    if (!k_psd(fx, L->T1, pw, L->Pfn, n) || !k_psd(fx, L->T1, pw, L->Ppn, n))
         return DKF_ERR_NOT_SPD;
     f->pk = pk;
     f->pending = 1;
@@ -1077,7 +1133,8 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
                                      size_t m, size_t p, size_t pk)
 {
     const layout_t *const L = L_;
-    dkf_real_t dz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM], apy[DKF_MAX_DIM];
+    dkf_real_t dz[DKF_MAX_DIM], wz[DKF_MAX_DIM], xf[DKF_MAX_DIM], xn[DKF_MAX_DIM];
+    dkf_real_t apy[DKF_MAX_DIM];
     size_t i;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
     k_mul_vec(fx, dz, L->Mk, f->xn.data, pk, n);
@@ -1089,7 +1146,11 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
         xf[i] += f->xn.data[i];
         xn[i] += inl_dot(L->Wn + i * pk, dz, pk);
     }
-    if (!k_finite(fx, dz, pk) || !k_finite(fx, xf, n) || !k_finite(fx, xn, n))
+    /* the whitened innovation the next step's zcorr needs: wz = Lc^{-1} dz */
+    memcpy(wz, dz, pk * sizeof *wz);
+    inl_tri_lower_solve_vec(L->Lc, L->Li, wz, pk);
+    if (!k_finite(fx, dz, pk) || !k_finite(fx, wz, pk) || !k_finite(fx, xf, n) ||
+        !k_finite(fx, xn, n))
         return DKF_ERR_NONFINITE;
     /* A_k^+ y_k, the next step's z term, before anything is committed: an
      * overflow of finite inputs is NONFINITE with the filter untouched
@@ -1119,9 +1180,9 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
     f->L.cols = pk;
     f->K.cols = pk;
     memcpy(L->C, L->Cnk, (p * pk) * sizeof(dkf_real_t));
-    memcpy(L->CLi, L->CLin, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L->Vt, L->Vtn, (p * pk) * sizeof(dkf_real_t));
     memcpy(L->W, L->Wn, (n * pk) * sizeof(dkf_real_t));
-    memcpy(L->dzp, dz, (pk) * sizeof(dkf_real_t));
+    memcpy(L->wzp, wz, (pk) * sizeof(dkf_real_t));
     f->pc = pk;
     memcpy(L->ApH, L->ApHn, (p * n) * sizeof(dkf_real_t));
     memcpy(L->ApRAp, L->ApRApn, (p * p) * sizeof(dkf_real_t));
@@ -1212,7 +1273,7 @@ dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
  * size), the carry's columns pc, flags (started, has_y); then the output
  * views and the carry, verbatim (they are contiguous at the start of the
  * storage, up to the caches: layout()). */
-#define CKPT_TAG 17478 /* "DF" */
+#define CKPT_TAG 17479 /* "DF" + 1: the carry is whitened (Vt, wz) */
 #define CKPT_K 4       /* where k starts */
 #define CKPT_HEAD (CKPT_K + DKF__CKPT_K_LEN + 3)
 

@@ -710,15 +710,15 @@ DKF__INLINE void inl_chol_backward(const dkf_real_t *L, const dkf_real_t *inv, d
     }
 }
 
-/* Both substitutions work on 4 columns of B at a time kept in registers
- * (row-major friendly, independent chains), and sum each element's terms
- * in the textbook order (forward: l ascending; backward: i descending),
- * so the result is that of the plain row-by-row loops. */
-DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
-                                size_t c)
+/* The forward half of inl_chol_solve: L W = B in place for B n x c (also
+ * the whitening Lc^{-1} B of a carry, src/diffkf.c), 4 columns of B at a
+ * time in registers, each element's terms in the textbook order (l
+ * ascending). */
+DKF__INLINE void inl_chol_forward(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B,
+                                  size_t n, size_t c)
 {
     size_t i, j, l;
-    /* forward: L W = B; row i of W = (row i of B - sum_{l<i} L(i,l) W_l) / L(i,i) */
+    /* row i of W = (row i of B - sum_{l<i} L(i,l) W_l) / L(i,i) */
     for (i = 0; i < n; ++i) {
         dkf_real_t *bi = B + i * c;
         const dkf_real_t *li = L + i * n;
@@ -741,6 +741,16 @@ DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_
             bi[j] = t * d;
         }
     }
+}
+
+/* L L^T X = B in place: both substitutions (row-major friendly,
+ * independent chains), each element's terms in the textbook order
+ * (forward: l ascending; backward: i descending), so the result is that
+ * of the plain row-by-row loops. */
+DKF__INLINE void inl_chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
+                                size_t c)
+{
+    inl_chol_forward(L, inv, B, n, c);
     inl_chol_backward(L, inv, B, n, c);
 }
 

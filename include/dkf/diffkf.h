@@ -45,7 +45,7 @@
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
-     + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 3 * (p) \
+     + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 4 * (p) \
      /* carried, caches of D^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
@@ -69,7 +69,7 @@
  * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
  * leave bit-identical too. */
 #define DKF_DIFFKF_PENDING_LEN(n, m, p) \
-    ((p) * (m) + 6 * (n) * (p) + 8 * (p) * (p) + 3 * (n) * (n) + (p))
+    ((p) * (m) + 6 * (n) * (p) + 9 * (p) * (p) + 3 * (n) * (n) + 2 * (p))
 
 typedef struct {
     size_t n, m, p;

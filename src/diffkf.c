@@ -664,18 +664,18 @@ static void col_starts(size_t *lo, const dkf_real_t *A, size_t k, size_t r)
 }
 
 /* C (r x r) = A^T A for A (k x r) whose column j is zero above row lo[j]
- * (a whitened carry Vt'). The upper triangle two rows at a time in the
+ * (a whitened carry Vt'; lo, r entries, is filled here by col_starts). The upper triangle two rows at a time in the
  * blocks of inl_mul_tn_sym (8, 4, 2, 1 columns), mirrored; each block's
  * sums run from l0 = max(min lo of its two rows, min lo of its columns),
  * before which every product of the block has a zero factor, in index
  * order: inl_mul_tn_sym's values (at most the sign of a zero differs,
  * the argument of row_spans). For a block-diagonal C, lo[j] grows with j
  * and this costs about r^2 k / 6 multiply-adds instead of r^2 k / 2. */
-static void tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k,
-                          const size_t *lo)
+static void tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo)
 {
     dkf_real_t s[16];
     size_t i, j, w, q;
+    col_starts(lo, A, k, r);
     for (i = 0; i + 2 <= r; i += 2) {
         const size_t li = lo[i] < lo[i + 1] ? lo[i] : lo[i + 1];
         for (j = i; j < r; j += w) {
@@ -983,7 +983,6 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     if (fx) {
         inl_mul_tn_sym(L->T3, L->Vtk, L->Vtk, NULL, pk, pc);
     } else {
-        col_starts(lo, L->Vtk, pc, pk);
         tn_self_spans(L->T3, L->Vtk, pk, pc, lo);
     }
     for (i = 0; i < pk; ++i)

@@ -252,11 +252,12 @@ END {
 }' "$rawwf"
 
 echo
-echo "Difference-KF fusion centre (bench_fc), ns per dkf_diffkf_fc_step against N nodes (n = 4, p_i = 2; exponent: growth from the previous N):"
+echo "Difference-KF fusion centre (bench_fc), ns per dkf_diffkf_fc_step against N nodes (n = 4, p_i = 2):"
+echo "steady = median of every call after the first (exponent: its growth from the previous N); first = the call after fc_start, which computes the model block"
 awk '
-/^fc-step / { ty = $2; N = $4; t = $5
-  if (ty == pty) printf "%-7s %4s %14.1f %6.2f\n", ty, N, t, log(t / pt) / log(N / pN)
-  else printf "%-7s %4s %14.1f %6s\n", ty, N, t, "-"
+/^fc-step / { ty = $2; N = $4; t = $5; t1 = $6
+  if (ty == pty) printf "%-7s %4s steady %14.1f %6.2f  first %14.1f\n", ty, N, t, log(t / pt) / log(N / pN), t1
+  else printf "%-7s %4s steady %14.1f %6s  first %14.1f\n", ty, N, t, "-", t1
   pty = ty; pt = t; pN = N }
 /^# fc-step/ { print }' "$rawfc"
 exit "$status"

@@ -40,6 +40,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "diffkf_fusion_internal.h"
 #include "internal.h"
 #include "kernels.h"
 #include "kernels_inline.h"
@@ -340,6 +341,7 @@ static dkf_status_t inverse_cached(const dkf_diffkf_t *f, layout_t *L, const dkf
 static void commit_caches(dkf_diffkf_t *f, const layout_t *L)
 {
     const size_t n = f->n, m = f->m, p = f->p;
+    if (L->newA != NULL || L->newB != NULL || L->new_dyn != NULL) f->cache_gen += 1;
     if (L->newA != NULL) {
         dkf__copy(L->Alast, L->newA->data, m * p);
         dkf__copy(L->cAp, L->Apn, p * m);
@@ -507,9 +509,12 @@ DKF__INLINE void k_chol_solve(int fx, const dkf_real_t *Lc, const dkf_real_t *in
         dkf__chol_solve(Lc, inv, B, n, c);
 }
 
-DKF__INLINE int k_chol(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
+/* The Cholesky factor (inl_chol's bits): at run-time sizes the wide one,
+ * with T (n x n scratch) its transposed copy. */
+DKF__INLINE int k_chol(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                       dkf_real_t *T)
 {
-    return fx ? inl_chol(W, inv, A, n) : dkf__chol(W, inv, A, n);
+    return fx ? inl_chol(W, inv, A, n) : dkf__chol_wide(W, inv, A, n, T);
 }
 
 DKF__INLINE int k_psd(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *P, size_t n)
@@ -561,148 +566,6 @@ DKF__INLINE void right_solve(int fx, dkf_real_t *Out, const dkf_real_t *Y, const
     inl_transpose(tmp, Y, r, p);
     k_chol_solve(fx, Lc, inv, tmp, p, r);
     inl_transpose(Out, tmp, p, r);
-}
-
-/* ---- sparse products with the correlation C (issue 14) ---------------------
- * In a stacked model (the fusion centre's central filter, docs/diffkf-fusion.md
- * §1) C_k is block diagonal: each row of C_k, of C'_k = S C_k S'^T and of
- * C_{k+1} S^T is zero outside one node's p_i columns. The three products
- * with C in the gain, M' W' C'^T, C' L'^{-1} C'^T (20) and C_{k+1} S^T
- * L'^{-1}_k, cost O(p^3) dense. The helpers below skip, for each row of C,
- * the terms outside that row's nonzero span [lo, hi). Every skipped term
- * is a finite number times an exact zero, which does not change an IEEE
- * sum (s + (+-0) = s for s != 0, and +0 + (+-0) = +0; an index-order sum
- * starts at +0), so the results are those of the dense kernels (at most
- * the sign of an exact zero differs) and hold for any C, block diagonal or
- * not; a dense C only costs the span scan. Non-finite factors would not
- * give the dense result (inf * 0 = NaN) and are refused by the caller
- * before, as the dense product's non-finite L was. */
-
-/* lo[i], hi[i]: the first nonzero and one past the last nonzero column of
- * row i of A (r x c); lo = hi for a zero row. */
-static void row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_t c)
-{
-    size_t i, a, b;
-    for (i = 0; i < r; ++i) {
-        const dkf_real_t *ai = A + i * c;
-        for (a = 0; a < c && ai[a] == DKF_R(0.0); ++a) continue;
-        for (b = c; b > a && ai[b - 1] == DKF_R(0.0); --b) continue;
-        lo[i] = a;
-        hi[i] = b;
-    }
-}
-
-/* Out (r x s) = A (r x c) B^T for B (s x c) whose row j is zero outside
- * [lo[j], hi[j]): element (i, j) is the index-order dot product over the
- * span, as dkf__mul_nt sums it over all of 0..c-1. */
-static void mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B, size_t r,
-                         size_t c, size_t s, const size_t *lo, const size_t *hi)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < s; ++j)
-            Out[i * s + j] = dkf__dot(A + i * c + lo[j], B + j * c + lo[j], hi[j] - lo[j]);
-}
-
-/* Rows i and (if two) i+1 of the forward substitution L W = B (L = Lc,
- * p x p; B p x r, row-major) on the 4 columns j..j+3, the terms l from s0
- * (zeros before): solve_2x4, both sums over l < i together, then row
- * i+1's last term, l = i, from the finished row i: the order of the
- * one-row loop (l ascending), the same bits. A lone last row writes its
- * second result to a scratch block. */
-DKF__INLINE void forward_rows(dkf_real_t *B, const dkf_real_t *Lc, const dkf_real_t *inv,
-                              size_t p, size_t r, size_t j, size_t s0, size_t i, int two)
-{
-    const dkf_real_t *li = Lc + i * p;
-    dkf_real_t *bi = B + i * r + j, spare[4];
-    if (two)
-        solve_2x4(bi, bi + r, B + s0 * r + j, (ptrdiff_t)r, li + s0, li + p + s0, 1, i - s0,
-                  inv[i], li[p + i], inv[i + 1]);
-    else {
-        memcpy(spare, bi, sizeof spare);
-        solve_2x4(bi, spare, B + s0 * r + j, (ptrdiff_t)r, li + s0, li + s0, 1, i - s0, inv[i],
-                  DKF_R(0.0), DKF_R(1.0));
-    }
-}
-
-/* Out (p x r) = Lc^{-1} Y^T for a Y (r x p) whose row i is zero before
- * column lo[i]: the forward substitution of column i of Y^T is zero down
- * to row lo[i], so it starts there (the 4-column blocks at their smallest
- * lo), two rows i, i+1 at a time (forward_rows), then the last columns one
- * by one; each element's terms in inl_chol_forward's order (l ascending). */
-static void whiten_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
-                         const dkf_real_t *inv, size_t r, size_t p, const size_t *lo)
-{
-    size_t i, j, l;
-    dkf__transpose(Out, Y, r, p);
-    for (j = 0; j + 4 <= r; j += 4) {
-        size_t s0 = lo[j];
-        s0 = lo[j + 1] < s0 ? lo[j + 1] : s0;
-        s0 = lo[j + 2] < s0 ? lo[j + 2] : s0;
-        s0 = lo[j + 3] < s0 ? lo[j + 3] : s0;
-        for (i = s0; i < p; i += 2)
-            forward_rows(Out, Lc, inv, p, r, j, s0, i, i + 1 < p);
-    }
-    for (; j < r; ++j)
-        for (i = lo[j]; i < p; ++i) {
-            const dkf_real_t *li = Lc + i * p;
-            dkf_real_t t = Out[i * r + j];
-            for (l = lo[j]; l < i; ++l) t -= li[l] * Out[l * r + j];
-            Out[i * r + j] = t * inv[i];
-        }
-}
-
-/* lo[j]: the first nonzero row of column j of A (k x r); k for a zero
- * column. */
-static void col_starts(size_t *lo, const dkf_real_t *A, size_t k, size_t r)
-{
-    size_t j, l;
-    for (j = 0; j < r; ++j) {
-        for (l = 0; l < k && A[l * r + j] == DKF_R(0.0); ++l) continue;
-        lo[j] = l;
-    }
-}
-
-/* C (r x r) = A^T A for A (k x r) whose column j is zero above row lo[j]
- * (a whitened carry Vt'; lo, r entries, is filled here by col_starts). The upper triangle two rows at a time in the
- * blocks of inl_mul_tn_sym (8, 4, 2, 1 columns), mirrored; each block's
- * sums run from l0 = max(min lo of its two rows, min lo of its columns),
- * before which every product of the block has a zero factor, in index
- * order: inl_mul_tn_sym's values (at most the sign of a zero differs,
- * the argument of row_spans). For a block-diagonal C, lo[j] grows with j
- * and this costs about r^2 k / 6 multiply-adds instead of r^2 k / 2. */
-static void tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo)
-{
-    dkf_real_t s[16];
-    size_t i, j, w, q;
-    col_starts(lo, A, k, r);
-    for (i = 0; i + 2 <= r; i += 2) {
-        const size_t li = lo[i] < lo[i + 1] ? lo[i] : lo[i + 1];
-        for (j = i; j < r; j += w) {
-            size_t l0 = lo[j];
-            w = r - j >= 8 ? 8 : r - j >= 4 ? 4 : r - j >= 2 ? 2 : 1;
-            for (q = 1; q < w; ++q) l0 = lo[j + q] < l0 ? lo[j + q] : l0;
-            l0 = l0 > li ? l0 : li;
-            if (l0 >= k) {
-                for (q = 0; q < 2 * w; ++q) s[q] = DKF_R(0.0);
-            } else {
-                const dkf_real_t *a = A + l0 * r;
-                if (w == 8)
-                    nn_2x8(s, s + 8, a + i, a + i + 1, r, a + j, k - l0, r);
-                else if (w == 4)
-                    nn_2x4(s, s + 4, a + i, a + i + 1, r, a + j, k - l0, r);
-                else if (w == 2)
-                    block_2x2(s, s + 2, a + i, a + i + 1, r, a + j, k - l0, r, j);
-                else
-                    nn_2x1(s, s + 1, a + i, a + i + 1, r, a + j, k - l0, r);
-            }
-            put_sym_2xw(C + i * r + j, C + (i + 1) * r + j, C + j * r + i, zero_row, zero_row, s,
-                        w, r, j == i);
-        }
-    }
-    if (i < r) /* the last row of an odd count: its diagonal */
-        C[i * r + i] =
-            lo[i] < k ? nn_1x1(A + lo[i] * r + i, r, A + lo[i] * r + i, k - lo[i], r) : DKF_R(0.0);
 }
 
 /* The data-independent part of the next-step carry that depends only on
@@ -863,11 +726,19 @@ static size_t kept_rows(size_t *idx, const unsigned char *rows, size_t p)
 /* The selected model of step k (S = the kept rows idx, S' = the previous
  * step's, already applied to the carry's columns):
  *   M' = S M,  Ru' = S Ru S^T,  C'_k = S (C_k S'^T),  Vt' = (carried Vt) S^T,
- *   C_{k+1} S^T (what the next step will carry, whitened). */
+ *   C_{k+1} S^T (what the next step will carry, whitened).
+ * With every row kept (pk = p, S = I) only M' and C_{k+1} S^T, which the
+ * update reads, are copied (contiguously): the gain reads C'_k, Ru' and
+ * Vt' from the carry and the model block themselves (sel_of). */
 DKF__INLINE void select_rows(const layout_t *L, const size_t *idx, size_t n, size_t p, size_t pk,
                              size_t pc)
 {
     size_t i, j;
+    if (pk == p) {
+        memcpy(L->Mk, L->M, p * n * sizeof *L->Mk);
+        memcpy(L->Cnk, L->Cn, p * p * sizeof *L->Cnk);
+        return;
+    }
     for (i = 0; i < pk; ++i) {
         memcpy(L->Mk + i * n, L->M + idx[i] * n, n * sizeof *L->Mk);
         memcpy(L->Ck + i * pc, L->C + idx[i] * pc, pc * sizeof *L->Ck);
@@ -877,6 +748,21 @@ DKF__INLINE void select_rows(const layout_t *L, const size_t *idx, size_t n, siz
         for (j = 0; j < pk; ++j) L->Vtk[i * pk + j] = L->Vt[i * p + idx[j]];
     for (i = 0; i < p; ++i)
         for (j = 0; j < pk; ++j) L->Cnk[i * pk + j] = L->Cn[i * p + idx[j]];
+}
+
+/* C'_k, Ru' and Vt' of step k: select_rows' copies, or with every row
+ * kept the arrays they would copy. */
+typedef struct {
+    const dkf_real_t *Ck, *Ruk, *Vtk;
+} sel_t;
+
+DKF__INLINE sel_t sel_of(const layout_t *L, size_t p, size_t pk)
+{
+    sel_t s;
+    s.Ck = pk == p ? L->C : L->Ck;
+    s.Ruk = pk == p ? L->Ru : L->Ruk;
+    s.Vtk = pk == p ? L->Vt : L->Vtk;
+    return s;
 }
 
 #if DKF_JOSEPH
@@ -918,16 +804,14 @@ DKF__INLINE void joint_congruence(int fx, dkf_real_t *Pn, const dkf_real_t *Ab,
  * F - W M' formed: the Joseph form of the DKF for the gains computed.
  * P - K J^T and F P F^T + Q - (F J + S') W^T (DKF_JOSEPH=0, and the
  * Theorem-1 form) subtract from P, which loses the result's digits when
- * the data pin the state (docs/decisions.md item 17). Sg is in L.X, the
- * gains in L.Kn, L.Wn; T1 is scratch. */
+ * the data pin the state (docs/decisions.md item 17). Sg is in L.X, X in
+ * L.jX (both from gain_core), the gains in L.Kn, L.Wn; T1 is scratch. */
 DKF__INLINE void joseph_covariances(int fx, const dkf_diffkf_t *f, const layout_t *L,
                                     const dkf_ui_dyn_t *dyn, const size_t *idx, size_t n,
-                                    size_t p, size_t pk, size_t pc)
+                                    size_t p, size_t pk)
 {
     const dkf_real_t *Q = dyn->Q->data;
     size_t i, j;
-    k_mul_nt(fx, L->jX, L->W, L->Ck, n, pc, pk); /* X = -W'_{k-1} C'^T */
-    k_neg(fx, L->jX, n * pk);
     /* P_{k|k}: Ab = I - K M' */
     k_mul_nn(fx, L->T1, L->Kn, L->Mk, n, pk, n);
     k_neg(fx, L->T1, n * n);
@@ -957,33 +841,40 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     const layout_t *const L = L_;
     dkf_real_t *const inv = L->Li, pw[DKF_MAX_DIM];
     size_t i, j, l, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
+    const sel_t sel = sel_of(L, p, pk);
     select_rows(L, idx, n, p, pk, pc);
 
-    /* J = P M'^T - W'_{k-1} C'^T                                        (19) */
+    /* J = P M'^T - W'_{k-1} C'^T                                        (19);
+     * at run-time sizes the products with C' run over each row's nonzero
+     * span (row_spans: the fusion centre's block-diagonal C; exact zeros
+     * skipped, so the same values; W' is finite, committed so) */
+    if (!fx) dkf__row_spans(lo, hi, sel.Ck, pk, pc);
     k_mul_nt(fx, L->Jn, f->Pn.data, L->Mk, n, n, pk);
-    k_mul_nt(fx, L->T2, L->W, L->Ck, n, pc, pk);
+    if (fx)
+        k_mul_nt(fx, L->T2, L->W, sel.Ck, n, pc, pk);
+    else
+        dkf__mul_nt_spans(L->T2, L->W, sel.Ck, n, pc, pk, lo, hi);
     k_sub(fx, L->Jn, L->Jn, L->T2, n * pk);
+#if DKF_JOSEPH
+    for (i = 0; i < n * pk; ++i) L->jX[i] = -L->T2[i]; /* X = -W'_{k-1} C'^T */
+#endif
 
-    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20);
-     * at run-time sizes the products with C' run over each row's nonzero span
-     * (row_spans: the fusion centre's block-diagonal C; exact zeros skipped,
-     * so the same values) */
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
     k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc); /* M W      */
     if (fx) {
-        k_mul_nt(fx, L->X, L->T3, L->Ck, pk, pc, pk); /* M W C^T  */
+        k_mul_nt(fx, L->X, L->T3, sel.Ck, pk, pc, pk); /* M W C^T  */
     } else {
         /* a non-finite M W made the dense M W C^T, hence L, non-finite */
         if (!dkf__all_finite(L->T3, pk * pc)) return DKF_ERR_NONFINITE;
-        row_spans(lo, hi, L->Ck, pk, pc);
-        mul_nt_spans(L->X, L->T3, L->Ck, pk, pc, pk, lo, hi);
+        dkf__mul_nt_spans(L->X, L->T3, sel.Ck, pk, pc, pk, lo, hi);
     }
     k_mul_nn(fx, L->T3, L->Mk, f->Pn.data, pk, n, n);
-    k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, L->Ruk, pk, n); /* M P M^T + Ru */
+    k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, sel.Ruk, pk, n); /* M P M^T + Ru */
     /* C' L'^{-1}_{k-1} C'^T = Vt'^T Vt' (symmetric as computed) */
     if (fx) {
-        inl_mul_tn_sym(L->T3, L->Vtk, L->Vtk, NULL, pk, pc);
+        inl_mul_tn_sym(L->T3, sel.Vtk, sel.Vtk, NULL, pk, pc);
     } else {
-        tn_self_spans(L->T3, L->Vtk, pk, pc, lo);
+        dkf__tn_self_spans(L->T3, sel.Vtk, pk, pc, lo);
     }
     for (i = 0; i < pk; ++i)
         for (j = i; j < pk; ++j) {
@@ -992,15 +883,16 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
             L->Ln[i * pk + j] = v;
             L->Ln[j * pk + i] = v;
         }
-    /* an overflow (finite inputs, non-finite L) is not a definiteness question */
-    if (!k_finite(fx, L->Ln, pk * pk)) return DKF_ERR_NONFINITE;
-    if (k_chol(fx, L->Lc, inv, L->Ln, pk) != 0) return DKF_ERR_NOT_SPD;
 #if DKF_JOSEPH
-    /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetrised) into X, free now */
+    /* Sg = Ru' - C' L_{k-1}^{-1} C'^T (symmetric) into X, free now */
     for (i = 0; i < pk; ++i)
         for (j = 0; j < pk; ++j)
-            L->X[i * pk + j] = L->Ruk[i * pk + j] - L->T3[i * pk + j];
+            L->X[i * pk + j] = sel.Ruk[i * pk + j] - L->T3[i * pk + j];
 #endif
+    /* an overflow (finite inputs, non-finite L) is not a definiteness question */
+    if (!k_finite(fx, L->Ln, pk * pk)) return DKF_ERR_NONFINITE;
+    /* T3 (free now, p (n + m) >= pk^2 reals) the wide Cholesky's scratch */
+    if (k_chol(fx, L->Lc, inv, L->Ln, pk, L->T3) != 0) return DKF_ERR_NOT_SPD;
 
     /* K = J L^{-1};  P_{k|k} = P - K J^T (upper triangle, mirrored; with
      * DKF_JOSEPH the Joseph form below replaces it, but for pk = 0, where
@@ -1018,7 +910,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
         for (j = 0; j < pk; ++j) L->T3[i * pk + j] += L->S[i * p + idx[j]];
     right_solve(fx, L->Wn, L->T3, L->Lc, inv, n, pk, L->T2);
 #if DKF_JOSEPH
-    if (pk > 0) joseph_covariances(fx, f, L, dyn, idx, n, p, pk, pc);
+    if (pk > 0) joseph_covariances(fx, f, L, dyn, idx, n, p, pk);
 #endif
     if (!DKF_JOSEPH || pk == 0) {
         k_mul_nn(fx, L->T1, dyn->F->data, f->Pn.data, n, n, n);
@@ -1035,15 +927,15 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
         inl_transpose(L->Vtn, L->Cnk, p, pk);
         inl_chol_forward(L->Lc, inv, L->Vtn, pk, p);
     } else {
-        row_spans(lo, hi, L->Cnk, p, pk);
-        whiten_spans(L->Vtn, L->Cnk, L->Lc, inv, p, pk, lo);
+        dkf__row_spans(lo, hi, L->Cnk, p, pk);
+        dkf__whiten_spans(L->Vtn, L->Cnk, L->Lc, inv, p, pk, lo);
     }
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} =
      * Vt'^T wz', wz' = Lc'^{-1}_{k-1} dz'_{k-1} */
     for (i = 0; i < pk; ++i) L->zc[i] = DKF_R(0.0);
     for (l = 0; l < pc; ++l) /* each zc[i] summed over l ascending, along rows of Vt' */
-        for (i = 0; i < pk; ++i) L->zc[i] += L->Vtk[l * pk + i] * L->wzp[l];
+        for (i = 0; i < pk; ++i) L->zc[i] += sel.Vtk[l * pk + i] * L->wzp[l];
     memcpy(L->Fn, dyn->F->data, n * n * sizeof *L->Fn);
 
     if (!k_finite(fx, L->Pfn, n * n) || !k_finite(fx, L->Ppn, n * n) ||
@@ -1276,10 +1168,15 @@ dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
 #define CKPT_K 4       /* where k starts */
 #define CKPT_HEAD (CKPT_K + DKF__CKPT_K_LEN + 3)
 
-static size_t state_len(const dkf_diffkf_t *f)
+size_t dkf__diffkf_carry_len(const dkf_diffkf_t *f)
 {
     const layout_t L = mem_of(f);
     return (size_t)(L.Alast - f->xf.data);
+}
+
+static size_t state_len(const dkf_diffkf_t *f)
+{
+    return dkf__diffkf_carry_len(f);
 }
 
 size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)

@@ -28,7 +28,11 @@
  * Atomicity: everything that can fail (replica gains, rank of K^i, the
  * central gain, the updates' overflow checks) runs against snapshots of
  * the replicas and of the central filter (struct and state part of its
- * storage, caches included); a failure restores them.
+ * storage, caches included); a failure restores them. The central
+ * filter's caches (A^+, B^{-1}, the model block: most of its state at
+ * large N) change only when its cache_gen advances, so their snapshot is
+ * a mirror refreshed after each successful call that wrote them, not a
+ * copy taken every step.
  */
 #include "dkf/diffkf_fusion.h"
 
@@ -81,13 +85,30 @@ static dkf_status_t check_dims(size_t n, size_t l, const size_t m[], const size_
     return DKF_OK;
 }
 
+static size_t central_state_len(const dkf_diffkf_fc_t *fc)
+{
+    return DKF_DIFFKF_STATE_LEN(fc->n, fc->ms, fc->ps);
+}
+
+/* Copies the central filter's caches (its state after the carry) to their
+ * mirror (to_snap) or back. */
+static void copy_caches(const dkf_diffkf_fc_t *fc, int to_snap)
+{
+    const size_t c = DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps), len = central_state_len(fc) - c;
+    if (to_snap)
+        dkf__copy(fc->cache_snap, fc->central_store + c, len);
+    else
+        dkf__copy(fc->central_store + c, fc->cache_snap, len);
+}
+
 /* The storage, state first (dkf_diffkf_fc_state_len: the replicas'
- * storage, the committed z dz, the central filter's storage, whose first
- * DKF_DIFFKF_STATE_LEN reals end the state), then scratch: the replicas'
- * snapshots, the snapshot of the central state, the stacked H D R B Rd,
- * the pending z dz, (K^i)^+, the workspace. */
+ * storage, the committed z dz, the mirror of the central filter's caches,
+ * the central filter's storage, whose first DKF_DIFFKF_STATE_LEN reals end
+ * the state), then scratch: the replicas' snapshots, the snapshot of the
+ * central filter's carry, the stacked H D R B Rd, the pending z dz,
+ * (K^i)^+, the workspace. */
 typedef struct {
-    dkf_real_t *zs, *central;                    /* state (with the replicas') */
+    dkf_real_t *zs, *cache_snap, *central;                   /* state (with the replicas') */
     dkf_real_t *central_snap, *H, *D, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
     size_t state_len;
 } fc_layout_t;
@@ -97,7 +118,8 @@ typedef struct {
 static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *nodes, size_t n,
                         size_t l, const size_t m[], const size_t p[], const fc_dims_t *d)
 {
-    const size_t clen = DKF_DIFFKF_STORAGE_LEN(n, d->ms, d->ps);
+    const size_t clen = DKF_DIFFKF_STORAGE_LEN(n, d->ms, d->ps),
+                 carry = DKF__DIFFKF_CARRY_LEN(n, d->ps);
     dkf_real_t *rep;
     size_t used = 0, i;
     for (i = 0; i < l; ++i) {
@@ -106,13 +128,14 @@ static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *
         if (nodes != NULL) nodes[i].store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
     }
     DKF_TAKE(L->zs, 2 * d->ps);
+    DKF_TAKE(L->cache_snap, DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps) - carry);
     DKF_TAKE(L->central, clen);
     L->state_len = used - clen + DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps);
     for (i = 0; i < l; ++i) {
         DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
         if (nodes != NULL) nodes[i].saved_store = rep;
     }
-    DKF_TAKE(L->central_snap, DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps));
+    DKF_TAKE(L->central_snap, carry);
     DKF_TAKE(L->H, d->ms * n);
     DKF_TAKE(L->D, d->ms * d->ps);
     DKF_TAKE(L->R, d->ms * d->ms);
@@ -217,6 +240,8 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
     g.central_store = L.central;
     g.central_snap = L.central_snap;
+    g.cache_snap = L.cache_snap;
+    copy_caches(&g, 1); /* the mirror holds the caches from here on (roll_back) */
     dkf__view(&g.H, d.ms, n, L.H);
     dkf__view(&g.D, d.ms, d.ps, L.D);
     dkf__view(&g.R, d.ms, d.ms, L.R);
@@ -273,31 +298,36 @@ void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc)
     for (i = 0; i < fc->l; ++i) fc->nodes[i].saved = fc->nodes[i].rep;
 }
 
-static size_t central_state_len(const dkf_diffkf_fc_t *fc)
-{
-    return DKF_DIFFKF_STATE_LEN(fc->n, fc->ms, fc->ps);
-}
-
 /* Snapshots of everything a call may change before it can fail: the
- * replicas, the central filter's struct and the state part of its storage
- * (a successful central gain commits its caches of A^+, B^{-1} and the
- * model block, which a later failure must take back too). */
+ * replicas, the central filter's struct and the carry part of its state.
+ * Its caches have a mirror in the state (fc->cache_snap), refreshed after
+ * every successful call that wrote them (commit_state). */
 static void save_state(dkf_diffkf_fc_t *fc, dkf_diffkf_t *central_saved)
 {
     save_replicas(fc);
     *central_saved = fc->central;
-    dkf__copy(fc->central_snap, fc->central_store, central_state_len(fc));
+    dkf__copy(fc->central_snap, fc->central_store, DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps));
 }
 
-/* Restores what save_state saved and reports the failure. */
+/* Restores what save_state saved, and the caches if a successful central
+ * gain wrote them, and reports the failure. */
 static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_saved,
                               dkf_diffkf_fc_fault_t *fault, dkf_status_t st,
                               dkf_diffkf_fc_cond_t which, size_t node)
 {
     restore_replicas(fc);
+    if (fc->central.cache_gen != central_saved->cache_gen) copy_caches(fc, 0);
     fc->central = *central_saved;
-    dkf__copy(fc->central_store, fc->central_snap, central_state_len(fc));
+    dkf__copy(fc->central_store, fc->central_snap, DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps));
     return report(fault, st, which, node);
+}
+
+/* After a successful call: the node array's snapshot structs equal the
+ * replicas, and the snapshot's cache part the caches this call wrote. */
+static void commit_state(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_saved)
+{
+    dkf__fc_refresh_saved(fc);
+    if (fc->central.cache_gen != central_saved->cache_gen) copy_caches(fc, 1);
 }
 
 /* The fault a failed core call (start, gain, update) stands for. */
@@ -338,13 +368,50 @@ static dkf_status_t check_sensors(const dkf_diffkf_fc_t *fc, const dkf_diffkf_se
     return DKF_OK;
 }
 
-/* fc->H, D, R (and B, Rd when want_input) from the sensors' models. */
+/* 1 if the r x c block of D (`cols` columns) at (r0, c0) is S bit for bit. */
+static int block_is(const dkf_real_t *D, size_t cols, size_t r0, size_t c0, const dkf_mat_t *S)
+{
+    size_t i;
+    for (i = 0; i < S->rows; ++i)
+        if (memcmp(D + (r0 + i) * cols + c0, S->data + i * S->cols, S->cols * sizeof *D) != 0)
+            return 0;
+    return 1;
+}
+
+/* 1 if fc->H, D, R (and B, Rd when want_input) hold the stacking of these
+ * sensors already: a stacking completed in an earlier successful call
+ * (fc->stacked) left zeros outside the blocks, so equal blocks make equal
+ * matrices. A time-invariant model is stacked once: each step then
+ * compares the sum of the blocks' sizes instead of writing ms^2 + ps^2
+ * reals (issue 14). */
+static int stacked_already(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
+                           int want_input)
+{
+    size_t i, r0 = 0, c0 = 0;
+    if (fc->stacked < 1 + want_input) return 0;
+    for (i = 0; i < fc->l; ++i) {
+        const dkf_diffkf_sensor_t *s = &sensors[i];
+        if (!block_is(fc->H.data, fc->n, r0, 0, s->meas.H) ||
+            !block_is(fc->D.data, fc->ps, r0, c0, s->meas.D) ||
+            !block_is(fc->R.data, fc->ms, r0, r0, s->meas.R) ||
+            (want_input && (!block_is(fc->B.data, fc->ps, c0, c0, s->B) ||
+                            !block_is(fc->Rd.data, fc->ps, c0, c0, s->Rd))))
+            return 0;
+        r0 += fc->nodes[i].m;
+        c0 += fc->nodes[i].p;
+    }
+    return 1;
+}
+
+/* fc->H, D, R (and B, Rd when want_input) from the sensors' models
+ * (shapes checked by check_sensors). */
 static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
                                 int want_input)
 {
     const dkf_ui_meas_t *meas[DKF_MAX_DIM];
     const dkf_mat_t *Bi[DKF_MAX_DIM], *Rdi[DKF_MAX_DIM];
     size_t i;
+    if (stacked_already(fc, sensors, want_input)) return DKF_OK;
     for (i = 0; i < fc->l; ++i) {
         meas[i] = &sensors[i].meas;
         Bi[i] = sensors[i].B;
@@ -408,8 +475,9 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     }
     st = dkf_diffkf_start(&fc->central, F0, Q0, &cmeas, NULL);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
-    dkf__fc_refresh_saved(fc);
+    commit_state(fc, &central_saved);
     fc->started = 1;
+    fc->stacked = 1;
     fc->k = 0;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
@@ -577,8 +645,9 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
         fc->nodes[i].sync = here[i];
         if (contributed != NULL) contributed[i] = contrib[i];
     }
-    dkf__fc_refresh_saved(fc);
+    commit_state(fc, &central_saved);
     fc->k += 1;
+    fc->stacked = 2;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
 

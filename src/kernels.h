@@ -91,12 +91,38 @@ int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t
 void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
                  const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n);
 
+/* Products that skip exact zeros (src/kernels.c, "sparse products"): each
+ * element is the dense kernel's, up to the sign of an exact zero, when
+ * the factors are finite. For the block-diagonal correlation C of a
+ * stacked Difference KF (issue 14).
+ * lo[i], hi[i]: the first nonzero column of row i of A (r x c) and one past
+ * its last; lo = hi for a zero row. */
+void dkf__row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_t c);
+/* Out (r x s) = A (r x c) B^T for B (s x c) zero outside [lo[j], hi[j]) in
+ * row j: each element an index-order dot product over the span. */
+void dkf__mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                       size_t c, size_t s, const size_t *lo, const size_t *hi);
+/* Out (p x r) = Lc^{-1} Y^T (forward substitution, inv from dkf__chol) for
+ * Y (r x p) zero before column lo[i] in row i: each element's terms in
+ * inl_chol_forward's order (l ascending), from its column's first nonzero. */
+void dkf__whiten_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                       const dkf_real_t *inv, size_t r, size_t p, const size_t *lo);
+/* C (r x r) = A^T A for A (k x r), the upper triangle mirrored, each sum in
+ * index order from the block's first row with a nonzero factor; lo (r
+ * entries) is scratch. */
+void dkf__tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo);
+
 /* Cholesky factor of the n x n A into W (W may be A): the lower triangle
  * of W gets L with A = L L^T, its strict upper triangle zeros, and
  * inv[i] = 1 / L(i,i). Only the lower triangle of A is read. Returns 0,
  * or -1 as soon as a pivot is not in (0, REAL_MAX] (W is then partly
  * written). A non-finite input always ends in such a pivot. */
 int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n);
+/* dkf__chol for large n, the same W and inv bit for bit: the finished
+ * rows are also stored transposed in T (n x n scratch, overlapping none of
+ * the others), so that two rows are summed against 8 columns at a time
+ * along contiguous vectors. */
+int dkf__chol_wide(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n, dkf_real_t *T);
 /* Solves (L L^T) X = B in place for B n x c; inv from dkf__chol. */
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
                      size_t c);

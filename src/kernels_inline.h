@@ -513,30 +513,44 @@ DKF__INLINE int chol_pivot(dkf_real_t *wi, dkf_real_t *inv, dkf_real_t d, size_t
     return 0;
 }
 
+/* Row i of the factor, one column at a time: the last row of an odd n. */
+DKF__INLINE int inl_chol_last(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                              size_t i)
+{
+    dkf_real_t *wi = W + i * n;
+    const dkf_real_t *ai = A + i * n;
+    size_t j;
+    for (j = 0; j < i; ++j) wi[j] = (ai[j] - inl_dot(wi, W + j * n, j)) * inv[j];
+    return chol_pivot(wi, inv, ai[i] - inl_dot(wi, wi, i), n, i);
+}
+
+/* Rows i and k = i+1, their columns < i finished: row i's diagonal, row
+ * k's column i and diagonal. 0, or -1 for a pivot chol_pivot refuses. */
+DKF__INLINE int chol_diag2(dkf_real_t *wi, dkf_real_t *wk, const dkf_real_t *ai,
+                           const dkf_real_t *ak, dkf_real_t *inv, size_t n, size_t i)
+{
+    dkf_real_t sd = DKF_R(0.0), sx = DKF_R(0.0), sk = DKF_R(0.0);
+    size_t l;
+    for (l = 0; l < i; ++l) {
+        sd += wi[l] * wi[l];
+        sx += wk[l] * wi[l];
+    }
+    if (chol_pivot(wi, inv, ai[i] - sd, n, i) != 0) return -1;
+    wk[i] = (ak[i] - sx) * inv[i];
+    for (l = 0; l <= i; ++l) sk += wk[l] * wk[l];
+    return chol_pivot(wk, inv, ak[i + 1] - sk, n, i + 1);
+}
+
 DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
 {
-    size_t i, l;
+    size_t i;
     for (i = 0; i + 1 < n; i += 2) {
         dkf_real_t *wi = W + i * n, *wk = wi + n;
         const dkf_real_t *ai = A + i * n, *ak = ai + n;
-        dkf_real_t sd = DKF_R(0.0), sx = DKF_R(0.0), sk = DKF_R(0.0);
         chol_cols2(wi, wk, ai, ak, W, inv, n, i);
-        for (l = 0; l < i; ++l) { /* row i's diagonal, row k's column i */
-            sd += wi[l] * wi[l];
-            sx += wk[l] * wi[l];
-        }
-        if (chol_pivot(wi, inv, ai[i] - sd, n, i) != 0) return -1;
-        wk[i] = (ak[i] - sx) * inv[i];
-        for (l = 0; l <= i; ++l) sk += wk[l] * wk[l];
-        if (chol_pivot(wk, inv, ak[i + 1] - sk, n, i + 1) != 0) return -1;
+        if (chol_diag2(wi, wk, ai, ak, inv, n, i) != 0) return -1;
     }
-    if (i < n) { /* the last row of an odd n */
-        dkf_real_t *wi = W + i * n;
-        const dkf_real_t *ai = A + i * n;
-        size_t j;
-        for (j = 0; j < i; ++j) wi[j] = (ai[j] - inl_dot(wi, W + j * n, j)) * inv[j];
-        if (chol_pivot(wi, inv, ai[i] - inl_dot(wi, wi, i), n, i) != 0) return -1;
-    }
+    if (i < n) return inl_chol_last(W, inv, A, n, i); /* the last row of an odd n */
     return 0;
 }
 
@@ -624,20 +638,31 @@ DKF__INLINE void inl_tri_lower_solve_vec(const dkf_real_t *L, const dkf_real_t *
  * DKF__SIMD the 4 columns are 4 / DKF__VL vectors, whose lanes compute
  * what the scalars compute in the same order (the same bits). */
 #if DKF__SIMD
-DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+/* solve_2x4 on nv vectors per row (nv = 4 / DKF__VL or 8 / DKF__VL, a
+ * constant once inlined: the unused sums fold away), so solve_2x8 loads
+ * each x_q row once for 8 columns of both rows. */
+DKF__INLINE void solve_2xv(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
                            const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
-                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg, size_t nv)
 {
-    const size_t nv = 4 / DKF__VL;
-    dkf__vec_t t0 = vload(bh), t1 = t0, u0 = vload(bg), u1 = u0;
+    const dkf__vec_t z = {0};
+    dkf__vec_t t0 = vload(bh), t1 = z, t2 = z, t3 = z, u0 = vload(bg), u1 = z, u2 = z, u3 = z;
     size_t q;
     if (nv > 1) t1 = vload(bh + DKF__VL), u1 = vload(bg + DKF__VL);
+    if (nv > 2) {
+        t2 = vload(bh + 2 * DKF__VL), u2 = vload(bg + 2 * DKF__VL);
+        t3 = vload(bh + 3 * DKF__VL), u3 = vload(bg + 3 * DKF__VL);
+    }
     for (q = 0; q < k; ++q, x += xs, a += cs, b += cs) {
         const dkf__vec_t x0 = vload(x);
         t0 -= *a * x0, u0 -= *b * x0;
         if (nv > 1) {
             const dkf__vec_t x1 = vload(x + DKF__VL);
             t1 -= *a * x1, u1 -= *b * x1;
+        }
+        if (nv > 2) {
+            const dkf__vec_t x2 = vload(x + 2 * DKF__VL), x3 = vload(x + 3 * DKF__VL);
+            t2 -= *a * x2, u2 -= *b * x2, t3 -= *a * x3, u3 -= *b * x3;
         }
     }
     t0 *= dh, u0 -= c * t0, u0 *= dg;
@@ -646,6 +671,25 @@ DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, 
         t1 *= dh, u1 -= c * t1, u1 *= dg;
         vstore(bh + DKF__VL, t1), vstore(bg + DKF__VL, u1);
     }
+    if (nv > 2) {
+        t2 *= dh, u2 -= c * t2, u2 *= dg, t3 *= dh, u3 -= c * t3, u3 *= dg;
+        vstore(bh + 2 * DKF__VL, t2), vstore(bg + 2 * DKF__VL, u2);
+        vstore(bh + 3 * DKF__VL, t3), vstore(bg + 3 * DKF__VL, u3);
+    }
+}
+
+DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+                           const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+{
+    solve_2xv(bh, bg, x, xs, a, b, cs, k, dh, c, dg, 4 / DKF__VL);
+}
+
+DKF__INLINE void solve_2x8(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+                           const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+{
+    solve_2xv(bh, bg, x, xs, a, b, cs, k, dh, c, dg, 8 / DKF__VL);
 }
 #else
 DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
@@ -664,6 +708,15 @@ DKF__INLINE void solve_2x4(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, 
     u0 -= c * t0, u1 -= c * t1, u2 -= c * t2, u3 -= c * t3;
     bh[0] = t0, bh[1] = t1, bh[2] = t2, bh[3] = t3;
     bg[0] = u0 * dg, bg[1] = u1 * dg, bg[2] = u2 * dg, bg[3] = u3 * dg;
+}
+
+/* the columns are independent: two 4-column blocks */
+DKF__INLINE void solve_2x8(dkf_real_t *bh, dkf_real_t *bg, const dkf_real_t *x, ptrdiff_t xs,
+                           const dkf_real_t *a, const dkf_real_t *b, ptrdiff_t cs, size_t k,
+                           dkf_real_t dh, dkf_real_t c, dkf_real_t dg)
+{
+    solve_2x4(bh, bg, x, xs, a, b, cs, k, dh, c, dg);
+    solve_2x4(bh + 4, bg + 4, x + 4, xs, a, b, cs, k, dh, c, dg);
 }
 #endif
 

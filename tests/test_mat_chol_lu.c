@@ -340,25 +340,6 @@ static void textbook_chol_solve(dkf_real_t *X, const dkf_real_t *L, size_t n, si
     }
 }
 
-/* Cholesky-Banachiewicz as written: L(i,j) = (A(i,j) - sum_{l<j} L(i,l)
- * L(j,l)) / L(j,j) with the sum from 0 in l order, times the reciprocal
- * pivot; the kernel's 2 x 2 blocks claim the same bits. */
-static void textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n)
-{
-    size_t i, j, l;
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < n; ++j) {
-            dkf_real_t s = DKF_R(0.0);
-            if (j > i) {
-                L[i * n + j] = DKF_R(0.0);
-                continue;
-            }
-            for (l = 0; l < j; ++l) s += L[i * n + l] * L[j * n + l];
-            L[i * n + j] = j < i ? (A[i * n + j] - s) * (DKF_R(1.0) / L[j * n + j])
-                                 : DKF_SQRT(A[i * n + i] - s);
-        }
-}
-
 static void test_chol_solve_textbook_order(void **state)
 {
     test_rng_t g;
@@ -371,7 +352,7 @@ static void test_chol_solve_textbook_order(void **state)
                       X = DKF_MAT(n, c, rx);
             spd_pair(&g, ra, da, n, 1e2);
             assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
-            textbook_chol(ry, ra, n);
+            test_textbook_chol(ry, ra, n);
             assert_memory_equal(rl, ry, n * n * sizeof(dkf_real_t));
             rand_pair(&g, rb, db, n, c);
             assert_int_equal(dkf_mat_chol_solve(&X, &L, &B), DKF_OK);

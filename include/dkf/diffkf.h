@@ -102,6 +102,9 @@ typedef struct {
     /* caches of D^+, B^{-1} and the model-only block (valid flags): derived
      * data, changed only by a successful call */
     int d_cached, b_cached, model_cached;
+    unsigned long cache_gen; /* counts the calls that wrote the caches: a copy
+                                of them taken at one value is current while
+                                the value holds (the fusion centre's snapshot) */
 } dkf_diffkf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

@@ -137,12 +137,16 @@ typedef struct {
     dkf_mat_t H, D, R, B, Rd; /* the stacked model of the running call */
     dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
                                   reals are state) */
-    dkf_real_t *central_snap;  /* scratch: that state as before the running call */
+    dkf_real_t *central_snap;  /* scratch: its carry as before the running call */
+    dkf_real_t *cache_snap;    /* state: a copy of its caches (the rest of its
+                                  state), refreshed when they change */
     dkf_real_t *pend; /* scratch: the running call's z, dz (2 sum p_i) */
     dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
     dkf_real_t *work; /* SVD / LU / rank workspace */
     size_t work_len;
     int ready, started;
+    int stacked; /* H, D, R (1), and B, Rd too (2), hold a stacking completed
+                    by a successful call (zeros outside the blocks), 0: none */
 } dkf_diffkf_fc_t;
 
 /* Reals of storage the FC needs for state dimension n and l sensors of
@@ -150,8 +154,9 @@ typedef struct {
  * stacked dimensions exceed DKF_MAX_DIM. */
 size_t dkf_diffkf_fc_storage_len(size_t n, size_t l, const size_t m[], const size_t p[]);
 /* The state part of that storage: its first dkf_diffkf_fc_state_len reals
- * (each replica's storage, the recovered z, dz, and the central filter's
- * first DKF_DIFFKF_STATE_LEN(n, sum m_i, sum p_i) reals); the rest is
+ * (each replica's storage, the recovered z, dz, a copy of the central
+ * filter's caches and its first DKF_DIFFKF_STATE_LEN(n, sum m_i, sum p_i)
+ * reals); the rest is
  * scratch any call may overwrite. Every failed call that takes the FC
  * leaves these reals, *fc and nodes[0..l-1] bit-identical. 0 where
  * dkf_diffkf_fc_storage_len is 0. */

@@ -373,3 +373,19 @@ double test_nees(const double *e, const double *S, size_t k)
     }
     return s;
 }
+
+void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n)
+{
+    size_t i, j, l;
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < n; ++j) {
+            dkf_real_t s = DKF_R(0.0);
+            if (j > i) {
+                L[i * n + j] = DKF_R(0.0);
+                continue;
+            }
+            for (l = 0; l < j; ++l) s += L[i * n + l] * L[j * n + l];
+            L[i * n + j] = j < i ? (A[i * n + j] - s) * (DKF_R(1.0) / L[j * n + j])
+                                 : DKF_SQRT(A[i * n + i] - s);
+        }
+}

@@ -51,6 +51,11 @@ void test_draw(test_rng_t *r, double *x, const double *L, size_t n);
 double test_nees(const double *e, const double *S, size_t k);
 
 /* Double-precision reference products: C = A B (A r x k, B k x c). */
+/* Cholesky-Banachiewicz as written (n x n, A's lower triangle read):
+ * L(i,j) = (A(i,j) - sum_{l<j} L(i,l) L(j,l)) * (1 / L(j,j)), each sum from
+ * +0 in l order, L(i,i) = sqrt(A(i,i) - sum): the order the library's
+ * Cholesky kernels claim, bit for bit (test_mat_chol_lu, test_kernels_wide). */
+void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n);
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
 
 /* Copies between the library's real type and double. */

@@ -1,0 +1,212 @@
+/*
+ * The kernels of the large stacked Difference KF (src/kernels.c; issue 14):
+ * the wide Cholesky and the products that skip exact zeros claim the
+ * values of the plain textbook loops, so each is compared with those loops
+ * here, on random inputs of every size up to 41 (8-, 4-, 2- and 1-wide
+ * blocks, odd and even counts), with random row spans (the block-diagonal
+ * C of a stacked model, and arbitrary ones).
+ *
+ *  - dkf__chol_wide: bit for bit equal to dkf__chol and to the
+ *    Cholesky-Banachiewicz loop (memcmp), also in place, and -1 for a
+ *    matrix that is not positive definite;
+ *  - dkf__whiten_spans, dkf__tn_self_spans, dkf__mul_nt_spans: equal (==)
+ *    to the dense loops, which sum every term from +0 in index order; the
+ *    skipped terms are exact zeros, which can change only the sign of a
+ *    zero result, and == does not see that sign. tn_self's result is
+ *    exactly symmetric (memcmp of the mirror).
+ *  - the fusion centre's snapshot length DKF__DIFFKF_CARRY_LEN equals the
+ *    core's layout (dkf__diffkf_carry_len).
+ * A test that could fail: changing any one term's order (e.g. the +0 start
+ * of chol_wide_cols) or span start breaks the memcmp / == checks.
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "diffkf_fusion_internal.h"
+#include "dkf/diffkf.h"
+#include "dkf_test.h"
+#include "kernels.h"
+
+#define NMAX 41
+#define NCAP (NMAX < DKF_MAX_DIM ? NMAX : DKF_MAX_DIM)
+
+static dkf_real_t A[NMAX * NMAX], W[NMAX * NMAX], W2[NMAX * NMAX], T[NMAX * NMAX];
+static dkf_real_t Y[NMAX * NMAX], O[NMAX * NMAX], R[NMAX * NMAX], inv[NMAX], inv2[NMAX];
+static size_t lo[NMAX], hi[NMAX];
+
+static void rand_spd(test_rng_t *g, dkf_real_t *a, size_t n)
+{
+    static double d[NMAX * NMAX];
+    test_rand_spd(g, d, n, 1e3, 1.0);
+    test_to_real(a, d, n * n);
+}
+
+/* 1 if every element of a equals b's (==: +0 and -0 are equal). */
+static int same_values(const dkf_real_t *a, const dkf_real_t *b, size_t n)
+{
+    size_t i;
+    for (i = 0; i < n; ++i)
+        if (!(a[i] == b[i])) return 0;
+    return 1;
+}
+
+static void test_chol_wide_bits(void **state)
+{
+    test_rng_t g;
+    size_t n;
+    (void)state;
+    test_rng_seed(&g, 1401);
+    for (n = 1; n <= NCAP; ++n) {
+        rand_spd(&g, A, n);
+        assert_int_equal(dkf__chol(W, inv, A, n), 0);
+        test_textbook_chol(W2, A, n);
+        assert_memory_equal(W, W2, n * n * sizeof *W);
+        memset(W2, 0x5a, sizeof W2);
+        assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), 0);
+        assert_memory_equal(W, W2, n * n * sizeof *W);
+        assert_memory_equal(inv, inv2, n * sizeof *inv);
+        /* in place (W == A) */
+        memcpy(W2, A, n * n * sizeof *A);
+        assert_int_equal(dkf__chol_wide(W2, inv2, W2, n, T), 0);
+        assert_memory_equal(W, W2, n * n * sizeof *W);
+    }
+}
+
+static void test_chol_wide_refuses(void **state)
+{
+    test_rng_t g;
+    size_t n, bad;
+    (void)state;
+    test_rng_seed(&g, 1402);
+    for (n = 2; n <= NCAP; n += 3)
+        for (bad = 0; bad < n; bad += 5) {
+            rand_spd(&g, A, n);
+            A[bad * n + bad] = -A[bad * n + bad]; /* a negative diagonal: not SPD */
+            assert_int_equal(dkf__chol(W, inv, A, n), -1);
+            assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), -1);
+            A[bad * n + bad] = (dkf_real_t)NAN;
+            assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), -1);
+        }
+}
+
+/* Y (r x p): row i random on [lo[i], hi[i]), zero elsewhere; the spans of
+ * a block-diagonal matrix (blocks of bw columns) when bw > 0, else random. */
+static void spanned(test_rng_t *g, dkf_real_t *y, size_t r, size_t p, size_t bw)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i) {
+        size_t a, b;
+        if (bw > 0) {
+            a = (i / bw) * bw % p;
+            b = a + bw < p ? a + bw : p;
+        } else {
+            a = (size_t)(test_rng_uniform(g) * (double)p);
+            b = a + 1 + (size_t)(test_rng_uniform(g) * (double)(p - a));
+            if (test_rng_uniform(g) < 0.1) b = a; /* a zero row */
+        }
+        for (j = 0; j < p; ++j)
+            y[i * p + j] = j >= a && j < b ? (dkf_real_t)test_rng_normal(g) : DKF_R(0.0);
+    }
+}
+
+static void test_whiten_spans_values(void **state)
+{
+    test_rng_t g;
+    size_t p, r, bw, i, j, l;
+    (void)state;
+    test_rng_seed(&g, 1403);
+    for (p = 1; p <= NCAP; p += (p < 12 ? 1 : 7))
+        for (r = 1; r <= NCAP; r += (r < 12 ? 1 : 9))
+            for (bw = 0; bw <= 3; ++bw) {
+                rand_spd(&g, A, p);
+                assert_int_equal(dkf__chol(W, inv, A, p), 0);
+                spanned(&g, Y, r, p, bw);
+                dkf__row_spans(lo, hi, Y, r, p);
+                dkf__whiten_spans(O, Y, W, inv, r, p, lo);
+                /* textbook: column j of Y^T, forward substitution from row 0 */
+                for (j = 0; j < r; ++j)
+                    for (i = 0; i < p; ++i) {
+                        dkf_real_t t = Y[j * p + i];
+                        for (l = 0; l < i; ++l) t -= W[i * p + l] * R[l * r + j];
+                        R[i * r + j] = t * inv[i];
+                    }
+                assert_true(same_values(O, R, p * r));
+            }
+}
+
+static void test_tn_self_and_mul_nt_spans_values(void **state)
+{
+    test_rng_t g;
+    size_t k, r, bw, i, j, l;
+    (void)state;
+    test_rng_seed(&g, 1404);
+    for (k = 1; k <= NCAP; k += (k < 10 ? 1 : 8))
+        for (r = 1; r <= NCAP; r += (r < 12 ? 1 : 5))
+            for (bw = 0; bw <= 2; ++bw) {
+                /* A (k x r) with column spans: the transpose of a spanned r x k */
+                spanned(&g, Y, r, k, bw);
+                dkf__transpose(A, Y, r, k);
+                dkf__tn_self_spans(O, A, r, k, lo);
+                for (i = 0; i < r; ++i)
+                    for (j = 0; j < r; ++j) {
+                        dkf_real_t s = DKF_R(0.0);
+                        for (l = 0; l < k; ++l) s += A[l * r + i] * A[l * r + j];
+                        R[i * r + j] = s;
+                        assert_memory_equal(&O[i * r + j], &O[j * r + i], sizeof *O);
+                    }
+                assert_true(same_values(O, R, r * r));
+                /* Out (k x r) = Z Y^T, Z (k x k) dense, Y's rows spanned */
+                spanned(&g, W, k, k, 0);
+                for (i = 0; i < k * k; ++i) W[i] += DKF_R(1.0);
+                dkf__row_spans(lo, hi, Y, r, k);
+                dkf__mul_nt_spans(O, W, Y, k, k, r, lo, hi);
+                for (i = 0; i < k; ++i)
+                    for (j = 0; j < r; ++j) {
+                        dkf_real_t s = DKF_R(0.0);
+                        for (l = 0; l < k; ++l) s += W[i * k + l] * Y[j * k + l];
+                        R[i * r + j] = s;
+                    }
+                assert_true(same_values(O, R, k * r));
+            }
+}
+
+/* The fusion centre snapshots the first DKF__DIFFKF_CARRY_LEN reals of its
+ * central filter every step and mirrors the rest of its state: the macro
+ * must be the core's layout. */
+static void test_carry_len_matches_layout(void **state)
+{
+    static const size_t dims[][3] = {{1, 1, 1}, {4, 2, 2}, {4, 3, 2}, {3, 8, 6}, {5, 9, 9}};
+    static dkf_real_t st[DKF_DIFFKF_STORAGE_LEN(5, 9, 9)], x0[5], P0[25];
+    size_t c, i;
+    (void)state;
+    for (i = 0; i < 5; ++i) P0[i * 5 + i] = DKF_R(1.0);
+    for (c = 0; c < sizeof dims / sizeof dims[0]; ++c) {
+        const size_t n = dims[c][0], m = dims[c][1], p = dims[c][2];
+        dkf_diffkf_t f;
+        dkf_mat_t x = DKF_MAT(n, 1, x0), P = DKF_MAT(n, n, P0);
+        if (m > DKF_MAX_DIM) continue;
+        for (i = 0; i < n * n; ++i) P0[i] = i % (n + 1) == 0 ? DKF_R(1.0) : DKF_R(0.0);
+        assert_int_equal(dkf_diffkf_init(&f, n, m, p, st, DKF_DIFFKF_STORAGE_LEN(n, m, p), &x, &P),
+                         DKF_OK);
+        assert_int_equal(dkf__diffkf_carry_len(&f), DKF__DIFFKF_CARRY_LEN(n, p));
+        assert_true(DKF__DIFFKF_CARRY_LEN(n, p) < DKF_DIFFKF_STATE_LEN(n, m, p));
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_chol_wide_bits),
+        cmocka_unit_test(test_chol_wide_refuses),
+        cmocka_unit_test(test_whiten_spans_values),
+        cmocka_unit_test(test_tn_self_and_mul_nt_spans_values),
+        cmocka_unit_test(test_carry_len_matches_layout),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -18,12 +18,14 @@
  * as a comment line "# fc-step N=..: skipped (...)".
  *
  * Output, one line per N:
- *   fc-step type n N steady_ns first_ns calls repeats checksum
+ *   fc-step type n N steady_ns first_ns start_ns storage_bytes calls repeats checksum
  * steady_ns is the median, over every call but the first of every repeat,
  * of the time of one fc_step: the cost of a step of a deployed centre.
  * first_ns is the median over repeats of the first call after fc_start,
  * which computes the model-only block (docs/diffkf-fusion.md §9; a
- * time-varying model pays it every step). checksum = sum(central x_{k|k}) + trace(central P_{k|k}) after the last
+ * time-varying model pays it every step); start_ns the median of
+ * dkf_diffkf_fc_init + dkf_diffkf_fc_start; storage_bytes the centre's
+ * storage (dkf_diffkf_fc_storage_len reals). checksum = sum(central x_{k|k}) + trace(central P_{k|k}) after the last
  * step (the same whatever the speed: a change of the numbers shows here).
  * Options: --N a,b,c (default 2,12,50,100,200), --repeats R (default 3),
  * --steps S (calls per repeat; default 40000 / N^2 + 20).
@@ -146,7 +148,7 @@ static int fail(const char *what, size_t N, dkf_status_t st)
 
 /* One repeat: set-up (untimed), then `steps` fusion-centre steps; the
  * time of each call to dkf_diffkf_fc_step into ns[0..steps-1]. */
-static int run(size_t N, long steps, double *ns, double *checksum)
+static int run(size_t N, long steps, double *ns, double *start_ns, double *checksum)
 {
     const size_t len = dkf_diffkf_fc_storage_len(NX, N, mi, pi);
     dkf_ui_dyn_t dyn;
@@ -160,10 +162,12 @@ static int run(size_t N, long steps, double *ns, double *checksum)
     memset(xs, 0, sizeof xs);
     memset(ds, 0, sizeof ds);
     dyn.F = &mF, dyn.Q = &mQ, dyn.B = &mB, dyn.Rd = &mRd;
+    *start_ns = bench_now_ns();
     st = dkf_diffkf_fc_init(&fc, fc_nodes, N, NX, mi, pi, storage, len, &mx0, &mP0, NULL, &fault);
     if (st != DKF_OK) return fail("fc_init", N, st);
     st = dkf_diffkf_fc_start(&fc, &mF, &mQ, sensors, &fault);
     if (st != DKF_OK) return fail("fc_start", N, st);
+    *start_ns = bench_now_ns() - *start_ns;
     simulate(&r, N, 1);
     for (i = 0; i < N; ++i) {
         st = dkf_diffkf_init(&node[i], NX, mi[i], pi[i], node_store[i], sizeof node_store[i] /
@@ -217,7 +221,7 @@ int main(int argc, char **argv)
     for (a = 0; a < nN; ++a) {
         const size_t N = Ns[a];
         long steps = steps_opt > 0 ? steps_opt : (long)(40000 / (N * N) + 20);
-        double first[64], cs = 0.0;
+        double first[64], start[64], cs = 0.0;
         size_t nt = 0;
         int rp;
         if (steps < 2) steps = 2;
@@ -229,13 +233,14 @@ int main(int argc, char **argv)
         }
         model(N);
         for (rp = 0; rp < repeats && rp < 64; ++rp) {
-            if (run(N, steps, call_ns, &cs) != 0) return 1;
+            if (run(N, steps, call_ns, &start[rp], &cs) != 0) return 1;
             first[rp] = call_ns[0];
             memcpy(steady_ns + nt, call_ns + 1, (size_t)(steps - 1) * sizeof *call_ns);
             nt += (size_t)(steps - 1);
         }
-        printf("fc-step %s %d %zu %.1f %.1f %ld %d %.17g\n", BENCH_TYPE, NX, N,
-               bench_median(steady_ns, (int)nt), bench_median(first, rp), steps, rp, cs);
+        printf("fc-step %s %d %zu %.1f %.1f %.1f %zu %ld %d %.17g\n", BENCH_TYPE, NX, N,
+               bench_median(steady_ns, (int)nt), bench_median(first, rp), bench_median(start, rp),
+               dkf_diffkf_fc_storage_len(NX, N, mi, pi) * sizeof(dkf_real_t), steps, rp, cs);
         fflush(stdout);
     }
     return 0;

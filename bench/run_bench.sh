@@ -252,12 +252,14 @@ END {
 }' "$rawwf"
 
 echo
-echo "Difference-KF fusion centre (bench_fc), ns per dkf_diffkf_fc_step against N nodes (n = 4, p_i = 2):"
-echo "steady = median of every call after the first (exponent: its growth from the previous N); first = the call after fc_start, which computes the model block"
+echo "Difference-KF fusion centre (bench_fc) against N nodes (n = 4, p_i = 2): ns per dkf_diffkf_fc_step"
+echo "steady = median of every call after the first (exponent: its growth from the previous N); first = the call after"
+echo "fc_start, which computes the model block; start = fc_init + fc_start; storage in MiB (exponent likewise)"
 awk '
-/^fc-step / { ty = $2; N = $4; t = $5; t1 = $6
-  if (ty == pty) printf "%-7s %4s steady %14.1f %6.2f  first %14.1f\n", ty, N, t, log(t / pt) / log(N / pN), t1
-  else printf "%-7s %4s steady %14.1f %6s  first %14.1f\n", ty, N, t, "-", t1
-  pty = ty; pt = t; pN = N }
+/^fc-step / { ty = $2; N = $4; t = $5; t1 = $6; t0 = $7; mb = $8 / 1048576
+  if (ty == pty) { e = log(t / pt) / log(N / pN); es = log(t0 / pt0) / log(N / pN); em = log(mb / pmb) / log(N / pN)
+    printf "%-7s %4s steady %12.1f %5.2f  first %12.1f  start %12.1f %5.2f  storage %8.2f %5.2f\n", ty, N, t, e, t1, t0, es, mb, em }
+  else printf "%-7s %4s steady %12.1f %5s  first %12.1f  start %12.1f %5s  storage %8.2f %5s\n", ty, N, t, "-", t1, t0, "-", mb, "-"
+  pty = ty; pt = t; pN = N; pt0 = t0; pmb = mb }
 /^# fc-step/ { print }' "$rawfc"
 exit "$status"

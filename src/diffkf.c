@@ -305,30 +305,148 @@ DKF__INLINE int same_bits(const dkf_real_t *a, const dkf_real_t *b, size_t n)
     return memcmp(a, b, n * sizeof *a) == 0;
 }
 
+/* ---- A^+ and B^{-1} of a block-diagonal model (issue 14) -------------------
+ * The stacked model of a fusion centre has block-diagonal A = blkdiag(A^i)
+ * and B = blkdiag(B^i) (docs/diffkf-fusion.md §1), and the pseudo-inverse
+ * or inverse of a block-diagonal matrix is the block diagonal of its
+ * blocks'. pinv_cached and inverse_cached find such blocks in any A and B
+ * (diag_blocks: contiguous diagonal blocks, exact zeros elsewhere) and
+ * work block by block: sum_i (m_i p_i^2) instead of m p^2 for the SVD,
+ * O(sum p_i^3) instead of O(p^3) for the LU. The conditions stay those of
+ * the whole matrix: A's singular values are its blocks', and the rank
+ * counts those above max(m, p) eps sigma_max (DKF_RANK_TOL_DEFAULT of A);
+ * partial pivoting never leaves a block, so B's LU pivots are its blocks',
+ * each tested against p eps max|B| (dkf_mat_lu's test on B). A matrix
+ * without two such blocks, or with a block too large for the scratch,
+ * takes the dense route. */
+
+/* The contiguous diagonal blocks of A (r x c), found along the rows: block
+ * b ends at row re[b] and column ce[b] (exclusive), and no row reaches a
+ * column of another block; square: each block's rows and columns are the
+ * same range. Trailing zero rows join the last block. Returns the number
+ * of blocks, or 0 for fewer than two (or columns no block covers). */
+static size_t diag_blocks(size_t *re, size_t *ce, const dkf_real_t *A, size_t r, size_t c,
+                          int square)
+{
+    size_t lo[DKF_MAX_DIM], hi[DKF_MAX_DIM], i, nb = 0, chi = 0, c0 = 0;
+    dkf__row_spans(lo, hi, A, r, c);
+    for (i = r; i-- > 1;) /* lo[i] becomes the smallest first column of rows >= i */
+        lo[i - 1] = lo[i] < lo[i - 1] ? lo[i] : lo[i - 1];
+    for (i = 0; i < r; ++i) {
+        size_t end;
+        if (hi[i] > chi) chi = hi[i];
+        end = square && i + 1 > chi ? i + 1 : chi;
+        if (end > c0 && (i + 1 == r || lo[i + 1] >= end) && (!square || i + 1 == end)) {
+            re[nb] = i + 1;
+            ce[nb++] = end;
+            c0 = end;
+        }
+    }
+    if (nb == 0 || c0 != c) return 0;
+    re[nb - 1] = r;
+    return nb >= 2 ? nb : 0;
+}
+
+/* Ab (rows x cols, contiguous) = the block of A (row stride c) at (r0, c0). */
+static void get_block(dkf_real_t *Ab, const dkf_real_t *A, size_t c, size_t r0, size_t c0,
+                      size_t rows, size_t cols)
+{
+    size_t i;
+    for (i = 0; i < rows; ++i) memcpy(Ab + i * cols, A + (r0 + i) * c + c0, cols * sizeof *Ab);
+}
+
+/* Apn = A^+ block by block (blocks re, ce of diag_blocks), the tolerance
+ * of the whole A; *rank their ranks' sum. DKF_ERR_CAPACITY if a block
+ * does not fit the scratch (the caller then goes dense). */
+static dkf_status_t pinv_blocks(const layout_t *L, size_t *rank, const dkf_mat_t *A, size_t m,
+                                size_t p, const size_t *re, const size_t *ce, size_t nb)
+{
+    const size_t t3len = (size_t)(L->GH - L->T3); /* T3 holds the block and its pinv */
+    dkf_real_t sv[DKF_MAX_DIM], smax = DKF_R(0.0), tol;
+    size_t b, pass, r0, c0, rb;
+    for (b = 0, r0 = c0 = 0; b < nb; r0 = re[b], c0 = ce[b], ++b)
+        if (2 * (re[b] - r0) * (ce[b] - c0) > t3len) return DKF_ERR_CAPACITY;
+    memset(L->Apn, 0, p * m * sizeof *L->Apn);
+    *rank = 0;
+    for (pass = 0; pass < 2; ++pass)
+        for (b = 0, r0 = c0 = 0; b < nb; r0 = re[b], c0 = ce[b], ++b) {
+            const size_t mb = re[b] - r0, pb = ce[b] - c0;
+            dkf_mat_t Ab = DKF_MAT(mb, pb, L->T3), Xb = DKF_MAT(pb, mb, L->T3 + mb * pb);
+            get_block(L->T3, A->data, p, r0, c0, mb, pb);
+            if (pass == 0) { /* sigma_max of A: the largest of its blocks' */
+                DKF_TRY(dkf_mat_svd(NULL, sv, NULL, &Ab, L->svdw));
+                if (sv[0] > smax) smax = sv[0];
+                continue;
+            }
+            tol = (dkf_real_t)(m > p ? m : p) * DKF_REAL_EPSILON * smax;
+            DKF_TRY(dkf_mat_pinv(&Xb, &rb, &Ab, tol, L->svdw));
+            *rank += rb;
+            dkf__put_block(L->Apn, m, c0, r0, Xb.data, pb, mb);
+        }
+    return DKF_OK;
+}
+
+/* Binvn = B^{-1} block by block (square blocks ce of diag_blocks), each LU
+ * pivot tested against p eps max|B|. DKF_ERR_CAPACITY as pinv_blocks. */
+static dkf_status_t inverse_blocks(const layout_t *L, const dkf_mat_t *B, size_t p,
+                                   const size_t *ce, size_t nb)
+{
+    const size_t t3len = (size_t)(L->GH - L->T3); /* T3 holds the block, its LU, its inverse */
+    dkf_real_t amax = DKF_R(0.0), tol;
+    size_t piv[DKF_MAX_DIM], b, c0, i;
+    for (b = 0, c0 = 0; b < nb; c0 = ce[b], ++b)
+        if (3 * (ce[b] - c0) * (ce[b] - c0) > t3len) return DKF_ERR_CAPACITY;
+    for (i = 0; i < p * p; ++i) amax = DKF_FABS(B->data[i]) > amax ? DKF_FABS(B->data[i]) : amax;
+    tol = ((dkf_real_t)p * DKF_REAL_EPSILON) * amax;
+    memset(L->Binvn, 0, p * p * sizeof *L->Binvn);
+    for (b = 0, c0 = 0; b < nb; c0 = ce[b], ++b) {
+        const size_t pb = ce[b] - c0;
+        dkf_mat_t Bb = DKF_MAT(pb, pb, L->T3), LU = DKF_MAT(pb, pb, L->T3 + pb * pb),
+                  X = DKF_MAT(pb, pb, L->T3 + 2 * pb * pb);
+        get_block(L->T3, B->data, p, c0, c0, pb, pb);
+        DKF_TRY(dkf_mat_lu(&LU, piv, &Bb, L->invw));
+        for (i = 0; i < pb; ++i)
+            if (!(DKF_FABS(LU.data[i * pb + i]) > tol)) return DKF_ERR_SINGULAR;
+        memset(X.data, 0, pb * pb * sizeof *X.data);
+        for (i = 0; i < pb; ++i) X.data[i * pb + i] = DKF_R(1.0);
+        DKF_TRY(dkf_mat_lu_solve(&X, &LU, piv, &X));
+        dkf__put_block(L->Binvn, p, c0, c0, X.data, pb, pb);
+    }
+    return DKF_OK;
+}
+
 /* L->Ap = A^+ (p x m): the cache when A is bitwise the cached matrix,
  * else computed into scratch (L->Ap then points there until
- * commit_caches). DKF_ERR_RANK unless A has full column rank p. */
+ * commit_caches), block by block for a block-diagonal A. DKF_ERR_RANK
+ * unless A has full column rank p. */
 static dkf_status_t pinv_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_mat_t *A)
 {
     const size_t m = f->m, p = f->p;
-    size_t rank = 0;
+    size_t rank = 0, re[DKF_MAX_DIM], ce[DKF_MAX_DIM], nb;
     dkf_mat_t Ap = DKF_MAT(p, m, L->Apn);
     if (f->d_cached && same_bits(L->Alast, A->data, m * p)) return DKF_OK;
-    DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
+    nb = diag_blocks(re, ce, A->data, m, p, 0);
+    if (nb == 0 || pinv_blocks(L, &rank, A, m, p, re, ce, nb) == DKF_ERR_CAPACITY)
+        DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
     if (rank != p) return DKF_ERR_RANK;
     L->Ap = L->Apn;
     L->newA = A;
     return DKF_OK;
 }
 
-/* L->Binv = B^{-1}, cached likewise. DKF_ERR_SINGULAR for singular B. */
+/* L->Binv = B^{-1}, cached likewise (block by block for a block-diagonal
+ * B). DKF_ERR_SINGULAR for singular B. */
 static dkf_status_t inverse_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_mat_t *B)
 {
     const size_t p = f->p;
-    size_t piv[DKF_MAX_DIM];
+    size_t piv[DKF_MAX_DIM], re[DKF_MAX_DIM], ce[DKF_MAX_DIM], nb;
     dkf_mat_t Bi = DKF_MAT(p, p, L->Binvn);
+    dkf_status_t st = DKF_ERR_CAPACITY;
     if (f->b_cached && same_bits(L->Blast, B->data, p * p)) return DKF_OK;
-    DKF_TRY(dkf_mat_inverse(&Bi, B, piv, L->invw));
+    nb = diag_blocks(re, ce, B->data, p, p, 1);
+    if (nb > 0) st = inverse_blocks(L, B, p, ce, nb);
+    if (st == DKF_ERR_CAPACITY) st = dkf_mat_inverse(&Bi, B, piv, L->invw);
+    DKF_TRY(st);
     L->Binv = L->Binvn;
     L->newB = B;
     return DKF_OK;
@@ -376,13 +494,19 @@ static void commit_caches(dkf_diffkf_t *f, const layout_t *L)
     }
 }
 
-/* Out (r x r) += A X A^T, A r x c, X c x c symmetric; tmp holds r * c
- * reals. Only the upper triangle is formed; the result is mirrored. */
-static void add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *X, size_t r,
-                           size_t c, dkf_real_t *tmp)
+/* Out (r x r) += A X A^T, A r x c, X c x c symmetric (finite); tmp holds
+ * r * c reals, lo and hi r entries. Only the upper triangle is formed; the
+ * result is mirrored. Both products run over A's row spans (the stacked
+ * model's blocks: exact zeros skipped, the dense values); an overflow in A
+ * X is DKF_ERR_NONFINITE, as the dense A X A^T would be non-finite. */
+static dkf_status_t add_congruence(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *X,
+                                   size_t r, size_t c, dkf_real_t *tmp, size_t *lo, size_t *hi)
 {
-    dkf__mul_nn(tmp, A, X, r, c, c);
-    dkf__mul_nt_sym(Out, tmp, A, Out, r, c);
+    dkf__row_spans(lo, hi, A, r, c);
+    dkf__mul_nn_spans(tmp, A, X, r, c, c, lo, hi);
+    if (!dkf__all_finite(tmp, r * c)) return DKF_ERR_NONFINITE;
+    dkf__mul_nt_sym_spans(Out, tmp, A, Out, r, c, lo, hi);
+    return DKF_OK;
 }
 
 /* ---- kernels of the step, by size --------------------------------------------
@@ -569,20 +693,26 @@ DKF__INLINE void right_solve(int fx, dkf_real_t *Out, const dkf_real_t *Y, const
 }
 
 /* The data-independent part of the next-step carry that depends only on
- * the model at k+1: A^+ H, A^+ R A^{+T} (pending copies). */
-static void meas_products(const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_meas_t *meas,
-                          dkf_real_t *ApH, dkf_real_t *ApRAp)
+ * the model at k+1: A^+ H, A^+ R A^{+T} (pending copies), over A^+'s row
+ * spans (lo, hi: p entries of scratch), as add_congruence; A^+ R stays in
+ * T3. */
+static dkf_status_t meas_products(const dkf_diffkf_t *f, const layout_t *L,
+                                  const dkf_ui_meas_t *meas, dkf_real_t *ApH, dkf_real_t *ApRAp,
+                                  size_t *lo, size_t *hi)
 {
     const size_t n = f->n, m = f->m, p = f->p;
-    dkf__mul_nn(ApH, L->Ap, meas->H->data, p, m, n);
-    dkf__mul_nn(L->T3, L->Ap, meas->R->data, p, m, m);
-    dkf__mul_nt_sym(ApRAp, L->T3, L->Ap, NULL, p, m);
+    dkf__row_spans(lo, hi, L->Ap, p, m);
+    dkf__mul_nn_spans(ApH, L->Ap, meas->H->data, p, m, n, lo, hi);
+    dkf__mul_nn_spans(L->T3, L->Ap, meas->R->data, p, m, m, lo, hi);
+    if (!dkf__all_finite(L->T3, p * m)) return DKF_ERR_NONFINITE;
+    dkf__mul_nt_sym_spans(ApRAp, L->T3, L->Ap, NULL, p, m, lo, hi);
+    return DKF_OK;
 }
 
 dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
                               const dkf_ui_meas_t *meas1, const dkf_mat_t *y1)
 {
-    size_t n, p;
+    size_t n, p, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     layout_t L;
     DKF_CHECK_NULL(f);
     if (!f->ready || f->started) return DKF_ERR_STATE;
@@ -606,7 +736,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     }
     /* A_1^+ H_1, A_1^+ R_1 A_1^{+T}, A_1^+ y_1 into scratch: finite inputs
      * may overflow, and the carry is written only once nothing can fail */
-    meas_products(f, &L, meas1, L.ApHn, L.ApRApn);
+    DKF_TRY(meas_products(f, &L, meas1, L.ApHn, L.ApRApn, lo, hi));
     if (y1 != NULL) dkf__mul_vec(L.T3, L.Ap, y1->data, p, f->m);
     if (!dkf__all_finite(L.ApHn, p * n) || !dkf__all_finite(L.ApRApn, p * p) ||
         (y1 != NULL && !dkf__all_finite(L.T3, p)))
@@ -642,32 +772,41 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
 {
     layout_t L;
     const size_t n = f->n, m = f->m, p = f->p;
-    size_t i;
+    size_t i, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     DKF_TRY(pinv_cached(f, L_, meas_next->D));
     DKF_TRY(inverse_cached(f, L_, dyn->B));
     L = *L_;
+    /* The products run over the row spans of B^{-1}, A^+ and G (block
+     * diagonal in a stacked model; add_congruence): the skipped terms are
+     * exact zeros times finite factors, so the values are the dense ones,
+     * and where a factor is not finite the status is the dense one
+     * (DKF_ERR_NONFINITE: A^+ here, the products' intermediates below). */
+    if (!dkf__all_finite(L.Ap, p * m)) return DKF_ERR_NONFINITE;
 
     /* G = B^{-1} A_{k+1}^+; GH = G H_{k+1}; M = GH F - A_k^+ H_k      (8), (11) */
-    dkf__mul_nn(L.G, L.Binv, L.Ap, p, p, m);
-    dkf__mul_nn(L.GH, L.G, meas_next->H->data, p, m, n);
+    dkf__row_spans(lo, hi, L.Binv, p, p);
+    dkf__mul_nn_spans(L.G, L.Binv, L.Ap, p, p, m, lo, hi);
+    dkf__row_spans(lo, hi, L.G, p, m);
+    dkf__mul_nn_spans(L.GH, L.G, meas_next->H->data, p, m, n, lo, hi);
     dkf__mul_nn(L.M, L.GH, dyn->F->data, p, n, n);
     for (i = 0; i < p * n; ++i) L.M[i] -= L.ApH[i];
 
     /* Ru = GH Q GH^T + B^{-1} Rd B^{-T} + G R_{k+1} G^T + A_k^+ R_k A_k^{+T}  (14) */
     dkf__copy(L.Ru, L.ApRAp, p * p);
-    add_congruence(L.Ru, L.GH, dyn->Q->data, p, n, L.T3);
-    add_congruence(L.Ru, L.Binv, dyn->Rd->data, p, p, L.T3);
-    add_congruence(L.Ru, L.G, meas_next->R->data, p, m, L.T3);
+    DKF_TRY(add_congruence(L.Ru, L.GH, dyn->Q->data, p, n, L.T3, lo, hi));
+    DKF_TRY(add_congruence(L.Ru, L.Binv, dyn->Rd->data, p, p, L.T3, lo, hi));
+    DKF_TRY(add_congruence(L.Ru, L.G, meas_next->R->data, p, m, L.T3, lo, hi));
 
     /* S = Q H_{k+1}^T G^T = Q GH^T                                     (13) */
     dkf__mul_nt(L.S, dyn->Q->data, L.GH, n, n, p);
 
-    /* the next step's correlation C_{k+1} = -A_{k+1}^+ R_{k+1} G^T    (15),
-     * and the model products at k+1 it will carry */
-    dkf__mul_nn(L.T3, L.Ap, meas_next->R->data, p, m, m);
-    dkf__mul_nt(L.Cn, L.T3, L.G, p, m, p);
+    /* the model products at k+1 that the next step will carry, and its
+     * correlation C_{k+1} = -A_{k+1}^+ R_{k+1} G^T (15), from the A^+ R
+     * that meas_products leaves in T3, over G's row spans */
+    DKF_TRY(meas_products(f, &L, meas_next, L.ApHn, L.ApRApn, lo, hi));
+    dkf__row_spans(lo, hi, L.G, p, m);
+    dkf__mul_nt_spans(L.Cn, L.T3, L.G, p, m, p, lo, hi);
     for (i = 0; i < p * p; ++i) L.Cn[i] = -L.Cn[i];
-    meas_products(f, &L, meas_next, L.ApHn, L.ApRApn);
 
     /* Finite inputs whose products overflow: refused here, whichever rows a
      * masked gain keeps, so the memo never holds a non-finite block. */

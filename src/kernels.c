@@ -247,6 +247,36 @@ void dkf__mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B
             Out[i * s + j] = inl_dot(A + i * c + lo[j], B + j * c + lo[j], hi[j] - lo[j]);
 }
 
+/* C (r x c) = A (r x k) B for A zero outside [lo[i], hi[i]) in row i: row
+ * i of C sums l over the span only, in index order (mul_nn_row1). */
+void dkf__mul_nn_spans(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                       size_t k, size_t c, const size_t *lo, const size_t *hi)
+{
+    size_t i;
+    for (i = 0; i < r; ++i) {
+        if (hi[i] > lo[i])
+            mul_nn_row1(C + i * c, A + i * k + lo[i], B + lo[i] * c, hi[i] - lo[i], c);
+        else
+            memset(C + i * c, 0, c * sizeof *C);
+    }
+}
+
+/* C (r x r) = A (r x k) B^T + D for B (r x k) zero outside its row spans,
+ * symmetric by construction: the upper triangle, each element the dot
+ * product over row j's span plus D(i, j) (D NULL: 0; D may be C), mirrored. */
+void dkf__mul_nt_sym_spans(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                           const dkf_real_t *D, size_t r, size_t k, const size_t *lo,
+                           const size_t *hi)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = i; j < r; ++j) {
+            const dkf_real_t v = inl_dot(A + i * k + lo[j], B + j * k + lo[j], hi[j] - lo[j]);
+            C[i * r + j] = D != NULL ? v + D[i * r + j] : v;
+            C[j * r + i] = C[i * r + j];
+        }
+}
+
 /* Rows i and (if two) i+1 of the forward substitution L W = B (L = Lc,
  * p x p; B p x r, row-major) on the w = 8 or 4 columns j..j+w-1, the
  * terms l from s0 (zeros before): solve_2x8 / solve_2x4, both sums over

@@ -102,6 +102,15 @@ void dkf__row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_
  * row j: each element an index-order dot product over the span. */
 void dkf__mul_nt_spans(dkf_real_t *Out, const dkf_real_t *A, const dkf_real_t *B, size_t r,
                        size_t c, size_t s, const size_t *lo, const size_t *hi);
+/* C (r x c) = A (r x k) B for A zero outside [lo[i], hi[i]) in row i. */
+void dkf__mul_nn_spans(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B, size_t r,
+                       size_t k, size_t c, const size_t *lo, const size_t *hi);
+/* C (r x r) = A (r x k) B^T + D, symmetric by construction (upper triangle
+ * formed, mirrored; D NULL for 0, may be C), B (r x k) zero outside its row
+ * spans. */
+void dkf__mul_nt_sym_spans(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t *B,
+                           const dkf_real_t *D, size_t r, size_t k, const size_t *lo,
+                           const size_t *hi);
 /* Out (p x r) = Lc^{-1} Y^T (forward substitution, inv from dkf__chol) for
  * Y (r x p) zero before column lo[i] in row i: each element's terms in
  * inl_chol_forward's order (l ascending), from its column's first nonzero. */

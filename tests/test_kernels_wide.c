@@ -15,7 +15,9 @@
  *    zero result, and == does not see that sign. tn_self's result is
  *    exactly symmetric (memcmp of the mirror).
  *  - the fusion centre's snapshot length DKF__DIFFKF_CARRY_LEN equals the
- *    core's layout (dkf__diffkf_carry_len).
+ *    core's layout (dkf__diffkf_carry_len);
+ *  - A^+ and B^{-1} of a block-diagonal model, computed block by block,
+ *    keep the whole matrix's rank and singularity conditions.
  * A test that could fail: changing any one term's order (e.g. the +0 start
  * of chol_wide_cols) or span start breaks the memcmp / == checks.
  */
@@ -199,6 +201,43 @@ static void test_carry_len_matches_layout(void **state)
     }
 }
 
+/* A^+ and B^{-1} of a block-diagonal model are computed block by block
+ * (src/diffkf.c, diag_blocks), with the whole matrix's conditions: rank
+ * counts singular values above max(m, p) eps sigma_max of all of A, and a
+ * pivot of B must exceed p eps max|B|. Blocks judged alone would accept
+ * both matrices below (each 1 x 1 block is full rank / nonsingular by its
+ * own tolerance); the whole-matrix conditions refuse them. */
+static void test_block_diagonal_conditions(void **state)
+{
+    static dkf_real_t st[DKF_DIFFKF_STORAGE_LEN(2, 2, 2)];
+    dkf_real_t I2[4] = {1, 0, 0, 1}, x0[2] = {0, 0}, H[4] = {1, 0.5, 0, 1}, Rm[4] = {1, 0, 0, 1};
+    dkf_real_t D[4] = {1, 0, 0, 1}, B[4] = {0.9, 0, 0, 0.9}, Rd[4] = {0.1, 0, 0, 0.1};
+    dkf_mat_t mI = DKF_MAT(2, 2, I2), mx = DKF_MAT(2, 1, x0), mH = DKF_MAT(2, 2, H),
+              mR = DKF_MAT(2, 2, Rm), mA = DKF_MAT(2, 2, D), mB = DKF_MAT(2, 2, B),
+              mRd = DKF_MAT(2, 2, Rd);
+    dkf_ui_meas_t meas;
+    dkf_ui_dyn_t dyn;
+    dkf_diffkf_t f;
+    (void)state;
+    meas.H = &mH, meas.D = &mA, meas.R = &mR;
+    dyn.F = &mI, dyn.Q = &mI, dyn.B = &mB, dyn.Rd = &mRd;
+    /* A = diag(1, 1e-20): rank 1 for the whole matrix */
+    D[3] = DKF_R(1e-20);
+    assert_int_equal(dkf_diffkf_init(&f, 2, 2, 2, st, DKF_DIFFKF_STORAGE_LEN(2, 2, 2), &mx, &mI),
+                     DKF_OK);
+    assert_int_equal(dkf_diffkf_start(&f, &mI, &mI, &meas, NULL), DKF_ERR_RANK);
+    /* A = diag(1, 1e-3) is full rank; B = diag(0.9, 1e-30) singular for the
+     * whole matrix (1e-30 <= 2 eps 0.9) */
+    D[3] = DKF_R(1e-3);
+    assert_int_equal(dkf_diffkf_start(&f, &mI, &mI, &meas, NULL), DKF_OK);
+    B[3] = DKF_R(1e-30);
+    assert_int_equal(dkf_diffkf_gain(&f, &dyn, &meas), DKF_ERR_SINGULAR);
+    B[3] = DKF_R(0.9);
+    assert_int_equal(dkf_diffkf_gain(&f, &dyn, &meas), DKF_OK);
+    /* B^{-1} = diag(1/0.9) went into L: the gain's L is finite and SPD */
+    assert_true(f.pending);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -207,6 +246,7 @@ int main(void)
         cmocka_unit_test(test_whiten_spans_values),
         cmocka_unit_test(test_tn_self_and_mul_nt_spans_values),
         cmocka_unit_test(test_carry_len_matches_layout),
+        cmocka_unit_test(test_block_diagonal_conditions),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

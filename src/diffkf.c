@@ -979,7 +979,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
 {
     const layout_t *const L = L_;
     dkf_real_t *const inv = L->Li, pw[DKF_MAX_DIM];
-    size_t i, j, l, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
+    size_t i, j, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     const sel_t sel = sel_of(L, p, pk);
     select_rows(L, idx, n, p, pk, pc);
 
@@ -998,15 +998,9 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     for (i = 0; i < n * pk; ++i) L->jX[i] = -L->T2[i]; /* X = -W'_{k-1} C'^T */
 #endif
 
-    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M W C^T (primed) (20) */
-    k_mul_nn(fx, L->T3, L->Mk, L->W, pk, n, pc); /* M W      */
-    if (fx) {
-        k_mul_nt(fx, L->X, L->T3, sel.Ck, pk, pc, pk); /* M W C^T  */
-    } else {
-        /* a non-finite M W made the dense M W C^T, hence L, non-finite */
-        if (!dkf__all_finite(L->T3, pk * pc)) return DKF_ERR_NONFINITE;
-        dkf__mul_nt_spans(L->X, L->T3, sel.Ck, pk, pc, pk, lo, hi);
-    }
+    /* L = M P M^T - X - X^T + Ru - C L_{k-1}^{-1} C^T, X = M (W C^T) (primed)
+     * (20), W C^T from J's T2 */
+    k_mul_nn(fx, L->X, L->Mk, L->T2, pk, n, pk);
     k_mul_nn(fx, L->T3, L->Mk, f->Pn.data, pk, n, n);
     k_mul_nt_sym(fx, L->Ln, L->T3, L->Mk, sel.Ruk, pk, n); /* M P M^T + Ru */
     /* C' L'^{-1}_{k-1} C'^T = Vt'^T Vt' (symmetric as computed) */
@@ -1071,10 +1065,12 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     }
 
     /* the correlated part of the predicted z: C' L'^{-1}_{k-1} dz'_{k-1} =
-     * Vt'^T wz', wz' = Lc'^{-1}_{k-1} dz'_{k-1} */
-    for (i = 0; i < pk; ++i) L->zc[i] = DKF_R(0.0);
-    for (l = 0; l < pc; ++l) /* each zc[i] summed over l ascending, along rows of Vt' */
-        for (i = 0; i < pk; ++i) L->zc[i] += sel.Vtk[l * pk + i] * L->wzp[l];
+     * Vt'^T wz' = (wz'^T Vt')^T, wz' = Lc'^{-1}_{k-1} dz'_{k-1}: each zc[i]
+     * summed over l ascending, along rows of Vt' */
+    if (pc > 0)
+        mul_nn_row1(L->zc, L->wzp, sel.Vtk, pc, pk);
+    else
+        for (i = 0; i < pk; ++i) L->zc[i] = DKF_R(0.0);
     memcpy(L->Fn, dyn->F->data, n * n * sizeof *L->Fn);
 
     if (!k_finite(fx, L->Pfn, n * n) || !k_finite(fx, L->Ppn, n * n) ||

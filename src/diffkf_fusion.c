@@ -27,12 +27,12 @@
  *
  * Atomicity: everything that can fail (replica gains, rank of K^i, the
  * central gain, the updates' overflow checks) runs against snapshots of
- * the replicas and of the central filter (struct and state part of its
- * storage, caches included); a failure restores them. The central
- * filter's caches (A^+, B^{-1}, the model block: most of its state at
- * large N) change only when its cache_gen advances, so their snapshot is
- * a mirror refreshed after each successful call that wrote them, not a
- * copy taken every step.
+ * the replicas and of the central filter's struct; a failure restores
+ * them. The central filter's update comes last and is atomic itself, so
+ * its carry needs no copy; its caches (A^+, B^{-1}, the model block: most
+ * of its state at large N), which a successful central gain may rewrite,
+ * change only when its cache_gen advances, so their snapshot is a mirror
+ * refreshed after each successful call that wrote them (save_state).
  */
 #include "dkf/diffkf_fusion.h"
 
@@ -104,12 +104,11 @@ static void copy_caches(const dkf_diffkf_fc_t *fc, int to_snap)
 /* The storage, state first (dkf_diffkf_fc_state_len: the replicas'
  * storage, the committed z dz, the mirror of the central filter's caches,
  * the central filter's storage, whose first DKF_DIFFKF_STATE_LEN reals end
- * the state), then scratch: the replicas' snapshots, the snapshot of the
- * central filter's carry, the stacked H D R B Rd, the pending z dz,
- * (K^i)^+, the workspace. */
+ * the state), then scratch: the replicas' snapshots, the stacked H D R B
+ * Rd, the pending z dz, (K^i)^+, the workspace. */
 typedef struct {
     dkf_real_t *zs, *cache_snap, *central;                   /* state (with the replicas') */
-    dkf_real_t *central_snap, *H, *D, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
+    dkf_real_t *H, *D, *R, *B, *Rd, *pend, *Kp, *work; /* scratch */
     size_t state_len;
 } fc_layout_t;
 
@@ -135,7 +134,6 @@ static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *
         DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
         if (nodes != NULL) nodes[i].saved_store = rep;
     }
-    DKF_TAKE(L->central_snap, carry);
     DKF_TAKE(L->H, d->ms * n);
     DKF_TAKE(L->D, d->ms * d->ps);
     DKF_TAKE(L->R, d->ms * d->ms);
@@ -239,7 +237,6 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
                          DKF_DIFFKF_STORAGE_LEN(n, d.ms, d.ps), x0, P0);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
     g.central_store = L.central;
-    g.central_snap = L.central_snap;
     g.cache_snap = L.cache_snap;
     copy_caches(&g, 1); /* the mirror holds the caches from here on (roll_back) */
     dkf__view(&g.H, d.ms, n, L.H);
@@ -299,14 +296,16 @@ void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc)
 }
 
 /* Snapshots of everything a call may change before it can fail: the
- * replicas, the central filter's struct and the carry part of its state.
- * Its caches have a mirror in the state (fc->cache_snap), refreshed after
- * every successful call that wrote them (commit_state). */
+ * replicas and the central filter's struct. The central filter's carry
+ * needs none: the call's last fallible operation is its own update (start
+ * in dkf_diffkf_fc_start), which leaves it untouched on failure, and its
+ * gain writes only the pending area and the caches. The caches have a
+ * mirror in the state (fc->cache_snap), refreshed after every successful
+ * call that wrote them (commit_state). */
 static void save_state(dkf_diffkf_fc_t *fc, dkf_diffkf_t *central_saved)
 {
     save_replicas(fc);
     *central_saved = fc->central;
-    dkf__copy(fc->central_snap, fc->central_store, DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps));
 }
 
 /* Restores what save_state saved, and the caches if a successful central
@@ -318,7 +317,6 @@ static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_s
     restore_replicas(fc);
     if (fc->central.cache_gen != central_saved->cache_gen) copy_caches(fc, 0);
     fc->central = *central_saved;
-    dkf__copy(fc->central_store, fc->central_snap, DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps));
     return report(fault, st, which, node);
 }
 

@@ -12,15 +12,8 @@
  * bit-identical, not just the replicas. */
 void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc);
 
-/* Reals at the start of a Difference KF's storage that a step rewrites:
- * the output views and the carry (src/diffkf.c's layout up to its caches).
- * The caches follow, up to DKF_DIFFKF_STATE_LEN, and change only when
- * f->cache_gen advances, so the centre snapshots them only then.
- * dkf__diffkf_carry_len (diffkf.c) measures the layout of an initialised
- * f; test_diffkf_fusion checks that the two agree. */
-#define DKF__DIFFKF_CARRY_LEN(n, p) \
-    (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
-     + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */)
+/* (diffkf.c) DKF__DIFFKF_CARRY_LEN (dkf/diffkf.h) measured on the layout
+ * of an initialised f; test_kernels_wide checks that the two agree. */
 size_t dkf__diffkf_carry_len(const dkf_diffkf_t *f);
 
 #endif /* DKF_DIFFKF_FUSION_INTERNAL_H */

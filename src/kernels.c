@@ -277,173 +277,85 @@ void dkf__mul_nt_sym_spans(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t 
         }
 }
 
-/* Rows i and (if two) i+1 of the forward substitution L W = B (L = Lc,
- * p x p; B p x r, row-major) on the w = 8 or 4 columns j..j+w-1, the
- * terms l from s0 (zeros before): solve_2x8 / solve_2x4, both sums over
- * l < i together, then row i+1's last term, l = i, from the finished row
- * i: the order of the one-row loop (l ascending), the same bits. A lone
- * last row writes its second result to a scratch block. */
-DKF__INLINE void forward_rows(dkf_real_t *B, const dkf_real_t *Lc, const dkf_real_t *inv,
-                              size_t p, size_t r, size_t j, size_t s0, size_t i, int two, size_t w)
-{
-    const dkf_real_t *li = Lc + i * p, *lk = two ? li + p : li;
-    dkf_real_t *bi = B + i * r + j, *bk = bi + r, spare[8];
-    const dkf_real_t c = two ? li[p + i] : DKF_R(0.0), dk = two ? inv[i + 1] : DKF_R(1.0);
-    if (!two) {
-        memcpy(spare, bi, w * sizeof *spare);
-        bk = spare;
-    }
-    if (w == 8)
-        solve_2x8(bi, bk, B + s0 * r + j, (ptrdiff_t)r, li + s0, lk + s0, 1, i - s0, inv[i], c, dk);
-    else
-        solve_2x4(bi, bk, B + s0 * r + j, (ptrdiff_t)r, li + s0, lk + s0, 1, i - s0, inv[i], c, dk);
-}
-
-/* The smallest of lo[j .. j+w-1]. */
-static size_t min_lo(const size_t *lo, size_t j, size_t w)
-{
-    size_t s0 = lo[j], q;
-    for (q = 1; q < w; ++q) s0 = lo[j + q] < s0 ? lo[j + q] : s0;
-    return s0;
-}
-
-/* Out (p x r) = Lc^{-1} Y^T for a Y (r x p) whose row i is zero before
- * column lo[i]: the forward substitution of column i of Y^T is zero down
- * to row lo[i], so it starts there (the 8- and 4-column blocks at their
- * smallest lo), two rows i, i+1 at a time (forward_rows), then the last
- * columns one by one; each element's terms in inl_chol_forward's order (l
- * ascending). */
-void dkf__whiten_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
-                       const dkf_real_t *inv, size_t r, size_t p, const size_t *lo)
-{
-    size_t i, j = 0, l, w;
-    dkf__transpose(Out, Y, r, p);
-    for (w = 8; w >= 4; w -= 4)
-        for (; j + w <= r; j += w) {
-            const size_t s0 = min_lo(lo, j, w);
-            for (i = s0; i < p; i += 2) forward_rows(Out, Lc, inv, p, r, j, s0, i, i + 1 < p, w);
-        }
-    for (; j < r; ++j)
-        for (i = lo[j]; i < p; ++i) {
-            const dkf_real_t *li = Lc + i * p;
-            dkf_real_t t = Out[i * r + j];
-            for (l = lo[j]; l < i; ++l) t -= li[l] * Out[l * r + j];
-            Out[i * r + j] = t * inv[i];
-        }
-}
-
-/* lo[j]: the first nonzero row of column j of A (k x r); k for a zero
- * column. */
-static void col_starts(size_t *lo, const dkf_real_t *A, size_t k, size_t r)
-{
-    size_t j, l;
-    for (j = 0; j < r; ++j) {
-        for (l = 0; l < k && A[l * r + j] == DKF_R(0.0); ++l) continue;
-        lo[j] = l;
-    }
-}
-
-/* C (r x r) = A^T A for A (k x r) whose column j is zero above row lo[j]
- * (a whitened carry Vt'; lo, r entries, is filled here by col_starts).
- * The upper triangle two rows at a time in the blocks of inl_mul_tn_sym
- * (8, 4, 2, 1 columns), mirrored; each block's sums run from l0 = max(min
- * lo of its two rows, min lo of its columns), before which every product
- * of the block has a zero factor, in index order: inl_mul_tn_sym's values
- * (at most the sign of a zero differs, the argument above). For a
- * block-diagonal C, lo[j] grows with j and this costs about r^2 k / 6
- * multiply-adds instead of r^2 k / 2. */
-void dkf__tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo)
-{
-    dkf_real_t s[16];
-    size_t i, j, w, q;
-    col_starts(lo, A, k, r);
-    for (i = 0; i + 2 <= r; i += 2) {
-        const size_t li = lo[i] < lo[i + 1] ? lo[i] : lo[i + 1];
-        for (j = i; j < r; j += w) {
-            size_t l0 = lo[j];
-            w = r - j >= 8 ? 8 : r - j >= 4 ? 4 : r - j >= 2 ? 2 : 1;
-            for (q = 1; q < w; ++q) l0 = lo[j + q] < l0 ? lo[j + q] : l0;
-            l0 = l0 > li ? l0 : li;
-            if (l0 >= k) {
-                for (q = 0; q < 2 * w; ++q) s[q] = DKF_R(0.0);
-            } else {
-                const dkf_real_t *a = A + l0 * r;
-                if (w == 8)
-                    nn_2x8(s, s + 8, a + i, a + i + 1, r, a + j, k - l0, r);
-                else if (w == 4)
-                    nn_2x4(s, s + 4, a + i, a + i + 1, r, a + j, k - l0, r);
-                else if (w == 2)
-                    block_2x2(s, s + 2, a + i, a + i + 1, r, a + j, k - l0, r, j);
-                else
-                    nn_2x1(s, s + 1, a + i, a + i + 1, r, a + j, k - l0, r);
-            }
-            put_sym_2xw(C + i * r + j, C + (i + 1) * r + j, C + j * r + i, zero_row, zero_row, s,
-                        w, r, j == i);
-        }
-    }
-    if (i < r) /* the last row of an odd count: its diagonal */
-        C[i * r + i] =
-            lo[i] < k ? nn_1x1(A + lo[i] * r + i, r, A + lo[i] * r + i, k - lo[i], r) : DKF_R(0.0);
-}
-
 int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n)
 {
     return inl_chol(W, inv, A, n);
 }
 
-/* Columns j .. j+w-1 (w = 8, 4 or 1, j + w <= i) of rows i and k = i+1 of
- * the factor: the sums over l < j as one register block against T (nn_2x8,
- * nn_2x4, nn_2x1 on T(l, j..) = L(j.., l)), each then continued over l = j
- * .. c-1 from the columns just finished. The block's sums start at their
- * first product, the textbook's at +0: +0 + s is the textbook's value
- * whatever the signs of zero terms (a sum's sign of zero matters only
- * while every term so far is zero), so every element is inl_chol's. */
-static void chol_wide_cols(dkf_real_t *wi, dkf_real_t *wk, const dkf_real_t *ai,
-                           const dkf_real_t *ak, const dkf_real_t *W, const dkf_real_t *T,
-                           const dkf_real_t *inv, size_t n, size_t j, size_t w)
+/* The large-model kernels for the baseline ISA (kernels_wide.h), and the
+ * choice between them and kernels_avx.c's at run time. */
+#define KW(name) name##_base
+#define KW_W 8
+#define KW_NN nn_2x8
+#define KW_SOLVE solve_2x8
+#include "kernels_wide.h"
+#undef KW
+#undef KW_W
+#undef KW_NN
+#undef KW_SOLVE
+
+int dkf__isa_avx(void)
 {
-    dkf_real_t s[16];
-    size_t c, l;
-    for (c = 0; c < 16; ++c) s[c] = DKF_R(0.0);
-    if (j > 0) {
-        if (w == 8)
-            nn_2x8(s, s + 8, wi, wk, 1, T + j, j, n);
-        else if (w == 4)
-            nn_2x4(s, s + 8, wi, wk, 1, T + j, j, n);
-        else
-            nn_2x1(s, s + 8, wi, wk, 1, T + j, j, n);
+#if DKF__AVX
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx") != 0;
+#else
+    return 0;
+#endif
+}
+
+int dkf__chol_wide_isa(int avx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                       dkf_real_t *T)
+{
+#if DKF__AVX
+    if (avx) return dkf__chol_wide_avx(W, inv, A, n, T);
+#endif
+    (void)avx;
+    return dkf__chol_wide_base(W, inv, A, n, T);
+}
+
+void dkf__whiten_spans_isa(int avx, dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                           const dkf_real_t *inv, size_t r, size_t p, const size_t *lo)
+{
+#if DKF__AVX
+    if (avx) {
+        dkf__whiten_spans_avx(Out, Y, Lc, inv, r, p, lo);
+        return;
     }
-    for (c = 0; c < w; ++c) {
-        const dkf_real_t *wc = W + (j + c) * n;
-        dkf_real_t t0 = DKF_R(0.0) + s[c], t1 = DKF_R(0.0) + s[8 + c];
-        for (l = j; l < j + c; ++l) {
-            t0 += wi[l] * wc[l];
-            t1 += wk[l] * wc[l];
-        }
-        wi[j + c] = (ai[j + c] - t0) * inv[j + c];
-        wk[j + c] = (ak[j + c] - t1) * inv[j + c];
+#endif
+    (void)avx;
+    dkf__whiten_spans_base(Out, Y, Lc, inv, r, p, lo);
+}
+
+void dkf__tn_self_spans_isa(int avx, dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k,
+                            size_t *lo)
+{
+#if DKF__AVX
+    if (avx) {
+        dkf__tn_self_spans_avx(C, A, r, k, lo);
+        return;
     }
+#endif
+    (void)avx;
+    dkf__tn_self_spans_base(C, A, r, k, lo);
 }
 
 int dkf__chol_wide(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n, dkf_real_t *T)
 {
-    size_t i, j, l;
-    for (i = 0; i + 1 < n; i += 2) {
-        dkf_real_t *wi = W + i * n, *wk = wi + n;
-        const dkf_real_t *ai = A + i * n, *ak = ai + n;
-        for (j = 0; j + 8 <= i; j += 8) chol_wide_cols(wi, wk, ai, ak, W, T, inv, n, j, 8);
-        for (; j + 4 <= i; j += 4) chol_wide_cols(wi, wk, ai, ak, W, T, inv, n, j, 4);
-        for (; j < i; ++j) chol_wide_cols(wi, wk, ai, ak, W, T, inv, n, j, 1);
-        if (chol_diag2(wi, wk, ai, ak, inv, n, i) != 0) return -1;
-        for (l = 0; l <= i; ++l) {
-            T[l * n + i] = wi[l];
-            T[l * n + i + 1] = wk[l];
-        }
-    }
-    if (i < n) /* the last row of an odd n: inl_chol's */
-        return inl_chol_last(W, inv, A, n, i);
-    return 0;
+    return dkf__chol_wide_isa(dkf__isa_avx(), W, inv, A, n, T);
 }
+
+void dkf__whiten_spans(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                       const dkf_real_t *inv, size_t r, size_t p, const size_t *lo)
+{
+    dkf__whiten_spans_isa(dkf__isa_avx(), Out, Y, Lc, inv, r, p, lo);
+}
+
+void dkf__tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo)
+{
+    dkf__tn_self_spans_isa(dkf__isa_avx(), C, A, r, k, lo);
+}
+
 
 
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,

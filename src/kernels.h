@@ -129,9 +129,45 @@ void dkf__tn_self_spans(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, 
 int dkf__chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n);
 /* dkf__chol for large n, the same W and inv bit for bit: the finished
  * rows are also stored transposed in T (n x n scratch, overlapping none of
- * the others), so that two rows are summed against 8 columns at a time
- * along contiguous vectors. */
+ * the others), so that two rows are summed against 8 (AVX: 16 double, 32
+ * float) columns at a time along contiguous vectors. */
 int dkf__chol_wide(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n, dkf_real_t *T);
+
+/* The large-model kernels (dkf__chol_wide, dkf__whiten_spans,
+ * dkf__tn_self_spans) come in two instances of one source
+ * (kernels_wide.h): for the baseline ISA, and on x86-64 under GCC
+ * (DKF__AVX) for AVX, taken when the CPU has it (dkf__isa_avx). AVX only
+ * widens the register blocks (no FMA), so both return the same bits and
+ * the library needs no -march: a baseline build runs on every x86-64, and
+ * its results do not depend on the CPU (docs/decisions.md item 25).
+ * The _isa forms take the choice as an argument (avx = 1 only where
+ * dkf__isa_avx() is 1), for the tests that compare the two. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && DKF_SIMD && \
+    defined(__SSE2_MATH__)
+#define DKF__AVX 1
+#else
+#define DKF__AVX 0
+#endif
+int dkf__isa_avx(void);
+int dkf__chol_wide_isa(int avx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                       dkf_real_t *T);
+void dkf__whiten_spans_isa(int avx, dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                           const dkf_real_t *inv, size_t r, size_t p, const size_t *lo);
+void dkf__tn_self_spans_isa(int avx, dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k,
+                            size_t *lo);
+/* the instances (kernels.c, kernels_avx.c) */
+int dkf__chol_wide_base(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                        dkf_real_t *T);
+void dkf__whiten_spans_base(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                            const dkf_real_t *inv, size_t r, size_t p, const size_t *lo);
+void dkf__tn_self_spans_base(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo);
+#if DKF__AVX
+int dkf__chol_wide_avx(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size_t n,
+                       dkf_real_t *T);
+void dkf__whiten_spans_avx(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_t *Lc,
+                           const dkf_real_t *inv, size_t r, size_t p, const size_t *lo);
+void dkf__tn_self_spans_avx(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo);
+#endif
 /* Solves (L L^T) X = B in place for B n x c; inv from dkf__chol. */
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
                      size_t c);

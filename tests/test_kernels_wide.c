@@ -2,13 +2,15 @@
  * The kernels of the large stacked Difference KF (src/kernels.c; issue 14):
  * the wide Cholesky and the products that skip exact zeros claim the
  * values of the plain textbook loops, so each is compared with those loops
- * here, on random inputs of every size up to 41 (8-, 4-, 2- and 1-wide
+ * here, on random inputs of every size up to 67 (8-, 4-, 2- and 1-wide
  * blocks, odd and even counts), with random row spans (the block-diagonal
  * C of a stacked model, and arbitrary ones).
  *
  *  - dkf__chol_wide: bit for bit equal to dkf__chol and to the
  *    Cholesky-Banachiewicz loop (memcmp), also in place, and -1 for a
  *    matrix that is not positive definite;
+ *  - each kernel in both instances (kernels.h: baseline and, where this CPU
+ *    has it, AVX), the AVX one bit for bit the baseline one's;
  *  - dkf__whiten_spans, dkf__tn_self_spans, dkf__mul_nt_spans: equal (==)
  *    to the dense loops, which sum every term from +0 in index order; the
  *    skipped terms are exact zeros, which can change only the sign of a
@@ -35,7 +37,7 @@
 #include "dkf_test.h"
 #include "kernels.h"
 
-#define NMAX 41
+#define NMAX 67
 #define NCAP (NMAX < DKF_MAX_DIM ? NMAX : DKF_MAX_DIM)
 
 static dkf_real_t A[NMAX * NMAX], W[NMAX * NMAX], W2[NMAX * NMAX], T[NMAX * NMAX];
@@ -58,26 +60,41 @@ static int same_values(const dkf_real_t *a, const dkf_real_t *b, size_t n)
     return 1;
 }
 
+/* The instances to check: the baseline one, and the AVX one where this
+ * CPU runs it (kernels.h); isa_count() of them. */
+static int isa_count(void)
+{
+    static int said;
+    if (!said) {
+        print_message("kernels: baseline instance%s\n",
+                      dkf__isa_avx() ? " and AVX instance (this CPU has AVX)" : " only");
+        said = 1;
+    }
+    return dkf__isa_avx() ? 2 : 1;
+}
+
 static void test_chol_wide_bits(void **state)
 {
     test_rng_t g;
     size_t n;
+    int isa;
     (void)state;
     test_rng_seed(&g, 1401);
-    for (n = 1; n <= NCAP; ++n) {
-        rand_spd(&g, A, n);
-        assert_int_equal(dkf__chol(W, inv, A, n), 0);
-        test_textbook_chol(W2, A, n);
-        assert_memory_equal(W, W2, n * n * sizeof *W);
-        memset(W2, 0x5a, sizeof W2);
-        assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), 0);
-        assert_memory_equal(W, W2, n * n * sizeof *W);
-        assert_memory_equal(inv, inv2, n * sizeof *inv);
-        /* in place (W == A) */
-        memcpy(W2, A, n * n * sizeof *A);
-        assert_int_equal(dkf__chol_wide(W2, inv2, W2, n, T), 0);
-        assert_memory_equal(W, W2, n * n * sizeof *W);
-    }
+    for (n = 1; n <= NCAP; ++n)
+        for (isa = 0; isa < isa_count(); ++isa) {
+            rand_spd(&g, A, n);
+            assert_int_equal(dkf__chol(W, inv, A, n), 0);
+            test_textbook_chol(W2, A, n);
+            assert_memory_equal(W, W2, n * n * sizeof *W);
+            memset(W2, 0x5a, sizeof W2);
+            assert_int_equal(dkf__chol_wide_isa(isa, W2, inv2, A, n, T), 0);
+            assert_memory_equal(W, W2, n * n * sizeof *W);
+            assert_memory_equal(inv, inv2, n * sizeof *inv);
+            /* in place (W == A) */
+            memcpy(W2, A, n * n * sizeof *A);
+            assert_int_equal(dkf__chol_wide_isa(isa, W2, inv2, W2, n, T), 0);
+            assert_memory_equal(W, W2, n * n * sizeof *W);
+        }
 }
 
 static void test_chol_wide_refuses(void **state)
@@ -91,8 +108,10 @@ static void test_chol_wide_refuses(void **state)
             rand_spd(&g, A, n);
             A[bad * n + bad] = -A[bad * n + bad]; /* a negative diagonal: not SPD */
             assert_int_equal(dkf__chol(W, inv, A, n), -1);
+            assert_int_equal(dkf__chol_wide_isa(0, W2, inv2, A, n, T), -1);
             assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), -1);
             A[bad * n + bad] = (dkf_real_t)NAN;
+            assert_int_equal(dkf__chol_wide_isa(0, W2, inv2, A, n, T), -1);
             assert_int_equal(dkf__chol_wide(W2, inv2, A, n, T), -1);
         }
 }
@@ -130,7 +149,11 @@ static void test_whiten_spans_values(void **state)
                 assert_int_equal(dkf__chol(W, inv, A, p), 0);
                 spanned(&g, Y, r, p, bw);
                 dkf__row_spans(lo, hi, Y, r, p);
-                dkf__whiten_spans(O, Y, W, inv, r, p, lo);
+                dkf__whiten_spans_isa(0, O, Y, W, inv, r, p, lo);
+                if (isa_count() > 1) { /* the AVX instance: the same bits */
+                    dkf__whiten_spans_isa(1, W2, Y, W, inv, r, p, lo);
+                    assert_memory_equal(O, W2, p * r * sizeof *O);
+                }
                 /* textbook: column j of Y^T, forward substitution from row 0 */
                 for (j = 0; j < r; ++j)
                     for (i = 0; i < p; ++i) {
@@ -154,7 +177,11 @@ static void test_tn_self_and_mul_nt_spans_values(void **state)
                 /* A (k x r) with column spans: the transpose of a spanned r x k */
                 spanned(&g, Y, r, k, bw);
                 dkf__transpose(A, Y, r, k);
-                dkf__tn_self_spans(O, A, r, k, lo);
+                dkf__tn_self_spans_isa(0, O, A, r, k, lo);
+                if (isa_count() > 1) { /* the AVX instance: the same bits */
+                    dkf__tn_self_spans_isa(1, W2, A, r, k, lo);
+                    assert_memory_equal(O, W2, r * r * sizeof *O);
+                }
                 for (i = 0; i < r; ++i)
                     for (j = 0; j < r; ++j) {
                         dkf_real_t s = DKF_R(0.0);

@@ -65,6 +65,13 @@
      + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */ \
      + 2 * (m) * (p) + 2 * (p) * (p) /* D, B caches */ \
      + 2 * (n) * (n) + 5 * (n) * (p) + 6 * (p) * (p) + 2 * (m) * (p) + (m) * (n) + (m) * (m))
+/* Private (for dkf/diffkf_fusion.h's sizes): the first
+ * DKF__DIFFKF_CARRY_LEN(n, p) reals of the state are what a step rewrites
+ * (the estimates, the step's views and the carry); the caches follow and
+ * change only when cache_gen advances. */
+#define DKF__DIFFKF_CARRY_LEN(n, p) \
+    (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
+     + 3 * (p) * (p) + 2 * (n) * (p) + 2 * (p) /* carry */)
 /* The pending gain: the DKF_DIFFKF_PENDING_LEN(n, m, p) reals after the
  * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
  * leave bit-identical too. */

@@ -137,9 +137,8 @@ typedef struct {
     dkf_mat_t H, D, R, B, Rd; /* the stacked model of the running call */
     dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
                                   reals are state) */
-    dkf_real_t *central_snap;  /* scratch: its carry as before the running call */
-    dkf_real_t *cache_snap;    /* state: a copy of its caches (the rest of its
-                                  state), refreshed when they change */
+    dkf_real_t *cache_snap;    /* state: a copy of its caches (its state after
+                                  the carry), refreshed when they change */
     dkf_real_t *pend; /* scratch: the running call's z, dz (2 sum p_i) */
     dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
     dkf_real_t *work; /* SVD / LU / rank workspace */
@@ -178,7 +177,7 @@ size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_
  * m_i and p_i). */
 #define DKF_DIFFKF_FC_STORAGE_LEN(n, l, m, p) \
     (2 * (l) * DKF_DIFFKF_STORAGE_LEN(n, m, p) + DKF_DIFFKF_STORAGE_LEN(n, (l) * (m), (l) * (p)) \
-     + DKF_DIFFKF_STATE_LEN(n, (l) * (m), (l) * (p)) \
+     + DKF_DIFFKF_STATE_LEN(n, (l) * (m), (l) * (p)) - DKF__DIFFKF_CARRY_LEN(n, (l) * (p)) \
      + (l) * (m) * ((n) + (l) * (p) + (l) * (m)) + 2 * (l) * (p) * (l) * (p) \
      + 4 * (l) * (p) + (p) * (n) + DKF__DIFFKF_FC_WORK(n, m, p))
 
@@ -186,7 +185,7 @@ size_t dkf_diffkf_fc_state_len(size_t n, size_t l, const size_t m[], const size_
  * m_i <= mx, p_i <= px, for static declarations. */
 #define DKF_DIFFKF_FC_STORAGE_MAX(n, l, mx, px) \
     (2 * (l) * DKF_DIFFKF_STORAGE_LEN(n, mx, px) + DKF_DIFFKF_STORAGE_LEN(n, (l) * (mx), (l) * (px)) \
-     + DKF_DIFFKF_STATE_LEN(n, (l) * (mx), (l) * (px)) \
+     + DKF_DIFFKF_STATE_LEN(n, (l) * (mx), (l) * (px)) - DKF__DIFFKF_CARRY_LEN(n, (l) * (px)) \
      + (l) * (mx) * ((n) + (l) * (mx) + (l) * (px)) + 2 * (l) * (px) * (l) * (px) \
      + 4 * (l) * (px) + (px) * (n) + 2 * ((n) + (mx)) * ((n) + (mx)) + 2 * ((n) + (mx)))
 

@@ -101,8 +101,8 @@ int dkf_cli_expired(int64_t start_mono_us, double timeout_s)
     return timeout_s > 0 && (double)(dkf_net_mono_us() - start_mono_us) >= timeout_s * 1e6;
 }
 
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, const char *path,
-                 long run, dkf_scenario_t **s, dkf_net_t **net)
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, int split,
+                 const char *path, long run, dkf_scenario_t **s, dkf_net_t **net)
 {
     char err[256];
     if (strlen(prefix) == 0 || strlen(prefix) > 24) {
@@ -121,6 +121,14 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, const ch
         dkf_scenario_free(*s);
         *s = NULL;
         return DKF_EXIT_RUN;
+    }
+    if (split && dkf_net_split(*net, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: --split-ports: %s\n", prog, err);
+        dkf_net_close(*net);
+        dkf_scenario_free(*s);
+        *net = NULL;
+        *s = NULL;
+        return DKF_EXIT_USAGE;
     }
     return DKF_EXIT_OK;
 }

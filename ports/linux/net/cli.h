@@ -38,11 +38,12 @@ dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
 
 /* The set-up dkf-sim, dkf-node and dkf-fusion share: checks --prefix
  * (1..24 characters) and the URL (dkf_net_check_url), loads the scenario
- * (dkf_cli_scenario) and opens the transport. On success *s and *net are
- * set and DKF_EXIT_OK is returned; otherwise the error has been printed,
- * nothing is left open, and the exit status to return is given. */
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, const char *path,
-                 long run, dkf_scenario_t **s, dkf_net_t **net);
+ * (dkf_cli_scenario) and opens the transport, with split ports if split
+ * (--split-ports, dkf_net_split). On success *s and *net are set and
+ * DKF_EXIT_OK is returned; otherwise the error has been printed, nothing
+ * is left open, and the exit status to return is given. */
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, int split,
+                 const char *path, long run, dkf_scenario_t **s, dkf_net_t **net);
 
 /* --key-dir: net signs and verifies as `self` (auth.h: dkf_auth_signer)
  * of a network of `nodes` nodes, with the keys in key_dir. key_dir NULL:

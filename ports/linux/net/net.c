@@ -6,6 +6,7 @@
 #include "net.h"
 
 #include <errno.h>
+#include <poll.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,8 +23,18 @@
 
 #define DKF_NET_QUEUE 4096 /* messages a subscription may queue */
 
+/* Split ports (dkf_net_split): lane 0 the URL's port P, lane 1 (P + 1) the
+ * node messages, lane 2 + i (P + 2 + i) node i's measurements. */
+#define LANE_NODE 1
+#define LANE_MEAS 2
+#define LANES (LANE_MEAS + DKF_NET_MAX_NODES)
+
 struct dkf_net {
-    lcm_t *lcm;
+    lcm_t *lcm;            /* the URL's instance (lane 0) */
+    lcm_t *lane[LANES];    /* split: an instance per lane, opened when first used */
+    unsigned char read_lane[LANES]; /* split: a subscription reads this lane */
+    int split;
+    char url[128];         /* the URL, for the lanes' (split) */
     dkf_auth_t *auth;      /* NULL: unauthenticated (dkf_net_set_auth) */
     unsigned char *out;    /* message + trailer being published (auth only) */
     size_t out_cap;
@@ -120,12 +131,65 @@ dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
              url);
         return NULL;
     }
+    net->lane[0] = net->lcm;
+    snprintf(net->url, sizeof net->url, "%s", url);
     return net;
+}
+
+int dkf_net_split(dkf_net_t *net, char *err, size_t errlen)
+{
+    const char *host = net->url + 7, *q = strchr(host, '?'), *colon;
+    const char *hend = q ? q : host + strlen(host);
+    long port = 7667; /* LCM's default */
+    if (strncmp(net->url, "udpm://", 7) != 0 || strlen(net->url) + 2 >= sizeof net->url)
+        return fail(err, errlen, "%s: split ports need a udpm:// URL of under 120 characters",
+                    net->url);
+    if (net->subs > 0) return fail(err, errlen, "split ports: set before any subscription");
+    colon = memchr(host, ':', (size_t)(hend - host));
+    if (colon != NULL) port = parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535);
+    if (port + LANES > 65535)
+        return fail(err, errlen, "%s: split ports need the port + %d to stay below 65536",
+                    net->url, LANES);
+    net->split = 1;
+    return 0;
+}
+
+/* The lane of a channel or subscription pattern: 0 unless split; -1 for a
+ * pattern over several nodes' measurements (split: no single lane). */
+static int lane_of(const dkf_net_t *net, const char *channel)
+{
+    const char *m;
+    long i;
+    if (!net->split) return 0;
+    if (strstr(channel, "_NODE_") != NULL) return LANE_NODE;
+    if ((m = strstr(channel, "_MEAS_")) == NULL) return 0;
+    i = parse_dec(m + 6, strlen(m + 6), 0, DKF_NET_MAX_NODES - 1);
+    return i < 0 ? -1 : LANE_MEAS + (int)i;
+}
+
+/* The instance of a lane, opened on first use (split): the URL with the
+ * lane's port. NULL if LCM cannot open it. */
+static lcm_t *lane_lcm(dkf_net_t *net, int lane)
+{
+    char url[sizeof net->url + 8];
+    const char *host = net->url + 7, *q = strchr(host, '?');
+    const char *hend = q ? q : host + strlen(host), *colon;
+    long port = 7667;
+    if (net->lane[lane] != NULL) return net->lane[lane];
+    colon = memchr(host, ':', (size_t)(hend - host));
+    if (colon != NULL) port = parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535);
+    snprintf(url, sizeof url, "udpm://%.*s:%ld%s", (int)((colon ? colon : hend) - host), host,
+             port + lane, q ? q : "");
+    net->lane[lane] = lcm_create(url);
+    return net->lane[lane];
 }
 
 void dkf_net_close(dkf_net_t *net)
 {
+    int l;
     if (net == NULL) return;
+    for (l = 1; l < LANES; ++l)
+        if (net->lane[l] != NULL) lcm_destroy(net->lane[l]);
     lcm_destroy(net->lcm);
     dkf_auth_free(net->auth);
     free(net->out);
@@ -157,12 +221,14 @@ static const unsigned char *signed_copy(dkf_net_t *net, const char *channel, con
 
 int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_t len)
 {
-    if (len > 0x7fffffffu - DKF_AUTH_TRAILER) return -1;
+    const int lane = lane_of(net, channel);
+    lcm_t *lcm = lane < 0 ? NULL : lane_lcm(net, lane);
+    if (len > 0x7fffffffu - DKF_AUTH_TRAILER || lcm == NULL) return -1;
     if (net->auth != NULL) {
         if ((data = signed_copy(net, channel, data, len)) == NULL) return -1;
         len += DKF_AUTH_TRAILER;
     }
-    return lcm_publish(net->lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
+    return lcm_publish(lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
 }
 
 /* Hands a datagram to its handler; with authentication only an accepted
@@ -183,13 +249,16 @@ int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler
 {
     struct sub *s;
     lcm_subscription_t *h;
-    if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0])) return -1;
+    const int lane = lane_of(net, channel_regex);
+    lcm_t *lcm = lane < 0 ? NULL : lane_lcm(net, lane);
+    if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0]) || lcm == NULL) return -1;
     s = &net->sub[net->subs];
     s->net = net;
     s->fn = handler;
     s->user = user;
-    h = lcm_subscribe(net->lcm, channel_regex, dispatch, s);
+    h = lcm_subscribe(lcm, channel_regex, dispatch, s);
     if (h == NULL) return -1;
+    net->read_lane[lane] = 1;
     /* LCM drops messages beyond a subscription's queue (30 by default); a
      * burst of one message per node at every step must never be cut. */
     lcm_subscription_set_queue_capacity(h, DKF_NET_QUEUE);
@@ -197,9 +266,36 @@ int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler
     return 0;
 }
 
+/* Split: one message of the first lane that has one ready (a poll of
+ * every lane read, 0 ms), else, after waiting up to timeout_ms for any of
+ * their sockets, of the first that has one then. */
+static int handle_lanes(dkf_net_t *net, int timeout_ms)
+{
+    struct pollfd fd[LANES];
+    int lane[LANES], n = 0, l, pass, r;
+    for (l = 0; l < LANES; ++l)
+        if (net->read_lane[l]) {
+            fd[n].fd = lcm_get_fileno(net->lane[l]);
+            fd[n].events = POLLIN;
+            lane[n++] = l;
+        }
+    for (pass = 0; pass < 2; ++pass) {
+        for (l = 0; l < n; ++l) {
+            r = lcm_handle_timeout(net->lane[lane[l]], 0);
+            if (r != 0) return r < 0 ? -1 : 1;
+        }
+        if (pass == 1 || timeout_ms <= 0 || n == 0) break;
+        r = poll(fd, (nfds_t)n, timeout_ms);
+        if (r <= 0) return r < 0 && errno != EINTR ? -1 : 0;
+    }
+    return 0;
+}
+
 int dkf_net_handle(dkf_net_t *net, int timeout_ms)
 {
-    int r = lcm_handle_timeout(net->lcm, timeout_ms < 0 ? 0 : timeout_ms);
+    int r;
+    if (net->split) return handle_lanes(net, timeout_ms);
+    r = lcm_handle_timeout(net->lcm, timeout_ms < 0 ? 0 : timeout_ms);
     if (r < 0) return -1;
     return r > 0 ? 1 : 0;
 }

@@ -37,6 +37,17 @@ int dkf_net_check_url(const char *url, char *err, size_t errlen);
 dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen);
 void dkf_net_close(dkf_net_t *net);
 
+/* Split ports (udpm only; before any subscription): the node messages
+ * ("*_NODE_*") travel on the URL's port + 1 and node i's measurements
+ * ("*_MEAS_<i>") on port + 2 + i, everything else on the URL's port, so a
+ * process wakes only for the datagrams of the channels it reads (LCM
+ * delivers every datagram of a port to every socket on it and filters
+ * channels in user space). Every process of a run must agree; a
+ * subscription to several nodes' measurements is refused then. A monitor
+ * or logger on the URL alone sees only the last group (docs/network.md,
+ * "Split ports"). 0, or -1 with the reason in err. */
+int dkf_net_split(dkf_net_t *net, char *err, size_t errlen);
+
 struct dkf_auth; /* auth.h */
 
 /* From now on every datagram published carries auth's trailer, and only

@@ -9,6 +9,10 @@
 #   replay    a paced run (100 Hz) recorded by lcm-logger; the node channels of the
 #             log replayed by lcm-logplayer into a fresh dkf-fusion must give
 #             the same fused output bit for bit
+#   split     the paced run with --split-ports on every process: fused == the
+#             vector's central, and a logger on the URL's own port saw the
+#             fused and status messages but no node message or measurement
+#             (they went to the ports + 1 and + 2 + i)
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_PYTHON
 # DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL DKF_LOGPLOT DKF_LCM_PY.
@@ -18,6 +22,7 @@ set -uo pipefail
 mode=$1 scn=$2 out=$3
 URL='udpm://239.255.76.67:7667?ttl=0'
 T=60   # per-process timeout, seconds
+SPLIT=()   # --split-ports in mode split
 
 if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
   "$DKF_NETNS" check || exit $?
@@ -40,12 +45,12 @@ trap cleanup EXIT
 
 # Starts the fusion centre and both nodes, waits until they are subscribed.
 start_peers() { # TAG
-  "$DKF_FUSION" --url "$URL" --timeout $T --ready-file "$out/$1.fusion.ready" \
+  "$DKF_FUSION" --url "$URL" "${SPLIT[@]}" --timeout $T --ready-file "$out/$1.fusion.ready" \
     --output "$out/$1.fused.json" "$scn" 2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
-  "$DKF_NODE" --url "$URL" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" "$scn" \
-    2>"$out/$1.n0.log" & pids+=($!); n0=$!
-  "$DKF_NODE" --url "$URL" --id 1 --timeout $T --ready-file "$out/$1.n1.ready" "$scn" \
-    2>"$out/$1.n1.log" & pids+=($!); n1=$!
+  "$DKF_NODE" --url "$URL" "${SPLIT[@]}" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" \
+    "$scn" 2>"$out/$1.n0.log" & pids+=($!); n0=$!
+  "$DKF_NODE" --url "$URL" "${SPLIT[@]}" --id 1 --timeout $T --ready-file "$out/$1.n1.ready" \
+    "$scn" 2>"$out/$1.n1.log" & pids+=($!); n1=$!
   wait_file "$out/$1.fusion.ready" 10 && wait_file "$out/$1.n0.ready" 10 &&
     wait_file "$out/$1.n1.ready" 10
 }
@@ -63,7 +68,8 @@ wait_peers() { # TAG
 run_live() { # TAG SIM-MODE-ARGS...
   local tag=$1; shift
   start_peers "$tag" || return 1
-  "$DKF_SIM" --url "$URL" --timeout $T "$@" "$scn" || { echo "FAIL: dkf-sim exited $?"; return 1; }
+  "$DKF_SIM" --url "$URL" "${SPLIT[@]}" --timeout $T "$@" "$scn" ||
+    { echo "FAIL: dkf-sim exited $?"; return 1; }
   wait_peers "$tag"
 }
 
@@ -140,6 +146,23 @@ PY
     else
       echo "note: Python lcm/matplotlib missing: dkf_logplot.py not exercised"
     fi
+    ;;
+  split)
+    SPLIT=(--split-ports)
+    log=$out/base.lcmlog
+    start_logger "$URL" "$log"
+    run_live live --rate 200 || exit 1
+    wait_log_quiet "$log"
+    kill -INT $logger; wait $logger
+    compare_central "$out/live.fused.json" || exit 1
+    "$DKF_PYTHON" - "$log" <<'PY' || exit 1
+import collections, re, sys
+import lcm
+seen = collections.Counter(re.sub(r"_[0-9]+$", "_<i>", e.channel) for e in lcm.EventLog(sys.argv[1], "r"))
+print("the URL's own port carried:", dict(seen))
+assert seen["DKF_FUSED"] > 0 and seen["DKF_STATUS"] > 0, "no fused or status message on the URL's port"
+assert seen["DKF_NODE_<i>"] == 0 and seen["DKF_MEAS_<i>"] == 0, "node messages or measurements on the URL's port"
+PY
     ;;
   *)
     echo "net_integration.sh: $mode: unknown mode" >&2; exit 2

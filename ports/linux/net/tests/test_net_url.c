@@ -124,6 +124,25 @@ static void test_memq_round_trip(void **state)
     dkf_net_close(net);
 }
 
+/* Split ports need a udpm URL (and the test of the lanes over sockets is
+ * the namespace test net_udpm_ex3_split): memq is refused, and nothing
+ * changes for it. */
+static void test_split_needs_udpm(void **state)
+{
+    char err[DKF_NET_ERR_LEN] = "";
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    (void)state;
+    assert_non_null(net);
+    assert_int_equal(dkf_net_split(net, err, sizeof err), -1);
+    assert_non_null(strstr(err, "udpm"));
+    got = 0;
+    assert_int_equal(dkf_net_subscribe(net, "DKF_TEST", on_msg, NULL), 0);
+    assert_int_equal(dkf_net_publish(net, "DKF_TEST", "abc", 3), 0);
+    assert_true(dkf_net_drain(net, 100) >= 1);
+    assert_int_equal(got, 1);
+    dkf_net_close(net);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -131,6 +150,7 @@ int main(void)
         cmocka_unit_test(test_refuses_unsafe_urls),
         cmocka_unit_test(test_open_refuses),
         cmocka_unit_test(test_memq_round_trip),
+        cmocka_unit_test(test_split_needs_udpm),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

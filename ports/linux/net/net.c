@@ -284,7 +284,7 @@ static int handle_lanes(dkf_net_t *net, int timeout_ms)
             r = lcm_handle_timeout(net->lane[lane[l]], 0);
             if (r != 0) return r < 0 ? -1 : 1;
         }
-        if (pass == 1 || timeout_ms <= 0 || n == 0) break;
+        if (pass == 1 || timeout_ms <= 0) break; /* (with no lane read, poll sleeps) */
         r = poll(fd, (nfds_t)n, timeout_ms);
         if (r <= 0) return r < 0 && errno != EINTR ? -1 : 0;
     }

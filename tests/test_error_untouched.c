@@ -182,7 +182,7 @@ typedef dkf_status_t (*call_fn)(void *ctx);
 static void sweep(const char *what, call_fn call, void *ctx, dkf_mat_t *const views[],
                   const char *const names[], size_t nv, const regions_t *g)
 {
-    char label[160];
+    char label[256]; /* what (up to 160) + a view and a kind name */
     size_t j, e;
     int k;
     for (j = 0; j < nv; ++j)

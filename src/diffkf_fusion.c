@@ -32,7 +32,7 @@
  * its carry needs no copy; its caches (A^+, B^{-1}, the model block: most
  * of its state at large N), which a successful central gain may rewrite,
  * change only when its cache_gen advances, so their snapshot is a mirror
- * refreshed after each successful call that wrote them (save_state).
+ * refreshed after each successful call that wrote them (commit_state).
  */
 #include "dkf/diffkf_fusion.h"
 

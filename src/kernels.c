@@ -206,20 +206,18 @@ void dkf__symmetrise(dkf_real_t *A, size_t n)
         }
 }
 
-/* ---- sparse products with the correlation C (issue 14) ---------------------
- * In a stacked model (the fusion centre's central filter, docs/diffkf-fusion.md
- * §1) C_k is block diagonal: each row of C_k, of C'_k = S C_k S'^T and of
- * C_{k+1} S^T is zero outside one node's p_i columns. The three products
- * with C in the gain, M' W' C'^T, C' L'^{-1} C'^T (20) and C_{k+1} S^T
- * L'^{-1}_k, cost O(p^3) dense. The helpers below skip, for each row of C,
- * the terms outside that row's nonzero span [lo, hi). Every skipped term
- * is a finite number times an exact zero, which does not change an IEEE
- * sum (s + (+-0) = s for s != 0, and +0 + (+-0) = +0; an index-order sum
+/* ---- products that skip exact zeros (issue 14) -----------------------------
+ * The stacked model of a fusion centre (docs/diffkf-fusion.md §1) has
+ * block-diagonal A, B, C and hence block-structured A^+, B^{-1}, G: each
+ * row is zero outside one node's columns. The helpers below skip, for each
+ * row, the terms outside its nonzero span [lo, hi). Every skipped term is
+ * a finite number times an exact zero, which does not change an IEEE sum
+ * (s + (+-0) = s for s != 0, and +0 + (+-0) = +0; an index-order sum
  * starts at +0), so the results are those of the dense kernels (at most
- * the sign of an exact zero differs) and hold for any C, block diagonal or
- * not; a dense C only costs the span scan. Non-finite factors would not
- * give the dense result (inf * 0 = NaN) and are refused by the caller
- * before, as the dense product's non-finite L was. */
+ * the sign of an exact zero differs) and hold for any matrix, block
+ * diagonal or not; a dense one only costs the span scan. Non-finite
+ * factors would not give the dense result (inf * 0 = NaN): the callers
+ * refuse them first, with the dense product's status. */
 
 /* lo[i], hi[i]: the first nonzero and one past the last nonzero column of
  * row i of A (r x c); lo = hi for a zero row. */

@@ -136,18 +136,25 @@ dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
     return net;
 }
 
+/* The port of a udpm URL (LCM's default 7667 when it names none), and in
+ * *glen the length of its group. */
+static long udpm_port(const char *url, size_t *glen)
+{
+    const char *host = url + 7, *q = strchr(host, '?');
+    const char *hend = q ? q : host + strlen(host), *colon;
+    colon = memchr(host, ':', (size_t)(hend - host));
+    *glen = (size_t)((colon ? colon : hend) - host);
+    return colon != NULL ? parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535) : 7667;
+}
+
 int dkf_net_split(dkf_net_t *net, char *err, size_t errlen)
 {
-    const char *host = net->url + 7, *q = strchr(host, '?'), *colon;
-    const char *hend = q ? q : host + strlen(host);
-    long port = 7667; /* LCM's default */
+    size_t glen;
     if (strncmp(net->url, "udpm://", 7) != 0 || strlen(net->url) + 2 >= sizeof net->url)
         return fail(err, errlen, "%s: split ports need a udpm:// URL of under 120 characters",
                     net->url);
     if (net->subs > 0) return fail(err, errlen, "split ports: set before any subscription");
-    colon = memchr(host, ':', (size_t)(hend - host));
-    if (colon != NULL) port = parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535);
-    if (port + LANES > 65535)
+    if (udpm_port(net->url, &glen) + LANES > 65535)
         return fail(err, errlen, "%s: split ports need the port + %d to stay below 65536",
                     net->url, LANES);
     net->split = 1;
@@ -168,18 +175,19 @@ static int lane_of(const dkf_net_t *net, const char *channel)
 }
 
 /* The instance of a lane, opened on first use (split): the URL with the
- * lane's port. NULL if LCM cannot open it. */
+ * lane's port, checked again (its options, ttl=0 among them, are the
+ * URL's). NULL if LCM cannot open it. */
 static lcm_t *lane_lcm(dkf_net_t *net, int lane)
 {
-    char url[sizeof net->url + 8];
-    const char *host = net->url + 7, *q = strchr(host, '?');
-    const char *hend = q ? q : host + strlen(host), *colon;
-    long port = 7667;
+    char url[sizeof net->url + 8], err[DKF_NET_ERR_LEN];
+    const char *q = strchr(net->url, '?');
+    size_t glen;
+    long port;
     if (net->lane[lane] != NULL) return net->lane[lane];
-    colon = memchr(host, ':', (size_t)(hend - host));
-    if (colon != NULL) port = parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535);
-    snprintf(url, sizeof url, "udpm://%.*s:%ld%s", (int)((colon ? colon : hend) - host), host,
-             port + lane, q ? q : "");
+    port = udpm_port(net->url, &glen);
+    snprintf(url, sizeof url, "udpm://%.*s:%ld%s", (int)glen, net->url + 7, port + lane,
+             q ? q : ""); /* ttl=0 */
+    if (dkf_net_check_url(url, err, sizeof err) != 0) return NULL;
     net->lane[lane] = lcm_create(url);
     return net->lane[lane];
 }

@@ -185,8 +185,8 @@ static lcm_t *lane_lcm(dkf_net_t *net, int lane)
     long port;
     if (net->lane[lane] != NULL) return net->lane[lane];
     port = udpm_port(net->url, &glen);
-    snprintf(url, sizeof url, "udpm://%.*s:%ld%s" /* %s: the URL's ?...ttl=0 */, (int)glen,
-             net->url + 7, port + lane, q ? q : "");
+    snprintf(url, sizeof url, "%s%.*s:%ld%s", "udpm://", (int)glen, net->url + 7, port + lane,
+             q ? q : ""); /* the URL's options: its ttl=0 */
     if (dkf_net_check_url(url, err, sizeof err) != 0) return NULL;
     net->lane[lane] = lcm_create(url);
     return net->lane[lane];

@@ -1325,20 +1325,17 @@ dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
 #define CKPT_K 4       /* where k starts */
 #define CKPT_HEAD (CKPT_K + DKF__CKPT_K_LEN + 3)
 
+/* The reals a checkpoint holds: the output views and the carry, up to the
+ * caches (diffkf_fusion_internal.h). */
 size_t dkf__diffkf_carry_len(const dkf_diffkf_t *f)
 {
     const layout_t L = mem_of(f);
     return (size_t)(L.Alast - f->xf.data);
 }
 
-static size_t state_len(const dkf_diffkf_t *f)
-{
-    return dkf__diffkf_carry_len(f);
-}
-
 size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)
 {
-    return f != NULL && f->ready ? CKPT_HEAD + state_len(f) : 0;
+    return f != NULL && f->ready ? CKPT_HEAD + dkf__diffkf_carry_len(f) : 0;
 }
 
 dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
@@ -1356,7 +1353,7 @@ dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
     tail[0] = (dkf_real_t)f->z.rows;
     tail[1] = (dkf_real_t)f->pc;
     tail[2] = (dkf_real_t)((f->started ? 1 : 0) + (f->has_y ? 2 : 0));
-    dkf__copy(buf + CKPT_HEAD, f->xf.data, state_len(f));
+    dkf__copy(buf + CKPT_HEAD, f->xf.data, dkf__diffkf_carry_len(f));
     return DKF_OK;
 }
 
@@ -1386,7 +1383,7 @@ dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t
         return DKF_ERR_DIM;
     DKF_TRY(dkf__ckpt_get_k(buf + CKPT_K, &k));
     if (!ckpt_tail(f, buf, &t)) return DKF_ERR_ARG;
-    if (!dkf__all_finite(buf + CKPT_HEAD, state_len(f))) return DKF_ERR_NONFINITE;
+    if (!dkf__all_finite(buf + CKPT_HEAD, dkf__diffkf_carry_len(f))) return DKF_ERR_NONFINITE;
     return DKF_OK;
 }
 
@@ -1397,7 +1394,7 @@ dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t l
     DKF_TRY(dkf_diffkf_checkpoint_check(f, buf, len));
     (void)dkf__ckpt_get_k(buf + CKPT_K, &k);
     (void)ckpt_tail(f, buf, &t);
-    dkf__copy(f->xf.data, buf + CKPT_HEAD, state_len(f));
+    dkf__copy(f->xf.data, buf + CKPT_HEAD, dkf__diffkf_carry_len(f));
     f->k = k;
     f->pk = t.pk;
     f->z.rows = t.pk;

@@ -214,7 +214,6 @@ static void test_carry_len_matches_layout(void **state)
     static dkf_real_t st[DKF_DIFFKF_STORAGE_LEN(5, 9, 9)], x0[5], P0[25];
     size_t c, i;
     (void)state;
-    for (i = 0; i < 5; ++i) P0[i * 5 + i] = DKF_R(1.0);
     for (c = 0; c < sizeof dims / sizeof dims[0]; ++c) {
         const size_t n = dims[c][0], m = dims[c][1], p = dims[c][2];
         dkf_diffkf_t f;
@@ -261,8 +260,21 @@ static void test_block_diagonal_conditions(void **state)
     assert_int_equal(dkf_diffkf_gain(&f, &dyn, &meas), DKF_ERR_SINGULAR);
     B[3] = DKF_R(0.9);
     assert_int_equal(dkf_diffkf_gain(&f, &dyn, &meas), DKF_OK);
-    /* B^{-1} = diag(1/0.9) went into L: the gain's L is finite and SPD */
-    assert_true(f.pending);
+    /* the blocks' A^+ and B^{-1} against the closed form: with F = I and
+     * the same H and D at both times, M = B^{-1} A^+ H F - A^+ H =
+     * (1/0.9 - 1) diag(1, 1000) H */
+    {
+        dkf_mat_t M, K, zc;
+        const double dinv[2] = {1.0, 1000.0};
+        size_t r, c;
+        assert_int_equal(dkf_diffkf_pending(&f, &M, &K, &zc), DKF_OK);
+        for (r = 0; r < 2; ++r)
+            for (c = 0; c < 2; ++c) {
+                const double want = (1.0 / 0.9 - 1.0) * dinv[r] * (double)H[r * 2 + c];
+                assert_true(fabs((double)M.data[r * 2 + c] - want) <=
+                            64.0 * DKF_REAL_EPSILON * (1.0 + fabs(want)));
+            }
+    }
 }
 
 int main(void)

@@ -41,7 +41,7 @@ done
 
 # ---- inside the namespace: every radar its own process -------------------------------
 if [[ ${1:-} != "" && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 cs=$2 dir=$3 node=$4
+  scn=$1 cs=$2 dir=$3 node=$4 keys=$5
   if ip -o link | grep -qv ': lo:'; then
     echo "seed001_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
   fi
@@ -51,6 +51,7 @@ if [[ ${1:-} != "" && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
   t0=$(date +%s.%N)
   for ((i = 0; i < 12; ++i)); do
     "$node" --url "$URL" --id $i --filter df_dnertsif --case "$cs" --timeout 300 --quiet \
+      --key-dir "$keys" \
       --output "$dir/node$i.json" "$scn" 2>"$dir/node$i.log" & pids+=($!)
   done
   rc=0
@@ -63,11 +64,12 @@ fi
 if (( do_build )); then
   echo "== building dkf-tw-node, dkf-run in $build"
   cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-tw-node dkf-run >/dev/null
+  cmake --build "$build" -j2 --target dkf-tw-node dkf-run dkf-keygen >/dev/null
 fi
 node=$build/ports/linux/net/dkf-tw-node
 run=$build/ports/linux/dkf-run
-for p in "$node" "$run"; do
+keygen=$build/ports/linux/net/dkf-keygen
+for p in "$node" "$run" "$keygen"; do
   [[ -x $p ]] || { echo "seed001_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
 done
 out=$build/seed001-demo
@@ -76,6 +78,7 @@ scn=$out/radar12.json
 python3 "$here/seed001_model.py" --run 0 --steps "$steps" --tp 45 --scale both --out "$scn"
 
 mode=udpm
+"$keygen" --edges "$out/keys" 12 # a key per edge (docs/network.md, Authentication)
 if (( inproc )); then
   mode=inproc
 elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
@@ -93,7 +96,8 @@ for cs in 0 1; do
   echo "$(date +%s.%N) - $t0" | bc > "$out/inproc$cs.wall"
   if [[ $mode == udpm ]]; then
     echo "== DF-DNERTSIF case $cs: 12 dkf-tw-node processes over $URL (namespace), T_p = 45"
-    DKF_S001_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $cs "$out/proc$cs" "$node" ||
+    DKF_S001_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $cs "$out/proc$cs" "$node" \
+      "$out/keys" ||
       echo "seed001_net_demo.sh: a node process failed (see $out/proc$cs/node*.log)"
   fi
 done
@@ -163,3 +167,8 @@ print(f"(one Monte-Carlo run, {len(X)} steps, T_p = 45; ARMSE: mean over the ste
       " publications per node per step (DONE and loss recovery excluded))")
 sys.exit(0 if ok else 1)
 PY
+rc=$?
+if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
+  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
+fi
+exit $rc

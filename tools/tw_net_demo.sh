@@ -43,7 +43,7 @@ done
 
 # ---- inside the namespace: every node its own process ------------------------------
 if [[ ${1:-} != "" && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 alg=$2 dir=$3 node=$4
+  scn=$1 alg=$2 dir=$3 node=$4 keys=$5
   if ip -o link | grep -qv ': lo:'; then
     echo "tw_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
   fi
@@ -53,7 +53,8 @@ if [[ ${1:-} != "" && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
   rm -rf "$dir" && mkdir -p "$dir"
   t0=$(date +%s.%N)
   for ((i = 0; i < N; ++i)); do
-    "$node" --url "$URL" --id $i --alg "$alg" --timeout 300 --quiet --output "$dir/node$i.json" \
+    "$node" --url "$URL" --id $i --alg "$alg" --timeout 300 --quiet --key-dir "$keys" \
+      --output "$dir/node$i.json" \
       "$scn" 2>"$dir/node$i.log" & pids+=($!)
   done
   rc=0
@@ -66,11 +67,12 @@ fi
 if (( do_build )); then
   echo "== building dkf-tw-node, dkf-run in $build"
   cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-tw-node dkf-run >/dev/null
+  cmake --build "$build" -j2 --target dkf-tw-node dkf-run dkf-keygen >/dev/null
 fi
 node=$build/ports/linux/net/dkf-tw-node
 run=$build/ports/linux/dkf-run
-for p in "$node" "$run"; do
+keygen=$build/ports/linux/net/dkf-keygen
+for p in "$node" "$run" "$keygen"; do
   [[ -x $p ]] || { echo "tw_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
 done
 out=$build/tw-net-demo
@@ -90,6 +92,7 @@ json.dump(tw_example.scenario(base, x, y, z, 100, 10), open(sys.argv[2], "w"))
 PY
 
 mode=udpm
+"$keygen" --edges "$out/keys" "$nodes" # a key per edge (docs/network.md, Authentication)
 if (( inproc )); then
   mode=inproc
 elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
@@ -110,7 +113,8 @@ for alg in 2 3; do
   echo "$(date +%s.%N) - $t0" | bc > "$out/big$alg.wall"
   if [[ $mode == udpm ]]; then
     echo "== alg $alg: $nodes dkf-tw-node processes over $URL (namespace)"
-    DKF_TW_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $alg "$out/proc$alg" "$node" ||
+    DKF_TW_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $alg "$out/proc$alg" "$node" \
+      "$out/keys" ||
       echo "tw_net_demo.sh: a node process failed (see $out/proc$alg/node*.log)"
     python3 "$tools/tw_check.py" --scenario "$scn" --alg $alg --nodes-dir "$out/proc$alg" \
       --runner "$out/inproc$alg.json" --runner-rel 0 --json > "$out/proc$alg.check" || true
@@ -170,3 +174,8 @@ print("(RMSE: root mean over steps, nodes, components against the truth; z again
       " the 200-node rows: the graph and sensors of s003_200node_alg1.json, 100 steps simulated by tools/tw_example.py, in process only)")
 sys.exit(0 if ok else 1)
 PY
+rc=$?
+if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
+  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
+fi
+exit $rc

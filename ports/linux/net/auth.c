@@ -34,11 +34,14 @@ typedef struct {
 struct dkf_auth {
     uint32_t self;
     uint64_t epoch, seq;                       /* this process's own */
+    int graph;                                 /* DKA2: a graph node's edge keys by peer */
+    size_t npeers;                             /* graph: peers[0..npeers-1], ascending */
+    uint32_t peers[DKF_AUTH_MAX_KEYS];
     /* each key's HMAC state after its two key blocks (ipad, opad): a MAC
      * then costs two SHA-512 blocks for a short message instead of four */
     crypto_auth_hmacsha512256_state keyed[NSLOTS];
     unsigned char have[NSLOTS];
-    last_t last[3][NSLOTS];                    /* by the signer's role and the key */
+    last_t last[4][NSLOTS];                    /* by the signer's role and the key */
     uint64_t count[DKF_AUTH_NVERDICTS];
 };
 
@@ -110,6 +113,11 @@ static void key_path(char *out, size_t len, const char *dir, size_t slot)
         snprintf(out, len, "%s/node-%zu.key", dir, slot);
 }
 
+static void edge_path(char *out, size_t len, const char *dir, size_t i, size_t j)
+{
+    snprintf(out, len, "%s/edge-%zu-%zu.key", dir, i < j ? i : j, i < j ? j : i);
+}
+
 static int write_key(const char *path, char *err, size_t errlen)
 {
     unsigned char k[DKF_AUTH_KEY_LEN];
@@ -127,19 +135,38 @@ static int write_key(const char *path, char *err, size_t errlen)
     return 0;
 }
 
-int dkf_auth_make_keys(const char *dir, size_t nodes, char *err, size_t errlen)
+static int make_dir(const char *dir, size_t nodes, char *err, size_t errlen)
 {
-    char path[4096];
-    size_t i;
     if (nodes > DKF_AUTH_MAX_KEYS)
         return fail(err, errlen, "%zu nodes: at most %d keys", nodes, DKF_AUTH_MAX_KEYS);
     if (sodium_init() < 0) return fail(err, errlen, "libsodium: cannot initialise");
     if (mkdir(dir, 0700) != 0 && errno != EEXIST)
         return fail(err, errlen, "%s: cannot create: %s", dir, strerror(errno));
+    return 0;
+}
+
+int dkf_auth_make_keys(const char *dir, size_t nodes, char *err, size_t errlen)
+{
+    char path[4096];
+    size_t i;
+    if (make_dir(dir, nodes, err, errlen) != 0) return -1;
     for (i = 0; i <= nodes; ++i) {
         key_path(path, sizeof path, dir, i == nodes ? INFRA_SLOT : i);
         if (write_key(path, err, errlen) != 0) return -1;
     }
+    return 0;
+}
+
+int dkf_auth_make_edge_keys(const char *dir, size_t nodes, char *err, size_t errlen)
+{
+    char path[4096];
+    size_t i, j;
+    if (make_dir(dir, nodes, err, errlen) != 0) return -1;
+    for (i = 0; i < nodes; ++i)
+        for (j = i + 1; j < nodes; ++j) {
+            edge_path(path, sizeof path, dir, i, j);
+            if (write_key(path, err, errlen) != 0) return -1;
+        }
     return 0;
 }
 
@@ -203,6 +230,64 @@ dkf_auth_t *dkf_auth_open_keys(uint32_t self, const unsigned char *keys,
     for (s = 0; s < DKF_AUTH_MAX_KEYS && keys != NULL && have != NULL; ++s)
         if (have[s]) set_key(a, s, keys + s * DKF_AUTH_KEY_LEN);
     if (infra != NULL) set_key(a, INFRA_SLOT, infra);
+    return a;
+}
+
+/* Graph node self's peer p gets the key: peers stay ascending, once each. */
+static void add_peer(dkf_auth_t *a, size_t p, const unsigned char key[DKF_AUTH_KEY_LEN])
+{
+    size_t i;
+    if (a->have[p]) return;
+    set_key(a, p, key);
+    for (i = a->npeers; i > 0 && a->peers[i - 1] > p; --i) a->peers[i] = a->peers[i - 1];
+    a->peers[i] = (uint32_t)p;
+    ++a->npeers;
+}
+
+dkf_auth_t *dkf_auth_open_edges(const char *dir, size_t self, const size_t *peers,
+                                size_t npeers, char *err, size_t errlen)
+{
+    char path[4096];
+    unsigned char key[DKF_AUTH_KEY_LEN];
+    dkf_auth_t *a;
+    size_t e;
+    for (e = 0; e < npeers; ++e)
+        if (peers[e] >= DKF_AUTH_MAX_KEYS) break;
+    if (self >= DKF_AUTH_MAX_KEYS || e < npeers) {
+        fail(err, errlen, "graph node %zu or a neighbour: at most %d nodes", self,
+             DKF_AUTH_MAX_KEYS);
+        return NULL;
+    }
+    if ((a = auth_new(dkf_auth_signer(DKF_AUTH_ROLE_GRAPH, self), dkf_net_now_us())) == NULL) {
+        fail(err, errlen, "libsodium: cannot initialise, or out of memory");
+        return NULL;
+    }
+    a->graph = 1;
+    for (e = 0; e < npeers; ++e) {
+        if (peers[e] == self) continue;
+        edge_path(path, sizeof path, dir, self, peers[e]);
+        if (dkf_auth_read_key(path, key, err, errlen) != 0) {
+            sodium_memzero(key, sizeof key);
+            dkf_auth_free(a);
+            return NULL;
+        }
+        add_peer(a, peers[e], key);
+    }
+    sodium_memzero(key, sizeof key);
+    return a;
+}
+
+dkf_auth_t *dkf_auth_open_edge_keys(size_t self, const unsigned char *keys,
+                                    const unsigned char *have, int64_t epoch)
+{
+    dkf_auth_t *a;
+    size_t p;
+    if (self >= DKF_AUTH_MAX_KEYS ||
+        (a = auth_new(dkf_auth_signer(DKF_AUTH_ROLE_GRAPH, self), epoch)) == NULL)
+        return NULL;
+    a->graph = 1;
+    for (p = 0; p < DKF_AUTH_MAX_KEYS && keys != NULL && have != NULL; ++p)
+        if (have[p] && p != self) add_peer(a, p, keys + p * DKF_AUTH_KEY_LEN);
     return a;
 }
 
@@ -271,9 +356,11 @@ static uint64_t get_be(const unsigned char *p, int bytes)
 }
 
 /* HMAC-SHA-512-256 under the keyed state of a key, of
- * len(channel) (4 bytes, big-endian) || channel || msg || header. */
+ * len(channel) (4 bytes, big-endian) || channel || msg || header[0..hlen-1]
+ * (DKA1: the 28 bytes before the tag; DKA2: the fixed part and the peer). */
 static void mac(const crypto_auth_hmacsha512256_state *keyed, const char *channel,
-                const void *msg, size_t len, const unsigned char *header, unsigned char tag[32])
+                const void *msg, size_t len, const unsigned char *header, size_t hlen,
+                unsigned char tag[32])
 {
     crypto_auth_hmacsha512256_state st = *keyed;
     unsigned char clen[4];
@@ -282,23 +369,70 @@ static void mac(const crypto_auth_hmacsha512256_state *keyed, const char *channe
     crypto_auth_hmacsha512256_update(&st, clen, sizeof clen);
     crypto_auth_hmacsha512256_update(&st, (const unsigned char *)channel, cl);
     crypto_auth_hmacsha512256_update(&st, msg, len);
-    crypto_auth_hmacsha512256_update(&st, header, HEADER);
+    crypto_auth_hmacsha512256_update(&st, header, hlen);
     crypto_auth_hmacsha512256_final(&st, tag);
     sodium_memzero(&st, sizeof st);
 }
 
-int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
-                  unsigned char trailer[DKF_AUTH_TRAILER])
+size_t dkf_auth_trailer_len(const dkf_auth_t *a)
 {
-    const long s = slot_for(channel, a->self);
+    return a->graph ? DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY * a->npeers : DKF_AUTH_TRAILER;
+}
+
+/* The fixed part and a peer id, as DKA2's MAC takes them. */
+static void edge_input(unsigned char in[DKF_AUTH_EDGE_HEADER + 4], const unsigned char *fixed,
+                       uint32_t peer)
+{
+    memcpy(in, fixed, DKF_AUTH_EDGE_HEADER);
+    put_be(in + DKF_AUTH_EDGE_HEADER, peer, 4);
+}
+
+static int sign_edges(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
+                      unsigned char *trailer)
+{
+    const size_t self = a->self & 0xffffu;
+    unsigned char *fixed = trailer + DKF_AUTH_EDGE_ENTRY * a->npeers,
+                  in[DKF_AUTH_EDGE_HEADER + 4];
+    size_t e;
+    if (a->npeers == 0 || trailing_id(channel, strlen(channel), "_") != (long)self) return -1;
+    memcpy(fixed, "DKA2", 4);
+    put_be(fixed + 4, a->self, 4);
+    put_be(fixed + 8, a->epoch, 8);
+    put_be(fixed + 16, ++a->seq, 8);
+    put_be(fixed + 24, a->npeers, 4);
+    for (e = 0; e < a->npeers; ++e) {
+        unsigned char *entry = trailer + DKF_AUTH_EDGE_ENTRY * e;
+        put_be(entry, a->peers[e], 4);
+        edge_input(in, fixed, a->peers[e]);
+        mac(&a->keyed[a->peers[e]], channel, msg, len, in, sizeof in, entry + 4);
+    }
+    return 0;
+}
+
+int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
+                  unsigned char *trailer)
+{
+    long s;
+    if (a->graph) return sign_edges(a, channel, msg, len, trailer);
+    s = slot_for(channel, a->self);
     if (s < 0 || !a->have[s]) return -1;
     memcpy(trailer, "DKA1", 4);
     put_be(trailer + 4, a->self, 4);
     put_be(trailer + 8, s == INFRA_SLOT ? DKF_AUTH_KEY_INFRA : (uint64_t)s, 4);
     put_be(trailer + 12, a->epoch, 8);
     put_be(trailer + 20, ++a->seq, 8);
-    mac(&a->keyed[s], channel, msg, len, trailer, trailer + HEADER);
+    mac(&a->keyed[s], channel, msg, len, trailer, HEADER, trailer + HEADER);
     return 0;
+}
+
+/* (epoch, seq) newer than the last accepted in l: then it becomes the last. */
+static int newer(last_t *l, uint64_t epoch, uint64_t seq)
+{
+    if (l->seen && (epoch < l->epoch || (epoch == l->epoch && seq <= l->seq))) return 0;
+    l->seen = 1;
+    l->epoch = epoch;
+    l->seq = seq;
+    return 1;
 }
 
 static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsigned char *d,
@@ -321,22 +455,56 @@ static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsign
     if (s < 0 || (s == INFRA_SLOT ? key_id != DKF_AUTH_KEY_INFRA : key_id != (uint32_t)s))
         return DKF_AUTH_REJ_FOREIGN;
     if (!a->have[s]) return DKF_AUTH_REJ_NO_KEY;
-    mac(&a->keyed[s], channel, d, len - DKF_AUTH_TRAILER, t, tag);
+    mac(&a->keyed[s], channel, d, len - DKF_AUTH_TRAILER, t, HEADER, tag);
     if (sodium_memcmp(tag, t + HEADER, sizeof tag) != 0) return DKF_AUTH_REJ_MAC;
     l = &a->last[signer >> 16][s]; /* the role is 0..2: slot_for accepted it */
-    if (l->seen && (epoch < l->epoch || (epoch == l->epoch && seq <= l->seq)))
-        return DKF_AUTH_REJ_REPLAY;
-    l->seen = 1;
-    l->epoch = epoch;
-    l->seq = seq;
+    if (!newer(l, epoch, seq)) return DKF_AUTH_REJ_REPLAY;
     *msg_len = len - DKF_AUTH_TRAILER;
+    return DKF_AUTH_ACCEPT;
+}
+
+/* DKA2 at a graph node (auth.h): the entry addressed to it, under the key
+ * it shares with the channel's node. */
+static dkf_auth_verdict_t judge_edges(dkf_auth_t *a, const char *channel, const unsigned char *d,
+                                      size_t len, size_t *msg_len)
+{
+    const unsigned char *fixed, *entry = NULL;
+    unsigned char tag[32], in[DKF_AUTH_EDGE_HEADER + 4];
+    const uint32_t self = a->self & 0xffffu;
+    uint32_t signer;
+    uint64_t count, e;
+    size_t body;
+    long l;
+    if (len < DKF_AUTH_EDGE_HEADER) return DKF_AUTH_REJ_FORMAT;
+    fixed = d + len - DKF_AUTH_EDGE_HEADER;
+    count = get_be(fixed + 24, 4);
+    if (memcmp(fixed, "DKA2", 4) != 0 || count > DKF_AUTH_MAX_KEYS ||
+        (len - DKF_AUTH_EDGE_HEADER) / DKF_AUTH_EDGE_ENTRY < count)
+        return DKF_AUTH_REJ_FORMAT;
+    body = len - DKF_AUTH_EDGE_HEADER - (size_t)count * DKF_AUTH_EDGE_ENTRY;
+    signer = (uint32_t)get_be(fixed + 4, 4);
+    l = trailing_id(channel, strlen(channel), "_");
+    if (signer >> 16 != DKF_AUTH_ROLE_GRAPH || l < 0 || (signer & 0xffffu) != (uint32_t)l ||
+        (uint32_t)l == self)
+        return DKF_AUTH_REJ_FOREIGN;
+    for (e = 0; e < count && entry == NULL; ++e)
+        if (get_be(d + body + DKF_AUTH_EDGE_ENTRY * e, 4) == self)
+            entry = d + body + DKF_AUTH_EDGE_ENTRY * e;
+    if (entry == NULL || !a->have[l]) return DKF_AUTH_REJ_NO_KEY;
+    edge_input(in, fixed, self);
+    mac(&a->keyed[l], channel, d, body, in, sizeof in, tag);
+    if (sodium_memcmp(tag, entry + 4, sizeof tag) != 0) return DKF_AUTH_REJ_MAC;
+    if (!newer(&a->last[DKF_AUTH_ROLE_GRAPH][l], get_be(fixed + 8, 8), get_be(fixed + 16, 8)))
+        return DKF_AUTH_REJ_REPLAY;
+    *msg_len = body;
     return DKF_AUTH_ACCEPT;
 }
 
 dkf_auth_verdict_t dkf_auth_verify(dkf_auth_t *a, const char *channel, const void *dgram,
                                    size_t len, size_t *msg_len)
 {
-    const dkf_auth_verdict_t v = judge(a, channel, dgram, len, msg_len);
+    const dkf_auth_verdict_t v = a->graph ? judge_edges(a, channel, dgram, len, msg_len)
+                                          : judge(a, channel, dgram, len, msg_len);
     ++a->count[v];
     return v;
 }

@@ -21,6 +21,22 @@
  * last accepted of that signer and key: strictly larger seq in the same
  * epoch, or a larger epoch (a restarted process).
  *
+ * Graph filters (dkf-tw-node, docs/network.md "Authentication"): every
+ * edge {i, j} of the graph has its own key, held by i and j only
+ * (edge-<i>-<j>.key, i < j), and node l's datagram on "<prefix>_<l>"
+ * carries one tag per neighbour, so that each neighbour checks the tag
+ * under the key it shares with l and no neighbour can speak for l to
+ * another. Its trailer (the fixed part last, so a receiver finds it from
+ * the datagram's end):
+ *
+ *   count x (peer u32 | tag[32]) | "DKA2" | signer u32 | epoch u64 | seq u64 | count u32
+ *
+ * tag for peer r = HMAC-SHA-512-256 under edge key {l, r} of
+ *   len(channel) u32 | channel | message | the last 28 bytes | r u32.
+ * signer = DKF_AUTH_ROLE_GRAPH << 16 | l; the channel's trailing number must
+ * be l. A process authenticates either the DKA1 way or the DKA2 way, never
+ * both, and refuses the other's trailer as `no trailer`.
+ *
  * Integer returns: 0 success, -1 failure with a one-line message in err.
  */
 #ifndef DKF_NET_AUTH_H
@@ -33,6 +49,9 @@
 #define DKF_AUTH_KEY_LEN 32
 #define DKF_AUTH_MAX_KEYS 256           /* node keys 0..255 */
 #define DKF_AUTH_KEY_INFRA 0xffffffffu  /* the infrastructure's key id */
+#define DKF_AUTH_ROLE_GRAPH 3           /* a graph filter's node (after codec.h's roles) */
+#define DKF_AUTH_EDGE_HEADER 28         /* DKA2: the fixed part */
+#define DKF_AUTH_EDGE_ENTRY 36          /* DKA2: one (peer, tag) */
 
 typedef enum {
     DKF_AUTH_ACCEPT = 0,
@@ -79,12 +98,32 @@ dkf_auth_t *dkf_auth_open_keys(uint32_t self, const unsigned char *keys,
                                int64_t epoch);
 void dkf_auth_free(dkf_auth_t *a);
 
-/* The trailer of msg[0..len-1] on channel, signed with the key this
- * process must use there; advances seq. 0, or -1 (no such key held). */
-int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
-                  unsigned char trailer[DKF_AUTH_TRAILER]);
+/* Writes DIR/edge-<i>-<j>.key for every i < j < nodes (a graph filter's
+ * keys: nodes (nodes - 1) / 2 files), like dkf_auth_make_keys. */
+int dkf_auth_make_edge_keys(const char *dir, size_t nodes, char *err, size_t errlen);
+/* The keys of graph node `self` (< DKF_AUTH_MAX_KEYS): the edge key it
+ * shares with each of its peers (its neighbours; self and repeats
+ * ignored), read from DIR. Epoch: now. NULL with the reason in err. */
+dkf_auth_t *dkf_auth_open_edges(const char *dir, size_t self, const size_t *peers,
+                                size_t npeers, char *err, size_t errlen);
+/* The same with the keys given (tests, fuzzing): the key shared with peer
+ * p is keys + p * DKF_AUTH_KEY_LEN for have[p] != 0. */
+dkf_auth_t *dkf_auth_open_edge_keys(size_t self, const unsigned char *keys,
+                                    const unsigned char *have, int64_t epoch);
 
-/* Checks a received datagram (message + trailer) on channel; on ACCEPT
+/* Bytes dkf_auth_sign appends: DKF_AUTH_TRAILER, or for a graph node
+ * DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY per peer. */
+size_t dkf_auth_trailer_len(const dkf_auth_t *a);
+
+/* The trailer (dkf_auth_trailer_len(a) bytes) of msg[0..len-1] on channel,
+ * signed with the key(s) this process must use there; advances seq. 0, or
+ * -1 (no such key held, or a graph node off its own channel). */
+int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t len,
+                  unsigned char *trailer);
+
+/* Checks a received datagram (message + trailer) on channel (a graph
+ * node's: the tag addressed to it, under the key of the channel's node; no
+ * tag for it, or that node no neighbour, is `unknown key`); on ACCEPT
  * *msg_len is the message's length and the replay state advances. Every
  * other verdict changes nothing but the counters. */
 dkf_auth_verdict_t dkf_auth_verify(dkf_auth_t *a, const char *channel, const void *dgram,

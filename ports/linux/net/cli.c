@@ -133,24 +133,39 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, int spli
     return DKF_EXIT_OK;
 }
 
-int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
-                 size_t nodes)
+/* Installs what dkf_auth_open* made of key_dir (NULL: that failed, err says
+ * why); without key_dir says it runs unauthenticated. Exit status. */
+static int install_auth(const char *prog, const char *key_dir, dkf_net_t *net, dkf_auth_t *a,
+                        const char *err)
 {
-    char err[4200];
-    dkf_auth_t *a;
     if (key_dir == NULL) {
         fprintf(stderr, "%s: UNAUTHENTICATED: no --key-dir, so anyone on the multicast group "
                 "can speak for any process of this run (docs/network.md, Authentication)\n",
                 prog);
         return DKF_EXIT_OK;
     }
-    a = dkf_auth_open(key_dir, self, nodes, err, sizeof err);
     if (a == NULL) {
         fprintf(stderr, "%s: --key-dir %s: %s\n", prog, key_dir, err);
         return DKF_EXIT_USAGE;
     }
     dkf_net_set_auth(net, a);
     return DKF_EXIT_OK;
+}
+
+int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
+                 size_t nodes)
+{
+    char err[4200] = "";
+    dkf_auth_t *a = key_dir ? dkf_auth_open(key_dir, self, nodes, err, sizeof err) : NULL;
+    return install_auth(prog, key_dir, net, a, err);
+}
+
+int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, size_t self,
+                       const size_t *row, size_t deg)
+{
+    char err[4200] = "";
+    dkf_auth_t *a = key_dir ? dkf_auth_open_edges(key_dir, self, row, deg, err, sizeof err) : NULL;
+    return install_auth(prog, key_dir, net, a, err);
 }
 
 json_t *dkf_cli_auth_json(const dkf_net_t *net)

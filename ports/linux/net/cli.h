@@ -52,6 +52,11 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, int spli
 int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
                  size_t nodes);
 
+/* The same for graph node `self` with the edge keys of its graph row
+ * (auth.h, DKA2). */
+int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, size_t self,
+                       const size_t *row, size_t deg);
+
 /* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
  * (mode "off" without one): the result file's "auth". */
 json_t *dkf_cli_auth_json(const dkf_net_t *net);

@@ -52,6 +52,9 @@ static void usage(FILE *f)
             "      --drop PCT          drop PCT %% of the outgoing packets (tests)\n"
             "      --seed S            seed of the drops (default 0)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
+            "      --key-dir DIR       authenticate every packet with the edge keys in DIR\n"
+            "                          (dkf-keygen --edges; without it: unauthenticated,\n"
+            "                          said on stderr)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
             "Exit: 0 every step done (degraded steps are marked in the output), 2 bad\n"
@@ -61,7 +64,7 @@ static void usage(FILE *f)
 
 typedef struct {
     double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
-    const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel;
+    const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel, *key_dir;
     int quiet, join;
 } opts_t;
 
@@ -87,7 +90,7 @@ static int parse(int argc, char **argv, opts_t *o)
         {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},              {"filter", required_argument, NULL, 'f'},
         {"case", required_argument, NULL, 'c'},        {"join", no_argument, NULL, 'J'},
-        {NULL, 0, NULL, 0}};
+        {"key-dir", required_argument, NULL, 'K'},     {NULL, 0, NULL, 0}};
     int c;
     memset(o, 0, sizeof *o);
     o->id = o->alg = o->eta = -1;
@@ -116,6 +119,7 @@ static int parse(int argc, char **argv, opts_t *o)
         case 'D': bad = dkf_cli_num(prog, "--drop", optarg, 0, 100, &o->drop); break;
         case 'Z': bad = dkf_cli_num(prog, "--seed", optarg, 0, 4e9, &o->seed); break;
         case 'F': o->ready = optarg; break;
+        case 'K': o->key_dir = optarg; break;
         case 'q': o->quiet = 1; break;
         case 'h': usage(stdout); exit(DKF_EXIT_OK);
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return -1;
@@ -205,6 +209,7 @@ static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, 
     json_object_set_new(doc, "exit", json_string(exit_what));
     json_object_set_new(doc, "wall_s", json_real(wall));
     json_object_set_new(doc, "dropped_by_flag", json_integer((json_int_t)x->dropped));
+    json_object_set_new(doc, "auth", dkf_cli_auth_json(x->net));
     rc = dkf_cli_write_json(prog, o->output, doc);
     json_decref(doc);
     return rc;
@@ -281,6 +286,14 @@ static void free_agent(agent_t *ag)
     dkf_tw_scn_free(&ag->tw);
 }
 
+/* --key-dir: the edge keys of the node's graph row (auth.h, DKA2). */
+static int authenticate(const opts_t *o, ctx_t *x)
+{
+    size_t deg;
+    const size_t *row = dkf_ra_row(x->ag.ra, &deg);
+    return dkf_cli_auth_edges(prog, o->key_dir, x->net, (size_t)o->id, row, deg);
+}
+
 int main(int argc, char **argv)
 {
     opts_t o;
@@ -313,6 +326,8 @@ int main(int argc, char **argv)
     } else if ((x.net = dkf_net_open(o.url, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         code = DKF_EXIT_RUN;
+    } else if ((code = authenticate(&o, &x)) != DKF_EXIT_OK) {
+        /* said by dkf_cli_auth_edges */
     } else if (dkf_net_subscribe(x.net, sub, on_packet, &x) != 0) {
         fprintf(stderr, "%s: %s: cannot subscribe\n", prog, sub);
         code = DKF_EXIT_RUN;

@@ -217,11 +217,12 @@ const dkf_auth_t *dkf_net_auth(const dkf_net_t *net) { return net->auth; }
 static const unsigned char *signed_copy(dkf_net_t *net, const char *channel, const void *data,
                                         size_t len)
 {
-    if (net->out_cap < len + DKF_AUTH_TRAILER) {
-        unsigned char *p = realloc(net->out, len + DKF_AUTH_TRAILER);
+    const size_t t = dkf_auth_trailer_len(net->auth);
+    if (net->out_cap < len + t) {
+        unsigned char *p = realloc(net->out, len + t);
         if (p == NULL) return NULL;
         net->out = p;
-        net->out_cap = len + DKF_AUTH_TRAILER;
+        net->out_cap = len + t;
     }
     memcpy(net->out, data, len);
     return dkf_auth_sign(net->auth, channel, data, len, net->out + len) == 0 ? net->out : NULL;
@@ -231,10 +232,11 @@ int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_
 {
     const int lane = lane_of(net, channel);
     lcm_t *lcm = lane < 0 ? NULL : lane_lcm(net, lane);
-    if (len > 0x7fffffffu - DKF_AUTH_TRAILER || lcm == NULL) return -1;
+    const size_t t = net->auth != NULL ? dkf_auth_trailer_len(net->auth) : 0;
+    if (len > 0x7fffffffu - t || lcm == NULL) return -1;
     if (net->auth != NULL) {
         if ((data = signed_copy(net, channel, data, len)) == NULL) return -1;
-        len += DKF_AUTH_TRAILER;
+        len += t;
     }
     return lcm_publish(lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
 }

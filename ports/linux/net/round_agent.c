@@ -424,6 +424,12 @@ int dkf_ra_subscription(char *out, size_t cap, const char *prefix, const size_t 
     return (r < 0 || (size_t)r >= cap - used) ? -1 : 0;
 }
 
+const size_t *dkf_ra_row(const dkf_ra_t *a, size_t *deg)
+{
+    *deg = a->deg;
+    return a->cfg.row;
+}
+
 int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, size_t cap)
 {
     return dkf_ra_subscription(out, cap, prefix, a->cfg.row, a->deg, a->cfg.id);

@@ -127,6 +127,9 @@ long dkf_ra_chan_node(const char *channel, const char *prefix);
 int dkf_ra_subscription(char *out, size_t cap, const char *prefix, const size_t *row, size_t deg,
                         size_t self);
 
+/* Agent a's graph row (node ids, itself included; *deg entries). */
+const size_t *dkf_ra_row(const dkf_ra_t *a, size_t *deg);
+
 /* dkf_ra_subscription of agent a's own row. */
 int dkf_ra_neighbours_regex(const dkf_ra_t *a, const char *prefix, char *out, size_t cap);
 

@@ -175,6 +175,128 @@ static void test_tag_is_documented_hmac(void **state)
     dkf_auth_free(signer[1]);
 }
 
+/* ---- graph nodes (DKA2): a key per edge ------------------------------------------- */
+
+/* The graph: edges {0,1} {0,2} {1,2} {2,3}; edge {i,j}'s key made from i, j. */
+static const int edge[4][4] = {{0, 1, 1, 0}, {1, 0, 1, 0}, {1, 1, 0, 1}, {0, 0, 1, 0}};
+
+static void edge_key(size_t i, size_t j, unsigned char k[DKF_AUTH_KEY_LEN])
+{
+    size_t b;
+    for (b = 0; b < DKF_AUTH_KEY_LEN; ++b)
+        k[b] = (unsigned char)((i < j ? i : j) * 17 + (i < j ? j : i) * 101 + b * 3);
+}
+
+/* Graph node self with the keys of its edges; `as` != self: a node that
+ * holds self's edge keys only toward the peers in mask (a forger). */
+static dkf_auth_t *gnode(size_t self, size_t as, int64_t epoch)
+{
+    unsigned char k[DKF_AUTH_MAX_KEYS][DKF_AUTH_KEY_LEN], have[DKF_AUTH_MAX_KEYS] = {0};
+    size_t p;
+    for (p = 0; p < 4; ++p)
+        if (edge[self][p]) {
+            have[p] = 1;
+            edge_key(as, p, k[p]);
+        }
+    return dkf_auth_open_edge_keys(self, &k[0][0], have, epoch);
+}
+
+static size_t gsign(dkf_auth_t *a, const char *ch, const char *msg, unsigned char *out)
+{
+    const size_t len = strlen(msg);
+    memcpy(out, msg, len);
+    assert_int_equal(dkf_auth_sign(a, ch, msg, len, out + len), 0);
+    return len + dkf_auth_trailer_len(a);
+}
+
+static dkf_auth_verdict_t gverify(dkf_auth_t *a, const char *ch, const unsigned char *d,
+                                  size_t len, size_t want_msg)
+{
+    size_t ml = 12345;
+    const dkf_auth_verdict_t v = dkf_auth_verify(a, ch, d, len, &ml);
+    assert_int_equal(ml, v == DKF_AUTH_ACCEPT ? want_msg : 12345);
+    return v;
+}
+
+/* Node 1 speaks to its neighbours 0 and 2: each checks its own tag; one
+ * neighbour's tag broken does not affect the other's; a node that is not a
+ * neighbour, a node speaking on another's channel, a neighbour that holds
+ * only its own edge key to node 1 (it cannot speak for 1 to 2), replays and
+ * foreign trailers are refused; each tag is the documented HMAC. */
+static void test_edges_every_verdict(void **state)
+{
+    dkf_auth_t *g[4], *forger, *star, *dka1;
+    unsigned char d[512], e[512], in[256], tag[32], k[DKF_AUTH_KEY_LEN];
+    const size_t T = DKF_AUTH_EDGE_HEADER + 2 * DKF_AUTH_EDGE_ENTRY;
+    size_t len, i, il;
+    (void)state;
+    for (i = 0; i < 4; ++i) g[i] = gnode(i, i, 50);
+    assert_int_equal(dkf_auth_trailer_len(g[1]), T);
+    assert_int_equal(dkf_auth_trailer_len(g[3]), DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY);
+    len = gsign(g[1], "DKF_TW_1", "round 0 of node 1", d);
+    assert_int_equal(len, 17 + T);
+    /* the documented input, under edge {1,0}, entry 0 (peers ascending) */
+    il = 0;
+    in[il++] = 0, in[il++] = 0, in[il++] = 0, in[il++] = 8;
+    memcpy(in + il, "DKF_TW_1", 8), il += 8;
+    memcpy(in + il, d, 17), il += 17;
+    memcpy(in + il, d + len - DKF_AUTH_EDGE_HEADER, DKF_AUTH_EDGE_HEADER);
+    il += DKF_AUTH_EDGE_HEADER;
+    in[il++] = 0, in[il++] = 0, in[il++] = 0, in[il++] = 0;
+    edge_key(1, 0, k);
+    assert_int_equal(crypto_auth_hmacsha512256(tag, in, il, k), 0);
+    assert_memory_equal(d + 17 + 4, tag, 32);
+    assert_memory_equal(d + len - DKF_AUTH_EDGE_HEADER, "DKA2", 4);
+    assert_int_equal(gverify(g[0], "DKF_TW_1", d, len, 17), DKF_AUTH_ACCEPT);
+    assert_int_equal(gverify(g[2], "DKF_TW_1", d, len, 17), DKF_AUTH_ACCEPT);
+    assert_int_equal(gverify(g[0], "DKF_TW_1", d, len, 17), DKF_AUTH_REJ_REPLAY);
+    /* node 3 is no neighbour of 1: no tag for it, no key */
+    assert_int_equal(gverify(g[3], "DKF_TW_1", d, len, 17), DKF_AUTH_REJ_NO_KEY);
+    /* a fresh datagram with node 0's tag broken: 0 refuses, 2 accepts */
+    len = gsign(g[1], "DKF_TW_1", "round 1 of node 1", e);
+    e[17 + 4 + 5] ^= 0x10;
+    assert_int_equal(gverify(g[0], "DKF_TW_1", e, len, 17), DKF_AUTH_REJ_MAC);
+    assert_int_equal(gverify(g[2], "DKF_TW_1", e, len, 17), DKF_AUTH_ACCEPT);
+    /* a message bit */
+    len = gsign(g[1], "DKF_TW_1", "round 2 of node 1", e);
+    e[3] ^= 1;
+    assert_int_equal(gverify(g[2], "DKF_TW_1", e, len, 17), DKF_AUTH_REJ_MAC);
+    /* node 2 on node 1's channel (it cannot even sign there), and on the
+     * receiver's own */
+    assert_int_equal(dkf_auth_sign(g[2], "DKF_TW_1", "x", 1, e), -1);
+    len = gsign(g[2], "DKF_TW_2", "node 2", e);
+    assert_int_equal(gverify(g[0], "DKF_TW_1", e, len, 6), DKF_AUTH_REJ_FOREIGN);
+    assert_int_equal(gverify(g[0], "DKF_TW_0", e, len, 6), DKF_AUTH_REJ_FOREIGN);
+    assert_int_equal(gverify(g[3], "DKF_TW_2", e, len, 6), DKF_AUTH_ACCEPT);
+    /* neighbour 0 forging node 1 toward 2 has only its own edge key to 1 */
+    forger = gnode(1, 0, 60);
+    len = gsign(forger, "DKF_TW_1", "forged by 0", e);
+    assert_int_equal(gverify(g[2], "DKF_TW_1", e, len, 11), DKF_AUTH_REJ_MAC);
+    /* trailers that are not DKA2: too short, DKA1, a count past the datagram */
+    assert_int_equal(gverify(g[0], "DKF_TW_1", e, 20, 0), DKF_AUTH_REJ_FORMAT);
+    dka1 = node(1, 5);
+    len = sign(dka1, "DKF_NODE_1", "dka1", e);
+    assert_int_equal(gverify(g[0], "DKF_TW_1", e, len, 4), DKF_AUTH_REJ_FORMAT);
+    len = gsign(g[1], "DKF_TW_1", "count", e);
+    e[len - 1] = 3; /* 3 entries do not fit before the fixed part */
+    assert_int_equal(gverify(g[0], "DKF_TW_1", e, len, 5), DKF_AUTH_REJ_FORMAT);
+    /* a node of every other node (the centre of a star) signs one tag each */
+    star = gnode(2, 2, 70);
+    assert_int_equal(dkf_auth_trailer_len(star), DKF_AUTH_EDGE_HEADER + 3 * DKF_AUTH_EDGE_ENTRY);
+    assert_int_equal(dkf_auth_counts(g[0])[DKF_AUTH_ACCEPT], 1);
+    assert_int_equal(dkf_auth_counts(g[0])[DKF_AUTH_REJ_REPLAY], 1);
+    assert_int_equal(dkf_auth_counts(g[0])[DKF_AUTH_REJ_MAC], 1);
+    assert_int_equal(dkf_auth_counts(g[0])[DKF_AUTH_REJ_FOREIGN], 2);
+    assert_int_equal(dkf_auth_counts(g[0])[DKF_AUTH_REJ_FORMAT], 3);
+    assert_int_equal(dkf_auth_counts(g[2])[DKF_AUTH_ACCEPT], 2);
+    assert_int_equal(dkf_auth_counts(g[2])[DKF_AUTH_REJ_MAC], 2);
+    assert_int_equal(dkf_auth_counts(g[3])[DKF_AUTH_REJ_NO_KEY], 1);
+    for (i = 0; i < 4; ++i) dkf_auth_free(g[i]);
+    dkf_auth_free(forger);
+    dkf_auth_free(star);
+    dkf_auth_free(dka1);
+}
+
 static void test_epochs(void **state)
 {
     dkf_auth_t *old = node(2, 100), *now = node(2, 200), *fc = centre();
@@ -327,6 +449,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_every_verdict),
         cmocka_unit_test(test_tag_is_documented_hmac),
+        cmocka_unit_test(test_edges_every_verdict),
         cmocka_unit_test(test_epochs),
         cmocka_unit_test(test_channel_rule),
         cmocka_unit_test(test_key_files),

@@ -30,9 +30,16 @@
 #               whose last round it hears), runs every later step, its
 #               neighbours are degraded only before it joined, and its last
 #               estimate agrees with node 0's
+# Authentication (auth.h, DKA2: a key per edge):
+#   auth        vec6, Algorithm 3, with --key-dir: node 3 starts late, and
+#               meanwhile tw_inject sends 3 bursts of 5 hostile datagrams on
+#               node 1's channel (unsigned, a stranger's keys, node 5's real
+#               keys on node 1's channel, no tag for any real node, a replay):
+#               each of node 1's neighbours rejects all 15, by reason; nothing
+#               reaches a filter; the results == dkf-run bit for bit
 #
 # Environment (set by ctest): DKF_TW_NODE DKF_RUN DKF_PYTHON DKF_NETNS
-# DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_TOOLS. Exit 77 (skip) when not root; every
+# DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_TOOLS DKF_KEYGEN DKF_TW_INJECT. Exit 77 (skip) when not root; every
 # process has --timeout and the script is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 out=$2
@@ -191,6 +198,44 @@ print(f"last step: max |x5 - x0| = {gap:.3g}")
 # the 12-node grid at T_p 45 is not at full consensus (|lambda_2(W)|^45 = 1.4e-3):
 # nodes differ by ~1e-4 (measured 9.2e-5 for node 5 against node 0); bound 1e-3
 assert gap < 1e-3, gap
+PY
+    ;;
+  auth)
+    # vec6, Algorithm 3, every packet authenticated with edge keys (auth.h,
+    # DKA2); node 3 starts late, so the others wait in step 1 while tw_inject
+    # sends 3 bursts of 5 hostile datagrams on node 1's channel
+    "$DKF_KEYGEN" --edges "$out/keys" 6 || exit 1
+    dir=$out/alg3 && mkdir -p "$dir"
+    started=()
+    start_node() {
+      "$DKF_TW_NODE" --url "$URL" --id "$1" --timeout $T --quiet --alg 3 --key-dir "$out/keys" \
+        --ready-file "$dir/ready$1" --output "$dir/node$1.json" "$v6" 2>"$dir/node$1.log" &
+      pids+=($!); started+=($!)
+    }
+    for i in 0 1 2 4 5; do start_node $i; done
+    for ((w = 0; w < 100; ++w)); do
+      n=$(ls "$dir"/ready* 2>/dev/null | wc -l); [[ $n == 5 ]] && break; sleep 0.1
+    done
+    "$DKF_TW_INJECT" --url "$URL" --key-dir "$out/keys" --nodes 6 --victim 1 --impostor 5 \
+      --bursts 3 || rc=1
+    start_node 3
+    for p in "${started[@]}"; do wait "$p" || { echo "FAIL: a dkf-tw-node exited $?"; rc=1; }; done
+    [[ $rc == 0 ]] || cat "$dir"/node*.log
+    check "$v6" 3 "$dir" || rc=1
+    "$DKF_PYTHON" - "$dir" <<'PY' || rc=1
+import glob, json, sys
+r = {d["node"]: d for d in (json.load(open(f)) for f in glob.glob(sys.argv[1] + "/node*.json"))}
+assert sorted(r) == list(range(6)), sorted(r)
+reasons = ["no trailer", "bad MAC", "foreign", "unknown key", "replayed"]
+for i, d in sorted(r.items()):
+    a = d["auth"]
+    assert a["mode"] == "hmac-sha512-256", a
+    got = {k: a["datagrams"][k] for k in reasons}
+    want = {k: 3 if i in (0, 2, 4) else 0 for k in reasons}  # node 1's neighbours
+    assert got == want, f"node {i}: rejected {got}, expected {want}"
+    assert a["datagrams"]["accepted"] > 0 and d["counters"]["rejected"] == 0, (i, a, d["counters"])
+    print(f"node {i}: accepted {a['datagrams']['accepted']}, rejected {sum(got.values())} {got}")
+print("every hostile datagram rejected by every neighbour of node 1 (15 each), none reached the filter")
 PY
     ;;
   df_absent)

@@ -57,7 +57,7 @@ static double factor_err(const dkf_real_t *A, const dkf_real_t *Q, size_t k, con
 
 static void rand_real(test_rng_t *g, dkf_real_t *A, size_t r, size_t c)
 {
-    double tmp[MAXN * MAXN];
+    static double tmp[MAXN * MAXN]; /* static: 8 MB at DKF_MAX_DIM = 1024 */
     test_rand_gauss(g, tmp, r, c);
     test_to_real(A, tmp, r * c);
 }

@@ -517,7 +517,7 @@ static void test_frd_golden(void **state)
 
         if (want == 0) {
             /* the zero case: refused, nothing written, rank() says 0 */
-            dkf_real_t a0[MAXN * MAXN], t0[MAXN * MAXN];
+            static dkf_real_t a0[MAXN * MAXN], t0[MAXN * MAXN];
             memcpy(a0, Abar, p * k * sizeof(dkf_real_t));
             memcpy(t0, T, k * m * sizeof(dkf_real_t));
             assert_int_equal(dkf_mat_frd(&mAbar, &mT, &rank, &mH, DKF_RANK_TOL_DEFAULT, work),

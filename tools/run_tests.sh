@@ -8,6 +8,8 @@
 #   float            DKF_REAL=float
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
+#   double-dim1024   DKF_REAL=double, DKF_MAX_DIM=1024: the host limit the
+#                    demo and the 200-node centre are built with (decision 23)
 #   qemu-arm-float   armhf cross build, DKF_REAL=float, every test run under
 #                    qemu-arm (cmake/toolchain-arm-linux-gnueabihf.cmake)
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
@@ -37,7 +39,8 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan fuzz qemu-arm-float firmware demo)
+all_configs=(double float double-nojoseph double-asan double-dim1024 fuzz qemu-arm-float firmware
+  demo)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
@@ -46,6 +49,7 @@ declare -A cfg_args=(
   [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
   [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF"
   [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON"
+  [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024"
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do

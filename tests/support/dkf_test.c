@@ -1,3 +1,5 @@
+/* Test support. Scratch arrays of DKF_MAX_DIM^2 reals are static, not on the
+ * stack: 8 MB each in a DKF_MAX_DIM = 1024 build (the tests are single-threaded). */
 #include "dkf_test.h"
 
 #include <math.h>
@@ -58,7 +60,7 @@ void test_rand_orthogonal(test_rng_t *r, double *Q, size_t n)
 void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t cols,
                                    const double *s)
 {
-    double U[DKF_MAX_DIM * DKF_MAX_DIM], V[DKF_MAX_DIM * DKF_MAX_DIM];
+    static double U[DKF_MAX_DIM * DKF_MAX_DIM], V[DKF_MAX_DIM * DKF_MAX_DIM];
     size_t i, j, l, k = rows < cols ? rows : cols;
     test_rand_orthogonal(r, U, rows);
     test_rand_orthogonal(r, V, cols);
@@ -78,7 +80,7 @@ void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale
         s[i] = scale * (n > 1 ? pow(cond, (double)i / (double)(n - 1)) : 1.0);
     /* A = Q diag(s) Q^T */
     {
-        double Q[DKF_MAX_DIM * DKF_MAX_DIM];
+        static double Q[DKF_MAX_DIM * DKF_MAX_DIM];
         size_t l;
         test_rand_orthogonal(r, Q, n);
         for (i = 0; i < n; ++i)
@@ -234,7 +236,7 @@ size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows
 
 void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_t *M)
 {
-    double tmp[DKF_MAX_DIM * DKF_MAX_DIM];
+    static double tmp[DKF_MAX_DIM * DKF_MAX_DIM];
     size_t r, c, cnt;
     assert_true(cap <= DKF_MAX_DIM * DKF_MAX_DIM);
     cnt = test_json_array(node, tmp, cap, &r, &c);
@@ -305,7 +307,8 @@ const json_t *test_json_case(const json_t *root, const char *name)
 
 void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, size_t len)
 {
-    double r[DKF_MAX_DIM * DKF_MAX_DIM], e;
+    static double r[DKF_MAX_DIM * DKF_MAX_DIM];
+    double e;
     assert_true(len <= DKF_MAX_DIM * DKF_MAX_DIM);
     assert_int_equal(test_json_array(ref, r, DKF_MAX_DIM * DKF_MAX_DIM, NULL, NULL), len);
     e = test_rel_err(got, r, len);

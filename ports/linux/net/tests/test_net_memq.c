@@ -378,7 +378,8 @@ static double step_diff(const json_t *doc, const dkf_scenario_t *s, size_t j)
     const json_t *got = json_object_get(json_object_get(doc, "outputs"), "fused");
     const json_t *cen = json_object_get(json_object_get(s->root, "outputs"), "central");
     static const char *const keys[] = {"xf", "xp", "Pf", "Pp"};
-    double worst = 0, a[DKF_MAX_DIM * DKF_MAX_DIM], b[DKF_MAX_DIM * DKF_MAX_DIM];
+    static double a[DKF_MAX_DIM * DKF_MAX_DIM], b[DKF_MAX_DIM * DKF_MAX_DIM]; /* 8 MB each at 1024 */
+    double worst = 0;
     size_t q, i, na, nb;
     for (q = 0; q < 4; ++q) {
         double d = 0, m = 1;

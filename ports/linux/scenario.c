@@ -115,6 +115,17 @@ static dkf_scenario_t *load_root(dkf_scn_ctx_t *c, json_t *root, const json_erro
     return s;
 }
 
+/* A refused file's message is one line, whoever wrote it (the readers, the
+ * model loader, jansson quoting the offending token): a control character
+ * the file put into a key, a name or an expression is shown as '?'. */
+static dkf_scenario_t *one_line(dkf_scenario_t *s, char *err, size_t errlen)
+{
+    size_t i;
+    for (i = 0; s == NULL && err != NULL && i < errlen && err[i] != '\0'; ++i)
+        if ((unsigned char)err[i] < 0x20 || err[i] == 0x7f) err[i] = '?';
+    return s;
+}
+
 static void ctx_init(dkf_scn_ctx_t *c, const char *file, char *err, size_t errlen)
 {
     c->file = file != NULL ? file : "(null)";
@@ -133,7 +144,7 @@ dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *
         dkf_scn_fail(&c, NULL, "no scenario file given");
         return NULL;
     }
-    return load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
+    return one_line(load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err, errlen);
 }
 
 dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
@@ -146,7 +157,7 @@ dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char
         dkf_scn_fail(&c, NULL, "no scenario buffer given");
         return NULL;
     }
-    return load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel);
+    return one_line(load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err, errlen);
 }
 
 void dkf_scenario_free(dkf_scenario_t *s)

@@ -22,15 +22,10 @@ int dkf_scn_fail(dkf_scn_ctx_t *c, const char *path, const char *fmt, ...)
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
     if (c->err != NULL && c->errlen > 0) {
-        char *q;
         if (path != NULL && path[0] != '\0')
             snprintf(c->err, c->errlen, "%s: %s: %s", c->file, path, msg);
         else
             snprintf(c->err, c->errlen, "%s: %s", c->file, msg);
-        /* one line: a control character the file put into a key, a case name
-         * or jansson's quote of the offending token is shown as '?' */
-        for (q = c->err; *q != '\0'; ++q)
-            if ((unsigned char)*q < 0x20 || *q == 0x7f) *q = '?';
     }
     return -1;
 }

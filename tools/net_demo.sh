@@ -45,8 +45,9 @@ done
 if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   scn=$1 out=$2 bin=$3 rate=$4 keys=$5
   # node messages and each node's measurements on ports of their own: a process
-  # wakes only for what it reads (docs/network.md, "Split ports")
-  opts=(--key-dir "$keys" --split-ports)
+  # wakes only for what it reads (docs/network.md, "Split ports"); each reads its
+  # sockets itself, one wake-up per datagram instead of LCM's two ("Direct receive")
+  opts=(--key-dir "$keys" --split-ports --direct-recv)
   # real-time FIFO priority where allowed (root): a woken process runs at once instead
   # of queueing behind the ordinary load (docs/network.md, "Where the latency goes")
   rt=()

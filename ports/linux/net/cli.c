@@ -101,7 +101,7 @@ int dkf_cli_expired(int64_t start_mono_us, double timeout_s)
     return timeout_s > 0 && (double)(dkf_net_mono_us() - start_mono_us) >= timeout_s * 1e6;
 }
 
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, int split,
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, unsigned ports,
                  const char *path, long run, dkf_scenario_t **s, dkf_net_t **net)
 {
     char err[256];
@@ -122,8 +122,9 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, int spli
         *s = NULL;
         return DKF_EXIT_RUN;
     }
-    if (split && dkf_net_split(*net, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: --split-ports: %s\n", prog, err);
+    if (((ports & DKF_CLI_SPLIT) && dkf_net_split(*net, err, sizeof err) != 0) ||
+        ((ports & DKF_CLI_DIRECT) && dkf_net_direct(*net, err, sizeof err) != 0)) {
+        fprintf(stderr, "%s: %s\n", prog, err);
         dkf_net_close(*net);
         dkf_scenario_free(*s);
         *net = NULL;
@@ -166,6 +167,16 @@ int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, si
     char err[4200] = "";
     dkf_auth_t *a = key_dir ? dkf_auth_open_edges(key_dir, self, row, deg, err, sizeof err) : NULL;
     return install_auth(prog, key_dir, net, a, err);
+}
+
+json_t *dkf_cli_rx_json(const dkf_net_t *net)
+{
+    const dkf_net_rx_t rx = dkf_net_rx(net);
+    return json_pack("{s:s, s:I, s:I, s:I, s:I, s:I}", "mode",
+                     rx.direct ? "direct" : "lcm", "datagrams", (json_int_t)rx.datagrams,
+                     "fragments", (json_int_t)rx.fragments, "malformed",
+                     (json_int_t)rx.malformed, "unmatched", (json_int_t)rx.unmatched,
+                     "rcvbuf", (json_int_t)rx.rcvbuf);
 }
 
 json_t *dkf_cli_auth_json(const dkf_net_t *net)

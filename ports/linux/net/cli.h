@@ -36,14 +36,26 @@ void dkf_cli_bad_option(const char *prog, int argc, char **argv, int optind_now,
  * the network (dkf_net_check_scenario). NULL after printing the error. */
 dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
 
+/* The transport options of dkf_cli_open (a bit set). */
+#define DKF_CLI_SPLIT 1u  /* --split-ports: dkf_net_split */
+#define DKF_CLI_DIRECT 2u /* --direct-recv: dkf_net_direct */
+
 /* The set-up dkf-sim, dkf-node and dkf-fusion share: checks --prefix
  * (1..24 characters) and the URL (dkf_net_check_url), loads the scenario
- * (dkf_cli_scenario) and opens the transport, with split ports if split
- * (--split-ports, dkf_net_split). On success *s and *net are set and
- * DKF_EXIT_OK is returned; otherwise the error has been printed, nothing
- * is left open, and the exit status to return is given. */
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, int split,
+ * (dkf_cli_scenario) and opens the transport with the options in ports
+ * (DKF_CLI_*). On success *s and *net are set and DKF_EXIT_OK is
+ * returned; otherwise the error has been printed, nothing is left open,
+ * and the exit status to return is given. */
+int dkf_cli_open(const char *prog, const char *prefix, const char *url, unsigned ports,
                  const char *path, long run, dkf_scenario_t **s, dkf_net_t **net);
+
+/* The usage lines of --split-ports and --direct-recv. */
+#define DKF_CLI_PORTS_USAGE                                                                 \
+    "      --split-ports       node messages on the URL's port + 1, node i's\n"               \
+    "                          measurements on port + 2 + i (every process of a run\n"        \
+    "                          must say it; docs/network.md, Split ports)\n"                  \
+    "      --direct-recv       read the multicast sockets without LCM's receive thread\n"     \
+    "                          (one wake-up per datagram; docs/network.md, Direct receive)\n"
 
 /* --key-dir: net signs and verifies as `self` (auth.h: dkf_auth_signer)
  * of a network of `nodes` nodes, with the keys in key_dir. key_dir NULL:
@@ -60,6 +72,11 @@ int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, si
 /* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
  * (mode "off" without one): the result file's "auth". */
 json_t *dkf_cli_auth_json(const dkf_net_t *net);
+
+/* {"mode": "direct" | "lcm", "datagrams", "fragments", "malformed",
+ * "unmatched", "rcvbuf"} (dkf_net_rx; counts 0 in mode "lcm"): the result
+ * file's "receive". */
+json_t *dkf_cli_rx_json(const dkf_net_t *net);
 
 /* Writes doc (17 significant digits, so doubles round-trip). 0 or -1. */
 int dkf_cli_write_json(const char *prog, const char *path, const json_t *doc);

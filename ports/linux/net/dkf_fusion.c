@@ -43,9 +43,7 @@ static void usage(FILE *f)
             "                          flushed; default with --output: FILE.jsonl)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
-            "      --split-ports       node messages on the URL's port + 1, node i's\n"
-            "                          measurements on port + 2 + i (every process of a run\n"
-            "                          must say it; docs/network.md, Split ports)\n"
+            DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
@@ -70,11 +68,11 @@ int main(int argc, char **argv)
         {"heartbeat-ms", required_argument, NULL, 'H'}, {"timeout", required_argument, NULL, 't'},
         {"ready-file", required_argument, NULL, 'R'}, {"quiet", no_argument, NULL, 'q'},
         {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},
+        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL, *out = NULL;
     const char *key_dir = NULL;
-    int split = 0;
+    unsigned ports = 0;
     const char *jpath = NULL;
     char jdefault[4096];
     FILE *jf = NULL;
@@ -98,7 +96,8 @@ int main(int argc, char **argv)
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
         case 'K': key_dir = optarg; break;
-        case 'L': split = 1; break;
+        case 'L': ports |= DKF_CLI_SPLIT; break;
+        case 'Y': ports |= DKF_CLI_DIRECT; break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -109,7 +108,7 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        int st = dkf_cli_open(prog, prefix, url, split, argv[optind], 0, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], 0, &s, &net);
         if (st != DKF_EXIT_OK) return st;
         st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_FUSION, 0),
                           s->nsensors);
@@ -164,6 +163,7 @@ int main(int argc, char **argv)
     if (out != NULL) {
         json_t *doc = dkf_net_fusion_result(fu);
         json_object_set_new(doc, "auth", dkf_cli_auth_json(net));
+        json_object_set_new(doc, "receive", dkf_cli_rx_json(net));
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
         json_decref(doc);
     }

@@ -47,9 +47,7 @@ static void usage(FILE *f)
             "  -p, --prefix P          channel prefix (default %s)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
-            "      --split-ports       node messages on the URL's port + 1, node i's\n"
-            "                          measurements on port + 2 + i (every process of a run\n"
-            "                          must say it; docs/network.md, Split ports)\n"
+            DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "      --join-at K         start on the first measurement y_j with j >= K\n"
@@ -83,13 +81,13 @@ int main(int argc, char **argv)
         {"reorder", required_argument, NULL, 'O'},  {"seed", required_argument, NULL, 'S'},
         {"exit-at", required_argument, NULL, 'X'},  {"join-at", required_argument, NULL, 'J'},
         {"epoch", required_argument, NULL, 'E'},    {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},
+        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
         {NULL, 0, NULL, 0}};
     dkf_net_faults_t fx;
     double seed = 0, exit_at = 0, join_at = 0, epoch = 0;
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL;
     const char *key_dir = NULL;
-    int split = 0;
+    unsigned ports = 0;
     const dkf_filter_t *filter = dkf_registry_find("dkf");
     double id = -1, hb_ms = DKF_NET_HEARTBEAT_US / 1000, timeout = 0;
     int quiet = 0, c, code;
@@ -117,7 +115,8 @@ int main(int argc, char **argv)
         case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'R': ready = optarg; break;
         case 'K': key_dir = optarg; break;
-        case 'L': split = 1; break;
+        case 'L': ports |= DKF_CLI_SPLIT; break;
+        case 'Y': ports |= DKF_CLI_DIRECT; break;
         case 'D': if (dkf_cli_num(prog, "--drop", optarg, 0, 100, &fx.drop_pct)) return DKF_EXIT_USAGE; break;
         case 'U': if (dkf_cli_num(prog, "--dup", optarg, 0, 100, &fx.dup_pct)) return DKF_EXIT_USAGE; break;
         case 'O': if (dkf_cli_num(prog, "--reorder", optarg, 0, 100, &fx.reorder_pct)) return DKF_EXIT_USAGE; break;
@@ -149,7 +148,7 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        int st = dkf_cli_open(prog, prefix, url, split, argv[optind], 0, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], 0, &s, &net);
         if (st != DKF_EXIT_OK) return st;
         st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_NODE, (size_t)id),
                           s->nsensors);

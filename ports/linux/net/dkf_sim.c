@@ -40,9 +40,7 @@ static void usage(FILE *f)
             "                          repeatable)\n"
             "      --step-timeout S    lock-step and final wait for a fused step (default 10)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
-            "      --split-ports       node messages on the URL's port + 1, node i's\n"
-            "                          measurements on port + 2 + i (every process of a run\n"
-            "                          must say it; docs/network.md, Split ports)\n"
+            DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
             "  -q, --quiet             no summary line\n"
@@ -97,10 +95,10 @@ int main(int argc, char **argv)
         {"no-wait", no_argument, NULL, 'W'},         {"step-timeout", required_argument, NULL, 's'},
         {"timeout", required_argument, NULL, 't'},   {"quiet", no_argument, NULL, 'q'},
         {"optional-node", required_argument, NULL, 'O'}, {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},
+        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *key_dir = NULL;
-    int split = 0;
+    unsigned ports = 0;
     double optional[DKF_NET_MAX_NODES];
     size_t noptional = 0, oi;
     double rate = 0, run = 0, wait_ready = 10, step_timeout = 10, timeout = 0;
@@ -132,7 +130,8 @@ int main(int argc, char **argv)
             break;
         case 'q': quiet = 1; break;
         case 'K': key_dir = optarg; break;
-        case 'L': split = 1; break;
+        case 'L': ports |= DKF_CLI_SPLIT; break;
+        case 'Y': ports |= DKF_CLI_DIRECT; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
@@ -151,7 +150,7 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     {
-        int st = dkf_cli_open(prog, prefix, url, split, argv[optind], (long)run, &s, &net);
+        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], (long)run, &s, &net);
         if (st != DKF_EXIT_OK) return st;
         st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_SIM, 0), s->nsensors);
         if (st != DKF_EXIT_OK) {

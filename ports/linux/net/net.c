@@ -1,27 +1,36 @@
 /*
  * net.c - LCM transport with the URL safety rules of net.h.
  */
+#define _DEFAULT_SOURCE /* ip_mreq, SO_RCVBUFFORCE, SCM_TIMESTAMP (Linux) */
 #define _POSIX_C_SOURCE 200809L
 
 #include "net.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <netinet/in.h>
 #include <poll.h>
+#include <regex.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
+#include <sys/time.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <lcm/lcm.h>
 
 #include "auth.h"
 #include "codec.h" /* DKF_NET_MAX_NODES */
 #include "util.h"
+#include "wire.h"
 
 /* every error of this file: a message in err, -1 */
 #define fail(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
 
 #define DKF_NET_QUEUE 4096 /* messages a subscription may queue */
+#define DKF_NET_RCVBUF (4 << 20) /* direct receive: the socket buffer asked for */
 
 /* Split ports (dkf_net_split): lane 0 the URL's port P, lane 1 (P + 1) the
  * node messages, lane 2 + i (P + 2 + i) node i's measurements. */
@@ -43,7 +52,16 @@ struct dkf_net {
         dkf_net_t *net;
         dkf_net_handler_t fn;
         void *user;
+        int lane;          /* direct: the lane it reads */
+        regex_t re;        /* direct: the anchored pattern (LCM's matching) */
     } sub[DKF_NET_MAX_NODES + 16]; /* dkf-net-local: one per node agent, the centre's, the sim's */
+    /* direct receive (dkf_net_direct): a socket per lane read */
+    int direct;
+    int rx_fd[LANES];      /* valid where rx_open */
+    unsigned char rx_open[LANES];
+    int rx_next;           /* the lane to read first (round robin) */
+    dkf_net_rx_t rx;
+    unsigned char rx_buf[65536]; /* one datagram (UDP's largest: 65507) */
 };
 
 /* Parses a decimal number in [lo, hi] from s[0..len-1]; -1 if not one. */
@@ -161,6 +179,17 @@ int dkf_net_split(dkf_net_t *net, char *err, size_t errlen)
     return 0;
 }
 
+int dkf_net_direct(dkf_net_t *net, char *err, size_t errlen)
+{
+    if (strncmp(net->url, "udpm://", 7) != 0)
+        return fail(err, errlen, "%s: direct receive needs a udpm:// URL", net->url);
+    if (net->subs > 0) return fail(err, errlen, "direct receive: set before any subscription");
+    net->direct = net->rx.direct = 1;
+    return 0;
+}
+
+dkf_net_rx_t dkf_net_rx(const dkf_net_t *net) { return net->rx; }
+
 /* The lane of a channel or subscription pattern: 0 unless split; -1 for a
  * pattern over several nodes' measurements (split: no single lane). */
 static int lane_of(const dkf_net_t *net, const char *channel)
@@ -196,6 +225,9 @@ void dkf_net_close(dkf_net_t *net)
 {
     int l;
     if (net == NULL) return;
+    for (l = 0; l < LANES; ++l)
+        if (net->rx_open[l]) close(net->rx_fd[l]);
+    for (l = 0; net->direct && l < net->subs; ++l) regfree(&net->sub[l].re);
     for (l = 1; l < LANES; ++l)
         if (net->lane[l] != NULL) lcm_destroy(net->lane[l]);
     lcm_destroy(net->lcm);
@@ -241,17 +273,174 @@ int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_
     return lcm_publish(lcm, channel, data, (unsigned int)len) == 0 ? 0 : -1;
 }
 
-/* Hands a datagram to its handler; with authentication only an accepted
+/* Hands a message to its handler; with authentication only an accepted
  * one, without its trailer (the others are counted by dkf_auth_verify). */
+static void deliver(const struct sub *s, const char *channel, const void *data, size_t len,
+                    int64_t recv_utime)
+{
+    if (s->net->auth != NULL &&
+        dkf_auth_verify(s->net->auth, channel, data, len, &len) != DKF_AUTH_ACCEPT)
+        return;
+    s->fn(channel, data, len, recv_utime, s->user);
+}
+
+/* LCM's handler: deliver. */
 static void dispatch(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
-    const struct sub *s = user;
-    size_t len = rbuf->data_size;
-    if (s->net->auth != NULL &&
-        dkf_auth_verify(s->net->auth, channel, rbuf->data, rbuf->data_size, &len) !=
-            DKF_AUTH_ACCEPT)
-        return;
-    s->fn(channel, rbuf->data, len, rbuf->recv_utime, s->user);
+    deliver(user, channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
+}
+
+/* Direct: the socket of a lane, opened on first use as LCM opens its
+ * receive socket (SO_REUSEADDR, bound to the lane's port on every address,
+ * member of the URL's group, kernel receive times) but with a buffer of
+ * DKF_NET_RCVBUF bytes (forced where the process may: it is the only
+ * buffer; LCM adds a ring of its own). 0, or -1 if it cannot be opened. */
+static int direct_socket(dkf_net_t *net, int lane)
+{
+    char group[16];
+    size_t glen;
+    const long port = udpm_port(net->url, &glen) + lane;
+    struct sockaddr_in addr;
+    struct ip_mreq mreq;
+    int fd, one = 1, size = DKF_NET_RCVBUF, got = 0;
+    socklen_t sl = sizeof got;
+    if (net->rx_open[lane]) return 0;
+    if (glen >= sizeof group) return -1;
+    memcpy(group, net->url + 7, glen);
+    group[glen] = '\0';
+    memset(&mreq, 0, sizeof mreq);
+    memset(&addr, 0, sizeof addr);
+    if (inet_pton(AF_INET, group, &mreq.imr_multiaddr) != 1) return -1;
+    mreq.imr_interface.s_addr = htonl(INADDR_ANY);
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_ANY);
+    addr.sin_port = htons((uint16_t)port);
+    if ((fd = socket(AF_INET, SOCK_DGRAM, 0)) < 0) return -1;
+    if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) != 0 ||
+        setsockopt(fd, SOL_SOCKET, SO_TIMESTAMP, &one, sizeof one) != 0 ||
+        bind(fd, (const struct sockaddr *)&addr, sizeof addr) != 0 ||
+        setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mreq, sizeof mreq) != 0) {
+        close(fd);
+        return -1;
+    }
+    (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &size, sizeof size);
+    if (getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &got, &sl) == 0 && got < size)
+        (void)setsockopt(fd, SOL_SOCKET, SO_RCVBUFFORCE, &size, sizeof size);
+    sl = sizeof got;
+    if (getsockopt(fd, SOL_SOCKET, SO_RCVBUF, &got, &sl) == 0 && got > 0)
+        net->rx.rcvbuf = (unsigned long)got;
+    net->rx_fd[lane] = fd;
+    net->rx_open[lane] = 1;
+    return 0;
+}
+
+/* The kernel's receive time of a datagram (SO_TIMESTAMP, as LCM reports
+ * it), or now if the message carries none. */
+static int64_t recv_time(struct msghdr *mh)
+{
+    struct cmsghdr *c;
+    struct timeval tv;
+    for (c = CMSG_FIRSTHDR(mh); c != NULL; c = CMSG_NXTHDR(mh, c))
+        if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP &&
+            c->cmsg_len >= CMSG_LEN(sizeof tv)) {
+            memcpy(&tv, CMSG_DATA(c), sizeof tv);
+            return (int64_t)tv.tv_sec * 1000000 + (int64_t)tv.tv_usec;
+        }
+    return dkf_net_now_us();
+}
+
+/* Direct: reads one datagram of a lane, if one is waiting, and delivers
+ * its message to every subscription of the lane whose pattern matches.
+ * 1 delivered, 2 read but dropped (counted in net->rx), 0 none, -1 error. */
+static int read_one(dkf_net_t *net, int lane)
+{
+    union {
+        struct cmsghdr h;
+        char b[CMSG_SPACE(sizeof(struct timeval))];
+    } ctl;
+    struct iovec iov;
+    struct msghdr mh;
+    dkf_wire_msg_t m;
+    dkf_wire_verdict_t v;
+    ssize_t got;
+    int64_t t;
+    int i, hit = 0;
+    iov.iov_base = net->rx_buf;
+    iov.iov_len = sizeof net->rx_buf;
+    memset(&mh, 0, sizeof mh);
+    mh.msg_iov = &iov;
+    mh.msg_iovlen = 1;
+    mh.msg_control = ctl.b;
+    mh.msg_controllen = sizeof ctl.b;
+    got = recvmsg(net->rx_fd[lane], &mh, MSG_DONTWAIT);
+    if (got < 0) return errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ? 0 : -1;
+    ++net->rx.datagrams;
+    t = recv_time(&mh);
+    v = (mh.msg_flags & MSG_TRUNC) ? DKF_WIRE_BAD : dkf_wire_parse(net->rx_buf, (size_t)got, &m);
+    if (v != DKF_WIRE_OK) {
+        if (v == DKF_WIRE_FRAGMENT) ++net->rx.fragments;
+        else ++net->rx.malformed;
+        return 2;
+    }
+    for (i = 0; i < net->subs; ++i)
+        if (net->sub[i].lane == lane && regexec(&net->sub[i].re, m.channel, 0, NULL, 0) == 0) {
+            deliver(&net->sub[i], m.channel, m.data, m.len, t);
+            hit = 1;
+        }
+    if (!hit) ++net->rx.unmatched;
+    return hit ? 1 : 2;
+}
+
+/* Direct: one message of the lanes read (round robin over them), waiting
+ * up to timeout_ms; at most DKF_NET_DROP_BUDGET dropped datagrams are read
+ * before the clock is looked at again, so a flood cannot hold the caller
+ * past its timeout. 1, 0 (timeout) or -1. */
+#define DKF_NET_DROP_BUDGET 1024
+static int handle_direct(dkf_net_t *net, int timeout_ms)
+{
+    struct pollfd fd[LANES];
+    int lane[LANES], n = 0, l, i, r, budget = DKF_NET_DROP_BUDGET;
+    const int64_t end = dkf_net_mono_us() + (int64_t)(timeout_ms > 0 ? timeout_ms : 0) * 1000;
+    int64_t left;
+    for (l = 0; l < LANES; ++l)
+        if (net->rx_open[l]) {
+            fd[n].fd = net->rx_fd[l];
+            fd[n].events = POLLIN;
+            lane[n++] = l;
+        }
+    for (;;) {
+        int dropped = 0;
+        for (i = 0; i < n; ++i) {
+            const int at = (net->rx_next + i) % n;
+            r = read_one(net, lane[at]);
+            if (r < 0) return -1;
+            if (r == 1) {
+                net->rx_next = (at + 1) % n;
+                return 1;
+            }
+            dropped |= r == 2;
+        }
+        if (dropped && --budget > 0) continue;
+        left = end - dkf_net_mono_us();
+        if (left <= 0) return 0;
+        if (!dropped && poll(fd, (nfds_t)n, (int)((left + 999) / 1000)) < 0 && errno != EINTR)
+            return -1;
+    }
+}
+
+/* Direct: s (filled but for its pattern) becomes the next subscription:
+ * LCM anchors a pattern at both ends, so "^(" pattern ")$" in POSIX
+ * extended syntax (dkf's patterns: names and [0-9]+). 0 or -1. */
+static int subscribe_direct(dkf_net_t *net, struct sub *s, const char *channel_regex)
+{
+    char pat[DKF_WIRE_MAX_CHANNEL * 4 + 8];
+    if (s->lane < 0 || strlen(channel_regex) > sizeof pat - 5 || direct_socket(net, s->lane) != 0)
+        return -1;
+    snprintf(pat, sizeof pat, "^(%s)$", channel_regex);
+    if (regcomp(&s->re, pat, REG_EXTENDED | REG_NOSUB) != 0) return -1;
+    net->read_lane[s->lane] = 1;
+    ++net->subs;
+    return 0;
 }
 
 int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler_t handler,
@@ -260,12 +449,15 @@ int dkf_net_subscribe(dkf_net_t *net, const char *channel_regex, dkf_net_handler
     struct sub *s;
     lcm_subscription_t *h;
     const int lane = lane_of(net, channel_regex);
-    lcm_t *lcm = lane < 0 ? NULL : lane_lcm(net, lane);
-    if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0]) || lcm == NULL) return -1;
+    lcm_t *lcm = lane < 0 || net->direct ? NULL : lane_lcm(net, lane);
+    if (net->subs >= (int)(sizeof net->sub / sizeof net->sub[0])) return -1;
     s = &net->sub[net->subs];
     s->net = net;
     s->fn = handler;
     s->user = user;
+    s->lane = lane;
+    if (net->direct) return subscribe_direct(net, s, channel_regex);
+    if (lcm == NULL) return -1;
     h = lcm_subscribe(lcm, channel_regex, dispatch, s);
     if (h == NULL) return -1;
     net->read_lane[lane] = 1;
@@ -304,6 +496,7 @@ static int handle_lanes(dkf_net_t *net, int timeout_ms)
 int dkf_net_handle(dkf_net_t *net, int timeout_ms)
 {
     int r;
+    if (net->direct) return handle_direct(net, timeout_ms);
     if (net->split) return handle_lanes(net, timeout_ms);
     r = lcm_handle_timeout(net->lcm, timeout_ms < 0 ? 0 : timeout_ms);
     if (r < 0) return -1;

@@ -48,6 +48,25 @@ void dkf_net_close(dkf_net_t *net);
  * "Split ports"). 0, or -1 with the reason in err. */
 int dkf_net_split(dkf_net_t *net, char *err, size_t errlen);
 
+/* Direct receive (udpm only; before any subscription): the process reads
+ * its subscriptions' multicast sockets itself (wire.h) instead of through
+ * LCM's receive thread and its pipe, so a datagram wakes one thread, not
+ * two (docs/network.md, "Direct receive"). Publishing stays lcm_publish;
+ * handlers see the same channel, payload and kernel receive time. LCM
+ * fragments (messages over 65 KB) and malformed datagrams are dropped and
+ * counted. Works with and without split ports. 0, or -1 with err. */
+int dkf_net_direct(dkf_net_t *net, char *err, size_t errlen);
+
+/* What direct receive read (direct: whether it is on): datagrams, and of
+ * them those dropped as LCM fragments, malformed, or of no subscribed
+ * channel; rcvbuf is a socket's kernel buffer in bytes as Linux reports it
+ * (double what was asked for, for its bookkeeping). All 0 without it. */
+typedef struct {
+    int direct;
+    unsigned long datagrams, fragments, malformed, unmatched, rcvbuf;
+} dkf_net_rx_t;
+dkf_net_rx_t dkf_net_rx(const dkf_net_t *net);
+
 struct dkf_auth; /* auth.h */
 
 /* From now on every datagram published carries auth's trailer, and only

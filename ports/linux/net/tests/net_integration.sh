@@ -13,6 +13,12 @@
 #             vector's central, and a logger on the URL's own port saw the
 #             fused and status messages but no node message or measurement
 #             (they went to the ports + 1 and + 2 + i)
+#   direct    the split run with --direct-recv on dkf-fusion, node 0 and dkf-sim
+#             (node 1 reads through LCM): fused == the vector's central; before
+#             the run, datagrams LCM's format does not allow (short, bad magic,
+#             channel without its NUL, empty channel), an LC03 fragment and an
+#             LC02 of a channel nobody reads go to the centre's port, and its
+#             result file counts each kind (docs/network.md, "Direct receive")
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_PYTHON
 # DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL DKF_LOGPLOT DKF_LCM_PY.
@@ -22,7 +28,8 @@ set -uo pipefail
 mode=$1 scn=$2 out=$3
 URL='udpm://239.255.76.67:7667?ttl=0'
 T=60   # per-process timeout, seconds
-SPLIT=()   # --split-ports in mode split
+SPLIT=()   # --split-ports in modes split and direct
+DIRECT=()  # --direct-recv (mode direct: the centre, node 0 and the simulator)
 
 if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
   "$DKF_NETNS" check || exit $?
@@ -45,9 +52,9 @@ trap cleanup EXIT
 
 # Starts the fusion centre and both nodes, waits until they are subscribed.
 start_peers() { # TAG
-  "$DKF_FUSION" --url "$URL" "${SPLIT[@]}" --timeout $T --ready-file "$out/$1.fusion.ready" \
+  "$DKF_FUSION" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --timeout $T --ready-file "$out/$1.fusion.ready" \
     --output "$out/$1.fused.json" "$scn" 2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
-  "$DKF_NODE" --url "$URL" "${SPLIT[@]}" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" \
+  "$DKF_NODE" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" \
     "$scn" 2>"$out/$1.n0.log" & pids+=($!); n0=$!
   "$DKF_NODE" --url "$URL" "${SPLIT[@]}" --id 1 --timeout $T --ready-file "$out/$1.n1.ready" \
     "$scn" 2>"$out/$1.n1.log" & pids+=($!); n1=$!
@@ -68,7 +75,8 @@ wait_peers() { # TAG
 run_live() { # TAG SIM-MODE-ARGS...
   local tag=$1; shift
   start_peers "$tag" || return 1
-  "$DKF_SIM" --url "$URL" "${SPLIT[@]}" --timeout $T "$@" "$scn" ||
+  [[ -z ${BEFORE_SIM:-} ]] || $BEFORE_SIM || return 1
+  "$DKF_SIM" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --timeout $T "$@" "$scn" ||
     { echo "FAIL: dkf-sim exited $?"; return 1; }
   wait_peers "$tag"
 }
@@ -162,6 +170,40 @@ seen = collections.Counter(re.sub(r"_[0-9]+$", "_<i>", e.channel) for e in lcm.E
 print("the URL's own port carried:", dict(seen))
 assert seen["DKF_FUSED"] > 0 and seen["DKF_STATUS"] > 0, "no fused or status message on the URL's port"
 assert seen["DKF_NODE_<i>"] == 0 and seen["DKF_MEAS_<i>"] == 0, "node messages or measurements on the URL's port"
+PY
+    ;;
+  direct)
+    SPLIT=(--split-ports) DIRECT=(--direct-recv)
+    # the node messages' port (the URL's + 1): what the centre reads
+    inject() {
+      "$DKF_PYTHON" - <<'PY'
+import socket, struct
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+short = lambda ch, body: struct.pack(">II", 0x4C433032, 7) + ch + b"\0" + body
+bad = [b"LC0", struct.pack(">II", 0x4C433031, 1) + b"DKF_NODE_0\0xx",
+       struct.pack(">II", 0x4C433032, 2) + b"X" * 64 + b"\0",   # a 64-byte channel
+       struct.pack(">II", 0x4C433032, 3) + b"DKF_NODE_0",        # no NUL
+       short(b"", b"body")]                                       # empty channel
+frag = [struct.pack(">IIIIHH", 0x4C433033, 9, 100000, 0, 0, 2) + b"DKF_NODE_0\0" + b"z" * 64]
+other = [short(b"DKF_NODE_0x", b"body"), short(b"XDKF_NODE_0", b"body")]  # anchored: no match
+for d in bad + frag + other:
+    s.sendto(d, ("239.255.76.67", 7668))
+print(f"sent {len(bad)} malformed, {len(frag)} fragment, {len(other)} of no subscribed channel")
+PY
+    }
+    BEFORE_SIM=inject
+    run_live live --rate 200 || exit 1
+    compare_central "$out/live.fused.json" || exit 1
+    "$DKF_PYTHON" - "$out/live.fused.json" <<'PY' || exit 1
+import json, sys
+r = json.load(open(sys.argv[1]))["receive"]
+print("the centre's direct receive:", r)
+assert r["mode"] == "direct", r
+assert (r["malformed"], r["fragments"], r["unmatched"]) == (5, 1, 2), r
+# every node message of the run was read: 2 nodes x N steps, plus status heartbeats
+assert r["datagrams"] >= 8 + 2 * json.load(open(sys.argv[1]))["N"], r
+assert r["rcvbuf"] > 0, r
 PY
     ;;
   *)

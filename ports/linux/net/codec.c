@@ -320,6 +320,22 @@ static void to_core_msg(dkf_diffkf_msg_t *msg, long node, long k, size_t n, cons
     }
 }
 
+void dkf_net_copy_node_msg(dkf_diffkf_msg_t *dst, const dkf_diffkf_msg_t *src)
+{
+    const size_t n = src->n < DKF_MAX_DIM ? src->n : DKF_MAX_DIM;
+    dst->node = src->node;
+    dst->k = src->k;
+    dst->n = src->n;
+    memcpy(dst->xf, src->xf, n * sizeof src->xf[0]);
+    memcpy(dst->xp, src->xp, n * sizeof src->xp[0]);
+}
+
+void dkf_net_copy_node_payload(void *user, void *dst, const void *src)
+{
+    (void)user;
+    dkf_net_copy_node_msg(dst, src);
+}
+
 dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
                                           const dkf_net_expect_t *ex, dkf_diffkf_msg_t *msg,
                                           dkf_diffkf_msg_t *prev, dkf_net_meta_t *meta,

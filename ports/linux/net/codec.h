@@ -130,6 +130,15 @@ typedef struct {
     char detail[160];
 } dkf_net_status_t;
 
+/* Copies what a node message holds: node, k, n and the first n values of
+ * xf and xp (n capped at DKF_MAX_DIM); the rest of dst is left as it was.
+ * In a build with a large DKF_MAX_DIM the struct is 16 KiB, its used part a
+ * few cache lines. */
+void dkf_net_copy_node_msg(dkf_diffkf_msg_t *dst, const dkf_diffkf_msg_t *src);
+/* The same as fc_runtime.h's copy operation (user unused): the centres
+ * whose payload is a node message store only its used part. */
+void dkf_net_copy_node_payload(void *user, void *dst, const void *src);
+
 /* Encoders: write the message into buf (cap bytes), *len = its size.
  * 0, or -1 if it does not fit or a dimension is out of range. */
 /* Node message: msg is step k; prev (used iff meta->has_prev; then

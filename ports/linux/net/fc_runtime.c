@@ -250,7 +250,10 @@ static int store_payload(dkf_fcr_t *rt, size_t i, long epoch, long k, const void
     q->k = k;
     q->epoch = epoch;
     q->direct = direct;
-    memcpy(slot_bytes(rt, i, k), bytes, rt->cfg.payload_size);
+    if (rt->ops->copy != NULL)
+        rt->ops->copy(rt->user, slot_bytes(rt, i, k), bytes);
+    else
+        memcpy(slot_bytes(rt, i, k), bytes, rt->cfg.payload_size);
     q->meas_utime = meas_utime;
     q->recv_utime = recv_utime;
     if (direct) {

@@ -61,6 +61,9 @@
  *            before the join): the step as computed now, e.g. a journal line.
  *   state    (may be NULL) the runtime has become DKF_FCR_DONE or
  *            DKF_FCR_FAILED.
+ *   copy     (may be NULL: all payload_size bytes are copied) copies a
+ *            payload into its slot (payload_size bytes, zero at first, then
+ *            as the last copy left them): the bytes step will read.
  */
 #ifndef DKF_NET_FC_RUNTIME_H
 #define DKF_NET_FC_RUNTIME_H
@@ -98,12 +101,13 @@ typedef struct {
     int (*publish)(void *user, const dkf_fcr_step_t *st, int64_t *utime);
     void (*record)(void *user, const dkf_fcr_step_t *st, int published);
     void (*state)(void *user, int state);
+    void (*copy)(void *user, void *dst, const void *src);
 } dkf_fcr_ops_t;
 
 typedef struct {
     size_t nodes;         /* l: node ids 0..l-1 (1..DKF_FCR_MAX_NODES) */
     long steps;           /* N: steps 1..N (1..DKF_FCR_MAX_STEPS) */
-    size_t payload_size;  /* bytes of one payload (> 0), copied in as it comes */
+    size_t payload_size;  /* bytes of one payload (> 0), copied in as it comes (ops copy) */
     size_t ckpt_size;     /* bytes of one checkpoint (> 0) */
     int64_t deadline_us;  /* > 0 */
     int64_t linger_us;    /* > 0 */

@@ -141,15 +141,7 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
     for (i = 0; i < l; ++i) {
         fu->present[i] = pay[i] != NULL;
         if (pay[i] != NULL) {
-            /* the header and the n values used: in a build with a large
-             * DKF_MAX_DIM the whole struct is 16 KiB */
-            const dkf_diffkf_msg_t *m = pay[i];
-            const size_t nv = m->n < DKF_MAX_DIM ? m->n : DKF_MAX_DIM;
-            fu->msgs[i].node = m->node;
-            fu->msgs[i].k = m->k;
-            fu->msgs[i].n = m->n;
-            memcpy(fu->msgs[i].xf, m->xf, nv * sizeof m->xf[0]);
-            memcpy(fu->msgs[i].xp, m->xp, nv * sizeof m->xp[0]);
+            dkf_net_copy_node_msg(&fu->msgs[i], pay[i]);
         } else {
             memset(&fu->msgs[i], 0, sizeof fu->msgs[i]);
             fu->msgs[i].node = (uint16_t)i;
@@ -231,7 +223,7 @@ static void op_state(void *user, int state)
 }
 
 static const dkf_fcr_ops_t dkf_fc_ops = {op_step,    op_restart, op_save,  op_restore,
-                                         op_publish, op_record,  op_state};
+                                         op_publish, op_record,  op_state, dkf_net_copy_node_payload};
 
 /* ---- LCM ---------------------------------------------------------------------------- */
 

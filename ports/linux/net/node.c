@@ -130,7 +130,7 @@ static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
     if (dkf_net_encode_node_msg(buf, sizeof buf, &len, &nd->msg, &nd->prev, &meta) != 0) return -1;
     ++nd->seq;
     if (node_send(nd, buf, len) != 0) return -1;
-    nd->prev = nd->msg;
+    dkf_net_copy_node_msg(&nd->prev, &nd->msg);
     nd->has_prev = 1;
     return 0;
 }

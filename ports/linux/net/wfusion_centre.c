@@ -240,7 +240,7 @@ static void op_state(void *user, int state)
 }
 
 static const dkf_fcr_ops_t wf_ops = {op_step,    op_restart, op_save,  op_restore,
-                                     op_publish, op_record,  op_state};
+                                     op_publish, op_record,  op_state, dkf_net_copy_node_payload};
 
 /* ---- LCM: the node messages, decoded by codec.c ------------------------------------- */
 

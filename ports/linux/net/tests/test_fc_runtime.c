@@ -129,7 +129,7 @@ static void toy_state(void *user, int state)
 }
 
 static const dkf_fcr_ops_t toy_ops = {toy_step,    toy_restart, toy_save, toy_restore,
-                                      toy_publish, toy_record,  toy_state};
+                                      toy_publish, toy_record,  toy_state, NULL};
 
 /* The toy's configuration: L nodes, `steps` steps. */
 static dkf_fcr_config_t toy_config(long steps)

@@ -6,6 +6,7 @@
  *   dkf-node --id 0 tests/vectors/diffkf/ex3_multi.json
  */
 #include <getopt.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,6 +30,17 @@ static const char *node_filters(void)
             len += (size_t)snprintf(out + len, len < sizeof out ? sizeof out - len : 0, "%s%s",
                                     len ? ", " : "", dkf_registry[i]->filters[j].name);
     return out;
+}
+
+/* Leaves real-time priority (the demo's SCHED_FIFO) before the teardown:
+ * freeing the scenario takes milliseconds of CPU, which must not delay the
+ * centre's last step (docs/network.md, "Where the latency goes"). */
+static void leave_realtime(void)
+{
+    struct sched_param p;
+    const int policy = sched_getscheduler(0);
+    memset(&p, 0, sizeof p);
+    if (policy == SCHED_FIFO || policy == SCHED_RR) (void)sched_setscheduler(0, SCHED_OTHER, &p);
 }
 
 static void usage(FILE *f)
@@ -176,6 +188,7 @@ int main(int argc, char **argv)
         if (dkf_net_handle(net, 20) < 0) break;
         dkf_net_node_tick(nd, dkf_net_mono_us(), (int64_t)(hb_ms * 1000));
     }
+    leave_realtime();
     if (dkf_net_node_exited(nd)) {
         /* a crash, as asked: no final status, no summary but this line */
         if (!quiet) fprintf(stderr, "%s %ld: %s\n", prog, (long)id, dkf_net_node_error(nd));

@@ -124,9 +124,9 @@ static void test_memq_round_trip(void **state)
     dkf_net_close(net);
 }
 
-/* Split ports need a udpm URL (and the test of the lanes over sockets is
- * the namespace test net_udpm_ex3_split): memq is refused, and nothing
- * changes for it. */
+/* Split ports and direct receive need a udpm URL (their tests over sockets
+ * are the namespace tests net_udpm_ex3_split and _direct): memq is refused,
+ * and nothing changes for it. */
 static void test_split_needs_udpm(void **state)
 {
     char err[DKF_NET_ERR_LEN] = "";
@@ -135,6 +135,10 @@ static void test_split_needs_udpm(void **state)
     assert_non_null(net);
     assert_int_equal(dkf_net_split(net, err, sizeof err), -1);
     assert_non_null(strstr(err, "udpm"));
+    err[0] = '\0';
+    assert_int_equal(dkf_net_direct(net, err, sizeof err), -1); /* the same for direct receive */
+    assert_non_null(strstr(err, "udpm"));
+    assert_int_equal(dkf_net_rx(net).direct, 0);
     got = 0;
     assert_int_equal(dkf_net_subscribe(net, "DKF_TEST", on_msg, NULL), 0);
     assert_int_equal(dkf_net_publish(net, "DKF_TEST", "abc", 3), 0);

@@ -184,11 +184,16 @@ int dkf_net_direct(dkf_net_t *net, char *err, size_t errlen)
     if (strncmp(net->url, "udpm://", 7) != 0)
         return fail(err, errlen, "%s: direct receive needs a udpm:// URL", net->url);
     if (net->subs > 0) return fail(err, errlen, "direct receive: set before any subscription");
-    net->direct = net->rx.direct = 1;
+    net->direct = 1;
     return 0;
 }
 
-dkf_net_rx_t dkf_net_rx(const dkf_net_t *net) { return net->rx; }
+dkf_net_rx_t dkf_net_rx(const dkf_net_t *net)
+{
+    dkf_net_rx_t rx = net->rx;
+    rx.direct = net->direct;
+    return rx;
+}
 
 /* The lane of a channel or subscription pattern: 0 unless split; -1 for a
  * pattern over several nodes' measurements (split: no single lane). */

@@ -144,7 +144,9 @@ dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *
         dkf_scn_fail(&c, NULL, "no scenario file given");
         return NULL;
     }
-    return one_line(load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err, errlen);
+    return one_line(
+        load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err,
+        errlen);
 }
 
 dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
@@ -157,7 +159,9 @@ dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char
         dkf_scn_fail(&c, NULL, "no scenario buffer given");
         return NULL;
     }
-    return one_line(load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err, errlen);
+    return one_line(
+        load_root(&c, json_loadb(buf, len, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err,
+        errlen);
 }
 
 void dkf_scenario_free(dkf_scenario_t *s)

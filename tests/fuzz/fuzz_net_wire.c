@@ -25,8 +25,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     m = before;
     v = dkf_wire_parse(data, size, &m);
     FUZZ_REQUIRE(v == DKF_WIRE_OK || v == DKF_WIRE_FRAGMENT || v == DKF_WIRE_BAD);
-    FUZZ_REQUIRE((v == DKF_WIRE_FRAGMENT) ==
-                 (size >= 8 && data[0] == 'L' && data[1] == 'C' && data[2] == '0' && data[3] == '3'));
+    FUZZ_REQUIRE((v == DKF_WIRE_FRAGMENT) == (size >= 8 && memcmp(data, "LC03", 4) == 0));
     if (v != DKF_WIRE_OK) {
         FUZZ_REQUIRE(memcmp(&m, &before, sizeof m) == 0);
         return 0;

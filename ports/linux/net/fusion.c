@@ -223,7 +223,8 @@ static void op_state(void *user, int state)
 }
 
 static const dkf_fcr_ops_t dkf_fc_ops = {op_step,    op_restart, op_save,  op_restore,
-                                         op_publish, op_record,  op_state, dkf_net_copy_node_payload};
+                                         op_publish, op_record,  op_state,
+                                         dkf_net_copy_node_payload};
 
 /* ---- LCM ---------------------------------------------------------------------------- */
 

@@ -16,7 +16,8 @@
 #include "wire.h"
 
 /* "LC02" | seqno 0x01020304 | "AB" NUL | "xyz" */
-static const unsigned char lc02[] = {0x4c, 0x43, 0x30, 0x32, 1, 2, 3, 4, 'A', 'B', 0, 'x', 'y', 'z'};
+static const unsigned char lc02[] = {0x4c, 0x43, 0x30, 0x32, 1,   2,   3,
+                                     4,    'A',  'B',  0,    'x', 'y', 'z'};
 
 static void test_reads_lcm_short_datagram(void **state)
 {

@@ -641,9 +641,9 @@ DKF__INLINE int k_chol(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t 
     return fx ? inl_chol(W, inv, A, n) : dkf__chol_wide(W, inv, A, n, T);
 }
 
-DKF__INLINE int k_psd(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *P, size_t n)
+DKF__INLINE int k_psd(int fx, dkf_real_t *W, const dkf_real_t *P, size_t n)
 {
-    return fx ? inl_psd_within_rounding(W, inv, P, n) : dkf__psd_within_rounding(W, inv, P, n);
+    return fx ? inl_psd_within_rounding(W, P, n) : dkf__psd_within_rounding(W, P, n);
 }
 
 /* 1 if the n reals at p are all finite (dkf__all_finite). */
@@ -997,7 +997,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
                                    size_t pk, size_t pc)
 {
     const layout_t *const L = L_;
-    dkf_real_t *const inv = L->Li, pw[DKF_MAX_DIM];
+    dkf_real_t *const inv = L->Li;
     size_t i, j, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     const sel_t sel = sel_of(L, p, pk);
     select_rows(L, idx, n, p, pk, pc);
@@ -1100,7 +1100,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
         !k_finite(fx, L->Vtn, p * pk))
         return DKF_ERR_NONFINITE;
     /* both covariances PSD up to rounding (docs/decisions.md item 17) */
-    if (!k_psd(fx, L->T1, pw, L->Pfn, n) || !k_psd(fx, L->T1, pw, L->Ppn, n))
+    if (!k_psd(fx, L->T1, L->Pfn, n) || !k_psd(fx, L->T1, L->Ppn, n))
         return DKF_ERR_NOT_SPD;
     f->pk = pk;
     f->pending = 1;

@@ -63,11 +63,10 @@ static dkf_status_t commit(dkf_info_t *f, const dkf_real_t *x, const dkf_real_t 
                            const dkf_real_t *y, const dkf_real_t *Y, dkf_real_t *W)
 {
     const size_t n = f->n;
-    dkf_real_t inv[DKF_MAX_DIM];
     if (!dkf__all_finite(x, n) || !dkf__all_finite(P, n * n) || !dkf__all_finite(y, n) ||
         !dkf__all_finite(Y, n * n))
         return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(W, inv, P, n) || !dkf__psd_within_rounding(W, inv, Y, n))
+    if (!dkf__psd_within_rounding(W, P, n) || !dkf__psd_within_rounding(W, Y, n))
         return DKF_ERR_NOT_SPD;
     dkf__copy(f->x.data, x, n);
     dkf__copy(f->P.data, P, n * n);

@@ -408,9 +408,9 @@ void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, cons
     inl_joseph(Pn, AK, G, Rs, P, G, R, n, m);
 }
 
-int dkf__psd_within_rounding(dkf_real_t *work, dkf_real_t *inv, const dkf_real_t *P, size_t n)
+int dkf__psd_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n)
 {
-    return inl_psd_within_rounding(work, inv, P, n);
+    return inl_psd_within_rounding(work, P, n);
 }
 
 void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,

@@ -60,17 +60,22 @@
  * a row-major A (A B), sa = r for a product A^T B whose A is stored k x r.
  * b points at B(0,j). */
 #if DKF__SIMD
-/* 16-byte vectors of DKF__VL reals (GCC/Clang vector extension): each lane
- * is an ordinary IEEE product or sum, so a lane computes exactly what the
- * scalar code computes, in the same order. memcpy is the unaligned load
- * and store. */
-typedef dkf_real_t dkf__vec_t __attribute__((vector_size(16)));
-#if DKF_USE_FLOAT
-typedef int32_t dkf__mask_t __attribute__((vector_size(16))); /* of a v != w */
-#else
-typedef int64_t dkf__mask_t __attribute__((vector_size(16)));
+/* Vectors of DKF__VEC_BYTES bytes, DKF__VL reals (GCC/Clang vector
+ * extension): 16, or 32 in the AVX instance of the Kalman step (kf_avx.c,
+ * double only: the kernels take DKF__VL = 2 or 4). Each lane is an
+ * ordinary IEEE product or sum, so a lane computes exactly what the
+ * scalar code computes, in the same order, whatever the width. memcpy is
+ * the unaligned load and store. */
+#ifndef DKF__VEC_BYTES
+#define DKF__VEC_BYTES 16
 #endif
-#define DKF__VL (16 / sizeof(dkf_real_t))
+typedef dkf_real_t dkf__vec_t __attribute__((vector_size(DKF__VEC_BYTES)));
+#if DKF_USE_FLOAT
+typedef int32_t dkf__mask_t __attribute__((vector_size(DKF__VEC_BYTES))); /* of a v != w */
+#else
+typedef int64_t dkf__mask_t __attribute__((vector_size(DKF__VEC_BYTES)));
+#endif
+#define DKF__VL (DKF__VEC_BYTES / sizeof(dkf_real_t))
 
 DKF__INLINE dkf__vec_t vload(const dkf_real_t *p)
 {
@@ -588,9 +593,9 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
 
 /* Whether the symmetric n x n P (upper triangle read, via its mirror: the
  * lower triangle is read) is positive semidefinite up to rounding, i.e.
- * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: the
- * Cholesky factorisation of P + delta I (into W, n x n, with inv) must
- * succeed. Why this test and this delta:
+ * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: every
+ * pivot of the LDL^T factorisation of P + delta I (in W, n x n) must be
+ * positive (and finite). Why this test and this delta:
  *  - P may be PSD and singular (a filter started from P = 0, a state the
  *    measurements pin exactly): no pivot of P itself may be required to be
  *    positive, so the test shifts P; REAL_MIN keeps P = 0 (tr 0) passing.
@@ -598,26 +603,69 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
  *    elementwise errors of a few (n + m) eps |P| in a well-formed update
  *    (the Joseph form's products); tr(P) >= lambda_max(P) >= |P(i,j)|, so
  *    4 n eps tr(P) is above the rounding of a PSD result (an exactly PSD
- *    P has computed lambda_min >= -(few n eps) tr P), and the Cholesky of
- *    the shifted matrix then succeeds: its own backward error, (n + 1) eps
- *    |P|, stays below the shift.
+ *    P has computed lambda_min >= -(few n eps) tr P), and the LDL^T of
+ *    the shifted matrix then has positive pivots: without pivoting on a
+ *    positive definite matrix it has the Cholesky factorisation's
+ *    backward error, (n + 1) eps |P|, which stays below the shift.
  *  - An indefinite P whose negative eigenvalue exceeds delta in size makes
- *    P + delta I indefinite, and no Cholesky of an indefinite matrix
- *    (up to its backward error) succeeds; a negative diagonal beyond delta
- *    fails at its pivot. A negative trace (some diagonal < 0) gives
- *    delta < 0 and fails too.
+ *    P + delta I indefinite, and no LDL^T of an indefinite matrix (up to
+ *    its backward error) has only positive pivots (Sylvester's law of
+ *    inertia); a negative diagonal beyond delta fails at its pivot. A
+ *    negative trace (some diagonal < 0) gives delta < 0 and fails too.
  * P must be finite (callers scan it first). Returns 1 if PSD within
- * delta, 0 otherwise. */
-DKF__INLINE int inl_psd_within_rounding(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *P,
+ * delta, 0 otherwise. See psd_pivots for why LDL^T and not Cholesky. */
+DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n);
+
+DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                         size_t n)
 {
     dkf_real_t tr = DKF_R(0.0), delta;
     size_t i;
     for (i = 0; i < n; ++i) tr += P[i * n + i];
     delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
-    memcpy(W, P, n * n * sizeof *W);
+    inl_transpose(W, P, n, n); /* W's upper triangle: P's lower one */
     for (i = 0; i < n; ++i) W[i * n + i] += delta;
-    return inl_chol(W, inv, W, n) == 0;
+    return psd_pivots(W, n);
+}
+
+/* The pivots d_k of W = U^T D U (U unit upper triangular), right-looking
+ * on W's upper triangle: after pivot k, row i > k of the trailing part
+ * loses f_i (row k), f_i = W(k,i) / d_k (the Schur complement). 1 if every
+ * pivot is positive and finite, else 0 at the first that is not.
+ * Why not Cholesky: a Kalman step checks its P this way twice, and for
+ * n <= 12 the check was half of the step (issue 14: 1215 -> 602 ns at
+ * n = 8 without it). A Cholesky factor's row i needs its columns one
+ * after another (a chain of i dot products per row), and each pivot a
+ * square root and a division; here each pivot is one division away from
+ * the last. The next pivot is computed first, as W(k+1,k+1) -
+ * W(k,k+1)^2 / d_k, and carried in a register, so the chain from pivot
+ * to pivot is one division and one subtraction; the other rows' updates
+ * run beside it. The lower triangle of W is scratch (rows are updated
+ * from a vector boundary at or below the diagonal). */
+DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
+{
+    dkf_real_t d = W[0];
+    size_t i, j, k;
+    for (k = 0;; ++k) {
+        const dkf_real_t *wk = W + k * n;
+        dkf_real_t r, dn;
+        if (!(d > DKF_R(0.0) && d <= DKF_REAL_MAX)) return 0;
+        if (k + 1 == n) return 1;
+        dn = wk[n + k + 1] - wk[k + 1] * wk[k + 1] / d;
+        r = DKF_R(1.0) / d;
+        for (i = k + 1; i < n; ++i) {
+            dkf_real_t *wi = W + i * n;
+            const dkf_real_t f = wk[i] * r;
+#if DKF__SIMD
+            for (j = i & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
+                vstore(wi + j, vload(wi + j) - f * vload(wk + j));
+#else
+            j = i;
+#endif
+            for (; j < n; ++j) wi[j] -= f * wk[j];
+        }
+        d = dn;
+    }
 }
 
 /* Solves L w = b in place (forward substitution), b n x 1; inv from

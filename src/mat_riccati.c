@@ -292,7 +292,7 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     for (i = 0; i < n; ++i)
         for (j = 0; j < n; ++j)
             Hk[i * n + j] = DKF_R(0.5) * (Q->data[i * n + j] + Q->data[j * n + i]);
-    if (!dkf__psd_within_rounding(Wb, inv, Hk, n)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(Wb, Hk, n)) return DKF_ERR_NOT_SPD;
     /* A_0 = F^T (S0) */
     dkf__transpose(A, F->data, n, n);
 
@@ -339,7 +339,7 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     dkf__mul_nn(Y2, F->data, Y1, n, n, n);             /* Phi */
     if (!dkf__all_finite(Y2, nn) || !certify_contraction(A, G, Y2, n)) return DKF_ERR_UNSTABLE;
     /* X symmetric (by construction) and PSD within rounding */
-    if (!dkf__psd_within_rounding(Wb, inv, Hk, n)) return DKF_ERR_UNSTABLE;
+    if (!dkf__psd_within_rounding(Wb, Hk, n)) return DKF_ERR_UNSTABLE;
 
     memcpy(X->data, Hk, nn * sizeof *Hk);
     work[0] = (dkf_real_t)k; /* doubling steps taken (documented in the header) */

@@ -476,7 +476,7 @@ static dkf_status_t finish_commit(const dkf_nerts_t *f, layout_t *L)
     dkf__copy(s->Pd, s->Pd_loc, p * p);
     dkf__copy(s->Pxd, s->Pxd_loc, n * p);
     if (!dkf__all_finite(s->x, n) || !dkf__all_finite(s->Px, n * n)) return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(L->w[0], L->v[0], s->Px, n)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L->w[0], s->Px, n)) return DKF_ERR_NOT_SPD;
     return check_joint(s, n, p, L->w[0], L->w[1], L->v[0]);
 }
 

@@ -214,7 +214,6 @@ static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
                                        dkf_real_t *W)
 {
     const size_t n = f->n, p = f->p;
-    dkf_real_t inv[DKF_MAX_DIM];
     add_mul_vec(xn, xt, B, d, n, p);
     dkf__mul_nn(T, B, Pd, n, p, p);
     dkf__mul_nt_sym(Pn, T, B, Px, n, p);
@@ -222,8 +221,8 @@ static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
         !dkf__all_finite(Pd, p * p) || !dkf__all_finite(B, n * p) || !dkf__all_finite(xn, n) ||
         !dkf__all_finite(Pn, n * n))
         return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(W, inv, Px, n) || !dkf__psd_within_rounding(W, inv, Pd, p) ||
-        !dkf__psd_within_rounding(W, inv, Pn, n))
+    if (!dkf__psd_within_rounding(W, Px, n) || !dkf__psd_within_rounding(W, Pd, p) ||
+        !dkf__psd_within_rounding(W, Pn, n))
         return DKF_ERR_NOT_SPD;
     dkf__copy(f->xt.data, xt, n);
     dkf__copy(f->Px.data, Px, n * n);

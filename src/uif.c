@@ -489,8 +489,8 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_ui_m
     olen = out_layout(&o, NULL, n, m, p);
     if (!dkf__all_finite(L.nx.x, olen)) return DKF_ERR_NONFINITE;
     /* P_{k|k} and P_{k|k-1} PSD up to rounding (docs/decisions.md item 17) */
-    if (!dkf__psd_within_rounding(L.J, invr, L.nx.Px, n) ||
-        !dkf__psd_within_rounding(L.J, invr, L.nx.Pp, n))
+    if (!dkf__psd_within_rounding(L.J, L.nx.Px, n) ||
+        !dkf__psd_within_rounding(L.J, L.nx.Pp, n))
         return DKF_ERR_NOT_SPD;
 
     /* commit */

@@ -75,7 +75,6 @@ dkf_status_t dkf_wfusion_local_init(dkf_wfusion_local_t *loc, size_t n, size_t m
 {
     dkf_wfusion_local_t g; /* built aside: a failed init leaves *loc as it was */
     loc_layout_t L;
-    dkf_real_t inv[DKF_MAX_DIM];
     size_t i;
     DKF_CHECK_NULL(loc);
     DKF_CHECK_NULL(storage);
@@ -85,7 +84,7 @@ dkf_status_t dkf_wfusion_local_init(dkf_wfusion_local_t *loc, size_t n, size_t m
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
     (void)loc_layout(&L, storage, n, m);
-    if (!dkf__psd_within_rounding(L.T, inv, P0->data, n)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L.T, P0->data, n)) return DKF_ERR_NOT_SPD;
     for (i = 0; i < n * n; ++i) /* symmetric within rounding: as the steps keep it */
         if (P0->data[i] != P0->data[(i % n) * n + i / n]) return DKF_ERR_NOT_SPD;
     g.n = n;
@@ -152,7 +151,7 @@ static dkf_status_t gains_from_prior(const loc_layout_t *L, const dkf_real_t *F,
     if (!dkf__all_finite(L->nx.P, n * n) || !dkf__all_finite(L->nx.Psi, n * n) ||
         !dkf__all_finite(L->nx.K, n * m))
         return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(L->T, inv, L->nx.P, n)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L->T, L->nx.P, n)) return DKF_ERR_NOT_SPD;
     return DKF_OK;
 }
 
@@ -527,7 +526,7 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
             return dkf__all_finite(L->Z, N * q) ? DKF_OK : DKF_ERR_NONFINITE;
         }
     }
-    if (!dkf__psd_within_rounding(L->C, inv, L->Pn, N)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L->C, L->Pn, N)) return DKF_ERR_NOT_SPD;
     /* the KKT matrix [[S, E], [E^T, 0]] */
     for (i = 0; i < k * k; ++i) L->C[i] = DKF_R(0.0);
     for (i = 0; i < N; ++i) {
@@ -545,7 +544,7 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
     dkf__symmetrise(L->P0t, q);
     if (!dkf__all_finite(L->Z, N * q) || !dkf__all_finite(L->P0t, q * q))
         return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(L->C, inv, L->P0t, q)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L->C, L->P0t, q)) return DKF_ERR_NOT_SPD;
     *unique = rank == k;
     return DKF_OK;
 }

@@ -72,24 +72,26 @@ void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t
         }
 }
 
+void test_sym_with_eigenvalues(test_rng_t *r, double *A, const double *lambda, size_t n)
+{
+    static double Q[DKF_MAX_DIM * DKF_MAX_DIM];
+    size_t i, j, l;
+    test_rand_orthogonal(r, Q, n);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j <= i; ++j) {
+            double acc = 0.0;
+            for (l = 0; l < n; ++l) acc += Q[i * n + l] * lambda[l] * Q[j * n + l];
+            A[i * n + j] = A[j * n + i] = acc;
+        }
+}
+
 void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale)
 {
     double s[DKF_MAX_DIM];
-    size_t i, j;
+    size_t i;
     for (i = 0; i < n; ++i)
         s[i] = scale * (n > 1 ? pow(cond, (double)i / (double)(n - 1)) : 1.0);
-    /* A = Q diag(s) Q^T */
-    {
-        static double Q[DKF_MAX_DIM * DKF_MAX_DIM];
-        size_t l;
-        test_rand_orthogonal(r, Q, n);
-        for (i = 0; i < n; ++i)
-            for (j = 0; j <= i; ++j) {
-                double acc = 0.0;
-                for (l = 0; l < n; ++l) acc += Q[i * n + l] * s[l] * Q[j * n + l];
-                A[i * n + j] = A[j * n + i] = acc;
-            }
-    }
+    test_sym_with_eigenvalues(r, A, s, n);
 }
 
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c)

@@ -36,6 +36,8 @@ void test_rand_orthogonal(test_rng_t *r, double *Q, size_t n);
  * min(rows, cols) singular values s[0..k-1] as given. Exact rank control. */
 void test_mat_with_singular_values(test_rng_t *r, double *A, size_t rows, size_t cols,
                                    const double *s);
+/* A = Q diag(lambda) Q^T (n x n, exactly symmetric), Q random orthogonal. */
+void test_sym_with_eigenvalues(test_rng_t *r, double *A, const double *lambda, size_t n);
 /* Random SPD n x n with condition number cond (eigenvalues log-spaced in
  * [1, cond], scaled by `scale`). */
 void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale);

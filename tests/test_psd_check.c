@@ -1,0 +1,184 @@
+/*
+ * dkf__psd_within_rounding (src/kernels.h), the check every filter runs
+ * on the covariances it is about to commit: for a finite symmetric n x n
+ * P (lower triangle read), 1 if lambda_min(P) >= -delta with
+ * delta = 4 n eps tr(P) + REAL_MIN, else 0, up to rounding. Its pivots
+ * are those of an LDL^T factorisation (psd_pivots in kernels_inline.h).
+ *
+ * The matrices have known eigenvalues: P = Q diag(lambda) Q^T with Q a
+ * random orthogonal matrix, computed in double and rounded once to the
+ * build's real type. Rounding P's entries moves an eigenvalue by at most
+ * n eps max|P(i,j)| <= n eps tr|P|, a quarter of delta, so:
+ *  - PSD and singular (lambda_min = 0, and half of the eigenvalues 0)
+ *    must be accepted, as must P = 0;
+ *  - lambda_min = -4 delta (16 n eps tr, four deltas beyond the threshold
+ *    and far beyond the rounding) must be refused, whatever the spread
+ *    of the other eigenvalues (1 .. 1e-3) and wherever Q puts the
+ *    negative direction;
+ *  - a negative diagonal entry beyond delta and a negative trace are
+ *    refused at their pivot;
+ *  - only the lower triangle is read: an upper triangle that makes the
+ *    matrix indefinite (or one that makes an indefinite one PSD) changes
+ *    nothing.
+ * Sizes 1 .. 17 (every remainder of the vector loops in double and
+ * float), 24, 33, 48 and, in builds whose DKF_MAX_DIM allows, 67;
+ * 8 random Q per size. A check that always passes, one without the shift
+ * delta, or one that reads the upper triangle fails a case here (each
+ * tried by hand on the source, 2026-12-05).
+ */
+#include <math.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "dkf_test.h"
+#include "kernels.h"
+
+#define NMAX 67
+#define SEEDS 8
+
+static double Pd[NMAX * NMAX];
+static dkf_real_t P[NMAX * NMAX], W[NMAX * NMAX];
+
+static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 24, 33,
+                               48, 67};
+#define NSIZES (sizeof sizes / sizeof sizes[0])
+
+/* P = Q diag(lambda) Q^T, Q random orthogonal, rounded to dkf_real_t. */
+static void with_eigenvalues(test_rng_t *g, const double *lambda, size_t n)
+{
+    test_sym_with_eigenvalues(g, Pd, lambda, n);
+    test_to_real(P, Pd, n * n);
+}
+
+/* lambda = 1 .. 1e-3, log-spaced, in a random order, then its last
+ * `low` entries replaced by `value`; returns the trace. */
+static double spectrum(test_rng_t *g, double *lambda, size_t n, size_t low, double value)
+{
+    double tr = 0.0;
+    size_t i;
+    for (i = 0; i < n; ++i)
+        lambda[i] = n == 1 ? 1.0 : pow(10.0, -3.0 * (double)i / (double)(n - 1));
+    for (i = n; i > 1; --i) { /* Fisher-Yates */
+        size_t k = (size_t)(test_rng_uniform(g) * (double)i);
+        double t = lambda[i - 1];
+        lambda[i - 1] = lambda[k];
+        lambda[k] = t;
+    }
+    for (i = n - low; i < n; ++i) lambda[i] = value;
+    for (i = 0; i < n; ++i) tr += lambda[i];
+    return tr;
+}
+
+static int check(size_t n)
+{
+    return dkf__psd_within_rounding(W, P, n);
+}
+
+static size_t cap(void)
+{
+    size_t k = 0;
+    while (k < NSIZES && sizes[k] <= DKF_MAX_DIM) ++k;
+    return k;
+}
+
+static void test_psd_singular_accepted(void **state)
+{
+    test_rng_t g;
+    double lambda[NMAX];
+    size_t k, s;
+    (void)state;
+    test_rng_seed(&g, 0x5eed0001u);
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        for (s = 0; s < SEEDS; ++s) {
+            (void)spectrum(&g, lambda, n, 1, 0.0); /* one zero eigenvalue */
+            with_eigenvalues(&g, lambda, n);
+            if (!check(n)) fail_msg("n=%zu seed %zu: PSD, lambda_min = 0, refused", n, s);
+            (void)spectrum(&g, lambda, n, (n + 1) / 2, 0.0); /* half of them 0 */
+            with_eigenvalues(&g, lambda, n);
+            if (!check(n)) fail_msg("n=%zu seed %zu: PSD of rank %zu refused", n, s, n / 2);
+        }
+        memset(P, 0, sizeof P);
+        assert_true(check(n)); /* P = 0: tr 0, delta = REAL_MIN */
+    }
+}
+
+static void test_indefinite_refused(void **state)
+{
+    test_rng_t g;
+    double lambda[NMAX];
+    size_t k, s;
+    (void)state;
+    test_rng_seed(&g, 0x5eed0002u);
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        for (s = 0; s < SEEDS; ++s) {
+            /* lambda_min = v = -4 delta = -c tr, c = 16 n eps, where
+             * tr = rest + v: v = -c rest / (1 + c) (n = 1: v = -1) */
+            const double c = 16.0 * (double)n * TEST_EPS;
+            const size_t z = (size_t)(test_rng_uniform(&g) * (double)n);
+            const double rest = spectrum(&g, lambda, n, 0, 0.0) - lambda[z];
+            lambda[z] = n == 1 ? -1.0 : -c * rest / (1.0 + c);
+            with_eigenvalues(&g, lambda, n);
+            if (check(n)) fail_msg("n=%zu seed %zu: lambda_min = -4 delta accepted", n, s);
+        }
+    }
+}
+
+static void test_negative_diagonal_and_trace(void **state)
+{
+    size_t k, i;
+    (void)state;
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        memset(P, 0, sizeof P);
+        for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+        P[(n - 1) * n + n - 1] = DKF_R(-0.5); /* the last pivot */
+        assert_false(check(n));
+        for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(-1.0); /* tr < 0: delta < 0 */
+        assert_false(check(n));
+        P[0] = DKF_R(-1e-30); /* alone on the diagonal, tr < 0 */
+        for (i = 1; i < n; ++i) P[i * n + i] = DKF_R(0.0);
+        assert_false(check(n));
+    }
+}
+
+static void test_lower_triangle_read(void **state)
+{
+    test_rng_t g;
+    double lambda[NMAX];
+    size_t k, i, j;
+    (void)state;
+    test_rng_seed(&g, 0x5eed0003u);
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        if (n < 2) continue;
+        /* PSD lower triangle, huge upper: still accepted */
+        (void)spectrum(&g, lambda, n, 1, 0.0);
+        with_eigenvalues(&g, lambda, n);
+        for (i = 0; i < n; ++i)
+            for (j = i + 1; j < n; ++j) P[i * n + j] = DKF_R(1e3);
+        if (!check(n)) fail_msg("n=%zu: the upper triangle was read (PSD refused)", n);
+        /* indefinite lower triangle (P(1,0) = 2 max diag), identity's upper */
+        memset(P, 0, sizeof P);
+        for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+        P[1 * n + 0] = DKF_R(2.0);
+        if (check(n)) fail_msg("n=%zu: the upper triangle was read (indefinite accepted)", n);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_psd_singular_accepted),
+        cmocka_unit_test(test_indefinite_refused),
+        cmocka_unit_test(test_negative_diagonal_and_trace),
+        cmocka_unit_test(test_lower_triangle_read),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

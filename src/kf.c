@@ -37,6 +37,16 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     return DKF_OK;
 }
 
+/* Whether a step of state size n takes the AVX instance: where the CPU
+ * has AVX, from n = 6. Below, its 4-wide vectors cover the 2-wide blocks
+ * of m = 2 poorly: at (n, m) = (4, 2) the AVX step took 244-280 ns against
+ * the baseline's 191-196 (2026-12-05), while at n = 6 (the ASKF's
+ * augmented step of seed 000), 8 and 12 it is faster (docs/bench.md). */
+static int kf_use_avx(size_t n)
+{
+    return n >= 6 && dkf__isa_avx();
+}
+
 dkf_status_t dkf__kf_predict_isa(int avx, dkf_kf_t *kf, const dkf_real_t *F, const dkf_real_t *Q,
                                  const dkf_real_t *u)
 {
@@ -77,7 +87,7 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_kf_dyn_t *dyn, const dkf_mat
         DKF_TRY(dkf__check_shape(u, n, 1));
         ud = u->data;
     }
-    return dkf__kf_predict_isa(dkf__isa_avx(), kf, F->data, Q->data, ud);
+    return dkf__kf_predict_isa(kf_use_avx(n), kf, F->data, Q->data, ud);
 }
 
 dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_mat_t *y)
@@ -96,5 +106,5 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_ma
     DKF_TRY(dkf__check_shape(H, m, n));
     DKF_TRY(dkf__check_shape(R, m, m));
     DKF_TRY(dkf__check_shape(y, m, 1));
-    return dkf__kf_update_isa(dkf__isa_avx(), kf, H->data, R->data, y->data, m);
+    return dkf__kf_update_isa(kf_use_avx(n), kf, H->data, R->data, y->data, m);
 }

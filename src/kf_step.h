@@ -263,7 +263,8 @@ DKF__INLINE dkf_status_t update_any(dkf_kf_t *kf, const dkf_real_t *H, const dkf
 /* The step of one instance (kf.c) for arguments the entry points have
  * checked: avx = 1 (only where dkf__isa_avx() is 1) takes the AVX one if
  * this build has it (DKF__KF_AVX), else the baseline one. The entry points
- * pass dkf__isa_avx(); test_kf_isa passes both and compares the bits. */
+ * choose by the CPU and the size (kf_use_avx in kf.c); test_kf_isa passes
+ * both at every size and compares the bits. */
 dkf_status_t dkf__kf_predict_isa(int avx, dkf_kf_t *kf, const dkf_real_t *F, const dkf_real_t *Q,
                                  const dkf_real_t *u);
 dkf_status_t dkf__kf_update_isa(int avx, dkf_kf_t *kf, const dkf_real_t *H, const dkf_real_t *R,

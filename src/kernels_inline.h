@@ -591,43 +591,6 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
     inl_mul_tn_sym(Pn, G, AK, NULL, n, n + m);
 }
 
-/* Whether the symmetric n x n P (upper triangle read, via its mirror: the
- * lower triangle is read) is positive semidefinite up to rounding, i.e.
- * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: every
- * pivot of the LDL^T factorisation of P + delta I (in W, n x n) must be
- * positive (and finite). Why this test and this delta:
- *  - P may be PSD and singular (a filter started from P = 0, a state the
- *    measurements pin exactly): no pivot of P itself may be required to be
- *    positive, so the test shifts P; REAL_MIN keeps P = 0 (tr 0) passing.
- *  - A covariance update or predict computed in floating point has
- *    elementwise errors of a few (n + m) eps |P| in a well-formed update
- *    (the Joseph form's products); tr(P) >= lambda_max(P) >= |P(i,j)|, so
- *    4 n eps tr(P) is above the rounding of a PSD result (an exactly PSD
- *    P has computed lambda_min >= -(few n eps) tr P), and the LDL^T of
- *    the shifted matrix then has positive pivots: without pivoting on a
- *    positive definite matrix it has the Cholesky factorisation's
- *    backward error, (n + 1) eps |P|, which stays below the shift.
- *  - An indefinite P whose negative eigenvalue exceeds delta in size makes
- *    P + delta I indefinite, and no LDL^T of an indefinite matrix (up to
- *    its backward error) has only positive pivots (Sylvester's law of
- *    inertia); a negative diagonal beyond delta fails at its pivot. A
- *    negative trace (some diagonal < 0) gives delta < 0 and fails too.
- * P must be finite (callers scan it first). Returns 1 if PSD within
- * delta, 0 otherwise. See psd_pivots for why LDL^T and not Cholesky. */
-DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n);
-
-DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
-                                        size_t n)
-{
-    dkf_real_t tr = DKF_R(0.0), delta;
-    size_t i;
-    for (i = 0; i < n; ++i) tr += P[i * n + i];
-    delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
-    inl_transpose(W, P, n, n); /* W's upper triangle: P's lower one */
-    for (i = 0; i < n; ++i) W[i * n + i] += delta;
-    return psd_pivots(W, n);
-}
-
 /* The pivots d_k of W = U^T D U (U unit upper triangular), right-looking
  * on W's upper triangle: after pivot k, row i > k of the trailing part
  * loses f_i (row k), f_i = W(k,i) / d_k (the Schur complement). 1 if every
@@ -666,6 +629,41 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
         }
         d = dn;
     }
+}
+
+/* Whether the symmetric n x n P (upper triangle read, via its mirror: the
+ * lower triangle is read) is positive semidefinite up to rounding, i.e.
+ * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: every
+ * pivot of the LDL^T factorisation of P + delta I (in W, n x n) must be
+ * positive (and finite). Why this test and this delta:
+ *  - P may be PSD and singular (a filter started from P = 0, a state the
+ *    measurements pin exactly): no pivot of P itself may be required to be
+ *    positive, so the test shifts P; REAL_MIN keeps P = 0 (tr 0) passing.
+ *  - A covariance update or predict computed in floating point has
+ *    elementwise errors of a few (n + m) eps |P| in a well-formed update
+ *    (the Joseph form's products); tr(P) >= lambda_max(P) >= |P(i,j)|, so
+ *    4 n eps tr(P) is above the rounding of a PSD result (an exactly PSD
+ *    P has computed lambda_min >= -(few n eps) tr P), and the LDL^T of
+ *    the shifted matrix then has positive pivots: without pivoting on a
+ *    positive definite matrix it has the Cholesky factorisation's
+ *    backward error, (n + 1) eps |P|, which stays below the shift.
+ *  - An indefinite P whose negative eigenvalue exceeds delta in size makes
+ *    P + delta I indefinite, and no LDL^T of an indefinite matrix (up to
+ *    its backward error) has only positive pivots (Sylvester's law of
+ *    inertia); a negative diagonal beyond delta fails at its pivot. A
+ *    negative trace (some diagonal < 0) gives delta < 0 and fails too.
+ * P must be finite (callers scan it first). Returns 1 if PSD within
+ * delta, 0 otherwise. psd_pivots (above) says why LDL^T, not Cholesky. */
+DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
+                                        size_t n)
+{
+    dkf_real_t tr = DKF_R(0.0), delta;
+    size_t i;
+    for (i = 0; i < n; ++i) tr += P[i * n + i];
+    delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
+    inl_transpose(W, P, n, n); /* W's upper triangle: P's lower one */
+    for (i = 0; i < n; ++i) W[i * n + i] += delta;
+    return psd_pivots(W, n);
 }
 
 /* Solves L w = b in place (forward substitution), b n x 1; inv from

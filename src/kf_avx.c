@@ -14,7 +14,7 @@
 
 #include "kernels.h"
 
-#if DKF__AVX && !DKF_USE_FLOAT
+#if DKF__AVX && !DKF_USE_FLOAT /* = DKF__KF_AVX, which kf_step.h defines after this choice */
 #define DKF__VEC_BYTES 32
 #include "kf_step.h"
 

@@ -8,13 +8,15 @@
  * The matrices have known eigenvalues: P = Q diag(lambda) Q^T with Q a
  * random orthogonal matrix, computed in double and rounded once to the
  * build's real type. Rounding P's entries moves an eigenvalue by at most
- * n eps max|P(i,j)| <= n eps tr|P|, a quarter of delta, so:
- *  - PSD and singular (lambda_min = 0, and half of the eigenvalues 0)
- *    must be accepted, as must P = 0;
- *  - lambda_min = -4 delta (16 n eps tr, four deltas beyond the threshold
- *    and far beyond the rounding) must be refused, whatever the spread
- *    of the other eigenvalues (1 .. 1e-3) and wherever Q puts the
- *    negative direction;
+ * n eps max|P(i,j)| <= n eps tr|P| = delta / 4, and the LDL^T's backward
+ * error, (n + 1) eps |P|, is about as much again; so the verdict is fixed
+ * wherever lambda_min is more than delta / 2 away from -delta:
+ *  - PSD and singular (lambda_min = 0, and half of the eigenvalues 0),
+ *    P = 0, and lambda_min = -delta / 8 (inside the threshold) must be
+ *    accepted;
+ *  - lambda_min = -2 delta must be refused, whatever the spread of the
+ *    other eigenvalues (1 .. 1e-3) and wherever Q puts the negative
+ *    direction; the two bounds bracket the threshold within a factor 16;
  *  - a negative diagonal entry beyond delta and a negative trace are
  *    refused at their pivot;
  *  - only the lower triangle is read: an upper triangle that makes the
@@ -23,8 +25,8 @@
  * Sizes 1 .. 17 (every remainder of the vector loops in double and
  * float), 24, 33, 48 and, in builds whose DKF_MAX_DIM allows, 67;
  * 8 random Q per size. A check that always passes, one without the shift
- * delta, or one that reads the upper triangle fails a case here (each
- * tried by hand on the source, 2026-12-05).
+ * delta, one with twice the shift, or one that reads the upper triangle
+ * fails a case here (each tried by hand on the source, 2026-12-05).
  */
 #include <math.h>
 #include <setjmp.h>
@@ -74,6 +76,18 @@ static double spectrum(test_rng_t *g, double *lambda, size_t n, size_t low, doub
     return tr;
 }
 
+/* P with eigenvalues 1 .. 1e-3 (random order), one of them, at a random
+ * place, replaced by v = -a delta of that P: delta = 4 n eps tr and
+ * tr = rest + v give v = -c rest / (1 + c), c = 4 a n eps. */
+static void with_lambda_min(test_rng_t *g, double *lambda, size_t n, double a)
+{
+    const double c = 4.0 * a * (double)n * TEST_EPS;
+    const size_t z = (size_t)(test_rng_uniform(g) * (double)n);
+    const double rest = spectrum(g, lambda, n, 0, 0.0) - lambda[z];
+    lambda[z] = -c * rest / (1.0 + c);
+    with_eigenvalues(g, lambda, n);
+}
+
 static int check(size_t n)
 {
     return dkf__psd_within_rounding(W, P, n);
@@ -102,6 +116,8 @@ static void test_psd_singular_accepted(void **state)
             (void)spectrum(&g, lambda, n, (n + 1) / 2, 0.0); /* half of them 0 */
             with_eigenvalues(&g, lambda, n);
             if (!check(n)) fail_msg("n=%zu seed %zu: PSD of rank %zu refused", n, s, n / 2);
+            with_lambda_min(&g, lambda, n, 0.125);
+            if (!check(n)) fail_msg("n=%zu seed %zu: lambda_min = -delta/8 refused", n, s);
         }
         memset(P, 0, sizeof P);
         assert_true(check(n)); /* P = 0: tr 0, delta = REAL_MIN */
@@ -117,15 +133,10 @@ static void test_indefinite_refused(void **state)
     test_rng_seed(&g, 0x5eed0002u);
     for (k = 0; k < cap(); ++k) {
         const size_t n = sizes[k];
+        if (n == 1) continue; /* the one eigenvalue is the trace: test_negative_diagonal_... */
         for (s = 0; s < SEEDS; ++s) {
-            /* lambda_min = v = -4 delta = -c tr, c = 16 n eps, where
-             * tr = rest + v: v = -c rest / (1 + c) (n = 1: v = -1) */
-            const double c = 16.0 * (double)n * TEST_EPS;
-            const size_t z = (size_t)(test_rng_uniform(&g) * (double)n);
-            const double rest = spectrum(&g, lambda, n, 0, 0.0) - lambda[z];
-            lambda[z] = n == 1 ? -1.0 : -c * rest / (1.0 + c);
-            with_eigenvalues(&g, lambda, n);
-            if (check(n)) fail_msg("n=%zu seed %zu: lambda_min = -4 delta accepted", n, s);
+            with_lambda_min(&g, lambda, n, 2.0);
+            if (check(n)) fail_msg("n=%zu seed %zu: lambda_min = -2 delta accepted", n, s);
         }
     }
 }

@@ -1,6 +1,8 @@
 /* Unchecked dense kernels (see kernels.h), shared by the public matrix
  * routines and the filters' hot paths. Loop orders keep the innermost loop
  * on contiguous rows of row-major storage. */
+#include "peel.h" /* first: before any definition */
+
 #include "kernels.h"
 #include "kernels_inline.h"
 

@@ -79,8 +79,9 @@ void dkf__symmetrise(dkf_real_t *A, size_t n);
 #define DKF__JOSEPH_WORK(n, m) (2 * ((n) + (m)) * (n) + (m) * (m))
 void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, const dkf_real_t *H,
                  const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work);
-/* 1 if the finite symmetric n x n P is positive semi-definite within
- * 4 n eps tr(P) (inl_psd_within_rounding); work: n^2 reals, not P. */
+/* 1 if the symmetric n x n P is positive semi-definite within 4 n eps
+ * tr(P) (inl_psd_within_rounding), 0 if not or if any entry is NaN or
+ * Inf; work: n^2 reals, not P. */
 int dkf__psd_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n);
 
 /* Whitening by the Cholesky factor L (m x m, inv from dkf__chol) of a

@@ -9,6 +9,8 @@
  * or sum in the scalar code's order, and no FMA is enabled, so the results
  * are the baseline instance's bit for bit (test_kernels_wide).
  */
+#include "peel.h" /* first: before any definition */
+
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #pragma GCC target("avx")
 #endif

@@ -329,6 +329,13 @@ static const dkf_real_t zero_row[DKF_MAX_DIM];
  * &C(j,i), where C(j+q, i) and C(j+q, i+1) are adjacent. On the diagonal
  * block (diag, j == i) the block's (i+1, i) element is the mirror of
  * C(i, i+1), not the block's own (equal in exact arithmetic) sum. */
+/* Every s[q] read here was written by the block before it (nn_2x8 ...
+ * nn_2x1 write 2 w sums). GCC 12 (float, -O2, with the step's loops
+ * peeled) cannot tell and warns; zeroing s first cost 2-3 % of a step. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 DKF__INLINE void put_sym_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
                              dkf_real_t *restrict lo, const dkf_real_t *restrict d0,
                              const dkf_real_t *restrict d1, const dkf_real_t *s, size_t w, size_t r,
@@ -340,6 +347,9 @@ DKF__INLINE void put_sym_2xw(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
     if (diag) lo[r] = c0[1];
     for (q = diag ? 2 : 0; q < w; ++q) lo[q * r] = c0[q], lo[q * r + 1] = c1[q];
 }
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
 
 /* Rows i, i+1 of the upper triangle of A B + D from column i on (and
  * their mirror), with A(i,l) = a0[l * sa], A(i+1,l) = a1[l * sa]; d0, d1
@@ -652,8 +662,17 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
  *    its backward error) has only positive pivots (Sylvester's law of
  *    inertia); a negative diagonal beyond delta fails at its pivot. A
  *    negative trace (some diagonal < 0) gives delta < 0 and fails too.
- * P must be finite (callers scan it first). Returns 1 if PSD within
- * delta, 0 otherwise. psd_pivots (above) says why LDL^T, not Cholesky. */
+ *  - A NaN or Inf anywhere in P's lower triangle or diagonal gives 0: on
+ *    the diagonal it makes tr(P), hence delta and every pivot, non-finite;
+ *    below it, P(i,k) enters pivot i as W(i,i) - f_i W(k,i) with f_i =
+ *    W(k,i) / d_k (d_k > 0 finite by then), i.e. minus Inf or NaN, and no
+ *    later subtraction makes -Inf or NaN finite again. So a caller whose P
+ *    is symmetric need not scan it for NaN first: it scans only when the
+ *    check fails, to tell DKF_ERR_NONFINITE from DKF_ERR_NOT_SPD (the
+ *    Kalman step and the DKF do; test_psd_check puts NaN, +Inf and -Inf at
+ *    every position up to n = 17, in five columns above).
+ * Returns 1 if PSD within delta, 0 otherwise. psd_pivots (above) says why
+ * LDL^T, not Cholesky. */
 DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                         size_t n)
 {

@@ -3,6 +3,8 @@
  * which check their arguments and run the step (kf_step.h) of the
  * instance for this CPU.
  */
+#include "peel.h" /* first: before any definition */
+
 #include "dkf/kf.h"
 
 #include "kf_step.h"

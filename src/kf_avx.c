@@ -8,6 +8,8 @@
  * the baseline's IEEE product or sum in its order, so both instances
  * return the same bits (kf_paths_identical, docs/decisions.md item 25).
  */
+#include "peel.h" /* first: before any definition */
+
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 #pragma GCC target("avx")
 #endif

@@ -23,8 +23,8 @@
  * count is DKF_KF_STORAGE_LEN): the state x, P, nu, S
  * (DKF_KF_STATE_LEN), then the scratch of one step:
  *   xn  n           new state
- *   Pn  n*n         new P (right after xn: one finiteness scan and one
- *                   commit copy cover both, as x and P are adjacent)
+ *   Pn  n*n         new P (right after xn: one commit copy covers both,
+ *                   as x and P are adjacent)
  *   W   w = max(2n^2, 2nm), shared by the two steps:
  *       predict: T = F P (n*n) and Ft = F^T (n*n); after P is formed,
  *                the PSD check's factor (n*n)
@@ -135,11 +135,20 @@ DKF__INLINE void commit_state(dkf_kf_t *kf, const kf_scratch_t *s, size_t n)
  * non-finite F(i,k) makes row i of F P, hence (F P F^T)(i,i), non-finite;
  * u(i) makes x(i) non-finite; H(i,k) makes S(i,i) non-finite, which the
  * Cholesky factorisation rejects; y(i) makes the NIS non-finite. The
- * scans of the results (x, P, NIS) and of a failed factorisation's
- * inputs therefore report every non-finite F, u, H, y as
+ * scans of the results (x and the NIS; P only where the PSD check, which
+ * refuses a non-finite P, failed: pn_refused) and of a failed
+ * factorisation's inputs therefore report every non-finite F, u, H, y as
  * DKF_ERR_NONFINITE without scanning them on the way in. Q and R are
  * scanned whole: only their upper triangles enter the products, and a
  * NaN in a lower triangle must not pass unnoticed. */
+
+/* The status of a new P (symmetric) that inl_psd_within_rounding refused:
+ * the check refuses every P with a NaN or Inf too, so P is scanned only
+ * here, to report that as such. */
+DKF__INLINE dkf_status_t pn_refused(const dkf_real_t *Pn, size_t n)
+{
+    return inl_any_nonfinite(Pn, n * n) ? DKF_ERR_NONFINITE : DKF_ERR_NOT_SPD;
+}
 
 /* x = F x + u, P = (F P) F^T + Q into scratch; commits after the checks. */
 DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const dkf_real_t *Q,
@@ -147,7 +156,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
 {
     const kf_scratch_t s = kf_scratch(kf);
     size_t i;
-    if (inl_any_nonfinite(Q, n * n)) return DKF_ERR_NONFINITE; /* F, u: see above */
+    if (DKF__UNLIKELY(inl_any_nonfinite(Q, n * n))) return DKF_ERR_NONFINITE; /* F, u: see above */
     /* x = (x^T F^T)^T + u; P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
     inl_transpose(s.Ft, F, n, n);
     inl_mul_nn(s.xn, kf->x.data, s.Ft, 1, n, n);
@@ -155,9 +164,9 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
         for (i = 0; i < n; ++i) s.xn[i] += u[i];
     inl_mul_nn(s.T, F, kf->P.data, n, n, n);
     inl_mul_nn_sym(s.Pn, s.T, s.Ft, Q, n, n);
-    if (inl_any_nonfinite(s.xn, n + n * n)) return DKF_ERR_NONFINITE; /* xn and Pn */
+    if (DKF__UNLIKELY(inl_any_nonfinite(s.xn, n))) return DKF_ERR_NONFINITE;
     /* an indefinite Q (or an indefinite P from outside) must not pass */
-    if (!inl_psd_within_rounding(s.T, s.Pn, n)) return DKF_ERR_NOT_SPD;
+    if (DKF__UNLIKELY(!inl_psd_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
 
     commit_state(kf, &s, n);
     return DKF_OK;
@@ -202,8 +211,8 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     /* after the factorisation, so that the scan runs while its sqrt/divide
      * chain is in flight; a failed one is the input's fault if H, R or y
      * is not finite (see above), and reported as such */
-    if (inl_any_nonfinite(R, m * m)) return DKF_ERR_NONFINITE;
-    if (!spd)
+    if (DKF__UNLIKELY(inl_any_nonfinite(R, m * m))) return DKF_ERR_NONFINITE;
+    if (DKF__UNLIKELY(!spd))
         return inl_any_nonfinite(H, m * n) | inl_any_nonfinite(y, m) ? DKF_ERR_NONFINITE
                                                                       : DKF_ERR_NOT_SPD;
     /* nu = y - H x, as x^T H^T */
@@ -220,11 +229,11 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     memcpy(s.xn, kf->x.data, n * sizeof *s.xn);
     for (j = 0; j < m; ++j) axpy(s.xn, nu[j], s.Kt + j * n, n);
     covariance_update(kf, &s, R, n, m);
-    if (inl_any_nonfinite(s.xn, n + n * n) | inl_any_nonfinite(&nis, 1)) /* xn, Pn and the NIS */
+    if (DKF__UNLIKELY(inl_any_nonfinite(s.xn, n) | inl_any_nonfinite(&nis, 1)))
         return DKF_ERR_NONFINITE;
     /* P+ indefinite beyond rounding (the short form under stress, an R
-     * that is not PSD): refused, the filter unchanged */
-    if (!inl_psd_within_rounding(s.T, s.Pn, n)) return DKF_ERR_NOT_SPD;
+     * that is not PSD) or not finite: refused, the filter unchanged */
+    if (DKF__UNLIKELY(!inl_psd_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
 
     commit_state(kf, &s, n);
     kf->nu.rows = m;

@@ -1,10 +1,11 @@
 # cmake -DNM=<nm> -DFIXED=<exe> -DGENERIC=<exe> -P kf_paths_distinct.cmake
 #
 # Passes only if dkf__kf_predict_isa and dkf__kf_update_isa (the baseline
-# steps behind dkf_kf_predict and dkf_kf_update) are both larger in the
-# FIXED executable than in GENERIC: the fixed-size steps are forced inline
-# into them, so equal sizes mean both programs carry the same build of the
-# Kalman step and kf_paths_identical would compare a build with itself.
+# steps behind dkf_kf_predict and dkf_kf_update) and dkf_diffkf_step are
+# all larger in the FIXED executable than in GENERIC: the fixed-size steps
+# are forced inline into them, so equal sizes mean both programs carry the
+# same build of the step and kf_paths_identical would compare a build with
+# itself.
 if(NOT NM)
   message(FATAL_ERROR "no nm (CMAKE_NM) to inspect the executables with")
 endif()
@@ -18,7 +19,7 @@ function(sym_size exe sym out)
   set(${out} ${s} PARENT_SCOPE)
 endfunction()
 
-foreach(sym dkf__kf_predict_isa dkf__kf_update_isa)
+foreach(sym dkf__kf_predict_isa dkf__kf_update_isa dkf_diffkf_step)
   sym_size(${FIXED} ${sym} f)
   sym_size(${GENERIC} ${sym} g)
   message("${sym}: ${f} bytes with fixed sizes, ${g} generic")

@@ -3,10 +3,15 @@
  * dkf_kf_init / dkf_kf_predict / dkf_kf_update calls over sizes in the
  * default DKF_KF_FIXED_SIZES and not in it; after every call it appends
  * to OUT the status and the raw bytes of x, P, nu, S and nis (the m rows
- * of the last update). Built twice (tests/CMakeLists.txt), against dkf and
- * against dkf_kf_generic (every size on the generic step); ctest requires
- * the two files to be equal byte for byte (kf_paths_identical): no
- * tolerance, the claim under test is bit identity.
+ * of the last update). Then the same for Difference-KF steps
+ * (dkf_diffkf_step) at the size of the default DKF_DIFFKF_FIXED_SIZES,
+ * (4, 2, 2), and at (5, 3, 2): a constant model (the memo hits), a
+ * time-varying one (it misses every step) and faults; after every call
+ * xf, Pf, xn, Pn, dz, J, L, K and k. Built twice (tests/CMakeLists.txt),
+ * against dkf and against dkf_kf_generic (every size on the generic step,
+ * no vector extension, no loop peeling); ctest requires the two files to
+ * be equal byte for byte (kf_paths_identical): no tolerance, the claim
+ * under test is bit identity.
  *
  * Plain exit codes, no cmocka: the program must link exactly one dkf
  * library, and dkf_test_support (cmocka's harness here) links dkf itself,
@@ -23,6 +28,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "dkf/diffkf.h"
 #include "dkf/kf.h"
 
 #define NMAX 16
@@ -197,6 +203,123 @@ static void run_case(size_t c)
     }
 }
 
+/* ---- the Difference KF ---------------------------------------------------- */
+
+#define DN 5
+#define DM 3
+#define DP 2
+#define DSTEPS 30
+/* faults: y_{k+1} NaN; F_k Inf (in the varying phase); Q_k = -1e6 I */
+#define D_NAN_Y 6
+#define D_INF_F 14
+#define D_NEG_Q 24
+
+static const struct {
+    size_t n, m, p;
+} dcases[] = {{4, 2, 2}, {5, 3, 2}};
+
+static dkf_real_t d_storage[DKF_DIFFKF_STORAGE_LEN(DN, DM, DP)];
+static dkf_diffkf_t df;
+
+static void dkf_state_of(state_t *s)
+{
+    const size_t r = sizeof(dkf_real_t), n = df.n, pk = df.pk;
+    s->len = 0;
+    put(s, &df.k, sizeof df.k);
+    put(s, &df.pk, sizeof df.pk);
+    put(s, df.xf.data, n * r);
+    put(s, df.Pf.data, n * n * r);
+    put(s, df.xn.data, n * r);
+    put(s, df.Pn.data, n * n * r);
+    put(s, df.dz.data, pk * r);
+    put(s, df.J.data, n * pk * r);
+    put(s, df.L.data, pk * pk * r);
+    put(s, df.K.data, n * pk * r);
+}
+
+/* As record, for the Difference KF. */
+static void dkf_record(size_t c, int k, dkf_status_t st, dkf_status_t want, const state_t *before)
+{
+    const int head[4] = {100 + (int)c, k, 'd', (int)st};
+    state_t after;
+    dkf_state_of(&after);
+    fwrite(head, sizeof head, 1, out);
+    fwrite(after.b, 1, after.len, out);
+    if (st != want) {
+        fprintf(stderr, "diffkf case %d step %d: status %d, expected %d\n", (int)c, k, (int)st,
+                (int)want);
+        ++failures;
+    } else if ((st == DKF_OK) == (before->len == after.len && !memcmp(before->b, after.b, after.len))) {
+        fprintf(stderr, "diffkf case %d step %d: state %s\n", (int)c, k,
+                st == DKF_OK ? "unchanged by a successful call" : "changed by a failed call");
+        ++failures;
+    }
+}
+
+/* A model with B and D well conditioned (diagonal 1 plus 0.3 U(-1, 1)). */
+static void dkf_model(dkf_real_t *F, dkf_real_t *Q, dkf_real_t *B, dkf_real_t *Rd, size_t n,
+                      size_t p)
+{
+    rand_mat(F, n, n, 0.9, 0.3 / sqrt((double)n));
+    rand_spd(Q, n, 0.01);
+    rand_mat(B, p, p, 1.0, 0.3);
+    rand_spd(Rd, p, 0.05);
+}
+
+static void run_dkf_case(size_t c)
+{
+    const size_t n = dcases[c].n, m = dcases[c].m, p = dcases[c].p;
+    dkf_real_t x0[DN], P0[DN * DN], F[DN * DN], Q[DN * DN], B[DP * DP], Rd[DP * DP];
+    dkf_real_t H[DM * DN], D[DM * DP], R[DM * DM], y[DM];
+    dkf_mat_t x0m = DKF_MAT(n, 1, x0), P0m = DKF_MAT(n, n, P0);
+    dkf_mat_t Fm = DKF_MAT(n, n, F), Qm = DKF_MAT(n, n, Q), Bm = DKF_MAT(p, p, B);
+    dkf_mat_t Rdm = DKF_MAT(p, p, Rd), Hm = DKF_MAT(m, n, H), Dm = DKF_MAT(m, p, D);
+    dkf_mat_t Rm = DKF_MAT(m, m, R), ym = DKF_MAT(m, 1, y);
+    const dkf_ui_dyn_t dyn = {&Fm, &Qm, &Bm, &Rdm};
+    const dkf_ui_meas_t meas = {&Hm, &Dm, &Rm};
+    state_t before;
+    int k;
+    size_t i;
+    rand_mat(x0, n, 1, 0.0, 1.0);
+    rand_spd(P0, n, 0.5);
+    dkf_model(F, Q, B, Rd, n, p);
+    rand_mat(H, m, n, 0.0, 1.0);
+    rand_mat(D, m, p, 1.0, 0.3);
+    rand_spd(R, m, 0.1);
+    rand_mat(y, m, 1, 0.0, 2.0);
+    if (dkf_diffkf_init(&df, n, m, p, d_storage, DKF_DIFFKF_STORAGE_LEN(n, m, p), &x0m, &P0m) !=
+            DKF_OK ||
+        dkf_diffkf_start(&df, &Fm, &Qm, &meas, &ym) != DKF_OK) {
+        fprintf(stderr, "diffkf case %d: init or start failed\n", (int)c);
+        ++failures;
+        return;
+    }
+    for (k = 0; k < DSTEPS; ++k) {
+        dkf_status_t want = DKF_OK;
+        const int varying = k >= 10 && k < 20; /* steps 10-19: a new model every step */
+        dkf_real_t keep = DKF_R(0.0);
+        if (varying) dkf_model(F, Q, B, Rd, n, p);
+        rand_mat(y, m, 1, 0.0, 2.0);
+        if (k == D_NAN_Y) {
+            y[m - 1] = NAN;
+            want = DKF_ERR_NONFINITE;
+        }
+        if (k == D_INF_F) {
+            keep = F[1];
+            F[1] = INFINITY;
+            want = DKF_ERR_NONFINITE;
+        }
+        if (k == D_NEG_Q) {
+            for (i = 0; i < n * n; ++i) Q[i] = i % (n + 1) ? DKF_R(0.0) : -DKF_R(1e6);
+            want = DKF_ERR_NOT_SPD;
+        }
+        dkf_state_of(&before);
+        dkf_record(c, k, dkf_diffkf_step(&df, &dyn, &meas, &ym), want, &before);
+        if (k == D_INF_F) F[1] = keep;
+        if (k == D_NEG_Q) rand_spd(Q, n, 0.01);
+    }
+}
+
 int main(int argc, char **argv)
 {
     size_t c;
@@ -219,11 +342,12 @@ int main(int argc, char **argv)
         return 1;
     }
     for (c = 0; c < sizeof cases / sizeof cases[0]; ++c) run_case(c);
+    for (c = 0; c < sizeof dcases / sizeof dcases[0]; ++c) run_dkf_case(c);
     if (fclose(out) != 0) {
         perror(argv[1]);
         return 1;
     }
-    printf("kf_paths_dump: %d cases, %d check failures\n", (int)(sizeof cases / sizeof cases[0]),
-           failures);
+    printf("kf_paths_dump: %d Kalman and %d DKF cases, %d check failures\n",
+           (int)(sizeof cases / sizeof cases[0]), (int)(sizeof dcases / sizeof dcases[0]), failures);
     return failures != 0;
 }

@@ -1,8 +1,9 @@
 /*
  * dkf__psd_within_rounding (src/kernels.h), the check every filter runs
- * on the covariances it is about to commit: for a finite symmetric n x n
- * P (lower triangle read), 1 if lambda_min(P) >= -delta with
- * delta = 4 n eps tr(P) + REAL_MIN, else 0, up to rounding. Its pivots
+ * on the covariances it is about to commit: for a symmetric n x n P
+ * (lower triangle read), 1 if lambda_min(P) >= -delta with
+ * delta = 4 n eps tr(P) + REAL_MIN, else 0, up to rounding; 0 if P has a
+ * NaN or Inf. Its pivots
  * are those of an LDL^T factorisation (psd_pivots in kernels_inline.h).
  *
  * The matrices have known eigenvalues: P = Q diag(lambda) Q^T with Q a
@@ -21,7 +22,12 @@
  *    refused at their pivot;
  *  - only the lower triangle is read: an upper triangle that makes the
  *    matrix indefinite (or one that makes an indefinite one PSD) changes
- *    nothing.
+ *    nothing;
+ *  - a NaN, +Inf or -Inf at any position of a symmetric P (both mirror
+ *    entries) is refused, from a PSD P and from P = I: the Kalman step
+ *    and the DKF rely on it and scan a P only when the check fails.
+ *    Every position up to n = 17; above, the diagonal and the columns 0,
+ *    1, n/2, n-2, n-1 (a bounded run time under ASan and qemu).
  * Sizes 1 .. 17 (every remainder of the vector loops in double and
  * float), 24, 33, 48 and, in builds whose DKF_MAX_DIM allows, 67;
  * 8 random Q per size. A check that always passes, one without the shift
@@ -183,6 +189,53 @@ static void test_lower_triangle_read(void **state)
     }
 }
 
+/* Whether test_nonfinite_refused tries position (i, j), j <= i. */
+static int column_tried(size_t n, size_t i, size_t j)
+{
+    return n <= 17 || i == j || j < 2 || j == n / 2 || j + 2 >= n;
+}
+
+/* Sets P(i,k) and P(k,i) to v; returns the old value. */
+static dkf_real_t put_sym(size_t n, size_t i, size_t k, dkf_real_t v)
+{
+    const dkf_real_t old = P[i * n + k];
+    P[i * n + k] = v;
+    P[k * n + i] = v;
+    return old;
+}
+
+static void test_nonfinite_refused(void **state)
+{
+    const dkf_real_t bad[3] = {(dkf_real_t)NAN, (dkf_real_t)INFINITY, -(dkf_real_t)INFINITY};
+    test_rng_t g;
+    double lambda[NMAX];
+    size_t k, i, j, b, base;
+    (void)state;
+    test_rng_seed(&g, 0x5eed0004u);
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        for (base = 0; base < 2; ++base) {
+            if (base == 0) { /* PSD, one zero eigenvalue */
+                (void)spectrum(&g, lambda, n, 1, 0.0);
+                with_eigenvalues(&g, lambda, n);
+            } else { /* I */
+                memset(P, 0, sizeof P);
+                for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+            }
+            assert_true(check(n));
+            for (i = 0; i < n; ++i)
+                for (j = 0; j <= i; ++j)
+                    for (b = 0; b < 3 && column_tried(n, i, j); ++b) {
+                        const dkf_real_t old = put_sym(n, i, j, bad[b]);
+                        if (check(n))
+                            fail_msg("n=%zu P(%zu,%zu) = %g accepted (%s)", n, i, j,
+                                     (double)bad[b], base == 0 ? "PSD" : "I");
+                        (void)put_sym(n, i, j, old);
+                    }
+        }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -190,6 +243,7 @@ int main(void)
         cmocka_unit_test(test_indefinite_refused),
         cmocka_unit_test(test_negative_diagonal_and_trace),
         cmocka_unit_test(test_lower_triangle_read),
+        cmocka_unit_test(test_nonfinite_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

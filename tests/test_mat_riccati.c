@@ -150,9 +150,11 @@ static double dare_residual(long double *phi, size_t n, size_t m)
 {
     long double F[SQ], H[SQ], Q[SQ], R[SQ], X[SQ], Ht[SQ], Ft[SQ], FX[SQ], HX[SQ], S[SQ],
         Si[SQ], K[SQ], T[SQ], T2[SQ], Res[SQ];
+    size_t i;
+    /* zeroed for GCC -O3's -Wmaybe-uninitialized (the loops fill them) */
     memset(Ht, 0, sizeof Ht);
     memset(T2, 0, sizeof T2);
-    size_t i;
+    memset(S, 0, sizeof S);
     tol(F, rF, n * n);
     tol(H, rH, m * n);
     tol(Q, rQ, n * n);

@@ -105,7 +105,7 @@
  * steps (kernels.c, kf.c, diffkf.c and their AVX instances) are compiled
  * with complete peeling of small constant-trip loops (-fpeel-loops, which
  * -O3 has and -O2 does not; src/peel.h): 20-30 % fewer instructions per
- * step at the fixed sizes, for about 1.7x their code at -O2. 0 leaves
+ * step at the fixed sizes, for about 1.5x their code at -O2. 0 leaves
  * GCC's -O2 choice. Never under -Os; no effect with other compilers. The
  * results are the same bits either way. */
 #ifndef DKF_PEEL_LOOPS

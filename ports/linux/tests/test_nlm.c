@@ -101,7 +101,7 @@ static int call_jac(const dkf_nlm_t *m, int which, const double *x, const double
                     double *J2)
 {
     static dkf_real_t a[DKF_MAX_DIM * DKF_MAX_DIM], b[DKF_MAX_DIM * DKF_MAX_DIM];
-    dkf_real_t xr[DKF_MAX_DIM], dr[DKF_MAX_DIM];
+    dkf_real_t xr[DKF_MAX_DIM] = {0}, dr[DKF_MAX_DIM] = {0}; /* GCC -O3 cannot see n, p >= 1 */
     const size_t r = which == 0 ? m->n : m->m;
     size_t i;
     int rc;

@@ -6,7 +6,8 @@
 #   double           DKF_REAL=double (Joseph form on), with the benchmarks'
 #                    smoke test (bench/smoke.py: builds, runs, checksums)
 #   float            DKF_REAL=float
-#   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF
+#   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
+#                    -DNDEBUG; the others RelWithDebInfo, -O2 -g)
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
 #   double-dim1024   DKF_REAL=double, DKF_MAX_DIM=1024: the host limit the
 #                    demo and the 200-node centre are built with (decision 23)
@@ -47,7 +48,7 @@ configs=("$@")
 declare -A cfg_args=(
   [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
   [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
-  [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF"
+  [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF -DCMAKE_BUILD_TYPE=Release"
   [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON"
   [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024"
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"

@@ -10,12 +10,19 @@ if(NOT NM)
   message(FATAL_ERROR "no nm (CMAKE_NM) to inspect the executables with")
 endif()
 
+# The size of sym in exe, with the parts GCC may split off it (sym.part.0,
+# sym.cold, ...: the step's body moves there when only a dispatch is left).
 function(sym_size exe sym out)
   execute_process(COMMAND ${NM} -S --defined-only ${exe} OUTPUT_VARIABLE o RESULT_VARIABLE rc)
-  if(NOT rc EQUAL 0 OR NOT "\n${o}" MATCHES "\n[0-9a-fA-F]+ ([0-9a-fA-F]+) [Tt] ${sym}\n")
+  string(REGEX MATCHALL "[0-9a-fA-F]+ [0-9a-fA-F]+ [Tt] ${sym}(\\.[a-z]+(\\.[0-9]+)?)?\n" lines "${o}")
+  if(NOT rc EQUAL 0 OR NOT lines)
     message(FATAL_ERROR "${NM} finds no sized symbol ${sym} in ${exe}")
   endif()
-  math(EXPR s "0x${CMAKE_MATCH_1}")
+  set(s 0)
+  foreach(l ${lines})
+    string(REGEX MATCH "^[0-9a-fA-F]+ ([0-9a-fA-F]+)" _ "${l}")
+    math(EXPR s "${s} + 0x${CMAKE_MATCH_1}")
+  endforeach()
   set(${out} ${s} PARENT_SCOPE)
 endfunction()
 

@@ -1036,11 +1036,13 @@ DKF__INLINE void assemble_L(dkf_real_t *Ln, const dkf_real_t *X, const dkf_real_
 }
 
 /* The gain phase on the storage map L (computed once per call chain), for
- * the pk rows idx of z_k. Theorem 1 holds unchanged for a time-varying
- * selection (docs/diffkf-fusion.md §8): u'_k = S u_k is correlated only
- * with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and E[v_k u'_k^T] = S_k S^T,
- * so the recursion below is (19)-(20), (16)-(17) with the primed blocks and
- * every dimension p of the innovation replaced by pk (pc for the carry). */
+ * the pk rows idx of z_k (read only when pk < p: with every row kept idx
+ * is 0 .. p-1, and a caller may pass NULL). Theorem 1 holds unchanged for
+ * a time-varying selection (docs/diffkf-fusion.md §8): u'_k = S u_k is
+ * correlated only with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and
+ * E[v_k u'_k^T] = S_k S^T, so the recursion below is (19)-(20), (16)-(17)
+ * with the primed blocks and every dimension p of the innovation replaced
+ * by pk (pc for the carry). */
 DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
                                    const dkf_ui_dyn_t *dyn, const size_t *idx, size_t n, size_t p,
                                    size_t pk, size_t pc)
@@ -1162,19 +1164,28 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
  * row once the carry is full (pk = pc = p): all others take the
  * run-time-size expansion. */
 
+/* What a gain does before gain_core: the model's shapes, the pending
+ * gain cancelled, the model-only block (model_block_memo). */
+DKF__INLINE dkf_status_t gain_prelude(int fx, dkf_diffkf_t *f, layout_t *L,
+                                      const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas_next,
+                                      size_t n, size_t m, size_t p)
+{
+    DKF_TRY(check_model_shapes(f, dyn, meas_next));
+    f->pending = 0;
+    return model_block_memo(fx, f, L, dyn, meas_next, n, m, p);
+}
+
 static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
     const size_t n = f->n, m = f->m, p = f->p, pc = f->pc;
-    DKF_TRY(check_model_shapes(f, dyn, meas_next));
-    f->pending = 0;
 #define DIFFKF_MEMO_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
-        DKF_TRY(model_block_memo(1, f, L, dyn, meas_next, (N), (M), (P))); \
+        DKF_TRY(gain_prelude(1, f, L, dyn, meas_next, (N), (M), (P))); \
     else
     DKF_DIFFKF_FIXED_SIZES(DIFFKF_MEMO_FIXED)
 #undef DIFFKF_MEMO_FIXED
-    DKF_TRY(model_block_memo(0, f, L, dyn, meas_next, n, m, p));
+    DKF_TRY(gain_prelude(0, f, L, dyn, meas_next, n, m, p));
 #define DIFFKF_GAIN_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && p == (P) && pk == (P) && pc == (P)) \
         return gain_core(1, f, L, dyn, idx, (N), (P), (P), (P));
@@ -1341,14 +1352,10 @@ DKF__INLINE dkf_status_t step_fixed(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                                     size_t n, size_t m, size_t p)
 {
     dkf_real_t z[DKF_MAX_DIM];
-    size_t idx[DKF_MAX_DIM];
     layout_t L;
     (void)layout(&L, f->mem, n, m, p);
-    (void)kept_rows(idx, NULL, p);
-    DKF_TRY(check_model_shapes(f, dyn, meas_next));
-    f->pending = 0;
-    DKF_TRY(model_block_memo(1, f, &L, dyn, meas_next, n, m, p));
-    DKF_TRY(gain_core(1, f, &L, dyn, idx, n, p, p, p));
+    DKF_TRY(gain_prelude(1, f, &L, dyn, meas_next, n, m, p));
+    DKF_TRY(gain_core(1, f, &L, dyn, NULL, n, p, p, p));
     z_of(1, z, &L, y_next->data, m, p);
     return update_core(1, f, &L, z, y_next, n, m, p, p);
 }
@@ -1357,7 +1364,6 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                              const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next)
 {
     dkf_real_t z[DKF_MAX_DIM];
-    size_t idx[DKF_MAX_DIM];
     dkf_status_t st;
     layout_t L;
     DKF_CHECK_NULL(f);
@@ -1373,7 +1379,7 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
 #undef DIFFKF_STEP_FIXED
     {
         map_of(f, &L);
-        st = gain_impl(f, &L, dyn, meas_next, idx, kept_rows(idx, NULL, f->p));
+        st = gain_impl(f, &L, dyn, meas_next, NULL, f->p); /* every row kept */
         if (st == DKF_OK) {
             z_of(0, z, &L, y_next->data, f->m, f->p);
             st = update_impl(f, &L, z, y_next);

@@ -126,22 +126,23 @@ static void state_of(state_t *s)
     put(s, &kf.nis, r);
 }
 
-/* Records one call (case, step, op, status, state) and checks it: DKF_OK
- * must change the state, an error must leave it bit-identical. */
-static void record(size_t c, int k, const char *op, dkf_status_t st, dkf_status_t want,
-                   const state_t *before)
+/* Records one call (case id, step, op, status, the state that state_fn
+ * reads: the Kalman filter's or the DKF's) and checks it: DKF_OK must
+ * change the state, an error must leave it bit-identical. */
+static void record(void (*state_fn)(state_t *), int id, int k, const char *op, dkf_status_t st,
+                   dkf_status_t want, const state_t *before)
 {
-    const int head[4] = {(int)c, k, op[0], (int)st};
+    const int head[4] = {id, k, op[0], (int)st};
     state_t after;
-    state_of(&after);
+    state_fn(&after);
     fwrite(head, sizeof head, 1, out);
     fwrite(after.b, 1, after.len, out);
     if (st != want) {
-        fprintf(stderr, "case %d (n=%d) step %d %s: status %d, expected %d\n", (int)c,
-                (int)kf.n, k, op, (int)st, (int)want);
+        fprintf(stderr, "case %d step %d %s: status %d, expected %d\n", id, k, op, (int)st,
+                (int)want);
         ++failures;
     } else if ((st == DKF_OK) == (before->len == after.len && !memcmp(before->b, after.b, after.len))) {
-        fprintf(stderr, "case %d (n=%d) step %d %s: state %s\n", (int)c, (int)kf.n, k, op,
+        fprintf(stderr, "case %d step %d %s: state %s\n", id, k, op,
                 st == DKF_OK ? "unchanged by a successful call" : "changed by a failed call");
         ++failures;
     }
@@ -159,7 +160,7 @@ static void run_case(size_t c)
     rand_mat(x0, n, 1, 0.0, 1.0);
     rand_spd(P0, n, 0.5);
     state_of(&before);
-    record(c, -1, "init",
+    record(state_of, (int)c, -1, "init",
            dkf_kf_init(&kf, n, cases[c].m_max, kf_storage,
                        DKF_KF_STORAGE_LEN(n, cases[c].m_max), &x0m, &P0m),
            DKF_OK, &before);
@@ -178,7 +179,8 @@ static void run_case(size_t c)
             want = DKF_ERR_NONFINITE;
         }
         state_of(&before);
-        record(c, k, "predict", dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&Fm, &Qm}, k % 3 ? NULL : &um), want, &before);
+        record(state_of, (int)c, k, "predict",
+               dkf_kf_predict(&kf, &(dkf_kf_dyn_t){&Fm, &Qm}, k % 3 ? NULL : &um), want, &before);
 
         rand_mat(H, m, n, 0.0, 1.0);
         rand_spd(R, m, 0.1);
@@ -199,7 +201,8 @@ static void run_case(size_t c)
             want = DKF_ERR_NOT_SPD;
         }
         state_of(&before);
-        record(c, k, "update", dkf_kf_update(&kf, &(dkf_kf_meas_t){&Hm, &Rm}, &ym), want, &before);
+        record(state_of, (int)c, k, "update", dkf_kf_update(&kf, &(dkf_kf_meas_t){&Hm, &Rm}, &ym),
+               want, &before);
     }
 }
 
@@ -235,25 +238,6 @@ static void dkf_state_of(state_t *s)
     put(s, df.J.data, n * pk * r);
     put(s, df.L.data, pk * pk * r);
     put(s, df.K.data, n * pk * r);
-}
-
-/* As record, for the Difference KF. */
-static void dkf_record(size_t c, int k, dkf_status_t st, dkf_status_t want, const state_t *before)
-{
-    const int head[4] = {100 + (int)c, k, 'd', (int)st};
-    state_t after;
-    dkf_state_of(&after);
-    fwrite(head, sizeof head, 1, out);
-    fwrite(after.b, 1, after.len, out);
-    if (st != want) {
-        fprintf(stderr, "diffkf case %d step %d: status %d, expected %d\n", (int)c, k, (int)st,
-                (int)want);
-        ++failures;
-    } else if ((st == DKF_OK) == (before->len == after.len && !memcmp(before->b, after.b, after.len))) {
-        fprintf(stderr, "diffkf case %d step %d: state %s\n", (int)c, k,
-                st == DKF_OK ? "unchanged by a successful call" : "changed by a failed call");
-        ++failures;
-    }
 }
 
 /* A model with B and D well conditioned (diagonal 1 plus 0.3 U(-1, 1)). */
@@ -314,7 +298,8 @@ static void run_dkf_case(size_t c)
             want = DKF_ERR_NOT_SPD;
         }
         dkf_state_of(&before);
-        dkf_record(c, k, dkf_diffkf_step(&df, &dyn, &meas, &ym), want, &before);
+        record(dkf_state_of, 100 + (int)c, k, "diffkf step", dkf_diffkf_step(&df, &dyn, &meas, &ym),
+               want, &before);
         if (k == D_INF_F) F[1] = keep;
         if (k == D_NEG_Q) rand_spd(Q, n, 0.01);
     }
@@ -348,6 +333,7 @@ int main(int argc, char **argv)
         return 1;
     }
     printf("kf_paths_dump: %d Kalman and %d DKF cases, %d check failures\n",
-           (int)(sizeof cases / sizeof cases[0]), (int)(sizeof dcases / sizeof dcases[0]), failures);
+           (int)(sizeof cases / sizeof cases[0]), (int)(sizeof dcases / sizeof dcases[0]),
+           failures);
     return failures != 0;
 }

@@ -661,9 +661,12 @@ DKF__INLINE int k_chol(int fx, dkf_real_t *W, dkf_real_t *inv, const dkf_real_t 
     return fx ? inl_chol(W, inv, A, n) : dkf__chol_wide(W, inv, A, n, T);
 }
 
+/* The PSD check of a covariance the step commits: every one is a mirrored
+ * product or a difference of two, exactly symmetric, so the check's
+ * symmetric variant gives the general check's verdict. */
 DKF__INLINE int k_psd(int fx, dkf_real_t *W, const dkf_real_t *P, size_t n)
 {
-    return fx ? inl_psd_within_rounding(W, P, n) : dkf__psd_within_rounding(W, P, n);
+    return fx ? inl_psd_sym_within_rounding(W, P, n) : dkf__psd_sym_within_rounding(W, P, n);
 }
 
 /* 1 if the n reals at p are all finite (dkf__all_finite). */
@@ -1346,7 +1349,11 @@ DKF__INLINE void z_of(int fx, dkf_real_t *z, const layout_t *L, const dkf_real_t
  * copy; the rest is inline). The compiler then keeps each of the map's
  * addresses as mem + a constant instead of storing some 70 pointers and
  * loading them back: 4203 -> 3824 instructions per step on seed 000
- * Example 1 (double, callgrind, 2026-12-05). */
+ * Example 1 (double, callgrind, 2026-12-05). Unused in a build whose
+ * DKF_DIFFKF_FIXED_SIZES is empty, which Clang would report. */
+#if defined(__GNUC__)
+__attribute__((unused))
+#endif
 DKF__INLINE dkf_status_t step_fixed(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
                                     const dkf_ui_meas_t *meas_next, const dkf_mat_t *y_next,
                                     size_t n, size_t m, size_t p)

@@ -415,6 +415,11 @@ int dkf__psd_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n)
     return inl_psd_within_rounding(work, P, n);
 }
 
+int dkf__psd_sym_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n)
+{
+    return inl_psd_sym_within_rounding(work, P, n);
+}
+
 void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_real_t *inv,
                  const dkf_real_t *C, const dkf_real_t *z, size_t m, size_t n)
 {

@@ -83,6 +83,9 @@ void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, cons
  * tr(P) (inl_psd_within_rounding), 0 if not or if any entry is NaN or
  * Inf; work: n^2 reals, not P. */
 int dkf__psd_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n);
+/* The same verdict for a P that is exactly symmetric (P(i,j) == P(j,i)
+ * bit for bit: a mirrored product), faster (inl_psd_sym_within_rounding). */
+int dkf__psd_sym_within_rounding(dkf_real_t *work, const dkf_real_t *P, size_t n);
 
 /* Whitening by the Cholesky factor L (m x m, inv from dkf__chol) of a
  * noise covariance R = L L^T: W = L^{-1} C (C m x n) and w = L^{-1} z

@@ -166,7 +166,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     inl_mul_nn_sym(s.Pn, s.T, s.Ft, Q, n, n);
     if (DKF__UNLIKELY(inl_any_nonfinite(s.xn, n))) return DKF_ERR_NONFINITE;
     /* an indefinite Q (or an indefinite P from outside) must not pass */
-    if (DKF__UNLIKELY(!inl_psd_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
+    if (DKF__UNLIKELY(!inl_psd_sym_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
 
     commit_state(kf, &s, n);
     return DKF_OK;
@@ -233,7 +233,7 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
         return DKF_ERR_NONFINITE;
     /* P+ indefinite beyond rounding (the short form under stress, an R
      * that is not PSD) or not finite: refused, the filter unchanged */
-    if (DKF__UNLIKELY(!inl_psd_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
+    if (DKF__UNLIKELY(!inl_psd_sym_within_rounding(s.T, s.Pn, n))) return pn_refused(s.Pn, n);
 
     commit_state(kf, &s, n);
     kf->nu.rows = m;

@@ -19,7 +19,10 @@
  *  - the fusion centre's snapshot length DKF__DIFFKF_CARRY_LEN equals the
  *    core's layout (dkf__diffkf_carry_len);
  *  - A^+ and B^{-1} of a block-diagonal model, computed block by block,
- *    keep the whole matrix's rank and singularity conditions.
+ *    keep the whole matrix's rank and singularity conditions;
+ *  - dkf__transpose and dkf__mul_nn_sym, whose vector builds move square
+ *    blocks by shuffles, give the textbook loops' bits (memcmp) at every
+ *    shape up to NCAP.
  * A test that could fail: changing any one term's order (e.g. the +0 start
  * of chol_wide_cols) or span start breaks the memcmp / == checks.
  */
@@ -277,6 +280,57 @@ static void test_block_diagonal_conditions(void **state)
     }
 }
 
+/* A random r x c matrix of reals in (-1, 1) into a. */
+static void rand_mat(test_rng_t *g, dkf_real_t *a, size_t r, size_t c)
+{
+    size_t i;
+    for (i = 0; i < r * c; ++i) a[i] = (dkf_real_t)(2.0 * test_rng_uniform(g) - 1.0);
+}
+
+/* dkf__transpose and dkf__mul_nn_sym: with vectors (DKF__SIMD) the
+ * transposed copy and the product's mirror move square blocks by
+ * shuffles (kernels_inline.h, transpose_block), the rest one by one; each
+ * must be the textbook loop's bits at every shape (every remainder of the
+ * 2- and 4-wide blocks): At(j,i) = A(i,j), and C(i,j) = C(j,i) =
+ * D(i,j) + sum_l A(i,l) B(l,j) for j >= i, summed from the first product
+ * in index order (D = NULL adds +0). */
+static void test_transpose_and_sym_product_bits(void **state)
+{
+    static const size_t ks[] = {1, 2, 3, 5, 8, 13};
+    test_rng_t g;
+    size_t r, c, q, i, j, l;
+    (void)state;
+    test_rng_seed(&g, 1407);
+    for (r = 1; r <= NCAP; ++r)
+        for (c = 1; c <= NCAP; c += c < 18 ? 1 : 7) {
+            rand_mat(&g, A, r, c);
+            dkf__transpose(W, A, r, c);
+            for (i = 0; i < r; ++i)
+                for (j = 0; j < c; ++j) W2[j * r + i] = A[i * c + j];
+            if (memcmp(W, W2, r * c * sizeof *W) != 0) fail_msg("transpose %zu x %zu", r, c);
+        }
+    for (r = 1; r <= NCAP; ++r)
+        for (q = 0; q <= sizeof ks / sizeof ks[0]; ++q) {
+            const size_t k = q < sizeof ks / sizeof ks[0] ? ks[q] : r;
+            int with_d;
+            if (k > NCAP) continue;
+            rand_mat(&g, A, r, k);
+            rand_mat(&g, Y, k, r);
+            rand_mat(&g, R, r, r);
+            for (with_d = 0; with_d < 2; ++with_d) {
+                dkf__mul_nn_sym(W, A, Y, with_d ? R : NULL, r, k);
+                for (i = 0; i < r; ++i)
+                    for (j = i; j < r; ++j) {
+                        dkf_real_t s = A[i * k] * Y[j];
+                        for (l = 1; l < k; ++l) s += A[i * k + l] * Y[l * r + j];
+                        W2[i * r + j] = W2[j * r + i] = s + (with_d ? R[i * r + j] : DKF_R(0.0));
+                    }
+                if (memcmp(W, W2, r * r * sizeof *W) != 0)
+                    fail_msg("mul_nn_sym r=%zu k=%zu D %s", r, k, with_d ? "given" : "NULL");
+            }
+        }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -286,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_tn_self_and_mul_nt_spans_values),
         cmocka_unit_test(test_carry_len_matches_layout),
         cmocka_unit_test(test_block_diagonal_conditions),
+        cmocka_unit_test(test_transpose_and_sym_product_bits),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

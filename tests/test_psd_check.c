@@ -28,6 +28,9 @@
  *    and the DKF rely on it and scan a P only when the check fails.
  *    Every position up to n = 17; above, the diagonal and the columns 0,
  *    1, n/2, n-2, n-1 (a bounded run time under ASan and qemu).
+ * dkf__psd_sym_within_rounding, the variant the Kalman step and the DKF
+ * run on their mirrored covariances, must give the same verdict in every
+ * case, for P's lower triangle mirrored (check()).
  * Sizes 1 .. 17 (every remainder of the vector loops in double and
  * float), 24, 33, 48 and, in builds whose DKF_MAX_DIM allows, 67;
  * 8 random Q per size. A check that always passes, one without the shift
@@ -50,7 +53,7 @@
 #define SEEDS 8
 
 static double Pd[NMAX * NMAX];
-static dkf_real_t P[NMAX * NMAX], W[NMAX * NMAX];
+static dkf_real_t P[NMAX * NMAX], Ps[NMAX * NMAX], W[NMAX * NMAX];
 
 static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 24, 33,
                                48, 67};
@@ -94,9 +97,18 @@ static void with_lambda_min(test_rng_t *g, double *lambda, size_t n, double a)
     with_eigenvalues(g, lambda, n);
 }
 
+/* The verdict of dkf__psd_within_rounding, which reads P's lower
+ * triangle; dkf__psd_sym_within_rounding, the variant for an exactly
+ * symmetric P, must give the same one for P's lower triangle mirrored. */
 static int check(size_t n)
 {
-    return dkf__psd_within_rounding(W, P, n);
+    const int v = dkf__psd_within_rounding(W, P, n);
+    size_t i, j;
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < n; ++j) Ps[i * n + j] = j <= i ? P[i * n + j] : P[j * n + i];
+    if (dkf__psd_sym_within_rounding(W, Ps, n) != v)
+        fail_msg("n=%zu: the symmetric variant says %d, the check %d", n, !v, v);
+    return v;
 }
 
 static size_t cap(void)

@@ -394,11 +394,24 @@ DKF__INLINE void mirror_upper(dkf_real_t *C, size_t r)
         for (j = i + 1; j < r; ++j) C[j * r + i] = C[i * r + j];
 }
 
-/* At (c x r) = A^T for A r x c (At must not overlap A): blocks of
- * DKF__TB rows and columns as vectors, the rest one by one. Inline: the
+/* At (c x r) = A^T for A r x c (At must not overlap A). Inline: the
  * fixed-size Kalman steps transpose F and H with constant sizes. */
 DKF__INLINE void inl_transpose(dkf_real_t *restrict At, const dkf_real_t *restrict A, size_t r,
                                size_t c)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
+/* inl_transpose with the blocks of DKF__TB rows and columns moved as
+ * vectors (the same reals), for an A that was not just written: a vector
+ * load of reals stored one by one moments before waits for those stores
+ * (the DKF of seed 000, whose transposes read fresh results, took 9 %
+ * longer in float with vector blocks), while a scalar load is forwarded
+ * from any store. The Kalman step's F^T and H^T: the caller's model. */
+DKF__INLINE void inl_transpose_input(dkf_real_t *restrict At, const dkf_real_t *restrict A,
+                                     size_t r, size_t c)
 {
     size_t i = 0, j;
 #if DKF__TB

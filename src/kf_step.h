@@ -158,7 +158,7 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
     size_t i;
     if (DKF__UNLIKELY(inl_any_nonfinite(Q, n * n))) return DKF_ERR_NONFINITE; /* F, u: see above */
     /* x = (x^T F^T)^T + u; P = (F P) F^T + Q: upper triangle (of Q too), mirrored */
-    inl_transpose(s.Ft, F, n, n);
+    inl_transpose_input(s.Ft, F, n, n);
     inl_mul_nn(s.xn, kf->x.data, s.Ft, 1, n, n);
     if (u != NULL)
         for (i = 0; i < n; ++i) s.xn[i] += u[i];
@@ -204,7 +204,7 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     size_t i, j;
     int spd;
     /* HP = H P;  S = HP H^T + R (upper triangle of R read), factored */
-    inl_transpose(s.Ht, H, m, n);
+    inl_transpose_input(s.Ht, H, m, n);
     inl_mul_nn(s.HP, H, kf->P.data, m, n, n);
     inl_mul_nn_sym(s.S, s.HP, s.Ht, R, m, n);
     spd = inl_chol(s.L, inv, s.S, m) == 0;

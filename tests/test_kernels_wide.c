@@ -20,9 +20,9 @@
  *    core's layout (dkf__diffkf_carry_len);
  *  - A^+ and B^{-1} of a block-diagonal model, computed block by block,
  *    keep the whole matrix's rank and singularity conditions;
- *  - dkf__transpose and dkf__mul_nn_sym, whose vector builds move square
- *    blocks by shuffles, give the textbook loops' bits (memcmp) at every
- *    shape up to NCAP.
+ *  - dkf__mul_nn_sym, whose vector builds mirror square blocks by
+ *    shuffles, and dkf__transpose give the textbook loops' bits (memcmp)
+ *    at every shape up to NCAP.
  * A test that could fail: changing any one term's order (e.g. the +0 start
  * of chol_wide_cols) or span start breaks the memcmp / == checks.
  */
@@ -287,13 +287,15 @@ static void rand_mat(test_rng_t *g, dkf_real_t *a, size_t r, size_t c)
     for (i = 0; i < r * c; ++i) a[i] = (dkf_real_t)(2.0 * test_rng_uniform(g) - 1.0);
 }
 
-/* dkf__transpose and dkf__mul_nn_sym: with vectors (DKF__SIMD) the
- * transposed copy and the product's mirror move square blocks by
- * shuffles (kernels_inline.h, transpose_block), the rest one by one; each
- * must be the textbook loop's bits at every shape (every remainder of the
- * 2- and 4-wide blocks): At(j,i) = A(i,j), and C(i,j) = C(j,i) =
- * D(i,j) + sum_l A(i,l) B(l,j) for j >= i, summed from the first product
- * in index order (D = NULL adds +0). */
+/* dkf__mul_nn_sym: with vectors (DKF__SIMD) the product's mirror moves
+ * square blocks by shuffles (kernels_inline.h, mirror_upper and
+ * transpose_block), the rest one by one; it must be the textbook loop's
+ * bits at every shape (every remainder of the 2- and 4-wide blocks):
+ * C(i,j) = C(j,i) = D(i,j) + sum_l A(i,l) B(l,j) for j >= i, summed from
+ * the first product in index order (D = NULL adds +0). dkf__transpose
+ * too (At(j,i) = A(i,j)). The Kalman step's transposes by blocks
+ * (inl_transpose_input) are compared with a build without vectors by
+ * kf_paths_identical. */
 static void test_transpose_and_sym_product_bits(void **state)
 {
     static const size_t ks[] = {1, 2, 3, 5, 8, 13};

@@ -806,9 +806,8 @@ DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t
  * the only part psd_pivots reads, is the same reals either way, but W is
  * a copy of P's rows rather than a transpose, so it is filled by whole
  * vectors instead of n^2 scalar stores that the pivots' vector loads then
- * wait for. For the covariances the Kalman step and the fixed-size DKF
- * step commit (measured in docs/bench.md, 2026-12-06: -5 to -9 % of a
- * Kalman step at n = 8 and 12). */
+ * wait for. For the covariances the Kalman step and the DKF commit
+ * (docs/bench.md, "Results (2026-12-06)"). */
 DKF__INLINE int inl_psd_sym_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                             size_t n)
 {

@@ -6,7 +6,8 @@
 # `apt-get install`). As root it installs; otherwise it prints the exact
 # command to run and exits 1.
 #
-#   DKF_BOOTSTRAP_NO_ARMHF=1  skip the armhf multiarch packages (qemu-arm tests)
+#   DKF_BOOTSTRAP_NO_ARMHF=1  skip the armhf and arm64 multiarch packages (the
+#                             qemu-arm and qemu-arm64 tests)
 #   DKF_BOOTSTRAP_NO_PYTHON=1 skip the python3 numpy/matplotlib check
 set -euo pipefail
 
@@ -16,13 +17,15 @@ pkgs=(
   libcmocka-dev libjansson-dev libmuparser-dev  # muparser: expression models (ports/linux/nlm_expr.c)
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
+  gcc-aarch64-linux-gnu libc6-dev-arm64-cross
   qemu-user
   libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind libsodium-dev  # libsodium: node-message MACs (ports/linux/net/auth.c)
   clang-14 libclang-rt-14-dev  # libFuzzer + sanitizer runtimes (tools/run_fuzz.sh)
   python3 python3-pip
 )
-# Target (armhf) builds of the unit-test libraries, via Debian multiarch.
-armhf_pkgs=(libcmocka-dev:armhf libjansson-dev:armhf)
+# Target (armhf, arm64) builds of the unit-test libraries, via Debian multiarch.
+foreign_archs=(armhf arm64)
+foreign_pkgs=(libcmocka-dev:armhf libjansson-dev:armhf libcmocka-dev:arm64 libjansson-dev:arm64)
 
 want_armhf=1
 [[ "${DKF_BOOTSTRAP_NO_ARMHF:-0}" == 1 ]] && want_armhf=0
@@ -58,28 +61,26 @@ missing=()
 for p in "${pkgs[@]}"; do
   is_installed "$p" || missing+=("$p")
 done
-need_arch=0
+new_archs=()
 if (( want_armhf )); then
-  if ! dpkg --print-foreign-architectures | grep -qx armhf; then
-    need_arch=1
-    missing+=("${armhf_pkgs[@]}")
-  else
-    for p in "${armhf_pkgs[@]}"; do
-      is_installed "$p" || missing+=("$p")
-    done
-  fi
+  for a in "${foreign_archs[@]}"; do
+    dpkg --print-foreign-architectures | grep -qx "$a" || new_archs+=("$a")
+  done
+  for p in "${foreign_pkgs[@]}"; do
+    is_installed "$p" || missing+=("$p")
+  done
 fi
 
 if (( ${#missing[@]} )); then
   if [[ "$(id -u)" != 0 ]]; then
     echo "bootstrap: missing Debian packages: ${missing[*]}" >&2
     echo "bootstrap: run as root, or:" >&2
-    (( need_arch )) && echo "  sudo dpkg --add-architecture armhf" >&2
+    for a in "${new_archs[@]}"; do echo "  sudo dpkg --add-architecture $a" >&2; done
     echo "  sudo apt-get update && sudo apt-get install -y --no-install-recommends ${missing[*]}" >&2
     exit 1
   fi
   echo "bootstrap: installing ${missing[*]}" >&2
-  (( need_arch )) && dpkg --add-architecture armhf
+  for a in "${new_archs[@]}"; do dpkg --add-architecture "$a"; done
   export DEBIAN_FRONTEND=noninteractive
   apt_update
   apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

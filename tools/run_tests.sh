@@ -16,6 +16,9 @@
 #                    GCC's (an unused static inline function in a .c file)
 #   qemu-arm-float   armhf cross build, DKF_REAL=float, every test run under
 #                    qemu-arm (cmake/toolchain-arm-linux-gnueabihf.cmake)
+#   qemu-arm64-double  arm64 cross build, DKF_REAL=double, every test run
+#                    under qemu-aarch64 (cmake/toolchain-aarch64-linux-gnu.cmake):
+#                    the kernels' vector code as NEON
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
@@ -43,7 +46,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float firmware
+all_configs=(double float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
   demo)
 configs=("$@")
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
@@ -56,6 +59,7 @@ declare -A cfg_args=(
   [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024"
   [clang]="-DCMAKE_C_COMPILER=clang-14 -DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_PORTS=OFF"
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
+  [qemu-arm64-double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-aarch64-linux-gnu.cmake -DDKF_BUILD_PORTS=OFF"
 )
 for c in "${configs[@]}"; do
   if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz && "$c" != demo ]]; then

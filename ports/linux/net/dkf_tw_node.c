@@ -52,6 +52,8 @@ static void usage(FILE *f)
             "      --drop PCT          drop PCT %% of the outgoing packets (tests)\n"
             "      --seed S            seed of the drops (default 0)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
+            "      --direct-recv       read the multicast socket without LCM's receive thread\n"
+            "                          (one wake-up per datagram; docs/network.md, Direct receive)\n"
             "      --key-dir DIR       authenticate every packet with the edge keys in DIR\n"
             "                          (dkf-keygen --edges; without it: unauthenticated,\n"
             "                          said on stderr)\n"
@@ -65,7 +67,7 @@ static void usage(FILE *f)
 typedef struct {
     double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
     const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel, *key_dir;
-    int quiet, join;
+    int quiet, join, direct;
 } opts_t;
 
 static int prefix_ok(const char *p)
@@ -90,7 +92,8 @@ static int parse(int argc, char **argv, opts_t *o)
         {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},              {"filter", required_argument, NULL, 'f'},
         {"case", required_argument, NULL, 'c'},        {"join", no_argument, NULL, 'J'},
-        {"key-dir", required_argument, NULL, 'K'},     {NULL, 0, NULL, 0}};
+        {"key-dir", required_argument, NULL, 'K'},     {"direct-recv", no_argument, NULL, 'Y'},
+        {NULL, 0, NULL, 0}};
     int c;
     memset(o, 0, sizeof *o);
     o->id = o->alg = o->eta = -1;
@@ -120,6 +123,7 @@ static int parse(int argc, char **argv, opts_t *o)
         case 'Z': bad = dkf_cli_num(prog, "--seed", optarg, 0, 4e9, &o->seed); break;
         case 'F': o->ready = optarg; break;
         case 'K': o->key_dir = optarg; break;
+        case 'Y': o->direct = 1; break;
         case 'q': o->quiet = 1; break;
         case 'h': usage(stdout); exit(DKF_EXIT_OK);
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return -1;
@@ -210,6 +214,7 @@ static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, 
     json_object_set_new(doc, "wall_s", json_real(wall));
     json_object_set_new(doc, "dropped_by_flag", json_integer((json_int_t)x->dropped));
     json_object_set_new(doc, "auth", dkf_cli_auth_json(x->net));
+    json_object_set_new(doc, "receive", dkf_cli_rx_json(x->net));
     rc = dkf_cli_write_json(prog, o->output, doc);
     json_decref(doc);
     return rc;
@@ -326,6 +331,8 @@ int main(int argc, char **argv)
     } else if ((x.net = dkf_net_open(o.url, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         code = DKF_EXIT_RUN;
+    } else if (o.direct && dkf_net_direct(x.net, err, sizeof err) != 0) {
+        fprintf(stderr, "%s: %s\n", prog, err); /* e.g. a memq:// URL */
     } else if ((code = authenticate(&o, &x)) != DKF_EXIT_OK) {
         /* said by dkf_cli_auth_edges */
     } else if (dkf_net_subscribe(x.net, sub, on_packet, &x) != 0) {

@@ -30,6 +30,11 @@
 #               whose last round it hears), runs every later step, its
 #               neighbours are degraded only before it joined, and its last
 #               estimate agrees with node 0's
+# Direct receive (dkf-tw-node --direct-recv, net.h: dkf_net_direct):
+#   direct      vec6 (Algorithms 2 and 3) and df4's first case with every
+#               process reading its socket itself: == dkf-run bit for bit, and
+#               each node's "receive" says mode direct, datagrams read, none
+#               malformed or fragmented
 # Authentication (auth.h, DKA2: a key per edge):
 #   auth        vec6, Algorithm 3, with --key-dir: node 3 starts late, and
 #               meanwhile tw_inject sends 3 bursts of 5 hostile datagrams on
@@ -236,6 +241,27 @@ for i, d in sorted(r.items()):
     assert a["datagrams"]["accepted"] > 0 and d["counters"]["rejected"] == 0, (i, a, d["counters"])
     print(f"node {i}: accepted {a['datagrams']['accepted']}, rejected {sum(got.values())} {got}")
 print("every hostile datagram rejected by every neighbour of node 1 (15 each), none reached the filter")
+PY
+    ;;
+  direct)
+    for alg in 2 3; do
+      run_nodes "$v6" $alg "$out/alg$alg" -1 --direct-recv && check "$v6" $alg "$out/alg$alg" || rc=1
+    done
+    df_nodes "$vdf" s1_4node_Tp3_scale1 df_dnertsif 4 "$out/df" -1 --direct-recv &&
+      "$DKF_RUN" --filter df_dnertsif --case s1_4node_Tp3_scale1 --quiet \
+        --output "$out/df/runner.json" "$vdf" &&
+      "$DKF_PYTHON" "$DKF_TW_TOOLS/df_check.py" --nodes-dir "$out/df" --nodes 4 \
+        --runner "$out/df/runner.json" --label DF_DNERTSIF --rel 0 || rc=1
+    "$DKF_PYTHON" - "$out" <<'PY' || rc=1
+import glob, json, sys
+files = sorted(glob.glob(sys.argv[1] + "/*/node*.json"))
+assert len(files) == 16, files
+for f in files:
+    r = json.load(open(f))["receive"]
+    assert r["mode"] == "direct" and r["datagrams"] > 0, (f, r)
+    assert r["malformed"] == 0 and r["fragments"] == 0, (f, r)
+print(f"{len(files)} processes read their sockets directly:",
+      sum(json.load(open(f))["receive"]["datagrams"] for f in files), "datagrams, none malformed")
 PY
     ;;
   df_absent)

@@ -471,8 +471,8 @@ DKF__INLINE dkf_real_t *lo_of(dkf_real_t *C, size_t i, size_t j, size_t r)
 }
 
 /* Rows i, i+1 of the upper triangle of A B + D from column i on (and
- * their mirror, but with DKF__TB), with A(i,l) = a0[l * sa], A(i+1,l) = a1[l * sa]; d0, d1
- * are rows i, i+1 of D. */
+ * their mirror, unless DKF__TB: then sym_product mirrors afterwards), with
+ * A(i,l) = a0[l * sa], A(i+1,l) = a1[l * sa]; d0, d1 are rows i, i+1 of D. */
 DKF__INLINE void sym_rows2(dkf_real_t *C, const dkf_real_t *a0, const dkf_real_t *a1, size_t sa,
                            const dkf_real_t *B, const dkf_real_t *d0, const dkf_real_t *d1,
                            size_t i, size_t r, size_t k)
@@ -751,8 +751,10 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
     }
 }
 
-/* Whether the symmetric n x n P (upper triangle read, via its mirror: the
- * lower triangle is read) is positive semidefinite up to rounding, i.e.
+/* inl_psd_within_rounding (below; psd_shifted_pivots is its test on W,
+ * which holds P's lower triangle transposed, and P's diagonal): whether
+ * the symmetric n x n P (its lower triangle read) is positive
+ * semidefinite up to rounding, i.e.
  * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: every
  * pivot of the LDL^T factorisation of P + delta I (in W, n x n) must be
  * positive (and finite). Why this test and this delta:

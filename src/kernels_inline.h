@@ -323,10 +323,8 @@ DKF__INLINE void inl_mul_nn(dkf_real_t *C, const dkf_real_t *A, const dkf_real_t
  * from rows of A (row stride sa) to rows of At (stride st), by the
  * extension's two-vector shuffles (__builtin_shufflevector in Clang and
  * GCC >= 12, __builtin_shuffle before). Pure moves: the bits are those
- * of the scalar loop. Why: a transposed copy (F^T, H^T) is read at once
- * by the products' vector loads, and a vector load of reals just stored
- * one by one waits until those stores have reached the cache, where a
- * load of a stored vector is forwarded. DKF__VL in the preprocessor's
+ * of the scalar loop; why they pay where they are used is said at
+ * mirror_upper and inl_transpose_input. DKF__VL in the preprocessor's
  * terms: 4 for double in 32 bytes or float in 16, 2 for double in 16;
  * other widths keep the scalar loop. */
 #if DKF__SIMD && ((DKF__VEC_BYTES == 32 && !DKF_USE_FLOAT) || (DKF__VEC_BYTES == 16 && DKF_USE_FLOAT))

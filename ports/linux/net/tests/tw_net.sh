@@ -106,10 +106,10 @@ df_nodes() {
   nodes "$scn" "$N" "$dir" "$skip" "$flt $cs" --filter "$flt" --case "$cs" "$@"
 }
 
-# df_same SCN CASE FILTER LABEL N DIR: processes == dkf-run in process
+# df_same SCN CASE FILTER LABEL N DIR EXTRA...: processes (with EXTRA) == dkf-run in process
 df_same() {
-  local scn=$1 cs=$2 flt=$3 label=$4 N=$5 dir=$6
-  df_nodes "$scn" "$cs" "$flt" "$N" "$dir" -1 || return 1
+  local scn=$1 cs=$2 flt=$3 label=$4 N=$5 dir=$6; shift 6
+  df_nodes "$scn" "$cs" "$flt" "$N" "$dir" -1 "$@" || return 1
   "$DKF_RUN" --filter "$flt" --case "$cs" --quiet --output "$dir/runner.json" "$scn" ||
     { echo "FAIL: dkf-run"; return 1; }
   "$DKF_PYTHON" "$DKF_TW_TOOLS/df_check.py" --nodes-dir "$dir" --nodes "$N" \
@@ -247,11 +247,7 @@ PY
     for alg in 2 3; do
       run_nodes "$v6" $alg "$out/alg$alg" -1 --direct-recv && check "$v6" $alg "$out/alg$alg" || rc=1
     done
-    df_nodes "$vdf" s1_4node_Tp3_scale1 df_dnertsif 4 "$out/df" -1 --direct-recv &&
-      "$DKF_RUN" --filter df_dnertsif --case s1_4node_Tp3_scale1 --quiet \
-        --output "$out/df/runner.json" "$vdf" &&
-      "$DKF_PYTHON" "$DKF_TW_TOOLS/df_check.py" --nodes-dir "$out/df" --nodes 4 \
-        --runner "$out/df/runner.json" --label DF_DNERTSIF --rel 0 || rc=1
+    df_same "$vdf" s1_4node_Tp3_scale1 df_dnertsif DF_DNERTSIF 4 "$out/df" --direct-recv || rc=1
     "$DKF_PYTHON" - "$out" <<'PY' || rc=1
 import glob, json, sys
 files = sorted(glob.glob(sys.argv[1] + "/*/node*.json"))

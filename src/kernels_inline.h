@@ -89,7 +89,7 @@ DKF__INLINE void vstore(dkf_real_t *p, dkf__vec_t v)
     memcpy(p, &v, sizeof v);
 }
 
-/* Rows c0, c1 of a 2 x (nv DKF__VL) block, nv = 1, 2 or 4 (a constant
+/* Rows c0, c1 of a 2 x (nv DKF__VL) block, nv = 1 to 4 (a constant
  * once inlined: the unused sums fold away). The sums stay in nv vector
  * registers per row for the whole l loop; they are named, not an array,
  * so that no compiler keeps them in memory. */
@@ -103,10 +103,12 @@ DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
     dkf_real_t x0 = a0[0], x1 = a1[0];
     size_t l;
     if (nv > 1) b1 = vload(b + DKF__VL);
-    if (nv > 2) b2 = vload(b + 2 * DKF__VL), b3 = vload(b + 3 * DKF__VL);
+    if (nv > 2) b2 = vload(b + 2 * DKF__VL);
+    if (nv > 3) b3 = vload(b + 3 * DKF__VL);
     s00 = b0 * x0, s10 = b0 * x1;
     if (nv > 1) s01 = b1 * x0, s11 = b1 * x1;
-    if (nv > 2) s02 = b2 * x0, s12 = b2 * x1, s03 = b3 * x0, s13 = b3 * x1;
+    if (nv > 2) s02 = b2 * x0, s12 = b2 * x1;
+    if (nv > 3) s03 = b3 * x0, s13 = b3 * x1;
     for (l = 1; l < k; ++l) {
         const dkf_real_t *bl = b + l * ldb;
         x0 = a0[l * sa], x1 = a1[l * sa];
@@ -117,16 +119,18 @@ DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
             s01 += b1 * x0, s11 += b1 * x1;
         }
         if (nv > 2) {
-            b2 = vload(bl + 2 * DKF__VL), b3 = vload(bl + 3 * DKF__VL);
-            s02 += b2 * x0, s12 += b2 * x1, s03 += b3 * x0, s13 += b3 * x1;
+            b2 = vload(bl + 2 * DKF__VL);
+            s02 += b2 * x0, s12 += b2 * x1;
+        }
+        if (nv > 3) {
+            b3 = vload(bl + 3 * DKF__VL);
+            s03 += b3 * x0, s13 += b3 * x1;
         }
     }
     vstore(c0, s00), vstore(c1, s10);
     if (nv > 1) vstore(c0 + DKF__VL, s01), vstore(c1 + DKF__VL, s11);
-    if (nv > 2) {
-        vstore(c0 + 2 * DKF__VL, s02), vstore(c1 + 2 * DKF__VL, s12);
-        vstore(c0 + 3 * DKF__VL, s03), vstore(c1 + 3 * DKF__VL, s13);
-    }
+    if (nv > 2) vstore(c0 + 2 * DKF__VL, s02), vstore(c1 + 2 * DKF__VL, s12);
+    if (nv > 3) vstore(c0 + 3 * DKF__VL, s03), vstore(c1 + 3 * DKF__VL, s13);
 }
 
 DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
@@ -141,6 +145,20 @@ DKF__INLINE void nn_2x4(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
                         const dkf_real_t *restrict b, size_t k, size_t ldb)
 {
     nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 4 / DKF__VL);
+}
+
+/* 2 x 12 where that is 3 vectors a row (DKF__VL = 4: AVX double, SSE
+ * float): one pass over k with 6 chains of sums, where a 2 x 8 and a 2 x 4
+ * pass would make two, the second with only 2 chains, each waiting on
+ * the add latency. Returns the columns done: 12, or 0 where vectors hold
+ * another count (the caller then takes blocks of 8 and 4). */
+DKF__INLINE size_t nn_2x12(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                           const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                           const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    if (DKF__VL != 4) return 0;
+    nn_2xv(c0, c1, a0, a1, sa, b, k, ldb, 3);
+    return 12;
 }
 
 /* 1 x 4: one vector of sums in float, two in double. */
@@ -215,6 +233,15 @@ DKF__INLINE void nn_1x4(dkf_real_t *restrict c0, const dkf_real_t *restrict a0, 
         s0 += x * bl[0], s1 += x * bl[1], s2 += x * bl[2], s3 += x * bl[3];
     }
     c0[0] = s0, c0[1] = s1, c0[2] = s2, c0[3] = s3;
+}
+
+/* Plain C: 24 sums would not stay in registers (blocks of 8 and 4). */
+DKF__INLINE size_t nn_2x12(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                           const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                           const dkf_real_t *restrict b, size_t k, size_t ldb)
+{
+    (void)c0, (void)c1, (void)a0, (void)a1, (void)sa, (void)b, (void)k, (void)ldb;
+    return 0;
 }
 
 #endif /* DKF__SIMD */
@@ -292,12 +319,14 @@ DKF__INLINE void mul_nn_row1(dkf_real_t *restrict c0, const dkf_real_t *restrict
     for (; j < c; ++j) c0[j] = nn_1x1(a0, 1, B + j, k, c);
 }
 
-/* Rows c0, c1 of C = A B (rows a0, a1 of A), blocks of 8, 4, 2, 1. */
+/* Rows c0, c1 of C = A B (rows a0, a1 of A), blocks of 12 (where nn_2x12 has it
+ * and blocks of 8 would leave 4 or more), 8, 4, 2, 1. */
 DKF__INLINE void mul_nn_rows2(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
                               const dkf_real_t *restrict a0, const dkf_real_t *restrict a1,
                               const dkf_real_t *restrict B, size_t k, size_t c)
 {
     size_t j = 0;
+    if (c >= 12 && c % 8 >= 4) j = nn_2x12(c0, c1, a0, a1, 1, B, k, c);
     for (; j + 8 <= c; j += 8) nn_2x8(c0 + j, c1 + j, a0, a1, 1, B + j, k, c);
     if (j + 4 <= c) {
         nn_2x4(c0 + j, c1 + j, a0, a1, 1, B + j, k, c);

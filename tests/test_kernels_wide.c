@@ -22,7 +22,7 @@
  *    keep the whole matrix's rank and singularity conditions;
  *  - dkf__mul_nn_sym, whose vector builds mirror square blocks by
  *    shuffles, gives the textbook loop's bits (memcmp) at every shape up
- *    to NCAP.
+ *    to NCAP; so does dkf__mul_nn at every column count up to NCAP.
  * A test that could fail: changing any one term's order (e.g. the +0 start
  * of chol_wide_cols) or span start breaks the memcmp / == checks.
  */
@@ -324,6 +324,38 @@ static void test_sym_product_bits(void **state)
         }
 }
 
+/* dkf__mul_nn: every column count up to NCAP takes its own mix of the
+ * 12- (where a vector holds 4 reals: float with SSE or NEON; the AVX
+ * Kalman step's are checked by test_kf_isa and kf_paths_identical),
+ * 8-, 4-, 2- and 1-wide blocks, for
+ * two rows at a time and the last of an odd count; each C(i,j) must be the
+ * textbook loop's bits, summed from the first product in index order. */
+static void test_mul_nn_bits(void **state)
+{
+    static const size_t ks[] = {1, 2, 3, 5, 8, 13};
+    static const size_t rs[] = {1, 2, 3, 4, 5};
+    test_rng_t g;
+    size_t qr, qk, c, i, j, l;
+    (void)state;
+    test_rng_seed(&g, 1408);
+    for (qr = 0; qr < sizeof rs / sizeof rs[0]; ++qr)
+        for (qk = 0; qk < sizeof ks / sizeof ks[0]; ++qk)
+            for (c = 1; c <= NCAP; ++c) {
+                const size_t r = rs[qr], k = ks[qk];
+                rand_mat(&g, A, r, k);
+                rand_mat(&g, Y, k, c);
+                dkf__mul_nn(W, A, Y, r, k, c);
+                for (i = 0; i < r; ++i)
+                    for (j = 0; j < c; ++j) {
+                        dkf_real_t s = A[i * k] * Y[j];
+                        for (l = 1; l < k; ++l) s += A[i * k + l] * Y[l * c + j];
+                        W2[i * c + j] = s;
+                    }
+                if (memcmp(W, W2, r * c * sizeof *W) != 0)
+                    fail_msg("mul_nn r=%zu k=%zu c=%zu", r, k, c);
+            }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -334,6 +366,7 @@ int main(void)
         cmocka_unit_test(test_carry_len_matches_layout),
         cmocka_unit_test(test_block_diagonal_conditions),
         cmocka_unit_test(test_sym_product_bits),
+        cmocka_unit_test(test_mul_nn_bits),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

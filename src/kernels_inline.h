@@ -738,52 +738,127 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
     inl_mul_tn_sym(Pn, G, AK, NULL, n, n + m);
 }
 
-/* The pivots d_k of W = U^T D U (U unit upper triangular), right-looking
- * on W's upper triangle: after pivot k, row i > k of the trailing part
- * loses f_i (row k), f_i = W(k,i) / d_k (the Schur complement). 1 if every
- * pivot is positive and finite, else 0 at the first that is not.
- * Why not Cholesky: a Kalman step checks its P this way twice, and for
- * n <= 12 the check was half of the step (issue 14: 1215 -> 602 ns at
- * n = 8 without it). A Cholesky factor's row i needs its columns one
- * after another (a chain of i dot products per row), and each pivot a
- * square root and a division; here each pivot is one division away from
- * the last. The next pivot is computed first, as W(k+1,k+1) -
- * W(k,k+1)^2 / d_k, and carried in a register, so the chain from pivot
- * to pivot is one division and one subtraction; the other rows' updates
- * run beside it. The lower triangle of W is scratch (rows are updated
- * from a vector boundary at or below the diagonal). */
-DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
+/* Whether W (n x n, its upper triangle read) is positive definite: the
+ * pivots d_k of W = U^T D U (U unit upper triangular), right-looking on
+ * W's upper triangle, two at a time. With a = W(k,k), b = W(k,k+1),
+ * c = W(k+1,k+1) (the trailing part after the pivots before k):
+ * d_k = a and d_{k+1} = c - b^2 / a = det / a, det = a c - b^2, so both
+ * are positive iff a > 0 and det > 0. Row k+1 loses l (row k), l = b / a,
+ * and then each row i > k+1 loses f_i (row k) and e_i (row k+1, so
+ * reduced), f_i = W(k,i) / d_k, e_i = W(k+1,i) / d_{k+1}: the Schur
+ * complement, one pivot after the other, as an LDL^T computes it; the
+ * next pair's a, b, c are computed first and carried in registers, and
+ * the memory is updated from column k+4 on. An odd n ends on one pivot. 1 if every a and det is positive and finite, else
+ * 0 at the first that is not.
+ * Why two at a time: the check is a chain of divisions, each pivot waiting
+ * for the last one's update of the next rows, and a Kalman step runs it
+ * twice (issue 14: at n = 8 the step took 1215 ns with the former
+ * Cholesky check and 602 without). Here 1 / d_k and 1 / det = 1 / (d_k
+ * d_{k+1}) are two divisions that run side by side (1 / d_{k+1} is
+ * a / det), and the trailing rows are updated by both pivots in one pass
+ * (stored, then loaded by the next pair) instead of two. Why not
+ * Cholesky: a square root and a division per pivot, and its rows'
+ * columns one after another. Why not a 2 x 2 block inverse, rows
+ * i > k+1 losing [W(k,i) W(k+1,i)] B^{-1} (rows k, k+1): for a nearly
+ * singular block (a singular PSD P, shifted by delta) B^{-1} is huge and
+ * its rounding reaches the next pivots as O(1) errors; the reduced row
+ * k+1 keeps the LDL^T's accuracy (test_psd_check: a rank-1 P of n = 3).
+ * W must be scaled so that a c and b^2 neither overflow nor underflow
+ * (psd_shift_scale: its largest entries near 1). The lower triangle of
+ * W is scratch (rows are updated from a vector boundary at or below the
+ * diagonal). Every build runs the same operations in the same order per
+ * entry (the vector lanes are the scalar loop's), so the verdict does not
+ * depend on the build. */
+/* Row wi of psd_pivots' trailing part loses f (row wk) and e (row wl),
+ * from column j0 (from the vector boundary at or below it). */
+DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real_t *wl,
+                            dkf_real_t f, dkf_real_t e, size_t j0, size_t n)
 {
-    dkf_real_t d = W[0];
-    size_t i, j, k;
-    for (k = 0;; ++k) {
-        const dkf_real_t *wk = W + k * n;
-        dkf_real_t r, dn;
-        if (!(d > DKF_R(0.0) && d <= DKF_REAL_MAX)) return 0;
-        if (k + 1 == n) return 1;
-        dn = wk[n + k + 1] - wk[k + 1] * wk[k + 1] / d;
-        r = DKF_R(1.0) / d;
-        for (i = k + 1; i < n; ++i) {
-            dkf_real_t *wi = W + i * n;
-            const dkf_real_t f = wk[i] * r;
+    size_t j;
 #if DKF__SIMD
-            for (j = i & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
-                vstore(wi + j, vload(wi + j) - f * vload(wk + j));
+    for (j = j0 & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
+        vstore(wi + j, vload(wi + j) - f * vload(wk + j) - e * vload(wl + j));
 #else
-            j = i;
+    j = j0;
 #endif
-            for (; j < n; ++j) wi[j] -= f * wk[j];
-        }
-        d = dn;
-    }
+    for (; j < n; ++j) wi[j] = wi[j] - f * wk[j] - e * wl[j];
 }
 
-/* inl_psd_within_rounding (below; psd_shifted_pivots is its test on W,
- * which holds P's lower triangle transposed, and P's diagonal): whether
- * the symmetric n x n P (its lower triangle read) is positive
- * semidefinite up to rounding, i.e.
+DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
+{
+    dkf_real_t a = W[0], b = DKF_R(0.0), c = DKF_R(0.0);
+    size_t i, j, k;
+    if (n > 1) b = W[1], c = W[n + 1];
+    for (k = 0; k + 1 < n; k += 2) {
+        const dkf_real_t *wk = W + k * n;
+        dkf_real_t *wl = W + (k + 1) * n;
+        dkf_real_t ra, rd, l, det, f2 = DKF_R(0.0), e2 = DKF_R(0.0), f3 = DKF_R(0.0),
+                                   e3 = DKF_R(0.0), an = DKF_R(0.0), bn = DKF_R(0.0), cn = DKF_R(0.0);
+        if (!(a > DKF_R(0.0) && a <= DKF_REAL_MAX)) return 0;
+        ra = DKF_R(1.0) / a;
+        det = a * c - b * b;
+        if (!(det > DKF_R(0.0) && det <= DKF_REAL_MAX)) return 0;
+        rd = a * (DKF_R(1.0) / det); /* 1 / d_{k+1} */
+        l = b * ra;
+        /* rows k+2, k+3 in columns k+2, k+3: the next pair's a, b, c (or
+         * the last pivot), carried in registers */
+        if (k + 2 < n) {
+            const dkf_real_t u2 = wk[k + 2], v2 = wl[k + 2] - l * u2;
+            f2 = u2 * ra, e2 = v2 * rd;
+            an = W[(k + 2) * n + k + 2] - f2 * u2 - e2 * v2;
+            if (k + 3 < n) {
+                const dkf_real_t u3 = wk[k + 3], v3 = wl[k + 3] - l * u3;
+                f3 = u3 * ra, e3 = v3 * rd;
+                bn = W[(k + 2) * n + k + 3] - f2 * u3 - e2 * v3;
+                cn = W[(k + 3) * n + k + 3] - f3 * u3 - e3 * v3;
+            }
+        }
+        /* the rest, from column k+4: row k+1 reduced, then rows k+2 .. */
+#if DKF__SIMD
+        for (j = (k + 4) & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
+            vstore(wl + j, vload(wl + j) - l * vload(wk + j));
+#else
+        j = k + 4;
+#endif
+        for (; j < n; ++j) wl[j] -= l * wk[j];
+        if (k + 4 < n) {
+            pivot2_row(W + (k + 2) * n, wk, wl, f2, e2, k + 4, n);
+            pivot2_row(W + (k + 3) * n, wk, wl, f3, e3, k + 4, n);
+        }
+        for (i = k + 4; i < n; ++i) pivot2_row(W + i * n, wk, wl, wk[i] * ra, wl[i] * rd, i, n);
+        a = an, b = bn, c = cn;
+    }
+    /* the last pivot of an odd n */
+    return k == n || (a > DKF_R(0.0) && a <= DKF_REAL_MAX);
+}
+
+/* 2^-e for a positive finite x = f 2^e, 1 <= f < 2, by its IEEE exponent
+ * field: x 2^-e is in [1, 2), or in [2, 4) if x >= 2^emax, whose inverse
+ * is not a normal number. A product with it is exact (no overflow, no
+ * underflow but of entries 2^-emax below x). */
+DKF__INLINE dkf_real_t pow2_inverse(dkf_real_t x)
+{
+#if DKF_USE_FLOAT
+    uint32_t e, bits;
+    float s;
+    memcpy(&bits, &x, sizeof bits);
+    e = (bits >> 23) & 0xffu; /* biased: x = f 2^(e - 127) */
+    bits = (e <= 253u ? 254u - e : 1u) << 23;
+#else
+    uint64_t e, bits;
+    double s;
+    memcpy(&bits, &x, sizeof bits);
+    e = (bits >> 52) & 0x7ffu; /* biased: x = f 2^(e - 1023) */
+    bits = (e <= 2045u ? 2046u - e : 1u) << 52;
+#endif
+    memcpy(&s, &bits, sizeof s);
+    return s;
+}
+
+/* inl_psd_within_rounding (below): whether the symmetric n x n P (its
+ * lower triangle read) is positive semidefinite up to rounding, i.e.
  * lambda_min(P) >= -delta with delta = 4 n eps tr(P) + REAL_MIN: every
- * pivot of the LDL^T factorisation of P + delta I (in W, n x n) must be
+ * pivot of the LDL^T factorisation (psd_pivots) of P + delta I must be
  * positive (and finite). Why this test and this delta:
  *  - P may be PSD and singular (a filter started from P = 0, a state the
  *    measurements pin exactly): no pivot of P itself may be required to be
@@ -800,48 +875,112 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
  *    P + delta I indefinite, and no LDL^T of an indefinite matrix (up to
  *    its backward error) has only positive pivots (Sylvester's law of
  *    inertia); a negative diagonal beyond delta fails at its pivot. A
- *    negative trace (some diagonal < 0) gives delta < 0 and fails too.
+ *    shifted trace tr(P + delta I) that is not positive (some diagonal
+ *    < 0), or not finite, fails at once.
+ *  - The factorisation runs on s (P + delta I), s a power of 2, which
+ *    changes no bit of any product, sum or quotient but where it would
+ *    overflow or underflow: s = 1 while the shifted trace t is within
+ *    2^(+-emax/4) (float 2^+-32, double 2^+-256), else the s that brings t
+ *    into [1, 2) (psd_shift_scale). Either way a PSD P's entries are at
+ *    most t and its pivots at least about delta >= 4 eps t, so a pair's
+ *    a c, b^2 and det stay far from both limits. Unscaled, they would
+ *    overflow for entries above 1.8e19 in float (1.3e154 in double) and
+ *    underflow below 1.1e-19 (1.5e-154), refusing a positive definite P;
+ *    scaled, the verdict does not depend on P's scale (test_psd_check).
  *  - A NaN or Inf anywhere in P's lower triangle or diagonal gives 0: on
- *    the diagonal it makes tr(P), hence delta and every pivot, non-finite;
- *    below it, P(i,k) enters pivot i as W(i,i) - f_i W(k,i) with f_i =
- *    W(k,i) / d_k (d_k > 0 finite by then), i.e. minus Inf or NaN, and no
- *    later subtraction makes -Inf or NaN finite again. So a caller whose P
- *    is symmetric need not scan it for NaN first: it scans only when the
- *    check fails, to tell DKF_ERR_NONFINITE from DKF_ERR_NOT_SPD (the
- *    Kalman step and the DKF do; test_psd_check puts NaN, +Inf and -Inf at
- *    every position up to n = 17, in five columns above).
- * Returns 1 if PSD within delta, 0 otherwise. psd_pivots (above) says why
- * LDL^T, not Cholesky. */
-DKF__INLINE int psd_shifted_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n)
+ *    the diagonal it makes the trace non-finite; as b of a pair it makes
+ *    det -Inf or NaN; as u_i = P(k,i) or v_i = P(k+1,i) (i beyond the
+ *    pair) it enters W(i,i) as minus f_i u_i = u_i^2 / d_k (+Inf) or
+ *    e_i v_i = v_i^2 / d_{k+1} (+Inf, or NaN from 0 Inf), making W(i,i)
+ *    -Inf or NaN, and no later subtraction makes -Inf or NaN finite
+ *    again. So a caller whose P is symmetric need not scan it for NaN
+ *    first: it scans only when the check fails, to tell DKF_ERR_NONFINITE
+ *    from DKF_ERR_NOT_SPD (the Kalman step and the DKF do; test_psd_check
+ *    puts NaN, +Inf and -Inf at every position up to n = 17, in five
+ *    columns above).
+ * Returns 1 if PSD within delta, 0 otherwise. psd_pivots says why LDL^T
+ * two pivots at a time, not Cholesky. psd_shift_scale gives delta and s
+ * (0 if the shifted trace is not positive and finite); W is filled with
+ * s times P's triangle (a copy where s = 1), then psd_shifted_pivots. */
+#if DKF_USE_FLOAT
+#define DKF__PSD_T_LO 0x1p-32f
+#define DKF__PSD_T_HI 0x1p32f
+#else
+#define DKF__PSD_T_LO 0x1p-256
+#define DKF__PSD_T_HI 0x1p256
+#endif
+DKF__INLINE int psd_shift_scale(const dkf_real_t *P, size_t n, dkf_real_t *delta, dkf_real_t *s)
 {
-    dkf_real_t tr = DKF_R(0.0), delta;
+    dkf_real_t t0 = DKF_R(0.0), t1 = DKF_R(0.0), t2 = DKF_R(0.0), t3 = DKF_R(0.0), tr, t;
     size_t i;
-    for (i = 0; i < n; ++i) tr += P[i * n + i];
-    delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
-    for (i = 0; i < n; ++i) W[i * n + i] += delta;
+    /* the trace in four sums (i mod 4), so that its chain of additions,
+     * which every pivot waits for, is n/4 long */
+    const size_t n4 = n - n % 4;
+    for (i = 0; i < n4; i += 4) {
+        t0 += P[i * n + i], t1 += P[(i + 1) * (n + 1)];
+        t2 += P[(i + 2) * (n + 1)], t3 += P[(i + 3) * (n + 1)];
+    }
+    for (i = n4; i < n; ++i) t0 += P[i * n + i];
+    tr = (t0 + t1) + (t2 + t3);
+    *delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
+    t = tr + (dkf_real_t)n * *delta;
+    if (!(t > DKF_R(0.0) && t <= DKF_REAL_MAX)) return 0;
+    *s = t >= DKF__PSD_T_LO && t <= DKF__PSD_T_HI ? DKF_R(1.0) : pow2_inverse(t);
+    return 1;
+}
+
+/* d = s a, len reals (d == a allowed). */
+DKF__INLINE void scale_copy(dkf_real_t *d, const dkf_real_t *a, dkf_real_t s, size_t len)
+{
+#if DKF__SIMD
+    const size_t nv = len - len % DKF__VL;
+#else
+    const size_t nv = 0;
+#endif
+    size_t i;
+#if DKF__SIMD
+    for (i = 0; i < nv; i += DKF__VL) vstore(d + i, vload(a + i) * s);
+#endif
+    for (i = nv; i < len; ++i) d[i] = a[i] * s;
+}
+
+/* The pivots of s (P + delta I), W holding s P's upper triangle. */
+DKF__INLINE int psd_shifted_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n,
+                                   dkf_real_t delta, dkf_real_t s)
+{
+    size_t i;
+    for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;
     return psd_pivots(W, n);
 }
 
 DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                         size_t n)
 {
+    dkf_real_t delta, s;
+    if (!psd_shift_scale(P, n, &delta, &s)) return 0;
     inl_transpose(W, P, n, n); /* W's upper triangle: P's lower one */
-    return psd_shifted_pivots(W, P, n);
+    if (s != DKF_R(1.0)) scale_copy(W, W, s, n * n);
+    return psd_shifted_pivots(W, P, n, delta, s);
 }
 
 /* inl_psd_within_rounding for a P that is exactly symmetric, P(i,j) ==
  * P(j,i) bit for bit (a product stored with its mirror, or a difference
  * of two such): the same test and the same result, as W's upper triangle,
  * the only part psd_pivots reads, is the same reals either way, but W is
- * a copy of P's rows rather than a transpose, so it is filled by whole
- * vectors instead of n^2 scalar stores that the pivots' vector loads then
- * wait for. For the covariances the Kalman step and the DKF commit
- * (docs/bench.md, "Results (2026-12-06)"). */
+ * a scaled copy of P's rows rather than a transpose, so it is filled by
+ * whole vectors instead of n^2 scalar stores that the pivots' vector
+ * loads then wait for. For the covariances the Kalman step and the DKF
+ * commit (docs/bench.md, "Results (2026-12-06)"). */
 DKF__INLINE int inl_psd_sym_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                             size_t n)
 {
-    memcpy(W, P, n * n * sizeof *W);
-    return psd_shifted_pivots(W, P, n);
+    dkf_real_t delta, s;
+    if (!psd_shift_scale(P, n, &delta, &s)) return 0;
+    if (s == DKF_R(1.0))
+        memcpy(W, P, n * n * sizeof *W);
+    else
+        scale_copy(W, P, s, n * n);
+    return psd_shifted_pivots(W, P, n, delta, s);
 }
 
 /* Solves L w = b in place (forward substitution), b n x 1; inv from

@@ -53,7 +53,7 @@
 #define SEEDS 8
 
 static double Pd[NMAX * NMAX];
-static dkf_real_t P[NMAX * NMAX], Ps[NMAX * NMAX], W[NMAX * NMAX];
+static dkf_real_t P[NMAX * NMAX], Ps[NMAX * NMAX], W[NMAX * NMAX], P0[NMAX * NMAX];
 
 static const size_t sizes[] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 24, 33,
                                48, 67};
@@ -248,6 +248,51 @@ static void test_nonfinite_refused(void **state)
     }
 }
 
+/* The verdict does not depend on P's scale: P times 2^e, exact for every
+ * entry (the exponents keep the entries of 1e-10 .. 67 normal), must be
+ * accepted (lambda_min = 0, or -delta/8) or refused (-2 delta) as P is.
+ * The exponents take the shifted trace inside and outside the window
+ * where the check runs unscaled (2^+-32 in float, 2^+-256 in double) and
+ * to where a pivot pair's a c and b^2 of the unscaled P would overflow or
+ * underflow: a check without its scale refuses the large PSD ones. */
+static void test_scale_invariant(void **state)
+{
+#if DKF_USE_FLOAT
+    static const int ex[] = {-90, -60, -34, -30, 30, 34, 60, 110};
+#else
+    static const int ex[] = {-900, -600, -258, -250, 250, 258, 600, 1000};
+#endif
+    static const double a_of[] = {0.0, 0.125, 2.0}; /* lambda_min = -a delta */
+    test_rng_t g;
+    double lambda[NMAX];
+    size_t k, s, q, x, i;
+    (void)state;
+    test_rng_seed(&g, 0x5eed0006u);
+    for (k = 0; k < cap(); ++k) {
+        const size_t n = sizes[k];
+        for (s = 0; s < 2; ++s)
+            for (q = 0; q < sizeof a_of / sizeof a_of[0]; ++q) {
+                const int want = a_of[q] < 1.0;
+                if (n == 1 && !want) continue; /* as in test_indefinite_refused */
+                if (a_of[q] == 0.0) {
+                    (void)spectrum(&g, lambda, n, 1, 0.0);
+                    with_eigenvalues(&g, lambda, n);
+                } else {
+                    with_lambda_min(&g, lambda, n, a_of[q]);
+                }
+                memcpy(P0, P, n * n * sizeof *P);
+                for (x = 0; x < sizeof ex / sizeof ex[0]; ++x) {
+                    const dkf_real_t f = (dkf_real_t)ldexp(1.0, ex[x]);
+                    memcpy(P, P0, n * n * sizeof *P);
+                    for (i = 0; i < n * n; ++i) P[i] *= f;
+                    if (check(n) != want)
+                        fail_msg("n=%zu seed %zu: lambda_min = -%g delta times 2^%d %s", n, s,
+                                 a_of[q], ex[x], want ? "refused" : "accepted");
+                }
+            }
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -256,6 +301,7 @@ int main(void)
         cmocka_unit_test(test_negative_diagonal_and_trace),
         cmocka_unit_test(test_lower_triangle_read),
         cmocka_unit_test(test_nonfinite_refused),
+        cmocka_unit_test(test_scale_invariant),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

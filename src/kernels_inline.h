@@ -923,9 +923,11 @@ DKF__INLINE int psd_shift_scale(const dkf_real_t *P, size_t n, dkf_real_t *delta
     for (i = n4; i < n; ++i) t0 += P[i * n + i];
     tr = (t0 + t1) + (t2 + t3);
     *delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
+    *s = DKF_R(1.0);
+    if (tr >= DKF__PSD_T_LO && tr <= DKF__PSD_T_HI) return 1; /* then so is t */
     t = tr + (dkf_real_t)n * *delta;
     if (!(t > DKF_R(0.0) && t <= DKF_REAL_MAX)) return 0;
-    *s = t >= DKF__PSD_T_LO && t <= DKF__PSD_T_HI ? DKF_R(1.0) : pow2_inverse(t);
+    if (t < DKF__PSD_T_LO || t > DKF__PSD_T_HI) *s = pow2_inverse(t);
     return 1;
 }
 
@@ -949,7 +951,10 @@ DKF__INLINE int psd_shifted_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n,
                                    dkf_real_t delta, dkf_real_t s)
 {
     size_t i;
-    for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;
+    if (s == DKF_R(1.0))
+        for (i = 0; i < n; ++i) W[i * n + i] = P[i * n + i] + delta;
+    else
+        for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;
     return psd_pivots(W, n);
 }
 

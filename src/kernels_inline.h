@@ -738,6 +738,21 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
     inl_mul_tn_sym(Pn, G, AK, NULL, n, n + m);
 }
 
+/* Row wi of psd_pivots' trailing part loses f (row wk) and e (row wl),
+ * from column j0 (from the vector boundary at or below it). */
+DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real_t *wl,
+                            dkf_real_t f, dkf_real_t e, size_t j0, size_t n)
+{
+    size_t j;
+#if DKF__SIMD
+    for (j = j0 & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
+        vstore(wi + j, vload(wi + j) - f * vload(wk + j) - e * vload(wl + j));
+#else
+    j = j0;
+#endif
+    for (; j < n; ++j) wi[j] = wi[j] - f * wk[j] - e * wl[j];
+}
+
 /* Whether W (n x n, its upper triangle read) is positive definite: the
  * pivots d_k of W = U^T D U (U unit upper triangular), right-looking on
  * W's upper triangle, two at a time. With a = W(k,k), b = W(k,k+1),
@@ -748,8 +763,9 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
  * reduced), f_i = W(k,i) / d_k, e_i = W(k+1,i) / d_{k+1}: the Schur
  * complement, one pivot after the other, as an LDL^T computes it; the
  * next pair's a, b, c are computed first and carried in registers, and
- * the memory is updated from column k+4 on. An odd n ends on one pivot. 1 if every a and det is positive and finite, else
- * 0 at the first that is not.
+ * the memory is updated from column k+4 on. An odd n ends on one pivot.
+ * 1 if every a and det is positive and finite, else 0 at the first that
+ * is not.
  * Why two at a time: the check is a chain of divisions, each pivot waiting
  * for the last one's update of the next rows, and a Kalman step runs it
  * twice (issue 14: at n = 8 the step took 1215 ns with the former
@@ -769,21 +785,6 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
  * diagonal). Every build runs the same operations in the same order per
  * entry (the vector lanes are the scalar loop's), so the verdict does not
  * depend on the build. */
-/* Row wi of psd_pivots' trailing part loses f (row wk) and e (row wl),
- * from column j0 (from the vector boundary at or below it). */
-DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real_t *wl,
-                            dkf_real_t f, dkf_real_t e, size_t j0, size_t n)
-{
-    size_t j;
-#if DKF__SIMD
-    for (j = j0 & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
-        vstore(wi + j, vload(wi + j) - f * vload(wk + j) - e * vload(wl + j));
-#else
-    j = j0;
-#endif
-    for (; j < n; ++j) wi[j] = wi[j] - f * wk[j] - e * wl[j];
-}
-
 DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
 {
     dkf_real_t a = W[0], b = DKF_R(0.0), c = DKF_R(0.0);
@@ -792,8 +793,8 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
     for (k = 0; k + 1 < n; k += 2) {
         const dkf_real_t *wk = W + k * n;
         dkf_real_t *wl = W + (k + 1) * n;
-        dkf_real_t ra, rd, l, det, f2 = DKF_R(0.0), e2 = DKF_R(0.0), f3 = DKF_R(0.0),
-                                   e3 = DKF_R(0.0), an = DKF_R(0.0), bn = DKF_R(0.0), cn = DKF_R(0.0);
+        dkf_real_t ra, rd, l, det, f2 = DKF_R(0.0), e2 = DKF_R(0.0), f3 = DKF_R(0.0);
+        dkf_real_t e3 = DKF_R(0.0), an = DKF_R(0.0), bn = DKF_R(0.0), cn = DKF_R(0.0);
         if (!(a > DKF_R(0.0) && a <= DKF_REAL_MAX)) return 0;
         ra = DKF_R(1.0) / a;
         det = a * c - b * b;

@@ -780,7 +780,7 @@ DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real
  * its rounding reaches the next pivots as O(1) errors; the reduced row
  * k+1 keeps the LDL^T's accuracy (test_psd_check: a rank-1 P of n = 3).
  * W must be scaled so that a c and b^2 neither overflow nor underflow
- * (psd_shift_scale: its largest entries near 1). The lower triangle of
+ * (psd_shift_scale). The lower triangle of
  * W is scratch (rows are updated from a vector boundary at or below the
  * diagonal). Every build runs the same operations in the same order per
  * entry (the vector lanes are the scalar loop's), so the verdict does not
@@ -918,10 +918,10 @@ DKF__INLINE int psd_shift_scale(const dkf_real_t *P, size_t n, dkf_real_t *delta
      * which every pivot waits for, is n/4 long */
     const size_t n4 = n - n % 4;
     for (i = 0; i < n4; i += 4) {
-        t0 += P[i * n + i], t1 += P[(i + 1) * (n + 1)];
+        t0 += P[i * (n + 1)], t1 += P[(i + 1) * (n + 1)];
         t2 += P[(i + 2) * (n + 1)], t3 += P[(i + 3) * (n + 1)];
     }
-    for (i = n4; i < n; ++i) t0 += P[i * n + i];
+    for (i = n4; i < n; ++i) t0 += P[i * (n + 1)];
     tr = (t0 + t1) + (t2 + t3);
     *delta = DKF_R(4.0) * (dkf_real_t)n * DKF_REAL_EPSILON * tr + DKF_REAL_MIN;
     *s = DKF_R(1.0);
@@ -952,7 +952,7 @@ DKF__INLINE int psd_shifted_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n,
                                    dkf_real_t delta, dkf_real_t s)
 {
     size_t i;
-    if (s == DKF_R(1.0))
+    if (s == DKF_R(1.0)) /* the common case: no product on the pivots' chain */
         for (i = 0; i < n; ++i) W[i * n + i] = P[i * n + i] + delta;
     else
         for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;

@@ -287,6 +287,17 @@ static void rand_mat(test_rng_t *g, dkf_real_t *a, size_t r, size_t c)
     for (i = 0; i < r * c; ++i) a[i] = (dkf_real_t)(2.0 * test_rng_uniform(g) - 1.0);
 }
 
+/* The textbook (A B)(i,j), A r x k and B k x c row-major: summed from the
+ * first product in index order, as every product kernel must. */
+static dkf_real_t textbook_ij(const dkf_real_t *a, const dkf_real_t *b, size_t k, size_t c,
+                              size_t i, size_t j)
+{
+    dkf_real_t s = a[i * k] * b[j];
+    size_t l;
+    for (l = 1; l < k; ++l) s += a[i * k + l] * b[l * c + j];
+    return s;
+}
+
 /* dkf__mul_nn_sym: with vectors (DKF__SIMD) the product's mirror moves
  * square blocks by shuffles (kernels_inline.h, mirror_upper and
  * transpose_block), the rest one by one; it must be the textbook loop's
@@ -299,7 +310,7 @@ static void test_sym_product_bits(void **state)
 {
     static const size_t ks[] = {1, 2, 3, 5, 8, 13};
     test_rng_t g;
-    size_t r, q, i, j, l;
+    size_t r, q, i, j;
     (void)state;
     test_rng_seed(&g, 1407);
     for (r = 1; r <= NCAP; ++r)
@@ -313,11 +324,9 @@ static void test_sym_product_bits(void **state)
             for (with_d = 0; with_d < 2; ++with_d) {
                 dkf__mul_nn_sym(W, A, Y, with_d ? R : NULL, r, k);
                 for (i = 0; i < r; ++i)
-                    for (j = i; j < r; ++j) {
-                        dkf_real_t s = A[i * k] * Y[j];
-                        for (l = 1; l < k; ++l) s += A[i * k + l] * Y[l * r + j];
-                        W2[i * r + j] = W2[j * r + i] = s + (with_d ? R[i * r + j] : DKF_R(0.0));
-                    }
+                    for (j = i; j < r; ++j)
+                        W2[i * r + j] = W2[j * r + i] =
+                            textbook_ij(A, Y, k, r, i, j) + (with_d ? R[i * r + j] : DKF_R(0.0));
                 if (memcmp(W, W2, r * r * sizeof *W) != 0)
                     fail_msg("mul_nn_sym r=%zu k=%zu D %s", r, k, with_d ? "given" : "NULL");
             }
@@ -327,15 +336,14 @@ static void test_sym_product_bits(void **state)
 /* dkf__mul_nn: every column count up to NCAP takes its own mix of the
  * 12- (where a vector holds 4 reals: float with SSE or NEON; the AVX
  * Kalman step's are checked by test_kf_isa and kf_paths_identical),
- * 8-, 4-, 2- and 1-wide blocks, for
- * two rows at a time and the last of an odd count; each C(i,j) must be the
- * textbook loop's bits, summed from the first product in index order. */
+ * 8-, 4-, 2- and 1-wide blocks, for two rows at a time and the last of an
+ * odd count; each C(i,j) must be textbook_ij's bits. */
 static void test_mul_nn_bits(void **state)
 {
     static const size_t ks[] = {1, 2, 3, 5, 8, 13};
     static const size_t rs[] = {1, 2, 3, 4, 5};
     test_rng_t g;
-    size_t qr, qk, c, i, j, l;
+    size_t qr, qk, c, i, j;
     (void)state;
     test_rng_seed(&g, 1408);
     for (qr = 0; qr < sizeof rs / sizeof rs[0]; ++qr)
@@ -346,11 +354,7 @@ static void test_mul_nn_bits(void **state)
                 rand_mat(&g, Y, k, c);
                 dkf__mul_nn(W, A, Y, r, k, c);
                 for (i = 0; i < r; ++i)
-                    for (j = 0; j < c; ++j) {
-                        dkf_real_t s = A[i * k] * Y[j];
-                        for (l = 1; l < k; ++l) s += A[i * k + l] * Y[l * c + j];
-                        W2[i * c + j] = s;
-                    }
+                    for (j = 0; j < c; ++j) W2[i * c + j] = textbook_ij(A, Y, k, c, i, j);
                 if (memcmp(W, W2, r * c * sizeof *W) != 0)
                     fail_msg("mul_nn r=%zu k=%zu c=%zu", r, k, c);
             }

@@ -286,7 +286,7 @@ static void test_scale_invariant(void **state)
                     memcpy(P, P0, n * n * sizeof *P);
                     for (i = 0; i < n * n; ++i) P[i] *= f;
                     if (check(n) != want)
-                        fail_msg("n=%zu seed %zu: lambda_min = -%g delta times 2^%d %s", n, s,
+                        fail_msg("n=%zu seed %zu: lambda_min = -(%g delta), times 2^%d, %s", n, s,
                                  a_of[q], ex[x], want ? "refused" : "accepted");
                 }
             }

@@ -90,12 +90,14 @@ DKF__INLINE void vstore(dkf_real_t *p, dkf__vec_t v)
 }
 
 /* Rows c0, c1 of a 2 x (nv DKF__VL) block, nv = 1 to 4 (a constant
- * once inlined: the unused sums fold away). The sums stay in nv vector
- * registers per row for the whole l loop; they are named, not an array,
- * so that no compiler keeps them in memory. */
-DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
-                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
-                        const dkf_real_t *restrict b, size_t k, size_t ldb, size_t nv)
+ * once inlined: the unused sums fold away), plus rows d0, d1 of D if d0
+ * is not NULL (each sum, then + D: the order of put_sym_2xw). The sums
+ * stay in nv vector registers per row for the whole l loop; they are
+ * named, not an array, so that no compiler keeps them in memory. */
+DKF__INLINE void nn_2xv_d(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                          const dkf_real_t *restrict d0, const dkf_real_t *restrict d1,
+                          const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                          const dkf_real_t *restrict b, size_t k, size_t ldb, size_t nv)
 {
     const dkf__vec_t z = {0};
     dkf__vec_t s00 = z, s01 = z, s02 = z, s03 = z, s10 = z, s11 = z, s12 = z, s13 = z;
@@ -127,10 +129,23 @@ DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
             s03 += b3 * x0, s13 += b3 * x1;
         }
     }
+    if (d0 != NULL) {
+        s00 += vload(d0), s10 += vload(d1);
+        if (nv > 1) s01 += vload(d0 + DKF__VL), s11 += vload(d1 + DKF__VL);
+        if (nv > 2) s02 += vload(d0 + 2 * DKF__VL), s12 += vload(d1 + 2 * DKF__VL);
+        if (nv > 3) s03 += vload(d0 + 3 * DKF__VL), s13 += vload(d1 + 3 * DKF__VL);
+    }
     vstore(c0, s00), vstore(c1, s10);
     if (nv > 1) vstore(c0 + DKF__VL, s01), vstore(c1 + DKF__VL, s11);
     if (nv > 2) vstore(c0 + 2 * DKF__VL, s02), vstore(c1 + 2 * DKF__VL, s12);
     if (nv > 3) vstore(c0 + 3 * DKF__VL, s03), vstore(c1 + 3 * DKF__VL, s13);
+}
+
+DKF__INLINE void nn_2xv(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
+                        const dkf_real_t *restrict a0, const dkf_real_t *restrict a1, size_t sa,
+                        const dkf_real_t *restrict b, size_t k, size_t ldb, size_t nv)
+{
+    nn_2xv_d(c0, c1, NULL, NULL, a0, a1, sa, b, k, ldb, nv);
 }
 
 DKF__INLINE void nn_2x8(dkf_real_t *restrict c0, dkf_real_t *restrict c1,
@@ -507,6 +522,16 @@ DKF__INLINE void sym_rows2(dkf_real_t *C, const dkf_real_t *a0, const dkf_real_t
     dkf_real_t *c0 = C + i * r, *c1 = c0 + r;
     dkf_real_t s[16];
     size_t j = i;
+#if DKF__SIMD && DKF__TB
+    /* blocks of whole vectors: the sums plus D go from the registers to C
+     * (mirror_upper then writes the lower triangle, C(i+1,i) included) */
+    for (; j + 8 <= r; j += 8)
+        nn_2xv_d(c0 + j, c1 + j, d0 + j, d1 + j, a0, a1, sa, B + j, k, r, 8 / DKF__VL);
+    if (j + 4 <= r) {
+        nn_2xv_d(c0 + j, c1 + j, d0 + j, d1 + j, a0, a1, sa, B + j, k, r, 4 / DKF__VL);
+        j += 4;
+    }
+#else
     for (; j + 8 <= r; j += 8) {
         nn_2x8(s, s + 8, a0, a1, sa, B + j, k, r);
         put_sym_2xw(c0 + j, c1 + j, lo_of(C, i, j, r), d0 + j, d1 + j, s, 8, r, j == i);
@@ -516,6 +541,7 @@ DKF__INLINE void sym_rows2(dkf_real_t *C, const dkf_real_t *a0, const dkf_real_t
         put_sym_2xw(c0 + j, c1 + j, lo_of(C, i, j, r), d0 + j, d1 + j, s, 4, r, j == i);
         j += 4;
     }
+#endif
     if (j + 2 <= r) {
         block_2x2(s, s + 2, a0, a1, sa, B + j, k, r, j);
         put_sym_2xw(c0 + j, c1 + j, lo_of(C, i, j, r), d0 + j, d1 + j, s, 2, r, j == i);
@@ -711,25 +737,27 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
  * evaluated as written:
  *   P+ = A P A^T + K R K^T,   A = I - K H,
  * as one symmetric product with inner dimension n + m:
- *   P+ = G^T [A^T; K^T],   G = [P A^T; R K^T]   ((n+m) x n each).
+ *   P+ = G^T [A^T; -K^T],   G = [P A^T; -R K^T]   ((n+m) x n each),
+ * the gain negated, which costs no bit (IEEE rounding is symmetric, so
+ * every product, sum and difference is that of K, negated) and saves the
+ * negation of H^T K^T.
  * A is formed explicitly: when the measurements pin the state (P+ << P)
  * A is tiny and its O(eps) rounding reaches P+ only as O(eps^2 |P|),
  * while a form that subtracts from P (P - K H P, or P - K(HP) + E K^T)
  * leaves O(eps |P|) in a result that may be far smaller than P. Both
  * terms are PSD in exact arithmetic whatever the gain; a gain error dK
  * enters only as dK S dK^T (docs/decisions.md item 17).
- * AK is (n+m) x n with K^T (m x n) in its last m rows on entry; its first
- * n rows get A^T = I - H^T K^T. Ht = H^T (n x m) may be G itself: it is
+ * AK is (n+m) x n with -K^T (m x n) in its last m rows on entry; its
+ * first n rows get A^T = I + H^T (-K^T). Ht = H^T (n x m) may be G itself: it is
  * read only before G is written. Rs (m x m) gets R mirrored from its
  * upper triangle. Pn must not overlap the others. O(n^3 + n^2 m). */
 DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_real_t *Rs,
                             const dkf_real_t *P, const dkf_real_t *Ht, const dkf_real_t *R,
                             size_t n, size_t m)
 {
-    const dkf_real_t *Kt = AK + n * n;
+    const dkf_real_t *Kt = AK + n * n; /* -K^T */
     size_t i, j;
-    inl_mul_nn(AK, Ht, Kt, n, m, n); /* H^T K^T, then A^T = I - H^T K^T */
-    for (i = 0; i < n * n; ++i) AK[i] = -AK[i];
+    inl_mul_nn(AK, Ht, Kt, n, m, n); /* H^T (-K^T), then A^T = I - H^T K^T */
     for (i = 0; i < n; ++i) AK[i * n + i] += DKF_R(1.0);
     for (i = 0; i < m; ++i)
         for (j = 0; j < m; ++j) Rs[i * m + j] = i <= j ? R[i * m + j] : R[j * m + i];

@@ -28,11 +28,11 @@
  *   W   w = max(2n^2, 2nm), shared by the two steps:
  *       predict: T = F P (n*n) and Ft = F^T (n*n); after P is formed,
  *                the PSD check's factor (n*n)
- *       update:  Ht = H^T (n*m); then (Joseph) G = [P A^T; R K^T]
+ *       update:  Ht = H^T (n*m); then (Joseph) G = [P A^T; -R K^T]
  *                ((n+m) x n) of the covariance update, then the PSD
- *                check's factor (n*n); (short form) Gt = -K^T (m x n)
+ *                check's factor (n*n)
  *   HP  m*n         H P (= (P H^T)^T, P symmetric)
- *   Kt  m*n         K^T = S^{-1} H P, right after HP
+ *   Kt  m*n         -K^T = S^{-1} (-H P), the gain negated, right after HP
  *   Sc  m*m         innovation covariance H P H^T + R
  *   L   m*m         its Cholesky factor; then (Joseph) R mirrored from
  *                   its upper triangle
@@ -69,7 +69,7 @@ DKF__INLINE size_t kf_layout(kf_layout_t *L, dkf_real_t *base, size_t n, size_t 
 
 /* A step's scratch: the layout's regions and the aliases above. */
 typedef struct {
-    dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *Gt, *HP, *Kt, *At, *S, *L;
+    dkf_real_t *xn, *Pn, *T, *Ft, *Ht, *HP, *Kt, *At, *S, *L;
 } kf_scratch_t;
 
 DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
@@ -80,7 +80,7 @@ DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
     (void)kf_layout(&L, kf->x.data, n, kf->m_max);
     s.xn = L.xn;
     s.Pn = L.Pn;
-    s.T = s.Ht = s.Gt = L.W;
+    s.T = s.Ht = L.W;
     s.Ft = L.W + n * n;
     s.HP = L.HP;
     s.Kt = L.Kt;
@@ -92,13 +92,11 @@ DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
 
 /* Elementwise helpers on n reals that do not overlap (restrict parameters
  * are what lets GCC vectorise them once inlined): d = -a and y += alpha x. */
-#if !DKF_JOSEPH /* only the short form uses it (clang: -Wunused-function) */
 DKF__INLINE void negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
 {
     size_t i;
     for (i = 0; i < n; ++i) d[i] = -a[i];
 }
-#endif
 
 DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t *restrict x,
                       size_t n)
@@ -178,9 +176,10 @@ DKF__INLINE dkf_status_t predict_step(dkf_kf_t *kf, const dkf_real_t *F, const d
  * written: P+ = A P A^T + K R K^T with A = I - K H formed (inl_joseph:
  * accurate also when the data pin the state, P+ << P; docs/decisions.md
  * item 17). O(n^3 + n^2 m). At is placed right before Kt, so [At; Kt] is
- * the (n+m) x n array inl_joseph wants, G = [P A^T; R K^T] goes to W
+ * the (n+m) x n array inl_joseph wants, G = [P A^T; -R K^T] goes to W
  * (over Ht, which inl_joseph reads first) and R's mirror to L's place.
- * Short form (DKF_JOSEPH=0): P+ = P - K (H P) = P + (-K^T)^T (HP). */
+ * Short form (DKF_JOSEPH=0): P+ = P - K (H P) = P + (-K^T)^T (HP). Kt
+ * holds -K^T in both. */
 DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, const dkf_real_t *R,
                                    size_t n, size_t m)
 {
@@ -188,8 +187,7 @@ DKF__INLINE void covariance_update(const dkf_kf_t *kf, const kf_scratch_t *s, co
     inl_joseph(s->Pn, s->At, s->T, s->L, kf->P.data, s->Ht, R, n, m);
 #else
     (void)R;
-    negate(s->Gt, s->Kt, m * n);
-    inl_mul_tn_sym(s->Pn, s->Gt, s->HP, kf->P.data, n, m);
+    inl_mul_tn_sym(s->Pn, s->Kt, s->HP, kf->P.data, n, m); /* Kt holds -K^T */
 #endif
 }
 
@@ -218,16 +216,17 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     /* nu = y - H x, as x^T H^T */
     inl_mul_nn(nu, kf->x.data, s.Ht, 1, n, m);
     for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];
-    /* K^T = S^{-1} (H P) (P and S symmetric) */
-    memcpy(s.Kt, s.HP, m * n * sizeof *s.Kt);
+    /* -K^T = S^{-1} (-H P) (P and S symmetric): the negated gain, exactly
+     * (IEEE rounding is symmetric), which the covariance update wants */
+    negate(s.Kt, s.HP, m * n);
     inl_chol_solve(s.L, inv, s.Kt, m, n);
     /* NIS = nu^T S^{-1} nu = |L^{-1} nu|^2 */
     memcpy(w, nu, m * sizeof *w);
     inl_tri_lower_solve_vec(s.L, inv, w, m);
     for (i = 0; i < m; ++i) nis += w[i] * w[i];
-    /* x+ = x + K nu, accumulating the rows of K^T */
+    /* x+ = x + K nu, accumulating the rows of -K^T times -nu */
     memcpy(s.xn, kf->x.data, n * sizeof *s.xn);
-    for (j = 0; j < m; ++j) axpy(s.xn, nu[j], s.Kt + j * n, n);
+    for (j = 0; j < m; ++j) axpy(s.xn, -nu[j], s.Kt + j * n, n);
     covariance_update(kf, &s, R, n, m);
     if (DKF__UNLIKELY(inl_any_nonfinite(s.xn, n) | inl_any_nonfinite(&nis, 1)))
         return DKF_ERR_NONFINITE;

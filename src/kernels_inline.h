@@ -766,24 +766,43 @@ DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_r
     inl_mul_tn_sym(Pn, G, AK, NULL, n, n + m);
 }
 
-/* Row wi of psd_pivots' trailing part loses f (row wk) and e (row wl),
- * from column j0 (from the vector boundary at or below it). */
-DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real_t *wl,
-                            dkf_real_t f, dkf_real_t e, size_t j0, size_t n)
+/* Row wo of psd_pivots' trailing part: row wi (wo itself after the first
+ * pair) loses f (row wk) and e (row wl), from column j0 (from the vector
+ * boundary at or below it); dl is added to column i (the diagonal) first,
+ * and + 0 to the other columns of that vector (a no-op but for the sign
+ * of a zero, which no pivot's sign depends on). */
+DKF__INLINE void pivot2_row(dkf_real_t *wo, const dkf_real_t *wi, const dkf_real_t *wk,
+                            const dkf_real_t *wl, dkf_real_t f, dkf_real_t e, dkf_real_t dl,
+                            size_t i, size_t j0, size_t n)
 {
     size_t j;
 #if DKF__SIMD
-    for (j = j0 & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
-        vstore(wi + j, vload(wi + j) - f * vload(wk + j) - e * vload(wl + j));
+    /* lane q of the vector at unit + 3 - q0 is 1 for q = q0, else 0 */
+    static const dkf_real_t unit[7] = {DKF_R(0.0), DKF_R(0.0), DKF_R(0.0), DKF_R(1.0),
+                                       DKF_R(0.0), DKF_R(0.0), DKF_R(0.0)};
+    j = j0 & ~(size_t)(DKF__VL - 1);
+    if (j <= i && i < j + DKF__VL && j + DKF__VL <= n) { /* the diagonal's vector */
+        const dkf__vec_t d = vload(unit + 3 - (i - j)) * dl;
+        vstore(wo + j, (vload(wi + j) + d) - f * vload(wk + j) - e * vload(wl + j));
+        j += DKF__VL;
+    }
+    for (; j + DKF__VL <= n; j += DKF__VL)
+        vstore(wo + j, vload(wi + j) - f * vload(wk + j) - e * vload(wl + j));
 #else
     j = j0;
 #endif
-    for (; j < n; ++j) wi[j] = wi[j] - f * wk[j] - e * wl[j];
+    for (; j < n; ++j) wo[j] = (j == i ? wi[j] + dl : wi[j]) - f * wk[j] - e * wl[j];
 }
 
-/* Whether W (n x n, its upper triangle read) is positive definite: the
- * pivots d_k of W = U^T D U (U unit upper triangular), right-looking on
- * W's upper triangle, two at a time. With a = W(k,k), b = W(k,k+1),
+/* Whether W = S + dl I (n x n, S's upper triangle read) is positive
+ * definite: the pivots d_k of W = U^T D U (U unit upper triangular),
+ * right-looking on W's upper triangle, two at a time. The first pair reads
+ * S and adds dl to its diagonal as it reads it; its updates of the
+ * trailing rows go to W, and the pairs after it work in W (S may be W
+ * itself, dl 0 when W already holds the shift). So S is never copied:
+ * a copy of the n x n result the caller has just stored was a stall (the
+ * copy's vector loads waiting for the product's and mirror's stores to
+ * land) as well as n^2 moves. With a = W(k,k), b = W(k,k+1),
  * c = W(k+1,k+1) (the trailing part after the pivots before k):
  * d_k = a and d_{k+1} = c - b^2 / a = det / a, det = a c - b^2, so both
  * are positive iff a > 0 and det > 0. Row k+1 loses l (row k), l = b / a,
@@ -809,17 +828,20 @@ DKF__INLINE void pivot2_row(dkf_real_t *wi, const dkf_real_t *wk, const dkf_real
  * k+1 keeps the LDL^T's accuracy (test_psd_check: a rank-1 P of n = 3).
  * W must be scaled so that a c and b^2 neither overflow nor underflow
  * (psd_shift_scale). The lower triangle of
- * W is scratch (rows are updated from a vector boundary at or below the
+ * W is scratch, and so is the sign of a zero (adding dl to a diagonal
+ * adds + 0 to the other lanes of its vector; no pivot's sign depends on
+ * it) (rows are updated from a vector boundary at or below the
  * diagonal). Every build runs the same operations in the same order per
  * entry (the vector lanes are the scalar loop's), so the verdict does not
  * depend on the build. */
-DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
+DKF__INLINE int psd_pivots(dkf_real_t *W, const dkf_real_t *S, dkf_real_t dl, size_t n)
 {
-    dkf_real_t a = W[0], b = DKF_R(0.0), c = DKF_R(0.0);
+    const dkf_real_t *src = S;
+    dkf_real_t a = S[0] + dl, b = DKF_R(0.0), c = DKF_R(0.0);
     size_t i, j, k;
-    if (n > 1) b = W[1], c = W[n + 1];
+    if (n > 1) b = S[1], c = S[n + 1] + dl;
     for (k = 0; k + 1 < n; k += 2) {
-        const dkf_real_t *wk = W + k * n;
+        const dkf_real_t *wk = src + k * n, *sl = src + (k + 1) * n;
         dkf_real_t *wl = W + (k + 1) * n;
         dkf_real_t ra, rd, l, det, f2 = DKF_R(0.0), e2 = DKF_R(0.0), f3 = DKF_R(0.0);
         dkf_real_t e3 = DKF_R(0.0), an = DKF_R(0.0), bn = DKF_R(0.0), cn = DKF_R(0.0);
@@ -832,30 +854,32 @@ DKF__INLINE int psd_pivots(dkf_real_t *W, size_t n)
         /* rows k+2, k+3 in columns k+2, k+3: the next pair's a, b, c (or
          * the last pivot), carried in registers */
         if (k + 2 < n) {
-            const dkf_real_t u2 = wk[k + 2], v2 = wl[k + 2] - l * u2;
+            const dkf_real_t u2 = wk[k + 2], v2 = sl[k + 2] - l * u2;
             f2 = u2 * ra, e2 = v2 * rd;
-            an = W[(k + 2) * n + k + 2] - f2 * u2 - e2 * v2;
+            an = (src[(k + 2) * n + k + 2] + dl) - f2 * u2 - e2 * v2;
             if (k + 3 < n) {
-                const dkf_real_t u3 = wk[k + 3], v3 = wl[k + 3] - l * u3;
+                const dkf_real_t u3 = wk[k + 3], v3 = sl[k + 3] - l * u3;
                 f3 = u3 * ra, e3 = v3 * rd;
-                bn = W[(k + 2) * n + k + 3] - f2 * u3 - e2 * v3;
-                cn = W[(k + 3) * n + k + 3] - f3 * u3 - e3 * v3;
+                bn = src[(k + 2) * n + k + 3] - f2 * u3 - e2 * v3;
+                cn = (src[(k + 3) * n + k + 3] + dl) - f3 * u3 - e3 * v3;
             }
         }
         /* the rest, from column k+4: row k+1 reduced, then rows k+2 .. */
 #if DKF__SIMD
         for (j = (k + 4) & ~(size_t)(DKF__VL - 1); j + DKF__VL <= n; j += DKF__VL)
-            vstore(wl + j, vload(wl + j) - l * vload(wk + j));
+            vstore(wl + j, vload(sl + j) - l * vload(wk + j));
 #else
         j = k + 4;
 #endif
-        for (; j < n; ++j) wl[j] -= l * wk[j];
+        for (; j < n; ++j) wl[j] = sl[j] - l * wk[j];
         if (k + 4 < n) {
-            pivot2_row(W + (k + 2) * n, wk, wl, f2, e2, k + 4, n);
-            pivot2_row(W + (k + 3) * n, wk, wl, f3, e3, k + 4, n);
+            pivot2_row(W + (k + 2) * n, src + (k + 2) * n, wk, wl, f2, e2, dl, k + 2, k + 4, n);
+            pivot2_row(W + (k + 3) * n, src + (k + 3) * n, wk, wl, f3, e3, dl, k + 3, k + 4, n);
         }
-        for (i = k + 4; i < n; ++i) pivot2_row(W + i * n, wk, wl, wk[i] * ra, wl[i] * rd, i, n);
+        for (i = k + 4; i < n; ++i)
+            pivot2_row(W + i * n, src + i * n, wk, wl, wk[i] * ra, wl[i] * rd, dl, i, i, n);
         a = an, b = bn, c = cn;
+        src = W, dl = DKF_R(0.0); /* after the first pair: W, shifted */
     }
     /* the last pivot of an odd n */
     return k == n || (a > DKF_R(0.0) && a <= DKF_REAL_MAX);
@@ -929,8 +953,9 @@ DKF__INLINE dkf_real_t pow2_inverse(dkf_real_t x)
  *    columns above).
  * Returns 1 if PSD within delta, 0 otherwise. psd_pivots says why LDL^T
  * two pivots at a time, not Cholesky. psd_shift_scale gives delta and s
- * (0 if the shifted trace is not positive and finite); W is filled with
- * s times P's triangle (a copy where s = 1), then psd_shifted_pivots. */
+ * (0 if the shifted trace is not positive and finite); where s = 1 the
+ * pivots read P's triangle and add delta (psd_pivots), else W is filled
+ * with s times P's triangle first (psd_scaled_pivots). */
 #if DKF_USE_FLOAT
 #define DKF__PSD_T_LO 0x1p-32f
 #define DKF__PSD_T_HI 0x1p32f
@@ -975,16 +1000,13 @@ DKF__INLINE void scale_copy(dkf_real_t *d, const dkf_real_t *a, dkf_real_t s, si
     for (i = nv; i < len; ++i) d[i] = a[i] * s;
 }
 
-/* The pivots of s (P + delta I), W holding s P's upper triangle. */
-DKF__INLINE int psd_shifted_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n,
-                                   dkf_real_t delta, dkf_real_t s)
+/* The pivots of s (P + delta I), W holding s P's upper triangle (s != 1). */
+DKF__INLINE int psd_scaled_pivots(dkf_real_t *W, const dkf_real_t *P, size_t n, dkf_real_t delta,
+                                  dkf_real_t s)
 {
     size_t i;
-    if (s == DKF_R(1.0)) /* the common case: no product on the pivots' chain */
-        for (i = 0; i < n; ++i) W[i * n + i] = P[i * n + i] + delta;
-    else
-        for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;
-    return psd_pivots(W, n);
+    for (i = 0; i < n; ++i) W[i * n + i] = (P[i * n + i] + delta) * s;
+    return psd_pivots(W, W, DKF_R(0.0), n);
 }
 
 DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
@@ -993,28 +1015,27 @@ DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t
     dkf_real_t delta, s;
     if (!psd_shift_scale(P, n, &delta, &s)) return 0;
     inl_transpose(W, P, n, n); /* W's upper triangle: P's lower one */
-    if (s != DKF_R(1.0)) scale_copy(W, W, s, n * n);
-    return psd_shifted_pivots(W, P, n, delta, s);
+    if (s == DKF_R(1.0)) return psd_pivots(W, W, delta, n);
+    scale_copy(W, W, s, n * n);
+    return psd_scaled_pivots(W, P, n, delta, s);
 }
 
 /* inl_psd_within_rounding for a P that is exactly symmetric, P(i,j) ==
  * P(j,i) bit for bit (a product stored with its mirror, or a difference
  * of two such): the same test and the same result, as W's upper triangle,
- * the only part psd_pivots reads, is the same reals either way, but W is
- * a scaled copy of P's rows rather than a transpose, so it is filled by
- * whole vectors instead of n^2 scalar stores that the pivots' vector
- * loads then wait for. For the covariances the Kalman step and the DKF
- * commit (docs/bench.md, "Results (2026-12-06)"). */
+ * the only part psd_pivots reads, is the same reals either way, but the
+ * pivots read P itself (scaled, a copy of P's rows) rather than a
+ * transpose, which costs n^2 scalar stores that the pivots' vector loads
+ * then wait for. For the covariances the Kalman step and the DKF commit
+ * (docs/bench.md, "Results (2026-12-06)" and "(2026-12-06, stop 31)"). */
 DKF__INLINE int inl_psd_sym_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                             size_t n)
 {
     dkf_real_t delta, s;
     if (!psd_shift_scale(P, n, &delta, &s)) return 0;
-    if (s == DKF_R(1.0))
-        memcpy(W, P, n * n * sizeof *W);
-    else
-        scale_copy(W, P, s, n * n);
-    return psd_shifted_pivots(W, P, n, delta, s);
+    if (s == DKF_R(1.0)) return psd_pivots(W, P, delta, n); /* no copy: its first pair reads P */
+    scale_copy(W, P, s, n * n);
+    return psd_scaled_pivots(W, P, n, delta, s);
 }
 
 /* Solves L w = b in place (forward substitution), b n x 1; inv from

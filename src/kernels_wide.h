@@ -67,7 +67,7 @@ int KW(dkf__chol_wide)(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, size
             for (; j + widths[b] <= i; j += widths[b])
                 KW(chol_cols)(wi, wk, ai, ak, W, T, inv, n, j, widths[b]);
         for (; j < i; ++j) KW(chol_cols)(wi, wk, ai, ak, W, T, inv, n, j, 1);
-        if (chol_diag2(wi, wk, ai, ak, inv, n, i) != 0) return -1;
+        if (chol_diag2(wi, wk, ai, ak, inv, n, i, 0) != 0) return -1;
         for (l = 0; l <= i; ++l) {
             T[l * n + i] = wi[l];
             T[l * n + i + 1] = wk[l];

@@ -205,7 +205,7 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     inl_transpose_input(s.Ht, H, m, n);
     inl_mul_nn(s.HP, H, kf->P.data, m, n, n);
     inl_mul_nn_sym(s.S, s.HP, s.Ht, R, m, n);
-    spd = inl_chol(s.L, inv, s.S, m) == 0;
+    spd = chol_rows(s.L, inv, s.S, m, 1) == 0; /* quot: chol_diag2 */
     /* after the factorisation, so that the scan runs while its sqrt/divide
      * chain is in flight; a failed one is the input's fault if H, R or y
      * is not finite (see above), and reported as such */

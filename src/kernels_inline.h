@@ -767,8 +767,8 @@ DKF__INLINE int inl_chol(dkf_real_t *W, dkf_real_t *inv, const dkf_real_t *A, si
  * terms are PSD in exact arithmetic whatever the gain; a gain error dK
  * enters only as dK S dK^T (docs/decisions.md item 17).
  * AK is (n+m) x n with -K^T (m x n) in its last m rows on entry; its
- * first n rows get A^T = I + H^T (-K^T). Ht = H^T (n x m) may be G itself: it is
- * read only before G is written. Rs (m x m) gets R mirrored from its
+ * first n rows get A^T = I + H^T (-K^T). Ht = H^T (n x m) may be G
+ * itself: it is read only before G is written. Rs (m x m) gets R mirrored from its
  * upper triangle. Pn must not overlap the others. O(n^3 + n^2 m). */
 DKF__INLINE void inl_joseph(dkf_real_t *Pn, dkf_real_t *AK, dkf_real_t *G, dkf_real_t *Rs,
                             const dkf_real_t *P, const dkf_real_t *Ht, const dkf_real_t *R,
@@ -796,7 +796,8 @@ DKF__INLINE void pivot2_row(dkf_real_t *wo, const dkf_real_t *wi, const dkf_real
 {
     size_t j;
 #if DKF__SIMD
-    /* lane q of the vector at unit + 3 - q0 is 1 for q = q0, else 0 */
+    /* lane q of the vector at unit + 3 - q0 is 1 for q = q0, else 0
+     * (DKF__VL is 2 or 4 here) */
     static const dkf_real_t unit[7] = {DKF_R(0.0), DKF_R(0.0), DKF_R(0.0), DKF_R(1.0),
                                        DKF_R(0.0), DKF_R(0.0), DKF_R(0.0)};
     j = j0 & ~(size_t)(DKF__VL - 1);
@@ -846,13 +847,12 @@ DKF__INLINE void pivot2_row(dkf_real_t *wo, const dkf_real_t *wi, const dkf_real
  * its rounding reaches the next pivots as O(1) errors; the reduced row
  * k+1 keeps the LDL^T's accuracy (test_psd_check: a rank-1 P of n = 3).
  * W must be scaled so that a c and b^2 neither overflow nor underflow
- * (psd_shift_scale). The lower triangle of
- * W is scratch, and so is the sign of a zero (adding dl to a diagonal
- * adds + 0 to the other lanes of its vector; no pivot's sign depends on
- * it) (rows are updated from a vector boundary at or below the
- * diagonal). Every build runs the same operations in the same order per
- * entry (the vector lanes are the scalar loop's), so the verdict does not
- * depend on the build. */
+ * (psd_shift_scale). The lower triangle of W is scratch (rows are
+ * updated from a vector boundary at or below the diagonal), and so is the
+ * sign of a zero (adding dl to a diagonal adds + 0 to the other lanes of
+ * its vector; no pivot's sign depends on it). Every build runs the same
+ * operations in the same order per entry (the vector lanes are the scalar
+ * loop's), so the verdict does not depend on the build. */
 DKF__INLINE int psd_pivots(dkf_real_t *W, const dkf_real_t *S, dkf_real_t dl, size_t n)
 {
     const dkf_real_t *src = S;

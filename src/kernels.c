@@ -405,8 +405,7 @@ void dkf__joseph(dkf_real_t *Pn, const dkf_real_t *P, const dkf_real_t *Kt, cons
                  const dkf_real_t *R, size_t n, size_t m, dkf_real_t *work)
 {
     dkf_real_t *AK = work, *G = AK + (n + m) * n, *Rs = G + (n + m) * n;
-    size_t i;
-    for (i = 0; i < m * n; ++i) AK[n * n + i] = -Kt[i]; /* inl_joseph takes -K^T */
+    inl_negate(AK + n * n, Kt, m * n); /* inl_joseph takes -K^T */
     inl_transpose(G, H, m, n); /* G starts as H^T (inl_joseph reads it first) */
     inl_joseph(Pn, AK, G, Rs, P, G, R, n, m);
 }

@@ -1006,6 +1006,14 @@ DKF__INLINE int psd_shift_scale(const dkf_real_t *P, size_t n, dkf_real_t *delta
     return 1;
 }
 
+/* d = -a, len reals that do not overlap (the Kalman step's and
+ * dkf__joseph's negated gain: restrict lets GCC vectorise it). */
+DKF__INLINE void inl_negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t len)
+{
+    size_t i;
+    for (i = 0; i < len; ++i) d[i] = -a[i];
+}
+
 /* d = s a, len reals (d == a allowed). */
 DKF__INLINE void scale_copy(dkf_real_t *d, const dkf_real_t *a, dkf_real_t s, size_t len)
 {

@@ -90,14 +90,8 @@ DKF__INLINE kf_scratch_t kf_scratch(const dkf_kf_t *kf)
     return s;
 }
 
-/* Elementwise helpers on n reals that do not overlap (restrict parameters
- * are what lets GCC vectorise them once inlined): d = -a and y += alpha x. */
-DKF__INLINE void negate(dkf_real_t *restrict d, const dkf_real_t *restrict a, size_t n)
-{
-    size_t i;
-    for (i = 0; i < n; ++i) d[i] = -a[i];
-}
-
+/* y += alpha x on n reals that do not overlap (restrict parameters are
+ * what lets GCC vectorise it once inlined). */
 DKF__INLINE void axpy(dkf_real_t *restrict y, dkf_real_t alpha, const dkf_real_t *restrict x,
                       size_t n)
 {
@@ -218,7 +212,7 @@ DKF__INLINE dkf_status_t update_step(dkf_kf_t *kf, const dkf_real_t *H, const dk
     for (i = 0; i < m; ++i) nu[i] = y[i] - nu[i];
     /* -K^T = S^{-1} (-H P) (P and S symmetric): the negated gain, exactly
      * (IEEE rounding is symmetric), which the covariance update wants */
-    negate(s.Kt, s.HP, m * n);
+    inl_negate(s.Kt, s.HP, m * n);
     inl_chol_solve(s.L, inv, s.Kt, m, n);
     /* NIS = nu^T S^{-1} nu = |L^{-1} nu|^2 */
     memcpy(w, nu, m * sizeof *w);

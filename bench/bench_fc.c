@@ -148,6 +148,9 @@ static int fail(const char *what, size_t N, dkf_status_t st)
 
 /* One repeat: set-up (untimed), then `steps` fusion-centre steps; the
  * time of each call to dkf_diffkf_fc_step into ns[0..steps-1]. */
+static double steady_tol; /* --steady: dkf_diffkf_fc_set_steady's tolerance (0 = off) */
+static long settled_k;    /* the first step whose central gain was reused (-1: none) */
+
 static int run(size_t N, long steps, double *ns, double *start_ns, double *checksum)
 {
     const size_t len = dkf_diffkf_fc_storage_len(NX, N, mi, pi);
@@ -159,11 +162,13 @@ static int run(size_t N, long steps, double *ns, double *start_ns, double *check
     long k;
     double cs = 0.0;
     r.s = 14;
+    settled_k = -1;
     memset(xs, 0, sizeof xs);
     memset(ds, 0, sizeof ds);
     dyn.F = &mF, dyn.Q = &mQ, dyn.B = &mB, dyn.Rd = &mRd;
     *start_ns = bench_now_ns();
     st = dkf_diffkf_fc_init(&fc, fc_nodes, N, NX, mi, pi, storage, len, &mx0, &mP0, NULL, &fault);
+    if (st == DKF_OK) st = dkf_diffkf_fc_set_steady(&fc, (dkf_real_t)steady_tol);
     if (st != DKF_OK) return fail("fc_init", N, st);
     st = dkf_diffkf_fc_start(&fc, &mF, &mQ, sensors, &fault);
     if (st != DKF_OK) return fail("fc_start", N, st);
@@ -187,6 +192,7 @@ static int run(size_t N, long steps, double *ns, double *start_ns, double *check
         st = dkf_diffkf_fc_step(&fc, &mF, &mQ, sensors, msgs, &fault);
         ns[k] = bench_now_ns() - t0;
         if (st != DKF_OK) return fail("fc_step", N, st);
+        if (settled_k < 0 && fc.central.steady) settled_k = k;
     }
     for (i = 0; i < NX; ++i) cs += (double)fc.central.xf.data[i] + (double)fc.central.Pf.data[i * NX + i];
     *checksum = cs;
@@ -210,10 +216,12 @@ int main(int argc, char **argv)
             repeats = atoi(argv[++ai]);
         } else if (strcmp(argv[ai], "--steps") == 0 && ai + 1 < argc) {
             steps_opt = atol(argv[++ai]);
+        } else if (strcmp(argv[ai], "--steady") == 0 && ai + 1 < argc) {
+            steady_tol = atof(argv[++ai]);
         } else if (strcmp(argv[ai], "--target-ms") == 0 && ai + 1 < argc) {
             ++ai; /* accepted for run_bench.sh's common arguments; unused */
         } else {
-            fprintf(stderr, "usage: %s [--N a,b,c] [--repeats R] [--steps S]\n", argv[0]);
+            fprintf(stderr, "usage: %s [--N a,b,c] [--repeats R] [--steps S] [--steady TOL]\n", argv[0]);
             return 2;
         }
     }
@@ -235,8 +243,21 @@ int main(int argc, char **argv)
         for (rp = 0; rp < repeats && rp < 64; ++rp) {
             if (run(N, steps, call_ns, &start[rp], &cs) != 0) return 1;
             first[rp] = call_ns[0];
+            if (steady_tol > 0.0) { /* the steps that reused the gain */
+                const long from = settled_k < 0 ? steps : settled_k;
+                memcpy(steady_ns + nt, call_ns + from, (size_t)(steps - from) * sizeof *call_ns);
+                nt += (size_t)(steps - from);
+                continue;
+            }
             memcpy(steady_ns + nt, call_ns + 1, (size_t)(steps - 1) * sizeof *call_ns);
             nt += (size_t)(steps - 1);
+        }
+        if (steady_tol > 0.0) {
+            printf("fc-steady %s %d %zu %.3g %ld %.1f %zu %ld %d %.17g\n", BENCH_TYPE, NX, N,
+                   steady_tol, settled_k, nt > 0 ? bench_median(steady_ns, (int)nt) : -1.0, nt,
+                   steps, rp, cs);
+            fflush(stdout);
+            continue;
         }
         printf("fc-step %s %d %zu %.1f %.1f %.1f %zu %ld %d %.17g\n", BENCH_TYPE, NX, N,
                bench_median(steady_ns, (int)nt), bench_median(first, rp), bench_median(start, rp),

@@ -30,7 +30,9 @@
 # growth exponent log(t(L2)/t(L1)) / log(L2/L1) between successive L.
 # Then bench_fc (the Difference-KF fusion centre's step against N = 2, 12,
 # 50, 100, 200 nodes), from a build with DKF_MAX_DIM = 1024, with the
-# growth exponent between successive N.
+# growth exponent between successive N; then the same with the steady gain
+# (dkf_diffkf_fc_set_steady: tol 1e-12 double, 1e-5 float; 400 calls), its
+# step after settling beside the recomputing step.
 #
 # bench/build_bench.sh does the builds: the library and bench_kf in Release
 # with -O2 -DNDEBUG ("without special flags": no -march, no -ffast-math, the
@@ -125,6 +127,9 @@ for ((r = 1; r <= rounds; ++r)); do
     "${pin[@]}" "${bigdir[$t]}/bench/bench_wfusion" "$@" | tee -a "$rawwf" >&2
     # the Difference-KF fusion centre against N (its own options only)
     "${pin[@]}" "${fcdir[$t]}/bench/bench_fc" | tee -a "$rawfc" >&2
+    if [[ $t == float ]]; then tol=1e-5; else tol=1e-12; fi
+    "${pin[@]}" "${fcdir[$t]}/bench/bench_fc" --steady "$tol" --steps 400 --repeats 1 |
+      tee -a "$rawfc" >&2
   done
 done
 [[ -n "${BENCH_RAW:-}" ]] && cat "$raw" "$rawuif" "$rawnerts" "$rawwf" "$rawfc" >"$BENCH_RAW"
@@ -262,4 +267,14 @@ awk '
   else printf "%-7s %4s steady %12.1f %5s  first %12.1f  start %12.1f %5s  storage %8.2f %5s\n", ty, N, t, "-", t1, t0, "-", mb, "-"
   pty = ty; pt = t; pN = N; pt0 = t0; pmb = mb }
 /^# fc-step/ { print }' "$rawfc"
+echo "with the steady gain (tol): the call at which the central gain settled, and the median ns of the calls after it,"
+echo "against the steady step above (ratio) and the previous N (exponent)"
+awk '
+/^fc-step / { full[$2 " " $4] = $5 }
+/^fc-steady / { ty = $2; N = $4; t = $7
+  if (t <= 0) { printf "%-7s %4s tol %s: did not settle in %s calls\n", ty, N, $5, $9; next }
+  r = (ty " " N) in full ? t / full[ty " " N] : 0
+  e = (ty == pty) ? sprintf("%5.2f", log(t / pt) / log(N / pN)) : "    -"
+  printf "%-7s %4s tol %-6s settled at %4s  steady %12.1f %s  ratio %.3f\n", ty, N, $5, $6, t, e, r
+  pty = ty; pt = t; pN = N }' "$rawfc"
 exit "$status"

@@ -74,6 +74,11 @@ typedef struct {
      * S^T; the Cholesky factor L'_k = Lc Lc^T and the reciprocals Li of
      * its diagonal, which the update whitens dz with */
     dkf_real_t *Mk, *Ruk, *Ck, *Vtk, *Cnk, *Lc, *Li;
+    /* pending: fix[0] = 1 when this gain may serve the next step too (its
+     * carried outputs are the carry it read, up to the steady tolerance:
+     * dkf_diffkf_set_steady), fix[1] = 1 while the pending gain is such a
+     * gain served again; a gain writes both 0 before anything else */
+    dkf_real_t *fix;
     /* scratch; Apn, Binvn: a new A^+, B^{-1} until commit_caches */
     dkf_real_t *T1, *T2, *T3, *GH, *S, *Ru, *X, *Apn, *Binvn, *svdw, *invw;
     /* not storage: what this call computed anew, for commit_caches (the
@@ -142,6 +147,7 @@ DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, siz
     DKF_TAKE(L->Cnk, p * p);
     DKF_TAKE(L->Lc, p * p);
     DKF_TAKE(L->Li, p);
+    DKF_TAKE(L->fix, 2);
     DKF_TAKE(L->T1, n * n);
     DKF_TAKE(L->T2, n * p);
     DKF_TAKE(L->T3, p * (n + m));
@@ -860,26 +866,42 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
  * update phase reads (possibly in a later call) are copied to the pending
  * area. A new block is computed into the working area and memoised by
  * commit_caches, so a failure part-way never touches the memo. */
+/* Every model input is bitwise the one the memo was computed from. A hit
+ * also proves the inputs finite: they equal inputs that were checked when
+ * the block was computed. (n, m, p are f's, literals in gain_impl's
+ * fixed-size call, fx = 1, which leaves the fusion centre's hint aside.) */
+DKF__INLINE int memo_hit(int fx, const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
+                         const dkf_ui_meas_t *meas_next, size_t n, size_t m, size_t p)
+{
+    if (!f->model_cached || !same_bits(fx, L->mF, dyn->F->data, n * n) ||
+        !same_bits(fx, L->mQ, dyn->Q->data, n * n))
+        return 0;
+    if ((fx || !f->fc_model_same) &&
+        (!same_bits(fx, L->mB, dyn->B->data, p * p) || !same_bits(fx, L->mRd, dyn->Rd->data, p * p) ||
+         !same_bits(fx, L->mH, meas_next->H->data, m * n) ||
+         !same_bits(fx, L->mA, meas_next->D->data, m * p) ||
+         !same_bits(fx, L->mR, meas_next->R->data, m * m)))
+        return 0;
+    return same_bits(fx, L->mApH, L->ApH, p * n) && same_bits(fx, L->mApRAp, L->ApRAp, p * p);
+}
+
+/* The layout's block pointers at the memo. */
+DKF__INLINE void memo_use(layout_t *L)
+{
+    L->G = L->oG;
+    L->M = L->oM;
+    L->Ru = L->oRu;
+    L->S = L->oS;
+    L->GH = L->oGH;
+    L->Cn = L->oCn;
+}
+
 DKF__INLINE dkf_status_t model_block_memo(int fx, const dkf_diffkf_t *f, layout_t *L,
                                           const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas_next,
                                           size_t n, size_t m, size_t p)
 {
-    /* A hit also proves the inputs finite: they equal, bit for bit, inputs
-     * that were checked when the block was computed. (n, m, p are f's,
-     * literals in gain_impl's fixed-size call, fx = 1.) */
-    if (f->model_cached && same_bits(fx, L->mF, dyn->F->data, n * n) &&
-        same_bits(fx, L->mQ, dyn->Q->data, n * n) && same_bits(fx, L->mB, dyn->B->data, p * p) &&
-        same_bits(fx, L->mRd, dyn->Rd->data, p * p) &&
-        same_bits(fx, L->mH, meas_next->H->data, m * n) &&
-        same_bits(fx, L->mA, meas_next->D->data, m * p) &&
-        same_bits(fx, L->mR, meas_next->R->data, m * m) &&
-        same_bits(fx, L->mApH, L->ApH, p * n) && same_bits(fx, L->mApRAp, L->ApRAp, p * p)) {
-        L->G = L->oG;
-        L->M = L->oM;
-        L->Ru = L->oRu;
-        L->S = L->oS;
-        L->GH = L->oGH;
-        L->Cn = L->oCn;
+    if (memo_hit(fx, f, L, dyn, meas_next, n, m, p)) {
+        memo_use(L);
         dkf__copy(L->ApHn, L->oApHn, p * n);
         dkf__copy(L->ApRApn, L->oApRApn, p * p);
         return DKF_OK;
@@ -1175,13 +1197,40 @@ DKF__INLINE dkf_status_t gain_prelude(int fx, dkf_diffkf_t *f, layout_t *L,
 {
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
+    L->fix[0] = L->fix[1] = DKF_R(0.0);
     return model_block_memo(fx, f, L, dyn, meas_next, n, m, p);
+}
+
+/* The steady gain (dkf_diffkf_set_steady): the pending gain serves this
+ * step again when the last step settled it (fix), every row is kept and
+ * the model is the memo's (the one the pending gain was computed from: a
+ * memo miss clears fix before it writes). The carry is then what that
+ * gain carried on: only a commit writes it (and sets fix), and init and
+ * restore clear fix or the memo; P_{k+1|k}, which the caller can reach
+ * through f->Pn, is compared. Only the data term zc is new. 1 if it did. */
+static int gain_reuse(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
+                      const dkf_ui_meas_t *meas_next, size_t pk)
+{
+    const size_t n = f->n, m = f->m, p = f->p;
+    if (f->steady_tol <= DKF_R(0.0) || L->fix[0] == DKF_R(0.0) || pk != p || f->pc != p ||
+        !memo_hit(0, f, L, dyn, meas_next, n, m, p) || !same_bits(0, f->Pn.data, L->Ppn, n * n))
+        return 0;
+    memo_use(L);
+    mul_nn_row1(L->zc, L->wzp, L->Vt, p, p);
+    L->fix[1] = DKF_R(1.0);
+    f->pk = p;
+    f->pending = 1;
+    return 1;
 }
 
 static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
     const size_t n = f->n, m = f->m, p = f->p, pc = f->pc;
+    if (f->steady_tol > DKF_R(0.0)) {
+        DKF_TRY(check_model_shapes(f, dyn, meas_next));
+        if (gain_reuse(f, L, dyn, meas_next, pk)) return DKF_OK;
+    }
 #define DIFFKF_MEMO_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
         DKF_TRY(gain_prelude(1, f, L, dyn, meas_next, (N), (M), (P))); \
@@ -1208,6 +1257,7 @@ dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     pk = kept_rows(idx, rows, f->p);
     map_of(f, &L);
     st = gain_impl(f, &L, dyn, meas_next, idx, pk);
+    f->fc_model_same = 0;
     /* no gain pending (also when the failure came before gain_impl could
      * cancel it): pk describes the last completed step again */
     if (st != DKF_OK) {
@@ -1238,9 +1288,57 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
     return DKF_OK;
 }
 
+/* max |a - b| <= tol max |b| over len reals (finite). */
+static int within(const dkf_real_t *a, const dkf_real_t *b, size_t len, dkf_real_t tol)
+{
+    dkf_real_t d = DKF_R(0.0), s = DKF_R(0.0);
+    size_t i;
+    for (i = 0; i < len; ++i) {
+        const dkf_real_t e = DKF_FABS(a[i] - b[i]), v = DKF_FABS(b[i]);
+        d = e > d ? e : d;
+        s = v > s ? v : s;
+    }
+    return d <= tol * s;
+}
+
+/* Whether the pending gain (pk rows), about to be committed, settles the
+ * recursion for dkf_diffkf_set_steady: every row kept after a step that
+ * kept every row, the same C_{k+1}, and P_{k+1|k}, W and Vt each within
+ * the steady tolerance of the ones the gain read. */
+static int settles(const dkf_diffkf_t *f, const layout_t *L, size_t n, size_t p, size_t pk)
+{
+    const dkf_real_t tol = f->steady_tol;
+    return pk == p && f->pc == p && same_bits(0, L->C, L->Cnk, p * p) &&
+           within(L->Ppn, f->Pn.data, n * n, tol) && within(L->Wn, L->W, n * p, tol) &&
+           within(L->Vtn, L->Vt, p * p, tol);
+}
+
+/* Commits the pending gain (pk rows): the covariances, the step's J, L,
+ * K views, the carry of the next step and the model products it keys on. */
+DKF__INLINE void commit_gain(dkf_diffkf_t *f, const layout_t *L, size_t n, size_t p, size_t pk)
+{
+    memcpy(f->Pf.data, L->Pfn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->Pn.data, L->Ppn, (n * n) * sizeof(dkf_real_t));
+    memcpy(f->J.data, L->Jn, (n * pk) * sizeof(dkf_real_t));
+    memcpy(f->L.data, L->Ln, (pk * pk) * sizeof(dkf_real_t));
+    memcpy(f->K.data, L->Kn, (n * pk) * sizeof(dkf_real_t));
+    f->z.rows = pk;
+    f->dz.rows = pk;
+    f->J.cols = pk;
+    f->L.rows = pk;
+    f->L.cols = pk;
+    f->K.cols = pk;
+    memcpy(L->C, L->Cnk, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L->Vt, L->Vtn, (p * pk) * sizeof(dkf_real_t));
+    memcpy(L->W, L->Wn, (n * pk) * sizeof(dkf_real_t));
+    f->pc = pk;
+    memcpy(L->ApH, L->ApHn, (p * n) * sizeof(dkf_real_t));
+    memcpy(L->ApRAp, L->ApRApn, (p * p) * sizeof(dkf_real_t));
+}
+
 /* The update phase on the storage map L; z (f->pk reals) and y_next
- * already checked. */
-DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
+ * already checked; steady = the steady gain is on (f->steady_tol > 0). */
+DKF__INLINE dkf_status_t update_core(int fx, int steady, dkf_diffkf_t *f, const layout_t *L_,
                                      const dkf_real_t *zk, const dkf_mat_t *y_next, size_t n,
                                      size_t m, size_t p, size_t pk)
 {
@@ -1249,6 +1347,8 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
     dkf_real_t v[4 * DKF_MAX_DIM], apy[DKF_MAX_DIM];
     dkf_real_t *const dz = v, *const wz = v + pk, *const xf = v + 2 * pk, *const xn = xf + n;
     size_t i;
+    const int reused = steady && L->fix[1] != DKF_R(0.0);
+    int settled;
     /* dz = z - M x_{k|k-1} - C L^{-1} dz_{k-1}                          (18) */
     k_mul_vec(fx, dz, L->Mk, f->xn.data, pk, n);
     for (i = 0; i < pk; ++i) dz[i] = zk[i] - dz[i] - L->zc[i];
@@ -1271,32 +1371,21 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
         if (DKF__UNLIKELY(!k_finite(fx, apy, p))) return DKF_ERR_NONFINITE;
     }
 
+    /* the steady gain: may this gain serve the next step too? (a reused
+     * one does: its covariances, gains and carry are already committed) */
+    settled = steady && (reused || settles(f, L, n, p, pk));
     /* commit: caches (a one-phase step's), estimates, the step's
      * quantities (pk rows), and the carry */
     commit_caches(f, L);
     memcpy(f->xp.data, f->xn.data, (n) * sizeof(dkf_real_t));
     memcpy(f->xf.data, xf, (n) * sizeof(dkf_real_t));
-    memcpy(f->Pf.data, L->Pfn, (n * n) * sizeof(dkf_real_t));
     memcpy(f->xn.data, xn, (n) * sizeof(dkf_real_t));
-    memcpy(f->Pn.data, L->Ppn, (n * n) * sizeof(dkf_real_t));
     memcpy(f->z.data, zk, (pk) * sizeof(dkf_real_t));
     memcpy(f->dz.data, dz, (pk) * sizeof(dkf_real_t));
-    memcpy(f->J.data, L->Jn, (n * pk) * sizeof(dkf_real_t));
-    memcpy(f->L.data, L->Ln, (pk * pk) * sizeof(dkf_real_t));
-    memcpy(f->K.data, L->Kn, (n * pk) * sizeof(dkf_real_t));
-    f->z.rows = pk;
-    f->dz.rows = pk;
-    f->J.cols = pk;
-    f->L.rows = pk;
-    f->L.cols = pk;
-    f->K.cols = pk;
-    memcpy(L->C, L->Cnk, (p * pk) * sizeof(dkf_real_t));
-    memcpy(L->Vt, L->Vtn, (p * pk) * sizeof(dkf_real_t));
-    memcpy(L->W, L->Wn, (n * pk) * sizeof(dkf_real_t));
     memcpy(L->wzp, wz, (pk) * sizeof(dkf_real_t));
-    f->pc = pk;
-    memcpy(L->ApH, L->ApHn, (p * n) * sizeof(dkf_real_t));
-    memcpy(L->ApRAp, L->ApRApn, (p * p) * sizeof(dkf_real_t));
+    if (!reused) commit_gain(f, L, n, p, pk);
+    if (steady) L->fix[0] = settled ? DKF_R(1.0) : DKF_R(0.0); /* else 0 since the gain */
+    f->steady = reused;
     f->has_y = y_next != NULL;
     if (y_next != NULL) memcpy(L->Apy, apy, p * sizeof(dkf_real_t));
     f->k += 1;
@@ -1304,16 +1393,18 @@ DKF__INLINE dkf_status_t update_core(int fx, dkf_diffkf_t *f, const layout_t *L_
     return DKF_OK;
 }
 
+
 static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L, const dkf_real_t *zk,
                                 const dkf_mat_t *y_next)
 {
     const size_t n = f->n, m = f->m, p = f->p, pk = f->pk;
+    const int steady = f->steady_tol > DKF_R(0.0);
 #define DIFFKF_UPDATE_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P) && pk == (P)) \
-        return update_core(1, f, L, zk, y_next, (N), (M), (P), (P));
+        return update_core(1, steady, f, L, zk, y_next, (N), (M), (P), (P));
     DKF_DIFFKF_FIXED_SIZES(DIFFKF_UPDATE_FIXED)
 #undef DIFFKF_UPDATE_FIXED
-    return update_core(0, f, L, zk, y_next, n, m, p, pk);
+    return update_core(0, steady, f, L, zk, y_next, n, m, p, pk);
 }
 
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next)
@@ -1364,7 +1455,7 @@ DKF__INLINE dkf_status_t step_fixed(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     DKF_TRY(gain_prelude(1, f, &L, dyn, meas_next, n, m, p));
     DKF_TRY(gain_core(1, f, &L, dyn, NULL, n, p, p, p));
     z_of(1, z, &L, y_next->data, m, p);
-    return update_core(1, f, &L, z, y_next, n, m, p, p);
+    return update_core(1, 0, f, &L, z, y_next, n, m, p, p); /* steady gain off */
 }
 
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
@@ -1379,7 +1470,8 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     if (!f->ready || !f->started || !f->has_y || f->pending) return DKF_ERR_STATE;
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
 #define DIFFKF_STEP_FIXED(N, M, P) \
-    if ((N) <= DKF_MAX_DIM && f->n == (N) && f->m == (M) && f->p == (P) && f->pc == (P)) \
+    if ((N) <= DKF_MAX_DIM && f->n == (N) && f->m == (M) && f->p == (P) && f->pc == (P) && \
+        f->steady_tol <= DKF_R(0.0)) \
         st = step_fixed(f, dyn, meas_next, y_next, (N), (M), (P)); \
     else
     DKF_DIFFKF_FIXED_SIZES(DIFFKF_STEP_FIXED)
@@ -1399,6 +1491,15 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
         f->pk = f->z.rows;
     }
     return st;
+}
+
+dkf_status_t dkf_diffkf_set_steady(dkf_diffkf_t *f, dkf_real_t tol)
+{
+    DKF_CHECK_NULL(f);
+    if (!f->ready) return DKF_ERR_STATE;
+    if (!(tol >= DKF_R(0.0) && tol < DKF_R(1.0))) return DKF_ERR_ARG; /* NaN too */
+    f->steady_tol = tol;
+    return DKF_OK;
 }
 
 dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
@@ -1426,6 +1527,19 @@ size_t dkf__diffkf_carry_len(const dkf_diffkf_t *f)
 {
     const layout_t L = mem_of(f);
     return (size_t)(L.Alast - f->xf.data);
+}
+
+int dkf__diffkf_memo(const dkf_diffkf_t *f, const dkf_real_t **H, const dkf_real_t **D,
+                     const dkf_real_t **R, const dkf_real_t **B, const dkf_real_t **Rd)
+{
+    const layout_t L = mem_of(f);
+    if (!f->model_cached) return 0;
+    *H = L.mH;
+    *D = L.mA;
+    *R = L.mR;
+    *B = L.mB;
+    *Rd = L.mRd;
+    return 1;
 }
 
 size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)

@@ -266,6 +266,19 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
 
+dkf_status_t dkf_diffkf_fc_set_steady(dkf_diffkf_fc_t *fc, dkf_real_t tol)
+{
+    size_t i;
+    DKF_CHECK_NULL(fc);
+    if (!fc->ready) return DKF_ERR_STATE;
+    DKF_TRY(dkf_diffkf_set_steady(&fc->central, tol));
+    for (i = 0; i < fc->l; ++i) {
+        fc->nodes[i].rep.steady_tol = tol;
+        fc->nodes[i].saved.steady_tol = tol;
+    }
+    return DKF_OK;
+}
+
 /* ---- fusion centre: snapshots -------------------------------------------- */
 
 static void save_replicas(dkf_diffkf_fc_t *fc)
@@ -382,23 +395,42 @@ static int block_is(const dkf_real_t *D, size_t cols, size_t r0, size_t c0, cons
  * matrices. A time-invariant model is stacked once: each step then
  * compares the sum of the blocks' sizes instead of writing ms^2 + ps^2
  * reals (issue 14). */
-static int stacked_already(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
-                           int want_input)
+static int blocks_are(const dkf_diffkf_fc_t *fc, const dkf_real_t *H, const dkf_real_t *D,
+                      const dkf_real_t *R, const dkf_real_t *B, const dkf_real_t *Rd,
+                      const dkf_diffkf_sensor_t sensors[], int want_input)
 {
     size_t i, r0 = 0, c0 = 0;
-    if (fc->stacked < 1 + want_input) return 0;
     for (i = 0; i < fc->l; ++i) {
         const dkf_diffkf_sensor_t *s = &sensors[i];
-        if (!block_is(fc->H.data, fc->n, r0, 0, s->meas.H) ||
-            !block_is(fc->D.data, fc->ps, r0, c0, s->meas.D) ||
-            !block_is(fc->R.data, fc->ms, r0, r0, s->meas.R) ||
-            (want_input && (!block_is(fc->B.data, fc->ps, c0, c0, s->B) ||
-                            !block_is(fc->Rd.data, fc->ps, c0, c0, s->Rd))))
+        if (!block_is(H, fc->n, r0, 0, s->meas.H) || !block_is(D, fc->ps, r0, c0, s->meas.D) ||
+            !block_is(R, fc->ms, r0, r0, s->meas.R) ||
+            (want_input &&
+             (!block_is(B, fc->ps, c0, c0, s->B) || !block_is(Rd, fc->ps, c0, c0, s->Rd))))
             return 0;
         r0 += fc->nodes[i].m;
         c0 += fc->nodes[i].p;
     }
     return 1;
+}
+
+static int stacked_already(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
+                           int want_input)
+{
+    return fc->stacked >= 1 + want_input &&
+           blocks_are(fc, fc->H.data, fc->D.data, fc->R.data, fc->B.data, fc->Rd.data, sensors,
+                      want_input);
+}
+
+/* 1 if the central filter's model memo holds the stacked model of these
+ * sensors (after stack_model): its inputs B, Rd, H, D, R are copies of
+ * this centre's stacked arrays (the central filter steps only on them),
+ * so they have zeros outside the blocks too, and equal blocks make them
+ * bitwise the arrays. */
+static int memo_is_stacked(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[])
+{
+    const dkf_real_t *H, *D, *R, *B, *Rd;
+    return dkf__diffkf_memo(&fc->central, &H, &D, &R, &B, &Rd) &&
+           blocks_are(fc, H, D, R, B, Rd, sensors, 1);
 }
 
 /* fc->H, D, R (and B, Rd when want_input) from the sensors' models
@@ -620,6 +652,9 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     cmeas.H = &fc->H;
     cmeas.D = &fc->D;
     cmeas.R = &fc->R;
+    /* the central filter need not compare the stacked model with its memo,
+     * O(ms^2 + ps^2), when this centre finds them equal in O(N) */
+    fc->central.fc_model_same = memo_is_stacked(fc, sensors);
     st = dkf_diffkf_gain_masked(&fc->central, &cdyn, &cmeas, rows);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
 
@@ -697,6 +732,7 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
     nd->saved = nd->rep;
     memcpy(nd->saved_store, nd->store, nd->store_len * sizeof(dkf_real_t));
     st = dkf_diffkf_init(&nd->rep, fc->n, nd->m, nd->p, nd->store, nd->store_len, &x0, P_prior);
+    nd->rep.steady_tol = nd->saved.steady_tol; /* the centre's setting, which init cleared */
     if (st == DKF_OK) st = dkf_diffkf_start(&nd->rep, NULL, NULL, &sensor_at_kstart->meas, NULL);
     if (st != DKF_OK) {
         nd->rep = nd->saved;

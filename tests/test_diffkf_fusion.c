@@ -1223,6 +1223,224 @@ static void test_fc_degraded_atomicity(void **state)
 
 /* Every condition has its own text, none of them the fallback; a value
  * past the enum gets the fallback (one table for every host program). */
+/* ---- the steady gain (dkf_diffkf_set_steady, docs/diffkf-fusion.md §11) ---------
+ *
+ * STEADY_TOL, the setting: the relative change per step of P_{k+1|k}, W and
+ * Vt at which the gain settles. The recursion converges geometrically and
+ * then moves only by rounding (measured on bench_fc's model: 1e-16 to
+ * 1.3e-15 relative per step in double), so 1e-12 (~5000 eps) in double and
+ * 1e-5 (~80 eps) in float settle it some steps before the rounding floor.
+ * Steady against recomputed, max|a - b| / max(1, max|b|) over every step
+ * and estimate: the external bound is FUSED_REL (the claim that the centre
+ * equals the central DKF, which the steady centre must keep); STEADY_REG a
+ * regression bound. Measured (x86-64): double 4.9e-12 (one filter) and
+ * 1.9e-11 (centre), so 1e-10; float 4.0e-5 and 1.4e-4, so 5e-4. The gain
+ * settles while the recursion still moves by up to tol per step, and its
+ * remaining path to the fixed point is about tol / (1 - rate) (rate 0.8
+ * to 0.95 per step here), which the closed loop passes on to x. */
+#if DKF_USE_FLOAT
+#define STEADY_TOL 1e-5
+#define STEADY_REG 5e-4
+#else
+#define STEADY_TOL 1e-12
+#define STEADY_REG 1e-10
+#endif
+
+static void steady_close(double *worst, const dkf_diffkf_t *a, const dkf_diffkf_t *b)
+{
+    const size_t n = a->n;
+    const double tol = STEADY_REG < FUSED_REL ? STEADY_REG : FUSED_REL;
+    close_real(worst, "xf", a->xf.data, b->xf.data, n, tol);
+    close_real(worst, "Pf", a->Pf.data, b->Pf.data, n * n, tol);
+    close_real(worst, "xn", a->xn.data, b->xn.data, n, tol);
+    close_real(worst, "Pn", a->Pn.data, b->Pn.data, n * n, tol);
+}
+
+static void test_steady_args(void **state)
+{
+    static hworld_t w;
+    static dkf_real_t st[H_LOC_LEN];
+    const size_t m[2] = {3, 2}, p[2] = {2, 1};
+    const dkf_real_t bad[4] = {DKF_R(-1e-12), DKF_R(1.0), (dkf_real_t)NAN, (dkf_real_t)INFINITY};
+    dkf_diffkf_t f;
+    size_t i;
+    (void)state;
+    memset(&f, 0, sizeof f);
+    assert_int_equal(dkf_diffkf_set_steady(NULL, DKF_R(1e-5)), DKF_ERR_NULL);
+    assert_int_equal(dkf_diffkf_set_steady(&f, DKF_R(1e-5)), DKF_ERR_STATE);
+    assert_int_equal(dkf_diffkf_fc_set_steady(NULL, DKF_R(1e-5)), DKF_ERR_NULL);
+    memset(&w.fc, 0, sizeof w.fc);
+    assert_int_equal(dkf_diffkf_fc_set_steady(&w.fc, DKF_R(1e-5)), DKF_ERR_STATE);
+    hmodel(&w.h, 2, m, p, 61);
+    assert_int_equal(dkf_diffkf_init(&f, HN, 3, 2, st, H_LOC_LEN, &w.h.mx0, &w.h.mP0), DKF_OK);
+    test_rng_seed(&w.rng, 63);
+    h_start(&w);
+    assert_true(f.steady_tol == 0); /* off after init */
+    assert_int_equal(dkf_diffkf_set_steady(&f, DKF_R(1e-5)), DKF_OK);
+    assert_int_equal(dkf_diffkf_fc_set_steady(&w.fc, DKF_R(1e-5)), DKF_OK);
+    for (i = 0; i < 4; ++i) {
+        assert_int_equal(dkf_diffkf_set_steady(&f, bad[i]), DKF_ERR_ARG);
+        assert_int_equal(dkf_diffkf_fc_set_steady(&w.fc, bad[i]), DKF_ERR_ARG);
+        assert_true(f.steady_tol == DKF_R(1e-5));
+        assert_true(w.fc.central.steady_tol == DKF_R(1e-5));
+        assert_true(w.fc.nodes[1].rep.steady_tol == DKF_R(1e-5));
+    }
+    assert_int_equal(dkf_diffkf_set_steady(&f, 0), DKF_OK);
+    assert_true(f.steady_tol == 0);
+}
+
+/* One Difference KF with the steady gain (a) against one that computes
+ * every gain (b), on the same data: a settles, stays within the bounds,
+ * and computes its gain afresh after each event that invalidates the
+ * settled one (P_{k+1|k} written by the caller, a model change, a masked
+ * row, a restore), settling again afterwards. A refused step on a settled
+ * filter changes nothing, the next step still reuses the gain. */
+static void test_steady_diffkf(void **state)
+{
+    static hmodel_t h;
+    static dkf_real_t sa[H_LOC_LEN], sb[H_LOC_LEN], ck[H_LOC_LEN], snap[H_LOC_LEN];
+    const size_t m[1] = {3}, p[1] = {2}, K = 680;
+    const size_t events[4] = {200, 320, 440, 560};
+    const unsigned char rows[2] = {1, 0};
+    dkf_diffkf_t a, b, keep;
+    dkf_real_t y[HM];
+    dkf_mat_t my = DKF_MAT(3, 1, y), zk;
+    test_rng_t rng;
+    double tmp[HM], worst = 0;
+    size_t k, e = 0, settled = 0, reused = 0;
+    (void)state;
+    hmodel(&h, 1, m, p, 41);
+    h.F[0] = h.F[10] = DKF_R(0.8); /* damped: one sensor cannot pin the state */
+    h.F[5] = h.F[15] = DKF_R(0.5);
+    test_rng_seed(&rng, 43);
+    test_rand_gauss(&rng, tmp, 3, 1);
+    test_to_real(y, tmp, 3);
+    assert_int_equal(dkf_diffkf_init(&a, HN, 3, 2, sa, H_LOC_LEN, &h.mx0, &h.mP0), DKF_OK);
+    assert_int_equal(dkf_diffkf_init(&b, HN, 3, 2, sb, H_LOC_LEN, &h.mx0, &h.mP0), DKF_OK);
+    assert_int_equal(dkf_diffkf_start(&a, &h.mF, &h.mQ, &h.sens[0].meas, &my), DKF_OK);
+    assert_int_equal(dkf_diffkf_start(&b, &h.mF, &h.mQ, &h.sens[0].meas, &my), DKF_OK);
+    assert_int_equal(dkf_diffkf_set_steady(&a, (dkf_real_t)STEADY_TOL), DKF_OK);
+    for (k = 1; k <= K; ++k) {
+        const int event = e < 4 && k == events[e];
+        test_rand_gauss(&rng, tmp, 3, 1);
+        test_to_real(y, tmp, 3);
+        if (k == 150) { /* settled by now: a refused step changes nothing */
+            assert_true(a.steady);
+            keep = a;
+            memcpy(snap, sa, sizeof sa);
+            h.mH[0].cols = 3;
+            assert_int_equal(dkf_diffkf_step(&a, &h.dyn[0], &h.sens[0].meas, &my), DKF_ERR_DIM);
+            h.mH[0].cols = HN;
+            assert_memory_equal(&keep, &a, sizeof a);
+            assert_memory_equal(snap, sa,
+                                (DKF_DIFFKF_STATE_LEN(HN, 3, 2) + DKF_DIFFKF_PENDING_LEN(HN, 3, 2)) *
+                                    sizeof(dkf_real_t));
+        }
+        if (event && e == 0) { /* the caller writes P_{k|k-1} */
+            a.Pn.data[0] += 1;
+            b.Pn.data[0] += 1;
+        } else if (event && e == 1) { /* a model change */
+            h.Q[0] *= 2;
+        } else if (event && e == 3) { /* a restore (of the state it has) */
+            assert_int_equal(dkf_diffkf_save(&a, ck, H_LOC_LEN), DKF_OK);
+            assert_int_equal(dkf_diffkf_restore(&a, ck, H_LOC_LEN), DKF_OK);
+        }
+        if (event && e == 2) { /* a step with a masked row, in two phases */
+            dkf_diffkf_t *const fs[2] = {&a, &b};
+            size_t j;
+            for (j = 0; j < 2; ++j) {
+                dkf_mat_t M, Kp, zc;
+                dkf_real_t z1[1];
+                assert_int_equal(dkf_diffkf_gain_masked(fs[j], &h.dyn[0], &h.sens[0].meas, rows),
+                                 DKF_OK);
+                assert_int_equal(dkf_diffkf_pending(fs[j], &M, &Kp, &zc), DKF_OK);
+                z1[0] = zc.data[0] + DKF_R(0.5); /* any datum */
+                zk = (dkf_mat_t)DKF_MAT(1, 1, z1);
+                assert_int_equal(dkf_diffkf_update_z(fs[j], &zk, &my), DKF_OK);
+            }
+        } else {
+            assert_int_equal(dkf_diffkf_step(&a, &h.dyn[0], &h.sens[0].meas, &my), DKF_OK);
+            assert_int_equal(dkf_diffkf_step(&b, &h.dyn[0], &h.sens[0].meas, &my), DKF_OK);
+        }
+        if (event) {
+            assert_false(a.steady);
+            /* settled again before the next event */
+            e += 1;
+        } else if (k + 1 == (e < 4 ? events[e] : K + 1)) {
+            assert_true(a.steady); /* settled before each event and at the end */
+        }
+        if (a.steady && settled == 0) settled = k;
+        reused += a.steady ? 1u : 0u;
+        steady_close(&worst, &a, &b);
+    }
+    assert_true(settled > 0 && settled < 150);
+    print_message("steady DKF: settled at k = %zu, %zu of %zu steps reused the gain, "
+                  "max rel diff %.3e\n",
+                  settled, reused, K, worst);
+}
+
+/* The fusion centre with the steady gain (a) against one without (b), on
+ * the same messages: within the bounds every step; an absent node, then a
+ * model change whose first call fails after the model was restacked (the
+ * centre's hint that the stacked model is the memo's must not survive it)
+ * each make the central filter compute its gain afresh, and it settles
+ * again. */
+static void test_steady_fc(void **state)
+{
+    static hworld_t a, b;
+    const size_t m[3] = {3, 2, 3}, p[3] = {2, 1, 2}, K = 480;
+    const unsigned char absent1[3] = {1, 0, 1};
+    dkf_diffkf_fc_fault_t f;
+    dkf_diffkf_msg_t keep;
+    double worst = 0;
+    size_t k, settled = 0, reused = 0;
+    (void)state;
+    hmodel(&a.h, 3, m, p, 51);
+    hmodel(&b.h, 3, m, p, 51);
+    test_rng_seed(&a.rng, 53);
+    test_rng_seed(&b.rng, 53);
+    h_start(&a);
+    h_start(&b);
+    assert_int_equal(dkf_diffkf_fc_set_steady(&a.fc, (dkf_real_t)STEADY_TOL), DKF_OK);
+    for (k = 1; k <= K; ++k) {
+        if (k == 340) { /* node 0's R from step 340's model (time 341) on */
+            a.h.R[0][0] *= 2;
+            b.h.R[0][0] *= 2;
+        }
+        h_nodes_step(&a);
+        h_nodes_step(&b);
+        if (k == 200) {
+            assert_int_equal(dkf_diffkf_fc_step_partial(&a.fc, &a.h.mF, &a.h.mQ, a.h.sens, a.msgs,
+                                                        absent1, NULL, &f),
+                             DKF_OK);
+            assert_int_equal(dkf_diffkf_fc_step_partial(&b.fc, &b.h.mF, &b.h.mQ, b.h.sens, b.msgs,
+                                                        absent1, NULL, &f),
+                             DKF_OK);
+            assert_false(a.fc.central.steady);
+        } else {
+            if (k == 340) { /* fails in node 2's recovery, after the restacking */
+                keep = a.msgs[2];
+                a.msgs[2].xf[0] = DKF_REAL_MAX;
+                a.msgs[2].xp[0] = -DKF_REAL_MAX;
+                assert_int_equal(h_fc_step(&a, &f), DKF_ERR_NONFINITE);
+                expect_fault(&f, DKF_DIFFKF_FC_NONFINITE, 2);
+                a.msgs[2] = keep;
+            }
+            assert_int_equal(h_fc_step(&a, &f), DKF_OK);
+            assert_int_equal(h_fc_step(&b, &f), DKF_OK);
+            if (k == 340) assert_false(a.fc.central.steady);
+            if (k == 199 || k == 339 || k == K) assert_true(a.fc.central.steady);
+        }
+        if (a.fc.central.steady && settled == 0) settled = k;
+        reused += a.fc.central.steady ? 1u : 0u;
+        steady_close(&worst, &a.fc.central, &b.fc.central);
+    }
+    assert_true(settled > 0 && settled < 199);
+    print_message("steady FC: settled at k = %zu, %zu of %zu steps reused the gain, "
+                  "max rel diff %.3e\n",
+                  settled, reused, K, worst);
+}
+
 static void test_cond_str(void **state)
 {
     const char *seen[DKF_DIFFKF_FC_SEQUENCE + 1];
@@ -1256,6 +1474,9 @@ int main(void)
         cmocka_unit_test(test_fc_restart_and_late_node),
         cmocka_unit_test(test_fc_checkpoint_rollback_replay),
         cmocka_unit_test(test_fc_degraded_atomicity),
+        cmocka_unit_test(test_steady_args),
+        cmocka_unit_test(test_steady_diffkf),
+        cmocka_unit_test(test_steady_fc),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -45,7 +45,7 @@
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
-     + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 4 * (p) \
+     + 4 * (n) * (n) + 12 * (n) * (p) + 16 * (p) * (p) + 4 * (m) * (p) + 4 * (p) + 2 \
      /* carried, caches of D^+ and B^{-1}, pending gain, row selection and data, scratch */ \
      + 2 * (n) * (n) + (n) * (p) + 3 * (p) * (p) + (m) * (p) + (m) * (n) + (m) * (m) \
      /* the model inputs of the memoised model-only block */ \
@@ -76,7 +76,7 @@
  * state, which a failed dkf_diffkf_update_z or a refused dkf_diffkf_step
  * leave bit-identical too. */
 #define DKF_DIFFKF_PENDING_LEN(n, m, p) \
-    ((p) * (m) + 6 * (n) * (p) + 9 * (p) * (p) + 3 * (n) * (n) + 2 * (p))
+    ((p) * (m) + 6 * (n) * (p) + 9 * (p) * (p) + 3 * (n) * (n) + 2 * (p) + 2)
 
 typedef struct {
     size_t n, m, p;
@@ -112,6 +112,12 @@ typedef struct {
     unsigned long cache_gen; /* counts the calls that wrote the caches: a copy
                                 of them taken at one value is current while
                                 the value holds (the fusion centre's snapshot) */
+    dkf_real_t steady_tol;   /* dkf_diffkf_set_steady's tolerance; 0 = off */
+    int steady;              /* the last completed step reused the settled gain
+                                (dkf_diffkf_set_steady) */
+    int fc_model_same;       /* private to the fusion centre: set before a gain
+                                whose B, Rd, H, D, R are bitwise the inputs of
+                                the model memo; every gain clears it */
 } dkf_diffkf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):
@@ -173,6 +179,21 @@ dkf_status_t dkf_diffkf_pending(const dkf_diffkf_t *f, dkf_mat_t *M, dkf_mat_t *
  * may be NULL; if given, D_{k+1}^+ y_{k+1} is stored so that a later
  * dkf_diffkf_step can difference against it. */
 dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_mat_t *y_next);
+
+/* The steady gain, for a time-invariant model: with tol > 0, a step
+ * whose P_{k+1|k}, W_k and whitened carry Vt each moved by at most tol
+ * relative to their largest entry (max |new - old| <= tol max |old|),
+ * with every row kept in it and the step before, settles the gain; while
+ * the model (every matrix, bitwise) stays the same and every row is kept,
+ * the following steps reuse that gain and apply only their data (the
+ * cost of dkf_diffkf_update_z plus one p x p product, instead of the
+ * O(n^3 + p^3) gain). Any other step, a model change, a restore or a
+ * masked row computes the gain afresh. The estimates then differ from the
+ * recomputed ones by the gain's motion below tol (the recursion converges
+ * to a fixed point up to rounding; docs/diffkf-fusion.md §11 measures it).
+ * tol = 0 (the default after init) is off: every step computes its gain.
+ * DKF_ERR_ARG unless 0 <= tol < 1; DKF_ERR_STATE before init. */
+dkf_status_t dkf_diffkf_set_steady(dkf_diffkf_t *f, dkf_real_t tol);
 
 /* Sets the time index k of xf. A filter (re)started at an absolute time
  * k_start (dkf_diffkf_init + dkf_diffkf_start with F0 = Q0 = NULL) counts

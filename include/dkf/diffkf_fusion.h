@@ -226,6 +226,17 @@ dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const d
                                 const dkf_diffkf_sensor_t sensors[], const dkf_diffkf_msg_t msgs[],
                                 dkf_diffkf_fc_fault_t *fault);
 
+/* The steady gain (dkf_diffkf_set_steady) for the central filter and
+ * every replica: with tol > 0 and a time-invariant model, once the
+ * covariance recursion has settled to tol, a step with every node present
+ * and in sync reuses the last gains and costs O(N) work plus O(p^2) for
+ * the central carry instead of O(p^3) (docs/diffkf-fusion.md §11 measures
+ * the cost and the distance to the recomputed centre). 0 (the default)
+ * is off; DKF_ERR_ARG unless 0 <= tol < 1; DKF_ERR_STATE before init.
+ * With it on, a checkpoint restore recomputes the gains, so the steps
+ * after it agree with the saved centre's to the tolerance, not bitwise. */
+dkf_status_t dkf_diffkf_fc_set_steady(dkf_diffkf_fc_t *fc, dkf_real_t tol);
+
 /* ---- degraded steps (docs/diffkf-fusion.md §8) ------------------------------ */
 
 /* As dkf_diffkf_fc_step with some node messages absent (present[i] == 0;

@@ -1,8 +1,9 @@
 /*
  * fuzz_core_diffkf - the Difference KF (dkf/diffkf.h): init, start, then
  * up to 24 one-phase steps, masked gains, updates with z, checkpoint
- * restores (of a byte-edited checkpoint) and out-of-sequence calls, on
- * byte-edited models (fuzz_core.h). Property: a failed call leaves the
+ * restores (of a byte-edited checkpoint), the steady gain switched on and
+ * off, and out-of-sequence calls, on byte-edited models (fuzz_core.h).
+ * Property: a failed call leaves the
  * struct and DKF_DIFFKF_STATE_LEN reals of storage byte-identical, and the
  * pending gain (DKF_DIFFKF_PENDING_LEN more) while one is pending, except
  * that a failed gain sets pending = 0, pk = z.rows as documented; after a
@@ -95,7 +96,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             s = dkf_diffkf_update_z(&f, f.pk == 0 && (code & 8) ? NULL : &zv.v,
                                     code & 16 ? NULL : &yv.v);
             break;
-        default: /* save a checkpoint, or restore a byte-edited one */
+        default: /* the steady gain on (tol 0.5: it settles often) or off; or save a
+                  checkpoint, or restore a byte-edited one */
+            if ((code & 192) == 192) {
+                FZ_CHECK(dkf_diffkf_set_steady(&f, f.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) == DKF_OK);
+                continue;
+            }
             if (code & 8) {
                 cklen = dkf_diffkf_checkpoint_len(&f);
                 FZ_CHECK(cklen <= sizeof ck / sizeof ck[0]);

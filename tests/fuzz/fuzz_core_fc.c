@@ -2,7 +2,8 @@
  * fuzz_core_fc - the Difference-KF fusion centre (dkf/diffkf_fusion.h):
  * init for l <= 3 sensors, then up to 16 calls: start, steps, degraded
  * steps (byte-chosen present[]), node restarts (node and k_start chosen,
- * so some are out of range or out of sequence), checkpoint saves and
+ * so some are out of range or out of sequence), the steady gain switched
+ * on and off, checkpoint saves and
  * restores of byte-edited checkpoints, all on byte-edited models and
  * messages (node, step, n, any real in x_{k|k}, x_{k|k-1}). Property: a
  * failed call leaves *fc, nodes[0..l-1] and the first
@@ -159,7 +160,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                                            &fault);
             break;
         }
-        default: /* save a checkpoint, or restore a byte-edited one */
+        default: /* the steady gain on (tol 0.5: it settles often) or off; or save a
+                  checkpoint, or restore a byte-edited one */
+            if ((code & 192) == 192) {
+                FZ_CHECK(dkf_diffkf_fc_set_steady(&fc, fc.central.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) == DKF_OK);
+                continue;
+            }
             if (code & 8) {
                 cklen = dkf_diffkf_fc_checkpoint_len(&fc);
                 FZ_CHECK(cklen <= sizeof ck / sizeof ck[0]);

@@ -860,12 +860,6 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
     return DKF_OK;
 }
 
-/* model_block, skipped when every model input is bitwise the one it was
- * last computed from (a time-invariant model then pays for it once): the
- * layout's block pointers then point at the memo, and the products the
- * update phase reads (possibly in a later call) are copied to the pending
- * area. A new block is computed into the working area and memoised by
- * commit_caches, so a failure part-way never touches the memo. */
 /* Every model input is bitwise the one the memo was computed from. A hit
  * also proves the inputs finite: they equal inputs that were checked when
  * the block was computed. (n, m, p are f's, literals in gain_impl's
@@ -896,6 +890,12 @@ DKF__INLINE void memo_use(layout_t *L)
     L->Cn = L->oCn;
 }
 
+/* model_block, skipped when every model input is bitwise the one it was
+ * last computed from (a time-invariant model then pays for it once): the
+ * layout's block pointers then point at the memo, and the products the
+ * update phase reads (possibly in a later call) are copied to the pending
+ * area. A new block is computed into the working area and memoised by
+ * commit_caches, so a failure part-way never touches the memo. */
 DKF__INLINE dkf_status_t model_block_memo(int fx, const dkf_diffkf_t *f, layout_t *L,
                                           const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas_next,
                                           size_t n, size_t m, size_t p)
@@ -1392,7 +1392,6 @@ DKF__INLINE dkf_status_t update_core(int fx, int steady, dkf_diffkf_t *f, const 
     f->pending = 0;
     return DKF_OK;
 }
-
 
 static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L, const dkf_real_t *zk,
                                 const dkf_mat_t *y_next)

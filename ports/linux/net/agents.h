@@ -110,6 +110,11 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         const char *prefix, int64_t deadline_us, char *err,
                                         size_t errlen);
 void dkf_net_fusion_free(dkf_net_fusion_t *fu);
+/* The core's steady gain (dkf_diffkf_fc_set_steady, docs/diffkf-fusion.md
+ * §11) with tolerance tol; the result's counters.steady_gain_steps counts
+ * the steps that reused it. -1 for a tol the core refuses, or a
+ * weighted-fusion centre (it has no gain recursion to settle). */
+int dkf_net_fusion_steady(dkf_net_fusion_t *fu, double tol);
 /* Appends one JSON line per computed step to f (first computation and
  * every replay; flushed, so the results survive a killed process), after a
  * header line; f stays the caller's (NULL: no journal). docs/network.md. */

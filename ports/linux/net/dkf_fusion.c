@@ -43,6 +43,10 @@ static void usage(FILE *f)
             "                          flushed; default with --output: FILE.jsonl)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
+            "      --steady TOL        reuse the centre's gain once the covariance recursion\n"
+            "                          moves by less than TOL (relative) per step, for a\n"
+            "                          time-invariant model (docs/diffkf-fusion.md §11;\n"
+            "                          default 0: recompute every step)\n"
             DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
@@ -69,6 +73,7 @@ int main(int argc, char **argv)
         {"ready-file", required_argument, NULL, 'R'}, {"quiet", no_argument, NULL, 'q'},
         {"key-dir", required_argument, NULL, 'K'},
         {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
+        {"steady", required_argument, NULL, 'S'},
         {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
     const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL, *out = NULL;
     const char *key_dir = NULL;
@@ -77,7 +82,7 @@ int main(int argc, char **argv)
     char jdefault[4096];
     FILE *jf = NULL;
     double deadline_ms = DKF_NET_DEADLINE_US / 1000, hb_ms = DKF_NET_HEARTBEAT_US / 1000;
-    double timeout = 0;
+    double timeout = 0, steady = 0;
     int quiet = 0, c, code;
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s;
@@ -98,6 +103,7 @@ int main(int argc, char **argv)
         case 'K': key_dir = optarg; break;
         case 'L': ports |= DKF_CLI_SPLIT; break;
         case 'Y': ports |= DKF_CLI_DIRECT; break;
+        case 'S': if (dkf_cli_num(prog, "--steady", optarg, 0, 0.5, &steady)) return DKF_EXIT_USAGE; break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -119,6 +125,11 @@ int main(int argc, char **argv)
         }
     }
     fu = dkf_net_fusion_create(net, s, prefix, (int64_t)(deadline_ms * 1000), err, sizeof err);
+    if (fu != NULL && steady > 0 && dkf_net_fusion_steady(fu, steady) != 0) {
+        snprintf(err, sizeof err, "--steady: a weighted-fusion centre has no gain to settle");
+        dkf_net_fusion_free(fu);
+        fu = NULL;
+    }
     if (fu == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_net_close(net);

@@ -21,12 +21,13 @@ static const char *prog = "dkf-net-local";
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: %s [--output FILE] [--run R] [--quiet] SCENARIO.json\n"
+            "usage: %s [--output FILE] [--run R] [--steady TOL] [--quiet] SCENARIO.json\n"
             "Runs dkf-sim --lockstep, one dkf-node per sensor and dkf-fusion as agents in one\n"
             "process over memq:// (nothing touches the network) and writes dkf-fusion's\n"
             "result file.\n"
             "  -o, --output FILE   result (JSON, as dkf-fusion --output)\n"
             "      --run R         Monte-Carlo run to publish (default 0)\n"
+            "      --steady TOL    the centre's steady gain (as dkf-fusion --steady)\n"
             "  -q, --quiet         no summary line\n"
             "  -h, --help          this text\n"
             "Exit: 0 every step fused, 2 bad options/scenario, 3 failure.\n",
@@ -37,10 +38,11 @@ int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'}, {"run", required_argument, NULL, 'n'},
+        {"steady", required_argument, NULL, 'S'},
         {"quiet", no_argument, NULL, 'q'},        {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     const char *out = NULL;
-    double run = 0;
+    double run = 0, steady = 0;
     int quiet = 0, c, code = DKF_EXIT_OK;
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s;
@@ -55,6 +57,7 @@ int main(int argc, char **argv)
         switch (c) {
         case 'o': out = optarg; break;
         case 'n': if (dkf_cli_num(prog, "--run", optarg, 0, 1e9, &run)) return DKF_EXIT_USAGE; break;
+        case 'S': if (dkf_cli_num(prog, "--steady", optarg, 0, 0.5, &steady)) return DKF_EXIT_USAGE; break;
         case 'q': quiet = 1; break;
         case 'h': usage(stdout); return DKF_EXIT_OK;
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
@@ -75,6 +78,11 @@ int main(int argc, char **argv)
     }
     sim = dkf_net_sim_create(net, s, DKF_NET_PREFIX, err, sizeof err);
     fu = sim ? dkf_net_fusion_create(net, s, DKF_NET_PREFIX, 0, err, sizeof err) : NULL;
+    if (fu != NULL && steady > 0 && dkf_net_fusion_steady(fu, steady) != 0) {
+        snprintf(err, sizeof err, "--steady: a weighted-fusion centre has no gain to settle");
+        dkf_net_fusion_free(fu);
+        fu = NULL;
+    }
     for (i = 0; fu != NULL && i < s->nsensors; ++i)
         /* the node role of the scenario's kind: seed 002's local KF, else the DKF */
         if ((nodes[i] = dkf_net_node_create(net, s,

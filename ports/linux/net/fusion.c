@@ -51,6 +51,7 @@ struct dkf_net_fusion {
     record_t rec;
     dkf_net_counts_t c;
     int64_t seq, last_beat;
+    int64_t steady_steps;         /* computed steps that reused the settled gain */
 };
 
 static void to_double(double *dst, const dkf_real_t *src, size_t len)
@@ -166,6 +167,7 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
             break;
     }
     if (st != DKF_OK) return -1;
+    fu->steady_steps += fu->fc.central.steady ? 1 : 0;
     to_double(fu->rec.xf + j * n, fu->fc.central.xf.data, n);
     to_double(fu->rec.Pf + j * n * n, fu->fc.central.Pf.data, n * n);
     memcpy(contrib, fu->contrib, l);
@@ -496,11 +498,16 @@ const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu)
 }
 
 /* The result document (fusion_result.h) with outputs.fused.{xf,xp,Pf,Pp}. */
+int dkf_net_fusion_steady(dkf_net_fusion_t *fu, double tol)
+{
+    return fu->wf == NULL && dkf_diffkf_fc_set_steady(&fu->fc, (dkf_real_t)tol) == DKF_OK ? 0 : -1;
+}
+
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
 {
     const size_t n = fu->n, K = fu->wf != NULL ? 0 : (size_t)dkf_fcr_done_k(fu->rt);
     dkf_fcr_doc_info_t info;
-    json_t *outputs, *fused;
+    json_t *outputs, *fused, *doc;
     if (fu->wf != NULL) return dkf_net_wfusion_result(fu->wf);
     info = doc_info(fu);
     outputs = json_object();
@@ -510,5 +517,8 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     dkf_fcr_json_set_rows(fused, "Pf", fu->rec.Pf, K, n, n);
     dkf_fcr_json_set_rows(fused, "Pp", fu->rec.Pp, K, n, n);
     json_object_set_new(outputs, "fused", fused);
-    return dkf_fcr_result_doc(fu->rt, &info, outputs);
+    doc = dkf_fcr_result_doc(fu->rt, &info, outputs);
+    json_object_set_new(json_object_get(doc, "counters"), "steady_gain_steps",
+                        json_integer((json_int_t)fu->steady_steps));
+    return doc;
 }

@@ -1362,12 +1362,11 @@ static void test_steady_diffkf(void **state)
             assert_int_equal(dkf_diffkf_step(&a, &h.dyn[0], &h.sens[0].meas, &my), DKF_OK);
             assert_int_equal(dkf_diffkf_step(&b, &h.dyn[0], &h.sens[0].meas, &my), DKF_OK);
         }
-        if (event) {
+        if (event) { /* the gain was computed afresh */
             assert_false(a.steady);
-            /* settled again before the next event */
             e += 1;
         } else if (k + 1 == (e < 4 ? events[e] : K + 1)) {
-            assert_true(a.steady); /* settled before each event and at the end */
+            assert_true(a.steady); /* settled again before each event and at the end */
         }
         if (a.steady && settled == 0) settled = k;
         reused += a.steady ? 1u : 0u;

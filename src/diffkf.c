@@ -1189,13 +1189,12 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
  * row once the carry is full (pk = pc = p): all others take the
  * run-time-size expansion. */
 
-/* What a gain does before gain_core: the model's shapes, the pending
- * gain cancelled, the model-only block (model_block_memo). */
+/* What a gain does before gain_core, once the model's shapes are checked:
+ * the pending gain cancelled, the model-only block (model_block_memo). */
 DKF__INLINE dkf_status_t gain_prelude(int fx, dkf_diffkf_t *f, layout_t *L,
                                       const dkf_ui_dyn_t *dyn, const dkf_ui_meas_t *meas_next,
                                       size_t n, size_t m, size_t p)
 {
-    DKF_TRY(check_model_shapes(f, dyn, meas_next));
     f->pending = 0;
     L->fix[0] = L->fix[1] = DKF_R(0.0);
     return model_block_memo(fx, f, L, dyn, meas_next, n, m, p);
@@ -1227,10 +1226,8 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *
                               const dkf_ui_meas_t *meas_next, const size_t *idx, size_t pk)
 {
     const size_t n = f->n, m = f->m, p = f->p, pc = f->pc;
-    if (f->steady_tol > DKF_R(0.0)) {
-        DKF_TRY(check_model_shapes(f, dyn, meas_next));
-        if (gain_reuse(f, L, dyn, meas_next, pk)) return DKF_OK;
-    }
+    DKF_TRY(check_model_shapes(f, dyn, meas_next));
+    if (f->steady_tol > DKF_R(0.0) && gain_reuse(f, L, dyn, meas_next, pk)) return DKF_OK;
 #define DIFFKF_MEMO_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
         DKF_TRY(gain_prelude(1, f, L, dyn, meas_next, (N), (M), (P))); \
@@ -1451,6 +1448,7 @@ DKF__INLINE dkf_status_t step_fixed(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     dkf_real_t z[DKF_MAX_DIM];
     layout_t L;
     (void)layout(&L, f->mem, n, m, p);
+    DKF_TRY(check_model_shapes(f, dyn, meas_next));
     DKF_TRY(gain_prelude(1, f, &L, dyn, meas_next, n, m, p));
     DKF_TRY(gain_core(1, f, &L, dyn, NULL, n, p, p, p));
     z_of(1, z, &L, y_next->data, m, p);

@@ -11,7 +11,8 @@
  * leaves the structs, every node's DKF_WFUSION_LOCAL_STATE_LEN reals and
  * the fusion's joint covariance and results byte-identical; after a
  * successful one they are finite and the joint covariance is exactly
- * symmetric (unless an edited checkpoint was restored).
+ * symmetric (unless the prior was not, or an edited checkpoint was
+ * restored).
  */
 #include "dkf/wfusion.h"
 #include "fuzz_core.h"
@@ -34,7 +35,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     const dkf_mat_t *xs[LMAX];
     fz_t z = {data, size, 0};
     size_t n, l, m[LMAX], i, op, N, own;
-    int sym = 1; /* 0 once a restore took an edited checkpoint (any finite values) */
+    int sym; /* 0 for a prior not exactly symmetric, or once a restore took an
+                edited checkpoint (any finite values) */
     dkf_status_t s;
     n = fz_dim(&z, NMAX);
     l = fz_dim(&z, LMAX);
@@ -43,6 +45,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
     fz_set(&Hs, 1, n, DKF_R(1.0), DKF_R(0.0));
     fz_edit(&z, init_m, 3);
+    /* init copies P0 into every block of Pj: a prior that is not exactly
+     * symmetric (an edit, or -0 against +0) makes no symmetric Pj */
+    sym = P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows);
     memset(&fu, 0, sizeof fu);
     fz_regions_clear(&snap);
     fz_region(&snap, &fu, sizeof fu);

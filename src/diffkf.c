@@ -1206,12 +1206,13 @@ DKF__INLINE dkf_status_t gain_prelude(int fx, dkf_diffkf_t *f, layout_t *L,
  * memo miss clears fix before it writes). The carry is then what that
  * gain carried on: only a commit writes it (and sets fix), and init and
  * restore clear fix or the memo; P_{k+1|k}, which the caller can reach
- * through f->Pn, is compared. Only the data term zc is new. 1 if it did. */
+ * through f->Pn, is compared. Only the data term zc is new. 1 if it did;
+ * called only with the steady gain on (f->steady_tol > 0). */
 static int gain_reuse(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                       const dkf_ui_meas_t *meas_next, size_t pk)
 {
     const size_t n = f->n, m = f->m, p = f->p;
-    if (f->steady_tol <= DKF_R(0.0) || L->fix[0] == DKF_R(0.0) || pk != p || f->pc != p ||
+    if (L->fix[0] == DKF_R(0.0) || pk != p || f->pc != p ||
         !memo_hit(0, f, L, dyn, meas_next, n, m, p) || !same_bits(0, f->Pn.data, L->Ppn, n * n))
         return 0;
     memo_use(L);

@@ -2,7 +2,7 @@
  * Distributed Difference KF (dkf/diffkf_fusion.h): the fusion centre that
  * rebuilds the centralized estimate exactly, docs/diffkf-fusion.md and the
  * math note's §6 (not the paper's (30)-(36), which are exact only when the
- * stacked H has full row rank).
+ * stacked S = Q H^T A^{+T} B^{-T} has full column rank, so sum p_i <= n; §5).
  *
  * Per step k and node i (library dimensions: state n, z^i of size p_i):
  *   K^i_k  = J^i_k (L^i_k)^{-1}                                  replica gain

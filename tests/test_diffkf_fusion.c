@@ -16,7 +16,7 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf_test.h"
 
-#define NX 5   /* largest state dimension of the vector files */
+#define NX 6   /* largest state dimension of the vector files */
 #define NL 4   /* most sensors */
 #define NY 4   /* largest m_i */
 #define NP 2   /* largest p_i */
@@ -390,6 +390,16 @@ static void test_fc_tv4_vector(void **state)
 {
     (void)state;
     run_scenario("diffkf/tv4_multi.json");
+}
+
+/* The paper's condition for its (30)-(36) holds here (every H^i and the
+ * stacked H, 5 x 6, of full row rank; docs/diffkf-fusion.md §10): the general
+ * centre is exact there too, so no second centre is chosen for it. 3 sensors,
+ * n = 6, (m,p) = (2,1),(2,2),(1,1), time-varying F, Q, H, A and B. */
+static void test_fc_cond6_vector(void **state)
+{
+    (void)state;
+    run_scenario("diffkf/cond6_multi.json");
 }
 
 /* ---- stacking helpers -------------------------------------------------------- */
@@ -1465,6 +1475,7 @@ int main(void)
         cmocka_unit_test(test_fc_ex3_vector),
         cmocka_unit_test(test_fc_tv3_vector),
         cmocka_unit_test(test_fc_tv4_vector),
+        cmocka_unit_test(test_fc_cond6_vector),
         cmocka_unit_test(test_fc_setup_conditions),
         cmocka_unit_test(test_fc_message_validation_and_atomicity),
         cmocka_unit_test(test_fc_step_rank_failure),

@@ -43,9 +43,9 @@
 #define NX 4
 #define NP 2
 #define NMAX_M 3
-/* the largest N this build's DKF_MAX_DIM allows (sum m_i <= 2.5 N + 1), at most 200 */
+/* the largest N this build's DKF_MAX_DIM allows (sum m_i <= 2.5 N + 1), at most 400 */
 #define NCAP_RAW ((2 * DKF_MAX_DIM - 2) / 5)
-#define NCAP (NCAP_RAW < 200 ? NCAP_RAW : 200)
+#define NCAP (NCAP_RAW < 400 ? NCAP_RAW : 400)
 
 static dkf_real_t storage[DKF_DIFFKF_FC_STORAGE_LEN(NX, NCAP, NMAX_M, NP)];
 static dkf_diffkf_fc_node_t fc_nodes[NCAP];

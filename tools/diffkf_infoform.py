@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """diffkf_infoform.py - the paper's fusion formulas (30)-(36) and an information
-sum, beside the exact centre, on a network where the paper's condition holds and
-on one where it does not (docs/diffkf-fusion.md §5 and §10).
+sum, beside the exact centre, on networks where the paper's condition holds and
+where it does not (docs/diffkf-fusion.md §5 and §10).
 
 Uses the reference code of tools/make_diffkf_vectors.py (numpy, independent of
-the C library) on its scenarios cond6_multi (every H^i and the stacked H of full
-row rank, Q invertible: the condition) and tv3_multi (stacked H 9 x 5: not).
-For each it prints, as max|a - b| / max(1, max|b|) over every step:
+the C library) on three of its scenarios: cond6_multi (every H^i and the stacked
+H of full row rank, Q invertible: the paper's condition), tv3_multi (stacked H
+9 x 5: not, but the stacked S = Q H^T A^{+T} B^{-T}, 5 x 5, has full column
+rank) and tv4_multi (S 3 x 6: not either). For each it prints the ranks and, as
+max|a - b| / max(1, max|b|) over every step:
 
 * literal: the paper's scheme, with the note's corrections. It stores no
   innovation: node i's carry L^i_{k-1}^{-1} dz^i_{k-1} is solved from the jump
@@ -21,9 +23,10 @@ For each it prints, as max|a - b| / max(1, max|b|) over every step:
   u^i_k shares v_k and is coloured in time) and, as a control, on plain Kalman
   filters of the same network, where it must hold to rounding.
 
---check exits 1 unless literal and exact are <= 1e-9 on cond6, literal is
->= 1e-3 on tv3 (where (30) cannot invert the stacked H), the Kalman control is
-<= 1e-9 and the Difference-KF information sum is >= 1e-2 on both.
+--check exits 1 unless literal is <= 1e-9 on cond6 and on tv3 (so the paper's
+condition is sufficient, not necessary: S's rank decides) and >= 1e-3 on tv4,
+exact is <= 1e-9 on all three, the Kalman control is <= 1e-9 and the
+Difference-KF information sum is >= 1e-2 on all three.
 """
 import argparse
 import os

@@ -23,9 +23,9 @@ max|a - b| / max(1, max|b|) over every step:
   u^i_k shares v_k and is coloured in time) and, as a control, on plain Kalman
   filters of the same network, where it must hold to rounding.
 
---check exits 1 unless literal is <= 1e-9 on cond6 and on tv3 (so the paper's
+--check exits 1 unless literal is <= EQUAL on cond6 and on tv3 (so the paper's
 condition is sufficient, not necessary: S's rank decides) and >= 1e-3 on tv4,
-exact is <= 1e-9 on all three, the Kalman control is <= 1e-9 and the
+exact is <= EQUAL on all three, the Kalman control is <= EQUAL and the
 Difference-KF information sum is >= 1e-2 on all three.
 """
 import argparse
@@ -39,6 +39,12 @@ from make_diffkf_vectors import SCENARIOS, make_scenario, rel, run_all  # noqa: 
 
 inv, pinv = np.linalg.inv, np.linalg.pinv
 
+# "equal": a regression bound 25x above the largest measured (3.9e-14, the
+# Kalman control on tv4; the literal scheme 3.1e-14 on tv3), well inside the
+# centre's own claim fused == central <= 1e-9. "not equal": 3.1e-2 and 0.22
+# measured, so 1e-3 and 1e-2 fail only if the scheme or the sum became exact.
+EQUAL = 1e-12
+
 
 def carry_terms(F, Q, H, A, B, R, k):
     """S_{k-1} = Q H_k^T G^T with G = B_{k-1}^{-1} A_k^+ (13), and C_k =
@@ -50,11 +56,11 @@ def carry_terms(F, Q, H, A, B, R, k):
 
 def literal_centre(model, local, central, N):
     """The paper's (30)-(36) with the note's corrections (math note §6): every
-    carry from a jump in x through S^+, which needs S of full column rank:
-    H_k of full row rank and Q_{k-1} invertible, per node and stacked."""
+    carry from a jump in x through S^+, exact where S has full column rank,
+    per node and stacked (docs/diffkf-fusion.md §5)."""
     l = len(model.sensors)
     F, Q = model.f("F"), model.f("Q")
-    SH, SA, SB, SR = (model.stacked(key) for key in ("H", "A", "B", "R"))
+    stacked = [model.stacked(key) for key in ("H", "A", "B", "R")]
     xf, xp = [], []
     x_prev_f = None
     xpk = central["xp"][0]                     # x_{1|0}: the centre's own prior
@@ -66,22 +72,18 @@ def literal_centre(model, local, central, N):
             dz = pinv(loc["K"][j]) @ (loc["xf"][j] - loc["xp"][j])          # (33)
             z = dz + loc["M"][j] @ loc["xp"][j]                              # (32)
             if j > 0:
-                S, C = carry_terms(F, Q, model.s(i, "H"), model.s(i, "A"),
-                                   model.s(i, "B"), model.s(i, "R"), k)
-                z = z + C @ pinv(S) @ (loc["xp"][j] - F(k - 1) @ loc["xf"][j - 1])  # (30) per node
+                Si, Ci = carry_terms(F, Q, *(model.s(i, key) for key in ("H", "A", "B", "R")), k)
+                z = z + Ci @ pinv(Si) @ (loc["xp"][j] - F(k - 1) @ loc["xf"][j - 1])  # (30) per node
             zs.append(z)
-        z = np.concatenate(zs)
-        dz = z - central["M"][j] @ xpk
+        dz = np.concatenate(zs) - central["M"][j] @ xpk
         if j > 0:
-            S, C = carry_terms(F, Q, SH, SA, SB, SR, k)
             dz = dz - C @ pinv(S) @ (xpk - F(k - 1) @ x_prev_f)             # (30) stacked
         xfk = xpk + central["K"][j] @ dz                                     # (31), (35)
         xf.append(xfk)
         xp.append(xpk)
-        G = inv(SB(k)) @ pinv(SA(k + 1))
-        Sk = Q(k) @ SH(k + 1).T @ G.T
+        S, C = carry_terms(F, Q, *stacked, k + 1)                            # S_k, C_{k+1}
         x_prev_f = xfk
-        xpk = F(k) @ xfk + Sk @ inv(central["L"][j]) @ dz                    # (28), (36)
+        xpk = F(k) @ xfk + S @ inv(central["L"][j]) @ dz                     # (28), (36)
     return xf, xp
 
 
@@ -89,17 +91,19 @@ def info_increment(Pf, Pp):
     return inv(Pf) - inv(Pp)
 
 
-def infosum_err(central, local, N):
-    """max over k of |central increment - sum of local increments| relative."""
-    worst = 0.0
-    for j in range(N):
-        c = info_increment(central["Pf"][j], central["Pp"][j])
-        s = sum(info_increment(loc["Pf"][j], loc["Pp"][j]) for loc in local)
-        worst = max(worst, rel(s, c))
-    return worst
+def infosum_gap(central, local):
+    """max over k of |central information increment - sum of the local ones|,
+    relative; each argument a list over k of (P_{k|k-1}, P_{k|k})."""
+    return max(rel(sum(info_increment(lo[j][1], lo[j][0]) for lo in local),
+                   info_increment(central[j][1], central[j][0]))
+               for j in range(len(central)))
 
 
-def kf_infosum_err(model, N, P00):
+def pairs(run):
+    return list(zip(run["Pp"], run["Pf"]))
+
+
+def kf_infosum_gap(model, N, P00):
     """The control: plain Kalman filters of the same H, R (no unknown input),
     central and local covariance recursions from the same prior."""
     l = len(model.sensors)
@@ -116,13 +120,7 @@ def kf_infosum_err(model, N, P00):
         return out
 
     cen = kf_cov(model.stacked("H"), model.stacked("R"), P00)
-    loc = [kf_cov(model.s(i, "H"), model.s(i, "R"), P00) for i in range(l)]
-    worst = 0.0
-    for j in range(N):
-        c = info_increment(cen[j][1], cen[j][0])
-        s = sum(info_increment(lo[j][1], lo[j][0]) for lo in loc)
-        worst = max(worst, rel(s, c))
-    return worst
+    return infosum_gap(cen, [kf_cov(model.s(i, "H"), model.s(i, "R"), P00) for i in range(l)])
 
 
 def analyse(name):
@@ -142,8 +140,8 @@ def analyse(name):
                        for j in range(N)),
         "exact": max(rel(fused[key][j], central[key][j]) for key in ("xp", "Pp", "xf", "Pf")
                      for j in range(N)),
-        "infosum": infosum_err(central, local, N),
-        "kf_infosum": kf_infosum_err(model, N, P00c),
+        "infosum": infosum_gap(pairs(central), [pairs(loc) for loc in local]),
+        "kf_infosum": kf_infosum_gap(model, N, P00c),
     }
     print("%s: n=%d | stacked H %d x %d of rank %d | stacked S n x %d of rank %d (least over k) | "
           "literal (30)-(36) vs central %.2e | exact centre %.2e | information sum: "
@@ -162,17 +160,18 @@ def main():
         return 0
     cond, wide, deep = runs["cond6_multi"], runs["tv3_multi"], runs["tv4_multi"]
     full = lambda r: r[0] == r[1]  # noqa: E731
+    eq = "<= %g" % EQUAL
     checks = [
-        ("literal == central where every H has full row rank (cond6, <= 1e-9)",
-         full(cond["H_rank"]) and cond["literal"] <= 1e-9),
-        ("literal == central where H does not but S has full column rank (tv3, <= 1e-9)",
-         not full(wide["H_rank"]) and full(wide["S_rank"]) and wide["literal"] <= 1e-9),
+        ("literal == central where every H has full row rank (cond6, %s)" % eq,
+         full(cond["H_rank"]) and cond["literal"] <= EQUAL),
+        ("literal == central where H does not but S has full column rank (tv3, %s)" % eq,
+         not full(wide["H_rank"]) and full(wide["S_rank"]) and wide["literal"] <= EQUAL),
         ("literal != central where S has not (tv4, >= 1e-3)",
          not full(deep["S_rank"]) and deep["literal"] >= 1e-3),
-        ("exact centre == central on all three (<= 1e-9)",
-         max(r["exact"] for r in runs.values()) <= 1e-9),
-        ("KF information sum exact (the control, <= 1e-9)",
-         max(r["kf_infosum"] for r in runs.values()) <= 1e-9),
+        ("exact centre == central on all three (%s)" % eq,
+         max(r["exact"] for r in runs.values()) <= EQUAL),
+        ("KF information sum exact (the control, %s)" % eq,
+         max(r["kf_infosum"] for r in runs.values()) <= EQUAL),
         ("DKF information sum not exact on any, cond6 included (>= 1e-2)",
          min(r["infosum"] for r in runs.values()) >= 1e-2),
     ]

@@ -117,12 +117,20 @@ static void status(const uint8_t *d, size_t n)
     memset(&rej, 0, sizeof rej);
     memset(&out, 0xa5, sizeof out);
     keep = again = out;
-    v = dkf_net_decode_status(d, n, &out, &rej);
+    static const dkf_net_from_t node1 = {1, DKF_NET_ROLE_NODE, 1},
+                                centre = {1, DKF_NET_ROLE_FUSION, -1};
+    v = dkf_net_decode_status(d, n, NULL, &out, &rej);
     if (!accepted(&rej, v, &out, &keep, sizeof out)) return;
+    /* with a known sender, only a status that names it is taken */
+    FUZZ_REQUIRE((dkf_net_decode_status(d, n, &node1, &again, NULL) == DKF_NET_ACCEPT) ==
+                 (out.role == DKF_NET_ROLE_NODE && out.id == 1));
+    FUZZ_REQUIRE((dkf_net_decode_status(d, n, &centre, &again, NULL) == DKF_NET_ACCEPT) ==
+                 (out.role == DKF_NET_ROLE_FUSION && out.id == -1));
+    again = keep;
     /* the detail is a C string that fits (truncated if it did not) */
     FUZZ_REQUIRE(memchr(out.detail, '\0', sizeof out.detail) != NULL);
     FUZZ_REQUIRE(dkf_net_encode_status(re, sizeof re, &len, &out) == 0);
-    FUZZ_REQUIRE(dkf_net_decode_status(re, len, &again, NULL) == DKF_NET_ACCEPT);
+    FUZZ_REQUIRE(dkf_net_decode_status(re, len, NULL, &again, NULL) == DKF_NET_ACCEPT);
     FUZZ_REQUIRE(memcmp(&out, &again, sizeof out) == 0);
 }
 
@@ -152,11 +160,22 @@ static void tw(const uint8_t *d, size_t n, int alg)
 static void channel(const uint8_t *d, size_t n)
 {
     char name[DKF_NET_CHAN_LEN + 16], back[DKF_NET_CHAN_LEN];
+    dkf_net_chan_id_t c;
     long node;
     if (n >= sizeof name) n = sizeof name - 1;
     memcpy(name, d, n);
     name[n] = '\0';
-    FUZZ_REQUIRE(dkf_net_chan_index(name) >= -1);
+    c = dkf_net_chan_parse(name);
+    FUZZ_REQUIRE(c.kind >= DKF_CHAN_NONE && c.kind <= DKF_CHAN_GRAPH);
+    FUZZ_REQUIRE((c.kind == DKF_CHAN_MEAS || c.kind == DKF_CHAN_NODE || c.kind == DKF_CHAN_GRAPH)
+                     ? c.id >= 0 && c.id <= DKF_NET_CHAN_MAX_ID
+                     : c.id == -1);
+    if (c.id >= 0) { /* one spelling per id: the name ends in exactly "_<id>" */
+        const size_t len = strlen(name);
+        const int w = snprintf(back, sizeof back, "_%ld", c.id);
+        FUZZ_REQUIRE(w > 0 && (size_t)w <= len && strcmp(name + len - (size_t)w, back) == 0);
+    }
+    FUZZ_REQUIRE(dkf_net_chan_node_id(name) == (c.kind == DKF_CHAN_NODE ? c.id : -1));
     node = dkf_tw_chan_node(name, "DKF_TW");
     FUZZ_REQUIRE(node >= -1);
     if (node >= 0) { /* only the canonical spelling is accepted */

@@ -21,7 +21,7 @@ enum {
     FUZZ_NET_STATUS,       /* dkf_net_decode_status */
     FUZZ_NET_TW2,          /* dkf_tw_decode (dkf_net_decode_tw), Algorithm 2 receiver */
     FUZZ_NET_TW3,          /* dkf_tw_decode (dkf_net_decode_tw), Algorithm 3 (eta 2) */
-    FUZZ_NET_CHANNEL,      /* dkf_net_chan_index, dkf_tw_chan_node on a channel name */
+    FUZZ_NET_CHANNEL,      /* dkf_net_chan_parse, dkf_tw_chan_node on a channel name */
     FUZZ_NET_NSEL
 };
 

@@ -5,17 +5,22 @@
  * Byte 0 picks the mode:
  *   0  dkf_auth_parse_key on the rest: accepted only for 64 hex digits and
  *      an optional newline, and then the key printed in hex is the input;
- *   1  byte 1 picks a channel, the rest is a sequence of datagrams (a 2-byte
- *      length before each): every verdict is counted once, an accepted one
- *      has its trailer stripped, and the same bytes again are a replay;
- *   2  the rest is a message that node (byte 1 mod 4) signs on its channel:
- *      the centre accepts it, and any one byte changed (position and value
- *      from the message) is refused, the replay state untouched by it;
- *   3  as 1, at graph node 0 of peers 1 and 2 (DKA2, edge keys), byte 1
- *      picking a graph channel;
- *   4  as 2, graph node 1 (its one peer: 0) signing on DKF_TW_1, node 0
- *      checking.
+ *   1  a channel name (byte 1: its length, then its bytes), then a sequence
+ *      of datagrams (a 2-byte length before each): every verdict is counted
+ *      once; an accepted one is on a canonical channel of the protocol
+ *      (chan.h), its sender is the signer the channel allows, its trailer
+ *      is stripped, and the same bytes again are a replay;
+ *   2  node (byte 1 mod 4) signs the rest as a message on a channel named
+ *      as in 1: it can sign only on its own node channel and the status
+ *      channel; what it signed the centre accepts as that node's (never as
+ *      anyone else's), and any one byte changed (position and value from
+ *      the message) is refused, the replay state untouched by it;
+ *   3  as 1, at graph node 0 of peers 1 and 2 (DKA2, edge keys);
+ *   4  as 2, graph node 1 (its one peer: 0) signing, node 0 checking: only
+ *      on a channel whose canonical number is 1.
  * Keys are fixed: a fuzzer cannot find a valid tag, mode 2 makes them.
+ * The channel names explore the spellings (leading zeros, aliases, other
+ * kinds): a name that is not canonical is never signed nor accepted.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -29,13 +34,37 @@ static unsigned char keys[DKF_AUTH_MAX_KEYS * DKF_AUTH_KEY_LEN];
 static unsigned char have[DKF_AUTH_MAX_KEYS], infra[DKF_AUTH_KEY_LEN];
 static unsigned char buf[65536 + DKF_AUTH_TRAILER + DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY];
 
-static const char *const channels[] = {"DKF_NODE_0", "DKF_NODE_3", "DKF_NODE_7", "DKF_MEAS_1",
-                                       "DKF_FUSED",  "DKF_TRUTH",  "DKF_STATUS", "DKF_NODE_",
-                                       "X"};
-#define NCHAN (sizeof channels / sizeof channels[0])
-static const char *const graph_channels[] = {"DKF_TW_1", "DKF_TW_2", "DKF_TW_0", "DKF_TW_3",
-                                             "DKF_TW_", "DKF_TW_1x", "X"};
-#define NGCHAN (sizeof graph_channels / sizeof graph_channels[0])
+/* A channel name from the input: byte 0 its length (at most
+ * DKF_NET_CHAN_LEN - 1, bytes up to a NUL), then its bytes; advances d, n. */
+static void channel_name(const uint8_t **d, size_t *n, char name[DKF_NET_CHAN_LEN])
+{
+    size_t len = 0, i;
+    if (*n > 0) {
+        len = (size_t)(*d)[0] % DKF_NET_CHAN_LEN;
+        ++*d, --*n;
+    }
+    if (len > *n) len = *n;
+    for (i = 0; i < len && (*d)[i] != '\0'; ++i) name[i] = (char)(*d)[i];
+    name[i] = '\0';
+    *d += len, *n -= len;
+}
+
+/* 1 if `from` may have signed on channel (auth.h's table, DKA1). */
+static int allowed(const char *channel, const dkf_net_from_t *from)
+{
+    const dkf_net_chan_id_t c = dkf_net_chan_parse(channel);
+    const int node = from->role == DKF_NET_ROLE_NODE && from->id >= 0 && from->id < 4;
+    switch (c.kind) {
+    case DKF_CHAN_NODE: return node && from->id == c.id;
+    case DKF_CHAN_MEAS: return from->role == DKF_NET_ROLE_SIM && from->id == -1;
+    case DKF_CHAN_FUSED: return from->role == DKF_NET_ROLE_FUSION && from->id == -1;
+    case DKF_CHAN_TRUTH: return from->role == DKF_NET_ROLE_SIM && from->id == -1;
+    case DKF_CHAN_STATUS:
+        return node || ((from->role == DKF_NET_ROLE_SIM || from->role == DKF_NET_ROLE_FUSION) &&
+                        from->id == -1);
+    default: return 0;
+    }
+}
 
 static void init_keys(void)
 {
@@ -87,25 +116,26 @@ static void key_text(const uint8_t *d, size_t n)
 static void datagrams(const uint8_t *d, size_t n, int graph)
 {
     dkf_auth_t *a = graph ? graph_node(0, 6u) : centre();
-    const char *ch;
-    if (a == NULL || n < 1) {
-        dkf_auth_free(a);
-        return;
-    }
-    ch = graph ? graph_channels[d[0] % NGCHAN] : channels[d[0] % NCHAN];
-    ++d, --n;
+    char ch[DKF_NET_CHAN_LEN];
+    if (a == NULL) return;
+    channel_name(&d, &n, ch);
     while (n >= 2) {
         size_t len = (size_t)d[0] << 8 | d[1], ml = 0;
         uint64_t before = total(a);
+        dkf_net_from_t from = {0, -1, -1};
         dkf_auth_verdict_t v;
         d += 2, n -= 2;
         if (len > n) len = n;
-        v = dkf_auth_verify(a, ch, d, len, &ml);
+        v = dkf_auth_verify(a, ch, d, len, &ml, &from);
         FUZZ_REQUIRE((unsigned)v < DKF_AUTH_NVERDICTS && total(a) == before + 1);
+        FUZZ_REQUIRE(from.known == (v == DKF_AUTH_ACCEPT));
         if (v == DKF_AUTH_ACCEPT) {
-            FUZZ_REQUIRE(graph ? ml + DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY <= len
-                               : ml == len - DKF_AUTH_TRAILER);
-            FUZZ_REQUIRE(dkf_auth_verify(a, ch, d, len, &ml) == DKF_AUTH_REJ_REPLAY);
+            const long l = dkf_net_chan_parse(ch).id;
+            FUZZ_REQUIRE(graph ? ml + DKF_AUTH_EDGE_HEADER + DKF_AUTH_EDGE_ENTRY <= len &&
+                                     from.role == DKF_NET_ROLE_GRAPH && from.id == l &&
+                                     (l == 1 || l == 2)
+                               : ml == len - DKF_AUTH_TRAILER && allowed(ch, &from));
+            FUZZ_REQUIRE(dkf_auth_verify(a, ch, d, len, &ml, NULL) == DKF_AUTH_REJ_REPLAY);
         }
         d += len, n -= len;
     }
@@ -116,25 +146,41 @@ static void signed_message(const uint8_t *d, size_t n, int graph)
 {
     const size_t node = graph ? 1 : n > 0 ? d[0] % 4u : 0;
     unsigned char h[DKF_AUTH_MAX_KEYS] = {0};
-    char ch[32];
+    char ch[DKF_NET_CHAN_LEN];
     dkf_auth_t *a = graph ? graph_node(0, 2u) : centre(), *s;
+    dkf_net_from_t from = {0, -1, -1};
+    dkf_net_chan_id_t c;
     size_t ml = 0, pos, t;
+    int own;
     if (n > 0) ++d, --n;
+    channel_name(&d, &n, ch);
     if (n > 65536) n = 65536;
     h[node] = 1;
     s = graph ? graph_node(1, 1u)
               : dkf_auth_open_keys(dkf_auth_signer(DKF_NET_ROLE_NODE, node), keys, h, NULL, 7);
     FUZZ_REQUIRE(a != NULL && s != NULL);
     t = dkf_auth_trailer_len(s);
-    snprintf(ch, sizeof ch, graph ? "DKF_TW_%zu" : "DKF_NODE_%zu", node);
+    c = dkf_net_chan_parse(ch);
+    /* node's own channels: its node channel and the status (DKA1), or any
+     * canonical name ending in its number (DKA2) */
+    own = graph ? c.id == (long)node
+                : (c.kind == DKF_CHAN_NODE && c.id == (long)node) || c.kind == DKF_CHAN_STATUS;
     memcpy(buf, d, n);
-    FUZZ_REQUIRE(dkf_auth_sign(s, ch, buf, n, buf + n) == 0);
+    if (dkf_auth_sign(s, ch, buf, n, buf + n) != 0) {
+        FUZZ_REQUIRE(!own);
+        dkf_auth_free(a);
+        dkf_auth_free(s);
+        return;
+    }
+    FUZZ_REQUIRE(own);
     pos = n > 0 ? (size_t)d[0] * 257u % (n + t) : n;
     buf[pos] ^= (unsigned char)(n > 1 ? d[1] | 1u : 1u);
-    FUZZ_REQUIRE(dkf_auth_verify(a, ch, buf, n + t, &ml) != DKF_AUTH_ACCEPT);
+    FUZZ_REQUIRE(dkf_auth_verify(a, ch, buf, n + t, &ml, &from) != DKF_AUTH_ACCEPT);
+    FUZZ_REQUIRE(!from.known);
     buf[pos] ^= (unsigned char)(n > 1 ? d[1] | 1u : 1u);
-    FUZZ_REQUIRE(dkf_auth_verify(a, ch, buf, n + t, &ml) == DKF_AUTH_ACCEPT);
-    FUZZ_REQUIRE(ml == n);
+    FUZZ_REQUIRE(dkf_auth_verify(a, ch, buf, n + t, &ml, &from) == DKF_AUTH_ACCEPT);
+    FUZZ_REQUIRE(ml == n && from.known && from.id == (long)node &&
+                 from.role == (graph ? DKF_NET_ROLE_GRAPH : DKF_NET_ROLE_NODE));
     dkf_auth_free(a);
     dkf_auth_free(s);
 }

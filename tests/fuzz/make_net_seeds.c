@@ -46,7 +46,7 @@ static int accepted(int sel, const void *data, size_t len)
     case FUZZ_NET_MEAS: v = dkf_net_decode_meas(data, len, &ex, &m, NULL); break;
     case FUZZ_NET_TRUTH: v = dkf_net_decode_truth(data, len, &ex, &t, NULL); break;
     case FUZZ_NET_FUSED: v = dkf_net_decode_fused(data, len, &ex, &f, NULL); break;
-    case FUZZ_NET_STATUS: v = dkf_net_decode_status(data, len, &st, NULL); break;
+    case FUZZ_NET_STATUS: v = dkf_net_decode_status(data, len, NULL, &st, NULL); break;
     default: v = dkf_tw_decode(data, len, &c, -1, &p, NULL); break;
     }
     return v == DKF_NET_ACCEPT;

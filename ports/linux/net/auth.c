@@ -16,8 +16,8 @@
 
 #include <sodium.h>
 
-#include "codec.h" /* DKF_NET_ROLE_* */
-#include "net.h"   /* dkf_net_now_us */
+#include "chan.h"
+#include "net.h" /* dkf_net_now_us */
 #include "util.h"
 
 #define fail(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)
@@ -47,8 +47,8 @@ struct dkf_auth {
 
 const char *dkf_auth_verdict_str(dkf_auth_verdict_t v)
 {
-    static const char *const s[DKF_AUTH_NVERDICTS] = {"accepted", "no trailer", "unknown key",
-                                                      "foreign", "bad MAC", "replayed"};
+    static const char *const s[DKF_AUTH_NVERDICTS] = {
+        "accepted", "no trailer", "unknown key", "foreign", "bad MAC", "replayed", "bad channel"};
     return (unsigned)v < DKF_AUTH_NVERDICTS ? s[v] : "?";
 }
 
@@ -258,7 +258,7 @@ dkf_auth_t *dkf_auth_open_edges(const char *dir, size_t self, const size_t *peer
              DKF_AUTH_MAX_KEYS);
         return NULL;
     }
-    if ((a = auth_new(dkf_auth_signer(DKF_AUTH_ROLE_GRAPH, self), dkf_net_now_us())) == NULL) {
+    if ((a = auth_new(dkf_auth_signer(DKF_NET_ROLE_GRAPH, self), dkf_net_now_us())) == NULL) {
         fail(err, errlen, "libsodium: cannot initialise, or out of memory");
         return NULL;
     }
@@ -283,7 +283,7 @@ dkf_auth_t *dkf_auth_open_edge_keys(size_t self, const unsigned char *keys,
     dkf_auth_t *a;
     size_t p;
     if (self >= DKF_AUTH_MAX_KEYS ||
-        (a = auth_new(dkf_auth_signer(DKF_AUTH_ROLE_GRAPH, self), epoch)) == NULL)
+        (a = auth_new(dkf_auth_signer(DKF_NET_ROLE_GRAPH, self), epoch)) == NULL)
         return NULL;
     a->graph = 1;
     for (p = 0; p < DKF_AUTH_MAX_KEYS && keys != NULL && have != NULL; ++p)
@@ -300,43 +300,44 @@ void dkf_auth_free(dkf_auth_t *a)
 
 /* ---- the channel rule ---------------------------------------------------------------- */
 
-static int ends_with(const char *s, size_t len, const char *tail)
-{
-    const size_t t = strlen(tail);
-    return len >= t && memcmp(s + len - t, tail, t) == 0;
-}
+#define NOT_HERE (-1L) /* the signer may not speak on the channel */
+#define NO_CHANNEL (-2L) /* the name is not a channel of the protocol */
 
-/* The node id after a trailing `tag` ("_NODE_", "_MEAS_") and digits, or -1. */
-static long trailing_id(const char *ch, size_t len, const char *tag)
+/* The key slot signer must use on channel (auth.h's table), NOT_HERE or NO_CHANNEL. */
+static long slot_for(const char *channel, uint32_t signer)
 {
-    const size_t t = strlen(tag);
-    size_t i = len;
-    long v = 0;
-    while (i > 0 && ch[i - 1] >= '0' && ch[i - 1] <= '9') --i;
-    if (i == len || len - i > 3 || i < t || memcmp(ch + i - t, tag, t) != 0) return -1;
-    for (; i < len; ++i) v = v * 10 + (ch[i] - '0');
-    return v < DKF_AUTH_MAX_KEYS ? v : -1;
-}
-
-/* The key slot signer must use on channel, or -1 if it may not speak there. */
-static long slot_for(const char *ch, uint32_t signer)
-{
+    const dkf_net_chan_id_t c = dkf_net_chan_parse(channel);
     const int role = (int)(signer >> 16);
     const long index = (long)(signer & 0xffffu);
-    const size_t len = strlen(ch);
-    long id;
-    if (role == DKF_NET_ROLE_NODE && index >= DKF_AUTH_MAX_KEYS) return -1;
-    if ((id = trailing_id(ch, len, "_NODE_")) >= 0)
-        return role == DKF_NET_ROLE_NODE && index == id ? id : -1;
-    if ((id = trailing_id(ch, len, "_MEAS_")) >= 0)
-        return role == DKF_NET_ROLE_SIM && index == 0 ? id : -1;
-    if (ends_with(ch, len, "_FUSED"))
-        return role == DKF_NET_ROLE_FUSION && index == 0 ? INFRA_SLOT : -1;
-    if (ends_with(ch, len, "_TRUTH"))
-        return role == DKF_NET_ROLE_SIM && index == 0 ? INFRA_SLOT : -1;
-    if (role == DKF_NET_ROLE_NODE) return index;
-    return (role == DKF_NET_ROLE_SIM || role == DKF_NET_ROLE_FUSION) && index == 0 ? INFRA_SLOT
-                                                                                   : -1;
+    const int node = role == DKF_NET_ROLE_NODE && index < DKF_AUTH_MAX_KEYS;
+    const int infra = (role == DKF_NET_ROLE_SIM || role == DKF_NET_ROLE_FUSION) && index == 0;
+    switch (c.kind) {
+    case DKF_CHAN_NODE: return node && index == c.id ? index : NOT_HERE;
+    case DKF_CHAN_MEAS:
+        return role == DKF_NET_ROLE_SIM && index == 0 && c.id < DKF_AUTH_MAX_KEYS ? c.id : NOT_HERE;
+    case DKF_CHAN_FUSED: return role == DKF_NET_ROLE_FUSION && index == 0 ? INFRA_SLOT : NOT_HERE;
+    case DKF_CHAN_TRUTH: return role == DKF_NET_ROLE_SIM && index == 0 ? INFRA_SLOT : NOT_HERE;
+    case DKF_CHAN_STATUS: return node ? index : infra ? INFRA_SLOT : NOT_HERE;
+    default: return NO_CHANNEL;
+    }
+}
+
+/* The node id a graph channel carries (its canonical trailing number), or -1. */
+static long graph_node_of(const char *channel)
+{
+    const dkf_net_chan_id_t c = dkf_net_chan_parse(channel);
+    return c.id < DKF_AUTH_MAX_KEYS ? c.id : -1;
+}
+
+/* The sender a verified signer is (chan.h). */
+static void sender_of(uint32_t signer, dkf_net_from_t *from)
+{
+    const int role = (int)(signer >> 16);
+    if (from == NULL) return;
+    from->known = 1;
+    from->role = role;
+    from->id = role == DKF_NET_ROLE_NODE || role == DKF_NET_ROLE_GRAPH ? (long)(signer & 0xffffu)
+                                                                       : -1;
 }
 
 /* ---- trailer and MAC ----------------------------------------------------------------- */
@@ -394,7 +395,7 @@ static int sign_edges(dkf_auth_t *a, const char *channel, const void *msg, size_
     unsigned char *fixed = trailer + DKF_AUTH_EDGE_ENTRY * a->npeers,
                   in[DKF_AUTH_EDGE_HEADER + 4];
     size_t e;
-    if (a->npeers == 0 || trailing_id(channel, strlen(channel), "_") != (long)self) return -1;
+    if (a->npeers == 0 || graph_node_of(channel) != (long)self) return -1;
     memcpy(fixed, "DKA2", 4);
     put_be(fixed + 4, a->self, 4);
     put_be(fixed + 8, a->epoch, 8);
@@ -436,7 +437,7 @@ static int newer(last_t *l, uint64_t epoch, uint64_t seq)
 }
 
 static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsigned char *d,
-                                size_t len, size_t *msg_len)
+                                size_t len, size_t *msg_len, dkf_net_from_t *from)
 {
     const unsigned char *t;
     unsigned char tag[32];
@@ -452,6 +453,7 @@ static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsign
     epoch = get_be(t + 12, 8);
     seq = get_be(t + 20, 8);
     s = slot_for(channel, signer);
+    if (s == NO_CHANNEL) return DKF_AUTH_REJ_CHANNEL;
     if (s < 0 || (s == INFRA_SLOT ? key_id != DKF_AUTH_KEY_INFRA : key_id != (uint32_t)s))
         return DKF_AUTH_REJ_FOREIGN;
     if (!a->have[s]) return DKF_AUTH_REJ_NO_KEY;
@@ -460,13 +462,14 @@ static dkf_auth_verdict_t judge(dkf_auth_t *a, const char *channel, const unsign
     l = &a->last[signer >> 16][s]; /* the role is 0..2: slot_for accepted it */
     if (!newer(l, epoch, seq)) return DKF_AUTH_REJ_REPLAY;
     *msg_len = len - DKF_AUTH_TRAILER;
+    sender_of(signer, from);
     return DKF_AUTH_ACCEPT;
 }
 
 /* DKA2 at a graph node (auth.h): the entry addressed to it, under the key
  * it shares with the channel's node. */
 static dkf_auth_verdict_t judge_edges(dkf_auth_t *a, const char *channel, const unsigned char *d,
-                                      size_t len, size_t *msg_len)
+                                      size_t len, size_t *msg_len, dkf_net_from_t *from)
 {
     const unsigned char *fixed, *entry = NULL;
     unsigned char tag[32], in[DKF_AUTH_EDGE_HEADER + 4];
@@ -483,8 +486,8 @@ static dkf_auth_verdict_t judge_edges(dkf_auth_t *a, const char *channel, const 
         return DKF_AUTH_REJ_FORMAT;
     body = len - DKF_AUTH_EDGE_HEADER - (size_t)count * DKF_AUTH_EDGE_ENTRY;
     signer = (uint32_t)get_be(fixed + 4, 4);
-    l = trailing_id(channel, strlen(channel), "_");
-    if (signer >> 16 != DKF_AUTH_ROLE_GRAPH || l < 0 || (signer & 0xffffu) != (uint32_t)l ||
+    if ((l = graph_node_of(channel)) < 0) return DKF_AUTH_REJ_CHANNEL;
+    if (signer >> 16 != DKF_NET_ROLE_GRAPH || (signer & 0xffffu) != (uint32_t)l ||
         (uint32_t)l == self)
         return DKF_AUTH_REJ_FOREIGN;
     for (e = 0; e < count && entry == NULL; ++e)
@@ -494,17 +497,18 @@ static dkf_auth_verdict_t judge_edges(dkf_auth_t *a, const char *channel, const 
     edge_input(in, fixed, self);
     mac(&a->keyed[l], channel, d, body, in, sizeof in, tag);
     if (sodium_memcmp(tag, entry + 4, sizeof tag) != 0) return DKF_AUTH_REJ_MAC;
-    if (!newer(&a->last[DKF_AUTH_ROLE_GRAPH][l], get_be(fixed + 8, 8), get_be(fixed + 16, 8)))
+    if (!newer(&a->last[DKF_NET_ROLE_GRAPH][l], get_be(fixed + 8, 8), get_be(fixed + 16, 8)))
         return DKF_AUTH_REJ_REPLAY;
     *msg_len = body;
+    sender_of(signer, from);
     return DKF_AUTH_ACCEPT;
 }
 
 dkf_auth_verdict_t dkf_auth_verify(dkf_auth_t *a, const char *channel, const void *dgram,
-                                   size_t len, size_t *msg_len)
+                                   size_t len, size_t *msg_len, dkf_net_from_t *from)
 {
-    const dkf_auth_verdict_t v = a->graph ? judge_edges(a, channel, dgram, len, msg_len)
-                                          : judge(a, channel, dgram, len, msg_len);
+    const dkf_auth_verdict_t v = a->graph ? judge_edges(a, channel, dgram, len, msg_len, from)
+                                          : judge(a, channel, dgram, len, msg_len, from);
     ++a->count[v];
     return v;
 }

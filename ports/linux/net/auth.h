@@ -9,14 +9,18 @@
  *
  * tag = HMAC-SHA-512-256 (crypto_auth) under key `key id` of
  *   len(channel) u32 | channel | message | the trailer's first 28 bytes.
- * signer = role << 16 | index (DKF_NET_ROLE_SIM/NODE/FUSION of codec.h;
+ * signer = role << 16 | index (DKF_NET_ROLE_SIM/NODE/FUSION of chan.h;
  * index = the node id for a node, 0 otherwise). Key i (0..255) is node i's,
  * shared by node i and the infrastructure (dkf-sim, dkf-fusion); key
- * DKF_AUTH_KEY_INFRA is the infrastructure's alone. The channel fixes who may
- * speak on it with which key:
+ * DKF_AUTH_KEY_INFRA is the infrastructure's alone. The channel, parsed
+ * canonically (chan.h), fixes who may speak on it with which key:
  *   <prefix>_NODE_<i>   node i, key i        <prefix>_MEAS_<i>  dkf-sim, key i
  *   <prefix>_FUSED      dkf-fusion, infra    <prefix>_TRUTH     dkf-sim, infra
- *   any other channel   node i with key i, or dkf-sim / dkf-fusion with infra
+ *   <prefix>_STATUS     node i with key i, or dkf-sim / dkf-fusion with infra
+ * and nobody may sign or be accepted on any other name (`bad channel`): a
+ * node's key signs only node i's own channels and its status. A receiver
+ * learns the sender from the verified signer alone (dkf_auth_verify's
+ * `from`), and checks that a payload which names a sender names that one.
  * epoch is the sender's start time (us); (epoch, seq) must be newer than the
  * last accepted of that signer and key: strictly larger seq in the same
  * epoch, or a larger epoch (a restarted process).
@@ -33,8 +37,8 @@
  *
  * tag for peer r = HMAC-SHA-512-256 under edge key {l, r} of
  *   len(channel) u32 | channel | message | the last 28 bytes | r u32.
- * signer = DKF_AUTH_ROLE_GRAPH << 16 | l; the channel's trailing number must
- * be l. A process authenticates either the DKA1 way or the DKA2 way, never
+ * signer = DKF_NET_ROLE_GRAPH << 16 | l; the channel's canonical trailing
+ * number (chan.h) must be l. A process authenticates either the DKA1 way or the DKA2 way, never
  * both, and refuses the other's trailer as `no trailer`.
  *
  * Integer returns: 0 success, -1 failure with a one-line message in err.
@@ -45,11 +49,12 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "chan.h"
+
 #define DKF_AUTH_TRAILER 60
 #define DKF_AUTH_KEY_LEN 32
 #define DKF_AUTH_MAX_KEYS 256           /* node keys 0..255 */
 #define DKF_AUTH_KEY_INFRA 0xffffffffu  /* the infrastructure's key id */
-#define DKF_AUTH_ROLE_GRAPH 3           /* a graph filter's node (after codec.h's roles) */
 #define DKF_AUTH_EDGE_HEADER 28         /* DKA2: the fixed part */
 #define DKF_AUTH_EDGE_ENTRY 36          /* DKA2: one (peer, tag) */
 
@@ -60,12 +65,14 @@ typedef enum {
     DKF_AUTH_REJ_FOREIGN,  /* signer or key not the channel's (a node speaking for another) */
     DKF_AUTH_REJ_MAC,      /* the tag does not verify (forged or altered) */
     DKF_AUTH_REJ_REPLAY,   /* (epoch, seq) not newer than the last accepted */
+    DKF_AUTH_REJ_CHANNEL,  /* not a channel of the protocol, canonically spelled (chan.h) */
     DKF_AUTH_NVERDICTS
 } dkf_auth_verdict_t;
 
 typedef struct dkf_auth dkf_auth_t;
 
-/* "accepted", "no trailer", "unknown key", "foreign", "bad MAC", "replayed". */
+/* "accepted", "no trailer", "unknown key", "foreign", "bad MAC", "replayed",
+ * "bad channel". */
 const char *dkf_auth_verdict_str(dkf_auth_verdict_t v);
 
 /* signer id of a role (DKF_NET_ROLE_*) and index. */
@@ -124,10 +131,11 @@ int dkf_auth_sign(dkf_auth_t *a, const char *channel, const void *msg, size_t le
 /* Checks a received datagram (message + trailer) on channel (a graph
  * node's: the tag addressed to it, under the key of the channel's node; no
  * tag for it, or that node no neighbour, is `unknown key`); on ACCEPT
- * *msg_len is the message's length and the replay state advances. Every
- * other verdict changes nothing but the counters. */
+ * *msg_len is the message's length, *from (may be NULL) the signer whose
+ * key verified it, and the replay state advances. Every other verdict
+ * changes nothing but the counters. */
 dkf_auth_verdict_t dkf_auth_verify(dkf_auth_t *a, const char *channel, const void *dgram,
-                                   size_t len, size_t *msg_len);
+                                   size_t len, size_t *msg_len, dkf_net_from_t *from);
 
 /* Datagrams judged, by verdict (DKF_AUTH_NVERDICTS entries). */
 const uint64_t *dkf_auth_counts(const dkf_auth_t *a);

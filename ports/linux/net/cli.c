@@ -169,6 +169,26 @@ int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, si
     return install_auth(prog, key_dir, net, a, err);
 }
 
+void dkf_cli_print_refusals(const char *prog, const dkf_net_rejects_t *why, const dkf_net_t *net)
+{
+    const dkf_auth_t *a = dkf_net_auth(net);
+    char line[512];
+    size_t off = 0;
+    int v;
+    line[0] = '\0';
+    for (v = 1; v < DKF_NET_NVERDICTS; ++v)
+        if (why->by[v] > 0 && off < sizeof line)
+            off += (size_t)snprintf(line + off, sizeof line - off, "%s%s=%llu", off ? ", " : "",
+                                    dkf_net_verdict_str((dkf_net_verdict_t)v),
+                                    (unsigned long long)why->by[v]);
+    for (v = 1; a != NULL && v < DKF_AUTH_NVERDICTS; ++v)
+        if (dkf_auth_counts(a)[v] > 0 && off < sizeof line)
+            off += (size_t)snprintf(line + off, sizeof line - off, "%s%s=%llu", off ? ", " : "",
+                                    dkf_auth_verdict_str((dkf_auth_verdict_t)v),
+                                    (unsigned long long)dkf_auth_counts(a)[v]);
+    if (off > 0) fprintf(stderr, "%s: refused: %s\n", prog, line);
+}
+
 json_t *dkf_cli_rx_json(const dkf_net_t *net)
 {
     const dkf_net_rx_t rx = dkf_net_rx(net);

@@ -15,6 +15,7 @@
 
 #include <jansson.h>
 
+#include "codec.h"
 #include "net.h"
 #include "scenario.h"
 #include "util.h"
@@ -72,6 +73,11 @@ int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, si
 /* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
  * (mode "off" without one): the result file's "auth". */
 json_t *dkf_cli_auth_json(const dkf_net_t *net);
+
+/* One line "PROG: refused: <reason>=<count>, ..." of the messages refused
+ * by validation (why) and of the datagrams refused by net's authenticator,
+ * nonzero counts only; nothing if none was refused. */
+void dkf_cli_print_refusals(const char *prog, const dkf_net_rejects_t *why, const dkf_net_t *net);
 
 /* {"mode": "direct" | "lcm", "datagrams", "fragments", "malformed",
  * "unmatched", "rcvbuf"} (dkf_net_rx; counts 0 in mode "lcm"): the result

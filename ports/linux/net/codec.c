@@ -217,11 +217,12 @@ const char *dkf_net_verdict_str(dkf_net_verdict_t v)
     case DKF_NET_REJ_DIM: return "wrong dimension";
     case DKF_NET_REJ_STEP: return "step out of range";
     case DKF_NET_REJ_NONFINITE: return "non-finite number";
+    case DKF_NET_REJ_SENDER: return "not its sender";
     default: return "unknown verdict";
     }
 }
 
-static dkf_net_verdict_t reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v)
+dkf_net_verdict_t dkf_net_reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v)
 {
     if (rej != NULL && v != DKF_NET_ACCEPT) {
         ++rej->total;
@@ -345,7 +346,7 @@ dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
     dkf_net_verdict_t v;
     long count[WIRE_NSLOTS], n;
     if (wire_decode(&node_msg_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
     n = count[0];
     v = check_envelope(ex, w.node, w.model_id, w.n, ex->n, w.k);
     if (v == DKF_NET_ACCEPT) v = check_epoch(&w, (size_t)n);
@@ -362,7 +363,7 @@ dkf_net_verdict_t dkf_net_decode_node_msg(const void *buf, size_t len,
         meta->has_prev = w.has_prev ? 1 : 0;
     }
     dkf_lcm_node_msg_t_decode_cleanup(&w);
-    return reject(rej, v);
+    return dkf_net_reject(rej, v);
 }
 
 /* ---- measurement ------------------------------------------------------------- */
@@ -388,7 +389,7 @@ dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net
     dkf_net_verdict_t v;
     long count[WIRE_NSLOTS], m;
     if (wire_decode(&measurement_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
     m = count[0];
     v = check_envelope(ex, w.node, w.model_id, 0, 0, w.k);
     if (v == DKF_NET_ACCEPT && (ex->m == NULL || (size_t)w.m != ex->m[w.node]))
@@ -405,7 +406,7 @@ dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net
         memcpy(meas->y, w.y, (size_t)m * sizeof(double));
     }
     dkf_lcm_measurement_t_decode_cleanup(&w);
-    return reject(rej, v);
+    return dkf_net_reject(rej, v);
 }
 
 /* ---- truth ------------------------------------------------------------------- */
@@ -430,7 +431,7 @@ dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_ne
     dkf_net_verdict_t v = DKF_NET_ACCEPT;
     long count[WIRE_NSLOTS], n;
     if (wire_decode(&truth_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
     n = count[0];
     if (w.model_id != ex->model_id) v = DKF_NET_REJ_MODEL;
     else if ((size_t)n != ex->n) v = DKF_NET_REJ_DIM;
@@ -446,7 +447,7 @@ dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_ne
         memcpy(t->x, w.x, (size_t)n * sizeof(double));
     }
     dkf_lcm_truth_t_decode_cleanup(&w);
-    return reject(rej, v);
+    return dkf_net_reject(rej, v);
 }
 
 /* ---- fused estimate ---------------------------------------------------------- */
@@ -495,7 +496,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
     long count[WIRE_NSLOTS], nn, n;
     size_t i;
     if (wire_decode(&fused_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
     nn = count[0];
     n = count[1];
     if ((size_t)nn != ex->nnodes) v = DKF_NET_REJ_NODE;
@@ -533,7 +534,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
         }
     }
     dkf_lcm_fused_t_decode_cleanup(&w);
-    return reject(rej, v);
+    return dkf_net_reject(rej, v);
 }
 
 /* ---- status ------------------------------------------------------------------ */
@@ -559,13 +560,17 @@ int dkf_net_encode_status(void *buf, size_t cap, size_t *len, const dkf_net_stat
     return encoded(dkf_lcm_status_t_encode(buf, 0, (int)cap, &w), len);
 }
 
-dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
-                                        dkf_net_rejects_t *rej)
+dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, const dkf_net_from_t *from,
+                                        dkf_net_status_t *st, dkf_net_rejects_t *rej)
 {
     dkf_lcm_status_t w;
     long count[WIRE_NSLOTS];
     if (wire_decode(&status_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
+    if (!dkf_net_from_is(from, w.role, w.id)) {
+        dkf_lcm_status_t_decode_cleanup(&w);
+        return dkf_net_reject(rej, DKF_NET_REJ_SENDER);
+    }
     st->utime = w.utime;
     st->model_id = w.model_id;
     st->role = w.role;
@@ -639,7 +644,7 @@ dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, const dkf_net_t
     dkf_net_verdict_t v;
     size_t i, n;
     if (wire_decode(&tw_packet_wire, buf, len, &w, count) != 0)
-        return reject(rej, DKF_NET_REJ_MALFORMED);
+        return dkf_net_reject(rej, DKF_NET_REJ_MALFORMED);
     n = (size_t)count[0];
     v = check_tw(&w, n, ex);
     if (v == DKF_NET_ACCEPT) {
@@ -654,34 +659,5 @@ dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, const dkf_net_t
         for (i = 0; i < n; ++i) out->v[i] = (dkf_real_t)w.v[i]; /* n 0: w.v is NULL */
     }
     dkf_lcm_tw_packet_t_decode_cleanup(&w);
-    return reject(rej, v);
-}
-
-/* ---- channels ---------------------------------------------------------------- */
-
-void dkf_net_chan_meas(char *out, const char *prefix, size_t node)
-{
-    snprintf(out, DKF_NET_CHAN_LEN, "%s_MEAS_%zu", prefix, node);
-}
-
-void dkf_net_chan_node(char *out, const char *prefix, size_t node)
-{
-    snprintf(out, DKF_NET_CHAN_LEN, "%s_NODE_%zu", prefix, node);
-}
-
-void dkf_net_chan(char *out, const char *prefix, const char *what)
-{
-    snprintf(out, DKF_NET_CHAN_LEN, "%s_%s", prefix, what);
-}
-
-long dkf_net_chan_index(const char *channel)
-{
-    const char *p = strrchr(channel, '_');
-    long v = 0;
-    if (p == NULL || p[1] == '\0') return -1;
-    for (++p; *p != '\0'; ++p) {
-        if (*p < '0' || *p > '9' || v > 100000) return -1;
-        v = v * 10 + (*p - '0');
-    }
-    return v;
+    return dkf_net_reject(rej, v);
 }

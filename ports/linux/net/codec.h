@@ -12,7 +12,9 @@
  *              detail of 1..4096 bytes with its NUL last, a graph-filter
  *              packet of 0..DKF_NET_TW_MAX_LEN reals) or one the datagram
  *              does not hold, negative epoch, a flag (boolean) not 0/1
- *   NODE       node id outside 0..nnodes-1, or not the channel's node
+ *   NODE       node id outside 0..nnodes-1, or not the sender's node
+ *              (ex->node: the node whose key verified the datagram, or
+ *              without authentication the node its channel names)
  *   MODEL      model id differs from the receiver's scenario model
  *   DIM        n (or m) is not the receiver's dimension
  *   STEP       k outside 1..kmax; node message: also k_start outside 1..k,
@@ -33,6 +35,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "chan.h"
 #include "dkf/diffkf_fusion.h"
 #include "dkf/tw.h"
 
@@ -56,6 +59,7 @@ typedef enum {
     DKF_NET_REJ_DIM,
     DKF_NET_REJ_STEP,
     DKF_NET_REJ_NONFINITE,
+    DKF_NET_REJ_SENDER, /* the payload names another sender than the authenticated one */
     DKF_NET_NVERDICTS
 } dkf_net_verdict_t;
 
@@ -66,6 +70,9 @@ typedef struct {
     uint64_t total;
     uint64_t by[DKF_NET_NVERDICTS]; /* by[0] unused */
 } dkf_net_rejects_t;
+
+/* Counts verdict v in rej (may be NULL; ACCEPT is not counted); returns v. */
+dkf_net_verdict_t dkf_net_reject(dkf_net_rejects_t *rej, dkf_net_verdict_t v);
 
 /* What a receiver expects. */
 typedef struct {
@@ -119,8 +126,7 @@ typedef struct {
     double Pf[DKF_NET_MAX_VEC * DKF_NET_MAX_VEC], Pp[DKF_NET_MAX_VEC * DKF_NET_MAX_VEC];
 } dkf_net_fused_t;
 
-/* Process status / heartbeat (lcmtypes/status_t.lcm). */
-enum { DKF_NET_ROLE_SIM = 0, DKF_NET_ROLE_NODE = 1, DKF_NET_ROLE_FUSION = 2 };
+/* Process status / heartbeat (lcmtypes/status_t.lcm; role: chan.h). */
 enum { DKF_NET_STARTING = 0, DKF_NET_RUNNING = 1, DKF_NET_DONE = 2, DKF_NET_FAILED = 3 };
 typedef struct {
     int64_t utime, model_id;
@@ -165,9 +171,11 @@ dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_ne
 /* Fused: nnodes must equal ex->nnodes (else NODE); status must be valid (else MALFORMED). */
 dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_net_expect_t *ex,
                                        dkf_net_fused_t *f, dkf_net_rejects_t *rej);
-/* Status: only MALFORMED is checked (any model, any role). */
-dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, dkf_net_status_t *st,
-                                        dkf_net_rejects_t *rej);
+/* Status: MALFORMED (any model), then SENDER: from is known (chan.h) and
+ * the payload's role and id are not its role and id (a node: its node id;
+ * the simulator, the fusion centre: -1). from NULL or unknown: any role. */
+dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, const dkf_net_from_t *from,
+                                        dkf_net_status_t *st, dkf_net_rejects_t *rej);
 
 /* A graph-filter packet (lcmtypes/tw_packet_t.lcm; tw_agent.h is its user):
  * kind INFO (Algorithm 2 round 0 / Algorithm 3 rounds < eta: the
@@ -205,15 +213,5 @@ int dkf_net_encode_tw(void *buf, size_t cap, size_t *len, const dkf_net_tw_pkt_t
  * round != 0), NONFINITE (also after conversion to dkf_real_t). */
 dkf_net_verdict_t dkf_net_decode_tw(const void *buf, size_t len, const dkf_net_tw_expect_t *ex,
                                     dkf_net_tw_pkt_t *out, dkf_net_rejects_t *rej);
-
-/* Channel names: "<prefix>_MEAS_<i>", "<prefix>_NODE_<i>", "<prefix>_FUSED",
- * "<prefix>_TRUTH", "<prefix>_STATUS". out has DKF_NET_CHAN_LEN bytes. */
-#define DKF_NET_CHAN_LEN 64
-#define DKF_NET_PREFIX "DKF"
-void dkf_net_chan_meas(char *out, const char *prefix, size_t node);
-void dkf_net_chan_node(char *out, const char *prefix, size_t node);
-void dkf_net_chan(char *out, const char *prefix, const char *what);
-/* The node index at the end of a "<prefix>_<what>_<i>" channel, or -1. */
-long dkf_net_chan_index(const char *channel);
 
 #endif /* DKF_NET_CODEC_H */

@@ -217,6 +217,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "%s: %s; published %lld measurements, fused steps seen up to k=%ld\n",
                 prog, code == DKF_EXIT_OK ? "done" : code == DKF_EXIT_STOPPED ? "stopped" : "failed",
                 (long long)cn->sent, dkf_net_sim_fused_k(sim));
+        dkf_cli_print_refusals(prog, &cn->why, net);
     }
     dkf_net_sim_free(sim);
     dkf_net_close(net);

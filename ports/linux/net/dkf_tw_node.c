@@ -193,13 +193,17 @@ static int send_own(void *user, const void *data, size_t len)
     return dkf_net_publish(x->net, x->chan, data, len);
 }
 
-static void on_packet(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                      void *user)
+static void on_packet(const char *channel, const dkf_net_from_t *from, const void *data,
+                      size_t len, int64_t recv_utime, void *user)
 {
     ctx_t *x = user;
+    /* the sender: the graph node whose edge key verified the packet, or
+     * without authentication the channel's node */
+    const long node = from->known ? (from->role == DKF_NET_ROLE_GRAPH ? from->id : -1)
+                                  : dkf_ra_chan_node(channel, x->prefix);
     (void)recv_utime;
-    (void)dkf_ra_receive(x->ag.ra, dkf_ra_chan_node(channel, x->prefix), data, len,
-                         dkf_net_mono_us());
+    (void)dkf_ra_receive(x->ag.ra, node >= 0 ? node : DKF_NET_CHAN_MAX_ID + 1 /* none: refused */,
+                         data, len, dkf_net_mono_us());
 }
 
 static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, double wall)

@@ -10,6 +10,14 @@
  * DKF_FCR_CKPT steps) restores the checkpoint taken before that step and
  * replays every step since with the data now known, which gives exactly what
  * the centre would have computed had the payload been on time.
+ *
+ * The work late data can force is bounded, whoever sends it and however
+ * fast (docs/network.md, "Threat model"): a revision rolls back at once
+ * only if no rollback happened since the last first publication or for a
+ * deadline; otherwise it waits, merged with any other, and runs before the
+ * next step is published (or a deadline later). So between two first
+ * publications there are at most two rollbacks, each recomputing at most
+ * DKF_FCR_CKPT steps.
  */
 #define _POSIX_C_SOURCE 200112L /* clock_gettime */
 
@@ -95,6 +103,10 @@ struct dkf_fcr {
     int64_t comp_begin, comp_end; /* wall clock around the last ops->step */
     int64_t done_mono;            /* when step done_k was first published (monotonic):
                                      step done_k + 1 opens then at the latest */
+    long revise_k;                /* first published step late data changed (LONG_MAX:
+                                     none): recomputed by the next rollback */
+    long rolled_k;                /* done_k at the last rollback (-1: none yet) */
+    int64_t rolled_mono;          /* and its time (monotonic) */
     record_t rec;
     dkf_fcr_steps_t steps;        /* read-only view of rec */
     dkf_fcr_counts_t c;
@@ -386,11 +398,15 @@ static void set_state(dkf_fcr_t *rt, int state)
     if (rt->ops->state != NULL) rt->ops->state(rt->user, state);
 }
 
+static void roll_back(dkf_fcr_t *rt, int64_t now);
+
 /* Computes and publishes step done_k + 1 for the first time (at monotonic
- * time now). */
+ * time now), after the revision waiting if any. */
 static void next_step(dkf_fcr_t *rt, int64_t now)
 {
     const long k = rt->done_k + 1;
+    if (rt->revise_k <= rt->done_k) roll_back(rt, now); /* the waiting revision first */
+    if (rt->state != DKF_FCR_RUNNING) return;
     if (compute_step(rt, k) != 0) {
         set_state(rt, DKF_FCR_FAILED);
         return;
@@ -410,7 +426,7 @@ static int settled(const dkf_fcr_t *rt, int64_t now)
     const long k0 = rt->N - DKF_FCR_CKPT + 1 > rt->join_k ? rt->N - DKF_FCR_CKPT + 1 : rt->join_k;
     size_t i;
     long k;
-    if (rt->done_k < rt->N) return 0;
+    if (rt->done_k < rt->N || rt->revise_k <= rt->done_k) return 0;
     for (i = 0; i < rt->l; ++i) {
         const peer_t *p = &rt->peer[i];
         if (p->last_mono == INT64_MIN || now - p->last_mono >= rt->cfg.linger_us) continue;
@@ -427,13 +443,17 @@ static void finish_if_settled(dkf_fcr_t *rt, int64_t now)
     if (rt->state == DKF_FCR_RUNNING && settled(rt, now)) set_state(rt, DKF_FCR_DONE);
 }
 
-/* New data for step j <= done_k: back to the checkpoint after step j-1,
- * every step since recomputed and published again (revision > 0), so a
- * subscriber holds the final value of every step. */
-static void roll_back(dkf_fcr_t *rt, long j)
+/* The revision waiting (revise_k <= done_k): back to the checkpoint after
+ * step j-1 = revise_k - 1, every step since recomputed and published again
+ * (revision > 0), so a subscriber holds the final value of every step. */
+static void roll_back(dkf_fcr_t *rt, int64_t now)
 {
+    const long j = rt->revise_k;
     const size_t c = (size_t)(j - 1) % NCKPT;
     long k;
+    rt->revise_k = LONG_MAX;
+    rt->rolled_k = rt->done_k;
+    rt->rolled_mono = now;
     if (!have_ckpt(rt, j - 1) || rt->ops->restore(rt->user, rt->ck + c * rt->ck_stride) != 0) {
         ++rt->c.too_late;
         dkf_fcr_notef(rt, "fusion: no checkpoint before step k=%ld: late data ignored", j);
@@ -449,6 +469,18 @@ static void roll_back(dkf_fcr_t *rt, long j)
         ++rt->c.replayed;
         emit_step(rt, k);
     }
+}
+
+/* Rolls back for the revision waiting if the budget allows it now: no
+ * rollback since the last first publication, or none for a deadline. */
+static void revise_if_due(dkf_fcr_t *rt, int64_t now)
+{
+    if (rt->state != DKF_FCR_RUNNING || rt->revise_k > rt->done_k) return;
+    if (rt->rolled_k == rt->done_k && now - rt->rolled_mono < rt->cfg.deadline_us) {
+        ++rt->c.deferred;
+        return;
+    }
+    roll_back(rt, now);
 }
 
 /* ---- when a step is fused ---------------------------------------------------------- */
@@ -596,7 +628,8 @@ int dkf_fcr_receive(dkf_fcr_t *rt, const dkf_fcr_msg_t *m, int64_t mono_us)
         dirty = m->k;
     if (dirty <= rt->done_k) {
         ++rt->c.late;
-        roll_back(rt, dirty);
+        if (dirty < rt->revise_k) rt->revise_k = dirty;
+        revise_if_due(rt, mono_us);
     }
     advance(rt, mono_us);
     return 0;
@@ -621,6 +654,7 @@ void dkf_fcr_tick(dkf_fcr_t *rt, int64_t mono_us)
         next_step(rt, mono_us);
         advance(rt, mono_us);
     }
+    revise_if_due(rt, mono_us);
     finish_if_settled(rt, mono_us);
 }
 
@@ -693,6 +727,8 @@ dkf_fcr_t *dkf_fcr_create(const dkf_fcr_config_t *cfg, const dkf_fcr_ops_t *ops,
     }
     for (j = 0; j < NCKPT; ++j) rt->ck_k[j] = -1;
     rt->state = DKF_FCR_RUNNING;
+    rt->revise_k = LONG_MAX;
+    rt->rolled_k = -1;
     rt->first_recv = rt->newest_recv = INT64_MIN;
     rt->join_k = 1;
     rt->steps.degraded = rt->rec.degraded;

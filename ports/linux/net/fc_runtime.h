@@ -18,9 +18,12 @@
  *     published degraded; the window follows the arrivals (a payload of
  *     step k pushes steps before k - DKF_FCR_WINDOW out);
  *   - checkpoints and rollback/replay: a payload of a published step that
- *     arrives late (within DKF_FCR_CKPT steps) restores the checkpoint
- *     taken before that step and recomputes every step since, each
- *     published again with revision + 1;
+ *     arrives late (within DKF_FCR_CKPT steps), or an epoch that starts
+ *     there, restores the checkpoint taken before that step and recomputes
+ *     every step since, each published again with revision + 1; at most
+ *     two rollbacks between first publications (or one per deadline after
+ *     step N): a revision beyond that waits, merged with the others, and
+ *     runs before the next step is published;
  *   - the join (a centre started mid-run fuses from the first step it has
  *     a payload of) and the linger (after step N it waits until every node
  *     heard has its revisable payloads or is silent for linger_us);
@@ -135,6 +138,7 @@ typedef struct {
     int64_t sent;       /* publications that succeeded */
     int64_t duplicates, redundant, late, too_late, ahead, old_epoch, conflicts;
     int64_t rollbacks, replayed, revised_sent, restarts, core_masked, lost_epochs, pushed;
+    int64_t deferred;   /* late data whose rollback waited for the budget (merged) */
 } dkf_fcr_counts_t;
 
 /* What is recorded of steps 1..N (index k-1). */
@@ -163,8 +167,9 @@ dkf_fcr_t *dkf_fcr_create(const dkf_fcr_config_t *cfg, const dkf_fcr_ops_t *ops,
 void dkf_fcr_free(dkf_fcr_t *rt);
 
 /* Takes a node's message at monotonic time mono_us: stores its payloads,
- * rolls back and replays if they revise a published step, then publishes
- * every step that has all it can get. 0, or -1 if it was not looked at
+ * rolls back and replays if they revise a published step (now, or later if
+ * the rollback budget is spent), then publishes every step that has all it
+ * can get. 0, or -1 if it was not looked at
  * (not RUNNING, node, k, k_start or epoch out of range). */
 int dkf_fcr_receive(dkf_fcr_t *rt, const dkf_fcr_msg_t *m, int64_t mono_us);
 /* Publishes the steps whose deadline has passed at mono_us; ends the run

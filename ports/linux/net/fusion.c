@@ -230,8 +230,8 @@ static const dkf_fcr_ops_t dkf_fc_ops = {op_step,    op_restart, op_save,  op_re
 
 /* ---- LCM ---------------------------------------------------------------------------- */
 
-static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                        void *user)
+static void on_node_msg(const char *channel, const dkf_net_from_t *from, const void *data,
+                        size_t len, int64_t recv_utime, void *user)
 {
     dkf_net_fusion_t *fu = user;
     dkf_net_expect_t ex;
@@ -240,7 +240,7 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     ex.n = fu->n;
     ex.m = NULL;
     ex.kmax = fu->N;
-    dkf_fcr_node_message(fu->rt, &ex, "fusion", channel, data, len, recv_utime, &fu->in,
+    dkf_fcr_node_message(fu->rt, &ex, "fusion", channel, from, data, len, recv_utime, &fu->in,
                          &fu->in_prev, &fu->c);
 }
 

@@ -80,6 +80,7 @@ static json_t *json_faults(const dkf_fcr_counts_t *c)
     set_int(faults, "epoch_conflicts", c->conflicts);
     set_int(faults, "lost_epochs", c->lost_epochs);
     set_int(faults, "rollbacks", c->rollbacks);
+    set_int(faults, "rollbacks_deferred", c->deferred);
     set_int(faults, "replayed_steps", c->replayed);
     set_int(faults, "revised_published", c->revised_sent);
     set_int(faults, "core_refusals", c->core_masked);
@@ -228,15 +229,17 @@ void dkf_fcr_sync_counts(const dkf_fcr_t *rt, dkf_net_counts_t *c)
 }
 
 void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
-                          const char *channel, const void *data, size_t len, int64_t recv_utime,
+                          const char *channel, const dkf_net_from_t *from, const void *data,
+                          size_t len, int64_t recv_utime,
                           dkf_diffkf_msg_t *in, dkf_diffkf_msg_t *in_prev, dkf_net_counts_t *c)
 {
     dkf_net_meta_t meta;
     dkf_net_verdict_t v;
     dkf_fcr_msg_t m;
     if (dkf_fcr_state(rt) != DKF_FCR_RUNNING) return;
-    ex->node = dkf_net_chan_index(channel);
-    if (ex->node < 0) ex->node = (long)ex->nnodes; /* no index in the name: no node matches */
+    /* the sender's node: the signer's, or without authentication the channel's */
+    ex->node = dkf_net_from_node(from, channel);
+    if (ex->node < 0) ex->node = (long)ex->nnodes; /* none: no node matches */
     v = dkf_net_decode_node_msg(data, len, ex, in, in_prev, &meta, &c->why);
     if (v != DKF_NET_ACCEPT) {
         ++c->rejected;

@@ -57,14 +57,15 @@ int dkf_fcr_journal_write(FILE *f, json_t *line, int64_t utime);
 
 /* ---- the node messages (both centres' LCM handler) ------------------------------------ */
 
-/* One node message received on `channel` (<prefix>_NODE_<i>) into rt,
- * while rt is RUNNING: decoded against ex (ex->node is set from the
- * channel's index), a refusal counted in c->rejected and c->why and noted
+/* One node message received on `channel` (<prefix>_NODE_<i>) from `from`
+ * into rt, while rt is RUNNING: decoded against ex (ex->node is set to the
+ * sender's node, dkf_net_from_node), a refusal counted in c->rejected and c->why and noted
  * as "<who>: message on <channel> rejected: <why>"; in and in_prev are the
  * decoder's buffers (the runtime copies the payload). c's runtime counters
  * are synced afterwards. */
 void dkf_fcr_node_message(dkf_fcr_t *rt, dkf_net_expect_t *ex, const char *who,
-                          const char *channel, const void *data, size_t len, int64_t recv_utime,
+                          const char *channel, const dkf_net_from_t *from, const void *data,
+                          size_t len, int64_t recv_utime,
                           dkf_diffkf_msg_t *in, dkf_diffkf_msg_t *in_prev, dkf_net_counts_t *c);
 /* Step st as a fused_t on channel chan: the step's status and
  * contributors from st, its estimate xf, Pf and prior xp, Pp (n and n x n

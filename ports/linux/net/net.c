@@ -283,10 +283,11 @@ int dkf_net_publish(dkf_net_t *net, const char *channel, const void *data, size_
 static void deliver(const struct sub *s, const char *channel, const void *data, size_t len,
                     int64_t recv_utime)
 {
+    dkf_net_from_t from = {0, -1, -1};
     if (s->net->auth != NULL &&
-        dkf_auth_verify(s->net->auth, channel, data, len, &len) != DKF_AUTH_ACCEPT)
+        dkf_auth_verify(s->net->auth, channel, data, len, &len, &from) != DKF_AUTH_ACCEPT)
         return;
-    s->fn(channel, data, len, recv_utime, s->user);
+    s->fn(channel, &from, data, len, recv_utime, s->user);
 }
 
 /* LCM's handler: deliver. */

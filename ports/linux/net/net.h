@@ -21,14 +21,18 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "chan.h"
+
 #define DKF_NET_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
 #define DKF_NET_ERR_LEN 256
 
 typedef struct dkf_net dkf_net_t;
 
-/* Raw-message handler: channel, payload, receive time (us since epoch). */
-typedef void (*dkf_net_handler_t)(const char *channel, const void *data, size_t len,
-                                  int64_t recv_utime, void *user);
+/* Raw-message handler: channel, its sender (chan.h: with authentication
+ * the signer whose key verified the datagram, else unknown), payload,
+ * receive time (us since epoch). */
+typedef void (*dkf_net_handler_t)(const char *channel, const dkf_net_from_t *from,
+                                  const void *data, size_t len, int64_t recv_utime, void *user);
 
 /* 0 if url is allowed (see above), else -1 with the reason in err. */
 int dkf_net_check_url(const char *url, char *err, size_t errlen);
@@ -70,8 +74,8 @@ dkf_net_rx_t dkf_net_rx(const dkf_net_t *net);
 struct dkf_auth; /* auth.h */
 
 /* From now on every datagram published carries auth's trailer, and only
- * datagrams that auth accepts reach the handlers (docs/network.md,
- * "Authentication"). net takes auth over (dkf_net_close frees it); NULL
+ * datagrams that auth accepts reach the handlers, with the verified signer
+ * as their sender (docs/network.md, "Authentication"). net takes auth over (dkf_net_close frees it); NULL
  * turns authentication off. */
 void dkf_net_set_auth(dkf_net_t *net, struct dkf_auth *auth);
 /* The authenticator set, or NULL (its counters: auth.h). */

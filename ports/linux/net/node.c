@@ -181,13 +181,12 @@ static void node_advance(dkf_net_node_t *nd, const dkf_net_meas_t *y)
     }
 }
 
-static void on_meas(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                    void *user)
+static void on_meas(const char *channel, const dkf_net_from_t *from, const void *data,
+                    size_t len, int64_t recv_utime, void *user)
 {
     dkf_net_node_t *nd = user;
     dkf_net_expect_t ex;
     dkf_net_verdict_t v;
-    (void)channel;
     (void)recv_utime;
     if (nd->state == DKF_NET_FAILED || nd->state == DKF_NET_DONE || nd->exited) return;
     ex.model_id = nd->model_id;
@@ -196,7 +195,11 @@ static void on_meas(const char *channel, const void *data, size_t len, int64_t r
     ex.n = nd->s->n;
     ex.m = nd->m;
     ex.kmax = (long)nd->s->steps + 1;
-    v = dkf_net_decode_meas(data, len, &ex, &nd->ybuf, &nd->c.why);
+    /* measurements come from the simulator (auth.c lets no one else sign
+     * them; checked again here, where the sender is known) */
+    v = dkf_net_from_is(from, DKF_NET_ROLE_SIM, -1)
+            ? dkf_net_decode_meas(data, len, &ex, &nd->ybuf, &nd->c.why)
+            : dkf_net_reject(&nd->c.why, DKF_NET_REJ_SENDER);
     if (v != DKF_NET_ACCEPT) {
         ++nd->c.rejected;
         snprintf(nd->error, sizeof nd->error, "node %zu: measurement on %s rejected: %s", nd->id,

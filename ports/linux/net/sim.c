@@ -34,15 +34,19 @@ struct dkf_net_sim {
     dkf_net_counts_t c;
 };
 
-static void on_status(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                      void *user)
+static void on_status(const char *channel, const dkf_net_from_t *from, const void *data,
+                      size_t len, int64_t recv_utime, void *user)
 {
     dkf_net_sim_t *sim = user;
     dkf_net_status_t st;
     peer_t *p = NULL;
     (void)channel;
     (void)recv_utime;
-    if (dkf_net_decode_status(data, len, &st, NULL) != DKF_NET_ACCEPT) return;
+    /* a status names its sender: with authentication it must be the signer */
+    if (dkf_net_decode_status(data, len, from, &st, &sim->c.why) != DKF_NET_ACCEPT) {
+        ++sim->c.rejected;
+        return;
+    }
     if (st.role == DKF_NET_ROLE_NODE && st.id >= 0 && (size_t)st.id < sim->s->nsensors)
         p = &sim->nodes[st.id];
     else if (st.role == DKF_NET_ROLE_FUSION)
@@ -61,14 +65,19 @@ static void on_status(const char *channel, const void *data, size_t len, int64_t
     snprintf(p->detail, sizeof p->detail, "%s", st.detail);
 }
 
-static void on_fused(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                     void *user)
+static void on_fused(const char *channel, const dkf_net_from_t *from, const void *data,
+                     size_t len, int64_t recv_utime, void *user)
 {
     dkf_net_sim_t *sim = user;
     static dkf_net_fused_t f;
     dkf_net_expect_t ex;
     (void)channel;
     (void)recv_utime;
+    if (!dkf_net_from_is(from, DKF_NET_ROLE_FUSION, -1)) { /* auth.c lets only the centre sign */
+        dkf_net_reject(&sim->c.why, DKF_NET_REJ_SENDER);
+        ++sim->c.rejected;
+        return;
+    }
     ex.model_id = sim->model_id;
     ex.nnodes = sim->s->nsensors;
     ex.node = -1;

@@ -244,8 +244,8 @@ static const dkf_fcr_ops_t wf_ops = {op_step,    op_restart, op_save,  op_restor
 
 /* ---- LCM: the node messages, decoded by codec.c ------------------------------------- */
 
-static void on_node_msg(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                        void *user)
+static void on_node_msg(const char *channel, const dkf_net_from_t *from, const void *data,
+                        size_t len, int64_t recv_utime, void *user)
 {
     dkf_net_wfusion_t *w = user;
     dkf_net_expect_t ex;
@@ -254,7 +254,7 @@ static void on_node_msg(const char *channel, const void *data, size_t len, int64
     ex.n = w->n;
     ex.m = NULL;
     ex.kmax = w->N;
-    dkf_fcr_node_message(w->rt, &ex, "wfusion", channel, data, len, recv_utime, &w->in,
+    dkf_fcr_node_message(w->rt, &ex, "wfusion", channel, from, data, len, recv_utime, &w->in,
                          &w->in_prev, &w->c);
 }
 

@@ -22,11 +22,15 @@
 #               run: all rejected and counted by reason, fused output identical
 #               (bit for bit) to a clean run
 #   auth        an authenticated run (dkf-keygen, --key-dir everywhere) and the
-#               same run with net_inject --auth sending 3 bursts of 5 datagrams
-#               the transport must reject (no trailer, bad MAC, a node speaking
-#               for another, an unknown key, a replay): 15 of 15 rejected and
-#               counted by reason, nothing reaches the codec, the fused output
-#               identical (bit for bit) to the clean run
+#               same run with net_inject --auth sending 3 bursts of 8 datagrams
+#               that must be refused: at the fusion centre's transport no
+#               trailer, bad MAC, a node speaking for another, an unknown key,
+#               a replay, a node's message on an alias of its channel
+#               (_NODE_0001): 18 of 18 refused and counted by reason, nothing
+#               reaches the codec; at the simulator a status signed by node 1
+#               claiming to be the centre (FAILED) or node 0 (FAILED): 6 of 6
+#               refused as "not its sender", the run not stopped; the fused
+#               output identical (bit for bit) to the clean run
 # At the demo's own settings (tools/net_demo.sh: the generated 12-node
 # network, N = 100, dkf-sim --rate 50, --deadline-ms 1000; SCENARIO is then
 # written by tools/make_net_scenario.py, DKF_GEN):
@@ -92,9 +96,10 @@ node() { # TAG ID [dkf-node options...]; sets npid
   wait_file "$out/$tag.n$id.ready" 10
 }
 
+simtag=run # sim's log: $out/$simtag.sim.log
 sim() { # [dkf-sim options...]
-  "$DKF_SIM" --url "$URL" --timeout $T --lockstep "${AUTH[@]}" "$@" "$scn" ||
-    { echo "FAIL: dkf-sim exited $?"; return 1; }
+  "$DKF_SIM" --url "$URL" --timeout $T --lockstep "${AUTH[@]}" "$@" "$scn" \
+    2>"$out/$simtag.sim.log" || { echo "FAIL: dkf-sim exited $?"; cat "$out/$simtag.sim.log"; return 1; }
 }
 
 finish() { # TAG PID... : waits for the fusion centre and the given nodes
@@ -132,6 +137,7 @@ clean_and_injected() { # TAG [net_inject options...]: a clean run, then run TAG 
         2>"$out/$tag.inject.log" & pids+=($!); inj=$!
       sleep 0.2 # the injector subscribes before the first fused step
     fi
+    simtag=$tag
     sim || return 1
     finish $tag $a $b || return 1
     if [[ $tag != clean ]]; then
@@ -237,15 +243,23 @@ PY
     "$DKF_PYTHON" - "$out/clean.fused.json" "$out/attacked.fused.json" <<'PY' || exit 1
 import json, sys
 clean, att = (json.load(open(p))["auth"] for p in sys.argv[1:])
-want = {"no trailer": 3, "bad MAC": 3, "foreign": 3, "unknown key": 3, "replayed": 3}
+want = {"no trailer": 3, "bad MAC": 3, "foreign": 3, "unknown key": 3, "replayed": 3,
+        "bad channel": 3}
 assert clean["mode"] == att["mode"] == "hmac-sha512-256", (clean, att)
 assert all(v == 0 for r, v in clean["datagrams"].items() if r != "accepted"), clean
 got = {r: v for r, v in att["datagrams"].items() if r != "accepted"}
 assert got == want, got
 print(f"authenticated: {clean['datagrams']['accepted']} datagrams accepted in the clean run; "
-      f"attacked: {sum(got.values())} of 15 injected rejected ({got}), "
+      f"attacked: {sum(got.values())} of 18 injected rejected ({got}), "
       f"{att['datagrams']['accepted']} accepted, fused output identical")
 PY
+    # the simulator refused every impostor status (6) and went on
+    grep -q 'refused: not its sender=6\b' "$out/attacked.sim.log" ||
+      { echo "FAIL: dkf-sim did not refuse the 6 impostor statuses:"; cat "$out/attacked.sim.log"; exit 1; }
+    if grep -q 'refused:' "$out/clean.sim.log"; then
+      echo "FAIL: the clean run's simulator refused something:"; cat "$out/clean.sim.log"; exit 1
+    fi
+    grep 'refused:' "$out/attacked.sim.log"
     ;;
   demo_dead)
     demo_scenario

@@ -19,13 +19,20 @@
  * let it through would change the fused output.
  *
  * With --auth DIR (an authenticated run, keys in DIR: auth.h) a burst is
- * instead 5 datagrams the transport must reject, one per reason:
+ * instead 8 datagrams, each of which must be refused:
  *   no trailer    a plausible node-0 message, unsigned
  *   bad MAC       the same with a trailer of node 0 under a wrong key
  *   foreign       signed with node 1's real key (a compromised node 1),
  *                 published on node 0's channel
  *   unknown key   node nsensors+5 with a key of its own
  *   replayed      node 1's newest genuine datagram, sent again
+ *   bad channel   node 1's message, signed by node 1, published on
+ *                 <prefix>_NODE_0001 (an alias of node 1's channel)
+ * (the six above at the fusion centre) and, signed by node 1 with its real
+ * key on <prefix>_STATUS, where it may speak as itself:
+ *   not its sender  a status claiming to be the fusion centre, FAILED
+ *                 (that would end the simulator's run), and one claiming
+ *                 to be node 0, FAILED (at the simulator)
  * Exit 0 after the last burst, 3 on a transport error or if --timeout
  * passes first.
  */
@@ -51,9 +58,10 @@ typedef struct {
     size_t last1_len;
 } watch_t;
 
-static void on_fused(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                     void *user)
+static void on_fused(const char *channel, const dkf_net_from_t *from, const void *data,
+                     size_t len, int64_t recv_utime, void *user)
 {
+    (void)from;
     static dkf_net_fused_t f;
     watch_t *w = user;
     (void)channel;
@@ -64,9 +72,10 @@ static void on_fused(const char *channel, const void *data, size_t len, int64_t 
         w->fused_k = f.k;
 }
 
-static void on_node1(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                     void *user)
+static void on_node1(const char *channel, const dkf_net_from_t *from, const void *data,
+                     size_t len, int64_t recv_utime, void *user)
 {
+    (void)from;
     watch_t *w = user;
     (void)channel;
     (void)recv_utime;
@@ -171,7 +180,29 @@ static int pub_signed(dkf_net_t *net, const char *prefix, size_t node, dkf_auth_
     return pub(net, prefix, node, msg, len + DKF_AUTH_TRAILER);
 }
 
-/* The five datagrams of an authenticated run's burst (see the top). */
+/* A status claiming (role, id), FAILED, signed by a on <prefix>_STATUS. */
+static int pub_status_as(dkf_net_t *net, const char *prefix, dkf_auth_t *a, int role, int id,
+                         int64_t model)
+{
+    static unsigned char buf[DKF_NET_MAX_MSG + DKF_AUTH_TRAILER];
+    char chan[DKF_NET_CHAN_LEN];
+    dkf_net_status_t st;
+    size_t len;
+    memset(&st, 0, sizeof st);
+    st.utime = dkf_net_now_us();
+    st.model_id = model;
+    st.role = role;
+    st.id = id;
+    st.state = DKF_NET_FAILED;
+    snprintf(st.detail, sizeof st.detail, "net_inject: an impostor");
+    dkf_net_chan(chan, prefix, "STATUS");
+    if (a == NULL || dkf_net_encode_status(buf, DKF_NET_MAX_MSG, &len, &st) != 0 ||
+        dkf_auth_sign(a, chan, buf, len, buf + len) != 0)
+        return -1;
+    return dkf_net_publish(net, chan, buf, len + DKF_AUTH_TRAILER);
+}
+
+/* The eight datagrams of an authenticated run's burst (see the top). */
 static int auth_burst(dkf_net_t *net, const char *prefix, const dkf_scenario_t *s, long k,
                       const char *key_dir, const watch_t *w)
 {
@@ -205,6 +236,15 @@ static int auth_burst(dkf_net_t *net, const char *prefix, const dkf_scenario_t *
     rc |= pub_signed(net, prefix, x, stranger, chx, buf, len);    /* unknown key */
     if (w->last1_len == 0) rc = -1;
     else rc |= pub(net, prefix, 1, w->last1, w->last1_len);       /* replayed */
+    /* bad channel: node 1's own message, signed for its channel, on an alias */
+    plausible(&m, &pv, &meta, 1, k, s->n, dkf_net_model_id(s));
+    rc |= dkf_net_encode_node_msg(buf, DKF_NET_MAX_MSG, &len, &m, &pv, &meta);
+    if (node1 == NULL || dkf_auth_sign(node1, ch1, buf, len, buf + len) != 0) rc = -1;
+    snprintf(chx, sizeof chx, "%s_NODE_0001", prefix);
+    rc |= dkf_net_publish(net, chx, buf, len + DKF_AUTH_TRAILER);
+    /* not its sender: node 1 speaking as the centre and as node 0 */
+    rc |= pub_status_as(net, prefix, node1, DKF_NET_ROLE_FUSION, -1, dkf_net_model_id(s));
+    rc |= pub_status_as(net, prefix, node1, DKF_NET_ROLE_NODE, 0, dkf_net_model_id(s));
     dkf_auth_free(forger);
     dkf_auth_free(stranger);
     dkf_auth_free(node1);
@@ -287,7 +327,7 @@ int main(int argc, char **argv)
         }
     }
     fprintf(stderr, "%s: %zu burst(s) of %d invalid messages sent\n", prog, next,
-            key_dir != NULL ? 5 : 12);
+            key_dir != NULL ? 8 : 12);
     dkf_net_close(net);
     dkf_scenario_free(s);
     return code;

@@ -58,6 +58,7 @@ typedef struct {
     int states;                   /* state callbacks */
     int last_state;
     int64_t utime;
+    long computed;                /* calls of the step operation */
 } toy_t;
 
 static int toy_step(void *user, long k, const void *const *pay, unsigned char *contrib)
@@ -65,6 +66,7 @@ static int toy_step(void *user, long k, const void *const *pay, unsigned char *c
     toy_t *t = user;
     size_t i;
     double s = t->st.s / 2;
+    ++t->computed;
     if (t->st.k != k - 1) t->order_error = 1;
     for (i = 0; i < L; ++i) {
         const toy_pay_t *p = pay[i];
@@ -303,9 +305,12 @@ static void test_fcr_duplicates_and_reorder(void **state)
  * published degraded, and steps 6, 7 too. Then message 5 arrives (late,
  * within the checkpoint window): the runtime restores the checkpoint after
  * step 4 and replays 5..done_k, each published again with revision 1, and
- * the result is exactly the on-time one. Later a payload of a step more
- * than DKF_FCR_CKPT behind is ignored (too late), counted, nothing
- * recomputed. */
+ * the result is exactly the on-time one. Messages 6 and 7 follow at once:
+ * the rollback budget (one rollback between first publications, or per
+ * deadline) is spent, so their revision waits, merged into one, and runs a
+ * deadline later (or before the next step is published). Later a payload
+ * of a step more than DKF_FCR_CKPT behind is ignored (too late), counted,
+ * nothing recomputed. */
 static void test_fcr_late_within_and_outside_window(void **state)
 {
     toy_t t;
@@ -347,11 +352,19 @@ static void test_fcr_late_within_and_outside_window(void **state)
     use[5][2] = 1;
     assert_true(t.value[7] == expected(7, use));
     assert_int_equal(t.order_error, 0);
-    /* 6 and 7 arrive: 6 revises 6..7 (from the checkpoint after 5) */
+    /* 6 and 7 arrive: one revision of 6..7 waits (budget spent) */
     send_msg(rt, 2, 6, 0, 1, 1, T(8), T(8));
     send_msg(rt, 2, 7, 0, 1, 1, T(8), T(8));
-    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 3);
-    assert_int_equal(t.revision[7], 3);
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 1);
+    assert_int_equal(dkf_fcr_counts(rt)->deferred, 2);
+    assert_int_equal(t.revision[7], 1);
+    dkf_fcr_tick(rt, T(8) + DEADLINE - 1); /* not yet */
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 1);
+    dkf_fcr_tick(rt, T(8) + DEADLINE); /* 6 revises 6..7 (from the checkpoint after 5) */
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 2);
+    assert_int_equal(dkf_fcr_counts(rt)->replayed, 5);
+    assert_int_equal(t.revision[6], 2);
+    assert_int_equal(t.revision[7], 2);
     assert_true(t.value[7] == expected(7, NULL));
     assert_int_equal(dkf_fcr_steps(rt)->first_degraded[6], 1); /* as first published */
     assert_int_equal(dkf_fcr_steps(rt)->degraded[6], 0);       /* in the end */
@@ -365,10 +378,51 @@ static void test_fcr_late_within_and_outside_window(void **state)
         send_msg(rt, 2, 19 - DKF_FCR_CKPT, 0, 1, 0, T(19), T(19));
         assert_int_equal(dkf_fcr_counts(rt)->stale, stale + 1);
         assert_int_equal(dkf_fcr_counts(rt)->too_late, 1);
-        assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 3);
+        assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 2);
         assert_int_equal(t.published, pub);
         assert_true(t.value[19] == v);
     }
+    assert_int_equal(t.order_error, 0);
+    dkf_fcr_free(rt);
+}
+
+/* A node whose messages are valid (as a holder of its key can make them)
+ * but that tries to make the centre work: 10 000 messages in no time, each
+ * announcing a new epoch that restarts inside the revisable steps and
+ * carrying its payloads. Each would roll back and replay; the budget lets
+ * one rollback through between first publications (or per deadline), so
+ * the stream costs at most DKF_FCR_CKPT step computations now, as many a
+ * deadline later, and 1 + 2 DKF_FCR_CKPT per step published afterwards,
+ * whatever the number of messages (docs/network.md, "Threat model"). */
+static void test_fcr_late_stream_bounded(void **state)
+{
+    toy_t t;
+    dkf_fcr_t *rt = open_rt(&t);
+    long k, i, e, before;
+    (void)state;
+    for (k = 1; k <= 10; ++k)
+        for (i = 0; i < L; ++i) send_msg(rt, i, k, 0, 1, 1, T(k), T(k));
+    assert_int_equal(dkf_fcr_done_k(rt), 10);
+    before = t.computed;
+    for (e = 1; e <= 10000; ++e) send_msg(rt, 2, 10, e, 7, 1, T(11), T(11));
+    assert_int_equal(dkf_fcr_counts(rt)->late, 10000);
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 1);
+    assert_int_equal(dkf_fcr_counts(rt)->deferred, 9999);
+    assert_true(t.computed - before <= DKF_FCR_CKPT); /* measured: 4 (steps 7..10) */
+    print_message("10000 late epochs: %ld step computations\n", t.computed - before);
+    dkf_fcr_tick(rt, T(11) + DEADLINE); /* the merged revision */
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 2);
+    assert_true(t.computed - before <= 2 * DKF_FCR_CKPT);
+    /* the same stream again at once, then the next step: all of it waits
+     * (the tick's rollback spent the budget) and runs before step 11 is
+     * first published */
+    for (e = 10001; e <= 20000; ++e) send_msg(rt, 2, 10, e, 8, 1, T(11), T(11) + DEADLINE);
+    before = t.computed;
+    for (i = 0; i < 2; ++i) send_msg(rt, i, 11, 0, 1, 1, T(11), T(11) + DEADLINE);
+    send_msg(rt, 2, 11, 20000, 8, 1, T(11), T(11) + DEADLINE);
+    assert_int_equal(dkf_fcr_done_k(rt), 11);
+    assert_true(t.computed - before <= 1 + DKF_FCR_CKPT);
+    assert_int_equal(dkf_fcr_counts(rt)->rollbacks, 3);
     assert_int_equal(t.order_error, 0);
     dkf_fcr_free(rt);
 }
@@ -620,6 +674,7 @@ int main(void)
         cmocka_unit_test(test_fcr_moved_on),
         cmocka_unit_test(test_fcr_window_follows_arrivals),
         cmocka_unit_test(test_fcr_restart),
+        cmocka_unit_test(test_fcr_late_stream_bounded),
         cmocka_unit_test(test_fcr_join),
         cmocka_unit_test(test_fcr_linger),
         cmocka_unit_test(test_fcr_refuses),

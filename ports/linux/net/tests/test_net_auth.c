@@ -3,9 +3,14 @@
  * datagram that differs from a genuine one in one respect (a flipped bit of
  * the message or the tag, a replay, an older epoch, a node speaking for
  * another, a key not held, no trailer), the channel rule, key files
- * (parsing, permissions, dkf_auth_make_keys keeping what exists), and the
- * transport round trip over memq:// (the handler gets the message exactly,
- * a forged datagram never reaches it).
+ * (parsing, permissions, dkf_auth_make_keys keeping what exists), the
+ * transport round trip over memq:// (the handler gets the message exactly
+ * and its sender, a forged datagram never reaches it), and impersonation:
+ * for every message type on every channel, and on names that are not
+ * canonical, a holder of node 0's key that writes any signer and key id it
+ * likes is refused and counted unless it speaks as itself on its own
+ * channels, and a payload that names another sender than the key's is
+ * refused by the codec.
  */
 #define _POSIX_C_SOURCE 200809L
 
@@ -65,15 +70,23 @@ static size_t sign(dkf_auth_t *a, const char *ch, const char *msg, unsigned char
     return len + DKF_AUTH_TRAILER;
 }
 
+static dkf_net_from_t last_from; /* the sender of the last datagram verify accepted */
+
 static dkf_auth_verdict_t verify(dkf_auth_t *a, const char *ch, const unsigned char *d,
                                  size_t len)
 {
     size_t ml = 12345;
-    const dkf_auth_verdict_t v = dkf_auth_verify(a, ch, d, len, &ml);
-    if (v == DKF_AUTH_ACCEPT)
+    dkf_net_from_t from = {0, -7, -7};
+    const dkf_auth_verdict_t v = dkf_auth_verify(a, ch, d, len, &ml, &from);
+    if (v == DKF_AUTH_ACCEPT) {
         assert_int_equal(ml, len - DKF_AUTH_TRAILER);
-    else
+        assert_int_equal(from.known, 1);
+        last_from = from;
+    } else {
         assert_int_equal(ml, 12345); /* untouched */
+        assert_int_equal(from.known, 0);
+        assert_int_equal(from.role, -7);
+    }
     return v;
 }
 
@@ -213,8 +226,14 @@ static dkf_auth_verdict_t gverify(dkf_auth_t *a, const char *ch, const unsigned 
                                   size_t len, size_t want_msg)
 {
     size_t ml = 12345;
-    const dkf_auth_verdict_t v = dkf_auth_verify(a, ch, d, len, &ml);
+    dkf_net_from_t from = {0, -1, -1};
+    const dkf_auth_verdict_t v = dkf_auth_verify(a, ch, d, len, &ml, &from);
     assert_int_equal(ml, v == DKF_AUTH_ACCEPT ? want_msg : 12345);
+    assert_int_equal(from.known, v == DKF_AUTH_ACCEPT);
+    if (v == DKF_AUTH_ACCEPT) { /* the sender is the channel's node, from its edge key */
+        assert_int_equal(from.role, DKF_NET_ROLE_GRAPH);
+        assert_int_equal(from.id, dkf_net_chan_parse(ch).id);
+    }
     return v;
 }
 
@@ -344,6 +363,231 @@ static void test_channel_rule(void **state)
     dkf_auth_free(n3);
 }
 
+/* ---- impersonation: identity comes from the key ------------------------------------- */
+
+static void put_be(unsigned char *p, uint64_t v, int bytes)
+{
+    int i;
+    for (i = bytes - 1; i >= 0; --i, v >>= 8) p[i] = (unsigned char)(v & 0xffu);
+}
+
+/* msg + a DKA1 trailer as a holder of `key` can write it: any signer and
+ * key id, the tag over the documented input under `key` (libsodium's
+ * one-shot HMAC, independent of auth.c). Returns the datagram's length. */
+static size_t forge(const unsigned char *key, uint32_t signer, uint32_t key_id, uint64_t seq,
+                    const char *ch, const unsigned char *msg, size_t len, unsigned char *out)
+{
+    static unsigned char in[4 + DKF_NET_CHAN_LEN + DKF_NET_MAX_MSG + 28];
+    unsigned char *t = out + len;
+    const size_t cl = strlen(ch);
+    size_t il = 0;
+    memcpy(out, msg, len);
+    memcpy(t, "DKA1", 4);
+    put_be(t + 4, signer, 4);
+    put_be(t + 8, key_id, 4);
+    put_be(t + 12, 1000, 8); /* epoch */
+    put_be(t + 20, seq, 8);
+    put_be(in, cl, 4);
+    il = 4;
+    memcpy(in + il, ch, cl), il += cl;
+    memcpy(in + il, msg, len), il += len;
+    memcpy(in + il, t, 28), il += 28;
+    assert_int_equal(crypto_auth_hmacsha512256(t + 28, in, il, key), 0);
+    return len + DKF_AUTH_TRAILER;
+}
+
+static uint64_t judged(const dkf_auth_t *a)
+{
+    uint64_t s = 0;
+    int v;
+    for (v = 0; v < DKF_AUTH_NVERDICTS; ++v) s += dkf_auth_counts(a)[v];
+    return s;
+}
+
+#define MODEL_ID 77
+
+/* A status of (role, id), encoded. */
+static size_t status_of(int role, int id, unsigned char *buf, size_t cap)
+{
+    dkf_net_status_t st;
+    size_t len;
+    memset(&st, 0, sizeof st);
+    st.model_id = MODEL_ID;
+    st.role = role;
+    st.id = id;
+    st.state = DKF_NET_FAILED; /* what would stop the simulator */
+    snprintf(st.detail, sizeof st.detail, "impostor");
+    assert_int_equal(dkf_net_encode_status(buf, cap, &len, &st), 0);
+    return len;
+}
+
+/* A node message of `node`, step 3, n = 2, encoded. */
+static size_t node_msg_of(size_t node, unsigned char *buf, size_t cap)
+{
+    dkf_diffkf_msg_t m;
+    dkf_net_meta_t meta;
+    size_t len;
+    memset(&m, 0, sizeof m);
+    memset(&meta, 0, sizeof meta);
+    m.node = (uint16_t)node;
+    m.k = 3;
+    m.n = 2;
+    meta.model_id = MODEL_ID;
+    meta.k_start = 1;
+    assert_int_equal(dkf_net_encode_node_msg(buf, cap, &len, &m, NULL, &meta), 0);
+    return len;
+}
+
+/* Node 0's key in the hands of an attacker. On every channel of the
+ * protocol, and on aliases of them that are not canonical, it writes
+ * trailers claiming to be node 0, node 1, the simulator, the fusion
+ * centre, a graph node or an unknown role, with key ids 0, 1 and infra,
+ * over every message type. The centre, the simulator and node 1 accept
+ * exactly what node 0 may say as itself (its node channel and the status
+ * channel) and count every refusal once; what they accept has node 0 as
+ * its sender, and a payload on it that names another sender is refused
+ * by the codec (a node message of node 1: unknown node; a status of the
+ * centre, the simulator or node 1: not its sender). One more datagram
+ * passes, as documented: the simulator's on MEAS_0, which is signed with
+ * key 0 because node 0 must check it; node 0 can write its own
+ * measurements, which only node 0 reads (docs/network.md, "Threat model"). */
+static void test_impersonation(void **state)
+{
+    static const char *const chans[] = {
+        "DKF_NODE_0",  "DKF_NODE_1",    "DKF_MEAS_0",  "DKF_MEAS_1", "DKF_FUSED",
+        "DKF_TRUTH",   "DKF_STATUS",    "DKF_NODE_00", "DKF_NODE_0001", "DKF_NODE_01",
+        "DKF_NODE_1x", "DKF_MEAS_001",  "DKF_STATUS_", "DKF_0",      "DKF_TW_1",
+        "DKF_OTHER",   "DKF_NODE_-0",   "DKF_NODE_+1", "DKF_NODE_"};
+    const uint32_t N0 = dkf_auth_signer(DKF_NET_ROLE_NODE, 0);
+    const uint32_t signers[] = {N0,
+                                dkf_auth_signer(DKF_NET_ROLE_NODE, 1),
+                                dkf_auth_signer(DKF_NET_ROLE_SIM, 0),
+                                dkf_auth_signer(DKF_NET_ROLE_FUSION, 0),
+                                dkf_auth_signer(DKF_NET_ROLE_GRAPH, 0),
+                                7u << 16,
+                                N0 | 0x8000u /* node 32768: no such key */};
+    const uint32_t key_ids[] = {0, 1, DKF_AUTH_KEY_INFRA};
+    static unsigned char msg[5][DKF_NET_MAX_MSG], d[DKF_NET_MAX_MSG + DKF_AUTH_TRAILER];
+    size_t mlen[5], c, s, k, t, r, accepted = 0, refused = 0;
+    dkf_auth_t *rx[3];
+    uint64_t seq = 1;
+    (void)state;
+    rx[0] = centre();
+    rx[1] = dkf_auth_open_keys(dkf_auth_signer(DKF_NET_ROLE_SIM, 0), &keys[0][0], have_all,
+                               infra, 1);
+    rx[2] = node(1, 1);
+    mlen[0] = node_msg_of(1, msg[0], sizeof msg[0]);
+    mlen[1] = status_of(DKF_NET_ROLE_FUSION, -1, msg[1], sizeof msg[1]);
+    mlen[2] = status_of(DKF_NET_ROLE_SIM, -1, msg[2], sizeof msg[2]);
+    mlen[3] = status_of(DKF_NET_ROLE_NODE, 1, msg[3], sizeof msg[3]);
+    mlen[4] = node_msg_of(0, msg[4], sizeof msg[4]);
+    for (c = 0; c < sizeof chans / sizeof chans[0]; ++c)
+        for (s = 0; s < sizeof signers / sizeof signers[0]; ++s)
+            for (k = 0; k < 3; ++k)
+                for (t = 0; t < 5; ++t)
+                    for (r = 0; r < 3; ++r) {
+                        const dkf_net_chan_id_t ch = dkf_net_chan_parse(chans[c]);
+                        const int own = signers[s] == N0 && key_ids[k] == 0 &&
+                                        ((ch.kind == DKF_CHAN_NODE && ch.id == 0) ||
+                                         ch.kind == DKF_CHAN_STATUS);
+                        const int own_meas = signers[s] == dkf_auth_signer(DKF_NET_ROLE_SIM, 0) &&
+                                             key_ids[k] == 0 && ch.kind == DKF_CHAN_MEAS &&
+                                             ch.id == 0;
+                        const size_t len = forge(keys[0], signers[s], key_ids[k], seq++,
+                                                 chans[c], msg[t], mlen[t], d);
+                        const uint64_t before = judged(rx[r]);
+                        const dkf_auth_verdict_t v = verify(rx[r], chans[c], d, len);
+                        assert_int_equal(judged(rx[r]), before + 1); /* counted once */
+                        if (r == 2 && (own || own_meas)) { /* node 1 holds no key 0 */
+                            assert_int_equal(v, DKF_AUTH_REJ_NO_KEY);
+                            continue;
+                        }
+                        if (v != DKF_AUTH_ACCEPT) {
+                            if (own || own_meas)
+                                fail_msg("%s: node 0 as itself refused (%d)", chans[c], v);
+                            if (ch.kind == DKF_CHAN_NONE || ch.kind == DKF_CHAN_GRAPH)
+                                assert_int_equal(v, DKF_AUTH_REJ_CHANNEL);
+                            ++refused;
+                            continue;
+                        }
+                        if (!own && !own_meas)
+                            fail_msg("%s: signer %08x key %08x accepted", chans[c],
+                                     (unsigned)signers[s], (unsigned)key_ids[k]);
+                        ++accepted;
+                        if (own_meas) {
+                            assert_int_equal(last_from.role, DKF_NET_ROLE_SIM);
+                            continue;
+                        }
+                        /* the sender is node 0, from its key */
+                        assert_int_equal(last_from.role, DKF_NET_ROLE_NODE);
+                        assert_int_equal(last_from.id, 0);
+                        assert_int_equal(dkf_net_from_node(&last_from, "DKF_NODE_1"), 0);
+                        if (ch.kind == DKF_CHAN_STATUS) {
+                            dkf_net_status_t st;
+                            dkf_net_rejects_t rej;
+                            memset(&rej, 0, sizeof rej);
+                            /* t 1..3 name another sender; 0 and 4 are no status */
+                            assert_int_equal(
+                                dkf_net_decode_status(msg[t], mlen[t], &last_from, &st, &rej),
+                                t >= 1 && t <= 3 ? DKF_NET_REJ_SENDER : DKF_NET_REJ_MALFORMED);
+                            assert_int_equal(rej.total, 1);
+                        } else {
+                            dkf_net_expect_t ex;
+                            dkf_diffkf_msg_t m, pm;
+                            dkf_net_meta_t meta;
+                            ex.model_id = MODEL_ID;
+                            ex.nnodes = 4;
+                            ex.node = dkf_net_from_node(&last_from, chans[c]);
+                            ex.n = 2;
+                            ex.m = NULL;
+                            ex.kmax = 10;
+                            assert_int_equal(
+                                dkf_net_decode_node_msg(msg[t], mlen[t], &ex, &m, &pm, &meta, NULL),
+                                t == 4 ? DKF_NET_ACCEPT
+                                : t == 0 ? DKF_NET_REJ_NODE : DKF_NET_REJ_MALFORMED);
+                        }
+                    }
+    /* node 0 as itself on NODE_0 and STATUS, and as the simulator on MEAS_0:
+     * 3 channels x 5 types x 2 receivers (node 1 holds no key 0) */
+    assert_int_equal(accepted, 30);
+    print_message("impersonation: %zu datagrams refused and counted, %zu genuine accepted\n",
+                  refused, accepted);
+    /* a genuine status of node 0 names its sender: accepted */
+    {
+        dkf_net_status_t st;
+        const size_t len = status_of(DKF_NET_ROLE_NODE, 0, msg[0], sizeof msg[0]);
+        assert_int_equal(dkf_net_decode_status(msg[0], len, &last_from, &st, NULL),
+                         DKF_NET_ACCEPT);
+    }
+    for (r = 0; r < 3; ++r) dkf_auth_free(rx[r]);
+}
+
+/* Non-canonical aliases of a node's own channel are neither signed nor
+ * accepted; the graph's channels too. */
+static void test_aliases(void **state)
+{
+    static const char *const alias[] = {"DKF_NODE_00", "DKF_NODE_0001", "DKF_NODE_", "DKF_X_0 "};
+    dkf_auth_t *n0 = node(0, 3), *fc = centre(), *g1 = gnode(1, 1, 3), *g0 = gnode(0, 0, 3);
+    unsigned char t[DKF_AUTH_TRAILER + 2 * DKF_AUTH_EDGE_ENTRY + DKF_AUTH_EDGE_HEADER], d[256];
+    size_t i, len;
+    (void)state;
+    for (i = 0; i < sizeof alias / sizeof alias[0]; ++i)
+        assert_int_equal(dkf_auth_sign(n0, alias[i], "m", 1, t), -1);
+    assert_int_equal(dkf_auth_sign(g1, "DKF_TW_01", "m", 1, t), -1);
+    assert_int_equal(dkf_auth_sign(g1, "DKF_TW_001", "m", 1, t), -1);
+    /* signed on the canonical name, presented under an alias: refused, not as a MAC failure */
+    len = sign(n0, "DKF_NODE_0", "m", d);
+    assert_int_equal(verify(fc, "DKF_NODE_0001", d, len), DKF_AUTH_REJ_CHANNEL);
+    len = gsign(g1, "DKF_TW_1", "m", d);
+    assert_int_equal(gverify(g0, "DKF_TW_01", d, len, 1), DKF_AUTH_REJ_CHANNEL);
+    assert_int_equal(gverify(g0, "DKF_TW_1", d, len, 1), DKF_AUTH_ACCEPT);
+    assert_string_equal(dkf_auth_verdict_str(DKF_AUTH_REJ_CHANNEL), "bad channel");
+    dkf_auth_free(n0);
+    dkf_auth_free(fc);
+    dkf_auth_free(g1);
+    dkf_auth_free(g0);
+}
+
 static void test_key_files(void **state)
 {
     char dir[] = "/tmp/dkf_auth_XXXXXX", path[256], err[4200];
@@ -401,12 +645,15 @@ typedef struct {
     int calls;
     size_t len;
     char got[64];
+    dkf_net_from_t from;
 } sink_t;
 
-static void on_msg(const char *channel, const void *data, size_t len, int64_t t, void *user)
+static void on_msg(const char *channel, const dkf_net_from_t *from, const void *data, size_t len,
+                   int64_t t, void *user)
 {
     sink_t *s = user;
     (void)channel;
+    s->from = *from;
     (void)t;
     ++s->calls;
     s->len = len;
@@ -431,6 +678,9 @@ static void test_transport_round_trip(void **state)
     assert_int_equal(sk.calls, 1);
     assert_int_equal(sk.len, 5);
     assert_memory_equal(sk.got, "hello", 5);
+    assert_int_equal(sk.from.known, 1); /* the sender, from the key */
+    assert_int_equal(sk.from.role, DKF_NET_ROLE_NODE);
+    assert_int_equal(sk.from.id, 0);
     /* node 0 may not publish on node 1's channel: refused at the sender */
     assert_int_equal(dkf_net_publish(net, "DKF_NODE_1", "x", 1), -1);
     /* an unsigned datagram: with authentication off, published as is; back
@@ -452,6 +702,8 @@ int main(void)
         cmocka_unit_test(test_edges_every_verdict),
         cmocka_unit_test(test_epochs),
         cmocka_unit_test(test_channel_rule),
+        cmocka_unit_test(test_impersonation),
+        cmocka_unit_test(test_aliases),
         cmocka_unit_test(test_key_files),
         cmocka_unit_test(test_transport_round_trip),
     };

@@ -8,6 +8,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -441,7 +442,7 @@ static void test_status_round_trip(void **state)
     strcpy(st.detail, "node 4: step k=9: dkf_diffkf_step failed");
     assert_int_equal(dkf_net_encode_status(buf, sizeof buf, &len, &st), 0);
     assert_int_equal(len, 70 + strlen(st.detail) + 1);
-    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(dkf_net_decode_status(buf, len, NULL, &out, NULL), DKF_NET_ACCEPT);
     assert_int_equal(out.role, DKF_NET_ROLE_NODE);
     assert_int_equal(out.id, 4);
     assert_int_equal(out.state, DKF_NET_FAILED);
@@ -450,29 +451,66 @@ static void test_status_round_trip(void **state)
     assert_string_equal(out.detail, st.detail);
     /* the string must end with its NUL; its length must fit the message */
     buf[len - 1] = 'x';
-    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(dkf_net_decode_status(buf, len, NULL, &out, NULL), DKF_NET_REJ_MALFORMED);
     buf[len - 1] = 0;
     buf[66] = 0x80; /* length field negative */
-    assert_int_equal(dkf_net_decode_status(buf, len, &out, NULL), DKF_NET_REJ_MALFORMED);
-    assert_int_equal(dkf_net_decode_status(buf, 10, &out, NULL), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(dkf_net_decode_status(buf, len, NULL, &out, NULL), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(dkf_net_decode_status(buf, 10, NULL, &out, NULL), DKF_NET_REJ_MALFORMED);
 }
 
+/* chan.h: every name the writers make parses back to its kind and id; a
+ * name that is not canonical is no channel (NONE), so no two names are one
+ * sender's channel. */
 static void test_channels(void **state)
 {
+    static const struct {
+        const char *name;
+        dkf_net_chan_kind_t kind;
+        long id;
+    } cases[] = {
+        {"DKF_MEAS_11", DKF_CHAN_MEAS, 11},   {"X_NODE_0", DKF_CHAN_NODE, 0},
+        {"A_B_NODE_255", DKF_CHAN_NODE, 255}, {"DKF_NODE_99999", DKF_CHAN_NODE, 99999},
+        {"DKF_FUSED", DKF_CHAN_FUSED, -1},    {"DKF_TRUTH", DKF_CHAN_TRUTH, -1},
+        {"DKF_STATUS", DKF_CHAN_STATUS, -1},  {"DKF_TW_7", DKF_CHAN_GRAPH, 7},
+        {"DKF_TW_0", DKF_CHAN_GRAPH, 0},
+        /* not canonical, or not a channel of the protocol */
+        {"DKF_NODE_0001", DKF_CHAN_NONE, -1}, {"DKF_NODE_01", DKF_CHAN_NONE, -1},
+        {"DKF_NODE_00", DKF_CHAN_NONE, -1},   {"DKF_NODE_", DKF_CHAN_NONE, -1},
+        {"DKF_NODE_1x", DKF_CHAN_NONE, -1},   {"DKF_NODE_+1", DKF_CHAN_NONE, -1},
+        {"DKF_NODE_-1", DKF_CHAN_NONE, -1},   {"DKF_NODE_100000", DKF_CHAN_NONE, -1},
+        {"DKF_MEAS_007", DKF_CHAN_NONE, -1},  {"DKF_TW_017", DKF_CHAN_NONE, -1},
+        {"DKF_FUSED_", DKF_CHAN_NONE, -1},    {"DKF_FUSEDX", DKF_CHAN_NONE, -1},
+        {"_STATUS", DKF_CHAN_NONE, -1},       {"_1", DKF_CHAN_NONE, -1},
+        {"NODE_1", DKF_CHAN_GRAPH, 1},        {"_NODE_1", DKF_CHAN_GRAPH, 1},
+        {"DKF", DKF_CHAN_NONE, -1},           {"", DKF_CHAN_NONE, -1},
+        {"DKF_STATUS ", DKF_CHAN_NONE, -1},   {"DKF_NODE_ 1", DKF_CHAN_NONE, -1}};
     char c[DKF_NET_CHAN_LEN];
+    size_t i;
     (void)state;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; ++i) {
+        const dkf_net_chan_id_t got = dkf_net_chan_parse(cases[i].name);
+        if (got.kind != cases[i].kind || got.id != cases[i].id)
+            fail_msg("%s: kind %d id %ld, want %d %ld", cases[i].name, (int)got.kind, got.id,
+                     (int)cases[i].kind, cases[i].id);
+        assert_int_equal(dkf_net_chan_node_id(cases[i].name),
+                         cases[i].kind == DKF_CHAN_NODE ? cases[i].id : -1);
+    }
+    assert_int_equal(dkf_net_chan_parse(NULL).kind, DKF_CHAN_NONE);
     dkf_net_chan_meas(c, "DKF", 11);
     assert_string_equal(c, "DKF_MEAS_11");
-    assert_int_equal(dkf_net_chan_index(c), 11);
     dkf_net_chan_node(c, "X", 0);
     assert_string_equal(c, "X_NODE_0");
-    assert_int_equal(dkf_net_chan_index(c), 0);
     dkf_net_chan(c, "DKF", "FUSED");
     assert_string_equal(c, "DKF_FUSED");
-    assert_int_equal(dkf_net_chan_index(c), -1);
-    assert_int_equal(dkf_net_chan_index("DKF_NODE_"), -1);
-    assert_int_equal(dkf_net_chan_index("DKF_NODE_1x"), -1);
+    /* every id a writer makes parses back to itself, and only its own spelling does */
+    for (i = 0; i < 1000; ++i) {
+        dkf_net_chan_node(c, "DKF", i);
+        assert_int_equal(dkf_net_chan_node_id(c), (long)i);
+        snprintf(c, sizeof c, "DKF_NODE_0%zu", i);
+        assert_int_equal(dkf_net_chan_node_id(c), -1);
+    }
     assert_string_equal(dkf_net_verdict_str(DKF_NET_REJ_MODEL), "wrong model id");
+    assert_string_equal(dkf_net_verdict_str(DKF_NET_REJ_SENDER), "not its sender");
 }
 
 /* ---- every length field of every type (issue 10) ------------------------------ */
@@ -501,7 +539,7 @@ static dkf_net_verdict_t decode_type(int type, const unsigned char *b, size_t le
     case T_MEAS: v = dkf_net_decode_meas(b, len, &ex, &meas, NULL); break;
     case T_TRUTH: v = dkf_net_decode_truth(b, len, &ex, &truth, NULL); break;
     case T_FUSED: v = dkf_net_decode_fused(b, len, &ex, &fused, NULL); break;
-    default: v = dkf_net_decode_status(b, len, &st, NULL); break;
+    default: v = dkf_net_decode_status(b, len, NULL, &st, NULL); break;
     }
     if (v != DKF_NET_ACCEPT) assert_memory_equal(out[type], keep, size[type]);
     return v;

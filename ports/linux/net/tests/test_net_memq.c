@@ -203,6 +203,8 @@ static void inject(dkf_net_t *net, long j)
     send_msg(net, "T_NODE_0", 0, j - 1, g_model, 4, INFINITY);  /* non-finite */
     send_msg(net, "T_NODE_0", 1, j - 1, g_model, 4, 1.0);       /* node 1 on node 0's channel */
     send_msg(net, "T_NODE_7", 7, j - 1, g_model, 4, 1.0);       /* unknown node */
+    send_msg(net, "T_NODE_0001", 1, j - 1, g_model, 4, 1.0);    /* no channel: an alias */
+    send_msg(net, "T_NODE_01", 1, j, g_model, 4, 1.0);          /* no channel: an alias */
     send_msg(net, "T_NODE_0", 0, 1000, g_model, 4, 1.0);        /* step beyond N */
     send_msg(net, "T_NODE_0", 0, j - 2, g_model, 4, 1.0);       /* late: step already fused */
     assert_int_equal(dkf_net_publish(net, "T_NODE_1", junk, sizeof junk), 0); /* garbage */
@@ -227,11 +229,11 @@ static void test_memq_rejects_hostile_messages(void **state)
     assert_int_equal(c->why.by[DKF_NET_REJ_MODEL], 1);
     assert_int_equal(c->why.by[DKF_NET_REJ_DIM], 1);
     assert_int_equal(c->why.by[DKF_NET_REJ_NONFINITE], 2);
-    assert_int_equal(c->why.by[DKF_NET_REJ_NODE], 2);
+    assert_int_equal(c->why.by[DKF_NET_REJ_NODE], 4);
     assert_int_equal(c->why.by[DKF_NET_REJ_STEP], 1);
     assert_int_equal(c->why.by[DKF_NET_REJ_MALFORMED], 2);
-    assert_int_equal(c->rejected, 9);
-    assert_int_equal(c->why.total, 9);
+    assert_int_equal(c->rejected, 11);
+    assert_int_equal(c->why.total, 11);
     assert_int_equal(c->stale, 1);
     assert_int_equal(c->received, 2 * (int64_t)s->steps);
     assert_int_equal(c->missed, 0);

@@ -98,10 +98,12 @@ static void test_open_refuses(void **state)
 
 /* memq:// opens, and a message published is delivered to a subscriber. */
 static int got;
-static void on_msg(const char *channel, const void *data, size_t len, int64_t t, void *user)
+static void on_msg(const char *channel, const dkf_net_from_t *from, const void *data, size_t len,
+                   int64_t t, void *user)
 {
     (void)t;
     (void)user;
+    assert_false(from->known); /* no authentication: no sender */
     assert_string_equal(channel, "DKF_TEST");
     assert_int_equal(len, 3);
     assert_memory_equal(data, "abc", 3);

@@ -36,9 +36,10 @@ typedef struct {
     size_t len;
 } capture_t;
 
-static void on_victim(const char *channel, const void *data, size_t len, int64_t recv_utime,
-                      void *user)
+static void on_victim(const char *channel, const dkf_net_from_t *from, const void *data,
+                      size_t len, int64_t recv_utime, void *user)
 {
+    (void)from;
     capture_t *c = user;
     (void)channel;
     (void)recv_utime;

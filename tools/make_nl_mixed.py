@@ -20,7 +20,7 @@ three nodes with 2, 3 and 2 measurements, each its own expressions and R:
   case 2      the complete graph, W = 1 1^T / 3, T_p = 2, s = 3, every
               sensor linear in x (f stays nonlinear): there the joint
               variant equals the centralised filter on the stacked sensors
-              (cf_dnertsf), a check of tools/df_mixed_check.py
+              (cf_dnertsf), a check of ports/linux/tests/check_df_mixed.py
   case 3      case 1's graph and s without unknown input (p = 0: DF-CKF),
               f = [x1 + 0.1 x2, 0.95 x2 + 0.1 x3, 0.9 x3 + 0.05 sin(x1)]
 

@@ -11,7 +11,9 @@
  *                        node's model stacked (dkf_nerts_stack; z the
  *                        nodes' z one after another, R = blkdiag of the
  *                        nodes' R, Q and the initial estimate node 0's:
- *                        seed 001 starts every filter from the same x0).
+ *                        seed 001 starts every filter from the same x0;
+ *                        a node whose f or Q differs from node 0's is
+ *                        refused, naming it; m_l, g and R may differ).
  *
  * Step k (k = 1..N): dkf_nerts_step with the model's Q and R and z_k.
  * Recorded per step under outputs.<LABEL>, with the vector files'

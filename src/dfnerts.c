@@ -358,59 +358,75 @@ dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf
 
 /* ---- whole network -------------------------------------------------------- */
 
-/* The network's storage: N nodes' storage, then the two packet buffers. */
-typedef struct {
-    dkf_real_t *node0, *cur, *nxt;
-} net_layout_t;
-
-static size_t net_layout(net_layout_t *L, dkf_real_t *base, size_t N, size_t n, size_t m,
-                         size_t p)
+/* The network's storage: node l's DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p)
+ * reals one after another, then the two packet buffers (N x
+ * DKF_DFNERTS_PKT_MAX each). 0 if a dimension is out of range or the sum
+ * does not fit a size_t. */
+size_t dkf_dfnerts_net_storage_len(size_t N, size_t n, const size_t m[], size_t p)
 {
-    size_t used = 0;
-    DKF_TAKE(L->node0, N * DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p));
-    DKF_TAKE(L->cur, N * DKF_DFNERTS_PKT_MAX(n, p));
-    DKF_TAKE(L->nxt, N * DKF_DFNERTS_PKT_MAX(n, p));
+    const size_t pkts = 2 * DKF_DFNERTS_PKT_MAX(n, p);
+    size_t used = 0, l;
+    if (N == 0 || m == NULL) return 0;
+    for (l = 0; l < N; ++l) {
+        size_t node;
+        if (!dims_ok(n, m[l], p)) return 0;
+        node = DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p) + pkts;
+        if (used > (size_t)-1 - node) return 0;
+        used += node;
+    }
     return used;
+}
+
+/* The largest m[l] of N (> 0) nodes. */
+static size_t largest(const size_t m[], size_t N)
+{
+    size_t l, mx = m[0];
+    for (l = 1; l < N; ++l)
+        if (m[l] > mx) mx = m[l];
+    return mx;
 }
 
 dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
                                   dkf_dfnerts_node_t *nodes, dkf_nerts_kind_t kind,
-                                  dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
-                                  dkf_real_t *storage, size_t storage_len, const dkf_mat_t x0[],
-                                  const dkf_mat_t P0[], const dkf_mat_t d0[],
+                                  dkf_dfnerts_variant_t variant, size_t n, const size_t m[],
+                                  size_t p, dkf_real_t *storage, size_t storage_len,
+                                  const dkf_mat_t x0[], const dkf_mat_t P0[], const dkf_mat_t d0[],
                                   const dkf_mat_t Pd0[], const dkf_mat_t Pxd0[])
 {
     dkf_graph_t chk;
     dkf_dfnerts_net_t t;
-    net_layout_t L;
-    size_t node_len, l;
+    dkf_real_t *node_mem;
+    size_t need, l;
     DKF_CHECK_NULL(net);
     DKF_CHECK_NULL(g);
     DKF_CHECK_NULL(nodes);
+    DKF_CHECK_NULL(m);
     DKF_CHECK_NULL(storage);
     DKF_CHECK_NULL(x0);
     DKF_CHECK_NULL(P0);
     DKF_TRY(dkf_graph_init(&chk, g->N, g->start, g->nbr));
-    if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
     if (p > 0 && (d0 == NULL || Pd0 == NULL || Pxd0 == NULL)) return DKF_ERR_NULL;
-    if (storage_len / g->N < DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p) ||
-        storage_len < net_layout(&L, NULL, g->N, n, m, p))
-        return DKF_ERR_CAPACITY;
-    (void)net_layout(&L, storage, g->N, n, m, p);
-    node_len = DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p);
+    need = dkf_dfnerts_net_storage_len(g->N, n, m, p);
+    if (need == 0 || storage_len < need) return DKF_ERR_CAPACITY;
     for (l = 0; l < g->N; ++l)
-        DKF_TRY(dkf_dfnerts_node_init(&nodes[l], kind, variant, n, m, p, L.node0 + l * node_len,
-                                      node_len, &x0[l], &P0[l], p > 0 ? &d0[l] : NULL,
-                                      p > 0 ? &Pd0[l] : NULL, p > 0 ? &Pxd0[l] : NULL));
+        if (m[l] < p) return DKF_ERR_RANK; /* rank Hd = p needs m_l >= p (dkf_nerts_init) */
+    node_mem = storage;
+    for (l = 0; l < g->N; ++l) {
+        const size_t len = DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p);
+        DKF_TRY(dkf_dfnerts_node_init(&nodes[l], kind, variant, n, m[l], p, node_mem, len, &x0[l],
+                                      &P0[l], p > 0 ? &d0[l] : NULL, p > 0 ? &Pd0[l] : NULL,
+                                      p > 0 ? &Pxd0[l] : NULL));
+        node_mem += len;
+    }
     memset(&t, 0, sizeof t);
     t.g = g;
     t.N = g->N;
     t.n = n;
-    t.m = m;
     t.p = p;
+    t.m_max = largest(m, g->N);
     t.nodes = nodes;
-    t.cur = L.cur;
-    t.nxt = L.nxt;
+    t.cur = node_mem;
+    t.nxt = node_mem + g->N * DKF_DFNERTS_PKT_MAX(n, p);
     *net = t;
     return DKF_OK;
 }

@@ -123,7 +123,8 @@ static void make_run(test_rng_t *rng)
 
 static void net_start(dkf_dfnerts_variant_t v)
 {
-    assert_int_equal(dkf_dfnerts_net_init(&net, &g, net_nodes, DKF_NERTS_DNERTSIF, v, XN, ZM, DP,
+    static const size_t m[NN] = {ZM, ZM, ZM, ZM};
+    assert_int_equal(dkf_dfnerts_net_init(&net, &g, net_nodes, DKF_NERTS_DNERTSIF, v, XN, m, DP,
                                           net_storage, sizeof net_storage / sizeof net_storage[0],
                                           mx0, mP0, md0, mPd0, mPxd0),
                      DKF_OK);
@@ -292,6 +293,7 @@ static void radar_rmse(dkf_dfnerts_variant_t v, double *pos, double *omega)
     static dkf_real_t Q[16] = {0.01, 0.02, 0, 0, 0.02, 0.04, 0, 0, 0, 0, 0.01, 0.02, 0, 0, 0.02, 0.04};
     static dkf_real_t R[9], xh0[4], P[16] = {4, 0, 0, 0, 0, 0.01, 0, 0, 0, 0, 4, 0, 0, 0, 0, 0.01};
     static dkf_real_t dh0[1], Pd[1], Pxd[4];
+    static const size_t m[RN] = {3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3, 3};
     size_t edges[2 * 17], E = 0, r, c, l, k;
     double se_p = 0, se_w = 0;
     long cnt = 0;
@@ -320,7 +322,7 @@ static void radar_rmse(dkf_dfnerts_variant_t v, double *pos, double *omega)
         double x[4] = {-40, 3, 10, 1};
         test_rng_seed(&rng, 20140001u + (uint64_t)run);
         for (r = 0; r < 4; ++r) xh0[r] = (dkf_real_t)(x[r] + sqrt((double)P[r * 5]) * test_rng_normal(&rng));
-        assert_int_equal(dkf_dfnerts_net_init(&rnet, &rg, rnet_nodes, DKF_NERTS_DNERTSIF, v, 4, 3, 1,
+        assert_int_equal(dkf_dfnerts_net_init(&rnet, &rg, rnet_nodes, DKF_NERTS_DNERTSIF, v, 4, m, 1,
                                               rnet_storage,
                                               sizeof rnet_storage / sizeof rnet_storage[0], rx0,
                                               rP0, rd0, rPd0, rPxd0),

@@ -11,8 +11,10 @@
  *    on x (note section 4 item 6): the step fails with DKF_ERR_NOT_SPD and
  *    every node is left as it was (the node that committed before the
  *    failing one too); the JOINT variant runs the same data;
- *  - out-of-order calls, bad arguments and bad input: specific statuses,
- *    nodes bit-identical.
+ *  - nodes with different sensors (m_l = 2, 2, 1, 1): the JOINT network
+ *    still equals the centralised NERTSF on the stacked sensors;
+ *  - out-of-order calls, bad arguments and bad input (a model, R or z of
+ *    another node's size): specific statuses, nodes bit-identical.
  * Models are linear (tests/nerts_fixture.h's lin_x_sin_d without the
  * sine): the cubature kinds are exact on them, so the comparisons have no
  * linearisation error.
@@ -54,6 +56,7 @@
 
 typedef struct {
     size_t N, p;
+    size_t m[NN]; /* node l measures m[l] <= ZM values: its first rows of dfn_H[l], dfn_D[l] */
     lxs_t ctx[NN];
     dkf_nl_model_t md[NN];
     dkf_real_t Q[XN * XN], R[NN][ZM * ZM], z[NN][ZM];
@@ -71,10 +74,12 @@ static dkf_real_t storage[DKF_DFNERTS_NET_STORAGE_LEN(NN, XN, ZM, DP)];
 static dkf_dfnerts_net_t net;
 
 /* A scenario of N nodes on the complete graph (ring = 0) or a ring, with
- * input dimension p (0 or 1), the prior x0 = 0, P0 = I, d0 = 0, Pd0 = 1. */
-static void scen_make(size_t N, size_t p, int ring)
+ * input dimension p (0 or 1), the prior x0 = 0, P0 = I, d0 = 0, Pd0 = 1;
+ * every node measures ZM values, or (mixed) nodes 2 and 3 only their
+ * first channel (which sees d: rank Hd = p holds). */
+static void scen_make_sensors(size_t N, size_t p, int ring, int mixed)
 {
-    size_t edges[2 * 6], E = 0, i, j, l;
+    size_t edges[2 * 6], E = 0, i, j, l, r;
     memset(&S, 0, sizeof S);
     S.N = N;
     S.p = p;
@@ -93,8 +98,9 @@ static void scen_make(size_t N, size_t p, int ring)
     S.Pd0[0] = DKF_R(1.0);
     for (l = 0; l < N; ++l) {
         lxs_t *c = &S.ctx[l];
+        S.m[l] = mixed && l >= 2 ? 1 : ZM;
         c->n = XN;
-        c->m = ZM;
+        c->m = S.m[l];
         c->p = p;
         c->linear = 1;
         memcpy(c->A, dfn_F, sizeof dfn_F);
@@ -104,11 +110,10 @@ static void scen_make(size_t N, size_t p, int ring)
             memcpy(c->H, dfn_D[l], sizeof dfn_D[l]);
         }
         S.md[l] = lxs_model(c, 1);
-        S.R[l][0] = (dkf_real_t)dfn_R[l][0];
-        S.R[l][3] = (dkf_real_t)dfn_R[l][1];
+        for (r = 0; r < S.m[l]; ++r) S.R[l][r * S.m[l] + r] = (dkf_real_t)dfn_R[l][r];
         S.mQ[l] = test_view(XN, XN, S.Q);
-        S.mR[l] = test_view(ZM, ZM, S.R[l]);
-        S.mz[l] = test_view(ZM, 1, S.z[l]);
+        S.mR[l] = test_view(S.m[l], S.m[l], S.R[l]);
+        S.mz[l] = test_view(S.m[l], 1, S.z[l]);
         S.mx0[l] = test_view(XN, 1, S.x0);
         S.mP0[l] = test_view(XN, XN, S.P0);
         S.md0[l] = test_view(p, 1, S.d0);
@@ -117,9 +122,14 @@ static void scen_make(size_t N, size_t p, int ring)
     }
 }
 
+static void scen_make(size_t N, size_t p, int ring)
+{
+    scen_make_sensors(N, p, ring, 0);
+}
+
 static void net_make_kind(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t v)
 {
-    assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, kind, v, XN, ZM, S.p,
+    assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, kind, v, XN, S.m, S.p,
                                           storage, sizeof storage / sizeof storage[0], S.mx0,
                                           S.mP0, S.p ? S.md0 : NULL, S.p ? S.mPd0 : NULL,
                                           S.p ? S.mPxd0 : NULL),
@@ -142,7 +152,7 @@ static void truth_step(test_rng_t *rng, double *x, size_t k)
     x[0] = x0;
     x[1] = x1;
     for (l = 0; l < S.N; ++l)
-        for (r = 0; r < ZM; ++r) {
+        for (r = 0; r < S.m[l]; ++r) {
             double v = dfn_H[l][2 * r] * x[0] + dfn_H[l][2 * r + 1] * x[1];
             if (S.p) v += dfn_D[l][r] * d;
             S.z[l][r] = (dkf_real_t)(v + sqrt(dfn_R[l][r]) * test_rng_normal(rng));
@@ -201,33 +211,38 @@ static void test_central_info_p0(void **state)
                   test_worst_rel(), STEPS, NN);
 }
 
-/* The JOINT network of the given kind against the centralised NERTSF. */
-static void central_joint(dkf_nerts_kind_t kind, const char *name)
+/* The JOINT network of the given kind against the centralised NERTSF on
+ * the M = sum m_l stacked sensors. */
+static void central_joint(dkf_nerts_kind_t kind, const char *name, int mixed)
 {
     DKF_NERTS_DECLARE(static, cf, XN, NN * ZM, DP);
     static dkf_nerts_stack_t st;
     dkf_nl_model_t stacked;
     dkf_real_t Rst[NN * ZM * NN * ZM], zst[NN * ZM];
-    dkf_mat_t mRst = test_view(NN * ZM, NN * ZM, Rst), mzst = test_view(NN * ZM, 1, zst);
+    dkf_mat_t mRst, mzst;
     test_rng_t rng;
     double x[XN] = {0.3, -0.2};
-    size_t k, l, r;
-    scen_make(NN, DP, 0);
+    size_t k, l, r, M = 0, off;
+    scen_make_sensors(NN, DP, 0, mixed);
     net_make_kind(kind, DKF_DFNERTS_JOINT);
     test_rng_seed(&rng, 12002);
     assert_int_equal(dkf_nerts_stack(&stacked, &st, S.md, NN), DKF_OK);
+    for (l = 0; l < NN; ++l) M += S.m[l];
+    mRst = test_view(M, M, Rst);
+    mzst = test_view(M, 1, zst);
     memset(Rst, 0, sizeof Rst);
-    for (l = 0; l < NN; ++l)
-        for (r = 0; r < ZM; ++r) Rst[(l * ZM + r) * (NN * ZM) + l * ZM + r] = S.R[l][r * ZM + r];
+    for (l = 0, off = 0; l < NN; off += S.m[l], ++l)
+        for (r = 0; r < S.m[l]; ++r) Rst[(off + r) * M + off + r] = S.R[l][r * S.m[l] + r];
     /* the reference: Hsieh's NERTSF (EKF, covariance form) on all sensors */
-    assert_int_equal(dkf_nerts_init(&cf, DKF_NERTS_NERTSF, XN, NN * ZM, DP, cf_storage,
-                                    DKF_NERTS_STORAGE_LEN(XN, NN * ZM, DP), &S.mx0[0], &S.mP0[0],
+    assert_int_equal(dkf_nerts_init(&cf, DKF_NERTS_NERTSF, XN, M, DP, cf_storage,
+                                    DKF_NERTS_STORAGE_LEN(XN, M, DP), &S.mx0[0], &S.mP0[0],
                                     &S.md0[0], &S.mPd0[0], &S.mPxd0[0]),
                      DKF_OK);
     test_reset_worst_rel();
     for (k = 1; k <= STEPS; ++k) {
         truth_step(&rng, x, k);
-        for (l = 0; l < NN; ++l) memcpy(zst + l * ZM, S.z[l], sizeof S.z[l]);
+        for (l = 0, off = 0; l < NN; off += S.m[l], ++l)
+            memcpy(zst + off, S.z[l], S.m[l] * sizeof S.z[l][0]);
         assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 2,
                                               (dkf_real_t)NN),
                          DKF_OK);
@@ -248,16 +263,24 @@ static void central_joint(dkf_nerts_kind_t kind, const char *name)
             test_assert_close("Pxd", f->Pxd.data, e, XN * DP, EQ_REL);
         }
     }
-    print_message("JOINT %s, W = 11^T/N, s = N: worst relative difference to the centralised "
-                  "NERTSF (x, Px, d, Pd, Pxd) %.3e over %d steps x %d nodes\n",
-                  name, test_worst_rel(), STEPS, NN);
+    print_message("JOINT %s, W = 11^T/N, s = N, m_l = %zu %zu %zu %zu: worst relative difference "
+                  "to the centralised NERTSF (x, Px, d, Pd, Pxd) %.3e over %d steps x %d nodes\n",
+                  name, S.m[0], S.m[1], S.m[2], S.m[3], test_worst_rel(), STEPS, NN);
 }
 
 static void test_central_joint(void **state)
 {
     (void)state;
-    central_joint(DKF_NERTS_DNERTSIF, "DNERTSIF");
-    central_joint(DKF_NERTS_NERTSIF, "NERTSIF");
+    central_joint(DKF_NERTS_DNERTSIF, "DNERTSIF", 0);
+    central_joint(DKF_NERTS_NERTSIF, "NERTSIF", 0);
+}
+
+/* Nodes with different sensors: the same equality, M = 6 stacked rows. */
+static void test_central_joint_mixed(void **state)
+{
+    (void)state;
+    central_joint(DKF_NERTS_DNERTSIF, "DNERTSIF", 1);
+    central_joint(DKF_NERTS_NERTSIF, "NERTSIF", 1);
 }
 
 /* ---- the indefinite mixed covariance (note section 4 item 6) -------------- */
@@ -275,6 +298,7 @@ static dkf_mat_t imQ[2], imR[2], imz[2], imx0[2], imP0[2], imd0[2], imPd0[2], im
 static size_t istart[3], inbr[4];
 static dkf_graph_t ig;
 static dkf_real_t iW[4];
+static const size_t im[2] = {2, 2};
 
 static void indef_make(void)
 {
@@ -304,7 +328,7 @@ static void indef_make(void)
     assert_int_equal(dkf_graph_from_edges(&ig, istart, inbr, 4, 2, edge, 1), DKF_OK);
     assert_int_equal(dkf_graph_weights_metropolis(iW, &ig), DKF_OK);
     assert_int_equal(dkf_dfnerts_net_init(&net, &ig, nodes, DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER,
-                                          1, 2, 1, storage, sizeof storage / sizeof storage[0],
+                                          1, im, 1, storage, sizeof storage / sizeof storage[0],
                                           imx0, imP0, imd0, imPd0, imPxd0),
                      DKF_OK);
 }
@@ -313,22 +337,28 @@ static unsigned char snap_nodes[NN][sizeof(dkf_dfnerts_node_t)];
 static dkf_real_t snap_state[NN][STATE_LEN];
 static unsigned char snap_net[sizeof(dkf_dfnerts_net_t)];
 
-static void snap_all(size_t N, size_t state_len)
+/* Reals of node l's state (its own m). */
+static size_t state_len(size_t l)
+{
+    return DKF_DFNERTS_NODE_STATE_LEN(nodes[l].n, nodes[l].m, nodes[l].p);
+}
+
+static void snap_all(size_t N)
 {
     size_t l;
     for (l = 0; l < N; ++l) {
         memcpy(snap_nodes[l], &nodes[l], sizeof nodes[l]);
-        memcpy(snap_state[l], nodes[l].mem, state_len * sizeof(dkf_real_t));
+        memcpy(snap_state[l], nodes[l].mem, state_len(l) * sizeof(dkf_real_t));
     }
     memcpy(snap_net, &net, sizeof net);
 }
 
-static void assert_all_untouched(const char *what, size_t N, size_t state_len)
+static void assert_all_untouched(const char *what, size_t N)
 {
     size_t l;
     for (l = 0; l < N; ++l) {
         if (memcmp(snap_nodes[l], &nodes[l], sizeof nodes[l]) != 0 ||
-            memcmp(snap_state[l], nodes[l].mem, state_len * sizeof(dkf_real_t)) != 0) {
+            memcmp(snap_state[l], nodes[l].mem, state_len(l) * sizeof(dkf_real_t)) != 0) {
             print_error("%s: node %zu changed\n", what, l);
             fail();
         }
@@ -338,19 +368,18 @@ static void assert_all_untouched(const char *what, size_t N, size_t state_len)
 
 static void test_indefinite_mixed_covariance(void **state)
 {
-    const size_t sl = DKF_DFNERTS_NODE_STATE_LEN(1, 2, 1);
     const dkf_real_t *in[2];
     (void)state;
     indef_make();
     /* the network: node 0 commits, node 1 fails, both are rolled back */
-    snap_all(2, sl);
+    snap_all(2);
     assert_int_equal(dkf_dfnerts_net_step(&net, imd, NULL, imQ, NULL, imR, imz, iW, 2, DKF_R(2.0)),
                      DKF_ERR_NOT_SPD);
-    assert_all_untouched("net step, mixed covariance indefinite", 2, sl);
+    assert_all_untouched("net step, mixed covariance indefinite", 2);
     /* literal s = 1 too */
     assert_int_equal(dkf_dfnerts_net_step(&net, imd, NULL, imQ, NULL, imR, imz, iW, 2, DKF_R(1.0)),
                      DKF_ERR_NOT_SPD);
-    assert_all_untouched("net step s = 1", 2, sl);
+    assert_all_untouched("net step s = 1", 2);
     /* the node API: node 1's commit fails, node 1 stays as it was (pending) */
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &imd[0], NULL, &imQ[0], NULL, &imR[0],
                                             &imz[0], DKF_R(2.0), NULL),
@@ -370,9 +399,9 @@ static void test_indefinite_mixed_covariance(void **state)
             assert_int_equal(dkf_dfnerts_node_mix(&nodes[1], in, iW + istart[1], 2, NULL), DKF_OK);
         }
     }
-    snap_all(2, sl);
+    snap_all(2);
     assert_int_equal(dkf_dfnerts_node_commit(&nodes[1]), DKF_ERR_NOT_SPD);
-    assert_all_untouched("node commit, mixed covariance indefinite", 2, sl);
+    assert_all_untouched("node commit, mixed covariance indefinite", 2);
     assert_int_equal(dkf_dfnerts_node_commit(&nodes[0]), DKF_OK);
     assert_int_equal(dkf_dfnerts_node_cancel(&nodes[1]), DKF_OK);
 }
@@ -389,7 +418,7 @@ static void test_joint_commit_by_hand(void **state)
     (void)state;
     indef_make();
     assert_int_equal(dkf_dfnerts_net_init(&net, &ig, nodes, DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT,
-                                          1, 2, 1, storage, sizeof storage / sizeof storage[0],
+                                          1, im, 1, storage, sizeof storage / sizeof storage[0],
                                           imx0, imP0, imd0, imPd0, imPxd0),
                      DKF_OK);
     assert_int_equal(dkf_dfnerts_net_step(&net, imd, NULL, imQ, NULL, imR, imz, iW, 2, DKF_R(2.0)),
@@ -438,7 +467,7 @@ static void test_restart_rejoins(void **state)
     scen_make(NN, DP, 1);
     net_make(DKF_DFNERTS_JOINT);
     assert_int_equal(dkf_dfnerts_net_init(&ref, &S.g, ref_nodes, DKF_NERTS_DNERTSIF,
-                                          DKF_DFNERTS_JOINT, XN, ZM, DP, ref_storage,
+                                          DKF_DFNERTS_JOINT, XN, S.m, DP, ref_storage,
                                           sizeof ref_storage / sizeof ref_storage[0], S.mx0,
                                           S.mP0, S.md0, S.mPd0, S.mPxd0),
                      DKF_OK);
@@ -460,10 +489,10 @@ static void test_restart_rejoins(void **state)
             memcpy(cPxd, f->Pxd.data, sizeof cPxd);
             memset(bad, 0, sizeof bad);
             bad[0] = DKF_R(-1.0), bad[3] = DKF_R(1.0);
-            snap_all(NN, STATE_LEN);
+            snap_all(NN);
             assert_int_equal(dkf_dfnerts_node_restart(&nodes[2], 5, &mx, &mbad, &md, &mPd, &mPxd),
                              DKF_ERR_NOT_SPD);
-            assert_all_untouched("restart with P0 not SPD", NN, STATE_LEN);
+            assert_all_untouched("restart with P0 not SPD", NN);
             assert_int_equal(dkf_dfnerts_node_restart(&nodes[2], 5, &mx, &mP, &md, &mPd, &mPxd),
                              DKF_OK);
             assert_int_equal(nodes[2].f.k, 5);
@@ -497,12 +526,12 @@ static void test_rejoin_from_packet(void **state)
                          DKF_OK);
     }
     memset(badpkt, 0, sizeof badpkt);
-    snap_all(NN, STATE_LEN);
+    snap_all(NN);
     assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, badpkt, NULL, NULL), DKF_ERR_NOT_SPD);
-    assert_all_untouched("rejoin from a packet with Y = 0", NN, STATE_LEN);
+    assert_all_untouched("rejoin from a packet with Y = 0", NN);
     badpkt[0] = (dkf_real_t)NAN;
     assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, badpkt, NULL, NULL), DKF_ERR_NONFINITE);
-    assert_all_untouched("rejoin from a NaN packet", NN, STATE_LEN);
+    assert_all_untouched("rejoin from a NaN packet", NN);
     assert_int_equal(dkf_dfnerts_node_rejoin(&nodes[2], 4, nodes[1].pkt, NULL, NULL), DKF_OK);
     assert_int_equal(nodes[2].f.k, 4);
     assert_memory_equal(nodes[2].f.x.data, nodes[1].f.x.data, XN * sizeof(dkf_real_t));
@@ -518,17 +547,17 @@ static void test_rejoin_from_packet(void **state)
 
 /* ---- statuses and untouched nodes ---------------------------------------- */
 
-/* One network (ring) of the variant with input dimension p, after a
- * successful step: every failure leaves every node as it was. */
+/* One network (ring, nodes of 2, 2, 1, 1 measurements) of the variant
+ * with input dimension p, after a successful step: every failure leaves
+ * every node as it was. */
 static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
 {
-    const size_t STATE = DKF_DFNERTS_NODE_STATE_LEN(XN, ZM, p);
     const dkf_real_t *in[NN];
     dkf_real_t Wbad[DKF_GRAPH_NNZ(NN, 6)], pkt[DKF_DFNERTS_PKT_MAX(XN, DP)];
     test_rng_t rng;
     double x[XN] = {0.1, 0.2};
     size_t l;
-    scen_make(NN, p, 1);
+    scen_make_sensors(NN, p, 1, 1);
     net_make(variant);
     test_rng_seed(&rng, 12003);
     truth_step(&rng, x, 1);
@@ -537,7 +566,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
                      DKF_OK);
     truth_step(&rng, x, 2);
 
-    snap_all(NN, STATE);
+    snap_all(NN);
     /* arguments */
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 0,
                                           DKF_R(1.0)),
@@ -556,26 +585,52 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, Wbad, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_WEIGHTS);
-    assert_all_untouched("bad arguments", NN, STATE);
+    assert_all_untouched("bad arguments", NN);
     /* bad input at the last node: the nodes before it ran their local step */
-    S.z[NN - 1][1] = (dkf_real_t)NAN;
+    S.z[NN - 1][0] = (dkf_real_t)NAN;
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_NONFINITE);
-    assert_all_untouched("z NaN at the last node", NN, STATE);
-    S.z[NN - 1][1] = DKF_R(0.5);
+    assert_all_untouched("z NaN at the last node", NN);
+    S.z[NN - 1][0] = DKF_R(0.5);
     S.ctx[2].fail_h = 1;
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_MODEL);
-    assert_all_untouched("failing h at node 2", NN, STATE);
+    assert_all_untouched("failing h at node 2", NN);
     S.ctx[2].fail_h = 0;
     S.R[1][0] = DKF_R(-1.0);
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
                                           DKF_R(1.0)),
                      DKF_ERR_NOT_SPD);
-    assert_all_untouched("R not SPD at node 1", NN, STATE);
+    assert_all_untouched("R not SPD at node 1", NN);
     S.R[1][0] = (dkf_real_t)dfn_R[1][0];
+    /* another node's sizes at the last node (m = 1): z, R, the model */
+    S.mz[NN - 1] = S.mz[0];
+    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
+                                          DKF_R(1.0)),
+                     DKF_ERR_DIM);
+    assert_all_untouched("node 0's z at node 3", NN);
+    S.mz[NN - 1] = test_view(S.m[NN - 1], 1, S.z[NN - 1]);
+    S.mR[NN - 1] = S.mR[0];
+    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
+                                          DKF_R(1.0)),
+                     DKF_ERR_DIM);
+    assert_all_untouched("node 0's R at node 3", NN);
+    S.mR[NN - 1] = test_view(S.m[NN - 1], S.m[NN - 1], S.R[NN - 1]);
+    {
+        const dkf_nl_model_t own = S.md[NN - 1];
+        S.md[NN - 1] = S.md[0];
+        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
+                                              DKF_R(1.0)),
+                         DKF_ERR_DIM);
+        assert_all_untouched("node 0's model at node 3", NN);
+        S.md[NN - 1] = own;
+    }
+    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
+                                          DKF_R(1.0)),
+                     DKF_OK);
+    snap_all(NN);
 
     /* the node API out of order */
     assert_int_equal(dkf_dfnerts_node_mix(&nodes[0], in, S.W, 1, pkt), DKF_ERR_STATE);
@@ -584,7 +639,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(-1.0), pkt),
                      DKF_ERR_ARG);
-    assert_all_untouched("node calls out of order", NN, STATE);
+    assert_all_untouched("node calls out of order", NN);
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), pkt),
                      DKF_OK);
@@ -603,7 +658,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     }
     /* cancel puts the filter back exactly */
     assert_int_equal(dkf_dfnerts_node_cancel(&nodes[0]), DKF_OK);
-    assert_all_untouched("local then cancel", NN, STATE);
+    assert_all_untouched("local then cancel", NN);
     /* a failed local after a pending one: no step pending, filter as before */
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), NULL),
@@ -612,7 +667,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
                                             &S.mz[0], DKF_R(1.0), NULL),
                      DKF_ERR_NONFINITE);
-    assert_all_untouched("failed local over a pending step", NN, STATE);
+    assert_all_untouched("failed local over a pending step", NN);
     S.z[0][0] = DKF_R(0.0);
 }
 
@@ -647,6 +702,53 @@ static void test_init_statuses(void **state)
                                                NULL, NULL),
                          DKF_OK);
     }
+    /* the network's m[]: sizes checked before any node is touched */
+    scen_make_sensors(NN, DP, 1, 1);
+    {
+        const size_t mixed_len = dkf_dfnerts_net_storage_len(NN, XN, S.m, DP);
+        size_t m[NN], l;
+        for (l = 0; l < NN; ++l) m[l] = ZM;
+        assert_int_equal(dkf_dfnerts_net_storage_len(NN, XN, m, DP),
+                         DKF_DFNERTS_NET_STORAGE_LEN(NN, XN, ZM, DP));
+        assert_true(mixed_len > 0 && mixed_len < DKF_DFNERTS_NET_STORAGE_LEN(NN, XN, ZM, DP));
+        assert_int_equal(dkf_dfnerts_net_storage_len(NN, XN, NULL, DP), 0);
+        assert_int_equal(dkf_dfnerts_net_storage_len(0, XN, m, DP), 0);
+        memset(nodes, 0x5a, sizeof nodes);
+        memset(&net, 0x5a, sizeof net);
+        snap_all(0);
+        memcpy(snap_nodes, nodes, sizeof snap_nodes);
+        assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF,
+                                              DKF_DFNERTS_JOINT, XN, NULL, DP, storage,
+                                              mixed_len, S.mx0, S.mP0, S.md0, S.mPd0, S.mPxd0),
+                         DKF_ERR_NULL);
+        assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF,
+                                              DKF_DFNERTS_JOINT, XN, S.m, DP, storage,
+                                              mixed_len - 1, S.mx0, S.mP0, S.md0, S.mPd0,
+                                              S.mPxd0),
+                         DKF_ERR_CAPACITY);
+        for (l = 0; l < NN; ++l) m[l] = S.m[l];
+        m[NN - 1] = 0;
+        assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF,
+                                              DKF_DFNERTS_JOINT, XN, m, DP, storage,
+                                              sizeof storage / sizeof storage[0], S.mx0, S.mP0,
+                                              S.md0, S.mPd0, S.mPxd0),
+                         DKF_ERR_CAPACITY);
+        m[NN - 1] = DKF_MAX_DIM + 1;
+        assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF,
+                                              DKF_DFNERTS_JOINT, XN, m, DP, storage,
+                                              sizeof storage / sizeof storage[0], S.mx0, S.mP0,
+                                              S.md0, S.mPd0, S.mPxd0),
+                         DKF_ERR_CAPACITY);
+        assert_memory_equal(snap_nodes, nodes, sizeof nodes);
+        assert_memory_equal(snap_net, &net, sizeof net);
+        /* exactly the runtime length: node l measures S.m[l] */
+        assert_int_equal(dkf_dfnerts_net_init(&net, &S.g, nodes, DKF_NERTS_DNERTSIF,
+                                              DKF_DFNERTS_JOINT, XN, S.m, DP, storage, mixed_len,
+                                              S.mx0, S.mP0, S.md0, S.mPd0, S.mPxd0),
+                         DKF_OK);
+        for (l = 0; l < NN; ++l) assert_int_equal(nodes[l].m, S.m[l]);
+        assert_int_equal(net.m_max, ZM);
+    }
 }
 
 
@@ -655,6 +757,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_central_info_p0),
         cmocka_unit_test(test_central_joint),
+        cmocka_unit_test(test_central_joint_mixed),
         cmocka_unit_test(test_indefinite_mixed_covariance),
         cmocka_unit_test(test_joint_commit_by_hand),
         cmocka_unit_test(test_restart_rejoins),

@@ -45,7 +45,8 @@
 #define QX 4
 
 typedef struct {
-    size_t N, E, Tp, steps, m, p;
+    size_t N, E, Tp, steps, p;
+    size_t m[NMAX]; /* node l's measurements: its model's */
     dkf_real_t scale;
     size_t edges[2 * EMAX];
     size_t start[NMAX + 1], nbr[NNZ];
@@ -135,7 +136,7 @@ static void load_case(const json_t *cs)
         read_real_mat(test_json_get(in, "Pd0"), C.Pd0[l], PMAX * PMAX, &C.mPd0[l]);
         read_real_mat(test_json_get(in, "Pxd0"), C.Pxd0[l], QX * PMAX, &C.mPxd0[l]);
     }
-    C.m = C.md[0].m;
+    for (l = 0; l < C.N; ++l) C.m[l] = C.md[l].m;
     C.p = C.md[0].p;
     C.steps_json = test_json_get(cs, "steps");
     C.steps = json_array_size(C.steps_json);
@@ -247,8 +248,8 @@ static void run_case(const json_t *cs)
                      DKF_OK);
     for (l = 0; l < C.N; ++l)
         assert_int_equal(dkf_dfnerts_node_init(&solo[l], DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER,
-                                               QX, C.m, C.p, solo_storage[l],
-                                               DKF_DFNERTS_NODE_STORAGE_LEN(QX, C.m, C.p),
+                                               QX, C.m[l], C.p, solo_storage[l],
+                                               DKF_DFNERTS_NODE_STORAGE_LEN(QX, C.m[l], C.p),
                                                &C.mx0[l], &C.mP0[l], opt(&C.md0[l]),
                                                opt(&C.mPd0[l]), opt(&C.mPxd0[l])),
                          DKF_OK);
@@ -260,7 +261,7 @@ static void run_case(const json_t *cs)
         fields += compare_step(name, k);
         solo_step();
         for (l = 0; l < C.N; ++l) {
-            const size_t sl = DKF_DFNERTS_NODE_STATE_LEN(QX, C.m, C.p);
+            const size_t sl = DKF_DFNERTS_NODE_STATE_LEN(QX, C.m[l], C.p);
             assert_int_equal(solo[l].f.k, k + 1);
             assert_memory_equal(solo_storage[l], net_nodes[l].mem, sl * sizeof(dkf_real_t));
         }

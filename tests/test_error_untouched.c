@@ -1825,11 +1825,28 @@ static dkf_status_t dfn_joint_init(dims_t d, dkf_real_t *st, size_t len)
     return dfn_node_init(DKF_DFNERTS_JOINT, d, st, len);
 }
 
-/* l nodes on a path, every node the same prior */
-static size_t dfn_net_len(dims_t d) { return DKF_DFNERTS_NET_STORAGE_LEN(d.l, d.n, d.m, d.p); }
+/* l nodes on a path, every node the same prior; node e measures m + e % 2
+ * values (mixed sensors: the runtime length, below the macro's for
+ * m_max = m + 1, which is exact when every node has m + 1) */
+static void dfn_net_m(dims_t d, size_t m[])
+{
+    size_t e;
+    for (e = 0; e < d.l; ++e) m[e] = d.m + e % 2;
+}
+static size_t dfn_net_len(dims_t d)
+{
+    size_t m[XS_NODES], e;
+    for (e = 0; e < d.l; ++e) m[e] = d.m + 1;
+    assert_int_equal(dkf_dfnerts_net_storage_len(d.l, d.n, m, d.p),
+                     DKF_DFNERTS_NET_STORAGE_LEN(d.l, d.n, d.m + 1, d.p));
+    dfn_net_m(d, m);
+    assert_true(dkf_dfnerts_net_storage_len(d.l, d.n, m, d.p) <=
+                DKF_DFNERTS_NET_STORAGE_LEN(d.l, d.n, d.m + 1, d.p));
+    return dkf_dfnerts_net_storage_len(d.l, d.n, m, d.p);
+}
 static dkf_status_t dfn_net_init(dims_t d, dkf_real_t *st, size_t len)
 {
-    static size_t start[XS_NODES + 1], nbr[DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1)];
+    static size_t start[XS_NODES + 1], nbr[DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1)], m[XS_NODES];
     static dkf_graph_t g;
     static dkf_mat_t x[XS_NODES], P[XS_NODES], dd[XS_NODES], Pd[XS_NODES], Pxd[XS_NODES];
     size_t edges[2 * XS_NODES] = {0}, e;
@@ -1842,8 +1859,9 @@ static dkf_status_t dfn_net_init(dims_t d, dkf_real_t *st, size_t len)
         x[e] = xs_x(d.n), P[e] = xs_eye(d.n), dd[e] = xs_x(d.p), Pd[e] = xs_eye_in(1, d.p);
         Pxd[e] = test_view(d.n, d.p, xs_x0);
     }
+    dfn_net_m(d, m);
     return dkf_dfnerts_net_init(&xs_obj.dfn_net.net, &g, xs_obj.dfn_net.nodes, DKF_NERTS_DNERTSIF,
-                                DKF_DFNERTS_JOINT, d.n, d.m, d.p, st, len, x, P, p ? dd : NULL,
+                                DKF_DFNERTS_JOINT, d.n, m, d.p, st, len, x, P, p ? dd : NULL,
                                 p ? Pd : NULL, p ? Pxd : NULL);
 }
 
@@ -2057,7 +2075,7 @@ static void test_declare_macros(void **state)
     {
         static dkf_real_t I4[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
         static size_t start[3], nbr[DKF_GRAPH_NNZ(2, 1)];
-        static const size_t edge[2] = {0, 1};
+        static const size_t edge[2] = {0, 1}, dfn_m[2] = {3, 2}; /* m_max 3 serves m = 2 */
         static dkf_graph_t g;
         dkf_mat_t x4[2], P4[2], dv[2], Pdv[2], Pxd[2];
         size_t l;
@@ -2073,7 +2091,7 @@ static void test_declare_macros(void **state)
         assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(2, 1), 2, edge, 1),
                          DKF_OK);
         assert_int_equal(dkf_dfnerts_net_init(&dk_dfn_net, &g, dk_dfn_net_nodes,
-                                              DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, 4, 3, 1,
+                                              DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, 4, dfn_m, 1,
                                               dk_dfn_net_storage, ARRAY_LEN(dk_dfn_net_storage),
                                               x4, P4, dv, Pdv, Pxd),
                          DKF_OK);

@@ -64,6 +64,10 @@
  * caller array, stepped in-process with the same node calls; a step that
  * fails at any node leaves every node as it was before the step.
  *
+ * PER NODE: m_l, the model (h; f and Q too, one system assumed), R, z and
+ * the prior may differ; n, p, the known input u, kind, variant, s and T_p
+ * are common (a packet's length depends on n and p only).
+ *
  * Statuses: those of dkf/nerts.h's phases (DKF_ERR_MODEL, _NONFINITE,
  * _NOT_SPD, _RANK, _DIM), DKF_ERR_STATE out of order (mix or commit
  * without a pending step, commit before the first round), DKF_ERR_ARG (a
@@ -191,12 +195,15 @@ dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf
 
 /* ---- in-process whole network ------------------------------------------- */
 
-#define DKF_DFNERTS_NET_STORAGE_LEN(N, n, m, p) \
-    ((N) * (DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p) + 2 * DKF_DFNERTS_PKT_MAX(n, p)))
+/* An upper bound of dkf_dfnerts_net_storage_len for N nodes that measure
+ * at most m_max values each (exact when every node has m_max). */
+#define DKF_DFNERTS_NET_STORAGE_LEN(N, n, m_max, p) \
+    ((N) * (DKF_DFNERTS_NODE_STORAGE_LEN(n, m_max, p) + 2 * DKF_DFNERTS_PKT_MAX(n, p)))
 
 typedef struct {
     const dkf_graph_t *g;
-    size_t N, n, m, p;
+    size_t N, n, p;
+    size_t m_max;              /* the largest m_l (node l's is nodes[l].m) */
     dkf_dfnerts_node_t *nodes; /* caller array of N nodes */
     dkf_real_t *cur, *nxt;     /* N x DKF_DFNERTS_PKT_MAX: the packets of a round */
     /* communication, summed over nodes and steps */
@@ -205,27 +212,39 @@ typedef struct {
     size_t steps;
 } dkf_dfnerts_net_t;
 
-/* `name`, its node array `name_nodes` and `name_storage`, storage class sc. */
-#define DKF_DFNERTS_NET_DECLARE(sc, name, N, n, m, p) \
-    sc dkf_real_t name##_storage[DKF_DFNERTS_NET_STORAGE_LEN(N, n, m, p)]; \
+/* `name`, its node array `name_nodes` and `name_storage` (nodes of up to
+ * m_max measurements), storage class sc. */
+#define DKF_DFNERTS_NET_DECLARE(sc, name, N, n, m_max, p) \
+    sc dkf_real_t name##_storage[DKF_DFNERTS_NET_STORAGE_LEN(N, n, m_max, p)]; \
     sc dkf_dfnerts_node_t name##_nodes[N]; \
     sc dkf_dfnerts_net_t name
 
+/* Exact reals of storage for N nodes, node l measuring m[l] values: the
+ * nodes' DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p) one after another, then
+ * the two packet buffers. 0 for N = 0, a NULL m or a dimension out of
+ * range (an m[l] of 0 or above DKF_MAX_DIM, n + p above it). */
+size_t dkf_dfnerts_net_storage_len(size_t N, size_t n, const size_t m[], size_t p);
+
 /* Binds the network to the graph g (checked: DKF_ERR_GRAPH), nodes[0 ..
- * g->N - 1] and storage, and initialises node l with its prior x0[l],
- * P0[l], d0[l], Pd0[l], Pxd0[l] (the last three NULL when p = 0). All
- * nodes measure m values (m = the largest m_l; a node's model may have
- * fewer). */
+ * g->N - 1] and storage (dkf_dfnerts_net_storage_len(g->N, n, m, p) reals,
+ * else DKF_ERR_CAPACITY), and initialises node l for m[l] measurements
+ * with its prior x0[l], P0[l], d0[l], Pd0[l], Pxd0[l] (the last three NULL
+ * when p = 0). The dimensions (DKF_ERR_CAPACITY; DKF_ERR_RANK for an m[l]
+ * < p) and storage are checked before any node is touched; a prior that
+ * node l refuses leaves net as it was (nodes before l are then
+ * initialised, and unused). */
 dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
                                   dkf_dfnerts_node_t *nodes, dkf_nerts_kind_t kind,
-                                  dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
-                                  dkf_real_t *storage, size_t storage_len, const dkf_mat_t x0[],
-                                  const dkf_mat_t P0[], const dkf_mat_t d0[],
+                                  dkf_dfnerts_variant_t variant, size_t n, const size_t m[],
+                                  size_t p, dkf_real_t *storage, size_t storage_len,
+                                  const dkf_mat_t x0[], const dkf_mat_t P0[], const dkf_mat_t d0[],
                                   const dkf_mat_t Pd0[], const dkf_mat_t Pxd0[]);
 
-/* One step of every node: local with models[l], Q[l], R[l], z[l] (u_prev,
- * u shared, NULL when q = 0), Tp rounds with W (nnz weights parallel to
- * g->nbr, doubly stochastic, >= 0), commit. Tp in [1, DKF_DFNERTS_MAX_TP]. */
+/* One step of every node: local with models[l], Q[l], R[l], z[l] (node
+ * l's m_l: models[l].m, R[l] m_l x m_l and z[l] m_l x 1, else
+ * DKF_ERR_DIM; u_prev, u shared, NULL when q = 0), Tp rounds with W (nnz
+ * weights parallel to g->nbr, doubly stochastic, >= 0), commit. Tp in
+ * [1, DKF_DFNERTS_MAX_TP]. */
 dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t models[],
                                   const dkf_real_t *u_prev, const dkf_mat_t Q[],
                                   const dkf_real_t *u, const dkf_mat_t R[], const dkf_mat_t z[],

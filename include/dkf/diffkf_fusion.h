@@ -5,6 +5,9 @@
  *
  * l sensors share the state x (n) and the dynamics (F_k, Q_k); sensor i has
  * its own (H^i, D^i, R^i) (m_i rows, p_i unknown inputs) and (B^i, Rd^i).
+ * PER NODE: m_i, p_i (dkf_diffkf_fc_init's m[], p[]), H^i, D^i, R^i, B^i,
+ * Rd^i, y^i and the local prior covariance may differ; n, F_k, Q_k and
+ * the central prior are common.
  * Node i runs the local Difference KF (dkf/diffkf.h) on its own y^i and
  * sends, after each step k, the message {x^i_{k|k}, x^i_{k|k-1}}. The FC
  * knows every model and every local prior covariance. It replays each

@@ -22,6 +22,9 @@
  * mix with a doubly stochastic W; diffusion (eq. (26b)) is one mix with a
  * row-stochastic alpha.
  *
+ * PER NODE: the neighbourhood, its weights and what a packet holds may
+ * differ; the packet length `len` is common to every node of one mix.
+ *
  * docs/graph-filters.md has the conditions, statuses and examples.
  */
 #ifndef DKF_GRAPH_H

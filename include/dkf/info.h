@@ -12,6 +12,8 @@
  * whenever the sensor noises are mutually uncorrelated. A node computes its
  * (i_j, I_j) with dkf_info_contribution and sends them; the fusion centre
  * adds them with dkf_info_fuse.
+ * PER SENSOR: m_j, H_j, R_j and z_j may differ (every contribution is n x n
+ * whatever m_j); n is common.
  *
  * The filter keeps both forms (x, P, Y, y): the time update needs P, the
  * measurement update needs Y.

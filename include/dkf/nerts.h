@@ -251,7 +251,10 @@ dkf_status_t dkf_nerts_step(dkf_nerts_t *f, const dkf_nl_model_t *model, const d
 /* The context of a stacked model: `count` sensor models of one system
  * (same n, p, q; sensors[0]'s f and f_jac are the stacked model's
  * dynamics), measured together as z = [z_1; ...; z_count]
- * (m = sum m_j <= DKF_MAX_DIM). Caller-owned; it must outlive the model. */
+ * (m = sum m_j <= DKF_MAX_DIM). Caller-owned; it must outlive the model.
+ * PER SENSOR: m_j, h, h_jac and y_diff (angle channels) may differ; n, p,
+ * q and the dynamics are common (the other sensors' f is never called:
+ * the caller makes sure it is sensors[0]'s). */
 typedef struct {
     const dkf_nl_model_t *sensors;
     size_t count;

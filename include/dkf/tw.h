@@ -53,6 +53,10 @@
  * in one caller array, stepping all nodes with the same primitives; a
  * step that fails at any node commits no node and leaves none pending. It
  * counts the reals each node broadcasts.
+ *
+ * PER NODE: m_l (<= the m_max the storage is sized for), H_l, R_l and y_l
+ * may differ; n, p, the dynamics (F, G, Q) and, in dkf_tw_net_init, the
+ * prior (x0, P0) are common.
  */
 #ifndef DKF_TW_H
 #define DKF_TW_H

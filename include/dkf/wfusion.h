@@ -8,6 +8,8 @@
  *   s(t)   = Hs x(t)                          (the signal, Hs 1 x n)
  * given as dkf_kf_dyn_t {F, Q} and one dkf_kf_meas_t {H_i, R_i} per
  * sensor (dkf/kf.h), at every step (a self-tuning filter changes them).
+ * PER SENSOR: m_i (dkf_wfusion_init's m[]), H_i, R_i and y_i may differ;
+ * n, F, Q, Hs and the initial estimate (x0, P0) are common.
  *
  * Local filter i (Theorem 1) in the one-step form
  *   Sigma_i(t|t-1) = F P_i(t-1|t-1) F^T + Q

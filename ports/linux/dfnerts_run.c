@@ -34,13 +34,14 @@ typedef struct {
     const dkf_filter_t *fl;
     const dkf_scenario_t *s;
     dkf_df_impl_t impl;
-    size_t N, n, m, p;           /* nodes, state, the largest m_l, input */
+    size_t N, n, p;              /* nodes, state, input */
+    size_t *m;                   /* m_l: node l's measurements (its model's g) */
     size_t *start, *nbr;         /* the graph's CSR lists */
     dkf_graph_t g;
     dkf_real_t *W;               /* g.nnz weights */
     dkf_dfnerts_node_t *nodes;
     dkf_dfnerts_net_t net;
-    dkf_real_t *mem;             /* DKF_DFNERTS_NET_STORAGE_LEN */
+    dkf_real_t *mem;             /* dkf_dfnerts_net_storage_len */
     dkf_nl_model_t *models;
     dkf_mat_t *Q, *R, *z;        /* per node */
     dkf_mat_t *x0, *P0, *d0, *Pd0, *Pxd0;
@@ -82,6 +83,7 @@ static void df_destroy(dkf_runner_t *r)
     if (u == NULL) return;
     free(u->start);
     free(u->nbr);
+    free(u->m);
     free(u->W);
     free(u->nodes);
     free(u->mem);
@@ -119,9 +121,10 @@ static int bind_data(df_runner_t *u, char *err, size_t errlen)
     dkf_real_t *q;
     dkf_status_t st;
     int dflt, rc;
+    u->m = calloc(N, sizeof *u->m);
+    if (u->m == NULL) return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
     for (l = 0; l < N; ++l) {
-        const size_t ml = s->nl->models[l]->m;
-        if (ml > u->m) u->m = ml;
+        const size_t ml = u->m[l] = s->nl->models[l]->m;
         per += n * n + ml * ml + ml;
     }
     total = per + N * (n + n * n + p + p * p + n * p);
@@ -185,7 +188,7 @@ static dkf_runner_t *df_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
         df_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
-    len = DKF_DFNERTS_NET_STORAGE_LEN(u->N, u->n, u->m, u->p);
+    len = dkf_dfnerts_net_storage_len(u->N, u->n, u->m, u->p);
     u->nodes = calloc(u->N, sizeof *u->nodes);
     u->mem = calloc(len, sizeof *u->mem);
     u->series = o->record ? json_object() : NULL;

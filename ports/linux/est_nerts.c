@@ -11,7 +11,9 @@
  *                        node's model stacked (dkf_nerts_stack; z the
  *                        nodes' z one after another, R = blkdiag of the
  *                        nodes' R, Q and the initial estimate node 0's:
- *                        seed 001 starts every filter from the same x0).
+ *                        seed 001 starts every filter from the same x0;
+ *                        a node whose f or Q differs from node 0's is
+ *                        refused, naming it; m_l, g and R may differ).
  *
  * Step k (k = 1..N): dkf_nerts_step with the model's Q and R and z_k.
  * Recorded per step under outputs.<LABEL>, with the vector files'
@@ -67,6 +69,25 @@ static int is_ekf(dkf_nerts_kind_t k)
     return k == DKF_NERTS_NERTSF || k == DKF_NERTS_NERTSIF;
 }
 
+/* 1 if node i's f gives node 0's values, bit for bit, at node 0's initial
+ * estimate and at a point beside it (the stack runs node 0's f alone). */
+static int same_dynamics(const dkf_scenario_t *s, size_t i)
+{
+    const dkf_nl_model_t *a = &s->nl->models[0]->model, *b = &s->nl->models[i]->model;
+    const dkf_scn_mat_t *x0 = dkf_scn_node_init(s, 0, "x00"), *d0 = dkf_scn_node_init(s, 0, "d00");
+    const size_t n = s->n, p = s->nl->p;
+    dkf_real_t x[DKF_MAX_DIM], d[DKF_MAX_DIM], fa[DKF_MAX_DIM], fb[DKF_MAX_DIM];
+    size_t t, j;
+    for (t = 0; t < 2; ++t) {
+        for (j = 0; j < n; ++j) x[j] = (dkf_real_t)(x0->data[j] + 0.1 * (double)(t * (j + 1)));
+        for (j = 0; j < p; ++j) d[j] = (dkf_real_t)(d0->data[j] + 0.1 * (double)t);
+        if (a->f(a->ctx, 0, x, d, NULL, fa) != 0 || b->f(b->ctx, 0, x, d, NULL, fb) != 0 ||
+            memcmp(fa, fb, n * sizeof *fa) != 0)
+            return 0;
+    }
+    return 1;
+}
+
 static int nerts_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_scenario_t *s,
                        char *err, size_t errlen)
 {
@@ -93,6 +114,14 @@ static int nerts_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dk
                                  "%s: cases[%zu].node_models[%zu].Q: differs from node 0's (the "
                                  "centralised filter has one dynamics: node 0's f and Q)",
                                  s->file, s->case_index, i);
+        for (i = 1; i < s->nsensors; ++i)
+            if (!same_dynamics(s, i))
+                return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                                 "%s: cases[%zu].node_models[%zu].%s: its f differs from node "
+                                 "0's (the centralised filter has one dynamics: node 0's f and Q)",
+                                 s->file, s->case_index, i,
+                                 strcmp(s->nl->models[i]->source, "expr") == 0 ? "expr.f"
+                                                                                : "family");
         if (m > DKF_MAX_DIM)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                              "%s: cases[%zu].node_models: the stacked measurement has %zu "

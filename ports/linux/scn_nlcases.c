@@ -80,11 +80,15 @@ static int node_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t
                             "estimate; [] for no unknown input)", DKF_MAX_DIM);
     n = json_array_size(x0);
     pp = json_array_size(d0);
+    if (n + pp > DKF_MAX_DIM)
+        return dkf_scn_fail(c, p, "%zu values beside x0's %zu: the core's filters agree on "
+                            "[x; d], at most %d values", pp, n, DKF_MAX_DIM);
     if (i == 0) {
         s->n = n;
         s->nl->p = pp;
     } else if (n != s->n || pp != s->nl->p) {
-        return dkf_scn_fail(c, ipath, "x0 of %zu and d0 of %zu values; node 0 has %zu and %zu",
+        return dkf_scn_fail(c, ipath, "x0 of %zu and d0 of %zu values; node 0 has %zu and %zu "
+                            "(n and p are common to every node; m, g and R may differ)",
                             n, pp, s->n, s->nl->p);
     }
     /* node 0's is also the file's init (dkf_scn_init, dkf_scn_P00_central:

@@ -12,6 +12,16 @@
  * pending), except that a failed local over a pending step leaves the node
  * as it was before that step (as documented); after a successful call the
  * state is finite and Px is exactly symmetric.
+ *
+ * A first byte >= 128 drives the in-process network instead (fuzz_net):
+ * three nodes on a path, each with its own byte-chosen m_l (0, above
+ * DKF_MAX_DIM or below p included), a storage length of the runtime size
+ * or one less, the common prior byte-edited, then up to 8 network steps
+ * with every node's model, R and z of its own size or (a fault) another
+ * size, byte-edited, T_p 1..3, byte-chosen scale and weights. Property: a
+ * failed init or step leaves the network struct, every node struct and
+ * every node's state (its own m) byte-identical; after a successful step
+ * every node's state is finite and its Px exactly symmetric.
  */
 #include "dkf/dfnerts.h"
 #include "fuzz_core.h"
@@ -21,6 +31,7 @@
 #define MMAX 4
 #define PMAX 2
 #define PKT DKF_DFNERTS_PKT_MAX(NMAX, PMAX)
+#define NET_N 3
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -29,6 +40,111 @@ static void to_model(double *dst, const fz_mat_t *b, size_t r, size_t c)
 {
     size_t i;
     for (i = 0; i < r * c; ++i) dst[i] = (double)b->d[i];
+}
+
+/* m_l from a byte: 1 .. MMAX + 1 mostly, else 0 or DKF_MAX_DIM + 1. */
+static size_t net_m(fz_t *z)
+{
+    const uint8_t b = fz_byte(z);
+    if (b == 255) return (size_t)DKF_MAX_DIM + 1;
+    return b % (MMAX + 2);
+}
+
+/* Every node's struct and state (node l's own m) into the snapshot. */
+static void net_regions(fz_snap_t *snap, const dkf_dfnerts_net_t *net,
+                        const dkf_dfnerts_node_t *nodes)
+{
+    size_t l;
+    fz_regions_clear(snap);
+    fz_region(snap, net, sizeof *net);
+    for (l = 0; l < NET_N; ++l) {
+        fz_region(snap, &nodes[l], sizeof nodes[l]);
+        if (nodes[l].ready)
+            fz_region(snap, nodes[l].mem,
+                      DKF_DFNERTS_NODE_STATE_LEN(nodes[l].n, nodes[l].m, nodes[l].p) *
+                          sizeof(dkf_real_t));
+    }
+    fz_take(snap);
+}
+
+static void fuzz_net(fz_t *z, dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant)
+{
+    static dkf_real_t st[DKF_DFNERTS_NET_STORAGE_LEN(NET_N, NMAX, MMAX + 1, PMAX)];
+    static dkf_dfnerts_node_t nodes[NET_N];
+    static dkf_dfnerts_net_t net;
+    static fz_snap_t snap;
+    static fz_mat_t x0, P0, d0, Pd0, Pxd0, Q[NET_N], R[NET_N], zz[NET_N];
+    static lxs_t c[NET_N];
+    static const size_t edges[4] = {0, 1, 1, 2};
+    static size_t start[NET_N + 1], nbr[DKF_GRAPH_NNZ(NET_N, 2)];
+    fz_mat_t *const init_m[] = {&x0, &P0, &d0, &Pd0, &Pxd0};
+    dkf_mat_t mx0[NET_N], mP0[NET_N], md0[NET_N], mPd0[NET_N], mPxd0[NET_N];
+    dkf_mat_t mQ[NET_N], mR[NET_N], mz[NET_N];
+    dkf_nl_model_t md[NET_N];
+    dkf_real_t W[DKF_GRAPH_NNZ(NET_N, 2)];
+    dkf_graph_t g;
+    size_t m[NET_N], len, l, i, op;
+    dkf_status_t s;
+    const size_t n = fz_dim(z, NMAX), p = fz_byte(z) % (PMAX + 1);
+    for (l = 0; l < NET_N; ++l) m[l] = net_m(z);
+    len = dkf_dfnerts_net_storage_len(NET_N, n, m, p);
+    if (len > sizeof st / sizeof st[0]) len = sizeof st / sizeof st[0];
+    if (len > 0 && (fz_byte(z) & 1)) --len;
+    if (dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(NET_N, 2), NET_N, edges, 2) != DKF_OK)
+        return;
+    fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_set(&d0, p, 1, DKF_R(0.2), DKF_R(0.2));
+    fz_set(&Pd0, p, p, DKF_R(0.5), DKF_R(0.0));
+    fz_set(&Pxd0, n, p, DKF_R(0.05), DKF_R(0.0));
+    fz_edit(z, init_m, 5);
+    /* one prior for every node: a prior is refused at node 0 or nowhere */
+    for (l = 0; l < NET_N; ++l) {
+        mx0[l] = x0.v, mP0[l] = P0.v, md0[l] = d0.v, mPd0[l] = Pd0.v, mPxd0[l] = Pxd0.v;
+    }
+    memset(nodes, 0, sizeof nodes);
+    memset(&net, 0, sizeof net);
+    net_regions(&snap, &net, nodes);
+    s = dkf_dfnerts_net_init(&net, &g, nodes, kind, variant, n, m, p, st, len, mx0, mP0,
+                             p > 0 ? md0 : NULL, p > 0 ? mPd0 : NULL, p > 0 ? mPxd0 : NULL);
+    if (!fz_after(&snap, s)) return;
+    for (op = 0; op < 8 && fz_more(z); ++op) {
+        const uint8_t code = fz_byte(z), fault = (uint8_t)(code % 8);
+        const size_t odd = fz_byte(z) % NET_N;
+        const dkf_real_t scale = fault == 5 ? fz_real(z) : DKF_R(1.0) + (dkf_real_t)(code >> 7);
+        if (dkf_graph_weights_metropolis(W, &g) != DKF_OK) return;
+        if (fault == 6) W[fz_byte(z) % g.nnz] = fz_real(z);
+        for (l = 0; l < NET_N; ++l) {
+            /* node l's sizes, or (fault 7) another node's m at node `odd` */
+            const size_t ml = fault == 7 && l == odd ? m[(l + 1) % NET_N] : m[l];
+            fz_mat_t *const step_m[] = {&Q[l], &R[l], &zz[l]};
+            memset(&c[l], 0, sizeof c[l]);
+            c[l].n = n, c[l].m = ml, c[l].p = p;
+            c[l].linear = fault == 4;
+            c[l].fail_h = fault == 2 && l == odd;
+            c[l].nan_h = fault == 3 && l == odd;
+            for (i = 0; i < n * n; ++i) c[l].A[i] = i % (n + 1) == 0 ? 0.9 : 0.05;
+            for (i = 0; i < n * p; ++i) c[l].B[i] = 0.5;
+            for (i = 0; i < ml * n && i < LXS_MAX * LXS_MAX; ++i)
+                c[l].C[i] = i % (n + 1) == 0 ? 1.0 : 0.2 + 0.1 * (double)l;
+            for (i = 0; i < ml * p && i < LXS_MAX * LXS_MAX; ++i)
+                c[l].H[i] = i % (p + 1) == 0 ? 1.0 : 0.0;
+            md[l] = lxs_model(&c[l], (int)(code >> 6) & 1);
+            fz_set(&Q[l], n, n, DKF_R(0.1), DKF_R(0.0));
+            fz_set(&R[l], ml, ml, DKF_R(0.5), DKF_R(0.0));
+            fz_set(&zz[l], ml, 1, DKF_R(0.3), DKF_R(0.3));
+            if (l == odd) fz_edit(z, step_m, 3);
+            mQ[l] = Q[l].v, mR[l] = R[l].v, mz[l] = zz[l].v;
+        }
+        net_regions(&snap, &net, nodes);
+        s = dkf_dfnerts_net_step(&net, md, NULL, mQ, NULL, mR, mz, W, 1 + (size_t)(code >> 5) % 3,
+                                 scale);
+        if (fz_after(&snap, s))
+            for (l = 0; l < NET_N; ++l) {
+                fz_finite(nodes[l].mem, DKF_DFNERTS_NODE_STATE_LEN(n, m[l], p));
+                fz_symmetric(nodes[l].f.Px.data, n, 1);
+            }
+    }
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -48,8 +164,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     dkf_nl_model_t md;
     dkf_status_t s;
     size_t n, m, p, op, sl;
-    const dkf_nerts_kind_t kind = kinds[fz_byte(&z) % 4];
+    const uint8_t first = fz_byte(&z);
+    const dkf_nerts_kind_t kind = kinds[first % 4];
     const dkf_dfnerts_variant_t variant = (dkf_dfnerts_variant_t)(fz_byte(&z) % 3);
+    if (first >= 128) {
+        fuzz_net(&z, kind, variant);
+        return 0;
+    }
     n = fz_dim(&z, NMAX);
     m = fz_dim(&z, MMAX);
     p = fz_byte(&z) % (PMAX + 1);

@@ -22,7 +22,10 @@ scenarios (SCENARIO_DIR/nl_*_expr.json):
                      pendulum driven by an unknown torque d1, measured as
                      angle (an angle channel), rate and d1 + 0.1 rate;
                      the truth simulated here (fixed seed)
-  bad_*.json         one deliberate error each, refused with one line
+  bad_*.json         one deliberate error each, refused with one line (the
+                     bad_nl_node_*, n_plus_p and cf_f ones from
+                     nl_mixed_expr.json: what a network of different
+                     sensors still may not have)
 """
 import copy
 import json
@@ -155,6 +158,56 @@ def main():
     write(out, "bad_nl_cf_q.json", {"cases": [q]})
     net["W"] = net["W"][:3]
     write(out, "bad_nl_w_shape.json", {"cases": [net]})
+
+    # what the network filters cannot run, refused by key (the mixed network
+    # of scenarios/nl_mixed_expr.json: nodes may differ in m, g, R, ...)
+    mixed = json.load(open(os.path.join(sdir, "nl_mixed_expr.json")))
+
+    def bad_mixed(name, change):
+        c = copy.deepcopy(mixed["cases"][0])
+        change(c)
+        write(out, name, {"cases": [c]})
+
+    def node_n2(c):  # node 1's state of 2 values
+        c["init_per_node"][1] = dict(c["init_per_node"][0], x0=[0.0, 0.0],
+                                     Px0=[[0.1, 0.0], [0.0, 0.1]], Pxd0=[[0.0], [0.0]])
+
+    def node_p0(c):  # node 2 without the unknown input
+        c["init_per_node"][2] = dict(c["init_per_node"][0], d0=[], Pd0=[], Pxd0=[[], [], []])
+
+    def m_below_p(c):  # p = 2, node 2 measures one value
+        c["init_per_node"] = [dict(c["init_per_node"][0], d0=[0.0, 0.0],
+                                   Pd0=[[0.25, 0.0], [0.0, 0.25]],
+                                   Pxd0=[[0.0, 0.0]] * 3)] * 3
+        for md in c["node_models"]:
+            md["expr"]["g"][-1] += " + d2"
+        c["node_models"][2]["expr"]["g"] = ["d1 + d2 + x1"]
+        c["node_models"][2]["R"] = [[0.02]]
+        for st in c["steps"]:
+            st["z"][2] = st["z"][2][:1]
+        del c["truth"]
+
+    def n_plus_p(c):  # n = 40, p = 10: [x; d] of 50 values
+        n, p = 40, 10
+        eye = lambda k, v: [[v if i == j else 0.0 for j in range(k)] for i in range(k)]
+        c["init_per_node"] = [{"x0": [0.0] * n, "Px0": eye(n, 0.1), "d0": [0.0] * p,
+                               "Pd0": eye(p, 0.1), "Pxd0": [[0.0] * p] * n}] * 3
+        for md in c["node_models"]:
+            md["expr"] = {"f": ["x%d" % (i + 1) for i in range(n)],
+                          "g": ["x1 + d%d" % (j + 1) for j in range(p)]}
+            md["Q"], md["R"] = eye(n, 0.01), eye(p, 0.01)
+        for st in c["steps"]:
+            st["z"] = [[0.0] * p] * 3
+        del c["truth"]
+
+    def other_f(c):  # node 1's dynamics differ (cf_dnertsf runs node 0's for all)
+        c["node_models"][1]["expr"]["f"][0] = "x1 + 0.2*x2"
+
+    bad_mixed("bad_nl_node_n.json", node_n2)
+    bad_mixed("bad_nl_node_p.json", node_p0)
+    bad_mixed("bad_nl_node_m_lt_p.json", m_below_p)
+    bad_mixed("bad_nl_n_plus_p.json", n_plus_p)
+    bad_mixed("bad_nl_cf_f.json", other_f)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,12 @@
 #               bit for bit (df_check.py --rel 0)
 #   df_radar12  seed 001's 12 radars (tools/seed001_model.py, run 0, 30 steps,
 #               T_p 45, s = 12), 12 processes: == dkf-run bit for bit
+#   df_mixed    scenarios/nl_mixed_expr.json: 3 nodes of 2, 3 and 2
+#               measurements on a path (DF-DNERTSIF s = 1 and 3, the joint
+#               variant, DF-CKF): every node's x, Px, d == dkf-run's
+#               in-process run, bit for bit; every node is started, so no
+#               neighbour is ever missing: the round and start timeouts are
+#               the process limit (a loaded machine delays, never degrades)
 #   df_absent   df4's first case without node 3: its neighbours 1 and 2
 #               degraded at every step, node 0 never; all finish
 #   df_rejoin   the 12 radars (100 steps, T_p 45, s = 12) with node 5 started
@@ -44,8 +50,9 @@
 #               reaches a filter; the results == dkf-run bit for bit
 #
 # Environment (set by ctest): DKF_TW_NODE DKF_RUN DKF_PYTHON DKF_NETNS
-# DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_TOOLS DKF_KEYGEN DKF_TW_INJECT. Exit 77 (skip) when not root; every
-# process has --timeout and the script is bounded by ctest's TIMEOUT.
+# DKF_TW_TOOLS DKF_REAL DKF_VECTORS DKF_SCENARIOS DKF_TOOLS DKF_KEYGEN
+# DKF_TW_INJECT. Exit 77 (skip) when not root; every process has --timeout
+# and the script is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 out=$2
 URL='udpm://239.255.76.67:7667?ttl=0'
@@ -159,6 +166,17 @@ PY
     df_same "$vdf" s1_4node_Tp45_scale4 df_dnertsif DF_DNERTSIF 4 "$out/tp45s4" || rc=1
     df_same "$vdf" s1_4node_DF_CKF_Tp3_scale1 df_ckf DF_CKF 4 "$out/ckf" || rc=1
     df_same "$vdf" s1_4node_Tp3_scale4 df_dnertsif_joint DF_DNERTSIF_JOINT 4 "$out/joint" || rc=1
+    ;;
+  df_mixed)
+    mix=$DKF_SCENARIOS/nl_mixed_expr.json
+    df_same "$mix" mixed_path3_Tp2_scale1 df_dnertsif DF_DNERTSIF 3 "$out/s1" \
+      --start-timeout $T --round-timeout $T || rc=1
+    df_same "$mix" mixed_path3_Tp2_scale3 df_dnertsif DF_DNERTSIF 3 "$out/s3" \
+      --start-timeout $T --round-timeout $T || rc=1
+    df_same "$mix" mixed_path3_Tp2_scale3 df_dnertsif_joint DF_DNERTSIF_JOINT 3 "$out/joint" \
+      --start-timeout $T --round-timeout $T || rc=1
+    df_same "$mix" mixed_path3_DF_CKF_Tp2_scale3 df_ckf DF_CKF 3 "$out/ckf" \
+      --start-timeout $T --round-timeout $T || rc=1
     ;;
   df_radar12)
     "$DKF_PYTHON" "$DKF_TOOLS/seed001_model.py" --run 0 --steps 30 --tp 45 --scale N \

@@ -13,7 +13,7 @@ set -euo pipefail
 
 # Host toolchain, unit-test deps, cross compilers, qemu, bench deps, fuzzing.
 pkgs=(
-  cmake make gcc g++ pkg-config binutils
+  cmake make ninja-build gcc g++ pkg-config binutils
   libcmocka-dev libjansson-dev libmuparser-dev  # muparser: expression models (ports/linux/nlm_expr.c)
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross

@@ -10,6 +10,7 @@
 #                          corpus is only read; new inputs go to build/fuzz/work)
 #        FUZZ_SEED=1       libFuzzer's -seed (fixed, as every randomised test here;
 #                          0 lets libFuzzer pick one)
+#        FUZZ_JOBS=1       harnesses run at the same time (each uses one core)
 #        DKF_JOBS=2        build jobs;  CC=clang-14  the compiler
 # One line per harness (PASS/FAIL, executions, coverage, the crash input if
 # any), then "fuzz: N passed, M failed". A crash leaves its input in
@@ -20,6 +21,7 @@ ROOT=$PWD
 BDIR=$ROOT/build/fuzz
 SECONDS_EACH=${FUZZ_SECONDS:-60}
 JOBS=${DKF_JOBS:-2}
+FUZZ_JOBS_N=${FUZZ_JOBS:-1}
 CC_FUZZ=${CC:-}
 case "$(basename "${CC_FUZZ:-none}")" in
   clang*) ;;
@@ -55,24 +57,21 @@ if ! cmake --build "$BDIR" -j"$JOBS" --target dkf_fuzzers >"$BDIR/logs/build.log
   exit 1
 fi
 
-pass=0
-fail=0
-for n in "${names[@]}"; do
-  bin=$BDIR/fuzz/fuzz_$n
-  corpus=$ROOT/tests/fuzz/corpus/$n
-  work=$BDIR/work/$n
-  art=$BDIR/artifacts/$n
-  log=$BDIR/logs/$n.log
+# fuzz_one NAME: runs one harness; its verdict line (and a failure's details)
+# into $BDIR/logs/NAME.verdict, whose first word is PASS or FAIL.
+fuzz_one() {
+  local n=$1 bin=$BDIR/fuzz/fuzz_$1 corpus=$ROOT/tests/fuzz/corpus/$1 work=$BDIR/work/$1
+  local art=$BDIR/artifacts/$1 log=$BDIR/logs/$1.log out=$BDIR/logs/$1.verdict
+  local rc execs cov crash dict=()
   if [[ ! -x "$bin" ]]; then
-    printf 'fuzz: %-24s FAIL  not built (register it in tests/fuzz/CMakeLists.txt)\n' "$n"
-    fail=$((fail + 1)); continue
+    printf 'fuzz: %-24s FAIL  not built (register it in tests/fuzz/CMakeLists.txt)\n' "$n" >"$out"
+    return
   fi
   if [[ ! -d "$corpus" ]] || [[ -z "$(ls -A "$corpus" 2>/dev/null)" ]]; then
-    printf 'fuzz: %-24s FAIL  no seed corpus in tests/fuzz/corpus/%s/\n' "$n" "$n"
-    fail=$((fail + 1)); continue
+    printf 'fuzz: %-24s FAIL  no seed corpus in tests/fuzz/corpus/%s/\n' "$n" "$n" >"$out"
+    return
   fi
   mkdir -p "$work" "$art"
-  dict=()
   [[ -f tests/fuzz/$n.dict ]] && dict=(-dict="$ROOT/tests/fuzz/$n.dict")
   # New inputs go to the first directory (work); the committed corpus is read.
   "$bin" -seed="${FUZZ_SEED:-1}" -max_total_time="$SECONDS_EACH" -timeout=25 -rss_limit_mb=2048 \
@@ -82,23 +81,46 @@ for n in "${names[@]}"; do
   cov=$(grep -E '^#[0-9]+' "$log" | grep -oE 'cov: [0-9]+' | tail -1)
   crash=$(grep -oE "Test unit written to [^ ]+" "$log" | tail -1 | sed 's/Test unit written to //')
   if (( rc == 0 )); then
-    printf 'fuzz: %-24s PASS  %s s, %s executions, %s\n' "$n" "$SECONDS_EACH" "${execs:-?}" "${cov:-cov: ?}"
-    pass=$((pass + 1))
+    printf 'fuzz: %-24s PASS  %s s, %s executions, %s\n' "$n" "$SECONDS_EACH" "${execs:-?}" \
+      "${cov:-cov: ?}" >"$out"
   else
-    printf 'fuzz: %-24s FAIL  exit %s, input %s (log %s)\n' "$n" "$rc" "${crash:-none}" "$log"
-    grep -m1 -E 'ERROR: |runtime error|property broken|deadly signal' "$log" | sed 's/^/      /'
-    # the input itself, so a failure on another machine can be replayed here
-    # (echo ... | base64 -d > crash; build/fuzz/fuzz/fuzz_<name> crash)
-    if [[ -n "$crash" && -f "$crash" ]] && (( $(stat -c %s "$crash") <= 4096 )); then
-      echo "      input (base64): $(base64 -w0 "$crash")"
-    fi
-    fail=$((fail + 1))
+    {
+      printf 'fuzz: %-24s FAIL  exit %s, input %s (log %s)\n' "$n" "$rc" "${crash:-none}" "$log"
+      grep -m1 -E 'ERROR: |runtime error|property broken|deadly signal' "$log" | sed 's/^/      /'
+      # the input itself, so a failure on another machine can be replayed here
+      # (echo ... | base64 -d > crash; build/fuzz/fuzz/fuzz_<name> crash)
+      if [[ -n "$crash" && -f "$crash" ]] && (( $(stat -c %s "$crash") <= 4096 )); then
+        echo "      input (base64): $(base64 -w0 "$crash")"
+      fi
+    } >"$out"
   fi
   if [[ "${FUZZ_MERGE:-0}" == 1 ]] && (( rc == 0 )); then
     "$bin" -merge=1 "$corpus" "$work" >"$BDIR/logs/$n.merge.log" 2>&1 ||
-      echo "run_fuzz: $n: merge failed (log $BDIR/logs/$n.merge.log)"
-    echo "fuzz: $n: corpus now $(ls "$corpus" | wc -l) files (tests/fuzz/corpus/$n/)"
+      echo "run_fuzz: $n: merge failed (log $BDIR/logs/$n.merge.log)" >>"$out"
+    echo "fuzz: $n: corpus now $(ls "$corpus" | wc -l) files (tests/fuzz/corpus/$n/)" >>"$out"
   fi
+}
+
+# FUZZ_JOBS harnesses at a time (each is one process on one core); their
+# lines in the order of the names.
+pass=0
+fail=0
+report() { # NAME: prints its verdict, counts it
+  [[ -s $BDIR/logs/$1.verdict ]] ||
+    printf 'fuzz: %-24s FAIL  no verdict (the run script stopped)\n' "$1" >"$BDIR/logs/$1.verdict"
+  cat "$BDIR/logs/$1.verdict"
+  if [[ $(awk 'NR == 1 { print $3 }' "$BDIR/logs/$1.verdict") == PASS ]]; then
+    pass=$((pass + 1))
+  else
+    fail=$((fail + 1))
+  fi
+}
+for ((i = 0; i < ${#names[@]}; i += FUZZ_JOBS_N)); do
+  batch=("${names[@]:i:FUZZ_JOBS_N}")
+  pids=()
+  for n in "${batch[@]}"; do rm -f "$BDIR/logs/$n.verdict"; fuzz_one "$n" & pids+=($!); done
+  wait "${pids[@]}"
+  for n in "${batch[@]}"; do report "$n"; done
 done
 echo "fuzz: ${pass} passed, ${fail} failed"
 (( fail == 0 ))

@@ -4,8 +4,13 @@
 # (reused, so a second run is incremental).
 #
 #   double           DKF_REAL=double (Joseph form on), with the benchmarks'
-#                    smoke test (bench/smoke.py: builds, runs, checksums)
-#   float            DKF_REAL=float
+#                    smoke test (bench/smoke.py: builds, runs, checksums);
+#                    the only configuration that runs the tests labelled
+#                    `once` (cmake/testing.cmake: the network processes in
+#                    namespaces, the Python tools, the paper reproductions,
+#                    the install and build consumers), which do not depend on
+#                    the configuration; every other one runs `ctest -LE once`
+#   float            DKF_REAL=float (the Eigen peer at -O2 only)
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
 #                    -DNDEBUG; the others RelWithDebInfo, -O2 -g)
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
@@ -22,17 +27,23 @@
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
-#                    UBSan for FUZZ_SECONDS (60) each (tools/run_fuzz.sh)
-#   demo             the README's demo (tools/net_demo.sh, its own build with
-#                    DKF_MAX_DIM = 1024): every network, 2 to 200 nodes, fused
-#                    == central, and the graph, seed-001 and seed-002 networks
-# Every ctest configuration includes `install_consumer` (install + a
-# separate find_package(dkf) project, tests/consumer/).
+#                    UBSan for FUZZ_SECONDS (here 10) each, two at a time
+#                    (tools/run_fuzz.sh; the long run: docs/fuzzing.md)
+#   demo             the README's demo (tools/net_demo.sh) on the programs of
+#                    double-dim1024 (the demo's DKF_MAX_DIM; its own build in
+#                    build/demo when run alone): every network, 2 to 200 nodes,
+#                    fused == central, and the graph, seed-001 and seed-002 networks
 #
-# usage: tools/run_tests.sh [config...]      (default: all, in that order)
+# usage: tools/run_tests.sh [config...]   every configuration (default), or those
+#        tools/run_tests.sh --quick       the edit-compile-test loop: the double
+#                    build without the benchmarks in build/quick and its unit
+#                    tests (ctest -L unit: core and host, in process)
 # env:   DKF_JOBS=2        parallel build/test jobs
 #        DKF_KEEP_GOING=1  run the remaining configurations after a failure
 #        DKF_SKIP_BOOTSTRAP=1  do not run tools/bootstrap.sh first
+#        FUZZ_SECONDS=10   each fuzz harness's time in the fuzz configuration
+# Builds use Ninja (from tools/bootstrap.sh; make if it is missing). The end
+# is a table of each configuration's configure, build and test seconds.
 # The last line is "N passed, M failed" summed over all configurations (a
 # configuration that does not configure or build counts as 1 failed).
 #
@@ -48,12 +59,21 @@ ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
 all_configs=(double float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
   demo)
-configs=("$@")
+configs=()
+for a in "$@"; do
+  case $a in
+    --quick) configs+=(quick) ;;
+    -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
+    -*) echo "run_tests: $a: unknown option (see --help)" >&2; exit 2 ;;
+    *) configs+=("$a") ;;
+  esac
+done
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
 declare -A cfg_args=(
+  [quick]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=OFF"
   [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
-  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
+  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON -DDKF_BENCH_EIGEN=O2"
   [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF -DCMAKE_BUILD_TYPE=Release"
   [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON"
   [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024"
@@ -61,6 +81,11 @@ declare -A cfg_args=(
   [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
   [qemu-arm64-double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-aarch64-linux-gnu.cmake -DDKF_BUILD_PORTS=OFF"
 )
+# What ctest runs in each configuration (cmake/testing.cmake's labels).
+declare -A cfg_ctest=([quick]="-L unit" [double]="")
+ctest_args() { echo "${cfg_ctest[$1]--LE once}"; }
+GEN=()
+command -v ninja >/dev/null && GEN=(-G Ninja)
 for c in "${configs[@]}"; do
   if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz && "$c" != demo ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
@@ -80,8 +105,14 @@ total_fail=0
 summary=()
 stop=0
 
+# times+=("config configure build test"): seconds of each part (- if none)
+times=()
+t_configure=- t_build=- t_test=-
 record() { # config passed failed note
   summary+=("$(printf '%-16s %6s %6s  %s' "$1" "$2" "$3" "$4")")
+  times+=("$(printf '%-18s %9s %6s %6s %6s' "$1" "$t_configure" "$t_build" "$t_test" \
+             $((SECONDS - step_t0)))")
+  t_configure=- t_build=- t_test=-
   total_pass=$((total_pass + $2))
   total_fail=$((total_fail + $3))
   if (( $3 > 0 )) && [[ "${DKF_KEEP_GOING:-0}" != 1 ]]; then stop=1; fi
@@ -222,13 +253,23 @@ first_test_failures() {
     }' "$rec"
 }
 
+# A build directory made by another generator (make before Ninja) cannot be
+# reused: its cache goes, the objects are rebuilt.
+forget_other_generator() {
+  local cache=$1/CMakeCache.txt want=${GEN[1]:-Unix Makefiles}
+  [[ -f $cache ]] || return 0
+  grep -qx "CMAKE_GENERATOR:INTERNAL=$want" "$cache" && return 0
+  rm -rf "$cache" "$1/CMakeFiles"
+}
+
 run_ctest_config() {
-  local cfg=$1 bdir=$ROOT/build/$1
+  local cfg=$1 bdir=$ROOT/build/$1 t
   mkdir -p "$bdir"
+  forget_other_generator "$bdir"
   step_t0=$SECONDS
   say "$cfg" "configure ($bdir)"
   # shellcheck disable=SC2086  # the arguments are meant to split
-  if ! cmake -S "$ROOT" -B "$bdir" ${cfg_args[$cfg]} >"$bdir/run_tests.configure.log" 2>&1; then
+  if ! cmake -S "$ROOT" -B "$bdir" "${GEN[@]}" ${cfg_args[$cfg]} >"$bdir/run_tests.configure.log" 2>&1; then
     if grep -q 'CMake Error' "$bdir/run_tests.configure.log"; then
       grep -m1 -A8 'CMake Error' "$bdir/run_tests.configure.log"
     else
@@ -238,6 +279,7 @@ run_ctest_config() {
     record "$cfg" 0 1 "configure failed"
     return
   fi
+  t_configure=$((SECONDS - step_t0)) t=$SECONDS
   say "$cfg" "build"
   cmake --build "$bdir" -j"$JOBS" 2>&1 | progress_build "$cfg" "$bdir/run_tests.build.log"
   if (( PIPESTATUS[0] != 0 )); then
@@ -246,12 +288,16 @@ run_ctest_config() {
     record "$cfg" 0 1 "build failed"
     return
   fi
+  t_build=$((SECONDS - t)) t=$SECONDS
   say "$cfg" "build done"
   build_warnings "$cfg" "$bdir/run_tests.build.log"
-  say "$cfg" "ctest"
+  say "$cfg" "ctest $(ctest_args "$cfg")"
   local log=$bdir/run_tests.ctest.log rc
-  ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" 2>&1 | progress_ctest "$cfg" "$log"
+  # shellcheck disable=SC2046  # the label arguments are meant to split
+  ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" $(ctest_args "$cfg") 2>&1 |
+    progress_ctest "$cfg" "$log"
   rc=${PIPESTATUS[0]}
+  t_test=$((SECONDS - t))
   local line total failed
   line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
   if [[ -z "$line" ]]; then
@@ -314,7 +360,8 @@ run_fuzz() {
   mkdir -p "$ROOT/build"
   # Progress: the build header, one line per harness and the first line of
   # each failure; libFuzzer's own output stays in build/fuzz/logs/.
-  DKF_JOBS=$JOBS tools/run_fuzz.sh 2>&1 | tee "$log" |
+  DKF_JOBS=$JOBS FUZZ_SECONDS=${FUZZ_SECONDS:-10} FUZZ_JOBS=$JOBS tools/run_fuzz.sh 2>&1 |
+    tee "$log" |
     while IFS= read -r line; do say fuzz "$line"; done
   rc=${PIPESTATUS[0]}
   line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
@@ -332,11 +379,16 @@ run_fuzz() {
 
 run_demo() {
   step_t0=$SECONDS
-  say demo "the README's demo (tools/net_demo.sh --build-dir build/demo)"
+  # double-dim1024 is the demo's build (double, DKF_MAX_DIM = 1024) when this
+  # run made it; alone, the demo builds its own
+  local dim=$ROOT/build/double-dim1024 args=(--build-dir "$ROOT/build/demo")
+  [[ -x $dim/ports/linux/net/dkf-net-local && -x $dim/ports/linux/net/dkf-tw-node ]] &&
+    args=(--build-dir "$dim" --no-build)
+  say demo "the README's demo (tools/net_demo.sh ${args[*]})"
   local log=$ROOT/build/run_tests.demo.log rc
   mkdir -p "$ROOT/build"
   # Progress: its "==" headers and result rows; the whole output in the log.
-  tools/net_demo.sh --build-dir "$ROOT/build/demo" 2>&1 | tee "$log" |
+  tools/net_demo.sh "${args[@]}" 2>&1 | tee "$log" |
     while IFS= read -r line; do
       [[ $line =~ ^==|\ ok|FAIL ]] && say demo "$line"
     done
@@ -364,6 +416,9 @@ for c in "${configs[@]}"; do
 done
 
 echo
+echo "==== time (s; configure, build and test of the ctest configurations)"
+printf '%-18s %9s %6s %6s %6s\n' config configure build test total
+printf '%s\n' "${times[@]}"
 echo "==== summary ($((SECONDS - start)) s)"
 printf '%-16s %6s %6s\n' config passed failed
 printf '%s\n' "${summary[@]}"

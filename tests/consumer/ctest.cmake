@@ -27,3 +27,23 @@ add_test(NAME install_consumer
   COMMAND ${CMAKE_COMMAND} ${_dkf_consumer_args} -P ${CMAKE_CURRENT_LIST_DIR}/run_consumer.cmake)
 # (It also builds the library once more, with another DKF_MAX_DIM.)
 set_tests_properties(install_consumer PROPERTIES TIMEOUT 600 RESOURCE_LOCK dkf_consumer_dir)
+
+# Registers `shared_consumer`: the library alone built with
+# BUILD_SHARED_LIBS=ON and installed, and tests/consumer built against it
+# and run on libdkf.so (run_shared.cmake). It builds its own Debug library
+# with dkf's defaults, whatever this build's options: label
+# config-independent, so that one configuration can run it for all. Not
+# registered when cross-compiling: what it checks is the build system's, and
+# the native configurations check it.
+if(NOT CMAKE_CROSSCOMPILING)
+  add_test(NAME shared_consumer COMMAND ${CMAKE_COMMAND}
+    -DDKF_SOURCE_DIR=${PROJECT_SOURCE_DIR}
+    -DDKF_CONSUMER_SOURCE=${CMAKE_CURRENT_LIST_DIR}
+    -DDKF_WORK_DIR=${PROJECT_BINARY_DIR}/shared-consumer-test
+    -DDKF_C_COMPILER=${CMAKE_C_COMPILER}
+    -DDKF_VERSION=${PROJECT_VERSION}
+    -DDKF_READELF=${CMAKE_READELF}
+    -P ${CMAKE_CURRENT_LIST_DIR}/run_shared.cmake)
+  set_tests_properties(shared_consumer PROPERTIES TIMEOUT 600 PROCESSORS 2
+    LABELS config-independent)
+endif()

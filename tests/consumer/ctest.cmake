@@ -1,11 +1,11 @@
 # Registers `install_consumer`: install this build into a prefix under the
 # build directory, then configure, build and run tests/consumer against it
 # (offline; see run_consumer.cmake). Included from the top-level
-# CMakeLists.txt when DKF_BUILD_TESTS is on.
+# CMakeLists.txt when DKF_BUILD_TESTS and DKF_INSTALL are on.
 set(_dkf_consumer_args
-  -DDKF_BUILD_DIR=${CMAKE_BINARY_DIR}
+  -DDKF_BUILD_DIR=${PROJECT_BINARY_DIR}
   -DDKF_CONSUMER_SOURCE=${CMAKE_CURRENT_LIST_DIR}
-  -DDKF_WORK_DIR=${CMAKE_BINARY_DIR}/consumer-test
+  -DDKF_WORK_DIR=${PROJECT_BINARY_DIR}/consumer-test
   -DDKF_C_COMPILER=${CMAKE_C_COMPILER}
   -DDKF_CONFIG=$<CONFIG>
   -DDKF_SOURCE_DIR=${PROJECT_SOURCE_DIR}

@@ -1,9 +1,13 @@
-# Installs headers, libdkf.a and a CMake package, so that another project
+# Installs headers, the library and a CMake package, so that another project
 # can find_package(dkf) and link dkf::dkf:
 #
 #   <prefix>/include/dkf/*.h
-#   <prefix>/lib/libdkf.a
+#   <prefix>/lib/libdkf.a, or with BUILD_SHARED_LIBS=ON
+#   <prefix>/lib/libdkf.so -> libdkf.so.<major>.<minor> -> libdkf.so.<version>
 #   <prefix>/lib/cmake/dkf/{dkfConfig,dkfConfigVersion,dkfTargets*}.cmake
+#
+# Included when DKF_INSTALL is on (by default only when dkf is the
+# top-level project).
 #
 # What a consumer must agree on is in the installed dkf/build_config.h,
 # generated from this build's options (DKF_USE_FLOAT, DKF_MAX_DIM,
@@ -21,10 +25,11 @@ endif()
 
 # (The include directory reaches the export through the INSTALL_INTERFACE
 # of target_include_directories in the top-level CMakeLists.txt.)
-install(TARGETS dkf EXPORT dkfTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
+install(TARGETS dkf EXPORT dkfTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+  LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
 install(DIRECTORY include/dkf DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
   PATTERN build_config.h EXCLUDE)
-# ... and in its place the configuration this build compiled libdkf.a with.
+# ... and in its place the configuration this build compiled libdkf with.
 install(FILES ${CMAKE_CURRENT_BINARY_DIR}/include/dkf/build_config.h
   DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/dkf)
 install(EXPORT dkfTargets NAMESPACE dkf:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/dkf)

@@ -22,6 +22,10 @@
 #include "dkf/kf.h"
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Reals of storage for state n, measurement m, input p: the KF on n + p
  * states, then Phi and Q^a ((n+p)^2 each) and H^a (m x (n+p)). */
 #define DKF_ASKF_STORAGE_LEN(n, m, p) \
@@ -65,5 +69,9 @@ dkf_status_t dkf_askf_state(const dkf_askf_t *f, dkf_mat_t *x, dkf_mat_t *Px);
  * the filter's d; P_d, the trailing p x p block of P^a, is copied into Pd
  * (may be NULL; else p x p). */
 dkf_status_t dkf_askf_input(const dkf_askf_t *f, dkf_mat_t *d, dkf_mat_t *Pd);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_ASKF_H */

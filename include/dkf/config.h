@@ -21,6 +21,10 @@
 #include <float.h>
 #include <stddef.h>
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* The real type. 0: double (host default). 1: float (Cortex-M4F has a
  * single-precision FPU only, so firmware builds want this). */
 #ifndef DKF_USE_FLOAT
@@ -178,5 +182,9 @@ typedef double dkf_real_t;
 #endif
 /* size_t must hold DKF_MAX_DIM^2 elements for index arithmetic. */
 DKF_STATIC_ASSERT(sizeof(size_t) >= 4, size_t_at_least_32_bits);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_CONFIG_H */

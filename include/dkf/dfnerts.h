@@ -87,6 +87,10 @@
 #include "dkf/nerts.h"
 #include "dkf/nl_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum {
     DKF_DFNERTS_PAPER = 0, /* Algorithm 3: consensus on (Y, y) of x */
     DKF_DFNERTS_JOINT = 1  /* consensus on the joint information of [x; d] */
@@ -249,5 +253,9 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
                                   const dkf_real_t *u_prev, const dkf_mat_t Q[],
                                   const dkf_real_t *u, const dkf_mat_t R[], const dkf_mat_t z[],
                                   const dkf_real_t *W, size_t Tp, dkf_real_t scale);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_DFNERTS_H */

@@ -42,6 +42,10 @@
 #include "dkf/mat.h"
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Reals of storage for dimensions (n, m, p). */
 #define DKF_DIFFKF_STORAGE_LEN(n, m, p) \
     (3 * (n) + 2 * (n) * (n) + 2 * (p) + 2 * (n) * (p) + (p) * (p) /* outputs */ \
@@ -218,5 +222,9 @@ dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
 dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t *buf,
                                          size_t len);
 dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t len);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_DIFFKF_H */

@@ -34,6 +34,10 @@
 #include "dkf/mat.h"
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* ---- the node message ---------------------------------------------------- */
 
 /* What node `node` sends after its local step k: x^i_{k|k} and x^i_{k|k-1}
@@ -296,5 +300,9 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
 size_t dkf_diffkf_fc_checkpoint_len(const dkf_diffkf_fc_t *fc);
 dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size_t len);
 dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, size_t len);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_DIFFKF_FUSION_H */

@@ -35,6 +35,10 @@
 #include "dkf/config.h"
 #include "dkf/status.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     size_t N;            /* nodes, numbered 0 .. N-1 */
     size_t nnz;          /* start[N]: entries of all rows, self included */
@@ -122,5 +126,9 @@ dkf_status_t dkf_graph_mix_all(dkf_real_t *out, const dkf_real_t *F, size_t len,
  * dkf_graph_check_doubly_stochastic). */
 dkf_status_t dkf_graph_acf(dkf_real_t *F, size_t len, const dkf_graph_t *g, const dkf_real_t *W,
                            size_t eta, dkf_real_t *work);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_GRAPH_H */

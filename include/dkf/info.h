@@ -26,6 +26,10 @@
 #include "dkf/kf.h"
 #include "dkf/mat.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* x, P, y, Y, and scratch for one step. */
 #define DKF_INFO_STORAGE_LEN(n) (2 * (n) + 2 * (n) * (n) + 2 * (n) + 3 * (n) * (n))
 /* The first DKF_INFO_STATE_LEN(n) reals of the storage hold x, P, y, Y: a
@@ -80,5 +84,9 @@ dkf_status_t dkf_info_contribution(dkf_mat_t *i, dkf_mat_t *I, const dkf_kf_meas
  * overflow of the sums or results. */
 dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I[],
                            size_t count);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_INFO_H */

@@ -21,6 +21,10 @@
 
 #include "dkf/mat.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* The model of one step without an unknown input (letters of
  * dkf/ui_model.h; docs/decisions.md item 18). kf and info take the
  * dynamics and the measurement model as these structs, the data (y, u)
@@ -87,5 +91,9 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_kf_dyn_t *dyn, const dkf_mat
  * 4 n eps tr(P) (an indefinite R; the short form when P+ << P),
  * DKF_ERR_NONFINITE for NaN/Inf in y, H, R or an overflow. */
 dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_mat_t *y);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_KF_H */

@@ -31,6 +31,10 @@
 #include "dkf/config.h"
 #include "dkf/status.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct {
     size_t rows;
     size_t cols;
@@ -198,5 +202,9 @@ dkf_status_t dkf_mat_rank(size_t *rank, const dkf_mat_t *A, dkf_real_t tol, dkf_
  * DKF_ERR_RANK. No alias. work: DKF_MAT_FRD_WORK(r, c). */
 dkf_status_t dkf_mat_frd(dkf_mat_t *Abar, dkf_mat_t *T, size_t *rank, const dkf_mat_t *A,
                          dkf_real_t tol, dkf_real_t *work);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_MAT_H */

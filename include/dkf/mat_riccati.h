@@ -18,6 +18,10 @@
 
 #include "dkf/mat.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Doubling steps before DKF_ERR_NO_CONVERGENCE (or DKF_ERR_UNSTABLE when
  * the iterates show no contraction). Step k accounts for 2^k terms of the
  * series, so 64 is far more than any stable problem needs. */
@@ -75,5 +79,9 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
  * only on success. */
 dkf_status_t dkf_mat_stein(dkf_mat_t *X, const dkf_mat_t *A, const dkf_mat_t *B,
                            const dkf_mat_t *C, dkf_real_t *work);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_MAT_RICCATI_H */

@@ -110,6 +110,10 @@
 #include "dkf/mat.h"
 #include "dkf/nl_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum {
     DKF_NERTS_NERTSF = 0,  /* EKF, covariance form */
     DKF_NERTS_NERTSIF = 1, /* EKF, information form (Algorithm 1) */
@@ -270,5 +274,9 @@ typedef struct {
  * success. */
 dkf_status_t dkf_nerts_stack(dkf_nl_model_t *out, dkf_nerts_stack_t *st,
                              const dkf_nl_model_t *sensors, size_t count);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_NERTS_H */

@@ -27,6 +27,10 @@
 #include "dkf/mat.h"
 #include "dkf/status.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct dkf_nl_model {
     /* Passed unchanged as the first argument of every callback. */
     void *ctx;
@@ -94,5 +98,9 @@ dkf_status_t dkf_nl_h_jacobian(const dkf_nl_model_t *model, size_t k, const dkf_
 /* out (m) = a - b through model->y_diff (plain subtraction when NULL). */
 void dkf_nl_y_diff(const dkf_nl_model_t *model, const dkf_real_t *a, const dkf_real_t *b,
                    dkf_real_t *out);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_NL_MODEL_H */

@@ -24,6 +24,10 @@
 
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* The first DKF_OTSKF_STATE_LEN(n, p) reals of the storage hold the state
  * (x~, x, P^x, P, d, P^d, U, V): a failed call leaves them and the struct
  * bit-identical. */
@@ -90,5 +94,9 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
  * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in
  * Joseph form (DKF_JOSEPH; docs/diffkf.md). */
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_OTSKF_H */

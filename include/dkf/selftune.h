@@ -45,6 +45,10 @@
 
 #include "dkf/mat.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define DKF_SELFTUNE_MAX_NA 4
 #define DKF_SELFTUNE_MAX_NP 4
 #define DKF_SELFTUNE_MAX_LAG 32
@@ -169,5 +173,9 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
 
 /* n = na + max(np, 1), the model's state dimension. */
 dkf_status_t dkf_selftune_model_dim(const dkf_selftune_t *id, size_t *n);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_SELFTUNE_H */

@@ -8,6 +8,10 @@
 #ifndef DKF_STATUS_H
 #define DKF_STATUS_H
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum {
     DKF_OK = 0,
     DKF_ERR_NULL = -1,           /* a required pointer argument is NULL */
@@ -31,5 +35,9 @@ typedef enum {
 /* Short constant description of a status, e.g. "matrix not SPD".
  * Never NULL; unknown values give "unknown status". */
 const char *dkf_status_str(dkf_status_t status);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_STATUS_H */

@@ -68,6 +68,10 @@
 #include "dkf/mat.h"
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Reals of an info or estimate packet for state dimension n. */
 #define DKF_TW_PKT_LEN(n) ((n) + (n) * ((n) + 1) / 2)
 
@@ -215,5 +219,9 @@ dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alph
 dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, size_t eta,
                                        const dkf_uif_dyn_t *dyn, const dkf_kf_meas_t meas[],
                                        const dkf_mat_t y[]);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_TW_H */

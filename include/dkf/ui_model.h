@@ -31,6 +31,10 @@
 
 #include "dkf/mat.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Dynamics from k to k+1 with a modelled input (seed 000). */
 typedef struct {
     const dkf_mat_t *F;  /* F_k, n x n */
@@ -54,5 +58,9 @@ typedef struct {
                            filter has no feedthrough) */
     const dkf_mat_t *R; /* R_k = Cov(w_k), m x m, symmetric PSD */
 } dkf_ui_meas_t;
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_UI_MODEL_H */

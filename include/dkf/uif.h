@@ -68,6 +68,10 @@
 #include "dkf/mat.h"
 #include "dkf/ui_model.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum {
     DKF_UIF_RTSF = 0,     /* rank D_k = p required */
     DKF_UIF_NRTSF_DF = 1, /* any D_k; minimum-norm input estimate */
@@ -158,5 +162,9 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
  * sequence, the statuses and the estimability / bias reporting). */
 dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_ui_meas_t *meas,
                           const dkf_mat_t *y);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_UIF_H */

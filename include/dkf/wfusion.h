@@ -50,6 +50,10 @@
 #include "dkf/mat.h"
 #include "dkf/mat_riccati.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* ---- one local filter (a node) --------------------------------------------- */
 
 /* The exact storage (reals) of a local filter with state n, measurement m. */
@@ -200,5 +204,9 @@ dkf_status_t dkf_wfusion_fuse_matrix(dkf_wfusion_t *fu, const dkf_mat_t *const x
 size_t dkf_wfusion_checkpoint_len(const dkf_wfusion_t *fu);
 dkf_status_t dkf_wfusion_save(const dkf_wfusion_t *fu, dkf_real_t *buf, size_t len);
 dkf_status_t dkf_wfusion_restore(dkf_wfusion_t *fu, const dkf_real_t *buf, size_t len);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif /* DKF_WFUSION_H */

@@ -1361,18 +1361,23 @@ static dkf_status_t nerts_commit_call(void *c)
     return dkf_nerts_commit_info(&k->f, &k->Y.v, &k->y.v);
 }
 
-/* nertsif.json's lin_x_sin_d model */
-static void nerts_model(nerts_ctx_t *k, int jacobians)
+/* nertsif.json's lin_x_sin_d model in c (n = NN, m = NM, p = NP) */
+static dkf_nl_model_t lxs_fill(lxs_t *c, int jacobians)
 {
     static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
     static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
-    memset(&k->c, 0, sizeof k->c);
-    k->c.n = NN, k->c.m = NM, k->c.p = NP;
-    memcpy(k->c.A, A, sizeof A);
-    memcpy(k->c.B, b, sizeof b);
-    memcpy(k->c.C, C, sizeof C);
-    memcpy(k->c.H, H, sizeof H);
-    k->md = lxs_model(&k->c, jacobians);
+    memset(c, 0, sizeof *c);
+    c->n = NN, c->m = NM, c->p = NP;
+    memcpy(c->A, A, sizeof A);
+    memcpy(c->B, b, sizeof b);
+    memcpy(c->C, C, sizeof C);
+    memcpy(c->H, H, sizeof H);
+    return lxs_model(c, jacobians);
+}
+
+static void nerts_model(nerts_ctx_t *k, int jacobians)
+{
+    k->md = lxs_fill(&k->c, jacobians);
 }
 
 /* Every way a phase can fail, with the filter live (two steps done). */
@@ -1566,38 +1571,38 @@ static dkf_status_t dfn_step(dfn_ctx_t *k)
     return st != DKF_OK ? st : dkf_dfnerts_node_commit(&k->nd);
 }
 
+/* nertsif.json's lin_x_sin_d model with its Q, R and a measurement z. */
+static void dfn_fixture(dfn_ctx_t *k)
+{
+    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
+    static const double z3[3] = {0.1, 0.6, 0.5};
+    k->md = lxs_fill(&k->c, 1);
+    mset(&k->Q, NN, NN, Q3), mset(&k->R, NM, NM, R3), mset(&k->z, NM, 1, z3);
+}
+
+static dkf_status_t dfn_init(dfn_ctx_t *k, dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant)
+{
+    static const double Pd[1] = {0.25}, d0[1] = {0.1}, Pxd0[3] = {0.01, -0.02, 0.0};
+    mbuf_t x0, P0, dd, PPd, PPxd;
+    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
+    mset(&PPxd, NN, NP, Pxd0);
+    return dkf_dfnerts_node_init(&k->nd, kind, variant, NN, NM, NP, k->st,
+                                 DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP), &x0.v, &P0.v, &dd.v,
+                                 &PPd.v, &PPxd.v);
+}
+
 static void dfnerts_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, const char *what)
 {
     static dfn_ctx_t k;
-    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
-    static const double z3[3] = {0.1, 0.6, 0.5}, Pd[1] = {0.25}, d0[1] = {0.1};
-    static const double Pxd0[3] = {0.01, -0.02, 0.0};
     static const char *const qrz[] = {"Q", "R", "z"};
     static dkf_real_t bad[DKF_DFNERTS_PKT_MAX(NN, NP)];
     const dkf_real_t *in[1] = {bad};
     const dkf_real_t one = DKF_R(1.0);
     char label[160];
     dkf_mat_t *v[3];
-    mbuf_t x0, P0, dd, PPd, PPxd;
     size_t e, q;
-    memset(&k.c, 0, sizeof k.c);
-    {
-        static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
-        static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
-        k.c.n = NN, k.c.m = NM, k.c.p = NP;
-        memcpy(k.c.A, A, sizeof A);
-        memcpy(k.c.B, b, sizeof b);
-        memcpy(k.c.C, C, sizeof C);
-        memcpy(k.c.H, H, sizeof H);
-        k.md = lxs_model(&k.c, 1);
-    }
-    mset(&k.Q, NN, NN, Q3), mset(&k.R, NM, NM, R3), mset(&k.z, NM, 1, z3);
-    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
-    mset(&PPxd, NN, NP, Pxd0);
-    assert_int_equal(dkf_dfnerts_node_init(&k.nd, kind, variant, NN, NM, NP, k.st,
-                                           DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP), &x0.v, &P0.v,
-                                           &dd.v, &PPd.v, &PPxd.v),
-                     DKF_OK);
+    dfn_fixture(&k);
+    assert_int_equal(dfn_init(&k, kind, variant), DKF_OK);
     reg_clear(&k.g);
     reg_add(&k.g, &k.nd, sizeof k.nd);
     reg_add(&k.g, k.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
@@ -1639,13 +1644,189 @@ static void dfnerts_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, c
     assert_int_equal(dfn_step(&k), DKF_OK);
 }
 
+/* A case for both variants of both information kinds. */
+static void dfn_every_case(void (*run)(dkf_nerts_kind_t, dkf_dfnerts_variant_t, const char *))
+{
+    run(DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, "DNERTSIF PAPER");
+    run(DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT, "DNERTSIF JOINT");
+    run(DKF_NERTS_NERTSIF, DKF_DFNERTS_PAPER, "NERTSIF PAPER");
+    run(DKF_NERTS_NERTSIF, DKF_DFNERTS_JOINT, "NERTSIF JOINT");
+}
+
 static void test_dfnerts(void **state)
 {
     (void)state;
-    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, "DNERTSIF PAPER");
-    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT, "DNERTSIF JOINT");
-    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_PAPER, "NERTSIF PAPER");
-    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_JOINT, "NERTSIF JOINT");
+    dfn_every_case(dfnerts_case);
+}
+
+/* ---- dfnerts restart and rejoin: every refusal, in every state ------------------------------- */
+
+/* A restart or rejoin composes a drop of the pending step with a new
+ * prior: every refusal of the prior (or of the packet it comes from) must
+ * come before the drop. */
+typedef struct {
+    dfn_ctx_t n;
+    mbuf_t x0, P0, d0, Pd0, Pxd0;
+    dkf_real_t pkt[DKF_DFNERTS_PKT_MAX(NN, NP)];
+} rj_ctx_t;
+
+/* The node's regions: the struct, the filter's state and, while a step is
+ * pending, the pending step (packet, contribution and the snapshot a
+ * cancel restores). */
+static void rj_regions(rj_ctx_t *k)
+{
+    reg_clear(&k->n.g);
+    reg_add(&k->n.g, &k->n.nd, sizeof k->n.nd);
+    reg_add(&k->n.g, k->n.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+    if (k->n.nd.pending)
+        reg_add(&k->n.g, k->n.st + DKF_DFNERTS_NODE_PENDING_AT(NN, NM, NP),
+                DKF_DFNERTS_NODE_PENDING_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+}
+
+static dkf_status_t rj_restart_call(void *c)
+{
+    rj_ctx_t *k = c;
+    return dkf_dfnerts_node_restart(&k->n.nd, 7, &k->x0.v, &k->P0.v, &k->d0.v, &k->Pd0.v,
+                                    &k->Pxd0.v);
+}
+
+static dkf_status_t rj_rejoin_call(void *c)
+{
+    rj_ctx_t *k = c;
+    return dkf_dfnerts_node_rejoin(&k->n.nd, 7, k->pkt, &k->d0.v, &k->Pd0.v);
+}
+
+/* A valid prior and packet: y = (1, .., q), Y = 10 I (q = the agreed size). */
+static void rj_valid(rj_ctx_t *k)
+{
+    static const double Pd[1] = {0.25}, d0[1] = {0.1}, Pxd0[3] = {0.01, -0.02, 0.0};
+    const size_t q = k->n.nd.q;
+    size_t e;
+    mset(&k->x0, NN, 1, x3), mset(&k->P0, NN, NN, P3), mset(&k->d0, NP, 1, d0);
+    mset(&k->Pd0, NP, NP, Pd), mset(&k->Pxd0, NN, NP, Pxd0);
+    for (e = 0; e < k->n.nd.pkt_len; ++e) k->pkt[e] = DKF_R(0.0);
+    for (e = 0; e < q; ++e) {
+        k->pkt[e] = (dkf_real_t)(e + 1);
+        k->pkt[q + e * q - e * (e - 1) / 2] = DKF_R(10.0);
+    }
+}
+
+/* One refusal in the node's state `state`: the call fails with `want`
+ * and leaves the node untouched; the prior and packet are valid again
+ * afterwards. */
+static void rj_expect(rj_ctx_t *k, dkf_status_t want, call_fn call, const char *state,
+                      const char *what)
+{
+    char label[160];
+    snprintf(label, sizeof label, "%s (%s): %s",
+             call == rj_restart_call ? "dfnerts_node_restart" : "dfnerts_node_rejoin", state, what);
+    EXPECT_UNTOUCHED(&k->n.g, want, call(k), label);
+    rj_valid(k);
+}
+
+/* Every refusal of restart and rejoin in the node's current state, in
+ * the order of their checks. */
+static void rj_refusals(rj_ctx_t *k, const char *state)
+{
+    static const char *const pn[] = {"x0", "P0", "d0", "Pd0", "Pxd0"}, *const dn[] = {"d0", "Pd0"};
+    char label[160];
+    dkf_mat_t *v[5];
+    size_t e;
+    rj_valid(k);
+    rj_regions(k);
+    v[0] = &k->x0.v, v[1] = &k->P0.v, v[2] = &k->d0.v, v[3] = &k->Pd0.v, v[4] = &k->Pxd0.v;
+    snprintf(label, sizeof label, "dfnerts_node_restart (%s)", state);
+    sweep(label, rj_restart_call, k, v, pn, 5, &k->n.g);
+    /* priors that are finite but refused: P0, Pd0 and the joint covariance */
+    meye(&k->P0, NN, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "P0 = -I");
+    meye(&k->Pd0, NP, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "Pd0 = -1");
+    for (e = 0; e < NN; ++e) k->Pxd0.d[e] = DKF_R(10.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "joint covariance indefinite");
+    /* rejoin: the packet, then (PAPER) the caller's input prior */
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s): packet NULL", state);
+    EXPECT_UNTOUCHED(&k->n.g, DKF_ERR_NULL,
+                     dkf_dfnerts_node_rejoin(&k->n.nd, 7, NULL, &k->d0.v, &k->Pd0.v), label);
+    for (e = 0; e < k->n.nd.pkt_len; ++e) {
+        k->pkt[e] = (dkf_real_t)NAN;
+        rj_expect(k, DKF_ERR_NONFINITE, rj_rejoin_call, state, "NaN in the packet");
+    }
+    for (e = 0; e < k->n.nd.q; ++e)
+        k->pkt[k->n.nd.q + e * k->n.nd.q - e * (e - 1) / 2] = DKF_R(-10.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_rejoin_call, state, "packet Y = -10 I");
+    if (k->n.nd.variant != DKF_DFNERTS_PAPER) return; /* JOINT ignores d0, Pd0 */
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s): d0 NULL", state);
+    EXPECT_UNTOUCHED(&k->n.g, DKF_ERR_NULL,
+                     dkf_dfnerts_node_rejoin(&k->n.nd, 7, k->pkt, NULL, &k->Pd0.v), label);
+    v[0] = &k->d0.v, v[1] = &k->Pd0.v;
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s)", state);
+    sweep(label, rj_rejoin_call, k, v, dn, 2, &k->n.g);
+    meye(&k->Pd0, NP, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_rejoin_call, state, "Pd0 = -1");
+}
+
+/* Restart and rejoin refused in every state: fresh, after commits,
+ * pending after local, pending after a round. Then both succeed. */
+static void rj_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, const char *what)
+{
+    static rj_ctx_t k;
+    const dkf_real_t *in[1];
+    const dkf_real_t one = DKF_R(1.0);
+    char label[160];
+    dfn_fixture(&k.n);
+    assert_int_equal(dfn_init(&k.n, kind, variant), DKF_OK);
+    snprintf(label, sizeof label, "%s, fresh", what);
+    rj_refusals(&k, label);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    snprintf(label, sizeof label, "%s, after commits", what);
+    rj_refusals(&k, label);
+    assert_int_equal(dfn_local_call(&k.n), DKF_OK);
+    snprintf(label, sizeof label, "%s, pending", what);
+    rj_refusals(&k, label);
+    in[0] = k.n.nd.pkt;
+    assert_int_equal(dkf_dfnerts_node_mix(&k.n.nd, in, &one, 1, NULL), DKF_OK);
+    snprintf(label, sizeof label, "%s, pending after a round", what);
+    rj_refusals(&k, label);
+    /* the node still completes its step, then takes a valid prior */
+    assert_int_equal(dkf_dfnerts_node_commit(&k.n.nd), DKF_OK);
+    rj_valid(&k);
+    assert_int_equal(rj_rejoin_call(&k), DKF_OK);
+    assert_int_equal(k.n.nd.f.k, 7);
+    assert_int_equal(rj_restart_call(&k), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+}
+
+static void test_dfnerts_restart_rejoin(void **state)
+{
+    (void)state;
+    dfn_every_case(rj_case);
+}
+
+/* The review's case exactly: PAPER, p = 1, a step pending after local and
+ * a round, a rejoin whose packet is fine but whose Pd0 = [[-1]] is
+ * refused: DKF_ERR_NOT_SPD and the node bit-identical. */
+static void test_dfnerts_rejoin_refused_pd0(void **state)
+{
+    static rj_ctx_t k;
+    const dkf_real_t *in[1];
+    const dkf_real_t one = DKF_R(1.0);
+    (void)state;
+    dfn_fixture(&k.n);
+    assert_int_equal(dfn_init(&k.n, DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    assert_int_equal(dfn_local_call(&k.n), DKF_OK);
+    in[0] = k.n.nd.pkt;
+    assert_int_equal(dkf_dfnerts_node_mix(&k.n.nd, in, &one, 1, NULL), DKF_OK);
+    rj_valid(&k);
+    memcpy(k.pkt, k.n.nd.pkt, k.n.nd.pkt_len * sizeof(dkf_real_t));
+    meye(&k.Pd0, NP, -1.0);
+    rj_regions(&k);
+    assert_int_equal(k.n.nd.pending, 1);
+    EXPECT_UNTOUCHED(&k.n.g, DKF_ERR_NOT_SPD, rj_rejoin_call(&k), "rejoin: Pd0 = [[-1]], pending");
+    EXPECT_UNTOUCHED(&k.n.g, DKF_ERR_NOT_SPD, rj_restart_call(&k), "restart: Pd0 = [[-1]], pending");
+    assert_int_equal(dkf_dfnerts_node_commit(&k.n.nd), DKF_OK);
 }
 
 /* ---- exact storage, every module ------------------------------------------------------------ */
@@ -2122,6 +2303,8 @@ int main(void)
         cmocka_unit_test(test_tw_net),
         cmocka_unit_test(test_nerts),
         cmocka_unit_test(test_dfnerts),
+        cmocka_unit_test(test_dfnerts_rejoin_refused_pd0),
+        cmocka_unit_test(test_dfnerts_restart_rejoin),
         cmocka_unit_test(test_exact_storage),
         cmocka_unit_test(test_declare_macros),
     };

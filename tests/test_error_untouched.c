@@ -1254,13 +1254,31 @@ static void test_tw_node(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_tw_node_commit(&k.nd, xs, NULL),
                      "tw_node_commit: x NaN");
     assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
-    /* a failed local step cancels a pending one, whichever check fails
-     * (found by fuzz_core_tw: a refused model left it pending) */
+    /* with a step pending, a failed local step or central step leaves it
+     * pending, whichever check fails: every refusal above again */
     assert_int_equal(tw_local_call(&k), DKF_OK);
-    k.A.d[0] = (dkf_real_t)NAN;
-    assert_int_equal(tw_local_call(&k), DKF_ERR_NONFINITE);
-    assert_int_equal(k.nd.pending, 0);
-    k.A.d[0] = (dkf_real_t)F3[0];
+    tw_regions(&k);
+    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    sweep("tw_node_local (pending)", tw_local_call, &k, mv, mn, 3, &k.g);
+    sweep("tw_central_step (pending)", tw_central_call, &k, sv, sn, 3, &k.g);
+    sweep("tw_central_step (model, pending)", tw_central_call, &k, mv, mn, 3, &k.g);
+    meye(&k.Sv, TN, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_local_call(&k), "tw_node_local (pending): Phi-");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_central_call(&k), "tw_central_step (pending): Phi-");
+    mset(&k.Sv, TN, TN, Q3);
+    k.info[1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, tw_local_call(&k), "tw_node_local (pending): info");
+    memcpy(k.info, k.pkt, sizeof k.pkt);
+    {
+        /* no information on z: rank(H B) = 0 */
+        static const double Hz[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+        mset(&k.H, 2, TN, Hz);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, tw_central_call(&k),
+                         "tw_central_step (pending): rank H B = 0");
+        mset(&k.H, 2, TN, TH);
+    }
+    assert_int_equal(k.nd.pending, 1);
+    assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
 }
 
 /* A path 0-1-2-3: nodes 0, 1 observe z, nodes 2, 3 do not, so the local
@@ -1323,6 +1341,18 @@ static void test_tw_net(void **state)
                      "tw_net_consensus_step: A NaN");
     A.d[4] = (dkf_real_t)F3[4];
     assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
+    /* a node with a step of its own pending: both steps refuse to run (a
+     * failure could not give that step back) */
+    assert_int_equal(dkf_tw_meas_packet(net.mix, &nodes[1], &sens[1], &ys[1], DKF_R(1.0)), DKF_OK);
+    assert_int_equal(dkf_tw_node_local(&nodes[1], &md, net.mix, NULL), DKF_OK);
+    reg_add(&rg, st + node_len + DKF_TW_NODE_STATE_LEN(TN, TP),
+            (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_STATE, dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys),
+                     "tw_net_diffusion_step: node 1 pending");
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_STATE, dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys),
+                     "tw_net_consensus_step: node 1 pending");
+    assert_int_equal(dkf_tw_node_commit(&nodes[1], NULL, NULL), DKF_OK);
+    assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys), DKF_OK);
 }
 
 /* ---- nerts (seed 001's single-node filters) --------------------------------------------------- */

@@ -11,6 +11,7 @@
 
 #include "internal.h"
 #include "kernels.h"
+#include "nerts_internal.h"
 
 /* Node storage (DKF_DFNERTS_NODE_STORAGE_LEN): the filter's storage (its
  * state first), the current packet, s * contribution, the snapshot of
@@ -63,6 +64,35 @@ static int dims_ok(size_t n, size_t m, size_t p)
            n + p <= DKF_MAX_DIM;
 }
 
+/* The checks of dkf_dfnerts_node_init before its filter's: kind,
+ * variant, dimensions, storage; *L maps the storage. */
+static dkf_status_t check_node_args(layout_t *L, dkf_nerts_kind_t kind,
+                                    dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
+                                    dkf_real_t *storage, size_t storage_len)
+{
+    DKF_CHECK_NULL(storage);
+    if (kind != DKF_NERTS_NERTSIF && kind != DKF_NERTS_DNERTSIF) return DKF_ERR_ARG;
+    if (variant != DKF_DFNERTS_PAPER && variant != DKF_DFNERTS_JOINT) return DKF_ERR_ARG;
+    if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
+    if (storage_len < layout(L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
+    (void)layout(L, storage, n, m, p);
+    return DKF_OK;
+}
+
+/* Every check of dkf_dfnerts_node_init, its filter's prior included
+ * (formed in the storage's scratch); nothing else is written. */
+static dkf_status_t check_node_init(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, size_t n,
+                                    size_t m, size_t p, dkf_real_t *storage, size_t storage_len,
+                                    const dkf_mat_t *x0, const dkf_mat_t *P0,
+                                    const dkf_mat_t *d0, const dkf_mat_t *Pd0,
+                                    const dkf_mat_t *Pxd0)
+{
+    layout_t L;
+    DKF_TRY(check_node_args(&L, kind, variant, n, m, p, storage, storage_len));
+    return dkf__nerts_check_init(kind, n, m, p, L.f, DKF_NERTS_STORAGE_LEN(n, m, p), x0, P0, d0,
+                                 Pd0, Pxd0);
+}
+
 dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind,
                                    dkf_dfnerts_variant_t variant, size_t n, size_t m, size_t p,
                                    dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
@@ -71,14 +101,10 @@ dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    DKF_CHECK_NULL(storage);
-    if (kind != DKF_NERTS_NERTSIF && kind != DKF_NERTS_DNERTSIF) return DKF_ERR_ARG;
-    if (variant != DKF_DFNERTS_PAPER && variant != DKF_DFNERTS_JOINT) return DKF_ERR_ARG;
-    if (!dims_ok(n, m, p)) return DKF_ERR_CAPACITY;
-    if (storage_len < layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
-    (void)layout(&L, storage, n, m, p);
-    /* a failed dkf_nerts_init leaves nd->f as it was; nothing fails after
-     * it (no copy of the node on the stack: it is ~1 KiB on a Cortex-M) */
+    DKF_TRY(check_node_args(&L, kind, variant, n, m, p, storage, storage_len));
+    /* a failed dkf_nerts_init leaves nd->f and the storage's state as they
+     * were; nothing fails after it (no copy of the node on the stack: it
+     * is ~1 KiB on a Cortex-M) */
     DKF_TRY(dkf_nerts_init(&nd->f, kind, n, m, p, L.f, DKF_NERTS_STORAGE_LEN(n, m, p), x0, P0,
                            d0, Pd0, Pxd0));
     nd->variant = variant;
@@ -107,75 +133,116 @@ static void restore(dkf_dfnerts_node_t *nd, const layout_t *L)
     nd->scale = DKF_R(0.0);
 }
 
-/* PAPER: pkt = [y_pred | Y_pred], contrib = s [i | I]        (Alg. 3, (56)-(57)) */
-static void paper_packets(const dkf_dfnerts_node_t *nd, const layout_t *L, dkf_real_t s)
-{
-    const size_t n = nd->n;
-    size_t e;
-    dkf__copy(L->pkt, nd->f.y_pred.data, n);
-    dkf__pack_sym(L->pkt + n, nd->f.Y_pred.data, n);
-    dkf__copy(L->contrib, nd->f.i.data, n);
-    dkf__pack_sym(L->contrib + n, nd->f.I.data, n);
-    for (e = 0; e < nd->pkt_len; ++e) L->contrib[e] *= s;
-}
-
-/* JOINT: pkt = [y_pred; 0 | blkdiag(Y_pred, 0)] and contrib = s [j | J],
- * J = [C Hd]^T Rbar^{-1} [C Hd], j = [C Hd]^T Rbar^{-1} (nu + C x_pred),
- * in square-root form (Rbar = Lr Lr^T, Wh = Lr^{-1} [C Hd]: J = Wh^T Wh,
- * a Gram matrix). DKF_ERR_NOT_SPD if Rbar is not. */
-static dkf_status_t joint_packets(const dkf_dfnerts_node_t *nd, const layout_t *L, dkf_real_t s)
+/* JOINT's contribution of z^l, unscaled: J = [C Hd]^T Rbar^{-1} [C Hd]
+ * into L->A and j = [C Hd]^T Rbar^{-1} (nu + C x_pred) into L->v, from
+ * the staged statistics s, in square-root form (Rbar = Lr Lr^T,
+ * Wh = Lr^{-1} [C Hd]: J = Wh^T Wh, a Gram matrix). DKF_ERR_NOT_SPD if
+ * Rbar is not. */
+static dkf_status_t joint_contribution(const dkf_dfnerts_node_t *nd, const layout_t *L,
+                                       const dkf__nerts_staged_t *s)
 {
     dkf_real_t inv[DKF_MAX_DIM];
-    const dkf_nerts_t *f = &nd->f;
     const size_t n = nd->n, m = nd->m, p = nd->p, q = nd->q;
-    size_t r, e;
-    for (e = 0; e < q * q; ++e) L->A[e] = DKF_R(0.0);
-    dkf__put_block(L->A, q, 0, 0, f->Y_pred.data, n, n);
-    dkf__copy(L->pkt, f->y_pred.data, n);
-    for (e = n; e < q; ++e) L->pkt[e] = DKF_R(0.0);
-    dkf__pack_sym(L->pkt + q, L->A, q);
-
-    dkf__put_block(L->CH, q, 0, 0, f->C.data, m, n);
-    if (p > 0) dkf__put_block(L->CH, q, 0, n, f->Hd.data, m, p);
-    dkf__mul_vec(L->zt, f->C.data, f->x_pred.data, m, n);
-    for (r = 0; r < m; ++r) L->zt[r] += f->nu.data[r];
-    if (dkf__chol(L->Lr, inv, f->Rbar.data, m) != 0) return DKF_ERR_NOT_SPD;
+    size_t r;
+    dkf__put_block(L->CH, q, 0, 0, s->C, m, n);
+    if (p > 0) dkf__put_block(L->CH, q, 0, n, s->Hd, m, p);
+    dkf__mul_vec(L->zt, s->C, s->x_pred, m, n);
+    for (r = 0; r < m; ++r) L->zt[r] += s->nu[r];
+    if (dkf__chol(L->Lr, inv, s->Rbar, m) != 0) return DKF_ERR_NOT_SPD;
     dkf__whiten(L->Wh, L->w, L->Lr, inv, L->CH, L->zt, m, q);
     dkf__mul_tn(L->A, L->Wh, L->Wh, NULL, m, q, q);
-    dkf__mul_tn(L->contrib, L->Wh, L->w, NULL, m, q, 1);
-    dkf__pack_sym(L->contrib + q, L->A, q);
-    for (e = 0; e < nd->pkt_len; ++e) L->contrib[e] *= s;
+    dkf__mul_tn(L->v, L->Wh, L->w, NULL, m, q, 1);
     return DKF_OK;
 }
 
+/* The contribution's vector and matrix (q and q x q): PAPER's i, I
+ * (Alg. 3, (56)-(57)), JOINT's j, J (joint_contribution's, in scratch). */
+static void contribution_of(const dkf_dfnerts_node_t *nd, const layout_t *L,
+                            const dkf__nerts_staged_t *s, const dkf_real_t **cv,
+                            const dkf_real_t **CM)
+{
+    const int joint = nd->variant == DKF_DFNERTS_JOINT;
+    *cv = joint ? L->v : s->i;
+    *CM = joint ? L->A : s->I;
+}
+
+/* 1 if sc times every entry of v (q) and of the upper triangle of A
+ * (q x q) is finite: the packet [v | packed A] scaled by sc is. */
+static int packet_finite(const dkf_real_t *v, const dkf_real_t *A, size_t q, dkf_real_t sc)
+{
+    size_t r, c;
+    for (r = 0; r < q; ++r) {
+        dkf_real_t e = sc * v[r];
+        if (!dkf__all_finite(&e, 1)) return 0;
+        for (c = r; c < q; ++c) {
+            e = sc * A[r * q + c];
+            if (!dkf__all_finite(&e, 1)) return 0;
+        }
+    }
+    return 1;
+}
+
+/* Every check of the step's packets (JOINT: its contribution formed into
+ * scratch): DKF_ERR_NOT_SPD (JOINT's Rbar), DKF_ERR_NONFINITE. Writes
+ * neither packet. */
+static dkf_status_t check_packets(const dkf_dfnerts_node_t *nd, const layout_t *L,
+                                  const dkf__nerts_staged_t *s, dkf_real_t scale)
+{
+    const dkf_real_t *cv, *CM;
+    if (nd->variant == DKF_DFNERTS_JOINT) DKF_TRY(joint_contribution(nd, L, s));
+    contribution_of(nd, L, s, &cv, &CM);
+    if (!packet_finite(s->y_pred, s->Y_pred, nd->n, DKF_R(1.0)) ||
+        !packet_finite(cv, CM, nd->q, scale))
+        return DKF_ERR_NONFINITE;
+    return DKF_OK;
+}
+
+/* The checked packets: the tau = 0 packet pkt = [y_pred | Y_pred]
+ * (Alg. 3, Init.; JOINT [y_pred; 0 | blkdiag(Y_pred, 0)], the diagonal
+ * block formed in Yx) and contrib = s [i | I] (JOINT s [j | J]). */
+static void put_packets(const dkf_dfnerts_node_t *nd, const layout_t *L,
+                        const dkf__nerts_staged_t *s, dkf_real_t scale)
+{
+    const size_t n = nd->n, q = nd->q;
+    const dkf_real_t *cv, *CM;
+    size_t e;
+    contribution_of(nd, L, s, &cv, &CM);
+    for (e = 0; e < q * q; ++e) L->Yx[e] = DKF_R(0.0);
+    dkf__put_block(L->Yx, q, 0, 0, s->Y_pred, n, n);
+    dkf__copy(L->pkt, s->y_pred, n);
+    for (e = n; e < q; ++e) L->pkt[e] = DKF_R(0.0);
+    dkf__pack_sym(L->pkt + q, L->Yx, q);
+    dkf__copy(L->contrib, cv, q);
+    dkf__pack_sym(L->contrib + q, CM, q);
+    for (e = 0; e < nd->pkt_len; ++e) L->contrib[e] *= scale;
+}
+
+/* The step is formed aside (the filter's stage, from the snapshot of the
+ * posterior when a step is pending, as if it were cancelled first; the
+ * packets' checks in scratch) and written only once every check passed:
+ * a failure leaves the node, and a pending step, as they were. */
 dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t *model,
                                     const dkf_real_t *u_prev, const dkf_mat_t *Q,
                                     const dkf_real_t *u, const dkf_mat_t *R, const dkf_mat_t *z,
                                     dkf_real_t scale, dkf_real_t *pkt)
 {
+    dkf__nerts_staged_t s;
     layout_t L;
-    dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
-    L = mem_of(nd);
-    if (nd->pending) restore(nd, &L);
     if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
-    nd->saved = nd->f;
-    dkf__copy(L.snap, L.f, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
-    st = dkf_nerts_predict(&nd->f, model, u_prev, Q);
-    if (st == DKF_OK) st = dkf_nerts_local(&nd->f, model, u, R, z);
-    if (st == DKF_OK) {
-        if (nd->variant == DKF_DFNERTS_JOINT) st = joint_packets(nd, &L, scale);
-        else
-            paper_packets(nd, &L, scale);
+    L = mem_of(nd);
+    DKF_TRY(dkf__nerts_stage_local(&nd->f, nd->pending ? L.snap : NULL, model, u_prev, Q, u, R,
+                                   z, &s));
+    DKF_TRY(check_packets(nd, &L, &s, scale));
+    /* commit: the snapshot a cancel restores (a pending step's is kept),
+     * the filter's new state, the packets */
+    if (!nd->pending) {
+        nd->saved = nd->f;
+        dkf__copy(L.snap, L.f, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
     }
-    if (st == DKF_OK && (!dkf__all_finite(L.pkt, nd->pkt_len) ||
-                         !dkf__all_finite(L.contrib, nd->pkt_len)))
-        st = DKF_ERR_NONFINITE;
-    if (st != DKF_OK) {
-        restore(nd, &L);
-        return st;
-    }
+    put_packets(nd, &L, &s, scale);
+    dkf__nerts_commit_stage(&nd->f);
     nd->scale = scale;
     nd->tau = 0;
     nd->pending = 1;
@@ -292,24 +359,19 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
                                       const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
 {
     layout_t L;
-    dkf_status_t st;
-    size_t sl;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
-    sl = DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p);
     L = mem_of(nd);
-    if (nd->pending) restore(nd, &L);
-    /* a failed dkf_nerts_init leaves nd->f as it was, but may have written
-     * the filter's storage before its last check */
-    dkf__copy(L.snap, L.f, sl);
-    st = dkf_nerts_init(&nd->f, nd->f.kind, nd->n, nd->m, nd->p, L.f,
-                        DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0);
-    if (st != DKF_OK) {
-        dkf__copy(L.f, L.snap, sl);
-        return st;
-    }
+    /* dkf_nerts_init checks the whole prior before it writes the filter or
+     * its state: a refused prior leaves the node, and a pending step, as
+     * they were; its success replaces the posterior, which drops the step */
+    DKF_TRY(dkf_nerts_init(&nd->f, nd->f.kind, nd->n, nd->m, nd->p, L.f,
+                           DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0));
     nd->f.k = k;
     nd->saved = nd->f;
+    nd->pending = 0;
+    nd->tau = 0;
+    nd->scale = DKF_R(0.0);
     return DKF_OK;
 }
 
@@ -410,14 +472,18 @@ dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
     if (need == 0 || storage_len < need) return DKF_ERR_CAPACITY;
     for (l = 0; l < g->N; ++l)
         if (m[l] < p) return DKF_ERR_RANK; /* rank Hd = p needs m_l >= p (dkf_nerts_init) */
-    node_mem = storage;
-    for (l = 0; l < g->N; ++l) {
-        const size_t len = DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p);
-        DKF_TRY(dkf_dfnerts_node_init(&nodes[l], kind, variant, n, m[l], p, node_mem, len, &x0[l],
-                                      &P0[l], p > 0 ? &d0[l] : NULL, p > 0 ? &Pd0[l] : NULL,
-                                      p > 0 ? &Pxd0[l] : NULL));
-        node_mem += len;
-    }
+    /* every node's prior is checked before any node is initialised; the
+     * inits cannot fail after that */
+    for (l = 0, node_mem = storage; l < g->N; node_mem += DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p), ++l)
+        DKF_TRY(check_node_init(kind, variant, n, m[l], p, node_mem,
+                                DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p), &x0[l], &P0[l],
+                                p > 0 ? &d0[l] : NULL, p > 0 ? &Pd0[l] : NULL,
+                                p > 0 ? &Pxd0[l] : NULL));
+    for (l = 0, node_mem = storage; l < g->N; node_mem += DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p), ++l)
+        (void)dkf_dfnerts_node_init(&nodes[l], kind, variant, n, m[l], p, node_mem,
+                                    DKF_DFNERTS_NODE_STORAGE_LEN(n, m[l], p), &x0[l], &P0[l],
+                                    p > 0 ? &d0[l] : NULL, p > 0 ? &Pd0[l] : NULL,
+                                    p > 0 ? &Pxd0[l] : NULL);
     memset(&t, 0, sizeof t);
     t.g = g;
     t.N = g->N;
@@ -442,22 +508,25 @@ static dkf_status_t undo(dkf_dfnerts_net_t *net, size_t count, dkf_status_t st)
     return st;
 }
 
-/* T_p rounds (61) over the whole graph, in net->cur on return. */
-static dkf_status_t rounds(dkf_dfnerts_net_t *net, const dkf_real_t *W, size_t Tp)
+/* T_p rounds (61) over the whole graph from the packets in *cur, the
+ * other buffer *nxt; the two are swapped per round, so the last round's
+ * packets are in *cur on return. */
+static dkf_status_t rounds(const dkf_dfnerts_net_t *net, const dkf_real_t *W, size_t Tp,
+                           dkf_real_t **cur, dkf_real_t **nxt)
 {
     const size_t stride = DKF_DFNERTS_PKT_MAX(net->n, net->p);
     const size_t len = net->nodes[0].pkt_len;
     size_t t, l;
     for (t = 0; t < Tp; ++t) {
         dkf_real_t *sw;
-        DKF_TRY(dkf_graph_mix_all(net->nxt, net->cur, len, stride, net->g, W));
+        DKF_TRY(dkf_graph_mix_all(*nxt, *cur, len, stride, net->g, W));
         for (l = 0; l < net->N; ++l) {
             const layout_t L = mem_of(&net->nodes[l]);
-            DKF_TRY(absorb(&net->nodes[l], &L, net->nxt + l * stride));
+            DKF_TRY(absorb(&net->nodes[l], &L, *nxt + l * stride));
         }
-        sw = net->cur;
-        net->cur = net->nxt;
-        net->nxt = sw;
+        sw = *cur;
+        *cur = *nxt;
+        *nxt = sw;
     }
     return DKF_OK;
 }
@@ -467,9 +536,14 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
                                   const dkf_real_t *u, const dkf_mat_t R[], const dkf_mat_t z[],
                                   const dkf_real_t *W, size_t Tp, dkf_real_t scale)
 {
+    dkf_real_t *cur, *nxt;
     size_t stride, l;
     DKF_CHECK_NULL(net);
     if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
+    /* a node with a step of its own pending (stepped by hand): undo could
+     * not give that step back */
+    for (l = 0; l < net->N; ++l)
+        if (net->nodes[l].pending) return DKF_ERR_STATE;
     DKF_CHECK_NULL(models);
     DKF_CHECK_NULL(Q);
     DKF_CHECK_NULL(R);
@@ -478,14 +552,16 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
     if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
     DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
     stride = DKF_DFNERTS_PKT_MAX(net->n, net->p);
+    /* the buffers' roles change per round: net->cur, nxt follow on success */
+    cur = net->cur;
+    nxt = net->nxt;
     for (l = 0; l < net->N; ++l) {
         const dkf_status_t st = dkf_dfnerts_node_local(&net->nodes[l], &models[l], u_prev, &Q[l],
-                                                       u, &R[l], &z[l], scale,
-                                                       net->cur + l * stride);
+                                                       u, &R[l], &z[l], scale, cur + l * stride);
         if (st != DKF_OK) return undo(net, l, st);
     }
     {
-        const dkf_status_t st = rounds(net, W, Tp);
+        const dkf_status_t st = rounds(net, W, Tp, &cur, &nxt);
         if (st != DKF_OK) return undo(net, net->N, st);
     }
     for (l = 0; l < net->N; ++l) {
@@ -493,6 +569,8 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
         if (st != DKF_OK) return undo(net, net->N, st);
     }
     for (l = 0; l < net->N; ++l) net->nodes[l].saved = net->nodes[l].f;
+    net->cur = cur;
+    net->nxt = nxt;
     net->reals_sent += (unsigned long)(net->N * Tp * net->nodes[0].pkt_len);
     net->broadcasts += (unsigned long)(net->N * Tp);
     ++net->steps;

@@ -20,10 +20,12 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     if (storage_len < kf_layout(&L, NULL, n, m_max)) return DKF_ERR_CAPACITY;
     DKF_TRY(dkf__check_input(x0, n, 1));
     DKF_TRY(dkf__check_input(P0, n, n));
-    /* P0 must be SPD: factor it into the storage, which holds no state yet */
-    if (dkf__chol(storage, storage + n * n, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
-
+    /* P0 must be SPD: factored in the scratch W (2 max(n^2, n m) >= n^2 + n
+     * reals), so a refused P0 leaves the state part of the storage, a live
+     * filter's included, as it was */
     (void)kf_layout(&L, storage, n, m_max);
+    if (dkf__chol(L.W, L.W + n * n, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
+
     kf->n = n;
     kf->m_max = m_max;
     dkf__view(&kf->x, n, 1, L.x);

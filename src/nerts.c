@@ -20,6 +20,7 @@
 
 #include "internal.h"
 #include "kernels.h"
+#include "nerts_internal.h"
 
 /* The views of the state region (or of its staged copy), in layout order:
  * the count is DKF__NERTS_OUT_LEN. */
@@ -573,11 +574,18 @@ static void bind(dkf_nerts_t *g, const out_t *o)
     dkf__view(&g->y, n, 1, o->y);
 }
 
-/* The layout of f's storage with the state copied into the stage. */
-static void stage(const dkf_nerts_t *f, layout_t *L)
+/* The layout of f's storage with a state copied into the stage: the one
+ * at `from` (laid out as f's state, e.g. a snapshot of it), or f's own
+ * (from == NULL). */
+static void stage_from(const dkf_nerts_t *f, layout_t *L, const dkf_real_t *from)
 {
     (void)layout(L, f->mem, f->n, f->m, f->p);
-    dkf__copy(L->s.x, L->o.x, L->out_len);
+    dkf__copy(L->s.x, from != NULL ? from : L->o.x, L->out_len);
+}
+
+static void stage(const dkf_nerts_t *f, layout_t *L)
+{
+    stage_from(f, L, NULL);
 }
 
 static void unstage(const layout_t *L)
@@ -592,6 +600,43 @@ static dkf_status_t check_input_part(const dkf_mat_t *M, size_t p, size_t r, siz
     return dkf__check_input(M, r, c);
 }
 
+/* Every check of dkf_nerts_init. The prior is formed and checked in the
+ * stage of storage (its scratch), mapped by *L; nothing else is written,
+ * so a refused prior leaves the storage's state, a live filter's
+ * included, as it was. */
+static dkf_status_t init_staged(layout_t *L, dkf_nerts_kind_t kind, size_t n, size_t m, size_t p,
+                                dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                                const dkf_mat_t *P0, const dkf_mat_t *d0, const dkf_mat_t *Pd0,
+                                const dkf_mat_t *Pxd0)
+{
+    DKF_CHECK_NULL(storage);
+    if (kind != DKF_NERTS_NERTSF && kind != DKF_NERTS_NERTSIF && kind != DKF_NERTS_DNERTSF &&
+        kind != DKF_NERTS_DNERTSIF)
+        return DKF_ERR_ARG;
+    if (n == 0 || m == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM ||
+        n + p > DKF_MAX_DIM)
+        return DKF_ERR_CAPACITY;
+    if (storage_len < layout(L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
+    if (m < p) return DKF_ERR_RANK;
+    DKF_TRY(dkf__check_input(x0, n, 1));
+    DKF_TRY(dkf__check_input(P0, n, n));
+    DKF_TRY(check_input_part(d0, p, p, 1));
+    DKF_TRY(check_input_part(Pd0, p, p, p));
+    DKF_TRY(check_input_part(Pxd0, p, n, p));
+    (void)layout(L, storage, n, m, p);
+    memset(L->s.x, 0, L->out_len * sizeof *storage);
+    dkf__copy(L->s.x, x0->data, n);
+    dkf__copy(L->s.Px, P0->data, n * n);
+    dkf__symmetrise(L->s.Px, n);
+    if (p > 0) {
+        dkf__copy(L->s.d, d0->data, p);
+        dkf__copy(L->s.Pd, Pd0->data, p * p);
+        dkf__symmetrise(L->s.Pd, p);
+        dkf__copy(L->s.Pxd, Pxd0->data, n * p);
+    }
+    return check_joint(&L->s, n, p, L->w[0], L->w[1], L->v[0]);
+}
+
 dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, size_t m, size_t p,
                             dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
                             const dkf_mat_t *P0, const dkf_mat_t *d0, const dkf_mat_t *Pd0,
@@ -600,32 +645,8 @@ dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, siz
     dkf_nerts_t g; /* built aside so a failed init leaves *f as it was */
     layout_t L;
     DKF_CHECK_NULL(f);
-    DKF_CHECK_NULL(storage);
-    if (kind != DKF_NERTS_NERTSF && kind != DKF_NERTS_NERTSIF && kind != DKF_NERTS_DNERTSF &&
-        kind != DKF_NERTS_DNERTSIF)
-        return DKF_ERR_ARG;
-    if (n == 0 || m == 0 || n > DKF_MAX_DIM || m > DKF_MAX_DIM || p > DKF_MAX_DIM ||
-        n + p > DKF_MAX_DIM)
-        return DKF_ERR_CAPACITY;
-    if (storage_len < layout(&L, NULL, n, m, p)) return DKF_ERR_CAPACITY;
-    if (m < p) return DKF_ERR_RANK;
-    DKF_TRY(dkf__check_input(x0, n, 1));
-    DKF_TRY(dkf__check_input(P0, n, n));
-    DKF_TRY(check_input_part(d0, p, p, 1));
-    DKF_TRY(check_input_part(Pd0, p, p, p));
-    DKF_TRY(check_input_part(Pxd0, p, n, p));
-    (void)layout(&L, storage, n, m, p);
-    memset(storage, 0, L.out_len * sizeof *storage);
-    dkf__copy(L.o.x, x0->data, n);
-    dkf__copy(L.o.Px, P0->data, n * n);
-    dkf__symmetrise(L.o.Px, n);
-    if (p > 0) {
-        dkf__copy(L.o.d, d0->data, p);
-        dkf__copy(L.o.Pd, Pd0->data, p * p);
-        dkf__symmetrise(L.o.Pd, p);
-        dkf__copy(L.o.Pxd, Pxd0->data, n * p);
-    }
-    DKF_TRY(check_joint(&L.o, n, p, L.w[0], L.w[1], L.v[0]));
+    DKF_TRY(init_staged(&L, kind, n, m, p, storage, storage_len, x0, P0, d0, Pd0, Pxd0));
+    unstage(&L);
     g.n = n;
     g.m = m;
     g.p = p;
@@ -637,6 +658,16 @@ dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, siz
     bind(&g, &L.o);
     *f = g;
     return DKF_OK;
+}
+
+/* (nerts_internal.h) */
+dkf_status_t dkf__nerts_check_init(dkf_nerts_kind_t kind, size_t n, size_t m, size_t p,
+                                   dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
+                                   const dkf_mat_t *P0, const dkf_mat_t *d0, const dkf_mat_t *Pd0,
+                                   const dkf_mat_t *Pxd0)
+{
+    layout_t L;
+    return init_staged(&L, kind, n, m, p, storage, storage_len, x0, P0, d0, Pd0, Pxd0);
 }
 
 static dkf_status_t check_ready(const dkf_nerts_t *f)
@@ -719,22 +750,61 @@ dkf_status_t dkf_nerts_commit_info(dkf_nerts_t *f, const dkf_mat_t *Y, const dkf
     return DKF_OK;
 }
 
+/* Phases 1 and 2 in the stage, from the state at `from` (NULL: f's own):
+ * every argument is checked first; nothing of f is written. */
+static dkf_status_t predict_local_staged(const dkf_nerts_t *f, layout_t *L, const dkf_real_t *from,
+                                         const dkf_nl_model_t *model, const dkf_real_t *u_prev,
+                                         const dkf_mat_t *Q, const dkf_real_t *u,
+                                         const dkf_mat_t *R, const dkf_mat_t *z)
+{
+    DKF_TRY(check_model(f, model, u_prev));
+    DKF_TRY(check_model(f, model, u));
+    DKF_TRY(dkf__check_input(Q, f->n, f->n));
+    DKF_TRY(check_meas(f, R, z));
+    stage_from(f, L, from);
+    DKF_TRY(predict_staged(f, L, model, u_prev, Q->data));
+    return local_staged(f, L, model, u, R->data, z->data);
+}
+
 dkf_status_t dkf_nerts_step(dkf_nerts_t *f, const dkf_nl_model_t *model, const dkf_real_t *u_prev,
                             const dkf_mat_t *Q, const dkf_real_t *u, const dkf_mat_t *R,
                             const dkf_mat_t *z)
 {
     layout_t L;
     DKF_TRY(check_ready(f));
-    DKF_TRY(check_model(f, model, u_prev));
-    DKF_TRY(check_model(f, model, u));
-    DKF_TRY(dkf__check_input(Q, f->n, f->n));
-    DKF_TRY(check_meas(f, R, z));
-    stage(f, &L);
-    DKF_TRY(predict_staged(f, &L, model, u_prev, Q->data));
-    DKF_TRY(local_staged(f, &L, model, u, R->data, z->data));
+    DKF_TRY(predict_local_staged(f, &L, NULL, model, u_prev, Q, u, R, z));
     DKF_TRY(update_staged(f, &L));
     unstage(&L);
     f->phase = DKF_NERTS_POSTERIOR;
     f->k += 1;
     return DKF_OK;
+}
+
+/* (nerts_internal.h) */
+dkf_status_t dkf__nerts_stage_local(const dkf_nerts_t *f, const dkf_real_t *from,
+                                    const dkf_nl_model_t *model, const dkf_real_t *u_prev,
+                                    const dkf_mat_t *Q, const dkf_real_t *u, const dkf_mat_t *R,
+                                    const dkf_mat_t *z, dkf__nerts_staged_t *out)
+{
+    layout_t L;
+    DKF_TRY(check_ready(f));
+    DKF_TRY(predict_local_staged(f, &L, from, model, u_prev, Q, u, R, z));
+    out->x_pred = L.s.x_pred;
+    out->y_pred = L.s.y_pred;
+    out->Y_pred = L.s.Y_pred;
+    out->nu = L.s.nu;
+    out->C = L.s.C;
+    out->Hd = L.s.Hd;
+    out->Rbar = L.s.Rbar;
+    out->i = L.s.i;
+    out->I = L.s.I;
+    return DKF_OK;
+}
+
+void dkf__nerts_commit_stage(dkf_nerts_t *f)
+{
+    layout_t L;
+    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    unstage(&L);
+    f->phase = DKF_NERTS_LOCAL;
 }

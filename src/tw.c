@@ -75,9 +75,11 @@ static size_t committed_layout(committed_t *c, dkf_real_t *base, size_t n, size_
     return used;
 }
 
-/* nd->mem: pending block, then scratch. */
+/* nd->mem: pending block, then scratch: the next pending block (a local
+ * step is formed there and becomes the pending one only if it succeeds),
+ * then the local step's and the packets' working areas. */
 typedef struct {
-    dkf_real_t *pend;
+    dkf_real_t *pend, *next;
     dkf_real_t *J, *C, *T;       /* n x n: Phi-^{-1}, Cholesky factors, Psi / unpacked P */
     dkf_real_t *JG, *IG, *GSi;   /* n x p */
     dkf_real_t *Sc, *Si;         /* p x p: Cholesky of S, S^{-1} */
@@ -90,6 +92,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
 {
     size_t used = 0;
     DKF_TAKE(L->pend, block_len(n, p));
+    DKF_TAKE(L->next, block_len(n, p));
     DKF_TAKE(L->J, n * n);
     DKF_TAKE(L->C, n * n);
     DKF_TAKE(L->T, n * n);
@@ -237,13 +240,13 @@ static dkf_status_t check_model(const dkf_tw_node_t *nd, const dkf_uif_dyn_t *dy
     return dkf__check_input(dyn->Q, nd->n, nd->n);
 }
 
-/* The local step into the pending block (see the top of the file). */
+/* The local step into L->next (see the top of the file). */
 static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_uif_dyn_t *dyn,
                                const dkf_real_t *info)
 {
     dkf_real_t inv[DKF_MAX_DIM], u[DKF_MAX_DIM];
     const size_t n = nd->n, p = nd->p;
-    const block_t b = block_at(L->pend, n, p);
+    const block_t b = block_at(L->next, n, p);
     const dkf_real_t *F = dyn->F->data, *G = dyn->G->data;
     size_t i;
 
@@ -290,25 +293,31 @@ static dkf_status_t local_step(dkf_tw_node_t *nd, const layout_t *L, const dkf_u
     dkf__mul_nn(L->GSi, b.Gpost, L->Si, n, p, p);
     dkf__mul_nt_sym(b.Ploc, L->GSi, b.Gpost, b.Phi_post, n, p);
 
-    if (!dkf__all_finite(L->pend, block_len(n, p))) return DKF_ERR_NONFINITE;
+    if (!dkf__all_finite(L->next, block_len(n, p))) return DKF_ERR_NONFINITE;
     return DKF_OK;
 }
 
+/* The local step on info into L->next, its arguments checked first. */
+static dkf_status_t checked_local_step(dkf_tw_node_t *nd, const layout_t *L,
+                                       const dkf_uif_dyn_t *dyn, const dkf_real_t *info)
+{
+    DKF_CHECK_NULL(info);
+    DKF_TRY(check_model(nd, dyn));
+    if (!dkf__all_finite(info, DKF_TW_PKT_LEN(nd->n))) return DKF_ERR_NONFINITE;
+    return local_step(nd, L, dyn, info);
+}
+
+/* The step is formed in L.next and replaces the pending one only once it
+ * succeeded: a failure leaves a pending step as it was. */
 dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, const dkf_real_t *info,
                                dkf_real_t *est)
 {
     layout_t L;
-    dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
-    /* any failure from here on cancels a pending step (tw.h) */
-    nd->pending = 0;
-    DKF_CHECK_NULL(info);
-    DKF_TRY(check_model(nd, dyn));
-    if (!dkf__all_finite(info, DKF_TW_PKT_LEN(nd->n))) return DKF_ERR_NONFINITE;
     L = mem_of(nd);
-    st = local_step(nd, &L, dyn, info);
-    if (st != DKF_OK) return st;
+    DKF_TRY(checked_local_step(nd, &L, dyn, info));
+    dkf__copy(L.pend, L.next, block_len(nd->n, nd->p));
     if (est != NULL) {
         const block_t b = block_at(L.pend, nd->n, nd->p);
         dkf__copy(est, b.psi, nd->n);
@@ -318,15 +327,14 @@ dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, cons
     return DKF_OK;
 }
 
-/* Checks a commit's x and packed P (NULL: the pending local ones) and
- * leaves the full P in L->T. */
-static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, const dkf_real_t *x,
-                                 const dkf_real_t *Ppacked)
+/* Checks a commit of the step in blk (L->pend, or L->next) with x and
+ * packed P (NULL: the step's own psi, Ploc) and leaves the full P in L->T. */
+static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, dkf_real_t *blk,
+                                 const dkf_real_t *x, const dkf_real_t *Ppacked)
 {
     dkf_real_t inv[DKF_MAX_DIM];
     const size_t n = nd->n;
-    const block_t b = block_at(L->pend, n, nd->p);
-    if (!nd->pending) return DKF_ERR_STATE;
+    const block_t b = block_at(blk, n, nd->p);
     if (x != NULL && !dkf__all_finite(x, n)) return DKF_ERR_NONFINITE;
     if (Ppacked != NULL) {
         if (!dkf__all_finite(Ppacked, n * (n + 1) / 2)) return DKF_ERR_NONFINITE;
@@ -338,13 +346,16 @@ static dkf_status_t check_commit(const dkf_tw_node_t *nd, const layout_t *L, con
     return DKF_OK;
 }
 
-static void apply_commit(dkf_tw_node_t *nd, const layout_t *L, const dkf_real_t *x)
+/* Commits the step in blk as check_commit left it; no step is pending
+ * afterwards. */
+static void apply_commit(dkf_tw_node_t *nd, const layout_t *L, dkf_real_t *blk,
+                         const dkf_real_t *x)
 {
     const size_t n = nd->n;
-    const block_t b = block_at(L->pend, n, nd->p);
+    const block_t b = block_at(blk, n, nd->p);
     dkf__copy(nd->x.data, x != NULL ? x : b.psi, n);
     dkf__copy(nd->P.data, L->T, n * n);
-    dkf__copy(nd->d.data, L->pend, block_len(n, nd->p));
+    dkf__copy(nd->d.data, blk, block_len(n, nd->p));
     nd->pending = 0;
     ++nd->k;
 }
@@ -353,10 +364,10 @@ dkf_status_t dkf_tw_node_commit(dkf_tw_node_t *nd, const dkf_real_t *x, const dk
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
     L = mem_of(nd);
-    DKF_TRY(check_commit(nd, &L, x, Ppacked));
-    apply_commit(nd, &L, x);
+    DKF_TRY(check_commit(nd, &L, L.pend, x, Ppacked));
+    apply_commit(nd, &L, L.pend, x);
     return DKF_OK;
 }
 
@@ -365,7 +376,6 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
 {
     layout_t L;
     size_t l, e, len;
-    dkf_status_t st;
     DKF_CHECK_NULL(nd);
     if (!nd->ready) return DKF_ERR_STATE;
     len = DKF_TW_PKT_LEN(nd->n);
@@ -379,12 +389,13 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
         DKF_TRY(meas_info(nd, &L, &meas[l], &y[l], DKF_R(1.0)));
         for (e = 0; e < len; ++e) L.acc[e] += L.stage[e];
     }
-    DKF_TRY(dkf_tw_node_local(nd, dyn, L.acc, NULL));
-    st = dkf_tw_node_commit(nd, NULL, NULL);
-    /* a local estimate whose P (Ploc) is not numerically SPD is refused by
-     * the commit: the local step of this call is not left pending */
-    if (st != DKF_OK) nd->pending = 0;
-    return st;
+    /* the local step and its commit's checks on L.next: a failure leaves
+     * the node, and a pending step, as they were; the commit completes the
+     * node's step (a pending one is superseded) */
+    DKF_TRY(checked_local_step(nd, &L, dyn, L.acc));
+    DKF_TRY(check_commit(nd, &L, L.next, NULL, NULL));
+    apply_commit(nd, &L, L.next, NULL);
+    return DKF_OK;
 }
 
 /* ---- whole-graph simulation --------------------------------------------- */
@@ -445,8 +456,13 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
 static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn,
                               const dkf_kf_meas_t meas[], const dkf_mat_t y[])
 {
+    size_t l;
     DKF_CHECK_NULL(net);
     if (net->nodes == NULL || net->g == NULL) return DKF_ERR_STATE;
+    /* a node with a step of its own pending (stepped by hand): a failed
+     * step, which cancels the steps it ran, could not give it back */
+    for (l = 0; l < net->N; ++l)
+        if (net->nodes[l].pending) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
     DKF_CHECK_NULL(y);
     /* only those checks read them, and DKF_DEBUG_CHECKS=0 compiles them out */
@@ -478,7 +494,8 @@ static dkf_status_t all_local(dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn, const
 }
 
 /* A failed net step leaves no node pending: the nodes whose local step
- * succeeded before the failure are as they were before the call. */
+ * succeeded before the failure are as they were before the call (none
+ * was pending then: check_net). */
 static dkf_status_t cancel_all(dkf_tw_net_t *net, dkf_status_t st)
 {
     size_t l;
@@ -496,13 +513,15 @@ static dkf_status_t commit_all(dkf_tw_net_t *net, const dkf_real_t *xs, const dk
     size_t l;
     for (l = 0; l < net->N; ++l) {
         const layout_t L = mem_of(&net->nodes[l]);
-        DKF_TRY(check_commit(&net->nodes[l], &L, xs + l * pkt, Ps != NULL ? Ps + l * pkt : NULL));
+        DKF_TRY(check_commit(&net->nodes[l], &L, L.pend, xs + l * pkt,
+                             Ps != NULL ? Ps + l * pkt : NULL));
     }
     for (l = 0; l < net->N; ++l) {
         const layout_t L = mem_of(&net->nodes[l]);
         /* check_commit again: it leaves the node's P in its scratch T */
-        (void)check_commit(&net->nodes[l], &L, xs + l * pkt, Ps != NULL ? Ps + l * pkt : NULL);
-        apply_commit(&net->nodes[l], &L, xs + l * pkt);
+        (void)check_commit(&net->nodes[l], &L, L.pend, xs + l * pkt,
+                           Ps != NULL ? Ps + l * pkt : NULL);
+        apply_commit(&net->nodes[l], &L, L.pend, xs + l * pkt);
     }
     return DKF_OK;
 }

@@ -380,6 +380,11 @@ static void test_indefinite_mixed_covariance(void **state)
     assert_int_equal(dkf_dfnerts_net_step(&net, imd, NULL, imQ, NULL, imR, imz, iW, 2, DKF_R(1.0)),
                      DKF_ERR_NOT_SPD);
     assert_all_untouched("net step s = 1", 2);
+    /* an odd T_p: the rounds swap the packet buffers an odd number of
+     * times before the commit fails; the network's buffers stay as well */
+    assert_int_equal(dkf_dfnerts_net_step(&net, imd, NULL, imQ, NULL, imR, imz, iW, 3, DKF_R(2.0)),
+                     DKF_ERR_NOT_SPD);
+    assert_all_untouched("net step T_p = 3", 2);
     /* the node API: node 1's commit fails, node 1 stays as it was (pending) */
     assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &imd[0], NULL, &imQ[0], NULL, &imR[0],
                                             &imz[0], DKF_R(2.0), NULL),
@@ -659,16 +664,40 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     /* cancel puts the filter back exactly */
     assert_int_equal(dkf_dfnerts_node_cancel(&nodes[0]), DKF_OK);
     assert_all_untouched("local then cancel", NN);
-    /* a failed local after a pending one: no step pending, filter as before */
-    assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
-                                            &S.mz[0], DKF_R(1.0), NULL),
-                     DKF_OK);
-    S.z[0][0] = (dkf_real_t)INFINITY;
-    assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL, &S.mR[0],
-                                            &S.mz[0], DKF_R(1.0), NULL),
-                     DKF_ERR_NONFINITE);
-    assert_all_untouched("failed local over a pending step", NN);
+    /* a failed local over a pending step leaves that step pending, its
+     * packet as it was; a cancel then puts the filter back as before it */
+    {
+        static unsigned char before[sizeof(dkf_dfnerts_node_t)];
+        static dkf_real_t before_state[STATE_LEN], pending_pkt[DKF_DFNERTS_PKT_MAX(XN, DP)];
+        memcpy(before, &nodes[0], sizeof before);
+        memcpy(before_state, nodes[0].mem, state_len(0) * sizeof(dkf_real_t));
+        assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL,
+                                                &S.mR[0], &S.mz[0], DKF_R(1.0), NULL),
+                         DKF_OK);
+        memcpy(pending_pkt, nodes[0].pkt, nodes[0].pkt_len * sizeof(dkf_real_t));
+        snap_all(NN);
+        S.z[0][0] = (dkf_real_t)INFINITY;
+        assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL,
+                                                &S.mR[0], &S.mz[0], DKF_R(1.0), NULL),
+                         DKF_ERR_NONFINITE);
+        assert_all_untouched("failed local over a pending step", NN);
+        assert_memory_equal(pending_pkt, nodes[0].pkt, nodes[0].pkt_len * sizeof(dkf_real_t));
+        assert_int_equal(dkf_dfnerts_node_cancel(&nodes[0]), DKF_OK);
+        assert_memory_equal(before, &nodes[0], sizeof before);
+        assert_memory_equal(before_state, nodes[0].mem, state_len(0) * sizeof(dkf_real_t));
+    }
     S.z[0][0] = DKF_R(0.0);
+    /* a network step while a node has a step of its own pending: refused
+     * before anything (an undo could not give that step back) */
+    assert_int_equal(dkf_dfnerts_node_local(&nodes[1], &S.md[1], NULL, &S.mQ[1], NULL, &S.mR[1],
+                                            &S.mz[1], DKF_R(1.0), NULL),
+                     DKF_OK);
+    snap_all(NN);
+    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
+                                          DKF_R(1.0)),
+                     DKF_ERR_STATE);
+    assert_all_untouched("net step with a node pending", NN);
+    assert_int_equal(dkf_dfnerts_node_cancel(&nodes[1]), DKF_OK);
 }
 
 static void test_errors_untouched(void **state)

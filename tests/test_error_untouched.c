@@ -9,9 +9,18 @@
  * inputs, out-of-sequence calls). Each module is put in a state after a
  * few successful calls first, so that the caches and carries are live.
  * A "huge" variant (one input scaled by 2 sqrt(REAL_MAX)) may fail or
- * not; if it fails it must leave the object untouched too.
+ * not; if it fails it must leave the object untouched too. A composite
+ * call (restart, rejoin, a local step over a pending one, a network step,
+ * a central step) is refused at each of its checks in turn, in every
+ * state its object can be in (fresh, pending, after a commit), with a
+ * pending step counted as state.
  * test_exact_storage runs one table over every module: each init refuses
- * one real less than its *_STORAGE_LEN, untouched, and accepts exactly it.
+ * one real less than its *_STORAGE_LEN, untouched, and accepts exactly it;
+ * test_init_over_live re-initialises each over its live object with a
+ * prior refused at the last check. test_every_object_call_refused, last,
+ * requires a checked refusal of every public function that takes a
+ * filter object (untouched_api.h, written from the headers by
+ * tests/untouched_api.cmake), bar a commented list of exemptions.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -35,8 +44,40 @@
 #include "dkf/selftune.h"
 #include "dkf/uif.h"
 #include "dkf/wfusion.h"
+#include "dfnerts_fixture.h"
 #include "dkf_test.h"
 #include "nerts_fixture.h"
+
+/* ---- which public calls were refused under a check ------------------------ */
+
+/* A check is armed from the snapshot of the object (snap_take) to its
+ * comparison (check_failed); every call of a public function that takes
+ * a filter object goes through untouched_note (untouched_api.h, written
+ * from the headers, makes each such name a macro that calls it), and one
+ * that fails while a check is armed is recorded as exercised.
+ * test_every_object_call_refused requires every function to be. */
+static int check_armed;
+static const char *refused_calls[256];
+static size_t n_refused_calls;
+
+static int call_refused(const char *name)
+{
+    size_t i;
+    for (i = 0; i < n_refused_calls; ++i)
+        if (strcmp(refused_calls[i], name) == 0) return 1;
+    return 0;
+}
+
+static dkf_status_t untouched_note(const char *name, dkf_status_t st)
+{
+    if (check_armed && st != DKF_OK && !call_refused(name)) {
+        assert_true(n_refused_calls < sizeof refused_calls / sizeof refused_calls[0]);
+        refused_calls[n_refused_calls++] = name;
+    }
+    return st;
+}
+
+#include "untouched_api.h"
 
 /* ---- snapshots ------------------------------------------------------------ */
 
@@ -64,6 +105,7 @@ static void reg_add(regions_t *g, const void *p, size_t len)
 static void snap_take(const regions_t *g)
 {
     size_t i, off = 0;
+    check_armed = 1;
     for (i = 0; i < g->n; ++i) {
         assert_true(off + g->len[i] <= SNAP_CAP);
         memcpy(snap_bytes + off, g->p[i], g->len[i]);
@@ -96,6 +138,7 @@ static size_t n_checked; /* failing calls checked, for the log */
 static void check_failed(const regions_t *g, dkf_status_t want, dkf_status_t got,
                          const char *what, size_t e)
 {
+    check_armed = 0;
     ++n_checked;
     if (got == DKF_OK || (want != ANY_ERR && got != want)) {
         print_error("%s (element %zu): status %d (%s), want %d\n", what, e, (int)got,
@@ -195,6 +238,7 @@ static void sweep(const char *what, call_fn call, void *ctx, dkf_mat_t *const vi
                 snap_take(g);
                 st = call(ctx);
                 if (k == K_HUGE) {
+                    check_armed = 0;
                     if (st != DKF_OK && !snap_same(g)) {
                         print_error("%s: the failed call (%s) changed the object\n", label,
                                     dkf_status_str(st));
@@ -516,6 +560,29 @@ static void test_askf_otskf(void **state)
     EXPECT_UNTOUCHED(&k.ga, DKF_ERR_NONFINITE, askf_predict_call(&k), "askf_predict: overflow");
     EXPECT_UNTOUCHED(&k.go, DKF_ERR_NONFINITE, otskf_predict_call(&k), "otskf_predict: overflow");
     mset(&k.F, 3, 3, F3);
+    /* the queries: a misshaped covariance output, a filter never
+     * initialised; the outputs untouched too */
+    {
+        static mbuf_t Pb;
+        static dkf_mat_t xv;
+        dkf_askf_t blank;
+        regions_t gq = k.ga;
+        meye(&Pb, 3, 7.0);
+        Pb.v.rows = 2;
+        memset(&xv, 0, sizeof xv);
+        reg_add(&gq, &Pb, sizeof Pb);
+        reg_add(&gq, &xv, sizeof xv);
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_DIM, dkf_askf_state(&k.a, &xv, &Pb.v),
+                         "askf_state: Px 2 x 3");
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_DIM, dkf_askf_input(&k.a, &xv, &Pb.v),
+                         "askf_input: Pd 2 x 3");
+        memset(&blank, 0, sizeof blank);
+        reg_add(&gq, &blank, sizeof blank);
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_askf_state(&blank, &xv, NULL),
+                         "askf_state: blank");
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_askf_input(&blank, &xv, NULL),
+                         "askf_input: blank");
+    }
 }
 
 /* ---- Difference KF ------------------------------------------------------------------- */
@@ -548,6 +615,11 @@ static dkf_status_t dkf_gain_call(void *c)
 {
     dkf_ctx_t *k = c;
     return dkf_diffkf_gain_masked(&k->f, &k->dyn, &k->meas, k->rows);
+}
+static dkf_status_t dkf_gain_all_call(void *c)
+{
+    dkf_ctx_t *k = c;
+    return dkf_diffkf_gain(&k->f, &k->dyn, &k->meas);
 }
 static dkf_status_t dkf_update_call(void *c)
 {
@@ -607,6 +679,67 @@ static void dkf_model_failures(dkf_ctx_t *k, call_fn call, const char *what)
     mset(&k->F, DN, DN, F3);
 }
 
+/* Before the start (the filter k->f initialised, not started): the
+ * queries and settings that refuse, their outputs untouched too, and
+ * the same calls on a filter never initialised. */
+static void dkf_query_refusals(dkf_ctx_t *k)
+{
+    static dkf_diffkf_msg_t msg;
+    static dkf_mat_t M, K, zc;
+    dkf_diffkf_t blank;
+    regions_t gq = k->g;
+    memset(&msg, 0x5a, sizeof msg);
+    reg_add(&gq, &msg, sizeof msg);
+    reg_add(&gq, &M, sizeof M);
+    reg_add(&gq, &K, sizeof K);
+    reg_add(&gq, &zc, sizeof zc);
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_diffkf_msg_fill(&msg, 0, &k->f),
+                     "diffkf_msg_fill before the first step");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_diffkf_pending(&k->f, &M, &K, &zc),
+                     "diffkf_pending: no gain pending");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_ARG, dkf_diffkf_set_steady(&k->f, DKF_R(1.0)),
+                     "diffkf_set_steady: tol = 1");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_ARG, dkf_diffkf_set_steady(&k->f, DKF_R(-0.5)),
+                     "diffkf_set_steady: tol < 0");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_ARG, dkf_diffkf_set_steady(&k->f, (dkf_real_t)NAN),
+                     "diffkf_set_steady: tol NaN");
+    memset(&blank, 0, sizeof blank);
+    reg_add(&gq, &blank, sizeof blank);
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_diffkf_set_steady(&blank, DKF_R(0.0)),
+                     "diffkf_set_steady: blank");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_diffkf_set_time(&blank, 3), "diffkf_set_time: blank");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_STATE, dkf_diffkf_msg_fill(&msg, 0, &blank),
+                     "diffkf_msg_fill: blank");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_NULL, dkf_diffkf_set_time(NULL, 3), "diffkf_set_time: NULL");
+}
+
+/* A checkpoint of len reals at ck (valid): save into a short buffer, and
+ * the check of corrupted copies (tag, n, k digit, flags, NaN, short),
+ * each refused with the filter and the buffer untouched. */
+static void dkf_checkpoint_refusals(dkf_ctx_t *k, dkf_real_t *ck, size_t len)
+{
+    static const size_t at[] = {0, 2, 4, 10};
+    static const dkf_status_t want[] = {DKF_ERR_ARG, DKF_ERR_DIM, DKF_ERR_ARG, DKF_ERR_ARG};
+    regions_t gq = k->g;
+    size_t i;
+    reg_add(&gq, ck, len * sizeof *ck);
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_CAPACITY, dkf_diffkf_save(&k->f, ck, len - 1),
+                     "diffkf_save: short");
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_CAPACITY, dkf_diffkf_checkpoint_check(&k->f, ck, len - 1),
+                     "diffkf_checkpoint_check: short");
+    for (i = 0; i < sizeof at / sizeof at[0]; ++i) {
+        const dkf_real_t keep = ck[at[i]];
+        ck[at[i]] = DKF_R(0.5);
+        check_failed(&gq, want[i], (snap_take(&gq), dkf_diffkf_checkpoint_check(&k->f, ck, len)),
+                     "diffkf_checkpoint_check: a header field", at[i]);
+        ck[at[i]] = keep;
+    }
+    ck[len - 1] = (dkf_real_t)INFINITY;
+    EXPECT_UNTOUCHED(&gq, DKF_ERR_NONFINITE, dkf_diffkf_checkpoint_check(&k->f, ck, len),
+                     "diffkf_checkpoint_check: Inf");
+    ck[len - 1] = DKF_R(0.0);
+}
+
 static void test_diffkf(void **state)
 {
     static dkf_ctx_t k;
@@ -623,6 +756,7 @@ static void test_diffkf(void **state)
                                      &x0.v, &P0.v),
                      DKF_OK);
     dkf_regions(&k, 0);
+    dkf_query_refusals(&k);
     /* before start: step, gain and update are out of sequence */
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_step_call(&k), "diffkf_step before start");
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_STATE, dkf_gain_call(&k), "diffkf_gain before start");
@@ -648,6 +782,8 @@ static void test_diffkf(void **state)
     dkf_model_failures(&k, dkf_step_call, "diffkf_step");
     sweep("diffkf_gain_masked", dkf_gain_call, &k, v, names, 7, &k.g);
     dkf_model_failures(&k, dkf_gain_call, "diffkf_gain_masked");
+    sweep("diffkf_gain", dkf_gain_all_call, &k, v, names, 7, &k.g);
+    dkf_model_failures(&k, dkf_gain_all_call, "diffkf_gain");
     /* a pending gain: update_z's failures leave it (and everything) as it
      * was; a step is refused and leaves it too */
     k.rows[1] = 0;
@@ -708,6 +844,8 @@ static void test_diffkf(void **state)
     ck[len - 1] = DKF_R(0.0);
     ck[1] += DKF_R(1.0);
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_DIM, dkf_diffkf_restore(&k.f, ck, len), "diffkf_restore: n");
+    ck[1] -= DKF_R(1.0);
+    dkf_checkpoint_refusals(&k, ck, len);
 }
 
 /* ---- Difference-KF fusion centre ------------------------------------------------------ */
@@ -1031,6 +1169,16 @@ static void test_diffkf_fc(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_ARG, dkf_diffkf_fc_restore(&k.fc, k.ck, len),
                      "fc_restore: start flag");
     k.ck[9] = DKF_R(1.0);
+    {
+        regions_t gq = k.g;
+        reg_add(&gq, k.ck, len * sizeof k.ck[0]);
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_CAPACITY, dkf_diffkf_fc_save(&k.fc, k.ck, len - 1),
+                         "fc_save: short");
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_ARG, dkf_diffkf_fc_set_steady(&k.fc, DKF_R(1.5)),
+                         "fc_set_steady: tol > 1");
+        EXPECT_UNTOUCHED(&gq, DKF_ERR_ARG, dkf_diffkf_fc_set_steady(&k.fc, (dkf_real_t)NAN),
+                         "fc_set_steady: tol NaN");
+    }
     /* the intact checkpoint restores, and a failed step after it is
      * untouched too (the central caches were reset by the restore) */
     assert_int_equal(dkf_diffkf_fc_restore(&k.fc, k.ck, len), DKF_OK);
@@ -1254,13 +1402,31 @@ static void test_tw_node(void **state)
     EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, dkf_tw_node_commit(&k.nd, xs, NULL),
                      "tw_node_commit: x NaN");
     assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
-    /* a failed local step cancels a pending one, whichever check fails
-     * (found by fuzz_core_tw: a refused model left it pending) */
+    /* with a step pending, a failed local step or central step leaves it
+     * pending, whichever check fails: every refusal above again */
     assert_int_equal(tw_local_call(&k), DKF_OK);
-    k.A.d[0] = (dkf_real_t)NAN;
-    assert_int_equal(tw_local_call(&k), DKF_ERR_NONFINITE);
-    assert_int_equal(k.nd.pending, 0);
-    k.A.d[0] = (dkf_real_t)F3[0];
+    tw_regions(&k);
+    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    sweep("tw_node_local (pending)", tw_local_call, &k, mv, mn, 3, &k.g);
+    sweep("tw_central_step (pending)", tw_central_call, &k, sv, sn, 3, &k.g);
+    sweep("tw_central_step (model, pending)", tw_central_call, &k, mv, mn, 3, &k.g);
+    meye(&k.Sv, TN, -10.0);
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_local_call(&k), "tw_node_local (pending): Phi-");
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NOT_SPD, tw_central_call(&k), "tw_central_step (pending): Phi-");
+    mset(&k.Sv, TN, TN, Q3);
+    k.info[1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&k.g, DKF_ERR_NONFINITE, tw_local_call(&k), "tw_node_local (pending): info");
+    memcpy(k.info, k.pkt, sizeof k.pkt);
+    {
+        /* no information on z: rank(H B) = 0 */
+        static const double Hz[6] = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0};
+        mset(&k.H, 2, TN, Hz);
+        EXPECT_UNTOUCHED(&k.g, DKF_ERR_RANK, tw_central_call(&k),
+                         "tw_central_step (pending): rank H B = 0");
+        mset(&k.H, 2, TN, TH);
+    }
+    assert_int_equal(k.nd.pending, 1);
+    assert_int_equal(dkf_tw_node_commit(&k.nd, NULL, NULL), DKF_OK);
 }
 
 /* A path 0-1-2-3: nodes 0, 1 observe z, nodes 2, 3 do not, so the local
@@ -1323,6 +1489,18 @@ static void test_tw_net(void **state)
                      "tw_net_consensus_step: A NaN");
     A.d[4] = (dkf_real_t)F3[4];
     assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
+    /* a node with a step of its own pending: both steps refuse to run (a
+     * failure could not give that step back) */
+    assert_int_equal(dkf_tw_meas_packet(net.mix, &nodes[1], &sens[1], &ys[1], DKF_R(1.0)), DKF_OK);
+    assert_int_equal(dkf_tw_node_local(&nodes[1], &md, net.mix, NULL), DKF_OK);
+    reg_add(&rg, st + node_len + DKF_TW_NODE_STATE_LEN(TN, TP),
+            (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_STATE, dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys),
+                     "tw_net_diffusion_step: node 1 pending");
+    EXPECT_UNTOUCHED(&rg, DKF_ERR_STATE, dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys),
+                     "tw_net_consensus_step: node 1 pending");
+    assert_int_equal(dkf_tw_node_commit(&nodes[1], NULL, NULL), DKF_OK);
+    assert_int_equal(dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys), DKF_OK);
 }
 
 /* ---- nerts (seed 001's single-node filters) --------------------------------------------------- */
@@ -1361,18 +1539,23 @@ static dkf_status_t nerts_commit_call(void *c)
     return dkf_nerts_commit_info(&k->f, &k->Y.v, &k->y.v);
 }
 
-/* nertsif.json's lin_x_sin_d model */
-static void nerts_model(nerts_ctx_t *k, int jacobians)
+/* nertsif.json's lin_x_sin_d model in c (n = NN, m = NM, p = NP) */
+static dkf_nl_model_t lxs_fill(lxs_t *c, int jacobians)
 {
     static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
     static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
-    memset(&k->c, 0, sizeof k->c);
-    k->c.n = NN, k->c.m = NM, k->c.p = NP;
-    memcpy(k->c.A, A, sizeof A);
-    memcpy(k->c.B, b, sizeof b);
-    memcpy(k->c.C, C, sizeof C);
-    memcpy(k->c.H, H, sizeof H);
-    k->md = lxs_model(&k->c, jacobians);
+    memset(c, 0, sizeof *c);
+    c->n = NN, c->m = NM, c->p = NP;
+    memcpy(c->A, A, sizeof A);
+    memcpy(c->B, b, sizeof b);
+    memcpy(c->C, C, sizeof C);
+    memcpy(c->H, H, sizeof H);
+    return lxs_model(c, jacobians);
+}
+
+static void nerts_model(nerts_ctx_t *k, int jacobians)
+{
+    k->md = lxs_fill(&k->c, jacobians);
 }
 
 /* Every way a phase can fail, with the filter live (two steps done). */
@@ -1566,38 +1749,38 @@ static dkf_status_t dfn_step(dfn_ctx_t *k)
     return st != DKF_OK ? st : dkf_dfnerts_node_commit(&k->nd);
 }
 
+/* nertsif.json's lin_x_sin_d model with its Q, R and a measurement z. */
+static void dfn_fixture(dfn_ctx_t *k)
+{
+    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
+    static const double z3[3] = {0.1, 0.6, 0.5};
+    k->md = lxs_fill(&k->c, 1);
+    mset(&k->Q, NN, NN, Q3), mset(&k->R, NM, NM, R3), mset(&k->z, NM, 1, z3);
+}
+
+static dkf_status_t dfn_init(dfn_ctx_t *k, dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant)
+{
+    static const double Pd[1] = {0.25}, d0[1] = {0.1}, Pxd0[3] = {0.01, -0.02, 0.0};
+    mbuf_t x0, P0, dd, PPd, PPxd;
+    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
+    mset(&PPxd, NN, NP, Pxd0);
+    return dkf_dfnerts_node_init(&k->nd, kind, variant, NN, NM, NP, k->st,
+                                 DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP), &x0.v, &P0.v, &dd.v,
+                                 &PPd.v, &PPxd.v);
+}
+
 static void dfnerts_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, const char *what)
 {
     static dfn_ctx_t k;
-    static const double R3[9] = {0.02, 0.005, 0, 0.005, 0.03, 0, 0, 0, 0.01};
-    static const double z3[3] = {0.1, 0.6, 0.5}, Pd[1] = {0.25}, d0[1] = {0.1};
-    static const double Pxd0[3] = {0.01, -0.02, 0.0};
     static const char *const qrz[] = {"Q", "R", "z"};
     static dkf_real_t bad[DKF_DFNERTS_PKT_MAX(NN, NP)];
     const dkf_real_t *in[1] = {bad};
     const dkf_real_t one = DKF_R(1.0);
     char label[160];
     dkf_mat_t *v[3];
-    mbuf_t x0, P0, dd, PPd, PPxd;
     size_t e, q;
-    memset(&k.c, 0, sizeof k.c);
-    {
-        static const double A[9] = {1, 0.1, 0, 0, 0.95, 0.1, 0, 0, 0.9}, b[3] = {0, 0.1, 0.05};
-        static const double C[9] = {1, 0, 0, 0, 0, 1, 1, 1, 0}, H[3] = {0, 0.5, 1};
-        k.c.n = NN, k.c.m = NM, k.c.p = NP;
-        memcpy(k.c.A, A, sizeof A);
-        memcpy(k.c.B, b, sizeof b);
-        memcpy(k.c.C, C, sizeof C);
-        memcpy(k.c.H, H, sizeof H);
-        k.md = lxs_model(&k.c, 1);
-    }
-    mset(&k.Q, NN, NN, Q3), mset(&k.R, NM, NM, R3), mset(&k.z, NM, 1, z3);
-    mset(&x0, NN, 1, x3), mset(&P0, NN, NN, P3), mset(&dd, NP, 1, d0), mset(&PPd, NP, NP, Pd);
-    mset(&PPxd, NN, NP, Pxd0);
-    assert_int_equal(dkf_dfnerts_node_init(&k.nd, kind, variant, NN, NM, NP, k.st,
-                                           DKF_DFNERTS_NODE_STORAGE_LEN(NN, NM, NP), &x0.v, &P0.v,
-                                           &dd.v, &PPd.v, &PPxd.v),
-                     DKF_OK);
+    dfn_fixture(&k);
+    assert_int_equal(dfn_init(&k, kind, variant), DKF_OK);
     reg_clear(&k.g);
     reg_add(&k.g, &k.nd, sizeof k.nd);
     reg_add(&k.g, k.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
@@ -1639,13 +1822,537 @@ static void dfnerts_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, c
     assert_int_equal(dfn_step(&k), DKF_OK);
 }
 
+/* A case for both variants of both information kinds. */
+static void dfn_every_case(void (*run)(dkf_nerts_kind_t, dkf_dfnerts_variant_t, const char *))
+{
+    run(DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, "DNERTSIF PAPER");
+    run(DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT, "DNERTSIF JOINT");
+    run(DKF_NERTS_NERTSIF, DKF_DFNERTS_PAPER, "NERTSIF PAPER");
+    run(DKF_NERTS_NERTSIF, DKF_DFNERTS_JOINT, "NERTSIF JOINT");
+}
+
 static void test_dfnerts(void **state)
 {
     (void)state;
-    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER, "DNERTSIF PAPER");
-    dfnerts_case(DKF_NERTS_DNERTSIF, DKF_DFNERTS_JOINT, "DNERTSIF JOINT");
-    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_PAPER, "NERTSIF PAPER");
-    dfnerts_case(DKF_NERTS_NERTSIF, DKF_DFNERTS_JOINT, "NERTSIF JOINT");
+    dfn_every_case(dfnerts_case);
+}
+
+/* ---- dfnerts restart and rejoin: every refusal, in every state ------------------------------- */
+
+/* A restart or rejoin composes a drop of the pending step with a new
+ * prior: every refusal of the prior (or of the packet it comes from) must
+ * come before the drop. */
+typedef struct {
+    dfn_ctx_t n;
+    mbuf_t x0, P0, d0, Pd0, Pxd0;
+    dkf_real_t pkt[DKF_DFNERTS_PKT_MAX(NN, NP)];
+} rj_ctx_t;
+
+/* The node's regions: the struct, the filter's state and, while a step is
+ * pending, the pending step (packet, contribution and the snapshot a
+ * cancel restores). */
+static void rj_regions(rj_ctx_t *k)
+{
+    reg_clear(&k->n.g);
+    reg_add(&k->n.g, &k->n.nd, sizeof k->n.nd);
+    reg_add(&k->n.g, k->n.st, DKF_DFNERTS_NODE_STATE_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+    if (k->n.nd.pending)
+        reg_add(&k->n.g, k->n.st + DKF_DFNERTS_NODE_PENDING_AT(NN, NM, NP),
+                DKF_DFNERTS_NODE_PENDING_LEN(NN, NM, NP) * sizeof(dkf_real_t));
+}
+
+static dkf_status_t rj_restart_call(void *c)
+{
+    rj_ctx_t *k = c;
+    return dkf_dfnerts_node_restart(&k->n.nd, 7, &k->x0.v, &k->P0.v, &k->d0.v, &k->Pd0.v,
+                                    &k->Pxd0.v);
+}
+
+static dkf_status_t rj_rejoin_call(void *c)
+{
+    rj_ctx_t *k = c;
+    return dkf_dfnerts_node_rejoin(&k->n.nd, 7, k->pkt, &k->d0.v, &k->Pd0.v);
+}
+
+/* A valid prior and packet: y = (1, .., q), Y = 10 I (q = the agreed size). */
+static void rj_valid(rj_ctx_t *k)
+{
+    static const double Pd[1] = {0.25}, d0[1] = {0.1}, Pxd0[3] = {0.01, -0.02, 0.0};
+    const size_t q = k->n.nd.q;
+    size_t e;
+    mset(&k->x0, NN, 1, x3), mset(&k->P0, NN, NN, P3), mset(&k->d0, NP, 1, d0);
+    mset(&k->Pd0, NP, NP, Pd), mset(&k->Pxd0, NN, NP, Pxd0);
+    for (e = 0; e < k->n.nd.pkt_len; ++e) k->pkt[e] = DKF_R(0.0);
+    for (e = 0; e < q; ++e) {
+        k->pkt[e] = (dkf_real_t)(e + 1);
+        k->pkt[q + e * q - e * (e - 1) / 2] = DKF_R(10.0);
+    }
+}
+
+/* One refusal in the node's state `state`: the call fails with `want`
+ * and leaves the node untouched; the prior and packet are valid again
+ * afterwards. */
+static void rj_expect(rj_ctx_t *k, dkf_status_t want, call_fn call, const char *state,
+                      const char *what)
+{
+    char label[160];
+    snprintf(label, sizeof label, "%s (%s): %s",
+             call == rj_restart_call ? "dfnerts_node_restart" : "dfnerts_node_rejoin", state, what);
+    EXPECT_UNTOUCHED(&k->n.g, want, call(k), label);
+    rj_valid(k);
+}
+
+/* Every refusal of restart and rejoin in the node's current state, in
+ * the order of their checks. */
+static void rj_refusals(rj_ctx_t *k, const char *state)
+{
+    static const char *const pn[] = {"x0", "P0", "d0", "Pd0", "Pxd0"}, *const dn[] = {"d0", "Pd0"};
+    char label[160];
+    dkf_mat_t *v[5];
+    size_t e;
+    rj_valid(k);
+    rj_regions(k);
+    v[0] = &k->x0.v, v[1] = &k->P0.v, v[2] = &k->d0.v, v[3] = &k->Pd0.v, v[4] = &k->Pxd0.v;
+    snprintf(label, sizeof label, "dfnerts_node_restart (%s)", state);
+    sweep(label, rj_restart_call, k, v, pn, 5, &k->n.g);
+    /* priors that are finite but refused: P0, Pd0 and the joint covariance */
+    meye(&k->P0, NN, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "P0 = -I");
+    meye(&k->Pd0, NP, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "Pd0 = -1");
+    for (e = 0; e < NN; ++e) k->Pxd0.d[e] = DKF_R(10.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_restart_call, state, "joint covariance indefinite");
+    /* rejoin: the packet, then (PAPER) the caller's input prior */
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s): packet NULL", state);
+    EXPECT_UNTOUCHED(&k->n.g, DKF_ERR_NULL,
+                     dkf_dfnerts_node_rejoin(&k->n.nd, 7, NULL, &k->d0.v, &k->Pd0.v), label);
+    for (e = 0; e < k->n.nd.pkt_len; ++e) {
+        k->pkt[e] = (dkf_real_t)NAN;
+        rj_expect(k, DKF_ERR_NONFINITE, rj_rejoin_call, state, "NaN in the packet");
+    }
+    for (e = 0; e < k->n.nd.q; ++e)
+        k->pkt[k->n.nd.q + e * k->n.nd.q - e * (e - 1) / 2] = DKF_R(-10.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_rejoin_call, state, "packet Y = -10 I");
+    if (k->n.nd.variant != DKF_DFNERTS_PAPER) return; /* JOINT ignores d0, Pd0 */
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s): d0 NULL", state);
+    EXPECT_UNTOUCHED(&k->n.g, DKF_ERR_NULL,
+                     dkf_dfnerts_node_rejoin(&k->n.nd, 7, k->pkt, NULL, &k->Pd0.v), label);
+    v[0] = &k->d0.v, v[1] = &k->Pd0.v;
+    snprintf(label, sizeof label, "dfnerts_node_rejoin (%s)", state);
+    sweep(label, rj_rejoin_call, k, v, dn, 2, &k->n.g);
+    meye(&k->Pd0, NP, -1.0);
+    rj_expect(k, DKF_ERR_NOT_SPD, rj_rejoin_call, state, "Pd0 = -1");
+}
+
+/* Restart and rejoin refused in every state: fresh, after commits,
+ * pending after local, pending after a round. Then both succeed. */
+static void rj_case(dkf_nerts_kind_t kind, dkf_dfnerts_variant_t variant, const char *what)
+{
+    static rj_ctx_t k;
+    const dkf_real_t *in[1];
+    const dkf_real_t one = DKF_R(1.0);
+    char label[160];
+    dfn_fixture(&k.n);
+    assert_int_equal(dfn_init(&k.n, kind, variant), DKF_OK);
+    snprintf(label, sizeof label, "%s, fresh", what);
+    rj_refusals(&k, label);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    snprintf(label, sizeof label, "%s, after commits", what);
+    rj_refusals(&k, label);
+    assert_int_equal(dfn_local_call(&k.n), DKF_OK);
+    snprintf(label, sizeof label, "%s, pending", what);
+    rj_refusals(&k, label);
+    in[0] = k.n.nd.pkt;
+    assert_int_equal(dkf_dfnerts_node_mix(&k.n.nd, in, &one, 1, NULL), DKF_OK);
+    snprintf(label, sizeof label, "%s, pending after a round", what);
+    rj_refusals(&k, label);
+    /* the node still completes its step, then takes a valid prior */
+    assert_int_equal(dkf_dfnerts_node_commit(&k.n.nd), DKF_OK);
+    rj_valid(&k);
+    assert_int_equal(rj_rejoin_call(&k), DKF_OK);
+    assert_int_equal(k.n.nd.f.k, 7);
+    assert_int_equal(rj_restart_call(&k), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+}
+
+static void test_dfnerts_restart_rejoin(void **state)
+{
+    (void)state;
+    dfn_every_case(rj_case);
+}
+
+/* The review's case exactly: PAPER, p = 1, a step pending after local and
+ * a round, a rejoin whose packet is fine but whose Pd0 = [[-1]] is
+ * refused: DKF_ERR_NOT_SPD and the node bit-identical. */
+static void test_dfnerts_rejoin_refused_pd0(void **state)
+{
+    static rj_ctx_t k;
+    const dkf_real_t *in[1];
+    const dkf_real_t one = DKF_R(1.0);
+    (void)state;
+    dfn_fixture(&k.n);
+    assert_int_equal(dfn_init(&k.n, DKF_NERTS_DNERTSIF, DKF_DFNERTS_PAPER), DKF_OK);
+    assert_int_equal(dfn_step(&k.n), DKF_OK);
+    assert_int_equal(dfn_local_call(&k.n), DKF_OK);
+    in[0] = k.n.nd.pkt;
+    assert_int_equal(dkf_dfnerts_node_mix(&k.n.nd, in, &one, 1, NULL), DKF_OK);
+    rj_valid(&k);
+    memcpy(k.pkt, k.n.nd.pkt, k.n.nd.pkt_len * sizeof(dkf_real_t));
+    meye(&k.Pd0, NP, -1.0);
+    rj_regions(&k);
+    assert_int_equal(k.n.nd.pending, 1);
+    EXPECT_UNTOUCHED(&k.n.g, DKF_ERR_NOT_SPD, rj_rejoin_call(&k), "rejoin: Pd0 = [[-1]], pending");
+    EXPECT_UNTOUCHED(&k.n.g, DKF_ERR_NOT_SPD, rj_restart_call(&k),
+                     "restart: Pd0 = [[-1]], pending");
+    assert_int_equal(dkf_dfnerts_node_commit(&k.n.nd), DKF_OK);
+}
+
+/* ---- dfnerts network ---------------------------------------------------------------------- */
+
+/* dfnerts_fixture.h's four sensors on the complete graph, Metropolis W. */
+#define DNN DFN_NODES
+
+typedef struct {
+    dkf_dfnerts_net_t net;
+    dkf_dfnerts_node_t nodes[DNN];
+    dkf_real_t st[DKF_DFNERTS_NET_STORAGE_LEN(DNN, DFN_N, DFN_M, 1)];
+    lxs_t c[DNN];
+    dkf_nl_model_t md[DNN];
+    mbuf_t Qb[DNN], Rb[DNN], zb[DNN];
+    dkf_mat_t Q[DNN], R[DNN], z[DNN];
+    size_t start[DNN + 1], nbr[DKF_GRAPH_NNZ(DNN, 6)];
+    dkf_graph_t g;
+    dkf_real_t W[DKF_GRAPH_NNZ(DNN, 6)];
+    size_t Tp;
+    dkf_real_t scale;
+    regions_t g_all;
+} dnet_ctx_t;
+
+static dkf_status_t dnet_step_call(void *c)
+{
+    dnet_ctx_t *k = c;
+    return dkf_dfnerts_net_step(&k->net, k->md, NULL, k->Q, NULL, k->R, k->z, k->W, k->Tp,
+                                k->scale);
+}
+
+static void dnet_make(dnet_ctx_t *k, dkf_dfnerts_variant_t variant)
+{
+    static const size_t edges[12] = {0, 1, 0, 2, 0, 3, 1, 2, 1, 3, 2, 3};
+    static const double x0[DFN_N] = {0}, P0[DFN_N * DFN_N] = {1, 0, 0, 1}, d0[1] = {0},
+                        Pd0[1] = {1}, Pxd0[DFN_N] = {0};
+    static mbuf_t bx, bP, bd, bPd, bPxd;
+    dkf_mat_t x[DNN], P[DNN], d[DNN], Pd[DNN], Pxd[DNN];
+    size_t l;
+    assert_int_equal(dkf_graph_from_edges(&k->g, k->start, k->nbr, DKF_GRAPH_NNZ(DNN, 6), DNN,
+                                          edges, 6),
+                     DKF_OK);
+    assert_int_equal(dkf_graph_weights_metropolis(k->W, &k->g), DKF_OK);
+    mset(&bx, DFN_N, 1, x0), mset(&bP, DFN_N, DFN_N, P0), mset(&bd, 1, 1, d0);
+    mset(&bPd, 1, 1, Pd0), mset(&bPxd, DFN_N, 1, Pxd0);
+    for (l = 0; l < DNN; ++l) {
+        const double R[4] = {dfn_R[l][0], 0, 0, dfn_R[l][1]}, z[2] = {0.3 * (double)l, -0.2};
+        lxs_t *c = &k->c[l];
+        memset(c, 0, sizeof *c);
+        c->n = DFN_N, c->m = DFN_M, c->p = 1, c->linear = 1;
+        memcpy(c->A, dfn_F, sizeof dfn_F);
+        memcpy(c->B, dfn_G, sizeof dfn_G);
+        memcpy(c->C, dfn_H[l], sizeof dfn_H[l]);
+        memcpy(c->H, dfn_D[l], sizeof dfn_D[l]);
+        k->md[l] = lxs_model(c, 1);
+        k->Q[l] = *mset(&k->Qb[l], DFN_N, DFN_N, dfn_Q);
+        k->R[l] = *mset(&k->Rb[l], DFN_M, DFN_M, R);
+        k->z[l] = *mset(&k->zb[l], DFN_M, 1, z);
+        x[l] = bx.v, P[l] = bP.v, d[l] = bd.v, Pd[l] = bPd.v, Pxd[l] = bPxd.v;
+    }
+    {
+        static const size_t m[DNN] = {DFN_M, DFN_M, DFN_M, DFN_M};
+        assert_int_equal(dkf_dfnerts_net_init(&k->net, &k->g, k->nodes, DKF_NERTS_DNERTSIF,
+                                              variant, DFN_N, m, 1, k->st,
+                                              sizeof k->st / sizeof k->st[0], x, P, d, Pd, Pxd),
+                         DKF_OK);
+    }
+    k->Tp = 3;
+    k->scale = DKF_R(1.0) * (dkf_real_t)DNN;
+    reg_clear(&k->g_all);
+    reg_add(&k->g_all, &k->net, sizeof k->net);
+    reg_add(&k->g_all, k->nodes, sizeof k->nodes);
+    for (l = 0; l < DNN; ++l)
+        reg_add(&k->g_all, k->st + l * DKF_DFNERTS_NODE_STORAGE_LEN(DFN_N, DFN_M, 1),
+                DKF_DFNERTS_NODE_STATE_LEN(DFN_N, DFN_M, 1) * sizeof(dkf_real_t));
+}
+
+/* The network step's checks in order: a node pending, the arguments, each
+ * node's local step (the first node, the last after the others ran
+ * theirs), and (PAPER) the commit that the mixed joint covariance fails
+ * at, with an odd and an even T_p. */
+static void test_dfnerts_net(void **state)
+{
+    static dnet_ctx_t k;
+    static const char *const qn[] = {"Q0", "R0", "z0"}, *const rn[] = {"R3", "z3"};
+    dkf_mat_t *v[3];
+    dkf_real_t Wbad[DKF_GRAPH_NNZ(DNN, 6)];
+    (void)state;
+    dnet_make(&k, DKF_DFNERTS_PAPER);
+    k.Tp = 3;
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_NOT_SPD, dnet_step_call(&k),
+                     "dfnerts_net_step (PAPER): mixed covariance indefinite, T_p = 3");
+    k.Tp = 2;
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_NOT_SPD, dnet_step_call(&k),
+                     "dfnerts_net_step (PAPER): mixed covariance indefinite, T_p = 2");
+    dnet_make(&k, DKF_DFNERTS_JOINT);
+    assert_int_equal(dnet_step_call(&k), DKF_OK);
+    k.Tp = 0;
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_ARG, dnet_step_call(&k), "dfnerts_net_step: T_p = 0");
+    k.Tp = 3;
+    k.scale = DKF_R(0.0);
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_ARG, dnet_step_call(&k), "dfnerts_net_step: s = 0");
+    k.scale = (dkf_real_t)DNN;
+    memcpy(Wbad, k.W, sizeof Wbad);
+    k.W[0] += DKF_R(0.25);
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_WEIGHTS, dnet_step_call(&k), "dfnerts_net_step: W");
+    memcpy(k.W, Wbad, sizeof Wbad);
+    v[0] = &k.Q[0], v[1] = &k.R[0], v[2] = &k.z[0];
+    sweep("dfnerts_net_step (node 0)", dnet_step_call, &k, v, qn, 3, &k.g_all);
+    v[0] = &k.R[DNN - 1], v[1] = &k.z[DNN - 1];
+    sweep("dfnerts_net_step (the last node)", dnet_step_call, &k, v, rn, 2, &k.g_all);
+    k.c[2].fail_h = 1;
+    EXPECT_UNTOUCHED(&k.g_all, DKF_ERR_MODEL, dnet_step_call(&k), "dfnerts_net_step: h fails at 2");
+    k.c[2].fail_h = 0;
+    assert_int_equal(dkf_dfnerts_node_local(&k.nodes[1], &k.md[1], NULL, &k.Q[1], NULL, &k.R[1],
+                                            &k.z[1], k.scale, NULL),
+                     DKF_OK);
+    {
+        regions_t gp = k.g_all;
+        reg_add(&gp, k.st + DKF_DFNERTS_NODE_STORAGE_LEN(DFN_N, DFN_M, 1) +
+                         DKF_DFNERTS_NODE_PENDING_AT(DFN_N, DFN_M, 1),
+                DKF_DFNERTS_NODE_PENDING_LEN(DFN_N, DFN_M, 1) * sizeof(dkf_real_t));
+        EXPECT_UNTOUCHED(&gp, DKF_ERR_STATE, dnet_step_call(&k),
+                         "dfnerts_net_step: node 1 pending");
+    }
+    assert_int_equal(dkf_dfnerts_node_cancel(&k.nodes[1]), DKF_OK);
+    assert_int_equal(dnet_step_call(&k), DKF_OK);
+}
+
+/* ---- weighted fusion ------------------------------------------------------------------------ */
+
+#define WN 2
+#define WL 2
+
+typedef struct {
+    dkf_wfusion_t fu;
+    dkf_wfusion_local_t nodes[WL];
+    dkf_real_t st[DKF_WFUSION_STORAGE_LEN(WN, WL, 1)];
+    dkf_wfusion_local_t loc;
+    dkf_real_t lst[DKF_WFUSION_LOCAL_STORAGE_LEN(WN, 1)];
+    mbuf_t F, Q, H[WL], R[WL], y[WL];
+    dkf_kf_dyn_t dyn;
+    dkf_kf_meas_t meas[WL];
+    dkf_mat_t ys[WL];
+    const dkf_mat_t *xs[WL];
+    dkf_real_t ck[512];
+    regions_t gl, gf;
+} wf_ctx_t;
+
+static dkf_status_t wf_local_step_call(void *c)
+{
+    wf_ctx_t *k = c;
+    return dkf_wfusion_local_step(&k->loc, &k->dyn, &k->meas[0], &k->y[0].v);
+}
+static dkf_status_t wf_local_steady_call(void *c)
+{
+    wf_ctx_t *k = c;
+    return dkf_wfusion_local_steady(&k->loc, &k->dyn, &k->meas[0]);
+}
+static dkf_status_t wf_step_call(void *c)
+{
+    wf_ctx_t *k = c;
+    k->ys[0] = k->y[0].v, k->ys[1] = k->y[1].v;
+    return dkf_wfusion_step(&k->fu, &k->dyn, k->meas, k->ys);
+}
+static dkf_status_t wf_steady_call(void *c)
+{
+    wf_ctx_t *k = c;
+    return dkf_wfusion_steady(&k->fu, &k->dyn, k->meas);
+}
+
+static void wf_model(wf_ctx_t *k)
+{
+    static const double F[4] = {1.0, 0.1, 0.0, 0.9}, Q[4] = {0.01, 0.0, 0.0, 0.02};
+    static const double H[WL][2] = {{1.0, 0.0}, {1.0, 1.0}}, R[1] = {0.1}, y[WL] = {0.3, -0.2};
+    size_t i;
+    mset(&k->F, WN, WN, F), mset(&k->Q, WN, WN, Q);
+    k->dyn.F = &k->F.v, k->dyn.Q = &k->Q.v;
+    for (i = 0; i < WL; ++i) {
+        mset(&k->H[i], 1, WN, H[i]), mset(&k->R[i], 1, 1, R), mset(&k->y[i], 1, 1, &y[i]);
+        k->meas[i].H = &k->H[i].v, k->meas[i].R = &k->R[i].v;
+    }
+}
+
+/* The local filter and the fusion: every input of their steps and
+ * steady-state switches, an indefinite R, a model with no stabilising
+ * solution, the fusions without a sensor or with a NaN estimate, the
+ * checkpoints; a filter never initialised. */
+static void test_wfusion(void **state)
+{
+    static wf_ctx_t k;
+    static const char *const ln[] = {"F", "Q", "H", "R", "y"}, *const fn[] = {"F", "Q", "H0", "R1"};
+    static const size_t m[WL] = {1, 1};
+    static const double Hs[WN] = {1.0, 0.0};
+    dkf_mat_t *v[5];
+    mbuf_t x0, P0, bHs;
+    mbuf_t xbad;
+    dkf_wfusion_local_t blank;
+    size_t len, i;
+    (void)state;
+    wf_model(&k);
+    mset(&x0, WN, 1, x3), mset(&P0, WN, WN, P3), mset(&bHs, 1, WN, Hs);
+    P0.d[1] = P0.d[2] = DKF_R(0.2); /* P3's leading 2 x 2 block, symmetric */
+    P0.d[3] = DKF_R(1.5);
+    assert_int_equal(dkf_wfusion_local_init(&k.loc, WN, 1, k.lst,
+                                            DKF_WFUSION_LOCAL_STORAGE_LEN(WN, 1), &x0.v, &P0.v),
+                     DKF_OK);
+    assert_int_equal(dkf_wfusion_init(&k.fu, WN, WL, m, k.nodes, k.st,
+                                      sizeof k.st / sizeof k.st[0], &bHs.v, &x0.v, &P0.v),
+                     DKF_OK);
+    assert_int_equal(wf_local_step_call(&k), DKF_OK);
+    assert_int_equal(wf_step_call(&k), DKF_OK);
+    reg_clear(&k.gl);
+    reg_add(&k.gl, &k.loc, sizeof k.loc);
+    reg_add(&k.gl, k.lst, DKF_WFUSION_LOCAL_STATE_LEN(WN, 1) * sizeof(dkf_real_t));
+    reg_clear(&k.gf);
+    reg_add(&k.gf, &k.fu, sizeof k.fu);
+    reg_add(&k.gf, k.nodes, sizeof k.nodes);
+    for (i = 0; i < WL; ++i)
+        reg_add(&k.gf, k.st + i * DKF_WFUSION_LOCAL_STORAGE_LEN(WN, 1),
+                DKF_WFUSION_LOCAL_STATE_LEN(WN, 1) * sizeof(dkf_real_t));
+    reg_add(&k.gf, k.fu.Pj.data,
+            (WN * WL * WN * WL + WN + WL * WL + WL + WN * WN * WL + WN + WN * WN) *
+                sizeof(dkf_real_t));
+    v[0] = &k.F.v, v[1] = &k.Q.v, v[2] = &k.H[0].v, v[3] = &k.R[0].v, v[4] = &k.y[0].v;
+    sweep("wfusion_local_step", wf_local_step_call, &k, v, ln, 5, &k.gl);
+    sweep("wfusion_local_steady", wf_local_steady_call, &k, v, ln, 4, &k.gl);
+    sweep("wfusion_step", wf_step_call, &k, v, ln, 5, &k.gf);
+    v[2] = &k.H[0].v, v[3] = &k.R[1].v;
+    sweep("wfusion_steady", wf_steady_call, &k, v, fn, 4, &k.gf);
+    meye(&k.R[0], 1, -1.0);
+    EXPECT_UNTOUCHED(&k.gl, DKF_ERR_NOT_SPD, wf_local_step_call(&k), "wfusion_local_step: R = -1");
+    EXPECT_UNTOUCHED(&k.gf, DKF_ERR_NOT_SPD, wf_step_call(&k), "wfusion_step: R0 = -1");
+    meye(&k.R[0], 1, 0.1);
+    /* F = 2 I seen by no sensor: no stabilising solution */
+    meye(&k.F, WN, 2.0);
+    meye(&k.H[0], 1, 0.0), k.H[0].v.cols = WN;
+    meye(&k.H[1], 1, 0.0), k.H[1].v.cols = WN;
+    EXPECT_UNTOUCHED(&k.gl, ANY_ERR, wf_local_steady_call(&k),
+                     "wfusion_local_steady: undetectable");
+    EXPECT_UNTOUCHED(&k.gf, ANY_ERR, wf_steady_call(&k), "wfusion_steady: undetectable");
+    wf_model(&k);
+    /* the fusions: no sensor, a NaN estimate */
+    {
+        regions_t gr = k.gf;
+        const dkf_mat_t *none[WL] = {NULL, NULL};
+        reg_add(&gr, &xbad, sizeof xbad);
+        mset(&xbad, WN, 1, x3);
+        xbad.d[1] = (dkf_real_t)NAN;
+        k.xs[0] = &x0.v, k.xs[1] = &xbad.v;
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_ARG, dkf_wfusion_fuse_scalar(&k.fu, none),
+                         "wfusion_fuse_scalar: no sensor");
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_ARG, dkf_wfusion_fuse_matrix(&k.fu, none),
+                         "wfusion_fuse_matrix: no sensor");
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_NONFINITE, dkf_wfusion_fuse_scalar(&k.fu, k.xs),
+                         "wfusion_fuse_scalar: NaN estimate");
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_NONFINITE, dkf_wfusion_fuse_matrix(&k.fu, k.xs),
+                         "wfusion_fuse_matrix: NaN estimate");
+    }
+    /* checkpoints */
+    len = dkf_wfusion_checkpoint_len(&k.fu);
+    assert_true(len > 0 && len <= sizeof k.ck / sizeof k.ck[0]);
+    assert_int_equal(dkf_wfusion_save(&k.fu, k.ck, len), DKF_OK);
+    {
+        regions_t gr = k.gf;
+        reg_add(&gr, k.ck, len * sizeof k.ck[0]);
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_CAPACITY, dkf_wfusion_save(&k.fu, k.ck, len - 1),
+                         "wfusion_save: short");
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_CAPACITY, dkf_wfusion_restore(&k.fu, k.ck, len - 1),
+                         "wfusion_restore: short");
+        k.ck[0] += DKF_R(1.0);
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_ARG, dkf_wfusion_restore(&k.fu, k.ck, len),
+                         "wfusion_restore: tag");
+        k.ck[0] -= DKF_R(1.0);
+        k.ck[len - 1] = (dkf_real_t)NAN;
+        EXPECT_UNTOUCHED(&gr, DKF_ERR_NONFINITE, dkf_wfusion_restore(&k.fu, k.ck, len),
+                         "wfusion_restore: NaN");
+    }
+    memset(&blank, 0, sizeof blank);
+    reg_clear(&k.gl);
+    reg_add(&k.gl, &blank, sizeof blank);
+    EXPECT_UNTOUCHED(&k.gl, DKF_ERR_STATE,
+                     dkf_wfusion_local_step(&blank, &k.dyn, &k.meas[0], &k.y[0].v),
+                     "wfusion_local_step: blank");
+}
+
+/* ---- self-tuning identifier ------------------------------------------------------------------ */
+
+/* The seed's example orders (na = 2, np = 2, nc = 1, K = 5, L = 2): a NaN
+ * measurement after the warm-up, the queries with short or misshaped
+ * outputs, another estimate's orders, a negative variance; an identifier
+ * never initialised. */
+static void test_selftune(void **state)
+{
+    static const dkf_real_t p2[2] = {DKF_R(-0.7), DKF_R(0.5)}, sv[2] = {DKF_R(0.1), DKF_R(0.2)};
+    static dkf_selftune_t id, blank;
+    static dkf_real_t st[DKF_SELFTUNE_STORAGE_LEN(2, 2, 1, 5)], r[8];
+    static dkf_selftune_est_t est, other;
+    static mbuf_t F, Q;
+    dkf_selftune_cfg_t c;
+    dkf_real_t y[2];
+    size_t t, n = 0;
+    regions_t g;
+    (void)state;
+    assert_int_equal(dkf_selftune_config_default(&c), DKF_OK);
+    c.np = 2, c.p = p2, c.L = 2, c.sigma_v2 = sv, c.sigma_xi2 = DKF_R(0.3), c.t_min = 8;
+    assert_int_equal(dkf_selftune_init(&id, &c, st, sizeof st / sizeof st[0]), DKF_OK);
+    for (t = 0; t < 20; ++t) {
+        y[0] = (dkf_real_t)sin(0.7 * (double)t), y[1] = (dkf_real_t)cos(0.3 * (double)t);
+        assert_int_equal(dkf_selftune_update(&id, y), DKF_OK);
+    }
+    assert_int_equal(dkf_selftune_estimate(&id, &est), DKF_OK);
+    assert_int_equal(dkf_selftune_model_dim(&id, &n), DKF_OK);
+    reg_clear(&g);
+    reg_add(&g, &id, sizeof id);
+    reg_add(&g, st, sizeof st);
+    reg_add(&g, r, sizeof r);
+    reg_add(&g, &F, sizeof F);
+    reg_add(&g, &Q, sizeof Q);
+    y[1] = (dkf_real_t)NAN;
+    EXPECT_UNTOUCHED(&g, DKF_ERR_NONFINITE, dkf_selftune_update(&id, y), "selftune_update: NaN");
+    EXPECT_UNTOUCHED(&g, DKF_ERR_CAPACITY, dkf_selftune_autocov(&id, r, 5),
+                     "selftune_autocov: len = K");
+    EXPECT_UNTOUCHED(&g, DKF_ERR_CAPACITY, dkf_selftune_noise_autocov(&id, r, 5),
+                     "selftune_noise_autocov: len = K");
+    meye(&F, n, 0.0), meye(&Q, n, 0.0);
+    F.v.rows = n + 1;
+    EXPECT_UNTOUCHED(&g, DKF_ERR_DIM, dkf_selftune_model(&id, &est, &F.v, &Q.v),
+                     "selftune_model: F (n + 1) x n");
+    F.v.rows = n;
+    other = est;
+    other.nc = 0;
+    EXPECT_UNTOUCHED(&g, DKF_ERR_ARG, dkf_selftune_model(&id, &other, &F.v, &Q.v),
+                     "selftune_model: another estimate's orders");
+    other = est;
+    other.sigma_w2 = DKF_R(-1.0);
+    EXPECT_UNTOUCHED(&g, DKF_ERR_ARG, dkf_selftune_model(&id, &other, &F.v, &Q.v),
+                     "selftune_model: sigma_w^2 < 0");
+    memset(&blank, 0, sizeof blank);
+    memset(&other, 0x5a, sizeof other);
+    reg_add(&g, &blank, sizeof blank);
+    reg_add(&g, &other, sizeof other);
+    y[1] = DKF_R(0.0);
+    EXPECT_UNTOUCHED(&g, DKF_ERR_STATE, dkf_selftune_update(&blank, y), "selftune_update: blank");
+    EXPECT_UNTOUCHED(&g, DKF_ERR_STATE, dkf_selftune_estimate(&blank, &other),
+                     "selftune_estimate: blank");
+    EXPECT_UNTOUCHED(&g, DKF_ERR_STATE, dkf_selftune_model_dim(&blank, &n),
+                     "selftune_model_dim: blank");
 }
 
 /* ---- exact storage, every module ------------------------------------------------------------ */
@@ -1670,6 +2377,8 @@ typedef struct {
     size_t (*len)(dims_t d);
     dkf_status_t (*init)(dims_t d, dkf_real_t *st, size_t len);
     dims_t shape[XS_SHAPES];
+    /* the state parts of xs_st (each node's, for a network) into g */
+    void (*state)(dims_t d, regions_t *g);
 } xs_module_t;
 
 /* the object under test (one of), with room for its node arrays */
@@ -1703,16 +2412,28 @@ static union {
     dkf_selftune_t selftune;
 } xs_obj;
 static dkf_real_t xs_st[XS_CAP + 1];
-static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[2][DKF_MAX_DIM * DKF_MAX_DIM];
+static dkf_real_t xs_x0[DKF_MAX_DIM], xs_P0[3][DKF_MAX_DIM * DKF_MAX_DIM];
+/* 1: the covariance priors are refused (test_init_over_live) */
+static int xs_refuse;
 
 /* x0 = 0 (n), P0 = I (n x n): a prior every init accepts; the input
- * prior d0 = 0, Pd0 = I (p x p) of askf and otskf likewise (buffer 1). */
-static dkf_mat_t xs_x(size_t n) { return test_view(n, 1, xs_x0); }
+ * prior d0 = 0, Pd0 = I (p x p) of askf and otskf likewise (buffer 1).
+ * With xs_refuse, x0 = 0.25 and P0 = diag(1, .., 1, -1): refused by the
+ * last pivot of its factorisation, after every other check. */
+static dkf_mat_t xs_x(size_t n)
+{
+    static dkf_real_t x1[DKF_MAX_DIM];
+    size_t i;
+    if (!xs_refuse) return test_view(n, 1, xs_x0);
+    for (i = 0; i < n; ++i) x1[i] = DKF_R(0.25); /* unlike the live object's */
+    return test_view(n, 1, x1);
+}
 static dkf_mat_t xs_eye_in(size_t b, size_t n)
 {
     size_t i;
     memset(xs_P0[b], 0, sizeof xs_P0[b]);
     for (i = 0; i < n; ++i) xs_P0[b][i * n + i] = DKF_R(1.0);
+    if (xs_refuse && n > 0) xs_P0[b][n * n - 1] = DKF_R(-1.0);
     return test_view(n, n, xs_P0[b]);
 }
 static dkf_mat_t xs_eye(size_t n) { return xs_eye_in(0, n); }
@@ -1855,9 +2576,17 @@ static dkf_status_t dfn_net_init(dims_t d, dkf_real_t *st, size_t len)
     assert_int_equal(dkf_graph_from_edges(&g, start, nbr, DKF_GRAPH_NNZ(XS_NODES, XS_NODES - 1),
                                           d.l, edges, d.l - 1),
                      DKF_OK);
-    for (e = 0; e < d.l; ++e) {
-        x[e] = xs_x(d.n), P[e] = xs_eye(d.n), dd[e] = xs_x(d.p), Pd[e] = xs_eye_in(1, d.p);
-        Pxd[e] = test_view(d.n, d.p, xs_x0);
+    {
+        /* with xs_refuse, only the last node's P0 is refused */
+        const int refuse = xs_refuse;
+        for (e = 0; e < d.l; ++e) {
+            x[e] = xs_x(d.n), dd[e] = xs_x(d.p);
+            Pxd[e] = test_view(d.n, d.p, xs_x0);
+        }
+        xs_refuse = 0;
+        for (e = 0; e < d.l; ++e) P[e] = xs_eye(d.n), Pd[e] = xs_eye_in(1, d.p);
+        xs_refuse = refuse;
+        P[d.l - 1] = xs_eye_in(2, d.n);
     }
     dfn_net_m(d, m);
     return dkf_dfnerts_net_init(&xs_obj.dfn_net.net, &g, xs_obj.dfn_net.nodes, DKF_NERTS_DNERTSIF,
@@ -1924,79 +2653,204 @@ static dkf_status_t selftune_init(dims_t d, dkf_real_t *st, size_t len)
     c.nc = d.p;
     c.lags = d.l;
     c.p = p;
-    c.sigma_xi2 = DKF_R(0.3);
+    if (xs_refuse) c.sigma_xi2 = DKF_R(-1.0); /* refused by init's checks */
+    else
+        c.sigma_xi2 = DKF_R(0.3);
     c.L = 2;
     c.sigma_v2 = sv;
     return dkf_selftune_init(&xs_obj.selftune, &c, st, len);
 }
 
+/* The state parts of xs_st: one region from the start, or one per node
+ * of a network at node l's storage. */
+static void xs_state_at(regions_t *g, size_t off, size_t len)
+{
+    reg_add(g, xs_st + off, len * sizeof(dkf_real_t));
+}
+static void kf_state(dims_t d, regions_t *g) { xs_state_at(g, 0, DKF_KF_STATE_LEN(d.n, d.m)); }
+static void info_state(dims_t d, regions_t *g) { xs_state_at(g, 0, DKF_INFO_STATE_LEN(d.n)); }
+static void askf_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_ASKF_STATE_LEN(d.n, d.m, d.p));
+}
+static void otskf_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_OTSKF_STATE_LEN(d.n, d.p));
+}
+static void diffkf_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_DIFFKF_STATE_LEN(d.n, d.m, d.p));
+}
+static void fc_state(dims_t d, regions_t *g)
+{
+    size_t m[XS_NODES], p[XS_NODES], i;
+    for (i = 0; i < d.l; ++i) m[i] = d.m, p[i] = d.p;
+    xs_state_at(g, 0, dkf_diffkf_fc_state_len(d.n, d.l, m, p));
+}
+static void uif_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_UIF_STATE_LEN(d.n, d.m, d.p));
+}
+static void nerts_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_NERTS_STATE_LEN(d.n, d.m, d.p));
+}
+static void dfn_node_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_DFNERTS_NODE_STATE_LEN(d.n, d.m, d.p));
+}
+static void dfn_net_state(dims_t d, regions_t *g)
+{
+    size_t l;
+    for (l = 0; l < d.l; ++l)
+        xs_state_at(g, l * DKF_DFNERTS_NODE_STORAGE_LEN(d.n, d.m, d.p),
+                    DKF_DFNERTS_NODE_STATE_LEN(d.n, d.m, d.p));
+}
+static void tw_node_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_TW_NODE_STATE_LEN(d.n, d.p));
+}
+static void tw_net_state(dims_t d, regions_t *g)
+{
+    size_t l;
+    for (l = 0; l < d.l; ++l)
+        xs_state_at(g, l * DKF_TW_NODE_STORAGE_LEN(d.n, d.m, d.p), DKF_TW_NODE_STATE_LEN(d.n, d.p));
+}
+static void wf_local_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_WFUSION_LOCAL_STATE_LEN(d.n, d.m));
+}
+/* each local filter's state, then the fusion's: P_ij, Hs and the last
+ * fusions' results (wfusion.c's layout) */
+static void wf_state(dims_t d, regions_t *g)
+{
+    const size_t N = d.n * d.l, own = d.l * DKF_WFUSION_LOCAL_STORAGE_LEN(d.n, d.m);
+    size_t i;
+    for (i = 0; i < d.l; ++i)
+        xs_state_at(g, i * DKF_WFUSION_LOCAL_STORAGE_LEN(d.n, d.m),
+                    DKF_WFUSION_LOCAL_STATE_LEN(d.n, d.m));
+    xs_state_at(g, own, N * N + d.n + d.l * d.l + d.l + d.n * N + d.n + d.n * d.n);
+}
+static void selftune_state(dims_t d, regions_t *g)
+{
+    xs_state_at(g, 0, DKF_SELFTUNE_STATE_LEN(d.n, d.m, d.p, d.l));
+}
+
 static const xs_module_t xs_modules[] = {
-    {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}}},
-    {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}},
-    {"askf", askf_len, askf_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {3, 5, 1, 0}, {6, 3, 4, 0}}},
+    {"kf", kf_len, kf_init, {{1, 1, 0, 0}, {4, 2, 0, 0}, {2, 6, 0, 0}, {6, 6, 0, 0}, {7, 1, 0, 0}},
+     kf_state},
+    {"info", info_len, info_init, {{1, 0, 0, 0}, {3, 0, 0, 0}, {8, 0, 0, 0}}, info_state},
+    {"askf", askf_len, askf_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {3, 5, 1, 0}, {6, 3, 4, 0}},
+     askf_state},
     {"otskf", otskf_len, otskf_init,
-     {{1, 1, 1, 0}, {4, 2, 2, 0}, {2, 5, 4, 0}, {6, 3, 2, 0}, {3, 1, 6, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 2, 0}, {2, 5, 4, 0}, {6, 3, 2, 0}, {3, 1, 6, 0}}, otskf_state},
     {"diffkf", diffkf_len, diffkf_init,
-     {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 2, 0}, {3, 5, 4, 0}, {6, 6, 6, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 2, 0}, {3, 5, 4, 0}, {6, 6, 6, 0}}, diffkf_state},
     {"diffkf_fc", fc_len, fc_init,
-     {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 3, 1, 4}, {6, 2, 1, 2}, {2, 4, 2, 2}}},
-    {"uif RTSF", uif_len, rtsf_init, {{1, 1, 1, 0}, {4, 3, 2, 0}, {2, 5, 4, 0}, {6, 2, 2, 0}}},
+     {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 3, 1, 4}, {6, 2, 1, 2}, {2, 4, 2, 2}}, fc_state},
+    {"uif RTSF", uif_len, rtsf_init, {{1, 1, 1, 0}, {4, 3, 2, 0}, {2, 5, 4, 0}, {6, 2, 2, 0}},
+     uif_state},
     {"uif NRTSF-DF", uif_len, nrtsf_df_init,
-     {{1, 1, 1, 0}, {4, 2, 3, 0}, {2, 5, 4, 0}, {6, 3, 1, 0}}},
-    {"uif NRTSF", uif_len, nrtsf_init, {{1, 1, 1, 0}, {4, 2, 3, 0}, {3, 5, 2, 0}, {6, 1, 4, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 3, 0}, {2, 5, 4, 0}, {6, 3, 1, 0}}, uif_state},
+    {"uif NRTSF", uif_len, nrtsf_init, {{1, 1, 1, 0}, {4, 2, 3, 0}, {3, 5, 2, 0}, {6, 1, 4, 0}},
+     uif_state},
     {"nerts NERTSF", nerts_len, nertsf_init,
-     {{1, 1, 0, 0}, {3, 3, 1, 0}, {4, 3, 1, 0}, {2, 6, 4, 0}, {6, 2, 2, 0}, {4, 36, 1, 0}}},
+     {{1, 1, 0, 0}, {3, 3, 1, 0}, {4, 3, 1, 0}, {2, 6, 4, 0}, {6, 2, 2, 0}, {4, 36, 1, 0}},
+      nerts_state},
     {"nerts DNERTSIF", nerts_len, dnertsif_init,
-     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}, nerts_state},
     {"dfnerts node PAPER", dfn_node_len, dfn_paper_init,
-     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {4, 36, 1, 0}}, dfn_node_state},
     {"dfnerts node JOINT", dfn_node_len, dfn_joint_init,
-     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {3, 5, 2, 0}}},
+     {{1, 1, 1, 0}, {4, 2, 0, 0}, {4, 3, 1, 0}, {5, 4, 3, 0}, {3, 5, 2, 0}}, dfn_node_state},
     {"dfnerts net", dfn_net_len, dfn_net_init,
-     {{1, 1, 1, 1}, {4, 3, 1, 4}, {4, 2, 0, 3}, {2, 3, 2, 2}}},
-    {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}}},
-    {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}}},
+     {{1, 1, 1, 1}, {4, 3, 1, 4}, {4, 2, 0, 3}, {2, 3, 2, 2}}, dfn_net_state},
+    {"tw_node", tw_node_len, tw_node_init, {{1, 1, 1, 0}, {4, 2, 2, 0}, {6, 3, 5, 0}, {5, 5, 1, 0}},
+     tw_node_state},
+    {"tw_net", tw_net_len, tw_net_init, {{1, 1, 1, 1}, {4, 2, 2, 3}, {3, 5, 1, 4}, {2, 1, 2, 2}},
+     tw_net_state},
     {"wfusion local", wf_local_len, wf_local_init,
-     {{1, 1, 0, 0}, {4, 1, 0, 0}, {4, 3, 0, 0}, {6, 2, 0, 0}, {2, 7, 0, 0}}},
-    {"wfusion", wf_len, wf_init, {{1, 1, 0, 1}, {4, 1, 0, 4}, {3, 2, 0, 4}, {2, 3, 0, 3}, {6, 4, 0, 2}}},
+     {{1, 1, 0, 0}, {4, 1, 0, 0}, {4, 3, 0, 0}, {6, 2, 0, 0}, {2, 7, 0, 0}}, wf_local_state},
+    {"wfusion", wf_len, wf_init,
+     {{1, 1, 0, 1}, {4, 1, 0, 4}, {3, 2, 0, 4}, {2, 3, 0, 3}, {6, 4, 0, 2}}, wf_state},
     {"selftune", selftune_len, selftune_init,
-     {{1, 0, 0, 1}, {2, 2, 1, 5}, {4, 4, 1, 32}, {3, 1, 0, 7}, {2, 0, 1, 3}}},
+     {{1, 0, 0, 1}, {2, 2, 1, 5}, {4, 4, 1, 32}, {3, 1, 0, 7}, {2, 0, 1, 3}}, selftune_state},
 };
 
-static void test_exact_storage(void **state)
+/* check(md, d, len) for every module md and each of its shapes d
+ * (len = its storage length); the count of shapes. */
+static size_t xs_each_shape(void (*check)(const xs_module_t *md, dims_t d, size_t len))
 {
-    static unsigned char before[sizeof xs_obj];
-    const dkf_real_t sentinel = DKF_R(1234.5);
     size_t i, s, checked = 0;
-    (void)state;
     for (i = 0; i < sizeof xs_modules / sizeof xs_modules[0]; ++i) {
         const xs_module_t *md = &xs_modules[i];
         for (s = 0; s < XS_SHAPES && md->shape[s].n != 0; ++s) {
-            const dims_t d = md->shape[s];
-            const size_t len = md->len(d);
-            dkf_status_t st;
+            const size_t len = md->len(md->shape[s]);
             assert_true(len > 0 && len <= XS_CAP);
-            memset(&xs_obj, 0x5a, sizeof xs_obj);
-            memcpy(before, &xs_obj, sizeof xs_obj);
-            st = md->init(d, xs_st, len - 1);
-            if (st != DKF_ERR_CAPACITY || memcmp(before, &xs_obj, sizeof xs_obj) != 0) {
-                print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu - 1: status %s%s\n", md->name,
-                            d.n, d.m, d.p, d.l, len, dkf_status_str(st),
-                            st == DKF_ERR_CAPACITY ? ", the object changed" : "");
-                fail();
-            }
-            xs_st[len] = sentinel;
-            st = md->init(d, xs_st, len);
-            if (st != DKF_OK || xs_st[len] != sentinel) {
-                print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu: status %s%s\n", md->name,
-                            d.n, d.m, d.p, d.l, len, dkf_status_str(st),
-                            st == DKF_OK ? ", wrote past the storage" : "");
-                fail();
-            }
+            check(md, md->shape[s], len);
             ++checked;
         }
     }
-    print_message("exact storage: %zu shapes checked\n", checked);
+    return checked;
+}
+
+static void exact_storage(const xs_module_t *md, dims_t d, size_t len)
+{
+    static unsigned char before[sizeof xs_obj];
+    const dkf_real_t sentinel = DKF_R(1234.5);
+    dkf_status_t st;
+    memset(&xs_obj, 0x5a, sizeof xs_obj);
+    memcpy(before, &xs_obj, sizeof xs_obj);
+    st = md->init(d, xs_st, len - 1);
+    if (st != DKF_ERR_CAPACITY || memcmp(before, &xs_obj, sizeof xs_obj) != 0) {
+        print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu - 1: status %s%s\n", md->name, d.n,
+                    d.m, d.p, d.l, len, dkf_status_str(st),
+                    st == DKF_ERR_CAPACITY ? ", the object changed" : "");
+        fail();
+    }
+    xs_st[len] = sentinel;
+    st = md->init(d, xs_st, len);
+    if (st != DKF_OK || xs_st[len] != sentinel) {
+        print_error("%s (%zu, %zu, %zu, %zu): storage_len %zu: status %s%s\n", md->name, d.n,
+                    d.m, d.p, d.l, len, dkf_status_str(st),
+                    st == DKF_OK ? ", wrote past the storage" : "");
+        fail();
+    }
+}
+
+static void test_exact_storage(void **state)
+{
+    (void)state;
+    print_message("exact storage: %zu shapes checked\n", xs_each_shape(exact_storage));
+}
+
+/* An init over a live object (the same object and storage, initialised)
+ * whose prior is refused at its last check (P0 = diag(1, .., 1, -1), the
+ * last network node's only) leaves the object and the state parts of its
+ * storage bit-identical. */
+static void init_over_live(const xs_module_t *md, dims_t d, size_t len)
+{
+    regions_t g;
+    char label[160];
+    dkf_status_t st;
+    xs_refuse = 0;
+    assert_int_equal(md->init(d, xs_st, len), DKF_OK);
+    reg_clear(&g);
+    reg_add(&g, &xs_obj, sizeof xs_obj);
+    md->state(d, &g);
+    snap_take(&g);
+    xs_refuse = 1;
+    st = md->init(d, xs_st, len);
+    xs_refuse = 0;
+    snprintf(label, sizeof label, "%s (%zu, %zu, %zu, %zu): init over a live object", md->name, d.n,
+             d.m, d.p, d.l);
+    check_failed(&g, ANY_ERR, st, label, 0);
+}
+
+static void test_init_over_live(void **state)
+{
+    (void)state;
+    print_message("init over a live object: %zu shapes checked\n", xs_each_shape(init_over_live));
 }
 
 /* Every DKF_*_DECLARE gives an array of exactly *_STORAGE_LEN reals that
@@ -2130,6 +2984,55 @@ static void test_declare_macros(void **state)
                      DKF_OK);
 }
 
+/* ---- the sweep's coverage ------------------------------------------------------------------ */
+
+/* Functions that take a filter object but need no refusal here, each with
+ * its reason. Functions that take no object (dkf_status_str, the matrix
+ * kernels of dkf/mat.h and dkf/mat_riccati.h, tested for untouched
+ * outputs by test_mat_*, dkf/graph.h, dkf/nl_model.h, the stacking and
+ * storage-size helpers) are not on untouched_api.h's list at all. */
+static const char *const untouched_exempt[] = {
+    /* checkpoint sizes: return size_t, 0 for a NULL or uninitialised
+     * object; they cannot fail and write nothing */
+    "dkf_diffkf_checkpoint_len",
+    "dkf_diffkf_fc_checkpoint_len",
+    "dkf_wfusion_checkpoint_len",
+};
+
+/* Every public function that takes a filter object was refused at least
+ * once under a check (every test above ran first), unless exempt; and
+ * every exemption names such a function. */
+static void test_every_object_call_refused(void **state)
+{
+#define DKF_UNTOUCHED_API(name, returns_status) #name,
+    static const char *const api[] = {DKF_UNTOUCHED_API_LIST};
+#undef DKF_UNTOUCHED_API
+    size_t i, j, missing = 0;
+    (void)state;
+    for (i = 0; i < sizeof api / sizeof api[0]; ++i) {
+        int exempt = 0;
+        for (j = 0; j < sizeof untouched_exempt / sizeof untouched_exempt[0]; ++j)
+            exempt |= strcmp(api[i], untouched_exempt[j]) == 0;
+        if (!exempt && !call_refused(api[i])) {
+            print_error("%s: no refusal of it is checked by this sweep\n", api[i]);
+            ++missing;
+        }
+    }
+    for (j = 0; j < sizeof untouched_exempt / sizeof untouched_exempt[0]; ++j) {
+        int listed = 0;
+        for (i = 0; i < sizeof api / sizeof api[0]; ++i)
+            listed |= strcmp(api[i], untouched_exempt[j]) == 0;
+        if (!listed) {
+            print_error("exemption %s: not a public function that takes a filter object\n",
+                        untouched_exempt[j]);
+            ++missing;
+        }
+    }
+    print_message("%zu public calls that take a filter object, %zu refused under a check\n",
+                  sizeof api / sizeof api[0], n_refused_calls);
+    assert_int_equal(missing, 0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -2140,8 +3043,15 @@ int main(void)
         cmocka_unit_test(test_tw_net),
         cmocka_unit_test(test_nerts),
         cmocka_unit_test(test_dfnerts),
+        cmocka_unit_test(test_dfnerts_rejoin_refused_pd0),
+        cmocka_unit_test(test_dfnerts_restart_rejoin),
+        cmocka_unit_test(test_dfnerts_net),
+        cmocka_unit_test(test_wfusion),
+        cmocka_unit_test(test_selftune),
         cmocka_unit_test(test_exact_storage),
+        cmocka_unit_test(test_init_over_live),
         cmocka_unit_test(test_declare_macros),
+        cmocka_unit_test(test_every_object_call_refused), /* last: it reads what ran */
     };
     const int failed = cmocka_run_group_tests(tests, NULL, NULL);
     print_message("%zu failing calls checked\n", n_checked);

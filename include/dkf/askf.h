@@ -52,7 +52,8 @@ typedef struct {
 /* X_{0|0} = [x0; d0], P^a_{0|0} = [[P0, Pxd0], [Pxd0^T, Pd0]] (Pxd0 may be
  * NULL for zero). P^a must be SPD (DKF_ERR_NOT_SPD). n + p must not
  * exceed DKF_MAX_DIM (DKF_ERR_CAPACITY). Like dkf_kf_init, a failed init
- * may have written to `storage` but never to *f. */
+ * writes neither *f nor the state part of `storage` (it may use the
+ * scratch part). */
 dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                            size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                            const dkf_mat_t *d0, const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);

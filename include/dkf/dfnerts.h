@@ -56,13 +56,18 @@
  *                            its next packet (tau = 1 adds s * contribution)
  *   dkf_dfnerts_node_commit  the posterior from its current packet
  *   dkf_dfnerts_node_cancel  drops a pending step (node as before local)
- *   dkf_dfnerts_node_restart a new prior at step k (a node that rejoins)
- * A failed call leaves the node bit-identical (a failed local also leaves
- * no step pending).
+ *   dkf_dfnerts_node_restart a new prior at step k (a node that restarts)
+ *   dkf_dfnerts_node_rejoin  a new prior from a neighbour's packet
+ * A failed call leaves the node bit-identical: the struct, the filter's
+ * state and, while a step is pending, that step (below). Every call makes
+ * all its checks before its first write; the composite ones (local over a
+ * pending step, restart, rejoin) form their results aside and replace
+ * the node's only once everything has passed.
  *
  * WHOLE NETWORK (dkf_dfnerts_net_*): N nodes and two packet buffers in one
  * caller array, stepped in-process with the same node calls; a step that
- * fails at any node leaves every node as it was before the step.
+ * fails at any node leaves every node, and the network, as they were
+ * before the step.
  *
  * PER NODE: m_l, the model (h; f and Q too, one system assumed), R, z and
  * the prior may differ; n, p, the known input u, kind, variant, s and T_p
@@ -120,6 +125,14 @@ typedef enum {
  * (posterior, prediction, local statistics, Y, y: dkf/nerts.h); a failed
  * call leaves them and the struct bit-identical. */
 #define DKF_DFNERTS_NODE_STATE_LEN(n, m, p) DKF_NERTS_STATE_LEN(n, m, p)
+/* While a step is pending (nd->pending), the DKF_DFNERTS_NODE_PENDING_LEN
+ * reals from DKF_DFNERTS_NODE_PENDING_AT on are state too: the current
+ * packet, s times the contribution and the snapshot of the filter's state
+ * that a cancel restores. A failed call leaves them bit-identical as well;
+ * the rest of the storage is scratch. */
+#define DKF_DFNERTS_NODE_PENDING_AT(n, m, p) DKF_NERTS_STORAGE_LEN(n, m, p)
+#define DKF_DFNERTS_NODE_PENDING_LEN(n, m, p) \
+    (2 * DKF_DFNERTS_PKT_MAX(n, p) + DKF_NERTS_STATE_LEN(n, m, p))
 
 typedef struct {
     dkf_nerts_t f; /* the node's filter: its posterior, prediction, local views */
@@ -154,7 +167,9 @@ dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind
 /* Time update (u_prev, Q) and local statistics of z (u, R) with the
  * node's model (dkf_nerts_predict, dkf_nerts_local), then the tau = 0
  * packet (also to pkt, pkt_len reals, if not NULL) and s times the
- * contribution for tau = 1. A pending step is discarded first. */
+ * contribution for tau = 1. Over a pending step: the new step starts from
+ * the posterior before it (as after a cancel) and replaces it on success;
+ * a failure leaves it pending, as it was. */
 dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t *model,
                                     const dkf_real_t *u_prev, const dkf_mat_t *Q,
                                     const dkf_real_t *u, const dkf_mat_t *R, const dkf_mat_t *z,
@@ -179,9 +194,11 @@ dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd);
 dkf_status_t dkf_dfnerts_node_cancel(dkf_dfnerts_node_t *nd);
 
 /* A new prior mid-run (a node that restarts and rejoins): the posterior
- * at step k is x0, P0, d0, Pd0, Pxd0 (as for init); the next local is the
- * step k -> k + 1. A pending step is dropped first; a failure (a prior
- * init refuses) leaves the node as it was otherwise. */
+ * at step k is x0, P0, d0, Pd0, Pxd0 (as for init, with its statuses);
+ * the next local is the step k -> k + 1. The prior is checked completely
+ * (its joint covariance's definiteness last) before anything is written:
+ * a refused prior leaves the node, and a pending step, as they were; a
+ * new prior drops a pending step. */
 dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dkf_mat_t *x0,
                                       const dkf_mat_t *P0, const dkf_mat_t *d0,
                                       const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0);
@@ -192,8 +209,12 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
  * posterior at step k is x = X, Px = P, and the input's d0, Pd0 (p > 0:
  * the caller's, e.g. the file's prior; Pxd = 0); JOINT: x, d, Px, Pxd, Pd
  * are X's and P's blocks (d0, Pd0 ignored, may be NULL). Then as
- * dkf_dfnerts_node_restart(k). DKF_ERR_NOT_SPD if the packet's Y is not
- * SPD, DKF_ERR_NONFINITE, DKF_ERR_NULL; the node is untouched on failure. */
+ * dkf_dfnerts_node_restart(k). Checks, in order: DKF_ERR_NULL (pkt; PAPER
+ * with p > 0: d0, Pd0), DKF_ERR_NONFINITE (the packet, or P, X
+ * overflowing), DKF_ERR_NOT_SPD (the packet's Y), then restart's on the
+ * prior (PAPER: the caller's d0, Pd0, e.g. DKF_ERR_NOT_SPD for an
+ * indefinite Pd0). Every check comes before the first write: a failure
+ * leaves the node, and a pending step, bit-identical. */
 dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf_real_t *pkt,
                                      const dkf_mat_t *d0, const dkf_mat_t *Pd0);
 
@@ -234,9 +255,8 @@ size_t dkf_dfnerts_net_storage_len(size_t N, size_t n, const size_t m[], size_t 
  * else DKF_ERR_CAPACITY), and initialises node l for m[l] measurements
  * with its prior x0[l], P0[l], d0[l], Pd0[l], Pxd0[l] (the last three NULL
  * when p = 0). The dimensions (DKF_ERR_CAPACITY; DKF_ERR_RANK for an m[l]
- * < p) and storage are checked before any node is touched; a prior that
- * node l refuses leaves net as it was (nodes before l are then
- * initialised, and unused). */
+ * < p), the storage and every node's prior are checked before any node
+ * is touched: a failure leaves net and the nodes as they were. */
 dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
                                   dkf_dfnerts_node_t *nodes, dkf_nerts_kind_t kind,
                                   dkf_dfnerts_variant_t variant, size_t n, const size_t m[],
@@ -248,7 +268,9 @@ dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
  * l's m_l: models[l].m, R[l] m_l x m_l and z[l] m_l x 1, else
  * DKF_ERR_DIM; u_prev, u shared, NULL when q = 0), Tp rounds with W (nnz
  * weights parallel to g->nbr, doubly stochastic, >= 0), commit. Tp in
- * [1, DKF_DFNERTS_MAX_TP]. */
+ * [1, DKF_DFNERTS_MAX_TP]. DKF_ERR_STATE, before anything, while a node
+ * has a step of its own pending (node calls on the network's nodes: a
+ * failed step could not give it back). */
 dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t models[],
                                   const dkf_real_t *u_prev, const dkf_mat_t Q[],
                                   const dkf_real_t *u, const dkf_mat_t R[], const dkf_mat_t z[],

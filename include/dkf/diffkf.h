@@ -30,7 +30,9 @@
  * struct and the first DKF_DIFFKF_STATE_LEN reals of the storage (the
  * estimates, everything carried between steps, and the caches)
  * bit-identical, with one exception: a failed dkf_diffkf_gain(_masked)
- * cancels a pending gain (pending = 0, pk = z.rows). dkf_diffkf_step
+ * cancels a pending gain (pending = 0, pk = z.rows; docs/decisions.md
+ * item 37: forming a gain aside would need a second pending area).
+ * Every other check comes before the first write. dkf_diffkf_step
  * refuses to run while a gain is pending (DKF_ERR_STATE): complete it with
  * dkf_diffkf_update_z, or replace it with a new dkf_diffkf_gain.
  */

@@ -73,7 +73,9 @@ typedef struct {
 
 /* Binds kf to storage (storage_len reals) and sets x = x0 (n x 1), P = P0
  * (n x n, must be SPD). Returns DKF_ERR_CAPACITY if storage_len is too
- * small, DKF_ERR_NOT_SPD if P0 is not. */
+ * small, DKF_ERR_NOT_SPD if P0 is not. A failed init writes neither *kf
+ * nor the state part of storage (P0 is factored in the scratch part), so
+ * an init over a live filter that is refused leaves it as it was. */
 dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *storage,
                          size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0);
 

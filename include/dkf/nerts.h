@@ -211,7 +211,9 @@ typedef struct {
  * NULL. The joint covariance [[P0, Pxd0], [Pxd0^T, Pd0]] must be positive
  * definite (DKF_ERR_NOT_SPD). DKF_ERR_RANK if m < p, DKF_ERR_ARG for an
  * unknown kind, DKF_ERR_CAPACITY for n = 0, m = 0, a size above
- * DKF_MAX_DIM or too little storage. */
+ * DKF_MAX_DIM or too little storage. The prior is formed and checked in
+ * the scratch part of storage: a failed init writes neither *f nor the
+ * state part, so one refused over a live filter leaves it as it was. */
 dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, size_t m, size_t p,
                             dkf_real_t *storage, size_t storage_len, const dkf_mat_t *x0,
                             const dkf_mat_t *P0, const dkf_mat_t *d0, const dkf_mat_t *Pd0,

@@ -76,8 +76,8 @@ typedef struct {
 
 /* Start from x_{0|0} = x0, P0 and the bias prior d00 = d0, Pd00 = Pd0, with
  * V_0 = U_0 = 0 (x and d uncorrelated a priori). P0 and Pd0 must be SPD
- * (DKF_ERR_NOT_SPD). A failed init may have written to `storage` but
- * never to *f. */
+ * (DKF_ERR_NOT_SPD). A failed init writes neither *f nor the state part
+ * of `storage` (it may use the scratch part). */
 dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_real_t *storage,
                             size_t storage_len, const dkf_mat_t *x0, const dkf_mat_t *P0,
                             const dkf_mat_t *d0, const dkf_mat_t *Pd0);

@@ -45,14 +45,15 @@
  *                          the estimate packet; nothing is committed yet
  *   [combine estimate packets: alpha-mix of psi (Alg 2), ACF (Alg 3)]
  *   dkf_tw_node_commit     x, P of the combination (NULL: the local ones)
- * A failed call of any kind leaves x, P, d, k and the views of the last
- * step bit-identical (a failed local step, or a failed dkf_tw_central_step
- * whose local step ran, cancels a pending one).
+ * A failed call of any kind leaves the node bit-identical: x, P, d, k,
+ * the views of the last committed step and a pending step (a local step
+ * is formed aside and replaces the pending one only once it succeeded).
  *
  * WHOLE-GRAPH SIMULATION (dkf_tw_net_*): N nodes and their packet buffers
  * in one caller array, stepping all nodes with the same primitives; a
- * step that fails at any node commits no node and leaves none pending. It
- * counts the reals each node broadcasts.
+ * step that fails at any node commits no node and leaves none pending
+ * (it refuses to run, DKF_ERR_STATE, while a node has a step of its own
+ * pending). It counts the reals each node broadcasts.
  *
  * PER NODE: m_l (<= the m_max the storage is sized for), H_l, R_l and y_l
  * may differ; n, p, the dynamics (F, G, Q) and, in dkf_tw_net_init, the
@@ -78,17 +79,17 @@ extern "C" {
 /* Reals of node storage for state n, input p, measurements up to m_max. */
 #define DKF_TW_NODE_STORAGE_LEN(n, m, p) \
     ((n) + (n) * (n) /* x, P */ \
-     + 2 * ((p) + 4 * (n) + 4 * (n) * (n) + (p) * (p) + (n) * (p)) /* d + views, pending */ \
+     + 3 * ((p) + 4 * (n) + 4 * (n) * (n) + (p) * (p) + (n) * (p)) \
+     /* d + views: committed, pending, the next pending (a local step's) */ \
      + 3 * (n) * (n) + 3 * (n) * (p) + 2 * (p) * (p) + (n) /* local-step scratch */ \
      + (m) * (m) + (m) * (n) + (m) /* info-packet scratch */ \
      + 2 * DKF_TW_PKT_LEN(n)) /* packet being built, the central sum */
 
 /* The first DKF_TW_NODE_STATE_LEN(n, p) reals of node storage hold x, P, d
- * and the views of the last committed step: a failed call leaves them and
- * the struct bit-identical, except that a failed dkf_tw_node_local cancels
- * a pending step (pending = 0). The next DKF_TW_NODE_STATE_LEN(n, p) -
- * n - n^2 reals hold the pending step (state while nd->pending), the rest
- * is scratch. */
+ * and the views of the last committed step, and the next
+ * DKF_TW_NODE_STATE_LEN(n, p) - n - n^2 the pending step (state while
+ * nd->pending): a failed call leaves them and the struct bit-identical.
+ * The rest is scratch. */
 #define DKF_TW_NODE_STATE_LEN(n, p) \
     ((n) + (n) * (n) + (p) + 4 * (n) + 4 * (n) * (n) + (p) * (p) + (n) * (p))
 
@@ -137,7 +138,8 @@ dkf_status_t dkf_tw_meas_packet(dkf_real_t *pkt, dkf_tw_node_t *nd, const dkf_kf
 
 /* The local step on an info packet (see the top of this file). Writes the
  * estimate packet [psi | packed Ploc] to est (may be NULL) and keeps the
- * step pending. DKF_ERR_NOT_SPD if Phi- or Psi is not SPD, DKF_ERR_RANK if
+ * step pending, in place of a step pending before (which a failure
+ * leaves pending). DKF_ERR_NOT_SPD if Phi- or Psi is not SPD, DKF_ERR_RANK if
  * S is not numerically positive definite (rank(H G) < p over the nodes
  * the info came from), DKF_ERR_NONFINITE. */
 dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, const dkf_real_t *info,
@@ -153,8 +155,10 @@ dkf_status_t dkf_tw_node_commit(dkf_tw_node_t *nd, const dkf_real_t *x, const dk
 
 /* One step of the centralized filter (6a)-(8c) with the N sensors of the
  * whole network (sensor l: model meas[l], measurement y[l]): sums their
- * info packets (the fusion centre's job) and runs the local step; nd's
- * m_max must cover every sensor. */
+ * info packets (the fusion centre's job), runs the local step and commits
+ * it (a step pending before is superseded; a failure, of the commit's SPD
+ * check of Ploc too, leaves the node as it was); nd's m_max must cover
+ * every sensor. */
 dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
                                  const dkf_kf_meas_t meas[], const dkf_mat_t y[], size_t N);
 

@@ -217,6 +217,19 @@ static inline int fz_after(const fz_snap_t *s, dkf_status_t st)
     return 1;
 }
 
+/* ---- the prior of dkf/nerts.h's and dkf/dfnerts.h's filters ------------------------ */
+
+/* The default x0 (n), P0 (n x n), d0 (p), Pd0 (p x p), Pxd0 (n x p) into
+ * prior[0..4]: a prior every init accepts. */
+static inline void fz_nerts_prior(fz_mat_t *const prior[5], size_t n, size_t p)
+{
+    fz_set(prior[0], n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(prior[1], n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_set(prior[2], p, 1, DKF_R(0.2), DKF_R(0.2));
+    fz_set(prior[3], p, p, DKF_R(0.5), DKF_R(0.0));
+    fz_set(prior[4], n, p, DKF_R(0.05), DKF_R(0.0));
+}
+
 /* ---- checkpoints ------------------------------------------------------------------ */
 
 /* The restore operation of a harness that saved cklen reals at ck (0: none

@@ -1,9 +1,10 @@
 /*
  * fuzz_core_kf - the Kalman filter (dkf/kf.h): init, then up to 24
- * predicts and updates on byte-edited models (fuzz_core.h). Property: a
- * failed call leaves the struct and DKF_KF_STATE_LEN reals of storage
- * byte-identical; after a successful one x, P, nu, S and the NIS are
- * finite and P is exactly symmetric.
+ * predicts, updates and inits over the live filter (its own storage) on
+ * byte-edited models and priors (fuzz_core.h). Property: a failed call
+ * leaves the struct and DKF_KF_STATE_LEN reals of storage byte-identical;
+ * after a successful one x, P, nu, S and the NIS are finite and P is
+ * exactly symmetric.
  */
 #include "dkf/kf.h"
 #include "fuzz_core.h"
@@ -32,7 +33,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_edit(&z, init_m, 2);
     /* a non-symmetric prior is accepted (one triangle is read): then no
      * symmetry is promised */
-    const int sym = P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows);
+    int sym = P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows);
     /* a failed init never writes *kf */
     fz_regions_clear(&snap);
     fz_region(&snap, &kf, sizeof kf);
@@ -44,7 +45,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     fz_region(&snap, st, DKF_KF_STATE_LEN(n, mmax) * sizeof(dkf_real_t));
     for (op = 0; op < 24 && fz_more(&z); ++op) {
         const uint8_t code = fz_byte(&z);
-        if (code % 2 == 0) {
+        if (code % 5 == 4) { /* a new prior over the live filter */
+            fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
+            fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
+            fz_edit(&z, init_m, 2);
+            fz_take(&snap);
+            s = dkf_kf_init(&kf, n, mmax, st, DKF_KF_STORAGE_LEN(n, mmax), &x0.v, &P0.v);
+            if (s == DKF_OK) sym = fz_is_symmetric(P0.v.data, n);
+        } else if (code % 2 == 0) {
             fz_set(&F, n, n, DKF_R(1.0), DKF_R(0.05));
             fz_set(&Q, n, n, DKF_R(0.1), DKF_R(0.0));
             fz_set(&u, n, 1, DKF_R(0.0), DKF_R(0.01));

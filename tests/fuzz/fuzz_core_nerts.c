@@ -2,8 +2,9 @@
  * fuzz_core_nerts - seed 001's single-node filters (dkf/nerts.h): a kind
  * (NERTSF, NERTSIF, DNERTSF, DNERTSIF; also an invalid one), dimensions
  * with p = 0 .. 2, init on byte-edited priors, then up to 24 phase calls
- * (predict, local, update, commit_info, step: in any order, so out of
- * sequence too) on the lin_x_sin_d model of tests/nerts_fixture.h with
+ * (predict, local, update, commit_info, step, and an init over the live
+ * filter with its own storage and a byte-edited prior: in any order, so
+ * out of sequence too) on the lin_x_sin_d model of tests/nerts_fixture.h with
  * byte-edited model matrices, Q, R, z, (Y, y), analytic or differenced
  * Jacobians and callbacks that fail or give NaN (fuzz_core.h).
  * Property: a failed call leaves the struct and DKF_NERTS_STATE_LEN reals
@@ -19,6 +20,13 @@
 #define PMAX 2
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+/* The default prior (x0, P0, d0, Pd0, Pxd0), then byte-chosen edits. */
+static void edited_prior(fz_t *z, fz_mat_t *const prior[5], size_t n, size_t p)
+{
+    fz_nerts_prior(prior, n, p);
+    fz_edit(z, prior, 5);
+}
 
 /* The model matrix b (r x c, edited) into the model's doubles. */
 static void to_model(double *dst, const fz_mat_t *b, size_t r, size_t c)
@@ -46,12 +54,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     p = fz_byte(&z) % (PMAX + 1);
     const int jac = fz_byte(&z) & 1;
     memset(&f, 0, sizeof f);
-    fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
-    fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
-    fz_set(&d0, p, 1, DKF_R(0.2), DKF_R(0.2));
-    fz_set(&Pd0, p, p, DKF_R(0.5), DKF_R(0.0));
-    fz_set(&Pxd0, n, p, DKF_R(0.05), DKF_R(0.0));
-    fz_edit(&z, init_m, 5);
+    edited_prior(&z, init_m, n, p);
     fz_regions_clear(&snap);
     fz_region(&snap, &f, sizeof f);
     fz_take(&snap);
@@ -83,13 +86,19 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         c.fail_h = fault == 2;
         c.nan_h = fault == 3;
         c.linear = fault == 4;
+        if (code % 6 == 5) edited_prior(&z, init_m, n, p);
         fz_take(&snap);
-        switch (code % 5) {
+        switch (code % 6) {
         case 0: s = dkf_nerts_predict(&f, &md, NULL, &Q.v); break;
         case 1: s = dkf_nerts_local(&f, &md, NULL, &R.v, &zz.v); break;
         case 2: s = dkf_nerts_update(&f); break;
         case 3: s = dkf_nerts_commit_info(&f, &Y.v, &y.v); break;
-        default: s = dkf_nerts_step(&f, &md, NULL, &Q.v, NULL, &R.v, &zz.v); break;
+        case 4: s = dkf_nerts_step(&f, &md, NULL, &Q.v, NULL, &R.v, &zz.v); break;
+        default:
+            s = dkf_nerts_init(&f, f.kind, n, m, p, st, DKF_NERTS_STORAGE_LEN(n, m, p), &x0.v,
+                               &P0.v, p > 0 ? &d0.v : NULL, p > 0 ? &Pd0.v : NULL,
+                               p > 0 ? &Pxd0.v : NULL);
+            break;
         }
         if (fz_after(&snap, s)) {
             fz_finite(st, DKF_NERTS_STATE_LEN(n, m, p));

@@ -291,13 +291,49 @@ run_ctest_config() {
   t_build=$((SECONDS - t)) t=$SECONDS
   say "$cfg" "build done"
   build_warnings "$cfg" "$bdir/run_tests.build.log"
-  say "$cfg" "ctest $(ctest_args "$cfg")"
-  local log=$bdir/run_tests.ctest.log rc
-  # shellcheck disable=SC2046  # the label arguments are meant to split
-  ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" $(ctest_args "$cfg") 2>&1 |
+  local log=$bdir/run_tests.ctest.log rc args
+  args=$(ctest_args "$cfg")
+  if [[ $cfg == double ]]; then background_net "$bdir"; args="-LE net"; fi
+  say "$cfg" "ctest $args"
+  # shellcheck disable=SC2086  # the label arguments are meant to split
+  ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" $args 2>&1 |
     progress_ctest "$cfg" "$log"
   rc=${PIPESTATUS[0]}
   t_test=$((SECONDS - t))
+  ctest_verdict "$cfg" "$bdir" "$log" "$rc"
+}
+
+# The network tests of double (ctest -L net: processes in namespaces) run in
+# the background from the end of double's build, beside the other
+# configurations' builds and tests: they hold on a loaded machine
+# (docs/build.md, "Tests on a busy machine"). background_net BDIR starts
+# them; finish_net waits and records them as the configuration double:net.
+net_pid=
+background_net() {
+  local bdir=$1
+  say double "ctest -L net in the background (log: $bdir/run_tests.net.log)"
+  ( t0=$SECONDS
+    ctest --test-dir "$bdir" --output-on-failure -L net >"$bdir/run_tests.net.log" 2>&1
+    echo "$? $((SECONDS - t0))" >"$bdir/run_tests.net.rc" ) &
+  net_pid=$!
+}
+finish_net() {
+  local bdir=$ROOT/build/double rc secs
+  [[ -n $net_pid ]] || return 0
+  step_t0=$SECONDS
+  say double:net "waiting for the network tests"
+  wait "$net_pid"
+  net_pid=
+  read -r rc secs <"$bdir/run_tests.net.rc" || rc=1
+  t_test=${secs:--}
+  say double:net "$(grep -E '^[0-9]+% tests passed' "$bdir/run_tests.net.log" | tail -1) (ran ${secs:-?} s)"
+  ctest_verdict double:net "$bdir" "$bdir/run_tests.net.log" "$rc"
+}
+
+# ctest_verdict CONFIG BDIR LOG RC: passed/failed from a ctest log; the
+# failures' first assertions; record.
+ctest_verdict() {
+  local cfg=$1 bdir=$2 log=$3 rc=$4
   local line total failed
   line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
   if [[ -z "$line" ]]; then
@@ -314,12 +350,23 @@ run_ctest_config() {
     # ctest's closing list: "\t  5 - test_kf (Failed)". The first 5 that
     # ran get their first failing assertion; the rest are named; tests that
     # did not run (their setup fixture failed) are counted.
-    local ran notrun
+    local ran notrun name
     ran=$(sed -n -E 's/^[[:space:]]+[0-9]+ - ([^ ]+) \((Failed|Timeout|SEGFAULT|Exception|[A-Za-z ]*)\)$/\1 \2/p' "$log" |
           awk '$2 != "Not" { print $1 }')
     notrun=$(grep -cE '^[[:space:]]+[0-9]+ - [^ ]+ \(Not Run\)$' "$log")
-    # shellcheck disable=SC2086  # one name per word
-    first_test_failures "$cfg" "$bdir" $(echo $ran | tr ' ' '\n' | head -5)
+    if [[ $cfg == double:net ]]; then
+      # its own ctest ran beside another in the same directory: the failures'
+      # output is in its log (--output-on-failure), not in LastTest.log
+      for name in $(echo $ran | tr ' ' '\n' | head -5); do
+        echo "[$cfg] FAILED $name:"
+        awk -v n="$name" '$0 ~ "Test +#[0-9]+: " n " " { on = 1; c = 0; next }
+                          on && (/^ +Start / || /Test +#[0-9]+: /) { on = 0 }
+                          on && /(FAIL|[Ee]rror|[Aa]ssert|Traceback)/ && c < 6 { print "  " $0; ++c }' "$log"
+      done
+    else
+      # shellcheck disable=SC2086  # one name per word
+      first_test_failures "$cfg" "$bdir" $(echo $ran | tr ' ' '\n' | head -5)
+    fi
     (( $(echo $ran | wc -w) > 5 )) && echo "[$cfg] also failed: $(echo $ran | tr ' ' '\n' | tail -n +6 | tr '\n' ' ')"
     (( notrun > 0 )) && echo "[$cfg] $notrun test(s) not run (a setup test they need failed, or no executable)"
     echo "run_tests: FAILED: $failed test(s) of $cfg (log: $log)"
@@ -415,6 +462,7 @@ for c in "${configs[@]}"; do
   esac
 done
 
+finish_net
 echo
 echo "==== time (s; configure, build and test of the ctest configurations)"
 printf '%-18s %9s %6s %6s %6s\n' config configure build test total

@@ -54,8 +54,11 @@ if [[ ${1:-} != "" && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
   # every datagram authenticated (docs/network.md, Authentication)
   "$bin/dkf-keygen" "$dir/keys" 5 || exit 1
   auth=(--key-dir "$dir/keys")
-  wait_ready() { for _ in $(seq 100); do [[ -e $1 ]] && return 0; sleep 0.1; done; return 1; }
-  "$bin/dkf-fusion" --url "$URL" --timeout 300 "${auth[@]}" --ready-file "$dir/fusion.ready" \
+  wait_ready() { for _ in $(seq 3000); do [[ -e $1 ]] && return 0; sleep 0.1; done; return 1; }
+  # every node runs, so no step needs the deadline: a loaded machine delays the
+  # lock-step run, it never degrades a step
+  "$bin/dkf-fusion" --url "$URL" --timeout 300 --deadline-ms 300000 "${auth[@]}" \
+    --ready-file "$dir/fusion.ready" \
     --output "$dir/fused.json" "$scn" 2>"$dir/fusion.log" & fpid=$!; pids+=($fpid)
   wait_ready "$dir/fusion.ready"
   npids=()

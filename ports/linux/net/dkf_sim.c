@@ -22,14 +22,17 @@ static const char *prog = "dkf-sim";
 static void usage(FILE *f)
 {
     fprintf(f,
-            "usage: %s (--rate HZ | --lockstep) [options] SCENARIO.json\n"
+            "usage: %s (--rate HZ | --lockstep [--rate HZ]) [options] SCENARIO.json\n"
             "Publishes y^i_j of every sensor i on <prefix>_MEAS_<i> and x_j on <prefix>_TRUTH\n"
             "for j = 1..N+1. First waits until every node and the fusion centre has sent a\n"
             "status with this scenario's model id (unless --no-wait).\n"
             "\n"
             "  -r, --rate HZ           publish one time step every 1/HZ s\n"
             "  -l, --lockstep          publish y_{j+1} only after the fused estimate of step\n"
-            "                          j-1 (which needs y_j) has been seen on <prefix>_FUSED\n"
+            "                          j-1 (which needs y_j) has been seen on <prefix>_FUSED;\n"
+            "                          with --rate, also at most HZ steps per second (the run\n"
+            "                          then cannot outpace a node the centre gave up on:\n"
+            "                          docs/network.md, Faults)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
@@ -136,8 +139,8 @@ int main(int argc, char **argv)
         default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
     }
-    if ((rate > 0) == lockstep) {
-        fprintf(stderr, "%s: give exactly one of --rate HZ and --lockstep (see --help)\n", prog);
+    if (rate <= 0 && !lockstep) {
+        fprintf(stderr, "%s: give --rate HZ, --lockstep or both (see --help)\n", prog);
         return DKF_EXIT_USAGE;
     }
     if (lockstep && no_wait) {
@@ -189,11 +192,15 @@ int main(int argc, char **argv)
             code = DKF_EXIT_RUN;
             break;
         }
-        if (lockstep && j >= 2) {
+        if (lockstep && j >= 2)
             code = wait_for(net, sim, has_fused, j - 1, step_timeout, start, timeout,
                             "fused estimate");
-        } else if (!lockstep) {
-            /* paced: keep handling (status, fused) until the next tick */
+        if (code == DKF_EXIT_OK && rate > 0) {
+            /* paced: keep handling (status, fused) until the next tick; in
+             * lock-step the tick is at least 1/HZ after this step's (a long
+             * wait for a fused step is no credit for a burst after it) */
+            const int64_t now = dkf_net_mono_us();
+            if (lockstep && next < now) next = now;
             next += (int64_t)(1e6 / rate);
             while (!dkf_cli_stop && dkf_net_mono_us() < next) {
                 int64_t left = (next - dkf_net_mono_us()) / 1000;

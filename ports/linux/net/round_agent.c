@@ -10,23 +10,35 @@
 
 #include "net.h"
 
+/* My packets of the last HISTORY rounds are kept to answer a neighbour that
+ * still waits in one of them (its retransmits ask): a node that joined
+ * from one neighbour's last round may find another neighbour a few rounds
+ * further on, at most the graph's diameter, and must be able to catch up
+ * without a round timeout. */
+#define HISTORY 16
+/* DONE packets a finished node still sends once it awaits nothing (retry_us apart) */
+#define GRACE 5
+
 struct dkf_ra {
     dkf_ra_config_t cfg;
     dkf_ra_opts_t o;
     size_t deg, self;           /* row entries; self = position of cfg.id */
     size_t pkt;                 /* the largest packet of a round (reals) */
     dkf_real_t *rx, *nx;        /* deg x pkt: this round's / next round's packets, row order */
-    dkf_real_t *cur, *prev;     /* my packet of this round / of the previous one */
+    dkf_real_t *cur;            /* my packet of this round */
+    dkf_real_t *hist;           /* HISTORY x pkt: my packets of the rounds before (a ring) */
     dkf_real_t *next;           /* the filter's next packet */
-    size_t cur_len, prev_len;
+    size_t cur_len, hist_len[HISTORY], hist_next;
     unsigned char *have, *have_nx, *absent, *done, *missed; /* deg flags each */
     int64_t *heard;             /* deg: last packet of a round <= t + 1 (liveness) */
-    long t, prev_t;             /* global round index (k - 1) * rounds + round; -1: none */
+    long t;                     /* global round index (k - 1) * rounds + round; -1: none */
+    long hist_t[HISTORY];       /* the round of each history slot (-1: none) */
     long T;                     /* steps * rounds */
     size_t k;                   /* step in progress (1..steps), steps + 1 when finished */
     size_t k_first;             /* the first step run (1, or after a join) */
     int state;
     int64_t round_start, last_pub, linger_start;
+    int64_t grace_start;        /* linger: when nothing was awaited any more (0: not yet) */
     unsigned char *deg_step;    /* per step: degraded */
     unsigned char *miss_step;   /* steps x deg: neighbour missing in the step */
     dkf_ra_counters_t cnt;
@@ -34,6 +46,7 @@ struct dkf_ra {
 };
 
 static size_t largest_packet(const dkf_net_tw_expect_t *ex)
+
 {
     return ex->info_len > ex->est_len ? ex->info_len : ex->est_len;
 }
@@ -61,16 +74,17 @@ dkf_ra_t *dkf_ra_new(const dkf_ra_config_t *cfg, const dkf_ra_opts_t *o, char *e
     for (e = 0; e < a->deg; ++e)
         if (cfg->row[e] == cfg->id) a->self = e;
     a->pkt = largest_packet(&cfg->ex);
-    a->t = a->prev_t = -1;
+    a->t = -1;
+    for (e = 0; e < HISTORY; ++e) a->hist_t[e] = -1;
     a->T = (long)(steps * cfg->ex.rounds);
-    a->rx = calloc(2 * a->deg * a->pkt + 3 * a->pkt + 1, sizeof *a->rx);
+    a->rx = calloc(2 * a->deg * a->pkt + (2 + HISTORY) * a->pkt + 1, sizeof *a->rx);
     a->have = calloc(5 * a->deg + steps + steps * a->deg, 1);
     a->heard = calloc(a->deg, sizeof *a->heard);
     if (a->rx == NULL || a->have == NULL || a->heard == NULL) goto oom;
     a->nx = a->rx + a->deg * a->pkt;
     a->cur = a->nx + a->deg * a->pkt;
-    a->prev = a->cur + a->pkt;
-    a->next = a->prev + a->pkt;
+    a->next = a->cur + a->pkt;
+    a->hist = a->next + a->pkt;
     a->have_nx = a->have + a->deg;
     a->absent = a->have_nx + a->deg;
     a->done = a->absent + a->deg;
@@ -137,16 +151,22 @@ static void shape(const dkf_ra_t *a, long t, int *kind, size_t *len)
 }
 
 /* Enters round t with my packet v: early packets of t become current. */
+/* My packet of round a->t into the history. */
+static void remember(dkf_ra_t *a)
+{
+    const size_t s = a->hist_next;
+    memcpy(a->hist + s * a->pkt, a->cur, a->cur_len * sizeof *a->cur);
+    a->hist_len[s] = a->cur_len;
+    a->hist_t[s] = a->t;
+    a->hist_next = (s + 1) % HISTORY;
+}
+
 static int enter_round(dkf_ra_t *a, long t, const dkf_real_t *v, int64_t now)
 {
     int kind;
     size_t len, e;
     shape(a, t, &kind, &len);
-    if (a->t >= 0) {
-        memcpy(a->prev, a->cur, a->cur_len * sizeof *a->cur);
-        a->prev_len = a->cur_len;
-        a->prev_t = a->t;
-    }
+    if (a->t >= 0) remember(a);
     memcpy(a->cur, v, len * sizeof *v);
     a->cur_len = len;
     a->t = t;
@@ -176,9 +196,7 @@ static int finish(dkf_ra_t *a, int64_t now)
 {
     a->state = DKF_RA_LINGER;
     a->linger_start = now;
-    a->prev_t = a->t; /* answers to retransmits of the last round */
-    memcpy(a->prev, a->cur, a->cur_len * sizeof *a->cur);
-    a->prev_len = a->cur_len;
+    remember(a); /* answers to retransmits of the last round */
     a->t = a->T;
     return publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 0, now);
 }
@@ -299,13 +317,15 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
         a->have_nx[e] = 1;
     } else if (t < a->t) {
         int kind;
-        size_t plen;
+        size_t plen, s;
         ++a->cnt.stale;
-        /* the neighbour still waits in the round I left: it may lack mine */
-        if (p.retransmit && t == a->prev_t) {
-            shape(a, t, &kind, &plen);
-            (void)publish(a, t, kind, a->prev, a->prev_len, 2, now_us);
-        }
+        /* the neighbour still waits in a round I left: it may lack mine */
+        for (s = 0; p.retransmit && s < HISTORY; ++s)
+            if (a->hist_t[s] == t) {
+                shape(a, t, &kind, &plen);
+                (void)publish(a, t, kind, a->hist + s * a->pkt, a->hist_len[s], 2, now_us);
+                break;
+            }
     } else {
         ++a->cnt.ahead;
     }
@@ -366,7 +386,11 @@ int dkf_ra_poll(dkf_ra_t *a, int64_t now_us)
         publish(a, a->t, kind, a->cur, a->cur_len, 1, now_us);
     }
     if (a->state == DKF_RA_LINGER) {
-        if (linger_over(a, now_us))
+        /* once nothing is awaited, DONE goes out GRACE more times before the
+         * node leaves: a neighbour that lost the others still learns that
+         * this node is done instead of lingering to its round timeout */
+        if (a->grace_start == 0 && linger_over(a, now_us)) a->grace_start = now_us;
+        if (a->grace_start != 0 && now_us - a->grace_start >= GRACE * a->o.retry_us)
             a->state = DKF_RA_FINISHED;
         else if (now_us - a->last_pub >= a->o.retry_us)
             publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 1, now_us);

@@ -28,6 +28,9 @@ set -uo pipefail
 mode=$1 scn=$2 out=$3
 URL='udpm://239.255.76.67:7667?ttl=0'
 T=60   # per-process timeout, seconds
+# Every node runs in every mode, so no step needs its deadline: a stalled
+# node (a loaded machine) only delays the run, as long as the process may run.
+DEADLINE_MS=$((T * 1000))
 SPLIT=()   # --split-ports in modes split and direct
 DIRECT=()  # --direct-recv (mode direct: the centre, node 0 and the simulator)
 
@@ -49,17 +52,20 @@ trap cleanup EXIT
 
 # wait_file, wait_log_quiet
 . "$(dirname "$0")/net_common.sh"
+probe=$(probe_ms "$DKF_NODE")
+quiet_ms=$((20 * probe > 300 ? 20 * probe : 300)) # the logger's (wait_log_quiet)
 
 # Starts the fusion centre and both nodes, waits until they are subscribed.
 start_peers() { # TAG
-  "$DKF_FUSION" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --timeout $T --ready-file "$out/$1.fusion.ready" \
+  "$DKF_FUSION" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --timeout $T --deadline-ms $DEADLINE_MS \
+    --ready-file "$out/$1.fusion.ready" \
     --output "$out/$1.fused.json" "$scn" 2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
   "$DKF_NODE" --url "$URL" "${SPLIT[@]}" "${DIRECT[@]}" --id 0 --timeout $T --ready-file "$out/$1.n0.ready" \
     "$scn" 2>"$out/$1.n0.log" & pids+=($!); n0=$!
   "$DKF_NODE" --url "$URL" "${SPLIT[@]}" --id 1 --timeout $T --ready-file "$out/$1.n1.ready" \
     "$scn" 2>"$out/$1.n1.log" & pids+=($!); n1=$!
-  wait_file "$out/$1.fusion.ready" 10 && wait_file "$out/$1.n0.ready" 10 &&
-    wait_file "$out/$1.n1.ready" 10
+  wait_file "$out/$1.fusion.ready" $T && wait_file "$out/$1.n0.ready" $T &&
+    wait_file "$out/$1.n1.ready" $T
 }
 
 # Waits for the peers started by start_peers; fails if any failed.
@@ -123,7 +129,7 @@ case "$mode" in
     "$DKF_SIM" --url "$URL" --timeout $T --rate 100 "$scn" || { echo "FAIL: dkf-sim"; exit 1; }
     wait_peers live || exit 1
     # let the logger take in and flush the last messages (not a fixed guess)
-    wait_log_quiet "$log"
+    wait_log_quiet "$log" $quiet_ms
     kill -INT $logger; wait $logger
     compare_central "$out/live.fused.json" || exit 1
     # the log holds every node message the live centre received (Python lcm
@@ -138,9 +144,9 @@ print(f"the log holds {got} node messages; the live centre received {want}")
 sys.exit(0 if got == want else 1)
 PY
     # replay only the node messages into a fresh fusion centre
-    "$DKF_FUSION" --url "$URL" --timeout $T --ready-file "$out/replay.ready" \
+    "$DKF_FUSION" --url "$URL" --timeout $T --deadline-ms $DEADLINE_MS --ready-file "$out/replay.ready" \
       --output "$out/replay.fused.json" "$scn" 2>"$out/replay.fusion.log" & pids+=($!); fpid=$!
-    wait_file "$out/replay.ready" 10 || exit 1
+    wait_file "$out/replay.ready" $T || exit 1
     "$DKF_LCM_LOGPLAYER" --lcm-url="$URL" -e 'DKF_NODE_[0-9]+' "$log" || { echo "FAIL: lcm-logplayer"; exit 1; }
     wait $fpid || { echo "FAIL: replay dkf-fusion exited $?"; cat "$out/replay.fusion.log"; exit 1; }
     cat "$out/replay.fusion.log"
@@ -160,7 +166,7 @@ PY
     log=$out/base.lcmlog
     start_logger "$URL" "$log"
     run_live live --rate 200 || exit 1
-    wait_log_quiet "$log"
+    wait_log_quiet "$log" $quiet_ms
     kill -INT $logger; wait $logger
     compare_central "$out/live.fused.json" || exit 1
     "$DKF_PYTHON" - "$log" <<'PY' || exit 1

@@ -23,7 +23,7 @@ set -uo pipefail
 mode=$1 out=$2
 URL='udpm://239.255.76.67:7667?ttl=0'
 T=60            # per-process timeout, seconds
-DEADLINE_MS=300 # the fault tests' deadline (net_faults.sh)
+DEADLINE_FLOOR_MS=300 # the fault tests' deadline's least (net_faults.sh)
 
 if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
   "$DKF_NETNS" check || exit $?
@@ -39,7 +39,12 @@ rm -rf "$out" && mkdir -p "$out"
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
 trap cleanup EXIT
-. "$(dirname "$0")/net_common.sh" # wait_file
+. "$(dirname "$0")/net_common.sh" # wait_file, derived_ms
+DEADLINE_MS=$(derived_ms "$DKF_NODE" $DEADLINE_FLOOR_MS 40)
+# lock-step at most one step per 2 x the slowest start of dkf-node, as in
+# net_faults.sh (its PACE): a node given up on cannot be outrun
+probe=$(probe_ms "$DKF_NODE")
+rate=$(awk -v p="$probe" 'BEGIN { printf "%.3f", 1000 / (2 * p) }')
 
 scn=$out/wf5.json
 "$DKF_PYTHON" "$DKF_GEN" --steps 200 --sensors 5 --seed 2 --out "$scn" || exit 1
@@ -47,13 +52,13 @@ scn=$out/wf5.json
 "$DKF_FUSION" --url "$URL" --timeout $T --deadline-ms $DEADLINE_MS \
   --ready-file "$out/fusion.ready" --output "$out/fused.json" "$scn" \
   2>"$out/fusion.log" & pids+=($!); fpid=$!
-wait_file "$out/fusion.ready" 10 || exit 1
+wait_file "$out/fusion.ready" $T || exit 1
 
 node() { # ID [dkf-node options...]; sets npid
   local id=$1; shift
   "$DKF_NODE" --url "$URL" --filter local_kf --id "$id" --timeout $T \
     --ready-file "$out/n$id.ready" "$@" "$scn" 2>"$out/n$id.log" & pids+=($!); npid=$!
-  wait_file "$out/n$id.ready" 10
+  wait_file "$out/n$id.ready" $T
 }
 
 npids=() simopt=()
@@ -65,7 +70,8 @@ for i in 0 1 2 3 4; do
   esac
   npids+=($npid)
 done
-"$DKF_SIM" --url "$URL" --timeout $T --lockstep "${simopt[@]}" "$scn" 2>"$out/sim.log" \
+"$DKF_SIM" --url "$URL" --timeout $T --lockstep --rate "$rate" --step-timeout $T "${simopt[@]}" \
+  "$scn" 2>"$out/sim.log" \
   || { cat "$out"/*.log; echo "FAIL: dkf-sim exited $?"; exit 1; }
 rc=0
 wait $fpid || { echo "FAIL: dkf-fusion exited $?"; rc=1; }

@@ -43,8 +43,11 @@ fi
 
 mkdir -p "$BDIR/logs"
 echo "==== fuzz: configure + build ($BDIR, $CC_FUZZ)"
+# -O1 -g, the level libFuzzer and the sanitizers are usually built at: the
+# build takes a third less time than at -O2 (src/kf.c under ASan: 30 s, 57 s)
 if ! CC=$CC_FUZZ cmake -S "$ROOT" -B "$BDIR" -DDKF_FUZZ=ON -DDKF_BUILD_TESTS=OFF \
-     -DDKF_REAL=double -DCMAKE_BUILD_TYPE=RelWithDebInfo >"$BDIR/logs/configure.log" 2>&1; then
+     -DDKF_REAL=double -DCMAKE_BUILD_TYPE=RelWithDebInfo "-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g" \
+     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g" >"$BDIR/logs/configure.log" 2>&1; then
   tail -30 "$BDIR/logs/configure.log"
   echo "run_fuzz: FAILED: build/fuzz does not configure (log: $BDIR/logs/configure.log)"
   echo "fuzz: 0 passed, 1 failed"

@@ -9,7 +9,9 @@
 #                    `once` (cmake/testing.cmake: the network processes in
 #                    namespaces, the Python tools, the paper reproductions,
 #                    the install and build consumers), which do not depend on
-#                    the configuration; every other one runs `ctest -LE once`
+#                    the configuration; every other one runs `ctest -LE once`.
+#                    Its network tests (-L net) run after the others, 4 at a
+#                    time, reported as double:net
 #   float            DKF_REAL=float (the Eigen peer at -O2 only)
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
 #                    -DNDEBUG; the others RelWithDebInfo, -O2 -g)
@@ -70,16 +72,22 @@ for a in "$@"; do
 done
 (( ${#configs[@]} )) || configs=("${all_configs[@]}")
 
+# The configurations' CMake arguments (shell words: eval'd). The test builds
+# are RelWithDebInfo's -O2 without its -g (NOG): debug information changes
+# no test and was a quarter to a third of the compile time; ASan + UBSan at
+# -O1 -g (the sanitizers' usual level; at -O2 src/kf.c alone took 57 s),
+# -g for the reports' line numbers. --quick keeps -g, for a debugger.
+NOG="-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O2 -DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2"
 declare -A cfg_args=(
   [quick]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=OFF"
-  [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON"
-  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON -DDKF_BENCH_EIGEN=O2"
+  [double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON $NOG"
+  [float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_BENCH=ON -DDKF_BENCH_EIGEN=O2 $NOG"
   [double-nojoseph]="-DDKF_REAL=double -DDKF_JOSEPH=OFF -DDKF_SANITIZE=OFF -DCMAKE_BUILD_TYPE=Release"
-  [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON"
-  [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024"
-  [clang]="-DCMAKE_C_COMPILER=clang-14 -DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_PORTS=OFF"
-  [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF"
-  [qemu-arm64-double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-aarch64-linux-gnu.cmake -DDKF_BUILD_PORTS=OFF"
+  [double-asan]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=ON '-DCMAKE_C_FLAGS_RELWITHDEBINFO=-O1 -g' '-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g'"
+  [double-dim1024]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_MAX_DIM=1024 $NOG"
+  [clang]="-DCMAKE_C_COMPILER=clang-14 -DDKF_REAL=float -DDKF_JOSEPH=ON -DDKF_SANITIZE=OFF -DDKF_BUILD_PORTS=OFF $NOG"
+  [qemu-arm-float]="-DDKF_REAL=float -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-arm-linux-gnueabihf.cmake -DDKF_BUILD_PORTS=OFF $NOG"
+  [qemu-arm64-double]="-DDKF_REAL=double -DDKF_JOSEPH=ON -DCMAKE_TOOLCHAIN_FILE=$ROOT/cmake/toolchain-aarch64-linux-gnu.cmake -DDKF_BUILD_PORTS=OFF $NOG"
 )
 # What ctest runs in each configuration (cmake/testing.cmake's labels).
 declare -A cfg_ctest=([quick]="-L unit" [double]="")
@@ -268,8 +276,9 @@ run_ctest_config() {
   forget_other_generator "$bdir"
   step_t0=$SECONDS
   say "$cfg" "configure ($bdir)"
-  # shellcheck disable=SC2086  # the arguments are meant to split
-  if ! cmake -S "$ROOT" -B "$bdir" "${GEN[@]}" ${cfg_args[$cfg]} >"$bdir/run_tests.configure.log" 2>&1; then
+  local cargs
+  eval "cargs=(${cfg_args[$cfg]})"
+  if ! cmake -S "$ROOT" -B "$bdir" "${GEN[@]}" "${cargs[@]}" >"$bdir/run_tests.configure.log" 2>&1; then
     if grep -q 'CMake Error' "$bdir/run_tests.configure.log"; then
       grep -m1 -A8 'CMake Error' "$bdir/run_tests.configure.log"
     else
@@ -293,7 +302,7 @@ run_ctest_config() {
   build_warnings "$cfg" "$bdir/run_tests.build.log"
   local log=$bdir/run_tests.ctest.log rc args
   args=$(ctest_args "$cfg")
-  if [[ $cfg == double ]]; then background_net "$bdir"; args="-LE net"; fi
+  [[ $cfg == double ]] && args="-LE net"
   say "$cfg" "ctest $args"
   # shellcheck disable=SC2086  # the label arguments are meant to split
   ctest --test-dir "$bdir" --output-on-failure -j"$JOBS" $args 2>&1 |
@@ -301,33 +310,21 @@ run_ctest_config() {
   rc=${PIPESTATUS[0]}
   t_test=$((SECONDS - t))
   ctest_verdict "$cfg" "$bdir" "$log" "$rc"
+  [[ $cfg == double ]] && run_net "$bdir"
 }
 
-# The network tests of double (ctest -L net: processes in namespaces) run in
-# the background from the end of double's build, beside the other
-# configurations' builds and tests: they hold on a loaded machine
-# (docs/build.md, "Tests on a busy machine"). background_net BDIR starts
-# them; finish_net waits and records them as the configuration double:net.
-net_pid=
-background_net() {
-  local bdir=$1
-  say double "ctest -L net in the background (log: $bdir/run_tests.net.log)"
-  ( t0=$SECONDS
-    ctest --test-dir "$bdir" --output-on-failure -L net >"$bdir/run_tests.net.log" 2>&1
-    echo "$? $((SECONDS - t0))" >"$bdir/run_tests.net.rc" ) &
-  net_pid=$!
-}
-finish_net() {
-  local bdir=$ROOT/build/double rc secs
-  [[ -n $net_pid ]] || return 0
+# The network tests of double (ctest -L net: processes in namespaces), 4 at a
+# time: they mostly wait (29 tests: 40 s at -j4, 62 s at -j2, about 30 s of
+# CPU), and they hold on a loaded machine (docs/build.md, "Tests on a busy
+# machine"). Recorded as the configuration double:net.
+run_net() {
+  local bdir=$1 log=$1/run_tests.net.log rc t=$SECONDS
   step_t0=$SECONDS
-  say double:net "waiting for the network tests"
-  wait "$net_pid"
-  net_pid=
-  read -r rc secs <"$bdir/run_tests.net.rc" || rc=1
-  t_test=${secs:--}
-  say double:net "$(grep -E '^[0-9]+% tests passed' "$bdir/run_tests.net.log" | tail -1) (ran ${secs:-?} s)"
-  ctest_verdict double:net "$bdir" "$bdir/run_tests.net.log" "$rc"
+  say double:net "ctest -L net -j4"
+  ctest --test-dir "$bdir" --output-on-failure -j4 -L net 2>&1 | progress_ctest double:net "$log"
+  rc=${PIPESTATUS[0]}
+  t_test=$((SECONDS - t))
+  ctest_verdict double:net "$bdir" "$log" "$rc"
 }
 
 # ctest_verdict CONFIG BDIR LOG RC: passed/failed from a ctest log; the
@@ -350,23 +347,12 @@ ctest_verdict() {
     # ctest's closing list: "\t  5 - test_kf (Failed)". The first 5 that
     # ran get their first failing assertion; the rest are named; tests that
     # did not run (their setup fixture failed) are counted.
-    local ran notrun name
+    local ran notrun
     ran=$(sed -n -E 's/^[[:space:]]+[0-9]+ - ([^ ]+) \((Failed|Timeout|SEGFAULT|Exception|[A-Za-z ]*)\)$/\1 \2/p' "$log" |
           awk '$2 != "Not" { print $1 }')
     notrun=$(grep -cE '^[[:space:]]+[0-9]+ - [^ ]+ \(Not Run\)$' "$log")
-    if [[ $cfg == double:net ]]; then
-      # its own ctest ran beside another in the same directory: the failures'
-      # output is in its log (--output-on-failure), not in LastTest.log
-      for name in $(echo $ran | tr ' ' '\n' | head -5); do
-        echo "[$cfg] FAILED $name:"
-        awk -v n="$name" '$0 ~ "Test +#[0-9]+: " n " " { on = 1; c = 0; next }
-                          on && (/^ +Start / || /Test +#[0-9]+: /) { on = 0 }
-                          on && /(FAIL|[Ee]rror|[Aa]ssert|Traceback)/ && c < 6 { print "  " $0; ++c }' "$log"
-      done
-    else
-      # shellcheck disable=SC2086  # one name per word
-      first_test_failures "$cfg" "$bdir" $(echo $ran | tr ' ' '\n' | head -5)
-    fi
+    # shellcheck disable=SC2086  # one name per word
+    first_test_failures "$cfg" "$bdir" $(echo $ran | tr ' ' '\n' | head -5)
     (( $(echo $ran | wc -w) > 5 )) && echo "[$cfg] also failed: $(echo $ran | tr ' ' '\n' | tail -n +6 | tr '\n' ' ')"
     (( notrun > 0 )) && echo "[$cfg] $notrun test(s) not run (a setup test they need failed, or no executable)"
     echo "run_tests: FAILED: $failed test(s) of $cfg (log: $log)"
@@ -462,7 +448,6 @@ for c in "${configs[@]}"; do
   esac
 done
 
-finish_net
 echo
 echo "==== time (s; configure, build and test of the ctest configurations)"
 printf '%-18s %9s %6s %6s %6s\n' config configure build test total

@@ -79,7 +79,7 @@ static dkf_dfnerts_net_t net;
  * first channel (which sees d: rank Hd = p holds). */
 static void scen_make_sensors(size_t N, size_t p, int ring, int mixed)
 {
-    size_t edges[2 * 6], E = 0, i, j, l, r;
+    size_t edges[2 * 6] = {0}, E = 0, i, j, l, r;
     memset(&S, 0, sizeof S);
     S.N = N;
     S.p = p;

@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
+#include "centre.h"
 #include "dkf/diffkf_fusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"

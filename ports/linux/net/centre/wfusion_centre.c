@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
+#include "centre.h"
 #include "dkf/wfusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"

@@ -39,9 +39,6 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/tw.h"
 
-/* Largest number of nodes a network can have (a fused message names each;
- * a DKF network's stacked sum m_i <= DKF_MAX_DIM bounds it too). */
-#define DKF_NET_MAX_NODES 256
 /* Largest vector a message carries (a state n, a measurement m_i, a graph
  * node's state): the core's DKF_MAX_DIM, at most 64. A host build with a
  * large DKF_MAX_DIM for a big fusion centre (docs/decisions.md, item 23)

@@ -18,7 +18,7 @@
 #include "fuzz_check.h"
 #include "fuzz_net.h"
 
-#define FUZZ_NET_BUF (DKF_NET_MAX_MSG > DKF_TW_MAX_MSG ? DKF_NET_MAX_MSG : DKF_TW_MAX_MSG)
+#define FUZZ_NET_BUF (DKF_NET_MAX_MSG > DKF_NET_TWA_MAX_MSG ? DKF_NET_MAX_MSG : DKF_NET_TWA_MAX_MSG)
 
 static unsigned char re[FUZZ_NET_BUF + 8192];
 
@@ -136,8 +136,8 @@ static void status(const uint8_t *d, size_t n)
 
 static void tw(const uint8_t *d, size_t n, int alg)
 {
-    static dkf_tw_pkt_t out, keep, again;
-    const dkf_tw_scn_t c = fuzz_net_tw_scn(alg);
+    static dkf_net_tw_pkt_t out, keep, again;
+    const dkf_net_twa_scn_t c = fuzz_net_tw_scn(alg);
     dkf_net_rejects_t rej;
     dkf_net_verdict_t v;
     size_t len;
@@ -145,14 +145,14 @@ static void tw(const uint8_t *d, size_t n, int alg)
     memset(&out, 0xa5, sizeof out);
     keep = again = out;
     /* the channel: none (any node), or node 1's */
-    v = dkf_tw_decode(d, n, &c, n % 2 ? 1 : -1, &out, &rej);
+    v = dkf_net_twa_decode(d, n, &c, n % 2 ? 1 : -1, &out, &rej);
     if (!accepted(&rej, v, &out, &keep, sizeof out)) return;
-    FUZZ_REQUIRE(out.len <= DKF_TW_MAX_PKT);
-    FUZZ_REQUIRE(dkf_tw_encode(re, sizeof re, &len, &out) == 0);
+    FUZZ_REQUIRE(out.len <= DKF_NET_TWA_MAX_PKT);
+    FUZZ_REQUIRE(dkf_net_twa_encode(re, sizeof re, &len, &out) == 0);
 #if !DKF_USE_FLOAT
     require_same_bytes(d, n, len);
 #endif
-    FUZZ_REQUIRE(dkf_tw_decode(re, len, &c, out.node, &again, NULL) == DKF_NET_ACCEPT);
+    FUZZ_REQUIRE(dkf_net_twa_decode(re, len, &c, out.node, &again, NULL) == DKF_NET_ACCEPT);
     FUZZ_REQUIRE(memcmp(&out, &again, sizeof out) == 0);
 }
 
@@ -176,10 +176,10 @@ static void channel(const uint8_t *d, size_t n)
         FUZZ_REQUIRE(w > 0 && (size_t)w <= len && strcmp(name + len - (size_t)w, back) == 0);
     }
     FUZZ_REQUIRE(dkf_net_chan_node_id(name) == (c.kind == DKF_CHAN_NODE ? c.id : -1));
-    node = dkf_tw_chan_node(name, "DKF_TW");
+    node = dkf_net_twa_chan_node(name, "DKF_TW");
     FUZZ_REQUIRE(node >= -1);
     if (node >= 0) { /* only the canonical spelling is accepted */
-        dkf_tw_chan(back, "DKF_TW", (size_t)node);
+        dkf_net_twa_chan(back, "DKF_TW", (size_t)node);
         FUZZ_REQUIRE(strcmp(back, name) == 0);
     }
 }

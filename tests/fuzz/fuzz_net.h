@@ -19,9 +19,9 @@ enum {
     FUZZ_NET_TRUTH,        /* dkf_net_decode_truth */
     FUZZ_NET_FUSED,        /* dkf_net_decode_fused */
     FUZZ_NET_STATUS,       /* dkf_net_decode_status */
-    FUZZ_NET_TW2,          /* dkf_tw_decode (dkf_net_decode_tw), Algorithm 2 receiver */
-    FUZZ_NET_TW3,          /* dkf_tw_decode (dkf_net_decode_tw), Algorithm 3 (eta 2) */
-    FUZZ_NET_CHANNEL,      /* dkf_net_chan_parse, dkf_tw_chan_node on a channel name */
+    FUZZ_NET_TW2,          /* dkf_net_twa_decode (dkf_net_decode_tw), Algorithm 2 receiver */
+    FUZZ_NET_TW3,          /* dkf_net_twa_decode (dkf_net_decode_tw), Algorithm 3 (eta 2) */
+    FUZZ_NET_CHANNEL,      /* dkf_net_chan_parse, dkf_net_twa_chan_node on a channel name */
     FUZZ_NET_NSEL
 };
 
@@ -45,10 +45,10 @@ static inline dkf_net_expect_t fuzz_net_expect(void)
 }
 
 /* A graph-filter receiver of algorithm alg (2, or 3 with eta 2): 4 nodes,
- * n = 3, 10 steps; only the fields dkf_tw_decode reads are set. */
-static inline dkf_tw_scn_t fuzz_net_tw_scn(int alg)
+ * n = 3, 10 steps; only the fields dkf_net_twa_decode reads are set. */
+static inline dkf_net_twa_scn_t fuzz_net_tw_scn(int alg)
 {
-    dkf_tw_scn_t c;
+    dkf_net_twa_scn_t c;
     memset(&c, 0, sizeof c);
     c.alg = alg;
     c.N = 4;

@@ -12,7 +12,7 @@
 
 #include "fuzz_net.h"
 
-static unsigned char buf[DKF_NET_MAX_MSG + DKF_TW_MAX_MSG];
+static unsigned char buf[DKF_NET_MAX_MSG + DKF_NET_TWA_MAX_MSG];
 static const char *dir;
 
 static void put(const char *name, int sel, const void *data, size_t len)
@@ -37,9 +37,9 @@ static int accepted(int sel, const void *data, size_t len)
     static dkf_net_truth_t t;
     static dkf_net_fused_t f;
     static dkf_net_status_t st;
-    static dkf_tw_pkt_t p;
+    static dkf_net_tw_pkt_t p;
     const dkf_net_expect_t ex = fuzz_net_expect();
-    dkf_tw_scn_t c = fuzz_net_tw_scn(sel == FUZZ_NET_TW3 ? 3 : 2);
+    dkf_net_twa_scn_t c = fuzz_net_tw_scn(sel == FUZZ_NET_TW3 ? 3 : 2);
     dkf_net_verdict_t v;
     switch (sel) {
     case FUZZ_NET_NODE_MSG: v = dkf_net_decode_node_msg(data, len, &ex, &msg, NULL, &meta, NULL); break;
@@ -47,7 +47,7 @@ static int accepted(int sel, const void *data, size_t len)
     case FUZZ_NET_TRUTH: v = dkf_net_decode_truth(data, len, &ex, &t, NULL); break;
     case FUZZ_NET_FUSED: v = dkf_net_decode_fused(data, len, &ex, &f, NULL); break;
     case FUZZ_NET_STATUS: v = dkf_net_decode_status(data, len, NULL, &st, NULL); break;
-    default: v = dkf_tw_decode(data, len, &c, -1, &p, NULL); break;
+    default: v = dkf_net_twa_decode(data, len, &c, -1, &p, NULL); break;
     }
     return v == DKF_NET_ACCEPT;
 }
@@ -188,37 +188,37 @@ static void fused(void)
 
 static void tw_packets(void)
 {
-    static dkf_tw_pkt_t p;
+    static dkf_net_tw_pkt_t p;
     size_t i, len;
-    dkf_tw_scn_t c2 = fuzz_net_tw_scn(2), c3 = fuzz_net_tw_scn(3);
+    dkf_net_twa_scn_t c2 = fuzz_net_tw_scn(2), c3 = fuzz_net_tw_scn(3);
     memset(&p, 0, sizeof p);
     p.utime = 1700000000000000LL;
     p.model_id = c2.model_id;
     p.node = 1;
     p.k = 2;
     p.round = 0;
-    p.kind = DKF_TW_KIND_INFO;
+    p.kind = DKF_NET_TW_KIND_INFO;
     p.len = DKF_TW_PKT_LEN(c2.n);
     for (i = 0; i < p.len; ++i) p.v[i] = (dkf_real_t)((double)i * 0.125);
-    need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
+    need(dkf_net_twa_encode(buf, sizeof buf, &len, &p) == 0);
     put_ok("tw2_info", FUZZ_NET_TW2, buf, len);
     p.round = 1;
-    p.kind = DKF_TW_KIND_EST;
+    p.kind = DKF_NET_TW_KIND_EST;
     p.len = c2.n;
     p.retransmit = 1;
-    need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
+    need(dkf_net_twa_encode(buf, sizeof buf, &len, &p) == 0);
     put_ok("tw2_est_retransmit", FUZZ_NET_TW2, buf, len);
     p.model_id = c3.model_id;
     p.round = 3;
     p.retransmit = 0;
     p.len = DKF_TW_PKT_LEN(c3.n);
-    need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
+    need(dkf_net_twa_encode(buf, sizeof buf, &len, &p) == 0);
     put_ok("tw3_est", FUZZ_NET_TW3, buf, len);
     p.round = 0;
-    p.kind = DKF_TW_KIND_DONE;
+    p.kind = DKF_NET_TW_KIND_DONE;
     p.k = (long)c3.steps + 1;
     p.len = 0;
-    need(dkf_tw_encode(buf, sizeof buf, &len, &p) == 0);
+    need(dkf_net_twa_encode(buf, sizeof buf, &len, &p) == 0);
     put_ok("tw3_done", FUZZ_NET_TW3, buf, len);
     /* issue 10: a 50-byte packet whose len (the int32 that ends the 42-byte
      * header) is 0x20000001; 8 bytes of v follow. */

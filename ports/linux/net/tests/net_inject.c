@@ -42,9 +42,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
 #include "auth.h"
 #include "cli.h"
+#include "codec.h"
 #include "model.h"
 #include "net.h"
 

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "agents.h"
+#include "centre.h"
 #include "model.h"
 #include "net.h"
 

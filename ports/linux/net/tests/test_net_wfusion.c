@@ -31,6 +31,7 @@
 #include <cmocka.h>
 
 #include "agents.h"
+#include "centre.h"
 #include "dkf/wfusion.h"
 #include "model.h"
 #include "net.h"

@@ -89,7 +89,7 @@ static double uniform(void)
     return (double)(z >> 11) / 9007199254740992.0;
 }
 
-static int is_neighbour(const dkf_tw_scn_t *c, size_t i, size_t j)
+static int is_neighbour(const dkf_net_twa_scn_t *c, size_t i, size_t j)
 {
     size_t pos;
     return i != j && dkf_graph_find(&pos, &c->g, i, j) == DKF_OK;
@@ -97,7 +97,7 @@ static int is_neighbour(const dkf_tw_scn_t *c, size_t i, size_t j)
 
 typedef struct {
     size_t N;
-    dkf_tw_agent_t **ag;
+    dkf_net_twa_t **ag;
     sender_t *snd;
     queue_t q;
     int64_t now;
@@ -106,10 +106,10 @@ typedef struct {
 /* Runs agents (present[i] = 0: node i never starts) until all finish.
  * Each delivery to each subscribed neighbour is lost with probability
  * loss; the clock advances by tick_us whenever nothing is queued. */
-static void run_net(net_t *w, const dkf_tw_scn_t *c, const unsigned char *present, double loss,
+static void run_net(net_t *w, const dkf_net_twa_scn_t *c, const unsigned char *present, double loss,
                     int64_t tick_us, int64_t limit_us)
 {
-    dkf_tw_agent_opts_t o;
+    dkf_net_twa_opts_t o;
     size_t i, live;
     char err[256];
     w->N = c->N;
@@ -127,32 +127,33 @@ static void run_net(net_t *w, const dkf_tw_scn_t *c, const unsigned char *presen
         o.round_timeout_us = 2000000;
         o.start_timeout_us = 10000000;
         o.retry_us = 50000;
-        w->ag[i] = dkf_tw_agent_new(c, i, &o, err, sizeof err);
+        w->ag[i] = dkf_net_twa_new(c, i, &o, err, sizeof err);
         assert_non_null(w->ag[i]);
     }
     for (i = 0; i < c->N; ++i)
-        if (present[i]) assert_int_equal(dkf_tw_agent_start(w->ag[i], w->now), DKF_TW_RUNNING);
+        if (present[i]) assert_int_equal(dkf_net_twa_start(w->ag[i], w->now), DKF_NET_TWA_RUNNING);
     for (;;) {
         msg_t *m;
         while ((m = q_pop(&w->q)) != NULL) {
             for (i = 0; i < c->N; ++i) {
                 char chan[DKF_NET_CHAN_LEN];
                 if (!present[i] || !is_neighbour(c, i, m->from)) continue; /* the subscription */
-                if (dkf_tw_agent_state(w->ag[i]) == DKF_TW_FINISHED) continue;
+                if (dkf_net_twa_state(w->ag[i]) == DKF_NET_TWA_FINISHED) continue;
                 if (loss > 0 && uniform() < loss) continue;
-                dkf_tw_chan(chan, "DKF_TW", m->from);
-                assert_int_equal(dkf_tw_agent_receive(w->ag[i], dkf_tw_chan_node(chan, "DKF_TW"),
-                                                      m->data, m->len, w->now),
+                dkf_net_twa_chan(chan, "DKF_TW", m->from);
+                assert_int_equal(dkf_net_twa_receive(w->ag[i],
+                                                     dkf_net_twa_chan_node(chan, "DKF_TW"),
+                                                     m->data, m->len, w->now),
                                  DKF_NET_ACCEPT);
-                dkf_tw_agent_poll(w->ag[i], w->now);
+                dkf_net_twa_poll(w->ag[i], w->now);
             }
             free(m->data);
             free(m);
         }
         for (i = 0, live = 0; i < c->N; ++i) {
             if (!present[i]) continue;
-            assert_int_not_equal(dkf_tw_agent_poll(w->ag[i], w->now), DKF_TW_FAILED);
-            live += dkf_tw_agent_state(w->ag[i]) != DKF_TW_FINISHED;
+            assert_int_not_equal(dkf_net_twa_poll(w->ag[i], w->now), DKF_NET_TWA_FAILED);
+            live += dkf_net_twa_state(w->ag[i]) != DKF_NET_TWA_FINISHED;
         }
         if (live == 0 && w->q.count == 0) break;
         if (w->q.count == 0) w->now += tick_us;
@@ -163,7 +164,7 @@ static void run_net(net_t *w, const dkf_tw_scn_t *c, const unsigned char *presen
 static void free_net(net_t *w)
 {
     size_t i;
-    for (i = 0; i < w->N; ++i) dkf_tw_agent_free(w->ag[i]);
+    for (i = 0; i < w->N; ++i) dkf_net_twa_free(w->ag[i]);
     free(w->ag);
     free(w->snd);
 }
@@ -174,7 +175,7 @@ typedef struct {
     double *x, *P, *z; /* steps x N x (n | n^2 | m) */
 } ref_t;
 
-static void reference(ref_t *r, const dkf_tw_scn_t *c)
+static void reference(ref_t *r, const dkf_net_twa_scn_t *c)
 {
     const dkf_scenario_t *s = c->s;
     const size_t N = c->N, n = c->n, m = c->mmax, p = c->p;
@@ -254,14 +255,14 @@ static size_t flat(const json_t *j, double *out, size_t cap)
 
 /* Node l's result equals the reference bit for bit (the JSON holds the
  * exact doubles of the reals). */
-static void assert_same_as_reference(const dkf_tw_agent_t *a, const ref_t *r,
-                                     const dkf_tw_scn_t *c, size_t l)
+static void assert_same_as_reference(const dkf_net_twa_t *a, const ref_t *r,
+                                     const dkf_net_twa_scn_t *c, size_t l)
 {
-    json_t *d = dkf_tw_agent_result(a);
+    json_t *d = dkf_net_twa_result(a);
     static double got[4096];
     const size_t n = c->n, m = c->p, N = c->N;
     size_t k, i;
-    assert_int_equal(dkf_tw_agent_steps_done(a), c->steps);
+    assert_int_equal(dkf_net_twa_steps_done(a), c->steps);
     for (k = 0; k < c->steps; ++k) {
         const size_t j = k * N + l;
         assert_int_equal(flat(json_array_get(json_object_get(d, "x"), k), got, 4096), n);
@@ -276,7 +277,7 @@ static void assert_same_as_reference(const dkf_tw_agent_t *a, const ref_t *r,
 }
 
 /* The 6-node vector's expected alg2 / alg3 x, P, z of every node and step. */
-static double check_vector(const dkf_tw_scn_t *c, const ref_t *r)
+static double check_vector(const dkf_net_twa_scn_t *c, const ref_t *r)
 {
     static const char *const keys[] = {"x", "P", "z"};
     const json_t *steps = json_object_get(c->s->root, "steps");
@@ -317,14 +318,14 @@ static void agents_vs_reference(const char *path, int alg, long eta, size_t step
                                 double loss, int vector)
 {
     dkf_scenario_t *s = load(path);
-    dkf_tw_scn_t c;
+    dkf_net_twa_scn_t c;
     unsigned char present[256];
     net_t w;
     ref_t r;
     size_t l;
     char err[256];
     if (steps_cap > 0 && s->steps > steps_cap) s->steps = steps_cap;
-    assert_int_equal(dkf_tw_scn_bind(&c, s, alg, eta, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&c, s, alg, eta, err, sizeof err), 0);
     reference(&r, &c);
     memset(present, 1, sizeof present);
     rng_state = 12345;
@@ -332,7 +333,7 @@ static void agents_vs_reference(const char *path, int alg, long eta, size_t step
     for (l = 0; l < c.N; ++l) assert_same_as_reference(w.ag[l], &r, &c, l);
     if (loss > 0) {
         unsigned long rt = 0;
-        for (l = 0; l < c.N; ++l) rt += dkf_tw_agent_counters(w.ag[l])->retransmits;
+        for (l = 0; l < c.N; ++l) rt += dkf_net_twa_counters(w.ag[l])->retransmits;
         assert_true(rt > 0); /* the losses were real and recovered */
     }
     if (vector)
@@ -340,7 +341,7 @@ static void agents_vs_reference(const char *path, int alg, long eta, size_t step
                       check_vector(&c, &r));
     free_net(&w);
     free(r.x);
-    dkf_tw_scn_free(&c);
+    dkf_net_twa_scn_free(&c);
     dkf_scenario_free(s);
 }
 
@@ -375,30 +376,31 @@ static void test_tw_absent_node(void **state)
     (void)state;
     for (alg = 2; alg <= 3; ++alg) {
         dkf_scenario_t *s = load(V6);
-        dkf_tw_scn_t c;
+        dkf_net_twa_scn_t c;
         unsigned char present[6] = {1, 1, 1, 1, 1, 0};
         net_t w;
         size_t l, k;
         char err[256];
-        assert_int_equal(dkf_tw_scn_bind(&c, s, alg, -1, err, sizeof err), 0);
+        assert_int_equal(dkf_net_twa_scn_bind(&c, s, alg, -1, err, sizeof err), 0);
         run_net(&w, &c, present, 0, 10000, 30 * 1000000LL);
         /* start deadline (10 s) + a lingering wait (2 s) at most, with tick slack */
         assert_true(w.now <= 12100000);
         for (l = 0; l < 5; ++l) {
-            json_t *d = dkf_tw_agent_result(w.ag[l]);
+            json_t *d = dkf_net_twa_result(w.ag[l]);
             const int nb5 = l == 0 || l == 4;
-            assert_int_equal(dkf_tw_agent_steps_done(w.ag[l]), c.steps);
-            assert_int_equal(dkf_tw_agent_counters(w.ag[l])->degraded_steps, nb5 ? c.steps : 0);
+            assert_int_equal(dkf_net_twa_steps_done(w.ag[l]), c.steps);
+            assert_int_equal(dkf_net_twa_counters(w.ag[l])->degraded_steps, nb5 ? c.steps : 0);
             for (k = 0; k < c.steps; ++k) {
                 const json_t *miss = json_array_get(json_object_get(d, "missing"), k);
                 assert_int_equal(json_array_size(miss), nb5 ? 1 : 0);
                 if (nb5) assert_int_equal(json_integer_value(json_array_get(miss, 0)), 5);
             }
-            for (k = 0; k < c.n; ++k) assert_true(isfinite((double)dkf_tw_agent_node(w.ag[l])->x.data[k]));
+            for (k = 0; k < c.n; ++k)
+                assert_true(isfinite((double)dkf_net_twa_node(w.ag[l])->x.data[k]));
             json_decref(d);
         }
         free_net(&w);
-        dkf_tw_scn_free(&c);
+        dkf_net_twa_scn_free(&c);
         dkf_scenario_free(s);
     }
 }
@@ -408,25 +410,25 @@ static void test_tw_absent_node(void **state)
 static void test_tw_codec_rejects(void **state)
 {
     dkf_scenario_t *s = load(V6);
-    dkf_tw_scn_t c;
-    static dkf_tw_pkt_t p, q, out;
-    static unsigned char buf[DKF_TW_MAX_MSG + 1];
+    dkf_net_twa_scn_t c;
+    static dkf_net_tw_pkt_t p, q, out;
+    static unsigned char buf[DKF_NET_TWA_MAX_MSG + 1];
     dkf_net_rejects_t rej;
     size_t len, i, cut;
     char err[256];
     (void)state;
-    assert_int_equal(dkf_tw_scn_bind(&c, s, 3, -1, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&c, s, 3, -1, err, sizeof err), 0);
     memset(&p, 0, sizeof p);
     memset(&rej, 0, sizeof rej);
     p.model_id = c.model_id;
     p.node = 4;
     p.k = 3;
     p.round = 12; /* eta = 10: an estimate packet */
-    p.kind = DKF_TW_KIND_EST;
+    p.kind = DKF_NET_TW_KIND_EST;
     p.len = DKF_TW_PKT_LEN(c.n);
     for (i = 0; i < p.len; ++i) p.v[i] = (dkf_real_t)i * DKF_R(0.25);
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
-    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, &rej), DKF_NET_ACCEPT);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_decode(buf, len, &c, 4, &out, &rej), DKF_NET_ACCEPT);
     assert_int_equal(out.len, p.len);
     assert_memory_equal(out.v, p.v, p.len * sizeof p.v[0]);
     assert_int_equal(out.round, 12);
@@ -434,10 +436,10 @@ static void test_tw_codec_rejects(void **state)
     memcpy(&q, &out, sizeof q);
 #define EXPECT(mod, chan, verdict)                                               \
     do {                                                                         \
-        dkf_tw_pkt_t t = p;                                                      \
+        dkf_net_tw_pkt_t t = p;                                                      \
         mod;                                                                     \
-        assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &t), 0);          \
-        assert_int_equal(dkf_tw_decode(buf, len, &c, chan, &out, &rej), verdict); \
+        assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &t), 0);          \
+        assert_int_equal(dkf_net_twa_decode(buf, len, &c, chan, &out, &rej), verdict); \
         assert_memory_equal(&out, &q, sizeof q); /* untouched */                 \
     } while (0)
     EXPECT((void)0, 5, DKF_NET_REJ_NODE);             /* not the channel's node */
@@ -447,28 +449,29 @@ static void test_tw_codec_rejects(void **state)
     EXPECT(t.k = 0, 4, DKF_NET_REJ_STEP);
     EXPECT(t.k = 31, 4, DKF_NET_REJ_STEP);
     EXPECT(t.round = 20, 4, DKF_NET_REJ_STEP);
-    EXPECT(t.kind = DKF_TW_KIND_INFO, 4, DKF_NET_REJ_STEP); /* round 12 is an estimate round */
+    EXPECT(t.kind = DKF_NET_TW_KIND_INFO, 4, DKF_NET_REJ_STEP); /* round 12 is an estimate round */
     EXPECT(t.kind = 7, 4, DKF_NET_REJ_MALFORMED);
-    EXPECT((t.kind = DKF_TW_KIND_DONE, t.len = 0), 4, DKF_NET_REJ_STEP); /* DONE needs k = steps + 1 */
+    /* DONE needs k = steps + 1 */
+    EXPECT((t.kind = DKF_NET_TW_KIND_DONE, t.len = 0), 4, DKF_NET_REJ_STEP);
     EXPECT(t.v[3] = (dkf_real_t)NAN, 4, DKF_NET_REJ_NONFINITE);
     /* every truncation, and a trailing byte */
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
     for (cut = 0; cut < len; ++cut)
-        assert_int_equal(dkf_tw_decode(buf, cut, &c, 4, &out, &rej), DKF_NET_REJ_MALFORMED);
-    assert_int_equal(dkf_tw_decode(buf, len + 1, &c, 4, &out, &rej), DKF_NET_REJ_MALFORMED);
+        assert_int_equal(dkf_net_twa_decode(buf, cut, &c, 4, &out, &rej), DKF_NET_REJ_MALFORMED);
+    assert_int_equal(dkf_net_twa_decode(buf, len + 1, &c, 4, &out, &rej), DKF_NET_REJ_MALFORMED);
     assert_memory_equal(&out, &q, sizeof q);
     assert_int_equal(rej.by[DKF_NET_REJ_MALFORMED], len + 2);
     assert_int_equal(rej.by[DKF_NET_REJ_NODE], 2);
     assert_int_equal(rej.by[DKF_NET_REJ_STEP], 5);
     assert_int_equal(rej.total, len + 2 + 2 + 1 + 1 + 5 + 1);
     /* a DONE packet */
-    p.kind = DKF_TW_KIND_DONE;
+    p.kind = DKF_NET_TW_KIND_DONE;
     p.len = 0;
     p.k = 31;
     p.round = 0;
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
-    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_ACCEPT);
-    dkf_tw_scn_free(&c);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_decode(buf, len, &c, 4, &out, NULL), DKF_NET_ACCEPT);
+    dkf_net_twa_scn_free(&c);
     dkf_scenario_free(s);
 }
 
@@ -479,50 +482,50 @@ static void test_tw_codec_rejects(void **state)
 static void test_tw_codec_len_field(void **state)
 {
     static const uint32_t bad[] = {0x20000001u, 0xffffffffu, 0x80000000u, 0x7fffffffu,
-                                   0x10000000u, DKF_TW_MAX_PKT + 1u, 8u};
+                                   0x10000000u, DKF_NET_TWA_MAX_PKT + 1u, 8u};
     dkf_scenario_t *s = load(V6);
-    dkf_tw_scn_t c;
-    static dkf_tw_pkt_t p, out, q;
-    static unsigned char buf[DKF_TW_MAX_MSG + 64];
+    dkf_net_twa_scn_t c;
+    static dkf_net_tw_pkt_t p, out, q;
+    static unsigned char buf[DKF_NET_TWA_MAX_MSG + 64];
     size_t len, i, j;
     char err[256];
     (void)state;
-    assert_int_equal(dkf_tw_scn_bind(&c, s, 3, -1, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&c, s, 3, -1, err, sizeof err), 0);
     memset(&p, 0, sizeof p);
     p.model_id = c.model_id;
     p.node = 4;
-    p.kind = DKF_TW_KIND_DONE;
+    p.kind = DKF_NET_TW_KIND_DONE;
     p.k = (long)c.steps + 1;
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
     assert_int_equal(len, 42); /* fingerprint + header; len = 0, no v */
-    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_ACCEPT);
+    assert_int_equal(dkf_net_twa_decode(buf, len, &c, 4, &out, NULL), DKF_NET_ACCEPT);
     memset(&out, 0x5a, sizeof out);
     q = out;
     for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
         for (j = 0; j < 4; ++j) buf[38 + j] = (unsigned char)(bad[i] >> (24 - 8 * j));
         memset(buf + 42, 0x41, 8);
         /* the 50-byte packet of the issue (i = 0), then others */
-        assert_int_equal(dkf_tw_decode(buf, 50, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
-        assert_int_equal(dkf_tw_decode(buf, 42, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+        assert_int_equal(dkf_net_twa_decode(buf, 50, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+        assert_int_equal(dkf_net_twa_decode(buf, 42, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
         assert_memory_equal(&out, &q, sizeof q);
     }
     /* a full estimate packet with len one more or less than it holds */
-    p.kind = DKF_TW_KIND_EST;
+    p.kind = DKF_NET_TW_KIND_EST;
     p.k = 3;
     p.round = 12;
     p.len = DKF_TW_PKT_LEN(c.n);
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
     for (i = 0; i < 2; ++i) {
         const uint32_t l = (uint32_t)p.len + 1 - 2 * (uint32_t)i;
         for (j = 0; j < 4; ++j) buf[38 + j] = (unsigned char)(l >> (24 - 8 * j));
-        assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+        assert_int_equal(dkf_net_twa_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
     }
     assert_memory_equal(&out, &q, sizeof q);
     /* the retransmit flag is a boolean: 0 or 1 */
-    assert_int_equal(dkf_tw_encode(buf, sizeof buf, &len, &p), 0);
+    assert_int_equal(dkf_net_twa_encode(buf, sizeof buf, &len, &p), 0);
     buf[37] = 2;
-    assert_int_equal(dkf_tw_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
-    dkf_tw_scn_free(&c);
+    assert_int_equal(dkf_net_twa_decode(buf, len, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
+    dkf_net_twa_scn_free(&c);
     dkf_scenario_free(s);
 }
 
@@ -530,40 +533,40 @@ static void test_tw_codec_len_field(void **state)
 static void test_tw_model_id_covers_alg_eta(void **state)
 {
     dkf_scenario_t *s = load(V6);
-    dkf_tw_scn_t a, b, d;
+    dkf_net_twa_scn_t a, b, d;
     char err[256];
     (void)state;
-    assert_int_equal(dkf_tw_scn_bind(&a, s, 3, -1, err, sizeof err), 0);
-    assert_int_equal(dkf_tw_scn_bind(&b, s, 3, 9, err, sizeof err), 0);
-    assert_int_equal(dkf_tw_scn_bind(&d, s, 2, -1, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&a, s, 3, -1, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&b, s, 3, 9, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&d, s, 2, -1, err, sizeof err), 0);
     assert_true(a.model_id != b.model_id && a.model_id != d.model_id && b.model_id != d.model_id);
-    dkf_tw_scn_free(&b);
-    assert_int_equal(dkf_tw_scn_bind(&b, s, 4, -1, err, sizeof err), -1);
-    dkf_tw_scn_free(&a);
-    dkf_tw_scn_free(&d);
+    dkf_net_twa_scn_free(&b);
+    assert_int_equal(dkf_net_twa_scn_bind(&b, s, 4, -1, err, sizeof err), -1);
+    dkf_net_twa_scn_free(&a);
+    dkf_net_twa_scn_free(&d);
     dkf_scenario_free(s);
 }
 
 static void test_tw_channels(void **state)
 {
     dkf_scenario_t *s = load(V6);
-    dkf_tw_scn_t c;
+    dkf_net_twa_scn_t c;
     char sub[256], chan[DKF_NET_CHAN_LEN], err[256];
     (void)state;
-    assert_int_equal(dkf_tw_scn_bind(&c, s, 2, -1, err, sizeof err), 0);
+    assert_int_equal(dkf_net_twa_scn_bind(&c, s, 2, -1, err, sizeof err), 0);
     /* node 1: neighbours 0, 2, 4 (ring + chord 1-4) */
-    assert_int_equal(dkf_tw_subscription(sub, sizeof sub, &c, "DKF_TW", 1), 0);
+    assert_int_equal(dkf_net_twa_subscription(sub, sizeof sub, &c, "DKF_TW", 1), 0);
     assert_string_equal(sub, "DKF_TW_(0|2|4)");
-    assert_int_equal(dkf_tw_subscription(sub, 8, &c, "DKF_TW", 1), -1);
-    dkf_tw_chan(chan, "DKF_TW", 17);
+    assert_int_equal(dkf_net_twa_subscription(sub, 8, &c, "DKF_TW", 1), -1);
+    dkf_net_twa_chan(chan, "DKF_TW", 17);
     assert_string_equal(chan, "DKF_TW_17");
-    assert_int_equal(dkf_tw_chan_node(chan, "DKF_TW"), 17);
-    assert_int_equal(dkf_tw_chan_node("DKF_TW_017", "DKF_TW"), -1);
-    assert_int_equal(dkf_tw_chan_node("DKF_TW_", "DKF_TW"), -1);
-    assert_int_equal(dkf_tw_chan_node("DKF_TWX_1", "DKF_TW"), -1);
-    assert_int_equal(dkf_tw_chan_node("DKF_TW_1a", "DKF_TW"), -1);
-    assert_int_equal(dkf_tw_chan_node("DKF_TW_0", "DKF_TW"), 0);
-    dkf_tw_scn_free(&c);
+    assert_int_equal(dkf_net_twa_chan_node(chan, "DKF_TW"), 17);
+    assert_int_equal(dkf_net_twa_chan_node("DKF_TW_017", "DKF_TW"), -1);
+    assert_int_equal(dkf_net_twa_chan_node("DKF_TW_", "DKF_TW"), -1);
+    assert_int_equal(dkf_net_twa_chan_node("DKF_TWX_1", "DKF_TW"), -1);
+    assert_int_equal(dkf_net_twa_chan_node("DKF_TW_1a", "DKF_TW"), -1);
+    assert_int_equal(dkf_net_twa_chan_node("DKF_TW_0", "DKF_TW"), 0);
+    dkf_net_twa_scn_free(&c);
     dkf_scenario_free(s);
 }
 

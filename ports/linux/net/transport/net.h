@@ -22,6 +22,7 @@
 #include <stdint.h>
 
 #include "chan.h"
+#include "clock.h" /* dkf_net_now_us, dkf_net_mono_us */
 
 #define DKF_NET_DEFAULT_URL "udpm://239.255.76.67:7667?ttl=0"
 #define DKF_NET_ERR_LEN 256
@@ -96,10 +97,5 @@ int dkf_net_handle(dkf_net_t *net, int timeout_ms);
 /* Dispatches every message already queued (waiting at most timeout_ms for
  * the first); returns how many were handled, or -1. */
 int dkf_net_drain(dkf_net_t *net, int timeout_ms);
-
-/* Wall-clock time (message stamps, comparable between processes on one
- * host) and monotonic time (deadlines), microseconds. */
-int64_t dkf_net_now_us(void);
-int64_t dkf_net_mono_us(void);
 
 #endif /* DKF_NET_H */

@@ -37,7 +37,7 @@
  * itself (step, restart, save, restore) and the outputs (publish, record,
  * state). The seed-000 Difference-KF centre (fusion.c) is one user; a
  * test drives it with synthetic payloads and a fake clock
- * (tests/test_fc_runtime.c).
+ * (net/tests/test_fc_runtime.c).
  *
  * Contract of the callbacks (each gets the user pointer of dkf_fcr_create;
  * a callback must not call back into the runtime, but dkf_fcr_notef):

@@ -158,8 +158,8 @@ static int parse(int argc, char **argv, opts_t *o)
 /* The node's agent, seed 003's or seed 001's, through its rounds. */
 typedef struct {
     dkf_ra_t *ra;
-    dkf_tw_scn_t tw;            /* seed 003: the bound scenario */
-    dkf_tw_agent_t *tw_agent;
+    dkf_net_twa_scn_t tw;            /* seed 003: the bound scenario */
+    dkf_net_twa_t *tw_agent;
     dkf_df_agent_t *df_agent;
 } agent_t;
 
@@ -211,7 +211,7 @@ static int write_result(const opts_t *o, const ctx_t *x, const char *exit_what, 
     json_t *doc;
     int rc;
     if (o->output == NULL) return 0;
-    doc = x->ag.tw_agent ? dkf_tw_agent_result(x->ag.tw_agent)
+    doc = x->ag.tw_agent ? dkf_net_twa_result(x->ag.tw_agent)
                          : dkf_df_agent_result(x->ag.df_agent);
     json_object_set_new(doc, "scenario", json_string(o->scn));
     json_object_set_new(doc, "exit", json_string(exit_what));
@@ -236,7 +236,7 @@ static int run(const opts_t *o, ctx_t *x)
         if (dkf_cli_stop || dkf_cli_expired(t0, o->timeout)) break;
         if (dkf_net_drain(x->net, (int)(w > 100 ? 100 : w)) < 0) {
             fprintf(stderr, "%s: node %.0f: LCM receive failed\n", prog, o->id);
-            st = DKF_TW_FAILED;
+            st = DKF_NET_TWA_FAILED;
             break;
         }
         st = dkf_ra_poll(ra, dkf_net_mono_us());
@@ -276,11 +276,11 @@ static int make_agent(const opts_t *o, const dkf_scenario_t *s, const dkf_ra_opt
         return -1;
     }
     if (strcmp(o->filter, "tw2") == 0 || strcmp(o->filter, "tw3") == 0) {
-        if (dkf_tw_scn_bind(&ag->tw, s, o->filter[2] - '0', (long)o->eta, err, errlen) != 0)
+        if (dkf_net_twa_scn_bind(&ag->tw, s, o->filter[2] - '0', (long)o->eta, err, errlen) != 0)
             return -1;
-        if ((ag->tw_agent = dkf_tw_agent_new(&ag->tw, (size_t)o->id, ao, err, errlen)) == NULL)
+        if ((ag->tw_agent = dkf_net_twa_new(&ag->tw, (size_t)o->id, ao, err, errlen)) == NULL)
             return -1;
-        ag->ra = dkf_tw_agent_rounds(ag->tw_agent);
+        ag->ra = dkf_net_twa_rounds(ag->tw_agent);
         return 0;
     }
     if ((ag->df_agent = dkf_df_agent_new(f, s, (size_t)o->id, ao, err, errlen)) == NULL) return -1;
@@ -290,9 +290,9 @@ static int make_agent(const opts_t *o, const dkf_scenario_t *s, const dkf_ra_opt
 
 static void free_agent(agent_t *ag)
 {
-    dkf_tw_agent_free(ag->tw_agent);
+    dkf_net_twa_free(ag->tw_agent);
     dkf_df_agent_free(ag->df_agent);
-    dkf_tw_scn_free(&ag->tw);
+    dkf_net_twa_scn_free(&ag->tw);
 }
 
 /* --key-dir: the edge keys of the node's graph row (auth.h, DKA2). */

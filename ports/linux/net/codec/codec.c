@@ -11,7 +11,7 @@
  * exact -- and only then does the generated decoder run. LCM encodes
  * big-endian, one byte per boolean/int8, strings as int32 length (with the
  * NUL) + bytes. The tables follow the .lcm files; the round-trip tests in
- * tests/test_net_codec.c fail if they drift.
+ * net/tests/test_net_codec.c fail if they drift.
  */
 #include "codec.h"
 
@@ -591,7 +591,7 @@ dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, const dkf_n
 void dkf_net_tw_shape(const dkf_net_tw_expect_t *ex, size_t round, int *kind, size_t *len)
 {
     const int info = round < ex->info_rounds;
-    *kind = info ? DKF_TW_KIND_INFO : DKF_TW_KIND_EST;
+    *kind = info ? DKF_NET_TW_KIND_INFO : DKF_NET_TW_KIND_EST;
     *len = info ? ex->info_len : ex->est_len;
 }
 
@@ -620,11 +620,11 @@ static dkf_net_verdict_t check_tw(const dkf_lcm_tw_packet_t *w, size_t len,
 {
     int kind;
     size_t want;
-    if (w->kind < 0 || w->kind > DKF_TW_KIND_DONE) return DKF_NET_REJ_MALFORMED;
+    if (w->kind < 0 || w->kind > DKF_NET_TW_KIND_DONE) return DKF_NET_REJ_MALFORMED;
     if (w->node < 0 || (size_t)w->node >= ex->nnodes || (ex->node >= 0 && w->node != ex->node))
         return DKF_NET_REJ_NODE;
     if (w->model_id != ex->model_id) return DKF_NET_REJ_MODEL;
-    if (w->kind == DKF_TW_KIND_DONE) {
+    if (w->kind == DKF_NET_TW_KIND_DONE) {
         if (len != 0) return DKF_NET_REJ_DIM;
         return (w->k == (long)ex->steps + 1 && w->round == 0) ? DKF_NET_ACCEPT
                                                                : DKF_NET_REJ_STEP;

@@ -23,7 +23,7 @@
 /* Everything that must agree between the nodes of one run: dimensions,
  * the model at every step, every sensor's H and Sw, the prior, the graph,
  * the weights, alg and eta (measurements excluded: each node reads its own). */
-static int64_t model_id(const dkf_tw_scn_t *c)
+static int64_t model_id(const dkf_net_twa_scn_t *c)
 {
     static const char *const dyn[] = {"A", "B", "Sv"};
     const dkf_scenario_t *s = c->s;
@@ -69,8 +69,8 @@ static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, siz
     return f->family->check(f, &o, s, err, errlen) == DKF_EXIT_OK ? 0 : -1;
 }
 
-int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta, char *err,
-                    size_t errlen)
+int dkf_net_twa_scn_bind(dkf_net_twa_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
+                         char *err, size_t errlen)
 {
     size_t l, nnz;
     dkf_status_t st;
@@ -92,25 +92,25 @@ int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
     c->nbr = calloc(nnz, sizeof *c->nbr);
     c->alpha = calloc(2 * nnz, sizeof *c->alpha);
     if (c->start == NULL || c->nbr == NULL || c->alpha == NULL) {
-        dkf_tw_scn_free(c);
+        dkf_net_twa_scn_free(c);
         return failf(err, errlen, "%s: out of memory", s->file);
     }
     c->W = c->alpha + nnz;
     st = dkf_graph_from_edges(&c->g, c->start, c->nbr, nnz, c->N, s->net->edges, c->E);
     if (st != DKF_OK) {
-        dkf_tw_scn_free(c);
+        dkf_net_twa_scn_free(c);
         return failf(err, errlen, "%s: graph.edges: %s", s->file, dkf_status_str(st));
     }
     if (dkf_graph_weights_bind(c->s, &c->g, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
         dkf_graph_weights_bind(c->s, &c->g, 1, c->W, &c->W_default, err, errlen) != 0) {
-        dkf_tw_scn_free(c);
+        dkf_net_twa_scn_free(c);
         return -1;
     }
     c->model_id = model_id(c);
     return 0;
 }
 
-void dkf_tw_scn_free(dkf_tw_scn_t *c)
+void dkf_net_twa_scn_free(dkf_net_twa_scn_t *c)
 {
     free(c->start);
     free(c->nbr);
@@ -121,7 +121,7 @@ void dkf_tw_scn_free(dkf_tw_scn_t *c)
 
 /* ---- packets -------------------------------------------------------------------- */
 
-dkf_net_tw_expect_t dkf_tw_expect(const dkf_tw_scn_t *c, long chan_node)
+dkf_net_tw_expect_t dkf_net_twa_expect(const dkf_net_twa_scn_t *c, long chan_node)
 {
     dkf_net_tw_expect_t ex;
     ex.model_id = c->model_id;
@@ -137,31 +137,34 @@ dkf_net_tw_expect_t dkf_tw_expect(const dkf_tw_scn_t *c, long chan_node)
     return ex;
 }
 
-void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *len)
+void dkf_net_twa_round_shape(const dkf_net_twa_scn_t *c, size_t round, int *kind, size_t *len)
 {
-    const dkf_net_tw_expect_t ex = dkf_tw_expect(c, -1);
+    const dkf_net_tw_expect_t ex = dkf_net_twa_expect(c, -1);
     dkf_net_tw_shape(&ex, round, kind, len);
 }
 
-int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p)
+int dkf_net_twa_encode(void *buf, size_t cap, size_t *len, const dkf_net_tw_pkt_t *p)
 {
     return dkf_net_encode_tw(buf, cap, len, p);
 }
 
-dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t *c,
-                                long chan_node, dkf_tw_pkt_t *out, dkf_net_rejects_t *rej)
+dkf_net_verdict_t dkf_net_twa_decode(const void *buf, size_t len, const dkf_net_twa_scn_t *c,
+                                     long chan_node, dkf_net_tw_pkt_t *out, dkf_net_rejects_t *rej)
 {
-    const dkf_net_tw_expect_t ex = dkf_tw_expect(c, chan_node);
+    const dkf_net_tw_expect_t ex = dkf_net_twa_expect(c, chan_node);
     return dkf_net_decode_tw(buf, len, &ex, out, rej);
 }
 
-void dkf_tw_chan(char *out, const char *prefix, size_t node) { dkf_ra_chan(out, prefix, node); }
-long dkf_tw_chan_node(const char *channel, const char *prefix)
+void dkf_net_twa_chan(char *out, const char *prefix, size_t node)
+{
+    dkf_ra_chan(out, prefix, node);
+}
+long dkf_net_twa_chan_node(const char *channel, const char *prefix)
 {
     return dkf_ra_chan_node(channel, prefix);
 }
-int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char *prefix,
-                        size_t node)
+int dkf_net_twa_subscription(char *out, size_t cap, const dkf_net_twa_scn_t *c, const char *prefix,
+                             size_t node)
 {
     return dkf_ra_subscription(out, cap, prefix, c->nbr + c->start[node],
                                c->start[node + 1] - c->start[node], node);
@@ -169,8 +172,8 @@ int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char
 
 /* ---- the agent: the filter's side of round_agent.h ------------------------------ */
 
-struct dkf_tw_agent {
-    const dkf_tw_scn_t *c;
+struct dkf_net_twa {
+    const dkf_net_twa_scn_t *c;
     dkf_ra_t *ra;               /* the rounds with the neighbours */
     size_t id, row0, deg, self; /* row of id: entries row0 .. row0 + deg - 1; self = position of id */
     size_t pkt;                 /* DKF_TW_PKT_LEN(n) */
@@ -192,9 +195,9 @@ static void to_real(dkf_real_t *dst, const double *src, size_t n)
     dkf_scn_to_real(dst, src, n);
 }
 
-static int alloc_agent(dkf_tw_agent_t *a)
+static int alloc_agent(dkf_net_twa_t *a)
 {
-    const dkf_tw_scn_t *c = a->c;
+    const dkf_net_twa_scn_t *c = a->c;
     const size_t node_len = DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p);
     const size_t nm = 2 * c->n * c->n + c->n * c->p + c->mmax * c->n + c->mmax * c->mmax +
                       c->mmax + 2 * c->n;
@@ -214,7 +217,7 @@ static int alloc_agent(dkf_tw_agent_t *a)
     return 0;
 }
 
-static int fail_step(char *err, size_t errlen, const dkf_tw_agent_t *a, size_t k,
+static int fail_step(char *err, size_t errlen, const dkf_net_twa_t *a, size_t k,
                      const char *what, dkf_status_t st)
 {
     snprintf(err, errlen, "node %zu: step n=%zu: %s failed: %s", a->id, k, what,
@@ -222,9 +225,9 @@ static int fail_step(char *err, size_t errlen, const dkf_tw_agent_t *a, size_t k
     return -1;
 }
 
-static void load_step(dkf_tw_agent_t *a, size_t k)
+static void load_step(dkf_net_twa_t *a, size_t k)
 {
-    const dkf_tw_scn_t *c = a->c;
+    const dkf_net_twa_scn_t *c = a->c;
     to_real(a->A, dkf_scn_at(dkf_scn_model(c->s, "A"), k - 1), c->n * c->n);
     to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "B"), k - 1), c->n * c->p);
     to_real(a->Sv, dkf_scn_at(dkf_scn_model(c->s, "Sv"), k - 1), c->n * c->n);
@@ -232,9 +235,9 @@ static void load_step(dkf_tw_agent_t *a, size_t k)
 }
 
 /* The committed step k's x, P, z (the result document). */
-static int record_step(dkf_tw_agent_t *a, size_t k)
+static int record_step(dkf_net_twa_t *a, size_t k)
 {
-    const dkf_tw_scn_t *c = a->c;
+    const dkf_net_twa_scn_t *c = a->c;
     const size_t j = k - 1;
     size_t i;
     for (i = 0; i < c->n; ++i) a->xs[j * c->n + i] = (double)a->nd.x.data[i];
@@ -247,8 +250,8 @@ static int record_step(dkf_tw_agent_t *a, size_t k)
  * 3, eta = 0) the step is local. */
 static int tw_begin_step(void *filter, size_t k, dkf_real_t *pkt, char *err, size_t errlen)
 {
-    dkf_tw_agent_t *a = filter;
-    const dkf_tw_scn_t *c = a->c;
+    dkf_net_twa_t *a = filter;
+    const dkf_net_twa_scn_t *c = a->c;
     dkf_status_t st;
     load_step(a, k);
     st = dkf_tw_meas_packet(a->mix, &a->nd, &a->sens, &a->my,
@@ -269,13 +272,13 @@ static int tw_begin_step(void *filter, size_t k, dkf_real_t *pkt, char *err, siz
  * (len reals each) into out. Complete rounds take the row exactly as
  * dkf_tw_net_* does; with packets missing, alpha is renormalised over the
  * present ones (Alg 2) or the own packet stands in (Alg 3, subst). */
-static dkf_status_t mix_round(const dkf_tw_agent_t *a, const dkf_real_t *rx, size_t stride,
+static dkf_status_t mix_round(const dkf_net_twa_t *a, const dkf_real_t *rx, size_t stride,
                               const unsigned char *have, dkf_real_t *out, size_t len,
                               const dkf_real_t *w, int subst)
 {
-    const dkf_real_t *in[DKF_TW_MAX_DEG];
+    const dkf_real_t *in[DKF_NET_TWA_MAX_DEG];
     const dkf_real_t *own = rx + a->self * stride;
-    dkf_real_t wc[DKF_TW_MAX_DEG], sum = DKF_R(0.0);
+    dkf_real_t wc[DKF_NET_TWA_MAX_DEG], sum = DKF_R(0.0);
     size_t e, cnt = 0;
     int full = 1;
     for (e = 0; e < a->deg; ++e) full &= have[e];
@@ -298,8 +301,8 @@ static int tw_complete_round(void *filter, size_t k, size_t r, const dkf_real_t 
                              size_t stride, const unsigned char *have, dkf_real_t *next,
                              char *err, size_t errlen)
 {
-    dkf_tw_agent_t *a = filter;
-    const dkf_tw_scn_t *c = a->c;
+    dkf_net_twa_t *a = filter;
+    const dkf_net_twa_scn_t *c = a->c;
     dkf_status_t st;
     if (c->alg == 2 && r == 0) { /* (24c), (25a): info sum over N_l; local step; publish psi */
         if ((st = mix_round(a, rx, stride, have, a->mix, a->pkt, NULL, 0)) != DKF_OK)
@@ -337,10 +340,10 @@ static int tw_complete_round(void *filter, size_t k, size_t r, const dkf_real_t 
 /* (no rejoin: a seed-003 node restarted mid-run is not supported) */
 static const dkf_ra_ops_t tw_ops = {tw_begin_step, tw_complete_round, NULL};
 
-dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_agent_opts_t *o,
-                                 char *err, size_t errlen)
+dkf_net_twa_t *dkf_net_twa_new(const dkf_net_twa_scn_t *c, size_t id, const dkf_net_twa_opts_t *o,
+                               char *err, size_t errlen)
 {
-    dkf_tw_agent_t *a;
+    dkf_net_twa_t *a;
     const dkf_scn_mat_t *H, *Sw;
     dkf_ra_config_t rc;
     dkf_status_t st;
@@ -363,13 +366,13 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
     rc.id = id;
     rc.row = c->nbr + a->row0;
     rc.deg = a->deg;
-    rc.ex = dkf_tw_expect(c, -1);
+    rc.ex = dkf_net_twa_expect(c, -1);
     if ((a->ra = dkf_ra_new(&rc, o, err, errlen)) == NULL) {
-        dkf_tw_agent_free(a);
+        dkf_net_twa_free(a);
         return NULL;
     }
     if (alloc_agent(a) != 0) {
-        dkf_tw_agent_free(a);
+        dkf_net_twa_free(a);
         failf(err, errlen, "node %zu: out of memory", id);
         return NULL;
     }
@@ -392,7 +395,7 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
                           DKF_TW_NODE_STORAGE_LEN(c->n, c->mmax, c->p), &a->mx0, &a->mP0);
     if (st != DKF_OK) {
         failf(err, errlen, "node %zu: dkf_tw_node_init: %s", id, dkf_status_str(st));
-        dkf_tw_agent_free(a);
+        dkf_net_twa_free(a);
         return NULL;
     }
     a->model.F = &a->mA;
@@ -403,7 +406,7 @@ dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_
     return a;
 }
 
-void dkf_tw_agent_free(dkf_tw_agent_t *a)
+void dkf_net_twa_free(dkf_net_twa_t *a)
 {
     if (a == NULL) return;
     dkf_ra_free(a->ra);
@@ -412,32 +415,32 @@ void dkf_tw_agent_free(dkf_tw_agent_t *a)
     free(a);
 }
 
-int dkf_tw_agent_start(dkf_tw_agent_t *a, int64_t now_us) { return dkf_ra_start(a->ra, now_us); }
-dkf_net_verdict_t dkf_tw_agent_receive(dkf_tw_agent_t *a, long chan_node, const void *data,
-                                       size_t len, int64_t now_us)
+int dkf_net_twa_start(dkf_net_twa_t *a, int64_t now_us) { return dkf_ra_start(a->ra, now_us); }
+dkf_net_verdict_t dkf_net_twa_receive(dkf_net_twa_t *a, long chan_node, const void *data,
+                                      size_t len, int64_t now_us)
 {
     return dkf_ra_receive(a->ra, chan_node, data, len, now_us);
 }
-int dkf_tw_agent_poll(dkf_tw_agent_t *a, int64_t now_us) { return dkf_ra_poll(a->ra, now_us); }
-int64_t dkf_tw_agent_wait_us(const dkf_tw_agent_t *a, int64_t now_us)
+int dkf_net_twa_poll(dkf_net_twa_t *a, int64_t now_us) { return dkf_ra_poll(a->ra, now_us); }
+int64_t dkf_net_twa_wait_us(const dkf_net_twa_t *a, int64_t now_us)
 {
     return dkf_ra_wait_us(a->ra, now_us);
 }
-int dkf_tw_agent_state(const dkf_tw_agent_t *a) { return dkf_ra_state(a->ra); }
-size_t dkf_tw_agent_steps_done(const dkf_tw_agent_t *a) { return a->nd.k; }
-const char *dkf_tw_agent_error(const dkf_tw_agent_t *a) { return dkf_ra_error(a->ra); }
-const dkf_tw_counters_t *dkf_tw_agent_counters(const dkf_tw_agent_t *a)
+int dkf_net_twa_state(const dkf_net_twa_t *a) { return dkf_ra_state(a->ra); }
+size_t dkf_net_twa_steps_done(const dkf_net_twa_t *a) { return a->nd.k; }
+const char *dkf_net_twa_error(const dkf_net_twa_t *a) { return dkf_ra_error(a->ra); }
+const dkf_net_twa_counters_t *dkf_net_twa_counters(const dkf_net_twa_t *a)
 {
     return dkf_ra_counters(a->ra);
 }
-const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a) { return &a->nd; }
-dkf_ra_t *dkf_tw_agent_rounds(dkf_tw_agent_t *a) { return a->ra; }
+const dkf_tw_node_t *dkf_net_twa_node(const dkf_net_twa_t *a) { return &a->nd; }
+dkf_ra_t *dkf_net_twa_rounds(dkf_net_twa_t *a) { return a->ra; }
 
 /* ---- result --------------------------------------------------------------------- */
 
-json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a)
+json_t *dkf_net_twa_result(const dkf_net_twa_t *a)
 {
-    const dkf_tw_scn_t *c = a->c;
+    const dkf_net_twa_scn_t *c = a->c;
     const size_t done = a->nd.k;
     json_t *d = json_object(), *ks = json_array(), *xs = json_array(), *Ps = json_array(),
            *zs = json_array();

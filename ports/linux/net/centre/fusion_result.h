@@ -17,9 +17,9 @@
 
 #include <jansson.h>
 
-#include "agents.h" /* dkf_net_counts_t */
-#include "codec.h"  /* dkf_net_rejects_t, dkf_net_expect_t */
+#include "codec.h" /* dkf_net_rejects_t, dkf_net_expect_t */
 #include "fc_runtime.h"
+#include "report.h" /* dkf_net_counts_t */
 
 /* What the result and the journal say of the run besides the runtime's record. */
 typedef struct {

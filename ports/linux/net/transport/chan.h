@@ -18,7 +18,8 @@
  * ending in "_NODE" or "_MEAS" reads as that kind, with the same node.
  *
  * No dependencies: the transport (net.h), authentication (auth.h) and the
- * codec (codec.h) all take their names from here.
+ * codec (codec.h) all take their names, and the largest number of nodes,
+ * from here.
  */
 #ifndef DKF_NET_CHAN_H
 #define DKF_NET_CHAN_H
@@ -50,6 +51,9 @@ int dkf_net_from_is(const dkf_net_from_t *from, int role, long id);
 #define DKF_NET_CHAN_LEN 64
 #define DKF_NET_PREFIX "DKF"
 #define DKF_NET_CHAN_MAX_ID 99999L /* the largest id a channel name can carry */
+/* Largest number of nodes a network can have (a fused message names each;
+ * a DKF network's stacked sum m_i <= DKF_MAX_DIM bounds it too). */
+#define DKF_NET_MAX_NODES 256
 
 typedef enum {
     DKF_CHAN_NONE = 0, /* not a channel of the protocol */

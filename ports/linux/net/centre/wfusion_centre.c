@@ -1,5 +1,5 @@
 /*
- * wfusion_centre.c - the seed-002 weighted fusion centre (agents.h,
+ * wfusion_centre.c - the seed-002 weighted fusion centre (centre.h,
  * docs/network.md "The weighted-fusion centre"): the core's dkf_wfusion_t
  * (dkf/wfusion.h) as the fusion of a dkf_fcr_t runtime (fc_runtime.h:
  * payload ring, epochs, deadlines, checkpoints, rollback/replay, linger),
@@ -22,7 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
+#include "centre.h"
 #include "dkf/wfusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"

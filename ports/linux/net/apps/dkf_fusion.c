@@ -11,8 +11,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
 #include "auth.h"
+#include "centre.h"
 #include "cli.h"
 #include "net.h"
 

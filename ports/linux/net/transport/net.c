@@ -16,13 +16,11 @@
 #include <string.h>
 #include <sys/socket.h>
 #include <sys/time.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <lcm/lcm.h>
 
 #include "auth.h"
-#include "codec.h" /* DKF_NET_MAX_NODES */
 #include "util.h"
 #include "wire.h"
 
@@ -518,13 +516,3 @@ int dkf_net_drain(dkf_net_t *net, int timeout_ms)
     }
     return r < 0 ? -1 : count;
 }
-
-static int64_t clock_us(clockid_t id)
-{
-    struct timespec ts;
-    clock_gettime(id, &ts);
-    return (int64_t)ts.tv_sec * 1000000 + (int64_t)(ts.tv_nsec / 1000);
-}
-
-int64_t dkf_net_now_us(void) { return clock_us(CLOCK_REALTIME); }
-int64_t dkf_net_mono_us(void) { return clock_us(CLOCK_MONOTONIC); }

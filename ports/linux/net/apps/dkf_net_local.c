@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "agents.h"
+#include "centre.h"
 #include "cli.h"
 #include "net.h"
 

@@ -126,8 +126,8 @@ static int publish(dkf_ra_t *a, long t, int kind, const dkf_real_t *v, size_t le
     p.utime = dkf_net_now_us();
     p.model_id = a->cfg.ex.model_id;
     p.node = (long)a->cfg.id;
-    p.k = kind == DKF_TW_KIND_DONE ? (long)a->cfg.ex.steps + 1 : t / R + 1;
-    p.round = kind == DKF_TW_KIND_DONE ? 0 : t % R;
+    p.k = kind == DKF_NET_TW_KIND_DONE ? (long)a->cfg.ex.steps + 1 : t / R + 1;
+    p.round = kind == DKF_NET_TW_KIND_DONE ? 0 : t % R;
     p.kind = kind;
     p.retransmit = retransmit == 1;
     p.len = len;
@@ -198,7 +198,7 @@ static int finish(dkf_ra_t *a, int64_t now)
     a->linger_start = now;
     remember(a); /* answers to retransmits of the last round */
     a->t = a->T;
-    return publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 0, now);
+    return publish(a, 0, DKF_NET_TW_KIND_DONE, NULL, 0, 0, now);
 }
 
 /* Starts step a->k (or finishes): its round 0, or the whole step locally. */
@@ -254,7 +254,7 @@ static void try_join(dkf_ra_t *a, long e, const dkf_net_tw_pkt_t *p, int64_t now
 {
     const size_t R = a->cfg.ex.rounds;
     size_t k;
-    if (p->kind == DKF_TW_KIND_DONE || (size_t)p->round + 1 != R ||
+    if (p->kind == DKF_NET_TW_KIND_DONE || (size_t)p->round + 1 != R ||
         (size_t)p->k >= a->cfg.ex.steps)
         return;
     k = (size_t)p->k;
@@ -298,9 +298,9 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
         try_join(a, e, &p, now_us);
         return v;
     }
-    if (p.kind == DKF_TW_KIND_DONE || (p.k - 1) * (long)a->cfg.ex.rounds + p.round <= a->t + 1)
+    if (p.kind == DKF_NET_TW_KIND_DONE || (p.k - 1) * (long)a->cfg.ex.rounds + p.round <= a->t + 1)
         a->heard[e] = now_us; /* alive, and not gone past us */
-    if (p.kind == DKF_TW_KIND_DONE) {
+    if (p.kind == DKF_NET_TW_KIND_DONE) {
         a->done[e] = 1;
         return v;
     }
@@ -393,7 +393,7 @@ int dkf_ra_poll(dkf_ra_t *a, int64_t now_us)
         if (a->grace_start != 0 && now_us - a->grace_start >= GRACE * a->o.retry_us)
             a->state = DKF_RA_FINISHED;
         else if (now_us - a->last_pub >= a->o.retry_us)
-            publish(a, 0, DKF_TW_KIND_DONE, NULL, 0, 1, now_us);
+            publish(a, 0, DKF_NET_TW_KIND_DONE, NULL, 0, 1, now_us);
     }
     return a->state;
 }

@@ -6,7 +6,7 @@
  *
  * The agent is transport-free: packets go out through a send callback
  * (which publishes on the node's own channel) and come in through
- * dkf_tw_agent_receive with the sender's node id; time is passed in
+ * dkf_net_twa_receive with the sender's node id; time is passed in
  * (monotonic microseconds), so tests can drive deadlines with a fake clock.
  *
  * Measurements: each node reads its own y_{l,n} from the scenario file
@@ -63,93 +63,90 @@ typedef struct {
     dkf_real_t *alpha, *W;     /* nnz each: the file's or the library defaults */
     int alpha_default, W_default;
     int64_t model_id;          /* FNV-1a of the problem, alg, eta and weights */
-} dkf_tw_scn_t;
+} dkf_net_twa_scn_t;
 
 /* Binds the scenario for algorithm alg (2, 3); eta >= 0 overrides the
  * file's (Alg 3). 0, or -1 with "FILE: KEY: problem" in err. */
-int dkf_tw_scn_bind(dkf_tw_scn_t *c, const dkf_scenario_t *s, int alg, long eta, char *err,
-                    size_t errlen);
-void dkf_tw_scn_free(dkf_tw_scn_t *c);
+int dkf_net_twa_scn_bind(dkf_net_twa_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
+                         char *err, size_t errlen);
+void dkf_net_twa_scn_free(dkf_net_twa_scn_t *c);
 
 /* ---- packets (lcmtypes/tw_packet_t.lcm) ---------------------------------------- */
 
-/* DKF_TW_KIND_INFO, _EST, _DONE and the packet itself are codec.h's. */
-#define DKF_TW_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_NET_MAX_VEC) */
-#define DKF_TW_MAX_MSG DKF_RA_MAX_MSG
-#define DKF_TW_MAX_DEG DKF_RA_MAX_DEG /* |N_l| including l */
-
-typedef dkf_net_tw_pkt_t dkf_tw_pkt_t;
+/* DKF_NET_TW_KIND_INFO, _EST, _DONE and the packet itself are codec.h's. */
+#define DKF_NET_TWA_MAX_PKT DKF_NET_TW_MAX_LEN /* DKF_TW_PKT_LEN(DKF_NET_MAX_VEC) */
+#define DKF_NET_TWA_MAX_MSG DKF_RA_MAX_MSG
+#define DKF_NET_TWA_MAX_DEG DKF_RA_MAX_DEG /* |N_l| including l */
 
 /* What a node of scenario c expects of a packet on the channel of node
  * chan_node (-1: any). */
-dkf_net_tw_expect_t dkf_tw_expect(const dkf_tw_scn_t *c, long chan_node);
+dkf_net_tw_expect_t dkf_net_twa_expect(const dkf_net_twa_scn_t *c, long chan_node);
 /* Kind and length a packet of round r must have. */
-void dkf_tw_round_shape(const dkf_tw_scn_t *c, size_t round, int *kind, size_t *len);
+void dkf_net_twa_round_shape(const dkf_net_twa_scn_t *c, size_t round, int *kind, size_t *len);
 
 /* Encodes p into buf (cap bytes); *len its size. 0 or -1 (dkf_net_encode_tw). */
-int dkf_tw_encode(void *buf, size_t cap, size_t *len, const dkf_tw_pkt_t *p);
+int dkf_net_twa_encode(void *buf, size_t cap, size_t *len, const dkf_net_tw_pkt_t *p);
 
-/* dkf_net_decode_tw (codec.c's one checked path) with dkf_tw_expect(c,
- * chan_node): MALFORMED (bytes, len outside 0..DKF_TW_MAX_PKT or not what
+/* dkf_net_decode_tw (codec.c's one checked path) with dkf_net_twa_expect(c,
+ * chan_node): MALFORMED (bytes, len outside 0..DKF_NET_TWA_MAX_PKT or not what
  * the datagram holds, kind, flag), NODE (node outside 0..N-1 or != chan_node
  * when chan_node >= 0), MODEL, DIM (len not the round's), STEP (k outside
  * 1..steps, round outside 0..rounds-1 or of the other kind; DONE: k =
  * steps + 1, round 0), NONFINITE (also after conversion to dkf_real_t).
  * out is written only on DKF_NET_ACCEPT; rej (may be NULL) counts. */
-dkf_net_verdict_t dkf_tw_decode(const void *buf, size_t len, const dkf_tw_scn_t *c,
-                                long chan_node, dkf_tw_pkt_t *out, dkf_net_rejects_t *rej);
+dkf_net_verdict_t dkf_net_twa_decode(const void *buf, size_t len, const dkf_net_twa_scn_t *c,
+                                     long chan_node, dkf_net_tw_pkt_t *out, dkf_net_rejects_t *rej);
 
 /* "<prefix>_<node>" (out: DKF_NET_CHAN_LEN bytes); the node of such a
  * channel, or -1. */
-void dkf_tw_chan(char *out, const char *prefix, size_t node);
-long dkf_tw_chan_node(const char *channel, const char *prefix);
+void dkf_net_twa_chan(char *out, const char *prefix, size_t node);
+long dkf_net_twa_chan_node(const char *channel, const char *prefix);
 /* LCM regex of node l's neighbours' channels (self excluded), e.g.
  * "DKF_TW_(1|5)"; -1 if it does not fit in cap bytes. */
-int dkf_tw_subscription(char *out, size_t cap, const dkf_tw_scn_t *c, const char *prefix,
-                        size_t node);
+int dkf_net_twa_subscription(char *out, size_t cap, const dkf_net_twa_scn_t *c, const char *prefix,
+                             size_t node);
 
 /* ---- the agent -------------------------------------------------------------------- */
 
 /* The rounds with the neighbours are round_agent.h's (these names are its). */
-typedef dkf_ra_send_fn dkf_tw_send_fn;
-typedef dkf_ra_opts_t dkf_tw_agent_opts_t;
+typedef dkf_ra_opts_t dkf_net_twa_opts_t;
 enum {
-    DKF_TW_RUNNING = DKF_RA_RUNNING,
-    DKF_TW_LINGER = DKF_RA_LINGER,
-    DKF_TW_FINISHED = DKF_RA_FINISHED,
-    DKF_TW_FAILED = DKF_RA_FAILED
+    DKF_NET_TWA_RUNNING = DKF_RA_RUNNING,
+    DKF_NET_TWA_LINGER = DKF_RA_LINGER,
+    DKF_NET_TWA_FINISHED = DKF_RA_FINISHED,
+    DKF_NET_TWA_FAILED = DKF_RA_FAILED
 };
-typedef dkf_ra_counters_t dkf_tw_counters_t;
+typedef dkf_ra_counters_t dkf_net_twa_counters_t;
 
-typedef struct dkf_tw_agent dkf_tw_agent_t;
+typedef struct dkf_net_twa dkf_net_twa_t;
 
 /* A new agent for node id (NULL + err on failure). */
-dkf_tw_agent_t *dkf_tw_agent_new(const dkf_tw_scn_t *c, size_t id, const dkf_tw_agent_opts_t *o,
-                                 char *err, size_t errlen);
-void dkf_tw_agent_free(dkf_tw_agent_t *a);
+dkf_net_twa_t *dkf_net_twa_new(const dkf_net_twa_scn_t *c, size_t id, const dkf_net_twa_opts_t *o,
+                               char *err, size_t errlen);
+void dkf_net_twa_free(dkf_net_twa_t *a);
 
 /* Builds step 1's first packet and publishes it. State. */
-int dkf_tw_agent_start(dkf_tw_agent_t *a, int64_t now_us);
+int dkf_net_twa_start(dkf_net_twa_t *a, int64_t now_us);
 /* Takes one message from the channel of node chan_node. */
-dkf_net_verdict_t dkf_tw_agent_receive(dkf_tw_agent_t *a, long chan_node, const void *data,
-                                       size_t len, int64_t now_us);
+dkf_net_verdict_t dkf_net_twa_receive(dkf_net_twa_t *a, long chan_node, const void *data,
+                                      size_t len, int64_t now_us);
 /* Completes every round it can (all present neighbours heard, or the
  * deadline passed), re-publishes when quiet, ends lingering. State. */
-int dkf_tw_agent_poll(dkf_tw_agent_t *a, int64_t now_us);
+int dkf_net_twa_poll(dkf_net_twa_t *a, int64_t now_us);
 /* Microseconds until the next thing poll would do on its own (>= 0). */
-int64_t dkf_tw_agent_wait_us(const dkf_tw_agent_t *a, int64_t now_us);
+int64_t dkf_net_twa_wait_us(const dkf_net_twa_t *a, int64_t now_us);
 
-int dkf_tw_agent_state(const dkf_tw_agent_t *a);
-size_t dkf_tw_agent_steps_done(const dkf_tw_agent_t *a);
-const char *dkf_tw_agent_error(const dkf_tw_agent_t *a);
-const dkf_tw_counters_t *dkf_tw_agent_counters(const dkf_tw_agent_t *a);
+int dkf_net_twa_state(const dkf_net_twa_t *a);
+size_t dkf_net_twa_steps_done(const dkf_net_twa_t *a);
+const char *dkf_net_twa_error(const dkf_net_twa_t *a);
+const dkf_net_twa_counters_t *dkf_net_twa_counters(const dkf_net_twa_t *a);
 /* Its rounds with the neighbours (round_agent.h). */
-dkf_ra_t *dkf_tw_agent_rounds(dkf_tw_agent_t *a);
+dkf_ra_t *dkf_net_twa_rounds(dkf_net_twa_t *a);
 /* The committed node (x, P, z of the last step). */
-const dkf_tw_node_t *dkf_tw_agent_node(const dkf_tw_agent_t *a);
+const dkf_tw_node_t *dkf_net_twa_node(const dkf_net_twa_t *a);
 
 /* The result document: {node, alg, eta, model_id, real, N, E, steps, n[],
  * x[], P[], z[], degraded[], missing[][], counters{...}}. */
-json_t *dkf_tw_agent_result(const dkf_tw_agent_t *a);
+json_t *dkf_net_twa_result(const dkf_net_twa_t *a);
 
 #endif /* DKF_NET_TW_AGENT_H */

@@ -17,7 +17,7 @@
 #include <sodium.h>
 
 #include "chan.h"
-#include "net.h" /* dkf_net_now_us */
+#include "clock.h"
 #include "util.h"
 
 #define fail(err, errlen, ...) dkf_failf(err, errlen, -1, __VA_ARGS__)

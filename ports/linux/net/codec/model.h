@@ -1,7 +1,7 @@
 /*
  * model.h - what the network processes need of a Difference-KF scenario,
  * and its model id (host side). One sensor's model at a time k is
- * ../sensor_model.h (shared with the node role in the registry).
+ * the host's sensor_model.h (shared with the node role in the registry).
  */
 #ifndef DKF_NET_MODEL_H
 #define DKF_NET_MODEL_H

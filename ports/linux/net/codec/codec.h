@@ -39,9 +39,6 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/tw.h"
 
-/* Largest number of nodes a network can have (a fused message names each;
- * a DKF network's stacked sum m_i <= DKF_MAX_DIM bounds it too). */
-#define DKF_NET_MAX_NODES 256
 /* Largest vector a message carries (a state n, a measurement m_i, a graph
  * node's state): the core's DKF_MAX_DIM, at most 64. A host build with a
  * large DKF_MAX_DIM for a big fusion centre (docs/decisions.md, item 23)
@@ -181,7 +178,7 @@ dkf_net_verdict_t dkf_net_decode_status(const void *buf, size_t len, const dkf_n
  * kind INFO (Algorithm 2 round 0 / Algorithm 3 rounds < eta: the
  * information pair), EST (an estimate) or DONE (the node's last step is
  * over; no reals). */
-enum { DKF_TW_KIND_INFO = 0, DKF_TW_KIND_EST = 1, DKF_TW_KIND_DONE = 2 };
+enum { DKF_NET_TW_KIND_INFO = 0, DKF_NET_TW_KIND_EST = 1, DKF_NET_TW_KIND_DONE = 2 };
 #define DKF_NET_TW_MAX_LEN DKF_TW_PKT_LEN(DKF_NET_MAX_VEC)
 typedef struct {
     int64_t utime, model_id;
@@ -191,7 +188,7 @@ typedef struct {
     dkf_real_t v[DKF_NET_TW_MAX_LEN];
 } dkf_net_tw_pkt_t;
 
-/* What a graph-filter receiver expects (dkf_tw_expect fills it from the
+/* What a graph-filter receiver expects (dkf_net_twa_expect fills it from the
  * scenario): rounds 0..info_rounds-1 of a step are INFO packets of
  * info_len reals, the rest up to rounds-1 EST packets of est_len. */
 typedef struct {

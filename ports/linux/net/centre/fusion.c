@@ -1,5 +1,5 @@
 /*
- * fusion.c - the seed-000 fusion centre (agents.h, docs/network.md
+ * fusion.c - the seed-000 fusion centre (centre.h, docs/network.md
  * "Faults"): the core's dkf_diffkf_fc_t (dkf_diffkf_fc_step_partial: the
  * centralized DKF given the nodes' rows it can rebuild) as the fusion of a
  * dkf_fcr_t runtime (fc_runtime.h: payload ring, epochs, deadlines,
@@ -16,7 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "agents.h"
+#include "centre.h"
 #include "dkf/diffkf_fusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"

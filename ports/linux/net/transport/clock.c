@@ -1,0 +1,18 @@
+/*
+ * clock.c - the network processes' clocks (clock.h).
+ */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime */
+
+#include "clock.h"
+
+#include <time.h>
+
+static int64_t clock_us(clockid_t id)
+{
+    struct timespec ts;
+    clock_gettime(id, &ts);
+    return (int64_t)ts.tv_sec * 1000000 + (int64_t)(ts.tv_nsec / 1000);
+}
+
+int64_t dkf_net_now_us(void) { return clock_us(CLOCK_REALTIME); }
+int64_t dkf_net_mono_us(void) { return clock_us(CLOCK_MONOTONIC); }

@@ -18,12 +18,19 @@
 
 #include <jansson.h>
 
-#include "dkf/tw.h"
 #include "registry.h"
 #include "scenario.h"
 #include "util.h"
 
-#define MAX_D00 64
+/* The families' options (family.h, dkf_run_optset_t) as given: their
+ * values are parsed by the selected filter's family. */
+#define MAX_FAMILY_OPTS 32 /* distinct family options of the registry */
+#define MAX_GIVEN 32       /* family options on one command line */
+
+typedef struct {
+    const char *name;
+    const char *arg; /* NULL for a flag */
+} given_t;
 
 typedef struct {
     const char *filter;
@@ -33,17 +40,27 @@ typedef struct {
     const char *scenario;
     long run;
     int quiet;
-    int has_d00;
-    long eta;         /* --eta, -1 if not given */
-    int metrics_only; /* --metrics-only */
-    size_t nd00;
-    double d00[MAX_D00];
-    double Pd00_scale;
+    size_t ngiven;
+    given_t given[MAX_GIVEN];
 } options_t;
+
+/* Every family's options, each name once, in registry order; the count. */
+static size_t family_opts(const dkf_run_opt_t **out)
+{
+    size_t i, j, n = 0;
+    for (i = 0; dkf_registry[i] != NULL; ++i) {
+        const dkf_run_optset_t *set = dkf_registry[i]->options;
+        for (j = 0; set != NULL && j < set->nopts && n < MAX_FAMILY_OPTS; ++j)
+            if (dkf_registry_opt(NULL, set->opts[j].name) == &set->opts[j])
+                out[n++] = &set->opts[j];
+    }
+    return n;
+}
 
 static void usage(FILE *f, const char *prog)
 {
-    size_t i, j;
+    const dkf_run_opt_t *fo[MAX_FAMILY_OPTS];
+    size_t i, j, nfo = family_opts(fo);
     fprintf(f,
             "usage: %s --filter NAME [--output OUT.json | --errors ERR.json] [options] "
             "SCENARIO.json\n"
@@ -68,12 +85,9 @@ static void usage(FILE *f, const char *prog)
             "                       their means over the runs (needs truth x_1..x_N)\n"
             "  -r, --run R          without --errors: the run to process (default 0)\n"
             "  -c, --case SEL       cases layout (infofusion files): run case SEL, a name or\n"
-            "                       a 0-based index (default 0)\n"
-            "      --d00 A,B,...    askf/otskf: d_{0|0} instead of init.d00 (p values)\n"
-            "      --Pd00-scale S   askf/otskf: P_{d0|0} = S * init.Pd00 (S > 0)\n"
-            "      --eta N          tw3: consensus iterations per ACF (overrides the file's eta)\n"
-            "      --metrics-only   tw1-3: record only the per-step metrics (errors against the\n"
-            "                       truth, gap to Algorithm 1), not the per-node arrays\n"
+            "                       a 0-based index (default 0)\n");
+    for (i = 0; i < nfo; ++i) fprintf(f, "      %s\n", fo[i]->help);
+    fprintf(f,
             "  -q, --quiet          do not print the summary\n"
             "  -h, --help           print this help and exit\n"
             "\n"
@@ -112,48 +126,33 @@ static void list_filters(FILE *f)
             fprintf(f, " %s", dkf_registry[i]->filters[j].name);
 }
 
-/* "a,b,c" -> values; 0 on success. */
-static int parse_list(const char *arg, double *out, size_t cap, size_t *count)
-{
-    const char *p = arg;
-    size_t n = 0;
-    for (;;) {
-        char *end;
-        double v;
-        errno = 0;
-        v = strtod(p, &end);
-        if (end == p || errno != 0 || !isfinite(v) || n == cap) return -1;
-        out[n++] = v;
-        if (*end == '\0') break;
-        if (*end != ',') return -1;
-        p = end + 1;
-    }
-    *count = n;
-    return 0;
-}
-
 /* 0: run; 1: --help printed; -1: bad usage (message printed). */
 static int parse_options(int argc, char **argv, options_t *o)
 {
-    enum { OPT_D00 = 256, OPT_PD00_SCALE, OPT_ETA, OPT_METRICS_ONLY };
-    static const struct option longopts[] = {
+    enum { OPT_FAMILY = 256 };
+    static const struct option common[] = {
         {"filter", required_argument, NULL, 'f'},
         {"output", required_argument, NULL, 'o'},
         {"errors", required_argument, NULL, 'e'},
         {"run", required_argument, NULL, 'r'},
         {"case", required_argument, NULL, 'c'},
-        {"d00", required_argument, NULL, OPT_D00},
-        {"Pd00-scale", required_argument, NULL, OPT_PD00_SCALE},
-        {"eta", required_argument, NULL, OPT_ETA},
-        {"metrics-only", no_argument, NULL, OPT_METRICS_ONLY},
         {"quiet", no_argument, NULL, 'q'},
         {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0},
     };
+    const size_t ncommon = sizeof common / sizeof common[0];
+    struct option longopts[sizeof common / sizeof common[0] + MAX_FAMILY_OPTS + 1];
+    const dkf_run_opt_t *fo[MAX_FAMILY_OPTS];
+    size_t i, nfo = family_opts(fo);
     int c;
     char *end;
     memset(o, 0, sizeof *o);
-    o->eta = -1;
+    memset(longopts, 0, sizeof longopts);
+    memcpy(longopts, common, sizeof common);
+    for (i = 0; i < nfo; ++i) {
+        longopts[ncommon + i].name = fo[i]->name;
+        longopts[ncommon + i].has_arg = fo[i]->has_arg ? required_argument : no_argument;
+        longopts[ncommon + i].val = OPT_FAMILY + (int)i;
+    }
     opterr = 0; /* our own one-line messages instead of getopt's */
     while ((c = getopt_long(argc, argv, ":f:o:e:r:c:qh", longopts, NULL)) != -1) {
         switch (c) {
@@ -170,41 +169,22 @@ static int parse_options(int argc, char **argv, options_t *o)
                 return -1;
             }
             break;
-        case OPT_D00:
-            if (parse_list(optarg, o->d00, MAX_D00, &o->nd00) != 0) {
-                fprintf(stderr, "dkf-run: --d00 %s: expected comma-separated finite numbers\n",
-                        optarg);
-                return -1;
-            }
-            o->has_d00 = 1;
-            break;
-        case OPT_PD00_SCALE:
-            errno = 0;
-            o->Pd00_scale = strtod(optarg, &end);
-            if (end == optarg || *end != '\0' || errno != 0 || !isfinite(o->Pd00_scale) ||
-                o->Pd00_scale <= 0) {
-                fprintf(stderr, "dkf-run: --Pd00-scale %s: expected a finite number > 0\n",
-                        optarg);
-                return -1;
-            }
-            break;
-        case OPT_ETA:
-            errno = 0;
-            o->eta = strtol(optarg, &end, 10);
-            if (end == optarg || *end != '\0' || errno != 0 || o->eta < 0 ||
-                (unsigned long)o->eta > DKF_TW_MAX_ETA) {
-                fprintf(stderr, "dkf-run: --eta %s: expected an integer >= 0 (at most %u)\n",
-                        optarg, DKF_TW_MAX_ETA);
-                return -1;
-            }
-            break;
-        case OPT_METRICS_ONLY: o->metrics_only = 1; break;
         case 'h': usage(stdout, argv[0]); return 1;
         case ':':
             fprintf(stderr, "dkf-run: %s: option needs an argument (try --help)\n",
                     argv[optind - 1]);
             return -1;
         default:
+            if (c >= OPT_FAMILY && (size_t)(c - OPT_FAMILY) < nfo) {
+                if (o->ngiven == MAX_GIVEN) {
+                    fprintf(stderr, "dkf-run: %s: more than %d filter options\n",
+                            argv[optind - 1], MAX_GIVEN);
+                    return -1;
+                }
+                o->given[o->ngiven].name = fo[c - OPT_FAMILY]->name;
+                o->given[o->ngiven++].arg = optarg;
+                break;
+            }
             fprintf(stderr, "dkf-run: %s: unrecognized option (try --help)\n", argv[optind - 1]);
             return -1;
         }
@@ -228,24 +208,22 @@ static int parse_options(int argc, char **argv, options_t *o)
     return 0;
 }
 
-/* The options every family shares the rules of (which filters take
- * --eta, --metrics-only, --errors and --run), then the filter's own check
- * of the options and the scenario; 0 or an exit status. */
+/* The options: which filters take the family options given, --errors
+ * and --run; then the filter's own check of the options and the scenario;
+ * 0 or an exit status. */
 static int check_filter(const options_t *o, const dkf_filter_t *f, const dkf_run_opts_t *ro,
                         const dkf_scenario_t *s)
 {
-    char err[DKF_SCN_ERR_LEN], names[128];
+    char err[DKF_SCN_ERR_LEN], names[128], label[64];
+    size_t i;
     int rc;
-    if (o->eta >= 0 && !(f->options & DKF_RUN_OPT_ETA)) {
-        fprintf(stderr, "dkf-run: %s: --eta: only for %s\n", s->file,
-                dkf_registry_names(names, sizeof names, DKF_RUN_OPT_ETA, -1));
-        return DKF_EXIT_USAGE;
-    }
-    if (o->metrics_only && !(f->options & DKF_RUN_OPT_METRICS)) {
-        fprintf(stderr, "dkf-run: %s: --metrics-only: only for %s\n", s->file,
-                dkf_registry_names(names, sizeof names, DKF_RUN_OPT_METRICS, -1));
-        return DKF_EXIT_USAGE;
-    }
+    for (i = 0; i < o->ngiven; ++i)
+        if (!dkf_registry_takes(f, o->given[i].name)) {
+            fprintf(stderr, "dkf-run: %s: %s: only for %s\n", s->file,
+                    dkf_registry_opt_label(label, sizeof label, o->given[i].name),
+                    dkf_registry_names(names, sizeof names, o->given[i].name, -1));
+            return DKF_EXIT_USAGE;
+        }
     if (f->family->errors == NULL && (o->errors != NULL || o->run != 0)) {
         fprintf(stderr, "dkf-run: %s: %s: not available for filter %s (steps-layout files "
                 "have one run)\n", s->file, o->errors != NULL ? "--errors" : "--run", f->name);
@@ -254,6 +232,29 @@ static int check_filter(const options_t *o, const dkf_filter_t *f, const dkf_run
     rc = f->family->check(f, ro, s, err, sizeof err);
     if (rc != DKF_EXIT_OK) fprintf(stderr, "dkf-run: %s\n", err);
     return rc;
+}
+
+/* The family options given into f's family's area (*area: NULL if it
+ * takes none); those of other families are refused by check_filter. 0 or
+ * an exit status, after the message. */
+static int family_options(const options_t *o, const dkf_filter_t *f, void **area)
+{
+    char err[DKF_SCN_ERR_LEN];
+    size_t i;
+    int oom;
+    *area = dkf_registry_opts_new(f, &oom);
+    if (oom) {
+        fprintf(stderr, "dkf-run: out of memory\n");
+        return DKF_EXIT_USAGE;
+    }
+    for (i = 0; i < o->ngiven; ++i)
+        if (dkf_registry_opt(f->family, o->given[i].name) != NULL &&
+            dkf_registry_opt_set(f, *area, o->given[i].name, o->given[i].arg, err,
+                                 sizeof err) != DKF_EXIT_OK) {
+            fprintf(stderr, "dkf-run: %s\n", err);
+            return DKF_EXIT_USAGE;
+        }
+    return DKF_EXIT_OK;
 }
 
 /* A runner of f on the selected run of s, stepped through every step;
@@ -444,6 +445,7 @@ int main(int argc, char **argv)
     const dkf_filter_t *f;
     dkf_scenario_t *s;
     dkf_run_opts_t ro;
+    void *area = NULL;
     char err[DKF_SCN_ERR_LEN];
     int rc = parse_options(argc, argv, &o);
 
@@ -456,23 +458,24 @@ int main(int argc, char **argv)
         fprintf(stderr, ")\n");
         return DKF_EXIT_USAGE;
     }
+    if ((rc = family_options(&o, f, &area)) != DKF_EXIT_OK) {
+        free(area);
+        return rc;
+    }
     s = dkf_scenario_load(o.scenario, o.case_sel, err, sizeof err);
     if (s == NULL) {
         fprintf(stderr, "dkf-run: %s\n", err);
+        free(area);
         return DKF_EXIT_USAGE;
     }
     memset(&ro, 0, sizeof ro);
     ro.record = o.output != NULL;
     ro.errors = o.errors != NULL;
     ro.run = o.run;
-    ro.has_d00 = o.has_d00;
-    ro.d00 = o.d00;
-    ro.nd00 = o.nd00;
-    ro.Pd00_scale = o.Pd00_scale;
-    ro.eta = o.eta;
-    ro.metrics_only = o.metrics_only;
+    ro.fam = area;
     rc = check_filter(&o, f, &ro, s);
     if (rc == 0) rc = o.errors != NULL ? run_errors(&o, f, &ro, s) : run_one(&o, f, &ro, s);
     dkf_scenario_free(s);
+    free(area);
     return rc;
 }

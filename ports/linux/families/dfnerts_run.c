@@ -14,7 +14,7 @@
  *
  * The graph is the case's `edges`, or the links of W's nonzero entries; W
  * is checked doubly stochastic on it (graph_weights.h). Recorded per step,
- * per node, the vector's `expected_per_node` names (est_nerts.h): under
+ * per node, the vector's `expected_per_node` names (nerts_run.h): under
  * outputs.<LABEL>, every key a list over steps of a list over nodes, so
  * tools/dkf_compare.py compares it with cases[c].steps[*].expected_per_node[*].
  */
@@ -24,10 +24,10 @@
 #include <string.h>
 
 #include "dkf/dfnerts.h"
-#include "est_nerts.h"
+#include "family.h"
 #include "graph_weights.h"
+#include "nerts_run.h"
 #include "nlm.h"
-#include "registry.h"
 #include "util.h"
 
 typedef struct {
@@ -148,7 +148,7 @@ static int bind_data(df_runner_t *u, char *err, size_t errlen)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: cases[%zu].edges: not a simple undirected graph (a self loop or a "
                          "repeated edge): %s", s->file, s->case_index, dkf_status_str(st));
-    if ((rc = dkf_graph_weights_bind(s, &u->g, 1, u->W, &dflt, err, errlen)) != 0) return rc;
+    if ((rc = dkf_host_graph_weights_bind(s, &u->g, 1, u->W, &dflt, err, errlen)) != 0) return rc;
     q = u->buf;
     for (l = 0; l < N; ++l) {
         const dkf_nlm_t *m = s->nl->models[l];
@@ -221,7 +221,7 @@ static void record_nodes(json_t *series, const df_runner_t *u)
     size_t l;
     for (l = 0; l < u->N; ++l) {
         json_t *one = json_object();
-        dkf_nerts_record(one, &u->nodes[l].f);
+        dkf_host_nerts_record(one, &u->nodes[l].f);
         json_object_foreach(one, key, val) {
             json_t *all = json_object_get(step, key);
             if (all == NULL) {

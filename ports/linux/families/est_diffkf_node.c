@@ -1,5 +1,5 @@
 /*
- * est_diffkf_node.c - the dkf family's sensor-node role (registry.h,
+ * est_diffkf_node.c - the dkf family's sensor-node role (family.h,
  * dkf_node_ops_t): sensor i's local Difference KF (dkf/diffkf.h) as
  * dkf-node runs it, one measurement at a time, restartable.
  */
@@ -8,8 +8,9 @@
 #include <string.h>
 
 #include "dkf/diffkf.h"
-#include "est_internal.h"
-#include "registry.h"
+#include "dkf/diffkf_fusion.h"
+#include "family.h"
+#include "node_roles.h"
 #include "sensor_model.h"
 
 struct dkf_node_filter {
@@ -124,11 +125,19 @@ static int node_step(dkf_node_filter_t *nf, long k, const double *y, char *err, 
                         : node_failed(nf, (size_t)k, "dkf_diffkf_step", st, err, errlen);
 }
 
-static int node_payload(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg_t *msg)
+/* x_{k|k}, x_{k|k-1} of the step just completed, as the core's node
+ * message carries them (dkf_diffkf_msg_fill checks k). */
+static int node_payload(const dkf_node_filter_t *nf, dkf_node_estimate_t *est)
 {
-    return dkf_diffkf_msg_fill(msg, id, &nf->f) == DKF_OK ? 0 : -1;
+    dkf_diffkf_msg_t msg;
+    if (dkf_diffkf_msg_fill(&msg, 0, &nf->f) != DKF_OK) return -1;
+    est->k = msg.k;
+    est->n = msg.n;
+    memcpy(est->xf, msg.xf, sizeof est->xf);
+    memcpy(est->xp, msg.xp, sizeof est->xp);
+    return 0;
 }
 
-const dkf_node_ops_t dkf_diffkf_node_ops = {
+const dkf_node_ops_t dkf_host_diffkf_node_ops = {
     node_create, node_start, node_step, node_payload, node_destroy, 0,
 };

@@ -10,12 +10,92 @@
  * Difference KF: the fusion centre fed with the local filters' messages,
  * whose messages and fc_recovered sit beside it, as in the vector files).
  */
-#include "est_internal.h"
-
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#include "est_family.h"
+#include "registry.h"
+#include "util.h"
+
+/* ---- the options: --d00, --Pd00-scale (askf, otskf) ---- */
+
+#define MAX_D00 64
+
+typedef struct {
+    int has_d00;
+    size_t nd00;
+    double d00[MAX_D00]; /* d_{0|0} instead of init.d00 */
+    double Pd00_scale;   /* P_{d0|0} = scale * init.Pd00 (0: not given, means 1) */
+} est_cli_t;
+
+static const est_cli_t no_options;
+
+static const est_cli_t *cli(const dkf_run_opts_t *o)
+{
+    return o->fam != NULL ? (const est_cli_t *)o->fam : &no_options;
+}
+
+static void cli_init(void *area)
+{
+    memset(area, 0, sizeof(est_cli_t));
+}
+
+/* "a,b,c" -> values; 0 on success. */
+static int parse_list(const char *arg, double *out, size_t cap, size_t *count)
+{
+    const char *p = arg;
+    size_t n = 0;
+    for (;;) {
+        char *end;
+        double v;
+        errno = 0;
+        v = strtod(p, &end);
+        if (end == p || errno != 0 || !isfinite(v) || n == cap) return -1;
+        out[n++] = v;
+        if (*end == '\0') break;
+        if (*end != ',') return -1;
+        p = end + 1;
+    }
+    *count = n;
+    return 0;
+}
+
+static int cli_parse(void *area, const dkf_run_opt_t *opt, const char *arg, char *err,
+                     size_t errlen)
+{
+    est_cli_t *c = area;
+    char *end;
+    if (strcmp(opt->name, "d00") == 0) {
+        if (parse_list(arg, c->d00, MAX_D00, &c->nd00) != 0)
+            return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                             "--d00 %s: expected comma-separated finite numbers", arg);
+        c->has_d00 = 1;
+        return DKF_EXIT_OK;
+    }
+    errno = 0;
+    c->Pd00_scale = strtod(arg, &end);
+    if (end == arg || *end != '\0' || errno != 0 || !isfinite(c->Pd00_scale) ||
+        c->Pd00_scale <= 0)
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "--Pd00-scale %s: expected a finite number > 0", arg);
+    return DKF_EXIT_OK;
+}
+
+static const dkf_run_opt_t est_opts[] = {
+    {"d00", 1, DKF_EST_OPT_D00,
+     "--d00 A,B,...    askf/otskf: d_{0|0} instead of init.d00 (p values)"},
+    {"Pd00-scale", 1, DKF_EST_OPT_D00,
+     "--Pd00-scale S   askf/otskf: P_{d0|0} = S * init.Pd00 (S > 0)"},
+};
+
+const dkf_run_optset_t dkf_est_run_options = {
+    est_opts, sizeof est_opts / sizeof est_opts[0], sizeof(est_cli_t), cli_init, cli_parse,
+};
+
+/* ---- the runner ---- */
 
 typedef struct {
     char name[32]; /* "KF", "local[1]", "central", "fused" */
@@ -43,34 +123,32 @@ int dkf_est_run_check(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_
                       char *err, size_t errlen)
 {
     const dkf_est_kind_t *kind = (const dkf_est_kind_t *)f->impl;
+    const est_cli_t *c = cli(o);
     char names[128];
     if (s->layout == DKF_SCN_LAYOUT_STEPS || s->layout == DKF_SCN_LAYOUT_NETWORK)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: steps: filter %s reads the canonical "
                          "or cases layout; this seed-%s file runs with %s", s->file, f->name,
                          s->layout == DKF_SCN_LAYOUT_NETWORK ? "003" : "004",
-                         dkf_registry_names(names, sizeof names, 0, (int)s->layout));
+                         dkf_registry_names(names, sizeof names, NULL, (int)s->layout));
     if (s->layout == DKF_SCN_LAYOUT_NLCASES)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: cases[%zu]: filter %s is linear; "
                          "this case has a nonlinear model and runs with %s", s->file,
                          s->case_index, f->name,
-                         dkf_registry_names(names, sizeof names, 0, (int)s->layout));
-    if ((o->has_d00 || o->Pd00_scale > 0) && !(f->options & DKF_RUN_OPT_D00))
-        return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: --d00/--Pd00-scale: only for %s",
-                         s->file, dkf_registry_names(names, sizeof names, DKF_RUN_OPT_D00, -1));
+                         dkf_registry_names(names, sizeof names, NULL, (int)s->layout));
     if (kind->input_prior && s->multi)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: model.sensors: filter %s supports "
                          "single-sensor scenarios only", s->file, f->name);
     if (kind->needs_ui &&
         dkf_scn_require_ui(s, kind->y_ahead ? s->steps : s->steps - 1,
                            kind->y_ahead ? s->steps + 1 : s->steps,
-                           kind->input_prior && !o->has_d00, f->name, err, errlen) != 0)
+                           kind->input_prior && !c->has_d00, f->name, err, errlen) != 0)
         return DKF_EXIT_USAGE;
     if (kind->input_prior) {
         const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, 0, "A");
-        if (o->has_d00 && o->nd00 != A->cols)
+        if (c->has_d00 && c->nd00 != A->cols)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: --d00: expected %zu values (the "
-                             "columns of A), got %zu", s->file, A->cols, o->nd00);
-        if (o->has_d00 && dkf_scn_init(s, "Pd00") == NULL)
+                             "columns of A), got %zu", s->file, A->cols, c->nd00);
+        if (c->has_d00 && dkf_scn_init(s, "Pd00") == NULL)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: init.Pd00: missing key (filter "
                              "%s needs it)", s->file, f->name);
     }
@@ -131,8 +209,8 @@ dkf_runner_t *dkf_est_run_create(const dkf_filter_t *f, const dkf_run_opts_t *o,
     er->count = n;
     memset(&opts, 0, sizeof opts);
     opts.no_record = !o->record;
-    opts.d00 = o->has_d00 ? o->d00 : NULL;
-    opts.Pd00_scale = o->Pd00_scale;
+    opts.d00 = cli(o)->has_d00 ? cli(o)->d00 : NULL;
+    opts.Pd00_scale = cli(o)->Pd00_scale;
     for (i = 0; i < s->nsensors; ++i) all[i] = i;
     if (!s->multi) {
         bad = make_slot(er, 0, f->label, DKF_EST_STACKED, all, 1, dkf_scn_P00_central(s), &opts,

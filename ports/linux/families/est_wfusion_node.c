@@ -1,10 +1,10 @@
 /*
- * est_wfusion_node.c - the wfusion family's sensor-node role (registry.h,
+ * est_wfusion_node.c - the wfusion family's sensor-node role (family.h,
  * dkf_node_ops_t): sensor i's local Kalman filter of seed 002 (Theorem 1,
  * dkf_wfusion_local_step of dkf/wfusion.h) as dkf-node runs it, one
  * measurement at a time. y_i(k) completes step k itself (same_step = 1).
  *
- * The payload (node_msg_t): xf = x_i(k|k), xp = x_i(k|k-1) = F_{k-1}
+ * The payload (dkf_node_estimate_t, sent as node_msg_t): xf = x_i(k|k), xp = x_i(k|k-1) = F_{k-1}
  * x_i(k-1|k-1) (the prediction the step started from; the weighted fusion
  * centre uses xf only). Covariances are not sent: the centre runs the
  * same gain recursion and every P_ij itself (docs/network.md, "The
@@ -20,8 +20,8 @@
 #include <string.h>
 
 #include "dkf/wfusion.h"
-#include "est_internal.h"
-#include "registry.h"
+#include "family.h"
+#include "node_roles.h"
 #include "wf_model.h"
 
 struct dkf_node_filter {
@@ -115,18 +115,17 @@ static int node_start(dkf_node_filter_t *nf, long k0, const double *y, char *err
     return node_step(nf, k0, y, err, errlen);
 }
 
-static int node_payload(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg_t *msg)
+static int node_payload(const dkf_node_filter_t *nf, dkf_node_estimate_t *est)
 {
     if (nf->k < 1 || nf->k > (long)UINT32_MAX) return -1;
-    memset(msg, 0, sizeof *msg);
-    msg->node = id;
-    msg->k = (uint32_t)nf->k;
-    msg->n = (uint16_t)nf->n;
-    memcpy(msg->xf, nf->loc.x.data, nf->n * sizeof msg->xf[0]);
-    memcpy(msg->xp, nf->xp, nf->n * sizeof msg->xp[0]);
+    memset(est, 0, sizeof *est);
+    est->k = (uint32_t)nf->k;
+    est->n = (uint16_t)nf->n;
+    memcpy(est->xf, nf->loc.x.data, nf->n * sizeof est->xf[0]);
+    memcpy(est->xp, nf->xp, nf->n * sizeof est->xp[0]);
     return 0;
 }
 
-const dkf_node_ops_t dkf_wfusion_node_ops = {
+const dkf_node_ops_t dkf_host_wfusion_node_ops = {
     node_create, node_start, node_step, node_payload, node_destroy, 1,
 };

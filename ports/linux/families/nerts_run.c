@@ -1,5 +1,5 @@
 /*
- * est_nerts.c - seed 001's single-node nonlinear unknown-input filters
+ * nerts_run.c - seed 001's single-node nonlinear unknown-input filters
  * (dkf/nerts.h) over a nonlinear-cases scenario (scn_nlcases.c): the
  * registry family "nerts", filters nertsf, nertsif, dnertsf, dnertsif
  * and cf_dnertsf.
@@ -31,9 +31,9 @@
 #include <string.h>
 
 #include "dkf/nerts.h"
-#include "est_nerts.h"
+#include "family.h"
+#include "nerts_run.h"
 #include "nlm.h"
-#include "registry.h"
 #include "util.h"
 
 /* A --filter row's data. */
@@ -278,7 +278,7 @@ static void put_vec(json_t *series, const char *key, const dkf_mat_t *v)
     dkf_json_append(series, key, dkf_json_from_mat(v, 1));
 }
 
-void dkf_nerts_record(json_t *series, const dkf_nerts_t *f)
+void dkf_host_nerts_record(json_t *series, const dkf_nerts_t *f)
 {
     if (is_ekf(f->kind)) {
         put(series, "A", &f->Fx);
@@ -348,7 +348,7 @@ static int nerts_step(dkf_runner_t *r, long k, char *err, size_t errlen)
                          u->fl->label,
                          dkf_status_str(st), (int)st, why[0] != '\0' ? "; " : "", why);
     }
-    if (u->series != NULL) dkf_nerts_record(u->series, &u->f);
+    if (u->series != NULL) dkf_host_nerts_record(u->series, &u->f);
     errors_against_truth(u, k);
     return DKF_EXIT_OK;
 }

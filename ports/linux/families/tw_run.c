@@ -29,6 +29,7 @@
  *   gap_x_vec_rule      max over nodes of max_i |x_l,i - x_alg1,i| / max(1, max_i |x_alg1,i|)
  *                       (the golden-vector comparison rule with Alg 1 as reference)
  */
+#include <errno.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -37,8 +38,8 @@
 
 #include "dkf/graph.h"
 #include "dkf/tw.h"
+#include "family.h"
 #include "graph_weights.h"
-#include "registry.h"
 #include "util.h"
 
 static const char *const alg_names[] = {"", "alg1", "alg2", "alg3"};
@@ -147,9 +148,9 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: graph.edges: not a simple undirected graph (a self loop or a "
                          "repeated edge): %s", s->file, dkf_status_str(st));
-    if ((rc = dkf_graph_weights_bind(s, &c->g, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
+    if ((rc = dkf_host_graph_weights_bind(s, &c->g, 0, c->alpha, &dflt, err, errlen)) != 0) return rc;
     sum->alpha_default = dflt;
-    if ((rc = dkf_graph_weights_bind(s, &c->g, 1, c->W, &dflt, err, errlen)) != 0) return rc;
+    if ((rc = dkf_host_graph_weights_bind(s, &c->g, 1, c->W, &dflt, err, errlen)) != 0) return rc;
     sum->W_default = dflt;
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
@@ -403,12 +404,61 @@ typedef struct {
     json_t *series;    /* NULL: record nothing */
 } tw_runner_t;
 
+/* ---- the options: --eta (tw3), --metrics-only (tw1-3) ---- */
+
+#define TW_OPT_ETA 1u
+#define TW_OPT_METRICS 2u
+
+typedef struct {
+    long eta;         /* --eta, -1 if not given */
+    int metrics_only; /* --metrics-only */
+} tw_cli_t;
+
+static const tw_cli_t tw_defaults = {-1, 0};
+
+static void cli_init(void *area)
+{
+    memcpy(area, &tw_defaults, sizeof tw_defaults);
+}
+
+static int cli_parse(void *area, const dkf_run_opt_t *opt, const char *arg, char *err,
+                     size_t errlen)
+{
+    tw_cli_t *c = area;
+    char *end;
+    if (opt->bit == TW_OPT_METRICS) {
+        c->metrics_only = 1;
+        return DKF_EXIT_OK;
+    }
+    errno = 0;
+    c->eta = strtol(arg, &end, 10);
+    if (end == arg || *end != '\0' || errno != 0 || c->eta < 0 ||
+        (unsigned long)c->eta > DKF_TW_MAX_ETA)
+        return dkf_failf(err, errlen, DKF_EXIT_USAGE,
+                         "--eta %s: expected an integer >= 0 (at most %u)", arg, DKF_TW_MAX_ETA);
+    return DKF_EXIT_OK;
+}
+
+static const dkf_run_opt_t tw_cli_opts[] = {
+    {"eta", 1, TW_OPT_ETA,
+     "--eta N          tw3: consensus iterations per ACF (overrides the file's eta)"},
+    {"metrics-only", 0, TW_OPT_METRICS,
+     "--metrics-only   tw1-3: record only the per-step metrics (errors against the\n"
+     "                       truth, gap to Algorithm 1), not the per-node arrays"},
+};
+
+static const dkf_run_optset_t tw_options = {
+    tw_cli_opts, sizeof tw_cli_opts / sizeof tw_cli_opts[0], sizeof(tw_cli_t), cli_init,
+    cli_parse,
+};
+
 static tw_opts_t tw_opts(const dkf_filter_t *fl, const dkf_run_opts_t *o)
 {
+    const tw_cli_t *c = o->fam != NULL ? (const tw_cli_t *)o->fam : &tw_defaults;
     tw_opts_t t;
     t.alg = *(const int *)fl->impl;
-    t.eta = o->eta;
-    t.no_nodes = o->metrics_only;
+    t.eta = c->eta;
+    t.no_nodes = c->metrics_only;
     return t;
 }
 
@@ -547,15 +597,15 @@ static const dkf_filter_t filters[] = {
     {"tw1", "alg1",
      "seed 003: Algorithm 1, centralized filter with unknown\n"
      "                           actuations (dkf/tw.h) over every node",
-     DKF_RUN_OPT_METRICS, &dkf_family_tw, &algs[0]},
+     TW_OPT_METRICS, &dkf_family_tw, &algs[0]},
     {"tw2", "alg2", "seed 003: Algorithm 2, diffusion, whole graph in process",
-     DKF_RUN_OPT_METRICS, &dkf_family_tw, &algs[1]},
+     TW_OPT_METRICS, &dkf_family_tw, &algs[1]},
     {"tw3", "alg3",
      "seed 003: Algorithm 3, consensus (eta ACF iterations:\n"
      "                           the file's eta or --eta N), whole graph in process",
-     DKF_RUN_OPT_METRICS | DKF_RUN_OPT_ETA, &dkf_family_tw, &algs[2]},
+     TW_OPT_METRICS | TW_OPT_ETA, &dkf_family_tw, &algs[2]},
 };
 const dkf_family_t dkf_family_tw = {
     "tw", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_NETWORK,
-    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy, NULL,
+    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy, NULL, &tw_options,
 };

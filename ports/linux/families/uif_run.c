@@ -20,7 +20,7 @@
 #include <string.h>
 
 #include "dkf/uif.h"
-#include "registry.h"
+#include "family.h"
 #include "util.h"
 
 /* What a run counts for its summary. */
@@ -307,5 +307,5 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_uif = {
     "uif", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_STEPS,
-    uif_check, uif_create, uif_step, uif_record, NULL, uif_summary, uif_destroy, NULL,
+    uif_check, uif_create, uif_step, uif_record, NULL, uif_summary, uif_destroy, NULL, NULL,
 };

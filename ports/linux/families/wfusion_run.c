@@ -52,8 +52,8 @@
 
 #include "dkf/selftune.h"
 #include "dkf/wfusion.h"
-#include "est_internal.h"
-#include "registry.h"
+#include "family.h"
+#include "node_roles.h"
 #include "util.h"
 #include "wf_model.h"
 
@@ -674,5 +674,5 @@ static const dkf_filter_t filters[] = {
 const dkf_family_t dkf_family_wfusion = {
     "wfusion", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_WFCASES,
     wf_check, wf_create, wf_step, wf_record, NULL, wf_summary, wf_destroy,
-    &dkf_wfusion_node_ops,
+    &dkf_host_wfusion_node_ops, NULL,
 };

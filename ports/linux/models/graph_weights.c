@@ -7,7 +7,7 @@
 
 #include "util.h"
 
-int dkf_graph_weights_bind(const dkf_scenario_t *s, const dkf_graph_t *g, int doubly,
+int dkf_host_graph_weights_bind(const dkf_scenario_t *s, const dkf_graph_t *g, int doubly,
                            dkf_real_t *w, int *dflt, char *err, size_t errlen)
 {
     const dkf_scn_network_t *net = s->net;

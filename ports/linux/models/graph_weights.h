@@ -18,7 +18,7 @@
  * when the file gave none. DKF_EXIT_OK, or DKF_EXIT_USAGE (an entry off
  * the graph, weights that fail the check, out of memory) / DKF_EXIT_RUN
  * (the default failed) with "FILE: KEY: problem" in err. */
-int dkf_graph_weights_bind(const dkf_scenario_t *s, const dkf_graph_t *g, int doubly,
+int dkf_host_graph_weights_bind(const dkf_scenario_t *s, const dkf_graph_t *g, int doubly,
                            dkf_real_t *w, int *dflt, char *err, size_t errlen);
 
 #endif /* DKF_HOST_GRAPH_WEIGHTS_H */

@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "scn_parse.h"
+#include "scn_values.h"
 
 void dkf_nlm_set_failure(dkf_nlm_t *m, const char *fmt, ...)
 {

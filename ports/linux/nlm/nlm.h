@@ -19,7 +19,7 @@
  * h(x_pred) with it).
  *
  * Every problem found while loading is one "FILE: KEY: problem" line (the
- * scenario reader's dkf_scn_fail); a callback that fails at run time
+ * JSON value readers' dkf_scn_fail, scn_values.h); a callback that fails at run time
  * (a non-finite value, e.g. a division by zero inside an expression)
  * returns non-zero, so the filter's step fails with DKF_ERR_MODEL and
  * leaves the filter untouched, and dkf_nlm_failure() says which
@@ -66,7 +66,7 @@ struct dkf_nlm {
     double *jac_a, *jac_b; /* the Jacobians' blocks in double: max(n, m) x n, x max(p, 1) */
 };
 
-struct dkf_scn_ctx; /* scn_parse.h */
+struct dkf_scn_ctx; /* scn_values.h */
 
 /* The model of JSON object j at key path `path` of `file`, for a state of
  * n and an unknown input of p components (the case's init sizes them);

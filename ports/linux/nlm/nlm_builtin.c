@@ -25,7 +25,7 @@
 #include <string.h>
 
 #include "nlm.h"
-#include "scn_parse.h"
+#include "scn_values.h"
 
 #define PI 3.14159265358979323846
 #define MAX_SENSORS (DKF_MAX_DIM / 2)

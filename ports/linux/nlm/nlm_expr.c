@@ -34,7 +34,7 @@
 #include <muParserDLL.h>
 
 #include "nlm.h"
-#include "scn_parse.h"
+#include "scn_values.h"
 
 /* One compiled expression. */
 typedef struct {

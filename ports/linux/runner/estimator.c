@@ -4,9 +4,10 @@
  * estimator has one group holding all its sensors, H stacked and R, A, B,
  * Rd block-diagonal; a fused one has a group per sensor), loading a step's
  * model, the step sequence, errors against the truth. The kinds
- * themselves: est_kf.c, est_info.c, est_diffkf.c, est_askf.c, est_otskf.c.
+ * themselves, each with its own state: families/est_kf.c, est_info.c,
+ * est_diffkf.c, est_askf.c, est_otskf.c.
  */
-#include "est_internal.h"
+#include "est_kind.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -124,7 +125,7 @@ static int group_init(dkf_est_group_t *g, const dkf_scenario_t *s, const size_t 
     g->idx = malloc(count * sizeof *g->idx);
     if (g->idx == NULL) return -1;
     memcpy(g->idx, idx, count * sizeof *idx);
-    len = m * n + m * m + m + m * p + 2 * p * p + n + n * n + DKF_INFO_CONTRIB_WORK(n, m);
+    len = m * n + m * m + m + m * p + 2 * p * p;
     g->buf = q = calloc(len, sizeof *g->buf);
     if (q == NULL) return -1;
     g->H = (dkf_mat_t)DKF_MAT(m, n, q);
@@ -138,12 +139,6 @@ static int group_init(dkf_est_group_t *g, const dkf_scenario_t *s, const size_t 
     g->B = (dkf_mat_t)DKF_MAT(p, p, q);
     q += p * p;
     g->Rd = (dkf_mat_t)DKF_MAT(p, p, q);
-    q += p * p;
-    g->i = (dkf_mat_t)DKF_MAT(n, 1, q);
-    q += n;
-    g->I = (dkf_mat_t)DKF_MAT(n, n, q);
-    q += n * n;
-    g->work = q;
     g->meas.H = &g->H;
     g->meas.D = &g->A;
     g->meas.R = &g->R;
@@ -176,14 +171,13 @@ dkf_est_t *dkf_est_create(const dkf_est_kind_t *kind, dkf_est_mode_t mode,
     e->names = s->layout == DKF_SCN_LAYOUT_CASES ? &cases_names : &canonical_names;
     e->ngroups = mode == DKF_EST_FUSED ? count : 1;
     e->groups = calloc(e->ngroups, sizeof *e->groups);
-    e->ivec = calloc(e->ngroups, sizeof *e->ivec);
-    e->Imat = calloc(e->ngroups, sizeof *e->Imat);
-    e->FQ = calloc(4 * n * n + 2 * n, sizeof *e->FQ);
+    e->state = calloc(1, kind->state_size);
+    e->FQ = calloc(3 * n * n + 2 * n, sizeof *e->FQ);
     e->sq = calloc(n, sizeof *e->sq);
     e->err_f = calloc(N, sizeof *e->err_f);
     e->err_p = calloc(N, sizeof *e->err_p);
     e->series = json_object();
-    if (e->groups == NULL || e->ivec == NULL || e->Imat == NULL || e->FQ == NULL ||
+    if (e->groups == NULL || e->state == NULL || e->FQ == NULL ||
         e->sq == NULL || e->err_f == NULL || e->err_p == NULL || e->series == NULL)
         goto oom;
     for (j = 0; j < N; ++j) e->err_f[j] = e->err_p[j] = NAN;
@@ -197,9 +191,8 @@ dkf_est_t *dkf_est_create(const dkf_est_kind_t *kind, dkf_est_mode_t mode,
     e->F = (dkf_mat_t)DKF_MAT(n, n, q);
     e->Q = (dkf_mat_t)DKF_MAT(n, n, q + n * n);
     P0 = (dkf_mat_t)DKF_MAT(n, n, q + 2 * n * n);
-    e->Pbuf = (dkf_mat_t)DKF_MAT(n, n, q + 3 * n * n);
-    x0 = (dkf_mat_t)DKF_MAT(n, 1, q + 4 * n * n);
-    e->xpk = (dkf_mat_t)DKF_MAT(n, 1, q + 4 * n * n + n);
+    x0 = (dkf_mat_t)DKF_MAT(n, 1, q + 3 * n * n);
+    e->xpk = (dkf_mat_t)DKF_MAT(n, 1, q + 3 * n * n + n);
     dkf_scn_to_real(x0.data, dkf_scn_at(dkf_scn_init(s, "x00"), 0), n);
     dkf_scn_to_real(P0.data, P00, n * n);
     st = e->kind->init(e, &x0, &P0, &what);
@@ -219,20 +212,13 @@ void dkf_est_free(dkf_est_t *e)
 {
     size_t j;
     if (e == NULL) return;
+    if (e->state != NULL && e->kind->release != NULL) e->kind->release(e);
     for (j = 0; e->groups != NULL && j < e->ngroups; ++j) {
         free(e->groups[j].idx);
         free(e->groups[j].buf);
     }
-    for (j = 0; e->local_storage != NULL && j < e->ngroups; ++j) free(e->local_storage[j]);
-    free(e->local_storage);
-    free(e->locals);
-    free(e->nodes);
-    free(e->msgs);
-    free(e->fcs);
-    free(e->fc_storage);
     free(e->groups);
-    free(e->ivec);
-    free(e->Imat);
+    free(e->state);
     free(e->FQ);
     free(e->sq);
     free(e->err_f);

@@ -36,9 +36,10 @@
 typedef struct dkf_est dkf_est_t;
 
 /* A filter kind: what it needs of the scenario and the operations that
- * drive its core filter. Each kind is one file, which also defines its
- * registry family (DKF_EST_FAMILY, est_internal.h): est_kf.c (dkf/kf.h,
- * covariance form; ignores A, B, Rd), est_info.c (dkf/info.h), est_diffkf.c
+ * drive its core filter (over the object of est_kind.h). Each kind is one
+ * file, which also defines its registry family (DKF_EST_FAMILY,
+ * families/private/est_family.h): families/est_kf.c (dkf/kf.h, covariance
+ * form; ignores A, B, Rd), est_info.c (dkf/info.h), est_diffkf.c
  * (dkf/diffkf.h, the Difference KF; fused: dkf/diffkf_fusion.h),
  * est_askf.c (dkf/askf.h), est_otskf.c (dkf/otskf.h). */
 typedef struct dkf_est_kind {
@@ -47,6 +48,7 @@ typedef struct dkf_est_kind {
     int fused;       /* has a fused mode (DKF_EST_FUSED) */
     int y_ahead;     /* step k takes y_{k+1} (the Difference KF: y up to N+1) */
     int input_prior; /* starts from d00, Pd00 (init or the options); one sensor */
+    size_t state_size; /* bytes of the kind's own state (e->state, zeroed at create) */
     dkf_status_t (*init)(dkf_est_t *e, const dkf_mat_t *x0, const dkf_mat_t *P0,
                          const char **what);
     /* predict/update kinds: step k = predict with F_{k-1}, Q_{k-1}, B_{k-1},
@@ -55,6 +57,8 @@ typedef struct dkf_est_kind {
     dkf_status_t (*update)(dkf_est_t *e, const char **what);
     /* whole-step kinds (NULL for the others): fill xpk, run step k */
     dkf_status_t (*step)(dkf_est_t *e, long k, const char **what);
+    /* frees what init allocated in the state beyond e->storage (NULL: nothing) */
+    void (*release)(dkf_est_t *e);
 } dkf_est_kind_t;
 
 typedef enum {

@@ -1,9 +1,12 @@
 /*
- * registry.h - the host's filter families: one const table of operations
- * per family and one registry array listing them (the style of LCM's
- * provider vtables). dkf-run (one run or the Monte-Carlo error mode that
- * tools/dkf_mc.py uses), dkf-node (a family's node role, below) and the
- * network processes' scenario checks reach a filter only through it:
+ * family.h - what a host filter family implements: one const table of
+ * operations per family (the style of LCM's provider vtables) with its
+ * --filter rows, the options of its filters and, for a family whose
+ * filter runs as one process per sensor, its node role. The registry
+ * (families/registry.h) lists the families; dkf-run (one run or the
+ * Monte-Carlo error mode that tools/dkf_mc.py uses), dkf-node (a
+ * family's node role, below) and the network processes' scenario checks
+ * reach a filter only through it:
  *
  *   const dkf_filter_t *f = dkf_registry_find("askf");
  *   const dkf_family_t *fam = f->family;
@@ -15,12 +18,13 @@
  *   fam->summary(r, stdout);
  *   fam->destroy(r);
  *
- * Adding a family on the host is one file defining its dkf_family_t (and
- * its dkf_filter_t rows) plus one row in registry.c: docs/layout.md,
+ * Nothing here is any one family's: a family's options are its own
+ * (dkf_run_optset_t), a node role's payload is the neutral
+ * dkf_node_estimate_t. Adding a family on the host: docs/layout.md,
  * "Adding a filter family on the host".
  */
-#ifndef DKF_HOST_REGISTRY_H
-#define DKF_HOST_REGISTRY_H
+#ifndef DKF_HOST_FAMILY_H
+#define DKF_HOST_FAMILY_H
 
 #include <stddef.h>
 #include <stdint.h>
@@ -28,29 +32,41 @@
 
 #include <jansson.h>
 
-#include "dkf/diffkf_fusion.h" /* dkf_diffkf_msg_t: the node payload */
+#include "dkf/config.h"
 #include "scenario.h"
 #include "util.h"
 
-/* What a run was asked for (dkf-run's options; zeroed = the defaults, but
- * eta = -1 means "not given"). */
+/* What a run was asked for (zeroed = the defaults). */
 typedef struct {
-    int record;            /* 1: keep every step's values for record() (an --output) */
-    int errors;            /* 1: Monte-Carlo error mode (every run, squared errors only) */
-    long run;              /* the run to process without errors (checked by check()) */
-    int has_d00;           /* askf/otskf: d00 given */
-    const double *d00;     /* d_{0|0} (nd00 values) instead of init.d00 */
-    size_t nd00;
-    double Pd00_scale;     /* P_{d0|0} = scale * init.Pd00 (0: not given, means 1) */
-    long eta;              /* tw3: >= 0 overrides the file's eta; -1: the file's */
-    int metrics_only;      /* tw1-3: record the metrics, not the per-node arrays */
+    int record;       /* 1: keep every step's values for record() (an --output) */
+    int errors;       /* 1: Monte-Carlo error mode (every run, squared errors only) */
+    long run;         /* the run to process without errors (checked by check()) */
+    const void *fam;  /* the family's own options (its optset's area); NULL: its defaults */
 } dkf_run_opts_t;
 
-/* Options a filter takes beyond the common ones (dkf-run refuses the
- * others naming the filters that do take them). */
-#define DKF_RUN_OPT_D00 1u     /* --d00, --Pd00-scale */
-#define DKF_RUN_OPT_ETA 2u     /* --eta */
-#define DKF_RUN_OPT_METRICS 4u /* --metrics-only */
+/* One command-line option of a family's filters beyond dkf-run's own:
+ * --name, with an argument or not. The filters that take it have `bit`
+ * in dkf_filter_t.options; options that share a bit are named together
+ * in messages ("--d00/--Pd00-scale: only for askf and otskf"). */
+typedef struct {
+    const char *name; /* "eta" for --eta */
+    int has_arg;
+    unsigned bit;     /* the family's own bit */
+    const char *help; /* its dkf-run --help lines, from the option: "--eta N  tw3: ..." */
+} dkf_run_opt_t;
+
+/* A family's options: the table, and the area of `size` bytes they are
+ * parsed into (dkf_run_opts_t.fam): init writes the defaults, parse one
+ * option's argument (arg NULL for an option without one), DKF_EXIT_OK or
+ * DKF_EXIT_USAGE with "--name ARG: problem" in err. */
+typedef struct {
+    const dkf_run_opt_t *opts;
+    size_t nopts;
+    size_t size;
+    void (*init)(void *area);
+    int (*parse)(void *area, const dkf_run_opt_t *opt, const char *arg, char *err,
+                 size_t errlen);
+} dkf_run_optset_t;
 
 typedef struct dkf_runner dkf_runner_t; /* a family's running filter (its own struct) */
 typedef struct dkf_family dkf_family_t;
@@ -61,7 +77,7 @@ typedef struct {
     const char *name;   /* --filter NAME */
     const char *label;  /* outputs.<label> of a single-estimator run */
     const char *help;   /* dkf-run --help text */
-    unsigned options;   /* DKF_RUN_OPT_* */
+    unsigned options;   /* the bits of its family's options it takes */
     const dkf_family_t *family;
     const void *impl;   /* the family's own data for this filter (kind, algorithm) */
 } dkf_filter_t;
@@ -102,15 +118,26 @@ struct dkf_family {
     void (*destroy)(dkf_runner_t *r);
     /* The family's sensor-node role (dkf-node; NULL: it has none). */
     const dkf_node_ops_t *node;
+    /* The options its filters take beyond dkf-run's own (NULL: none). */
+    const dkf_run_optset_t *options;
 };
 
 /* ---- a family's sensor-node role ----------------------------------------------
  * What one networked sensor node computes: its local filter, fed its own
  * measurements one time at a time, whose estimate after every step goes to
- * a fusion centre as the node message's payload (x_{k|k}, x_{k|k-1};
- * lcmtypes/node_msg_t.lcm). dkf-node (net/node.c) owns everything else:
- * the transport, measurement order and gaps, epochs, faults, status. */
+ * a fusion centre (dkf_node_estimate_t; dkf-node sends it as the node
+ * message, lcmtypes/node_msg_t.lcm). dkf-node (net/node.c) owns everything
+ * else: the transport, measurement order and gaps, epochs, faults, status. */
 typedef struct dkf_node_filter dkf_node_filter_t; /* the family's own struct */
+
+/* A node's estimate after its step k: x_{k|k} and x_{k|k-1}, n values each
+ * (entries n..DKF_MAX_DIM-1 zero). */
+typedef struct {
+    uint32_t k;
+    uint16_t n;
+    dkf_real_t xf[DKF_MAX_DIM]; /* x_{k|k} */
+    dkf_real_t xp[DKF_MAX_DIM]; /* x_{k|k-1} */
+} dkf_node_estimate_t;
 struct dkf_node_ops {
     /* Sensor id's local filter of f over s (s passed f's check and id <
      * s->nsensors); the prior is checked now, so a bad file fails at
@@ -124,9 +151,9 @@ struct dkf_node_ops {
     /* Completes step k (> the start's k0 - 1) with y_{k+1} (same_step: with
      * y_k, k > k0). As start. */
     int (*step)(dkf_node_filter_t *nf, long k, const double *y, char *err, size_t errlen);
-    /* The payload of the step just completed (after a successful step):
-     * msg->k, x_{k|k}, x_{k|k-1} of node id. 0, or -1 (k out of range). */
-    int (*payload)(const dkf_node_filter_t *nf, uint16_t id, dkf_diffkf_msg_t *msg);
+    /* The estimate of the step just completed (after a successful step).
+     * 0, or -1 (k out of range). */
+    int (*payload)(const dkf_node_filter_t *nf, dkf_node_estimate_t *est);
     void (*destroy)(dkf_node_filter_t *nf);
     /* 0 (the Difference KF): step k completes with y_{k+1}, the start
      * completes no step. 1 (a Kalman filter, seed 002's local filters):
@@ -135,14 +162,4 @@ struct dkf_node_ops {
     int same_step;
 };
 
-/* The registry: every family, in --help order; NULL-terminated. */
-extern const dkf_family_t *const dkf_registry[];
-
-/* The filter called name, or NULL. */
-const dkf_filter_t *dkf_registry_find(const char *name);
-
-/* The names of the filters that take option bit opt / read layout, joined
- * as "a", "a and b" or "a, b, c" into out (cap bytes). Returns out. */
-const char *dkf_registry_names(char *out, size_t cap, unsigned opt, int layout);
-
-#endif /* DKF_HOST_REGISTRY_H */
+#endif /* DKF_HOST_FAMILY_H */

@@ -18,7 +18,8 @@
  *
  * The reader knows these layouts and no filter: which filter runs on a file
  * is the runner registry's business (registry.h). Its files, one per
- * layout: scn_parse.h.
+ * layout: private/scn_parse.h; the value readers it shares with the
+ * model builders (nlm.h): scn_values.h.
  *
  * Numbers stay in double here, whatever the library's real type is;
  * dkf_scn_to_real converts at the point where the core is called.
@@ -36,18 +37,8 @@
 #include <jansson.h>
 
 #include "dkf/mat.h"
+#include "scn_values.h" /* the limits, dkf_scn_mat_t, dkf_scn_mats_t */
 
-#define DKF_SCN_ERR_LEN 1024
-
-/* Limits on what a file can ask for (docs/scenario-format.md, "Limits").
- * Every count that sizes a loop or an allocation is one of these, the
- * length of a list in the file, or a matrix dimension (<= DKF_MAX_DIM);
- * a file above a limit is refused with a one-line message. */
-#define DKF_SCN_MAX_STEPS 1000000UL  /* N, the `k` list, the steps list */
-#define DKF_SCN_MAX_TIMES (DKF_SCN_MAX_STEPS + 3) /* per_k, y, truth: k = 0..N+2 */
-#define DKF_SCN_MAX_RUNS 100000UL    /* `runs` */
-#define DKF_SCN_MAX_SENSORS 4096UL   /* sensors, cases' C list, seed-003 nodes */
-#define DKF_SCN_MAX_TIME 9007199254740992.0 /* 2^53: times k are 0..2^53 */
 /* eta (seed 003) is at most DKF_TW_MAX_ETA (dkf/tw.h). */
 
 typedef enum {
@@ -62,19 +53,6 @@ typedef enum {
     DKF_SCN_LAYOUT_WFCASES = 5    /* cases[] with Phi, Gamma, Qe, H[i], R[i], H_signal
                                    * (seed-002 weighted fusion); below */
 } dkf_scn_layout_t;
-
-/* A named matrix that is either constant or given per absolute k, or (for
- * init entries such as P00_local) a plain list of same-shape matrices.
- * A vector is stored as rows x 1. */
-typedef struct {
-    char *name;    /* JSON key, e.g. "F", "P00_local" */
-    char *path;    /* its key path in the file, e.g. "model.sensors[1].H", for messages */
-    size_t rows;
-    size_t cols;
-    size_t count;  /* 0: one constant matrix; else count matrices (per_k / list) */
-    double *data;  /* max(count, 1) * rows * cols, row-major */
-    size_t k0;     /* per_k: entry j is M_{k0 + j} (steps layout; 0 elsewhere) */
-} dkf_scn_mat_t;
 
 /* Seed-003 network data (steps layout): the graph and its weights as the
  * file gives them, checked for shape and index range only (dkf/graph.h
@@ -113,12 +91,6 @@ typedef struct {
 
 /* Consensus iterations a file may ask for (Tp). */
 #define DKF_SCN_MAX_TP 100000L
-
-/* A named set of matrices (model, one sensor, init). */
-typedef struct {
-    size_t len;
-    dkf_scn_mat_t *items;
-} dkf_scn_mats_t;
 
 /* One sensor's measurement series: y at absolute times k[0..n-1]. */
 typedef struct {

@@ -6,41 +6,8 @@
  */
 #include "scn_parse.h"
 
-#include <float.h>
-#include <math.h>
 #include <stdio.h>
 #include <string.h>
-
-/* A covariance read from a file must be symmetric within rounding:
- * max |M_ij - M_ji| <= DKF_SCN_SYM_TOL eps max |M| for each entry of a
- * per_k list or init list. A symmetric matrix written out and read back is
- * exactly symmetric (the same decimal parses to the same double); a matrix
- * computed in double without symmetrizing carries a few roundings (the
- * time-varying diffkf vectors tv3, tv4: at most 0.6 eps max|M|); a typo or a
- * transposed entry is far above 8 eps. */
-#define DKF_SCN_SYM_TOL 8.0
-
-int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n)
-{
-    double amax = 0.0, worst = 0.0;
-    size_t i, j, wi = 0, wj = 0;
-    char va[32], vb[32];
-    for (i = 0; i < n * n; ++i) amax = fmax(amax, fabs(a[i]));
-    for (i = 0; i < n; ++i)
-        for (j = i + 1; j < n; ++j)
-            if (fabs(a[i * n + j] - a[j * n + i]) > worst) {
-                worst = fabs(a[i * n + j] - a[j * n + i]);
-                wi = i;
-                wj = j;
-            }
-    if (worst <= DKF_SCN_SYM_TOL * DBL_EPSILON * amax) return 0;
-    return dkf_scn_fail(c, path,
-                        "not symmetric (a covariance): entries (%zu,%zu) = %s and (%zu,%zu) "
-                        "= %s differ by %.3g > %g eps max|entry| = %.3g", wi, wj,
-                        dkf_scn_num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
-                        dkf_scn_num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
-                        DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
-}
 
 static int require_symmetric(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
                              int is_list)

@@ -15,7 +15,7 @@
  *
  * The models are built here (nlm.h); p = 0 (d0 = []) is a model without
  * unknown input (DF-CKF). Steps must be k = 1..N in order. What runs on a
- * case is the registry's business (est_nerts.c reads this layout).
+ * case is the registry's business (families/nerts_run.c reads this layout).
  */
 #include "scn_parse.h"
 

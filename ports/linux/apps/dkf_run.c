@@ -44,15 +44,28 @@ typedef struct {
     given_t given[MAX_GIVEN];
 } options_t;
 
-/* Every family's options, each name once, in registry order; the count. */
+/* 1 if no family before family i of the registry has option --name. */
+static int first_with(size_t i, const char *name)
+{
+    size_t k;
+    for (k = 0; k < i; ++k)
+        if (dkf_registry_opt(dkf_registry[k], name) != NULL) return 0;
+    return 1;
+}
+
+/* Every family's options, each name once, in registry order, into out
+ * (the first MAX_FAMILY_OPTS; main refuses a registry with more); the
+ * count. */
 static size_t family_opts(const dkf_run_opt_t **out)
 {
     size_t i, j, n = 0;
     for (i = 0; dkf_registry[i] != NULL; ++i) {
         const dkf_run_optset_t *set = dkf_registry[i]->options;
-        for (j = 0; set != NULL && j < set->nopts && n < MAX_FAMILY_OPTS; ++j)
-            if (dkf_registry_opt(NULL, set->opts[j].name) == &set->opts[j])
-                out[n++] = &set->opts[j];
+        for (j = 0; set != NULL && j < set->nopts; ++j)
+            if (first_with(i, set->opts[j].name)) {
+                if (n < MAX_FAMILY_OPTS) out[n] = &set->opts[j];
+                ++n;
+            }
     }
     return n;
 }
@@ -446,9 +459,16 @@ int main(int argc, char **argv)
     dkf_scenario_t *s;
     dkf_run_opts_t ro;
     void *area = NULL;
+    const dkf_run_opt_t *fo[MAX_FAMILY_OPTS];
     char err[DKF_SCN_ERR_LEN];
-    int rc = parse_options(argc, argv, &o);
+    int rc;
 
+    if (family_opts(fo) > MAX_FAMILY_OPTS) {
+        fprintf(stderr, "dkf-run: the registry's families have more than %d options\n",
+                MAX_FAMILY_OPTS);
+        return DKF_EXIT_USAGE;
+    }
+    rc = parse_options(argc, argv, &o);
     if (rc != 0) return rc > 0 ? 0 : DKF_EXIT_USAGE;
     f = dkf_registry_find(o.filter);
     if (f == NULL) {

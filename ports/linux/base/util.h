@@ -15,7 +15,7 @@
 #include "dkf/mat.h"
 
 /* Exit statuses of every host program (and the return codes of the
- * runner operations, registry.h). */
+ * runner operations, family.h). */
 #define DKF_EXIT_OK 0
 #define DKF_EXIT_USAGE 2   /* bad options or bad input: unreadable, invalid or unwritable file */
 #define DKF_EXIT_RUN 3     /* a run failed: a core call, a peer, a wait that timed out */

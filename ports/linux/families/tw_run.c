@@ -1,7 +1,7 @@
 /*
  * tw_run.c - the seed-003 filters (dkf/tw.h: Talebi-Werner Algorithms 1, 2,
  * 3) over a network-layout scenario, with the whole graph simulated in
- * process by dkf_tw_net_*: the registry family "tw" (registry.h), filters
+ * process by dkf_tw_net_*: the registry family "tw" (family.h), filters
  * tw1, tw2, tw3. All filtering is the library's (Algorithm 1 is
  * dkf_tw_central_step); this file converts the scenario, binds the graph
  * and weights, records, and measures.

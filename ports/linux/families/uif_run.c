@@ -1,7 +1,7 @@
 /*
  * uif_run.c - the seed-004 joint state / unknown-input filters (dkf/uif.h:
  * RTSF, NRTSF-DF, NRTSF) over a steps-layout scenario: the registry family
- * "uif" (registry.h), filters rtsf, nrtsf_df, nrtsf.
+ * "uif" (family.h), filters rtsf, nrtsf_df, nrtsf.
  *
  * Step sequence (the vector files' convention, docs/scenario-format.md):
  *   rtsf, nrtsf_df: steps start at k = 0; (x0, P0) is the prior of x_0;

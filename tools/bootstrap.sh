@@ -14,7 +14,7 @@ set -euo pipefail
 # Host toolchain, unit-test deps, cross compilers, qemu, bench deps, fuzzing.
 pkgs=(
   cmake make ninja-build gcc g++ pkg-config binutils
-  libcmocka-dev libjansson-dev libmuparser-dev  # muparser: expression models (ports/linux/nlm_expr.c)
+  libcmocka-dev libjansson-dev libmuparser-dev  # muparser: expression models (ports/linux/nlm/nlm_expr.c)
   gcc-arm-none-eabi libnewlib-arm-none-eabi binutils-arm-none-eabi
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   gcc-aarch64-linux-gnu libc6-dev-arm64-cross

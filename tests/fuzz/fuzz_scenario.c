@@ -1,5 +1,5 @@
 /*
- * fuzz_scenario.c - the scenario reader (ports/linux/scenario.h) on any
+ * fuzz_scenario.c - the scenario reader (ports/linux/scenario/scenario.h) on any
  * document (docs/fuzzing.md). The input is the file's content; the reader
  * takes a path, so each input is written to one temporary file first.
  *
@@ -103,7 +103,6 @@ static void check_every_filter(const dkf_scenario_t *s, char *err)
     dkf_run_opts_t o;
     size_t i, j;
     memset(&o, 0, sizeof o);
-    o.eta = -1;
     for (i = 0; dkf_registry[i] != NULL; ++i)
         for (j = 0; j < dkf_registry[i]->nfilters; ++j) {
             const dkf_filter_t *f = &dkf_registry[i]->filters[j];

@@ -13,6 +13,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -64,22 +65,52 @@ static void test_names_lists(void **state)
 {
     char out[128];
     (void)state;
-    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_D00, -1),
+    assert_string_equal(dkf_registry_names(out, sizeof out, "d00", -1),
                         "askf and otskf");
-    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_ETA, -1), "tw3");
-    assert_string_equal(dkf_registry_names(out, sizeof out, DKF_RUN_OPT_METRICS, -1),
+    assert_string_equal(dkf_registry_names(out, sizeof out, "eta", -1), "tw3");
+    assert_string_equal(dkf_registry_names(out, sizeof out, "metrics-only", -1),
                         "tw1, tw2, tw3");
-    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_STEPS),
+    assert_string_equal(dkf_registry_names(out, sizeof out, NULL, DKF_SCN_LAYOUT_STEPS),
                         "rtsf, nrtsf_df, nrtsf");
-    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_NETWORK),
+    assert_string_equal(dkf_registry_names(out, sizeof out, NULL, DKF_SCN_LAYOUT_NETWORK),
                         "tw1, tw2, tw3");
-    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_CASES),
+    assert_string_equal(dkf_registry_names(out, sizeof out, NULL, DKF_SCN_LAYOUT_CASES),
                         "kf, info, dkf, askf, otskf");
-    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_NLCASES),
+    assert_string_equal(dkf_registry_names(out, sizeof out, NULL, DKF_SCN_LAYOUT_NLCASES),
                         "nertsf, nertsif, dnertsf, dnertsif, cf_dnertsf, df_dnertsif, df_ckf, "
                         "df_dnertsif_joint");
-    assert_string_equal(dkf_registry_names(out, sizeof out, 0, DKF_SCN_LAYOUT_WFCASES),
+    assert_string_equal(dkf_registry_names(out, sizeof out, NULL, DKF_SCN_LAYOUT_WFCASES),
                         "local_kf, fusion_scalar, fusion_matrix, fusion_steady, fusion_selftune, central_kf");
+}
+
+/* The families' options through the registry alone: which filters take
+ * them, their labels, the defaults and a value refused by the family. */
+static void test_family_options(void **state)
+{
+    const dkf_filter_t *tw3 = dkf_registry_find("tw3"), *kf = dkf_registry_find("kf");
+    char out[64], err[256];
+    void *area;
+    int oom;
+    (void)state;
+    assert_true(dkf_registry_takes(tw3, "eta"));
+    assert_false(dkf_registry_takes(dkf_registry_find("tw2"), "eta"));
+    assert_false(dkf_registry_takes(kf, "d00"));
+    assert_true(dkf_registry_takes(dkf_registry_find("otskf"), "Pd00-scale"));
+    assert_null(dkf_registry_opt(NULL, "no-such-option"));
+    assert_string_equal(dkf_registry_opt_label(out, sizeof out, "Pd00-scale"),
+                        "--d00/--Pd00-scale");
+    assert_string_equal(dkf_registry_opt_label(out, sizeof out, "eta"), "--eta");
+    assert_null(dkf_registry_opts_new(dkf_registry_find("rtsf"), &oom)); /* uif: none */
+    assert_int_equal(oom, 0);
+    area = dkf_registry_opts_new(tw3, &oom);
+    assert_non_null(area);
+    assert_int_equal(dkf_registry_opt_set(tw3, area, "eta", "x", err, sizeof err), DKF_EXIT_USAGE);
+    assert_string_equal(err, "--eta x: expected an integer >= 0 (at most 1000000)");
+    assert_int_equal(dkf_registry_opt_set(tw3, area, "eta", "3", err, sizeof err), DKF_EXIT_OK);
+    assert_int_equal(dkf_registry_opt_set(tw3, area, "d00", "1", err, sizeof err),
+                     DKF_EXIT_USAGE);
+    assert_string_equal(err, "--d00: not an option of filter tw3");
+    free(area);
 }
 
 /* Loads path, runs filter `name` through the registry's operations only
@@ -98,7 +129,6 @@ static json_t *run(const char *path, const char *name, dkf_scenario_t **sp,
     if (s == NULL) fail_msg("%s", err);
     assert_non_null(f);
     memset(&o, 0, sizeof o);
-    o.eta = -1;
     o.record = 1;
     if (f->family->check(f, &o, s, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
     r = f->family->create(f, &o, s, err, sizeof err, &rc);
@@ -151,7 +181,7 @@ static void test_dkf_node_role(void **state)
     const dkf_node_ops_t *ops = f->family->node;
     char err[DKF_SCN_ERR_LEN];
     dkf_node_filter_t *nf;
-    dkf_diffkf_msg_t msg;
+    dkf_node_estimate_t msg;
     size_t i, k, nroles = 0;
     (void)state;
     assert_non_null(ops);
@@ -165,7 +195,7 @@ static void test_dkf_node_role(void **state)
         json_t *xf = json_array_get(json_object_get(out, "xf"), k - 1);
         if (ops->step(nf, (long)k, dkf_scn_y(s, 0, (long)k + 1), err, sizeof err) != DKF_EXIT_OK)
             fail_msg("%s", err);
-        assert_int_equal(ops->payload(nf, 0, &msg), 0);
+        assert_int_equal(ops->payload(nf, &msg), 0);
         assert_int_equal(msg.k, k);
         for (i = 0; i < s->n; ++i)
             assert_true((double)msg.xf[i] == json_real_value(json_array_get(xf, i)));
@@ -240,7 +270,7 @@ static void test_wfusion_node_role(void **state)
     const dkf_node_ops_t *ops = f->family->node;
     const dkf_scn_mat_t *F = dkf_scn_model(s, "F");
     char err[DKF_SCN_ERR_LEN];
-    dkf_diffkf_msg_t msg;
+    dkf_node_estimate_t msg;
     double prev[DKF_MAX_DIM];
     size_t id, k, i, j;
     (void)state;
@@ -257,9 +287,9 @@ static void test_wfusion_node_role(void **state)
                                   : ops->step(nf, (long)k, dkf_scn_y(s, id, (long)k), err,
                                               sizeof err);
             if (rc != DKF_EXIT_OK) fail_msg("%s", err);
-            assert_int_equal(ops->payload(nf, (uint16_t)id, &msg), 0);
+            assert_int_equal(ops->payload(nf, &msg), 0);
             assert_int_equal(msg.k, k);
-            assert_int_equal(msg.node, id);
+            assert_int_equal(msg.n, s->n);
             for (i = 0; i < s->n; ++i) {
                 double xp = 0;
                 assert_true((double)msg.xf[i] == json_real_value(json_array_get(x, i)));
@@ -282,6 +312,7 @@ int main(void)
         cmocka_unit_test(test_every_filter_found_once),
         cmocka_unit_test(test_every_family_complete),
         cmocka_unit_test(test_names_lists),
+        cmocka_unit_test(test_family_options),
         cmocka_unit_test(test_kf_through_the_operations),
         cmocka_unit_test(test_rtsf_through_the_operations),
         cmocka_unit_test(test_dkf_node_role),

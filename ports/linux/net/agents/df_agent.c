@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "est_nerts.h"
 #include "graph_weights.h"
+#include "nerts_run.h"
 #include "nlm.h"
 #include "util.h"
 
@@ -106,7 +106,7 @@ static int bind(dkf_df_agent_t *a, dkf_dfnerts_variant_t variant, char *err, siz
     if (st != DKF_OK)
         return dkf_failf(err, errlen, -1, "%s: cases[%zu].edges: %s", s->file, s->case_index,
                          dkf_status_str(st));
-    if (dkf_graph_weights_bind(s, &a->g, 1, a->W, &dflt, err, errlen) != DKF_EXIT_OK) return -1;
+    if (dkf_host_graph_weights_bind(s, &a->g, 1, a->W, &dflt, err, errlen) != DKF_EXIT_OK) return -1;
     a->row0 = a->start[a->id];
     a->deg = a->start[a->id + 1] - a->row0;
     for (e = 0; e < a->deg; ++e)
@@ -200,7 +200,6 @@ dkf_df_agent_t *dkf_df_agent_new(const dkf_filter_t *f, const dkf_scenario_t *s,
     dkf_run_opts_t ro;
     dkf_ra_config_t rc;
     memset(&ro, 0, sizeof ro);
-    ro.eta = -1;
     if (f->family != &dkf_family_dfnerts) {
         snprintf(err, errlen, "--filter %s: not a consensus-network filter (df_dnertsif, df_ckf, "
                  "df_dnertsif_joint)", f->name);

@@ -1,7 +1,8 @@
 /*
- * node.c - node i: a family's node role (registry.h, dkf_node_ops_t: the
- * dkf family's local Difference KF) on sensor i's measurements, with the
- * transport, measurement order, epochs and test faults (agents.h).
+ * node.c - node i: a family's node role (family.h, dkf_node_ops_t: e.g.
+ * the dkf family's local Difference KF) on sensor i's measurements, with
+ * the transport, measurement order, epochs and test faults (agents.h).
+ * The role's estimate (dkf_node_estimate_t) goes out as the node message.
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -103,13 +104,25 @@ static int node_send(dkf_net_node_t *nd, const unsigned char *buf, size_t len)
     return rc;
 }
 
+/* The node message of node id carrying est. */
+static void node_msg(dkf_diffkf_msg_t *msg, size_t id, const dkf_node_estimate_t *est)
+{
+    msg->node = (uint16_t)id;
+    msg->k = est->k;
+    msg->n = est->n;
+    memcpy(msg->xf, est->xf, sizeof msg->xf);
+    memcpy(msg->xp, est->xp, sizeof msg->xp);
+}
+
 /* Encodes and sends the message of the step just completed. */
 static int node_emit(dkf_net_node_t *nd, const dkf_net_meas_t *y)
 {
     unsigned char buf[DKF_NET_MAX_MSG];
+    dkf_node_estimate_t est;
     dkf_net_meta_t meta;
     size_t len;
-    if (nd->ops->payload(nd->nf, (uint16_t)nd->id, &nd->msg) != 0) return -1;
+    if (nd->ops->payload(nd->nf, &est) != 0) return -1;
+    node_msg(&nd->msg, nd->id, &est);
     meta.utime = dkf_net_now_us();
     meta.model_id = nd->model_id;
     meta.seq = nd->seq;

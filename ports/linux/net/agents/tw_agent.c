@@ -63,10 +63,18 @@ static int check_file(const dkf_scenario_t *s, int alg, long eta, char *err, siz
 {
     const dkf_filter_t *f = dkf_registry_find(alg == 2 ? "tw2" : "tw3");
     dkf_run_opts_t o;
+    char arg[32];
+    void *area;
+    int oom, rc = 0;
     if (alg != 2 && alg != 3) return failf(err, errlen, "--alg %d: expected 2 or 3", alg);
     memset(&o, 0, sizeof o);
-    o.eta = eta;
-    return f->family->check(f, &o, s, err, errlen) == DKF_EXIT_OK ? 0 : -1;
+    o.fam = area = dkf_registry_opts_new(f, &oom);
+    if (oom) return failf(err, errlen, "%s: out of memory", s->file);
+    snprintf(arg, sizeof arg, "%ld", eta);
+    if (alg == 3 && eta >= 0) rc = dkf_registry_opt_set(f, area, "eta", arg, err, errlen);
+    if (rc == DKF_EXIT_OK) rc = f->family->check(f, &o, s, err, errlen);
+    free(area);
+    return rc == DKF_EXIT_OK ? 0 : -1;
 }
 
 int dkf_net_twa_scn_bind(dkf_net_twa_scn_t *c, const dkf_scenario_t *s, int alg, long eta,
@@ -101,8 +109,8 @@ int dkf_net_twa_scn_bind(dkf_net_twa_scn_t *c, const dkf_scenario_t *s, int alg,
         dkf_net_twa_scn_free(c);
         return failf(err, errlen, "%s: graph.edges: %s", s->file, dkf_status_str(st));
     }
-    if (dkf_graph_weights_bind(c->s, &c->g, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
-        dkf_graph_weights_bind(c->s, &c->g, 1, c->W, &c->W_default, err, errlen) != 0) {
+    if (dkf_host_graph_weights_bind(c->s, &c->g, 0, c->alpha, &c->alpha_default, err, errlen) != 0 ||
+        dkf_host_graph_weights_bind(c->s, &c->g, 1, c->W, &c->W_default, err, errlen) != 0) {
         dkf_net_twa_scn_free(c);
         return -1;
     }

@@ -39,7 +39,6 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
          * checks (the wfusion family), and the node count of the messages */
         f = dkf_registry_find("fusion_matrix");
         memset(&o, 0, sizeof o);
-        o.eta = -1;
         if (f == NULL || f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
         if (s->nsensors > DKF_NET_MAX_NODES) {
             snprintf(err, errlen, "%s: %zu sensors, at most %d", s->file, s->nsensors,
@@ -50,7 +49,6 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
     }
     /* what the Difference KF needs of the file: the registry's check */
     memset(&o, 0, sizeof o);
-    o.eta = -1;
     if (f->family->check(f, &o, s, err, errlen) != DKF_EXIT_OK) return -1;
     if (s->nsensors > DKF_NET_MAX_NODES) {
         snprintf(err, errlen, "%s: model.sensors: %zu sensors, at most %d", s->file, s->nsensors,

@@ -97,7 +97,6 @@ static json_t *in_process(const char *case_sel, const char *filter)
     int rc;
     if (s == NULL) fail_msg("%s", err);
     memset(&o, 0, sizeof o);
-    o.eta = -1;
     o.record = 1;
     if (f->family->check(f, &o, s, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
     if ((r = f->family->create(f, &o, s, err, sizeof err, &rc)) == NULL) fail_msg("%s", err);

@@ -21,6 +21,7 @@
  * requires a checked refusal of every public function that takes a
  * filter object (untouched_api.h, written from the headers by
  * tests/untouched_api.cmake), bar a commented list of exemptions.
+ * test_priv_last: every object struct ends with its private member priv.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -2827,6 +2828,32 @@ static void test_exact_storage(void **state)
     print_message("exact storage: %zu shapes checked\n", xs_each_shape(exact_storage));
 }
 
+/* What the caller must not touch is in one member `priv` at the end of
+ * each object struct (docs/layout.md, the module contract; decisions.md
+ * item 45): nothing follows it. */
+#define PRIV_LAST(T) assert_int_equal(offsetof(T, priv) + sizeof(((T *)0)->priv), sizeof(T))
+static void test_priv_last(void **state)
+{
+    (void)state;
+    PRIV_LAST(dkf_kf_t);
+    PRIV_LAST(dkf_info_t);
+    PRIV_LAST(dkf_askf_t);
+    PRIV_LAST(dkf_otskf_t);
+    PRIV_LAST(dkf_uif_t);
+    PRIV_LAST(dkf_nerts_t);
+    PRIV_LAST(dkf_dfnerts_node_t);
+    PRIV_LAST(dkf_dfnerts_net_t);
+    PRIV_LAST(dkf_diffkf_t);
+    PRIV_LAST(dkf_diffkf_fc_node_t);
+    PRIV_LAST(dkf_diffkf_fc_t);
+    PRIV_LAST(dkf_tw_node_t);
+    PRIV_LAST(dkf_tw_net_t);
+    PRIV_LAST(dkf_wfusion_local_t);
+    PRIV_LAST(dkf_wfusion_t);
+    PRIV_LAST(dkf_selftune_t);
+}
+#undef PRIV_LAST
+
 /* An init over a live object (the same object and storage, initialised)
  * whose prior is refused at its last check (P0 = diag(1, .., 1, -1), the
  * last network node's only) leaves the object and the state parts of its
@@ -3052,6 +3079,7 @@ int main(void)
         cmocka_unit_test(test_wfusion),
         cmocka_unit_test(test_selftune),
         cmocka_unit_test(test_exact_storage),
+        cmocka_unit_test(test_priv_last),
         cmocka_unit_test(test_init_over_live),
         cmocka_unit_test(test_declare_macros),
         cmocka_unit_test(test_every_object_call_refused), /* last: it reads what ran */

@@ -121,7 +121,7 @@ static double prepare(size_t l)
     {
         double c = (double)fu.s0 + (double)fu.PS0;
         int a;
-        for (a = 0; a < NX; ++a) c += (double)fu.x0.data[a] + (double)fu.P0.data[a * NX + a];
+        for (a = 0; a < NX; ++a) c += (double)fu.xf.data[a] + (double)fu.Pf.data[a * NX + a];
         return c;
     }
 }
@@ -145,7 +145,7 @@ static double run_matrix(long calls)
     long k;
     for (k = 0; k < calls; ++k)
         if (dkf_wfusion_fuse_matrix(&fu, NULL) != DKF_OK) return NAN;
-    return (double)fu.P0.data[0];
+    return (double)fu.Pf.data[0];
 }
 
 int main(int argc, char **argv)

@@ -67,7 +67,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
     g.m = m;
     g.p = p;
     (void)askf_layout(&L, storage, N, m);
-    g.aug = L.phi;
+    g.priv.aug = L.phi;
     /* X0 and P^a_0 are staged in the (still unused) Q^a and Phi areas */
     dkf__view(&X0, N, 1, L.qa);
     dkf__view(&Pa0, N, N, L.phi);
@@ -75,7 +75,7 @@ dkf_status_t dkf_askf_init(dkf_askf_t *f, size_t n, size_t m, size_t p, dkf_real
     dkf__copy(X0.data + n, d0->data, p);
     dkf__put_sym_blocks(Pa0.data, P0->data, Pxd0 != NULL ? Pxd0->data : NULL, Pd0->data, n, p);
     DKF_TRY(dkf_kf_init(&g.kf, N, m, L.kf, DKF_KF_STORAGE_LEN(N, m), &X0, &Pa0));
-    g.ready = 1;
+    g.priv.ready = 1;
     *f = g;
     return DKF_OK;
 }
@@ -87,7 +87,7 @@ dkf_status_t dkf_askf_predict(dkf_askf_t *f, const dkf_ui_dyn_t *dyn)
     dkf_kf_dyn_t aug; /* {Phi, Q^a} */
     size_t n, p, N;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(dyn);
     n = f->n;
     p = f->p;
@@ -112,7 +112,7 @@ dkf_status_t dkf_askf_update(dkf_askf_t *f, const dkf_ui_meas_t *meas, const dkf
     dkf_kf_meas_t aug; /* {H^a, R} */
     size_t n, m, p, N;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
     n = f->n;
     m = f->m;
@@ -151,13 +151,13 @@ static dkf_status_t get_block(const dkf_askf_t *f, size_t off, size_t len, dkf_m
 dkf_status_t dkf_askf_state(const dkf_askf_t *f, dkf_mat_t *x, dkf_mat_t *Px)
 {
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     return get_block(f, 0, f->n, x, Px);
 }
 
 dkf_status_t dkf_askf_input(const dkf_askf_t *f, dkf_mat_t *d, dkf_mat_t *Pd)
 {
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     return get_block(f, f->n, f->p, d, Pd);
 }

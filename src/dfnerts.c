@@ -54,7 +54,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
 static layout_t mem_of(const dkf_dfnerts_node_t *nd)
 {
     layout_t L;
-    (void)layout(&L, nd->mem, nd->n, nd->m, nd->p);
+    (void)layout(&L, nd->priv.mem, nd->n, nd->m, nd->p);
     return L;
 }
 
@@ -117,16 +117,16 @@ dkf_status_t dkf_dfnerts_node_init(dkf_dfnerts_node_t *nd, dkf_nerts_kind_t kind
     nd->pending = 0;
     nd->scale = DKF_R(0.0);
     nd->pkt = L.pkt;
-    nd->mem = storage;
-    nd->ready = 1;
-    nd->saved = nd->f;
+    nd->priv.mem = storage;
+    nd->priv.ready = 1;
+    nd->priv.saved = nd->f;
     return DKF_OK;
 }
 
 /* The filter back to the snapshot taken by the last local. */
 static void restore(dkf_dfnerts_node_t *nd, const layout_t *L)
 {
-    nd->f = nd->saved;
+    nd->f = nd->priv.saved;
     dkf__copy(L->f, L->snap, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
     nd->pending = 0;
     nd->tau = 0;
@@ -229,7 +229,7 @@ dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t
     dkf__nerts_staged_t s;
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
     L = mem_of(nd);
     DKF_TRY(dkf__nerts_stage_local(&nd->f, nd->pending ? L.snap : NULL, model, u_prev, Q, u, R,
@@ -238,7 +238,7 @@ dkf_status_t dkf_dfnerts_node_local(dkf_dfnerts_node_t *nd, const dkf_nl_model_t
     /* commit: the snapshot a cancel restores (a pending step's is kept),
      * the filter's new state, the packets */
     if (!nd->pending) {
-        nd->saved = nd->f;
+        nd->priv.saved = nd->f;
         dkf__copy(L.snap, L.f, DKF_NERTS_STATE_LEN(nd->n, nd->m, nd->p));
     }
     put_packets(nd, &L, &s, scale);
@@ -268,7 +268,7 @@ dkf_status_t dkf_dfnerts_node_mix(dkf_dfnerts_node_t *nd, const dkf_real_t *cons
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
+    if (!nd->priv.ready || !nd->pending) return DKF_ERR_STATE;
     L = mem_of(nd);
     DKF_TRY(dkf_graph_mix(L.mixed, nd->pkt_len, in, w, count));
     DKF_TRY(absorb(nd, &L, L.mixed));
@@ -317,7 +317,7 @@ static dkf_status_t joint_commit(dkf_dfnerts_node_t *nd, const layout_t *L)
 static dkf_status_t commit_step(dkf_dfnerts_node_t *nd)
 {
     layout_t L;
-    if (!nd->ready || !nd->pending || nd->tau == 0) return DKF_ERR_STATE;
+    if (!nd->priv.ready || !nd->pending || nd->tau == 0) return DKF_ERR_STATE;
     L = mem_of(nd);
     if (nd->variant == DKF_DFNERTS_JOINT) {
         DKF_TRY(joint_commit(nd, &L));
@@ -340,7 +340,7 @@ dkf_status_t dkf_dfnerts_node_commit(dkf_dfnerts_node_t *nd)
 {
     DKF_CHECK_NULL(nd);
     DKF_TRY(commit_step(nd));
-    nd->saved = nd->f;
+    nd->priv.saved = nd->f;
     return DKF_OK;
 }
 
@@ -348,7 +348,7 @@ dkf_status_t dkf_dfnerts_node_cancel(dkf_dfnerts_node_t *nd)
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
+    if (!nd->priv.ready || !nd->pending) return DKF_ERR_STATE;
     L = mem_of(nd);
     restore(nd, &L);
     return DKF_OK;
@@ -360,7 +360,7 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     L = mem_of(nd);
     /* dkf_nerts_init checks the whole prior before it writes the filter or
      * its state: a refused prior leaves the node, and a pending step, as
@@ -368,7 +368,7 @@ dkf_status_t dkf_dfnerts_node_restart(dkf_dfnerts_node_t *nd, size_t k, const dk
     DKF_TRY(dkf_nerts_init(&nd->f, nd->f.kind, nd->n, nd->m, nd->p, L.f,
                            DKF_NERTS_STORAGE_LEN(nd->n, nd->m, nd->p), x0, P0, d0, Pd0, Pxd0));
     nd->f.k = k;
-    nd->saved = nd->f;
+    nd->priv.saved = nd->f;
     nd->pending = 0;
     nd->tau = 0;
     nd->scale = DKF_R(0.0);
@@ -385,7 +385,7 @@ dkf_status_t dkf_dfnerts_node_rejoin(dkf_dfnerts_node_t *nd, size_t k, const dkf
     size_t n, p, q, r, c;
     DKF_CHECK_NULL(nd);
     DKF_CHECK_NULL(pkt);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     n = nd->n, p = nd->p, q = nd->q;
     if (nd->variant == DKF_DFNERTS_PAPER && p > 0 && (d0 == NULL || Pd0 == NULL))
         return DKF_ERR_NULL;
@@ -491,8 +491,8 @@ dkf_status_t dkf_dfnerts_net_init(dkf_dfnerts_net_t *net, const dkf_graph_t *g,
     t.p = p;
     t.m_max = largest(m, g->N);
     t.nodes = nodes;
-    t.cur = node_mem;
-    t.nxt = node_mem + g->N * DKF_DFNERTS_PKT_MAX(n, p);
+    t.priv.cur = node_mem;
+    t.priv.nxt = node_mem + g->N * DKF_DFNERTS_PKT_MAX(n, p);
     *net = t;
     return DKF_OK;
 }
@@ -552,9 +552,9 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
     if (!dkf__all_finite(&scale, 1) || !(scale > DKF_R(0.0))) return DKF_ERR_ARG;
     DKF_TRY(dkf_graph_check_doubly_stochastic(net->g, W));
     stride = DKF_DFNERTS_PKT_MAX(net->n, net->p);
-    /* the buffers' roles change per round: net->cur, nxt follow on success */
-    cur = net->cur;
-    nxt = net->nxt;
+    /* the buffers' roles change per round: net->priv.cur, nxt follow on success */
+    cur = net->priv.cur;
+    nxt = net->priv.nxt;
     for (l = 0; l < net->N; ++l) {
         const dkf_status_t st = dkf_dfnerts_node_local(&net->nodes[l], &models[l], u_prev, &Q[l],
                                                        u, &R[l], &z[l], scale, cur + l * stride);
@@ -568,9 +568,9 @@ dkf_status_t dkf_dfnerts_net_step(dkf_dfnerts_net_t *net, const dkf_nl_model_t m
         const dkf_status_t st = commit_step(&net->nodes[l]);
         if (st != DKF_OK) return undo(net, net->N, st);
     }
-    for (l = 0; l < net->N; ++l) net->nodes[l].saved = net->nodes[l].f;
-    net->cur = cur;
-    net->nxt = nxt;
+    for (l = 0; l < net->N; ++l) net->nodes[l].priv.saved = net->nodes[l].f;
+    net->priv.cur = cur;
+    net->priv.nxt = nxt;
     net->reals_sent += (unsigned long)(net->N * Tp * net->nodes[0].pkt_len);
     net->broadcasts += (unsigned long)(net->N * Tp);
     ++net->steps;

@@ -42,7 +42,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#include "diffkf_fusion_internal.h"
+#include "diffkf_internal.h"
 #include "internal.h"
 #include "kernels.h"
 #include "kernels_inline.h"
@@ -87,6 +87,9 @@ typedef struct {
     const dkf_mat_t *newA, *newB;
     const dkf_ui_dyn_t *new_dyn;
     const dkf_ui_meas_t *new_meas;
+    /* not storage: the caller's word that B, Rd, H, D, R are bitwise the
+     * inputs of the model memo (dkf__diffkf_gain_masked_memo) */
+    int memo_same;
     /* scratch of the Joseph-type covariances (joseph_covariances); jX =
      * W'_{k-1} C'^T, from gain_core */
     dkf_real_t *jU, *jD, *jE, *jX, *jV, *jAX, *jS;
@@ -172,6 +175,7 @@ DKF__INLINE size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, siz
     L->newA = L->newB = NULL;
     L->new_dyn = NULL;
     L->new_meas = NULL;
+    L->memo_same = 0;
     return used;
 }
 
@@ -211,14 +215,14 @@ static size_t outputs_len(size_t n, size_t p)
 static void map_of(const dkf_diffkf_t *f, layout_t *L)
 {
 #define DIFFKF_MAP_FIXED(N, M, P) \
-    if ((N) <= DKF_MAX_DIM && f->mem != NULL && f->n == (N) && f->m == (M) && f->p == (P)) { \
-        (void)layout(L, f->mem, (N), (M), (P)); \
+    if ((N) <= DKF_MAX_DIM && f->priv.mem != NULL && f->n == (N) && f->m == (M) && f->p == (P)) { \
+        (void)layout(L, f->priv.mem, (N), (M), (P)); \
         return; \
     }
     DKF_DIFFKF_FIXED_SIZES(DIFFKF_MAP_FIXED)
 #undef DIFFKF_MAP_FIXED
-    if (f->mem != NULL) /* always, once initialised */
-        (void)layout(L, f->mem, f->n, f->m, f->p);
+    if (f->priv.mem != NULL) /* always, once initialised */
+        (void)layout(L, f->priv.mem, f->n, f->m, f->p);
     else
         (void)layout(L, NULL, f->n, f->m, f->p);
 }
@@ -262,7 +266,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     dkf__view(&g.L, p, p, o.L);
     dkf__view(&g.K, n, p, o.K);
     dkf__view(&g.xp, n, 1, o.xp);
-    g.mem = o.mem;
+    g.priv.mem = o.mem;
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
     if (dkf__chol(L.T1, L.T2, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
@@ -270,7 +274,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
     dkf__copy(g.xf.data, x0->data, n);
     dkf__copy(g.Pf.data, P0->data, n * n);
     g.pk = p;
-    g.ready = 1;
+    g.priv.ready = 1;
     *f = g;
     return DKF_OK;
 }
@@ -450,7 +454,7 @@ static dkf_status_t pinv_cached(const dkf_diffkf_t *f, layout_t *L, const dkf_ma
     const size_t m = f->m, p = f->p;
     size_t rank = 0, re[DKF_MAX_DIM], ce[DKF_MAX_DIM], nb;
     dkf_mat_t Ap = DKF_MAT(p, m, L->Apn);
-    if (f->d_cached && same_bits(0, L->Alast, A->data, m * p)) return DKF_OK;
+    if (f->priv.d_cached && same_bits(0, L->Alast, A->data, m * p)) return DKF_OK;
     nb = diag_blocks(re, ce, A->data, m, p, 0);
     if (nb == 0 || pinv_blocks(L, &rank, A, m, p, re, ce, nb) == DKF_ERR_CAPACITY)
         DKF_TRY(dkf_mat_pinv(&Ap, &rank, A, DKF_RANK_TOL_DEFAULT, L->svdw));
@@ -468,7 +472,7 @@ static dkf_status_t inverse_cached(const dkf_diffkf_t *f, layout_t *L, const dkf
     size_t piv[DKF_MAX_DIM], re[DKF_MAX_DIM], ce[DKF_MAX_DIM], nb;
     dkf_mat_t Bi = DKF_MAT(p, p, L->Binvn);
     dkf_status_t st = DKF_ERR_CAPACITY;
-    if (f->b_cached && same_bits(0, L->Blast, B->data, p * p)) return DKF_OK;
+    if (f->priv.b_cached && same_bits(0, L->Blast, B->data, p * p)) return DKF_OK;
     nb = diag_blocks(re, ce, B->data, p, p, 1);
     if (nb > 0) st = inverse_blocks(L, B, p, ce, nb);
     if (st == DKF_ERR_CAPACITY) st = dkf_mat_inverse(&Bi, B, piv, L->invw);
@@ -485,16 +489,16 @@ static dkf_status_t inverse_cached(const dkf_diffkf_t *f, layout_t *L, const dkf
 DKF__INLINE void commit_caches(dkf_diffkf_t *f, const layout_t *L)
 {
     const size_t n = f->n, m = f->m, p = f->p;
-    if (L->newA != NULL || L->newB != NULL || L->new_dyn != NULL) f->cache_gen += 1;
+    if (L->newA != NULL || L->newB != NULL || L->new_dyn != NULL) f->priv.cache_gen += 1;
     if (L->newA != NULL) {
         dkf__copy(L->Alast, L->newA->data, m * p);
         dkf__copy(L->cAp, L->Apn, p * m);
-        f->d_cached = 1;
+        f->priv.d_cached = 1;
     }
     if (L->newB != NULL) {
         dkf__copy(L->Blast, L->newB->data, p * p);
         dkf__copy(L->cBinv, L->Binvn, p * p);
-        f->b_cached = 1;
+        f->priv.b_cached = 1;
     }
     if (L->new_dyn != NULL) {
         const dkf_ui_dyn_t *dyn = L->new_dyn;
@@ -516,7 +520,7 @@ DKF__INLINE void commit_caches(dkf_diffkf_t *f, const layout_t *L)
         dkf__copy(L->oCn, L->Cn, p * p);
         dkf__copy(L->oApHn, L->ApHn, p * n);
         dkf__copy(L->oApRApn, L->ApRApn, p * p);
-        f->model_cached = 1;
+        f->priv.model_cached = 1;
     }
 }
 
@@ -757,7 +761,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
     size_t n, p, lo[DKF_MAX_DIM], hi[DKF_MAX_DIM];
     layout_t L;
     DKF_CHECK_NULL(f);
-    if (!f->ready || f->started) return DKF_ERR_STATE;
+    if (!f->priv.ready || f->priv.started) return DKF_ERR_STATE;
     n = f->n;
     p = f->p;
     if ((F0 == NULL) != (Q0 == NULL)) return DKF_ERR_NULL;
@@ -801,8 +805,8 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
         dkf__copy(f->xn.data, f->xf.data, n);
         dkf__copy(f->Pn.data, f->Pf.data, n * n);
     }
-    f->started = 1;
-    f->has_y = y1 != NULL;
+    f->priv.started = 1;
+    f->priv.has_y = y1 != NULL;
     return DKF_OK;
 }
 
@@ -863,14 +867,14 @@ static dkf_status_t model_block(const dkf_diffkf_t *f, layout_t *L_, const dkf_u
 /* Every model input is bitwise the one the memo was computed from. A hit
  * also proves the inputs finite: they equal inputs that were checked when
  * the block was computed. (n, m, p are f's, literals in gain_impl's
- * fixed-size call, fx = 1, which leaves the fusion centre's hint aside.) */
+ * fixed-size call, fx = 1, which leaves the caller's memo_same aside.) */
 DKF__INLINE int memo_hit(int fx, const dkf_diffkf_t *f, const layout_t *L, const dkf_ui_dyn_t *dyn,
                          const dkf_ui_meas_t *meas_next, size_t n, size_t m, size_t p)
 {
-    if (!f->model_cached || !same_bits(fx, L->mF, dyn->F->data, n * n) ||
+    if (!f->priv.model_cached || !same_bits(fx, L->mF, dyn->F->data, n * n) ||
         !same_bits(fx, L->mQ, dyn->Q->data, n * n))
         return 0;
-    if ((fx || !f->fc_model_same) &&
+    if ((fx || !L->memo_same) &&
         (!same_bits(fx, L->mB, dyn->B->data, p * p) || !same_bits(fx, L->mRd, dyn->Rd->data, p * p) ||
          !same_bits(fx, L->mH, meas_next->H->data, m * n) ||
          !same_bits(fx, L->mA, meas_next->D->data, m * p) ||
@@ -1207,7 +1211,7 @@ DKF__INLINE dkf_status_t gain_prelude(int fx, dkf_diffkf_t *f, layout_t *L,
  * gain carried on: only a commit writes it (and sets fix), and init and
  * restore clear fix or the memo; P_{k+1|k}, which the caller can reach
  * through f->Pn, is compared. Only the data term zc is new. 1 if it did;
- * called only with the steady gain on (f->steady_tol > 0). */
+ * called only with the steady gain on (f->priv.steady_tol > 0). */
 static int gain_reuse(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *dyn,
                       const dkf_ui_meas_t *meas_next, size_t pk)
 {
@@ -1228,7 +1232,7 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *
 {
     const size_t n = f->n, m = f->m, p = f->p, pc = f->pc;
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
-    if (f->steady_tol > DKF_R(0.0) && gain_reuse(f, L, dyn, meas_next, pk)) return DKF_OK;
+    if (f->priv.steady_tol > DKF_R(0.0) && gain_reuse(f, L, dyn, meas_next, pk)) return DKF_OK;
 #define DIFFKF_MEMO_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P)) \
         DKF_TRY(gain_prelude(1, f, L, dyn, meas_next, (N), (M), (P))); \
@@ -1244,18 +1248,20 @@ static dkf_status_t gain_impl(dkf_diffkf_t *f, layout_t *L, const dkf_ui_dyn_t *
     return gain_core(0, f, L, dyn, idx, n, p, pk, pc);
 }
 
-dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
-                                    const dkf_ui_meas_t *meas_next, const unsigned char *rows)
+/* (diffkf_internal.h) */
+dkf_status_t dkf__diffkf_gain_masked_memo(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                                          const dkf_ui_meas_t *meas_next, const unsigned char *rows,
+                                          int memo_same)
 {
     size_t idx[DKF_MAX_DIM], pk;
     dkf_status_t st;
     layout_t L;
     DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started) return DKF_ERR_STATE;
+    if (!f->priv.ready || !f->priv.started) return DKF_ERR_STATE;
     pk = kept_rows(idx, rows, f->p);
     map_of(f, &L);
+    L.memo_same = memo_same;
     st = gain_impl(f, &L, dyn, meas_next, idx, pk);
-    f->fc_model_same = 0;
     /* no gain pending (also when the failure came before gain_impl could
      * cancel it): pk describes the last completed step again */
     if (st != DKF_OK) {
@@ -1265,6 +1271,12 @@ dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     }
     commit_caches(f, &L);
     return DKF_OK;
+}
+
+dkf_status_t dkf_diffkf_gain_masked(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
+                                    const dkf_ui_meas_t *meas_next, const unsigned char *rows)
+{
+    return dkf__diffkf_gain_masked_memo(f, dyn, meas_next, rows, 0);
 }
 
 dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
@@ -1305,7 +1317,7 @@ static int within(const dkf_real_t *a, const dkf_real_t *b, size_t len, dkf_real
  * the steady tolerance of the ones the gain read. */
 static int settles(const dkf_diffkf_t *f, const layout_t *L, size_t n, size_t p, size_t pk)
 {
-    const dkf_real_t tol = f->steady_tol;
+    const dkf_real_t tol = f->priv.steady_tol;
     return pk == p && f->pc == p && same_bits(0, L->C, L->Cnk, p * p) &&
            within(L->Ppn, f->Pn.data, n * n, tol) && within(L->Wn, L->W, n * p, tol) &&
            within(L->Vtn, L->Vt, p * p, tol);
@@ -1335,7 +1347,7 @@ DKF__INLINE void commit_gain(dkf_diffkf_t *f, const layout_t *L, size_t n, size_
 }
 
 /* The update phase on the storage map L; z (f->pk reals) and y_next
- * already checked; steady = the steady gain is on (f->steady_tol > 0). */
+ * already checked; steady = the steady gain is on (f->priv.steady_tol > 0). */
 DKF__INLINE dkf_status_t update_core(int fx, int steady, dkf_diffkf_t *f, const layout_t *L_,
                                      const dkf_real_t *zk, const dkf_mat_t *y_next, size_t n,
                                      size_t m, size_t p, size_t pk)
@@ -1384,7 +1396,7 @@ DKF__INLINE dkf_status_t update_core(int fx, int steady, dkf_diffkf_t *f, const 
     if (!reused) commit_gain(f, L, n, p, pk);
     if (steady) L->fix[0] = settled ? DKF_R(1.0) : DKF_R(0.0); /* else 0 since the gain */
     f->steady = reused;
-    f->has_y = y_next != NULL;
+    f->priv.has_y = y_next != NULL;
     if (y_next != NULL) memcpy(L->Apy, apy, p * sizeof(dkf_real_t));
     f->k += 1;
     f->pending = 0;
@@ -1395,7 +1407,7 @@ static dkf_status_t update_impl(dkf_diffkf_t *f, const layout_t *L, const dkf_re
                                 const dkf_mat_t *y_next)
 {
     const size_t n = f->n, m = f->m, p = f->p, pk = f->pk;
-    const int steady = f->steady_tol > DKF_R(0.0);
+    const int steady = f->priv.steady_tol > DKF_R(0.0);
 #define DIFFKF_UPDATE_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && n == (N) && m == (M) && p == (P) && pk == (P)) \
         return update_core(1, steady, f, L, zk, y_next, (N), (M), (P), (P));
@@ -1448,7 +1460,7 @@ DKF__INLINE dkf_status_t step_fixed(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
 {
     dkf_real_t z[DKF_MAX_DIM];
     layout_t L;
-    (void)layout(&L, f->mem, n, m, p);
+    (void)layout(&L, f->priv.mem, n, m, p);
     DKF_TRY(check_model_shapes(f, dyn, meas_next));
     DKF_TRY(gain_prelude(1, f, &L, dyn, meas_next, n, m, p));
     DKF_TRY(gain_core(1, f, &L, dyn, NULL, n, p, p, p));
@@ -1465,11 +1477,11 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
     DKF_CHECK_NULL(f);
     /* a pending gain awaits dkf_diffkf_update_z (or a new gain): a step
      * would have to discard it */
-    if (!f->ready || !f->started || !f->has_y || f->pending) return DKF_ERR_STATE;
+    if (!f->priv.ready || !f->priv.started || !f->priv.has_y || f->pending) return DKF_ERR_STATE;
     DKF_TRY(dkf__check_input(y_next, f->m, 1));
 #define DIFFKF_STEP_FIXED(N, M, P) \
     if ((N) <= DKF_MAX_DIM && f->n == (N) && f->m == (M) && f->p == (P) && f->pc == (P) && \
-        f->steady_tol <= DKF_R(0.0)) \
+        f->priv.steady_tol <= DKF_R(0.0)) \
         st = step_fixed(f, dyn, meas_next, y_next, (N), (M), (P)); \
     else
     DKF_DIFFKF_FIXED_SIZES(DIFFKF_STEP_FIXED)
@@ -1494,16 +1506,16 @@ dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
 dkf_status_t dkf_diffkf_set_steady(dkf_diffkf_t *f, dkf_real_t tol)
 {
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     if (!(tol >= DKF_R(0.0) && tol < DKF_R(1.0))) return DKF_ERR_ARG; /* NaN too */
-    f->steady_tol = tol;
+    f->priv.steady_tol = tol;
     return DKF_OK;
 }
 
 dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
 {
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     f->k = k;
     return DKF_OK;
 }
@@ -1520,18 +1532,19 @@ dkf_status_t dkf_diffkf_set_time(dkf_diffkf_t *f, size_t k)
 #define CKPT_HEAD (CKPT_K + DKF__CKPT_K_LEN + 3)
 
 /* The reals a checkpoint holds: the output views and the carry, up to the
- * caches (diffkf_fusion_internal.h). */
+ * caches (diffkf_internal.h). */
 size_t dkf__diffkf_carry_len(const dkf_diffkf_t *f)
 {
     const layout_t L = mem_of(f);
     return (size_t)(L.Alast - f->xf.data);
 }
 
+/* (diffkf_internal.h) */
 int dkf__diffkf_memo(const dkf_diffkf_t *f, const dkf_real_t **H, const dkf_real_t **D,
                      const dkf_real_t **R, const dkf_real_t **B, const dkf_real_t **Rd)
 {
     const layout_t L = mem_of(f);
-    if (!f->model_cached) return 0;
+    if (!f->priv.model_cached) return 0;
     *H = L.mH;
     *D = L.mA;
     *R = L.mR;
@@ -1542,7 +1555,7 @@ int dkf__diffkf_memo(const dkf_diffkf_t *f, const dkf_real_t **H, const dkf_real
 
 size_t dkf_diffkf_checkpoint_len(const dkf_diffkf_t *f)
 {
-    return f != NULL && f->ready ? CKPT_HEAD + dkf__diffkf_carry_len(f) : 0;
+    return f != NULL && f->priv.ready ? CKPT_HEAD + dkf__diffkf_carry_len(f) : 0;
 }
 
 dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
@@ -1550,7 +1563,7 @@ dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
     dkf_real_t *const tail = buf + CKPT_K + DKF__CKPT_K_LEN;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(buf);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     if (len < dkf_diffkf_checkpoint_len(f)) return DKF_ERR_CAPACITY;
     buf[0] = (dkf_real_t)CKPT_TAG;
     buf[1] = (dkf_real_t)f->n;
@@ -1559,7 +1572,7 @@ dkf_status_t dkf_diffkf_save(const dkf_diffkf_t *f, dkf_real_t *buf, size_t len)
     dkf__ckpt_put_k(buf + CKPT_K, f->k);
     tail[0] = (dkf_real_t)f->z.rows;
     tail[1] = (dkf_real_t)f->pc;
-    tail[2] = (dkf_real_t)((f->started ? 1 : 0) + (f->has_y ? 2 : 0));
+    tail[2] = (dkf_real_t)((f->priv.started ? 1 : 0) + (f->priv.has_y ? 2 : 0));
     dkf__copy(buf + CKPT_HEAD, f->xf.data, dkf__diffkf_carry_len(f));
     return DKF_OK;
 }
@@ -1583,7 +1596,7 @@ dkf_status_t dkf_diffkf_checkpoint_check(const dkf_diffkf_t *f, const dkf_real_t
     size_t k = 0;
     DKF_CHECK_NULL(f);
     DKF_CHECK_NULL(buf);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     if (len < dkf_diffkf_checkpoint_len(f)) return DKF_ERR_CAPACITY;
     if (!dkf__ckpt_is(buf[0], CKPT_TAG)) return DKF_ERR_ARG;
     if (!dkf__ckpt_is(buf[1], f->n) || !dkf__ckpt_is(buf[2], f->m) || !dkf__ckpt_is(buf[3], f->p))
@@ -1611,12 +1624,12 @@ dkf_status_t dkf_diffkf_restore(dkf_diffkf_t *f, const dkf_real_t *buf, size_t l
     f->L.cols = t.pk;
     f->K.cols = t.pk;
     f->pc = t.pc;
-    f->started = (t.flags & 1u) != 0;
-    f->has_y = (t.flags & 2u) != 0;
+    f->priv.started = (t.flags & 1u) != 0;
+    f->priv.has_y = (t.flags & 2u) != 0;
     /* a pending gain belongs to the abandoned state; the caches are keyed
      * on their inputs and would stay valid, but recomputing them is cheap
      * and gives the same bits */
     f->pending = 0;
-    f->d_cached = f->b_cached = f->model_cached = 0;
+    f->priv.d_cached = f->priv.b_cached = f->priv.model_cached = 0;
     return DKF_OK;
 }

@@ -39,6 +39,7 @@
 #include <string.h>
 
 #include "diffkf_fusion_internal.h"
+#include "diffkf_internal.h"
 #include "internal.h"
 #include "kernels.h"
 
@@ -96,9 +97,9 @@ static void copy_caches(const dkf_diffkf_fc_t *fc, int to_snap)
 {
     const size_t c = DKF__DIFFKF_CARRY_LEN(fc->n, fc->ps), len = central_state_len(fc) - c;
     if (to_snap)
-        dkf__copy(fc->cache_snap, fc->central_store + c, len);
+        dkf__copy(fc->priv.cache_snap, fc->priv.central_store + c, len);
     else
-        dkf__copy(fc->central_store + c, fc->cache_snap, len);
+        dkf__copy(fc->priv.central_store + c, fc->priv.cache_snap, len);
 }
 
 /* The storage, state first (dkf_diffkf_fc_state_len: the replicas'
@@ -123,8 +124,8 @@ static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *
     size_t used = 0, i;
     for (i = 0; i < l; ++i) {
         DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
-        if (nodes != NULL) nodes[i].store = rep;
-        if (nodes != NULL) nodes[i].store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
+        if (nodes != NULL) nodes[i].priv.store = rep;
+        if (nodes != NULL) nodes[i].priv.store_len = DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]);
     }
     DKF_TAKE(L->zs, 2 * d->ps);
     DKF_TAKE(L->cache_snap, DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps) - carry);
@@ -132,7 +133,7 @@ static size_t fc_layout(fc_layout_t *L, dkf_real_t *base, dkf_diffkf_fc_node_t *
     L->state_len = used - clen + DKF_DIFFKF_STATE_LEN(n, d->ms, d->ps);
     for (i = 0; i < l; ++i) {
         DKF_TAKE(rep, DKF_DIFFKF_STORAGE_LEN(n, m[i], p[i]));
-        if (nodes != NULL) nodes[i].saved_store = rep;
+        if (nodes != NULL) nodes[i].priv.saved_store = rep;
     }
     DKF_TAKE(L->H, d->ms * n);
     DKF_TAKE(L->D, d->ms * d->ps);
@@ -219,13 +220,13 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     g.l = l;
     g.ms = d.ms;
     g.ps = d.ps;
-    g.work_len = d.work;
-    g.work = L.work;
+    g.priv.work_len = d.work;
+    g.priv.work = L.work;
     for (i = 0; i <= l; ++i) {
         const dkf_mat_t *Pi = i < l && P0_local != NULL && P0_local[i] != NULL ? P0_local[i] : P0;
-        dkf_mat_t Lc = DKF_MAT(n, n, g.work);
+        dkf_mat_t Lc = DKF_MAT(n, n, g.priv.work);
         st = dkf__check_input(Pi, n, n);
-        if (st == DKF_OK) st = dkf_mat_chol(&Lc, Pi, g.work + n * n);
+        if (st == DKF_OK) st = dkf_mat_chol(&Lc, Pi, g.priv.work + n * n);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i < l ? i : none);
     }
 
@@ -236,20 +237,20 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
     st = dkf_diffkf_init(&g.central, n, d.ms, d.ps, L.central,
                          DKF_DIFFKF_STORAGE_LEN(n, d.ms, d.ps), x0, P0);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, none);
-    g.central_store = L.central;
-    g.cache_snap = L.cache_snap;
+    g.priv.central_store = L.central;
+    g.priv.cache_snap = L.cache_snap;
     copy_caches(&g, 1); /* the mirror holds the caches from here on (roll_back) */
-    dkf__view(&g.H, d.ms, n, L.H);
-    dkf__view(&g.D, d.ms, d.ps, L.D);
-    dkf__view(&g.R, d.ms, d.ms, L.R);
-    dkf__view(&g.B, d.ps, d.ps, L.B);
-    dkf__view(&g.Rd, d.ps, d.ps, L.Rd);
-    g.pend = L.pend;
-    memset(g.pend, 0, 2 * d.ps * sizeof(dkf_real_t)); /* pending z, dz */
+    dkf__view(&g.priv.H, d.ms, n, L.H);
+    dkf__view(&g.priv.D, d.ms, d.ps, L.D);
+    dkf__view(&g.priv.R, d.ms, d.ms, L.R);
+    dkf__view(&g.priv.B, d.ps, d.ps, L.B);
+    dkf__view(&g.priv.Rd, d.ps, d.ps, L.Rd);
+    g.priv.pend = L.pend;
+    memset(g.priv.pend, 0, 2 * d.ps * sizeof(dkf_real_t)); /* pending z, dz */
     for (i = 0; i < l; ++i) {
         const dkf_mat_t *Pi = P0_local != NULL && P0_local[i] != NULL ? P0_local[i] : P0;
-        st = dkf_diffkf_init(&nodes[i].rep, n, m[i], p[i], nodes[i].store, nodes[i].store_len, x0,
-                             Pi);
+        st = dkf_diffkf_init(&nodes[i].rep, n, m[i], p[i], nodes[i].priv.store,
+                             nodes[i].priv.store_len, x0, Pi);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, i);
         nodes[i].m = m[i];
         nodes[i].p = p[i];
@@ -257,11 +258,11 @@ dkf_status_t dkf_diffkf_fc_init(dkf_diffkf_fc_t *fc, dkf_diffkf_fc_node_t nodes[
         dkf__view(&nodes[i].dz, p[i], 1, L.zs + d.ps + zoff);
         zoff += p[i];
         nodes[i].sync = 1; /* the first step has no previous innovation */
-        nodes[i].saved = nodes[i].rep;
+        nodes[i].priv.saved = nodes[i].rep;
     }
-    g.Kp = L.Kp;
+    g.priv.Kp = L.Kp;
     g.nodes = nodes;
-    g.ready = 1;
+    g.priv.ready = 1;
     *fc = g;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
@@ -270,11 +271,11 @@ dkf_status_t dkf_diffkf_fc_set_steady(dkf_diffkf_fc_t *fc, dkf_real_t tol)
 {
     size_t i;
     DKF_CHECK_NULL(fc);
-    if (!fc->ready) return DKF_ERR_STATE;
+    if (!fc->priv.ready) return DKF_ERR_STATE;
     DKF_TRY(dkf_diffkf_set_steady(&fc->central, tol));
     for (i = 0; i < fc->l; ++i) {
-        fc->nodes[i].rep.steady_tol = tol;
-        fc->nodes[i].saved.steady_tol = tol;
+        fc->nodes[i].rep.priv.steady_tol = tol;
+        fc->nodes[i].priv.saved.priv.steady_tol = tol;
     }
     return DKF_OK;
 }
@@ -286,8 +287,8 @@ static void save_replicas(dkf_diffkf_fc_t *fc)
     size_t i;
     for (i = 0; i < fc->l; ++i) {
         dkf_diffkf_fc_node_t *nd = &fc->nodes[i];
-        nd->saved = nd->rep;
-        memcpy(nd->saved_store, nd->store, nd->store_len * sizeof(dkf_real_t));
+        nd->priv.saved = nd->rep;
+        memcpy(nd->priv.saved_store, nd->priv.store, nd->priv.store_len * sizeof(dkf_real_t));
     }
 }
 
@@ -296,8 +297,8 @@ static void restore_replicas(dkf_diffkf_fc_t *fc)
     size_t i;
     for (i = 0; i < fc->l; ++i) {
         dkf_diffkf_fc_node_t *nd = &fc->nodes[i];
-        nd->rep = nd->saved;
-        memcpy(nd->store, nd->saved_store, nd->store_len * sizeof(dkf_real_t));
+        nd->rep = nd->priv.saved;
+        memcpy(nd->priv.store, nd->priv.saved_store, nd->priv.store_len * sizeof(dkf_real_t));
     }
 }
 
@@ -305,7 +306,7 @@ static void restore_replicas(dkf_diffkf_fc_t *fc)
 void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc)
 {
     size_t i;
-    for (i = 0; i < fc->l; ++i) fc->nodes[i].saved = fc->nodes[i].rep;
+    for (i = 0; i < fc->l; ++i) fc->nodes[i].priv.saved = fc->nodes[i].rep;
 }
 
 /* Snapshots of everything a call may change before it can fail: the
@@ -313,7 +314,7 @@ void dkf__fc_refresh_saved(dkf_diffkf_fc_t *fc)
  * needs none: the call's last fallible operation is its own update (start
  * in dkf_diffkf_fc_start), which leaves it untouched on failure, and its
  * gain writes only the pending area and the caches. The caches have a
- * mirror in the state (fc->cache_snap), refreshed after every successful
+ * mirror in the state (fc->priv.cache_snap), refreshed after every successful
  * call that wrote them (commit_state). */
 static void save_state(dkf_diffkf_fc_t *fc, dkf_diffkf_t *central_saved)
 {
@@ -328,7 +329,7 @@ static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_s
                               dkf_diffkf_fc_cond_t which, size_t node)
 {
     restore_replicas(fc);
-    if (fc->central.cache_gen != central_saved->cache_gen) copy_caches(fc, 0);
+    if (fc->central.priv.cache_gen != central_saved->priv.cache_gen) copy_caches(fc, 0);
     fc->central = *central_saved;
     return report(fault, st, which, node);
 }
@@ -338,7 +339,7 @@ static dkf_status_t roll_back(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_s
 static void commit_state(dkf_diffkf_fc_t *fc, const dkf_diffkf_t *central_saved)
 {
     dkf__fc_refresh_saved(fc);
-    if (fc->central.cache_gen != central_saved->cache_gen) copy_caches(fc, 1);
+    if (fc->central.priv.cache_gen != central_saved->priv.cache_gen) copy_caches(fc, 1);
 }
 
 /* The fault a failed core call (start, gain, update) stands for. */
@@ -389,9 +390,9 @@ static int block_is(const dkf_real_t *D, size_t cols, size_t r0, size_t c0, cons
     return 1;
 }
 
-/* 1 if fc->H, D, R (and B, Rd when want_input) hold the stacking of these
+/* 1 if fc->priv.H, D, R (and B, Rd when want_input) hold the stacking of these
  * sensors already: a stacking completed in an earlier successful call
- * (fc->stacked) left zeros outside the blocks, so equal blocks make equal
+ * (fc->priv.stacked) left zeros outside the blocks, so equal blocks make equal
  * matrices. A time-invariant model is stacked once: each step then
  * compares the sum of the blocks' sizes instead of writing ms^2 + ps^2
  * reals (issue 14). */
@@ -416,9 +417,9 @@ static int blocks_are(const dkf_diffkf_fc_t *fc, const dkf_real_t *H, const dkf_
 static int stacked_already(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
                            int want_input)
 {
-    return fc->stacked >= 1 + want_input &&
-           blocks_are(fc, fc->H.data, fc->D.data, fc->R.data, fc->B.data, fc->Rd.data, sensors,
-                      want_input);
+    return fc->priv.stacked >= 1 + want_input &&
+           blocks_are(fc, fc->priv.H.data, fc->priv.D.data, fc->priv.R.data, fc->priv.B.data,
+                      fc->priv.Rd.data, sensors, want_input);
 }
 
 /* 1 if the central filter's model memo holds the stacked model of these
@@ -433,7 +434,7 @@ static int memo_is_stacked(const dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t 
            blocks_are(fc, H, D, R, B, Rd, sensors, 1);
 }
 
-/* fc->H, D, R (and B, Rd when want_input) from the sensors' models
+/* fc->priv.H, D, R (and B, Rd when want_input) from the sensors' models
  * (shapes checked by check_sensors). */
 static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t sensors[],
                                 int want_input)
@@ -447,8 +448,8 @@ static dkf_status_t stack_model(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
         Bi[i] = sensors[i].B;
         Rdi[i] = sensors[i].Rd;
     }
-    DKF_TRY(dkf_diffkf_stack_meas(&fc->H, &fc->D, &fc->R, meas, fc->l));
-    if (want_input) DKF_TRY(dkf_diffkf_stack_input(&fc->B, &fc->Rd, Bi, Rdi, fc->l));
+    DKF_TRY(dkf_diffkf_stack_meas(&fc->priv.H, &fc->priv.D, &fc->priv.R, meas, fc->l));
+    if (want_input) DKF_TRY(dkf_diffkf_stack_input(&fc->priv.B, &fc->priv.Rd, Bi, Rdi, fc->l));
     return DKF_OK;
 }
 
@@ -462,11 +463,11 @@ static dkf_status_t check_ranks(dkf_diffkf_fc_t *fc, const dkf_diffkf_sensor_t s
     dkf_status_t st;
     for (i = 0; i < fc->l; ++i) {
         const size_t pi = fc->nodes[i].p;
-        dkf_mat_t LU = DKF_MAT(pi, pi, fc->work);
-        st = dkf_mat_rank(&rank, sensors[i].meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
+        dkf_mat_t LU = DKF_MAT(pi, pi, fc->priv.work);
+        st = dkf_mat_rank(&rank, sensors[i].meas.D, DKF_RANK_TOL_DEFAULT, fc->priv.work);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, i);
         if (rank != pi) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, i);
-        st = dkf_mat_lu(&LU, piv, sensors[i].B, fc->work + pi * pi);
+        st = dkf_mat_lu(&LU, piv, sensors[i].B, fc->priv.work + pi * pi);
         if (st == DKF_ERR_SINGULAR)
             return report(fault, DKF_ERR_SINGULAR, DKF_DIFFKF_FC_B_SINGULAR, i);
         if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, i);
@@ -485,7 +486,7 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     dkf_status_t st;
     size_t i;
     if (fc == NULL || sensors == NULL) return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
-    if (!fc->ready || fc->started)
+    if (!fc->priv.ready || fc->priv.started)
         return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, none);
     st = dkf__check_input(F0, fc->n, fc->n);
     if (st == DKF_OK) st = dkf__check_input(Q0, fc->n, fc->n);
@@ -494,9 +495,9 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     DKF_TRY(check_ranks(fc, sensors, fault));
     st = stack_model(fc, sensors, 0);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
-    cmeas.H = &fc->H;
-    cmeas.D = &fc->D;
-    cmeas.R = &fc->R;
+    cmeas.H = &fc->priv.H;
+    cmeas.D = &fc->priv.D;
+    cmeas.R = &fc->priv.R;
 
     save_state(fc, &central_saved);
     for (i = 0; i < fc->l; ++i) {
@@ -506,8 +507,8 @@ dkf_status_t dkf_diffkf_fc_start(dkf_diffkf_fc_t *fc, const dkf_mat_t *F0, const
     st = dkf_diffkf_start(&fc->central, F0, Q0, &cmeas, NULL);
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
     commit_state(fc, &central_saved);
-    fc->started = 1;
-    fc->stacked = 1;
+    fc->priv.started = 1;
+    fc->priv.stacked = 1;
     fc->k = 0;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
@@ -543,7 +544,7 @@ static dkf_status_t recover_node(dkf_diffkf_fc_t *fc, size_t i, const dkf_mat_t 
     dkf_diffkf_fc_node_t *nd = &fc->nodes[i];
     const size_t n = fc->n, pi = nd->p;
     dkf_real_t diff[DKF_MAX_DIM], Mx[DKF_MAX_DIM];
-    dkf_mat_t M, K, zc, Kp = DKF_MAT(pi, n, fc->Kp);
+    dkf_mat_t M, K, zc, Kp = DKF_MAT(pi, n, fc->priv.Kp);
     dkf_ui_dyn_t dyn;
     size_t rank = 0, j;
     dkf_status_t st;
@@ -563,14 +564,14 @@ static dkf_status_t recover_node(dkf_diffkf_fc_t *fc, size_t i, const dkf_mat_t 
     }
     DKF_TRY(dkf_diffkf_pending(&nd->rep, &M, &K, &zc));
     /* rank K = p_i is exactly the condition for (24) to determine dz */
-    st = dkf_mat_pinv(&Kp, &rank, &K, DKF_RANK_TOL_DEFAULT, fc->work);
+    st = dkf_mat_pinv(&Kp, &rank, &K, DKF_RANK_TOL_DEFAULT, fc->priv.work);
     if (st == DKF_OK && rank != pi) st = DKF_ERR_RANK;
     if (st != DKF_OK) {
         *which = st == DKF_ERR_RANK ? DKF_DIFFKF_FC_K_RANK : cond_of(st);
         return st;
     }
     for (j = 0; j < n; ++j) diff[j] = msg->xf[j] - msg->xp[j];
-    dkf__mul_vec(dz, fc->Kp, diff, pi, n);
+    dkf__mul_vec(dz, fc->priv.Kp, diff, pi, n);
     dkf__mul_vec(Mx, M.data, msg->xp, pi, n);
     for (j = 0; j < pi; ++j) z[j] = dz[j] + Mx[j] + zc.data[j];
     if (!dkf__all_finite(z, pi) || !dkf__all_finite(dz, pi)) {
@@ -614,7 +615,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     dkf_status_t st;
     size_t i, j, off, pk = 0, nhere = 0;
     if (fc == NULL || sensors == NULL) return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
-    if (!fc->ready || !fc->started)
+    if (!fc->priv.ready || !fc->priv.started)
         return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, none);
     for (i = 0; i < fc->l; ++i) {
         here[i] = (unsigned char)(present == NULL || present[i] != 0);
@@ -629,8 +630,8 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     st = stack_model(fc, sensors, 1);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, none);
     zs = fc->nodes[0].z.data; /* committed z, dz */
-    zt = fc->pend;            /* pending z, dz */
-    dzt = fc->pend + fc->ps;
+    zt = fc->priv.pend;            /* pending z, dz */
+    dzt = fc->priv.pend + fc->ps;
     /* the sync rule: z^i_k needs the true dz^i_{k-1} (its zcorr) */
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
         contrib[i] = (unsigned char)(here[i] && fc->nodes[i].sync);
@@ -647,15 +648,15 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
      * rows received */
     cdyn.F = F;
     cdyn.Q = Q;
-    cdyn.B = &fc->B;
-    cdyn.Rd = &fc->Rd;
-    cmeas.H = &fc->H;
-    cmeas.D = &fc->D;
-    cmeas.R = &fc->R;
+    cdyn.B = &fc->priv.B;
+    cdyn.Rd = &fc->priv.Rd;
+    cmeas.H = &fc->priv.H;
+    cmeas.D = &fc->priv.D;
+    cmeas.R = &fc->priv.R;
     /* the central filter need not compare the stacked model with its memo,
      * O(ms^2 + ps^2), when this centre finds them equal in O(N) */
-    fc->central.fc_model_same = memo_is_stacked(fc, sensors);
-    st = dkf_diffkf_gain_masked(&fc->central, &cdyn, &cmeas, rows);
+    st = dkf__diffkf_gain_masked_memo(&fc->central, &cdyn, &cmeas, rows,
+                                      memo_is_stacked(fc, sensors));
     if (st != DKF_OK) return roll_back(fc, &central_saved, fault, st, cond_of(st), none);
 
     for (i = 0, off = 0; i < fc->l; off += fc->nodes[i].p, ++i) {
@@ -680,7 +681,7 @@ dkf_status_t dkf_diffkf_fc_step_partial(dkf_diffkf_fc_t *fc, const dkf_mat_t *F,
     }
     commit_state(fc, &central_saved);
     fc->k += 1;
-    fc->stacked = 2;
+    fc->priv.stacked = 2;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }
 
@@ -708,20 +709,20 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
     dkf_status_t st;
     if (fc == NULL || P_prior == NULL || sensor_at_kstart == NULL)
         return report(fault, DKF_ERR_NULL, DKF_DIFFKF_FC_ARG, none);
-    if (!fc->ready || !fc->started)
+    if (!fc->priv.ready || !fc->priv.started)
         return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, none);
     if (node >= fc->l) return report(fault, DKF_ERR_ARG, DKF_DIFFKF_FC_ARG, none);
     if (k_start != fc->k + 1) return report(fault, DKF_ERR_STATE, DKF_DIFFKF_FC_SEQUENCE, node);
     nd = &fc->nodes[node];
-    Lc.rows = fc->n, Lc.cols = fc->n, Lc.data = fc->work;
+    Lc.rows = fc->n, Lc.cols = fc->n, Lc.data = fc->priv.work;
     st = dkf__check_input(P_prior, fc->n, fc->n);
-    if (st == DKF_OK) st = dkf_mat_chol(&Lc, P_prior, fc->work + fc->n * fc->n);
+    if (st == DKF_OK) st = dkf_mat_chol(&Lc, P_prior, fc->priv.work + fc->n * fc->n);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_PRIOR, node);
     st = dkf__check_input(sensor_at_kstart->meas.H, nd->m, fc->n);
     if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.D, nd->m, nd->p);
     if (st == DKF_OK) st = dkf__check_input(sensor_at_kstart->meas.R, nd->m, nd->m);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
-    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.D, DKF_RANK_TOL_DEFAULT, fc->work);
+    st = dkf_mat_rank(&rank, sensor_at_kstart->meas.D, DKF_RANK_TOL_DEFAULT, fc->priv.work);
     if (st != DKF_OK) return report(fault, st, DKF_DIFFKF_FC_MODEL, node);
     if (rank != nd->p) return report(fault, DKF_ERR_RANK, DKF_DIFFKF_FC_D_RANK, node);
 
@@ -729,17 +730,19 @@ dkf_status_t dkf_diffkf_fc_restart_node(dkf_diffkf_fc_t *fc, size_t node, size_t
      * message's) and a start at k_start with no previous innovation */
     memset(x0s, 0, sizeof x0s);
     x0.rows = fc->n, x0.cols = 1, x0.data = x0s;
-    nd->saved = nd->rep;
-    memcpy(nd->saved_store, nd->store, nd->store_len * sizeof(dkf_real_t));
-    st = dkf_diffkf_init(&nd->rep, fc->n, nd->m, nd->p, nd->store, nd->store_len, &x0, P_prior);
-    nd->rep.steady_tol = nd->saved.steady_tol; /* the centre's setting, which init cleared */
+    nd->priv.saved = nd->rep;
+    memcpy(nd->priv.saved_store, nd->priv.store, nd->priv.store_len * sizeof(dkf_real_t));
+    st = dkf_diffkf_init(&nd->rep, fc->n, nd->m, nd->p, nd->priv.store, nd->priv.store_len, &x0,
+                         P_prior);
+    /* the centre's setting, which init cleared */
+    nd->rep.priv.steady_tol = nd->priv.saved.priv.steady_tol;
     if (st == DKF_OK) st = dkf_diffkf_start(&nd->rep, NULL, NULL, &sensor_at_kstart->meas, NULL);
     if (st != DKF_OK) {
-        nd->rep = nd->saved;
-        memcpy(nd->store, nd->saved_store, nd->store_len * sizeof(dkf_real_t));
+        nd->rep = nd->priv.saved;
+        memcpy(nd->priv.store, nd->priv.saved_store, nd->priv.store_len * sizeof(dkf_real_t));
         return report(fault, st, cond_of(st), node);
     }
-    nd->saved = nd->rep;
+    nd->priv.saved = nd->rep;
     nd->sync = 1;
     return report(fault, DKF_OK, DKF_DIFFKF_FC_NO_FAULT, none);
 }

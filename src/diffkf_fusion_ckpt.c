@@ -23,7 +23,7 @@
 size_t dkf_diffkf_fc_checkpoint_len(const dkf_diffkf_fc_t *fc)
 {
     size_t i, len;
-    if (fc == NULL || !fc->ready) return 0;
+    if (fc == NULL || !fc->priv.ready) return 0;
     len = FC_CKPT_HEAD + dkf_diffkf_checkpoint_len(&fc->central) + fc->l + 2 * fc->ps;
     for (i = 0; i < fc->l; ++i) len += dkf_diffkf_checkpoint_len(&fc->nodes[i].rep);
     return len;
@@ -34,7 +34,7 @@ dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size
     size_t i, off = FC_CKPT_HEAD;
     DKF_CHECK_NULL(fc);
     DKF_CHECK_NULL(buf);
-    if (!fc->ready) return DKF_ERR_STATE;
+    if (!fc->priv.ready) return DKF_ERR_STATE;
     if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
     buf[0] = (dkf_real_t)FC_CKPT_TAG;
     buf[1] = (dkf_real_t)fc->n;
@@ -42,7 +42,7 @@ dkf_status_t dkf_diffkf_fc_save(const dkf_diffkf_fc_t *fc, dkf_real_t *buf, size
     buf[3] = (dkf_real_t)fc->ms;
     buf[4] = (dkf_real_t)fc->ps;
     dkf__ckpt_put_k(buf + FC_CKPT_K, fc->k);
-    buf[FC_CKPT_STARTED] = (dkf_real_t)(fc->started ? 1 : 0);
+    buf[FC_CKPT_STARTED] = (dkf_real_t)(fc->priv.started ? 1 : 0);
     DKF_TRY(dkf_diffkf_save(&fc->central, buf + off, len - off));
     off += dkf_diffkf_checkpoint_len(&fc->central);
     for (i = 0; i < fc->l; ++i) {
@@ -62,7 +62,7 @@ dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, s
     size_t i, k = 0, off = FC_CKPT_HEAD;
     DKF_CHECK_NULL(fc);
     DKF_CHECK_NULL(buf);
-    if (!fc->ready) return DKF_ERR_STATE;
+    if (!fc->priv.ready) return DKF_ERR_STATE;
     if (len < dkf_diffkf_fc_checkpoint_len(fc)) return DKF_ERR_CAPACITY;
     /* validate everything before writing anything */
     if (!dkf__ckpt_is(buf[0], FC_CKPT_TAG)) return DKF_ERR_ARG;
@@ -92,6 +92,6 @@ dkf_status_t dkf_diffkf_fc_restore(dkf_diffkf_fc_t *fc, const dkf_real_t *buf, s
     dkf__copy(fc->nodes[0].z.data, buf + off + fc->l, 2 * fc->ps);
     dkf__fc_refresh_saved(fc);
     fc->k = k;
-    fc->started = dkf__ckpt_is(buf[FC_CKPT_STARTED], 1);
+    fc->priv.started = dkf__ckpt_is(buf[FC_CKPT_STARTED], 1);
     return DKF_OK;
 }

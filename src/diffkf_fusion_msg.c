@@ -19,7 +19,7 @@ dkf_status_t dkf_diffkf_msg_fill(dkf_diffkf_msg_t *msg, uint16_t node, const dkf
 {
     DKF_CHECK_NULL(msg);
     DKF_CHECK_NULL(f);
-    if (!f->ready || !f->started || f->k == 0) return DKF_ERR_STATE;
+    if (!f->priv.ready || !f->priv.started || f->k == 0) return DKF_ERR_STATE;
 #if SIZE_MAX > UINT32_MAX
     if (f->k > (size_t)UINT32_MAX) return DKF_ERR_CAPACITY;
 #endif

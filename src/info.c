@@ -92,8 +92,8 @@ dkf_status_t dkf_info_init(dkf_info_t *f, size_t n, dkf_real_t *storage, size_t 
     dkf__view(&g.P, n, n, s.P);
     dkf__view(&g.y, n, 1, s.y);
     dkf__view(&g.Y, n, n, s.Y);
-    g.work = s.xn;
-    g.ready = 1;
+    g.priv.work = s.xn;
+    g.priv.ready = 1;
     /* Y0 = P0^{-1}, y0 = Y0 x0 */
     DKF_TRY(invert_spd(s.B, s.yn, s.C, P0->data, x0->data, n));
     DKF_TRY(commit(&g, x0->data, P0->data, s.yn, s.B, s.C));
@@ -107,7 +107,7 @@ dkf_status_t dkf_info_predict(dkf_info_t *f, const dkf_kf_dyn_t *dyn)
     size_t n;
     info_layout_t s;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(dyn);
     F = dyn->F;
     Q = dyn->Q;
@@ -186,7 +186,7 @@ dkf_status_t dkf_info_fuse(dkf_info_t *f, const dkf_mat_t i[], const dkf_mat_t I
     size_t n, j, e;
     info_layout_t s;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     if (count > 0) {
         DKF_CHECK_NULL(i);
         DKF_CHECK_NULL(I);

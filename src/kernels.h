@@ -172,6 +172,14 @@ void dkf__whiten_spans_avx(dkf_real_t *Out, const dkf_real_t *Y, const dkf_real_
                            const dkf_real_t *inv, size_t r, size_t p, const size_t *lo);
 void dkf__tn_self_spans_avx(dkf_real_t *C, const dkf_real_t *A, size_t r, size_t k, size_t *lo);
 #endif
+/* P A = L U in place of W (n x n, A on entry), partial pivoting:
+ * perm[i] = the original row now at row i, L unit lower below the
+ * diagonal, U on and above it; a row whose multiplier is 0 is left as it
+ * is. The caller's singularity test: returns -1 (W part-way) at the first
+ * column whose largest candidate pivot |u| is not above tol (NaN too) or,
+ * with finite != 0, not finite; 0 otherwise. dkf_mat_lu: tol = n eps
+ * max|A|, finite = 0; the Riccati solver's W_k: tol = 0, finite = 1. */
+int dkf__lu_inplace(dkf_real_t *W, size_t *perm, size_t n, dkf_real_t tol, int finite);
 /* Solves (L L^T) X = B in place for B n x c; inv from dkf__chol. */
 void dkf__chol_solve(const dkf_real_t *L, const dkf_real_t *inv, dkf_real_t *B, size_t n,
                      size_t c);

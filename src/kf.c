@@ -32,12 +32,12 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
     dkf__view(&kf->P, n, n, L.P);
     dkf__view(&kf->nu, m_max, 1, L.nu);
     dkf__view(&kf->S, m_max, m_max, L.S);
-    kf->work = L.xn;
+    kf->priv.work = L.xn;
     dkf__copy(kf->x.data, x0->data, n);
     dkf__copy(kf->P.data, P0->data, n * n);
     for (i = 0; i < m_max * (m_max + 1); ++i) kf->nu.data[i] = DKF_R(0.0);
     kf->nis = DKF_R(0.0);
-    kf->ready = 1;
+    kf->priv.ready = 1;
     return DKF_OK;
 }
 
@@ -79,7 +79,7 @@ dkf_status_t dkf_kf_predict(dkf_kf_t *kf, const dkf_kf_dyn_t *dyn, const dkf_mat
     const dkf_mat_t *F, *Q;
     size_t n;
     DKF_CHECK_NULL(kf);
-    if (!kf->ready) return DKF_ERR_STATE;
+    if (!kf->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(dyn);
     F = dyn->F;
     Q = dyn->Q;
@@ -99,7 +99,7 @@ dkf_status_t dkf_kf_update(dkf_kf_t *kf, const dkf_kf_meas_t *meas, const dkf_ma
     const dkf_mat_t *H, *R;
     size_t n, m;
     DKF_CHECK_NULL(kf);
-    if (!kf->ready) return DKF_ERR_STATE;
+    if (!kf->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
     H = meas->H;
     R = meas->R;

@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "internal.h"
+#include "kernels.h"
 
 /* W = A (n x n) while measuring max|A|; DKF_ERR_NONFINITE if any element
  * is NaN or infinite. One pass does the copy, the scan and the scale. */
@@ -29,16 +30,10 @@ static dkf_status_t copy_measure(dkf_real_t *W, dkf_real_t *amax, const dkf_real
     return finite ? DKF_OK : DKF_ERR_NONFINITE;
 }
 
-/* P A = L U in place in W (a copy of A) with perm[i] = original row now at
- * row i. DKF_ERR_SINGULAR when the largest candidate pivot of a column has
- * magnitude <= n * eps * max|A| (or is NaN after overflow). */
-static dkf_status_t lu_factor(dkf_real_t *W, size_t *perm, const dkf_real_t *A, size_t n)
+/* (kernels.h) */
+int dkf__lu_inplace(dkf_real_t *W, size_t *perm, size_t n, dkf_real_t tol, int finite)
 {
-    dkf_real_t amax, tol;
     size_t i, j, k;
-    DKF_TRY(copy_measure(W, &amax, A, n));
-    /* (n * eps) < 1 is formed first so the product cannot overflow */
-    tol = ((dkf_real_t)n * DKF_REAL_EPSILON) * amax;
     for (i = 0; i < n; ++i) perm[i] = i;
     for (k = 0; k < n; ++k) {
         dkf_real_t *wk = W + k * n;
@@ -51,7 +46,7 @@ static dkf_status_t lu_factor(dkf_real_t *W, size_t *perm, const dkf_real_t *A, 
                 p = i;
             }
         }
-        if (!(pmax > tol)) return DKF_ERR_SINGULAR;
+        if (!(pmax > tol) || (finite && !(pmax <= DKF_REAL_MAX))) return -1;
         if (p != k) {
             dkf_real_t *wp = W + p * n;
             const size_t t = perm[k];
@@ -72,7 +67,20 @@ static dkf_status_t lu_factor(dkf_real_t *W, size_t *perm, const dkf_real_t *A, 
                 for (j = k + 1; j < n; ++j) wi[j] -= l * wk[j];
         }
     }
-    return DKF_OK;
+    return 0;
+}
+
+/* P A = L U in W (a copy of A) with perm[i] = original row now at row i.
+ * DKF_ERR_SINGULAR when the largest candidate pivot of a column has
+ * magnitude <= n * eps * max|A| (or is NaN after overflow). */
+static dkf_status_t lu_factor(dkf_real_t *W, size_t *perm, const dkf_real_t *A, size_t n)
+{
+    dkf_real_t amax;
+    DKF_TRY(copy_measure(W, &amax, A, n));
+    /* (n * eps) < 1 is formed first so the product cannot overflow */
+    return dkf__lu_inplace(W, perm, n, ((dkf_real_t)n * DKF_REAL_EPSILON) * amax, 0) == 0
+               ? DKF_OK
+               : DKF_ERR_SINGULAR;
 }
 
 dkf_status_t dkf_mat_lu(dkf_mat_t *LU, size_t *piv, const dkf_mat_t *A, dkf_real_t *work)

@@ -149,50 +149,7 @@ static dkf_status_t failure(dkf_real_t anorm, int limit)
     return limit ? DKF_ERR_NO_CONVERGENCE : DKF_ERR_NONFINITE;
 }
 
-/* W = P^T L U in place (n x n, partial pivoting, perm[i] = original row
- * at row i). W_k = I + G_k H_k is nonsingular in exact arithmetic (G_k H_k
- * is similar to the PSD H_k^{1/2} G_k H_k^{1/2}, so every eigenvalue of
- * W_k is >= 1), but its entries can be ~||G_k|| ||H_k|| >> 1 (R tiny), so
- * dkf_mat_lu's relative singularity test (pivot <= n eps max|W|) would
- * refuse unit pivots that are exact; only a zero or non-finite pivot
- * fails here (returns -1). */
-static int lu_inplace(dkf_real_t *W, size_t *perm, size_t n)
-{
-    size_t i, j, k;
-    for (i = 0; i < n; ++i) perm[i] = i;
-    for (k = 0; k < n; ++k) {
-        dkf_real_t *wk = W + k * n;
-        dkf_real_t pmax = DKF_FABS(wk[k]), inv;
-        size_t p = k;
-        for (i = k + 1; i < n; ++i)
-            if (DKF_FABS(W[i * n + k]) > pmax) {
-                pmax = DKF_FABS(W[i * n + k]);
-                p = i;
-            }
-        if (!(pmax > DKF_R(0.0) && pmax <= DKF_REAL_MAX)) return -1;
-        if (p != k) {
-            dkf_real_t *wp = W + p * n;
-            const size_t t = perm[k];
-            perm[k] = perm[p];
-            perm[p] = t;
-            for (j = 0; j < n; ++j) {
-                const dkf_real_t v = wk[j];
-                wk[j] = wp[j];
-                wp[j] = v;
-            }
-        }
-        inv = DKF_R(1.0) / wk[k];
-        for (i = k + 1; i < n; ++i) {
-            dkf_real_t *wi = W + i * n;
-            const dkf_real_t l = wi[k] * inv;
-            wi[k] = l;
-            for (j = k + 1; j < n; ++j) wi[j] -= l * wk[j];
-        }
-    }
-    return 0;
-}
-
-/* Y = W^{-1} B for B n x n from lu_inplace's factors, column by column
+/* Y = W^{-1} B for B n x n from dkf__lu_inplace's factors, column by column
  * through the contiguous t. Y must not overlap LU or B. */
 static void lu_solve_nn(dkf_real_t *Y, const dkf_real_t *LU, const size_t *perm,
                         const dkf_real_t *B, size_t n)
@@ -299,10 +256,15 @@ dkf_status_t dkf_mat_dare(dkf_mat_t *X, const dkf_mat_t *F, const dkf_mat_t *H,
     for (k = 0; k < DKF_MAT_DOUBLING_MAX_ITER && !converged; ++k) {
         dkf_real_t dn, hn;
         anorm = norm1(A, n, n);
-        /* (S1) W_k = I + G_k H_k, LU-factored in place */
+        /* (S1) W_k = I + G_k H_k, LU-factored in place. W_k is nonsingular
+         * in exact arithmetic (G_k H_k is similar to the PSD
+         * H_k^{1/2} G_k H_k^{1/2}, so every eigenvalue of W_k is >= 1), but
+         * its entries can be ~||G_k|| ||H_k|| >> 1 (R tiny), so dkf_mat_lu's
+         * relative test (pivot <= n eps max|W|) would refuse unit pivots
+         * that are exact: only a zero or non-finite pivot fails here. */
         dkf__mul_nn(Wb, G, Hk, n, n, n);
         for (i = 0; i < n; ++i) Wb[i * n + i] += DKF_R(1.0);
-        if (lu_inplace(Wb, piv, n) != 0) return failure(anorm, 0);
+        if (dkf__lu_inplace(Wb, piv, n, DKF_R(0.0), 1) != 0) return failure(anorm, 0);
         /* Y1 = W_k^{-1} A_k, Y2 = W_k^{-1} G_k */
         lu_solve_nn(Y1, Wb, piv, A, n);
         lu_solve_nn(Y2, Wb, piv, G, n);

@@ -579,7 +579,7 @@ static void bind(dkf_nerts_t *g, const out_t *o)
  * (from == NULL). */
 static void stage_from(const dkf_nerts_t *f, layout_t *L, const dkf_real_t *from)
 {
-    (void)layout(L, f->mem, f->n, f->m, f->p);
+    (void)layout(L, f->priv.mem, f->n, f->m, f->p);
     dkf__copy(L->s.x, from != NULL ? from : L->o.x, L->out_len);
 }
 
@@ -653,8 +653,8 @@ dkf_status_t dkf_nerts_init(dkf_nerts_t *f, dkf_nerts_kind_t kind, size_t n, siz
     g.kind = kind;
     g.k = 0;
     g.phase = DKF_NERTS_POSTERIOR;
-    g.mem = storage;
-    g.ready = 1;
+    g.priv.mem = storage;
+    g.priv.ready = 1;
     bind(&g, &L.o);
     *f = g;
     return DKF_OK;
@@ -673,7 +673,7 @@ dkf_status_t dkf__nerts_check_init(dkf_nerts_kind_t kind, size_t n, size_t m, si
 static dkf_status_t check_ready(const dkf_nerts_t *f)
 {
     DKF_CHECK_NULL(f);
-    return f->ready ? DKF_OK : DKF_ERR_STATE;
+    return f->priv.ready ? DKF_OK : DKF_ERR_STATE;
 }
 
 dkf_status_t dkf_nerts_predict(dkf_nerts_t *f, const dkf_nl_model_t *model, const dkf_real_t *u,
@@ -804,7 +804,7 @@ dkf_status_t dkf__nerts_stage_local(const dkf_nerts_t *f, const dkf_real_t *from
 void dkf__nerts_commit_stage(dkf_nerts_t *f)
 {
     layout_t L;
-    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    (void)layout(&L, f->priv.mem, f->n, f->m, f->p);
     unstage(&L);
     f->phase = DKF_NERTS_LOCAL;
 }

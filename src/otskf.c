@@ -127,14 +127,14 @@ static size_t otskf_layout(otskf_layout_t *L, dkf_real_t *base, size_t n, size_t
 static pred_scratch_t pred_scratch(const dkf_otskf_t *f)
 {
     pred_scratch_t s;
-    (void)pred_layout(&s, f->work, f->n, f->p);
+    (void)pred_layout(&s, f->priv.work, f->n, f->p);
     return s;
 }
 
 static upd_scratch_t upd_scratch(const dkf_otskf_t *f)
 {
     upd_scratch_t s;
-    (void)upd_layout(&s, f->work, f->n, f->m, f->p);
+    (void)upd_layout(&s, f->priv.work, f->n, f->m, f->p);
     return s;
 }
 
@@ -179,8 +179,8 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
     dkf__view(&g.Pd, p, p, L.Pd);
     dkf__view(&g.U, n, p, L.U);
     dkf__view(&g.V, n, p, L.V);
-    g.work = L.work;
-    g.D_ok = L.D_ok;
+    g.priv.work = L.work;
+    g.priv.D_ok = L.D_ok;
     /* V_0 = 0: x~_{0|0} = x_{0|0}, P^x_{0|0} = P_{0|0} */
     dkf__copy(g.xt.data, x0->data, n);
     dkf__copy(g.x.data, x0->data, n);
@@ -189,8 +189,8 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
     dkf__copy(g.d.data, d0->data, p);
     dkf__copy(g.Pd.data, Pd0->data, p * p);
     memset(g.U.data, 0, 2 * n * p * sizeof(dkf_real_t));
-    g.blend_is_v = 1;
-    g.ready = 1;
+    g.priv.blend_is_v = 1;
+    g.priv.ready = 1;
     *f = g;
     return DKF_OK;
 }
@@ -198,7 +198,7 @@ dkf_status_t dkf_otskf_init(dkf_otskf_t *f, size_t n, size_t m, size_t p, dkf_re
 /* The blending matrix that currently ties x to x~ and d. */
 static const dkf_real_t *blend(const dkf_otskf_t *f)
 {
-    return f->blend_is_v ? f->V.data : f->U.data;
+    return f->priv.blend_is_v ? f->V.data : f->U.data;
 }
 
 /* The end of both steps: the combined estimate x = x~ + B d and
@@ -231,7 +231,7 @@ static dkf_status_t combine_and_commit(dkf_otskf_t *f, const dkf_real_t *xt,
     dkf__copy(blend_is_v ? f->V.data : f->U.data, B, n * p);
     dkf__copy(f->x.data, xn, n);
     dkf__copy(f->P.data, Pn, n * n);
-    f->blend_is_v = blend_is_v;
+    f->priv.blend_is_v = blend_is_v;
     return DKF_OK;
 }
 
@@ -244,7 +244,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
     dkf_mat_t Binv;
     pred_scratch_t s;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(dyn);
     n = f->n;
     p = f->p;
@@ -302,9 +302,9 @@ static dkf_status_t check_rank_of_D(const dkf_otskf_t *f, const dkf_mat_t *A, in
 {
     size_t rank = 0;
     *is_new = 0;
-    if (f->d_checked && memcmp(f->D_ok, A->data, f->m * f->p * sizeof *A->data) == 0)
+    if (f->priv.d_checked && memcmp(f->priv.D_ok, A->data, f->m * f->p * sizeof *A->data) == 0)
         return DKF_OK;
-    DKF_TRY(dkf_mat_rank(&rank, A, DKF_RANK_TOL_DEFAULT, f->work));
+    DKF_TRY(dkf_mat_rank(&rank, A, DKF_RANK_TOL_DEFAULT, f->priv.work));
     if (rank != f->p) return DKF_ERR_RANK;
     *is_new = 1;
     return DKF_OK;
@@ -319,7 +319,7 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     const dkf_real_t *H, *A, *R, *Bl;
     upd_scratch_t s;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_CHECK_NULL(meas);
     n = f->n;
     m = f->m;
@@ -381,8 +381,8 @@ dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const d
     /* A_k passed the check: remembered only with a step that succeeded, so
      * a failed update leaves all of *f and its storage as they were */
     if (st == DKF_OK && a_new) {
-        dkf__copy(f->D_ok, A, m * p);
-        f->d_checked = 1;
+        dkf__copy(f->priv.D_ok, A, m * p);
+        f->priv.d_checked = 1;
     }
     return st;
 }

@@ -205,38 +205,38 @@ dkf_status_t dkf_selftune_init(dkf_selftune_t *id, const dkf_selftune_cfg_t *cfg
     if (!eta_autocov(reta, cfg->p, np, cfg->sigma_xi2, K)) return DKF_ERR_ARG;
     if (storage_len < st_layout(&S, NULL, na, np, nc, K)) return DKF_ERR_CAPACITY;
     (void)st_layout(&S, storage, na, np, nc, K);
-    g.na = na;
-    g.np = np;
-    g.nc = nc;
-    g.K = K;
-    g.L = cfg->L;
-    g.t_min = cfg->t_min;
-    g.t = 0;
-    g.head = 0;
-    g.t_accepted = 0;
-    g.guard = DKF_SELFTUNE_GUARD_WARMUP;
-    g.inv_L = DKF_R(1.0) / Lr;
-    g.sv_term = sv;
-    g.sigma_xi2 = cfg->sigma_xi2;
-    g.root_max = cfg->root_max;
-    g.rho_max = cfg->rho_max;
-    g.sigma_w2_min = cfg->sigma_w2_min;
-    g.ring = S.ring;
-    g.mx = S.mx;
-    g.my = S.my;
-    g.cm = S.cm;
-    g.reta = S.reta;
-    g.p = S.p;
-    g.acc = S.acc;
-    g.raw = S.raw;
-    for (i = 0; i < K; ++i) g.ring[i] = DKF_R(0.0);
-    for (i = 0; i <= K; ++i) g.mx[i] = g.my[i] = g.cm[i] = DKF_R(0.0);
-    for (i = 0; i <= K; ++i) g.reta[i] = reta[i];
-    for (i = 0; i < np; ++i) g.p[i] = cfg->p[i];
-    for (i = 0; i < na; ++i) g.acc[i] = g.raw[i] = cfg->a0[i];
-    if (nc == 1) g.acc[na] = g.raw[na] = cfg->c0;
-    g.acc[na + nc] = g.raw[na + nc] = cfg->sigma_w2_0;
-    g.raw[na + nc + 1] = DKF_R(0.0);
+    g.priv.na = na;
+    g.priv.np = np;
+    g.priv.nc = nc;
+    g.priv.K = K;
+    g.priv.L = cfg->L;
+    g.priv.t_min = cfg->t_min;
+    g.priv.t = 0;
+    g.priv.head = 0;
+    g.priv.t_accepted = 0;
+    g.priv.guard = DKF_SELFTUNE_GUARD_WARMUP;
+    g.priv.inv_L = DKF_R(1.0) / Lr;
+    g.priv.sv_term = sv;
+    g.priv.sigma_xi2 = cfg->sigma_xi2;
+    g.priv.root_max = cfg->root_max;
+    g.priv.rho_max = cfg->rho_max;
+    g.priv.sigma_w2_min = cfg->sigma_w2_min;
+    g.priv.ring = S.ring;
+    g.priv.mx = S.mx;
+    g.priv.my = S.my;
+    g.priv.cm = S.cm;
+    g.priv.reta = S.reta;
+    g.priv.p = S.p;
+    g.priv.acc = S.acc;
+    g.priv.raw = S.raw;
+    for (i = 0; i < K; ++i) g.priv.ring[i] = DKF_R(0.0);
+    for (i = 0; i <= K; ++i) g.priv.mx[i] = g.priv.my[i] = g.priv.cm[i] = DKF_R(0.0);
+    for (i = 0; i <= K; ++i) g.priv.reta[i] = reta[i];
+    for (i = 0; i < np; ++i) g.priv.p[i] = cfg->p[i];
+    for (i = 0; i < na; ++i) g.priv.acc[i] = g.priv.raw[i] = cfg->a0[i];
+    if (nc == 1) g.priv.acc[na] = g.priv.raw[na] = cfg->c0;
+    g.priv.acc[na + nc] = g.priv.raw[na + nc] = cfg->sigma_w2_0;
+    g.priv.raw[na + nc + 1] = DKF_R(0.0);
     *id = g;
     return DKF_OK;
 }
@@ -250,7 +250,7 @@ dkf_status_t dkf_selftune_init(dkf_selftune_t *id, const dkf_selftune_cfg_t *cfg
 static dkf_selftune_guard_t estimate(const dkf_selftune_t *id, const dkf_real_t *rs,
                                      dkf_real_t *raw, int *bad)
 {
-    const size_t na = id->na, nc = id->nc, K = id->K;
+    const size_t na = id->priv.na, nc = id->priv.nc, K = id->priv.K;
     dkf_real_t M[DKF_SELFTUNE_MAX_NA * DKF_SELFTUNE_MAX_NA], g[DKF_SELFTUNE_MAX_NA],
         phi[DKF_SELFTUNE_MAX_NA], al[DKF_SELFTUNE_MAX_NA + 1], ru0 = DKF_R(0.0),
         ru1 = DKF_R(0.0), dmax = DKF_R(0.0), c1 = DKF_R(0.0), rho = DKF_R(0.0), sw2;
@@ -302,7 +302,7 @@ static dkf_selftune_guard_t estimate(const dkf_selftune_t *id, const dkf_real_t 
         return DKF_SELFTUNE_GUARD_SINGULAR;
     }
     for (i = 0; i < na; ++i) raw[i] = g[i];
-    if (!roots_inside(g, na, id->root_max)) return DKF_SELFTUNE_GUARD_UNSTABLE;
+    if (!roots_inside(g, na, id->priv.root_max)) return DKF_SELFTUNE_GUARD_UNSTABLE;
     /* u = A s: r_u(m) = sum_{i,j} a_i a_j r_s(|m + j - i|), a_0 = 1 */
     al[0] = DKF_R(1.0);
     for (i = 0; i < na; ++i) al[i + 1] = g[i];
@@ -326,13 +326,13 @@ static dkf_selftune_guard_t estimate(const dkf_selftune_t *id, const dkf_real_t 
          * c_1 = 2 rho / (1 + sqrt(1 - 4 rho^2)) (no cancellation at rho ~ 0) */
         rho = ru1 / ru0;
         raw[na + nc + 1] = rho;
-        if (!(DKF_FABS(rho) <= id->rho_max)) return DKF_SELFTUNE_GUARD_RHO;
+        if (!(DKF_FABS(rho) <= id->priv.rho_max)) return DKF_SELFTUNE_GUARD_RHO;
         c1 = DKF_R(2.0) * rho / (DKF_R(1.0) + DKF_SQRT(DKF_R(1.0) - DKF_R(4.0) * rho * rho));
         sw2 = ru0 / (DKF_R(1.0) + c1 * c1);
         raw[na] = c1;
     }
     raw[na + nc] = sw2;
-    if (!(sw2 >= id->sigma_w2_min)) return DKF_SELFTUNE_GUARD_SIGMA;
+    if (!(sw2 >= id->priv.sigma_w2_min)) return DKF_SELFTUNE_GUARD_SIGMA;
     return DKF_SELFTUNE_GUARD_NONE;
 }
 
@@ -345,21 +345,21 @@ dkf_status_t dkf_selftune_update(dkf_selftune_t *id, const dkf_real_t y[])
     dkf_selftune_guard_t guard = DKF_SELFTUNE_GUARD_WARMUP;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(y);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    K = id->K;
-    if (!dkf__all_finite(y, id->L)) return DKF_ERR_NONFINITE;
-    for (i = 0; i < id->L; ++i) yb += y[i];
-    yb = yb / (dkf_real_t)id->L; /* ybar(t) */
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    K = id->priv.K;
+    if (!dkf__all_finite(y, id->priv.L)) return DKF_ERR_NONFINITE;
+    for (i = 0; i < id->priv.L; ++i) yb += y[i];
+    yb = yb / (dkf_real_t)id->priv.L; /* ybar(t) */
     if (!dkf__all_finite(&yb, 1)) return DKF_ERR_NONFINITE;
-    t = id->t + 1;
+    t = id->priv.t + 1;
     /* pairs (ybar(t), ybar(t-k)) for lags k < t: running means and
      * co-moment, C_n = C_{n-1} + (x_n - mx_{n-1}) (y_n - my_n) */
     for (k = 0; k <= K; ++k) {
-        mx[k] = id->mx[k];
-        my[k] = id->my[k];
-        cm[k] = id->cm[k];
+        mx[k] = id->priv.mx[k];
+        my[k] = id->priv.my[k];
+        cm[k] = id->priv.cm[k];
         if (k < t) {
-            const dkf_real_t x = yb, z = k == 0 ? yb : id->ring[(id->head + K - k) % K],
+            const dkf_real_t x = yb, z = k == 0 ? yb : id->priv.ring[(id->priv.head + K - k) % K],
                              n = (dkf_real_t)(t - k), dx = x - mx[k];
             mx[k] += dx / n;
             my[k] += (z - my[k]) / n;
@@ -369,13 +369,13 @@ dkf_status_t dkf_selftune_update(dkf_selftune_t *id, const dkf_real_t y[])
     if (!dkf__all_finite(mx, K + 1) || !dkf__all_finite(my, K + 1) ||
         !dkf__all_finite(cm, K + 1))
         return DKF_ERR_NONFINITE;
-    nraw = id->na + id->nc + 2;
-    for (i = 0; i < nraw; ++i) raw[i] = id->raw[i];
-    if (t >= id->t_min && t > K) {
+    nraw = id->priv.na + id->priv.nc + 2;
+    for (i = 0; i < nraw; ++i) raw[i] = id->priv.raw[i];
+    if (t >= id->priv.t_min && t > K) {
         int bad = 0;
         for (k = 0; k <= K; ++k) {
-            rs[k] = cm[k] / (dkf_real_t)(t - k) - id->reta[k];
-            if (k == 0) rs[k] -= id->sv_term;
+            rs[k] = cm[k] / (dkf_real_t)(t - k) - id->priv.reta[k];
+            if (k == 0) rs[k] -= id->priv.sv_term;
         }
         if (!dkf__all_finite(rs, K + 1)) return DKF_ERR_NONFINITE;
         guard = estimate(id, rs, raw, &bad);
@@ -383,18 +383,18 @@ dkf_status_t dkf_selftune_update(dkf_selftune_t *id, const dkf_real_t y[])
     }
     /* commit */
     for (k = 0; k <= K; ++k) {
-        id->mx[k] = mx[k];
-        id->my[k] = my[k];
-        id->cm[k] = cm[k];
+        id->priv.mx[k] = mx[k];
+        id->priv.my[k] = my[k];
+        id->priv.cm[k] = cm[k];
     }
-    id->ring[id->head] = yb;
-    id->head = (id->head + 1) % K;
-    id->t = t;
-    for (i = 0; i < nraw; ++i) id->raw[i] = raw[i];
-    id->guard = guard;
+    id->priv.ring[id->priv.head] = yb;
+    id->priv.head = (id->priv.head + 1) % K;
+    id->priv.t = t;
+    for (i = 0; i < nraw; ++i) id->priv.raw[i] = raw[i];
+    id->priv.guard = guard;
     if (guard == DKF_SELFTUNE_GUARD_NONE) {
-        for (i = 0; i + 1 < nraw; ++i) id->acc[i] = raw[i];
-        id->t_accepted = t;
+        for (i = 0; i + 1 < nraw; ++i) id->priv.acc[i] = raw[i];
+        id->priv.t_accepted = t;
     }
     return DKF_OK;
 }
@@ -407,23 +407,23 @@ dkf_status_t dkf_selftune_estimate(const dkf_selftune_t *id, dkf_selftune_est_t 
     size_t i, na, nc;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(est);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    na = id->na;
-    nc = id->nc;
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    na = id->priv.na;
+    nc = id->priv.nc;
     for (i = 0; i < DKF_SELFTUNE_MAX_NA; ++i) e.a[i] = e.a_raw[i] = DKF_R(0.0);
     e.na = na;
-    e.np = id->np;
+    e.np = id->priv.np;
     e.nc = nc;
-    for (i = 0; i < na; ++i) e.a[i] = id->acc[i], e.a_raw[i] = id->raw[i];
-    e.c1 = nc == 1 ? id->acc[na] : DKF_R(0.0);
-    e.c1_raw = nc == 1 ? id->raw[na] : DKF_R(0.0);
-    e.sigma_w2 = id->acc[na + nc];
-    e.sigma_w2_raw = id->raw[na + nc];
-    e.rho_raw = id->raw[na + nc + 1];
-    e.guard = id->guard;
-    e.ready = id->guard == DKF_SELFTUNE_GUARD_NONE;
-    e.t = id->t;
-    e.t_accepted = id->t_accepted;
+    for (i = 0; i < na; ++i) e.a[i] = id->priv.acc[i], e.a_raw[i] = id->priv.raw[i];
+    e.c1 = nc == 1 ? id->priv.acc[na] : DKF_R(0.0);
+    e.c1_raw = nc == 1 ? id->priv.raw[na] : DKF_R(0.0);
+    e.sigma_w2 = id->priv.acc[na + nc];
+    e.sigma_w2_raw = id->priv.raw[na + nc];
+    e.rho_raw = id->priv.raw[na + nc + 1];
+    e.guard = id->priv.guard;
+    e.ready = id->priv.guard == DKF_SELFTUNE_GUARD_NONE;
+    e.t = id->priv.t;
+    e.t_accepted = id->priv.t_accepted;
     *est = e;
     return DKF_OK;
 }
@@ -433,10 +433,10 @@ dkf_status_t dkf_selftune_autocov(const dkf_selftune_t *id, dkf_real_t r[], size
     size_t k;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(r);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    if (len < id->K + 1) return DKF_ERR_CAPACITY;
-    for (k = 0; k <= id->K; ++k)
-        r[k] = k < id->t ? id->cm[k] / (dkf_real_t)(id->t - k) : DKF_R(0.0);
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    if (len < id->priv.K + 1) return DKF_ERR_CAPACITY;
+    for (k = 0; k <= id->priv.K; ++k)
+        r[k] = k < id->priv.t ? id->priv.cm[k] / (dkf_real_t)(id->priv.t - k) : DKF_R(0.0);
     return DKF_OK;
 }
 
@@ -445,9 +445,9 @@ dkf_status_t dkf_selftune_noise_autocov(const dkf_selftune_t *id, dkf_real_t r[]
     size_t k;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(r);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    if (len < id->K + 1) return DKF_ERR_CAPACITY;
-    for (k = 0; k <= id->K; ++k) r[k] = id->reta[k];
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    if (len < id->priv.K + 1) return DKF_ERR_CAPACITY;
+    for (k = 0; k <= id->priv.K; ++k) r[k] = id->priv.reta[k];
     return DKF_OK;
 }
 
@@ -455,8 +455,8 @@ dkf_status_t dkf_selftune_model_dim(const dkf_selftune_t *id, size_t *n)
 {
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(n);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    *n = id->na + (id->np > 0 ? id->np : 1);
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    *n = id->priv.na + (id->priv.np > 0 ? id->priv.np : 1);
     return DKF_OK;
 }
 
@@ -468,14 +468,14 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
     size_t n, na, ne, i, j;
     DKF_CHECK_NULL(id);
     DKF_CHECK_NULL(est);
-    if (id->ring == NULL) return DKF_ERR_STATE;
-    na = id->na;
-    ne = id->np > 0 ? id->np : 1;
+    if (id->priv.ring == NULL) return DKF_ERR_STATE;
+    na = id->priv.na;
+    ne = id->priv.np > 0 ? id->priv.np : 1;
     n = na + ne;
     DKF_TRY(dkf__check_shape(F, n, n));
     DKF_TRY(dkf__check_shape(Q, n, n));
     DKF_CHECK_NO_ALIAS(F, Q);
-    if (est->na != na || est->np != id->np || est->nc != id->nc) return DKF_ERR_ARG;
+    if (est->na != na || est->np != id->priv.np || est->nc != id->priv.nc) return DKF_ERR_ARG;
     for (i = 0; i < na; ++i) e[i] = est->a[i];
     e[na] = est->c1;
     e[na + 1] = est->sigma_w2;
@@ -485,7 +485,7 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
      * signal block, column 2 (xi) = [1; 0..] over the eta block */
     for (i = 0; i < n; ++i) gam[i] = DKF_R(0.0);
     gam[0] = DKF_R(1.0);
-    if (id->nc == 1) gam[1] = est->c1;
+    if (id->priv.nc == 1) gam[1] = est->c1;
     /* the signal block of Q first (an overflow of sigma_w^2 c_1^2 is
      * NONFINITE, F and Q untouched) */
     for (i = 0; i < na; ++i)
@@ -500,7 +500,7 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
         if (i + 1 < na) F->data[i * n + i + 1] = DKF_R(1.0);
     }
     for (i = 0; i < ne; ++i) {
-        F->data[(na + i) * n + na] = id->np > 0 ? -id->p[i] : DKF_R(0.0);
+        F->data[(na + i) * n + na] = id->priv.np > 0 ? -id->priv.p[i] : DKF_R(0.0);
         if (i + 1 < ne) F->data[(na + i) * n + na + i + 1] = DKF_R(1.0);
     }
     /* Q = Gamma diag(sigma_w^2, sigma_xi^2) Gamma^T: blkdiag(sigma_w^2 g g^T,
@@ -509,6 +509,6 @@ dkf_status_t dkf_selftune_model(const dkf_selftune_t *id, const dkf_selftune_est
     for (i = 0; i < n * n; ++i) Q->data[i] = DKF_R(0.0);
     for (i = 0; i < na; ++i)
         for (j = 0; j < na; ++j) Q->data[i * n + j] = qs[i * na + j];
-    Q->data[na * n + na] = id->sigma_xi2;
+    Q->data[na * n + na] = id->priv.sigma_xi2;
     return DKF_OK;
 }

@@ -75,7 +75,7 @@ static size_t committed_layout(committed_t *c, dkf_real_t *base, size_t n, size_
     return used;
 }
 
-/* nd->mem: pending block, then scratch: the next pending block (a local
+/* nd->priv.mem: pending block, then scratch: the next pending block (a local
  * step is formed there and becomes the pending one only if it succeeds),
  * then the local step's and the packets' working areas. */
 typedef struct {
@@ -113,7 +113,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
 static layout_t mem_of(const dkf_tw_node_t *nd)
 {
     layout_t L;
-    (void)layout(&L, nd->mem, nd->n, nd->m_max, nd->p);
+    (void)layout(&L, nd->priv.mem, nd->n, nd->m_max, nd->p);
     return L;
 }
 
@@ -140,7 +140,7 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t 
     g.n = n;
     g.p = p;
     g.m_max = m_max;
-    g.mem = storage + committed_layout(&c, storage, n, p);
+    g.priv.mem = storage + committed_layout(&c, storage, n, p);
     L = mem_of(&g);
     /* P0 must be SPD. The test factorisation writes into the scratch part
      * of storage only: every caller-visible value is set after it. */
@@ -162,7 +162,7 @@ dkf_status_t dkf_tw_node_init(dkf_tw_node_t *nd, size_t n, size_t m_max, size_t 
     dkf__view(&g.Ploc, n, n, b.Ploc);
     dkf__copy(g.x.data, x0->data, n);
     dkf__copy(g.P.data, P0->data, n * n);
-    g.ready = 1;
+    g.priv.ready = 1;
     *nd = g;
     return DKF_OK;
 }
@@ -209,7 +209,7 @@ dkf_status_t dkf_tw_meas_packet(dkf_real_t *pkt, dkf_tw_node_t *nd, const dkf_kf
     layout_t L;
     DKF_CHECK_NULL(pkt);
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     L = mem_of(nd);
     DKF_TRY(meas_info(nd, &L, meas, y, scale));
     dkf__copy(pkt, L.stage, DKF_TW_PKT_LEN(nd->n));
@@ -314,7 +314,7 @@ dkf_status_t dkf_tw_node_local(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn, cons
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     L = mem_of(nd);
     DKF_TRY(checked_local_step(nd, &L, dyn, info));
     dkf__copy(L.pend, L.next, block_len(nd->n, nd->p));
@@ -364,7 +364,7 @@ dkf_status_t dkf_tw_node_commit(dkf_tw_node_t *nd, const dkf_real_t *x, const dk
 {
     layout_t L;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready || !nd->pending) return DKF_ERR_STATE;
+    if (!nd->priv.ready || !nd->pending) return DKF_ERR_STATE;
     L = mem_of(nd);
     DKF_TRY(check_commit(nd, &L, L.pend, x, Ppacked));
     apply_commit(nd, &L, L.pend, x);
@@ -377,7 +377,7 @@ dkf_status_t dkf_tw_central_step(dkf_tw_node_t *nd, const dkf_uif_dyn_t *dyn,
     layout_t L;
     size_t l, e, len;
     DKF_CHECK_NULL(nd);
-    if (!nd->ready) return DKF_ERR_STATE;
+    if (!nd->priv.ready) return DKF_ERR_STATE;
     len = DKF_TW_PKT_LEN(nd->n);
     DKF_CHECK_NULL(meas);
     DKF_CHECK_NULL(y);
@@ -446,9 +446,9 @@ dkf_status_t dkf_tw_net_init(dkf_tw_net_t *net, const dkf_graph_t *g, dkf_tw_nod
     t.n = n;
     t.p = p;
     t.nodes = nodes;
-    t.out = L.out;
-    t.mix = L.mix;
-    t.tmp = L.tmp;
+    t.priv.out = L.out;
+    t.priv.mix = L.mix;
+    t.priv.tmp = L.tmp;
     *net = t;
     return DKF_OK;
 }
@@ -471,14 +471,15 @@ static dkf_status_t check_net(const dkf_tw_net_t *net, const dkf_uif_dyn_t *dyn,
     return check_model(&net->nodes[0], dyn);
 }
 
-/* Every node's info packet, scaled, into net->out. */
+/* Every node's info packet, scaled, into net->priv.out. */
 static dkf_status_t all_meas(dkf_tw_net_t *net, const dkf_kf_meas_t meas[], const dkf_mat_t y[],
                              dkf_real_t scale)
 {
     const size_t pkt = DKF_TW_PKT_LEN(net->n);
     size_t l;
     for (l = 0; l < net->N; ++l)
-        DKF_TRY(dkf_tw_meas_packet(net->out + l * pkt, &net->nodes[l], &meas[l], &y[l], scale));
+        DKF_TRY(dkf_tw_meas_packet(net->priv.out + l * pkt, &net->nodes[l], &meas[l], &y[l],
+                                   scale));
     return DKF_OK;
 }
 
@@ -536,11 +537,12 @@ dkf_status_t dkf_tw_net_diffusion_step(dkf_tw_net_t *net, const dkf_real_t *alph
     pkt = DKF_TW_PKT_LEN(net->n);
     /* broadcast 1: info packets; (24c) and the data sum of (25a) over N_l */
     DKF_TRY(all_meas(net, meas, y, DKF_R(1.0)));
-    DKF_TRY(dkf_graph_mix_all(net->tmp, net->out, pkt, pkt, net->g, NULL));
-    DKF_TRY(cancel_all(net, all_local(net, dyn, net->tmp, net->mix)));
+    DKF_TRY(dkf_graph_mix_all(net->priv.tmp, net->priv.out, pkt, pkt, net->g, NULL));
+    DKF_TRY(cancel_all(net, all_local(net, dyn, net->priv.tmp, net->priv.mix)));
     /* broadcast 2: psi_k (the first n reals of the estimate packet); (26b) */
-    DKF_TRY(cancel_all(net, dkf_graph_mix_all(net->out, net->mix, net->n, pkt, net->g, alpha)));
-    DKF_TRY(cancel_all(net, commit_all(net, net->out, NULL)));
+    DKF_TRY(cancel_all(net, dkf_graph_mix_all(net->priv.out, net->priv.mix, net->n, pkt, net->g,
+                                              alpha)));
+    DKF_TRY(cancel_all(net, commit_all(net, net->priv.out, NULL)));
     net->reals_sent += (unsigned long)(net->N * (pkt + net->n));
     net->broadcasts += (unsigned long)(2 * net->N);
     ++net->steps;
@@ -558,11 +560,11 @@ dkf_status_t dkf_tw_net_consensus_step(dkf_tw_net_t *net, const dkf_real_t *W, s
     pkt = DKF_TW_PKT_LEN(net->n);
     /* (32c), (33a): ACF of |N| H^T R^{-1} [y | H], one packet per iteration */
     DKF_TRY(all_meas(net, meas, y, (dkf_real_t)net->N));
-    DKF_TRY(dkf_graph_acf(net->out, pkt, net->g, W, eta, net->tmp));
-    DKF_TRY(cancel_all(net, all_local(net, dyn, net->out, net->mix)));
+    DKF_TRY(dkf_graph_acf(net->priv.out, pkt, net->g, W, eta, net->priv.tmp));
+    DKF_TRY(cancel_all(net, all_local(net, dyn, net->priv.out, net->priv.mix)));
     /* (34b)-(34c): ACF of [psi_k | Ploc_k] */
-    DKF_TRY(cancel_all(net, dkf_graph_acf(net->mix, pkt, net->g, W, eta, net->tmp)));
-    DKF_TRY(cancel_all(net, commit_all(net, net->mix, net->mix + net->n)));
+    DKF_TRY(cancel_all(net, dkf_graph_acf(net->priv.mix, pkt, net->g, W, eta, net->priv.tmp)));
+    DKF_TRY(cancel_all(net, commit_all(net, net->priv.mix, net->priv.mix + net->n)));
     net->reals_sent += (unsigned long)(net->N * 2 * eta * pkt);
     net->broadcasts += (unsigned long)(net->N * 2 * eta);
     ++net->steps;

@@ -120,7 +120,7 @@ static size_t layout(layout_t *L, dkf_real_t *base, size_t n, size_t m, size_t p
 static layout_t mem_of(const dkf_uif_t *f)
 {
     layout_t L;
-    (void)layout(&L, f->mem, f->n, f->m, f->p);
+    (void)layout(&L, f->priv.mem, f->n, f->m, f->p);
     return L;
 }
 
@@ -151,7 +151,7 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
     g.p = p;
     g.m = m;
     g.kind = kind;
-    g.mem = storage + out_layout(&o, storage, n, m, p);
+    g.priv.mem = storage + out_layout(&o, storage, n, m, p);
     L = mem_of(&g);
     /* P0 must be SPD (factored in scratch, which holds nothing yet) */
     if (dkf__chol(L.T1, inv, P0->data, n) != 0) return DKF_ERR_NOT_SPD;
@@ -171,7 +171,7 @@ dkf_status_t dkf_uif_init(dkf_uif_t *f, dkf_uif_kind_t kind, size_t n, size_t m,
     dkf__copy(o.x, x0->data, n);
     dkf__copy(o.Px, P0->data, n * n);
     g.rank_tol = DKF_RANK_TOL_DEFAULT;
-    g.ready = 1;
+    g.priv.ready = 1;
     *f = g;
     return DKF_OK;
 }
@@ -278,12 +278,12 @@ static dkf_status_t decompose(const dkf_uif_t *f, const layout_t *L, const dkf_m
     dkf_status_t st;
     size_t r = 0;
     d->D = D;
-    if (f->cached && f->cache_rows == rows &&
-        memcmp(&f->cache_tol, &f->rank_tol, sizeof f->rank_tol) == 0 &&
+    if (f->priv.cached && f->priv.cache_rows == rows &&
+        memcmp(&f->priv.cache_tol, &f->rank_tol, sizeof f->rank_tol) == 0 &&
         memcmp(L->Dlast, D->data, bytes) == 0) {
         d->Dbar = L->Dbar;
         d->T = L->Tc;
-        d->rank = f->cache_rank;
+        d->rank = f->priv.cache_rank;
         d->fresh = 0;
         return DKF_OK;
     }
@@ -307,10 +307,10 @@ static void cache_commit(dkf_uif_t *f, const layout_t *L, const frd_t *d)
     dkf__copy(L->Dlast, d->D->data, rows * p);
     dkf__copy(L->Dbar, d->Dbar, rows * p);
     dkf__copy(L->Tc, d->T, p * p);
-    f->cache_rows = rows;
-    f->cache_rank = d->rank;
-    f->cache_tol = f->rank_tol;
-    f->cached = 1;
+    f->priv.cache_rows = rows;
+    f->priv.cache_rank = d->rank;
+    f->priv.cache_tol = f->rank_tol;
+    f->priv.cached = 1;
 }
 
 /* The input direction matrix B (m x r) and T (r x p, NULL for T = I) of
@@ -460,7 +460,7 @@ dkf_status_t dkf_uif_step(dkf_uif_t *f, const dkf_uif_dyn_t *dyn, const dkf_ui_m
     layout_t L;
     out_t o;
     DKF_CHECK_NULL(f);
-    if (!f->ready) return DKF_ERR_STATE;
+    if (!f->priv.ready) return DKF_ERR_STATE;
     DKF_TRY(check_step_args(f, dyn, meas, y));
     n = f->n;
     p = f->p;

@@ -95,10 +95,10 @@ dkf_status_t dkf_wfusion_local_init(dkf_wfusion_local_t *loc, size_t n, size_t m
     dkf__view(&g.K, n, m, L.st.K);
     dkf__view(&g.Psi, n, n, L.st.Psi);
     dkf__view(&g.J, n, n, L.st.J);
-    g.work = L.nx.x;
+    g.priv.work = L.nx.x;
     g.t = 0;
     g.steady = 0;
-    g.ready = 1;
+    g.priv.ready = 1;
     /* x(0|0) = x0, P(0|0) = P0; Sp, K, Psi, J are defined by the first
      * step (Sp = P0, K = 0, Psi = J = I until then) */
     for (i = 0; i < DKF_WFUSION_LOCAL_STATE_LEN(n, m); ++i) storage[i] = DKF_R(0.0);
@@ -196,7 +196,7 @@ dkf_status_t dkf_wfusion_local_step(dkf_wfusion_local_t *loc, const dkf_kf_dyn_t
 {
     loc_layout_t L;
     DKF_CHECK_NULL(loc);
-    if (!loc->ready) return DKF_ERR_STATE;
+    if (!loc->priv.ready) return DKF_ERR_STATE;
     L = loc_mem(loc);
     DKF_TRY(local_compute(loc, &L, dyn, meas, y));
     local_commit(loc, &L, 1);
@@ -223,7 +223,7 @@ dkf_status_t dkf_wfusion_local_steady(dkf_wfusion_local_t *loc, const dkf_kf_dyn
 {
     loc_layout_t L;
     DKF_CHECK_NULL(loc);
-    if (!loc->ready) return DKF_ERR_STATE;
+    if (!loc->priv.ready) return DKF_ERR_STATE;
     L = loc_mem(loc);
     DKF_TRY(local_steady_compute(loc, &L, dyn, meas));
     local_commit(loc, &L, 0);
@@ -236,17 +236,17 @@ dkf_status_t dkf_wfusion_local_steady(dkf_wfusion_local_t *loc, const dkf_kf_dyn
 /* The fusion's own storage (fu_layout, after the l local filters'):
  *   Pj   joint covariance (P_ij), N x N, N = n l         (state)
  *   Hs   signal row (n)                                 (state)
- *   PS, w, A, x0, P0: the last fusions' results (l*l, l, n*N, n, n*n)
+ *   PS, w, A, xf, Pf: the last fusions' results (l*l, l, n*N, n, n*n)
  *   Pn   the next Pj (N*N); fuse: the present sub-block S
  *   C    k*k, k = N + n: the KKT matrix, or S's Cholesky factor; steady:
  *        the Stein term
  *   X    k*k: the KKT system's pseudo-inverse; steady: a Stein solution
  *   sw   the pseudo-inverse's scratch, or dkf_mat_stein's
  *   Z    k*n: the weights transposed (the KKT solution)
- *   wt, At, x0t, P0t, PSt: staged results (l, n*N, n, n*n, l*l) */
+ *   wt, At, xft, Pft, PSt: staged results (l, n*N, n, n*n, l*l) */
 typedef struct {
-    dkf_real_t *Pj, *Hs, *PS, *w, *A, *x0, *P0;
-    dkf_real_t *Pn, *C, *X, *sw, *Z, *wt, *At, *x0t, *P0t, *PSt;
+    dkf_real_t *Pj, *Hs, *PS, *w, *A, *xf, *Pf;
+    dkf_real_t *Pn, *C, *X, *sw, *Z, *wt, *At, *xft, *Pft, *PSt;
 } fu_layout_t;
 
 static size_t fu_layout(fu_layout_t *L, dkf_real_t *base, size_t n, size_t l)
@@ -258,8 +258,8 @@ static size_t fu_layout(fu_layout_t *L, dkf_real_t *base, size_t n, size_t l)
     DKF_TAKE(L->PS, l * l);
     DKF_TAKE(L->w, l);
     DKF_TAKE(L->A, n * N);
-    DKF_TAKE(L->x0, n);
-    DKF_TAKE(L->P0, n * n);
+    DKF_TAKE(L->xf, n);
+    DKF_TAKE(L->Pf, n * n);
     DKF_TAKE(L->Pn, N * N);
     DKF_TAKE(L->C, k * k);
     DKF_TAKE(L->X, k * k);
@@ -267,8 +267,8 @@ static size_t fu_layout(fu_layout_t *L, dkf_real_t *base, size_t n, size_t l)
     DKF_TAKE(L->Z, k * n);
     DKF_TAKE(L->wt, l);
     DKF_TAKE(L->At, n * N);
-    DKF_TAKE(L->x0t, n);
-    DKF_TAKE(L->P0t, n * n);
+    DKF_TAKE(L->xft, n);
+    DKF_TAKE(L->Pft, n * n);
     DKF_TAKE(L->PSt, l * l);
     return used;
 }
@@ -335,15 +335,15 @@ dkf_status_t dkf_wfusion_init(dkf_wfusion_t *fu, size_t n, size_t l, const size_
     dkf__view(&g.PS, l, l, L.PS);
     dkf__view(&g.w, l, 1, L.w);
     dkf__view(&g.A, n, N, L.A);
-    dkf__view(&g.x0, n, 1, L.x0);
-    dkf__view(&g.P0, n, n, L.P0);
-    g.work = L.Pn;
+    dkf__view(&g.xf, n, 1, L.xf);
+    dkf__view(&g.Pf, n, n, L.Pf);
+    g.priv.work = L.Pn;
     g.s0 = g.PS0 = DKF_R(0.0);
     g.w_unique = g.A_unique = 0;
     g.used = 0;
     g.t = 0;
     g.steady = 0;
-    g.ready = 1;
+    g.priv.ready = 1;
     /* P_ij(0|0) = P0 for every pair: the common initial estimate */
     for (i = 0; i < l; ++i)
         for (j = 0; j < l; ++j)
@@ -358,7 +358,7 @@ dkf_status_t dkf_wfusion_init(dkf_wfusion_t *fu, size_t n, size_t l, const size_
 static dkf_status_t check_fusion(const dkf_wfusion_t *fu)
 {
     DKF_CHECK_NULL(fu);
-    return fu->ready ? DKF_OK : DKF_ERR_STATE;
+    return fu->priv.ready ? DKF_OK : DKF_ERR_STATE;
 }
 
 /* Block (i, j) of the N x N joint matrix at P: its first element. */
@@ -487,13 +487,13 @@ dkf_status_t dkf_wfusion_steady(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
 
 /* Minimum-variance fusion of u unbiased estimates of a q-vector whose
  * joint error covariance is S (uq x uq, in L->Pn): the weights
- * W^T = [A_1 ... A_u]^T into Z (uq x q) and P0 (q x q) into P0t, solving
+ * W^T = [A_1 ... A_u]^T into Z (uq x q) and Pf (q x q) into Pft, solving
  * min tr(A S A^T) s.t. sum_i A_i = I. SPD S: by Cholesky,
- * Z = S^{-1} E (e^T S^{-1} e)^{-1}, P0 = (e^T S^{-1} e)^{-1}; otherwise
+ * Z = S^{-1} E (e^T S^{-1} e)^{-1}, Pf = (e^T S^{-1} e)^{-1}; otherwise
  * (S singular, or so ill-conditioned that a pivot falls below
- * 64 uq eps max diag S) the KKT system [[S, E], [E^T, 0]] [Z; -P0] = [0; I]
+ * 64 uq eps max diag S) the KKT system [[S, E], [E^T, 0]] [Z; -Pf] = [0; I]
  * by its pseudo-inverse, with *unique = (it has full rank).
- * DKF_ERR_NOT_SPD: S indefinite beyond rounding, or P0 not PSD. */
+ * DKF_ERR_NOT_SPD: S indefinite beyond rounding, or Pf not PSD. */
 static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *unique)
 {
     const size_t N = u * q, k = N + q;
@@ -507,7 +507,7 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
         for (i = 0; i < N; ++i) imax = DKF__WFUSION_MAX(imax, inv[i]);
         pmin = DKF_R(1.0) / imax;
         if (pmin * pmin > DKF_R(64.0) * (dkf_real_t)N * DKF_REAL_EPSILON * dmax) {
-            /* Z = S^{-1} E; M = E^T Z; P0 = M^{-1}; Z <- Z P0 */
+            /* Z = S^{-1} E; M = E^T Z; Pf = M^{-1}; Z <- Z Pf */
             for (i = 0; i < N * q; ++i) L->Z[i] = DKF_R(0.0);
             for (i = 0; i < N; ++i) L->Z[i * q + i % q] = DKF_R(1.0);
             dkf__chol_solve(L->C, inv, L->Z, N, q);
@@ -517,9 +517,9 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
             dkf__symmetrise(L->X, q);
             if (!dkf__all_finite(L->X, q * q)) return DKF_ERR_NONFINITE;
             if (dkf__chol(L->X + q * q, inv, L->X, q) != 0) return DKF_ERR_NOT_SPD;
-            dkf__chol_inverse(L->P0t, L->X + q * q, inv, q);
+            dkf__chol_inverse(L->Pft, L->X + q * q, inv, q);
             for (i = 0; i < N; ++i) {
-                dkf__mul_vec(row, L->P0t, L->Z + i * q, q, q); /* (Z P0)_i = P0 Z_i^T */
+                dkf__mul_vec(row, L->Pft, L->Z + i * q, q, q); /* (Z Pf)_i = Pf Z_i^T */
                 dkf__copy(L->Z + i * q, row, q);
             }
             *unique = 1;
@@ -537,14 +537,14 @@ static dkf_status_t fuse_weights(const fu_layout_t *L, size_t u, size_t q, int *
     dkf__view(&Km, k, k, L->C);
     dkf__view(&Xm, k, k, L->X);
     DKF_TRY(dkf_mat_pinv(&Xm, &rank, &Km, DKF_RANK_TOL_DEFAULT, L->sw));
-    /* [Z; -P0] = the last q columns of the pseudo-inverse */
+    /* [Z; -Pf] = the last q columns of the pseudo-inverse */
     for (r = 0; r < N; ++r) dkf__copy(L->Z + r * q, L->X + r * k + N, q);
     for (r = 0; r < q; ++r)
-        for (j = 0; j < q; ++j) L->P0t[r * q + j] = -L->X[(N + r) * k + N + j];
-    dkf__symmetrise(L->P0t, q);
-    if (!dkf__all_finite(L->Z, N * q) || !dkf__all_finite(L->P0t, q * q))
+        for (j = 0; j < q; ++j) L->Pft[r * q + j] = -L->X[(N + r) * k + N + j];
+    dkf__symmetrise(L->Pft, q);
+    if (!dkf__all_finite(L->Z, N * q) || !dkf__all_finite(L->Pft, q * q))
         return DKF_ERR_NONFINITE;
-    if (!dkf__psd_within_rounding(L->C, L->P0t, q)) return DKF_ERR_NOT_SPD;
+    if (!dkf__psd_within_rounding(L->C, L->Pft, q)) return DKF_ERR_NOT_SPD;
     *unique = rank == k;
     return DKF_OK;
 }
@@ -601,7 +601,7 @@ dkf_status_t dkf_wfusion_fuse_scalar(dkf_wfusion_t *fu, const dkf_mat_t *const x
     dkf__copy(L.PS, L.PSt, l * l);
     dkf__copy(L.w, L.wt, l);
     fu->s0 = s0;
-    fu->PS0 = L.P0t[0];
+    fu->PS0 = L.Pft[0];
     fu->w_unique = unique;
     fu->used = u;
     return DKF_OK;
@@ -627,20 +627,20 @@ dkf_status_t dkf_wfusion_fuse_matrix(dkf_wfusion_t *fu, const dkf_mat_t *const x
                 dkf__copy(L.Pn + (i * n + r) * U + j * n,
                           block(L.Pj, n, l, idx[i], idx[j]) + r * N, n);
     DKF_TRY(fuse_weights(&L, u, n, &unique));
-    /* A_i = (Z_i)^T, x0 = sum_i A_i x_i */
+    /* A_i = (Z_i)^T, xf = sum_i A_i x_i */
     for (i = 0; i < n * N; ++i) L.At[i] = DKF_R(0.0);
-    for (i = 0; i < n; ++i) L.x0t[i] = DKF_R(0.0);
+    for (i = 0; i < n; ++i) L.xft[i] = DKF_R(0.0);
     for (i = 0; i < u; ++i)
         for (r = 0; r < n; ++r)
             for (j = 0; j < n; ++j) {
                 const dkf_real_t a = L.Z[(i * n + j) * n + r]; /* A_i(r, j) = Z(i n + j, r) */
                 L.At[r * N + idx[i] * n + j] = a;
-                L.x0t[r] += a * xs[i][j];
+                L.xft[r] += a * xs[i][j];
             }
-    if (!dkf__all_finite(L.x0t, n)) return DKF_ERR_NONFINITE;
+    if (!dkf__all_finite(L.xft, n)) return DKF_ERR_NONFINITE;
     dkf__copy(L.A, L.At, n * N);
-    dkf__copy(L.x0, L.x0t, n);
-    dkf__copy(L.P0, L.P0t, n * n);
+    dkf__copy(L.xf, L.xft, n);
+    dkf__copy(L.Pf, L.Pft, n * n);
     fu->A_unique = unique;
     fu->used = u;
     return DKF_OK;
@@ -656,7 +656,7 @@ static size_t ckpt_header_len(size_t l) { return 4 + l + DKF__CKPT_K_LEN; }
 size_t dkf_wfusion_checkpoint_len(const dkf_wfusion_t *fu)
 {
     size_t i, len;
-    if (fu == NULL || !fu->ready) return 0;
+    if (fu == NULL || !fu->priv.ready) return 0;
     len = ckpt_header_len(fu->l) + fu->n * fu->l * fu->n * fu->l;
     for (i = 0; i < fu->l; ++i)
         len += DKF__CKPT_K_LEN + DKF_WFUSION_LOCAL_STATE_LEN(fu->n, fu->nodes[i].m);

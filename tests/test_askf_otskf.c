@@ -499,13 +499,13 @@ static void test_otskf_failure_atomicity(void **state)
             }
             memcpy(&before, &fb.o, sizeof before);
             memcpy(snap, fb.o_storage, slen * sizeof(dkf_real_t));
-            memcpy(snapA, fb.o.D_ok, sizeof snapA);
+            memcpy(snapA, fb.o.priv.D_ok, sizeof snapA);
             if (fl.call == CALL_PREDICT)
                 assert_int_equal(dkf_otskf_predict(&fb.o, &md.dyn), fl.st);
             else
                 assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), fl.st);
             if (memcmp(snap, fb.o_storage, slen * sizeof(dkf_real_t)) != 0 ||
-                memcmp(snapA, fb.o.D_ok, sizeof snapA) != 0 ||
+                memcmp(snapA, fb.o.priv.D_ok, sizeof snapA) != 0 ||
                 memcmp(&before, &fb.o, sizeof before) != 0) {
                 print_error("OTSKF state changed by failing call: %s\n", fl.what);
                 fail();
@@ -544,7 +544,7 @@ static void test_otskf_rank_memo(void **state)
                      DKF_OK);
     assert_int_equal(dkf_otskf_init(&tb.o, 3, 2, 2, tb.o_storage, len, &mx0, &mP0, &md0, &mPd0),
                      DKF_OK);
-    assert_int_equal(fb.o.d_checked, 0);
+    assert_int_equal(fb.o.priv.d_checked, 0);
     fresh = md.meas;
     fresh.D = &mAcopy;
     for (k = 0; k < 5; ++k) {
@@ -552,13 +552,13 @@ static void test_otskf_rank_memo(void **state)
         assert_int_equal(dkf_otskf_predict(&tb.o, &md.dyn), DKF_OK);
         assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), DKF_OK);
         memcpy(Acopy, md.A, sizeof Acopy);
-        tb.o.d_checked = 0; /* the twin checks every step */
+        tb.o.priv.d_checked = 0; /* the twin checks every step */
         assert_int_equal(dkf_otskf_update(&tb.o, &fresh, &md.my), DKF_OK);
         assert_memory_equal(fb.o_storage, tb.o_storage,
                             DKF_OTSKF_STATE_LEN(3, 2) * sizeof(dkf_real_t));
     }
-    assert_int_equal(fb.o.d_checked, 1);
-    assert_memory_equal(fb.o.D_ok, md.A, 4 * sizeof(dkf_real_t));
+    assert_int_equal(fb.o.priv.d_checked, 1);
+    assert_memory_equal(fb.o.priv.D_ok, md.A, 4 * sizeof(dkf_real_t));
     /* rank A = 1 (second column = 2 x first): refused although a full-rank A is remembered */
     fixed_model(&bad);
     bad.A[1] = DKF_R(2.0) * bad.A[0];
@@ -570,7 +570,7 @@ static void test_otskf_rank_memo(void **state)
     bad.R[0] = bad.R[3] = DKF_R(-1.0);
     bad.R[1] = bad.R[2] = DKF_R(0.0);
     assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.my), DKF_ERR_NOT_SPD);
-    assert_memory_equal(fb.o.D_ok, md.A, 4 * sizeof(dkf_real_t));
+    assert_memory_equal(fb.o.priv.D_ok, md.A, 4 * sizeof(dkf_real_t));
 }
 
 static void test_askf_failure_atomicity(void **state)

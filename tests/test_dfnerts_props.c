@@ -348,7 +348,7 @@ static void snap_all(size_t N)
     size_t l;
     for (l = 0; l < N; ++l) {
         memcpy(snap_nodes[l], &nodes[l], sizeof nodes[l]);
-        memcpy(snap_state[l], nodes[l].mem, state_len(l) * sizeof(dkf_real_t));
+        memcpy(snap_state[l], nodes[l].priv.mem, state_len(l) * sizeof(dkf_real_t));
     }
     memcpy(snap_net, &net, sizeof net);
 }
@@ -358,7 +358,7 @@ static void assert_all_untouched(const char *what, size_t N)
     size_t l;
     for (l = 0; l < N; ++l) {
         if (memcmp(snap_nodes[l], &nodes[l], sizeof nodes[l]) != 0 ||
-            memcmp(snap_state[l], nodes[l].mem, state_len(l) * sizeof(dkf_real_t)) != 0) {
+            memcmp(snap_state[l], nodes[l].priv.mem, state_len(l) * sizeof(dkf_real_t)) != 0) {
             print_error("%s: node %zu changed\n", what, l);
             fail();
         }
@@ -504,7 +504,7 @@ static void test_restart_rejoins(void **state)
         }
         if (k > 5)
             for (l = 0; l < NN; ++l)
-                assert_memory_equal(nodes[l].mem, ref_nodes[l].mem,
+                assert_memory_equal(nodes[l].priv.mem, ref_nodes[l].priv.mem,
                                     STATE_LEN * sizeof(dkf_real_t));
     }
 }
@@ -670,7 +670,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
         static unsigned char before[sizeof(dkf_dfnerts_node_t)];
         static dkf_real_t before_state[STATE_LEN], pending_pkt[DKF_DFNERTS_PKT_MAX(XN, DP)];
         memcpy(before, &nodes[0], sizeof before);
-        memcpy(before_state, nodes[0].mem, state_len(0) * sizeof(dkf_real_t));
+        memcpy(before_state, nodes[0].priv.mem, state_len(0) * sizeof(dkf_real_t));
         assert_int_equal(dkf_dfnerts_node_local(&nodes[0], &S.md[0], NULL, &S.mQ[0], NULL,
                                                 &S.mR[0], &S.mz[0], DKF_R(1.0), NULL),
                          DKF_OK);
@@ -684,7 +684,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
         assert_memory_equal(pending_pkt, nodes[0].pkt, nodes[0].pkt_len * sizeof(dkf_real_t));
         assert_int_equal(dkf_dfnerts_node_cancel(&nodes[0]), DKF_OK);
         assert_memory_equal(before, &nodes[0], sizeof before);
-        assert_memory_equal(before_state, nodes[0].mem, state_len(0) * sizeof(dkf_real_t));
+        assert_memory_equal(before_state, nodes[0].priv.mem, state_len(0) * sizeof(dkf_real_t));
     }
     S.z[0][0] = DKF_R(0.0);
     /* a network step while a node has a step of its own pending: refused

@@ -263,7 +263,7 @@ static void run_case(const json_t *cs)
         for (l = 0; l < C.N; ++l) {
             const size_t sl = DKF_DFNERTS_NODE_STATE_LEN(QX, C.m[l], C.p);
             assert_int_equal(solo[l].f.k, k + 1);
-            assert_memory_equal(solo_storage[l], net_nodes[l].mem, sl * sizeof(dkf_real_t));
+            assert_memory_equal(solo_storage[l], net_nodes[l].priv.mem, sl * sizeof(dkf_real_t));
         }
     }
     assert_int_equal(net.steps, C.steps);

@@ -603,9 +603,9 @@ static void assert_state_same(const fc_snap_t *s, const hworld_t *w)
     assert_memory_equal(&s->fc, &w->fc, sizeof w->fc);
     assert_memory_equal(s->nodes, w->nodes, sizeof w->nodes);
     for (i = 0; i < w->h.l; ++i) {
-        const size_t off = (size_t)(w->nodes[i].store - w->store);
-        assert_memory_equal(w->nodes[i].store, s->store + off,
-                            w->nodes[i].store_len * sizeof(dkf_real_t));
+        const size_t off = (size_t)(w->nodes[i].priv.store - w->store);
+        assert_memory_equal(w->nodes[i].priv.store, s->store + off,
+                            w->nodes[i].priv.store_len * sizeof(dkf_real_t));
         assert_view_same(&w->nodes[i].z, s, w);
         assert_view_same(&w->nodes[i].dz, s, w);
     }
@@ -1285,18 +1285,18 @@ static void test_steady_args(void **state)
     assert_int_equal(dkf_diffkf_init(&f, HN, 3, 2, st, H_LOC_LEN, &w.h.mx0, &w.h.mP0), DKF_OK);
     test_rng_seed(&w.rng, 63);
     h_start(&w);
-    assert_true(f.steady_tol == 0); /* off after init */
+    assert_true(f.priv.steady_tol == 0); /* off after init */
     assert_int_equal(dkf_diffkf_set_steady(&f, DKF_R(1e-5)), DKF_OK);
     assert_int_equal(dkf_diffkf_fc_set_steady(&w.fc, DKF_R(1e-5)), DKF_OK);
     for (i = 0; i < 4; ++i) {
         assert_int_equal(dkf_diffkf_set_steady(&f, bad[i]), DKF_ERR_ARG);
         assert_int_equal(dkf_diffkf_fc_set_steady(&w.fc, bad[i]), DKF_ERR_ARG);
-        assert_true(f.steady_tol == DKF_R(1e-5));
-        assert_true(w.fc.central.steady_tol == DKF_R(1e-5));
-        assert_true(w.fc.nodes[1].rep.steady_tol == DKF_R(1e-5));
+        assert_true(f.priv.steady_tol == DKF_R(1e-5));
+        assert_true(w.fc.central.priv.steady_tol == DKF_R(1e-5));
+        assert_true(w.fc.nodes[1].rep.priv.steady_tol == DKF_R(1e-5));
     }
     assert_int_equal(dkf_diffkf_set_steady(&f, 0), DKF_OK);
-    assert_true(f.steady_tol == 0);
+    assert_true(f.priv.steady_tol == 0);
 }
 
 /* One Difference KF with the steady gain (a) against one that computes

@@ -21,6 +21,7 @@
  * requires a checked refusal of every public function that takes a
  * filter object (untouched_api.h, written from the headers by
  * tests/untouched_api.cmake), bar a commented list of exemptions.
+ * test_priv_last: every object struct ends with its private member priv.
  */
 #include <math.h>
 #include <setjmp.h>
@@ -320,7 +321,7 @@ static void test_kf(void **state)
     mset(&P0, 3, 3, P3);
     assert_int_equal(dkf_kf_init(&k.kf, 3, 2, k.st, DKF_KF_STORAGE_LEN(3, 2), &x0.v, &P0.v),
                      DKF_OK);
-    assert_true(k.kf.work == k.st + DKF_KF_STATE_LEN(3, 2));
+    assert_true(k.kf.priv.work == k.st + DKF_KF_STATE_LEN(3, 2));
     pv[0] = mset(&k.F, 3, 3, F3), pv[1] = mset(&k.Q, 3, 3, Q3), pv[2] = mset(&k.u, 3, 1, u);
     uv[0] = mset(&k.H, 2, 3, H), uv[1] = mset(&k.R, 2, 2, R), uv[2] = mset(&k.y, 2, 1, y);
     assert_int_equal(kf_predict_call(&k), DKF_OK);
@@ -410,7 +411,7 @@ static void test_info(void **state)
     mset(&x0, 3, 1, x3);
     mset(&P0, 3, 3, P3);
     assert_int_equal(dkf_info_init(&k.f, 3, k.st, DKF_INFO_STORAGE_LEN(3), &x0.v, &P0.v), DKF_OK);
-    assert_true(k.f.work == k.st + DKF_INFO_STATE_LEN(3));
+    assert_true(k.f.priv.work == k.st + DKF_INFO_STATE_LEN(3));
     pv[0] = mset(&k.F, 3, 3, F3), pv[1] = mset(&k.Q, 3, 3, Q3);
     fv[0] = mset(&k.i[0], 3, 1, i0), fv[1] = mset(&k.i[1], 3, 1, i0);
     fv[2] = mset(&k.I[0], 3, 3, I0), fv[3] = mset(&k.I[1], 3, 3, I0);
@@ -527,7 +528,7 @@ static void test_askf_otskf(void **state)
     assert_int_equal(dkf_askf_init(&k.a, 3, 2, 2, k.ast, DKF_ASKF_STORAGE_LEN(3, 2, 2), &x0.v,
                                    &P0.v, &md0.v, &mPd0.v, NULL),
                      DKF_OK);
-    assert_true(k.a.kf.work == k.ast + DKF_ASKF_STATE_LEN(3, 2, 2));
+    assert_true(k.a.kf.priv.work == k.ast + DKF_ASKF_STATE_LEN(3, 2, 2));
     assert_int_equal(dkf_otskf_init(&k.o, 3, 2, 2, k.ost, DKF_OTSKF_STORAGE_LEN(3, 2, 2), &x0.v,
                                     &P0.v, &md0.v, &mPd0.v),
                      DKF_OK);
@@ -1337,7 +1338,7 @@ static void test_tw_node(void **state)
     assert_int_equal(dkf_tw_node_init(&k.nd, TN, 2, TP, k.st, DKF_TW_NODE_STORAGE_LEN(TN, 2, TP),
                                       &x0.v, &P0.v),
                      DKF_OK);
-    assert_true(k.nd.mem == k.st + DKF_TW_NODE_STATE_LEN(TN, TP));
+    assert_true(k.nd.priv.mem == k.st + DKF_TW_NODE_STATE_LEN(TN, TP));
     assert_int_equal(tw_central_call(&k), DKF_OK);
     tw_regions(&k);
     sweep("tw_central_step", tw_central_call, &k, sv, sn, 3, &k.g);
@@ -1392,7 +1393,8 @@ static void test_tw_node(void **state)
                      "tw_node_commit: nothing pending");
     assert_int_equal(tw_local_call(&k), DKF_OK);
     tw_regions(&k);
-    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    reg_add(&k.g, k.nd.priv.mem,
+            (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
     for (i = 0; i < TN; ++i) xs[i] = DKF_R(0.0);
     for (i = 0; i < TPK - TN; ++i) Pp[i] = DKF_R(0.0);
     Pp[0] = DKF_R(-1.0);
@@ -1406,7 +1408,8 @@ static void test_tw_node(void **state)
      * pending, whichever check fails: every refusal above again */
     assert_int_equal(tw_local_call(&k), DKF_OK);
     tw_regions(&k);
-    reg_add(&k.g, k.nd.mem, (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
+    reg_add(&k.g, k.nd.priv.mem,
+            (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
     sweep("tw_node_local (pending)", tw_local_call, &k, mv, mn, 3, &k.g);
     sweep("tw_central_step (pending)", tw_central_call, &k, sv, sn, 3, &k.g);
     sweep("tw_central_step (model, pending)", tw_central_call, &k, mv, mn, 3, &k.g);
@@ -1491,8 +1494,9 @@ static void test_tw_net(void **state)
     assert_int_equal(dkf_tw_net_consensus_step(&net, W, 2, &md, sens, ys), DKF_OK);
     /* a node with a step of its own pending: both steps refuse to run (a
      * failure could not give that step back) */
-    assert_int_equal(dkf_tw_meas_packet(net.mix, &nodes[1], &sens[1], &ys[1], DKF_R(1.0)), DKF_OK);
-    assert_int_equal(dkf_tw_node_local(&nodes[1], &md, net.mix, NULL), DKF_OK);
+    assert_int_equal(dkf_tw_meas_packet(net.priv.mix, &nodes[1], &sens[1], &ys[1], DKF_R(1.0)),
+                     DKF_OK);
+    assert_int_equal(dkf_tw_node_local(&nodes[1], &md, net.priv.mix, NULL), DKF_OK);
     reg_add(&rg, st + node_len + DKF_TW_NODE_STATE_LEN(TN, TP),
             (DKF_TW_NODE_STATE_LEN(TN, TP) - TN - TN * TN) * sizeof(dkf_real_t));
     EXPECT_UNTOUCHED(&rg, DKF_ERR_STATE, dkf_tw_net_diffusion_step(&net, alpha, &md, sens, ys),
@@ -2824,6 +2828,32 @@ static void test_exact_storage(void **state)
     print_message("exact storage: %zu shapes checked\n", xs_each_shape(exact_storage));
 }
 
+/* What the caller must not touch is in one member `priv` at the end of
+ * each object struct (docs/layout.md, the module contract; decisions.md
+ * item 45): nothing follows it. */
+#define PRIV_LAST(T) assert_int_equal(offsetof(T, priv) + sizeof(((T *)0)->priv), sizeof(T))
+static void test_priv_last(void **state)
+{
+    (void)state;
+    PRIV_LAST(dkf_kf_t);
+    PRIV_LAST(dkf_info_t);
+    PRIV_LAST(dkf_askf_t);
+    PRIV_LAST(dkf_otskf_t);
+    PRIV_LAST(dkf_uif_t);
+    PRIV_LAST(dkf_nerts_t);
+    PRIV_LAST(dkf_dfnerts_node_t);
+    PRIV_LAST(dkf_dfnerts_net_t);
+    PRIV_LAST(dkf_diffkf_t);
+    PRIV_LAST(dkf_diffkf_fc_node_t);
+    PRIV_LAST(dkf_diffkf_fc_t);
+    PRIV_LAST(dkf_tw_node_t);
+    PRIV_LAST(dkf_tw_net_t);
+    PRIV_LAST(dkf_wfusion_local_t);
+    PRIV_LAST(dkf_wfusion_t);
+    PRIV_LAST(dkf_selftune_t);
+}
+#undef PRIV_LAST
+
 /* An init over a live object (the same object and storage, initialised)
  * whose prior is refused at its last check (P0 = diag(1, .., 1, -1), the
  * last network node's only) leaves the object and the state parts of its
@@ -3049,6 +3079,7 @@ int main(void)
         cmocka_unit_test(test_wfusion),
         cmocka_unit_test(test_selftune),
         cmocka_unit_test(test_exact_storage),
+        cmocka_unit_test(test_priv_last),
         cmocka_unit_test(test_init_over_live),
         cmocka_unit_test(test_declare_macros),
         cmocka_unit_test(test_every_object_call_refused), /* last: it reads what ran */

@@ -35,7 +35,7 @@
 
 #include <cmocka.h>
 
-#include "diffkf_fusion_internal.h"
+#include "diffkf_internal.h"
 #include "dkf/diffkf.h"
 #include "dkf_test.h"
 #include "kernels.h"

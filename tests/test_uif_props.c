@@ -761,7 +761,7 @@ typedef struct {
 
 static void snap_take(snap_t *s, const dkf_uif_t *f)
 {
-    s->len = (size_t)(f->mem - f->x.data);
+    s->len = (size_t)(f->priv.mem - f->x.data);
     assert_true(s->len <= sizeof s->out / sizeof s->out[0]);
     memcpy(s->out, f->x.data, s->len * sizeof(dkf_real_t));
     s->k = f->k, s->rank = f->rank, s->bias_steps = f->bias_steps, s->bias_risk = f->bias_risk;
@@ -890,7 +890,7 @@ static void test_uif_init_and_sequence_errors(void **state)
     assert_int_equal(b.f.k, 0);
     assert_int_equal(dkf_uif_step(&b.f, NULL, &s.meas, &Y), DKF_OK);
     assert_int_equal(b.f.k, 1);
-    f.ready = 0;
+    f.priv.ready = 0;
     assert_int_equal(dkf_uif_step(&f, NULL, &s.meas, &Y), DKF_ERR_STATE);
 }
 

@@ -181,7 +181,7 @@ typedef struct {
 
 static void snap_take(snap_t *s, const dkf_uif_t *f)
 {
-    assert_int_equal((size_t)(f->mem - f->x.data), DKF__UIF_OUT_LEN(NX, NM, NP));
+    assert_int_equal((size_t)(f->priv.mem - f->x.data), DKF__UIF_OUT_LEN(NX, NM, NP));
     memcpy(s->out, f->x.data, sizeof s->out);
     s->k = f->k;
     s->rank = f->rank;

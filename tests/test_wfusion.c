@@ -215,8 +215,8 @@ static void test_vector_steps(void **state)
             cmp("matrix_weights", t, test_json_get(ex, "matrix_weights"), Aw, NL * NX * NX,
                 VEC_REL);
         nonunique += !uniq;
-        cmp("x_fused_matrix", t, test_json_get(ex, "x_fused_matrix"), fu.x0.data, NX, VEC_REL);
-        cmp("P0_matrix", t, test_json_get(ex, "P0_matrix"), fu.P0.data, NX * NX, VEC_REL);
+        cmp("x_fused_matrix", t, test_json_get(ex, "x_fused_matrix"), fu.xf.data, NX, VEC_REL);
+        cmp("P0_matrix", t, test_json_get(ex, "P0_matrix"), fu.Pf.data, NX * NX, VEC_REL);
         assert_int_equal(fu.used, NL);
         assert_int_equal(fu.t, t);
     }
@@ -243,12 +243,12 @@ static void test_vector_steady(void **state)
     v = fu.PS0;
     cmp("steady P_S0", 0, test_json_get(ss, "P_S0"), &v, 1, VEC_REL);
     cmp("steady matrix_weights", 0, test_json_get(ss, "matrix_weights"), Aw, NL * NX * NX, VEC_REL);
-    cmp("steady P0_matrix", 0, test_json_get(ss, "P0_matrix"), fu.P0.data, NX * NX, VEC_REL);
+    cmp("steady P0_matrix", 0, test_json_get(ss, "P0_matrix"), fu.Pf.data, NX * NX, VEC_REL);
     assert_int_equal(fu.A_unique, 1);
     assert_true(fu.steady && fu.nodes[0].steady);
     /* the note's reported values, to their printed digits */
     assert_true(fabs((double)fu.PS0 - 0.49409) < 5e-5);
-    assert_true(fabs((double)(fu.P0.data[0]) - 0.49336) < 5e-5);
+    assert_true(fabs((double)(fu.Pf.data[0]) - 0.49336) < 5e-5);
 }
 
 /* The time-varying recursion converges to the steady state (DARE/Stein). */
@@ -328,15 +328,15 @@ static void test_covariance_chain(void **state)
         assert_int_equal(dkf_wfusion_fuse_scalar(&fu, NULL), DKF_OK);
         assert_int_equal(dkf_wfusion_fuse_matrix(&fu, NULL), DKF_OK);
         /* centralized <= matrix-fused <= every local (n x n) */
-        assert_loewner("P_central <= P0_matrix", t, kf.P.data, fu.P0.data, NX, tol);
+        assert_loewner("P_central <= P0_matrix", t, kf.P.data, fu.Pf.data, NX, tol);
         for (i = 0; i < NL; ++i)
-            assert_loewner("P0_matrix <= P_ii", t, fu.P0.data, fu.nodes[i].P.data, NX, tol);
+            assert_loewner("P0_matrix <= P_ii", t, fu.Pf.data, fu.nodes[i].P.data, NX, tol);
         /* on the signal: central <= matrix <= scalar <= min local */
         sc = 0;
         {
             size_t a, b;
             for (a = 0; a < NX; ++a)
-                for (b = 0; b < NX; ++b) sc += md.Hs[a] * fu.P0.data[a * NX + b] * md.Hs[b];
+                for (b = 0; b < NX; ++b) sc += md.Hs[a] * fu.Pf.data[a * NX + b] * md.Hs[b];
         }
         assert_true((double)kf.P.data[0] <= (double)sc + tol);
         assert_true((double)sc <= (double)fu.PS0 + tol);
@@ -379,8 +379,8 @@ static void test_missing_sensor(void **state)
         assert_int_equal(dkf_wfusion_fuse_matrix(&fu4, NULL), DKF_OK);
         assert_int_equal(fu.used, NL - 1);
         assert_true(fu.s0 == fu4.s0 && fu.PS0 == fu4.PS0);
-        assert_memory_equal(fu.x0.data, fu4.x0.data, NX * sizeof(dkf_real_t));
-        assert_memory_equal(fu.P0.data, fu4.P0.data, NX * NX * sizeof(dkf_real_t));
+        assert_memory_equal(fu.xf.data, fu4.xf.data, NX * sizeof(dkf_real_t));
+        assert_memory_equal(fu.Pf.data, fu4.Pf.data, NX * NX * sizeof(dkf_real_t));
         assert_true(fu.w.data[2] == 0);
         for (i = 0; i < NL - 1; ++i) assert_true(fu.w.data[keep[i]] == fu4.w.data[i]);
         for (j = 0; j < NX; ++j) /* sensor 2's block of A is zero */
@@ -397,7 +397,7 @@ static size_t state_snap(dkf_real_t *out)
     size_t i, k = 0;
     for (i = 0; i < NL; ++i, k += DKF_WFUSION_LOCAL_STATE_LEN(NX, 1))
         memcpy(out + k, fu.nodes[i].x.data, DKF_WFUSION_LOCAL_STATE_LEN(NX, 1) * sizeof *out);
-    assert_true(fu.P0.data + NX * NX == fu.Pj.data + own); /* the results follow Pj */
+    assert_true(fu.Pf.data + NX * NX == fu.Pj.data + own); /* the results follow Pj */
     memcpy(out + k, fu.Pj.data, own * sizeof *out);
     return k + own;
 }
@@ -735,7 +735,7 @@ static void test_mixed_dimensions(void **state)
         gap = fmax(gap, test_max_abs_diff(mx.Pj.data, Pj, MX_N * MX_N) / scale);
         assert_int_equal(dkf_wfusion_fuse_matrix(&mx, NULL), DKF_OK);
         for (i = 0; i < MX_L; ++i)
-            assert_loewner("P0_matrix <= P_ii (mixed m)", t, mx.P0.data, mx.nodes[i].P.data, NX,
+            assert_loewner("P0_matrix <= P_ii (mixed m)", t, mx.Pf.data, mx.nodes[i].P.data, NX,
                            DKF_USE_FLOAT ? 1e-4 : 1e-12);
     }
     printf("# mixed m = 1, 2, 3: max |P_ij - independent recursion| / max(1, |P|) = %.3g\n", gap);

@@ -39,8 +39,11 @@ extern "C" {
 typedef struct {
     size_t n, m, p;
     dkf_kf_t kf;      /* the KF on X = [x; d]: kf.x = X (n+p), kf.P = P^a */
-    dkf_real_t *aug;  /* Phi, Q^a (n+p)^2 each and H^a (m x (n+p)), built per step */
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *aug; /* Phi, Q^a (n+p)^2 each and H^a (m x (n+p)), built per step */
+        int ready;
+    } priv;
 } dkf_askf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

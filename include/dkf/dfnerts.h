@@ -144,10 +144,12 @@ typedef struct {
     int pending;    /* local done, not committed or cancelled */
     dkf_real_t scale;     /* s of the pending step (0 between steps) */
     const dkf_real_t *pkt; /* the node's current packet (pkt_len reals) */
-    /* private */
-    dkf_nerts_t saved; /* the filter before the pending step */
-    dkf_real_t *mem;
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_nerts_t saved; /* the filter before the pending step */
+        dkf_real_t *mem;
+        int ready;
+    } priv;
 } dkf_dfnerts_node_t;
 
 /* `name` and `name_storage`, storage class sc: the form of DKF_KF_DECLARE. */
@@ -230,11 +232,14 @@ typedef struct {
     size_t N, n, p;
     size_t m_max;              /* the largest m_l (node l's is nodes[l].m) */
     dkf_dfnerts_node_t *nodes; /* caller array of N nodes */
-    dkf_real_t *cur, *nxt;     /* N x DKF_DFNERTS_PKT_MAX: the packets of a round */
     /* communication, summed over nodes and steps */
     unsigned long reals_sent;
     unsigned long broadcasts;
     size_t steps;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *cur, *nxt; /* N x DKF_DFNERTS_PKT_MAX: the packets of a round */
+    } priv;
 } dkf_dfnerts_net_t;
 
 /* `name`, its node array `name_nodes` and `name_storage` (nodes of up to

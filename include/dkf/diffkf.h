@@ -107,23 +107,23 @@ typedef struct {
     dkf_mat_t xp;  /* x_{k|k-1}, n x 1: the prediction the last step updated
                       (xn before that step; a fusion-centre message sends it
                       with x_{k|k}) */
-    dkf_real_t *mem; /* everything else (carry, caches, scratch) */
-    int ready;       /* dkf_diffkf_init done */
-    int started;     /* dkf_diffkf_start done */
-    int has_y;       /* D_k^+ y_k is stored, so dkf_diffkf_step can difference */
     int pending;     /* a dkf_diffkf_gain awaits dkf_diffkf_update_z */
-    /* caches of D^+, B^{-1} and the model-only block (valid flags): derived
-     * data, changed only by a successful call */
-    int d_cached, b_cached, model_cached;
-    unsigned long cache_gen; /* counts the calls that wrote the caches: a copy
-                                of them taken at one value is current while
-                                the value holds (the fusion centre's snapshot) */
-    dkf_real_t steady_tol;   /* dkf_diffkf_set_steady's tolerance; 0 = off */
-    int steady;              /* the last completed step reused the settled gain
-                                (dkf_diffkf_set_steady) */
-    int fc_model_same;       /* private to the fusion centre: set before a gain
-                                whose B, Rd, H, D, R are bitwise the inputs of
-                                the model memo; every gain clears it */
+    int steady;      /* the last completed step reused the settled gain
+                        (dkf_diffkf_set_steady) */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *mem; /* everything else (carry, caches, scratch) */
+        int ready;       /* dkf_diffkf_init done */
+        int started;     /* dkf_diffkf_start done */
+        int has_y;       /* D_k^+ y_k is stored, so dkf_diffkf_step can difference */
+        /* caches of D^+, B^{-1} and the model-only block (valid flags): derived
+         * data, changed only by a successful call */
+        int d_cached, b_cached, model_cached;
+        unsigned long cache_gen; /* counts the calls that wrote the caches: a copy
+                                    of them taken at one value is current while
+                                    the value holds (the fusion centre's snapshot) */
+        dkf_real_t steady_tol;   /* dkf_diffkf_set_steady's tolerance; 0 = off */
+    } priv;
 } dkf_diffkf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

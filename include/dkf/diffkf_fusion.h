@@ -125,14 +125,17 @@ typedef struct {
     size_t m, p;
     dkf_diffkf_t rep;   /* local filter i's (J, L, K, ...) recursion; its x is
                            the node's reported x */
-    dkf_diffkf_t saved; /* rep as it was before the running call */
-    dkf_real_t *store, *saved_store; /* rep's storage and its snapshot */
-    size_t store_len;
     dkf_mat_t z, dz; /* recovered z^i_k, dz^i_k (p x 1) of the last step (z is
                         z^i_k only if the node contributed; both 0 if its
                         message was absent) */
     int sync;        /* the replica carries node i's true dz^i_{k-1}: a
                         message of step k+1 will give the exact z^i_{k+1} */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_diffkf_t saved; /* rep as it was before the running call */
+        dkf_real_t *store, *saved_store; /* rep's storage and its snapshot */
+        size_t store_len;
+    } priv;
 } dkf_diffkf_fc_node_t;
 
 typedef struct {
@@ -141,18 +144,21 @@ typedef struct {
     dkf_diffkf_fc_node_t *nodes;
     dkf_diffkf_t central; /* the Difference KF on the stacked model: its xf, Pf,
                              xn, Pn are the fused estimates; z, dz stacked */
-    dkf_mat_t H, D, R, B, Rd; /* the stacked model of the running call */
-    dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
-                                  reals are state) */
-    dkf_real_t *cache_snap;    /* state: a copy of its caches (its state after
-                                  the carry), refreshed when they change */
-    dkf_real_t *pend; /* scratch: the running call's z, dz (2 sum p_i) */
-    dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
-    dkf_real_t *work; /* SVD / LU / rank workspace */
-    size_t work_len;
-    int ready, started;
-    int stacked; /* H, D, R (1), and B, Rd too (2), hold a stacking completed
-                    by a successful call (zeros outside the blocks), 0: none */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_mat_t H, D, R, B, Rd; /* the stacked model of the running call */
+        dkf_real_t *central_store; /* central's storage (its first DKF_DIFFKF_STATE_LEN
+                                      reals are state) */
+        dkf_real_t *cache_snap;    /* state: a copy of its caches (its state after
+                                      the carry), refreshed when they change */
+        dkf_real_t *pend; /* scratch: the running call's z, dz (2 sum p_i) */
+        dkf_real_t *Kp;   /* (K^i)^+, p_max x n */
+        dkf_real_t *work; /* SVD / LU / rank workspace */
+        size_t work_len;
+        int ready, started;
+        int stacked; /* H, D, R (1), and B, Rd too (2), hold a stacking completed
+                        by a successful call (zeros outside the blocks), 0: none */
+    } priv;
 } dkf_diffkf_fc_t;
 
 /* Reals of storage the FC needs for state dimension n and l sensors of

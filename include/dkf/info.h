@@ -45,8 +45,11 @@ typedef struct {
     dkf_mat_t P; /* Y^{-1}: n x n */
     dkf_mat_t y; /* information vector: n x 1 */
     dkf_mat_t Y; /* information matrix: n x n */
-    dkf_real_t *work;
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *work;
+        int ready;
+    } priv;
 } dkf_info_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

@@ -58,8 +58,11 @@ typedef struct {
     dkf_mat_t nu;     /* last innovation y - H x_{k|k-1}: m x 1 (m of the last update) */
     dkf_mat_t S;      /* its covariance H P H^T + R: m x m */
     dkf_real_t nis;   /* nu^T S^{-1} nu of the last update */
-    dkf_real_t *work; /* scratch for one step */
-    int ready;        /* set by dkf_kf_init */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *work; /* scratch for one step */
+        int ready;        /* set by dkf_kf_init */
+    } priv;
 } dkf_kf_t;
 
 /* Declares a filter `name` and exactly-sized storage `name_storage`, both

@@ -194,9 +194,11 @@ typedef struct {
     dkf_mat_t i, I;     /* information contributions, n x 1, n x n (information kinds) */
     /* information after the last commit (information kinds) */
     dkf_mat_t Y, y; /* n x n, n x 1 */
-    /* private */
-    dkf_real_t *mem;
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *mem;
+        int ready;
+    } priv;
 } dkf_nerts_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

@@ -61,11 +61,14 @@ typedef struct {
     dkf_mat_t U, V;    /* blending matrices U_k (after predict), V_k (after update) */
     dkf_mat_t x, P;    /* combined estimate x = x~ + U d (or V d) and its
                           covariance P = P^x + U P^d U^T (or V P^d V^T) */
-    dkf_real_t *work;  /* step scratch (not state) */
-    dkf_real_t *D_ok;  /* m x p: the last D_k that passed the rank check */
-    int d_checked;     /* 1 once D_ok holds such a matrix */
-    int blend_is_v;    /* 1 after init/update (x = x~ + V d), 0 after predict */
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *work;  /* step scratch (not state) */
+        dkf_real_t *D_ok;  /* m x p: the last D_k that passed the rank check */
+        int d_checked;     /* 1 once D_ok holds such a matrix */
+        int blend_is_v;    /* 1 after init/update (x = x~ + V d), 0 after predict */
+        int ready;
+    } priv;
 } dkf_otskf_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

@@ -108,20 +108,23 @@ typedef struct {
 } dkf_selftune_est_t;
 
 typedef struct {
-    size_t na, np, nc, K, L, t_min;
-    size_t t;          /* steps fed */
-    size_t head;       /* ring index of the oldest stored ybar */
-    size_t t_accepted;
-    dkf_selftune_guard_t guard;
-    dkf_real_t inv_L;       /* 1 / L */
-    dkf_real_t sv_term;     /* sum_i sigma_vi^2 / L^2 */
-    dkf_real_t sigma_xi2, root_max, rho_max, sigma_w2_min;
-    dkf_real_t *ring;       /* K past ybar, ring[(head + j) % K] = ybar(t - K + j) */
-    dkf_real_t *mx, *my, *cm; /* per lag k: mean of ybar(tau), of ybar(tau-k), co-moment */
-    dkf_real_t *reta;       /* r_eta(0..K) */
-    dkf_real_t *p;          /* p_1..p_np */
-    dkf_real_t *acc;        /* accepted a_1..a_na, [c_1], sigma_w^2 */
-    dkf_real_t *raw;        /* raw a_1..a_na, [c_1], sigma_w^2, rho */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        size_t na, np, nc, K, L, t_min;
+        size_t t;          /* steps fed */
+        size_t head;       /* ring index of the oldest stored ybar */
+        size_t t_accepted;
+        dkf_selftune_guard_t guard;
+        dkf_real_t inv_L;       /* 1 / L */
+        dkf_real_t sv_term;     /* sum_i sigma_vi^2 / L^2 */
+        dkf_real_t sigma_xi2, root_max, rho_max, sigma_w2_min;
+        dkf_real_t *ring;       /* K past ybar, ring[(head + j) % K] = ybar(t - K + j) */
+        dkf_real_t *mx, *my, *cm; /* per lag k: mean of ybar(tau), of ybar(tau-k), co-moment */
+        dkf_real_t *reta;       /* r_eta(0..K) */
+        dkf_real_t *p;          /* p_1..p_np */
+        dkf_real_t *acc;        /* accepted a_1..a_na, [c_1], sigma_w^2 */
+        dkf_real_t *raw;        /* raw a_1..a_na, [c_1], sigma_w^2, rho */
+    } priv;
 } dkf_selftune_t;
 
 /* `name` and `name_storage`, storage class sc (the form of DKF_KF_DECLARE). */

@@ -111,9 +111,12 @@ typedef struct {
     dkf_mat_t phi_post, Phi_post; /* phi_{k|k}, Phi_{k|k} */
     dkf_mat_t S, Gpost;           /* S_k (p x p), Gpost_k (n x p; paper: G_n) */
     dkf_mat_t psi, Ploc;          /* phi+ + Gpost d^, Phi+ + Gpost S^{-1} Gpost^T (local) */
-    dkf_real_t *mem; /* pending step and scratch */
-    int ready;
     int pending; /* dkf_tw_node_local succeeded, commit not yet called */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *mem; /* pending step and scratch */
+        int ready;
+    } priv;
 } dkf_tw_node_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):
@@ -172,14 +175,17 @@ typedef struct {
     const dkf_graph_t *g;
     size_t N, n, p;
     dkf_tw_node_t *nodes; /* caller array of N nodes */
-    dkf_real_t *out;      /* N x PKT: the packet each node broadcasts */
-    dkf_real_t *mix;      /* N x PKT: what each node combined */
-    dkf_real_t *tmp;      /* N x PKT: ACF double buffer */
     /* communication counters, summed over nodes and steps; per node per
      * step = reals_sent / (N * steps) */
     unsigned long reals_sent;
     unsigned long broadcasts;
     size_t steps;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *out; /* N x PKT: the packet each node broadcasts */
+        dkf_real_t *mix; /* N x PKT: what each node combined */
+        dkf_real_t *tmp; /* N x PKT: ACF double buffer */
+    } priv;
 } dkf_tw_net_t;
 
 /* Declares a network `name`, its node array `name_nodes` (N) and storage

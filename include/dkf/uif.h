@@ -136,12 +136,14 @@ typedef struct {
     /* Rank tolerance for every rank decision; DKF_RANK_TOL_DEFAULT after
      * init. May be changed between steps. */
     dkf_real_t rank_tol;
-    /* private */
-    dkf_real_t *mem;
-    size_t cache_rows, cache_rank;
-    dkf_real_t cache_tol;
-    int cached;
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *mem;
+        size_t cache_rows, cache_rank;
+        dkf_real_t cache_tol;
+        int cached;
+        int ready;
+    } priv;
 } dkf_uif_t;
 
 /* `name` and `name_storage`, storage class sc (static, extern or empty):

@@ -32,12 +32,12 @@
  *     w = e^T P_S^{-1} / (e^T P_S^{-1} e),  P_S0 = (e^T P_S^{-1} e)^{-1},
  *     s0 = sum_i w_i Hs x_i;
  *   matrix weights (Sun and Deng 2004) on x:
- *     [A_1 ... A_l] = (e^T S^{-1} e)^{-1} e^T S^{-1},  P0 = (e^T S^{-1} e)^{-1},
- *     x0 = sum_i A_i x_i.
+ *     [A_1 ... A_l] = (e^T S^{-1} e)^{-1} e^T S^{-1},  Pf = (e^T S^{-1} e)^{-1},
+ *     xf = sum_i A_i x_i  (the paper's x_0, P_0).
  * Both are the solution of min tr(A S A^T) subject to sum_i A_i = I, i.e.
- * of the KKT system [[S, e], [e^T, 0]] [A^T; -P0] = [0; I]. Where S is
+ * of the KKT system [[S, e], [e^T, 0]] [A^T; -Pf] = [0; I]. Where S is
  * singular (with a common initial estimate, the first steps: fewer driving
- * noises than n l) the fused estimate and P0 are still unique while the
+ * noises than n l) the fused estimate and Pf are still unique while the
  * weights may not be: the KKT system is then solved in the least-squares
  * sense (its pseudo-inverse: the minimum-norm weights) and `*_unique` is 0.
  */
@@ -75,10 +75,13 @@ typedef struct {
     dkf_mat_t K;      /* K_i(t) of the last step, n x m */
     dkf_mat_t Psi;    /* Psi_i(t) = (I - K_i H_i) F, n x n */
     dkf_mat_t J;      /* J_i(t) = I - K_i H_i, n x n */
-    dkf_real_t *work; /* scratch of one step */
     unsigned long t;  /* steps taken since init */
     int steady;       /* 1: K, Psi, J, P held at the steady state */
-    int ready;
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *work; /* scratch of one step */
+        int ready;
+    } priv;
 } dkf_wfusion_local_t;
 
 /* `name` and `name_storage`, storage class sc (the form of DKF_KF_DECLARE). */
@@ -137,14 +140,17 @@ typedef struct {
     int w_unique;                /* 0: P_S of the present sensors singular, w min-norm */
     /* dkf_wfusion_fuse_matrix's results */
     dkf_mat_t A;                 /* [A_1 ... A_l], n x n l (0 blocks for absent sensors) */
-    dkf_mat_t x0;                /* fused estimate, n x 1 */
-    dkf_mat_t P0;                /* its error covariance, n x n */
+    dkf_mat_t xf;                /* fused estimate, n x 1 */
+    dkf_mat_t Pf;                /* its error covariance, n x n */
     int A_unique;                /* 0: the KKT system singular, A min-norm */
     size_t used;                 /* sensors present in the last fusion */
-    dkf_real_t *work;
-    unsigned long t;
-    int steady;
-    int ready;
+    unsigned long t;             /* steps taken since init */
+    int steady;                  /* 1: every local filter and P_ij steady */
+    /* private: the library's own; the caller neither reads nor writes it */
+    struct {
+        dkf_real_t *work;
+        int ready;
+    } priv;
 } dkf_wfusion_t;
 
 /* `name`, `name_nodes` (l local filters) and `name_storage` for l sensors
@@ -186,7 +192,7 @@ dkf_status_t dkf_wfusion_steady(dkf_wfusion_t *fu, const dkf_kf_dyn_t *dyn,
 dkf_status_t dkf_wfusion_fuse_scalar(dkf_wfusion_t *fu, const dkf_mat_t *const x[]);
 
 /* Matrix-weight fusion of x (Sun and Deng) over the same choice of
- * sensors; fills A, x0, P0, A_unique, used. Codes as fuse_scalar (NOT_SPD
+ * sensors; fills A, xf, Pf, A_unique, used. Codes as fuse_scalar (NOT_SPD
  * for the joint sub-block). */
 dkf_status_t dkf_wfusion_fuse_matrix(dkf_wfusion_t *fu, const dkf_mat_t *const x[]);
 

@@ -88,8 +88,8 @@ static void net_regions(fz_snap_t *snap, const dkf_dfnerts_net_t *net,
     fz_region(snap, net, sizeof *net);
     for (l = 0; l < NET_N; ++l) {
         fz_region(snap, &nodes[l], sizeof nodes[l]);
-        if (nodes[l].ready)
-            fz_region(snap, nodes[l].mem,
+        if (nodes[l].priv.ready)
+            fz_region(snap, nodes[l].priv.mem,
                       DKF_DFNERTS_NODE_STATE_LEN(nodes[l].n, nodes[l].m, nodes[l].p) *
                           sizeof(dkf_real_t));
     }
@@ -170,7 +170,7 @@ static void fuzz_net(fz_t *z, dkf_nerts_kind_t kind, dkf_dfnerts_variant_t varia
                                  scale);
         if (fz_after(&snap, s))
             for (l = 0; l < NET_N; ++l) {
-                fz_finite(nodes[l].mem, DKF_DFNERTS_NODE_STATE_LEN(n, m[l], p));
+                fz_finite(nodes[l].priv.mem, DKF_DFNERTS_NODE_STATE_LEN(n, m[l], p));
                 fz_symmetric(nodes[l].f.Px.data, n, 1);
             }
     }

@@ -99,7 +99,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         default: /* the steady gain on (tol 0.5: it settles often) or off; or save a
                   checkpoint, or restore a byte-edited one */
             if ((code & 192) == 192) {
-                FZ_CHECK(dkf_diffkf_set_steady(&f, f.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) == DKF_OK);
+                FZ_CHECK(dkf_diffkf_set_steady(&f, f.priv.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) ==
+                         DKF_OK);
                 continue;
             }
             if (code & 8) {

@@ -29,11 +29,11 @@ static void check_ok(const dkf_diffkf_fc_t *fc, int sym)
     size_t i;
     for (i = 0; i < fc->l; ++i) {
         const dkf_diffkf_fc_node_t *nd = &fc->nodes[i];
-        fz_finite(nd->store, DKF_DIFFKF_STATE_LEN(fc->n, nd->m, nd->p));
+        fz_finite(nd->priv.store, DKF_DIFFKF_STATE_LEN(fc->n, nd->m, nd->p));
         fz_finite(nd->z.data, nd->p);
         fz_finite(nd->dz.data, nd->p);
     }
-    fz_finite(fc->central_store, DKF_DIFFKF_STATE_LEN(c->n, c->m, c->p));
+    fz_finite(fc->priv.central_store, DKF_DIFFKF_STATE_LEN(c->n, c->m, c->p));
     fz_symmetric(c->Pf.data, c->n, sym);
     fz_symmetric(c->Pn.data, c->n, sym);
 }
@@ -163,7 +163,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         default: /* the steady gain on (tol 0.5: it settles often) or off; or save a
                   checkpoint, or restore a byte-edited one */
             if ((code & 192) == 192) {
-                FZ_CHECK(dkf_diffkf_fc_set_steady(&fc, fc.central.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) == DKF_OK);
+                FZ_CHECK(dkf_diffkf_fc_set_steady(
+                             &fc, fc.central.priv.steady_tol > 0 ? DKF_R(0.0) : DKF_R(0.5)) == DKF_OK);
                 continue;
             }
             if (code & 8) {

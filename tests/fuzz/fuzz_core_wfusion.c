@@ -57,7 +57,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                          &Hs.v, &x0.v, &P0.v);
     if (!fz_after(&snap, s)) return 0;
     N = n * l;
-    own = N * N + n + l * l + l + n * N + n + n * n; /* Pj, Hs, PS, w, A, x0, P0 */
+    own = N * N + n + l * l + l + n * N + n + n * n; /* Pj, Hs, PS, w, A, xf, Pf */
     for (i = 0; i < l; ++i)
         fz_region(&snap, fu_nodes[i].x.data, DKF_WFUSION_LOCAL_STATE_LEN(n, m[i]) * sizeof(dkf_real_t));
     fz_region(&snap, fu.Pj.data, own * sizeof(dkf_real_t));

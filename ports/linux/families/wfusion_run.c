@@ -381,9 +381,9 @@ static void record_matrix(json_t *dst, const wf_runner_t *u, int steady_keys)
     put(dst, "matrix_weights", weights_json(u), steady_keys);
     if (!steady_keys) {
         put(dst, "matrix_weights_unique", json_boolean(u->fu.A_unique), steady_keys);
-        put(dst, "x_fused_matrix", mat_json(&u->fu.x0, 1), steady_keys);
+        put(dst, "x_fused_matrix", mat_json(&u->fu.xf, 1), steady_keys);
     }
-    put(dst, "P0_matrix", mat_json(&u->fu.P0, 0), steady_keys);
+    put(dst, "P0_matrix", mat_json(&u->fu.Pf, 0), steady_keys);
 }
 
 static int fuse(wf_runner_t *u, char *err, size_t errlen, long k)
@@ -522,7 +522,7 @@ static void errors_at(wf_runner_t *u, long k)
             u->sq_local[i] += e * e;
         }
     for (j = 0; j < n; ++j) {
-        e = (double)u->fu.x0.data[j] - xt[j];
+        e = (double)u->fu.xf.data[j] - xt[j];
         u->sq_x += e * e;
     }
     e = (double)u->fu.s0 - st;
@@ -574,7 +574,7 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     case WF_STEADY:
         dkf_json_append(u->series, "steps_x_local", per_node(u, 0));
         dkf_json_append(u->series, "steps_s_fused", json_real((double)u->fu.s0));
-        dkf_json_append(u->series, "steps_x_fused_matrix", mat_json(&u->fu.x0, 1));
+        dkf_json_append(u->series, "steps_x_fused_matrix", mat_json(&u->fu.xf, 1));
         break;
     case WF_SELFTUNE: {
         const dkf_selftune_est_t *e = &u->st->est;
@@ -586,7 +586,7 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
         dkf_json_append(u->series, "sigma_w2_hat", json_real((double)e->sigma_w2));
         dkf_json_append(u->series, "guard", json_integer((json_int_t)e->guard));
         record_scalar(u->series, u, 0);
-        dkf_json_append(u->series, "x_fused_matrix", mat_json(&u->fu.x0, 1));
+        dkf_json_append(u->series, "x_fused_matrix", mat_json(&u->fu.xf, 1));
         break;
     }
     }
@@ -608,7 +608,7 @@ static void wf_summary(const dkf_runner_t *r, FILE *out)
     const double ne = (double)u->nerr;
     double tr = 0.0;
     size_t i;
-    for (i = 0; i < u->mdl.n; ++i) tr += (double)u->fu.P0.data[i * u->mdl.n + i];
+    for (i = 0; i < u->mdl.n; ++i) tr += (double)u->fu.Pf.data[i * u->mdl.n + i];
     fprintf(out, "scenario %s case %s: %zu steps, %zu sensors, n = %zu; filter %s (%s)\n",
             s->file, s->case_name != NULL ? s->case_name : "", s->steps, u->mdl.l, u->mdl.n,
             u->fl->name, DKF_USE_FLOAT ? "float" : "double");

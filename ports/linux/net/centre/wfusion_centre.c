@@ -174,8 +174,8 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
     }
     if (used > 0) {
         for (i = 0; i < l; ++i) contrib[i] = x[i] != NULL;
-        (void)dkf_mat_copy(&xl, &w->fu.x0);
-        (void)dkf_mat_copy(&Pl, &w->fu.P0);
+        (void)dkf_mat_copy(&xl, &w->fu.xf);
+        (void)dkf_mat_copy(&Pl, &w->fu.Pf);
         w->rec.s0[j] = (double)w->fu.s0;
         w->rec.PS0[j] = (double)w->fu.PS0;
         to_double(w->rec.w + j * l, w->fu.w.data, l);

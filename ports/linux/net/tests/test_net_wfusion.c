@@ -163,11 +163,11 @@ static size_t check_against_core(const json_t *doc, const dkf_scenario_t *s, int
         /* bit for bit: the network's fused estimate is the core's over the same sensors */
         for (a = 0; a < n; ++a) {
             assert_true(num(json_array_get(json_object_get(o, "x0"), k - 1), a) ==
-                        (double)ref.x0.data[a]);
+                        (double)ref.xf.data[a]);
             for (b = 0; b < n; ++b)
                 assert_true(num(json_array_get(json_array_get(json_object_get(o, "P0"), k - 1),
                                                a),
-                                b) == (double)ref.P0.data[a * n + b]);
+                                b) == (double)ref.Pf.data[a * n + b]);
         }
         assert_true(num(json_object_get(o, "s0"), k - 1) == (double)ref.s0);
         assert_true(num(json_object_get(o, "PS0"), k - 1) == (double)ref.PS0);
@@ -183,8 +183,8 @@ static size_t check_against_core(const json_t *doc, const dkf_scenario_t *s, int
             double mx = 1, d = 0;
             for (a = 0; a < n; ++a) {
                 if (fabs(num(xe, a)) > mx) mx = fabs(num(xe, a));
-                if (fabs(num(xe, a) - (double)ref.x0.data[a]) > d)
-                    d = fabs(num(xe, a) - (double)ref.x0.data[a]);
+                if (fabs(num(xe, a) - (double)ref.xf.data[a]) > d)
+                    d = fabs(num(xe, a) - (double)ref.xf.data[a]);
             }
             if (d / mx > vworst) vworst = d / mx;
             if (d / mx > VREL) print_message("step %zu: x0 differs from the vector by %.3e\n", k, d / mx);

@@ -140,11 +140,11 @@ int main(int argc, char **argv)
         }
         for (a = 0; a < n; ++a) {
             upd(&worst, num(json_array_get(json_object_get(o, "x0"), k - 1), a),
-                (double)fu.x0.data[a]);
+                (double)fu.xf.data[a]);
             for (b = 0; b < n; ++b)
                 upd(&worst,
                     num(json_array_get(json_array_get(json_object_get(o, "P0"), k - 1), a), b),
-                    (double)fu.P0.data[a * n + b]);
+                    (double)fu.Pf.data[a * n + b]);
         }
         upd(&worst, num(json_object_get(o, "s0"), k - 1), (double)fu.s0);
         upd(&worst, num(json_object_get(o, "PS0"), k - 1), (double)fu.PS0);

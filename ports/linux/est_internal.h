@@ -29,11 +29,11 @@ typedef struct {
     size_t nsens;
     size_t *idx;
     size_t m, p;     /* stacked dimensions (p = 0: no unknown-input model) */
-    dkf_real_t *buf; /* H, R, y, A, B, Rd, i, I, contribution work */
-    dkf_mat_t H, R, y, A, B, Rd;
+    dkf_real_t *buf; /* H, R, y, D, B, Rd, i, I, contribution work */
+    dkf_mat_t H, R, y, D, B, Rd;
     dkf_mat_t i, I;  /* information contribution (info kinds) */
     dkf_real_t *work;
-    dkf_ui_meas_t meas; /* views of H, A, R */
+    dkf_ui_meas_t meas; /* views of H, D, R */
 } dkf_est_group_t;
 
 struct dkf_est {
@@ -91,7 +91,7 @@ int dkf_est_run_check(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_
 dkf_runner_t *dkf_est_run_create(const dkf_filter_t *f, const dkf_run_opts_t *o,
                                  const dkf_scenario_t *s, char *err, size_t errlen, int *rc);
 int dkf_est_run_step(dkf_runner_t *r, long k, char *err, size_t errlen);
-void dkf_est_run_record(const dkf_runner_t *r, json_t *doc);
+void dkf_est_run_record(dkf_runner_t *r, dkf_out_t *out);
 int dkf_est_run_errors(const dkf_runner_t *r, size_t i, const char **name, const double **sq_f,
                        const double **sq_p);
 void dkf_est_run_summary(const dkf_runner_t *r, FILE *out);
@@ -114,7 +114,7 @@ extern const dkf_node_ops_t dkf_wfusion_node_ops;
     const dkf_family_t dkf_family_##fam = {                                                 \
         #fam, fam##_filters, 1,                                                             \
         (1u << DKF_SCN_LAYOUT_CANONICAL) | (1u << DKF_SCN_LAYOUT_CASES), dkf_est_run_check, \
-        dkf_est_run_create, dkf_est_run_step, dkf_est_run_record, dkf_est_run_errors,       \
+        dkf_est_run_create, dkf_est_run_step, dkf_est_run_record, NULL, dkf_est_run_errors, \
         dkf_est_run_summary, dkf_est_run_destroy, node}
 
 #endif /* DKF_HOST_EST_INTERNAL_H */

@@ -4,6 +4,7 @@
  *
  * The reader is split by file layout (docs/scenario-format.md):
  *   scn_values.c     numbers, vectors, matrices, named matrix sets, series
+ *   scn_keys.c       the keys an object may have, the old letters renamed
  *   scn_check.c      the checks every layout shares (shapes, times,
  *                    covariances) and the filters' pre-start queries
  *   scn_canonical.c  the canonical layout (model / init / y or runs)
@@ -103,10 +104,31 @@ int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
 /* Index of time k in the strictly increasing list ks, or -1. */
 long dkf_scn_find_time(const long *ks, size_t n, long k);
 
+/* ---- keys and letters (scn_keys.c) ---- */
+/* Every key of obj (at path) is in known (NULL-terminated); string and
+ * null values are comments; at the top level (path "") the vector files'
+ * informational keys (outputs, tolerance, dims, ...) are known too. Else
+ * "PATH.KEY: unknown key (did you mean K?)" with the nearest known key, or
+ * the nearest of elsewhere (full paths such as "init.P00_central", NULL
+ * for none), when one is near. */
+int dkf_scn_check_keys(dkf_scn_ctx_t *c, const json_t *obj, const char *path,
+                       const char *const *known, const char *const *elsewhere);
+/* The old letters of root's matrices (layout: CANONICAL, CASES, STEPS or
+ * NETWORK; the others have none) renamed in place to the library's, with
+ * a one-line notice naming them into notice (unchanged if the file has
+ * none); -1 if the file mixes the two. docs/scenario-format.md, "Letters". */
+int dkf_scn_letters(dkf_scn_ctx_t *c, json_t *root, dkf_scn_layout_t layout, char *notice,
+                    size_t len);
+
 /* ---- checks every layout shares (scn_check.c) ---- */
 /* The n x n covariance a (read from the file at path) symmetric within
  * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
 int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
+/* The symmetric n x n a (at path) positive semidefinite within rounding
+ * (spd = 0) or positive definite (spd = 1); else a message naming path,
+ * what (which matrix must be what) and the failing Cholesky pivot. */
+int dkf_scn_check_definite(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
+                           int spd, const char *what);
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s);
 int dkf_scn_require_shape(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path,
                           size_t r, size_t cc);
@@ -134,12 +156,14 @@ int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
 /* The cases layouts' measurements (scn_cases.c): every sensor's y series
  * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and
  * steps[j] of the case at cpath checked (an object whose time key tkey,
- * "k" or "t", is j + 1): its data key dkey ("z", "y") with that key's path
- * in pd, or NULL after the message (every cases layout's step list). */
+ * "k" or "t", is j + 1, with no key outside known): its data key dkey
+ * ("z", "y") with that key's path in pd, or NULL after the message (every
+ * cases layout's step list). */
 int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
                           const char *cpath);
 const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                 const char *cpath, const char *tkey, const char *dkey, char *pd);
+                                 const char *cpath, const char *tkey, const char *dkey,
+                                 const char *const *known, char *pd);
 /* Case cj (at cpath) of a cases file whose case has `model` or
  * `node_models` (the nonlinear cases layout). */
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,

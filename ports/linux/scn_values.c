@@ -338,8 +338,10 @@ int dkf_scn_check_dims(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m)
 static int parse_model_value(dkf_scn_ctx_t *c, dkf_scn_mat_t *m, const json_t *j, const char *path)
 {
     char p[DKF_SCN_PATH_LEN];
+    static const char *const known[] = {"const", "per_k", NULL};
     const json_t *cst, *pk;
     if (json_is_array(j)) return dkf_scn_parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
+    if (dkf_scn_check_keys(c, j, path, known, NULL) != 0) return -1;
     cst = json_object_get(j, "const");
     pk = json_object_get(j, "per_k");
     if ((cst == NULL) == (pk == NULL))
@@ -392,14 +394,19 @@ int dkf_scn_parse_init_entry(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const char *
 int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, const char *vkey,
                          size_t dim, size_t *count, long **kout, double **vout)
 {
+    /* truth's true inputs (d, d_stacked) are informational */
+    const char *known[] = {"k", NULL, NULL, NULL, NULL};
     const json_t *jk, *jv;
     size_t i, n;
     long *k;
     dkf_scn_block_t v = {NULL, 0, 0};
     char p[DKF_SCN_PATH_LEN], pi[DKF_SCN_PATH_LEN];
+    known[1] = vkey;
+    if (strcmp(vkey, "x") == 0) known[2] = "d", known[3] = "d_stacked";
     if (!json_is_object(j))
         return dkf_scn_fail(c, path, "expected {\"k\": [...], \"%s\": [...]}, got %s", vkey,
                             dkf_scn_json_kind(j));
+    if (dkf_scn_check_keys(c, j, path, known, NULL) != 0) return -1;
     jv = json_object_get(j, vkey);
     dkf_scn_subkey(p, path, vkey);
     if (jv == NULL) return dkf_scn_fail(c, p, "missing key");

@@ -5,7 +5,8 @@
 #   cmake --build DIR 2>&1 | progress_build LABEL LOG
 #
 # say LABEL TEXT prints "[LABEL] TEXT (s since step_t0)"; set step_t0=$SECONDS
-# where a step begins.
+# where a step begins. Safe under `set -e` (a read that times out is a status
+# here, not a failure).
 step_t0=$SECONDS
 say() { printf '[%s] %s (%d s)\n' "$1" "$2" $((SECONDS - step_t0)); }
 
@@ -15,7 +16,7 @@ say() { printf '[%s] %s (%d s)\n' "$1" "$2" $((SECONDS - step_t0)); }
 # long compile or test never leaves the terminal silent for long).
 next_line() {
   local got rc
-  IFS= read -r -t 10 got; rc=$?
+  IFS= read -r -t 10 got && rc=0 || rc=$?
   if (( rc > 128 )); then _partial+=$got; return 2; fi
   line=$_partial$got; _partial=''
   (( rc == 0 )) || [[ -n $line ]] || return 1
@@ -28,7 +29,7 @@ progress_build() {
   local label=$1 log=$2 line pct=0 last=-1 t=$((SECONDS - 10)) rc _partial=''
   : >"$log"
   while :; do
-    next_line; rc=$?
+    next_line && rc=0 || rc=$?
     if (( rc == 2 )); then
       (( SECONDS - t >= 30 )) && { say "$label" "build $pct%, still compiling"; t=$SECONDS; }
       continue

@@ -87,10 +87,10 @@ static const cov_t model_cov[] = {
     {"Rd", 0, "the input noise covariance Rd must be symmetric PSD"},
 };
 static const cov_t init_cov[] = {
-    {"P00", 1, "the initial covariance P00 must be SPD"},
-    {"P00_local", 1, "the initial covariance P00_local must be SPD"},
-    {"P00_central", 1, "the initial covariance P00_central must be SPD"},
-    {"Pd00", 1, "the initial input covariance Pd00 must be SPD"},
+    {"P00", 1, "the initial state covariance must be SPD"},
+    {"P00_local", 1, "the initial state covariance must be SPD"},
+    {"P00_central", 1, "the initial state covariance must be SPD"},
+    {"Pd00", 1, "the initial input covariance must be SPD"},
 };
 
 static int require_covariance(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,

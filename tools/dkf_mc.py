@@ -76,7 +76,7 @@ class Example:
     def model(self, B_filter=None):
         """The filters' model (B_filter overrides B, for the hypothesis runs)."""
         B = self.B if B_filter is None else B_filter
-        sensor = {"H": {"const": H}, "A": {"const": I2}, "R": {"const": I2},
+        sensor = {"H": {"const": H}, "D": {"const": I2}, "R": {"const": I2},
                   "B": {"const": B}, "Rd": {"const": I2}}
         m = {"F": {"const": F}, "Q": {"const": self.Q}}
         if self.sensors == 1:

@@ -6,7 +6,7 @@
 Target: 2-D constant velocity, x = (px, vx, py, vy), T = 1 s. Every node i
 has its own measurement matrix H^i (m_i x 4, m_i in {2, 3, 4}), noise R^i,
 unknown input d^i (p_i in {1, 2}, p_i <= m_i; most nodes have p_i < m_i)
-entering through A^i (m_i x p_i, full column rank), with d^i_{k+1} =
+entering through D^i (m_i x p_i, full column rank), with d^i_{k+1} =
 B^i d^i_k + wd^i_k. The output is the canonical scenario layout
 (docs/scenario-format.md) with y_1..y_{N+1} (the Difference KF needs
 y_{N+1}) and the truth x_0..x_{N+1}. Everything comes from one seeded
@@ -42,11 +42,11 @@ def make(nodes, steps, seed, max_dim=48):
         if i == 0:
             m, p = 2, 2                        # one node with p = m, like Example 3
         H = rand_full_rank(rng, m, n)
-        A = rand_full_rank(rng, m, p)
+        D = rand_full_rank(rng, m, p)
         R = np.diag(rng.uniform(0.2, 2.0, size=m))
         B = np.diag(rng.uniform(0.8, 1.0, size=p))
         Rd = np.diag(rng.uniform(0.01, 0.2, size=p))
-        sensors.append(dict(H=H, A=A, R=R, B=B, Rd=Rd))
+        sensors.append(dict(H=H, D=D, R=R, B=B, Rd=Rd))
         ms.append(m)
         ps.append(p)
     if sum(ms) > max_dim or sum(ps) > max_dim:
@@ -64,7 +64,7 @@ def make(nodes, steps, seed, max_dim=48):
         for i, s in enumerate(sensors):
             d[i] = s["B"] @ d[i] + np.sqrt(np.diag(s["Rd"])) * rng.normal(size=ps[i])
             w = np.sqrt(np.diag(s["R"])) * rng.normal(size=ms[i])
-            ys[i].append(s["H"] @ x + s["A"] @ d[i] + w)
+            ys[i].append(s["H"] @ x + s["D"] @ d[i] + w)
 
     def mat(a):
         return {"const": np.asarray(a).tolist()}

@@ -1,7 +1,13 @@
 #!/usr/bin/env bash
 # tools/net_demo.sh - the sensor network over LCM, end to end, on this machine.
 #
-#   tools/net_demo.sh [--build-dir DIR] [--no-build] [--rate HZ] [--memq]
+#   tools/net_demo.sh [--build-dir DIR] [--no-build] [--rate HZ] [--memq] [--realtime]
+#
+# --realtime: as root, run the multicast demo's processes at real-time FIFO
+# priority (chrt -f 20), so that a woken process runs at once instead of
+# queueing behind the machine's ordinary load (docs/network.md, "Where the
+# latency goes"); they can then starve everything else on the machine
+# while they run. Without it they run at the ordinary priority.
 #
 # Builds dkf (DKF_MAX_DIM = 1024: the host's centre is sized by its build,
 # docs/decisions.md item 23), then runs seed-000 Example 3 (2 nodes) and
@@ -24,7 +30,7 @@ set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/net-demo
-do_build=1 rate=50 memq=0
+do_build=1 rate=50 memq=0 realtime=0
 # the host's centre is sized by its build's DKF_MAX_DIM (docs/decisions.md, item 23):
 # 200 nodes of make_net_scenario.py stack 616 measurements (seed 200)
 maxdim=1024
@@ -36,6 +42,7 @@ while [[ $# -gt 0 ]]; do
     --no-build) do_build=0; shift ;;
     --rate) rate=$2; shift 2 ;;
     --memq) memq=1; shift ;;
+    --realtime) realtime=1; shift ;;
     --inner) shift; break ;;   # internal: run one scenario inside the namespace
     -h|--help) awk 'NR > 1 && !/^#/ { exit } NR > 1 { sub(/^# ?/, ""); print }' "$0"; exit 0 ;;
     *) echo "net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
@@ -49,10 +56,13 @@ if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   # wakes only for what it reads (docs/network.md, "Split ports"); each reads its
   # sockets itself, one wake-up per datagram instead of LCM's two ("Direct receive")
   opts=(--key-dir "$keys" --split-ports --direct-recv)
-  # real-time FIFO priority where allowed (root): a woken process runs at once instead
-  # of queueing behind the ordinary load (docs/network.md, "Where the latency goes")
+  # --realtime: FIFO priority (root), a woken process runs at once instead of queueing
+  # behind the ordinary load (docs/network.md, "Where the latency goes")
   rt=()
-  chrt -f 20 true 2>/dev/null && rt=(chrt -f 20)
+  if [[ ${DKF_DEMO_RT:-0} == 1 ]]; then
+    if chrt -f 20 true 2>/dev/null; then rt=(chrt -f 20)
+    else echo "net_demo.sh: --realtime: chrt -f 20 refused; ordinary priority" >&2; fi
+  fi
   if ip -o link | grep -qv ': lo:'; then
     echo "net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
   fi
@@ -75,13 +85,20 @@ fi
 
 # ---- dependencies and build ------------------------------------------------------
 if (( do_build )); then
+  . "$here/progress.sh"
   # installs what is missing when root, else prints the command and stops;
   # the demo does not need the armhf cross libraries
   DKF_BOOTSTRAP_NO_ARMHF=1 "$root/tools/bootstrap.sh"
-  echo "== building dkf in $build (DKF_MAX_DIM = $maxdim: the 50- and 200-node centres)"
+  echo "== building dkf in $build (DKF_MAX_DIM = $maxdim: the 50- and 200-node centres;"
+  echo "   a few minutes the first time, progress below, full log $build/net_demo.build.log)"
+  step_t0=$SECONDS
+  say build "configuring"
   cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DDKF_MAX_DIM="$maxdim" >/dev/null
+  # every program of this demo and of the three below (their own builds are then no-ops)
   cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local \
-    dkf-keygen >/dev/null
+    dkf-keygen dkf-tw-node 2>&1 | progress_build build "$build/net_demo.build.log"
+  (( PIPESTATUS[0] == 0 )) || { echo "net_demo.sh: the build failed (see $build/net_demo.build.log)" >&2; exit 2; }
+  say build "done"
 fi
 bin=$build/ports/linux/net
 run=$build/ports/linux/dkf-run
@@ -100,7 +117,15 @@ python3 "$here/make_net_scenario.py" --nodes 200 --steps 50 --seed 200 --max-dim
 # issue 14's latency goal (docs/network.md, "Where the latency goes"): the 12-node network
 # again, 1000 steps at 100 Hz, so that its p99 is not just its first (cold) step
 python3 "$here/make_net_scenario.py" --nodes 12 --steps 1000 --seed 12 --out "$out/lat12.json"
-scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json"
+# Example 3 in the library's letters (the vector's A is D; docs/scenario-format.md, "Letters")
+python3 - "$root/tests/vectors/diffkf/ex3_multi.json" "$out/ex3.json" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+for s in d["model"]["sensors"]:
+    s["D"] = s.pop("A")
+json.dump(d, open(sys.argv[2], "w"))
+PY
+scenarios=("ex3:$out/ex3.json" "net12:$out/net12.json"
            "net50:$out/net50.json" "net200:$out/net200.json" "lat12:$out/lat12.json")
 # in one process over memq:// whatever the mode (200 node processes would be 200 LCM
 # sockets each reading every datagram of the group: a 2-core machine's scheduler, not the centre)
@@ -133,7 +158,7 @@ for e in "${scenarios[@]}"; do
     # every datagram authenticated (docs/network.md, Authentication): a key per node
     nn=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["sensors"]))' "$scn")
     "$bin/dkf-keygen" "$out/keys-$tag" "$nn"
-    DKF_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r" \
+    DKF_DEMO_INNER=1 DKF_DEMO_RT=$realtime "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r" \
       "$out/keys-$tag"
   else
     "$bin/dkf-net-local" --quiet --output "$out/$tag.fused.json" "$scn"

@@ -74,14 +74,24 @@ def psd_factor(S):
     return V * np.sqrt(np.clip(w, 0, None))
 
 
+# The seed-003 vectors' letters A, B, Sv, Sw are the library's F, G, Q, R
+# (docs/scenario-format.md, "Letters").
+VECTOR_LETTERS = {"A": "F", "B": "G", "Sv": "Q", "Sw": "R"}
+
+
+def library_letters(model):
+    """model with the vectors' letters renamed to the library's."""
+    return {VECTOR_LETTERS.get(k, k): v for k, v in model.items()}
+
+
 def simulate(base, T, seed):
     """x_n (n = 0..T), y_{l,n} (n = 1..T), z."""
     rng = np.random.default_rng(seed)
     m = base["model"]
-    A, B = np.array(m["A"]), np.array(m["B"])
-    Lv = psd_factor(m["Sv"])
+    A, B = np.array(m["F"]), np.array(m["G"])
+    Lv = psd_factor(m["Q"])
     H = np.array(m["H"])  # N x p x n
-    Lw = np.array([np.linalg.cholesky(np.array(s)) for s in m["Sw"]])
+    Lw = np.array([np.linalg.cholesky(np.array(s)) for s in m["R"]])
     N, p, n = H.shape
     z = true_input(T)
     x = np.zeros((T + 1, n))
@@ -96,7 +106,7 @@ def simulate(base, T, seed):
 
 def scenario(base, x, y, z, T, eta):
     m = base["model"]
-    n = len(m["A"])
+    n = len(m["F"])
     steps = [{"n": k, "inputs": {"y": np.round(y[k], 12).tolist()},
               "truth": {"x": x[k].tolist(), "z_prev": z[:, k - 1].tolist()}}
              for k in range(1, T + 1)]
@@ -104,7 +114,7 @@ def scenario(base, x, y, z, T, eta):
             "graph and sensors of s003_200node_alg1.json, no weights (library defaults)",
             "graph": {"edges": base["graph"]["edges"]}, "eta": eta,
             "init": {"x0": [0.0] * n, "P0": np.eye(n).tolist()},
-            "model": {"A": m["A"], "B": m["B"], "Sv": m["Sv"], "H": m["H"], "Sw": m["Sw"]},
+            "model": {key: m[key] for key in ("F", "G", "Q", "H", "R")},
             "steps": steps}
 
 
@@ -165,6 +175,7 @@ def main(argv=None):
     os.makedirs(work, exist_ok=True)
     with open(args.graph) as f:
         base = json.load(f)
+    base["model"] = library_letters(base["model"])
     N, E = len(base["model"]["H"]), len(base["graph"]["edges"])
     log("graph %s: %d nodes, %d edges; %d runs x %d steps, eta = %d" %
         (os.path.basename(args.graph), N, E, runs, T, args.eta))

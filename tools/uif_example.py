@@ -88,9 +88,11 @@ def simulate(rng, d, feedthrough):
 
 def scenario(name, x, y, d, feedthrough, nrtsf):
     """Steps-layout scenario: DF filters k = 0..K-1; NRTSF k = 1..K-1 (truth d_prev)."""
-    model = {"A": A, "G": G, "Q": Q, "C": C, "R": R}
+    # the library's letters (docs/scenario-format.md, "Letters"); the paper's
+    # A, C, H are F, H, D
+    model = {"F": A, "G": G, "Q": Q, "H": C, "R": R}
     if not nrtsf:
-        model["H"] = feedthrough
+        model["D"] = feedthrough
     steps = []
     for k in range(1 if nrtsf else 0, K):
         truth = {"x": x[:, k].tolist()}

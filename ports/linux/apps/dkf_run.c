@@ -4,6 +4,7 @@
  * every run of a Monte-Carlo scenario, only the squared estimation errors.
  *
  *   dkf-run --filter kf --output out.json scenarios/demo_cv2d.json
+ *   dkf-run --filter kf --output out.csv --format csv --every 10 long.json
  *   dkf-run --filter askf --d00 0,0 --errors err.json mc.json
  *
  * Exit status: 0 success, 2 bad options or bad/unreadable/unwritable file,
@@ -18,6 +19,7 @@
 
 #include <jansson.h>
 
+#include "output.h"
 #include "registry.h"
 #include "scenario.h"
 #include "util.h"
@@ -35,6 +37,8 @@ typedef struct {
 typedef struct {
     const char *filter;
     const char *output;
+    dkf_out_format_t format; /* --format */
+    unsigned long every;     /* --every, >= 1 */
     const char *errors;
     const char *case_sel;
     const char *scenario;
@@ -90,8 +94,15 @@ static void usage(FILE *f, const char *prog)
             fprintf(f, "                         %s: %s\n", dkf_registry[i]->filters[j].name,
                     dkf_registry[i]->filters[j].help);
     fprintf(f,
-            "  -o, --output FILE    write the estimates to FILE (JSON); without it only the\n"
-            "                       summary is printed\n"
+            "  -o, --output FILE    write the estimates to FILE, streamed as the steps run\n"
+            "                       (memory does not grow with the steps); without it only\n"
+            "                       the summary is printed\n"
+            "      --format F       --output's format: json (default, below) or csv (a header\n"
+            "                       line, then one line per step: k and every number of the\n"
+            "                       step's outputs, columns named like outputs.KF.Pp[0][1];\n"
+            "                       the document's one-off keys are JSON only)\n"
+            "      --every N        --output keeps steps k_first, k_first + N, ... (N >= 1,\n"
+            "                       default 1); the filter still runs every step\n"
             "  -e, --errors FILE    Monte-Carlo mode: run every run of the scenario (`runs`)\n"
             "                       and write only the squared errors ||x - x_true||^2 per\n"
             "                       run and step, of x_{k|k} (xf) and x_{k|k-1} (xp), and\n"
@@ -142,10 +153,12 @@ static void list_filters(FILE *f)
 /* 0: run; 1: --help printed; -1: bad usage (message printed). */
 static int parse_options(int argc, char **argv, options_t *o)
 {
-    enum { OPT_FAMILY = 256 };
+    enum { OPT_FORMAT = 256, OPT_EVERY, OPT_FAMILY };
     static const struct option common[] = {
         {"filter", required_argument, NULL, 'f'},
         {"output", required_argument, NULL, 'o'},
+        {"format", required_argument, NULL, OPT_FORMAT},
+        {"every", required_argument, NULL, OPT_EVERY},
         {"errors", required_argument, NULL, 'e'},
         {"run", required_argument, NULL, 'r'},
         {"case", required_argument, NULL, 'c'},
@@ -156,9 +169,11 @@ static int parse_options(int argc, char **argv, options_t *o)
     struct option longopts[sizeof common / sizeof common[0] + MAX_FAMILY_OPTS + 1];
     const dkf_run_opt_t *fo[MAX_FAMILY_OPTS];
     size_t i, nfo = family_opts(fo);
-    int c;
+    int c, out_opts = 0; /* --format, --every: only with --output */
     char *end;
     memset(o, 0, sizeof *o);
+    o->format = DKF_OUT_JSON;
+    o->every = 1;
     memset(longopts, 0, sizeof longopts);
     memcpy(longopts, common, sizeof common);
     for (i = 0; i < nfo; ++i) {
@@ -181,6 +196,25 @@ static int parse_options(int argc, char **argv, options_t *o)
                 fprintf(stderr, "dkf-run: --run %s: expected a run index >= 0\n", optarg);
                 return -1;
             }
+            break;
+        case OPT_FORMAT:
+            if (strcmp(optarg, "json") != 0 && strcmp(optarg, "csv") != 0) {
+                fprintf(stderr, "dkf-run: --format %s: expected json or csv\n", optarg);
+                return -1;
+            }
+            o->format = strcmp(optarg, "csv") == 0 ? DKF_OUT_CSV : DKF_OUT_JSON;
+            ++out_opts;
+            break;
+        case OPT_EVERY:
+            errno = 0;
+            o->every = strtoul(optarg, &end, 10);
+            if (end == optarg || *end != '\0' || errno != 0 || o->every < 1 ||
+                optarg[0] == '-' || o->every > DKF_SCN_MAX_STEPS) {
+                fprintf(stderr, "dkf-run: --every %s: expected an integer 1..%lu\n", optarg,
+                        DKF_SCN_MAX_STEPS);
+                return -1;
+            }
+            ++out_opts;
             break;
         case 'h': usage(stdout, argv[0]); return 1;
         case ':':
@@ -210,6 +244,10 @@ static int parse_options(int argc, char **argv, options_t *o)
     }
     if (o->output != NULL && o->errors != NULL) {
         fprintf(stderr, "dkf-run: --output and --errors: give one of them\n");
+        return -1;
+    }
+    if (out_opts > 0 && o->output == NULL) {
+        fprintf(stderr, "dkf-run: --format and --every: only with --output\n");
         return -1;
     }
     if (optind != argc - 1) {
@@ -270,33 +308,37 @@ static int family_options(const options_t *o, const dkf_filter_t *f, void **area
     return DKF_EXIT_OK;
 }
 
-/* A runner of f on the selected run of s, stepped through every step;
- * NULL after printing the error (*rc: the exit status). */
+/* A runner of f on the selected run of s, stepped through every step,
+ * each step's values to out (NULL: none); NULL after printing the error
+ * (*rc: the exit status). */
 static dkf_runner_t *run_filter(const dkf_filter_t *f, const dkf_run_opts_t *ro,
-                                const dkf_scenario_t *s, int *rc)
+                                const dkf_scenario_t *s, dkf_out_t *out, int *rc)
 {
     char err[DKF_SCN_ERR_LEN];
     dkf_runner_t *r = f->family->create(f, ro, s, err, sizeof err, rc);
     long k;
-    for (k = s->k_first; r != NULL && *rc == DKF_EXIT_OK && k < s->k_first + (long)s->steps; ++k)
+    for (k = s->k_first; r != NULL && *rc == DKF_EXIT_OK && k < s->k_first + (long)s->steps;
+         ++k) {
         *rc = f->family->step(r, k, err, sizeof err);
+        if (*rc != DKF_EXIT_OK || out == NULL) continue;
+        dkf_out_step(out, k);
+        f->family->record(r, out);
+        if (dkf_out_failed(out)) return r; /* dkf_out_close reports it */
+    }
     if (*rc == DKF_EXIT_OK) return r;
     fprintf(stderr, "dkf-run: %s\n", err);
     f->family->destroy(r);
     return NULL;
 }
 
+/* Every output document's first keys: scenario, case, filter, real. */
 static json_t *doc_header(const options_t *o, const dkf_filter_t *f, const dkf_scenario_t *s)
 {
-    json_t *doc = json_object(), *ks = json_array();
-    long k;
-    for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
-        json_array_append_new(ks, json_integer(k));
+    json_t *doc = json_object();
     json_object_set_new(doc, "scenario", json_string(o->scenario));
     if (s->case_name != NULL) json_object_set_new(doc, "case", json_string(s->case_name));
     json_object_set_new(doc, "filter", json_string(f->name));
     json_object_set_new(doc, "real", json_string(DKF_USE_FLOAT ? "float" : "double"));
-    json_object_set_new(doc, "k", ks);
     return doc;
 }
 
@@ -372,8 +414,10 @@ static int write_errors(const options_t *o, const dkf_filter_t *f, const dkf_sce
                         const errs_t *errs, size_t count)
 {
     const size_t N = s->steps, R = s->nruns;
-    json_t *doc = doc_header(o, f, s), *outs = json_object();
+    json_t *doc = doc_header(o, f, s), *outs = json_object(), *ks = json_array();
     size_t i;
+    for (i = 0; i < N; ++i) json_array_append_new(ks, json_integer(s->k_first + (long)i));
+    json_object_set_new(doc, "k", ks);
     for (i = 0; i < count; ++i) {
         json_t *mf, *mp;
         json_t *ef = errors_json(errs[i].sq[0], R, N, &mf);
@@ -401,7 +445,7 @@ static int run_errors(const options_t *o, const dkf_filter_t *f, const dkf_run_o
     for (r = 0; r < R && rc == 0; ++r) {
         dkf_runner_t *run;
         dkf_scn_select_run(s, r);
-        if ((run = run_filter(f, ro, s, &rc)) == NULL) break;
+        if ((run = run_filter(f, ro, s, NULL, &rc)) == NULL) break;
         if (errs == NULL && errs_alloc(f, run, R, N, &errs, &count) != 0) {
             fprintf(stderr, "dkf-run: out of memory\n");
             rc = DKF_EXIT_USAGE;
@@ -435,20 +479,41 @@ static int run_errors(const options_t *o, const dkf_filter_t *f, const dkf_run_o
 
 /* ---- one run ------------------------------------------------------------------- */
 
+/* The document's header (dkf_out_step adds "k" at the first step). */
+static void out_header(dkf_out_t *out, const options_t *o, const dkf_filter_t *f,
+                       const dkf_scenario_t *s)
+{
+    json_t *doc = doc_header(o, f, s), *v;
+    const char *key;
+    json_object_foreach(doc, key, v) dkf_out_value(out, key, json_incref(v));
+    json_decref(doc);
+}
+
 static int run_one(const options_t *o, const dkf_filter_t *f, const dkf_run_opts_t *ro,
                    dkf_scenario_t *s)
 {
+    char err[DKF_SCN_ERR_LEN];
+    dkf_out_t *out = NULL;
     dkf_runner_t *r;
     int rc;
     dkf_scn_select_run(s, (size_t)o->run);
-    if ((r = run_filter(f, ro, s, &rc)) == NULL) return rc;
     if (o->output != NULL) {
-        json_t *doc = doc_header(o, f, s);
-        f->family->record(r, doc);
-        rc = write_doc(doc, o->output);
+        out = dkf_out_open(o->output, o->format, o->every, s->k_first, err, sizeof err);
+        if (out == NULL) {
+            fprintf(stderr, "dkf-run: %s\n", err);
+            return DKF_EXIT_USAGE;
+        }
+        out_header(out, o, f, s);
     }
-    if (rc == 0 && !o->quiet) f->family->summary(r, stdout);
-    f->family->destroy(r);
+    r = run_filter(f, ro, s, out, &rc);
+    if (r != NULL && out != NULL && !dkf_out_failed(out) && f->family->record_end != NULL)
+        f->family->record_end(r, out);
+    if (out != NULL && dkf_out_close(out, r != NULL, err, sizeof err) != DKF_EXIT_OK) {
+        fprintf(stderr, "dkf-run: %s\n", err);
+        rc = DKF_EXIT_USAGE;
+    }
+    if (rc == 0 && r != NULL && !o->quiet) f->family->summary(r, stdout);
+    if (r != NULL) f->family->destroy(r);
     return rc;
 }
 

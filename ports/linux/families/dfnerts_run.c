@@ -28,6 +28,7 @@
 #include "graph_weights.h"
 #include "nerts_run.h"
 #include "nlm.h"
+#include "status_text.h"
 #include "util.h"
 
 typedef struct {
@@ -202,9 +203,10 @@ static dkf_runner_t *df_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                               u->p > 0 ? u->d0 : NULL, u->p > 0 ? u->Pd0 : NULL,
                               u->p > 0 ? u->Pxd0 : NULL);
     if (st != DKF_OK) {
+        char text[DKF_STATUS_TEXT_LEN];
         *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu]: %s: dkf_dfnerts_net_init "
-                        "failed: %s (%d)", s->file, s->case_index, fl->label,
-                        dkf_status_str(st), (int)st);
+                        "failed: %s", s->file, s->case_index, fl->label,
+                        dkf_host_status_text(text, sizeof text, "dkf_dfnerts_net_init", st));
         df_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
@@ -273,24 +275,29 @@ static int df_step(dkf_runner_t *r, long k, char *err, size_t errlen)
                               (size_t)s->net->eta, (dkf_real_t)s->nl->scale);
     if (st != DKF_OK) {
         const char *why = "";
+        char text[DKF_STATUS_TEXT_LEN];
         for (l = 0; l < u->N && why[0] == '\0'; ++l) why = dkf_nlm_failure(s->nl->models[l]);
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu] step k=%ld: %s: "
-                         "dkf_dfnerts_net_step failed: %s (%d)%s%s", s->file, s->case_index, k,
-                         u->fl->label, dkf_status_str(st), (int)st, why[0] != '\0' ? "; " : "",
-                         why);
+                         "dkf_dfnerts_net_step failed: %s%s%s", s->file, s->case_index, k,
+                         u->fl->label, dkf_host_status_text(text, sizeof text, "dkf_dfnerts_net_step",
+                                                       st),
+                         why[0] != '\0' ? "; " : "", why);
     }
     if (u->series != NULL) record_nodes(u->series, u);
     errors_against_truth(u, k);
     return DKF_EXIT_OK;
 }
 
-static void df_record(const dkf_runner_t *r, json_t *doc)
+static void df_record(dkf_runner_t *r, dkf_out_t *out)
 {
     const df_runner_t *u = (const df_runner_t *)(const void *)r;
-    json_t *outs = json_object();
-    json_object_set_new(outs, u->fl->label, json_copy(u->series));
-    json_object_set_new(doc, "outputs", outs);
-    json_object_set_new(doc, "communication",
+    dkf_out_outputs(out, u->fl->label, u->series);
+}
+
+static void df_record_end(const dkf_runner_t *r, dkf_out_t *out)
+{
+    const df_runner_t *u = (const df_runner_t *)(const void *)r;
+    dkf_out_value(out, "communication",
                         json_pack("{s:I, s:I, s:I, s:I}", "reals_sent",
                                   (json_int_t)u->net.reals_sent, "broadcasts",
                                   (json_int_t)u->net.broadcasts, "N", (json_int_t)u->N, "edges",
@@ -345,6 +352,7 @@ const dkf_family_t dkf_family_dfnerts = {
     .create = df_create,
     .step = df_step,
     .record = df_record,
+    .record_end = df_record_end,
     .errors = NULL,
     .summary = df_summary,
     .destroy = df_destroy,

@@ -87,5 +87,5 @@ static const dkf_est_kind_t dkf_est_askf = {
 
 /* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(askf, "ASKF", DKF_EST_OPT_D00, NULL,
-              "augmented-state KF (dkf/askf.h) on [x; d]; needs A, B,\n"
+              "augmented-state KF (dkf/askf.h) on [x; d]; needs D, B,\n"
               "                           Rd, init.d00, init.Pd00; one sensor");

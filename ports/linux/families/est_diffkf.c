@@ -252,6 +252,6 @@ static const dkf_est_kind_t dkf_est_dkf = {
 
 /* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(dkf, "DKF", 0, &dkf_host_diffkf_node_ops,
-              "Difference KF (dkf/diffkf.h); needs A, B, Rd and\n"
+              "Difference KF (dkf/diffkf.h); needs D, B, Rd and\n"
               "                           y_1..y_{N+1}; xp = x_{k|k-1}. With several sensors\n"
               "                           also `fused` (fusion centre, dkf/diffkf_fusion.h)");

@@ -51,4 +51,4 @@ static const dkf_est_kind_t dkf_est_kf = {
 /* its registry family (est_run.c's operations) */
 DKF_EST_FAMILY(kf, "KF", 0, NULL,
               "Kalman filter (dkf/kf.h) on F, Q, H, R;\n"
-              "                           unknown-input terms (A, B, Rd, ...) are ignored");
+              "                           unknown-input terms (D, B, Rd, ...) are ignored");

@@ -96,6 +96,7 @@ const dkf_run_optset_t dkf_est_run_options = {
 };
 
 /* ---- the runner ---- */
+#include "status_text.h"
 
 typedef struct {
     char name[32]; /* "KF", "local[1]", "central", "fused" */
@@ -144,10 +145,10 @@ int dkf_est_run_check(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_
                            kind->input_prior && !c->has_d00, f->name, err, errlen) != 0)
         return DKF_EXIT_USAGE;
     if (kind->input_prior) {
-        const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, 0, "A");
-        if (c->has_d00 && c->nd00 != A->cols)
+        const dkf_scn_mat_t *D = dkf_scn_sensor_model(s, 0, "D");
+        if (c->has_d00 && c->nd00 != D->cols)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: --d00: expected %zu values (the "
-                             "columns of A), got %zu", s->file, A->cols, c->nd00);
+                             "columns of D), got %zu", s->file, D->cols, c->nd00);
         if (c->has_d00 && dkf_scn_init(s, "Pd00") == NULL)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: init.Pd00: missing key (filter "
                              "%s needs it)", s->file, f->name);
@@ -246,38 +247,37 @@ int dkf_est_run_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     size_t i;
     for (i = 0; i < er->count; ++i) {
         const char *what = "?";
+        char text[DKF_STATUS_TEXT_LEN];
         dkf_status_t st = dkf_est_step(er->slots[i].est, k, &what);
         if (st == DKF_OK) continue;
+        dkf_host_status_text(text, sizeof text, what, st);
         if (s->has_runs)
             return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: run %zu: step k=%ld: %s: %s "
-                             "failed: %s (%d)", s->file, s->run, k, er->slots[i].name, what,
-                             dkf_status_str(st), (int)st);
-        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step k=%ld: %s: %s failed: %s (%d)",
-                         s->file, k, er->slots[i].name, what, dkf_status_str(st), (int)st);
+                             "failed: %s", s->file, s->run, k, er->slots[i].name, what, text);
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step k=%ld: %s: %s failed: %s", s->file,
+                         k, er->slots[i].name, what, text);
     }
     return DKF_EXIT_OK;
 }
 
-void dkf_est_run_record(const dkf_runner_t *r, json_t *doc)
+/* The step's values: the fused DKF's node messages and FC recoveries
+ * beside `fused` (outputs.messages, outputs.fc_recovered), then every
+ * estimator's under outputs.<its name>. */
+void dkf_est_run_record(dkf_runner_t *r, dkf_out_t *out)
 {
     static const char *const beside[] = {"messages", "fc_recovered"};
     const est_runner_t *er = const_runner(r);
-    json_t *outs = json_object();
     size_t i, j;
-    json_t **values = calloc(er->count, sizeof *values);
-    if (values == NULL) return;
-    for (i = 0; i < er->count; ++i) values[i] = json_copy(dkf_est_series(er->slots[i].est));
-    /* the fused DKF's node messages and FC recoveries sit beside `fused` */
     for (i = 0; i < er->count; ++i)
         for (j = 0; j < 2; ++j) {
-            json_t *v = json_object_get(values[i], beside[j]);
-            if (v == NULL) continue;
-            json_object_set(outs, beside[j], v);
-            json_object_del(values[i], beside[j]);
+            json_t *v = json_object_get(dkf_est_series(er->slots[i].est), beside[j]), *one;
+            if (v == NULL || (one = json_object()) == NULL) continue;
+            json_object_set(one, beside[j], v);
+            dkf_out_series(out, "outputs", one);
+            json_decref(one);
         }
-    for (i = 0; i < er->count; ++i) dkf_json_place(outs, er->slots[i].name, values[i]);
-    free(values);
-    json_object_set_new(doc, "outputs", outs);
+    for (i = 0; i < er->count; ++i)
+        dkf_out_outputs(out, er->slots[i].name, dkf_est_series(er->slots[i].est));
 }
 
 int dkf_est_run_errors(const dkf_runner_t *r, size_t i, const char **name, const double **sq_f,

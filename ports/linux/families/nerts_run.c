@@ -34,6 +34,7 @@
 #include "family.h"
 #include "nerts_run.h"
 #include "nlm.h"
+#include "status_text.h"
 #include "util.h"
 
 /* A --filter row's data. */
@@ -230,9 +231,10 @@ static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *
     u->p = s->nl->p;
     st = bind_model(u);
     if (st != DKF_OK) {
+        char text[DKF_STATUS_TEXT_LEN];
         *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu]: %s: dkf_nerts_stack failed: "
-                        "%s (%d)", s->file, s->case_index, fl->label, dkf_status_str(st),
-                        (int)st);
+                        "%s", s->file, s->case_index, fl->label,
+                        dkf_host_status_text(text, sizeof text, "dkf_nerts_stack", st));
         nerts_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
@@ -256,9 +258,10 @@ static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *
     dkf_mat_init(&u->zv, u->m, 1, u->z);
     st = start(u, len);
     if (st != DKF_OK) {
+        char text[DKF_STATUS_TEXT_LEN];
         *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu]: %s: dkf_nerts_init failed: "
-                        "%s (%d)", s->file, s->case_index, fl->label, dkf_status_str(st),
-                        (int)st);
+                        "%s", s->file, s->case_index, fl->label,
+                        dkf_host_status_text(text, sizeof text, "dkf_nerts_init", st));
         nerts_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
@@ -341,24 +344,23 @@ static int nerts_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     st = dkf_nerts_step(&u->f, &u->model, NULL, &u->Qv, NULL, &u->Rv, &u->zv);
     if (st != DKF_OK) {
         const char *why = "";
+        char text[DKF_STATUS_TEXT_LEN];
         for (i = 0; i < s->nsensors && why[0] == '\0'; ++i)
             why = dkf_nlm_failure(s->nl->models[i]);
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: cases[%zu] step k=%ld: %s: "
-                         "dkf_nerts_step failed: %s (%d)%s%s", s->file, s->case_index, k,
-                         u->fl->label,
-                         dkf_status_str(st), (int)st, why[0] != '\0' ? "; " : "", why);
+                         "dkf_nerts_step failed: %s%s%s", s->file, s->case_index, k,
+                         u->fl->label, dkf_host_status_text(text, sizeof text, "dkf_nerts_step", st),
+                         why[0] != '\0' ? "; " : "", why);
     }
     if (u->series != NULL) dkf_host_nerts_record(u->series, &u->f);
     errors_against_truth(u, k);
     return DKF_EXIT_OK;
 }
 
-static void nerts_record(const dkf_runner_t *r, json_t *doc)
+static void nerts_record(dkf_runner_t *r, dkf_out_t *out)
 {
     const nerts_runner_t *u = (const nerts_runner_t *)(const void *)r;
-    json_t *outs = json_object();
-    json_object_set_new(outs, u->fl->label, json_copy(u->series));
-    json_object_set_new(doc, "outputs", outs);
+    dkf_out_outputs(out, u->fl->label, u->series);
 }
 
 static void nerts_summary(const dkf_runner_t *r, FILE *out)

@@ -40,6 +40,7 @@
 #include "dkf/tw.h"
 #include "family.h"
 #include "graph_weights.h"
+#include "status_text.h"
 #include "util.h"
 
 static const char *const alg_names[] = {"", "alg1", "alg2", "alg3"};
@@ -109,7 +110,7 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
                  tw_summary_t *sum, char *err, size_t errlen)
 {
     const dkf_scn_network_t *net = s->net;
-    const dkf_scn_mat_t *mB = dkf_scn_model(s, "B");
+    const dkf_scn_mat_t *mB = dkf_scn_model(s, "G");
     size_t l, nnz, node_len;
     dkf_status_t st;
     int rc, dflt;
@@ -154,7 +155,7 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
     sum->W_default = dflt;
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
-        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
+        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "R");
         to_mat(&c->mH[l], c->H + l * c->mmax * c->n, dkf_scn_at(H, (size_t)s->k_first),
                H->rows, c->n);
         to_mat(&c->mSw[l], c->Sw + l * c->mmax * c->mmax, dkf_scn_at(Sw, (size_t)s->k_first),
@@ -169,10 +170,12 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
     if (st == DKF_OK && o->alg != 1)
         st = dkf_tw_net_init(&c->net, &c->g, c->nodes, c->n, c->mmax, c->p, c->net_mem, node_len,
                              &c->mx0, &c->mP0);
-    if (st != DKF_OK)
-        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s (%d)", s->file,
-                         alg_names[o->alg], o->alg == 1 ? "dkf_tw_node_init" : "dkf_tw_net_init",
-                         dkf_status_str(st), (int)st);
+    if (st != DKF_OK) {
+        const char *call = o->alg == 1 ? "dkf_tw_node_init" : "dkf_tw_net_init";
+        char text[DKF_STATUS_TEXT_LEN];
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s", s->file,
+                         alg_names[o->alg], call, dkf_host_status_text(text, sizeof text, call, st));
+    }
     return DKF_EXIT_OK;
 }
 
@@ -180,15 +183,15 @@ static int setup(ctx_t *c, const dkf_scenario_t *s, const tw_opts_t *o,
 static void load_step(ctx_t *c, const dkf_scenario_t *s, long k)
 {
     size_t l;
-    to_mat(&c->mA, c->A, dkf_scn_at(dkf_scn_model(s, "A"), (size_t)(k - 1)), c->n, c->n);
-    to_mat(&c->mB, c->B, dkf_scn_at(dkf_scn_model(s, "B"), (size_t)(k - 1)), c->n, c->p);
-    to_mat(&c->mSv, c->Sv, dkf_scn_at(dkf_scn_model(s, "Sv"), (size_t)(k - 1)), c->n, c->n);
+    to_mat(&c->mA, c->A, dkf_scn_at(dkf_scn_model(s, "F"), (size_t)(k - 1)), c->n, c->n);
+    to_mat(&c->mB, c->B, dkf_scn_at(dkf_scn_model(s, "G"), (size_t)(k - 1)), c->n, c->p);
+    to_mat(&c->mSv, c->Sv, dkf_scn_at(dkf_scn_model(s, "Q"), (size_t)(k - 1)), c->n, c->n);
     c->model.F = &c->mA;
     c->model.G = &c->mB;
     c->model.Q = &c->mSv;
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
-        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
+        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "R");
         /* per node H_l, Sw_l of time k (constant, or given per step) */
         to_mat(&c->mH[l], c->H + l * c->mmax * c->n, dkf_scn_at(H, (size_t)k), H->rows, c->n);
         to_mat(&c->mSw[l], c->Sw + l * c->mmax * c->mmax, dkf_scn_at(Sw, (size_t)k), Sw->rows,
@@ -519,9 +522,12 @@ static int tw_step(dkf_runner_t *r, long k, char *err, size_t errlen)
         what = "dkf_tw_net_consensus_step";
         st = dkf_tw_net_consensus_step(&c->net, c->W, t->eta, &c->model, c->sens, c->my);
     }
-    if (st != DKF_OK)
-        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step n=%ld: %s: %s failed: %s (%d)",
-                         t->s->file, k, alg_names[alg], what, dkf_status_str(st), (int)st);
+    if (st != DKF_OK) {
+        char text[DKF_STATUS_TEXT_LEN];
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step n=%ld: %s: %s failed: %s",
+                         t->s->file, k, alg_names[alg], what,
+                         dkf_host_status_text(text, sizeof text, what, st));
+    }
     if (t->series != NULL && !t->o.no_nodes)
         record_nodes(t->series, alg, alg == 1 ? &c->central : c->nodes, alg == 1 ? 1 : c->N);
     metrics(t->series, t->s, k, alg, alg == 1 ? &c->central : c->nodes, alg == 1 ? 1 : c->N,
@@ -554,15 +560,18 @@ static tw_summary_t tw_finish(const tw_runner_t *t)
     return sum;
 }
 
-static void tw_record(const dkf_runner_t *r, json_t *doc)
+static void tw_record(dkf_runner_t *r, dkf_out_t *out)
+{
+    const tw_runner_t *t = (const tw_runner_t *)(const void *)r;
+    dkf_out_outputs(out, t->fl->label, t->series);
+}
+
+static void tw_record_end(const dkf_runner_t *r, dkf_out_t *out)
 {
     const tw_runner_t *t = (const tw_runner_t *)(const void *)r;
     const tw_summary_t sum = tw_finish(t);
-    json_t *outs = json_object();
-    json_object_set_new(outs, t->fl->label, json_copy(t->series));
-    json_object_set_new(doc, "outputs", outs);
-    if (t->o.alg == 3) json_object_set_new(doc, "eta", json_integer((json_int_t)sum.eta));
-    json_object_set_new(doc, "communication",
+    if (t->o.alg == 3) dkf_out_value(out, "eta", json_integer((json_int_t)sum.eta));
+    dkf_out_value(out, "communication",
                         json_pack("{s:f, s:f, s:i, s:i}", "reals_per_node_step",
                                   sum.reals_per_node_step, "messages_per_node_step",
                                   sum.broadcasts_per_node_step, "N", (json_int_t)sum.N, "edges",
@@ -607,5 +616,5 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_tw = {
     "tw", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_NETWORK,
-    tw_check, tw_create, tw_step, tw_record, NULL, tw_summary, tw_destroy, NULL, &tw_options,
+    tw_check, tw_create, tw_step, tw_record, tw_record_end, NULL, tw_summary, tw_destroy, NULL, &tw_options,
 };

@@ -5,9 +5,9 @@
  *
  * Step sequence (the vector files' convention, docs/scenario-format.md):
  *   rtsf, nrtsf_df: steps start at k = 0; (x0, P0) is the prior of x_0;
- *     step 0 has no time update (dyn = NULL), step k >= 1 uses A, G, Q of
- *     k - 1 and C, H, R, y of k.
- *   nrtsf: steps start at k = 1; (x0, P0) = x_{0|0}; no H in the file.
+ *     step 0 has no time update (dyn = NULL), step k >= 1 uses F, G, Q of
+ *     k - 1 and H, D, R, y of k.
+ *   nrtsf: steps start at k = 1; (x0, P0) = x_{0|0}; no D in the file.
  * Recorded per step (the vectors' `expected` names): x_pred P_pred Rtilde d
  * Pd x Px L K M rank proj, Pxd (Pxd_extra for nrtsf, where the library's Pxd
  * is E[(x_k - x_{k|k})(d_{k-1} - d_{k-1|k})^T]); plus extra keys
@@ -21,6 +21,7 @@
 
 #include "dkf/uif.h"
 #include "family.h"
+#include "status_text.h"
 #include "util.h"
 
 /* What a run counts for its summary. */
@@ -57,21 +58,21 @@ static int uif_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_
                          s->file, who);
     if (s->layout != DKF_SCN_LAYOUT_STEPS)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
-                         "%s: graph: filter %s needs a seed-004 file (model A, G, Q, C, H, R), "
+                         "%s: graph: filter %s needs a seed-004 file (model F, G, Q, H, D, R), "
                          "not a seed-003 network", s->file, who);
     if (kind == DKF_UIF_NRTSF) {
-        if (dkf_scn_model(s, "H") != NULL)
+        if (dkf_scn_model(s, "D") != NULL)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
-                             "%s: %s: filter nrtsf has no direct feedthrough (H = 0): the file "
-                             "must not give H", s->file, dkf_scn_model(s, "H")->path);
+                             "%s: %s: filter nrtsf has no direct feedthrough (D = 0): the file "
+                             "must not give D", s->file, dkf_scn_model(s, "D")->path);
         if (s->k_first != 1)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                              "%s: steps[0].k: filter nrtsf starts at k = 1 ((x0, P0) = x_{0|0}, "
                              "y_0 unused), got %ld", s->file, s->k_first);
     } else {
-        if (dkf_scn_model(s, "H") == NULL)
+        if (dkf_scn_model(s, "D") == NULL)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
-                             "%s: model.H: missing key (filter %s needs the feedthrough H)",
+                             "%s: model.D: missing key (filter %s needs the feedthrough D)",
                              s->file, who);
         if (s->k_first != 0)
             return dkf_failf(err, errlen, DKF_EXIT_USAGE,
@@ -140,10 +141,10 @@ typedef struct {
     const dkf_filter_t *fl;
     const dkf_scenario_t *s;
     dkf_uif_kind_t kind;
-    const dkf_scn_mat_t *mA, *mG, *mQ, *mC, *mH, *mR;
-    size_t n, m, p; /* state, measurement (rows of C), unknown input (columns of G) */
+    const dkf_scn_mat_t *mF, *mG, *mQ, *mH, *mD, *mR;
+    size_t n, m, p; /* state, measurement (rows of H), unknown input (columns of G) */
     dkf_real_t *mem;
-    slot_t A, G, Q, C, H, R, y, x0, P0;
+    slot_t F, G, Q, H, D, R, y, x0, P0;
     dkf_uif_t f;
     json_t *series;              /* NULL: record nothing */
     counts_t sum;
@@ -173,15 +174,15 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     u->fl = fl;
     u->s = s;
     u->kind = *(const dkf_uif_kind_t *)fl->impl;
-    u->mA = dkf_scn_model(s, "A");
+    u->mF = dkf_scn_model(s, "F");
     u->mG = dkf_scn_model(s, "G");
     u->mQ = dkf_scn_model(s, "Q");
-    u->mC = dkf_scn_model(s, "C");
     u->mH = dkf_scn_model(s, "H");
+    u->mD = dkf_scn_model(s, "D");
     u->mR = dkf_scn_model(s, "R");
     u->n = s->n;
     u->p = u->mG->cols;
-    u->m = u->mC->rows;
+    u->m = u->mH->rows;
     len = DKF_UIF_STORAGE_LEN(u->n, u->m, u->p);
     /* model scratch: 7 matrices of at most max(n, m, p)^2 reals, y, x0 */
     dmax = u->n > u->m ? u->n : u->m;
@@ -196,7 +197,7 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     {
         dkf_real_t *q = u->mem + len;
         const size_t sq = dmax * dmax;
-        slot_t *all[] = {&u->A, &u->G, &u->Q, &u->C, &u->H, &u->R, &u->P0};
+        slot_t *all[] = {&u->F, &u->G, &u->Q, &u->H, &u->D, &u->R, &u->P0};
         for (i = 0; i < 7; ++i, q += sq) all[i]->buf = q;
         u->y.buf = q;
         u->x0.buf = q + u->m + u->p;
@@ -205,8 +206,9 @@ static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     load_at(&u->P0, dkf_scn_init(s, "P00"), 0);
     st = dkf_uif_init(&u->f, u->kind, u->n, u->m, u->p, u->mem, len, &u->x0.view, &u->P0.view);
     if (st != DKF_OK) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: dkf_uif_init failed: %s (%d)",
-                        s->file, fl->label, dkf_status_str(st), (int)st);
+        char text[DKF_STATUS_TEXT_LEN];
+        *rc = dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: dkf_uif_init failed: %s", s->file,
+                        fl->label, dkf_host_status_text(text, sizeof text, "dkf_uif_init", st));
         uif_destroy((dkf_runner_t *)(void *)u);
         return NULL;
     }
@@ -225,40 +227,41 @@ static int uif_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     dkf_status_t st;
     const int first_df = u->kind != DKF_UIF_NRTSF && k == 0;
     if (!first_df) {
-        load_at(&u->A, u->mA, k - 1);
+        load_at(&u->F, u->mF, k - 1);
         load_at(&u->G, u->mG, k - 1);
         load_at(&u->Q, u->mQ, k - 1);
-        dyn.F = &u->A.view;
+        dyn.F = &u->F.view;
         dyn.G = &u->G.view;
         dyn.Q = &u->Q.view;
     }
-    load_at(&u->C, u->mC, k);
+    load_at(&u->H, u->mH, k);
     load_at(&u->R, u->mR, k);
-    meas.H = &u->C.view;
+    meas.H = &u->H.view;
     meas.R = &u->R.view;
     meas.D = NULL;
     if (u->kind != DKF_UIF_NRTSF) {
-        load_at(&u->H, u->mH, k);
-        meas.D = &u->H.view;
+        load_at(&u->D, u->mD, k);
+        meas.D = &u->D.view;
     }
     dkf_scn_to_real(u->y.buf, dkf_scn_y(s, 0, k), u->m);
     dkf_mat_init(&u->y.view, u->m, 1, u->y.buf);
     st = dkf_uif_step(&u->f, first_df ? NULL : &dyn, &meas, &u->y.view);
-    if (st != DKF_OK)
+    if (st != DKF_OK) {
+        char text[DKF_STATUS_TEXT_LEN];
         return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step k=%ld: %s: dkf_uif_step failed: "
-                         "%s (%d)", s->file, k, u->fl->label, dkf_status_str(st), (int)st);
+                         "%s", s->file, k, u->fl->label,
+                         dkf_host_status_text(text, sizeof text, "dkf_uif_step", st));
+    }
     if (u->series != NULL) record_step(u->series, &u->f);
     summarise(&u->sum, s, &u->f, k, &u->sx, &u->nx, u->sd, &u->nd);
     u->sum.steps++;
     return DKF_EXIT_OK;
 }
 
-static void uif_record(const dkf_runner_t *r, json_t *doc)
+static void uif_record(dkf_runner_t *r, dkf_out_t *out)
 {
     const uif_runner_t *u = (const uif_runner_t *)(const void *)r;
-    json_t *outs = json_object();
-    json_object_set_new(outs, u->fl->label, json_copy(u->series));
-    json_object_set_new(doc, "outputs", outs);
+    dkf_out_outputs(out, u->fl->label, u->series);
 }
 
 static void uif_summary(const dkf_runner_t *r, FILE *out)
@@ -307,5 +310,5 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_uif = {
     "uif", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_STEPS,
-    uif_check, uif_create, uif_step, uif_record, NULL, uif_summary, uif_destroy, NULL, NULL,
+    uif_check, uif_create, uif_step, uif_record, NULL, NULL, uif_summary, uif_destroy, NULL, NULL,
 };

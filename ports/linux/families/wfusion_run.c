@@ -54,6 +54,7 @@
 #include "dkf/wfusion.h"
 #include "family.h"
 #include "node_roles.h"
+#include "status_text.h"
 #include "util.h"
 #include "wf_model.h"
 
@@ -85,6 +86,7 @@ typedef struct {
     dkf_real_t *mem;
     size_t len;
     json_t *series; /* NULL: record nothing */
+    json_t *once;   /* fusion_steady: the steady values, until the first record */
     /* squared errors against x_true: every local x_i, fused x, fused s */
     double *sq_local;
     double sq_x, sq_s, sq_c; /* sq_c: central_kf's x */
@@ -264,17 +266,20 @@ static void wf_destroy(dkf_runner_t *r)
     free(u->Rc);
     free(u->yc);
     json_decref(u->series);
+    json_decref(u->once);
     free(u);
 }
 
 static int fail_core(const wf_runner_t *u, char *err, size_t errlen, long k, const char *call,
                      dkf_status_t st)
 {
+    char text[DKF_STATUS_TEXT_LEN];
+    dkf_host_status_text(text, sizeof text, call, st);
     if (k < 0)
-        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s (%d)", u->s->file,
-                         u->fl->label, call, dkf_status_str(st), (int)st);
-    return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step t=%ld: %s: %s failed: %s (%d)",
-                     u->s->file, k, u->fl->label, call, dkf_status_str(st), (int)st);
+        return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: %s: %s failed: %s", u->s->file,
+                         u->fl->label, call, text);
+    return dkf_failf(err, errlen, DKF_EXIT_RUN, "%s: step t=%ld: %s: %s failed: %s",
+                     u->s->file, k, u->fl->label, call, text);
 }
 
 /* ---- recording ---- */
@@ -461,8 +466,9 @@ static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
     u->mem = u->len > 0 ? calloc(u->len, sizeof *u->mem) : NULL;
     u->sq_local = calloc(u->mdl.l, sizeof *u->sq_local);
     u->series = o->record ? json_object() : NULL;
+    u->once = o->record ? json_object() : NULL;
     if (u->nodes == NULL || u->mem == NULL || u->sq_local == NULL ||
-        (o->record && u->series == NULL)) {
+        (o->record && (u->series == NULL || u->once == NULL))) {
         *rc = dkf_failf(err, errlen, u->len == 0 ? DKF_EXIT_RUN : DKF_EXIT_USAGE,
                         u->len == 0 ? "%s: %s: dkf_wfusion_storage_len: 0 (dimensions above "
                                       "DKF_MAX_DIM)"
@@ -498,10 +504,10 @@ static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
             wf_destroy((dkf_runner_t *)(void *)u);
             return NULL;
         }
-        if (u->series != NULL) {
-            record_local(u->series, u, 1);
-            record_scalar(u->series, u, 1);
-            record_matrix(u->series, u, 1);
+        if (u->once != NULL) {
+            record_local(u->once, u, 1);
+            record_scalar(u->once, u, 1);
+            record_matrix(u->once, u, 1);
         }
     }
     *rc = DKF_EXIT_OK;
@@ -593,12 +599,19 @@ static int wf_step(dkf_runner_t *r, long k, char *err, size_t errlen)
     return DKF_EXIT_OK;
 }
 
-static void wf_record(const dkf_runner_t *r, json_t *doc)
+/* fusion_steady's steady values (once, first), then the step's values. */
+static void wf_record(dkf_runner_t *r, dkf_out_t *out)
 {
     const wf_runner_t *u = (const wf_runner_t *)(const void *)r;
-    json_t *outs = json_object();
-    json_object_set_new(outs, u->fl->label, json_copy(u->series));
-    json_object_set_new(doc, "outputs", outs);
+    char path[128];
+    const char *key;
+    json_t *v;
+    json_object_foreach(u->once, key, v) {
+        snprintf(path, sizeof path, "outputs.%s.%s", u->fl->label, key);
+        dkf_out_value(out, path, json_incref(v));
+    }
+    json_object_clear(u->once);
+    dkf_out_outputs(out, u->fl->label, u->series);
 }
 
 static void wf_summary(const dkf_runner_t *r, FILE *out)
@@ -673,6 +686,6 @@ static const dkf_filter_t filters[] = {
 };
 const dkf_family_t dkf_family_wfusion = {
     "wfusion", filters, sizeof filters / sizeof filters[0], 1u << DKF_SCN_LAYOUT_WFCASES,
-    wf_check, wf_create, wf_step, wf_record, NULL, wf_summary, wf_destroy,
+    wf_check, wf_create, wf_step, wf_record, NULL, NULL, wf_summary, wf_destroy,
     &dkf_host_wfusion_node_ops, NULL,
 };

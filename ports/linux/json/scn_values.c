@@ -5,6 +5,7 @@
  * every model builder reads its values through these.
  */
 #include "scn_values.h"
+#include "util.h"
 
 #include <float.h>
 #include <math.h>
@@ -339,8 +340,10 @@ int dkf_scn_check_dims(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m)
 static int parse_model_value(dkf_scn_ctx_t *c, dkf_scn_mat_t *m, const json_t *j, const char *path)
 {
     char p[DKF_SCN_PATH_LEN];
+    static const char *const known[] = {"const", "per_k", NULL};
     const json_t *cst, *pk;
     if (json_is_array(j)) return dkf_scn_parse_matrix(c, j, path, &m->rows, &m->cols, &m->data);
+    if (dkf_scn_check_keys(c, j, path, known, NULL) != 0) return -1;
     cst = json_object_get(j, "const");
     pk = json_object_get(j, "per_k");
     if ((cst == NULL) == (pk == NULL))
@@ -393,14 +396,19 @@ int dkf_scn_parse_init_entry(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const char *
 int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, const char *vkey,
                          size_t dim, size_t *count, long **kout, double **vout)
 {
+    /* truth's true inputs (d, d_stacked) are informational */
+    const char *known[] = {"k", NULL, NULL, NULL, NULL};
     const json_t *jk, *jv;
     size_t i, n;
     long *k;
     dkf_scn_block_t v = {NULL, 0, 0};
     char p[DKF_SCN_PATH_LEN], pi[DKF_SCN_PATH_LEN];
+    known[1] = vkey;
+    if (strcmp(vkey, "x") == 0) known[2] = "d", known[3] = "d_stacked";
     if (!json_is_object(j))
         return dkf_scn_fail(c, path, "expected {\"k\": [...], \"%s\": [...]}, got %s", vkey,
                             dkf_scn_json_kind(j));
+    if (dkf_scn_check_keys(c, j, path, known, NULL) != 0) return -1;
     jv = json_object_get(j, vkey);
     dkf_scn_subkey(p, path, vkey);
     if (jv == NULL) return dkf_scn_fail(c, p, "missing key");
@@ -499,4 +507,30 @@ int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a,
                         dkf_scn_num_str(va, sizeof va, a[wi * n + wj]), wj, wi,
                         dkf_scn_num_str(vb, sizeof vb, a[wj * n + wi]), worst, DKF_SCN_SYM_TOL,
                         DKF_SCN_SYM_TOL * DBL_EPSILON * amax);
+}
+
+/* Definiteness is judged on a + delta I, delta = DKF_SCN_SYM_TOL n eps max|a| + DBL_MIN
+ * (rounding, the same scale as the symmetry test): a PSD matrix passes,
+ * singular or not; one with an eigenvalue below -delta fails; SPD needs
+ * the Cholesky factorisation of a itself. */
+int dkf_scn_check_definite(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
+                           int spd, const char *what)
+{
+    double *b, *L, amax = 0.0, pivot = 0.0;
+    size_t i, row;
+    char v[32];
+    if (n == 0 || n > DKF_MAX_DIM) return 0; /* shapes are checked elsewhere */
+    if ((b = dkf_scn_calloc(c, 2 * n * n, sizeof *b)) == NULL) return -1;
+    L = b + n * n;
+    for (i = 0; i < n * n; ++i) amax = fmax(amax, fabs(a[i]));
+    memcpy(b, a, n * n * sizeof *b);
+    if (!spd)
+        for (i = 0; i < n; ++i)
+            b[i * n + i] += DKF_SCN_SYM_TOL * (double)n * DBL_EPSILON * amax + DBL_MIN;
+    row = dkf_chol_double(b, n, L, &pivot);
+    free(b);
+    if (row == n) return 0;
+    return dkf_scn_fail(c, path, "not positive %s (%s): its Cholesky factorisation stops at "
+                        "row %zu, pivot %s", spd ? "definite" : "semidefinite", what, row,
+                        dkf_scn_num_str(v, sizeof v, pivot));
 }

@@ -121,8 +121,23 @@ int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
 /* Index of time k in the strictly increasing list ks, or -1. */
 long dkf_scn_find_time(const long *ks, size_t n, long k);
 
+/* ---- keys (scn_keys.c) ---- */
+/* Every key of obj (at path) is in known (NULL-terminated); string and
+ * null values are comments; at the top level (path "") the vector files'
+ * informational keys (outputs, tolerance, dims, ...) are known too. Else
+ * "PATH.KEY: unknown key (did you mean K?)" with the nearest known key, or
+ * the nearest of elsewhere (full paths such as "init.P00_central", NULL
+ * for none), when one is near. */
+int dkf_scn_check_keys(dkf_scn_ctx_t *c, const json_t *obj, const char *path,
+                       const char *const *known, const char *const *elsewhere);
+
 /* The n x n covariance a (read from the file at path) symmetric within
  * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
 int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
+/* The symmetric n x n a (at path) positive semidefinite within rounding
+ * (spd = 0) or positive definite (spd = 1); else a message naming path,
+ * what (which matrix must be what) and the failing Cholesky pivot. */
+int dkf_scn_check_definite(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
+                           int spd, const char *what);
 
 #endif /* DKF_HOST_SCN_VALUES_H */

@@ -9,7 +9,7 @@
 
 int dkf_sensor_model_init(dkf_sensor_model_t *md, const dkf_scenario_t *s, size_t i)
 {
-    const size_t n = s->n, m = s->sensors[i].m, p = dkf_scn_sensor_model(s, i, "A")->cols;
+    const size_t n = s->n, m = s->sensors[i].m, p = dkf_scn_sensor_model(s, i, "D")->cols;
     dkf_real_t *b;
     memset(md, 0, sizeof *md);
     b = calloc(2 * n * n + 2 * p * p + m * n + m * p + m * m, sizeof *b);
@@ -63,7 +63,7 @@ int dkf_sensor_model_dyn(dkf_sensor_model_t *md, const dkf_scenario_t *s, size_t
 int dkf_sensor_model_meas(dkf_sensor_model_t *md, const dkf_scenario_t *s, size_t i, size_t k)
 {
     if (load(&md->H, dkf_scn_sensor_model(s, i, "H"), k) ||
-        load(&md->D, dkf_scn_sensor_model(s, i, "A"), k) ||
+        load(&md->D, dkf_scn_sensor_model(s, i, "D"), k) ||
         load(&md->R, dkf_scn_sensor_model(s, i, "R"), k))
         return -1;
     return 0;

@@ -19,8 +19,7 @@ typedef struct {
     size_t n, m, p;
     dkf_real_t *buf;
     dkf_mat_t F, Q, B, Rd; /* dynamics at the k of the last dkf_sensor_model_dyn */
-    dkf_mat_t H, D, R;     /* sensor model at the k of the last dkf_sensor_model_meas
-                              (D: the file's sensor key "A") */
+    dkf_mat_t H, D, R;     /* sensor model at the k of the last dkf_sensor_model_meas */
     dkf_ui_dyn_t dyn;      /* points at F, Q, B, Rd */
     dkf_ui_meas_t meas;    /* points at H, D, R */
 } dkf_sensor_model_t;

@@ -138,6 +138,13 @@ static void cb_y_diff(void *ctx, const dkf_real_t *a, const dkf_real_t *b, dkf_r
 
 /* ---- loading ------------------------------------------------------------------- */
 
+/* The keys a model object may have: the expression form, every built-in
+ * family's parameters (nlm_builtin.c), the noises; `sensor`, `sensors`:
+ * the vectors' descriptions of the sensors. */
+static const char *const model_keys[] = {"family", "expr", "angles", "Q", "R", "A", "b", "C", "H",
+                                         "T", "omega_fixed", "phi_gain", "sensor_xy", "sensor",
+                                         "sensors", NULL};
+
 /* model[key] as an r x r matrix into *out (NULL if absent and !required). */
 static int square_matrix(dkf_scn_ctx_t *c, const json_t *j, const char *path, const char *key,
                          size_t r, int required, double **out)
@@ -157,7 +164,11 @@ static int square_matrix(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
         free(a);
         return dkf_scn_fail(c, p, "expected %zu x %zu, got %zu x %zu", r, r, rows, cols);
     }
-    if (dkf_scn_check_symmetric(c, p, a, r) != 0) {
+    if (dkf_scn_check_symmetric(c, p, a, r) != 0 ||
+        dkf_scn_check_definite(c, p, a, r, key[0] == 'R',
+                               key[0] == 'R' ? "the measurement noise covariance R must be SPD"
+                                             : "the process noise covariance Q must be symmetric "
+                                               "PSD") != 0) {
         free(a);
         return -1;
     }
@@ -253,6 +264,10 @@ dkf_nlm_t *dkf_nlm_load(const json_t *j, const char *file, const char *path, siz
     }
     m->n = n;
     m->p = p;
+    if (dkf_scn_check_keys(&c, j, path, model_keys, NULL) != 0) {
+        dkf_nlm_free(m);
+        return NULL;
+    }
     expr = json_object_get(j, "expr");
     family = json_object_get(j, "family");
     if (expr != NULL) {

@@ -27,9 +27,9 @@ typedef struct {
     size_t nsens;
     size_t *idx;
     size_t m, p;     /* stacked dimensions (p = 0: no unknown-input model) */
-    dkf_real_t *buf; /* H, R, y, A, B, Rd */
-    dkf_mat_t H, R, y, A, B, Rd;
-    dkf_ui_meas_t meas; /* views of H, A, R */
+    dkf_real_t *buf; /* H, R, y, D, B, Rd */
+    dkf_mat_t H, R, y, D, B, Rd;
+    dkf_ui_meas_t meas; /* views of H, D, R */
 } dkf_est_group_t;
 
 struct dkf_est {

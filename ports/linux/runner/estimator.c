@@ -1,7 +1,7 @@
 /*
  * estimator.c - core filters driven over a scenario, with JSON recording
  * (estimator.h). What every kind shares: sensor groups (a stacked
- * estimator has one group holding all its sensors, H stacked and R, A, B,
+ * estimator has one group holding all its sensors, H stacked and R, D, B,
  * Rd block-diagonal; a fused one has a group per sensor), loading a step's
  * model, the step sequence, errors against the truth. The kinds
  * themselves, each with its own state: families/est_kf.c, est_info.c,
@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "status_text.h"
 #include "util.h"
 
 /* Key names of the two golden-vector families (see estimator.h). */
@@ -57,16 +58,16 @@ void dkf_est_group_meas(dkf_est_group_t *g, const dkf_scenario_t *s, long k)
 {
     size_t j, r0 = 0, c0 = 0, n = g->H.cols;
     zero(&g->R);
-    if (g->p > 0) zero(&g->A);
+    if (g->p > 0) zero(&g->D);
     for (j = 0; j < g->nsens; ++j) {
         size_t si = g->idx[j], m = s->sensors[si].m;
         put_block(&g->H, r0, 0, dkf_scn_at(dkf_scn_sensor_model(s, si, "H"), (size_t)k), m, n);
         put_block(&g->R, r0, r0, dkf_scn_at(dkf_scn_sensor_model(s, si, "R"), (size_t)k), m, m);
         dkf_scn_to_real(g->y.data + r0, dkf_scn_y(s, si, k), m);
         if (g->p > 0) {
-            const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, si, "A");
-            put_block(&g->A, r0, c0, dkf_scn_at(A, (size_t)k), m, A->cols);
-            c0 += A->cols;
+            const dkf_scn_mat_t *D = dkf_scn_sensor_model(s, si, "D");
+            put_block(&g->D, r0, c0, dkf_scn_at(D, (size_t)k), m, D->cols);
+            c0 += D->cols;
         }
         r0 += m;
     }
@@ -79,7 +80,7 @@ void dkf_est_group_load_dyn(dkf_est_group_t *g, const dkf_scenario_t *s, long k)
     zero(&g->B);
     zero(&g->Rd);
     for (j = 0; j < g->nsens; ++j) {
-        size_t si = g->idx[j], p = dkf_scn_sensor_model(s, si, "A")->cols;
+        size_t si = g->idx[j], p = dkf_scn_sensor_model(s, si, "D")->cols;
         put_block(&g->B, c0, c0, dkf_scn_at(dkf_scn_sensor_model(s, si, "B"), (size_t)k), p, p);
         put_block(&g->Rd, c0, c0, dkf_scn_at(dkf_scn_sensor_model(s, si, "Rd"), (size_t)k), p,
                   p);
@@ -117,7 +118,7 @@ static int group_init(dkf_est_group_t *g, const dkf_scenario_t *s, const size_t 
     dkf_real_t *q;
     for (j = 0; j < count; ++j) {
         m += s->sensors[idx[j]].m;
-        if (needs_ui) p += dkf_scn_sensor_model(s, idx[j], "A")->cols;
+        if (needs_ui) p += dkf_scn_sensor_model(s, idx[j], "D")->cols;
     }
     g->nsens = count;
     g->m = m;
@@ -134,13 +135,13 @@ static int group_init(dkf_est_group_t *g, const dkf_scenario_t *s, const size_t 
     q += m * m;
     g->y = (dkf_mat_t)DKF_MAT(m, 1, q);
     q += m;
-    g->A = (dkf_mat_t)DKF_MAT(m, p, q);
+    g->D = (dkf_mat_t)DKF_MAT(m, p, q);
     q += m * p;
     g->B = (dkf_mat_t)DKF_MAT(p, p, q);
     q += p * p;
     g->Rd = (dkf_mat_t)DKF_MAT(p, p, q);
     g->meas.H = &g->H;
-    g->meas.D = &g->A;
+    g->meas.D = &g->D;
     g->meas.R = &g->R;
     return 0;
 }
@@ -197,7 +198,8 @@ dkf_est_t *dkf_est_create(const dkf_est_kind_t *kind, dkf_est_mode_t mode,
     dkf_scn_to_real(P0.data, P00, n * n);
     st = e->kind->init(e, &x0, &P0, &what);
     if (st != DKF_OK) {
-        snprintf(err, errlen, "%s failed: %s (%d)", what, dkf_status_str(st), (int)st);
+        char text[DKF_STATUS_TEXT_LEN];
+        snprintf(err, errlen, "%s failed: %s", what, dkf_host_status_text(text, sizeof text, what, st));
         dkf_est_free(e);
         return NULL;
     }

@@ -12,9 +12,12 @@
  *   const dkf_family_t *fam = f->family;
  *   rc = fam->check(f, &o, s, err, len);             0 or DKF_EXIT_USAGE
  *   r = fam->create(f, &o, s, err, len, &rc);        NULL: rc, message
- *   for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
+ *   for (k = s->k_first; k < s->k_first + (long)s->steps; ++k) {
  *       rc = fam->step(r, k, err, len);              0 or DKF_EXIT_RUN
- *   fam->record(r, doc);                             outputs.<...> into doc
+ *       dkf_out_step(out, k);                        with an output (output.h)
+ *       fam->record(r, out);                         step k's outputs.<...>
+ *   }
+ *   if (fam->record_end) fam->record_end(r, out);    the run's totals
  *   fam->summary(r, stdout);
  *   fam->destroy(r);
  *
@@ -33,12 +36,13 @@
 #include <jansson.h>
 
 #include "dkf/config.h"
+#include "output.h"
 #include "scenario.h"
 #include "util.h"
 
 /* What a run was asked for (zeroed = the defaults). */
 typedef struct {
-    int record;       /* 1: keep every step's values for record() (an --output) */
+    int record;       /* 1: emit each step's values through record() (an --output) */
     int errors;       /* 1: Monte-Carlo error mode (every run, squared errors only) */
     long run;         /* the run to process without errors (checked by check()) */
     const void *fam;  /* the family's own options (its optset's area); NULL: its defaults */
@@ -101,12 +105,16 @@ struct dkf_family {
     dkf_runner_t *(*create)(const dkf_filter_t *f, const dkf_run_opts_t *o,
                             const dkf_scenario_t *s, char *err, size_t errlen, int *rc);
     /* Step k (k = s->k_first, k_first + 1, ... in order); with o->record the
-     * step's values are kept as JSON. DKF_EXIT_OK or DKF_EXIT_RUN naming
-     * the step and the failing call. */
+     * step's values are kept as JSON until record(). DKF_EXIT_OK or
+     * DKF_EXIT_RUN naming the step and the failing call. */
     int (*step)(dkf_runner_t *r, long k, char *err, size_t errlen);
-    /* The recorded steps into the output document: outputs.<...> and any
-     * top-level key of the family. */
-    void (*record)(const dkf_runner_t *r, json_t *doc);
+    /* With o->record, after every step (dkf_out_step called): the step's
+     * values to out (outputs.<...>, dkf_out_series), and forgotten, so
+     * a runner holds one step's values whatever the number of steps. */
+    void (*record)(dkf_runner_t *r, dkf_out_t *out);
+    /* After the last step's record (NULL: nothing): the family's one-off
+     * values (dkf_out_value; top-level keys of the document). */
+    void (*record_end)(const dkf_runner_t *r, dkf_out_t *out);
     /* Monte-Carlo error mode (NULL: the family has none): estimator i's
      * name ("KF", "local[1]", "central", ...) and squared errors per step
      * ||x_{k|k} - x_k||^2 (sq_f) and ||x_{k|k-1} - x_k||^2 (sq_p); returns

@@ -68,6 +68,17 @@ int dkf_scn_parse_run_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t r, const
 
 /* ---- entry points ------------------------------------------------------------ */
 
+/* The layout whose letters root's matrices have (before it is read). */
+static dkf_scn_layout_t letters_layout(const json_t *root)
+{
+    if (json_object_get(root, "cases") != NULL) return DKF_SCN_LAYOUT_CASES;
+    if (json_object_get(root, "steps") != NULL && json_object_get(root, "y") == NULL &&
+        json_object_get(root, "runs") == NULL)
+        return json_object_get(root, "graph") != NULL ? DKF_SCN_LAYOUT_NETWORK
+                                                      : DKF_SCN_LAYOUT_STEPS;
+    return DKF_SCN_LAYOUT_CANONICAL;
+}
+
 /* The scenario of a parsed document (takes the reference to root). */
 static dkf_scenario_t *load_root(dkf_scn_ctx_t *c, json_t *root, const json_error_t *je,
                                  const char *case_sel)
@@ -97,6 +108,10 @@ static dkf_scenario_t *load_root(dkf_scn_ctx_t *c, json_t *root, const json_erro
     }
     s->root = root;
     s->k_first = 1;
+    if (dkf_scn_letters(c, root, letters_layout(root), s->notice, sizeof s->notice) != 0) {
+        dkf_scenario_free(s);
+        return NULL;
+    }
     if (json_object_get(root, "cases") != NULL) {
         rc = dkf_scn_load_cases(c, s, root, case_sel);
     } else if (case_sel != NULL) {
@@ -106,7 +121,11 @@ static dkf_scenario_t *load_root(dkf_scn_ctx_t *c, json_t *root, const json_erro
                json_object_get(root, "runs") == NULL) {
         rc = dkf_scn_load_steps(c, s, root);
     } else {
+        static const char *const read_in[] = {"y", "runs", "truth"};
+        size_t i;
         rc = dkf_scn_load_canonical(c, s, root);
+        for (i = 0; rc == 0 && i < sizeof read_in / sizeof *read_in; ++i)
+            json_object_del(root, read_in[i]);
     }
     if (rc != 0) {
         dkf_scenario_free(s);
@@ -139,14 +158,16 @@ dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *
 {
     dkf_scn_ctx_t c;
     json_error_t je;
+    dkf_scenario_t *s;
     ctx_init(&c, path, err, errlen);
     if (path == NULL) {
         dkf_scn_fail(&c, NULL, "no scenario file given");
         return NULL;
     }
-    return one_line(
-        load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je, case_sel), err,
-        errlen);
+    s = one_line(load_root(&c, json_load_file(path, JSON_REJECT_DUPLICATES, &je), &je,
+                           case_sel), err, errlen);
+    if (s != NULL && s->notice[0] != '\0') fprintf(stderr, "%s\n", s->notice);
+    return s;
 }
 
 dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,

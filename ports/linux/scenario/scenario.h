@@ -110,7 +110,7 @@ typedef struct {
 
 typedef struct {
     size_t m;            /* measurement dimension (rows of H) */
-    dkf_scn_mats_t mats; /* this sensor's own matrices (H, R, A, B, Rd, ...) */
+    dkf_scn_mats_t mats; /* this sensor's own matrices (H, R, D, B, Rd, ...) */
     /* the selected run's measurements (views into runs[run].y[i] once loaded) */
     size_t ny;           /* measurements y at absolute times yk[0..ny-1] */
     long *yk;            /* strictly increasing */
@@ -128,7 +128,7 @@ typedef struct {
     int multi;                /* 1: several-sensor layout (model.sensors or cases) */
     size_t nsensors;          /* 1 for a single-sensor scenario */
     dkf_scn_sensor_t *sensors;
-    dkf_scn_mats_t model;     /* F, Q and (single sensor) H, R, A, B, Rd, ... */
+    dkf_scn_mats_t model;     /* F, Q and (single sensor) H, R, D, B, Rd, ... */
     dkf_scn_mats_t init;      /* x00, P00, P00_local, P00_central, d00, Pd00, ... */
     /* the selected run's truth x at absolute times truth_k (0 if none) */
     size_t ntruth;
@@ -139,7 +139,9 @@ typedef struct {
     int has_runs;
     dkf_scn_run_t *runs;
     size_t run;               /* the selected run (dkf_scn_select_run) */
-    json_t *root;             /* the parsed document (read-only), for keys not modelled */
+    json_t *root;             /* the parsed document (read-only), for keys not modelled;
+                               * a canonical file's y, runs and truth, read into the
+                               * runs, are dropped from it (their memory reused) */
     /* steps layout and its network form (seed-004/003 vectors), below */
     long k_first;             /* the first step's absolute k (1 for the other layouts) */
     dkf_scn_network_t *net;   /* network layout: graph and weights; NULL otherwise */
@@ -149,6 +151,8 @@ typedef struct {
     size_t m_u;
     char truth_u_key[16];     /* its key in steps[].truth: d, d_prev or z_prev */
     dkf_scn_nl_t *nl;         /* nonlinear cases layout: the models; NULL otherwise */
+    char notice[DKF_SCN_ERR_LEN]; /* "" or the one-line deprecation notice of old letters
+                                   * (dkf_scenario_load prints it on stderr) */
 } dkf_scenario_t;
 
 /* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
@@ -177,11 +181,14 @@ typedef struct {
 
 /* Loads and validates a scenario. case_sel selects a case of the cases
  * layout by name or decimal index (NULL: case 0); it is an error for a
- * canonical file. Returns NULL and fills err on any problem. */
+ * canonical file. Returns NULL and fills err on any problem. A file in
+ * the old letters (docs/scenario-format.md, "Letters") is read as the
+ * library's letters, and s->notice is printed on stderr (one line). */
 dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
                                   size_t errlen);
 /* The same from len bytes at buf (need not be NUL-terminated; e.g. a fuzz
- * input); name labels the messages and becomes s->file. */
+ * input); name labels the messages and becomes s->file. Prints nothing
+ * (the notice stays in s->notice). */
 dkf_scenario_t *dkf_scenario_load_buffer(const char *buf, size_t len, const char *name,
                                          const char *case_sel, char *err, size_t errlen);
 void dkf_scenario_free(dkf_scenario_t *s);
@@ -216,8 +223,8 @@ const double *dkf_scn_truth(const dkf_scenario_t *s, long k);
 void dkf_scn_select_run(dkf_scenario_t *s, size_t r);
 
 /* Checks what the unknown-input filters (DKF, ASKF, OTSKF) need beyond the
- * loader's own checks: every sensor has A (m x p, p <= m), B and Rd (p x p);
- * per_k lists of F, Q, B, Rd cover k = 0..last_dyn and of H, R, A cover
+ * loader's own checks: every sensor has D (m x p, p <= m), B and Rd (p x p);
+ * per_k lists of F, Q, B, Rd cover k = 0..last_dyn and of H, R, D cover
  * k = 1..last_meas; every run has y at k = 1..last_meas; with need_d0,
  * init.d00 (p) and init.Pd00 (p x p) exist (single sensor). `who` names
  * the filter in messages. Returns 0, or -1 with a "FILE: KEY: problem"

@@ -8,6 +8,19 @@
 #include <stdio.h>
 #include <string.h>
 
+/* The keys of each object of the layout (docs/scenario-format.md,
+ * "Canonical layout"); a key of another object is suggested where it fits. */
+static const char *const top_keys[] = {"model", "init", "y", "runs", "truth", "k", "N", NULL};
+static const char *const model_keys[] = {"F", "Q", "H", "R", "D", "B", "Rd", "sensors", NULL};
+static const char *const sensor_keys[] = {"H", "R", "D", "B", "Rd", NULL};
+static const char *const init_keys[] = {"x00", "P00", "P00_local", "P00_central", "d00", "Pd00",
+                                        NULL};
+static const char *const run_keys[] = {"y", "truth", NULL};
+static const char *const init_paths[] = {"init.x00", "init.P00", "init.P00_local",
+                                         "init.P00_central", "init.d00", "init.Pd00", NULL};
+static const char *const model_paths[] = {"model.F", "model.Q", "model.H", "model.R", "model.D",
+                                          "model.B", "model.Rd", "model.sensors", NULL};
+
 static int parse_mat_object(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const json_t *obj,
                             const char *path,
                             const char *skip)
@@ -121,6 +134,7 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
     size_t i, r, nruns = 1;
     char p[DKF_SCN_PATH_LEN];
 
+    if (dkf_scn_check_keys(c, root, "", top_keys, NULL) != 0) return -1;
     if (model == NULL) return dkf_scn_fail(c, "model", "missing key");
     if (!json_is_object(model))
         return dkf_scn_fail(c, "model", "expected an object, got %s", dkf_scn_json_kind(model));
@@ -147,6 +161,9 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
         return dkf_scn_fail(c, "y", "missing key");
     }
 
+    if (dkf_scn_check_keys(c, model, "model", model_keys, init_paths) != 0 ||
+        dkf_scn_check_keys(c, init, "init", init_keys, model_paths) != 0)
+        return -1;
     sensors = json_object_get(model, "sensors");
     if (parse_mat_object(c, &s->model, model, "model", "sensors") != 0) return -1;
     if (sensors != NULL) {
@@ -168,6 +185,7 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
         dkf_scn_subidx(p, "model.sensors", i);
         if (!json_is_object(sj))
             return dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(sj));
+        if (dkf_scn_check_keys(c, sj, p, sensor_keys, model_paths) != 0) return -1;
         if (parse_mat_object(c, &s->sensors[i].mats, sj, p, NULL) != 0) return -1;
     }
 
@@ -184,6 +202,7 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
             dkf_scn_subidx(p, "runs", r);
             if (!json_is_object(rj))
                 return dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(rj));
+            if (dkf_scn_check_keys(c, rj, p, run_keys, NULL) != 0) return -1;
             dkf_scn_subkey(py, p, "y");
             if ((yj = json_object_get(rj, "y")) == NULL) return dkf_scn_fail(c, py, "missing key");
         } else {

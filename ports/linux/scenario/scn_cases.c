@@ -1,7 +1,7 @@
 /*
  * scn_cases.c - the cases layout (the infofusion golden-vector file):
- * cases[c] with x0, P0, Q, C[j], R[j] and steps[] carrying k, F, z[j]
- * (docs/scenario-format.md, "Cases layout").
+ * cases[c] with x0, P0, Q, H[j] (the vector's C[j]), R[j] and steps[]
+ * carrying k, F, z[j] (docs/scenario-format.md, "Cases layout").
  */
 #include "scn_parse.h"
 
@@ -9,6 +9,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+/* The keys of the layout's objects (`expected`, `held_out`: the vector's). */
+static const char *const top_keys[] = {"cases", NULL};
+static const char *const case_keys[] = {"x0", "P0", "Q", "H", "R", "steps", "truth", "held_out",
+                                        NULL};
+static const char *const step_keys[] = {"k", "F", "Q", "z", "expected", NULL};
 
 static int select_case(dkf_scn_ctx_t *c, const json_t *cases, const char *sel, size_t *idx)
 {
@@ -114,7 +120,8 @@ int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn
  * "t") is j + 1 and whose data key dkey ("z", "y") is returned (its key
  * path in pd); NULL after the message. */
 const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                 const char *cpath, const char *tkey, const char *dkey, char *pd)
+                                 const char *cpath, const char *tkey, const char *dkey,
+                                 const char *const *known, char *pd)
 {
     const json_t *st = json_array_get(steps, j), *d;
     char p[DKF_SCN_PATH_LEN];
@@ -125,6 +132,7 @@ const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j
                      dkf_scn_json_kind(st));
         return NULL;
     }
+    if (dkf_scn_check_keys(c, st, p, known, NULL) != 0) return NULL;
     dkf_scn_subkey(pd, p, tkey);
     if (json_object_get(st, tkey) == NULL) {
         dkf_scn_fail(c, pd, "missing key");
@@ -155,7 +163,8 @@ static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t 
     for (j = 0; j < N; ++j) {
         const json_t *z;
         const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", pz)) == NULL) goto done;
+        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", step_keys, pz)) == NULL)
+            goto done;
         if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
             dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
                          s->nsensors, dkf_scn_json_kind(z));
@@ -186,6 +195,7 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     size_t i;
     char cpath[DKF_SCN_PATH_LEN], p[DKF_SCN_PATH_LEN], pr[DKF_SCN_PATH_LEN];
 
+    if (dkf_scn_check_keys(c, root, "", top_keys, NULL) != 0) return -1;
     if (!json_is_array(cases))
         return dkf_scn_fail(c, "cases", "expected a list, got %s", dkf_scn_json_kind(cases));
     if (select_case(c, cases, sel, &s->case_index) != 0) return -1;
@@ -199,6 +209,7 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
         return dkf_scn_load_nlcases(c, s, cj, cpath);
     if (dkf_scn_is_wfcase(cj)) return dkf_scn_load_wfcases(c, s, cj, cpath);
     s->layout = DKF_SCN_LAYOUT_CASES;
+    if (dkf_scn_check_keys(c, cj, cpath, case_keys, NULL) != 0) return -1;
     s->multi = 1;
 
     steps = json_object_get(cj, "steps");
@@ -216,9 +227,9 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     if (cases_model(c, s, cj, steps, cpath, "F") != 0) return -1;
     if (cases_model(c, s, cj, steps, cpath, "Q") != 0) return -1;
 
-    C = json_object_get(cj, "C");
+    C = json_object_get(cj, "H");
     R = json_object_get(cj, "R");
-    dkf_scn_subkey(p, cpath, "C");
+    dkf_scn_subkey(p, cpath, "H");
     dkf_scn_subkey(pr, cpath, "R");
     if (C == NULL) return dkf_scn_fail(c, p, "missing key");
     if (R == NULL) return dkf_scn_fail(c, pr, "missing key");
@@ -230,7 +241,7 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
         return dkf_scn_fail(c, p, "%zu sensors, more than the %lu allowed", s->nsensors,
                             DKF_SCN_MAX_SENSORS);
     if (!json_is_array(R) || json_array_size(R) != s->nsensors)
-        return dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per C), got %s",
+        return dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per H), got %s",
                             s->nsensors,
                             dkf_scn_json_kind(R));
     if ((s->sensors = dkf_scn_calloc(c, s->nsensors, sizeof *s->sensors)) == NULL) return -1;
@@ -243,7 +254,7 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     if (cases_measurements(c, s, steps, cpath) != 0) return -1;
     if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
     dkf_scn_adopt_y(s, 0);
-    dkf_scn_pathf(p, "%s.C[%%zu]", cpath);
+    dkf_scn_pathf(p, "%s.H[%%zu]", cpath);
     if (dkf_scn_validate(c, s, cpath, p) != 0) return -1;
     dkf_scn_subkey(p, cpath, "truth");
     if (dkf_scn_parse_run_truth(c, s, 0, json_object_get(cj, "truth"), p) != 0) return -1;

@@ -7,10 +7,35 @@
 #include "scn_parse.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
-static int require_symmetric(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
-                             int is_list)
+#include "util.h"
+
+/* The covariances the filters read, and the definiteness they need
+ * (dkf/kf.h, dkf/ui_model.h, dkf/uif.h, dkf/tw.h): Q and Rd are PSD (a
+ * noise may be absent in some direction), R and the initial covariances
+ * SPD (the filters invert R, H P H^T + R, P0). */
+typedef struct {
+    const char *name;
+    int spd;
+    const char *what;
+} cov_t;
+
+static const cov_t model_cov[] = {
+    {"Q", 0, "the process noise covariance Q must be symmetric PSD"},
+    {"R", 1, "the measurement noise covariance R must be SPD"},
+    {"Rd", 0, "the input noise covariance Rd must be symmetric PSD"},
+};
+static const cov_t init_cov[] = {
+    {"P00", 1, "the initial state covariance must be SPD"},
+    {"P00_local", 1, "the initial state covariance must be SPD"},
+    {"P00_central", 1, "the initial state covariance must be SPD"},
+    {"Pd00", 1, "the initial input covariance must be SPD"},
+};
+
+static int require_covariance(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dkf_scn_mat_t *m,
+                              int is_list, const cov_t *cov)
 {
     size_t e, n, count;
     char p[DKF_SCN_PATH_LEN];
@@ -26,27 +51,32 @@ static int require_symmetric(dkf_scn_ctx_t *c, const dkf_scenario_t *s, const dk
             dkf_scn_pathf(p, "%s.per_k[%zu]", m->path, e);
         else
             dkf_scn_pathf(p, "%s (entry for k = %zu)", m->path, m->k0 + e);
-        if (dkf_scn_check_symmetric(c, p, m->data + e * n * n, n) != 0) return -1;
+        if (dkf_scn_check_symmetric(c, p, m->data + e * n * n, n) != 0 ||
+            dkf_scn_check_definite(c, p, m->data + e * n * n, n, cov->spd, cov->what) != 0)
+            return -1;
     }
     return 0;
 }
 
-/* Every covariance of the model (Q, R, Rd, Sv, Sw; each sensor's own) and of
- * init (P00, P00_local, P00_central, Pd00). */
+/* Every covariance of the model (Q, R, Rd; each sensor's own) and of init
+ * (P00, P00_local, P00_central, Pd00): symmetric, and as definite as
+ * model_cov / init_cov say. */
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s)
 {
-    static const char *const model_cov[] = {"Q", "R", "Rd", "Sv", "Sw"};
-    static const char *const init_cov[] = {"P00", "P00_local", "P00_central", "Pd00"};
     size_t i, l;
     for (i = 0; i < sizeof model_cov / sizeof *model_cov; ++i) {
-        if (require_symmetric(c, s, dkf_scn_mats_find(&s->model, model_cov[i]), 0) != 0) return -1;
+        if (require_covariance(c, s, dkf_scn_mats_find(&s->model, model_cov[i].name), 0,
+                               &model_cov[i]) != 0)
+            return -1;
         for (l = 0; l < s->nsensors; ++l)
-            if (require_symmetric(c, s, dkf_scn_mats_find(&s->sensors[l].mats, model_cov[i]),
-                                  0) != 0)
+            if (require_covariance(c, s, dkf_scn_mats_find(&s->sensors[l].mats, model_cov[i].name),
+                                   0, &model_cov[i]) != 0)
                 return -1;
     }
     for (i = 0; i < sizeof init_cov / sizeof *init_cov; ++i)
-        if (require_symmetric(c, s, dkf_scn_mats_find(&s->init, init_cov[i]), 1) != 0) return -1;
+        if (require_covariance(c, s, dkf_scn_mats_find(&s->init, init_cov[i].name), 1,
+                               &init_cov[i]) != 0)
+            return -1;
     return 0;
 }
 
@@ -125,7 +155,7 @@ int dkf_scn_validate(dkf_scn_ctx_t *c, dkf_scenario_t *s, const char *model_path
         dkf_scn_sensor_t *se = &s->sensors[i];
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, "H");
         const dkf_scn_mat_t *R = dkf_scn_sensor_model(s, i, "R");
-        const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, i, "A");
+        const dkf_scn_mat_t *D = dkf_scn_sensor_model(s, i, "D");
         char sp[DKF_SCN_PATH_LEN];
         dkf_scn_pathf(sp, sensor_fmt_path, i);
         dkf_scn_subkey(p, sp, "H");
@@ -142,13 +172,13 @@ int dkf_scn_validate(dkf_scn_ctx_t *c, dkf_scenario_t *s, const char *model_path
         dkf_scn_subkey(p, sp, "R");
         if (dkf_scn_require_shape(c, R, p, se->m, se->m) != 0) return -1;
         /* Unknown-input pieces are not used by kf/info; check what is unambiguous. */
-        if (A != NULL && A->rows != se->m)
-            return dkf_scn_fail(c, A->path, "expected %zu rows (like H), got %zu", se->m, A->rows);
-        if (A != NULL) {
+        if (D != NULL && D->rows != se->m)
+            return dkf_scn_fail(c, D->path, "expected %zu rows (like H), got %zu", se->m, D->rows);
+        if (D != NULL) {
             const dkf_scn_mat_t *B = dkf_scn_sensor_model(s, i, "B");
             const dkf_scn_mat_t *Rd = dkf_scn_sensor_model(s, i, "Rd");
-            if (B != NULL && dkf_scn_require_shape(c, B, B->path, A->cols, A->cols) != 0) return -1;
-            if (Rd != NULL && dkf_scn_require_shape(c, Rd, Rd->path, A->cols, A->cols) != 0)
+            if (B != NULL && dkf_scn_require_shape(c, B, B->path, D->cols, D->cols) != 0) return -1;
+            if (Rd != NULL && dkf_scn_require_shape(c, Rd, Rd->path, D->cols, D->cols) != 0)
                 return -1;
         }
         if (dkf_scn_require_times(c, H, s->steps, why) != 0) return -1;
@@ -207,7 +237,7 @@ int dkf_scn_require_ui(const dkf_scenario_t *s, size_t last_dyn, size_t last_mea
     size_t i, r, j, p = 0;
     char path[DKF_SCN_PATH_LEN], why[96];
     static const char *const dyn_names[] = {"B", "Rd"};
-    static const char *const meas_names[] = {"H", "R", "A"};
+    static const char *const meas_names[] = {"H", "R", "D"};
     dkf_scenario_t *sm = (dkf_scenario_t *)s; /* run selection only; restored below */
     size_t run0 = s->run;
     c.file = s->file;
@@ -217,19 +247,19 @@ int dkf_scn_require_ui(const dkf_scenario_t *s, size_t last_dyn, size_t last_mea
     if (dkf_scn_require_times(&c, dkf_scn_model(s, "F"), last_dyn, why) != 0) return -1;
     if (dkf_scn_require_times(&c, dkf_scn_model(s, "Q"), last_dyn, why) != 0) return -1;
     for (i = 0; i < s->nsensors; ++i) {
-        const dkf_scn_mat_t *A = dkf_scn_sensor_model(s, i, "A");
-        sensor_key(s, i, "A", path);
-        if (A == NULL) return dkf_scn_fail(&c, path, "missing key (filter %s needs A, B, Rd)", who);
-        p = A->cols;
+        const dkf_scn_mat_t *D = dkf_scn_sensor_model(s, i, "D");
+        sensor_key(s, i, "D", path);
+        if (D == NULL) return dkf_scn_fail(&c, path, "missing key (filter %s needs D, B, Rd)", who);
+        p = D->cols;
         if (p > s->sensors[i].m)
-            return dkf_scn_fail(&c, A->path,
-                                "has %zu columns but %zu rows: A must have full column "
+            return dkf_scn_fail(&c, D->path,
+                                "has %zu columns but %zu rows: D must have full column "
                                 "rank (p <= m)", p, s->sensors[i].m);
         for (j = 0; j < 2; ++j) {
             const dkf_scn_mat_t *M = dkf_scn_sensor_model(s, i, dyn_names[j]);
             sensor_key(s, i, dyn_names[j], path);
             if (M == NULL)
-                return dkf_scn_fail(&c, path, "missing key (filter %s needs A, B, Rd)", who);
+                return dkf_scn_fail(&c, path, "missing key (filter %s needs D, B, Rd)", who);
             if (dkf_scn_require_shape(&c, M, path, p, p) != 0) return -1;
             if (dkf_scn_require_times(&c, M, last_dyn, why) != 0) return -1;
         }

@@ -26,6 +26,16 @@
 
 #include "nlm.h"
 
+/* The keys of the layout's objects (`held_out`, `node_sensor_index_in_paper`,
+ * the expected values and truth's noises: the vectors' own). */
+static const char *const case_keys[] = {"model", "node_models", "init", "init_per_node", "W",
+                                        "W_sparse", "edges", "Tp", "scale", "steps", "truth",
+                                        "x_true", "d_true", "held_out",
+                                        "node_sensor_index_in_paper", NULL};
+static const char *const init_keys[] = {"x0", "Px0", "d0", "Pd0", "Pxd0", NULL};
+static const char *const step_keys[] = {"k", "z", "expected", "expected_per_node", NULL};
+static const char *const truth_keys[] = {"X", "omega", "W_process", "V_meas", NULL};
+
 /* v must be a list; 1 if it is an empty one (or a list of empty lists). */
 static int is_empty_list(const json_t *v)
 {
@@ -57,7 +67,12 @@ static int init_entry(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const json_t *init,
     m = dkf_scn_mats_find(set, as);
     if (m == NULL || m->count != 0) return dkf_scn_fail(c, p, "expected a vector or a matrix");
     if (dkf_scn_require_shape(c, m, p, r, cc) != 0) return -1;
-    return cov ? dkf_scn_check_symmetric(c, p, m->data, r) : 0;
+    if (!cov) return 0;
+    return dkf_scn_check_symmetric(c, p, m->data, r) != 0 ||
+                   dkf_scn_check_definite(c, p, m->data, r, 0,
+                                          "an initial covariance must be symmetric PSD") != 0
+               ? -1
+               : 0;
 }
 
 /* Node i's init object: n from x0, p from d0 (the first node fixes them). */
@@ -70,6 +85,7 @@ static int node_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_t
     if (!json_is_object(init))
         return dkf_scn_fail(c, ipath, "expected {x0, Px0, d0, Pd0, Pxd0}, got %s",
                             dkf_scn_json_kind(init));
+    if (dkf_scn_check_keys(c, init, ipath, init_keys, NULL) != 0) return -1;
     dkf_scn_subkey(p, ipath, "x0");
     if (!json_is_array(x0) || json_array_size(x0) == 0 || json_array_size(x0) > DKF_MAX_DIM)
         return dkf_scn_fail(c, p, "expected a list of 1..%d numbers (the initial state)",
@@ -131,7 +147,8 @@ static int measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps
     for (j = 0; j < N; ++j) {
         const json_t *z;
         const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", pz)) == NULL) goto done;
+        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", step_keys, pz)) == NULL)
+            goto done;
         if (s->nl->network && (!json_is_array(z) || json_array_size(z) != s->nsensors)) {
             dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per node), got %s",
                          s->nsensors, dkf_scn_json_kind(z));
@@ -211,6 +228,8 @@ static int nl_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const
     char p[DKF_SCN_PATH_LEN];
     long k0 = 1;
     if (tr != NULL && json_is_object(tr)) {
+        dkf_scn_subkey(p, cpath, "truth");
+        if (dkf_scn_check_keys(c, tr, p, truth_keys, NULL) != 0) return -1;
         xt = json_object_get(tr, "X");
         dj = json_object_get(tr, "omega");
         k0 = 0;
@@ -292,6 +311,7 @@ int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     size_t i, N;
 
     s->layout = DKF_SCN_LAYOUT_NLCASES;
+    if (dkf_scn_check_keys(c, cj, cpath, case_keys, NULL) != 0) return -1;
     if ((s->nl = dkf_scn_calloc(c, 1, sizeof *s->nl)) == NULL) return -1;
     s->nl->network = network;
     s->nl->scale = 1.0;

@@ -1,9 +1,10 @@
 /*
  * scn_steps.c - the steps layout (the seed-003/004 golden-vector files read
  * as they are): steps[] with k or n, inputs (y and time-varying matrices),
- * truth. Without a `graph` key one sensor (model A, G, Q, C, H, R); with
- * one the network form (model A, B, Sv; per-node H, Sw, y; the graph and
- * weights: scn_network.c). docs/scenario-format.md, "Steps layout".
+ * truth. Without a `graph` key one sensor (model F, G, Q, H, D, R); with
+ * one the network form (model F, G, Q; per-node H, R, y; the graph and
+ * weights: scn_network.c). docs/scenario-format.md, "Steps layout"; the
+ * vectors' own letters are renamed before (scn_keys.c).
  */
 #include "scn_parse.h"
 
@@ -12,6 +13,19 @@
 #include <string.h>
 
 #define STEPS_MAX_KEYS 32
+
+/* The keys of the layout's objects (`expected`: the vectors'). A matrix
+ * given per step is <M> (at k) or <M>_prev (at k - 1). */
+static const char *const top_keys[] = {"init", "model", "steps", "graph", "W_consensus",
+                                       "W_consensus_sparse", "alpha_diffusion",
+                                       "alpha_diffusion_sparse", "eta", NULL};
+static const char *const init_keys[] = {"x0", "P0", NULL};
+static const char *const model_keys[] = {"F", "G", "Q", "H", "D", "R", NULL};
+static const char *const step_keys[] = {"k", "n", "inputs", "truth", "expected", NULL};
+static const char *const input_keys[] = {"y", "F", "G", "Q", "H", "D", "R", "F_prev", "G_prev",
+                                         "Q_prev", "H_prev", "D_prev", "R_prev", NULL};
+static const char *const truth_keys[] = {"x", "d", "d_prev", "z_prev", NULL};
+static const char *const graph_keys[] = {"edges", "neighbours_incl_self", NULL};
 
 /* Step j's absolute time: key `k` (seed 004) or `n` (seed 003). */
 static int steps_time(dkf_scn_ctx_t *c, const json_t *st, size_t j, long *k)
@@ -27,6 +41,9 @@ static int steps_time(dkf_scn_ctx_t *c, const json_t *st, size_t j, long *k)
         key = "n";
     }
     if (jk == NULL) return dkf_scn_fail(c, p, "missing key k (or n): the step's time");
+    if (dkf_scn_check_keys(c, st, p, step_keys, NULL) != 0) return -1;
+    dkf_scn_subkey(pk, p, "truth");
+    if (dkf_scn_check_keys(c, json_object_get(st, "truth"), pk, truth_keys, NULL) != 0) return -1;
     dkf_scn_subkey(pk, p, key);
     return dkf_scn_get_integer(c, jk, pk, 0.0, DKF_SCN_MAX_TIME, k);
 }
@@ -40,7 +57,7 @@ static int steps_inputs_of(dkf_scn_ctx_t *c, const json_t *st, size_t j, const j
     if (*in == NULL) return dkf_scn_fail(c, p, "missing key");
     if (!json_is_object(*in))
         return dkf_scn_fail(c, p, "expected an object, got %s", dkf_scn_json_kind(*in));
-    return 0;
+    return dkf_scn_check_keys(c, *in, p, input_keys, NULL);
 }
 
 /* Per-step matrix `key` of the inputs (`<M>` at k, `<M>_prev` at k - 1)
@@ -67,7 +84,7 @@ static int steps_matrix(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps
                                 prev ? " with k >= 1" : "");
         if (dkf_scn_nest_depth(v) > 2)
             return dkf_scn_fail(c, p,
-                                "expected a matrix, got a list of matrices (only seed-003 H and Sw "
+                                "expected a matrix, got a list of matrices (only seed-003 H and R "
                                 "are per node)");
         if (first == N) first = j;
     }
@@ -91,7 +108,7 @@ static int steps_matrix(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps
     return dkf_scn_check_dims(c, m);
 }
 
-/* Seed 003's per-node H or Sw given per step: steps[j].inputs.<key> is a
+/* Seed 003's per-node H or R given per step: steps[j].inputs.<key> is a
  * list of one matrix per node, node l's <key> at the step's time (a per_k
  * list of sensor l from k_first). Shapes may not change between steps. */
 static int steps_node_series(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
@@ -162,7 +179,7 @@ static int steps_matrices(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ste
     }
     for (i = 0; i < nkeys; ++i) {
         const int node_key = s->layout == DKF_SCN_LAYOUT_NETWORK &&
-                             (strcmp(keys[i], "H") == 0 || strcmp(keys[i], "Sw") == 0);
+                             (strcmp(keys[i], "H") == 0 || strcmp(keys[i], "R") == 0);
         if ((node_key ? steps_node_series(c, s, steps, keys[i])
                       : steps_matrix(c, s, steps, keys[i])) != 0)
             return -1;
@@ -170,7 +187,7 @@ static int steps_matrices(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ste
     return 0;
 }
 
-/* A list of N same-shape matrices (model.H / model.Sw of seed 003): sensor
+/* A list of N same-shape matrices (model.H / model.R of seed 003): sensor
  * l's matrix `name`. */
 static int steps_node_matrices(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *model,
                                const char *name)
@@ -196,15 +213,14 @@ static int steps_node_matrices(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t
 }
 
 /* The constant model: bare matrices (or const/per_k objects); seed 003's
- * per-node H, Sw go to the sensors. */
+ * per-node H, R go to the sensors. */
 static int steps_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *model)
 {
     const char *key;
     json_t *val;
     char p[DKF_SCN_PATH_LEN];
     json_object_foreach((json_t *)model, key, val) {
-        if (s->layout == DKF_SCN_LAYOUT_NETWORK && (strcmp(key, "H") == 0 || strcmp(key,
-                                                                                    "Sw") == 0))
+        if (s->layout == DKF_SCN_LAYOUT_NETWORK && (strcmp(key, "H") == 0 || strcmp(key, "R") == 0))
             continue;
         dkf_scn_subkey(p, "model", key);
         if (json_is_array(val) && dkf_scn_nest_depth(val) > 2)
@@ -215,19 +231,18 @@ static int steps_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *model)
         /* per node, in model or (time varying) in every step's inputs */
         if (json_object_get(model, "H") != NULL && steps_node_matrices(c, s, model, "H") != 0)
             return -1;
-        if (json_object_get(model, "Sw") != NULL && steps_node_matrices(c, s, model, "Sw") != 0)
+        if (json_object_get(model, "R") != NULL && steps_node_matrices(c, s, model, "R") != 0)
             return -1;
     }
     return 0;
 }
 
-/* The length of sensor i's y: the rows of its C (seed 004) or H (seed 003)
- * if given, else what the first step's y has (steps_validate then reports
+/* The length of sensor i's y: the rows of its H if given, else what the first step's y has (steps_validate then reports
  * the missing matrix); every step's y is checked against it. */
 static size_t steps_y_dim(const dkf_scenario_t *s, size_t i, const json_t *y0)
 {
     const int tw = s->layout == DKF_SCN_LAYOUT_NETWORK;
-    const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, tw ? "H" : "C");
+    const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, i, "H");
     const json_t *yi = tw ? json_array_get(y0, i) : y0;
     if (H != NULL) return H->rows;
     return json_is_array(yi) && json_array_size(yi) > 0 ? json_array_size(yi) : 1;
@@ -278,8 +293,8 @@ static int steps_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t 
                 goto done;
             if (len != yb[i].dim)
                 st = dkf_scn_fail(c, pi,
-                                  "expected a vector of %zu values (the rows of %s), got %zu",
-                                  yb[i].dim, tw ? "H" : "C", len);
+                                  "expected a vector of %zu values (the rows of H), got %zu",
+                                  yb[i].dim, len);
             else
                 st = dkf_scn_store(c, pi, &yb[i], j, v, len);
             free(v);
@@ -375,31 +390,31 @@ static int steps_validate(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t *m_out)
 {
     const long klast = s->k_first + (long)s->steps - 1, kd0 = s->k_first > 0 ? s->k_first - 1 : 0;
     const long kd1 = klast - 1;
-    const dkf_scn_mat_t *A, *G, *C, *H;
+    const dkf_scn_mat_t *F, *G, *H;
     size_t n, m, p, l;
     const int tw = s->layout == DKF_SCN_LAYOUT_NETWORK;
-    if (steps_require(c, s, 0, "A", 0, 0, kd0, kd1, &A) != 0) return -1;
-    if (A->rows != A->cols)
-        return dkf_scn_fail(c, A->path, "expected a square matrix, got %zux%zu", A->rows, A->cols);
-    n = s->n = A->rows;
-    if (steps_require(c, s, 0, tw ? "B" : "G", n, 0, kd0, kd1, &G) != 0) return -1;
+    if (steps_require(c, s, 0, "F", 0, 0, kd0, kd1, &F) != 0) return -1;
+    if (F->rows != F->cols)
+        return dkf_scn_fail(c, F->path, "expected a square matrix, got %zux%zu", F->rows, F->cols);
+    n = s->n = F->rows;
+    if (steps_require(c, s, 0, "G", n, 0, kd0, kd1, &G) != 0) return -1;
     m = *m_out = G->cols;
-    if (steps_require(c, s, 0, tw ? "Sv" : "Q", n, n, kd0, kd1, NULL) != 0) return -1;
+    if (steps_require(c, s, 0, "Q", n, n, kd0, kd1, NULL) != 0) return -1;
     if (!tw) {
-        if (steps_require(c, s, 0, "C", 0, n, s->k_first, klast, &C) != 0) return -1;
-        p = C->rows;
+        if (steps_require(c, s, 0, "H", 0, n, s->k_first, klast, &H) != 0) return -1;
+        p = H->rows;
         if (steps_require(c, s, 0, "R", p, p, s->k_first, klast, NULL) != 0) return -1;
-        H = dkf_scn_model(s, "H");
-        if (H != NULL && steps_require(c, s, 0, "H", p, m, s->k_first, klast, NULL) != 0)
+        if (dkf_scn_model(s, "D") != NULL &&
+            steps_require(c, s, 0, "D", p, m, s->k_first, klast, NULL) != 0)
             return -1;
         if (s->sensors[0].m != p)
             return dkf_scn_fail(c, "steps[0].inputs.y",
-                                "expected a vector of %zu values (the rows of C), "
+                                "expected a vector of %zu values (the rows of H), "
                                 "got %zu", p, s->sensors[0].m);
         return 0;
     }
     for (l = 0; l < s->nsensors; ++l) {
-        const dkf_scn_mat_t *Hl = dkf_scn_sensor_model(s, l, "H"), *Sw;
+        const dkf_scn_mat_t *Hl = dkf_scn_sensor_model(s, l, "H"), *Rl;
         if (Hl == NULL)
             return dkf_scn_fail(c, "model.H", "missing key (seed-003 files give one H per node, in "
                                 "model or in every step's inputs)");
@@ -407,12 +422,12 @@ static int steps_validate(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t *m_out)
         if (Hl->rows > DKF_MAX_DIM)
             return dkf_scn_fail(c, Hl->path, "dimension %zu exceeds DKF_MAX_DIM = %d", Hl->rows,
                                 DKF_MAX_DIM);
-        Sw = dkf_scn_sensor_model(s, l, "Sw");
-        if (Sw == NULL)
-            return dkf_scn_fail(c, "model.Sw", "missing key (one Sw per node, in model or in every "
+        Rl = dkf_scn_sensor_model(s, l, "R");
+        if (Rl == NULL)
+            return dkf_scn_fail(c, "model.R", "missing key (one R per node, in model or in every "
                                 "step's inputs)");
-        if (Sw->rows != Hl->rows || Sw->cols != Hl->rows)
-            return dkf_scn_shape_error(c, Sw->path, Hl->rows, Hl->rows, Sw->rows, Sw->cols);
+        if (Rl->rows != Hl->rows || Rl->cols != Hl->rows)
+            return dkf_scn_shape_error(c, Rl->path, Hl->rows, Hl->rows, Rl->rows, Rl->cols);
         if (s->sensors[l].m != Hl->rows) {
             char p2[DKF_SCN_PATH_LEN];
             dkf_scn_pathf(p2, "steps[0].inputs.y[%zu]", l);
@@ -430,6 +445,11 @@ int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root)
     size_t j, N, m = 0;
     long k;
     s->layout = DKF_SCN_LAYOUT_STEPS;
+    if (dkf_scn_check_keys(c, root, "", top_keys, NULL) != 0 ||
+        dkf_scn_check_keys(c, init, "init", init_keys, NULL) != 0 ||
+        dkf_scn_check_keys(c, model, "model", model_keys, NULL) != 0 ||
+        dkf_scn_check_keys(c, json_object_get(root, "graph"), "graph", graph_keys, NULL) != 0)
+        return -1;
     if (!json_is_array(steps) || json_array_size(steps) == 0)
         return dkf_scn_fail(c, "steps", "expected a non-empty list of step objects, got %s",
                             dkf_scn_json_kind(steps));

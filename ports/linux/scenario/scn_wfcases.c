@@ -21,6 +21,13 @@
 #include "scn_parse.h"
 #include "util.h"
 
+/* The keys of the layout's objects (`steady_state`, `held_out`, `expected`:
+ * the vector's own). */
+static const char *const case_keys[] = {"Phi", "Gamma", "Qe", "H", "R", "H_signal", "x_hat0",
+                                        "P0", "steps", "x_true", "steady_state", "held_out",
+                                        NULL};
+static const char *const step_keys[] = {"t", "y", "expected", NULL};
+
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -51,21 +58,6 @@ static dkf_scn_mat_t *wf_matrix(dkf_scn_ctx_t *c, dkf_scn_mats_t *set, const jso
         return NULL;
     }
     return m;
-}
-
-/* a (n x n, symmetric, at path) positive definite: Cholesky in double. */
-static int check_pd(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n,
-                    const char *what)
-{
-    double *L = calloc(n * n, sizeof *L), d = 0;
-    size_t bad;
-    if (L == NULL) return dkf_scn_fail(c, NULL, "out of memory");
-    bad = dkf_chol_double(a, n, L, &d);
-    free(L);
-    if (bad < n)
-        return dkf_scn_fail(c, path, "not positive definite (%s): Cholesky pivot %zu is %.3g",
-                            what, bad, d);
-    return 0;
 }
 
 /* Q = Gamma Qe Gamma^T (n x n) into model "Q": the upper triangle summed
@@ -149,7 +141,8 @@ static int wf_sensors(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, con
             return dkf_scn_shape_error(c, p, s->sensors[i].m, s->sensors[i].m, m->rows,
                                        m->cols);
         if (dkf_scn_check_symmetric(c, p, m->data, m->rows) != 0) return -1;
-        if (check_pd(c, p, m->data, m->rows, "a measurement noise covariance R_i") != 0)
+        if (dkf_scn_check_definite(c, p, m->data, m->rows, 1,
+                                   "a measurement noise covariance R_i") != 0)
             return -1;
     }
     return 0;
@@ -167,7 +160,7 @@ static int wf_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *st
     if (y == NULL) return -1;
     if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
     for (j = 0; j < N; ++j) {
-        const json_t *yj = dkf_scn_cases_step(c, steps, j, cpath, "t", "y", py);
+        const json_t *yj = dkf_scn_cases_step(c, steps, j, cpath, "t", "y", step_keys, py);
         if (yj == NULL) goto done;
         if (!json_is_array(yj) || json_array_size(yj) != s->nsensors) {
             if (json_is_array(yj))
@@ -259,6 +252,7 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
 
     s->layout = DKF_SCN_LAYOUT_WFCASES;
     s->multi = 1;
+    if (dkf_scn_check_keys(c, cj, cpath, case_keys, NULL) != 0) return -1;
     if ((F = wf_matrix(c, &s->model, cj, cpath, "Phi", "F", 0, 0)) == NULL) return -1;
     if (F->rows != F->cols) {
         dkf_scn_subkey(p, cpath, "Phi");
@@ -270,11 +264,17 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     if ((G = wf_matrix(c, &s->model, cj, cpath, "Gamma", "Gamma", s->n, 0)) == NULL) return -1;
     r = G->cols;
     if ((Qe = wf_matrix(c, &s->model, cj, cpath, "Qe", "Qe", r, r)) == NULL) return -1;
-    if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, r) != 0) return -1;
+    if (dkf_scn_check_symmetric(c, Qe->path, Qe->data, r) != 0 ||
+        dkf_scn_check_definite(c, Qe->path, Qe->data, r, 0,
+                               "the noise covariance Qe must be symmetric PSD") != 0)
+        return -1;
     if (wf_Q(c, s, cpath) != 0) return -1;
     if (wf_matrix(c, &s->model, cj, cpath, "H_signal", "Hs", 1, s->n) == NULL) return -1;
     if ((P0 = wf_matrix(c, &s->init, cj, cpath, "P0", "P00", s->n, s->n)) == NULL) return -1;
-    if (dkf_scn_check_symmetric(c, P0->path, P0->data, s->n) != 0) return -1;
+    if (dkf_scn_check_symmetric(c, P0->path, P0->data, s->n) != 0 ||
+        dkf_scn_check_definite(c, P0->path, P0->data, s->n, 0,
+                               "the initial covariance P0 must be symmetric PSD") != 0)
+        return -1;
     dkf_scn_subkey(p, cpath, "x_hat0");
     if (x0 == NULL) return dkf_scn_fail(c, p, "missing key");
     if ((x = dkf_scn_mats_add(c, &s->init, "x00", p)) == NULL) return -1;

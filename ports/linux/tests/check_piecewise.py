@@ -4,9 +4,10 @@ independent computation: the same filter restarted on constant-model files.
 
     check_piecewise.py DKF_RUN VECTOR_DIR OUTDIR {rtsf|nrtsf_df|nrtsf|tw1} [TOL]
 
-The model is M_a up to step K and M_b after (every matrix changes: A, G,
-Q, C, H, R for seed 004; A, B, Sv and every node's H, Sw for seed 003).
-The time-varying file gives it as per-step `inputs` (A_prev, ... at every
+The model is M_a up to step K and M_b after (every matrix changes: F, G,
+Q, H, D, R for seed 004; F, G, Q and every node's H, R for seed 003; the
+vectors read in the library's letters). The time-varying file gives it as
+per-step `inputs` (F_prev, ... at every
 step) and has no `model` at all. The reference runs dkf-run twice on constant-model files:
 
 * nrtsf, tw1 ((x0, P0) = x_{0|0}; (x_{k|k}, P_{k|k}) is the whole state
@@ -16,7 +17,7 @@ step) and has no `model` at all. The reference runs dkf-run twice on constant-mo
 * rtsf, nrtsf_df ((x0, P0) is the prior of the first step, which has no
   time update): M_a for steps 0..K-1; the time update to K with M_b is
   computed here in numpy from that run's x, d, Px, Pxd, Pd
-  (x_{K|K-1} = A x + G d, P_{K|K-1} = [A G] [Px Pxd; Pxd^T Pd] [A G]^T + Q,
+  (x_{K|K-1} = F x + G d, P_{K|K-1} = [F G] [Px Pxd; Pxd^T Pd] [F G]^T + Q,
   uif.h), and is the prior of the M_b run over steps K..N-1 renumbered 0...
 
 dkf-run writes every number with 17 significant digits (exact round trip),
@@ -34,6 +35,8 @@ import numpy as np
 import os
 import subprocess
 import sys
+
+from make_steps_cases import library_letters
 
 TOL = 1e-12
 K = 12
@@ -76,11 +79,11 @@ LABEL = {"rtsf": "RTSF", "nrtsf_df": "NRTSF_DF", "nrtsf": "NRTSF", "tw1": "alg1"
 def time_update(out, j, mb):
     """x_{k|k-1}, P_{k|k-1} with M_b from step j's x, d, Px, Pxd, Pd (uif.h)."""
     o = {key: np.array(out[key][j], dtype=float) for key in ("x", "d", "Px", "Pxd", "Pd")}
-    A, G, Q = (np.array(mb[key], dtype=float) for key in ("A", "G", "Q"))
-    AG = np.hstack([A, G])
+    F, G, Q = (np.array(mb[key], dtype=float) for key in ("F", "G", "Q"))
+    FG = np.hstack([F, G])
     S = np.block([[o["Px"], o["Pxd"]], [o["Pxd"].T, o["Pd"]]])
-    P = AG @ S @ AG.T + Q
-    return (A @ o["x"] + G @ o["d"]).tolist(), (0.5 * (P + P.T)).tolist()
+    P = FG @ S @ FG.T + Q
+    return (F @ o["x"] + G @ o["d"]).tolist(), (0.5 * (P + P.T)).tolist()
 
 
 def main():
@@ -89,18 +92,19 @@ def main():
     if len(sys.argv) > 5:
         TOL = float(sys.argv[5])
     os.makedirs(out, exist_ok=True)
-    doc = json.load(open(os.path.join(vdir, VECTOR[flt])))
+    doc = library_letters(json.load(open(os.path.join(vdir, VECTOR[flt]))))
     label = LABEL[flt]
+    factor = {"F": 0.97, "G": 1.2, "Q": 2.0}
     if flt == "tw1":
-        tkey, dyn, meas, keys = "n", ("A", "B", "Sv"), ("H", "Sw"), ("x", "P", "z")
+        tkey, dyn, meas, keys = "n", ("F", "G", "Q"), ("H", "R"), ("x", "P", "z")
+        factor.update(H=1.3, R=0.7)
     else:
-        tkey, dyn, meas = "k", ("A", "G", "Q"), ("C", "H", "R")
+        tkey, dyn, meas = "k", ("F", "G", "Q"), ("H", "D", "R")
         keys = ("x", "Px", "d", "Pd") if flt == "nrtsf" else ("x_pred", "P_pred", "x", "Px", "d")
+        factor.update(H=1.1, D=1.3, R=1.5)
     prior = flt in ("rtsf", "nrtsf_df")
     ma = doc["model"]
     mb = copy.deepcopy(ma)
-    factor = {"A": 0.97, "G": 1.2, "B": 1.2, "Q": 2.0, "Sv": 2.0, "C": 1.1, "H": 1.3, "R": 1.5,
-              "Sw": 0.7}
     for key in dyn + meas:
         if key in ma and flt == "tw1" and key in meas:  # one matrix per node
             mb[key] = [scaled(M, factor[key]) for M in ma[key]]

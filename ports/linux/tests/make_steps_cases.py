@@ -3,7 +3,8 @@
 
     make_steps_cases.py VECTOR_DIR OUTDIR
 
-Each file is a golden vector (tests/vectors/uif/s00{3,4}_*.json) with one
+Each file is a golden vector (tests/vectors/uif/s00{3,4}_*.json), in the
+library's letters (docs/scenario-format.md, "Letters"), with one
 deliberate change: either a bad input that dkf-run must refuse with a
 one-line "FILE: KEY: problem" message, or (tv_*.json) the same data in the
 time-varying per-step `inputs` form (tests/vectors/uif/README.md: "`model`
@@ -17,9 +18,35 @@ import os
 import sys
 
 
+# The vectors' letters renamed to the library's: seed 004 A, C, H = F, H, D
+# (H first), seed 003 A, B, Sv, Sw = F, G, Q, R, the infofusion cases' C = H.
+S004 = (("H", "D"), ("C", "H"), ("A", "F"))
+S003 = (("A", "F"), ("B", "G"), ("Sv", "Q"), ("Sw", "R"))
+CASES = (("C", "H"),)
+
+
+def rename(obj, pairs):
+    for old, new in pairs:
+        for suffix in ("", "_prev"):
+            if old + suffix in obj:
+                obj[new + suffix] = obj.pop(old + suffix)
+
+
+def library_letters(doc):
+    """doc (a vector read as it is) with the library's letters, in place."""
+    if "cases" in doc:
+        for c in doc["cases"]:
+            rename(c, CASES)
+        return doc
+    pairs = S003 if "graph" in doc else S004
+    for obj in [doc["model"]] + [st["inputs"] for st in doc["steps"]]:
+        rename(obj, pairs)
+    return doc
+
+
 def load(vdir, name):
     with open(os.path.join(vdir, name)) as f:
-        return json.load(f)
+        return library_letters(json.load(f))
 
 
 def save(outdir, name, doc):
@@ -28,7 +55,7 @@ def save(outdir, name, doc):
 
 
 def time_varying_s004(doc, model_form="empty"):
-    """Every model matrix given per step: A_prev, G_prev, Q_prev (k >= 1), C, H, R.
+    """Every model matrix given per step: F_prev, G_prev, Q_prev (k >= 1), H, D, R.
     model_form: what is left of `model`: "empty" ({}), "null" or "absent"."""
     tv = copy.deepcopy(doc)
     model = tv.pop("model")
@@ -40,28 +67,28 @@ def time_varying_s004(doc, model_form="empty"):
     for st in tv["steps"]:
         inp = st["inputs"]
         if st["k"] >= 1:
-            for key in ("A", "G", "Q"):
+            for key in ("F", "G", "Q"):
                 inp[key + "_prev"] = model[key]
-        for key in ("C", "H", "R"):
+        for key in ("H", "D", "R"):
             if key in model:
                 inp[key] = model[key]
     return tv
 
 
 def time_varying_s003(doc, full=False):
-    """A_prev, B_prev, Sv_prev at every step; model keeps the per-node H, Sw,
+    """F_prev, G_prev, Q_prev at every step; model keeps the per-node H, R,
     or (full) they too are per step (lists of one matrix per node) and
     model is null."""
     tv = copy.deepcopy(doc)
     model = tv["model"]
-    tv["model"] = None if full else {"H": model["H"], "Sw": model["Sw"]}
+    tv["model"] = None if full else {"H": model["H"], "R": model["R"]}
     tv["time_varying"] = True
     for st in tv["steps"]:
-        for key in ("A", "B", "Sv"):
+        for key in ("F", "G", "Q"):
             st["inputs"][key + "_prev"] = model[key]
         if full:
             st["inputs"]["H"] = model["H"]
-            st["inputs"]["Sw"] = model["Sw"]
+            st["inputs"]["R"] = model["R"]
     return tv
 
 
@@ -100,7 +127,7 @@ def main():
     save(out, "tv_rtsf.json", time_varying_s004(rt, "absent"))
     save(out, "tv_tw_6node.json", time_varying_s003(six))
     save(out, "tv_tw_6node_full.json", time_varying_s003(six, full=True))
-    d = time_varying_s003(six, full=True); d["steps"][5]["inputs"]["Sw"] = six["model"]["Sw"][:5]
+    d = time_varying_s003(six, full=True); d["steps"][5]["inputs"]["R"] = six["model"]["R"][:5]
     save(out, "bad_tw_tv_Sw_nodes.json", d)
     d = time_varying_s003(six); d["steps"][0]["inputs"]["H"] = six["model"]["H"]
     save(out, "bad_tw_tv_H_dup.json", d)
@@ -114,11 +141,11 @@ def main():
     d = copy.deepcopy(df); d["steps"][2]["inputs"]["y"] = d["steps"][2]["inputs"]["y"][:4]
     save(out, "bad_uif_y_len.json", d)
     d = copy.deepcopy(df); d["steps"][2]["k"] = 5; save(out, "bad_uif_time.json", d)
-    d = time_varying_s004(df); del d["steps"][3]["inputs"]["C"]; save(out, "bad_uif_tv_gap.json", d)
-    d = time_varying_s004(df); d["model"]["C"] = df["model"]["C"]; save(out, "bad_uif_tv_dup.json", d)
-    d = copy.deepcopy(df); d["steps"][0]["inputs"]["A_prev"] = df["model"]["A"]
+    d = time_varying_s004(df); del d["steps"][3]["inputs"]["H"]; save(out, "bad_uif_tv_gap.json", d)
+    d = time_varying_s004(df); d["model"]["H"] = df["model"]["H"]; save(out, "bad_uif_tv_dup.json", d)
+    d = copy.deepcopy(df); d["steps"][0]["inputs"]["F_prev"] = df["model"]["F"]
     save(out, "bad_uif_prev_at_0.json", d)
-    d = copy.deepcopy(rt); d["model"]["H"] = rt["expect_error_case"]["H"]
+    d = copy.deepcopy(rt); d["model"]["D"] = rt["expect_error_case"]["H"]  # the vector's letter
     save(out, "rtsf_rank_deficient_H.json", d)
     d = copy.deepcopy(df); del d["steps"][4]["truth"]["x"]; save(out, "bad_uif_truth.json", d)
 
@@ -128,7 +155,7 @@ def main():
     d = copy.deepcopy(six); d["W_consensus"][0][3] = 0.1; save(out, "bad_tw_W_offgraph.json", d)
     d = copy.deepcopy(six); d["steps"][1]["inputs"]["y"] = d["steps"][1]["inputs"]["y"][:5]
     save(out, "bad_tw_y_nodes.json", d)
-    d = copy.deepcopy(six); d["model"]["Sw"] = d["model"]["Sw"][:5]; save(out, "bad_tw_Sw.json", d)
+    d = copy.deepcopy(six); d["model"]["R"] = d["model"]["R"][:5]; save(out, "bad_tw_Sw.json", d)
     d = copy.deepcopy(six); del d["eta"]; save(out, "bad_tw_no_eta.json", d)
     d = copy.deepcopy(six); del d["W_consensus"]; d["W_consensus_sparse"] = [[0, 0, 1.0]]
     d["alpha_diffusion"] = six["alpha_diffusion"]; d["W_consensus"] = six["W_consensus"]
@@ -143,10 +170,10 @@ def main():
     d = copy.deepcopy(six); d["steps"][2]["n"] = 9223372036854775808.0
     save(out, "bad_tw_time_2p63.json", d)
     d = copy.deepcopy(nr); d["model"]["Q"][0][1] += 1e-3; save(out, "bad_uif_Q_asym.json", d)
-    d = copy.deepcopy(six); d["model"]["Sw"][4][0][1] += 1e-3; save(out, "bad_tw_Sw_asym.json", d)
+    d = copy.deepcopy(six); d["model"]["R"][4][0][1] += 1e-3; save(out, "bad_tw_Sw_asym.json", d)
     d = copy.deepcopy(df); d["init"]["P0"][1][0] += 1e-3; save(out, "bad_uif_P0_asym.json", d)
-    # the overflow class: a steps file without C whose y has p > 1 values
-    d = copy.deepcopy(df); del d["model"]["C"]; save(out, "bad_uif_no_C.json", d)
+    # the overflow class: a steps file without H whose y has p > 1 values
+    d = copy.deepcopy(df); del d["model"]["H"]; save(out, "bad_uif_no_C.json", d)
     d = copy.deepcopy(six); del d["model"]["H"]; save(out, "bad_tw_no_H.json", d)
     limit_cases(out)
     print("wrote %s" % out)

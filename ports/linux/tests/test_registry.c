@@ -8,6 +8,7 @@
  * computed independently (Python, the FNV-1a definition over the bytes
  * most significant first).
  */
+#define _POSIX_C_SOURCE 200809L /* mkstemp */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -18,6 +19,7 @@
 
 #include <cmocka.h>
 
+#include "record_doc.h"
 #include "registry.h"
 #include "util.h"
 
@@ -114,7 +116,7 @@ static void test_family_options(void **state)
 }
 
 /* Loads path, runs filter `name` through the registry's operations only
- * (recording), returns the output document. */
+ * (recording), returns the output document (record_doc.h). */
 static json_t *run(const char *path, const char *name, dkf_scenario_t **sp,
                    const dkf_filter_t **fp, dkf_runner_t **rp)
 {
@@ -123,8 +125,7 @@ static json_t *run(const char *path, const char *name, dkf_scenario_t **sp,
     dkf_scenario_t *s = dkf_scenario_load(path, NULL, err, sizeof err);
     dkf_run_opts_t o;
     dkf_runner_t *r;
-    json_t *doc = json_object();
-    long k;
+    json_t *doc;
     int rc = -1;
     if (s == NULL) fail_msg("%s", err);
     assert_non_null(f);
@@ -134,9 +135,7 @@ static json_t *run(const char *path, const char *name, dkf_scenario_t **sp,
     r = f->family->create(f, &o, s, err, sizeof err, &rc);
     if (r == NULL) fail_msg("%s", err);
     assert_int_equal(rc, DKF_EXIT_OK);
-    for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
-        if (f->family->step(r, k, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
-    f->family->record(r, doc);
+    doc = record_doc(f, r, s);
     *sp = s;
     *fp = f;
     *rp = r;

@@ -21,7 +21,7 @@ int dkf_est_run_check(const dkf_filter_t *f, const dkf_run_opts_t *o, const dkf_
 dkf_runner_t *dkf_est_run_create(const dkf_filter_t *f, const dkf_run_opts_t *o,
                                  const dkf_scenario_t *s, char *err, size_t errlen, int *rc);
 int dkf_est_run_step(dkf_runner_t *r, long k, char *err, size_t errlen);
-void dkf_est_run_record(const dkf_runner_t *r, json_t *doc);
+void dkf_est_run_record(dkf_runner_t *r, dkf_out_t *out);
 int dkf_est_run_errors(const dkf_runner_t *r, size_t i, const char **name, const double **sq_f,
                        const double **sq_p);
 void dkf_est_run_summary(const dkf_runner_t *r, FILE *out);
@@ -42,7 +42,7 @@ extern const dkf_run_optset_t dkf_est_run_options;
     const dkf_family_t dkf_family_##fam = {                                                 \
         #fam, fam##_filters, 1,                                                             \
         (1u << DKF_SCN_LAYOUT_CANONICAL) | (1u << DKF_SCN_LAYOUT_CASES), dkf_est_run_check, \
-        dkf_est_run_create, dkf_est_run_step, dkf_est_run_record, dkf_est_run_errors,       \
+        dkf_est_run_create, dkf_est_run_step, dkf_est_run_record, NULL, dkf_est_run_errors, \
         dkf_est_run_summary, dkf_est_run_destroy, node, &dkf_est_run_options}
 
 #endif /* DKF_HOST_EST_FAMILY_H */

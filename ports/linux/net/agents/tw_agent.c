@@ -25,7 +25,7 @@
  * the weights, alg and eta (measurements excluded: each node reads its own). */
 static int64_t model_id(const dkf_net_twa_scn_t *c)
 {
-    static const char *const dyn[] = {"A", "B", "Sv"};
+    static const char *const dyn[] = {"F", "G", "Q"};
     const dkf_scenario_t *s = c->s;
     uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, k, l;
@@ -42,7 +42,7 @@ static int64_t model_id(const dkf_net_twa_scn_t *c)
     }
     for (l = 0; l < c->N; ++l) {
         const dkf_scn_mat_t *H = dkf_scn_sensor_model(s, l, "H");
-        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "Sw");
+        const dkf_scn_mat_t *Sw = dkf_scn_sensor_model(s, l, "R");
         h = dkf_fnv1a_doubles(h, H->data, H->rows * H->cols);
         h = dkf_fnv1a_doubles(h, Sw->data, Sw->rows * Sw->cols);
     }
@@ -89,7 +89,7 @@ int dkf_net_twa_scn_bind(dkf_net_twa_scn_t *c, const dkf_scenario_t *s, int alg,
     c->N = s->net->N;
     c->E = s->net->E;
     c->n = s->n;
-    c->p = dkf_scn_model(s, "B")->cols;
+    c->p = dkf_scn_model(s, "G")->cols;
     c->steps = s->steps;
     c->eta = alg == 3 ? (size_t)(eta >= 0 ? eta : s->net->eta) : 0;
     c->rounds = alg == 2 ? 2 : 2 * c->eta;
@@ -236,9 +236,9 @@ static int fail_step(char *err, size_t errlen, const dkf_net_twa_t *a, size_t k,
 static void load_step(dkf_net_twa_t *a, size_t k)
 {
     const dkf_net_twa_scn_t *c = a->c;
-    to_real(a->A, dkf_scn_at(dkf_scn_model(c->s, "A"), k - 1), c->n * c->n);
-    to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "B"), k - 1), c->n * c->p);
-    to_real(a->Sv, dkf_scn_at(dkf_scn_model(c->s, "Sv"), k - 1), c->n * c->n);
+    to_real(a->A, dkf_scn_at(dkf_scn_model(c->s, "F"), k - 1), c->n * c->n);
+    to_real(a->B, dkf_scn_at(dkf_scn_model(c->s, "G"), k - 1), c->n * c->p);
+    to_real(a->Sv, dkf_scn_at(dkf_scn_model(c->s, "Q"), k - 1), c->n * c->n);
     to_real(a->y, dkf_scn_y(c->s, a->id, (long)k), a->mH.rows);
 }
 
@@ -385,7 +385,7 @@ dkf_net_twa_t *dkf_net_twa_new(const dkf_net_twa_scn_t *c, size_t id, const dkf_
         return NULL;
     }
     H = dkf_scn_sensor_model(c->s, id, "H");
-    Sw = dkf_scn_sensor_model(c->s, id, "Sw");
+    Sw = dkf_scn_sensor_model(c->s, id, "R");
     to_real(a->H, H->data, H->rows * c->n);
     to_real(a->Sw, Sw->data, Sw->rows * Sw->rows);
     dkf_mat_init(&a->mH, H->rows, c->n, a->H);

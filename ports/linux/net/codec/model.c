@@ -57,7 +57,7 @@ int dkf_net_check_scenario(const dkf_scenario_t *s, char *err, size_t errlen)
     }
     for (i = 0; i < s->nsensors; ++i) {
         ms += s->sensors[i].m;
-        ps += dkf_scn_sensor_model(s, i, "A")->cols;
+        ps += dkf_scn_sensor_model(s, i, "D")->cols;
     }
     if (ms > DKF_MAX_DIM || ps > DKF_MAX_DIM || s->n > DKF_MAX_DIM) {
         snprintf(err, errlen, "%s: model.sensors: stacked dimensions (sum m_i = %zu, sum p_i = "
@@ -80,7 +80,7 @@ static uint64_t fnv_mat(uint64_t h, const dkf_scn_mat_t *m)
 
 int64_t dkf_net_model_id(const dkf_scenario_t *s)
 {
-    static const char *const sensor_keys[] = {"H", "A", "R", "B", "Rd"};
+    static const char *const sensor_keys[] = {"H", "D", "R", "B", "Rd"};
     uint64_t h = DKF_FNV1A_OFFSET;
     size_t i, j;
     h = dkf_fnv1a_u64(dkf_fnv1a_u64(dkf_fnv1a_u64(h, s->n), s->nsensors), s->steps);

@@ -82,11 +82,13 @@ def masked_dkf(scn, keep, P00=None, sensors_used=None):
     F = lambda k: mat(m["F"], k)
     Q = lambda k: mat(m["Q"], k)
     H = lambda k: np.vstack([mat(sensors[i]["H"], k) for i in idx])
-    A = lambda k: blkdiag([mat(sensors[i]["A"], k) for i in idx])
+    # D: the library's letter; A: the diffkf vectors' (docs/scenario-format.md, "Letters")
+    feed = [sensors[i]["D"] if "D" in sensors[i] else sensors[i]["A"] for i in idx]
+    A = lambda k: blkdiag([mat(D, k) for D in feed])
     B = lambda k: blkdiag([mat(sensors[i]["B"], k) for i in idx])
     Rd = lambda k: blkdiag([mat(sensors[i]["Rd"], k) for i in idx])
     R = lambda k: blkdiag([mat(sensors[i]["R"], k) for i in idx])
-    p = [mat(sensors[i]["A"], 1).shape[1] for i in idx]
+    p = [mat(D, 1).shape[1] for D in feed]
     off = np.cumsum([0] + p)
     y = lambda k: np.concatenate([ys[i][k] for i in idx])
     inv, pinv = np.linalg.inv, np.linalg.pinv

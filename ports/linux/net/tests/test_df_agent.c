@@ -16,6 +16,7 @@
  *     neighbours are degraded only before it joined, and at the end it
  *     agrees with the others (T_p 45: consensus).
  */
+#define _POSIX_C_SOURCE 200809L /* mkstemp (record_doc.h) */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -27,6 +28,7 @@
 
 #include <cmocka.h>
 
+#include "../../tests/record_doc.h"
 #include "df_agent.h"
 #include "ra_bus.h"
 #include "registry.h"
@@ -92,17 +94,14 @@ static json_t *in_process(const char *case_sel, const char *filter)
     dkf_scenario_t *s = dkf_scenario_load(VDF, case_sel, err, sizeof err);
     dkf_run_opts_t o;
     dkf_runner_t *r;
-    json_t *doc = json_object(), *out;
-    long k;
+    json_t *doc, *out;
     int rc;
     if (s == NULL) fail_msg("%s", err);
     memset(&o, 0, sizeof o);
     o.record = 1;
     if (f->family->check(f, &o, s, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
     if ((r = f->family->create(f, &o, s, err, sizeof err, &rc)) == NULL) fail_msg("%s", err);
-    for (k = s->k_first; k < s->k_first + (long)s->steps; ++k)
-        if (f->family->step(r, k, err, sizeof err) != DKF_EXIT_OK) fail_msg("%s", err);
-    f->family->record(r, doc);
+    doc = record_doc(f, r, s);
     out = json_incref(json_object_get(json_object_get(doc, "outputs"), f->label));
     f->family->destroy(r);
     json_decref(doc);

@@ -201,7 +201,7 @@ static void reference(ref_t *r, const dkf_net_twa_scn_t *c)
     dkf_mat_init(&mP0, n, n, mod + n);
     assert_int_equal(dkf_tw_net_init(&net, &c->g, nodes, n, m, p, mem, len, &mx0, &mP0), DKF_OK);
     for (l = 0; l < N; ++l) {
-        const dkf_scn_mat_t *h = dkf_scn_sensor_model(s, l, "H"), *w = dkf_scn_sensor_model(s, l, "Sw");
+        const dkf_scn_mat_t *h = dkf_scn_sensor_model(s, l, "H"), *w = dkf_scn_sensor_model(s, l, "R");
         dkf_scn_to_real(H + l * m * n, h->data, h->rows * n);
         dkf_scn_to_real(Sw + l * m * m, w->data, w->rows * w->rows);
         dkf_mat_init(&mH[l], h->rows, n, H + l * m * n);
@@ -216,9 +216,9 @@ static void reference(ref_t *r, const dkf_net_twa_scn_t *c)
     md.G = &mB;
     md.Q = &mSv;
     for (k = 1; k <= c->steps; ++k) {
-        dkf_scn_to_real(mod, dkf_scn_at(dkf_scn_model(s, "A"), k - 1), n * n);
-        dkf_scn_to_real(mod + n * n, dkf_scn_at(dkf_scn_model(s, "Sv"), k - 1), n * n);
-        dkf_scn_to_real(mod + 2 * n * n, dkf_scn_at(dkf_scn_model(s, "B"), k - 1), n * p);
+        dkf_scn_to_real(mod, dkf_scn_at(dkf_scn_model(s, "F"), k - 1), n * n);
+        dkf_scn_to_real(mod + n * n, dkf_scn_at(dkf_scn_model(s, "Q"), k - 1), n * n);
+        dkf_scn_to_real(mod + 2 * n * n, dkf_scn_at(dkf_scn_model(s, "G"), k - 1), n * p);
         for (l = 0; l < N; ++l) {
             dkf_scn_to_real(y + l * m, dkf_scn_y(s, l, (long)k), mH[l].rows);
             dkf_mat_init(&my[l], mH[l].rows, 1, y + l * m);

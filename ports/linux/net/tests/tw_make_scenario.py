@@ -59,13 +59,13 @@ def main():
     radius = a.radius if a.radius else math.sqrt(7.0 / (math.pi * N))
     edges = graph(N, radius, a.seed)
     base = {"graph": {"edges": edges},
-            "model": {"A": [[1.0, 0, 0.1, 0], [0, 1.0, 0, 0.1], [0, 0, 1.0, 0], [0, 0, 0, 1.0]],
-                      "B": [[0.5, 0], [0, 0.5], [0.1, 0], [0, 0.1]],
-                      "Sv": [[2.5e-05, 0, 0.0005, 0], [0, 2.5e-05, 0, 0.0005],
-                             [0.0005, 0, 0.01, 0], [0, 0.0005, 0, 0.01]],
+            "model": {"F": [[1.0, 0, 0.1, 0], [0, 1.0, 0, 0.1], [0, 0, 1.0, 0], [0, 0, 0, 1.0]],
+                      "G": [[0.5, 0], [0, 0.5], [0.1, 0], [0, 0.1]],
+                      "Q": [[2.5e-05, 0, 0.0005, 0], [0, 2.5e-05, 0, 0.0005],
+                            [0.0005, 0, 0.01, 0], [0, 0.0005, 0, 0.01]],
                       "H": [[[1.0, 0, 0, 0], [0, 1.0, 0, 0]] for _ in range(N)],
-                      "Sw": [[[v * (1 if l % 2 == 0 else 4) for v in row] for row in SW]
-                             for l in range(N)]}}
+                      "R": [[[v * (1 if l % 2 == 0 else 4) for v in row] for row in SW]
+                            for l in range(N)]}}
     x, y, z = tw_example.simulate(base, a.steps, a.seed)
     doc = tw_example.scenario(base, x, y, z, a.steps, a.eta)
     doc["name"] = "rgg%d" % N

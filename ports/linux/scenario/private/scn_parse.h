@@ -5,6 +5,7 @@
  * The reader is split by file layout (docs/scenario-format.md):
  *   (json/scn_values.c, below this layer: numbers, vectors, matrices,
  *   named matrix sets, series, shared with the model builders of nlm/)
+ *   scn_letters.c    the old letters renamed (the keys: json/scn_keys.c)
  *   scn_check.c      the checks every layout shares (shapes, times,
  *                    covariances) and the filters' pre-start queries
  *   scn_canonical.c  the canonical layout (model / init / y or runs)
@@ -34,6 +35,14 @@
 #include "scenario.h"
 #include "scn_values.h"
 
+/* ---- letters (scn_letters.c) ---- */
+/* The old letters of root's matrices (layout: CANONICAL, CASES, STEPS or
+ * NETWORK; the others have none) renamed in place to the library's, with
+ * a one-line notice naming them into notice (unchanged if the file has
+ * none); -1 if the file mixes the two. docs/scenario-format.md, "Letters". */
+int dkf_scn_letters(dkf_scn_ctx_t *c, json_t *root, dkf_scn_layout_t layout, char *notice,
+                    size_t len);
+
 /* ---- checks every layout shares (scn_check.c) ---- */
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s);
 int dkf_scn_require_shape(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path,
@@ -62,12 +71,14 @@ int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
 /* The cases layouts' measurements (scn_cases.c): every sensor's y series
  * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and
  * steps[j] of the case at cpath checked (an object whose time key tkey,
- * "k" or "t", is j + 1): its data key dkey ("z", "y") with that key's path
- * in pd, or NULL after the message (every cases layout's step list). */
+ * "k" or "t", is j + 1, with no key outside known): its data key dkey
+ * ("z", "y") with that key's path in pd, or NULL after the message (every
+ * cases layout's step list). */
 int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
                           const char *cpath);
 const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                 const char *cpath, const char *tkey, const char *dkey, char *pd);
+                                 const char *cpath, const char *tkey, const char *dkey,
+                                 const char *const *known, char *pd);
 /* Case cj (at cpath) of a cases file whose case has `model` or
  * `node_models` (the nonlinear cases layout). */
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,

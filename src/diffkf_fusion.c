@@ -1,6 +1,6 @@
 /*
  * Distributed Difference KF (dkf/diffkf_fusion.h): the fusion centre that
- * rebuilds the centralized estimate exactly, docs/diffkf-fusion.md and the
+ * rebuilds the centralized estimate exactly, docs/design/diffkf-fusion.md and the
  * math note's §6 (not the paper's (30)-(36), which are exact only when the
  * stacked S = Q H^T A^{+T} B^{-T} has full column rank, so sum p_i <= n; §5).
  *
@@ -19,7 +19,7 @@
  * next step's correction term - is the recovered dz^i_k (up to one
  * rounding of z - M x - zcorr) and no x recursion of its own can drift.
  *
- * Degraded steps (docs/diffkf-fusion.md §8): a node's rows enter the
+ * Degraded steps (docs/design/diffkf-fusion.md §8): a node's rows enter the
  * central step only if its message is present and its replica carries the
  * true dz^i_{k-1} (sync); the central filter then runs the row-masked
  * Difference KF, the exact estimate given the rows received. Checkpoints

@@ -2,7 +2,7 @@
  * Seed 001's single-node nonlinear unknown-input filters (dkf/nerts.h):
  * NERTSF / NERTSIF (EKF, eqs 10-34, Algorithm 1) and DNERTSF / DNERTSIF
  * (cubature, eqs 35-57, Algorithm 2), with the corrections of
- * docs/infofusion.md: R_tilde = Pzz + R (46), the generalised inverse
+ * docs/design/infofusion.md: R_tilde = Pzz + R (46), the generalised inverse
  * Pi(Rbar, Hd) in place of the non-existent (I - Hd M)^{-1} (22, 53), the
  * re-drawn measurement points (43).
  *

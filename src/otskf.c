@@ -1,6 +1,6 @@
 /*
  * Optimal two-stage Kalman filter (dkf/otskf.h), in the form of the
- * reference note §5 (docs/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
+ * reference note §5 (docs/design/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
  *
  * Time update, from x = x~ + Bl d (Bl = V_{k-1} after an update):
  *   d_{k|k-1}   = B d                    P^d_{k|k-1} = B P^d B^T + Rd
@@ -293,7 +293,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
 }
 
 /* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
- * tolerance (docs/matrix.md), before anything is computed; skipped when A_k
+ * tolerance (docs/reference/matrix.md), before anything is computed; skipped when A_k
  * is bitwise the last matrix that passed (D_ok), *is_new = 1 otherwise.
  * The SVD's workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the
  * update scratch (DKF__OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of

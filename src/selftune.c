@@ -1,5 +1,5 @@
 /*
- * Self-tuning identifier for seed 002 (dkf/selftune.h, docs/selftune.md).
+ * Self-tuning identifier for seed 002 (dkf/selftune.h, docs/design/selftune.md).
  * Seed 002 (Zhang) step 1 asks for "the recursion auxiliary variable
  * algorithm and the G-W-CLS algorithm" to identify A(q^-1), C(q^-1) and
  * sigma_w^2 of the example  A s(t) = C w(t-1),  y_i = s + eta + v_i,

@@ -1,6 +1,6 @@
 /*
  * Joint state and unknown-input filters (dkf/uif.h): RTSF, NRTSF-DF and
- * NRTSF of seed 004 in the corrected form of docs/uif.md. Letters as in
+ * NRTSF of seed 004 in the corrected form of docs/design/uif.md. Letters as in
  * dkf/ui_model.h: the paper's A, C, H (and its F = C Gbar) are F, H, D
  * (and HG = H Gbar) here, its input dimension m is p, its p is m.
  *

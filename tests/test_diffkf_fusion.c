@@ -393,7 +393,7 @@ static void test_fc_tv4_vector(void **state)
 }
 
 /* The paper's condition for its (30)-(36) holds here (every H^i and the
- * stacked H, 5 x 6, of full row rank; docs/diffkf-fusion.md §10): the general
+ * stacked H, 5 x 6, of full row rank; docs/design/diffkf-fusion.md §10): the general
  * centre is exact there too, so no second centre is chosen for it. 3 sensors,
  * n = 6, (m,p) = (2,1),(2,2),(1,1), time-varying F, Q, H, A and B. */
 static void test_fc_cond6_vector(void **state)
@@ -1233,7 +1233,7 @@ static void test_fc_degraded_atomicity(void **state)
 
 /* Every condition has its own text, none of them the fallback; a value
  * past the enum gets the fallback (one table for every host program). */
-/* ---- the steady gain (dkf_diffkf_set_steady, docs/diffkf-fusion.md §11) ---------
+/* ---- the steady gain (dkf_diffkf_set_steady, docs/design/diffkf-fusion.md §11) ---------
  *
  * STEADY_TOL, the setting: the relative change per step of P_{k+1|k}, W and
  * Vt at which the gain settles. The recursion converges geometrically and

@@ -1,6 +1,6 @@
 /*
  * The seed-003 comparison on the 200-node graph (eta = 10, Metropolis W,
- * uniform alpha), printed for docs/graph-filters.md: state, position,
+ * uniform alpha), printed for docs/design/graph-filters.md: state, position,
  * velocity and input RMSE of Algorithms 1-3 against the vector file's
  * truth blocks (metrics only, never a pass criterion beyond sanity), and
  * the reals each node sends per step as counted by the simulation.

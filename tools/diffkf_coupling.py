@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """diffkf_coupling.py - how the nodes of a Difference-KF network are coupled in
-the central filter's innovation covariance L_k (docs/diffkf-fusion.md §10).
+the central filter's innovation covariance L_k (docs/design/diffkf-fusion.md §10).
 
 Builds a random network (state n, N nodes with p_i = 2 unknown inputs and
 m_i = 2 or 3 measurements, time-invariant), runs the covariance recursion of

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """diffkf_infoform.py - the paper's fusion formulas (30)-(36) and an information
 sum, beside the exact centre, on networks where the paper's condition holds and
-where it does not (docs/diffkf-fusion.md §5 and §10).
+where it does not (docs/design/diffkf-fusion.md §5 and §10).
 
 Uses the reference code of tools/make_diffkf_vectors.py (numpy, independent of
 the C library) on three of its scenarios: cond6_multi (every H^i and the stacked
@@ -57,7 +57,7 @@ def carry_terms(F, Q, H, A, B, R, k):
 def literal_centre(model, local, central, N):
     """The paper's (30)-(36) with the note's corrections (math note §6): every
     carry from a jump in x through S^+, exact where S has full column rank,
-    per node and stacked (docs/diffkf-fusion.md §5)."""
+    per node and stacked (docs/design/diffkf-fusion.md §5)."""
     l = len(model.sensors)
     F, Q = model.f("F"), model.f("Q")
     stacked = [model.stacked(key) for key in ("H", "A", "B", "R")]

@@ -382,7 +382,7 @@ SCENARIOS = [
     ("tv3_multi", 7001, 5, [(3, 2), (2, 2), (4, 1)], 30, False),
     ("tv4_multi", 7002, 3, [(1, 1), (2, 1), (3, 2), (2, 2)], 25, True),
     # the paper's condition for (30)-(36) holds here: every H^i and the stacked
-    # H (5 x 6) of full row rank, Q invertible (docs/diffkf-fusion.md §5, §10)
+    # H (5 x 6) of full row rank, Q invertible (docs/design/diffkf-fusion.md §5, §10)
     ("cond6_multi", 7003, 6, [(2, 1), (2, 2), (1, 1)], 30, True),
 ]
 

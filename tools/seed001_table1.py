@@ -15,7 +15,7 @@ ARMSE = mean over k = 1..100 of RMSE_k (the root of the mean over the runs of
 the squared position / velocity error), DRMSE = its variance over k (ddof 1);
 for the DF filters per node, then averaged over the 12 nodes (the spread
 between nodes is printed). Beside them: the paper's numbers and the reference
-values of docs/infofusion.md (which used the same set-up and seeds), with the
+values of docs/design/infofusion.md (which used the same set-up and seeds), with the
 jackknife standard error of our ARMSE over the runs, so "agrees" means within
 3 standard errors. Writes DIR/table1.json, DIR/seed001_rmse.png (position
 RMSE against k) and DIR/seed001_turn_rate.png (the turn-rate estimate).

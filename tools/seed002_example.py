@@ -4,7 +4,7 @@
   tools/seed002_example.py [--runs 2000] [--steps 60] [--long 20000] [--st-steps 8000]
                            [--jobs 2] [--out-dir DIR] [--dkf-run PATH] [--no-plots] [--no-verdict]
 
-The model (docs/weighted-fusion.md): the AR(2)/MA(1) signal s plus the common
+The model (docs/design/weighted-fusion.md): the AR(2)/MA(1) signal s plus the common
 coloured noise eta of the paper, 5 sensors y_i = s + eta + v_i with
 sigma_vi^2 = 0.1 .. 0.5, in the observer form of tools/make_wf_scenario.py
 (common prior x_hat0 = 0, P0 = the stationary covariance, x(0) ~ N(0, P0)).

@@ -6,7 +6,7 @@
 
 This script only SIMULATES the paper's system (numpy, fixed seeds), writes
 each run as a steps-layout scenario (the layout of the seed-004 vectors,
-docs/scenario-format.md) and does the statistics; every estimate comes from
+docs/reference/scenario-format.md) and does the statistics; every estimate comes from
 the C library through `dkf-run --filter rtsf|nrtsf_df|nrtsf`.
 
 System (paper §5 as corrected by the math note §5, = the vectors' model):

@@ -1,7 +1,7 @@
 /*
  * scenario.h - the JSON scenario format, loaded into memory (host side).
  *
- * docs/scenario-format.md is the specification; this is its reader. Three
+ * docs/reference/scenario-format.md is the specification; this is its reader. Three
  * layouts are accepted and normalised into one dkf_scenario_t:
  *
  *  - canonical (the diffkf golden-vector layout): top-level `model`, `init`,
@@ -39,7 +39,7 @@
 
 #define DKF_SCN_ERR_LEN 1024
 
-/* Limits on what a file can ask for (docs/scenario-format.md, "Limits").
+/* Limits on what a file can ask for (docs/reference/scenario-format.md, "Limits").
  * Every count that sizes a loop or an allocation is one of these, the
  * length of a list in the file, or a matrix dimension (<= DKF_MAX_DIM);
  * a file above a limit is refused with a one-line message. */
@@ -179,7 +179,7 @@ typedef struct {
     dkf_scn_nl_t *nl;         /* nonlinear cases layout: the models; NULL otherwise */
 } dkf_scenario_t;
 
-/* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
+/* Steps and network layouts (docs/reference/scenario-format.md, "Steps layout"): a
  * top-level `steps` list of {k or n, inputs: {y, ...}, truth, expected},
  * normalised as
  *   init.x0, init.P0          -> init x00, P00
@@ -192,7 +192,7 @@ typedef struct {
  * Steps run k = k_first .. k_first + steps - 1 (k_first = steps[0].k, 0 or 1);
  * `expected` is ignored. */
 
-/* Weighted-fusion cases layout (seed 002, docs/scenario-format.md,
+/* Weighted-fusion cases layout (seed 002, docs/reference/scenario-format.md,
  * "Weighted-fusion cases"; scn_wfcases.c), normalised as
  *   Phi                 -> model F (constant)
  *   Gamma, Qe           -> model Gamma, Qe, and model Q = Gamma Qe Gamma^T

@@ -1,7 +1,7 @@
 /*
  * scn_canonical.c - the canonical layout (the diffkf golden-vector files):
  * top-level model (or model.sensors), init, y (or runs), truth, k, N
- * (docs/scenario-format.md, "Canonical layout").
+ * (docs/reference/scenario-format.md, "Canonical layout").
  */
 #include "scn_parse.h"
 

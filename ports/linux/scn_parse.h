@@ -2,7 +2,7 @@
  * scn_parse.h - the scenario reader's own toolkit (private to ports/linux/
  * scn_*.c and scenario.c; programs include scenario.h only).
  *
- * The reader is split by file layout (docs/scenario-format.md):
+ * The reader is split by file layout (docs/reference/scenario-format.md):
  *   scn_values.c     numbers, vectors, matrices, named matrix sets, series
  *   scn_check.c      the checks every layout shares (shapes, times,
  *                    covariances) and the filters' pre-start queries
@@ -105,7 +105,7 @@ long dkf_scn_find_time(const long *ks, size_t n, long k);
 
 /* ---- checks every layout shares (scn_check.c) ---- */
 /* The n x n covariance a (read from the file at path) symmetric within
- * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
+ * rounding (8 eps max|a|, docs/reference/scenario-format.md "Limits and checks"). */
 int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
 int dkf_scn_check_covariances(dkf_scn_ctx_t *c, const dkf_scenario_t *s);
 int dkf_scn_require_shape(dkf_scn_ctx_t *c, const dkf_scn_mat_t *m, const char *missing_path,

@@ -3,7 +3,7 @@
  * as they are): steps[] with k or n, inputs (y and time-varying matrices),
  * truth. Without a `graph` key one sensor (model A, G, Q, C, H, R); with
  * one the network form (model A, B, Sv; per-node H, Sw, y; the graph and
- * weights: scn_network.c). docs/scenario-format.md, "Steps layout".
+ * weights: scn_network.c). docs/reference/scenario-format.md, "Steps layout".
  */
 #include "scn_parse.h"
 

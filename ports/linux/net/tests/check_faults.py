@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks a dkf-fusion result file of a fault run (docs/network.md, "Faults").
+"""Checks a dkf-fusion result file of a fault run (docs/guide/network.md, "Faults").
 
     check_faults.py FUSED.json SCENARIO.json --rel 1e-9 [expectations...]
 
@@ -52,7 +52,7 @@ def load_model(scn):
 
 
 def prior(scn, which, i=0):
-    """P_{0|0} as the C loader reads it (docs/scenario-format.md): P00_central
+    """P_{0|0} as the C loader reads it (docs/reference/scenario-format.md): P00_central
     (which="central") or P00_local[i] (which="local") when given, else P00."""
     init = scn["init"]
     if which == "central" and "P00_central" in init:

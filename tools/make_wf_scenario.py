@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """make_wf_scenario.py - a seed-002 weighted-fusion scenario for the network
-programs (docs/guide/network.md, "The weighted-fusion centre"), in the layout of
+programs (docs/design/network.md, "The weighted-fusion centre"), in the layout of
 tests/vectors/infofusion/s2_weighted_fusion.json (docs/reference/scenario-format.md,
 "Weighted-fusion cases"): one case with Phi, Gamma, Qe, H[i], R[i],
 H_signal, P0, x_hat0, x_true and steps [{t, y}] (no `expected`).

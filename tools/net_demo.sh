@@ -50,7 +50,7 @@ if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   # sockets itself, one wake-up per datagram instead of LCM's two ("Direct receive")
   opts=(--key-dir "$keys" --split-ports --direct-recv)
   # real-time FIFO priority where allowed (root): a woken process runs at once instead
-  # of queueing behind the ordinary load (docs/guide/network.md, "Where the latency goes")
+  # of queueing behind the ordinary load (docs/design/network.md, "Where the latency goes")
   rt=()
   chrt -f 20 true 2>/dev/null && rt=(chrt -f 20)
   if ip -o link | grep -qv ': lo:'; then
@@ -97,7 +97,7 @@ python3 "$here/make_net_scenario.py" --nodes 50 --steps 100 --seed 50 --max-dim 
   --out "$out/net50.json"
 python3 "$here/make_net_scenario.py" --nodes 200 --steps 50 --seed 200 --max-dim "$maxdim" \
   --out "$out/net200.json"
-# issue 14's latency goal (docs/guide/network.md, "Where the latency goes"): the 12-node network
+# issue 14's latency goal (docs/design/network.md, "Where the latency goes"): the 12-node network
 # again, 1000 steps at 100 Hz, so that its p99 is not just its first (cold) step
 python3 "$here/make_net_scenario.py" --nodes 12 --steps 1000 --seed 12 --out "$out/lat12.json"
 scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json"
@@ -106,7 +106,7 @@ scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.jso
 # sockets each reading every datagram of the group: a 2-core machine's scheduler, not the centre)
 export DKF_DEMO_INPROC="net200"
 # 52 processes on a small machine: paced, a node starved past a step loses measurements and
-# restarts (docs/guide/network.md, "Load the fusion centre holds"); in lock step every step is whole
+# restarts (docs/design/network.md, "Load the fusion centre holds"); in lock step every step is whole
 export DKF_DEMO_LOCKSTEP="net50"
 # paced at a rate of its own (tag:Hz)
 export DKF_DEMO_RATES="lat12:100"
@@ -197,7 +197,7 @@ for r in rows:
     print(f"{r[0]:<9}{r[1]:>6}{r[2]:>5}{r[3]:>12.6f}{r[4]:>14.6f}{r[5]:>20.2e}{r[6]:>6}{r[7]:>6}{r[8]:>9}{r[9]:>9}{lat}  {r[12]}")
 print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, Pf, Pp;"
       " sent/lost/rejected count node messages at the fusion centre; degraded: steps not"
-      " complete in the end (docs/guide/network.md, Faults);"
+      " complete in the end (docs/design/network.md, Faults);"
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
 print("authentication at the fusion centre: " + "; ".join(
     f"{t} {m}" + (f" ({a} datagrams accepted, {r} rejected)" if m != "off" else " (in process)")

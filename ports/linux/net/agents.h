@@ -61,7 +61,7 @@ int dkf_net_publish_status(dkf_net_t *net, const char *prefix, const dkf_net_sta
 typedef struct dkf_net_node dkf_net_node_t;
 
 /* What a node does differently from the normal run (dkf-node's test
- * flags; docs/guide/network.md, "Faults"). All zero: the normal node. */
+ * flags; docs/design/network.md, "Faults"). All zero: the normal node. */
 typedef struct {
     double drop_pct;    /* drop this % of the outgoing messages */
     double dup_pct;     /* send this % twice */

@@ -34,7 +34,7 @@ static const char *node_filters(void)
 
 /* Leaves real-time priority (the demo's SCHED_FIFO) before the teardown:
  * freeing the scenario takes milliseconds of CPU, which must not delay the
- * centre's last step (docs/guide/network.md, "Where the latency goes"). */
+ * centre's last step (docs/design/network.md, "Where the latency goes"). */
 static void leave_realtime(void)
 {
     struct sched_param p;

@@ -32,7 +32,7 @@ static void usage(FILE *f)
             "                          j-1 (which needs y_j) has been seen on <prefix>_FUSED;\n"
             "                          with --rate, also at most HZ steps per second (the run\n"
             "                          then cannot outpace a node the centre gave up on:\n"
-            "                          docs/guide/network.md, Faults)\n"
+            "                          docs/design/network.md, Faults)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"

@@ -1,5 +1,5 @@
 /*
- * fusion.c - the seed-000 fusion centre (agents.h, docs/guide/network.md
+ * fusion.c - the seed-000 fusion centre (agents.h, docs/design/network.md
  * "Faults"): the core's dkf_diffkf_fc_t (dkf_diffkf_fc_step_partial: the
  * centralized DKF given the nodes' rows it can rebuild) as the fusion of a
  * dkf_fcr_t runtime (fc_runtime.h: payload ring, epochs, deadlines,

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks a dkf-fusion result file of a fault run (docs/guide/network.md, "Faults").
+"""Checks a dkf-fusion result file of a fault run (docs/design/network.md, "Faults").
 
     check_faults.py FUSED.json SCENARIO.json --rel 1e-9 [expectations...]
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # net_faults.sh MODE SCENARIO OUTDIR - fault runs of the real processes over
 # UDP multicast (udpm://239.255.76.67:7667?ttl=0) inside a private network
-# namespace made for this run (tools/netns.sh); docs/guide/network.md, "Faults".
+# namespace made for this run (tools/netns.sh); docs/design/network.md, "Faults".
 # dkf-sim runs in lock-step, so every outcome is deterministic as long as a
 # node that is only slow never meets a limit meant for one that is gone: the
 # fusion centre's deadline (DEADLINE_MS) and the steps the run may go ahead

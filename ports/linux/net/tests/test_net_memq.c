@@ -371,7 +371,7 @@ static void test_memq_node_measurement_checks(void **state)
     dkf_scenario_free(s);
 }
 
-/* ---- faults (docs/guide/network.md, "Faults") ------------------------------------------- */
+/* ---- faults (docs/design/network.md, "Faults") ------------------------------------------- */
 
 /* Per step j (0-based) of the result: max relative difference of xf, xp,
  * Pf, Pp to the vector's central series at that step. */
@@ -440,7 +440,7 @@ static void test_memq_drop_dup_reorder(void **state)
     dkf_net_node_faults(n1, &fx);
     run(net, sim, NULL, fu);
     /* step N is out, but node 1's payload of a step still revisable was
-     * lost for good: the centre waits for it (docs/guide/network.md, "End of a
+     * lost for good: the centre waits for it (docs/design/network.md, "End of a
      * run") until node 1 has been silent for the linger time */
     assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
     assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
@@ -600,7 +600,7 @@ static void rig_close(rig_t *r)
     dkf_scenario_free(r->s);
 }
 
-/* Decision 16 (docs/guide/network.md, "Deadlines"): no step waits for data that
+/* Decision 16 (docs/design/network.md, "Deadlines"): no step waits for data that
  * cannot come. The deadline is 100 s and no deadline passes during the run
  * (the fusion centre's tick is not called), so only the arrivals move the
  * centre. Here node 1 never starts and cannot be judged silent (the run

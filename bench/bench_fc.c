@@ -1,7 +1,7 @@
 /*
  * bench/bench_fc.c - cost of one Difference-KF fusion-centre step
  * (dkf_diffkf_fc_step, dkf/diffkf_fusion.h) against the number of nodes N,
- * in ONE run (issue 14, goal 1).
+ * in ONE run (docs/results/bench.md).
  *
  * Model (time-invariant, so the core's pinv / inverse / model-block caches
  * hit after the first step, as in a deployed centre): n = 4, a damped

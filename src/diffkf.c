@@ -13,7 +13,7 @@
  *   S_k   = E[v_k u_k^T] = Q_k H_{k+1}^T G_k^T            n x p   (13)
  *   C_k   = E[u_k u_{k-1}^T] = -A_k^+ R_k G_{k-1}^T       p x p   (15, lag corrected)
  *   W_k   = (F_k J_k + S_k) L_k^{-1}                      n x p
- * Recursion for step k (note §4, eqs (16)-(20)):
+ * Recursion for step k (docs/design/derivation-seed000.md §4, eqs (16)-(20)):
  *   dz_k  = z_k - M_k x_{k|k-1} - C_k L_{k-1}^{-1} dz_{k-1}               (18)
  *   J_k   = P_{k|k-1} M_k^T - W_{k-1} C_k^T                               (19)
  *   L_k   = M P M^T - M W_{k-1} C_k^T - C_k W_{k-1}^T M^T + Ru_k
@@ -331,7 +331,7 @@ DKF__INLINE int same_bits(int fx, const dkf_real_t *a, const dkf_real_t *b, size
     return diff == 0;
 }
 
-/* ---- A^+ and B^{-1} of a block-diagonal model (issue 14) -------------------
+/* ---- A^+ and B^{-1} of a block-diagonal model ------------------------------
  * The stacked model of a fusion centre has block-diagonal A = blkdiag(A^i)
  * and B = blkdiag(B^i) (docs/design/diffkf-fusion.md §1), and the pseudo-inverse
  * or inverse of a block-diagonal matrix is the block diagonal of its

@@ -837,7 +837,7 @@ DKF__INLINE void pivot2_row(dkf_real_t *wo, const dkf_real_t *wi, const dkf_real
  * is not.
  * Why two at a time: the check is a chain of divisions, each pivot waiting
  * for the last one's update of the next rows, and a Kalman step runs it
- * twice (issue 14: at n = 8 the step took 1215 ns with the former
+ * twice (at n = 8 the step took 1215 ns with the former
  * Cholesky check and 602 without). Here 1 / d_k and 1 / det = 1 / (d_k
  * d_{k+1}) are two divisions that run side by side (1 / d_{k+1} is
  * a / det), and the trailing rows are updated by both pivots in one pass
@@ -1056,7 +1056,7 @@ DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t
  * pivots read P itself (scaled, a copy of P's rows) rather than a
  * transpose, which costs n^2 scalar stores that the pivots' vector loads
  * then wait for. For the covariances the Kalman step and the DKF commit
- * (docs/results/bench.md, "Results (2026-12-06)" and "(2026-12-06, stop 31)"). */
+ * (measured 2026-12-06; CHANGELOG.md). */
 DKF__INLINE int inl_psd_sym_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                             size_t n)
 {

@@ -1,6 +1,6 @@
 /*
  * Optimal two-stage Kalman filter (dkf/otskf.h), in the form of the
- * reference note §5 (docs/design/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
+ * docs/design/derivation-seed000.md §5 (docs/design/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
  *
  * Time update, from x = x~ + Bl d (Bl = V_{k-1} after an update):
  *   d_{k|k-1}   = B d                    P^d_{k|k-1} = B P^d B^T + Rd
@@ -9,7 +9,7 @@
  *   P^x_{k|k-1} = F P^x F^T + Q + U Rd Ubar^T
  * Ubar - U = Ubar T and U Rd Ubar^T = Ubar Y Ubar^T with T = Rd (P^d)^{-1}
  * and Y = Rd - Rd (P^d)^{-1} Rd, which is symmetric, so P^x stays exactly
- * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: note §5.)
+ * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: derivation §5.)
  *
  * Measurement update, from x = x~ + U d (U = U_k after a predict; A is the
  * feedthrough meas->D, the paper's A_k):

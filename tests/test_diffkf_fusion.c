@@ -31,7 +31,7 @@
  * Tolerances, all max|a - b| / max(1, max|b|) per array.
  *
  * VEC_REL (against the numpy vectors, which equal a batch LMMSE to <= 6e-14
- * for our scenarios and 1.6e-11 for ex3): double 1e-9, the issue's bound
+ * for our scenarios and 1.6e-11 for ex3): double 1e-9, the vectors' tolerance
  * (measured ~1e-13). Float: the local filters alone are within ~1e-5 of
  * the vectors (test_diffkf.c justifies 1e-4: cond(L) ~ 30, |x| ~ 300); the
  * recovery adds |dz error| ~ eps |x_{k|k}| / sigma_min(K^i) (xf - xp is a
@@ -42,7 +42,7 @@
  *
  * FUSED_REL (fused vs the in-library centralized DKF on the stacked y, same
  * arithmetic otherwise): the only difference is the recovery rounding just
- * described. Double: 1e-9 (the issue's bound; measured ~1e-13). Float: the
+ * described. Double: 1e-9 (the vectors' tolerance; measured ~1e-13). Float: the
  * same 1e-3 argument (the reference is itself a float filter).
  */
 #if DKF_USE_FLOAT

@@ -8,7 +8,7 @@
  * RMSE over steps n = 1..10 and (Alg 2, 3) all nodes: state = sqrt(mean
  * |x^ - x|^2) (4-vector norm), position = components 1-2, velocity = 3-4,
  * input = sqrt(mean |z^_n - z_{n-1}|^2). One run of 10 steps from the
- * prior P0 = I, so these are transient values, not the note's 500-step
+ * prior P0 = I, so these are transient values, not the derivation's (docs/design/derivation-seed003-004.md) 500-step
  * Monte-Carlo averages.
  */
 #include <setjmp.h>

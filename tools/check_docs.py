@@ -108,6 +108,8 @@ FORBIDDEN = [
     (re.compile(r"\.\./shared\b"), "a path outside the repository"),
     (re.compile(r"(?<![\w.$}/-])/work[/]"), "a machine path"),
 ]
+# The same number on the next line of a comment or paragraph.
+WRAPPED = re.compile(r"\bissues?[ \t]*\n[ \t*#/-]*#?[0-9]", re.I)
 DOC_PATH = re.compile(r"(?<![\w/.-])(docs/[\w/-]+\.md)")
 SKIP = (".png", ".lcmlog", ".bin", ".gz", ".key")
 
@@ -137,10 +139,14 @@ def check_tree(src):
     for rel in tree_files(src):
         try:
             with open(os.path.join(src, rel), encoding="utf-8") as f:
-                lines = f.read().split("\n")
+                text = f.read()
         except UnicodeDecodeError:
             continue
         read += 1
+        lines = text.split("\n")
+        for m in WRAPPED.finditer(text):
+            no = text.count("\n", 0, m.start()) + 1
+            problems.append("%s:%d: a tracker issue number: %s" % (rel, no, lines[no - 1].strip()[:100]))
         for no, line in enumerate(lines, 1):
             for pat, what in FORBIDDEN:
                 if pat.search(line):

@@ -8,7 +8,7 @@
 # generated networks of 12 and 50 nodes (tools/make_net_scenario.py, fixed
 # seeds; every node with its own H/R, several with p_i < m_i; the 50 nodes in
 # lock step), 200 nodes (in one process over memq://) and the 12 nodes again for
-# 1000 steps at 100 Hz (issue 14's latency goal):
+# 1000 steps at 100 Hz (the latency target, p99 <= 1 ms):
 # dkf-sim --rate HZ, one dkf-node per sensor
 # and dkf-fusion as separate processes talking over UDP multicast
 # udpm://239.255.76.67:7667?ttl=0 inside a private network namespace
@@ -97,7 +97,7 @@ python3 "$here/make_net_scenario.py" --nodes 50 --steps 100 --seed 50 --max-dim 
   --out "$out/net50.json"
 python3 "$here/make_net_scenario.py" --nodes 200 --steps 50 --seed 200 --max-dim "$maxdim" \
   --out "$out/net200.json"
-# issue 14's latency goal (docs/design/network.md, "Where the latency goes"): the 12-node network
+# the latency target (docs/design/network.md, "Where the latency goes"): the 12-node network
 # again, 1000 steps at 100 Hz, so that its p99 is not just its first (cold) step
 python3 "$here/make_net_scenario.py" --nodes 12 --steps 1000 --seed 12 --out "$out/lat12.json"
 scenarios=("ex3:$root/tests/vectors/diffkf/ex3_multi.json" "net12:$out/net12.json"

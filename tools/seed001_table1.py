@@ -131,7 +131,7 @@ def main():
     ap.add_argument("--out-dir", default=os.path.join(root, "build", "seed001"))
     ap.add_argument("--no-plots", action="store_true")
     ap.add_argument("--no-verdict", action="store_true",
-                    help="exit 0 even if a value is off the note's (a smoke run of a few runs)")
+                    help="exit 0 even if a value is off the derivation's (docs/design/derivation-seed001-002.md) (a smoke run of a few runs)")
     a = ap.parse_args()
     if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000 or not 1 <= a.jobs <= 64:
         ap.error("--runs in 2..1000, --tp in 1..10000, --jobs in 1..64")

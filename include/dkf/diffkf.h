@@ -141,7 +141,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
  * innovation (every term with L_0^{-1} is zero, docs/design/diffkf.md §2).
  * With F0 = Q0 = NULL, (x0, P0) of init are taken as the prior
  * (x_{1|0}, P_{1|0}) of the first measured time instead (the general
- * start of the note, k0 = the first measurement). */
+ * start of the derivation (docs/design/derivation-seed000.md), k0 = the first measurement). */
 dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
                               const dkf_ui_meas_t *meas1, const dkf_mat_t *y1);
 

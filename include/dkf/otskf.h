@@ -1,7 +1,7 @@
 /*
  * dkf/otskf.h - the optimal two-stage Kalman filter (OTSKF, Hsieh & Chen
  * 1999 structure, derived for d_{k+1} = B_k d_k + wd_k; docs/design/diffkf.md and
- * the corrected equations of the reference note §5). A bias-free filter
+ * the corrected equations of docs/design/derivation-seed000.md §5). A bias-free filter
  * (x~, P^x) and a bias filter (d, P^d) are coupled by the blending matrices
  * U_k, V_k:
  *   x_{k|k-1} = x~_{k|k-1} + U_k d_{k|k-1},   x_{k|k} = x~_{k|k} + V_k d_{k|k}.

@@ -10,7 +10,9 @@ and docs_tree_clean; docs/decisions.md item 48).
   check_docs.py tree SOURCE_DIR   the repository's files refer to nothing outside
                                   the repository (no machine paths, no
                                   sibling directories, no tracker numbers),
-                                  and every docs/*.md path they name exists
+                                  every docs/*.md path they name and every
+                                  relative link of a Markdown page exists, and
+                                  docs/README.md links every page of docs/
 
 Each problem is printed as FILE:LINE: what; exit 1 if there is any.
 """
@@ -111,6 +113,7 @@ FORBIDDEN = [
 # The same number on the next line of a comment or paragraph.
 WRAPPED = re.compile(r"\bissues?[ \t]*\n[ \t*#/-]*#?[0-9]", re.I)
 DOC_PATH = re.compile(r"(?<![\w/.-])(docs/[\w/-]+\.md)")
+LINK = re.compile(r"\]\(([^)#:\s]+)(?:#[^)]*)?\)")  # a relative Markdown link or image
 SKIP = (".png", ".lcmlog", ".bin", ".gz", ".key")
 
 
@@ -154,7 +157,26 @@ def check_tree(src):
             for m in DOC_PATH.finditer(line):
                 if not os.path.isfile(os.path.join(src, m.group(1))):
                     problems.append("%s:%d: %s does not exist" % (rel, no, m.group(1)))
+            for m in LINK.finditer(line) if rel.endswith(".md") else ():
+                if not os.path.exists(os.path.join(src, os.path.dirname(rel), m.group(1))):
+                    problems.append("%s:%d: link to %s, which does not exist" % (rel, no, m.group(1)))
+    problems += unindexed(src)
     return problems, "%d files read" % read
+
+
+def unindexed(src):
+    """The pages of docs/ that docs/README.md does not link."""
+    docs = os.path.join(src, "docs")
+    with open(os.path.join(docs, "README.md"), encoding="utf-8") as f:
+        linked = {os.path.normpath(os.path.join(docs, m))
+                  for m in re.findall(r"\]\(([\w./-]+\.md)", f.read())}
+    out = []
+    for d, _, names in os.walk(docs):
+        for name in sorted(names):
+            path = os.path.normpath(os.path.join(d, name))
+            if name.endswith(".md") and name != "README.md" and path not in linked:
+                out.append("docs/README.md: %s is not linked" % os.path.relpath(path, src))
+    return out
 
 
 def main():

@@ -203,7 +203,7 @@ print("authentication at the fusion centre: " + "; ".join(
     f"{t} {m}" + (f" ({a} datagrams accepted, {r} rejected)" if m != "off" else " (in process)")
     for t, m, a, r in auths))
 print()
-print("where the latency goes, p50 / p99 in us over the steps (docs/guide/network.md, 'Where the latency goes'):")
+print("where the latency goes, p50 / p99 in us over the steps (docs/design/network.md, 'Where the latency goes'):")
 print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][2]))
 for tag, procs, cols in parts:
     cells = []

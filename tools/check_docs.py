@@ -11,7 +11,8 @@ and docs_tree_clean; docs/decisions.md item 48).
                                   the repository (no machine paths, no
                                   sibling directories, no tracker numbers),
                                   every docs/*.md path they name and every
-                                  relative link of a Markdown page exists, and
+                                  relative link of a Markdown page (with its
+                                  #heading) exists, and
                                   docs/README.md links every page of docs/
 
 Each problem is printed as FILE:LINE: what; exit 1 if there is any.
@@ -113,7 +114,7 @@ FORBIDDEN = [
 # The same number on the next line of a comment or paragraph.
 WRAPPED = re.compile(r"\bissues?[ \t]*\n[ \t*#/-]*#?[0-9]", re.I)
 DOC_PATH = re.compile(r"(?<![\w/.-])(docs/[\w/-]+\.md)")
-LINK = re.compile(r"\]\(([^)#:\s]+)(?:#[^)]*)?\)")  # a relative Markdown link or image
+LINK = re.compile(r"\]\(([^)#:\s]*)(?:#([^)\s]*))?\)")  # a relative Markdown link or image
 SKIP = (".png", ".lcmlog", ".bin", ".gz", ".key")
 
 
@@ -158,10 +159,30 @@ def check_tree(src):
                 if not os.path.isfile(os.path.join(src, m.group(1))):
                     problems.append("%s:%d: %s does not exist" % (rel, no, m.group(1)))
             for m in LINK.finditer(line) if rel.endswith(".md") else ():
-                if not os.path.exists(os.path.join(src, os.path.dirname(rel), m.group(1))):
+                target = os.path.join(src, os.path.dirname(rel), m.group(1)) if m.group(1) \
+                    else os.path.join(src, rel)
+                if not os.path.exists(target):
                     problems.append("%s:%d: link to %s, which does not exist" % (rel, no, m.group(1)))
+                elif m.group(2) and target.endswith(".md") and m.group(2) not in anchors(target):
+                    problems.append("%s:%d: link to %s#%s: no such heading"
+                                    % (rel, no, m.group(1), m.group(2)))
     problems += unindexed(src)
     return problems, "%d files read" % read
+
+
+def anchors(path):
+    """The anchors GitHub makes of a page's headings: lower case, punctuation
+    but - and _ dropped, spaces to -, a repeated heading numbered."""
+    out, seen = set(), {}
+    with open(path, encoding="utf-8") as f:
+        for line in f:
+            m = re.match(r"#+ (.*)", line)
+            if not m:
+                continue
+            a = re.sub(r"[^\w\- ]", "", m.group(1).strip().lower()).replace(" ", "-")
+            out.add(a if a not in seen else "%s-%d" % (a, seen[a]))
+            seen[a] = seen.get(a, 0) + 1
+    return out
 
 
 def unindexed(src):

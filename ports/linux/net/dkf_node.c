@@ -65,7 +65,7 @@ static void usage(FILE *f)
             "      --join-at K         start on the first measurement y_j with j >= K\n"
             "                          (default: the first one received; a late node)\n"
             "      --epoch E           epoch of this start (a restarted node: previous + 1)\n"
-            "Fault injection (tests; docs/guide/network.md, \"Faults\"):\n"
+            "Fault injection (tests; docs/design/network.md, \"Faults\"):\n"
             "      --drop PCT          drop PCT %% of the outgoing messages\n"
             "      --dup PCT           send PCT %% of them twice\n"
             "      --reorder PCT       hold PCT %% back until after the next message\n"

@@ -107,7 +107,7 @@ def check_api(src):
 # What must not appear in a tracked file: a tracker's issue number, a path into
 # a sibling directory of the repository, a machine's absolute path.
 FORBIDDEN = [
-    (re.compile(r"\bissues? +#?[0-9]", re.I), "a tracker issue number"),
+    (re.compile(r"\bissues?(?: +#?|_?)[0-9]", re.I), "a tracker issue number"),
     (re.compile(r"\.\./shared\b"), "a path outside the repository"),
     (re.compile(r"(?<![\w.$}/-])/work[/]"), "a machine path"),
 ]

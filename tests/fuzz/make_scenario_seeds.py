@@ -134,10 +134,10 @@ def main():
     d = json.loads(json.dumps(seeds["steps_uif_no_CH_m1.json"]))
     for st in d["steps"]:
         st["inputs"]["y"] = [1.0, 2.0]
-    seeds["issue10_steps_no_CH_y2.json"] = d
+    seeds["fixed_steps_no_CH_y2.json"] = d
     d = canonical("tests/vectors/diffkf/ex1_single.json")
     d["N"] = 9.223372036854775808e18
-    seeds["issue10_canonical_N_2p63.json"] = d
+    seeds["fixed_canonical_N_2p63.json"] = d
     for name, d in seeds.items():
         with open(os.path.join(out, name), "w") as f:
             json.dump(d, f, separators=(",", ":"))

@@ -1,6 +1,6 @@
 /*
  * The Difference Kalman filter (dkf/diffkf.h): seed 000 Theorem 1 in the
- * corrected form of docs/design/diffkf.md §3-4.
+ * corrected form of docs/design/derivation-seed000.md §3-4.
  *
  * Notation (library dimensions n state, m measurement, p input; A_k is the
  * paper's letter for the feedthrough, the API's meas->D, kept here and in

@@ -138,7 +138,7 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
 
 /* Predicts x_{1|0} = F0 x_{0|0}, P_{1|0} = F0 P_{0|0} F0^T + Q0 and takes
  * the first measurement y_1 with its model. The first step has no previous
- * innovation (every term with L_0^{-1} is zero, docs/design/diffkf.md §2).
+ * innovation (every term with L_0^{-1} is zero, docs/design/derivation-seed000.md §2).
  * With F0 = Q0 = NULL, (x0, P0) of init are taken as the prior
  * (x_{1|0}, P_{1|0}) of the first measured time instead (the general
  * start of the derivation (docs/design/derivation-seed000.md), k0 = the first measurement). */

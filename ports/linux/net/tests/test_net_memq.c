@@ -30,7 +30,7 @@
  * vector's own 1e-9 (the FC rebuilds the centralized DKF exactly in exact
  * arithmetic; measured 8.6e-16). Float (eps_f = 1.19e-7): every node runs
  * its DKF in float and the FC recovers dz^i_k through (K^i_k)^+, whose
- * smallest singular value in Ex 3 is 0.163 (docs/design/diffkf.md §6), so node
+ * smallest singular value in Ex 3 is 0.163 (docs/design/derivation-seed000.md §6), so node
  * rounding is amplified by up to ~6 before the central step; measured
  * 3.2e-7 (2.7 eps_f); bound 1e-5 = 84 eps_f, as for the KF vectors. */
 #if DKF_USE_FLOAT

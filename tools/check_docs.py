@@ -113,7 +113,7 @@ FORBIDDEN = [
 ]
 # The same number on the next line of a comment or paragraph.
 WRAPPED = re.compile(r"\bissues?[ \t]*\n[ \t*#/-]*#?[0-9]", re.I)
-DOC_PATH = re.compile(r"(?<![\w/.-])(docs/[\w/-]+\.md)")
+DOC_PATH = re.compile(r"(?:(?<=\}/)|(?<![\w/.-]))(docs/[\w/-]+\.md)")  # also ${DIR}/docs/...
 LINK = re.compile(r"\]\(([^)#:\s]*)(?:#([^)\s]*))?\)")  # a relative Markdown link or image
 SKIP = (".png", ".lcmlog", ".bin", ".gz", ".key")
 

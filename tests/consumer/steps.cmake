@@ -34,7 +34,7 @@ endfunction()
 # expected when DKF_BUILD_PORTS is on, "(shared)" when DKF_SHARED is, and
 # "(static)" when it is not.
 function(check_installed_list prefix)
-  file(READ ${DKF_SOURCE_DIR}/docs/build.md doc)
+  file(READ ${DKF_SOURCE_DIR}/docs/guide/build.md doc)
   string(FIND "${doc}" "<!-- installed-files -->" at)
   if(at LESS 0)
     message(FATAL_ERROR "${test_name}: docs/guide/build.md has no <!-- installed-files --> list")

@@ -89,6 +89,7 @@ def indexed(src, problems):
 
 
 def check_api(src):
+    """The index against the headers: (problems, summary)."""
     problems = []
     decl = declared(src)
     idx = indexed(src, problems)
@@ -104,8 +105,9 @@ def check_api(src):
     return problems, "%d public functions, %d index rows" % (len(decl), len(idx))
 
 
-# What must not appear in a tracked file: a tracker's issue number, a path into
-# a sibling directory of the repository, a machine's absolute path.
+# What must not appear in a file of the tree: a tracker's issue number, a path
+# into a sibling directory of the repository, a machine's absolute path (one
+# that starts there, not .../work/... inside a relative path).
 FORBIDDEN = [
     (re.compile(r"\bissues?(?: +#?|_?)[0-9]", re.I), "a tracker issue number"),
     (re.compile(r"\.\./shared\b"), "a path outside the repository"),
@@ -138,6 +140,7 @@ def tree_files(src):
 
 
 def check_tree(src):
+    """Every file of the tree, then the index of docs/: (problems, summary)."""
     problems = []
     read = 0
     for rel in tree_files(src):
@@ -147,32 +150,46 @@ def check_tree(src):
         except UnicodeDecodeError:
             continue
         read += 1
-        lines = text.split("\n")
-        for m in WRAPPED.finditer(text):
-            no = text.count("\n", 0, m.start()) + 1
-            problems.append("%s:%d: a tracker issue number: %s" % (rel, no, lines[no - 1].strip()[:100]))
-        for no, line in enumerate(lines, 1):
-            for pat, what in FORBIDDEN:
-                if pat.search(line):
-                    problems.append("%s:%d: %s: %s" % (rel, no, what, line.strip()[:100]))
-            for m in DOC_PATH.finditer(line):
-                if not os.path.isfile(os.path.join(src, m.group(1))):
-                    problems.append("%s:%d: %s does not exist" % (rel, no, m.group(1)))
-            for m in LINK.finditer(line) if rel.endswith(".md") else ():
-                target = os.path.join(src, os.path.dirname(rel), m.group(1)) if m.group(1) \
-                    else os.path.join(src, rel)
-                if not os.path.exists(target):
-                    problems.append("%s:%d: link to %s, which does not exist" % (rel, no, m.group(1)))
-                elif m.group(2) and target.endswith(".md") and m.group(2) not in anchors(target):
-                    problems.append("%s:%d: link to %s#%s: no such heading"
-                                    % (rel, no, m.group(1), m.group(2)))
+        problems += file_problems(src, rel, text)
     problems += unindexed(src)
     return problems, "%d files read" % read
 
 
+def file_problems(src, rel, text):
+    """What one file refers to that it must not, or that does not exist."""
+    out = []
+    lines = text.split("\n")
+    for m in WRAPPED.finditer(text):
+        no = text.count("\n", 0, m.start()) + 1
+        out.append("%s:%d: a tracker issue number: %s" % (rel, no, lines[no - 1].strip()[:100]))
+    for no, line in enumerate(lines, 1):
+        where = "%s:%d: " % (rel, no)
+        out += [where + "%s: %s" % (what, line.strip()[:100])
+                for pat, what in FORBIDDEN if pat.search(line)]
+        out += [where + "%s does not exist" % m.group(1) for m in DOC_PATH.finditer(line)
+                if not os.path.isfile(os.path.join(src, m.group(1)))]
+        if rel.endswith(".md"):
+            out += [where + p for p in link_problems(src, rel, line)]
+    return out
+
+
+def link_problems(src, rel, line):
+    """The relative links of a Markdown line whose file or #heading is missing."""
+    out = []
+    for m in LINK.finditer(line):
+        target = os.path.join(src, os.path.dirname(rel), m.group(1)) if m.group(1) \
+            else os.path.join(src, rel)
+        if not os.path.exists(target):
+            out.append("link to %s, which does not exist" % m.group(1))
+        elif m.group(2) and target.endswith(".md") and m.group(2) not in anchors(target):
+            out.append("link to %s#%s: no such heading" % (m.group(1), m.group(2)))
+    return out
+
+
 def anchors(path):
     """The anchors GitHub makes of a page's headings: lower case, punctuation
-    but - and _ dropped, spaces to -, a repeated heading numbered."""
+    but - and _ dropped, spaces to -, a repeated heading numbered. (A comment
+    line of a code block counts too: an anchor too many, never one missing.)"""
     out, seen = set(), {}
     with open(path, encoding="utf-8") as f:
         for line in f:

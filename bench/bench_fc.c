@@ -1,7 +1,7 @@
 /*
  * bench/bench_fc.c - cost of one Difference-KF fusion-centre step
  * (dkf_diffkf_fc_step, dkf/diffkf_fusion.h) against the number of nodes N,
- * in ONE run (issue 14, goal 1).
+ * in ONE run (docs/results/bench.md).
  *
  * Model (time-invariant, so the core's pinv / inverse / model-block caches
  * hit after the first step, as in a deployed centre): n = 4, a damped
@@ -22,7 +22,7 @@
  * steady_ns is the median, over every call but the first of every repeat,
  * of the time of one fc_step: the cost of a step of a deployed centre.
  * first_ns is the median over repeats of the first call after fc_start,
- * which computes the model-only block (docs/diffkf-fusion.md §9; a
+ * which computes the model-only block (docs/design/diffkf-fusion.md §9; a
  * time-varying model pays it every step); start_ns the median of
  * dkf_diffkf_fc_init + dkf_diffkf_fc_start; storage_bytes the centre's
  * storage (dkf_diffkf_fc_storage_len reals). checksum = sum(central x_{k|k}) + trace(central P_{k|k}) after the last

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """bench/dense_floor.py - what one dense covariance step of state n costs in
-OpenBLAS on one thread (docs/diffkf-fusion.md §10).
+OpenBLAS on one thread (docs/design/diffkf-fusion.md §10).
 
 Where the paper's condition for its fusion formulas holds, N nodes need a
 state of n >= sum p_i >= N components, and whatever the fusion formula, a

@@ -45,7 +45,7 @@
 # its ratio is not printed ("-"), and the exit status is not affected.
 # The filter is contractive, so rounding differences (different summation
 # orders) do not accumulate over the 1000 checksum steps: measured
-# differences are a few units of roundoff (docs/bench.md).
+# differences are a few units of roundoff (docs/results/bench.md).
 # Timings are only reported, never asserted.
 set -euo pipefail
 

@@ -1,4 +1,4 @@
-# cmake/testing.cmake - the ctest labels (docs/build.md, "Test labels").
+# cmake/testing.cmake - the ctest labels (docs/guide/build.md, "Test labels").
 #
 # Every test has one kind:
 #   unit   in-process tests of the core and the host programs' libraries

@@ -1,7 +1,7 @@
 /*
  * DF-DNERTSIF / DF-CKF (dkf/dfnerts.h): seed 001 Algorithm 3 on top of the
  * single-node phases of dkf/nerts.h, and the joint-information variant.
- * Equation numbers are the paper's; docs/infofusion.md has the
+ * Equation numbers are the paper's; docs/design/infofusion.md has the
  * corrections (the tau = 1 contribution scaled by s, the mixed joint
  * covariance of section 4 item 6).
  */

@@ -1,6 +1,6 @@
 /*
  * The Difference Kalman filter (dkf/diffkf.h): seed 000 Theorem 1 in the
- * corrected form of docs/diffkf.md §3-4.
+ * corrected form of docs/design/derivation-seed000.md §3-4.
  *
  * Notation (library dimensions n state, m measurement, p input; A_k is the
  * paper's letter for the feedthrough, the API's meas->D, kept here and in
@@ -13,7 +13,7 @@
  *   S_k   = E[v_k u_k^T] = Q_k H_{k+1}^T G_k^T            n x p   (13)
  *   C_k   = E[u_k u_{k-1}^T] = -A_k^+ R_k G_{k-1}^T       p x p   (15, lag corrected)
  *   W_k   = (F_k J_k + S_k) L_k^{-1}                      n x p
- * Recursion for step k (note §4, eqs (16)-(20)):
+ * Recursion for step k (docs/design/derivation-seed000.md §4, eqs (16)-(20)):
  *   dz_k  = z_k - M_k x_{k|k-1} - C_k L_{k-1}^{-1} dz_{k-1}               (18)
  *   J_k   = P_{k|k-1} M_k^T - W_{k-1} C_k^T                               (19)
  *   L_k   = M P M^T - M W_{k-1} C_k^T - C_k W_{k-1}^T M^T + Ru_k
@@ -335,9 +335,9 @@ DKF__INLINE int same_bits(int fx, const dkf_real_t *a, const dkf_real_t *b, size
     return diff == 0;
 }
 
-/* ---- A^+ and B^{-1} of a block-diagonal model (issue 14) -------------------
+/* ---- A^+ and B^{-1} of a block-diagonal model ------------------------------
  * The stacked model of a fusion centre has block-diagonal A = blkdiag(A^i)
- * and B = blkdiag(B^i) (docs/diffkf-fusion.md §1), and the pseudo-inverse
+ * and B = blkdiag(B^i) (docs/design/diffkf-fusion.md §1), and the pseudo-inverse
  * or inverse of a block-diagonal matrix is the block diagonal of its
  * blocks'. pinv_cached and inverse_cached find such blocks in any A and B
  * (diag_blocks: contiguous diagonal blocks, exact zeros elsewhere) and
@@ -1067,7 +1067,7 @@ DKF__INLINE void assemble_L(dkf_real_t *Ln, const dkf_real_t *X, const dkf_real_
 /* The gain phase on the storage map L (computed once per call chain), for
  * the pk rows idx of z_k (read only when pk < p: with every row kept idx
  * is 0 .. p-1, and a caller may pass NULL). Theorem 1 holds unchanged for
- * a time-varying selection (docs/diffkf-fusion.md §8): u'_k = S u_k is
+ * a time-varying selection (docs/design/diffkf-fusion.md §8): u'_k = S u_k is
  * correlated only with u'_{k-1}, E[u'_k u'_{k-1}^T] = S C_k S'^T and
  * E[v_k u'_k^T] = S_k S^T, so the recursion below is (19)-(20), (16)-(17)
  * with the primed blocks and every dimension p of the innovation replaced
@@ -1157,7 +1157,7 @@ DKF__INLINE dkf_status_t gain_core(int fx, dkf_diffkf_t *f, const layout_t *L_,
     /* the whitened carry of the next step, Vt = Lc^{-1} (C_{k+1} S^T)^T:
      * with L'_k = Lc Lc^T, its C L^{-1} C^T is Vt^T Vt and its C L^{-1} dz
      * is Vt^T (Lc^{-1} dz), so one forward substitution replaces the
-     * Cholesky solve (docs/diffkf-fusion.md §9) */
+     * Cholesky solve (docs/design/diffkf-fusion.md §9) */
     if (fx) {
         inl_transpose(L->Vtn, L->Cnk, p, pk);
         inl_chol_forward(L->Lc, inv, L->Vtn, pk, p);

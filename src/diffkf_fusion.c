@@ -1,7 +1,7 @@
 /*
  * Distributed Difference KF (dkf/diffkf_fusion.h): the fusion centre that
- * rebuilds the centralized estimate exactly, docs/diffkf-fusion.md and the
- * math note's §6 (not the paper's (30)-(36), which are exact only when the
+ * rebuilds the centralized estimate exactly, docs/design/diffkf-fusion.md and the
+ * docs/design/derivation-seed000.md §6 (not the paper's (30)-(36), which are exact only when the
  * stacked S = Q H^T A^{+T} B^{-T} has full column rank, so sum p_i <= n; §5).
  *
  * Per step k and node i (library dimensions: state n, z^i of size p_i):
@@ -19,7 +19,7 @@
  * next step's correction term - is the recovered dz^i_k (up to one
  * rounding of z - M x - zcorr) and no x recursion of its own can drift.
  *
- * Degraded steps (docs/diffkf-fusion.md §8): a node's rows enter the
+ * Degraded steps (docs/design/diffkf-fusion.md §8): a node's rows enter the
  * central step only if its message is present and its replica carries the
  * true dz^i_{k-1} (sync); the central filter then runs the row-masked
  * Difference KF, the exact estimate given the rows received. Checkpoints
@@ -395,7 +395,7 @@ static int block_is(const dkf_real_t *D, size_t cols, size_t r0, size_t c0, cons
  * (fc->priv.stacked) left zeros outside the blocks, so equal blocks make equal
  * matrices. A time-invariant model is stacked once: each step then
  * compares the sum of the blocks' sizes instead of writing ms^2 + ps^2
- * reals (issue 14). */
+ * reals. */
 static int blocks_are(const dkf_diffkf_fc_t *fc, const dkf_real_t *H, const dkf_real_t *D,
                       const dkf_real_t *R, const dkf_real_t *B, const dkf_real_t *Rd,
                       const dkf_diffkf_sensor_t sensors[], int want_input)

@@ -1,7 +1,7 @@
 /*
  * Checkpoints of the distributed Difference KF's fusion centre
  * (dkf/diffkf_fusion.h): the whole FC state into caller memory and back,
- * for rollback and replay (docs/diffkf-fusion.md §8).
+ * for rollback and replay (docs/design/diffkf-fusion.md §8).
  *
  * Layout (reals): a header of FC_CKPT_HEAD small integers (internal.h's
  * checkpoint header: each exact in any real type): tag, n, l, sum m_i,

@@ -1,6 +1,6 @@
 /*
  * The node message and the stacked (centralized) model of the distributed
- * Difference KF (dkf/diffkf_fusion.h, docs/diffkf-fusion.md): what a node
+ * Difference KF (dkf/diffkf_fusion.h, docs/design/diffkf-fusion.md): what a node
  * sends after its local step, and the block matrices of the model the
  * fusion centre's central filter runs on,
  *   H = [H^1; ...; H^l], D = blkdiag(D^i), R = blkdiag(R^i),

@@ -1,7 +1,7 @@
 /*
  * Communication graphs, weights and mixing (dkf/graph.h). Equation
  * numbers refer to seed 003 (Talebi-Werner) as corrected in
- * docs/graph-filters.md: ACF (29)-(30), diffusion weights (22).
+ * docs/design/graph-filters.md: ACF (29)-(30), diffusion weights (22).
  */
 #include "dkf/graph.h"
 

@@ -208,8 +208,8 @@ void dkf__symmetrise(dkf_real_t *A, size_t n)
         }
 }
 
-/* ---- products that skip exact zeros (issue 14) -----------------------------
- * The stacked model of a fusion centre (docs/diffkf-fusion.md §1) has
+/* ---- products that skip exact zeros ----------------------------------------
+ * The stacked model of a fusion centre (docs/design/diffkf-fusion.md §1) has
  * block-diagonal A, B, C and hence block-structured A^+, B^{-1}, G: each
  * row is zero outside one node's columns. The helpers below skip, for each
  * row, the terms outside its nonzero span [lo, hi). Every skipped term is

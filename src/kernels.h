@@ -98,7 +98,7 @@ void dkf__whiten(dkf_real_t *W, dkf_real_t *w, const dkf_real_t *L, const dkf_re
 /* Products that skip exact zeros (src/kernels.c, "sparse products"): each
  * element is the dense kernel's, up to the sign of an exact zero, when
  * the factors are finite. For the block-diagonal correlation C of a
- * stacked Difference KF (issue 14).
+ * stacked Difference KF (docs/design/diffkf-fusion.md §9).
  * lo[i], hi[i]: the first nonzero column of row i of A (r x c) and one past
  * its last; lo = hi for a zero row. */
 void dkf__row_spans(size_t *lo, size_t *hi, const dkf_real_t *A, size_t r, size_t c);

@@ -50,7 +50,7 @@
  * DKF__SIMD the blocks are written with vectors; in plain C they are
  * scalars, which GCC's basic-block vectoriser may or may not turn into
  * SIMD (its cost model decided differently for the same block in two
- * places of one Kalman step: docs/bench.md). Every sum runs over l = 0,
+ * places of one Kalman step: docs/results/bench.md). Every sum runs over l = 0,
  * 1, ... in order from its first product, so each C(i,j) is bit-identical
  * to the textbook loop's whatever the block and with or without vectors.
  * The results go straight to c0 = &C(i,j), c1 = &C(i+1,j): a block stored
@@ -837,7 +837,7 @@ DKF__INLINE void pivot2_row(dkf_real_t *wo, const dkf_real_t *wi, const dkf_real
  * is not.
  * Why two at a time: the check is a chain of divisions, each pivot waiting
  * for the last one's update of the next rows, and a Kalman step runs it
- * twice (issue 14: at n = 8 the step took 1215 ns with the former
+ * twice (at n = 8 the step took 1215 ns with the former
  * Cholesky check and 602 without). Here 1 / d_k and 1 / det = 1 / (d_k
  * d_{k+1}) are two divisions that run side by side (1 / d_{k+1} is
  * a / det), and the trailing rows are updated by both pivots in one pass
@@ -1056,7 +1056,7 @@ DKF__INLINE int inl_psd_within_rounding(dkf_real_t *restrict W, const dkf_real_t
  * pivots read P itself (scaled, a copy of P's rows) rather than a
  * transpose, which costs n^2 scalar stores that the pivots' vector loads
  * then wait for. For the covariances the Kalman step and the DKF commit
- * (docs/bench.md, "Results (2026-12-06)" and "(2026-12-06, stop 31)"). */
+ * (measured 2026-12-06; CHANGELOG.md). */
 DKF__INLINE int inl_psd_sym_within_rounding(dkf_real_t *restrict W, const dkf_real_t *restrict P,
                                             size_t n)
 {

@@ -1,6 +1,6 @@
 /*
- * src/kernels_wide.h - the kernels of a large stacked Difference KF (issue
- * 14): the wide Cholesky, the whitening of the carry and its Gram matrix,
+ * src/kernels_wide.h - the kernels of a large stacked Difference KF
+ * (docs/design/diffkf-fusion.md §9): the wide Cholesky, the whitening of the carry and its Gram matrix,
  * written once and compiled twice: by kernels.c for the baseline ISA and,
  * on x86-64 under GCC, by kernels_avx.c for AVX (chosen at run time,
  * kernels.h). The includer defines

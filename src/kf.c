@@ -45,7 +45,7 @@ dkf_status_t dkf_kf_init(dkf_kf_t *kf, size_t n, size_t m_max, dkf_real_t *stora
  * has AVX, from n = 6. Below, its 4-wide vectors cover the 2-wide blocks
  * of m = 2 poorly: at (n, m) = (4, 2) the AVX step took 240.7-251.6 ns
  * against the baseline's 186.2-216.2 (6 rounds, 2026-12-05), while at n = 6 (the ASKF's
- * augmented step of seed 000), 8 and 12 it is faster (docs/bench.md). */
+ * augmented step of seed 000), 8 and 12 it is faster (docs/results/bench.md). */
 static int kf_use_avx(size_t n)
 {
     return n >= 6 && dkf__isa_avx();

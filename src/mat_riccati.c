@@ -1,7 +1,7 @@
 /*
  * Steady-state equations of the matrix core (dkf/mat_riccati.h): the
  * filtering DARE by the structure-preserving doubling algorithm (SDA) and
- * the Stein equation by Smith doubling. docs/matrix.md, "Riccati and Stein
+ * the Stein equation by Smith doubling. docs/reference/matrix.md, "Riccati and Stein
  * equations", gives the methods, the stopping rule, the certificate and
  * the measured iteration counts.
  *

@@ -2,7 +2,7 @@
  * Seed 001's single-node nonlinear unknown-input filters (dkf/nerts.h):
  * NERTSF / NERTSIF (EKF, eqs 10-34, Algorithm 1) and DNERTSF / DNERTSIF
  * (cubature, eqs 35-57, Algorithm 2), with the corrections of
- * docs/infofusion.md: R_tilde = Pzz + R (46), the generalised inverse
+ * docs/design/infofusion.md: R_tilde = Pzz + R (46), the generalised inverse
  * Pi(Rbar, Hd) in place of the non-existent (I - Hd M)^{-1} (22, 53), the
  * re-drawn measurement points (43).
  *
@@ -413,7 +413,7 @@ static dkf_status_t info_contribution(const dkf_nerts_t *f, layout_t *L)
     meas.H = &Hv;
     meas.R = &Rv;
     DKF_TRY(dkf_info_contribution(&iv, &Iv, &meas, &zv, L->cw));
-    /* Rbar_inv = N^T RN^{-1} N (inspection, and the note's Pi) */
+    /* Rbar_inv = N^T RN^{-1} N (inspection, and the derivation's (docs/design/derivation-seed001-002.md) Pi) */
     dkf__view(&A, q, q, RNinv);
     DKF_TRY(dkf_mat_spd_inverse(&A, &Rv, L->w[7]));
     dkf__mul_nn(T, RNinv, N, q, q, m);

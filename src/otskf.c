@@ -1,6 +1,6 @@
 /*
  * Optimal two-stage Kalman filter (dkf/otskf.h), in the form of the
- * reference note §5 (docs/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
+ * docs/design/derivation-seed000.md §5 (docs/design/diffkf.md), derived for d_{k+1} = B d_k + wd_k.
  *
  * Time update, from x = x~ + Bl d (Bl = V_{k-1} after an update):
  *   d_{k|k-1}   = B d                    P^d_{k|k-1} = B P^d B^T + Rd
@@ -9,7 +9,7 @@
  *   P^x_{k|k-1} = F P^x F^T + Q + U Rd Ubar^T
  * Ubar - U = Ubar T and U Rd Ubar^T = Ubar Y Ubar^T with T = Rd (P^d)^{-1}
  * and Y = Rd - Rd (P^d)^{-1} Rd, which is symmetric, so P^x stays exactly
- * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: note §5.)
+ * symmetric. (The tempting (Ubar - U) Rd Ubar^T is wrong: derivation §5.)
  *
  * Measurement update, from x = x~ + U d (U = U_k after a predict; A is the
  * feedthrough meas->D, the paper's A_k):
@@ -293,7 +293,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn)
 }
 
 /* A_k of full column rank p (dkf/ui_model.h), by SVD with the default
- * tolerance (docs/matrix.md), before anything is computed; skipped when A_k
+ * tolerance (docs/reference/matrix.md), before anything is computed; skipped when A_k
  * is bitwise the last matrix that passed (D_ok), *is_new = 1 otherwise.
  * The SVD's workspace, DKF_MAT_SVD_WORK(m, p) reals, never exceeds the
  * update scratch (DKF__OTSKF_UPDATE_LEN has 3 m p + m^2 + p^2 + m + p of

@@ -14,7 +14,7 @@
  * no order of operations, so the results are the same bits (the
  * benchmarks' checksums, and every vector test, are unchanged).
  * Measured (callgrind, instructions per step, double, Joseph, 2026-12-05;
- * docs/bench.md): KF n = 4 / 8 / 12 2380 / 7469 / 21597 -> 1928 / 5911 /
+ * docs/results/bench.md): KF n = 4 / 8 / 12 2380 / 7469 / 21597 -> 1928 / 5911 /
  * 16580; the DKF of seed 000 Example 1 5278 -> 4419.
  * Not under -Os (the firmware's build: each loop stays one copy) or -O0;
  * Clang has no such pragma.

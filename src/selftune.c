@@ -1,10 +1,10 @@
 /*
- * Self-tuning identifier for seed 002 (dkf/selftune.h, docs/selftune.md).
+ * Self-tuning identifier for seed 002 (dkf/selftune.h, docs/design/selftune.md).
  * Seed 002 (Zhang) step 1 asks for "the recursion auxiliary variable
  * algorithm and the G-W-CLS algorithm" to identify A(q^-1), C(q^-1) and
  * sigma_w^2 of the example  A s(t) = C w(t-1),  y_i = s + eta + v_i,
  * P eta(t) = xi(t-1)  but gives neither; this is the correlation method of
- * the reference notes (section 5), recursive with fixed memory:
+ * docs/design/derivation-seed001-002.md (section 5), recursive with fixed memory:
  *   ybar = mean_i y_i,  r_s(k) = r_ybar(k) - r_eta(k) - delta_k0 sum sigma_vi^2 / L^2,
  *   r_s(k) + a_1 r_s(k-1) + ... + a_na r_s(k-na) = 0,  k > nc   (least squares)
  *   r_u(m) = sum_{i,j=0..na} a_i a_j r_s(m + j - i)   (u = A s = C w(t-1))

@@ -1,6 +1,6 @@
 /*
  * Talebi-Werner filters with unknown actuations (dkf/tw.h): seed 003
- * Algorithms 1-3 as corrected in docs/graph-filters.md.
+ * Algorithms 1-3 as corrected in docs/design/graph-filters.md.
  *
  * Letters of dkf/tw.h: F, G, Q, R, d, I, i, Gpost are the paper's A, B,
  * Sv, Sw, z, Q (Upsilon), s (varphi), G. The local step evaluates the

@@ -1,6 +1,6 @@
 /*
  * Joint state and unknown-input filters (dkf/uif.h): RTSF, NRTSF-DF and
- * NRTSF of seed 004 in the corrected form of docs/uif.md. Letters as in
+ * NRTSF of seed 004 in the corrected form of docs/design/uif.md. Letters as in
  * dkf/ui_model.h: the paper's A, C, H (and its F = C Gbar) are F, H, D
  * (and HG = H Gbar) here, its input dimension m is p, its p is m.
  *
@@ -18,7 +18,7 @@
  *   Pxd = Z Pdbar T^+T,  d = T^+ dbar,  Pd = T^+ Pdbar T^+T,  M = T^+ Mbar
  * (for feedthrough x = x_pred + K (y~ - Dbar dbar); for NRTSF L = K + (I -
  * K H) Gbar Mbar; Pxd = -K Dbar Pdbar T^+T (29) and (I - K H) Gbar Pdbar
- * T^+T (note §1, added)). With DKF_JOSEPH the covariance is the Joseph
+ * T^+T (docs/design/derivation-seed003-004.md §1, added)). With DKF_JOSEPH the covariance is the Joseph
  * form (20)/(47), (I - L H) P (I - L H)^T + L R L^T, valid for any L that
  * meets the unbiasedness constraint L Dbar = 0 (19) / L H Gbar = Gbar (46).
  * T comes from the SVD (dkf_mat_frd), so T^+ = T^T; RTSF uses B = D, T = I.

@@ -2,7 +2,7 @@
  * Weighted fusion of local Kalman filters with cross covariances
  * (dkf/wfusion.h). Equation references are to seed 002 (Zhang): Theorem 1
  * (the local filters), its cross-covariance recursion as corrected in
- * docs/weighted-fusion.md, Theorem 2 (scalar weights) and the matrix
+ * docs/design/weighted-fusion.md, Theorem 2 (scalar weights) and the matrix
  * weights of Sun and Deng (2004).
  *
  * Every step computes the next state of every object into scratch laid

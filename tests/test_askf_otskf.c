@@ -22,7 +22,7 @@
 #define CAP ((NMAX + PMAX) * (NMAX + PMAX))
 
 /* Golden-vector tolerance, relative to max(1, max|expected|) per array.
- * Double: the issue's 1e-9 (the vectors equal a batch LMMSE to 1.6e-11;
+ * Double: the vectors' tolerance 1e-9 (the vectors equal a batch LMMSE to 1.6e-11;
  * both filters are contractions, so rounding does not accumulate; we see
  * ~1e-14). Float: one step loses about (n + p) cond(S) eps with n + p = 6
  * and cond(S) <= 10 (S = H P H^T + R, R = I), i.e. ~60 eps ~ 7e-6, and the
@@ -38,7 +38,7 @@
 
 /* OTSKF against ASKF on random models: the same estimator computed by two
  * different factorisations, so the difference is rounding only. Double:
- * the issue's 1e-9. Float: the random models have cond(Sx), cond(P^d) up
+ * the vectors' tolerance 1e-9. Float: the random models have cond(Sx), cond(P^d) up
  * to ~1e2 (SPD factors of condition 10, B with singular values in
  * [0.5, 1.2], F in [0.5, 1.05]), n + p <= 9; one step's relative error is
  * then up to ~ (n + p) cond eps ~ 1e3 eps, and a stable filter forgets
@@ -164,7 +164,7 @@ static void test_askf_matches_ex1_vector(void **state)
     json_decref(e.root);
 }
 
-/* The same with the OTSKF, every intermediate of note §5 included. */
+/* The same with the OTSKF, every intermediate of docs/design/derivation-seed000.md §5 included. */
 static void test_otskf_matches_ex1_vector(void **state)
 {
     static otskf_box_t b;

@@ -37,7 +37,7 @@
 /* Equalities: the two sides are different algebra over the same numbers
  * (consensus sums of information vs one stacked update), so they agree to
  * rounding times the conditioning of Y (cond <= 1e4 here): 1e-9 in double
- * (the issue's bound; measured 1.4e-13, printed), 1e-3 in float (rounding
+ * (the vectors' tolerance; measured 1.4e-13, printed), 1e-3 in float (rounding
  * 6e-8 times cond 1e4 = 6e-4; measured 5.0e-5, printed). */
 #if DKF_USE_FLOAT
 #define EQ_REL 1e-3

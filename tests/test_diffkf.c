@@ -19,7 +19,7 @@
 #define CAP (NX * NX)
 
 /* Vector tolerance, relative to max(1, max|expected|) per array. Double:
- * the issue's 1e-9 (the vectors are within 1.6e-11 of a batch LMMSE; we
+ * the vectors' tolerance 1e-9 (the vectors are within 1.6e-11 of a batch LMMSE; we
  * measure ~1e-13). Float: the DKF's L_k is a sum of four covariances and
  * differences of nearly equal terms (M P M^T against Ru), cond(L) ~ 30,
  * and x reaches 300, so a step costs ~cond * p * eps relative; stable

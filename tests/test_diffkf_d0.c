@@ -1,5 +1,5 @@
 /*
- * The issue's proof for seed 000: the Difference KF does not depend on the
+ * The proof for seed 000: the Difference KF does not depend on the
  * initial unknown input d_0, the ASKF does.
  *
  * Example 1's model (B = 0.9 I, A = I) is simulated twice with the SAME

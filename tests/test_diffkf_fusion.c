@@ -31,7 +31,7 @@
  * Tolerances, all max|a - b| / max(1, max|b|) per array.
  *
  * VEC_REL (against the numpy vectors, which equal a batch LMMSE to <= 6e-14
- * for our scenarios and 1.6e-11 for ex3): double 1e-9, the issue's bound
+ * for our scenarios and 1.6e-11 for ex3): double 1e-9, the vectors' tolerance
  * (measured ~1e-13). Float: the local filters alone are within ~1e-5 of
  * the vectors (test_diffkf.c justifies 1e-4: cond(L) ~ 30, |x| ~ 300); the
  * recovery adds |dz error| ~ eps |x_{k|k}| / sigma_min(K^i) (xf - xp is a
@@ -42,7 +42,7 @@
  *
  * FUSED_REL (fused vs the in-library centralized DKF on the stacked y, same
  * arithmetic otherwise): the only difference is the recovery rounding just
- * described. Double: 1e-9 (the issue's bound; measured ~1e-13). Float: the
+ * described. Double: 1e-9 (the vectors' tolerance; measured ~1e-13). Float: the
  * same 1e-3 argument (the reference is itself a float filter).
  */
 #if DKF_USE_FLOAT
@@ -393,7 +393,7 @@ static void test_fc_tv4_vector(void **state)
 }
 
 /* The paper's condition for its (30)-(36) holds here (every H^i and the
- * stacked H, 5 x 6, of full row rank; docs/diffkf-fusion.md §10): the general
+ * stacked H, 5 x 6, of full row rank; docs/design/diffkf-fusion.md §10): the general
  * centre is exact there too, so no second centre is chosen for it. 3 sensors,
  * n = 6, (m,p) = (2,1),(2,2),(1,1), time-varying F, Q, H, A and B. */
 static void test_fc_cond6_vector(void **state)
@@ -1233,7 +1233,7 @@ static void test_fc_degraded_atomicity(void **state)
 
 /* Every condition has its own text, none of them the fallback; a value
  * past the enum gets the fallback (one table for every host program). */
-/* ---- the steady gain (dkf_diffkf_set_steady, docs/diffkf-fusion.md §11) ---------
+/* ---- the steady gain (dkf_diffkf_set_steady, docs/design/diffkf-fusion.md §11) ---------
  *
  * STEADY_TOL, the setting: the relative change per step of P_{k+1|k}, W and
  * Vt at which the gain settles. The recursion converges geometrically and

@@ -3,7 +3,7 @@
  * estimate given the rows of z received, checked against an independent
  * double-precision batch LMMSE (Gaussian conditioning on the stacked
  * received z's, every quantity written as an affine map of the primitive
- * noises, as in the math note's §7); all-ones masks bit-identical to the
+ * noises, as in docs/design/derivation-seed000.md §7); all-ones masks bit-identical to the
  * unmasked filter; pure prediction steps (pk = 0); masks changing every
  * step; update_z shape checks; single-filter checkpoints.
  */

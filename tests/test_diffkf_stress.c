@@ -2,7 +2,7 @@
  * The Difference KF (dkf/diffkf.h) where the differenced measurement z_k
  * pins the state, against 60-digit references (tests/vectors/stress/
  * diffkf.json, written by tools/make_stress_vectors.py from Theorem 1 as
- * docs/diffkf.md states it, (8)-(20) with the corrected lag of C_k, not
+ * docs/design/diffkf.md states it, (8)-(20) with the corrected lag of C_k, not
  * from src/diffkf.c; every input float32-exact): p = n, P_{1|0} eigenvalues
  * in [1e6, 1e8], Q, R, Rd in [1e-4, 1e-3], 5 steps from the prior
  * (dkf_diffkf_start with F0 = Q0 = NULL). The first step's P_{1|1} lies
@@ -14,7 +14,7 @@
  * max|P_{k|k-1}| / max|P_{k|k}|, both from the vector). Double, external:
  * L = M P M^T + ... has cond(L) <~ rho kappa^2, and the gains K = J L^-1,
  * W = (F J + S) L^-1 carry cond(L) eps; the Joseph-type congruences of
- * docs/diffkf.md pass it to P_{k|k}, P_{k+1|k} without subtracting from
+ * docs/design/diffkf.md pass it to P_{k|k}, P_{k+1|k} without subtracting from
  * P_{k|k-1} (the short form P - K J^T adds rho eps more, which the bound
  * also covers, so only the regression bound tells the forms apart):
  * 10 (n + p) rho kappa^2 eps, relative to each reference's max|.|. Float:

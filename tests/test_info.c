@@ -109,7 +109,7 @@ static void test_info_matches_lif_vector(void **state)
  * 6-state model, 3 sensors of dimensions 1, 2, 3 (correlated R within a
  * sensor), time-varying F, 30 steps. Tolerance: the two are algebraically
  * identical and differ only by rounding in two different inversions;
- * cond(P) stays below 1e2, so 1e-9 (the issue's bound) holds with room in
+ * cond(P) stays below 1e2, so 1e-9 (the vectors' tolerance) holds with room in
  * double (observed 5e-15); in float 1e-4 ~ cond * n * eps (observed 1.8e-6). */
 static void test_info_fusion_equals_stacked_kf(void **state)
 {

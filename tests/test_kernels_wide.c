@@ -1,5 +1,5 @@
 /*
- * The kernels of the large stacked Difference KF (src/kernels.c; issue 14):
+ * The kernels of the large stacked Difference KF (src/kernels.c; docs/design/diffkf-fusion.md §9):
  * the wide Cholesky and the products that skip exact zeros claim the
  * values of the plain textbook loops, so each is compared with those loops
  * here, on random inputs of every size up to 67 (8-, 4-, 2- and 1-wide

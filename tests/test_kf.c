@@ -18,7 +18,7 @@
 
 /* Golden-vector tolerance, relative to max(1, max|expected|) per array.
  * Double: the vectors are exact to ~1e-15 and the KF is a contraction, so
- * rounding does not accumulate: 1e-9 is the issue's bound (we see ~1e-13).
+ * rounding does not accumulate: 1e-9 is the vectors' tolerance (we see ~1e-13).
  * Float: each step loses O(n cond(S)) eps with n = 4, cond(S) ~ 10; errors
  * stay bounded because the filter forgets (the closed loop is stable), so
  * 1e-5 ~ 84 eps ~ 2 n cond eps; we observe 1.0e-7. */

@@ -7,7 +7,7 @@
  *   moderate  P0 in [1e4, 1e6], R in [1e-4, 1e-3], n = m = 4, 6, 5 steps
  *   singular  R = [[1, 1-2^-27], [1-2^-27, 1]]: SPD in double, singular
  *             once rounded to float.
- * The filter's promise (docs/filters.md): every committed P is symmetric
+ * The filter's promise (docs/design/filters.md): every committed P is symmetric
  * PSD up to rounding, and a step whose P would not be is refused
  * (DKF_ERR_NOT_SPD) with the filter bit-identical.
  */

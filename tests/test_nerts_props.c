@@ -34,7 +34,7 @@
 
 /* Agreement of two forms or two filters: max|a - b| / max|b| per output
  * (each on its own scale; Pd ~ 1e-9 on the radar). Double: 1e-9, the
- * issue's bound; the note's reference reached 1e-14, and the two forms
+ * vectors' tolerance; the derivation's (docs/design/derivation-seed001-002.md) reference reached 1e-14, and the two forms
  * invert different matrices (R_tilde vs P_pred, Y), so a few cond() eps
  * is expected (the log prints the worst). Float: 1e-2 (cond(Y) ~ 1e4 on
  * these models: ~1e4 FLT_EPSILON ~ 1e-3, with margin). The models have

@@ -85,7 +85,7 @@ static dkf_selftune_cfg_t example_cfg(void)
 #define T_END 8000
 
 /* Across 20 fixed-seed realisations at T = 8000, every estimate lies within
- * 4 standard deviations (the reference notes' spread over their 20
+ * 4 standard deviations (the derivation's (docs/design/derivation-seed001-002.md) spread over their 20
  * realisations: 0.023, 0.023, 0.056, 0.029) of the truth, and the mean over
  * the realisations within 3 standard errors (sd / sqrt(20)) plus the
  * reference's own bias (|mean - truth| there: 0.0045, 0.0037, 0.016,

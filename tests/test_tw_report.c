@@ -1,6 +1,6 @@
 /*
  * The seed-003 comparison on the 200-node graph (eta = 10, Metropolis W,
- * uniform alpha), printed for docs/graph-filters.md: state, position,
+ * uniform alpha), printed for docs/design/graph-filters.md: state, position,
  * velocity and input RMSE of Algorithms 1-3 against the vector file's
  * truth blocks (metrics only, never a pass criterion beyond sanity), and
  * the reals each node sends per step as counted by the simulation.
@@ -8,7 +8,7 @@
  * RMSE over steps n = 1..10 and (Alg 2, 3) all nodes: state = sqrt(mean
  * |x^ - x|^2) (4-vector norm), position = components 1-2, velocity = 3-4,
  * input = sqrt(mean |z^_n - z_{n-1}|^2). One run of 10 steps from the
- * prior P0 = I, so these are transient values, not the note's 500-step
+ * prior P0 = I, so these are transient values, not the derivation's (docs/design/derivation-seed003-004.md) 500-step
  * Monte-Carlo averages.
  */
 #include <setjmp.h>

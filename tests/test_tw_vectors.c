@@ -21,7 +21,7 @@
  * Q - Q Psi^-1 Q cancellation that costs the straightforward float64
  * oracle 2.3e-11 on 200 nodes.
  * Float: 1e-3 (README). Rounding the inputs to float alone moves the
- * outputs by up to 5.6e-6 (note §6), ~50 FLT_EPSILON, and Psi = Phi-^-1 + Q
+ * outputs by up to 5.6e-6 (docs/design/derivation-seed003-004.md §6), ~50 FLT_EPSILON, and Psi = Phi-^-1 + Q
  * has cond ~1e3-1e5 (Q sums 200 nodes), so a few hundred FLT_EPSILON is
  * the expected error; measured worst 6.8e-6 (57 FLT_EPSILON), 1e-3 is
  * ~8e3 FLT_EPSILON, leaving a factor 150. */

@@ -1,6 +1,6 @@
 /*
  * Unknown-input filters (dkf/uif.h): Monte-Carlo consistency on the seed-004
- * example system (note §7). For an unbiased configuration the normalised
+ * example system (docs/design/derivation-seed003-004.md §7). For an unbiased configuration the normalised
  * estimation error squared at a fixed step, averaged over R independent
  * runs, is chi-square(dof * R) / R when the reported covariance is right;
  * we require it inside the two-sided 99.9 % band. The biased NRTSF-DF
@@ -44,7 +44,7 @@ static void chi2_band(double nu, double runs, double *lo, double *hi)
     *hi = nu * pow(1.0 - c + z * sqrt(c), 3.0) / runs;
 }
 
-/* The note's §7 input: d1 = d1amp sin(2 pi k / 40), d2 steps, d3 square. */
+/* The derivation's §7 input: d1 = d1amp sin(2 pi k / 40), d2 steps, d3 square. */
 static void input_at(size_t k, double d1amp, double *d)
 {
     d[0] = d1amp * sin(2.0 * 3.141592653589793 * (double)k / 40.0);
@@ -181,7 +181,7 @@ static void test_uif_mc_rtsf(void **state)
     print_message("RTSF x NEES/n averaged over steps 10..%d: %.3f\n", STEPS - 1, r.x_avg / 5);
 }
 
-/* NRTSF-DF on the paper's rank-2 H with d_1 = 0 (unbiased; note §7). */
+/* NRTSF-DF on the paper's rank-2 H with d_1 = 0 (unbiased; derivation §7). */
 static void test_uif_mc_nrtsf_df_unbiased(void **state)
 {
     mc_t r;
@@ -206,7 +206,7 @@ static void test_uif_mc_nrtsf(void **state)
 }
 
 /* The paper's own NRTSF-DF example, d_1 = sin: flagged, and indeed
- * inconsistent (note §8: NEES_x / n = 17.6). */
+ * inconsistent (derivation §8: NEES_x / n = 17.6). */
 static void test_uif_mc_nrtsf_df_biased(void **state)
 {
     mc_t r;

@@ -574,7 +574,7 @@ static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t p, size_t m, si
  * is rounding of O(m) Cholesky solves and products amplified by the
  * conditioning of the weighted least squares (< 1e3 here), without growth
  * (the error dynamics are contractive): 1e4 * eps relative (2.2e-12
- * double, 1.2e-3 float); the note measured <= 7e-14 in double. */
+ * double, 1.2e-3 float); the derivation (docs/design/derivation-seed003-004.md) measured <= 7e-14 in double. */
 static void test_uif_unbiased_zero_noise(void **state)
 {
     double xe, de;
@@ -621,7 +621,7 @@ static void paper_model(model_t *s, int with_h)
     memcpy(s->G, PG, sizeof PG);
     memcpy(s->H, PH, sizeof PH);
     memcpy(s->R, PR, sizeof PR);
-    for (i = 0; i < 25; ++i) s->Q[i] = 1e-2 * PR[i]; /* note §5: Q = 1e-4 x R's pattern */
+    for (i = 0; i < 25; ++i) s->Q[i] = 1e-2 * PR[i]; /* derivation §5: Q = 1e-4 x R's pattern */
     memset(s->C, 0, sizeof s->C);
     for (i = 0; i < 5; ++i) s->C[i * 5 + i] = 1.0;
     if (!with_h) memset(s->H, 0, sizeof s->H);
@@ -665,7 +665,7 @@ static double paper_zero_noise(box_t *b, dkf_uif_kind_t kind, double d1amp)
 /* NRTSF-DF on the paper's example: rank 2, d_1 not estimable (returned as
  * exactly 0 with zero variance), and the flag raised at every step with a
  * time update, because G e_1 = e_1 != 0. With d_1 != 0 the bias is real
- * (note §8: up to ~2 in x_1); with d_1 = 0 the same run is exact, and the
+ * (derivation §8: up to ~2 in x_1); with d_1 = 0 the same run is exact, and the
  * flag (which cannot know d) is still raised. */
 static void test_uif_bias_flag_paper_example(void **state)
 {

@@ -1,7 +1,7 @@
 /*
  * The RTSF, the NRTSF-DF and the NRTSF (dkf/uif.h) where the measurements
  * pin the state, against 60-digit references (tests/vectors/stress/uif.json,
- * written by tools/make_stress_vectors.py from docs/uif.md's equations, not
+ * written by tools/make_stress_vectors.py from docs/design/uif.md's equations, not
  * from src/uif.c; every input float32-exact). Dimensions in dkf's letters
  * (n state, m measurement, p unknown input; the vector's own keys are
  * mapped when read), matrices in the paper's (C measurement, H
@@ -35,7 +35,7 @@
  * kappa^2 eps exceeds 1 in every case, so the external promise is every
  * committed Px, Pd PSD (or the step refused, DKF_ERR_NOT_SPD /
  * DKF_ERR_RANK with the filter bit-identical, which ends that case), no
- * external error bound (RTSF's committed Pd is 7e3 off: docs/uif.md).
+ * external error bound (RTSF's committed Pd is 7e3 off: docs/design/uif.md).
  * NRTSF-DF in float refuses the first step of both cases. The filter's
  * rank r_k must equal the case's rank (NRTSF, NRTSF-DF). Regression
  * bounds: 4x the worst observed (printed by the test). Short form

@@ -246,7 +246,7 @@ static void test_vector_steady(void **state)
     cmp("steady P0_matrix", 0, test_json_get(ss, "P0_matrix"), fu.Pf.data, NX * NX, VEC_REL);
     assert_int_equal(fu.A_unique, 1);
     assert_true(fu.steady && fu.nodes[0].steady);
-    /* the note's reported values, to their printed digits */
+    /* the derivation's (docs/design/derivation-seed001-002.md) reported values, to their printed digits */
     assert_true(fabs((double)fu.PS0 - 0.49409) < 5e-5);
     assert_true(fabs((double)(fu.Pf.data[0]) - 0.49336) < 5e-5);
 }

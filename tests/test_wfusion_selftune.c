@@ -8,10 +8,10 @@
  * model, from the same data. Checked, on fixed-seed realisations:
  *   - the gap |s0_selftune - s0_optimal| shrinks: its RMS over
  *     t in [3000, 4000] is below 0.05 and below a fifth of its RMS over
- *     t in [50, 500] (the reference note's single 40 000-step run:
+ *     t in [50, 500] (the derivation's (docs/design/derivation-seed001-002.md) single 40 000-step run:
  *     0.65 for t < 500, 0.009 over 2000-4000);
  *   - the self-tuning fused error's MSE over t in [1000, 4000] is within
- *     5 % of the optimal one's (the note: 0.50081 vs 0.50037);
+ *     5 % of the optimal one's (the derivation: 0.50081 vs 0.50037);
  *   - the self-tuning weights approach the optimal weights (max gap at
  *     t = 4000 below 0.005).
  * Measured (double, x86-64; seeds 2003-2005): gap RMS 0.11-0.14 early,

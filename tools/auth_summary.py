@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """auth_summary.py RESULT.json... - one line on the authentication of a run's
 processes (the "auth" object of dkf-tw-node's and dkf-fusion's result files,
-docs/network.md "Authentication"): the modes, the datagrams accepted and
+docs/guide/network.md "Authentication"): the modes, the datagrams accepted and
 rejected, summed over the files.
 
 Exit 0 when every file was authenticated and nothing was rejected (a demo's

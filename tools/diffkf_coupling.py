@@ -1,10 +1,10 @@
 #!/usr/bin/env python3
 """diffkf_coupling.py - how the nodes of a Difference-KF network are coupled in
-the central filter's innovation covariance L_k (docs/diffkf-fusion.md §10).
+the central filter's innovation covariance L_k (docs/design/diffkf-fusion.md §10).
 
 Builds a random network (state n, N nodes with p_i = 2 unknown inputs and
 m_i = 2 or 3 measurements, time-invariant), runs the covariance recursion of
-the centralized Difference KF (the math note's §4: W, P_{k|k-1}, J_k, L_k,
+the centralized Difference KF (docs/design/derivation-seed000.md §4: W, P_{k|k-1}, J_k, L_k,
 written here in numpy, independent of the C library) and prints, per step,
 the rank of L_k's block between the first N/2 nodes and the others: the rank
 of the coupling that a block-diagonal-plus-low-rank (Woodbury, "information
@@ -51,7 +51,7 @@ def coupling_ranks(n, nodes, steps, seed, tol):
     and the last step's singular values (relative)."""
     F, Q, H, A, B, R, Rd = network(n, nodes, np.random.default_rng(seed))
     Ap, Bi = np.linalg.pinv(A), np.linalg.inv(B)
-    G = Bi @ Ap                                            # B^{-1} A^+        (note §3)
+    G = Bi @ Ap                                            # B^{-1} A^+        (derivation §3)
     M = G @ H @ F - Ap @ H
     S = Q @ H.T @ G.T                                      # E[v u^T]          (13)
     Ru = G @ H @ Q @ H.T @ G.T + Bi @ Rd @ Bi.T + G @ R @ G.T + Ap @ R @ Ap.T   # (14)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """diffkf_infoform.py - the paper's fusion formulas (30)-(36) and an information
 sum, beside the exact centre, on networks where the paper's condition holds and
-where it does not (docs/diffkf-fusion.md §5 and §10).
+where it does not (docs/design/diffkf-fusion.md §5 and §10).
 
 Uses the reference code of tools/make_diffkf_vectors.py (numpy, independent of
 the C library) on three of its scenarios: cond6_multi (every H^i and the stacked
@@ -10,12 +10,12 @@ H of full row rank, Q invertible: the paper's condition), tv3_multi (stacked H
 rank) and tv4_multi (S 3 x 6: not either). For each it prints the ranks and, as
 max|a - b| / max(1, max|b|) over every step:
 
-* literal: the paper's scheme, with the note's corrections. It stores no
+* literal: the paper's scheme, with the derivation's (docs/design/derivation-seed000.md) corrections. It stores no
   innovation: node i's carry L^i_{k-1}^{-1} dz^i_{k-1} is solved from the jump
   x^i_{k|k-1} - F x^i_{k-1|k-1} = S^i_{k-1} L^i_{k-1}^{-1} dz^i_{k-1} (25) through
   (S^i)^+, the centre's own carry likewise from its jump (28) and (30); then
   x_{k|k} by (35) and x_{k+1|k} by (28), against the central DKF.
-* exact: the centre of the math note §6 (what dkf_diffkf_fc_step computes).
+* exact: the centre of derivation §6 (what dkf_diffkf_fc_step computes).
 * infosum: the O(N) information form of a fusion centre,
   P_{k|k}^{-1} = P_{k|k-1}^{-1} + sum_i (P^i_{k|k}^{-1} - P^i_{k|k-1}^{-1}),
   exact for Kalman filters whose measurement noises are independent across
@@ -55,9 +55,9 @@ def carry_terms(F, Q, H, A, B, R, k):
 
 
 def literal_centre(model, local, central, N):
-    """The paper's (30)-(36) with the note's corrections (math note §6): every
+    """The paper's (30)-(36) with the derivation's corrections (derivation §6): every
     carry from a jump in x through S^+, exact where S has full column rank,
-    per node and stacked (docs/diffkf-fusion.md §5)."""
+    per node and stacked (docs/design/diffkf-fusion.md §5)."""
     l = len(model.sensors)
     F, Q = model.f("F"), model.f("Q")
     stacked = [model.stacked(key) for key in ("H", "A", "B", "R")]

@@ -40,7 +40,7 @@ Exit status: 0 all compared arrays pass; 1 a mismatch, nothing compared, or
 only integer arrays compared; 2 bad arguments, unreadable file, or a key
 path that does not exist.
 
-Where the estimates sit (docs/scenario-format.md, "Comparing with a vector"):
+Where the estimates sit (docs/reference/scenario-format.md, "Outputs of the steps-layout filters" and "Outputs"):
 dkf-run writes outputs.<LABEL>.<key> as per-step lists; the seed-000 vectors
 (tests/vectors/diffkf) have the same layout (--keys outputs.DKF), the
 seed-003/004 vectors (tests/vectors/uif) keep per-step objects, e.g.

@@ -7,9 +7,9 @@
 
 This script only SIMULATES the examples (numpy, fixed seeds) and does the
 statistics; every estimate comes from the C library through
-`dkf-run --errors` (docs/scenario-format.md, "Monte-Carlo runs").
+`dkf-run --errors` (docs/reference/scenario-format.md, "Monte-Carlo runs").
 
-Protocol (docs/diffkf-results.md, math note §8/§9):
+Protocol (docs/results/diffkf-results.md, docs/design/derivation-seed000.md §8/§9):
   * x_0 = (50, 1, 50, 1) and d_0 = (5, 5) (each sensor's d_0 in Ex 3) are
     deterministic; x_{k+1} = F x_k + nu_k, d_{k+1} = B d_k + wd_k with an
     independent wd_k ~ N(0, Rd); y_k = H x_k + A d_k + w_k for k = 1..N+1
@@ -146,7 +146,7 @@ ROWS_MULTI = [
     ("Distributed Diff KF", ["--filter", "dkf"], "fused", "xp"),
     ("(local Diff KF, sensor 1)", ["--filter", "dkf"], "local[0]", "xp"),
 ]
-# The note's hypothesis for Ex 3: a DKF whose model says B = 0.9 I on data
+# The derivation's hypothesis for Ex 3: a DKF whose model says B = 0.9 I on data
 # generated with B = I.
 HYPOTHESIS = ("(hypothesis: Centralized Diff KF with filter B = 0.9 I)", ["--filter", "dkf"],
               "central", "xp")

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Follow a live dkf network run over LCM and plot it (docs/network.md).
+"""Follow a live dkf network run over LCM and plot it (docs/guide/network.md).
 
     dkf_monitor.py [--url URL] [--prefix DKF] [--png dkf_monitor.png]
                    [--every 2] [--duration 0] [--until-done] [--types DIR]
@@ -95,7 +95,7 @@ class Run:
                 self.truth[m.k] = list(m.x)
             elif what == "FUSED":
                 m = self.t.fused_t.decode(data)
-                # the newest revision of step k stands (docs/network.md: the
+                # the newest revision of step k stands (docs/guide/network.md: the
                 # fusion centre publishes every step it recomputes); a
                 # complete revision clears a degraded first publication
                 if m.revision < self.revision.get(m.k, -1):

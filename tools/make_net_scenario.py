@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate a several-node Difference-KF network scenario (docs/network.md).
+"""Generate a several-node Difference-KF network scenario (docs/guide/network.md).
 
     make_net_scenario.py --nodes 12 --steps 100 --seed 12 --out net12.json
 
@@ -8,7 +8,7 @@ has its own measurement matrix H^i (m_i x 4, m_i in {2, 3, 4}), noise R^i,
 unknown input d^i (p_i in {1, 2}, p_i <= m_i; most nodes have p_i < m_i)
 entering through D^i (m_i x p_i, full column rank), with d^i_{k+1} =
 B^i d^i_k + wd^i_k. The output is the canonical scenario layout
-(docs/scenario-format.md) with y_1..y_{N+1} (the Difference KF needs
+(docs/reference/scenario-format.md) with y_1..y_{N+1} (the Difference KF needs
 y_{N+1}) and the truth x_0..x_{N+1}. Everything comes from one seeded
 numpy Generator: the same arguments give the same file, byte for byte.
 """
@@ -72,7 +72,7 @@ def make(nodes, steps, seed, max_dim=48):
     return {
         "scenario": f"net{nodes}: 2-D CV target, {nodes} heterogeneous nodes with unknown inputs",
         "seed": seed,
-        "conventions": "docs/scenario-format.md canonical layout; y_1..y_{N+1}, truth x_0..x_{N+1}",
+        "conventions": "docs/reference/scenario-format.md canonical layout; y_1..y_{N+1}, truth x_0..x_{N+1}",
         "dims": {"n": n, "m_i": ms, "p_i": ps},
         "N": steps,
         "model": {"F": mat(F), "Q": mat(Q),

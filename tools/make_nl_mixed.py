@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes scenarios/nl_mixed_expr.json: seed 001's consensus network with
-nodes that measure different things (docs/scenario-format.md, "Nonlinear
-cases"; docs/dfnerts.md, "Nodes with different sensors").
+nodes that measure different things (docs/reference/scenario-format.md, "Nonlinear
+cases"; docs/design/dfnerts.md, "Nodes with different sensors").
 
     tools/make_nl_mixed.py [--out scenarios/nl_mixed_expr.json] [--steps 25] [--seed 2014]
 
@@ -121,7 +121,7 @@ def main():
                           "T_p = 2, s = 1 and s = 3; case 2: complete graph, W = 11^T/3, s = 3, "
                           "sensors linear in x (the joint variant equals cf_dnertsf there); case 3: "
                           "case 1 without unknown input (DF-CKF). "
-                          "docs/dfnerts.md, \"Nodes with different sensors\"." % a.seed,
+                          "docs/design/dfnerts.md, \"Nodes with different sensors\"." % a.seed,
            "cases": [case("mixed_path3_Tp2_scale1", NONLINEAR, [[0, 1], [1, 2]], path_w, 1.0,
                           rng, a.steps),
                      case("mixed_path3_Tp2_scale3", NONLINEAR, [[0, 1], [1, 2]], path_w, 3.0,

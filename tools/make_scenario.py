@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate the built-in demo scenario (canonical format, docs/scenario-format.md).
+"""Generate the built-in demo scenario (canonical format, docs/reference/scenario-format.md).
 
     tools/make_scenario.py [--out scenarios/demo_cv2d.json] [--steps 100] [--seed 2024]
 

@@ -295,7 +295,7 @@ def joint_time_update(x, P, Pd, Pxd, dyn):
 
 
 def nrtsf_df_step(x, P, Pd, Pxd, dyn, C, Hb, Tp, R, y):
-    """One NRTSF-DF step at 60 digits from docs/uif.md (H = Hb T a
+    """One NRTSF-DF step at 60 digits from docs/design/uif.md (H = Hb T a
     full-rank decomposition, Tp = T^+, B = Hb; the RTSF step is Hb = H,
     Tp = I); dyn = (A, G, Q, d_{k-1|k-1}) or None (the first step: x, P
     are the prior of x_0).
@@ -355,7 +355,7 @@ def rank_deficient(rng, rows, r, m):
 
 
 def nrtsf_step(x, P, A, G1, Tp, Q, C, R, y):
-    """One NRTSF step at 60 digits from docs/uif.md (no feedthrough; G =
+    """One NRTSF step at 60 digits from docs/design/uif.md (no feedthrough; G =
     G1 T a full-rank decomposition, Tp = T^+, B = F = C G1): x_pred = A x,
     P_pred = A P A^T + Q (51); R~ = C P C^T + R (42); Pdbar = (F^T R~^-1
     F)^-1, Mbar = Pdbar F^T R~^-1, dbar = Mbar ytil (43)-(44); K = P C^T
@@ -384,7 +384,7 @@ def nrtsf_cases():
     x_{k-1}): P0 = x_{0|0} covariance with eigenvalues in [1e6, 1e8], R in
     [1e-4, 1e-3], Q in [1e3, 1e5], 5 steps; G of full column rank (n3_m2)
     or of rank 2 of 3 (n4_m3, G = [g1, g2, -2 g1] = G1 T, exact in
-    float32; T^+ = T^T (T T^T)^-1, which docs/uif.md says the outputs do
+    float32; T^+ = T^T (T T^T)^-1, which docs/design/uif.md says the outputs do
     not depend on)."""
     rng = np.random.default_rng(20261207)
     cases = []
@@ -478,7 +478,7 @@ def feedthrough_cases(kind, seed, shapes):
 
 
 def uif_cases():
-    """RTSF = NRTSF-DF with T = I (docs/uif.md: Hbar = H, T = I), p = n + m
+    """RTSF = NRTSF-DF with T = I (docs/design/uif.md: Hbar = H, T = I), p = n + m
     (the measurements pin [x; d]), (n, m) = (3, 1) and (4, 2)."""
     return feedthrough_cases("rtsf", 20261204, ((3, 1, 1), (4, 2, 2)))
 
@@ -491,7 +491,7 @@ def pinv_fcr(A):
 
 
 def diffkf_cases():
-    """Theorem 1 of docs/diffkf.md, (8)-(20) with the corrected lag of C_k,
+    """Theorem 1 of docs/design/diffkf.md, (8)-(20) with the corrected lag of C_k,
     at 60 digits, from the prior (x_{1|0}, P_{1|0}) = (x0, P0) (the start
     with F0 = Q0 = NULL). p = n, so each z_k pins the state: P0 eigenvalues
     in [1e6, 1e8], Q, R, Rd eigenvalues in [1e-4, 1e-3]; 5 steps. Step k
@@ -565,7 +565,7 @@ def diffkf_cases():
 # ---- tw: seed 003's centralized two-stage filter (Algorithm 1) ----------------
 
 def tw_cases():
-    """Algorithm 1 (dkf/tw.h, docs/graph-filters.md) at 60 digits, in the
+    """Algorithm 1 (dkf/tw.h, docs/design/graph-filters.md) at 60 digits, in the
     forms the header prints rather than the information form src/tw.c
     uses: phi+, Phi+ as the KF update of (phi-, Phi-) on the stacked
     sensors, G = (I - Phi+ Q) B (8a), S = B^T (Q - Q Phi+ Q) B (11)-(12),

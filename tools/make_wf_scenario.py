@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """make_wf_scenario.py - a seed-002 weighted-fusion scenario for the network
-programs (docs/network.md, "The weighted-fusion centre"), in the layout of
-tests/vectors/infofusion/s2_weighted_fusion.json (docs/scenario-format.md,
+programs (docs/design/network.md, "The weighted-fusion centre"), in the layout of
+tests/vectors/infofusion/s2_weighted_fusion.json (docs/reference/scenario-format.md,
 "Weighted-fusion cases"): one case with Phi, Gamma, Qe, H[i], R[i],
 H_signal, P0, x_hat0, x_true and steps [{t, y}] (no `expected`).
 
-The model is seed 002's (docs/infofusion.md section 5): H = (1 0 1 0),
+The model is seed 002's (docs/design/derivation-seed001-002.md §5): H = (1 0 1 0),
 H_signal = (1 0 0 0), R_i = 0.1 i (i = 1..L); the common prior x_hat0 = 0,
 P0 = the stationary covariance of x, x(0) ~ N(0, P0); numpy's default_rng(seed).
 

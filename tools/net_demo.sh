@@ -5,7 +5,7 @@
 #
 # --realtime: as root, run the multicast demo's processes at real-time FIFO
 # priority (chrt -f 20), so that a woken process runs at once instead of
-# queueing behind the machine's ordinary load (docs/network.md, "Where the
+# queueing behind the machine's ordinary load (docs/guide/network.md, "Where the
 # latency goes"); they can then starve everything else on the machine
 # while they run. Without it they run at the ordinary priority.
 #
@@ -14,7 +14,7 @@
 # generated networks of 12 and 50 nodes (tools/make_net_scenario.py, fixed
 # seeds; every node with its own H/R, several with p_i < m_i; the 50 nodes in
 # lock step), 200 nodes (in one process over memq://) and the 12 nodes again for
-# 1000 steps at 100 Hz (issue 14's latency goal):
+# 1000 steps at 100 Hz (the latency target, p99 <= 1 ms):
 # dkf-sim --rate HZ, one dkf-node per sensor
 # and dkf-fusion as separate processes talking over UDP multicast
 # udpm://239.255.76.67:7667?ttl=0 inside a private network namespace
@@ -53,11 +53,11 @@ done
 if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   scn=$1 out=$2 bin=$3 rate=$4 keys=$5
   # node messages and each node's measurements on ports of their own: a process
-  # wakes only for what it reads (docs/network.md, "Split ports"); each reads its
+  # wakes only for what it reads (docs/guide/network.md, "Split ports"); each reads its
   # sockets itself, one wake-up per datagram instead of LCM's two ("Direct receive")
   opts=(--key-dir "$keys" --split-ports --direct-recv)
   # --realtime: FIFO priority (root), a woken process runs at once instead of queueing
-  # behind the ordinary load (docs/network.md, "Where the latency goes")
+  # behind the ordinary load (docs/design/network.md, "Where the latency goes")
   rt=()
   if [[ ${DKF_DEMO_RT:-0} == 1 ]]; then
     if chrt -f 20 true 2>/dev/null; then rt=(chrt -f 20)
@@ -114,10 +114,10 @@ python3 "$here/make_net_scenario.py" --nodes 50 --steps 100 --seed 50 --max-dim 
   --out "$out/net50.json"
 python3 "$here/make_net_scenario.py" --nodes 200 --steps 50 --seed 200 --max-dim "$maxdim" \
   --out "$out/net200.json"
-# issue 14's latency goal (docs/network.md, "Where the latency goes"): the 12-node network
+# the latency target (docs/design/network.md, "Where the latency goes"): the 12-node network
 # again, 1000 steps at 100 Hz, so that its p99 is not just its first (cold) step
 python3 "$here/make_net_scenario.py" --nodes 12 --steps 1000 --seed 12 --out "$out/lat12.json"
-# Example 3 in the library's letters (the vector's A is D; docs/scenario-format.md, "Letters")
+# Example 3 in the library's letters (the vector's A is D; docs/reference/scenario-format.md, "Letters")
 python3 - "$root/tests/vectors/diffkf/ex3_multi.json" "$out/ex3.json" <<'PY'
 import json, sys
 d = json.load(open(sys.argv[1]))
@@ -131,7 +131,7 @@ scenarios=("ex3:$out/ex3.json" "net12:$out/net12.json"
 # sockets each reading every datagram of the group: a 2-core machine's scheduler, not the centre)
 export DKF_DEMO_INPROC="net200"
 # 52 processes on a small machine: paced, a node starved past a step loses measurements and
-# restarts (docs/network.md, "Load the fusion centre holds"); in lock step every step is whole
+# restarts (docs/design/network.md, "Load the fusion centre holds"); in lock step every step is whole
 export DKF_DEMO_LOCKSTEP="net50"
 # paced at a rate of its own (tag:Hz)
 export DKF_DEMO_RATES="lat12:100"
@@ -155,7 +155,7 @@ for e in "${scenarios[@]}"; do
     r=$rate
     [[ " $DKF_DEMO_LOCKSTEP " == *" $tag "* ]] && r=lockstep
     for tr in $DKF_DEMO_RATES; do [[ ${tr%%:*} == "$tag" ]] && r=${tr#*:}; done
-    # every datagram authenticated (docs/network.md, Authentication): a key per node
+    # every datagram authenticated (docs/guide/network.md, Authentication): a key per node
     nn=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["sensors"]))' "$scn")
     "$bin/dkf-keygen" "$out/keys-$tag" "$nn"
     DKF_DEMO_INNER=1 DKF_DEMO_RT=$realtime "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$r" \
@@ -222,13 +222,13 @@ for r in rows:
     print(f"{r[0]:<9}{r[1]:>6}{r[2]:>5}{r[3]:>12.6f}{r[4]:>14.6f}{r[5]:>20.2e}{r[6]:>6}{r[7]:>6}{r[8]:>9}{r[9]:>9}{lat}  {r[12]}")
 print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, Pf, Pp;"
       " sent/lost/rejected count node messages at the fusion centre; degraded: steps not"
-      " complete in the end (docs/network.md, Faults);"
+      " complete in the end (docs/design/network.md, Faults);"
       " latency: measurement publication -> fused publication, oldest measurement of the step)")
 print("authentication at the fusion centre: " + "; ".join(
     f"{t} {m}" + (f" ({a} datagrams accepted, {r} rejected)" if m != "off" else " (in process)")
     for t, m, a, r in auths))
 print()
-print("where the latency goes, p50 / p99 in us over the steps (docs/network.md, 'Where the latency goes'):")
+print("where the latency goes, p50 / p99 in us over the steps (docs/design/network.md, 'Where the latency goes'):")
 print(f"{'scenario':<9}" + "".join(f"{w:>18}" for w, _ in parts[0][2]))
 for tag, procs, cols in parts:
     cells = []

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# tools/net_load.sh - the load the fusion centre holds (docs/network.md, "Load").
+# tools/net_load.sh - the load the fusion centre holds (docs/design/network.md, "Load").
 #
 #   tools/net_load.sh [--build-dir DIR] [--rates "100 300 600 1000 2000"]
 #                     [--runs 5] [--nodes 12] [--steps 500] [--drops "0 1"]

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # tools/run_fuzz.sh - builds every harness tests/fuzz/fuzz_<name>.c with
-# clang's libFuzzer + ASan + UBSan in build/fuzz (DKF_FUZZ=ON, docs/fuzzing.md)
+# clang's libFuzzer + ASan + UBSan in build/fuzz (DKF_FUZZ=ON, docs/guide/fuzzing.md)
 # and runs each for a bounded time on its corpus tests/fuzz/corpus/<name>/.
 #
 # usage: tools/run_fuzz.sh [name...]      (default: every harness)

@@ -30,7 +30,7 @@
 #                    heap symbols, sizes, worst-case stack (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
 #                    UBSan for FUZZ_SECONDS (here 10) each, two at a time
-#                    (tools/run_fuzz.sh; the long run: docs/fuzzing.md)
+#                    (tools/run_fuzz.sh; the long run: docs/guide/fuzzing.md)
 #   demo             the README's demo (tools/net_demo.sh) on the programs of
 #                    double-dim1024 (the demo's DKF_MAX_DIM; its own build in
 #                    build/demo when run alone): every network, 2 to 200 nodes,
@@ -281,7 +281,7 @@ run_ctest_config() {
 
 # The network tests of double (ctest -L net: processes in namespaces), 4 at a
 # time: they mostly wait (29 tests: 40 s at -j4, 62 s at -j2, about 30 s of
-# CPU), and they hold on a loaded machine (docs/build.md, "Tests on a busy
+# CPU), and they hold on a loaded machine (docs/guide/build.md, "Tests on a busy
 # machine"). Recorded as the configuration double:net.
 run_net() {
   local bdir=$1 log=$1/run_tests.net.log rc t=$SECONDS

@@ -1,12 +1,12 @@
-"""Seed 001's radar simulation (docs/infofusion.md, "The radar scenario").
+"""Seed 001's radar simulation (docs/design/derivation-seed001-002.md §2, the simulation set-up).
 
 The constant-turn target (eq. 62, T = 1), the 12 radars on a 3 x 4 grid, the
 turn-rate schedule and the Monte-Carlo draws, written as scenario files in the
-nonlinear-cases layout that dkf-run reads (docs/scenario-format.md,
+nonlinear-cases layout that dkf-run reads (docs/reference/scenario-format.md,
 "Nonlinear cases"). Used by tools/seed001_table1.py (the paper's Table 1) and
 by the network demo; the filters themselves are dkf's C code.
 
-Set-up (docs/infofusion.md lists the choices the paper leaves open):
+Set-up (docs/design/derivation-seed001-002.md §2 lists the choices the paper leaves open):
   x = [xi, xi_dot, eta, eta_dot], d = omega (rad/s);
   x_k = F_CT(omega_{k-1}) x_{k-1} + Gamma w_{k-1},  w ~ N(0, 0.04 I2);
   z^i_k = [hypot, atan2, 10 omega_k](x_k relative to radar i) + v,

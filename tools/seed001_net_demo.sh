@@ -78,7 +78,7 @@ scn=$out/radar12.json
 python3 "$here/seed001_model.py" --run 0 --steps "$steps" --tp 45 --scale both --out "$scn"
 
 mode=udpm
-"$keygen" --edges "$out/keys" 12 # a key per edge (docs/network.md, Authentication)
+"$keygen" --edges "$out/keys" 12 # a key per edge (docs/guide/network.md, Authentication)
 if (( inproc )); then
   mode=inproc
 elif ! "$here/netns.sh" check 2>"$out/netns.err"; then

@@ -15,7 +15,7 @@ ARMSE = mean over k = 1..100 of RMSE_k (the root of the mean over the runs of
 the squared position / velocity error), DRMSE = its variance over k (ddof 1);
 for the DF filters per node, then averaged over the 12 nodes (the spread
 between nodes is printed). Beside them: the paper's numbers and the reference
-values of docs/infofusion.md (which used the same set-up and seeds), with the
+values of docs/design/infofusion.md (which used the same set-up and seeds), with the
 jackknife standard error of our ARMSE over the runs, so "agrees" means within
 3 standard errors. Writes DIR/table1.json, DIR/seed001_rmse.png (position
 RMSE against k) and DIR/seed001_turn_rate.png (the turn-rate estimate).
@@ -131,7 +131,7 @@ def main():
     ap.add_argument("--out-dir", default=os.path.join(root, "build", "seed001"))
     ap.add_argument("--no-plots", action="store_true")
     ap.add_argument("--no-verdict", action="store_true",
-                    help="exit 0 even if a value is off the note's (a smoke run of a few runs)")
+                    help="exit 0 even if a value is off the derivation's (docs/design/derivation-seed001-002.md) (a smoke run of a few runs)")
     a = ap.parse_args()
     if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000 or not 1 <= a.jobs <= 64:
         ap.error("--runs in 2..1000, --tp in 1..10000, --jobs in 1..64")

@@ -4,7 +4,7 @@
   tools/seed002_example.py [--runs 2000] [--steps 60] [--long 20000] [--st-steps 8000]
                            [--jobs 2] [--out-dir DIR] [--dkf-run PATH] [--no-plots] [--no-verdict]
 
-The model (docs/weighted-fusion.md): the AR(2)/MA(1) signal s plus the common
+The model (docs/design/weighted-fusion.md): the AR(2)/MA(1) signal s plus the common
 coloured noise eta of the paper, 5 sensors y_i = s + eta + v_i with
 sigma_vi^2 = 0.1 .. 0.5, in the observer form of tools/make_wf_scenario.py
 (common prior x_hat0 = 0, P0 = the stationary covariance, x(0) ~ N(0, P0)).
@@ -12,7 +12,7 @@ sigma_vi^2 = 0.1 .. 0.5, in the observer form of tools/make_wf_scenario.py
 1. Steady state: `dkf-run --filter fusion_steady` (DARE + Stein in the C core)
    gives the local variances P_Sii, the scalar weights, P_S0 and the
    matrix-fused H_s P0 H_s^T; `--filter central_kf` on a long run the
-   centralized steady variance. Compared with the paper's / reference note's
+   centralized steady variance. Compared with the paper's / reference derivation's (docs/design/derivation-seed001-002.md)
    five-digit values.
 2. Monte-Carlo (--runs runs of --steps steps, numpy default_rng(2002 + r)):
    every run through local_kf, fusion_scalar, fusion_matrix and central_kf;
@@ -47,7 +47,7 @@ from seed001_table1 import Progress, find_dkf_run  # noqa: E402
 
 L = 5
 R = [0.1 * (i + 1) for i in range(L)]
-# the paper's and the reference note's steady values (5 digits)
+# the paper's and the derivation's steady values (5 digits)
 PAPER = {"P_Sii": [0.53205, 0.60737, 0.67752, 0.74401, 0.80767],
          "w": [0.4798, 0.2222, 0.1362, 0.0936, 0.0682],
          "P_S0": 0.49409, "matrix": 0.49336, "central": 0.48630}

@@ -51,7 +51,7 @@ if [[ ${1:-} != "" && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
   pids=()
   trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
   rm -rf "$dir" && mkdir -p "$dir"
-  # every datagram authenticated (docs/network.md, Authentication)
+  # every datagram authenticated (docs/guide/network.md, Authentication)
   "$bin/dkf-keygen" "$dir/keys" 5 || exit 1
   auth=(--key-dir "$dir/keys")
   wait_ready() { for _ in $(seq 3000); do [[ -e $1 ]] && return 0; sleep 0.1; done; return 1; }

@@ -15,9 +15,9 @@ re-implemented here.
 
 Data: the graph, A, B, Sigma_v, H_l and Sigma_w,l are read from the vector
 file tests/vectors/uif/s003_200node_alg1.json (random geometric graph in the
-unit square, 732 edges, generator seed 2024: note §7); the files written
+unit square, 732 edges, generator seed 2024: docs/design/derivation-seed003-004.md §7); the files written
 here give no weights, so dkf-run uses the library's uniform alpha = 1/|N_l|
-and Metropolis W, the note's choice. Protocol (note §7): P0 = I (x_0 ~ N(0,
+and Metropolis W, the derivation's choice. Protocol (derivation §7): P0 = I (x_0 ~ N(0,
 I), x_{0|0} = 0), T = 500 steps, z1 = 1 on n in [50, 200), -0.5 on [200,
 350), else 0; z2 = 0.8 sin(2 pi n / 200); eta = 10; RMSE = root mean over
 runs, nodes and components, averaged over n = 51..T.
@@ -42,7 +42,7 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_GRAPH = os.path.join(HERE, "..", "tests", "vectors", "uif", "s003_200node_alg1.json")
 
-# note §7 (40 runs, T = 500), RMSE averaged over n = 51..500
+# derivation §7 (40 runs, T = 500), RMSE averaged over n = 51..500
 NOTE = {
     "alg1": {"state": 0.719, "position": 0.0286, "velocity": 0.718, "input": 0.166, "nees": 1.00,
              "spread": None, "reals": 14},
@@ -52,7 +52,7 @@ NOTE = {
              "spread": 0.16, "reals": 280},
 }
 NOTE_ETA_INPUT = {1: 0.463, 3: 0.331, 10: 0.239, 30: 0.196, 100: 0.174}
-NOTE_GAP = {10: 0.14, 100: 0.036, 1000: 3.9e-6, 3000: 1.6e-14}  # note §6(d), 200 nodes
+NOTE_GAP = {10: 0.14, 100: 0.036, 1000: 3.9e-6, 3000: 1.6e-14}  # derivation §6(d), 200 nodes
 NOTE_INPUT_TIME = {2: (0.25, 0.46, 0.30), 100: (0.16, 0.44, 0.24), 500: (0.18, 0.43, 0.25)}
 
 
@@ -75,7 +75,7 @@ def psd_factor(S):
 
 
 # The seed-003 vectors' letters A, B, Sv, Sw are the library's F, G, Q, R
-# (docs/scenario-format.md, "Letters").
+# (docs/reference/scenario-format.md, "Letters").
 VECTOR_LETTERS = {"A": "F", "B": "G", "Sv": "Q", "Sw": "R"}
 
 
@@ -139,7 +139,7 @@ def rmse_rows(acc, first):
     """Per-step RMSE arrays and their averages over n >= first."""
     mx = acc["mse_x"] / acc["runs"]  # steps x n
     mz = acc["mse_z"] / acc["runs"]
-    # the note's RMSE: sqrt of the mean over runs and nodes of ||e||^2 of the block
+    # the derivation's RMSE: sqrt of the mean over runs and nodes of ||e||^2 of the block
     per = {"state": np.sqrt(mx.sum(axis=1)), "position": np.sqrt(mx[:, :2].sum(axis=1)),
            "velocity": np.sqrt(mx[:, 2:].sum(axis=1)), "input": np.sqrt(mz.sum(axis=1))}
     sel = slice(first - 1, None)
@@ -239,7 +239,7 @@ def main(argv=None):
          % (N, E, runs, T, args.eta), "",
          "RMSE = sqrt(mean over runs and nodes of ||e||^2) of the block (state: 4 components, "
          "position x1 x2, velocity x3 x4, input z1 z2), averaged over n = %d..%d; node spread "
-         "of x1 = max - min over nodes (and RMS about the node mean). Note §7: 40 runs x 500 "
+         "of x1 = max - min over nodes (and RMS about the node mean). Derivation §7: 40 runs x 500 "
          "steps." % (first, T), "",
          "| algorithm | | state | position | velocity | input z | NEES/n | x1 node spread "
          "(range / RMS) | reals sent / node / step | messages / node / step |",
@@ -254,14 +254,14 @@ def main(argv=None):
                   c["reals_per_node_step"], " (to the centre)" if a == "alg1" else "",
                   c["messages_per_node_step"]))
         nv = NOTE[a]
-        L.append("| | note §7 | %.3f | %.4f | %.3f | %.3f | %.2f | %s | %d | |" %
+        L.append("| | derivation §7 | %.3f | %.4f | %.3f | %.3f | %.2f | %s | %d | |" %
                  (nv["state"], nv["position"], nv["velocity"], nv["input"], nv["nees"],
                   "-" if nv["spread"] is None else "%.2f" % nv["spread"], nv["reals"]))
     deg = 2.0 * E / N
     L += ["", "Reals per link-send (x mean degree %.2f): Alg 2 %.0f, Alg 3 %.0f (note: 132 vs 2050)."
           % (deg, comm["alg2"]["reals_per_node_step"] * deg,
              comm["alg3"]["reals_per_node_step"] * deg), ""]
-    L += ["## Input RMSE over time (Alg 1 / 2 / 3)", "", "| n | dkf | note §7 |", "|---|---|---|"]
+    L += ["## Input RMSE over time (Alg 1 / 2 / 3)", "", "| n | dkf | derivation §7 |", "|---|---|---|"]
     for nn in (2, 100, 500):
         if nn <= T:
             L.append("| %d | %.2f / %.2f / %.2f | %s |" %
@@ -269,7 +269,7 @@ def main(argv=None):
                       + ("%.2f / %.2f / %.2f" % NOTE_INPUT_TIME[nn],)))
     L += ["", "## Alg 3: input RMSE against eta (%d run%s)" %
           (eta_rmse_runs, "" if eta_rmse_runs == 1 else "s"), "",
-          "| eta | dkf | note §7 (6 runs) |", "|---|---|---|"]
+          "| eta | dkf | derivation §7 (6 runs) |", "|---|---|---|"]
     for eta in eta_rmse:
         L.append("| %d | %.3f | %s |" % (eta, eta_input[eta],
                                           "%.3f" % NOTE_ETA_INPUT[eta] if eta in NOTE_ETA_INPUT
@@ -278,7 +278,7 @@ def main(argv=None):
           "gap = max over steps and nodes of max_i |x3_i - x1_i| / max(1, max_i |x1_i|) (the "
           "vectors' comparison rule), and of ||x3 - x1|| / ||x1||; RMS = root mean over steps "
           "and nodes of ||x3 - x1||^2.", "",
-          "| eta | max-rule gap | relative-norm gap | RMS gap | note §6(d) |", "|---|---|---|---|---|"]
+          "| eta | max-rule gap | relative-norm gap | RMS gap | derivation §6(d) |", "|---|---|---|---|---|"]
     for eta in eta_gap:
         g = gap[eta]
         L.append("| %d | %.3g | %.3g | %.3g | %s |" %
@@ -304,7 +304,7 @@ def main(argv=None):
     ax.loglog(es, [gap[e]["rel_norm_max"] for e in eta_gap], "s-", label="relative-norm gap")
     ax.loglog(es, [gap[e]["rms"] for e in eta_gap], "^-", label="RMS ||x3 - x1||")
     ne = sorted(NOTE_GAP)
-    ax.loglog(ne, [NOTE_GAP[e] for e in ne], "kx", ms=9, label="note §6(d)")
+    ax.loglog(ne, [NOTE_GAP[e] for e in ne], "kx", ms=9, label="derivation §6(d)")
     ax.set_xlabel("consensus iterations eta")
     ax.set_ylabel("gap to Algorithm 1")
     ax.set_title("Alg 3 -> Alg 1 (200 nodes, 732 edges, 10 steps)", fontsize=9)
@@ -332,7 +332,7 @@ def main(argv=None):
     fig, ax = plt.subplots(figsize=(5, 3.4))
     ax.semilogx(eta_rmse, [eta_input[e] for e in eta_rmse], "ro-", label="Alg 3 (dkf)")
     ne = sorted(NOTE_ETA_INPUT)
-    ax.semilogx(ne, [NOTE_ETA_INPUT[e] for e in ne], "kx", label="note §7")
+    ax.semilogx(ne, [NOTE_ETA_INPUT[e] for e in ne], "kx", label="derivation §7")
     ax.axhline(avg["alg1"]["input"], color="k", ls="--", lw=0.8, label="Alg 1")
     ax.axhline(avg["alg2"]["input"], color="g", ls="--", lw=0.8, label="Alg 2")
     ax.set_xlabel("eta")

@@ -93,7 +93,7 @@ json.dump(tw_example.scenario(base, x, y, z, 100, 10), open(sys.argv[2], "w"))
 PY
 
 mode=udpm
-"$keygen" --edges "$out/keys" "$nodes" # a key per edge (docs/network.md, Authentication)
+"$keygen" --edges "$out/keys" "$nodes" # a key per edge (docs/guide/network.md, Authentication)
 if (( inproc )); then
   mode=inproc
 elif ! "$here/netns.sh" check 2>"$out/netns.err"; then

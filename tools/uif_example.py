@@ -6,17 +6,17 @@
 
 This script only SIMULATES the paper's system (numpy, fixed seeds), writes
 each run as a steps-layout scenario (the layout of the seed-004 vectors,
-docs/scenario-format.md) and does the statistics; every estimate comes from
+docs/reference/scenario-format.md) and does the statistics; every estimate comes from
 the C library through `dkf-run --filter rtsf|nrtsf_df|nrtsf`.
 
-System (paper §5 as corrected by the math note §5, = the vectors' model):
+System (paper §5 as corrected by docs/design/derivation-seed003-004.md §5, = the vectors' model):
 A (5x5, row 5 = [0 0 0 0 0.1]), G = [e1 e3 0], C = I5, H = [e3 e2 0]
 (rank 2: d1 has no path to y), R as printed, Q = 1e-4 x R's pattern.
-Protocol (note §7): K = 100 steps, x_0 ~ N(0, 0.1 I), P0 = 0.1 I,
+Protocol (derivation §7): K = 100 steps, x_0 ~ N(0, 0.1 I), P0 = 0.1 I,
 d1 = sin(2 pi k / 40), d2 = 2 on k = 10..59, -1 on 60..79, else 0,
 d3 = +-1.5 square wave of period 30; RMSE over runs and k = 10..99.
 Cases, all on the same simulated runs:
-  NRTSF-DF, d1 = sin    the paper's Fig. 2-4 (d1 unestimable; biased, note §8)
+  NRTSF-DF, d1 = sin    the paper's Fig. 2-4 (d1 unestimable; biased, derivation §8)
   NRTSF-DF, d1 = 0      the case where the paper's claim holds
   NRTSF (H = 0)         the paper's Fig. 5-7, d_{k-1|k} (d3 unestimable)
   RTSF, paper H         refused: rank H = 2 < m = 3 (exit 3 from dkf-run)
@@ -52,10 +52,10 @@ R = (1e-2 * np.array(PATTERN)).tolist()
 Q = (1e-4 * np.array(PATTERN)).tolist()
 P0 = (0.1 * np.eye(5)).tolist()
 X0 = [0.0] * 5
-FIRST = 10  # RMSE over k = 10..99 (note §7)
+FIRST = 10  # RMSE over k = 10..99 (derivation §7)
 EST = {0: "none", 1: "partial", 2: "full"}
 
-# note §7 (500 runs): RMSE over k = 10..99 of x and d (reference values).
+# derivation §7 (500 runs): RMSE over k = 10..99 of x and d (reference values).
 NOTE = {
     "nrtsf_df_sin": {"x": [1.421, 0.072, 0.115, 0.020, 0.010], "d": [0.711, 0.151, 1.424]},
     "nrtsf_df_zero": {"x": [0.149, 0.072, 0.115, 0.020, 0.010], "d": [0, 0.151, 0.171]},
@@ -88,7 +88,7 @@ def simulate(rng, d, feedthrough):
 
 def scenario(name, x, y, d, feedthrough, nrtsf):
     """Steps-layout scenario: DF filters k = 0..K-1; NRTSF k = 1..K-1 (truth d_prev)."""
-    # the library's letters (docs/scenario-format.md, "Letters"); the paper's
+    # the library's letters (docs/reference/scenario-format.md, "Letters"); the paper's
     # A, C, H are F, H, D
     model = {"F": A, "G": G, "Q": Q, "H": C, "R": R}
     if not nrtsf:
@@ -325,7 +325,7 @@ def main(argv=None):
         lines.append("| | sqrt(P) | %s | %s | | |" %
                      (" | ".join("%.3f" % v for v in sx), " | ".join("%.3f" % v for v in sdd)))
         if key in NOTE:
-            lines.append("| | note §7 | %s | %s | | |" %
+            lines.append("| | derivation §7 | %s | %s | | |" %
                          (" | ".join("%.3f" % v for v in NOTE[key]["x"]),
                           " | ".join("%.3f" % v for v in NOTE[key]["d"])))
         results["cases"][key] = {

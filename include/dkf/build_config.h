@@ -7,7 +7,7 @@
  * first on the library's include path, and `cmake --install` installs that
  * one: it fixes DKF_USE_FLOAT, DKF_MAX_DIM, DKF_JOSEPH, DKF_DEBUG_CHECKS
  * and DKF_SVD_MAX_SWEEPS to the built values and stops a
- * consumer that defines others with an #error (docs/build.md).
+ * consumer that defines others with an #error (docs/guide/build.md).
  */
 #ifndef DKF_BUILD_CONFIG_H
 #define DKF_BUILD_CONFIG_H

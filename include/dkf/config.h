@@ -66,7 +66,7 @@ extern "C" {
  * compiled for exactly that state and measurement dimension, as an X-macro
  * list: X(n, m) per size. Other sizes run the generic step; results are
  * bit-identical either way, only speed and code size differ
- * (docs/bench.md, docs/footprint.md). Sizes above DKF_MAX_DIM are
+ * (docs/results/bench.md, docs/results/footprint.md). Sizes above DKF_MAX_DIM are
  * ignored. The default covers constant-velocity / -acceleration tracking
  * in 2-D and 3-D and the benchmark's sizes, except in builds optimised for
  * size (-Os, __OPTIMIZE_SIZE__), where it is empty: each size costs

@@ -1,8 +1,8 @@
 /*
  * dkf/dfnerts.h - the consensus network of seed 001: DF-DNERTSIF
  * (Algorithm 3, Ding-Xiao-Zhang 2014) and DF-CKF (its p = 0 case), with
- * the corrections of docs/nerts.md, and a consistent variant that
- * agrees on the joint information of [x; d] (docs/dfnerts.md).
+ * the corrections of docs/design/nerts.md, and a consistent variant that
+ * agrees on the joint information of [x; d] (docs/design/dfnerts.md).
  *
  * Every node l runs its own single-node filter (dkf/nerts.h, an
  * information kind: DKF_NERTS_DNERTSIF for the paper's DF-DNERTSIF,

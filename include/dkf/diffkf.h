@@ -1,6 +1,6 @@
 /*
  * dkf/diffkf.h - the Difference Kalman filter (seed 000, Ruan-Luo-Zhu 2018,
- * Theorem 1, with the corrections of docs/diffkf.md).
+ * Theorem 1, with the corrections of docs/design/diffkf.md).
  *
  * Model: dkf/ui_model.h (state n, measurement m, unknown input p; D_k of
  * full column rank, B_k nonsingular; every matrix may change with k, the
@@ -138,10 +138,10 @@ dkf_status_t dkf_diffkf_init(dkf_diffkf_t *f, size_t n, size_t m, size_t p, dkf_
 
 /* Predicts x_{1|0} = F0 x_{0|0}, P_{1|0} = F0 P_{0|0} F0^T + Q0 and takes
  * the first measurement y_1 with its model. The first step has no previous
- * innovation (every term with L_0^{-1} is zero, docs/diffkf.md §2).
+ * innovation (every term with L_0^{-1} is zero, docs/design/derivation-seed000.md §2).
  * With F0 = Q0 = NULL, (x0, P0) of init are taken as the prior
  * (x_{1|0}, P_{1|0}) of the first measured time instead (the general
- * start of the note, k0 = the first measurement). */
+ * start of the derivation (docs/design/derivation-seed000.md), k0 = the first measurement). */
 dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_mat_t *Q0,
                               const dkf_ui_meas_t *meas1, const dkf_mat_t *y1);
 
@@ -149,7 +149,7 @@ dkf_status_t dkf_diffkf_start(dkf_diffkf_t *f, const dkf_mat_t *F0, const dkf_ma
  * k+1. Statuses: DKF_ERR_RANK if D_{k+1} lacks full column rank,
  * DKF_ERR_SINGULAR if B_k is singular, DKF_ERR_NOT_SPD if L_k is not SPD
  * or P_{k|k}, P_{k+1|k} is not PSD within 4 n eps tr P (an indefinite Q,
- * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/diffkf.md),
+ * R or Rd; both are Joseph-type forms with DKF_JOSEPH, docs/design/diffkf.md),
  * DKF_ERR_NONFINITE, DKF_ERR_DIM, DKF_ERR_STATE (before start, or while
  * a gain is pending). */
 dkf_status_t dkf_diffkf_step(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
@@ -165,7 +165,7 @@ dkf_status_t dkf_diffkf_gain(dkf_diffkf_t *f, const dkf_ui_dyn_t *dyn,
  * rows). The step is the optimal (MMSE) estimate given every kept row so
  * far: Theorem 1 with a time-varying selection S_k (M' = S M,
  * Ru' = S Ru S^T, S' = S_cov S^T, C'_k = S_k C_k S_{k-1}^T with S_{k-1} the
- * previous step's selection; docs/diffkf-fusion.md §8). Afterwards f->pk is
+ * previous step's selection; docs/design/diffkf-fusion.md §8). Afterwards f->pk is
  * the number of rows kept, and dkf_diffkf_update_z takes those pk rows of
  * z_k, in order; the step's z, dz, J, L, K views get pk rows/columns.
  * pk = 0 is a pure prediction: x_{k|k} = x_{k|k-1}, P_{k|k} = P_{k|k-1},
@@ -196,7 +196,7 @@ dkf_status_t dkf_diffkf_update_z(dkf_diffkf_t *f, const dkf_mat_t *z, const dkf_
  * O(n^3 + p^3) gain). Any other step, a model change, a restore or a
  * masked row computes the gain afresh. The estimates then differ from the
  * recomputed ones by the gain's motion below tol (the recursion converges
- * to a fixed point up to rounding; docs/diffkf-fusion.md §11 measures it).
+ * to a fixed point up to rounding; docs/design/diffkf-fusion.md §11 measures it).
  * tol = 0 (the default after init) is off: every step computes its gain.
  * DKF_ERR_ARG unless 0 <= tol < 1; DKF_ERR_STATE before init. */
 dkf_status_t dkf_diffkf_set_steady(dkf_diffkf_t *f, dkf_real_t tol);

@@ -1,7 +1,7 @@
 /*
  * dkf/diffkf_fusion.h - distributed Difference KF (seed 000 §4): a fusion
  * centre (FC) that rebuilds the centralized Difference-KF estimate exactly
- * from the nodes' local estimates (docs/diffkf-fusion.md).
+ * from the nodes' local estimates (docs/design/diffkf-fusion.md).
  *
  * l sensors share the state x (n) and the dynamics (F_k, Q_k); sensor i has
  * its own (H^i, D^i, R^i) (m_i rows, p_i unknown inputs) and (B^i, Rd^i).
@@ -42,7 +42,7 @@ extern "C" {
 
 /* What node `node` sends after its local step k: x^i_{k|k} and x^i_{k|k-1}
  * (2n numbers). x_{k|k-1} is sent because re-predicting it at the FC from
- * x_{k-1|k-1} is numerically unstable (docs/diffkf-fusion.md §2); the
+ * x_{k-1|k-1} is numerically unstable (docs/design/diffkf-fusion.md §2); the
  * covariances are not sent because the FC recomputes them. */
 typedef struct {
     uint16_t node; /* sensor index i, 0-based */
@@ -243,14 +243,14 @@ dkf_status_t dkf_diffkf_fc_step(dkf_diffkf_fc_t *fc, const dkf_mat_t *F, const d
  * every replica: with tol > 0 and a time-invariant model, once the
  * covariance recursion has settled to tol, a step with every node present
  * and in sync reuses the last gains and costs O(N) work plus O(p^2) for
- * the central carry instead of O(p^3) (docs/diffkf-fusion.md §11 measures
+ * the central carry instead of O(p^3) (docs/design/diffkf-fusion.md §11 measures
  * the cost and the distance to the recomputed centre). 0 (the default)
  * is off; DKF_ERR_ARG unless 0 <= tol < 1; DKF_ERR_STATE before init.
  * With it on, a checkpoint restore recomputes the gains, so the steps
  * after it agree with the saved centre's to the tolerance, not bitwise. */
 dkf_status_t dkf_diffkf_fc_set_steady(dkf_diffkf_fc_t *fc, dkf_real_t tol);
 
-/* ---- degraded steps (docs/diffkf-fusion.md §8) ------------------------------ */
+/* ---- degraded steps (docs/design/diffkf-fusion.md §8) ------------------------------ */
 
 /* As dkf_diffkf_fc_step with some node messages absent (present[i] == 0;
  * msgs[i] is then ignored; present == NULL means all present). Node i's

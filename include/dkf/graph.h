@@ -25,7 +25,7 @@
  * PER NODE: the neighbourhood, its weights and what a packet holds may
  * differ; the packet length `len` is common to every node of one mix.
  *
- * docs/graph-filters.md has the conditions, statuses and examples.
+ * docs/design/graph-filters.md has the conditions, statuses and examples.
  */
 #ifndef DKF_GRAPH_H
 #define DKF_GRAPH_H

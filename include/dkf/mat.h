@@ -6,7 +6,7 @@
  * caller owns every buffer, usually declared with DKF_MAT_DECLARE. Vectors
  * are n x 1 matrices.
  *
- * Conventions (docs/matrix.md has the full text):
+ * Conventions (docs/reference/matrix.md has the full text):
  *  - Outputs come first, inputs after: dkf_mat_mul(C, A, B) is C = A B.
  *  - Every function validates before it writes. On any error the outputs
  *    are left exactly as they were. Routines that discover failure only
@@ -196,7 +196,7 @@ dkf_status_t dkf_mat_rank(size_t *rank, const dkf_mat_t *A, dkf_real_t tol, dkf_
 /* Full-rank decomposition (seed 004): A (r x c) = Abar T with
  * Abar r x rank of full column rank and T rank x c of full row rank.
  * Computed from the SVD A = U S V^T as Abar = U_k S_k, T = V_k^T, so T has
- * orthonormal rows and T^+ = T^T (docs/matrix.md says why this route).
+ * orthonormal rows and T^+ = T^T (docs/reference/matrix.md says why this route).
  * Abar and T must have at least `rank` columns / rows of storage: their
  * views are resized (Abar->cols = T->rows = rank) on success. Rank 0 gives
  * DKF_ERR_RANK. No alias. work: DKF_MAT_FRD_WORK(r, c). */

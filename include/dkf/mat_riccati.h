@@ -2,7 +2,7 @@
  * dkf/mat_riccati.h - steady-state equations of the matrix core: the
  * filtering discrete algebraic Riccati equation (DARE) and the Stein
  * (discrete Sylvester / Lyapunov) equation, both by doubling
- * (docs/matrix.md, "Riccati and Stein equations", gives the methods and
+ * (docs/reference/matrix.md, "Riccati and Stein equations", gives the methods and
  * why: each iteration squares the closed loop, so a stable one converges
  * in a few dozen steps even at spectral radius 0.999, never forms a
  * Kronecker system of size n^2, and the iterates stay symmetric PSD).

@@ -1,7 +1,7 @@
 /*
  * dkf/nerts.h - single-node nonlinear joint state and unknown-input
  * filters of seed 001 (Ding, Xiao, Zhang 2014), with the corrections
- * docs/nerts.md lists.
+ * docs/design/nerts.md lists.
  *
  *   x_{k+1} = f(x_k, d_k, u_k) + w_k,   w ~ N(0, Q_k)
  *   z_k     = h(x_k, d_k, u_k) + v_k,   v ~ N(0, R_k), R_k > 0
@@ -51,7 +51,7 @@
  * f->k. The model is an argument of each phase (it may differ between
  * calls, its n, m, p may not).
  *
- * Equations (docs/nerts.md; nu = y_diff(z, z_hat)):
+ * Equations (docs/design/nerts.md; nu = y_diff(z, z_hat)):
  *   EKF (NERTSF / NERTSIF): Fx, Fd at (x, d); x_pred = f(x, d);
  *     P_pred = [Fx Fd] [[Px, Pxd], [Pxd^T, Pd]] [Fx Fd]^T + Q   (10)-(11)
  *     Hx, Hd at (x_pred, d); z_hat = h(x_pred, d) - Hd d;
@@ -94,7 +94,7 @@
  *                      consensus Px with local Pd, Pxd: note section 4 item 6)
  *   DKF_ERR_RANK       Hd not of full column rank p: a pivot of the
  *                      Cholesky factor of G = Hd^T R_tilde^{-1} Hd with
- *                      L_ii^2 <= 16 p eps G_ii (docs/nerts.md), or m < p
+ *                      L_ii^2 <= 16 p eps G_ii (docs/design/nerts.md), or m < p
  *                      at init
  *   DKF_ERR_DIM        a model, Q, R, z, Y or y of the wrong size
  *   DKF_ERR_STATE      out of order (see above), or commit_info on a

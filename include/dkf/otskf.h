@@ -1,7 +1,7 @@
 /*
  * dkf/otskf.h - the optimal two-stage Kalman filter (OTSKF, Hsieh & Chen
- * 1999 structure, derived for d_{k+1} = B_k d_k + wd_k; docs/diffkf.md and
- * the corrected equations of the reference note §5). A bias-free filter
+ * 1999 structure, derived for d_{k+1} = B_k d_k + wd_k; docs/design/diffkf.md and
+ * the corrected equations of docs/design/derivation-seed000.md §5). A bias-free filter
  * (x~, P^x) and a bias filter (d, P^d) are coupled by the blending matrices
  * U_k, V_k:
  *   x_{k|k-1} = x~_{k|k-1} + U_k d_{k|k-1},   x_{k|k} = x~_{k|k} + V_k d_{k|k}.
@@ -95,7 +95,7 @@ dkf_status_t dkf_otskf_predict(dkf_otskf_t *f, const dkf_ui_dyn_t *dyn);
  * bias-free innovation covariance H P^x H^T + R or the bias filter's
  * H P^x H^T + R + S P^d S^T (S = H U + D) is not SPD, or if the updated
  * P^x, P^d or P is not PSD within 4 n eps tr. P^x and P^d are updated in
- * Joseph form (DKF_JOSEPH; docs/diffkf.md). */
+ * Joseph form (DKF_JOSEPH; docs/design/diffkf.md). */
 dkf_status_t dkf_otskf_update(dkf_otskf_t *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y);
 
 #ifdef __cplusplus

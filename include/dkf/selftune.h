@@ -7,7 +7,7 @@
  *                                      C = 1 [+ c_1 q^-1]     (unknown, with sigma_w^2)
  *   P(q^-1) eta(t) = xi(t-1),          P = 1 + p_1 q^-1 + ... + p_np q^-np (known,
  *                                      with sigma_xi^2 and every sigma_vi^2)
- * identified recursively by the correlation method of docs/selftune.md
+ * identified recursively by the correlation method of docs/design/selftune.md
  * (the paper's step 1 names a "recursive auxiliary variable" and a
  * "G-W-CLS" algorithm but gives neither):
  *   ybar(t) = (1/L) sum_i y_i(t);

@@ -2,7 +2,7 @@
  * dkf/tw.h - Kalman filtering with unknown actuations over a sensor
  * network: seed 003 (Talebi-Werner), Algorithms 1 (centralized two-stage
  * filter), 2 (diffusion) and 3 (consensus), in the corrected form of
- * docs/graph-filters.md.
+ * docs/design/graph-filters.md.
  *
  * Model (time k; F, G, Q may change with k, the dimensions may not):
  *   x_k     = F x_{k-1} + G d_{k-1} + w_{k-1},   w ~ (0, Q)       (1a)

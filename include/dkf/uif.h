@@ -1,6 +1,6 @@
 /*
  * dkf/uif.h - joint state and unknown-input filters (seed 004: Hua, Wang,
- * Zhao 2021, with the corrections of docs/uif.md).
+ * Zhao 2021, with the corrections of docs/design/uif.md).
  *
  *   x_k = F_{k-1} x_{k-1} + G_{k-1} d_{k-1} + w_{k-1},   w ~ (0, Q_{k-1})
  *   y_k = H_k x_k + D_k d_k + v_k,                        v ~ (0, R_k), R_k > 0
@@ -43,7 +43,7 @@
  *   DKF_ERR_DIM, DKF_ERR_NULL, DKF_ERR_STATE, DKF_ERR_ARG (meas->D given to
  *   NRTSF), DKF_ERR_NO_CONVERGENCE (SVD)
  * Ranks are decided by singular values with the filter's rank_tol
- * (DKF_RANK_TOL_DEFAULT: max(rows, cols) * eps * sigma_max, docs/matrix.md).
+ * (DKF_RANK_TOL_DEFAULT: max(rows, cols) * eps * sigma_max, docs/reference/matrix.md).
  *
  * Estimability and bias (both informational; the step still returns
  * DKF_OK). After each step, proj = T^+ T (p x p) is the orthogonal

@@ -1,6 +1,6 @@
 /*
  * dkf/wfusion.h - weighted fusion of local Kalman filters with their cross
- * covariances (seed 002, Zhang; corrections in docs/weighted-fusion.md).
+ * covariances (seed 002, Zhang; corrections in docs/design/weighted-fusion.md).
  *
  * The model (seed 002 (1)-(3)), shared by every sensor i = 1..l:
  *   x(t+1) = F x(t) + w(t),   w ~ (0, Q)    (the paper's Phi, and Q = Gamma Qe Gamma^T)
@@ -21,7 +21,7 @@
  * recursion as the nodes (without their y) and knows every K_i and Psi_i.
  *
  * Cross covariances of the local errors, corrected (the paper prints
- * Gamma Qe Gamma^{-1} and drops two transposes; docs/weighted-fusion.md):
+ * Gamma Qe Gamma^{-1} and drops two transposes; docs/design/weighted-fusion.md):
  *   P_ij(t|t) = Psi_i P_ij(t-1|t-1) Psi_j^T + J_i Q J_j^T + delta_ij K_i R_i K_i^T,
  * from x~_i(t) = Psi_i x~_i(t-1) + J_i w(t-1) - K_i v_i(t). With a common
  * initial estimate P_ij(0|0) = P0 for every pair.

@@ -4,7 +4,7 @@
  * the turn rate as the unknown input (n = 4, p = 1, m = 3).
  *
  * Built into its own image (dkf_m4_nerts.elf) to measure what a seed-001
- * node costs on the part (docs/footprint.md), and on the host to check it.
+ * node costs on the part (docs/results/footprint.md), and on the host to check it.
  */
 #ifndef M4_NERTS_DEMO_H
 #define M4_NERTS_DEMO_H

@@ -2,7 +2,7 @@
 #   1. the library alone (tests and port off) configured from
 #      DKF_SOURCE_DIR with BUILD_SHARED_LIBS=ON in a fresh
 #      DKF_WORK_DIR/lib, built and installed into DKF_WORK_DIR/prefix; the
-#      installed files must be docs/build.md's list for a shared build, and
+#      installed files must be docs/guide/build.md's list for a shared build, and
 #      libdkf.so.<version>'s SONAME libdkf.so.<major>.<minor>;
 #   2. tests/consumer configured against that prefix (find_package(dkf)),
 #      built, and its executable must name libdkf.so.<major>.<minor> as

@@ -28,16 +28,16 @@ function(run_step what)
 endfunction()
 
 # check_installed_list(prefix): the files under `prefix` must be exactly the
-# list of docs/build.md ("Installing", the block after <!-- installed-files -->):
+# list of docs/guide/build.md ("Installing", the block after <!-- installed-files -->):
 # `lib*/` counts as lib/; <config> is DKF_CONFIG in lower case, <version>
 # DKF_VERSION and <soversion> its major.minor; entries marked "(ports)" are
 # expected when DKF_BUILD_PORTS is on, "(shared)" when DKF_SHARED is, and
 # "(static)" when it is not.
 function(check_installed_list prefix)
-  file(READ ${DKF_SOURCE_DIR}/docs/build.md doc)
+  file(READ ${DKF_SOURCE_DIR}/docs/guide/build.md doc)
   string(FIND "${doc}" "<!-- installed-files -->" at)
   if(at LESS 0)
-    message(FATAL_ERROR "${test_name}: docs/build.md has no <!-- installed-files --> list")
+    message(FATAL_ERROR "${test_name}: docs/guide/build.md has no <!-- installed-files --> list")
   endif()
   string(SUBSTRING "${doc}" ${at} -1 doc)
   string(REGEX MATCH "```text\n([^`]*)```" block "${doc}")
@@ -76,9 +76,9 @@ function(check_installed_list prefix)
     list(REMOVE_ITEM extra ${want})
     set(missing ${want})
     list(REMOVE_ITEM missing ${got})
-    message(FATAL_ERROR "${test_name}: cmake --install and docs/build.md disagree.\n"
+    message(FATAL_ERROR "${test_name}: cmake --install and docs/guide/build.md disagree.\n"
       "  installed, not in the docs: ${extra}\n  in the docs, not installed: ${missing}")
   endif()
   list(LENGTH got count)
-  message(STATUS "${test_name}: the ${count} installed files are docs/build.md's list: ok")
+  message(STATUS "${test_name}: the ${count} installed files are docs/guide/build.md's list: ok")
 endfunction()

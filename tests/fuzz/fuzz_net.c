@@ -1,6 +1,6 @@
 /*
  * fuzz_net.c - every decoder of network input (codec.h, tw_agent.h) on any
- * datagram (docs/fuzzing.md). Byte 0 picks the decoder (fuzz_net.h), the
+ * datagram (docs/guide/fuzzing.md). Byte 0 picks the decoder (fuzz_net.h), the
  * rest is the datagram, as a host on the multicast group could send it.
  *
  * Besides "no crash, no sanitizer report", each call must keep what

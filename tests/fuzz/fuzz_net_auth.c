@@ -1,6 +1,6 @@
 /*
  * fuzz_net_auth.c - the readers of authentication input (ports/linux/net/
- * auth.h; docs/fuzzing.md): a key file's bytes, and datagrams as a host on
+ * auth.h; docs/guide/fuzzing.md): a key file's bytes, and datagrams as a host on
  * the multicast group could send them to an authenticating fusion centre.
  * Byte 0 picks the mode:
  *   0  dkf_auth_parse_key on the rest: accepted only for 64 hex digits and

@@ -1,7 +1,7 @@
 /*
  * fuzz_nlm_expr.c - the expression reader of the host's nonlinear models
  * (ports/linux/nlm/nlm.h, nlm_expr.c: muparser) on any expression text
- * (docs/fuzzing.md).
+ * (docs/guide/fuzzing.md).
  *
  * Input: byte 0 picks the state size n = 1 + b0 % 4 and, with bit 7, an
  * angle channel; byte 1 the unknown input p = b1 % 3; the rest is split at

@@ -1,6 +1,6 @@
 /*
  * fuzz_scenario.c - the scenario reader (ports/linux/scenario/scenario.h) on any
- * document (docs/fuzzing.md). The input is the file's content; the reader
+ * document (docs/guide/fuzzing.md). The input is the file's content; the reader
  * takes a path, so each input is written to one temporary file first.
  *
  * Besides "no crash, no sanitizer report":

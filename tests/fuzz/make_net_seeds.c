@@ -1,7 +1,7 @@
 /*
  * make_net_seeds.c - writes the seed corpus of fuzz_net (tests/fuzz/corpus/net/):
  * one datagram of each type that the harness's receivers accept, and the
- * datagrams of the decoder bugs fixed in codec.c (issue 10), each file
+ * datagrams of the decoder bugs fixed in codec.c, each file
  * prefixed with its selector byte (fuzz_net.h).
  *
  * usage: make_net_seeds DIR    (cmake --build B --target make_net_seeds)
@@ -177,7 +177,7 @@ static void fused(void)
     }
     need(dkf_net_encode_fused(buf, sizeof buf, &len, &f) == 0);
     put_ok("fused", FUZZ_NET_FUSED, buf, len);
-    /* issue 10: zero nodes. nnodes is the int32 after the fingerprint,
+    /* Fixed bug: zero nodes. nnodes is the int32 after the fingerprint,
      * utime, model_id, k, seq, status (8 + 8 + 8 + 4 + 8 + 1 bytes); cut
      * out contributed[3]. */
     nn = buf + 37;
@@ -220,7 +220,7 @@ static void tw_packets(void)
     p.len = 0;
     need(dkf_net_twa_encode(buf, sizeof buf, &len, &p) == 0);
     put_ok("tw3_done", FUZZ_NET_TW3, buf, len);
-    /* issue 10: a 50-byte packet whose len (the int32 that ends the 42-byte
+    /* Fixed bug: a 50-byte packet whose len (the int32 that ends the 42-byte
      * header) is 0x20000001; 8 bytes of v follow. */
     be32(buf + len - 4, 0x20000001u);
     memset(buf + len, 0x41, 8);

@@ -3,8 +3,8 @@
 each layout the reader accepts (the weighted-fusion cases of seed 002 too),
 cut from a golden vector of tests/vectors/
 to 3 steps without its expected outputs, the reproducers of the reader bugs
-of issue 10, plus the small refused files of ports/linux/tests/bad/
-(docs/fuzzing.md).
+of the hardening work, plus the small refused files of ports/linux/tests/bad/
+(docs/guide/fuzzing.md).
 
 usage: make_scenario_seeds.py [OUT_DIR]
 """
@@ -128,16 +128,16 @@ def main():
     for st in d["steps"]:
         st["inputs"]["y"] = st["inputs"]["y"][:1]
     seeds["steps_uif_no_CH_m1.json"] = d
-    # issue 10 reproducers (fixed in scenario.c): the same file with y of two
+    # reproducers of fixed reader bugs (scenario.c): the same file with y of two
     # values (y was sized one value per step, then m copied per step), and
     # N = 2^63 as a JSON real (get_integer let it through to the cast)
     d = json.loads(json.dumps(seeds["steps_uif_no_CH_m1.json"]))
     for st in d["steps"]:
         st["inputs"]["y"] = [1.0, 2.0]
-    seeds["issue10_steps_no_CH_y2.json"] = d
+    seeds["fixed_steps_no_CH_y2.json"] = d
     d = canonical("tests/vectors/diffkf/ex1_single.json")
     d["N"] = 9.223372036854775808e18
-    seeds["issue10_canonical_N_2p63.json"] = d
+    seeds["fixed_canonical_N_2p63.json"] = d
     for name, d in seeds.items():
         with open(os.path.join(out, name), "w") as f:
             json.dump(d, f, separators=(",", ":"))

@@ -1,5 +1,5 @@
 /*
- * replay_main.c - runs a libFuzzer harness without libFuzzer (docs/fuzzing.md).
+ * replay_main.c - runs a libFuzzer harness without libFuzzer (docs/guide/fuzzing.md).
  *
  * usage: fuzz_<name> PATH...   (each PATH a file, or a directory whose
  * regular files are all run, in name order). Every input is passed once to

@@ -1,6 +1,6 @@
 /*
  * dkf-run - runs a dkf filter over a JSON scenario and writes its per-step
- * estimates in the golden-vector layout (docs/scenario-format.md), or, over
+ * estimates in the golden-vector layout (docs/reference/scenario-format.md), or, over
  * every run of a Monte-Carlo scenario, only the squared estimation errors.
  *
  *   dkf-run --filter kf --output out.json scenarios/demo_cv2d.json
@@ -82,7 +82,7 @@ static void usage(FILE *f, const char *prog)
             "usage: %s --filter NAME [--output OUT.json | --errors ERR.json] [options] "
             "SCENARIO.json\n"
             "\n"
-            "Runs a dkf filter over a scenario file (docs/scenario-format.md) and writes\n"
+            "Runs a dkf filter over a scenario file (docs/reference/scenario-format.md) and writes\n"
             "its per-step estimates laid out like the golden-vector files, so that\n"
             "tools/dkf_compare.py can check them key by key.\n"
             "\n"
@@ -129,7 +129,7 @@ static void usage(FILE *f, const char *prog)
             "metrics mse_x mse_z nees spread_x gap_x gap_z gap_x_rel_max; \"k\" lists the\n"
             "steps' own times.\n"
             "Nonlinear cases (seed-001 files, models built in or written as expressions:\n"
-            "docs/nl-models.md): outputs.NERTSF / NERTSIF / DNERTSF / DNERTSIF / CF_DNERTSF\n"
+            "docs/guide/nl-models.md): outputs.NERTSF / NERTSIF / DNERTSF / DNERTSIF / CF_DNERTSF\n"
             "with the files' expected names (x_pred P_pred z_hat nu R_tilde M x Px d Pd Pxd,\n"
             "...), outputs.DF_DNERTSIF / DF_CKF / DF_DNERTSIF_JOINT the same per node\n"
             "([steps][nodes]).\n"

@@ -10,7 +10,7 @@
  *   df_ckf             DF-CKF, the same with p = 0 (s1_ckf models)
  *   df_dnertsif_joint  beyond the paper (JOINT): the rounds on the joint
  *                      information of [x; d], so every node's joint
- *                      covariance is consistent (docs/dfnerts.md)
+ *                      covariance is consistent (docs/design/dfnerts.md)
  *
  * The graph is the case's `edges`, or the links of W's nonzero entries; W
  * is checked doubly stochastic on it (graph_weights.h). Recorded per step,
@@ -60,7 +60,7 @@ static int df_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_s
     if (s->layout != DKF_SCN_LAYOUT_NLCASES || s->nl == NULL || !s->nl->network)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: cases: filter %s needs a network case of a nonlinear model "
-                         "(`node_models`, `init_per_node`, `W`, `Tp`: docs/scenario-format.md, "
+                         "(`node_models`, `init_per_node`, `W`, `Tp`: docs/reference/scenario-format.md, "
                          "\"Nonlinear cases\")", s->file, fl->name);
     if (im->no_input && s->nl->p != 0)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,

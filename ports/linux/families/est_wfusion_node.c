@@ -7,7 +7,7 @@
  * The payload (dkf_node_estimate_t, sent as node_msg_t): xf = x_i(k|k), xp = x_i(k|k-1) = F_{k-1}
  * x_i(k-1|k-1) (the prediction the step started from; the weighted fusion
  * centre uses xf only). Covariances are not sent: the centre runs the
- * same gain recursion and every P_ij itself (docs/network.md, "The
+ * same gain recursion and every P_ij itself (docs/guide/network.md, "The
  * weighted-fusion centre").
  *
  * A (re)start at k0 > 1 (a late node, or one restarted after a gap) starts

@@ -17,7 +17,7 @@
  *
  * Step k (k = 1..N): dkf_nerts_step with the model's Q and R and z_k.
  * Recorded per step under outputs.<LABEL>, with the vector files'
- * `expected` names (docs/scenario-format.md, "Nonlinear cases"):
+ * `expected` names (docs/reference/scenario-format.md, "Nonlinear cases"):
  *   every kind      x_pred P_pred z_hat nu R_tilde Pzz Pxz H (= Hd) M C
  *                   Rbar x Px d Pd Pxd
  *   EKF kinds       A, G (Fx, Fd: the time update's Jacobians at the
@@ -97,7 +97,7 @@ static int nerts_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dk
     if (s->layout != DKF_SCN_LAYOUT_NLCASES || s->nl == NULL)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: cases: filter %s needs a case with a nonlinear model (`model` or "
-                         "`node_models`: docs/scenario-format.md, \"Nonlinear cases\")",
+                         "`node_models`: docs/reference/scenario-format.md, \"Nonlinear cases\")",
                          s->file, fl->name);
     if (s->nl->network && !im->central)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,

@@ -9,7 +9,7 @@
  * The graph comes from graph.edges (graph.neighbours_incl_self is
  * informational); alpha_diffusion[_sparse] and W_consensus[_sparse] from
  * the file or, when absent, the library's uniform alpha = 1/|N_l| and
- * Metropolis W (note §2's defaults). Steps start at n = 1.
+ * Metropolis W (docs/design/derivation-seed003-004.md §2's defaults). Steps start at n = 1.
  *
  * Recorded per step under the vectors' names (alg2/alg3: one entry per
  * node, [N][...]):

@@ -3,7 +3,7 @@
  * RTSF, NRTSF-DF, NRTSF) over a steps-layout scenario: the registry family
  * "uif" (family.h), filters rtsf, nrtsf_df, nrtsf.
  *
- * Step sequence (the vector files' convention, docs/scenario-format.md):
+ * Step sequence (the vector files' convention, docs/reference/scenario-format.md):
  *   rtsf, nrtsf_df: steps start at k = 0; (x0, P0) is the prior of x_0;
  *     step 0 has no time update (dyn = NULL), step k >= 1 uses F, G, Q of
  *     k - 1 and H, D, R, y of k.

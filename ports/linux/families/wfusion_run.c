@@ -43,7 +43,7 @@
  * The summary gives the RMSE of every local filter's x and of the fused
  * x and s against x_true, when the file has it. The node role
  * (est_wfusion_node.c: one sensor's local KF for dkf-node; its fusion
- * centre is net/wfusion_centre.c, docs/network.md).
+ * centre is net/wfusion_centre.c, docs/guide/network.md).
  */
 #include <math.h>
 #include <stdio.h>
@@ -235,7 +235,7 @@ static int wf_check(const dkf_filter_t *fl, const dkf_run_opts_t *o, const dkf_s
     if (s->layout != DKF_SCN_LAYOUT_WFCASES)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,
                          "%s: cases: filter %s needs a weighted-fusion case (Phi, Gamma, Qe, "
-                         "H, R, H_signal: docs/scenario-format.md, \"Weighted-fusion cases\")",
+                         "H, R, H_signal: docs/reference/scenario-format.md, \"Weighted-fusion cases\")",
                          s->file, fl->name);
     if (s->n * s->nsensors + s->n > DKF_MAX_DIM)
         return dkf_failf(err, errlen, DKF_EXIT_USAGE,

@@ -76,7 +76,7 @@ int dkf_scn_check_keys(dkf_scn_ctx_t *c, const json_t *obj, const char *path,
         if ((near = nearest(key, known)) == NULL) near = nearest(key, elsewhere);
         if (near != NULL) return dkf_scn_fail(c, p, "unknown key (did you mean %s?)", near);
         return dkf_scn_fail(c, p, "unknown key (not one of the keys this object may have: "
-                            "docs/scenario-format.md)");
+                            "docs/reference/scenario-format.md)");
     }
     return 0;
 }

@@ -22,7 +22,7 @@
 /* Every error message fits in this many bytes. */
 #define DKF_SCN_ERR_LEN 1024
 
-/* Limits on what a file can ask for (docs/scenario-format.md, "Limits").
+/* Limits on what a file can ask for (docs/reference/scenario-format.md, "Limits").
  * Every count that sizes a loop or an allocation is one of these, the
  * length of a list in the file, or a matrix dimension (<= DKF_MAX_DIM);
  * a file above a limit is refused with a one-line message. */
@@ -132,7 +132,7 @@ int dkf_scn_check_keys(dkf_scn_ctx_t *c, const json_t *obj, const char *path,
                        const char *const *known, const char *const *elsewhere);
 
 /* The n x n covariance a (read from the file at path) symmetric within
- * rounding (8 eps max|a|, docs/scenario-format.md "Limits and checks"). */
+ * rounding (8 eps max|a|, docs/reference/scenario-format.md "Limits and checks"). */
 int dkf_scn_check_symmetric(dkf_scn_ctx_t *c, const char *path, const double *a, size_t n);
 /* The symmetric n x n a (at path) positive semidefinite within rounding
  * (spd = 0) or positive definite (spd = 1); else a message naming path,

@@ -1,8 +1,8 @@
 /*
  * nlm.h - nonlinear models on the host: a scenario's `model` object
  * turned into the core's callback table (dkf/nl_model.h) plus its numeric
- * Q and R. Two sources, one result (docs/infofusion.md, "Models on the
- * host"; docs/scenario-format.md, "Nonlinear cases"):
+ * Q and R. Two sources, one result (docs/design/infofusion.md, "Models on the
+ * host"; docs/reference/scenario-format.md, "Nonlinear cases"):
  *
  *   built-in named models ({"family": "s1_radar", ...}: nlm_builtin.c),
  *     the families of the seed-001 vector files;

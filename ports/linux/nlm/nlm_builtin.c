@@ -300,7 +300,7 @@ static int load_lin(dkf_scn_ctx_t *c, dkf_nlm_t *m, model_t *b, const json_t *j,
 }
 
 /* seed 001's sensor noise diag(0.2^2, 0.015^2, sigma_phi^2), sigma_phi =
- * 0.017 deg/s in rad/s (the note's section 2), per sensor block. */
+ * 0.017 deg/s in rad/s (the derivation's (docs/design/derivation-seed001-002.md) section 2), per sensor block. */
 static int default_R(dkf_scn_ctx_t *c, dkf_nlm_t *m, const model_t *b)
 {
     const double sphi = 0.017 * PI / 180.0, var[3] = {0.2 * 0.2, 0.015 * 0.015, sphi * sphi};

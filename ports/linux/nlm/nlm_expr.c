@@ -15,7 +15,7 @@
  *
  * Jacobians: the pair A, G (and C, H) as given, or, without the pair, the
  * core's forward differences (muparser has no symbolic derivative; see
- * docs/infofusion.md for the step and the error bound). With p = 0 G and
+ * docs/design/infofusion.md for the step and the error bound). With p = 0 G and
  * H are left out.
  *
  * Refused while loading, one "FILE: KEY: problem" line each: a key that is

@@ -17,7 +17,7 @@
  *   x_{k|k}), then x_{k|k}.
  *
  * Series key names follow the scenario's layout so an output compares key
- * by key with the golden-vector file it came from (docs/scenario-format.md):
+ * by key with the golden-vector file it came from (docs/reference/scenario-format.md):
  *   canonical: xp Pp xf Pf (+ information form yp Yp yf Yf, fused i I;
  *              DKF z dz J L K; ASKF Xp PXp Xf PXf; OTSKF xtp Pxp xtf Pxf
  *              dp Pdp df Pdf U V; fused DKF messages fc_recovered)

@@ -1,7 +1,7 @@
 /*
  * scenario.h - the JSON scenario format, loaded into memory (host side).
  *
- * docs/scenario-format.md is the specification; this is its reader. Three
+ * docs/reference/scenario-format.md is the specification; this is its reader. Three
  * layouts are accepted and normalised into one dkf_scenario_t:
  *
  *  - canonical (the diffkf golden-vector layout): top-level `model`, `init`,
@@ -155,7 +155,7 @@ typedef struct {
                                    * (dkf_scenario_load prints it on stderr) */
 } dkf_scenario_t;
 
-/* Steps and network layouts (docs/scenario-format.md, "Steps layout"): a
+/* Steps and network layouts (docs/reference/scenario-format.md, "Steps layout"): a
  * top-level `steps` list of {k or n, inputs: {y, ...}, truth, expected},
  * normalised as
  *   init.x0, init.P0          -> init x00, P00
@@ -168,7 +168,7 @@ typedef struct {
  * Steps run k = k_first .. k_first + steps - 1 (k_first = steps[0].k, 0 or 1);
  * `expected` is ignored. */
 
-/* Weighted-fusion cases layout (seed 002, docs/scenario-format.md,
+/* Weighted-fusion cases layout (seed 002, docs/reference/scenario-format.md,
  * "Weighted-fusion cases"; scn_wfcases.c), normalised as
  *   Phi                 -> model F (constant)
  *   Gamma, Qe           -> model Gamma, Qe, and model Q = Gamma Qe Gamma^T
@@ -182,7 +182,7 @@ typedef struct {
 /* Loads and validates a scenario. case_sel selects a case of the cases
  * layout by name or decimal index (NULL: case 0); it is an error for a
  * canonical file. Returns NULL and fills err on any problem. A file in
- * the old letters (docs/scenario-format.md, "Letters") is read as the
+ * the old letters (docs/reference/scenario-format.md, "Letters") is read as the
  * library's letters, and s->notice is printed on stderr (one line). */
 dkf_scenario_t *dkf_scenario_load(const char *path, const char *case_sel, char *err,
                                   size_t errlen);

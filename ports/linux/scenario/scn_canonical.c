@@ -1,14 +1,14 @@
 /*
  * scn_canonical.c - the canonical layout (the diffkf golden-vector files):
  * top-level model (or model.sensors), init, y (or runs), truth, k, N
- * (docs/scenario-format.md, "Canonical layout").
+ * (docs/reference/scenario-format.md, "Canonical layout").
  */
 #include "scn_parse.h"
 
 #include <stdio.h>
 #include <string.h>
 
-/* The keys of each object of the layout (docs/scenario-format.md,
+/* The keys of each object of the layout (docs/reference/scenario-format.md,
  * "Canonical layout"); a key of another object is suggested where it fits. */
 static const char *const top_keys[] = {"model", "init", "y", "runs", "truth", "k", "N", NULL};
 static const char *const model_keys[] = {"F", "Q", "H", "R", "D", "B", "Rd", "sensors", NULL};

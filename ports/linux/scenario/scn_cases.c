@@ -1,7 +1,7 @@
 /*
  * scn_cases.c - the cases layout (the infofusion golden-vector file):
  * cases[c] with x0, P0, Q, H[j] (the vector's C[j]), R[j] and steps[]
- * carrying k, F, z[j] (docs/scenario-format.md, "Cases layout").
+ * carrying k, F, z[j] (docs/reference/scenario-format.md, "Cases layout").
  */
 #include "scn_parse.h"
 

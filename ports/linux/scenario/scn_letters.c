@@ -1,6 +1,6 @@
 /*
  * scn_letters.c - the library's letters for the model's matrices, the
- * older letters of the vector files read as them (docs/scenario-format.md,
+ * older letters of the vector files read as them (docs/reference/scenario-format.md,
  * "Letters"; docs/decisions.md item 51).
  */
 #include "scn_parse.h"
@@ -10,7 +10,7 @@
 
 /* ---- letters ---- */
 
-/* Old letter -> the library's, per layout (docs/scenario-format.md, "Letters"). */
+/* Old letter -> the library's, per layout (docs/reference/scenario-format.md, "Letters"). */
 typedef struct {
     const char *old_key, *new_key;
 } rename_t;
@@ -146,7 +146,7 @@ int dkf_scn_letters(dkf_scn_ctx_t *c, json_t *root, dkf_scn_layout_t layout, cha
     if (!L.old_seen) return 0;
     if (L.new_seen)
         return dkf_scn_fail(c, L.new_path, "the library's letters mixed with the old ones (%s): "
-                            "give one convention (docs/scenario-format.md, \"Letters\")",
+                            "give one convention (docs/reference/scenario-format.md, \"Letters\")",
                             L.old_path);
     L.renaming = 1;
     visit_all(&L, root, layout);
@@ -157,6 +157,6 @@ int dkf_scn_letters(dkf_scn_ctx_t *c, json_t *root, dkf_scn_layout_t layout, cha
                          note[0] != '\0' ? ", " : "", L.map[i].old_key, v ? "_prev" : "",
                          L.map[i].new_key, v ? "_prev" : "");
     snprintf(notice, len, "%s: deprecated letters %s (%s): read as the "
-             "library's (docs/scenario-format.md, \"Letters\")", c->file, note, L.old_path);
+             "library's (docs/reference/scenario-format.md, \"Letters\")", c->file, note, L.old_path);
     return 0;
 }

@@ -1,7 +1,7 @@
 /*
  * scn_nlcases.c - the nonlinear cases layout (the seed-001 vector files
  * nertsif.json, dnertsif_single.json, df_dnertsif.json, and expression
- * scenarios written like them; docs/scenario-format.md, "Nonlinear
+ * scenarios written like them; docs/reference/scenario-format.md, "Nonlinear
  * cases"). One case:
  *
  *   single node:  model {family ... | expr ...; Q, R},

@@ -3,8 +3,8 @@
  * as they are): steps[] with k or n, inputs (y and time-varying matrices),
  * truth. Without a `graph` key one sensor (model F, G, Q, H, D, R); with
  * one the network form (model F, G, Q; per-node H, R, y; the graph and
- * weights: scn_network.c). docs/scenario-format.md, "Steps layout"; the
- * vectors' own letters are renamed before (scn_keys.c).
+ * weights: scn_network.c). docs/reference/scenario-format.md, "Steps layout"; the
+ * vectors' own letters are renamed before (scn_letters.c).
  */
 #include "scn_parse.h"
 

@@ -1,7 +1,7 @@
 /*
  * scn_wfcases.c - the weighted-fusion cases layout (seed 002, the vector
  * tests/vectors/infofusion/s2_weighted_fusion.json and scenarios written
- * like it; docs/scenario-format.md, "Weighted-fusion cases"). One case:
+ * like it; docs/reference/scenario-format.md, "Weighted-fusion cases"). One case:
  *
  *   Phi (n x n), Gamma (n x r), Qe (r x r), H [l matrices m_i x n],
  *   R [l matrices m_i x m_i], H_signal (1 x n), P0 (n x n), x_hat0 (n),

@@ -11,7 +11,7 @@ computation and the fusions:
   2. the chain the fusion promises, at every step, on the signal:
      central <= matrix-fused <= scalar-fused (fusion_matrix's P0_matrix[0][0],
      fusion_scalar's P_S0), within 1e-12 (1e-5 in float) of P_S0;
-  3. the last step's central variance is the reference note's 0.48630 to
+  3. the last step's central variance is the derivation's (docs/design/derivation-seed001-002.md) 0.48630 to
      5 digits.
 
 usage: check_central.py DKF_RUN VECTOR OUT_DIR REAL

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Seed 001's consensus network with mixed sensors (scenarios/nl_mixed_expr.json:
 nodes of 2, 3 and 2 measurements) through dkf-run, against an independent
-computation of the consensus in numpy (docs/dfnerts.md):
+computation of the consensus in numpy (docs/design/dfnerts.md):
 
   1. every node's contribution from its own statistics, each of its own
      size m_l (C m_l x n, Hd m_l x p, Rbar m_l x m_l): Pi = Rbar^-1 -

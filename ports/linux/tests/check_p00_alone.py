@@ -5,7 +5,7 @@ P00_local = [P00] * L and P00_central = P00 written out.
 
     check_p00_alone.py DKF_RUN MAKE_NET_SCENARIO OUTDIR
 
-docs/scenario-format.md: P00 alone serves every filter, local and central.
+docs/reference/scenario-format.md: P00 alone serves every filter, local and central.
 Both files describe the same computation, so the outputs must be identical
 (compared exactly: the same operations on the same doubles).
 """

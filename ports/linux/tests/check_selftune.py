@@ -7,7 +7,7 @@ steps, fixed seed) against the optimal fusion on the true model
   1. the identifier is in warm-up (guard 1) before t_min = 50 and has
      accepted an estimate (guard 0) at the last step;
   2. the last estimate is near the file's a_1 = -1.5, a_2 = 0.56, c_1 = 0.4,
-     sigma_w^2 = 0.8: |error| <= 0.15, 0.15, 0.25, 0.2 (docs/selftune.md's
+     sigma_w^2 = 0.8: |error| <= 0.15, 0.15, 0.25, 0.2 (docs/design/selftune.md's
      spread over 20 realisations at T = 8000: std 0.023, 0.023, 0.056,
      0.029, i.e. about 0.033, 0.033, 0.08, 0.041 at T = 4000; the bounds are
      4.5, 4.5, 3, 5 of those);

@@ -4,7 +4,7 @@
     make_steps_cases.py VECTOR_DIR OUTDIR
 
 Each file is a golden vector (tests/vectors/uif/s00{3,4}_*.json), in the
-library's letters (docs/scenario-format.md, "Letters"), with one
+library's letters (docs/reference/scenario-format.md, "Letters"), with one
 deliberate change: either a bad input that dkf-run must refuse with a
 one-line "FILE: KEY: problem" message, or (tv_*.json) the same data in the
 time-varying per-step `inputs` form (tests/vectors/uif/README.md: "`model`

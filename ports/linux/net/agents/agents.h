@@ -10,7 +10,7 @@
  * has a tick (heartbeat, deadlines) that the owner calls between
  * dkf_net_handle calls with the monotonic time.
  *
- * Timing (docs/network.md): the simulator publishes y^i_j for every sensor
+ * Timing (docs/guide/network.md): the simulator publishes y^i_j for every sensor
  * i at j = 1..N+1. Node i starts its local Difference KF on y^i_1 (or, late
  * or restarted, on the first y^i_{k0} it gets) and, on y^i_{k+1}, completes
  * step k and publishes {x^i_{k|k}, x^i_{k|k-1}} with its previous step's
@@ -38,7 +38,7 @@
 typedef struct dkf_net_node dkf_net_node_t;
 
 /* What a node does differently from the normal run (dkf-node's test
- * flags; docs/network.md, "Faults"). All zero: the normal node. */
+ * flags; docs/design/network.md, "Faults"). All zero: the normal node. */
 typedef struct {
     double drop_pct;    /* drop this % of the outgoing messages */
     double dup_pct;     /* send this % twice */

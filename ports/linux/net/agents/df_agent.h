@@ -2,7 +2,7 @@
  * df_agent.h - one node of seed 001's consensus network (dkf/dfnerts.h:
  * DF-DNERTSIF, DF-CKF and the joint-information variant) as an agent that
  * exchanges packets only with its neighbours (host side; dkf-tw-node
- * --filter df_dnertsif runs one over LCM, docs/network.md "Graph filters
+ * --filter df_dnertsif runs one over LCM, docs/guide/network.md "Graph filters
  * over LCM").
  *
  * The rounds are round_agent.h's: step k is T_p rounds; round 0's packet is

@@ -1,7 +1,7 @@
 /*
  * tw_agent.h - one node of the seed-003 graph filters (dkf/tw.h,
  * Algorithms 2 and 3) as an agent that exchanges packets only with its
- * neighbours (host side; dkf-tw-node runs one over LCM, docs/network.md
+ * neighbours (host side; dkf-tw-node runs one over LCM, docs/guide/network.md
  * "Graph filters over LCM").
  *
  * The agent is transport-free: packets go out through a send callback

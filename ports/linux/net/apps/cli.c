@@ -141,7 +141,7 @@ static int install_auth(const char *prog, const char *key_dir, dkf_net_t *net, d
 {
     if (key_dir == NULL) {
         fprintf(stderr, "%s: UNAUTHENTICATED: no --key-dir, so anyone on the multicast group "
-                "can speak for any process of this run (docs/network.md, Authentication)\n",
+                "can speak for any process of this run (docs/guide/network.md, Authentication)\n",
                 prog);
         return DKF_EXIT_OK;
     }

@@ -54,9 +54,9 @@ int dkf_cli_open(const char *prog, const char *prefix, const char *url, unsigned
 #define DKF_CLI_PORTS_USAGE                                                                 \
     "      --split-ports       node messages on the URL's port + 1, node i's\n"               \
     "                          measurements on port + 2 + i (every process of a run\n"        \
-    "                          must say it; docs/network.md, Split ports)\n"                  \
+    "                          must say it; docs/guide/network.md, Split ports)\n"                  \
     "      --direct-recv       read the multicast sockets without LCM's receive thread\n"     \
-    "                          (one wake-up per datagram; docs/network.md, Direct receive)\n"
+    "                          (one wake-up per datagram; docs/guide/network.md, Direct receive)\n"
 
 /* --key-dir: net signs and verifies as `self` (auth.h: dkf_auth_signer)
  * of a network of `nodes` nodes, with the keys in key_dir. key_dir NULL:

@@ -2,7 +2,7 @@
  * dkf-fusion - the fusion centre: subscribes to every node's messages,
  * rebuilds the centralized Difference-KF estimate (dkf/diffkf_fusion.h),
  * publishes it on <prefix>_FUSED and writes a result file
- * (docs/network.md).
+ * (docs/guide/network.md).
  *
  *   dkf-fusion --output fused.json tests/vectors/diffkf/ex3_multi.json
  */
@@ -45,7 +45,7 @@ static void usage(FILE *f)
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
             "      --steady TOL        reuse the centre's gain once the covariance recursion\n"
             "                          moves by less than TOL (relative) per step, for a\n"
-            "                          time-invariant model (docs/diffkf-fusion.md §11;\n"
+            "                          time-invariant model (docs/design/diffkf-fusion.md §11;\n"
             "                          default 0: recompute every step)\n"
             DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
@@ -56,7 +56,7 @@ static void usage(FILE *f)
             "A centre started or restarted mid-run joins at the first step it gets data of.\n"
             "A scenario of the weighted-fusion layout (seed 002) runs the weighted fusion\n"
             "centre instead: the local KFs' x_i(k|k) (dkf-node --filter local_kf) fused with\n"
-            "scalar and matrix weights over the nodes present (docs/network.md).\n"
+            "scalar and matrix weights over the nodes present (docs/guide/network.md).\n"
             "Exit: 0 step N published, 2 bad options/scenario, 3 set-up, core or output failure,\n"
             "4 interrupted (SIGINT/SIGTERM/--timeout) before step N (the file is written).\n",
             prog, DKF_NET_CKPT, DKF_NET_DEFAULT_URL, DKF_NET_PREFIX, DKF_NET_DEADLINE_US / 1000,

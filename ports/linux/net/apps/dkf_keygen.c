@@ -1,6 +1,6 @@
 /*
  * dkf-keygen - the key files of an authenticated network (auth.h;
- * docs/network.md, "Authentication").
+ * docs/guide/network.md, "Authentication").
  *
  *   dkf-keygen DIR NODES            dkf-sim, dkf-node, dkf-fusion
  *   dkf-keygen --edges DIR NODES    dkf-tw-node (a graph filter)

@@ -1,7 +1,7 @@
 /*
  * dkf-node - one sensor node: runs a filter's node role (registry.h; the
  * local Difference KF by default) on its measurements and publishes
- * {x^i_{k|k}, x^i_{k|k-1}} after every step (docs/network.md).
+ * {x^i_{k|k}, x^i_{k|k-1}} after every step (docs/guide/network.md).
  *
  *   dkf-node --id 0 tests/vectors/diffkf/ex3_multi.json
  */
@@ -34,7 +34,7 @@ static const char *node_filters(void)
 
 /* Leaves real-time priority (the demo's SCHED_FIFO) before the teardown:
  * freeing the scenario takes milliseconds of CPU, which must not delay the
- * centre's last step (docs/network.md, "Where the latency goes"). */
+ * centre's last step (docs/design/network.md, "Where the latency goes"). */
 static void leave_realtime(void)
 {
     struct sched_param p;
@@ -65,7 +65,7 @@ static void usage(FILE *f)
             "      --join-at K         start on the first measurement y_j with j >= K\n"
             "                          (default: the first one received; a late node)\n"
             "      --epoch E           epoch of this start (a restarted node: previous + 1)\n"
-            "Fault injection (tests; docs/network.md, \"Faults\"):\n"
+            "Fault injection (tests; docs/design/network.md, \"Faults\"):\n"
             "      --drop PCT          drop PCT %% of the outgoing messages\n"
             "      --dup PCT           send PCT %% of them twice\n"
             "      --reorder PCT       hold PCT %% back until after the next message\n"

@@ -1,7 +1,7 @@
 /*
  * dkf-sim - publishes a scenario's measurements, one channel per sensor,
  * and its truth, either paced (--rate HZ) or in lock-step with the fusion
- * centre (--lockstep) (docs/network.md).
+ * centre (--lockstep) (docs/guide/network.md).
  *
  *   dkf-sim --lockstep tests/vectors/diffkf/ex3_multi.json
  */
@@ -32,7 +32,7 @@ static void usage(FILE *f)
             "                          j-1 (which needs y_j) has been seen on <prefix>_FUSED;\n"
             "                          with --rate, also at most HZ steps per second (the run\n"
             "                          then cannot outpace a node the centre gave up on:\n"
-            "                          docs/network.md, Faults)\n"
+            "                          docs/design/network.md, Faults)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
             "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"

@@ -1,6 +1,6 @@
 /*
  * dkf-tw-node - one node of a graph filter as its own process, exchanging
- * packets with its neighbours only (round_agent.h; docs/network.md "Graph
+ * packets with its neighbours only (round_agent.h; docs/guide/network.md "Graph
  * filters over LCM"): the seed-003 diffusion (Algorithm 2) or consensus
  * (Algorithm 3) filter (tw_agent.h), or seed 001's consensus network
  * DF-DNERTSIF / DF-CKF (df_agent.h).
@@ -53,7 +53,7 @@ static void usage(FILE *f)
             "      --seed S            seed of the drops (default 0)\n"
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "      --direct-recv       read the multicast socket without LCM's receive thread\n"
-            "                          (one wake-up per datagram; docs/network.md, Direct receive)\n"
+            "                          (one wake-up per datagram; docs/guide/network.md, Direct receive)\n"
             "      --key-dir DIR       authenticate every packet with the edge keys in DIR\n"
             "                          (dkf-keygen --edges; without it: unauthenticated,\n"
             "                          said on stderr)\n"

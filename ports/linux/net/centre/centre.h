@@ -19,7 +19,7 @@
 
 #define DKF_NET_DEADLINE_US 1000000 /* default fusion deadline per step */
 #define DKF_NET_WINDOW DKF_FCR_WINDOW /* steps the fusion centre buffers ahead (it
-                                         follows the arrivals: docs/network.md) */
+                                         follows the arrivals: docs/guide/network.md) */
 #define DKF_NET_LINGER_US 1000000  /* after step N, a node still sending is waited for
                                        this long, or two deadlines if longer */
 #define DKF_NET_CKPT DKF_FCR_CKPT  /* published steps a late payload can still revise */
@@ -36,14 +36,14 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         const char *prefix, int64_t deadline_us, char *err,
                                         size_t errlen);
 void dkf_net_fusion_free(dkf_net_fusion_t *fu);
-/* The core's steady gain (dkf_diffkf_fc_set_steady, docs/diffkf-fusion.md
+/* The core's steady gain (dkf_diffkf_fc_set_steady, docs/design/diffkf-fusion.md
  * §11) with tolerance tol; the result's counters.steady_gain_steps counts
  * the steps that reused it. -1 for a tol the core refuses, or a
  * weighted-fusion centre (it has no gain recursion to settle). */
 int dkf_net_fusion_steady(dkf_net_fusion_t *fu, double tol);
 /* Appends one JSON line per computed step to f (first computation and
  * every replay; flushed, so the results survive a killed process), after a
- * header line; f stays the caller's (NULL: no journal). docs/network.md. */
+ * header line; f stays the caller's (NULL: no journal). docs/guide/network.md. */
 void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f);
 /* Deadlines (publishes overdue steps DEGRADED) and the heartbeat. */
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us);
@@ -53,7 +53,7 @@ int dkf_net_fusion_state(const dkf_net_fusion_t *fu);
 /* Last published step (0: none). */
 long dkf_net_fusion_k(const dkf_net_fusion_t *fu);
 const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu);
-/* The run so far as a JSON document (new reference; docs/network.md):
+/* The run so far as a JSON document (new reference; docs/guide/network.md):
  * k, outputs.fused.{xf,xp,Pf,Pp}, status, contributors, latency_us, counters. */
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu);
 

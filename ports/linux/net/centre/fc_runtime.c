@@ -1,6 +1,6 @@
 /*
  * fc_runtime.c - the fusion centre's payload ring, epochs, deadlines,
- * checkpoints, rollback/replay and linger (fc_runtime.h; docs/network.md
+ * checkpoints, rollback/replay and linger (fc_runtime.h; docs/design/network.md
  * "Faults"), with the fusion itself behind a dkf_fcr_ops_t table.
  *
  * Node i's contribution to step k may need its payloads of steps k and k-1
@@ -12,7 +12,7 @@
  * the centre would have computed had the payload been on time.
  *
  * The work late data can force is bounded, whoever sends it and however
- * fast (docs/network.md, "Threat model"): a revision rolls back at once
+ * fast (docs/guide/network.md, "Threat model"): a revision rolls back at once
  * only if no rollback happened since the last first publication or for a
  * deadline; otherwise it waits, merged with any other, and runs before the
  * next step is published (or a deadline later). So between two first
@@ -356,7 +356,7 @@ static void step_view(const dkf_fcr_t *rt, long k, dkf_fcr_step_t *st)
 }
 
 /* Step j's first publication at utime split into the parts of lat_last
- * (docs/network.md, "Where the latency goes"): the last contributing
+ * (docs/design/network.md, "Where the latency goes"): the last contributing
  * measurement to its node message's arrival, arrival to the step's
  * computation, the computation, and its end to the publication. */
 static void record_parts(dkf_fcr_t *rt, size_t j, const dkf_fcr_step_t *st, int64_t utime)
@@ -418,7 +418,7 @@ static void next_step(dkf_fcr_t *rt, int64_t now)
 
 /* 1 once step N is out and nothing more is coming that could revise a step:
  * every node heard from has every payload its epochs own of the steps still
- * revisable, or has been silent for linger_us (docs/network.md, "End of a
+ * revisable, or has been silent for linger_us (docs/design/network.md, "End of a
  * run"). Without it a payload held back at the end (reordered, or a node
  * slowed down by the load) would leave its last steps degraded for good. */
 static int settled(const dkf_fcr_t *rt, int64_t now)
@@ -487,7 +487,7 @@ static void revise_if_due(dkf_fcr_t *rt, int64_t now)
 
 /* 1 if node i's payload of step k is not worth waiting for
  * (docs/decisions.md, "a late step never holds back the steps behind it";
- * docs/network.md, "Deadlines"): the node has moved on (its message of step k+2 or
+ * docs/design/network.md, "Deadlines"): the node has moved on (its message of step k+2 or
  * later arrived, and message k+1 would have carried a copy of payload k),
  * or it has been silent for a deadline of arrivals from the others (dead,
  * never started, or cut off). Both are judged on what has arrived, never on

@@ -1,6 +1,6 @@
 /*
  * fc_runtime.h - the transport-free runtime of a fusion centre (host side;
- * docs/network.md, "The fusion-centre runtime").
+ * docs/design/network.md, "The fusion-centre runtime").
  *
  * A fusion centre gets, from every node i, a payload per step k (what node
  * i's local filter contributes to step k), fuses step k from the payloads

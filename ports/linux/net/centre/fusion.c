@@ -1,5 +1,5 @@
 /*
- * fusion.c - the seed-000 fusion centre (centre.h, docs/network.md
+ * fusion.c - the seed-000 fusion centre (centre.h, docs/design/network.md
  * "Faults"): the core's dkf_diffkf_fc_t (dkf_diffkf_fc_step_partial: the
  * centralized DKF given the nodes' rows it can rebuild) as the fusion of a
  * dkf_fcr_t runtime (fc_runtime.h: payload ring, epochs, deadlines,
@@ -199,7 +199,7 @@ static dkf_fcr_doc_info_t doc_info(const dkf_net_fusion_t *fu)
 
 /* Appends step st->k as it stands now (first computation or a replay) to
  * the journal, one JSON line, flushed: what was computed survives a killed
- * process (docs/network.md, "Result file"). */
+ * process (docs/guide/network.md, "Result file"). */
 static void op_record(void *user, const dkf_fcr_step_t *st, int published)
 {
     dkf_net_fusion_t *fu = user;

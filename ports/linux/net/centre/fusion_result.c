@@ -1,6 +1,6 @@
 /*
  * fusion_result.c - the result document and the journal of a fusion centre
- * (fusion_result.h; docs/network.md, "dkf-fusion's result file").
+ * (fusion_result.h; docs/guide/network.md, "dkf-fusion's result file").
  */
 #include <stdio.h>
 #include <string.h>

@@ -1,6 +1,6 @@
 /*
  * fusion_result.h - the result file and the journal of a fusion centre run
- * by fc_runtime.h (host side; docs/network.md, "dkf-fusion's result file").
+ * by fc_runtime.h (host side; docs/guide/network.md, "dkf-fusion's result file").
  *
  * The runtime's record (status, contributors, revisions, epochs, latency,
  * counters) is written here for any centre; the centre adds its own

@@ -1,6 +1,6 @@
 /*
  * wfusion_centre.c - the seed-002 weighted fusion centre (centre.h,
- * docs/network.md "The weighted-fusion centre"): the core's dkf_wfusion_t
+ * docs/design/network.md "The weighted-fusion centre"): the core's dkf_wfusion_t
  * (dkf/wfusion.h) as the fusion of a dkf_fcr_t runtime (fc_runtime.h:
  * payload ring, epochs, deadlines, checkpoints, rollback/replay, linger),
  * on LCM: node messages (x_i(k|k) in node_msg_t.xf) come in on

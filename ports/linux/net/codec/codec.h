@@ -27,7 +27,7 @@
  * packet dkf_net_decode_tw among them) runs the bytes through one checked
  * path in codec.c: the type's wire layout is checked against the
  * datagram before lcm-gen's decoder (which trusts the lengths it reads)
- * runs. tests/fuzz/fuzz_net.c fuzzes them all (docs/fuzzing.md).
+ * runs. tests/fuzz/fuzz_net.c fuzzes them all (docs/guide/fuzzing.md).
  */
 #ifndef DKF_NET_CODEC_H
 #define DKF_NET_CODEC_H

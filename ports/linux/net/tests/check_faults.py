@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Checks a dkf-fusion result file of a fault run (docs/network.md, "Faults").
+"""Checks a dkf-fusion result file of a fault run (docs/design/network.md, "Faults").
 
     check_faults.py FUSED.json SCENARIO.json --rel 1e-9 [expectations...]
 
@@ -52,7 +52,7 @@ def load_model(scn):
 
 
 def prior(scn, which, i=0):
-    """P_{0|0} as the C loader reads it (docs/scenario-format.md): P00_central
+    """P_{0|0} as the C loader reads it (docs/reference/scenario-format.md): P00_central
     (which="central") or P00_local[i] (which="local") when given, else P00."""
     init = scn["init"]
     if which == "central" and "P00_central" in init:
@@ -82,7 +82,7 @@ def masked_dkf(scn, keep, P00=None, sensors_used=None):
     F = lambda k: mat(m["F"], k)
     Q = lambda k: mat(m["Q"], k)
     H = lambda k: np.vstack([mat(sensors[i]["H"], k) for i in idx])
-    # D: the library's letter; A: the diffkf vectors' (docs/scenario-format.md, "Letters")
+    # D: the library's letter; A: the diffkf vectors' (docs/reference/scenario-format.md, "Letters")
     feed = [sensors[i]["D"] if "D" in sensors[i] else sensors[i]["A"] for i in idx]
     A = lambda k: blkdiag([mat(D, k) for D in feed])
     B = lambda k: blkdiag([mat(sensors[i]["B"], k) for i in idx])

@@ -8,7 +8,7 @@
   the same degraded steps (a complete revision clears a degraded first
   publication) and, per step, the same x_{k|k} bit for bit.
 * Every fused message's meas_utime_first / meas_utime_last is, as
-  docs/network.md says, the publication time of a measurement y^i_{k+1} of a
+  docs/guide/network.md says, the publication time of a measurement y^i_{k+1} of a
   node i that contributed to step k (the one that completed node i's step k),
   or 0; first <= last.
 Exit 1 on the first failure, with the numbers.

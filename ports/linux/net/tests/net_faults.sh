@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # net_faults.sh MODE SCENARIO OUTDIR - fault runs of the real processes over
 # UDP multicast (udpm://239.255.76.67:7667?ttl=0) inside a private network
-# namespace made for this run (tools/netns.sh); docs/network.md, "Faults".
+# namespace made for this run (tools/netns.sh); docs/design/network.md, "Faults".
 # dkf-sim runs in lock-step, so every outcome is deterministic as long as a
 # node that is only slow never meets a limit meant for one that is gone: the
 # fusion centre's deadline (DEADLINE_MS) and the steps the run may go ahead
@@ -189,7 +189,7 @@ case "$mode" in
     check run --selftest --degraded 40,41,44,45 --min-revised 5 || exit 1
     if (( logged )); then
       # the log of the run: what dkf_monitor.py / dkf_logplot.py make of it
-      # equals the result file; meas_utime_* as docs/network.md says
+      # equals the result file; meas_utime_* as docs/guide/network.md says
       wait_log_quiet "$log" $((20 * probe > 300 ? 20 * probe : 300))
       kill -INT $logger; wait $logger
       "$DKF_PYTHON" "$(dirname "$0")/check_log.py" "$log" "$out/run.fused.json" \

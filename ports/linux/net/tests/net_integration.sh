@@ -18,7 +18,7 @@
 #             the run, datagrams LCM's format does not allow (short, bad magic,
 #             channel without its NUL, empty channel), an LC03 fragment and an
 #             LC02 of a channel nobody reads go to the centre's port, and its
-#             result file counts each kind (docs/network.md, "Direct receive")
+#             result file counts each kind (docs/guide/network.md, "Direct receive")
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_PYTHON
 # DKF_COMPARE DKF_LCM_LOGGER DKF_LCM_LOGPLAYER DKF_NETNS DKF_REL DKF_LOGPLOT DKF_LCM_PY.

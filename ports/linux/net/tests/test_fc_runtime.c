@@ -393,7 +393,7 @@ static void test_fcr_late_within_and_outside_window(void **state)
  * one rollback through between first publications (or per deadline), so
  * the stream costs at most DKF_FCR_CKPT step computations now, as many a
  * deadline later, and 1 + 2 DKF_FCR_CKPT per step published afterwards,
- * whatever the number of messages (docs/network.md, "Threat model"). */
+ * whatever the number of messages (docs/guide/network.md, "Threat model"). */
 static void test_fcr_late_stream_bounded(void **state)
 {
     toy_t t;

@@ -152,7 +152,7 @@ static void test_every_verdict(void **state)
 /* The tag is HMAC-SHA-512-256 (libsodium's one-shot crypto_auth, an
  * independent path from the library's precomputed key state) of
  * len(channel) (4 bytes, big-endian) || channel || message || the trailer's
- * 28-byte header, under the signer's key (docs/network.md). Checked for
+ * 28-byte header, under the signer's key (docs/guide/network.md). Checked for
  * two signers and several messages in a row, so a key state that leaked
  * from one MAC into the next would fail. */
 static void test_tag_is_documented_hmac(void **state)
@@ -450,7 +450,7 @@ static size_t node_msg_of(size_t node, unsigned char *buf, size_t cap)
  * centre, the simulator or node 1: not its sender). One more datagram
  * passes, as documented: the simulator's on MEAS_0, which is signed with
  * key 0 because node 0 must check it; node 0 can write its own
- * measurements, which only node 0 reads (docs/network.md, "Threat model"). */
+ * measurements, which only node 0 reads (docs/guide/network.md, "Threat model"). */
 static void test_impersonation(void **state)
 {
     static const char *const chans[] = {

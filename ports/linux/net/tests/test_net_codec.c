@@ -513,7 +513,7 @@ static void test_channels(void **state)
     assert_string_equal(dkf_net_verdict_str(DKF_NET_REJ_SENDER), "not its sender");
 }
 
-/* ---- every length field of every type (issue 10) ------------------------------ */
+/* ---- every length field of every type ---------------------------------------- */
 
 enum { T_NODE, T_MEAS, T_TRUTH, T_FUSED, T_STATUS, T_NTYPES };
 

@@ -31,7 +31,7 @@
  * vector's own 1e-9 (the FC rebuilds the centralized DKF exactly in exact
  * arithmetic; measured 8.6e-16). Float (eps_f = 1.19e-7): every node runs
  * its DKF in float and the FC recovers dz^i_k through (K^i_k)^+, whose
- * smallest singular value in Ex 3 is 0.163 (docs/diffkf.md §6), so node
+ * smallest singular value in Ex 3 is 0.163 (docs/design/derivation-seed000.md §6), so node
  * rounding is amplified by up to ~6 before the central step; measured
  * 3.2e-7 (2.7 eps_f); bound 1e-5 = 84 eps_f, as for the KF vectors. */
 #if DKF_USE_FLOAT
@@ -372,7 +372,7 @@ static void test_memq_node_measurement_checks(void **state)
     dkf_scenario_free(s);
 }
 
-/* ---- faults (docs/network.md, "Faults") ------------------------------------------- */
+/* ---- faults (docs/design/network.md, "Faults") ------------------------------------------- */
 
 /* Per step j (0-based) of the result: max relative difference of xf, xp,
  * Pf, Pp to the vector's central series at that step. */
@@ -441,7 +441,7 @@ static void test_memq_drop_dup_reorder(void **state)
     dkf_net_node_faults(n1, &fx);
     run(net, sim, NULL, fu);
     /* step N is out, but node 1's payload of a step still revisable was
-     * lost for good: the centre waits for it (docs/network.md, "End of a
+     * lost for good: the centre waits for it (docs/design/network.md, "End of a
      * run") until node 1 has been silent for the linger time */
     assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
     assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
@@ -601,7 +601,7 @@ static void rig_close(rig_t *r)
     dkf_scenario_free(r->s);
 }
 
-/* Decision 16 (docs/network.md, "Deadlines"): no step waits for data that
+/* Decision 16 (docs/design/network.md, "Deadlines"): no step waits for data that
  * cannot come. The deadline is 100 s and no deadline passes during the run
  * (the fusion centre's tick is not called), so only the arrivals move the
  * centre. Here node 1 never starts and cannot be judged silent (the run

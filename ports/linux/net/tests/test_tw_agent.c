@@ -475,7 +475,7 @@ static void test_tw_codec_rejects(void **state)
     dkf_scenario_free(s);
 }
 
-/* issue 10: the packet's len field is checked against the datagram before
+/* Hardening: the packet's len field is checked against the datagram before
  * lcm-gen's decoder runs (which trusted it: a 50-byte packet with len =
  * 0x20000001 read ~4 GiB past the buffer). Every value of len that the
  * datagram does not hold, and every cut, is MALFORMED; out untouched. */
@@ -504,7 +504,7 @@ static void test_tw_codec_len_field(void **state)
     for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
         for (j = 0; j < 4; ++j) buf[38 + j] = (unsigned char)(bad[i] >> (24 - 8 * j));
         memset(buf + 42, 0x41, 8);
-        /* the 50-byte packet of the issue (i = 0), then others */
+        /* the 50-byte packet of the fixed bug (i = 0), then others */
         assert_int_equal(dkf_net_twa_decode(buf, 50, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
         assert_int_equal(dkf_net_twa_decode(buf, 42, &c, 4, &out, NULL), DKF_NET_REJ_MALFORMED);
         assert_memory_equal(&out, &q, sizeof q);

@@ -2,7 +2,7 @@
  * wf_check SCENARIO RESULT.json [--complete] [--absent I:K1:K2]...
  *
  * Checks a weighted-fusion centre's result file (dkf-fusion --output on a
- * weighted-fusion scenario; docs/network.md, "The weighted-fusion centre")
+ * weighted-fusion scenario; docs/design/network.md, "The weighted-fusion centre")
  * against the core run in this process: dkf_wfusion_step with every
  * sensor's y, then dkf_wfusion_fuse_scalar / _fuse_matrix with x[i] = NULL
  * for every node the result says did not contribute at that step. Every

@@ -4,7 +4,7 @@
 # private network namespace made for this run (tools/netns.sh), on a
 # 5-sensor, 200-step scenario written by tools/make_wf_scenario.py (numpy
 # seed 2): dkf-fusion (the weighted fusion centre, chosen by the scenario),
-# five `dkf-node --filter local_kf`, dkf-sim --lockstep. docs/network.md,
+# five `dkf-node --filter local_kf`, dkf-sim --lockstep. docs/design/network.md,
 # "The weighted-fusion centre".
 #
 #   full    every node: every step complete, the fusion == the in-process

@@ -1,6 +1,6 @@
 /*
  * auth.h - authenticated datagrams of the DKF network (host side, libsodium;
- * docs/network.md, "Authentication"; docs/decisions.md, item 24).
+ * docs/guide/network.md, "Authentication"; docs/decisions.md, item 24).
  *
  * Every datagram an authenticating process publishes is the LCM message
  * followed by a trailer of DKF_AUTH_TRAILER bytes (big-endian):
@@ -25,7 +25,7 @@
  * last accepted of that signer and key: strictly larger seq in the same
  * epoch, or a larger epoch (a restarted process).
  *
- * Graph filters (dkf-tw-node, docs/network.md "Authentication"): every
+ * Graph filters (dkf-tw-node, docs/guide/network.md "Authentication"): every
  * edge {i, j} of the graph has its own key, held by i and j only
  * (edge-<i>-<j>.key, i < j), and node l's datagram on "<prefix>_<l>"
  * carries one tag per neighbour, so that each neighbour checks the tag

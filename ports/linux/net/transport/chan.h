@@ -1,6 +1,6 @@
 /*
  * chan.h - the names of the DKF network: who speaks (roles) and on which
- * channel (host side; docs/network.md, "Channels" and "Authentication").
+ * channel (host side; docs/guide/network.md, "Channels" and "Authentication").
  *
  * Every channel of the protocol has exactly one spelling:
  *   <prefix>_MEAS_<i>   sensor i's measurements    (the simulator)
@@ -38,7 +38,7 @@ enum {
 /* Who sent a message. With authentication the transport fills it from the
  * key that verified the datagram (auth.h), never from the channel or the
  * payload; without, it is unknown and a receiver has only the channel's
- * word (docs/network.md, "Threat model"). */
+ * word (docs/guide/network.md, "Threat model"). */
 typedef struct dkf_net_from {
     int known; /* 1: authenticated */
     int role;  /* DKF_NET_ROLE_* (known only) */

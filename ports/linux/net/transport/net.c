@@ -103,7 +103,7 @@ static int check_options(const char *url, const char *opt, char *err, size_t err
             ++nttl;
             if (len != 5 || opt[4] != '0')
                 return fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not leave "
-                            "this host; docs/network.md)", url);
+                            "this host; docs/guide/network.md)", url);
         }
         opt = end ? end + 1 : NULL;
     }
@@ -143,7 +143,7 @@ dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
     net->lcm = lcm_create(url);
     if (net->lcm == NULL) {
         free(net);
-        fail(err, errlen, "%s: cannot open LCM (is there a multicast route? docs/network.md)",
+        fail(err, errlen, "%s: cannot open LCM (is there a multicast route? docs/guide/network.md)",
              url);
         return NULL;
     }

@@ -11,7 +11,7 @@
  *                                          TTL 0 (never routed off the host)
  *
  * Every other provider, a udpm group outside 239.0.0.0/8, and a udpm URL
- * whose ttl is missing or not 0 are refused (docs/network.md says how to
+ * whose ttl is missing or not 0 are refused (docs/guide/network.md says how to
  * run on several machines, which needs a source change on purpose).
  * Integer returns: 0 success, -1 failure with a one-line message in err.
  */
@@ -49,14 +49,14 @@ void dkf_net_close(dkf_net_t *net);
  * delivers every datagram of a port to every socket on it and filters
  * channels in user space). Every process of a run must agree; a
  * subscription to several nodes' measurements is refused then. A monitor
- * or logger on the URL alone sees only the last group (docs/network.md,
+ * or logger on the URL alone sees only the last group (docs/guide/network.md,
  * "Split ports"). 0, or -1 with the reason in err. */
 int dkf_net_split(dkf_net_t *net, char *err, size_t errlen);
 
 /* Direct receive (udpm only; before any subscription): the process reads
  * its subscriptions' multicast sockets itself (wire.h) instead of through
  * LCM's receive thread and its pipe, so a datagram wakes one thread, not
- * two (docs/network.md, "Direct receive"). Publishing stays lcm_publish;
+ * two (docs/guide/network.md, "Direct receive"). Publishing stays lcm_publish;
  * handlers see the same channel, payload and kernel receive time. LCM
  * fragments (messages over 65 KB) and malformed datagrams are dropped and
  * counted. Works with and without split ports. 0, or -1 with err. */
@@ -76,7 +76,7 @@ struct dkf_auth; /* auth.h */
 
 /* From now on every datagram published carries auth's trailer, and only
  * datagrams that auth accepts reach the handlers, with the verified signer
- * as their sender (docs/network.md, "Authentication"). net takes auth over (dkf_net_close frees it); NULL
+ * as their sender (docs/guide/network.md, "Authentication"). net takes auth over (dkf_net_close frees it); NULL
  * turns authentication off. */
 void dkf_net_set_auth(dkf_net_t *net, struct dkf_auth *auth);
 /* The authenticator set, or NULL (its counters: auth.h). */

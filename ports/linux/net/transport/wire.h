@@ -1,6 +1,6 @@
 /*
  * wire.h - LCM's UDP multicast datagram, as the direct receiver of net.h
- * (dkf_net_direct) reads it (host side; docs/network.md, "Direct receive").
+ * (dkf_net_direct) reads it (host side; docs/guide/network.md, "Direct receive").
  *
  * An LCM publisher sends a message of channel c and payload b in one
  * datagram when it fits (LCM's udpm provider: 8 + |c| + 1 + |b| <= 65499):

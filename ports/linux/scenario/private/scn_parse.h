@@ -2,7 +2,7 @@
  * scn_parse.h - the scenario reader's own toolkit (private to the
  * scenario layer, ports/linux/scenario; programs include scenario.h only).
  *
- * The reader is split by file layout (docs/scenario-format.md):
+ * The reader is split by file layout (docs/reference/scenario-format.md):
  *   (json/scn_values.c, below this layer: numbers, vectors, matrices,
  *   named matrix sets, series, shared with the model builders of nlm/)
  *   scn_letters.c    the old letters renamed (the keys: json/scn_keys.c)
@@ -39,7 +39,7 @@
 /* The old letters of root's matrices (layout: CANONICAL, CASES, STEPS or
  * NETWORK; the others have none) renamed in place to the library's, with
  * a one-line notice naming them into notice (unchanged if the file has
- * none); -1 if the file mixes the two. docs/scenario-format.md, "Letters". */
+ * none); -1 if the file mixes the two. docs/reference/scenario-format.md, "Letters". */
 int dkf_scn_letters(dkf_scn_ctx_t *c, json_t *root, dkf_scn_layout_t layout, char *notice,
                     size_t len);
 

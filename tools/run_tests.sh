@@ -14,7 +14,7 @@
 #                    time, reported as double:net
 #   float            DKF_REAL=float (the Eigen peer at -O2 only)
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
-#                    -DNDEBUG; the others RelWithDebInfo, -O2 -g)
+#                    -DNDEBUG; the others RelWithDebInfo: -O2 without -g, ASan -Og -g)
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
 #   double-dim1024   DKF_REAL=double, DKF_MAX_DIM=1024: the host limit the
 #                    demo and the 200-node centre are built with (decision 23)

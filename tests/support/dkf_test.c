@@ -455,3 +455,17 @@ void test_load_ui_step(test_ui_step_t *s, const json_t *st, int with_dyn)
     test_json_mat(test_json_get(st, "y"), s->y, TEST_UI_CAP, &s->ym);
     s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
 }
+
+size_t test_json_flatten(const json_t *node, double *out, size_t cap)
+{
+    size_t i, k = 0;
+    if (json_is_number(node)) {
+        assert_true(cap >= 1);
+        out[0] = json_number_value(node);
+        return 1;
+    }
+    assert_true(json_is_array(node));
+    for (i = 0; i < json_array_size(node); ++i)
+        k += test_json_flatten(json_array_get(node, i), out + k, cap - k);
+    return k;
+}

@@ -124,6 +124,9 @@ void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_
 /* The model matrix `key` of a vector file at absolute time k: the node of
  * {"const": M} or of {"per_k": [M_0, M_1, ...]}[k]. */
 const json_t *test_json_model_at(const json_t *model, const char *key, size_t k);
+/* Every number of a JSON number or nested list into out (cap doubles, row
+ * major); fails the test on anything else or more than cap. The count. */
+size_t test_json_flatten(const json_t *node, double *out, size_t cap);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
 

@@ -24,8 +24,8 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/seed001-demo
 do_build=1 steps=100 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
-# demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run, wall_since
+# URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
+# wall_since
 . "$root/ports/linux/net/tests/net_common.sh"
 demo_options seed001_net_demo.sh 22 "$@"
 
@@ -34,24 +34,11 @@ if [[ ${#inner[@]} -gt 0 && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
   scn=${inner[0]} cs=${inner[1]} dir=${inner[2]} node=${inner[3]} keys=${inner[4]}
   loopback_only seed001_net_demo.sh || exit 1
   start_run "$dir"
-  t0=$(date +%s.%N)
-  for ((i = 0; i < 12; ++i)); do
-    "$node" --url "$URL" --id $i --filter df_dnertsif --case "$cs" --timeout 300 --quiet \
-      --key-dir "$keys" \
-      --output "$dir/node$i.json" "$scn" 2>"$dir/node$i.log" & pids+=($!)
-  done
-  rc=0
-  for p in "${pids[@]}"; do wait "$p" || rc=1; done
-  wall_since "$t0" "$dir/wall_s"
-  pids=()
-  exit $rc
+  run_tw_nodes 12 "$dir" "$node" "$scn" "$keys" --filter df_dnertsif --case "$cs"
+  exit $?
 fi
 
-demo_build "$build" dkf-tw-node dkf-run dkf-keygen
-node=$build/ports/linux/net/dkf-tw-node
-run=$build/ports/linux/dkf-run
-keygen=$build/ports/linux/net/dkf-keygen
-demo_require seed001_net_demo.sh "$node" "$run" "$keygen"
+demo_tw_programs seed001_net_demo.sh
 out=$build/seed001-demo
 mkdir -p "$out"
 scn=$out/radar12.json

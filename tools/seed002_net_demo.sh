@@ -26,8 +26,8 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/seed002-demo
 do_build=1 steps=2000 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
-# demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run, wall_since
+# URL, demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run,
+# wall_since
 . "$root/ports/linux/net/tests/net_common.sh"
 demo_options seed002_net_demo.sh 24 "$@"
 [[ $steps =~ ^[0-9]+$ ]] && (( steps >= 50 && steps <= 100000 )) ||

@@ -25,9 +25,9 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/tw-net-demo
 do_build=1 nodes=36 steps=40 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
 tools=$root/ports/linux/net/tests
-# demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run, wall_since
+# URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
+# wall_since
 . "$tools/net_common.sh"
 demo_options tw_net_demo.sh 24 "$@"
 
@@ -37,24 +37,11 @@ if [[ ${#inner[@]} -gt 0 && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
   loopback_only tw_net_demo.sh || exit 1
   N=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
   start_run "$dir"
-  t0=$(date +%s.%N)
-  for ((i = 0; i < N; ++i)); do
-    "$node" --url "$URL" --id $i --alg "$alg" --timeout 300 --quiet --key-dir "$keys" \
-      --output "$dir/node$i.json" \
-      "$scn" 2>"$dir/node$i.log" & pids+=($!)
-  done
-  rc=0
-  for p in "${pids[@]}"; do wait "$p" || rc=1; done
-  wall_since "$t0" "$dir/wall_s"
-  pids=()
-  exit $rc
+  run_tw_nodes "$N" "$dir" "$node" "$scn" "$keys" --alg "$alg"
+  exit $?
 fi
 
-demo_build "$build" dkf-tw-node dkf-run dkf-keygen
-node=$build/ports/linux/net/dkf-tw-node
-run=$build/ports/linux/dkf-run
-keygen=$build/ports/linux/net/dkf-keygen
-demo_require tw_net_demo.sh "$node" "$run" "$keygen"
+demo_tw_programs tw_net_demo.sh
 out=$build/tw-net-demo
 mkdir -p "$out"
 scn=$out/rgg$nodes.json

@@ -6,6 +6,9 @@
 
 # ---- the namespace and the run's processes ------------------------------------------
 
+# The multicast group of every test and demo: ttl=0, inside its own namespace.
+URL='udpm://239.255.76.67:7667?ttl=0'
+
 # in_netns SCRIPT ARGS...: outside a namespace made for this run, checks that
 # one can be made ($DKF_NETNS check: exit 77, the ctest skip code, if not) and
 # re-runs SCRIPT ARGS in it; inside, returns if the namespace has only the
@@ -146,6 +149,34 @@ demo_require() {
   for p in "$@"; do
     [[ -x $p ]] || { echo "$name: $p missing (build first, or --build-dir)" >&2; exit 2; }
   done
+}
+
+# demo_tw_programs NAME: dkf-tw-node, dkf-run, dkf-keygen built in $build
+# (demo_build) and checked (demo_require), into node, run, keygen.
+demo_tw_programs() {
+  demo_build "$build" dkf-tw-node dkf-run dkf-keygen
+  node=$build/ports/linux/net/dkf-tw-node
+  run=$build/ports/linux/dkf-run
+  keygen=$build/ports/linux/net/dkf-keygen
+  demo_require "$1" "$node" "$run" "$keygen"
+}
+
+# run_tw_nodes N DIR NODE SCN KEYS ARGS...: N NODE (dkf-tw-node) processes,
+# ids 0..N-1, with ARGS on scenario SCN over $URL (keys KEYS), each writing
+# DIR/node<i>.json and .log; waits for all, the wall time into DIR/wall_s.
+# 1 if any failed.
+run_tw_nodes() {
+  local n=$1 dir=$2 node=$3 scn=$4 keys=$5 t0 i p rc=0
+  shift 5
+  t0=$(date +%s.%N)
+  for ((i = 0; i < n; ++i)); do
+    "$node" --url "$URL" --id $i "$@" --timeout 300 --quiet --key-dir "$keys" \
+      --output "$dir/node$i.json" "$scn" 2>"$dir/node$i.log" & pids+=($!)
+  done
+  for p in "${pids[@]}"; do wait "$p" || rc=1; done
+  wall_since "$t0" "$dir/wall_s"
+  pids=()
+  return $rc
 }
 
 # demo_mode NAME UNIT FALLBACK OUTDIR: mode=udpm, or mode=inproc with

@@ -59,7 +59,6 @@
 # every process has its own --timeout, ctest a TIMEOUT.
 set -uo pipefail
 mode=$1 scn=$2 out=$3
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60            # per-process timeout, seconds
 DEADLINE_FLOOR_MS=300 # the fusion deadline's least (150 ms gave extra degraded steps at load 8)
 

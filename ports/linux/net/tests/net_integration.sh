@@ -26,7 +26,6 @@
 # script as a whole is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 scn=$2 out=$3
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60   # per-process timeout, seconds
 # Every node runs in every mode, so no step needs its deadline: a stalled
 # node (a loaded machine) only delays the run, as long as the process may run.

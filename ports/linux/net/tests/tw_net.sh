@@ -57,7 +57,6 @@
 # and the script is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 out=$2
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=120   # per-process timeout, seconds
 
 . "$(dirname "$0")/net_common.sh"

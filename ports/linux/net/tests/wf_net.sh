@@ -21,7 +21,6 @@
 # DKF_PYTHON DKF_NETNS DKF_GEN. Exit 77 (skip) when not root or without numpy.
 set -uo pipefail
 mode=$1 out=$2
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60            # per-process timeout, seconds
 DEADLINE_FLOOR_MS=300 # the fault tests' deadline's least (net_faults.sh)
 

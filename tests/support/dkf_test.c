@@ -447,13 +447,31 @@ void test_load_ui_step(test_ui_step_t *s, const json_t *st, int with_dyn)
         test_json_mat(test_json_get(st, "Q"), s->Q, sq, &s->Qm);
         test_json_mat(test_json_get(st, "B"), s->B, sq, &s->Bm);
         test_json_mat(test_json_get(st, "Rd"), s->Rd, sq, &s->Rdm);
-        s->dyn.F = &s->Fm, s->dyn.Q = &s->Qm, s->dyn.B = &s->Bm, s->dyn.Rd = &s->Rdm;
     }
     test_json_mat(test_json_get(st, "H"), s->H, sq, &s->Hm);
     test_json_mat(test_json_get(st, "A"), s->A, sq, &s->Am);
     test_json_mat(test_json_get(st, "R"), s->R, sq, &s->Rm);
     test_json_mat(test_json_get(st, "y"), s->y, TEST_UI_CAP, &s->ym);
+    test_ui_bind(s);
+}
+
+void test_ui_bind(test_ui_step_t *s)
+{
+    s->dyn.F = &s->Fm, s->dyn.Q = &s->Qm, s->dyn.B = &s->Bm, s->dyn.Rd = &s->Rdm;
     s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
+}
+
+void test_ui_model_at(test_ui_step_t *s, const json_t *dynamics, const json_t *sensor, size_t k)
+{
+    const size_t sq = TEST_UI_CAP * TEST_UI_CAP;
+    test_json_mat(test_json_model_at(dynamics, "F", k), s->F, sq, &s->Fm);
+    test_json_mat(test_json_model_at(dynamics, "Q", k), s->Q, sq, &s->Qm);
+    test_json_mat(test_json_model_at(sensor, "H", k), s->H, sq, &s->Hm);
+    test_json_mat(test_json_model_at(sensor, "A", k), s->A, sq, &s->Am);
+    test_json_mat(test_json_model_at(sensor, "R", k), s->R, sq, &s->Rm);
+    test_json_mat(test_json_model_at(sensor, "B", k), s->B, sq, &s->Bm);
+    test_json_mat(test_json_model_at(sensor, "Rd", k), s->Rd, sq, &s->Rdm);
+    test_ui_bind(s);
 }
 
 size_t test_json_flatten(const json_t *node, double *out, size_t cap)

@@ -133,7 +133,7 @@ json_t *test_json_get(const json_t *obj, const char *key);
 /* ---- one step of an unknown-input model (dkf/ui_model.h) from a vector -- */
 #include "dkf/ui_model.h"
 
-#define TEST_UI_CAP 6 /* largest n, m, n + p of the stress vectors */
+#define TEST_UI_CAP 9 /* largest n, m, n + p of the tests' models */
 typedef struct {
     dkf_real_t F[TEST_UI_CAP * TEST_UI_CAP], Q[TEST_UI_CAP * TEST_UI_CAP],
         B[TEST_UI_CAP * TEST_UI_CAP], Rd[TEST_UI_CAP * TEST_UI_CAP], H[TEST_UI_CAP * TEST_UI_CAP],
@@ -145,6 +145,11 @@ typedef struct {
 /* The measurement part (H, A, R, y) of the step node st, and the dynamics
  * (F, Q, B, Rd) if with_dyn. */
 void test_load_ui_step(test_ui_step_t *s, const json_t *st, int with_dyn);
+/* dyn and meas pointed at the step's matrices. */
+void test_ui_bind(test_ui_step_t *s);
+/* F, Q of the model `dynamics` and H, A, R, B, Rd of the model `sensor`
+ * (test_json_model_at) at absolute k, bound; y untouched. */
+void test_ui_model_at(test_ui_step_t *s, const json_t *dynamics, const json_t *sensor, size_t k);
 /* The element of root's "cases" array whose "name" is `name` (fails the
  * test if none). */
 const json_t *test_json_case(const json_t *root, const char *name);

@@ -127,9 +127,9 @@ static void test_askf_otskf_pinned(void **state)
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t n = test_json_size(cs, "n");
+        const size_t m = test_json_size(cs, "m");
+        const size_t p = test_json_size(cs, "p");
         dkf_real_t xs[NM], Ps[NM * NM], ds[NM], Pds[NM * NM], Px[NM * NM], Pd[NM * NM];
         dkf_mat_t x0, P0, d0, Pd0, xv, dv, Pxv = test_view(n, n, Px), Pdv = test_view(p, p, Pd);
         errs_t wa = {{0, 0, 0, 0}, 0, 0}, wo = {{0, 0, 0, 0}, 0, 0};
@@ -213,7 +213,7 @@ static void test_info_pinned(void **state)
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
+        const size_t n = test_json_size(cs, "n");
         dkf_real_t xs[NM], Ps[NM * NM], F[NM * NM], Q[NM * NM];
         dkf_real_t C[NM * NM], R[NM * NM], z[NM], work[DKF_INFO_CONTRIB_WORK(NM, NM)];
         dkf_real_t iv[2][NM], Im[2][NM * NM];

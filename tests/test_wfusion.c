@@ -175,7 +175,7 @@ static void test_vector_steps(void **state)
     assert_int_equal(json_array_size(steps), 30);
     for (s = 0; s < json_array_size(steps); ++s) {
         const json_t *st = json_array_get(steps, s), *ex = test_json_get(st, "expected");
-        const size_t t = (size_t)json_integer_value(test_json_get(st, "t"));
+        const size_t t = test_json_size(st, "t");
         const int uniq = json_is_true(test_json_get(ex, "matrix_weights_unique"));
         dkf_real_t v;
         assert_int_equal(t, s + 1);

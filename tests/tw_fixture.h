@@ -83,9 +83,9 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
     const json_t *steps = test_json_get(root, "steps"), *nis = test_json_get(graph, "neighbours_incl_self");
     size_t e, l, k, i;
     memset(c, 0, sizeof *c);
-    c->N = (size_t)json_integer_value(test_json_get(dims, "N"));
+    c->N = test_json_size(dims, "N");
     c->steps = json_array_size(steps);
-    c->eta = (size_t)json_integer_value(test_json_get(root, "eta"));
+    c->eta = test_json_size(root, "eta");
     assert_true(c->N <= TW_NMAX && c->steps <= TW_STEPS);
     assert_int_equal(json_integer_value(test_json_get(dims, "n")), TW_N);
     assert_int_equal(json_integer_value(test_json_get(dims, "m")), TW_P); /* the file's m: inputs */

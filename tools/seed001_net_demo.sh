@@ -25,7 +25,7 @@ root=$(dirname "$here")
 build=$root/build/seed001-demo
 do_build=1 steps=100 inproc=0
 # URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
-# wall_since
+# wall_since, demo_auth_exit
 . "$root/ports/linux/net/tests/net_common.sh"
 demo_options seed001_net_demo.sh 22 "$@"
 
@@ -125,8 +125,4 @@ print(f"(one Monte-Carlo run, {len(X)} steps, T_p = 45; ARMSE: mean over the ste
       " publications per node per step (DONE and loss recovery excluded))")
 sys.exit(0 if ok else 1)
 PY
-rc=$?
-if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
-  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
-fi
-exit $rc
+demo_auth_exit $?

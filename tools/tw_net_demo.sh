@@ -27,7 +27,7 @@ build=$root/build/tw-net-demo
 do_build=1 nodes=36 steps=40 inproc=0
 tools=$root/ports/linux/net/tests
 # URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
-# wall_since
+# wall_since, demo_auth_exit
 . "$tools/net_common.sh"
 demo_options tw_net_demo.sh 24 "$@"
 
@@ -132,8 +132,4 @@ print("(RMSE: root mean over steps, nodes, components against the truth; z again
       " the 200-node rows: the graph and sensors of s003_200node_alg1.json, 100 steps simulated by tools/tw_example.py, in process only)")
 sys.exit(0 if ok else 1)
 PY
-rc=$?
-if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
-  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
-fi
-exit $rc
+demo_auth_exit $?

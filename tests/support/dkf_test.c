@@ -487,3 +487,8 @@ size_t test_json_flatten(const json_t *node, double *out, size_t cap)
         k += test_json_flatten(json_array_get(node, i), out + k, cap - k);
     return k;
 }
+
+size_t test_json_size(const json_t *obj, const char *key)
+{
+    return (size_t)json_integer_value(test_json_get(obj, key));
+}

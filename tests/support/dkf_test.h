@@ -127,6 +127,8 @@ const json_t *test_json_model_at(const json_t *model, const char *key, size_t k)
 /* Every number of a JSON number or nested list into out (cap doubles, row
  * major); fails the test on anything else or more than cap. The count. */
 size_t test_json_flatten(const json_t *node, double *out, size_t cap);
+/* The integer obj[key] as a size (test_json_get: the key must be there). */
+size_t test_json_size(const json_t *obj, const char *key);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
 

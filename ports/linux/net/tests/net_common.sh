@@ -197,5 +197,16 @@ demo_mode() {
   fi
 }
 
+# demo_auth_exit RC: exits with RC, or 1 when the processes ran (mode udpm)
+# and tools/auth_summary.py finds a datagram rejected in $out/proc*/node*.json
+# (every process authenticated with a key per edge: nothing may be rejected).
+demo_auth_exit() {
+  local rc=$1
+  if [[ $mode == udpm ]]; then
+    python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
+  fi
+  exit "$rc"
+}
+
 # wall_since T0 FILE: the seconds since T0 (date +%s.%N) into FILE.
 wall_since() { echo "$(date +%s.%N) - $1" | bc > "$2"; }

@@ -9,8 +9,10 @@
  * before the call; after a call that succeeds, the state is finite (and a
  * covariance the module keeps symmetric is exactly symmetric). A broken
  * property calls __builtin_trap(), which libFuzzer reports as a crash and
- * the corpus replay as a failed test. Header-only: a harness links the dkf
- * library, libc and libm, nothing else.
+ * the corpus replay as a failed test. A one-filter harness is a table of
+ * operations that fz_run drives (FZ_HARNESS defines its entry point).
+ * Header-only: a harness links the dkf library, libc and libm, nothing
+ * else.
  */
 #ifndef DKF_FUZZ_CORE_H
 #define DKF_FUZZ_CORE_H

@@ -58,38 +58,6 @@ typedef struct {
     DKF_OTSKF_DECLARE(, o, NMAX, MMAX, PMAX);
 } otskf_box_t;
 
-/* One model (dynamics and measurement) in the library's real type. */
-typedef struct {
-    dkf_real_t F[CAP], Q[CAP], H[CAP], A[CAP], R[CAP], B[CAP], Rd[CAP], y[MMAX];
-    dkf_mat_t mF, mQ, mH, mA, mR, mB, mRd, my;
-    dkf_ui_dyn_t dyn;
-    dkf_ui_meas_t meas;
-} model_t;
-
-static void bind_model(model_t *s)
-{
-    s->dyn.F = &s->mF;
-    s->dyn.Q = &s->mQ;
-    s->dyn.B = &s->mB;
-    s->dyn.Rd = &s->mRd;
-    s->meas.H = &s->mH;
-    s->meas.D = &s->mA;
-    s->meas.R = &s->mR;
-}
-
-/* The ex1 model at absolute k (dynamics k -> k+1, measurement at k). */
-static void load_model(model_t *s, const json_t *model, size_t k)
-{
-    test_json_mat(test_json_model_at(model, "F", k), s->F, CAP, &s->mF);
-    test_json_mat(test_json_model_at(model, "Q", k), s->Q, CAP, &s->mQ);
-    test_json_mat(test_json_model_at(model, "H", k), s->H, CAP, &s->mH);
-    test_json_mat(test_json_model_at(model, "A", k), s->A, CAP, &s->mA);
-    test_json_mat(test_json_model_at(model, "R", k), s->R, CAP, &s->mR);
-    test_json_mat(test_json_model_at(model, "B", k), s->B, CAP, &s->mB);
-    test_json_mat(test_json_model_at(model, "Rd", k), s->Rd, CAP, &s->mRd);
-    bind_model(s);
-}
-
 static void compare(const char *what, const dkf_real_t *got, size_t cnt_got, const json_t *out,
                     const char *key, size_t j)
 {
@@ -126,7 +94,7 @@ static void ex1_load(ex1_t *e)
 static void test_askf_matches_ex1_vector(void **state)
 {
     static askf_box_t b;
-    static model_t md;
+    static test_ui_step_t md;
     ex1_t e;
     const json_t *out;
     dkf_real_t Px[CAP];
@@ -136,24 +104,24 @@ static void test_askf_matches_ex1_vector(void **state)
     ex1_load(&e);
     out = test_json_get(test_json_get(e.root, "outputs"), "ASKF");
     test_reset_worst_rel();
-    load_model(&md, e.model, 0);
-    n = md.mF.rows, m = md.mH.rows, p = md.mB.rows, N = n + p;
+    test_ui_model_at(&md, e.model, e.model, 0);
+    n = md.Fm.rows, m = md.Hm.rows, p = md.Bm.rows, N = n + p;
     mPx = test_view(n, n, Px);
     assert_int_equal(dkf_askf_init(&b.a, n, m, p, b.a_storage, DKF_ASKF_STORAGE_LEN(NMAX, MMAX, PMAX),
                                    &e.mx0, &e.mP0, &e.md0, &e.mPd0, NULL),
                      DKF_OK);
     for (j = 0; j < e.N; ++j) {
         const size_t k = j + 1;
-        load_model(&md, e.model, k - 1);
+        test_ui_model_at(&md, e.model, e.model, k - 1);
         assert_int_equal(dkf_askf_predict(&b.a, &md.dyn), DKF_OK);
         assert_int_equal(dkf_askf_state(&b.a, &x, &mPx), DKF_OK);
         compare("ASKF Xp", b.a.kf.x.data, N, out, "Xp", j);
         compare("ASKF PXp", b.a.kf.P.data, N * N, out, "PXp", j);
         compare("ASKF xp", x.data, n, out, "xp", j);
         compare("ASKF Pp", Px, n * n, out, "Pp", j);
-        load_model(&md, e.model, k);
-        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.my); /* y_k */
-        assert_int_equal(dkf_askf_update(&b.a, &md.meas, &md.my), DKF_OK);
+        test_ui_model_at(&md, e.model, e.model, k);
+        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.ym); /* y_k */
+        assert_int_equal(dkf_askf_update(&b.a, &md.meas, &md.ym), DKF_OK);
         assert_int_equal(dkf_askf_state(&b.a, &x, &mPx), DKF_OK);
         compare("ASKF Xf", b.a.kf.x.data, N, out, "Xf", j);
         compare("ASKF PXf", b.a.kf.P.data, N * N, out, "PXf", j);
@@ -168,7 +136,7 @@ static void test_askf_matches_ex1_vector(void **state)
 static void test_otskf_matches_ex1_vector(void **state)
 {
     static otskf_box_t b;
-    static model_t md;
+    static test_ui_step_t md;
     ex1_t e;
     const json_t *out;
     size_t j, n, m, p;
@@ -176,15 +144,15 @@ static void test_otskf_matches_ex1_vector(void **state)
     ex1_load(&e);
     out = test_json_get(test_json_get(e.root, "outputs"), "OTSKF");
     test_reset_worst_rel();
-    load_model(&md, e.model, 0);
-    n = md.mF.rows, m = md.mH.rows, p = md.mB.rows;
+    test_ui_model_at(&md, e.model, e.model, 0);
+    n = md.Fm.rows, m = md.Hm.rows, p = md.Bm.rows;
     assert_int_equal(dkf_otskf_init(&b.o, n, m, p, b.o_storage,
                                     DKF_OTSKF_STORAGE_LEN(NMAX, MMAX, PMAX), &e.mx0, &e.mP0,
                                     &e.md0, &e.mPd0),
                      DKF_OK);
     for (j = 0; j < e.N; ++j) {
         const size_t k = j + 1;
-        load_model(&md, e.model, k - 1);
+        test_ui_model_at(&md, e.model, e.model, k - 1);
         assert_int_equal(dkf_otskf_predict(&b.o, &md.dyn), DKF_OK);
         compare("OTSKF xtp", b.o.xt.data, n, out, "xtp", j);
         compare("OTSKF Pxp", b.o.Px.data, n * n, out, "Pxp", j);
@@ -193,9 +161,9 @@ static void test_otskf_matches_ex1_vector(void **state)
         compare("OTSKF U", b.o.U.data, n * p, out, "U", j);
         compare("OTSKF xp", b.o.x.data, n, out, "xp", j);
         compare("OTSKF Pp", b.o.P.data, n * n, out, "Pp", j);
-        load_model(&md, e.model, k);
-        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.my); /* y_k */
-        assert_int_equal(dkf_otskf_update(&b.o, &md.meas, &md.my), DKF_OK);
+        test_ui_model_at(&md, e.model, e.model, k);
+        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.ym); /* y_k */
+        assert_int_equal(dkf_otskf_update(&b.o, &md.meas, &md.ym), DKF_OK);
         compare("OTSKF xtf", b.o.xt.data, n, out, "xtf", j);
         compare("OTSKF Pxf", b.o.Px.data, n * n, out, "Pxf", j);
         compare("OTSKF df", b.o.d.data, p, out, "df", j);
@@ -218,7 +186,7 @@ static double uniform(test_rng_t *r, double lo, double hi)
 /* A fresh random model of dimensions (n, m, p): every matrix changes at
  * every call. F and B have singular values in [0.5, 1.05] and [0.5, 1.2]
  * (B nonsingular, d mildly unstable at times), A full column rank. */
-static void random_model(test_rng_t *r, model_t *s, size_t n, size_t m, size_t p)
+static void random_model(test_rng_t *r, test_ui_step_t *s, size_t n, size_t m, size_t p)
 {
     double t[CAP], sv[NMAX];
     size_t i;
@@ -243,15 +211,15 @@ static void random_model(test_rng_t *r, model_t *s, size_t n, size_t m, size_t p
     test_rand_gauss(r, t, m, 1);
     for (i = 0; i < m; ++i) t[i] *= 5.0;
     test_to_real(s->y, t, m);
-    s->mF = test_view(n, n, s->F);
-    s->mQ = test_view(n, n, s->Q);
-    s->mB = test_view(p, p, s->B);
-    s->mRd = test_view(p, p, s->Rd);
-    s->mH = test_view(m, n, s->H);
-    s->mA = test_view(m, p, s->A);
-    s->mR = test_view(m, m, s->R);
-    s->my = test_view(m, 1, s->y);
-    bind_model(s);
+    s->Fm = test_view(n, n, s->F);
+    s->Qm = test_view(n, n, s->Q);
+    s->Bm = test_view(p, p, s->B);
+    s->Rdm = test_view(p, p, s->Rd);
+    s->Hm = test_view(m, n, s->H);
+    s->Am = test_view(m, p, s->A);
+    s->Rm = test_view(m, m, s->R);
+    s->ym = test_view(m, 1, s->y);
+    test_ui_bind(s);
 }
 
 /* Asserts the OTSKF's x, P, d, P^d equal the ASKF's blocks. */
@@ -289,7 +257,7 @@ static void test_otskf_equals_askf_random(void **state)
                                      {2, 3, 3}, {1, 1, 1}, {4, 5, 2}};
     static askf_box_t ab;
     static otskf_box_t ob;
-    static model_t md;
+    static test_ui_step_t md;
     test_rng_t r;
     size_t c, k;
     (void)state;
@@ -324,13 +292,13 @@ static void test_otskf_equals_askf_random(void **state)
             assert_int_equal(dkf_otskf_predict(&ob.o, &md.dyn), DKF_OK);
             compare_otskf_askf("predict", &ob.o, &ab.a);
             if (k % 7 == 3) continue; /* no measurement at k */
-            assert_int_equal(dkf_askf_update(&ab.a, &md.meas, &md.my), DKF_OK);
-            assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.my), DKF_OK);
+            assert_int_equal(dkf_askf_update(&ab.a, &md.meas, &md.ym), DKF_OK);
+            assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.ym), DKF_OK);
             compare_otskf_askf("update", &ob.o, &ab.a);
             if (k % 5 == 2) {
                 random_model(&r, &md, n, m, p); /* a second sensor at k */
-                assert_int_equal(dkf_askf_update(&ab.a, &md.meas, &md.my), DKF_OK);
-                assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.my), DKF_OK);
+                assert_int_equal(dkf_askf_update(&ab.a, &md.meas, &md.ym), DKF_OK);
+                assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.ym), DKF_OK);
                 compare_otskf_askf("second update", &ob.o, &ab.a);
             }
         }
@@ -341,7 +309,7 @@ static void test_otskf_equals_askf_random(void **state)
 /* ---- failure atomicity --------------------------------------------------- */
 
 /* A small fixed model (n, m, p) = (3, 2, 2) for the failure tests. */
-static void fixed_model(model_t *s)
+static void fixed_model(test_ui_step_t *s)
 {
     static const dkf_real_t F[] = {DKF_R(1.0), DKF_R(0.5), DKF_R(0.0), DKF_R(0.0), DKF_R(1.0),
                                    DKF_R(0.2), DKF_R(0.1), DKF_R(0.0), DKF_R(0.9)};
@@ -362,15 +330,15 @@ static void fixed_model(model_t *s)
     memcpy(s->A, A, sizeof A);
     memcpy(s->R, R, sizeof R);
     memcpy(s->y, y, sizeof y);
-    s->mF = test_view(3, 3, s->F);
-    s->mQ = test_view(3, 3, s->Q);
-    s->mB = test_view(2, 2, s->B);
-    s->mRd = test_view(2, 2, s->Rd);
-    s->mH = test_view(2, 3, s->H);
-    s->mA = test_view(2, 2, s->A);
-    s->mR = test_view(2, 2, s->R);
-    s->my = test_view(2, 1, s->y);
-    bind_model(s);
+    s->Fm = test_view(3, 3, s->F);
+    s->Qm = test_view(3, 3, s->Q);
+    s->Bm = test_view(2, 2, s->B);
+    s->Rdm = test_view(2, 2, s->Rd);
+    s->Hm = test_view(2, 3, s->H);
+    s->Am = test_view(2, 2, s->A);
+    s->Rm = test_view(2, 2, s->R);
+    s->ym = test_view(2, 1, s->y);
+    test_ui_bind(s);
 }
 
 static dkf_real_t bad_value(int kind)
@@ -392,7 +360,7 @@ typedef struct {
 
 /* Corrupts a copy of the fixed model for failure case i; returns 0 when
  * there are no more cases. `askf` selects the ASKF's list. */
-static int make_failure(size_t i, int askf, model_t *md, failure_t *fl)
+static int make_failure(size_t i, int askf, test_ui_step_t *md, failure_t *fl)
 {
     fixed_model(md);
     switch (i) {
@@ -401,11 +369,11 @@ static int make_failure(size_t i, int askf, model_t *md, failure_t *fl)
     case 2: md->B[3] = bad_value(0), *fl = (failure_t){"NaN in B", CALL_PREDICT, DKF_ERR_NONFINITE}; break;
     case 3: md->Rd[1] = bad_value(0), *fl = (failure_t){"NaN in Rd", CALL_PREDICT, DKF_ERR_NONFINITE}; break;
     case 4:
-        md->mB = test_view(1, 4, md->B);
+        md->Bm = test_view(1, 4, md->B);
         *fl = (failure_t){"B 1 x 4", CALL_PREDICT, DKF_ERR_DIM};
         break;
     case 5:
-        md->mF = test_view(3, 2, md->F);
+        md->Fm = test_view(3, 2, md->F);
         *fl = (failure_t){"F 3 x 2", CALL_PREDICT, DKF_ERR_DIM};
         break;
     case 6:
@@ -426,15 +394,15 @@ static int make_failure(size_t i, int askf, model_t *md, failure_t *fl)
                           DKF_ERR_NOT_SPD};
         break;
     case 12:
-        md->my = test_view(3, 1, md->y);
+        md->ym = test_view(3, 1, md->y);
         *fl = (failure_t){"y 3 x 1", CALL_UPDATE, DKF_ERR_DIM};
         break;
     case 13:
-        md->mA = test_view(2, 1, md->A);
+        md->Am = test_view(2, 1, md->A);
         *fl = (failure_t){"A 2 x 1", CALL_UPDATE, DKF_ERR_DIM};
         break;
     case 14:
-        md->mH = test_view(2, 2, md->H);
+        md->Hm = test_view(2, 2, md->H);
         *fl = (failure_t){"H 2 x 2", CALL_UPDATE, DKF_ERR_DIM};
         break;
     case 15:
@@ -466,7 +434,7 @@ static int make_failure(size_t i, int askf, model_t *md, failure_t *fl)
 static void test_otskf_failure_atomicity(void **state)
 {
     static otskf_box_t fb, tb;
-    static model_t good, md;
+    static test_ui_step_t good, md;
     static dkf_real_t snap[DKF_OTSKF_STATE_LEN(NMAX, PMAX)], snapA[2 * 2];
     dkf_real_t x0[3] = {DKF_R(1.0), DKF_R(-2.0), DKF_R(0.5)}, d0[2] = {DKF_R(0.3), DKF_R(-0.1)};
     dkf_real_t P0[9] = {DKF_R(2.0), DKF_R(0.3), DKF_R(0.0), DKF_R(0.3), DKF_R(1.0),
@@ -490,9 +458,9 @@ static void test_otskf_failure_atomicity(void **state)
                                             &mPd0),
                              DKF_OK);
             assert_int_equal(dkf_otskf_predict(&fb.o, &good.dyn), DKF_OK);
-            assert_int_equal(dkf_otskf_update(&fb.o, &good.meas, &good.my), DKF_OK);
+            assert_int_equal(dkf_otskf_update(&fb.o, &good.meas, &good.ym), DKF_OK);
             assert_int_equal(dkf_otskf_predict(&tb.o, &good.dyn), DKF_OK);
-            assert_int_equal(dkf_otskf_update(&tb.o, &good.meas, &good.my), DKF_OK);
+            assert_int_equal(dkf_otskf_update(&tb.o, &good.meas, &good.ym), DKF_OK);
             if (phase == 1) {
                 assert_int_equal(dkf_otskf_predict(&fb.o, &good.dyn), DKF_OK);
                 assert_int_equal(dkf_otskf_predict(&tb.o, &good.dyn), DKF_OK);
@@ -503,7 +471,7 @@ static void test_otskf_failure_atomicity(void **state)
             if (fl.call == CALL_PREDICT)
                 assert_int_equal(dkf_otskf_predict(&fb.o, &md.dyn), fl.st);
             else
-                assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), fl.st);
+                assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.ym), fl.st);
             if (memcmp(snap, fb.o_storage, slen * sizeof(dkf_real_t)) != 0 ||
                 memcmp(snapA, fb.o.priv.D_ok, sizeof snapA) != 0 ||
                 memcmp(&before, &fb.o, sizeof before) != 0) {
@@ -511,8 +479,8 @@ static void test_otskf_failure_atomicity(void **state)
                 fail();
             }
             /* the failed filter continues exactly like its twin */
-            assert_int_equal(dkf_otskf_update(&fb.o, &good.meas, &good.my), DKF_OK);
-            assert_int_equal(dkf_otskf_update(&tb.o, &good.meas, &good.my), DKF_OK);
+            assert_int_equal(dkf_otskf_update(&fb.o, &good.meas, &good.ym), DKF_OK);
+            assert_int_equal(dkf_otskf_update(&tb.o, &good.meas, &good.ym), DKF_OK);
             assert_int_equal(dkf_otskf_predict(&fb.o, &good.dyn), DKF_OK);
             assert_int_equal(dkf_otskf_predict(&tb.o, &good.dyn), DKF_OK);
             assert_memory_equal(fb.o_storage, tb.o_storage, slen * sizeof(dkf_real_t));
@@ -528,7 +496,7 @@ static void test_otskf_failure_atomicity(void **state)
 static void test_otskf_rank_memo(void **state)
 {
     static otskf_box_t fb, tb;
-    static model_t md, bad;
+    static test_ui_step_t md, bad;
     dkf_real_t x0[3] = {DKF_R(1.0), DKF_R(-2.0), DKF_R(0.5)}, d0[2] = {DKF_R(0.3), DKF_R(-0.1)};
     dkf_real_t P0[9] = {DKF_R(2.0), DKF_R(0.3), DKF_R(0.0), DKF_R(0.3), DKF_R(1.0),
                         DKF_R(0.1), DKF_R(0.0), DKF_R(0.1), DKF_R(0.5)};
@@ -550,10 +518,10 @@ static void test_otskf_rank_memo(void **state)
     for (k = 0; k < 5; ++k) {
         assert_int_equal(dkf_otskf_predict(&fb.o, &md.dyn), DKF_OK);
         assert_int_equal(dkf_otskf_predict(&tb.o, &md.dyn), DKF_OK);
-        assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.my), DKF_OK);
+        assert_int_equal(dkf_otskf_update(&fb.o, &md.meas, &md.ym), DKF_OK);
         memcpy(Acopy, md.A, sizeof Acopy);
         tb.o.priv.d_checked = 0; /* the twin checks every step */
-        assert_int_equal(dkf_otskf_update(&tb.o, &fresh, &md.my), DKF_OK);
+        assert_int_equal(dkf_otskf_update(&tb.o, &fresh, &md.ym), DKF_OK);
         assert_memory_equal(fb.o_storage, tb.o_storage,
                             DKF_OTSKF_STATE_LEN(3, 2) * sizeof(dkf_real_t));
     }
@@ -563,20 +531,20 @@ static void test_otskf_rank_memo(void **state)
     fixed_model(&bad);
     bad.A[1] = DKF_R(2.0) * bad.A[0];
     bad.A[3] = DKF_R(2.0) * bad.A[2];
-    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.my), DKF_ERR_RANK);
+    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.ym), DKF_ERR_RANK);
     /* a new full-rank A in an update that fails later (R = -I): not remembered */
     fixed_model(&bad);
     bad.A[1] = DKF_R(0.25);
     bad.R[0] = bad.R[3] = DKF_R(-1.0);
     bad.R[1] = bad.R[2] = DKF_R(0.0);
-    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.my), DKF_ERR_NOT_SPD);
+    assert_int_equal(dkf_otskf_update(&fb.o, &bad.meas, &bad.ym), DKF_ERR_NOT_SPD);
     assert_memory_equal(fb.o.priv.D_ok, md.A, 4 * sizeof(dkf_real_t));
 }
 
 static void test_askf_failure_atomicity(void **state)
 {
     static askf_box_t fb, tb;
-    static model_t good, md;
+    static test_ui_step_t good, md;
     static dkf_real_t snap[DKF_ASKF_STORAGE_LEN(NMAX, MMAX, PMAX)];
     dkf_real_t x0[3] = {DKF_R(1.0), DKF_R(-2.0), DKF_R(0.5)}, d0[2] = {DKF_R(0.3), DKF_R(-0.1)};
     dkf_real_t P0[9] = {DKF_R(2.0), DKF_R(0.3), DKF_R(0.0), DKF_R(0.3), DKF_R(1.0),
@@ -601,15 +569,15 @@ static void test_askf_failure_atomicity(void **state)
                                        &mPd0, &mPxd0),
                          DKF_OK);
         assert_int_equal(dkf_askf_predict(&fb.a, &good.dyn), DKF_OK);
-        assert_int_equal(dkf_askf_update(&fb.a, &good.meas, &good.my), DKF_OK);
+        assert_int_equal(dkf_askf_update(&fb.a, &good.meas, &good.ym), DKF_OK);
         assert_int_equal(dkf_askf_predict(&tb.a, &good.dyn), DKF_OK);
-        assert_int_equal(dkf_askf_update(&tb.a, &good.meas, &good.my), DKF_OK);
+        assert_int_equal(dkf_askf_update(&tb.a, &good.meas, &good.ym), DKF_OK);
         memcpy(&before, &fb.a, sizeof before);
         memcpy(snap, fb.a_storage, slen * sizeof(dkf_real_t));
         if (fl.call == CALL_PREDICT)
             assert_int_equal(dkf_askf_predict(&fb.a, &md.dyn), fl.st);
         else
-            assert_int_equal(dkf_askf_update(&fb.a, &md.meas, &md.my), fl.st);
+            assert_int_equal(dkf_askf_update(&fb.a, &md.meas, &md.ym), fl.st);
         if (memcmp(snap, fb.a_storage, slen * sizeof(dkf_real_t)) != 0 ||
             memcmp(&before, &fb.a, sizeof before) != 0) {
             print_error("ASKF state changed by failing call: %s\n", fl.what);
@@ -617,8 +585,8 @@ static void test_askf_failure_atomicity(void **state)
         }
         assert_int_equal(dkf_askf_predict(&fb.a, &good.dyn), DKF_OK);
         assert_int_equal(dkf_askf_predict(&tb.a, &good.dyn), DKF_OK);
-        assert_int_equal(dkf_askf_update(&fb.a, &good.meas, &good.my), DKF_OK);
-        assert_int_equal(dkf_askf_update(&tb.a, &good.meas, &good.my), DKF_OK);
+        assert_int_equal(dkf_askf_update(&fb.a, &good.meas, &good.ym), DKF_OK);
+        assert_int_equal(dkf_askf_update(&tb.a, &good.meas, &good.ym), DKF_OK);
         assert_memory_equal(fb.a_storage, tb.a_storage, slen * sizeof(dkf_real_t));
     }
     assert_true(i == 16);
@@ -649,7 +617,7 @@ static void test_init_and_argument_errors(void **state)
     const size_t olen = DKF_OTSKF_STORAGE_LEN(3, 2, 2), alen = DKF_ASKF_STORAGE_LEN(3, 2, 2);
     dkf_otskf_t osent;
     dkf_askf_t asent;
-    model_t md;
+    test_ui_step_t md;
     (void)state;
     fixed_model(&md);
     memset(&osent, 0x5a, sizeof osent);
@@ -673,7 +641,7 @@ static void test_init_and_argument_errors(void **state)
     /* before init */
     memset(&ob.o, 0, sizeof ob.o);
     assert_int_equal(dkf_otskf_predict(&ob.o, &md.dyn), DKF_ERR_STATE);
-    assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.my), DKF_ERR_STATE);
+    assert_int_equal(dkf_otskf_update(&ob.o, &md.meas, &md.ym), DKF_ERR_STATE);
 
     /* ASKF: exact storage, P^a indefinite through Pxd0, n + p too large */
     memcpy(&ab.a, &asent, sizeof asent);

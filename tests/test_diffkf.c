@@ -34,34 +34,6 @@ typedef struct {
     DKF_DIFFKF_DECLARE(, f, NX, NY, NP);
 } dkf_box_t;
 
-/* The model of one sensor (or of the stacked sensors) at absolute k. */
-typedef struct {
-    dkf_real_t F[CAP], Q[CAP], H[CAP], A[CAP], R[CAP], B[CAP], Rd[CAP];
-    dkf_mat_t mF, mQ, mH, mA, mR, mB, mRd;
-    dkf_ui_dyn_t dyn;
-    dkf_ui_meas_t meas;
-} model_t;
-
-/* dyn = dynamics at k from `dynamics` (F, Q) and `sensor` (B, Rd); meas =
- * the sensor's (H, A, R) at k. ex1 keeps all seven in one object. */
-static void load_model(model_t *s, const json_t *dynamics, const json_t *sensor, size_t k)
-{
-    test_json_mat(test_json_model_at(dynamics, "F", k), s->F, CAP, &s->mF);
-    test_json_mat(test_json_model_at(dynamics, "Q", k), s->Q, CAP, &s->mQ);
-    test_json_mat(test_json_model_at(sensor, "H", k), s->H, CAP, &s->mH);
-    test_json_mat(test_json_model_at(sensor, "A", k), s->A, CAP, &s->mA);
-    test_json_mat(test_json_model_at(sensor, "R", k), s->R, CAP, &s->mR);
-    test_json_mat(test_json_model_at(sensor, "B", k), s->B, CAP, &s->mB);
-    test_json_mat(test_json_model_at(sensor, "Rd", k), s->Rd, CAP, &s->mRd);
-    s->dyn.F = &s->mF;
-    s->dyn.Q = &s->mQ;
-    s->dyn.B = &s->mB;
-    s->dyn.Rd = &s->mRd;
-    s->meas.H = &s->mH;
-    s->meas.D = &s->mA;
-    s->meas.R = &s->mR;
-}
-
 static void compare(const char *what, const dkf_mat_t *got, const json_t *out, const char *key,
                     size_t j)
 {
@@ -77,25 +49,25 @@ static void run_against(dkf_box_t *b, const json_t *root, const json_t *dynamics
                         const json_t *sensor, const json_t *yvals, const json_t *P00,
                         const json_t *out)
 {
-    static model_t mk, mk1;
+    static test_ui_step_t mk, mk1;
     dkf_real_t xs[NX], Ps[CAP], ys[NY];
     dkf_mat_t x0, P0, y;
     size_t N = json_array_size(test_json_get(root, "k")), j;
     test_json_mat(test_json_get(test_json_get(root, "init"), "x00"), xs, NX, &x0);
     test_json_mat(P00, Ps, CAP, &P0);
-    load_model(&mk1, dynamics, sensor, 1);
-    load_model(&mk, dynamics, sensor, 0);
-    assert_int_equal(dkf_diffkf_init(&b->f, x0.rows, mk1.mH.rows, mk1.mA.cols, b->f_storage,
+    test_ui_model_at(&mk1, dynamics, sensor, 1);
+    test_ui_model_at(&mk, dynamics, sensor, 0);
+    assert_int_equal(dkf_diffkf_init(&b->f, x0.rows, mk1.Hm.rows, mk1.Am.cols, b->f_storage,
                                      DKF_DIFFKF_STORAGE_LEN(NX, NY, NP), &x0, &P0),
                      DKF_OK);
     test_json_mat(json_array_get(yvals, 0), ys, NY, &y); /* y_1 */
-    assert_int_equal(dkf_diffkf_start(&b->f, &mk.mF, &mk.mQ, &mk1.meas, &y), DKF_OK);
+    assert_int_equal(dkf_diffkf_start(&b->f, &mk.Fm, &mk.Qm, &mk1.meas, &y), DKF_OK);
     for (j = 0; j < N; ++j) {
         const size_t k = j + 1;
         compare("DKF xp", &b->f.xn, out, "xp", j);
         compare("DKF Pp", &b->f.Pn, out, "Pp", j);
-        load_model(&mk, dynamics, sensor, k);
-        load_model(&mk1, dynamics, sensor, k + 1);
+        test_ui_model_at(&mk, dynamics, sensor, k);
+        test_ui_model_at(&mk1, dynamics, sensor, k + 1);
         test_json_mat(json_array_get(yvals, k), ys, NY, &y); /* y_{k+1} */
         assert_int_equal(dkf_diffkf_step(&b->f, &mk.dyn, &mk1.meas, &y), DKF_OK);
         assert_int_equal(b->f.k, k);

@@ -206,7 +206,7 @@ static void open_scen(scen_t *sc, const char *file)
     sc->model = test_json_get(sc->root, "model");
     sc->out = test_json_get(sc->root, "outputs");
     dims = test_json_get(sc->root, "dims");
-    sc->n = (size_t)json_integer_value(test_json_get(dims, "m"));
+    sc->n = test_json_size(dims, "m");
     sc->l = json_array_size(test_json_get(dims, "p_i"));
     sc->N = json_array_size(test_json_get(sc->root, "k"));
     assert_true(sc->n <= NX && sc->l <= NL);

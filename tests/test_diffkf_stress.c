@@ -38,31 +38,6 @@
 #define NX 4 /* largest n = p in the vectors */
 #define MX 4 /* largest m */
 
-typedef struct {
-    dkf_real_t F[NX * NX], Q[NX * NX], B[NX * NX], Rd[NX * NX], H[MX * NX], A[MX * NX],
-        R[MX * MX], y[MX];
-    dkf_mat_t Fm, Qm, Bm, Rdm, Hm, Am, Rm, ym;
-    dkf_ui_dyn_t dyn;
-    dkf_ui_meas_t meas;
-} dkf_step_t;
-
-/* The measurement part (H, A, R, y) of node, and the dynamics if with_dyn. */
-static void load_step(dkf_step_t *s, const json_t *st, int with_dyn)
-{
-    if (with_dyn) {
-        test_json_mat(test_json_get(st, "F"), s->F, NX * NX, &s->Fm);
-        test_json_mat(test_json_get(st, "Q"), s->Q, NX * NX, &s->Qm);
-        test_json_mat(test_json_get(st, "B"), s->B, NX * NX, &s->Bm);
-        test_json_mat(test_json_get(st, "Rd"), s->Rd, NX * NX, &s->Rdm);
-        s->dyn.F = &s->Fm, s->dyn.Q = &s->Qm, s->dyn.B = &s->Bm, s->dyn.Rd = &s->Rdm;
-    }
-    test_json_mat(test_json_get(st, "H"), s->H, MX * NX, &s->Hm);
-    test_json_mat(test_json_get(st, "A"), s->A, MX * NX, &s->Am);
-    test_json_mat(test_json_get(st, "R"), s->R, MX * MX, &s->Rm);
-    test_json_mat(test_json_get(st, "y"), s->y, MX, &s->ym);
-    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
-}
-
 /* worst relative errors over a case: xf, Pf, xn, Pn */
 #define NOUT 4
 /* worst observed, [case][xf Pf xn Pn] (float n4_m4: every step OK and
@@ -84,16 +59,16 @@ static void test_diffkf_pinned(void **state)
     static const char *names[] = {"diffkf_n3_m4", "diffkf_n4_m4"};
     static const char *const what[NOUT] = {"xf", "Pf", "xn", "Pn"};
     static dkf_box_t b;
-    static dkf_step_t s;
+    static test_ui_step_t s;
     static dkf_real_t snap[DKF_DIFFKF_STATE_LEN(NX, MX, NX)];
     json_t *root = test_load_vector("stress/diffkf.json");
     size_t c;
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t n = test_json_size(cs, "n");
+        const size_t m = test_json_size(cs, "m");
+        const size_t p = test_json_size(cs, "p");
         const size_t len = DKF_DIFFKF_STATE_LEN(n, m, p);
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
@@ -104,7 +79,7 @@ static void test_diffkf_pinned(void **state)
         assert_int_equal(dkf_diffkf_init(&b.f, n, m, p, b.f_storage,
                                          DKF_DIFFKF_STORAGE_LEN(n, m, p), &x0, &P0),
                          DKF_OK);
-        load_step(&s, test_json_get(cs, "meas1"), 0);
+        test_load_ui_step(&s, test_json_get(cs, "meas1"), 0);
         assert_int_equal(dkf_diffkf_start(&b.f, NULL, NULL, &s.meas, &s.ym), DKF_OK);
         for (j = 0; j < json_array_size(steps); ++j) {
             const json_t *st = json_array_get(steps, j);
@@ -112,7 +87,7 @@ static void test_diffkf_pinned(void **state)
             const double rho = json_number_value(test_json_get(st, "rho"));
             dkf_status_t rc;
             if (rho * k * k > rk2) rk2 = rho * k * k;
-            load_step(&s, st, 1);
+            test_load_ui_step(&s, st, 1);
             memcpy(snap, b.f_storage, len * sizeof *snap);
             rc = dkf_diffkf_step(&b.f, &s.dyn, &s.meas, &s.ym);
             if (rc == DKF_ERR_NOT_SPD && (DKF_USE_FLOAT || !DKF_JOSEPH)) {

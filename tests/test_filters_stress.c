@@ -48,32 +48,6 @@
 
 #define NM 6 /* largest n, m, n + p in the vectors */
 
-typedef struct {
-    dkf_real_t F[NM * NM], Q[NM * NM], B[NM * NM], Rd[NM * NM], H[NM * NM], A[NM * NM],
-        R[NM * NM], y[NM];
-    dkf_mat_t Fm, Qm, Bm, Rdm, Hm, Am, Rm, ym;
-    dkf_ui_dyn_t dyn;
-    dkf_ui_meas_t meas;
-    int has_dyn;
-} aug_step_t;
-
-static void load_aug_step(aug_step_t *s, const json_t *st)
-{
-    s->has_dyn = json_object_get(st, "F") != NULL;
-    if (s->has_dyn) {
-        test_json_mat(test_json_get(st, "F"), s->F, NM * NM, &s->Fm);
-        test_json_mat(test_json_get(st, "Q"), s->Q, NM * NM, &s->Qm);
-        test_json_mat(test_json_get(st, "B"), s->B, NM * NM, &s->Bm);
-        test_json_mat(test_json_get(st, "Rd"), s->Rd, NM * NM, &s->Rdm);
-        s->dyn.F = &s->Fm, s->dyn.Q = &s->Qm, s->dyn.B = &s->Bm, s->dyn.Rd = &s->Rdm;
-    }
-    test_json_mat(test_json_get(st, "H"), s->H, NM * NM, &s->Hm);
-    test_json_mat(test_json_get(st, "A"), s->A, NM * NM, &s->Am);
-    test_json_mat(test_json_get(st, "R"), s->R, NM * NM, &s->Rm);
-    test_json_mat(test_json_get(st, "y"), s->y, NM, &s->ym);
-    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
-}
-
 /* Worst relative errors of one filter over a case: x, P, d, Pd. */
 typedef struct {
     double e[4], kappa2, rho_kappa;
@@ -153,9 +127,9 @@ static void test_askf_otskf_pinned(void **state)
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "m"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t n = test_json_size(cs, "n");
+        const size_t m = test_json_size(cs, "m");
+        const size_t p = test_json_size(cs, "p");
         dkf_real_t xs[NM], Ps[NM * NM], ds[NM], Pds[NM * NM], Px[NM * NM], Pd[NM * NM];
         dkf_mat_t x0, P0, d0, Pd0, xv, dv, Pxv = test_view(n, n, Px), Pdv = test_view(p, p, Pd);
         errs_t wa = {{0, 0, 0, 0}, 0, 0}, wo = {{0, 0, 0, 0}, 0, 0};
@@ -173,9 +147,10 @@ static void test_askf_otskf_pinned(void **state)
                          DKF_OK);
         for (j = 0; j < json_array_size(steps); ++j) {
             const json_t *st = json_array_get(steps, j);
-            static aug_step_t s;
-            load_aug_step(&s, st);
-            if (s.has_dyn) assert_int_equal(dkf_askf_predict(&b.askf, &s.dyn), DKF_OK);
+            static test_ui_step_t s;
+            const int has_dyn = json_object_get(st, "F") != NULL;
+            test_load_ui_step(&s, st, has_dyn);
+            if (has_dyn) assert_int_equal(dkf_askf_predict(&b.askf, &s.dyn), DKF_OK);
             assert_int_equal(dkf_askf_update(&b.askf, &s.meas, &s.ym), DKF_OK);
             assert_int_equal(dkf_askf_state(&b.askf, &xv, &Pxv), DKF_OK);
             assert_int_equal(dkf_askf_input(&b.askf, &dv, &Pdv), DKF_OK);
@@ -185,7 +160,7 @@ static void test_askf_otskf_pinned(void **state)
                 const size_t len = DKF_OTSKF_STATE_LEN(n, p);
                 dkf_status_t sp = DKF_OK, su;
                 memcpy(snap, b.otskf_storage, len * sizeof *snap);
-                if (s.has_dyn) sp = dkf_otskf_predict(&b.otskf, &s.dyn);
+                if (has_dyn) sp = dkf_otskf_predict(&b.otskf, &s.dyn);
                 su = sp == DKF_OK ? dkf_otskf_update(&b.otskf, &s.meas, &s.ym) : sp;
                 if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD && sp == DKF_OK) {
                     /* refused: the state is that after the predict, which
@@ -238,7 +213,7 @@ static void test_info_pinned(void **state)
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
+        const size_t n = test_json_size(cs, "n");
         dkf_real_t xs[NM], Ps[NM * NM], F[NM * NM], Q[NM * NM];
         dkf_real_t C[NM * NM], R[NM * NM], z[NM], work[DKF_INFO_CONTRIB_WORK(NM, NM)];
         dkf_real_t iv[2][NM], Im[2][NM * NM];

@@ -83,31 +83,6 @@ static void test_kf_matches_ex1_vector(void **state)
 
 /* ---- an independent double-precision reference ------------------------ */
 
-/* Gauss-Jordan inverse with partial pivoting of the n x n A (n <= MMAX). */
-static void ref_inverse(double *Ainv, const double *A, size_t n)
-{
-    double M[MMAX * 2 * MMAX];
-    size_t i, j, c, w = 2 * n;
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < w; ++j) M[i * w + j] = j < n ? A[i * n + j] : (j - n == i ? 1.0 : 0.0);
-    for (c = 0; c < n; ++c) {
-        size_t p = c;
-        for (i = c + 1; i < n; ++i)
-            if (fabs(M[i * w + c]) > fabs(M[p * w + c])) p = i;
-        for (j = 0; j < w; ++j) {
-            double t = M[c * w + j];
-            M[c * w + j] = M[p * w + j];
-            M[p * w + j] = t;
-        }
-        for (j = w; j-- > 0;) M[c * w + j] /= M[c * w + c];
-        for (i = 0; i < n; ++i)
-            if (i != c)
-                for (j = w; j-- > c;) M[i * w + j] -= M[i * w + c] * M[c * w + j];
-    }
-    for (i = 0; i < n; ++i)
-        for (j = 0; j < n; ++j) Ainv[i * n + j] = M[i * w + n + j];
-}
-
 static void ref_transpose(double *T, const double *A, size_t r, size_t c)
 {
     size_t i, j;
@@ -133,7 +108,7 @@ static void ref_kf_step(double *x, double *P, const double *F, const double *Q, 
     test_ref_mul(PHt, P, Ht, n, n, m);
     test_ref_mul(S, H, PHt, m, n, m);
     for (i = 0; i < m * m; ++i) S[i] += R[i];
-    ref_inverse(Si, S, m);
+    test_ref_inverse_double(Si, S, m);
     test_ref_mul(K, PHt, Si, n, m, m);
     test_ref_mul(hx, H, x, m, n, 1);
     for (i = 0; i < m; ++i) hx[i] = y[i] - hx[i];
@@ -486,7 +461,7 @@ static void test_kf_monte_carlo_nees(void **state)
             for (i = 0; i < 4; ++i) e[i] = xt[i] - (double)b.kf.x.data[i];
             test_to_double(Pd, b.kf.P.data, 16);
             /* P^{-1} e by the 4x4 Gauss-Jordan of the reference (MMAX = 4) */
-            ref_inverse(Pi, Pd, 4);
+            test_ref_inverse_double(Pi, Pd, 4);
             test_ref_mul(Pinv_e, Pi, e, 4, 4, 1);
             for (i = 0; i < 4; ++i) nees_sum += e[i] * Pinv_e[i];
         }

@@ -64,7 +64,7 @@ static void run_case(const char *name, double *ex, double *eP, double *kappa2, d
     static kf_box_t b;
     json_t *root = test_load_vector("stress/kf.json");
     const json_t *c = test_json_case(root, name), *steps = test_json_get(c, "steps");
-    size_t n = (size_t)json_integer_value(test_json_get(c, "n")), j;
+    size_t n = test_json_size(c, "n"), j;
     double xr[NMAX], Pr[NMAX * NMAX];
     init_case(&b, c);
     *ex = *eP = *kappa2 = 0.0;
@@ -186,7 +186,7 @@ static void singular_case(const char *name)
     static kf_box_t b;
     json_t *root = test_load_vector("stress/kf.json");
     const json_t *c = test_json_case(root, name), *steps = test_json_get(c, "steps");
-    size_t n = (size_t)json_integer_value(test_json_get(c, "n")), j;
+    size_t n = test_json_size(c, "n"), j;
     dkf_real_t snap[NMAX + NMAX * NMAX];
     init_case(&b, c);
     for (j = 0; j < json_array_size(steps); ++j) {

@@ -101,45 +101,6 @@ static void update(double *worst, double r)
     if (!(r <= *worst)) *worst = r;
 }
 
-/* Xinv = A^{-1} (n x n) by Gauss-Jordan with partial pivoting in long
- * double: an independent reference for the inverse of a nonsingular A. */
-static void ref_inverse(long double *Xinv, const double *A, size_t n)
-{
-    static long double W[MAXSQ];
-    size_t i, j, k;
-    for (i = 0; i < n * n; ++i) {
-        W[i] = A[i];
-        Xinv[i] = (i / n == i % n) ? 1.0L : 0.0L;
-    }
-    for (k = 0; k < n; ++k) {
-        size_t p = k;
-        long double d;
-        for (i = k + 1; i < n; ++i)
-            if (fabsl(W[i * n + k]) > fabsl(W[p * n + k])) p = i;
-        for (j = 0; j < n; ++j) {
-            long double t = W[k * n + j];
-            W[k * n + j] = W[p * n + j];
-            W[p * n + j] = t;
-            t = Xinv[k * n + j];
-            Xinv[k * n + j] = Xinv[p * n + j];
-            Xinv[p * n + j] = t;
-        }
-        d = W[k * n + k];
-        for (j = 0; j < n; ++j) {
-            W[k * n + j] /= d;
-            Xinv[k * n + j] /= d;
-        }
-        for (i = 0; i < n; ++i) {
-            long double f = W[i * n + k];
-            if (i == k || f == 0) continue;
-            for (j = 0; j < n; ++j) {
-                W[i * n + j] -= f * W[k * n + j];
-                Xinv[i * n + j] -= f * Xinv[k * n + j];
-            }
-        }
-    }
-}
-
 /* ---- Cholesky ------------------------------------------------------------------ */
 
 static void test_chol_closed_form(void **state)
@@ -279,7 +240,11 @@ static void test_chol_residuals(void **state)
                 for (i = 0; i < n; ++i)
                     for (j = 0; j < i; ++j) assert_true(ry[i * n + j] == ry[j * n + i]);
                 test_to_double(dx, ry, n * n);
-                ref_inverse(res, da, n);
+                {
+                    static long double W[MAXSQ];
+                    for (i = 0; i < n * n; ++i) W[i] = da[i];
+                    test_ref_inverse(res, W, n); /* long double: independent */
+                }
                 {
                     double worst = 0, fwd = 0;
                     size_t k;

@@ -79,44 +79,6 @@ static void ltrans(long double *At, const long double *A, size_t r, size_t c)
         for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
 }
 
-/* Gauss-Jordan inverse with partial pivoting (m <= NMAX). */
-static void linv(long double *Ai, const long double *A, size_t m)
-{
-    long double W[SQ];
-    size_t i, j, k;
-    for (i = 0; i < m * m; ++i) {
-        W[i] = A[i];
-        Ai[i] = (i / m == i % m) ? 1.0L : 0.0L;
-    }
-    for (k = 0; k < m; ++k) {
-        size_t p = k;
-        long double d;
-        for (i = k + 1; i < m; ++i)
-            if (fabsl(W[i * m + k]) > fabsl(W[p * m + k])) p = i;
-        for (j = 0; j < m; ++j) {
-            long double t = W[k * m + j];
-            W[k * m + j] = W[p * m + j];
-            W[p * m + j] = t;
-            t = Ai[k * m + j];
-            Ai[k * m + j] = Ai[p * m + j];
-            Ai[p * m + j] = t;
-        }
-        d = W[k * m + k];
-        for (j = 0; j < m; ++j) {
-            W[k * m + j] /= d;
-            Ai[k * m + j] /= d;
-        }
-        for (i = 0; i < m; ++i) {
-            long double f = W[i * m + k];
-            if (i == k || f == 0) continue;
-            for (j = 0; j < m; ++j) {
-                W[i * m + j] -= f * W[k * m + j];
-                Ai[i * m + j] -= f * Ai[k * m + j];
-            }
-        }
-    }
-}
-
 static void tol(long double *d, const dkf_real_t *s, size_t n)
 {
     size_t i;
@@ -165,7 +127,7 @@ static double dare_residual(long double *phi, size_t n, size_t m)
     lmul(HX, H, X, m, n, n);
     lmul(S, HX, Ht, m, n, m);
     for (i = 0; i < m * m; ++i) S[i] += R[i];
-    linv(Si, S, m);
+    test_ref_inverse(Si, S, m); /* S is overwritten */
     lmul(T, X, Ht, n, n, m);  /* X H^T */
     lmul(K, T, Si, n, m, m);  /* K */
     lmul(T, K, HX, n, m, n);  /* K H X */

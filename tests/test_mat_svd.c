@@ -499,7 +499,7 @@ static void test_frd_golden(void **state)
         size_t p, m, pr, pc, nsv, k, rank = 999, want, i, j, l, chk;
         double hmax, tol_recon, tol_proj, kappa, e;
         dkf_mat_t mH, mAbar, mT;
-        want = (size_t)json_integer_value(test_json_get(cs, "rank"));
+        want = test_json_size(cs, "rank");
         test_json_array(test_json_get(cs, "H"), H, MAXN * MAXN, &p, &m);
         test_json_array(test_json_get(cs, "proj_TpT"), P, MAXN * MAXN, &pr, &pc);
         nsv = test_json_array(test_json_get(cs, "singular_values"), sv, MAXN, NULL, NULL);

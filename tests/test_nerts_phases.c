@@ -89,7 +89,7 @@ static void run_node(const char *tag, const json_t *c, size_t j)
     for (s = 0; s < json_array_size(steps); ++s) {
         const json_t *st = json_array_get(steps, s);
         const json_t *e = json_array_get(test_json_get(st, "expected_per_node"), j);
-        const size_t k = (size_t)json_integer_value(test_json_get(st, "k"));
+        const size_t k = test_json_size(st, "k");
         test_json_mat(json_array_get(test_json_get(st, "z"), j), zb, CAP, &z);
         assert_int_equal(dkf_nerts_predict(&f, &md, NULL, &Q), DKF_OK);
         assert_int_equal(dkf_nerts_local(&f, &md, NULL, &R, &z), DKF_OK);

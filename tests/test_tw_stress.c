@@ -107,8 +107,8 @@ static void test_tw_central_pinned(void **state)
     (void)state;
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "m")); /* the file's m: inputs */
+        const size_t n = test_json_size(cs, "n");
+        const size_t p = test_json_size(cs, "m"); /* the file's m: inputs */
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
         double w[NOUT] = {0, 0, 0, 0, 0}, k2 = 0, cS = 0, ext[2], ev[NOUT];

@@ -87,7 +87,7 @@ static size_t compare_block(const char *alg, size_t n_step, const json_t *exp,
             memcpy(gathered + used, v->data, v->rows * v->cols * sizeof(dkf_real_t));
             used += v->rows * v->cols;
         }
-        cnt = tw_flat(val, expect, sizeof expect / sizeof expect[0]);
+        cnt = test_json_flatten(val, expect, sizeof expect / sizeof expect[0]);
         assert_int_equal(cnt, used);
         snprintf(what, sizeof what, "%s step %zu field %s", alg, n_step, key);
         test_assert_close(what, gathered, expect, cnt, VEC_REL);

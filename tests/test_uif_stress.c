@@ -129,9 +129,9 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
     for (c = 0; c < 2; ++c) {
         const json_t *cs = test_json_case(root, names[c]);
         const json_t *steps = test_json_get(cs, "steps");
-        const size_t n = (size_t)json_integer_value(test_json_get(cs, "n"));
-        const size_t p = (size_t)json_integer_value(test_json_get(cs, "m"));
-        const size_t m = (size_t)json_integer_value(test_json_get(cs, "p"));
+        const size_t n = test_json_size(cs, "n");
+        const size_t p = test_json_size(cs, "m");
+        const size_t m = test_json_size(cs, "p");
         const size_t len = DKF_UIF_STATE_LEN(n, m, p);
         const json_t *rank = json_object_get(cs, "rank"); /* NRTSF, NRTSF-DF */
         dkf_real_t xs[NX], Ps[NX * NX];

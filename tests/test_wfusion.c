@@ -58,24 +58,10 @@ static json_t *root;
 static const json_t *cs;
 static double worst;
 
-/* Flattens a nested list of numbers into out (row-major); returns count. */
-static size_t flat(const json_t *node, double *out, size_t cap)
-{
-    size_t i, k = 0;
-    if (json_is_number(node)) {
-        assert_true(cap >= 1);
-        out[0] = json_number_value(node);
-        return 1;
-    }
-    assert_true(json_is_array(node));
-    for (i = 0; i < json_array_size(node); ++i) k += flat(json_array_get(node, i), out + k, cap - k);
-    return k;
-}
-
 static void load_real(const json_t *node, dkf_real_t *dst, size_t n)
 {
     static double tmp[CAP];
-    assert_int_equal(flat(node, tmp, CAP), n);
+    assert_int_equal(test_json_flatten(node, tmp, CAP), n);
     test_to_real(dst, tmp, n);
 }
 
@@ -87,8 +73,8 @@ static int setup(void **state)
     root = test_load_vector("infofusion/s2_weighted_fusion.json");
     cs = test_json_case(root, "seed002_5_sensors");
     load_real(test_json_get(cs, "Phi"), md.F, NX * NX);
-    assert_int_equal(flat(test_json_get(cs, "Gamma"), G, 8), 8);
-    assert_int_equal(flat(test_json_get(cs, "Qe"), Qe, 4), 4);
+    assert_int_equal(test_json_flatten(test_json_get(cs, "Gamma"), G, 8), 8);
+    assert_int_equal(test_json_flatten(test_json_get(cs, "Qe"), Qe, 4), 4);
     /* Q = Gamma Qe Gamma^T, in double then rounded once */
     for (a = 0; a < NX; ++a)
         for (b = 0; b < NX; ++b) {
@@ -144,7 +130,7 @@ static void cmp(const char *what, size_t t, const json_t *exp, const dkf_real_t 
     static double ref[CAP];
     char tag[96];
     double e, scale;
-    assert_int_equal(flat(exp, ref, CAP), n);
+    assert_int_equal(test_json_flatten(exp, ref, CAP), n);
     snprintf(tag, sizeof tag, "t=%zu %s", t, what);
     scale = test_max_abs(ref, n);
     e = test_max_abs_diff(got, ref, n) / (scale > 1 ? scale : 1);
@@ -189,7 +175,7 @@ static void test_vector_steps(void **state)
     assert_int_equal(json_array_size(steps), 30);
     for (s = 0; s < json_array_size(steps); ++s) {
         const json_t *st = json_array_get(steps, s), *ex = test_json_get(st, "expected");
-        const size_t t = (size_t)json_integer_value(test_json_get(st, "t"));
+        const size_t t = test_json_size(st, "t");
         const int uniq = json_is_true(test_json_get(ex, "matrix_weights_unique"));
         dkf_real_t v;
         assert_int_equal(t, s + 1);

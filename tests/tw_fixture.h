@@ -42,25 +42,10 @@ typedef struct {
     const json_t *steps_json;
 } tw_case_t;
 
-/* Flattens a nested list of numbers into out (cap doubles); returns count. */
-static inline size_t tw_flat(const json_t *node, double *out, size_t cap)
-{
-    size_t i, used = 0;
-    if (json_is_number(node)) {
-        assert_true(cap >= 1);
-        out[0] = json_number_value(node);
-        return 1;
-    }
-    assert_true(json_is_array(node));
-    for (i = 0; i < json_array_size(node); ++i)
-        used += tw_flat(json_array_get(node, i), out + used, cap - used);
-    return used;
-}
-
 static inline void tw_flat_real(const json_t *node, dkf_real_t *out, size_t expect)
 {
     static double tmp[TW_NNZ * 3];
-    assert_int_equal(tw_flat(node, tmp, sizeof tmp / sizeof tmp[0]), expect);
+    assert_int_equal(test_json_flatten(node, tmp, sizeof tmp / sizeof tmp[0]), expect);
     test_to_real(out, tmp, expect);
 }
 
@@ -98,9 +83,9 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
     const json_t *steps = test_json_get(root, "steps"), *nis = test_json_get(graph, "neighbours_incl_self");
     size_t e, l, k, i;
     memset(c, 0, sizeof *c);
-    c->N = (size_t)json_integer_value(test_json_get(dims, "N"));
+    c->N = test_json_size(dims, "N");
     c->steps = json_array_size(steps);
-    c->eta = (size_t)json_integer_value(test_json_get(root, "eta"));
+    c->eta = test_json_size(root, "eta");
     assert_true(c->N <= TW_NMAX && c->steps <= TW_STEPS);
     assert_int_equal(json_integer_value(test_json_get(dims, "n")), TW_N);
     assert_int_equal(json_integer_value(test_json_get(dims, "m")), TW_P); /* the file's m: inputs */
@@ -153,8 +138,8 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
         const json_t *truth = test_json_get(st, "truth");
         assert_int_equal(json_integer_value(test_json_get(st, "n")), k + 1);
         for (l = 0; l < c->N; ++l) tw_flat_real(json_array_get(ys, l), c->y[k][l], TW_M);
-        assert_int_equal(tw_flat(test_json_get(truth, "x"), c->xtrue[k], TW_N), TW_N);
-        assert_int_equal(tw_flat(test_json_get(truth, "z_prev"), c->zprev[k], TW_P), TW_P);
+        assert_int_equal(test_json_flatten(test_json_get(truth, "x"), c->xtrue[k], TW_N), TW_N);
+        assert_int_equal(test_json_flatten(test_json_get(truth, "z_prev"), c->zprev[k], TW_P), TW_P);
     }
     c->steps_json = steps;
 }

@@ -24,76 +24,34 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/seed001-demo
 do_build=1 steps=100 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
-tests=$root/ports/linux/net/tests
+# URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
+# wall_since, demo_auth_exit
+. "$root/ports/linux/net/tests/net_common.sh"
+demo_options seed001_net_demo.sh 22 "$@"
 
-while [[ $# -gt 0 ]]; do
-  case $1 in
-    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
-    --no-build) do_build=0; shift ;;
-    --steps) steps=$2; shift 2 ;;
-    --in-process) inproc=1; shift ;;
-    --inner) shift; break ;;   # internal: the processes, inside the namespace
-    -h|--help) sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    *) echo "seed001_net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
-  esac
-done
-
-# ---- inside the namespace: every radar its own process -------------------------------
-if [[ ${1:-} != "" && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 cs=$2 dir=$3 node=$4 keys=$5
-  if ip -o link | grep -qv ': lo:'; then
-    echo "seed001_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
-  fi
-  pids=()
-  trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
-  rm -rf "$dir" && mkdir -p "$dir"
-  t0=$(date +%s.%N)
-  for ((i = 0; i < 12; ++i)); do
-    "$node" --url "$URL" --id $i --filter df_dnertsif --case "$cs" --timeout 300 --quiet \
-      --key-dir "$keys" \
-      --output "$dir/node$i.json" "$scn" 2>"$dir/node$i.log" & pids+=($!)
-  done
-  rc=0
-  for p in "${pids[@]}"; do wait "$p" || rc=1; done
-  echo "$(date +%s.%N) - $t0" | bc > "$dir/wall_s"
-  pids=()
-  exit $rc
+# ---- inside the namespace (--inner): every radar its own process ---------------------
+if [[ ${#inner[@]} -gt 0 && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
+  scn=${inner[0]} cs=${inner[1]} dir=${inner[2]} node=${inner[3]} keys=${inner[4]}
+  loopback_only seed001_net_demo.sh || exit 1
+  start_run "$dir"
+  run_tw_nodes 12 "$dir" "$node" "$scn" "$keys" --filter df_dnertsif --case "$cs"
+  exit $?
 fi
 
-if (( do_build )); then
-  echo "== building dkf-tw-node, dkf-run in $build"
-  cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-tw-node dkf-run dkf-keygen >/dev/null
-fi
-node=$build/ports/linux/net/dkf-tw-node
-run=$build/ports/linux/dkf-run
-keygen=$build/ports/linux/net/dkf-keygen
-for p in "$node" "$run" "$keygen"; do
-  [[ -x $p ]] || { echo "seed001_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
-done
+demo_tw_programs seed001_net_demo.sh
 out=$build/seed001-demo
 mkdir -p "$out"
 scn=$out/radar12.json
 python3 "$here/seed001_model.py" --run 0 --steps "$steps" --tp 45 --scale both --out "$scn"
 
-mode=udpm
 "$keygen" --edges "$out/keys" 12 # a key per edge (docs/guide/network.md, Authentication)
-if (( inproc )); then
-  mode=inproc
-elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
-  echo "seed001_net_demo.sh: $(sed 's/^netns.sh: //' "$out/netns.err")"
-  echo "seed001_net_demo.sh: one process per radar needs a private network namespace (root),"
-  echo "                     so that nothing can leave this machine; running the in-process"
-  echo "                     filters only."
-  mode=inproc
-fi
+demo_mode seed001_net_demo.sh radar "the in-process filters" "$out"
 
 "$run" --filter cf_dnertsf --case 0 --quiet --output "$out/cf.json" "$scn"
 for cs in 0 1; do
   t0=$(date +%s.%N)
   "$run" --filter df_dnertsif --case $cs --quiet --output "$out/inproc$cs.json" "$scn"
-  echo "$(date +%s.%N) - $t0" | bc > "$out/inproc$cs.wall"
+  wall_since "$t0" "$out/inproc$cs.wall"
   if [[ $mode == udpm ]]; then
     echo "== DF-DNERTSIF case $cs: 12 dkf-tw-node processes over $URL (namespace), T_p = 45"
     DKF_S001_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $cs "$out/proc$cs" "$node" \
@@ -167,8 +125,4 @@ print(f"(one Monte-Carlo run, {len(X)} steps, T_p = 45; ARMSE: mean over the ste
       " publications per node per step (DONE and loss recovery excluded))")
 sys.exit(0 if ok else 1)
 PY
-rc=$?
-if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
-  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
-fi
-exit $rc
+demo_auth_exit $?

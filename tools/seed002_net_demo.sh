@@ -26,31 +26,18 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/seed002-demo
 do_build=1 steps=2000 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
-
-while [[ $# -gt 0 ]]; do
-  case $1 in
-    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
-    --no-build) do_build=0; shift ;;
-    --steps) steps=$2; shift 2 ;;
-    --in-process) inproc=1; shift ;;
-    --inner) shift; break ;;   # internal: the processes, inside the namespace
-    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    *) echo "seed002_net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
-  esac
-done
+# URL, demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run,
+# wall_since
+. "$root/ports/linux/net/tests/net_common.sh"
+demo_options seed002_net_demo.sh 24 "$@"
 [[ $steps =~ ^[0-9]+$ ]] && (( steps >= 50 && steps <= 100000 )) ||
   { echo "seed002_net_demo.sh: --steps must be 50..100000" >&2; exit 2; }
 
-# ---- inside the namespace: every sensor its own process --------------------------------
-if [[ ${1:-} != "" && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 dir=$2 bin=$3
-  if ip -o link | grep -qv ': lo:'; then
-    echo "seed002_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
-  fi
-  pids=()
-  trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
-  rm -rf "$dir" && mkdir -p "$dir"
+# ---- inside the namespace (--inner): every sensor its own process ----------------------
+if [[ ${#inner[@]} -gt 0 && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
+  scn=${inner[0]} dir=${inner[1]} bin=${inner[2]}
+  loopback_only seed002_net_demo.sh || exit 1
+  start_run "$dir"
   # every datagram authenticated (docs/guide/network.md, Authentication)
   "$bin/dkf-keygen" "$dir/keys" 5 || exit 1
   auth=(--key-dir "$dir/keys")
@@ -72,35 +59,21 @@ if [[ ${1:-} != "" && ${DKF_S002_DEMO_INNER:-0} == 1 ]]; then
   rc=0
   wait $fpid || rc=1
   for p in "${npids[@]}"; do wait "$p" || rc=1; done
-  echo "$(date +%s.%N) - $t0" | bc > "$dir/wall_s"
+  wall_since "$t0" "$dir/wall_s"
   pids=()
   exit $rc
 fi
 
-if (( do_build )); then
-  echo "== building dkf-sim, dkf-node, dkf-fusion, dkf-run in $build"
-  cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-sim dkf-node dkf-fusion dkf-run dkf-keygen >/dev/null
-fi
+demo_build "$build" dkf-sim dkf-node dkf-fusion dkf-run dkf-keygen
 bin=$build/ports/linux/net
 run=$build/ports/linux/dkf-run
-for p in "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-keygen" "$run"; do
-  [[ -x $p ]] || { echo "seed002_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
-done
+demo_require seed002_net_demo.sh "$bin/dkf-sim" "$bin/dkf-node" "$bin/dkf-fusion" "$bin/dkf-keygen" "$run"
 out=$build/seed002-demo
 mkdir -p "$out"
 scn=$out/wf5.json
 python3 "$here/make_wf_scenario.py" --steps "$steps" --sensors 5 --seed 2 --out "$scn"
 
-mode=udpm
-if (( inproc )); then
-  mode=inproc
-elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
-  echo "seed002_net_demo.sh: $(sed 's/^netns.sh: //' "$out/netns.err")"
-  echo "seed002_net_demo.sh: one process per sensor needs a private network namespace (root),"
-  echo "                     so that nothing can leave this machine; running in process only."
-  mode=inproc
-fi
+demo_mode seed002_net_demo.sh sensor "in process" "$out"
 
 for f in fusion_scalar fusion_matrix local_kf central_kf; do
   "$run" --filter $f --quiet --output "$out/inproc_$f.json" "$scn"

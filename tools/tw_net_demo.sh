@@ -25,56 +25,23 @@ here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 build=$root/build/tw-net-demo
 do_build=1 nodes=36 steps=40 inproc=0
-URL='udpm://239.255.76.67:7667?ttl=0'
 tools=$root/ports/linux/net/tests
+# URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
+# wall_since, demo_auth_exit
+. "$tools/net_common.sh"
+demo_options tw_net_demo.sh 24 "$@"
 
-while [[ $# -gt 0 ]]; do
-  case $1 in
-    --build-dir) build=$(realpath -m "$2"); shift 2 ;;
-    --no-build) do_build=0; shift ;;
-    --nodes) nodes=$2; shift 2 ;;
-    --steps) steps=$2; shift 2 ;;
-    --in-process) inproc=1; shift ;;
-    --inner) shift; break ;;   # internal: the processes, inside the namespace
-    -h|--help) sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
-    *) echo "tw_net_demo.sh: $1: unknown option (see --help)" >&2; exit 2 ;;
-  esac
-done
-
-# ---- inside the namespace: every node its own process ------------------------------
-if [[ ${1:-} != "" && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 alg=$2 dir=$3 node=$4 keys=$5
-  if ip -o link | grep -qv ': lo:'; then
-    echo "tw_net_demo.sh: the namespace has a non-loopback interface; refusing" >&2; exit 1
-  fi
+# ---- inside the namespace (--inner): every node its own process --------------------
+if [[ ${#inner[@]} -gt 0 && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
+  scn=${inner[0]} alg=${inner[1]} dir=${inner[2]} node=${inner[3]} keys=${inner[4]}
+  loopback_only tw_net_demo.sh || exit 1
   N=$(python3 -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["H"]))' "$scn")
-  pids=()
-  trap 'for p in "${pids[@]}"; do kill $p 2>/dev/null || true; done' EXIT
-  rm -rf "$dir" && mkdir -p "$dir"
-  t0=$(date +%s.%N)
-  for ((i = 0; i < N; ++i)); do
-    "$node" --url "$URL" --id $i --alg "$alg" --timeout 300 --quiet --key-dir "$keys" \
-      --output "$dir/node$i.json" \
-      "$scn" 2>"$dir/node$i.log" & pids+=($!)
-  done
-  rc=0
-  for p in "${pids[@]}"; do wait "$p" || rc=1; done
-  echo "$(date +%s.%N) - $t0" | bc > "$dir/wall_s"
-  pids=()
-  exit $rc
+  start_run "$dir"
+  run_tw_nodes "$N" "$dir" "$node" "$scn" "$keys" --alg "$alg"
+  exit $?
 fi
 
-if (( do_build )); then
-  echo "== building dkf-tw-node, dkf-run in $build"
-  cmake -S "$root" -B "$build" >/dev/null
-  cmake --build "$build" -j2 --target dkf-tw-node dkf-run dkf-keygen >/dev/null
-fi
-node=$build/ports/linux/net/dkf-tw-node
-run=$build/ports/linux/dkf-run
-keygen=$build/ports/linux/net/dkf-keygen
-for p in "$node" "$run" "$keygen"; do
-  [[ -x $p ]] || { echo "tw_net_demo.sh: $p missing (build first, or --build-dir)" >&2; exit 2; }
-done
+demo_tw_programs tw_net_demo.sh
 out=$build/tw-net-demo
 mkdir -p "$out"
 scn=$out/rgg$nodes.json
@@ -92,26 +59,17 @@ x, y, z = tw_example.simulate(base, 100, 3)
 json.dump(tw_example.scenario(base, x, y, z, 100, 10), open(sys.argv[2], "w"))
 PY
 
-mode=udpm
 "$keygen" --edges "$out/keys" "$nodes" # a key per edge (docs/guide/network.md, Authentication)
-if (( inproc )); then
-  mode=inproc
-elif ! "$here/netns.sh" check 2>"$out/netns.err"; then
-  echo "tw_net_demo.sh: $(sed 's/^netns.sh: //' "$out/netns.err")"
-  echo "tw_net_demo.sh: one process per node needs a private network namespace (root), so"
-  echo "                that nothing can leave this machine; running the in-process"
-  echo "                simulation (dkf-run --filter tw2|tw3) only."
-  mode=inproc
-fi
+demo_mode tw_net_demo.sh node "the in-process simulation (dkf-run --filter tw2|tw3)" "$out"
 
 rows=()
 for alg in 2 3; do
   t0=$(date +%s.%N)
   "$run" --filter tw$alg --quiet --output "$out/inproc$alg.json" "$scn"
-  echo "$(date +%s.%N) - $t0" | bc > "$out/inproc$alg.wall"
+  wall_since "$t0" "$out/inproc$alg.wall"
   t0=$(date +%s.%N)
   "$run" --filter tw$alg --quiet --metrics-only --output "$out/big$alg.json" "$big"
-  echo "$(date +%s.%N) - $t0" | bc > "$out/big$alg.wall"
+  wall_since "$t0" "$out/big$alg.wall"
   if [[ $mode == udpm ]]; then
     echo "== alg $alg: $nodes dkf-tw-node processes over $URL (namespace)"
     DKF_TW_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $alg "$out/proc$alg" "$node" \
@@ -175,8 +133,4 @@ print("(RMSE: root mean over steps, nodes, components against the truth; z again
       " the 200-node rows: the graph and sensors of s003_200node_alg1.json, 100 steps simulated by tools/tw_example.py, in process only)")
 sys.exit(0 if ok else 1)
 PY
-rc=$?
-if [[ $mode == udpm ]]; then # every process authenticated: nothing may be rejected
-  python3 "$here/auth_summary.py" --what "a key per edge of the graph" "$out"/proc*/node*.json || rc=1
-fi
-exit $rc
+demo_auth_exit $?

@@ -9,8 +9,10 @@
  * before the call; after a call that succeeds, the state is finite (and a
  * covariance the module keeps symmetric is exactly symmetric). A broken
  * property calls __builtin_trap(), which libFuzzer reports as a crash and
- * the corpus replay as a failed test. Header-only: a harness links the dkf
- * library, libc and libm, nothing else.
+ * the corpus replay as a failed test. A one-filter harness is a table of
+ * operations that fz_run drives (FZ_HARNESS defines its entry point).
+ * Header-only: a harness links the dkf library, libc and libm, nothing
+ * else.
  */
 #ifndef DKF_FUZZ_CORE_H
 #define DKF_FUZZ_CORE_H
@@ -217,17 +219,97 @@ static inline int fz_after(const fz_snap_t *s, dkf_status_t st)
     return 1;
 }
 
-/* ---- the prior of dkf/nerts.h's and dkf/dfnerts.h's filters ------------------------ */
+/* ---- priors -------------------------------------------------------------------- */
 
-/* The default x0 (n), P0 (n x n), d0 (p), Pd0 (p x p), Pxd0 (n x p) into
- * prior[0..4]: a prior every init accepts. */
-static inline void fz_nerts_prior(fz_mat_t *const prior[5], size_t n, size_t p)
+/* 1 if the square covariance b is exactly symmetric or has no data (the
+ * init then refuses it). The inits accept a non-symmetric prior (they read
+ * one triangle): then no symmetry is promised. */
+static inline int fz_cov_symmetric(const fz_mat_t *b)
+{
+    return b->v.data == NULL || fz_is_symmetric(b->v.data, b->v.rows);
+}
+
+/* The default x0 (n), P0 (n x n), then byte-chosen edits of both; returns
+ * fz_cov_symmetric(P0). */
+static inline int fz_kf_prior(fz_t *z, fz_mat_t *x0, fz_mat_t *P0, size_t n)
+{
+    fz_mat_t *const prior[] = {x0, P0};
+    fz_set(x0, n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(P0, n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_edit(z, prior, 2);
+    return fz_cov_symmetric(P0);
+}
+
+/* The default x0 (n), P0 (n x n), d0 (p), Pd0 (p x p) of dkf/askf.h and
+ * dkf/otskf.h into prior[0..3], then byte-chosen edits; returns 1 if both
+ * covariances are symmetric (fz_cov_symmetric). */
+static inline int fz_ui_prior(fz_t *z, fz_mat_t *const prior[4], size_t n, size_t p)
+{
+    fz_set(prior[0], n, 1, DKF_R(0.5), DKF_R(0.5));
+    fz_set(prior[1], n, n, DKF_R(1.0), DKF_R(0.1));
+    fz_set(prior[2], p, 1, DKF_R(0.1), DKF_R(0.1));
+    fz_set(prior[3], p, p, DKF_R(1.0), DKF_R(0.0));
+    fz_edit(z, prior, 4);
+    return fz_cov_symmetric(prior[1]) && fz_cov_symmetric(prior[3]);
+}
+
+/* The default x0 (n), P0 (n x n), d0 (p), Pd0 (p x p), Pxd0 (n x p) of
+ * dkf/nerts.h's and dkf/dfnerts.h's filters into prior[0..4] (a prior
+ * every init accepts); with z, then byte-chosen edits. */
+static inline void fz_nerts_prior(fz_t *z, fz_mat_t *const prior[5], size_t n, size_t p)
 {
     fz_set(prior[0], n, 1, DKF_R(0.5), DKF_R(0.5));
     fz_set(prior[1], n, n, DKF_R(1.0), DKF_R(0.1));
     fz_set(prior[2], p, 1, DKF_R(0.2), DKF_R(0.2));
     fz_set(prior[3], p, p, DKF_R(0.5), DKF_R(0.0));
     fz_set(prior[4], n, p, DKF_R(0.05), DKF_R(0.0));
+    if (z != NULL) fz_edit(z, prior, 5);
+}
+
+/* ---- the driver of a one-filter harness ------------------------------------------ */
+
+/* What an operation returns when it made no call the driver should check. */
+#define FZ_SKIP ((dkf_status_t)1)
+
+/* A family's part of fz_run. The harness keeps its filter, storage and
+ * matrices in file-scope statics, so the operations take no context. */
+typedef struct {
+    void *obj;       /* the filter struct: zeroed, then guarded from the first init on */
+    size_t obj_size;
+    /* Dimensions, prior and model set-up from the bytes (before the first init). */
+    void (*decode)(fz_t *z);
+    /* The first init. */
+    dkf_status_t (*init)(void);
+    /* After it succeeded: adds the storage regions an error must leave
+     * untouched (the struct is already in s); NULL: none. */
+    void (*guard)(fz_snap_t *s);
+    /* One byte-chosen call (code); calls fz_take(s) just before it (and may
+     * first change s's regions). FZ_SKIP: no call of the filter was made. */
+    dkf_status_t (*op)(fz_t *z, uint8_t code, fz_snap_t *s);
+    /* The property after a successful call (finite state, symmetric P). */
+    void (*ok)(void);
+} fz_family_t;
+
+/* Decode, init, then up to 24 byte-chosen operations: an error (of the
+ * init too) must leave the guarded regions byte-identical; each success
+ * is checked by fam->ok. */
+static inline int fz_run(const fz_family_t *fam, fz_t *z)
+{
+    static fz_snap_t snap;
+    size_t k;
+    memset(fam->obj, 0, fam->obj_size);
+    fam->decode(z);
+    fz_regions_clear(&snap);
+    fz_region(&snap, fam->obj, fam->obj_size);
+    fz_take(&snap);
+    if (!fz_after(&snap, fam->init())) return 0;
+    if (fam->guard != NULL) fam->guard(&snap);
+    for (k = 0; k < 24 && fz_more(z); ++k) {
+        const uint8_t code = fz_byte(z);
+        const dkf_status_t r = fam->op(z, code, &snap);
+        if (r != FZ_SKIP && fz_after(&snap, r)) fam->ok();
+    }
+    return 0;
 }
 
 /* ---- checkpoints ------------------------------------------------------------------ */
@@ -280,5 +362,17 @@ static inline void fz_ui_edit(fz_t *z, fz_ui_t *u, int dyn)
     fz_mat_t *const d[] = {&u->F, &u->Q, &u->B, &u->Rd}, *const m[] = {&u->H, &u->A, &u->R, &u->y};
     fz_edit(z, dyn ? d : m, 4);
 }
+
+/* A one-filter harness's entry point: fz_run over the file's static
+ * functions decode, init, op, ok, the given guard (or NULL) and the filter
+ * struct obj. */
+#define FZ_HARNESS(obj, guard_fn)                                                        \
+    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);                        \
+    int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)                         \
+    {                                                                                    \
+        static const fz_family_t fam = {&(obj), sizeof(obj), decode, init, guard_fn, op, ok}; \
+        fz_t z = {data, size, 0};                                                        \
+        return fz_run(&fam, &z);                                                         \
+    }
 
 #endif /* DKF_FUZZ_CORE_H */

@@ -85,7 +85,7 @@ static void run_dfnerts(fz_t *z, size_t N, size_t n, size_t m, size_t p, int tri
     int pending[NODES];
     dkf_status_t s;
     make_graph(&g, start, nbr, W, N, triangle);
-    fz_nerts_prior(prior_m, n, p);
+    fz_nerts_prior(NULL, prior_m, n, p);
     for (l = 0; l < N; ++l) {
         static const double A[9] = {0.9, 0.1, 0, 0, 0.9, 0.1, 0, 0, 0.9};
         static const double C[6] = {1, 0, 0.5, 0, 1, 0}, H[2] = {1, 0.5};

@@ -1,9 +1,9 @@
 /*
  * fuzz_core_otskf - the OTSKF (dkf/otskf.h): init, then up to 24 predicts and
- * updates on byte-edited unknown-input models (fuzz_core.h). Property: a
- * failed call leaves the struct and the state part of the storage
- * byte-identical (a failed init: the struct); after a successful one the
- * state is finite and the covariances are exactly symmetric.
+ * updates on byte-edited unknown-input models (fuzz_core.h, fz_run).
+ * Property: a failed call leaves the struct and the state part of the
+ * storage byte-identical (a failed init: the struct); after a successful
+ * one the state is finite and the covariances are exactly symmetric.
  */
 #include "dkf/otskf.h"
 #include "fuzz_core.h"
@@ -12,51 +12,44 @@
 #define MMAX 4
 #define PMAX 3
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+static dkf_real_t st[DKF_OTSKF_STORAGE_LEN(NMAX, MMAX, PMAX)];
+static fz_mat_t x0, P0, d0, Pd0;
+static fz_ui_t u;
+static dkf_otskf_t f;
+static size_t n, m, p;
+static int sym;
 
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+static void decode(fz_t *z)
 {
-    static dkf_real_t st[DKF_OTSKF_STORAGE_LEN(NMAX, MMAX, PMAX)];
-    static fz_snap_t snap;
-    static fz_mat_t x0, P0, d0, Pd0;
-    static fz_ui_t u;
-    fz_mat_t *const init_m[] = {&x0, &P0, &d0, &Pd0};
-    fz_t z = {data, size, 0};
-    dkf_otskf_t f;
-    dkf_status_t s;
-    size_t n, m, p, op;
-    n = fz_dim(&z, NMAX);
-    m = fz_dim(&z, MMAX);
-    p = fz_dim(&z, PMAX);
-    memset(&f, 0, sizeof f);
-    fz_set(&x0, n, 1, DKF_R(0.5), DKF_R(0.5));
-    fz_set(&P0, n, n, DKF_R(1.0), DKF_R(0.1));
-    fz_set(&d0, p, 1, DKF_R(0.1), DKF_R(0.1));
-    fz_set(&Pd0, p, p, DKF_R(1.0), DKF_R(0.0));
-    fz_edit(&z, init_m, 4);
-    /* a non-symmetric prior is accepted (one triangle is read): then no
-     * symmetry is promised */
-    const int sym = (P0.v.data == NULL || fz_is_symmetric(P0.v.data, P0.v.rows)) &&
-                    (Pd0.v.data == NULL || fz_is_symmetric(Pd0.v.data, Pd0.v.rows));
-    fz_regions_clear(&snap);
-    fz_region(&snap, &f, sizeof f);
-    fz_take(&snap);
-    s = dkf_otskf_init(&f, n, m, p, st, DKF_OTSKF_STORAGE_LEN(n, m, p), &x0.v, &P0.v, &d0.v,
-                       &Pd0.v);
-    if (!fz_after(&snap, s)) return 0;
-    fz_region(&snap, st, DKF_OTSKF_STATE_LEN(n, p) * sizeof(dkf_real_t));
-    for (op = 0; op < 24 && fz_more(&z); ++op) {
-        const uint8_t code = fz_byte(&z);
-        fz_ui_default(&u, n, m, p);
-        fz_ui_edit(&z, &u, code % 2 == 0);
-        fz_take(&snap);
-        s = code % 2 == 0 ? dkf_otskf_predict(&f, &u.dyn) : dkf_otskf_update(&f, &u.meas, &u.y.v);
-        if (fz_after(&snap, s)) {
-            fz_finite(st, DKF_OTSKF_STATE_LEN(n, p));
-            fz_symmetric(f.Px.data, n, sym);
-            fz_symmetric(f.P.data, n, sym);
-            fz_symmetric(f.Pd.data, p, sym);
-        }
-    }
-    return 0;
+    fz_mat_t *const prior_m[] = {&x0, &P0, &d0, &Pd0};
+    n = fz_dim(z, NMAX);
+    m = fz_dim(z, MMAX);
+    p = fz_dim(z, PMAX);
+    sym = fz_ui_prior(z, prior_m, n, p);
 }
+
+static dkf_status_t init(void)
+{
+    return dkf_otskf_init(&f, n, m, p, st, DKF_OTSKF_STORAGE_LEN(n, m, p), &x0.v, &P0.v, &d0.v,
+                          &Pd0.v);
+}
+
+static void guard(fz_snap_t *s) { fz_region(s, st, DKF_OTSKF_STATE_LEN(n, p) * sizeof *st); }
+
+static dkf_status_t op(fz_t *z, uint8_t code, fz_snap_t *s)
+{
+    fz_ui_default(&u, n, m, p);
+    fz_ui_edit(z, &u, code % 2 == 0);
+    fz_take(s);
+    return code % 2 == 0 ? dkf_otskf_predict(&f, &u.dyn) : dkf_otskf_update(&f, &u.meas, &u.y.v);
+}
+
+static void ok(void)
+{
+    fz_finite(st, DKF_OTSKF_STATE_LEN(n, p));
+    fz_symmetric(f.Px.data, n, sym);
+    fz_symmetric(f.P.data, n, sym);
+    fz_symmetric(f.Pd.data, p, sym);
+}
+
+FZ_HARNESS(f, guard)

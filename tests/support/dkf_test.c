@@ -105,6 +105,50 @@ void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t 
         }
 }
 
+void test_ref_inverse(long double *Ainv, long double *W, size_t n)
+{
+    size_t i, j, k;
+    for (i = 0; i < n * n; ++i) Ainv[i] = (i / n == i % n) ? 1.0L : 0.0L;
+    for (k = 0; k < n; ++k) {
+        size_t p = k;
+        long double d;
+        for (i = k + 1; i < n; ++i)
+            if (fabsl(W[i * n + k]) > fabsl(W[p * n + k])) p = i;
+        for (j = 0; j < n; ++j) {
+            long double t = W[k * n + j];
+            W[k * n + j] = W[p * n + j];
+            W[p * n + j] = t;
+            t = Ainv[k * n + j];
+            Ainv[k * n + j] = Ainv[p * n + j];
+            Ainv[p * n + j] = t;
+        }
+        d = W[k * n + k];
+        assert_true(d != 0);
+        for (j = 0; j < n; ++j) {
+            W[k * n + j] /= d;
+            Ainv[k * n + j] /= d;
+        }
+        for (i = 0; i < n; ++i) {
+            long double f = W[i * n + k];
+            if (i == k || f == 0) continue;
+            for (j = 0; j < n; ++j) {
+                W[i * n + j] -= f * W[k * n + j];
+                Ainv[i * n + j] -= f * Ainv[k * n + j];
+            }
+        }
+    }
+}
+
+void test_ref_inverse_double(double *Ainv, const double *A, size_t n)
+{
+    static long double W[DKF_MAX_DIM * DKF_MAX_DIM], X[DKF_MAX_DIM * DKF_MAX_DIM];
+    size_t i;
+    assert_true(n <= DKF_MAX_DIM);
+    for (i = 0; i < n * n; ++i) W[i] = A[i];
+    test_ref_inverse(X, W, n);
+    for (i = 0; i < n * n; ++i) Ainv[i] = (double)X[i];
+}
+
 void test_to_real(dkf_real_t *dst, const double *src, size_t n)
 {
     size_t i;
@@ -393,4 +437,58 @@ void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n)
             L[i * n + j] = j < i ? (A[i * n + j] - s) * (DKF_R(1.0) / L[j * n + j])
                                  : DKF_SQRT(A[i * n + i] - s);
         }
+}
+
+void test_load_ui_step(test_ui_step_t *s, const json_t *st, int with_dyn)
+{
+    const size_t sq = TEST_UI_CAP * TEST_UI_CAP;
+    if (with_dyn) {
+        test_json_mat(test_json_get(st, "F"), s->F, sq, &s->Fm);
+        test_json_mat(test_json_get(st, "Q"), s->Q, sq, &s->Qm);
+        test_json_mat(test_json_get(st, "B"), s->B, sq, &s->Bm);
+        test_json_mat(test_json_get(st, "Rd"), s->Rd, sq, &s->Rdm);
+    }
+    test_json_mat(test_json_get(st, "H"), s->H, sq, &s->Hm);
+    test_json_mat(test_json_get(st, "A"), s->A, sq, &s->Am);
+    test_json_mat(test_json_get(st, "R"), s->R, sq, &s->Rm);
+    test_json_mat(test_json_get(st, "y"), s->y, TEST_UI_CAP, &s->ym);
+    test_ui_bind(s);
+}
+
+void test_ui_bind(test_ui_step_t *s)
+{
+    s->dyn.F = &s->Fm, s->dyn.Q = &s->Qm, s->dyn.B = &s->Bm, s->dyn.Rd = &s->Rdm;
+    s->meas.H = &s->Hm, s->meas.D = &s->Am, s->meas.R = &s->Rm;
+}
+
+void test_ui_model_at(test_ui_step_t *s, const json_t *dynamics, const json_t *sensor, size_t k)
+{
+    const size_t sq = TEST_UI_CAP * TEST_UI_CAP;
+    test_json_mat(test_json_model_at(dynamics, "F", k), s->F, sq, &s->Fm);
+    test_json_mat(test_json_model_at(dynamics, "Q", k), s->Q, sq, &s->Qm);
+    test_json_mat(test_json_model_at(sensor, "H", k), s->H, sq, &s->Hm);
+    test_json_mat(test_json_model_at(sensor, "A", k), s->A, sq, &s->Am);
+    test_json_mat(test_json_model_at(sensor, "R", k), s->R, sq, &s->Rm);
+    test_json_mat(test_json_model_at(sensor, "B", k), s->B, sq, &s->Bm);
+    test_json_mat(test_json_model_at(sensor, "Rd", k), s->Rd, sq, &s->Rdm);
+    test_ui_bind(s);
+}
+
+size_t test_json_flatten(const json_t *node, double *out, size_t cap)
+{
+    size_t i, k = 0;
+    if (json_is_number(node)) {
+        assert_true(cap >= 1);
+        out[0] = json_number_value(node);
+        return 1;
+    }
+    assert_true(json_is_array(node));
+    for (i = 0; i < json_array_size(node); ++i)
+        k += test_json_flatten(json_array_get(node, i), out + k, cap - k);
+    return k;
+}
+
+size_t test_json_size(const json_t *obj, const char *key)
+{
+    return (size_t)json_integer_value(test_json_get(obj, key));
 }

@@ -59,6 +59,12 @@ double test_nees(const double *e, const double *S, size_t k);
  * Cholesky kernels claim, bit for bit (test_mat_chol_lu, test_kernels_wide). */
 void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n);
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
+/* Ainv = A^{-1} (n x n) by Gauss-Jordan with partial pivoting in long
+ * double: an independent reference for a nonsingular A (a zero pivot fails
+ * the test). W holds A on entry and is overwritten. */
+void test_ref_inverse(long double *Ainv, long double *W, size_t n);
+/* The same for a double A (n <= DKF_MAX_DIM), rounded into Ainv. */
+void test_ref_inverse_double(double *Ainv, const double *A, size_t n);
 
 /* Copies between the library's real type and double. */
 void test_to_real(dkf_real_t *dst, const double *src, size_t n);
@@ -118,8 +124,34 @@ void test_json_mat(const json_t *node, dkf_real_t *storage, size_t cap, dkf_mat_
 /* The model matrix `key` of a vector file at absolute time k: the node of
  * {"const": M} or of {"per_k": [M_0, M_1, ...]}[k]. */
 const json_t *test_json_model_at(const json_t *model, const char *key, size_t k);
+/* Every number of a JSON number or nested list into out (cap doubles, row
+ * major); fails the test on anything else or more than cap. The count. */
+size_t test_json_flatten(const json_t *node, double *out, size_t cap);
+/* The integer obj[key] as a size (test_json_get: the key must be there). */
+size_t test_json_size(const json_t *obj, const char *key);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
+
+/* ---- one step of an unknown-input model (dkf/ui_model.h) from a vector -- */
+#include "dkf/ui_model.h"
+
+#define TEST_UI_CAP 9 /* largest n, m, n + p of the tests' models */
+typedef struct {
+    dkf_real_t F[TEST_UI_CAP * TEST_UI_CAP], Q[TEST_UI_CAP * TEST_UI_CAP],
+        B[TEST_UI_CAP * TEST_UI_CAP], Rd[TEST_UI_CAP * TEST_UI_CAP], H[TEST_UI_CAP * TEST_UI_CAP],
+        A[TEST_UI_CAP * TEST_UI_CAP], R[TEST_UI_CAP * TEST_UI_CAP], y[TEST_UI_CAP];
+    dkf_mat_t Fm, Qm, Bm, Rdm, Hm, Am, Rm, ym;
+    dkf_ui_dyn_t dyn;   /* F, Q, B, Rd (when loaded with the dynamics) */
+    dkf_ui_meas_t meas; /* H, D = A, R */
+} test_ui_step_t;
+/* The measurement part (H, A, R, y) of the step node st, and the dynamics
+ * (F, Q, B, Rd) if with_dyn. */
+void test_load_ui_step(test_ui_step_t *s, const json_t *st, int with_dyn);
+/* dyn and meas pointed at the step's matrices. */
+void test_ui_bind(test_ui_step_t *s);
+/* F, Q of the model `dynamics` and H, A, R, B, Rd of the model `sensor`
+ * (test_json_model_at) at absolute k, bound; y untouched. */
+void test_ui_model_at(test_ui_step_t *s, const json_t *dynamics, const json_t *sensor, size_t k);
 /* The element of root's "cases" array whose "name" is `name` (fails the
  * test if none). */
 const json_t *test_json_case(const json_t *root, const char *name);

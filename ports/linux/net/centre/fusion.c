@@ -17,6 +17,7 @@
 #include <string.h>
 
 #include "centre.h"
+#include "centre_common.h"
 #include "dkf/diffkf_fusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"
@@ -29,14 +30,7 @@ typedef struct {
 
 struct dkf_net_fusion {
     dkf_net_wfusion_t *wf;        /* a weighted-fusion scenario: that centre, and nothing below */
-    dkf_net_t *net;
-    const dkf_scenario_t *s;
-    size_t l, n;
-    long N;
-    char prefix[DKF_NET_CHAN_LEN / 2];
-    char chan_out[DKF_NET_CHAN_LEN];
-    int64_t model_id, deadline_us;
-    dkf_fcr_t *rt;                /* ring, epochs, deadlines, checkpoints, linger */
+    dkf_net_centre_t b;           /* scenario, LCM, runtime, journal, counters */
     dkf_sensor_model_t *md;          /* l per-sensor models of the running step */
     dkf_diffkf_sensor_t *sens;    /* l, pointing into md */
     dkf_diffkf_fc_t fc;
@@ -44,21 +38,11 @@ struct dkf_net_fusion {
     dkf_real_t *fc_store;
     dkf_real_t *P0_local;         /* l x n x n: the priors of node (re)starts */
     size_t ck_len;                /* reals of one dkf_diffkf_fc_save checkpoint */
-    FILE *journal;                /* one JSON line per computed step (NULL: none) */
     dkf_diffkf_msg_t *msgs;       /* l: the running step's messages */
     unsigned char *present, *contrib; /* l */
-    dkf_diffkf_msg_t in, in_prev; /* the message being decoded */
     record_t rec;
-    dkf_net_counts_t c;
-    int64_t seq, last_beat;
     int64_t steady_steps;         /* computed steps that reused the settled gain */
 };
-
-static void to_double(double *dst, const dkf_real_t *src, size_t len)
-{
-    size_t i;
-    for (i = 0; i < len; ++i) dst[i] = (double)src[i];
-}
 
 /* ---- one step of the core fusion centre (the runtime's operations) ----------------- */
 
@@ -66,9 +50,9 @@ static void to_double(double *dst, const dkf_real_t *src, size_t len)
 static int load_sensors(dkf_net_fusion_t *fu, size_t k, size_t kmeas)
 {
     size_t i;
-    for (i = 0; i < fu->l; ++i) {
-        if (dkf_sensor_model_dyn(&fu->md[i], fu->s, i, k) != 0 ||
-            dkf_sensor_model_meas(&fu->md[i], fu->s, i, kmeas) != 0)
+    for (i = 0; i < fu->b.l; ++i) {
+        if (dkf_sensor_model_dyn(&fu->md[i], fu->b.s, i, k) != 0 ||
+            dkf_sensor_model_meas(&fu->md[i], fu->b.s, i, kmeas) != 0)
             return -1;
         fu->sens[i].B = &fu->md[i].B;
         fu->sens[i].Rd = &fu->md[i].Rd;
@@ -81,10 +65,10 @@ static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_statu
                        const dkf_diffkf_fc_fault_t *fault)
 {
     if (fault->node == DKF_DIFFKF_FC_NO_NODE)
-        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s)", k, call,
+        dkf_fcr_notef(fu->b.rt, "fusion: step k=%ld: %s failed: %s (%s)", k, call,
                       dkf_status_str(st), dkf_diffkf_fc_cond_str(fault->which));
     else
-        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: %s failed: %s (%s, node %zu)", k, call,
+        dkf_fcr_notef(fu->b.rt, "fusion: step k=%ld: %s failed: %s (%s, node %zu)", k, call,
                       dkf_status_str(st), dkf_diffkf_fc_cond_str(fault->which), fault->node);
 }
 
@@ -93,12 +77,12 @@ static void note_fault(dkf_net_fusion_t *fu, long k, const char *call, dkf_statu
 static int op_restart(void *user, size_t i, long k)
 {
     dkf_net_fusion_t *fu = user;
-    const size_t n = fu->n;
+    const size_t n = fu->b.n;
     dkf_diffkf_sensor_t sk;
     dkf_mat_t P0 = DKF_MAT(n, n, fu->P0_local + i * n * n);
     dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
     dkf_status_t st;
-    if (dkf_sensor_model_meas(&fu->md[i], fu->s, i, (size_t)k) != 0) return -1;
+    if (dkf_sensor_model_meas(&fu->md[i], fu->b.s, i, (size_t)k) != 0) return -1;
     sk.B = NULL;
     sk.Rd = NULL;
     sk.meas = fu->md[i].meas;
@@ -130,13 +114,13 @@ static int op_restore(void *user, const void *ckpt)
 static int op_step(void *user, long k, const void *const *pay, unsigned char *contrib)
 {
     dkf_net_fusion_t *fu = user;
-    const size_t n = fu->n, l = fu->l, j = (size_t)(k - 1);
+    const size_t n = fu->b.n, l = fu->b.l, j = (size_t)(k - 1);
     dkf_diffkf_fc_fault_t fault = {DKF_DIFFKF_FC_NO_FAULT, 0};
     dkf_status_t st = DKF_OK;
     size_t i, tries;
     int refused = 0;
     if (load_sensors(fu, (size_t)k, (size_t)k + 1) != 0) {
-        dkf_fcr_notef(fu->rt, "fusion: the scenario has no model for step k=%ld", k);
+        dkf_fcr_notef(fu->b.rt, "fusion: the scenario has no model for step k=%ld", k);
         return -1;
     }
     for (i = 0; i < l; ++i) {
@@ -151,8 +135,8 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
         }
     }
     /* the prior x_{k|k-1}, P_{k|k-1} is the central filter's xp before the step */
-    to_double(fu->rec.xp + j * n, fu->fc.central.xn.data, n);
-    to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pn.data, n * n);
+    dkf_net_centre_to_double(fu->rec.xp + j * n, fu->fc.central.xn.data, n);
+    dkf_net_centre_to_double(fu->rec.Pp + j * n * n, fu->fc.central.Pn.data, n * n);
     for (tries = 0; tries <= l; ++tries) {
         st = dkf_diffkf_fc_step_partial(&fu->fc, &fu->md[0].F, &fu->md[0].Q, fu->sens, fu->msgs,
                                         fu->present, fu->contrib, &fault);
@@ -168,8 +152,8 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
     }
     if (st != DKF_OK) return -1;
     fu->steady_steps += fu->fc.central.steady ? 1 : 0;
-    to_double(fu->rec.xf + j * n, fu->fc.central.xf.data, n);
-    to_double(fu->rec.Pf + j * n * n, fu->fc.central.Pf.data, n * n);
+    dkf_net_centre_to_double(fu->rec.xf + j * n, fu->fc.central.xf.data, n);
+    dkf_net_centre_to_double(fu->rec.Pf + j * n * n, fu->fc.central.Pf.data, n * n);
     memcpy(contrib, fu->contrib, l);
     return refused;
 }
@@ -180,89 +164,50 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
 static int op_publish(void *user, const dkf_fcr_step_t *st, int64_t *utime)
 {
     dkf_net_fusion_t *fu = user;
-    const size_t n = fu->n, j = (size_t)(st->k - 1);
-    return dkf_fcr_publish_fused(fu->net, fu->chan_out, fu->rt, "fusion", st, fu->l, n,
-                                 fu->rec.xf + j * n, fu->rec.Pf + j * n * n, fu->rec.xp + j * n,
-                                 fu->rec.Pp + j * n * n, fu->model_id, &fu->seq, utime);
-}
-
-static dkf_fcr_doc_info_t doc_info(const dkf_net_fusion_t *fu)
-{
-    dkf_fcr_doc_info_t info;
-    info.scenario = fu->s->file;
-    info.model_id = fu->model_id;
-    info.deadline_us = fu->deadline_us;
-    info.rejected = fu->c.rejected;
-    info.why = &fu->c.why;
-    return info;
+    return dkf_net_centre_publish(&fu->b, st, fu->rec.xf, fu->rec.Pf, fu->rec.xp, fu->rec.Pp,
+                                  utime);
 }
 
 /* Appends step st->k as it stands now (first computation or a replay) to
- * the journal, one JSON line, flushed: what was computed survives a killed
- * process (docs/guide/network.md, "Result file"). */
+ * the journal, one JSON line (centre_common.h). */
 static void op_record(void *user, const dkf_fcr_step_t *st, int published)
 {
     dkf_net_fusion_t *fu = user;
-    const size_t n = fu->n, j = (size_t)(st->k - 1);
-    json_t *o;
-    if (fu->journal == NULL) return;
-    o = dkf_fcr_journal_line(st, published);
+    const size_t n = fu->b.n, j = (size_t)(st->k - 1);
+    json_t *o = dkf_net_centre_journal_line(&fu->b, st, published);
+    if (o == NULL) return;
     dkf_fcr_json_set_block(o, "xf", fu->rec.xf + j * n, n, 0);
     dkf_fcr_json_set_block(o, "xp", fu->rec.xp + j * n, n, 0);
     dkf_fcr_json_set_block(o, "Pf", fu->rec.Pf + j * n * n, n, n);
     dkf_fcr_json_set_block(o, "Pp", fu->rec.Pp + j * n * n, n, n);
-    if (dkf_fcr_journal_write(fu->journal, o, dkf_net_now_us()) != 0) {
-        dkf_fcr_notef(fu->rt, "fusion: step k=%ld: cannot write the journal", st->k);
-        fu->journal = NULL; /* the caller still owns and closes it */
-    }
+    dkf_net_centre_journal_write(&fu->b, st, o);
 }
 
 /* The runtime is DONE or FAILED: say so on <prefix>_STATUS. */
 static void op_state(void *user, int state)
 {
+    dkf_net_fusion_t *fu = user;
     (void)state;
-    dkf_net_fusion_report(user);
+    dkf_net_centre_report(&fu->b);
 }
 
 static const dkf_fcr_ops_t dkf_fc_ops = {op_step,    op_restart, op_save,  op_restore,
                                          op_publish, op_record,  op_state,
                                          dkf_net_copy_node_payload};
 
-/* ---- LCM ---------------------------------------------------------------------------- */
-
-static void on_node_msg(const char *channel, const dkf_net_from_t *from, const void *data,
-                        size_t len, int64_t recv_utime, void *user)
-{
-    dkf_net_fusion_t *fu = user;
-    dkf_net_expect_t ex;
-    ex.model_id = fu->model_id;
-    ex.nnodes = fu->l;
-    ex.n = fu->n;
-    ex.m = NULL;
-    ex.kmax = fu->N;
-    dkf_fcr_node_message(fu->rt, &ex, "fusion", channel, from, data, len, recv_utime, &fu->in,
-                         &fu->in_prev, &fu->c);
-}
-
 void dkf_net_fusion_tick(dkf_net_fusion_t *fu, int64_t mono_us, int64_t heartbeat_us)
 {
-    if (fu->wf != NULL) {
+    if (fu->wf != NULL)
         dkf_net_wfusion_tick(fu->wf, mono_us, heartbeat_us);
-        return;
-    }
-    dkf_fcr_tick(fu->rt, mono_us);
-    dkf_fcr_sync_counts(fu->rt, &fu->c);
-    if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
-    if (fu->last_beat != INT64_MIN && mono_us - fu->last_beat < heartbeat_us) return;
-    fu->last_beat = mono_us;
-    dkf_net_fusion_report(fu);
+    else
+        dkf_net_centre_tick(&fu->b, mono_us, heartbeat_us);
 }
 
 /* ---- set-up --------------------------------------------------------------------- */
 
 static int fu_alloc(dkf_net_fusion_t *fu)
 {
-    const size_t l = fu->l, n = fu->n, N = (size_t)fu->N;
+    const size_t l = fu->b.l, n = fu->b.n, N = (size_t)fu->b.N;
     size_t j;
     fu->md = calloc(l, sizeof *fu->md);
     fu->sens = calloc(l, sizeof *fu->sens);
@@ -279,8 +224,8 @@ static int fu_alloc(dkf_net_fusion_t *fu)
         !fu->contrib || !fu->rec.xf || !fu->rec.xp || !fu->rec.Pf || !fu->rec.Pp)
         return -1;
     for (j = 0; j < l; ++j) {
-        if (dkf_sensor_model_init(&fu->md[j], fu->s, j) != 0) return -1;
-        dkf_scn_to_real(fu->P0_local + j * n * n, dkf_scn_P00_local(fu->s, j), n * n);
+        if (dkf_sensor_model_init(&fu->md[j], fu->b.s, j) != 0) return -1;
+        dkf_scn_to_real(fu->P0_local + j * n * n, dkf_scn_P00_local(fu->b.s, j), n * n);
     }
     return 0;
 }
@@ -288,8 +233,8 @@ static int fu_alloc(dkf_net_fusion_t *fu)
 /* fc init + start; -1 with err naming the call and the fault. */
 static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
 {
-    const dkf_scenario_t *s = fu->s;
-    const size_t l = fu->l, n = fu->n;
+    const dkf_scenario_t *s = fu->b.s;
+    const size_t l = fu->b.l, n = fu->b.n;
     size_t m[DKF_NET_MAX_NODES], p[DKF_NET_MAX_NODES], i, len;
     dkf_real_t *P = calloc((l + 1) * n * n + n, sizeof *P), *F0 = NULL;
     dkf_mat_t x0, P0, Pl[DKF_NET_MAX_NODES], F0m, Q0m;
@@ -349,26 +294,13 @@ static int fc_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
     return 0;
 }
 
-/* The runtime over the core centre just started: the checkpoint ring, and
- * the state after the start (before step 1) saved now. -1 with err. */
+/* The runtime over the core centre just started (the state after the start,
+ * before step 1, is saved now) and the node subscription. -1 with err. */
 static int rt_setup(dkf_net_fusion_t *fu, char *err, size_t errlen)
 {
-    dkf_fcr_config_t cfg;
     fu->ck_len = dkf_diffkf_fc_checkpoint_len(&fu->fc);
-    cfg.nodes = fu->l;
-    cfg.steps = fu->N;
-    cfg.payload_size = sizeof(dkf_diffkf_msg_t);
-    cfg.ckpt_size = fu->ck_len * sizeof(dkf_real_t);
-    cfg.deadline_us = fu->deadline_us;
-    /* after step N: a node still sending is waited for this long */
-    cfg.linger_us = 2 * fu->deadline_us > DKF_NET_LINGER_US ? 2 * fu->deadline_us
-                                                             : DKF_NET_LINGER_US;
-    fu->rt = fu->ck_len ? dkf_fcr_create(&cfg, &dkf_fc_ops, fu) : NULL;
-    if (fu->rt == NULL) {
-        snprintf(err, errlen, "%s: fusion: no storage for the checkpoints", fu->s->file);
-        return -1;
-    }
-    return 0;
+    return dkf_net_centre_start(&fu->b, &dkf_fc_ops, fu, fu->ck_len * sizeof(dkf_real_t), err,
+                                errlen);
 }
 
 dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
@@ -376,7 +308,6 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
                                         size_t errlen)
 {
     dkf_net_fusion_t *fu = calloc(1, sizeof *fu);
-    char chan[DKF_NET_CHAN_LEN + 16];
     if (fu == NULL) {
         snprintf(err, errlen, "fusion: out of memory");
         return NULL;
@@ -389,28 +320,13 @@ dkf_net_fusion_t *dkf_net_fusion_create(dkf_net_t *net, const dkf_scenario_t *s,
         }
         return fu;
     }
-    fu->net = net;
-    fu->s = s;
-    fu->l = s->nsensors;
-    fu->n = s->n;
-    fu->N = (long)s->steps;
-    snprintf(fu->prefix, sizeof fu->prefix, "%s", prefix);
-    dkf_net_chan(fu->chan_out, prefix, "FUSED");
-    fu->model_id = dkf_net_model_id(s);
-    fu->deadline_us = deadline_us > 0 ? deadline_us : DKF_NET_DEADLINE_US;
-    fu->last_beat = INT64_MIN;
+    dkf_net_centre_init(&fu->b, "fusion", net, s, prefix, deadline_us);
     if (fu_alloc(fu) != 0) {
         snprintf(err, errlen, "fusion: out of memory");
         dkf_net_fusion_free(fu);
         return NULL;
     }
     if (fc_setup(fu, err, errlen) != 0 || rt_setup(fu, err, errlen) != 0) {
-        dkf_net_fusion_free(fu);
-        return NULL;
-    }
-    snprintf(chan, sizeof chan, "%s_NODE_[0-9]+", prefix);
-    if (dkf_net_subscribe(net, chan, on_node_msg, fu) != 0) {
-        snprintf(err, errlen, "fusion: cannot subscribe to %s", chan);
         dkf_net_fusion_free(fu);
         return NULL;
     }
@@ -422,8 +338,8 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
     size_t j;
     if (fu == NULL) return;
     dkf_net_wfusion_free(fu->wf);
-    dkf_fcr_free(fu->rt);
-    for (j = 0; fu->md != NULL && j < fu->l; ++j) dkf_sensor_model_free(&fu->md[j]);
+    dkf_fcr_free(fu->b.rt);
+    for (j = 0; fu->md != NULL && j < fu->b.l; ++j) dkf_sensor_model_free(&fu->md[j]);
     free(fu->md);
     free(fu->sens);
     free(fu->fcn);
@@ -439,77 +355,47 @@ void dkf_net_fusion_free(dkf_net_fusion_t *fu)
     free(fu);
 }
 
-/* DKF_NET_RUNNING, DONE, FAILED as the runtime says. */
 int dkf_net_fusion_state(const dkf_net_fusion_t *fu)
 {
-    if (fu->wf != NULL) return dkf_net_wfusion_state(fu->wf);
-    switch (dkf_fcr_state(fu->rt)) {
-    case DKF_FCR_DONE: return DKF_NET_DONE;
-    case DKF_FCR_FAILED: return DKF_NET_FAILED;
-    default: return DKF_NET_RUNNING;
-    }
+    return fu->wf != NULL ? dkf_net_wfusion_state(fu->wf) : dkf_net_centre_state(&fu->b);
 }
 
 void dkf_net_fusion_report(dkf_net_fusion_t *fu)
 {
-    dkf_net_status_t st;
-    if (fu->wf != NULL) {
+    if (fu->wf != NULL)
         dkf_net_wfusion_report(fu->wf);
-        return;
-    }
-    dkf_fcr_sync_counts(fu->rt, &fu->c);
-    memset(&st, 0, sizeof st);
-    st.utime = dkf_net_now_us();
-    st.model_id = fu->model_id;
-    st.role = DKF_NET_ROLE_FUSION;
-    st.id = -1;
-    st.state = dkf_net_fusion_state(fu);
-    st.k = dkf_fcr_done_k(fu->rt);
-    st.sent = fu->c.sent;
-    st.received = fu->c.received;
-    st.rejected = fu->c.rejected;
-    st.missed = fu->c.missed;
-    snprintf(st.detail, sizeof st.detail, "%s", dkf_fcr_note(fu->rt));
-    dkf_net_publish_status(fu->net, fu->prefix, &st);
+    else
+        dkf_net_centre_report(&fu->b);
 }
 
 void dkf_net_fusion_journal(dkf_net_fusion_t *fu, FILE *f)
 {
-    dkf_fcr_doc_info_t info;
-    if (fu->wf != NULL) {
+    if (fu->wf != NULL)
         dkf_net_wfusion_journal(fu->wf, f);
-        return;
-    }
-    info = doc_info(fu);
-    fu->journal = f;
-    if (f != NULL && dkf_fcr_journal_header(f, fu->rt, &info, dkf_net_now_us()) != 0) {
-        dkf_fcr_notef(fu->rt, "fusion: cannot write the journal");
-        fu->journal = NULL;
-    }
+    else
+        dkf_net_centre_journal(&fu->b, f);
 }
 
 long dkf_net_fusion_k(const dkf_net_fusion_t *fu)
 {
-    return fu->wf != NULL ? dkf_net_wfusion_k(fu->wf) : dkf_fcr_done_k(fu->rt);
+    return fu->wf != NULL ? dkf_net_wfusion_k(fu->wf) : dkf_fcr_done_k(fu->b.rt);
 }
 const dkf_net_counts_t *dkf_net_fusion_counts(const dkf_net_fusion_t *fu)
 {
-    return fu->wf != NULL ? dkf_net_wfusion_counts(fu->wf) : &fu->c;
+    return fu->wf != NULL ? dkf_net_wfusion_counts(fu->wf) : &fu->b.c;
 }
 
-/* The result document (fusion_result.h) with outputs.fused.{xf,xp,Pf,Pp}. */
 int dkf_net_fusion_steady(dkf_net_fusion_t *fu, double tol)
 {
     return fu->wf == NULL && dkf_diffkf_fc_set_steady(&fu->fc, (dkf_real_t)tol) == DKF_OK ? 0 : -1;
 }
 
+/* The result document (fusion_result.h) with outputs.fused.{xf,xp,Pf,Pp}. */
 json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
 {
-    const size_t n = fu->n, K = fu->wf != NULL ? 0 : (size_t)dkf_fcr_done_k(fu->rt);
-    dkf_fcr_doc_info_t info;
+    const size_t n = fu->b.n, K = fu->wf != NULL ? 0 : (size_t)dkf_fcr_done_k(fu->b.rt);
     json_t *outputs, *fused, *doc;
     if (fu->wf != NULL) return dkf_net_wfusion_result(fu->wf);
-    info = doc_info(fu);
     outputs = json_object();
     fused = json_object();
     dkf_fcr_json_set_rows(fused, "xf", fu->rec.xf, K, n, 0);
@@ -517,7 +403,7 @@ json_t *dkf_net_fusion_result(const dkf_net_fusion_t *fu)
     dkf_fcr_json_set_rows(fused, "Pf", fu->rec.Pf, K, n, n);
     dkf_fcr_json_set_rows(fused, "Pp", fu->rec.Pp, K, n, n);
     json_object_set_new(outputs, "fused", fused);
-    doc = dkf_fcr_result_doc(fu->rt, &info, outputs);
+    doc = dkf_net_centre_result(&fu->b, outputs);
     json_object_set_new(json_object_get(doc, "counters"), "steady_gain_steps",
                         json_integer((json_int_t)fu->steady_steps));
     return doc;

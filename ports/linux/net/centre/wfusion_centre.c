@@ -23,6 +23,7 @@
 #include <string.h>
 
 #include "centre.h"
+#include "centre_common.h"
 #include "dkf/wfusion.h"
 #include "fc_runtime.h"
 #include "fusion_result.h"
@@ -39,14 +40,7 @@ typedef struct {
 } wrecord_t;
 
 struct dkf_net_wfusion {
-    dkf_net_t *net;
-    const dkf_scenario_t *s;
-    size_t l, n;
-    long N;
-    char prefix[DKF_NET_CHAN_LEN / 2];
-    char chan_out[DKF_NET_CHAN_LEN];
-    int64_t model_id, deadline_us;
-    dkf_fcr_t *rt;
+    dkf_net_centre_t b;          /* scenario, LCM, runtime, journal, counters */
     dkf_wf_model_t md;
     dkf_wfusion_t fu;
     dkf_wfusion_local_t *nodes;  /* l */
@@ -59,18 +53,8 @@ struct dkf_net_wfusion {
     dkf_real_t *xin;             /* l x n: the payloads as dkf_real_t */
     size_t ck_len;               /* reals of the core fusion's checkpoint */
     size_t ck_size;              /* bytes of a checkpoint (that, then xlast, Plast) */
-    FILE *journal;
-    dkf_diffkf_msg_t in, in_prev;
     wrecord_t rec;
-    dkf_net_counts_t c;
-    int64_t seq, last_beat;
 };
-
-static void to_double(double *dst, const dkf_real_t *src, size_t len)
-{
-    size_t i;
-    for (i = 0; i < len; ++i) dst[i] = (double)src[i];
-}
 
 /* ---- the runtime's operations ------------------------------------------------------ */
 
@@ -81,13 +65,10 @@ static void to_double(double *dst, const dkf_real_t *src, size_t len)
 static int op_restart(void *user, size_t i, long k)
 {
     dkf_net_wfusion_t *w = user;
-    dkf_fcr_notef(w->rt, "wfusion: node %zu restarted at k=%ld: masked from then on", i, k);
+    dkf_fcr_notef(w->b.rt, "wfusion: node %zu restarted at k=%ld: masked from then on", i, k);
     return -1;
 }
 
-/* The checkpoint: dkf_wfusion_t, the l local filters, the core storage,
- * then the last fused estimate (the structs' pointers point into storage
- * that stays where it is, so a byte copy restores the state exactly). */
 /* A checkpoint: the core fusion's (dkf_wfusion_save: every local filter
  * and P_ij), then the previous fused estimate xlast, Plast. */
 static int op_save(void *user, void *ckpt)
@@ -95,7 +76,7 @@ static int op_save(void *user, void *ckpt)
     dkf_net_wfusion_t *w = user;
     dkf_real_t *p = ckpt;
     if (dkf_wfusion_save(&w->fu, p, w->ck_len) != DKF_OK) return -1;
-    memcpy(p + w->ck_len, w->xlast, (w->n + w->n * w->n) * sizeof *w->xlast);
+    memcpy(p + w->ck_len, w->xlast, (w->b.n + w->b.n * w->b.n) * sizeof *w->xlast);
     return 0;
 }
 
@@ -104,7 +85,7 @@ static int op_restore(void *user, const void *ckpt)
     dkf_net_wfusion_t *w = user;
     const dkf_real_t *p = ckpt;
     if (dkf_wfusion_restore(&w->fu, p, w->ck_len) != DKF_OK) return -1;
-    memcpy(w->xlast, p + w->ck_len, (w->n + w->n * w->n) * sizeof *w->xlast);
+    memcpy(w->xlast, p + w->ck_len, (w->b.n + w->b.n * w->b.n) * sizeof *w->xlast);
     return 0;
 }
 
@@ -112,7 +93,7 @@ static int op_restore(void *user, const void *ckpt)
  * Pp; the step itself when no node is present). */
 static dkf_status_t predict(dkf_net_wfusion_t *w, dkf_mat_t *xp, dkf_mat_t *Pp)
 {
-    const size_t n = w->n;
+    const size_t n = w->b.n;
     dkf_mat_t xl = DKF_MAT(n, 1, w->xlast), Pl = DKF_MAT(n, n, w->Plast);
     dkf_mat_t FP = DKF_MAT(n, n, w->scratch + 2 * n * n + n);
     dkf_status_t st = dkf_mat_mul(xp, &w->md.F, &xl);
@@ -130,7 +111,7 @@ static dkf_status_t predict(dkf_net_wfusion_t *w, dkf_mat_t *xp, dkf_mat_t *Pp)
 static int op_step(void *user, long k, const void *const *pay, unsigned char *contrib)
 {
     dkf_net_wfusion_t *w = user;
-    const size_t n = w->n, l = w->l, j = (size_t)(k - 1);
+    const size_t n = w->b.n, l = w->b.l, j = (size_t)(k - 1);
     const dkf_mat_t *x[DKF_NET_MAX_NODES];
     dkf_mat_t xv[DKF_NET_MAX_NODES];
     dkf_mat_t xp = DKF_MAT(n, 1, w->scratch), Pp = DKF_MAT(n, n, w->scratch + n);
@@ -140,7 +121,7 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
     int refused = 0;
     if ((st = predict(w, &xp, &Pp)) != DKF_OK ||
         (st = dkf_wfusion_step(&w->fu, &w->md.dyn, w->md.meas, NULL)) != DKF_OK) {
-        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: dkf_wfusion_step failed: %s", k,
+        dkf_fcr_notef(w->b.rt, "wfusion: step k=%ld: dkf_wfusion_step failed: %s", k,
                       dkf_status_str(st));
         return -1;
     }
@@ -156,8 +137,8 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
         x[i] = &xv[i];
         ++used;
     }
-    to_double(w->rec.xp + j * n, xp.data, n);
-    to_double(w->rec.Pp + j * n * n, Pp.data, n * n);
+    dkf_net_centre_to_double(w->rec.xp + j * n, xp.data, n);
+    dkf_net_centre_to_double(w->rec.Pp + j * n * n, Pp.data, n * n);
     memset(w->rec.w + j * l, 0, l * sizeof(double));
     w->rec.s0[j] = 0;
     w->rec.PS0[j] = 0;
@@ -166,7 +147,7 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
         st = dkf_wfusion_fuse_scalar(&w->fu, x);
         if (st == DKF_OK) st = dkf_wfusion_fuse_matrix(&w->fu, x);
         if (st != DKF_OK) {
-            dkf_fcr_notef(w->rt, "wfusion: step k=%ld: the fusion of %zu nodes failed: %s "
+            dkf_fcr_notef(w->b.rt, "wfusion: step k=%ld: the fusion of %zu nodes failed: %s "
                           "(the prediction is used)", k, used, dkf_status_str(st));
             ++refused;
             used = 0;
@@ -178,7 +159,7 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
         (void)dkf_mat_copy(&Pl, &w->fu.Pf);
         w->rec.s0[j] = (double)w->fu.s0;
         w->rec.PS0[j] = (double)w->fu.PS0;
-        to_double(w->rec.w + j * l, w->fu.w.data, l);
+        dkf_net_centre_to_double(w->rec.w + j * l, w->fu.w.data, l);
         w->rec.A_unique[j] = w->fu.A_unique;
         w->rec.w_unique[j] = w->fu.w_unique;
     } else {
@@ -187,8 +168,8 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
         (void)dkf_mat_copy(&Pl, &Pp);
     }
     w->rec.used[j] = (int)used;
-    to_double(w->rec.x0 + j * n, w->xlast, n);
-    to_double(w->rec.P0 + j * n * n, w->Plast, n * n);
+    dkf_net_centre_to_double(w->rec.x0 + j * n, w->xlast, n);
+    dkf_net_centre_to_double(w->rec.P0 + j * n * n, w->Plast, n * n);
     return refused;
 }
 
@@ -197,82 +178,44 @@ static int op_step(void *user, long k, const void *const *pay, unsigned char *co
 static int op_publish(void *user, const dkf_fcr_step_t *st, int64_t *utime)
 {
     dkf_net_wfusion_t *w = user;
-    const size_t n = w->n, j = (size_t)(st->k - 1);
-    return dkf_fcr_publish_fused(w->net, w->chan_out, w->rt, "wfusion", st, w->l, n,
-                                 w->rec.x0 + j * n, w->rec.P0 + j * n * n, w->rec.xp + j * n,
-                                 w->rec.Pp + j * n * n, w->model_id, &w->seq, utime);
-}
-
-static dkf_fcr_doc_info_t doc_info(const dkf_net_wfusion_t *w)
-{
-    dkf_fcr_doc_info_t info;
-    info.scenario = w->s->file;
-    info.model_id = w->model_id;
-    info.deadline_us = w->deadline_us;
-    info.rejected = w->c.rejected;
-    info.why = &w->c.why;
-    return info;
+    return dkf_net_centre_publish(&w->b, st, w->rec.x0, w->rec.P0, w->rec.xp, w->rec.Pp, utime);
 }
 
 static void op_record(void *user, const dkf_fcr_step_t *st, int published)
 {
     dkf_net_wfusion_t *w = user;
-    const size_t n = w->n, l = w->l, j = (size_t)(st->k - 1);
-    json_t *o;
-    if (w->journal == NULL) return;
-    o = dkf_fcr_journal_line(st, published);
+    const size_t n = w->b.n, l = w->b.l, j = (size_t)(st->k - 1);
+    json_t *o = dkf_net_centre_journal_line(&w->b, st, published);
+    if (o == NULL) return;
     dkf_fcr_json_set_block(o, "x0", w->rec.x0 + j * n, n, 0);
     dkf_fcr_json_set_block(o, "P0", w->rec.P0 + j * n * n, n, n);
     json_object_set_new(o, "s0", json_real(w->rec.s0[j]));
     json_object_set_new(o, "PS0", json_real(w->rec.PS0[j]));
     dkf_fcr_json_set_block(o, "w", w->rec.w + j * l, l, 0);
     json_object_set_new(o, "used", json_integer(w->rec.used[j]));
-    if (dkf_fcr_journal_write(w->journal, o, dkf_net_now_us()) != 0) {
-        dkf_fcr_notef(w->rt, "wfusion: step k=%ld: cannot write the journal", st->k);
-        w->journal = NULL;
-    }
+    dkf_net_centre_journal_write(&w->b, st, o);
 }
 
 static void op_state(void *user, int state)
 {
+    dkf_net_wfusion_t *w = user;
     (void)state;
-    dkf_net_wfusion_report(user);
+    dkf_net_centre_report(&w->b);
 }
 
 static const dkf_fcr_ops_t wf_ops = {op_step,    op_restart, op_save,  op_restore,
                                      op_publish, op_record,  op_state, dkf_net_copy_node_payload};
 
-/* ---- LCM: the node messages, decoded by codec.c ------------------------------------- */
-
-static void on_node_msg(const char *channel, const dkf_net_from_t *from, const void *data,
-                        size_t len, int64_t recv_utime, void *user)
-{
-    dkf_net_wfusion_t *w = user;
-    dkf_net_expect_t ex;
-    ex.model_id = w->model_id;
-    ex.nnodes = w->l;
-    ex.n = w->n;
-    ex.m = NULL;
-    ex.kmax = w->N;
-    dkf_fcr_node_message(w->rt, &ex, "wfusion", channel, from, data, len, recv_utime, &w->in,
-                         &w->in_prev, &w->c);
-}
-
 void dkf_net_wfusion_tick(dkf_net_wfusion_t *w, int64_t mono_us, int64_t heartbeat_us)
 {
-    dkf_fcr_tick(w->rt, mono_us);
-    dkf_fcr_sync_counts(w->rt, &w->c);
-    if (heartbeat_us <= 0) heartbeat_us = DKF_NET_HEARTBEAT_US;
-    if (w->last_beat != INT64_MIN && mono_us - w->last_beat < heartbeat_us) return;
-    w->last_beat = mono_us;
-    dkf_net_wfusion_report(w);
+    dkf_net_centre_tick(&w->b, mono_us, heartbeat_us);
 }
 
 /* ---- set-up --------------------------------------------------------------------------- */
 
 static int wf_alloc(dkf_net_wfusion_t *w)
 {
-    const size_t l = w->l, n = w->n, N = (size_t)w->N;
+    const size_t l = w->b.l, n = w->b.n, N = (size_t)w->b.N;
     w->nodes = calloc(l, sizeof *w->nodes);
     w->xlast = calloc(n + n * n, sizeof *w->xlast);
     w->scratch = calloc(3 * n * n + n, sizeof *w->scratch);
@@ -295,23 +238,23 @@ static int wf_alloc(dkf_net_wfusion_t *w)
     return 0;
 }
 
-/* The core fusion (every local filter from the common prior) and the
- * runtime with its checkpoint of the state before step 1. -1 with err. */
+/* The core fusion (every local filter from the common prior), the runtime
+ * with its checkpoint of the state before step 1 and the node
+ * subscription. -1 with err. */
 static int wf_setup(dkf_net_wfusion_t *w, char *err, size_t errlen)
 {
-    const dkf_scenario_t *s = w->s;
-    const size_t n = w->n;
-    dkf_fcr_config_t cfg;
+    const dkf_scenario_t *s = w->b.s;
+    const size_t n = w->b.n;
     dkf_status_t st;
     if (dkf_wf_model_load(s, &w->md, err, errlen) != 0) return -1;
-    w->store_len = dkf_wfusion_storage_len(n, w->l, w->md.m);
+    w->store_len = dkf_wfusion_storage_len(n, w->b.l, w->md.m);
     w->store = w->store_len ? calloc(w->store_len, sizeof *w->store) : NULL;
     if (w->store == NULL) {
         snprintf(err, errlen, "%s: wfusion: no storage for the fusion (n = %zu, %zu sensors)",
-                 s->file, n, w->l);
+                 s->file, n, w->b.l);
         return -1;
     }
-    st = dkf_wfusion_init(&w->fu, n, w->l, w->md.m, w->nodes, w->store, w->store_len, &w->md.Hs,
+    st = dkf_wfusion_init(&w->fu, n, w->b.l, w->md.m, w->nodes, w->store, w->store_len, &w->md.Hs,
                           &w->md.x0, &w->md.P0);
     if (st != DKF_OK) {
         snprintf(err, errlen, "%s: wfusion: dkf_wfusion_init failed: %s", s->file,
@@ -322,19 +265,7 @@ static int wf_setup(dkf_net_wfusion_t *w, char *err, size_t errlen)
     memcpy(w->Plast, w->md.P0.data, n * n * sizeof *w->Plast);
     w->ck_len = dkf_wfusion_checkpoint_len(&w->fu);
     w->ck_size = (w->ck_len + n + n * n) * sizeof *w->xlast;
-    cfg.nodes = w->l;
-    cfg.steps = w->N;
-    cfg.payload_size = sizeof(dkf_diffkf_msg_t);
-    cfg.ckpt_size = w->ck_size;
-    cfg.deadline_us = w->deadline_us;
-    cfg.linger_us = 2 * w->deadline_us > DKF_NET_LINGER_US ? 2 * w->deadline_us
-                                                           : DKF_NET_LINGER_US;
-    w->rt = dkf_fcr_create(&cfg, &wf_ops, w);
-    if (w->rt == NULL) {
-        snprintf(err, errlen, "%s: wfusion: no storage for the checkpoints", s->file);
-        return -1;
-    }
-    return 0;
+    return dkf_net_centre_start(&w->b, &wf_ops, w, w->ck_size, err, errlen);
 }
 
 dkf_net_wfusion_t *dkf_net_wfusion_create(dkf_net_t *net, const dkf_scenario_t *s,
@@ -342,21 +273,11 @@ dkf_net_wfusion_t *dkf_net_wfusion_create(dkf_net_t *net, const dkf_scenario_t *
                                           size_t errlen)
 {
     dkf_net_wfusion_t *w = calloc(1, sizeof *w);
-    char chan[DKF_NET_CHAN_LEN + 16];
     if (w == NULL) {
         snprintf(err, errlen, "wfusion: out of memory");
         return NULL;
     }
-    w->net = net;
-    w->s = s;
-    w->l = s->nsensors;
-    w->n = s->n;
-    w->N = (long)s->steps;
-    snprintf(w->prefix, sizeof w->prefix, "%s", prefix);
-    dkf_net_chan(w->chan_out, prefix, "FUSED");
-    w->model_id = dkf_net_model_id(s);
-    w->deadline_us = deadline_us > 0 ? deadline_us : DKF_NET_DEADLINE_US;
-    w->last_beat = INT64_MIN;
+    dkf_net_centre_init(&w->b, "wfusion", net, s, prefix, deadline_us);
     if (wf_alloc(w) != 0) {
         snprintf(err, errlen, "wfusion: out of memory");
         dkf_net_wfusion_free(w);
@@ -366,19 +287,13 @@ dkf_net_wfusion_t *dkf_net_wfusion_create(dkf_net_t *net, const dkf_scenario_t *
         dkf_net_wfusion_free(w);
         return NULL;
     }
-    snprintf(chan, sizeof chan, "%s_NODE_[0-9]+", prefix);
-    if (net != NULL && dkf_net_subscribe(net, chan, on_node_msg, w) != 0) {
-        snprintf(err, errlen, "wfusion: cannot subscribe to %s", chan);
-        dkf_net_wfusion_free(w);
-        return NULL;
-    }
     return w;
 }
 
 void dkf_net_wfusion_free(dkf_net_wfusion_t *w)
 {
     if (w == NULL) return;
-    dkf_fcr_free(w->rt);
+    dkf_fcr_free(w->b.rt);
     dkf_wf_model_free(&w->md);
     free(w->nodes);
     free(w->store);
@@ -398,48 +313,12 @@ void dkf_net_wfusion_free(dkf_net_wfusion_t *w)
     free(w);
 }
 
-int dkf_net_wfusion_state(const dkf_net_wfusion_t *w)
-{
-    switch (dkf_fcr_state(w->rt)) {
-    case DKF_FCR_DONE: return DKF_NET_DONE;
-    case DKF_FCR_FAILED: return DKF_NET_FAILED;
-    default: return DKF_NET_RUNNING;
-    }
-}
-
-void dkf_net_wfusion_report(dkf_net_wfusion_t *w)
-{
-    dkf_net_status_t st;
-    dkf_fcr_sync_counts(w->rt, &w->c);
-    if (w->net == NULL) return;
-    memset(&st, 0, sizeof st);
-    st.utime = dkf_net_now_us();
-    st.model_id = w->model_id;
-    st.role = DKF_NET_ROLE_FUSION;
-    st.id = -1;
-    st.state = dkf_net_wfusion_state(w);
-    st.k = dkf_fcr_done_k(w->rt);
-    st.sent = w->c.sent;
-    st.received = w->c.received;
-    st.rejected = w->c.rejected;
-    st.missed = w->c.missed;
-    snprintf(st.detail, sizeof st.detail, "%s", dkf_fcr_note(w->rt));
-    dkf_net_publish_status(w->net, w->prefix, &st);
-}
-
-void dkf_net_wfusion_journal(dkf_net_wfusion_t *w, FILE *f)
-{
-    const dkf_fcr_doc_info_t info = doc_info(w);
-    w->journal = f;
-    if (f != NULL && dkf_fcr_journal_header(f, w->rt, &info, dkf_net_now_us()) != 0) {
-        dkf_fcr_notef(w->rt, "wfusion: cannot write the journal");
-        w->journal = NULL;
-    }
-}
-
-long dkf_net_wfusion_k(const dkf_net_wfusion_t *w) { return dkf_fcr_done_k(w->rt); }
-const dkf_net_counts_t *dkf_net_wfusion_counts(const dkf_net_wfusion_t *w) { return &w->c; }
-dkf_fcr_t *dkf_net_wfusion_runtime(dkf_net_wfusion_t *w) { return w->rt; }
+int dkf_net_wfusion_state(const dkf_net_wfusion_t *w) { return dkf_net_centre_state(&w->b); }
+void dkf_net_wfusion_report(dkf_net_wfusion_t *w) { dkf_net_centre_report(&w->b); }
+void dkf_net_wfusion_journal(dkf_net_wfusion_t *w, FILE *f) { dkf_net_centre_journal(&w->b, f); }
+long dkf_net_wfusion_k(const dkf_net_wfusion_t *w) { return dkf_fcr_done_k(w->b.rt); }
+const dkf_net_counts_t *dkf_net_wfusion_counts(const dkf_net_wfusion_t *w) { return &w->b.c; }
+dkf_fcr_t *dkf_net_wfusion_runtime(dkf_net_wfusion_t *w) { return w->b.rt; }
 
 static json_t *real_rows(const double *v, size_t K)
 {
@@ -461,8 +340,7 @@ static json_t *int_rows(const int *v, size_t K)
  * Pp, s0, PS0, w, used, A_unique, w_unique}. */
 json_t *dkf_net_wfusion_result(const dkf_net_wfusion_t *w)
 {
-    const size_t n = w->n, l = w->l, K = (size_t)dkf_fcr_done_k(w->rt);
-    const dkf_fcr_doc_info_t info = doc_info(w);
+    const size_t n = w->b.n, l = w->b.l, K = (size_t)dkf_fcr_done_k(w->b.rt);
     json_t *outputs = json_object(), *o = json_object();
     dkf_fcr_json_set_rows(o, "x0", w->rec.x0, K, n, 0);
     dkf_fcr_json_set_rows(o, "P0", w->rec.P0, K, n, n);
@@ -475,5 +353,5 @@ json_t *dkf_net_wfusion_result(const dkf_net_wfusion_t *w)
     json_object_set_new(o, "A_unique", int_rows(w->rec.A_unique, K));
     json_object_set_new(o, "w_unique", int_rows(w->rec.w_unique, K));
     json_object_set_new(outputs, "wfusion", o);
-    return dkf_fcr_result_doc(w->rt, &info, outputs);
+    return dkf_net_centre_result(&w->b, outputs);
 }

@@ -59,29 +59,14 @@
 # every process has its own --timeout, ctest a TIMEOUT.
 set -uo pipefail
 mode=$1 scn=$2 out=$3
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60            # per-process timeout, seconds
 DEADLINE_FLOOR_MS=300 # the fusion deadline's least (150 ms gave extra degraded steps at load 8)
 
-if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
-  "$DKF_NETNS" check || exit $?
-  "$DKF_PYTHON" -c 'import numpy' 2>/dev/null || { echo "SKIP: numpy missing (check_faults.py)"; exit 77; }
-  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
-fi
-
-# Inside the namespace: refuse to run if anything but loopback exists.
-if ip -o link | grep -qv ': lo:'; then
-  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
-  exit 1
-fi
-
-rm -rf "$out" && mkdir -p "$out"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
-trap cleanup EXIT
-
-# wait_file, wait_log_quiet
 . "$(dirname "$0")/net_common.sh"
+# the check before the namespace is made; then the rest runs inside it
+needs_numpy check_faults.py
+in_netns "$0" "$@"
+start_run "$out"
 DEADLINE_MS=$(derived_ms "$DKF_NODE" $DEADLINE_FLOOR_MS 40)
 
 AUTH=() # --key-dir DIR for every process (mode auth)

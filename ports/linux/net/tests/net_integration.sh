@@ -26,7 +26,6 @@
 # script as a whole is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 scn=$2 out=$3
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60   # per-process timeout, seconds
 # Every node runs in every mode, so no step needs its deadline: a stalled
 # node (a loaded machine) only delays the run, as long as the process may run.
@@ -34,24 +33,9 @@ DEADLINE_MS=$((T * 1000))
 SPLIT=()   # --split-ports in modes split and direct
 DIRECT=()  # --direct-recv (mode direct: the centre, node 0 and the simulator)
 
-if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
-  "$DKF_NETNS" check || exit $?
-  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
-fi
-
-# Inside the namespace: refuse to run if anything but loopback exists.
-if ip -o link | grep -qv ': lo:'; then
-  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
-  exit 1
-fi
-
-rm -rf "$out" && mkdir -p "$out"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
-trap cleanup EXIT
-
-# wait_file, wait_log_quiet
 . "$(dirname "$0")/net_common.sh"
+in_netns "$0" "$@"
+start_run "$out"
 probe=$(probe_ms "$DKF_NODE")
 quiet_ms=$((20 * probe > 300 ? 20 * probe : 300)) # the logger's (wait_log_quiet)
 

@@ -18,6 +18,7 @@
 #include <cmocka.h>
 
 #include "agents.h"
+#include "dkf_test.h"
 #include "centre.h"
 #include "model.h"
 #include "net.h"
@@ -40,26 +41,12 @@
 #define REL 1e-9
 #endif
 
-static size_t flatten(const json_t *j, double *out, size_t cap)
-{
-    size_t i, n = 0;
-    if (json_is_number(j)) {
-        assert_true(cap >= 1);
-        out[0] = json_number_value(j);
-        return 1;
-    }
-    assert_true(json_is_array(j));
-    for (i = 0; i < json_array_size(j); ++i)
-        n += flatten(json_array_get(j, i), out + n, cap - n);
-    return n;
-}
-
 /* max|a - b| / max(1, max|b|) of series key of two output objects. */
 static double rel_diff(const json_t *a, const json_t *b, const char *key)
 {
     static double va[1 << 16], vb[1 << 16];
-    size_t na = flatten(json_object_get(a, key), va, 1 << 16);
-    size_t nb = flatten(json_object_get(b, key), vb, 1 << 16), i;
+    size_t na = test_json_flatten(json_object_get(a, key), va, 1 << 16);
+    size_t nb = test_json_flatten(json_object_get(b, key), vb, 1 << 16), i;
     double d = 0, m = 1;
     assert_int_equal(na, nb);
     assert_true(na > 0);
@@ -126,48 +113,67 @@ static void check_exact(const dkf_net_fusion_t *fu, const dkf_scenario_t *s)
     json_decref(doc);
 }
 
-static void test_memq_ex3_fused_equals_central(void **state)
-{
-    char err[DKF_SCN_ERR_LEN];
-    dkf_scenario_t *s = load();
-    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+/* Example 3 over memq: the simulator, node 0, node 1 if asked, and a fusion
+ * centre with the given deadline. */
+typedef struct {
+    dkf_scenario_t *s;
+    dkf_net_t *net;
     dkf_net_sim_t *sim;
     dkf_net_node_t *n0, *n1;
     dkf_net_fusion_t *fu;
+} rig_t;
+
+static void rig_open(rig_t *r, int with_n1, int64_t deadline_us)
+{
+    char err[DKF_SCN_ERR_LEN];
+    r->s = load();
+    r->net = dkf_net_open("memq://", err, sizeof err);
+    assert_non_null(r->net);
+    r->sim = dkf_net_sim_create(r->net, r->s, "T", err, sizeof err);
+    r->n0 = dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
+    r->n1 = with_n1 ? dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 1, "T", err, sizeof err) : NULL;
+    r->fu = dkf_net_fusion_create(r->net, r->s, "T", deadline_us, err, sizeof err);
+    assert_non_null(r->sim);
+    assert_non_null(r->n0);
+    assert_true(!with_n1 || r->n1 != NULL);
+    assert_non_null(r->fu);
+}
+
+static void rig_close(rig_t *r)
+{
+    dkf_net_fusion_free(r->fu);
+    dkf_net_node_free(r->n0);
+    dkf_net_node_free(r->n1);
+    dkf_net_sim_free(r->sim);
+    dkf_net_close(r->net);
+    dkf_scenario_free(r->s);
+}
+
+static void test_memq_ex3_fused_equals_central(void **state)
+{
+    char err[DKF_SCN_ERR_LEN];
+    rig_t r;
     (void)state;
-    assert_non_null(net);
-    sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
-    n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
-    fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
-    assert_non_null(sim);
-    assert_non_null(n0);
-    assert_non_null(n1);
-    if (fu == NULL) fail_msg("%s", err);
+    rig_open(&r, 1, 0);
     /* heartbeats make the simulator's peers ready */
-    dkf_net_node_tick(n0, 0, 0);
-    dkf_net_node_tick(n1, 0, 0);
-    dkf_net_fusion_tick(fu, 0, 0);
-    assert_true(dkf_net_drain(net, 0) >= 3);
-    assert_int_equal(dkf_net_sim_ready(sim, err, sizeof err), 1);
-    run(net, sim, NULL, NULL);
-    assert_int_equal(dkf_net_node_state(n0), DKF_NET_DONE);
-    assert_int_equal(dkf_net_node_state(n1), DKF_NET_DONE);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
-    assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
-    assert_int_equal(dkf_net_sim_fused_k(sim), (long)s->steps);
-    assert_int_equal(dkf_net_node_counts(n0)->sent, (int64_t)s->steps);
-    assert_int_equal(dkf_net_node_counts(n0)->received, (int64_t)s->steps + 1);
-    assert_int_equal(dkf_net_fusion_counts(fu)->received, 2 * (int64_t)s->steps);
-    assert_int_equal(dkf_net_fusion_counts(fu)->rejected, 0);
-    assert_int_equal(dkf_net_fusion_counts(fu)->missed, 0);
-    check_exact(fu, s);
-    dkf_net_fusion_free(fu);
-    dkf_net_node_free(n0);
-    dkf_net_node_free(n1);
-    dkf_net_sim_free(sim);
-    dkf_net_close(net);
-    dkf_scenario_free(s);
+    dkf_net_node_tick(r.n0, 0, 0);
+    dkf_net_node_tick(r.n1, 0, 0);
+    dkf_net_fusion_tick(r.fu, 0, 0);
+    assert_true(dkf_net_drain(r.net, 0) >= 3);
+    assert_int_equal(dkf_net_sim_ready(r.sim, err, sizeof err), 1);
+    run(r.net, r.sim, NULL, NULL);
+    assert_int_equal(dkf_net_node_state(r.n0), DKF_NET_DONE);
+    assert_int_equal(dkf_net_node_state(r.n1), DKF_NET_DONE);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_DONE);
+    assert_int_equal(dkf_net_fusion_k(r.fu), (long)r.s->steps);
+    assert_int_equal(dkf_net_sim_fused_k(r.sim), (long)r.s->steps);
+    assert_int_equal(dkf_net_node_counts(r.n0)->sent, (int64_t)r.s->steps);
+    assert_int_equal(dkf_net_node_counts(r.n0)->received, (int64_t)r.s->steps + 1);
+    assert_int_equal(dkf_net_fusion_counts(r.fu)->received, 2 * (int64_t)r.s->steps);
+    assert_int_equal(dkf_net_fusion_counts(r.fu)->rejected, 0);
+    assert_int_equal(dkf_net_fusion_counts(r.fu)->missed, 0);
+    check_exact(r.fu, r.s);
+    rig_close(&r);
 }
 
 /* ---- hostile traffic on the node channels --------------------------------------- */
@@ -214,19 +220,13 @@ static void inject(dkf_net_t *net, long j)
 
 static void test_memq_rejects_hostile_messages(void **state)
 {
-    char err[DKF_SCN_ERR_LEN];
-    dkf_scenario_t *s = load();
-    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
-    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
-    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 0, err, sizeof err);
+    rig_t r;
     const dkf_net_counts_t *c;
     (void)state;
-    assert_non_null(fu);
-    g_model = dkf_net_model_id(s);
-    run(net, sim, inject, NULL);
-    c = dkf_net_fusion_counts(fu);
+    rig_open(&r, 1, 0);
+    g_model = dkf_net_model_id(r.s);
+    run(r.net, r.sim, inject, NULL);
+    c = dkf_net_fusion_counts(r.fu);
     assert_int_equal(c->why.by[DKF_NET_REJ_MODEL], 1);
     assert_int_equal(c->why.by[DKF_NET_REJ_DIM], 1);
     assert_int_equal(c->why.by[DKF_NET_REJ_NONFINITE], 2);
@@ -236,15 +236,10 @@ static void test_memq_rejects_hostile_messages(void **state)
     assert_int_equal(c->rejected, 11);
     assert_int_equal(c->why.total, 11);
     assert_int_equal(c->stale, 1);
-    assert_int_equal(c->received, 2 * (int64_t)s->steps);
+    assert_int_equal(c->received, 2 * (int64_t)r.s->steps);
     assert_int_equal(c->missed, 0);
-    check_exact(fu, s);
-    dkf_net_fusion_free(fu);
-    dkf_net_node_free(n0);
-    dkf_net_node_free(n1);
-    dkf_net_sim_free(sim);
-    dkf_net_close(net);
-    dkf_scenario_free(s);
+    check_exact(r.fu, r.s);
+    rig_close(&r);
 }
 
 /* A node whose scenario differs (one entry of its Q) has another model id:
@@ -386,8 +381,8 @@ static double step_diff(const json_t *doc, const dkf_scenario_t *s, size_t j)
     size_t q, i, na, nb;
     for (q = 0; q < 4; ++q) {
         double d = 0, m = 1;
-        na = flatten(json_array_get(json_object_get(got, keys[q]), j), a, DKF_MAX_DIM * DKF_MAX_DIM);
-        nb = flatten(json_array_get(json_object_get(cen, keys[q]), j), b, DKF_MAX_DIM * DKF_MAX_DIM);
+        na = test_json_flatten(json_array_get(json_object_get(got, keys[q]), j), a, DKF_MAX_DIM * DKF_MAX_DIM);
+        nb = test_json_flatten(json_array_get(json_object_get(cen, keys[q]), j), b, DKF_MAX_DIM * DKF_MAX_DIM);
         assert_int_equal(na, nb);
         for (i = 0; i < na; ++i) {
             if (fabs(a[i] - b[i]) > d) d = fabs(a[i] - b[i]);
@@ -419,40 +414,34 @@ static int64_t fault_count(const json_t *doc, const char *key)
  * the offline masked filter. */
 static void test_memq_drop_dup_reorder(void **state)
 {
-    char err[DKF_SCN_ERR_LEN];
-    dkf_scenario_t *s = load();
-    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
-    dkf_net_sim_t *sim = dkf_net_sim_create(net, s, "T", err, sizeof err);
-    dkf_net_node_t *n0 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
-    dkf_net_node_t *n1 = dkf_net_node_create(net, s, DKF_NODE_FILTER, 1, "T", err, sizeof err);
-    dkf_net_fusion_t *fu = dkf_net_fusion_create(net, s, "T", 1000, err, sizeof err);
+    rig_t r;
     dkf_net_faults_t fx;
     json_t *doc;
     int64_t dropped, dup, reo;
     size_t j, complete = 0, first_degraded = 0, first_lost = 0;
     double worst = 0;
     (void)state;
-    assert_non_null(fu);
+    rig_open(&r, 1, 1000);
     memset(&fx, 0, sizeof fx);
     fx.drop_pct = 20;
     fx.dup_pct = 10;
     fx.reorder_pct = 10;
     fx.seed = 3;
-    dkf_net_node_faults(n1, &fx);
-    run(net, sim, NULL, fu);
+    dkf_net_node_faults(r.n1, &fx);
+    run(r.net, r.sim, NULL, r.fu);
     /* step N is out, but node 1's payload of a step still revisable was
      * lost for good: the centre waits for it (docs/design/network.md, "End of a
      * run") until node 1 has been silent for the linger time */
-    assert_int_equal(dkf_net_fusion_k(fu), (long)s->steps);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
-    dkf_net_fusion_tick(fu, dkf_net_mono_us() + DKF_NET_LINGER_US / 2, 0);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_RUNNING);
-    dkf_net_fusion_tick(fu, dkf_net_mono_us() + DKF_NET_LINGER_US + 1, 0);
-    assert_int_equal(dkf_net_fusion_state(fu), DKF_NET_DONE);
-    dkf_net_node_fault_counts(n1, &dropped, &dup, &reo);
-    doc = dkf_net_fusion_result(fu);
-    assert_int_equal(json_array_size(json_object_get(doc, "k")), s->steps);
-    for (j = 0; j < s->steps; ++j) {
+    assert_int_equal(dkf_net_fusion_k(r.fu), (long)r.s->steps);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_RUNNING);
+    dkf_net_fusion_tick(r.fu, dkf_net_mono_us() + DKF_NET_LINGER_US / 2, 0);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_RUNNING);
+    dkf_net_fusion_tick(r.fu, dkf_net_mono_us() + DKF_NET_LINGER_US + 1, 0);
+    assert_int_equal(dkf_net_fusion_state(r.fu), DKF_NET_DONE);
+    dkf_net_node_fault_counts(r.n1, &dropped, &dup, &reo);
+    doc = dkf_net_fusion_result(r.fu);
+    assert_int_equal(json_array_size(json_object_get(doc, "k")), r.s->steps);
+    for (j = 0; j < r.s->steps; ++j) {
         if (strcmp(status_at(doc, "first_status", j), "degraded") == 0) ++first_degraded;
         if (strcmp(status_at(doc, "status", j), "complete") != 0) {
             if (first_lost == 0) first_lost = j + 1;
@@ -460,13 +449,13 @@ static void test_memq_drop_dup_reorder(void **state)
         }
         ++complete;
         /* before the first payload lost for good, the full-data estimate */
-        if (first_lost == 0 && step_diff(doc, s, j) > worst) worst = step_diff(doc, s, j);
+        if (first_lost == 0 && step_diff(doc, r.s, j) > worst) worst = step_diff(doc, r.s, j);
     }
     print_message("dropped %lld, duplicated %lld, reordered %lld; degraded at first %zu, "
                   "complete in the end %zu/%zu, first lost payload's step %zu, worst before it "
                   "vs central %.3e\n", (long long)dropped, (long long)dup, (long long)reo,
-                  first_degraded, complete, s->steps, first_lost, worst);
-    for (j = 0; j < s->steps; ++j)
+                  first_degraded, complete, r.s->steps, first_lost, worst);
+    for (j = 0; j < r.s->steps; ++j)
         print_message("%c", status_at(doc, "status", j)[0] == 'c'
                                 ? (status_at(doc, "first_status", j)[0] == 'c' ? '.' : 'r')
                                 : 'D');
@@ -481,12 +470,7 @@ static void test_memq_drop_dup_reorder(void **state)
     assert_true(first_lost > 10);
     assert_true(first_degraded > 0);
     json_decref(doc);
-    dkf_net_fusion_free(fu);
-    dkf_net_node_free(n0);
-    dkf_net_node_free(n1);
-    dkf_net_sim_free(sim);
-    dkf_net_close(net);
-    dkf_scenario_free(s);
+    rig_close(&r);
 }
 
 /* Node 1 dies at step 15 (no message 15) and a new node-1 process joins at
@@ -563,42 +547,6 @@ static void test_memq_restart(void **state)
 {
     (void)state;
     memq_restart(1);
-}
-
-/* Example 3 over memq: the simulator, node 0, node 1 if asked, and a fusion
- * centre with the given deadline. */
-typedef struct {
-    dkf_scenario_t *s;
-    dkf_net_t *net;
-    dkf_net_sim_t *sim;
-    dkf_net_node_t *n0, *n1;
-    dkf_net_fusion_t *fu;
-} rig_t;
-
-static void rig_open(rig_t *r, int with_n1, int64_t deadline_us)
-{
-    char err[DKF_SCN_ERR_LEN];
-    r->s = load();
-    r->net = dkf_net_open("memq://", err, sizeof err);
-    assert_non_null(r->net);
-    r->sim = dkf_net_sim_create(r->net, r->s, "T", err, sizeof err);
-    r->n0 = dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 0, "T", err, sizeof err);
-    r->n1 = with_n1 ? dkf_net_node_create(r->net, r->s, DKF_NODE_FILTER, 1, "T", err, sizeof err) : NULL;
-    r->fu = dkf_net_fusion_create(r->net, r->s, "T", deadline_us, err, sizeof err);
-    assert_non_null(r->sim);
-    assert_non_null(r->n0);
-    assert_true(!with_n1 || r->n1 != NULL);
-    assert_non_null(r->fu);
-}
-
-static void rig_close(rig_t *r)
-{
-    dkf_net_fusion_free(r->fu);
-    dkf_net_node_free(r->n0);
-    dkf_net_node_free(r->n1);
-    dkf_net_sim_free(r->sim);
-    dkf_net_close(r->net);
-    dkf_scenario_free(r->s);
 }
 
 /* Decision 16 (docs/design/network.md, "Deadlines"): no step waits for data that

@@ -62,18 +62,23 @@ static dkf_scenario_t *load(void)
 }
 
 typedef struct {
+    dkf_scenario_t *s;
     dkf_net_t *net;
     dkf_net_sim_t *sim;
     dkf_net_node_t *nodes[L];
     dkf_net_fusion_t *fu;
+    json_t *doc; /* the centre's result document after run */
 } netrun_t;
 
-/* sim, the nodes with node_on[i] (faults fx[i] if given), the centre. */
-static void setup(netrun_t *r, dkf_scenario_t *s, const int *node_on, const dkf_net_faults_t *fx)
+/* The scenario, sim, the nodes with node_on[i] (faults fx[i] if given), the
+ * centre. */
+static void setup(netrun_t *r, const int *node_on, const dkf_net_faults_t *fx)
 {
     char err[DKF_SCN_ERR_LEN];
+    dkf_scenario_t *s;
     size_t i;
     memset(r, 0, sizeof *r);
+    s = r->s = load();
     r->net = dkf_net_open("memq://", err, sizeof err);
     assert_non_null(r->net);
     r->sim = dkf_net_sim_create(r->net, s, "W", err, sizeof err);
@@ -105,6 +110,7 @@ static void run(netrun_t *r)
     /* the linger after step N */
     dkf_net_fusion_tick(r->fu, dkf_net_mono_us() + 100000000, 0);
     assert_int_equal(dkf_net_fusion_state(r->fu), DKF_NET_DONE);
+    r->doc = dkf_net_fusion_result(r->fu);
 }
 
 static void teardown(netrun_t *r)
@@ -114,6 +120,8 @@ static void teardown(netrun_t *r)
     for (i = 0; i < L; ++i) dkf_net_node_free(r->nodes[i]);
     dkf_net_sim_free(r->sim);
     dkf_net_close(r->net);
+    json_decref(r->doc);
+    dkf_scenario_free(r->s);
 }
 
 static double num(const json_t *a, size_t i) { return json_number_value(json_array_get(a, i)); }
@@ -201,71 +209,56 @@ static size_t check_against_core(const json_t *doc, const dkf_scenario_t *s, int
 
 static void test_wf_all_nodes(void **state)
 {
-    dkf_scenario_t *s = load();
     const int on[L] = {1, 1, 1, 1, 1};
     int deg[64];
     netrun_t r;
-    json_t *doc;
     size_t i;
     (void)state;
-    setup(&r, s, on, NULL);
+    setup(&r, on, NULL);
     run(&r);
     for (i = 0; i < L; ++i) assert_int_equal(dkf_net_node_state(r.nodes[i]), DKF_NET_DONE);
-    assert_int_equal(dkf_net_fusion_k(r.fu), (long)s->steps);
-    assert_int_equal(dkf_net_sim_fused_k(r.sim), (long)s->steps);
-    assert_int_equal(dkf_net_fusion_counts(r.fu)->received, L * (int64_t)s->steps);
+    assert_int_equal(dkf_net_fusion_k(r.fu), (long)r.s->steps);
+    assert_int_equal(dkf_net_sim_fused_k(r.sim), (long)r.s->steps);
+    assert_int_equal(dkf_net_fusion_counts(r.fu)->received, L * (int64_t)r.s->steps);
     assert_int_equal(dkf_net_fusion_counts(r.fu)->rejected, 0);
-    doc = dkf_net_fusion_result(r.fu);
-    assert_int_equal(check_against_core(doc, s, deg), 0);
-    json_decref(doc);
+    assert_int_equal(check_against_core(r.doc, r.s, deg), 0);
     teardown(&r);
-    dkf_scenario_free(s);
 }
 
 static void test_wf_node_never_starts(void **state)
 {
-    dkf_scenario_t *s = load();
     const int on[L] = {1, 1, 0, 1, 1};
     int deg[64];
     netrun_t r;
-    json_t *doc;
     size_t k;
     (void)state;
-    setup(&r, s, on, NULL);
+    setup(&r, on, NULL);
     run(&r);
-    doc = dkf_net_fusion_result(r.fu);
-    assert_int_equal(check_against_core(doc, s, deg), s->steps);
-    for (k = 0; k < s->steps; ++k) {
-        const json_t *ck = json_array_get(json_object_get(doc, "contributors"), k);
+    assert_int_equal(check_against_core(r.doc, r.s, deg), r.s->steps);
+    for (k = 0; k < r.s->steps; ++k) {
+        const json_t *ck = json_array_get(json_object_get(r.doc, "contributors"), k);
         assert_int_equal(json_array_size(ck), 4);
         assert_int_equal(json_integer_value(json_array_get(ck, 2)), 3); /* 0 1 3 4 */
     }
-    json_decref(doc);
     teardown(&r);
-    dkf_scenario_free(s);
 }
 
 static void test_wf_node_killed(void **state)
 {
-    dkf_scenario_t *s = load();
     const int on[L] = {1, 1, 1, 1, 1};
     dkf_net_faults_t fx[L];
     int deg[64];
     netrun_t r;
-    json_t *doc;
     size_t k;
     (void)state;
     memset(fx, 0, sizeof fx);
     fx[3].exit_at = 12; /* dies before step 12's message */
-    setup(&r, s, on, fx);
+    setup(&r, on, fx);
     run(&r);
     assert_int_equal(dkf_net_node_exited(r.nodes[3]), 1);
-    doc = dkf_net_fusion_result(r.fu);
-    assert_int_equal(check_against_core(doc, s, deg), s->steps - 11);
-    for (k = 1; k <= s->steps; ++k) assert_int_equal(deg[k - 1], k >= 12);
-    json_decref(doc);
+    assert_int_equal(check_against_core(r.doc, r.s, deg), r.s->steps - 11);
+    for (k = 1; k <= r.s->steps; ++k) assert_int_equal(deg[k - 1], k >= 12);
     teardown(&r);
-    dkf_scenario_free(s);
 }
 
 /* A node that starts late (--join-at 10) runs its local filter from the
@@ -274,39 +267,32 @@ static void test_wf_node_killed(void **state)
  * fused exactly, every step degraded. */
 static void test_wf_late_node_masked(void **state)
 {
-    dkf_scenario_t *s = load();
     const int on[L] = {1, 1, 1, 1, 1};
     dkf_net_faults_t fx[L];
     int deg[64];
     netrun_t r;
-    json_t *doc;
     size_t k, i;
     (void)state;
     memset(fx, 0, sizeof fx);
     fx[1].join_at = 10;
-    setup(&r, s, on, fx);
+    setup(&r, on, fx);
     run(&r);
     assert_int_equal(dkf_net_node_state(r.nodes[1]), DKF_NET_DONE);
-    doc = dkf_net_fusion_result(r.fu);
-    assert_int_equal(check_against_core(doc, s, deg), s->steps);
-    for (k = 0; k < s->steps; ++k) {
-        const json_t *ck = json_array_get(json_object_get(doc, "contributors"), k);
+    assert_int_equal(check_against_core(r.doc, r.s, deg), r.s->steps);
+    for (k = 0; k < r.s->steps; ++k) {
+        const json_t *ck = json_array_get(json_object_get(r.doc, "contributors"), k);
         assert_int_equal(json_array_size(ck), 4);
         for (i = 0; i < 4; ++i) assert_int_not_equal(json_integer_value(json_array_get(ck, i)), 1);
     }
-    json_decref(doc);
     teardown(&r);
-    dkf_scenario_free(s);
 }
 
 static void test_wf_drop_dup_reorder(void **state)
 {
-    dkf_scenario_t *s = load();
     const int on[L] = {1, 1, 1, 1, 1};
     dkf_net_faults_t fx[L];
     int deg[64];
     netrun_t r;
-    json_t *doc;
     size_t i;
     (void)state;
     memset(fx, 0, sizeof fx);
@@ -315,22 +301,19 @@ static void test_wf_drop_dup_reorder(void **state)
     fx[2].dup_pct = 30;
     fx[2].reorder_pct = 30;
     fx[4].reorder_pct = 20;
-    setup(&r, s, on, fx);
+    setup(&r, on, fx);
     run(&r);
-    doc = dkf_net_fusion_result(r.fu);
     {
-        const size_t nd = check_against_core(doc, s, deg);
+        const size_t nd = check_against_core(r.doc, r.s, deg);
         /* a lost payload costs only its step (the next message's copy
          * recovers an isolated drop); the counts say what happened */
         print_message("drop/dup/reorder: %zu steps degraded in the end, %lld revisions\n", nd,
                       (long long)json_integer_value(json_object_get(
-                          json_object_get(json_object_get(doc, "counters"), "faults"),
+                          json_object_get(json_object_get(r.doc, "counters"), "faults"),
                           "revised_published")));
-        assert_true(nd < s->steps / 2);
+        assert_true(nd < r.s->steps / 2);
     }
-    json_decref(doc);
     teardown(&r);
-    dkf_scenario_free(s);
 }
 
 int main(void)

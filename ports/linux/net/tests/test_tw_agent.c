@@ -19,6 +19,7 @@
 
 #include <cmocka.h>
 
+#include "dkf_test.h"
 #include "tw_agent.h"
 
 #define V6 DKF_VECTOR_DIR "/uif/s003_6node.json"
@@ -238,21 +239,6 @@ static void reference(ref_t *r, const dkf_net_twa_scn_t *c)
     free(sens);
 }
 
-/* Flattens a JSON number or nested list into out; returns the count. */
-static size_t flat(const json_t *j, double *out, size_t cap)
-{
-    size_t i, used = 0;
-    if (json_is_number(j)) {
-        assert_true(cap >= 1);
-        out[0] = json_number_value(j);
-        return 1;
-    }
-    assert_true(json_is_array(j));
-    for (i = 0; i < json_array_size(j); ++i)
-        used += flat(json_array_get(j, i), out + used, cap - used);
-    return used;
-}
-
 /* Node l's result equals the reference bit for bit (the JSON holds the
  * exact doubles of the reals). */
 static void assert_same_as_reference(const dkf_net_twa_t *a, const ref_t *r,
@@ -265,11 +251,11 @@ static void assert_same_as_reference(const dkf_net_twa_t *a, const ref_t *r,
     assert_int_equal(dkf_net_twa_steps_done(a), c->steps);
     for (k = 0; k < c->steps; ++k) {
         const size_t j = k * N + l;
-        assert_int_equal(flat(json_array_get(json_object_get(d, "x"), k), got, 4096), n);
+        assert_int_equal(test_json_flatten(json_array_get(json_object_get(d, "x"), k), got, 4096), n);
         for (i = 0; i < n; ++i) assert_true(got[i] == r->x[j * n + i]);
-        assert_int_equal(flat(json_array_get(json_object_get(d, "P"), k), got, 4096), n * n);
+        assert_int_equal(test_json_flatten(json_array_get(json_object_get(d, "P"), k), got, 4096), n * n);
         for (i = 0; i < n * n; ++i) assert_true(got[i] == r->P[j * n * n + i]);
-        assert_int_equal(flat(json_array_get(json_object_get(d, "z"), k), got, 4096), m);
+        assert_int_equal(test_json_flatten(json_array_get(json_object_get(d, "z"), k), got, 4096), m);
         for (i = 0; i < m; ++i) assert_true(got[i] == r->z[j * m + i]);
         assert_false(json_is_true(json_array_get(json_object_get(d, "degraded"), k)));
     }
@@ -290,7 +276,7 @@ static double check_vector(const dkf_net_twa_scn_t *c, const ref_t *r)
             const size_t len = f == 0 ? c->n : f == 1 ? c->n * c->n : c->p;
             const double *got = f == 0 ? r->x : f == 1 ? r->P : r->z;
             double scale = 1, dmax = 0;
-            size_t cnt = flat(json_object_get(ex, keys[f]), e, 4096);
+            size_t cnt = test_json_flatten(json_object_get(ex, keys[f]), e, 4096);
             assert_int_equal(cnt, c->N * len);
             for (i = 0; i < cnt; ++i)
                 if (fabs(e[i]) > scale) scale = fabs(e[i]);

@@ -57,23 +57,11 @@
 # and the script is bounded by ctest's TIMEOUT.
 set -uo pipefail
 mode=$1 out=$2
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=120   # per-process timeout, seconds
 
-if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
-  "$DKF_NETNS" check || exit $?
-  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
-fi
-if ip -o link | grep -qv ': lo:'; then
-  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
-  exit 1
-fi
-
-rm -rf "$out" && mkdir -p "$out"
-. "$(dirname "$0")/net_common.sh" # derived_ms
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
-trap cleanup EXIT
+. "$(dirname "$0")/net_common.sh"
+in_netns "$0" "$@"
+start_run "$out"
 vrel=1e-9
 [[ ${DKF_REAL:-double} == float ]] && vrel=1e-3
 

@@ -21,25 +21,13 @@
 # DKF_PYTHON DKF_NETNS DKF_GEN. Exit 77 (skip) when not root or without numpy.
 set -uo pipefail
 mode=$1 out=$2
-URL='udpm://239.255.76.67:7667?ttl=0'
 T=60            # per-process timeout, seconds
 DEADLINE_FLOOR_MS=300 # the fault tests' deadline's least (net_faults.sh)
 
-if [[ ${DKF_IN_NETNS:-0} != 1 ]]; then
-  "$DKF_NETNS" check || exit $?
-  "$DKF_PYTHON" -c 'import numpy' 2>/dev/null || { echo "SKIP: numpy missing (make_wf_scenario.py)"; exit 77; }
-  DKF_IN_NETNS=1 exec "$DKF_NETNS" exec -- "$0" "$@"
-fi
-if ip -o link | grep -qv ': lo:'; then
-  echo "FAIL: the namespace has a non-loopback interface; not sending anything" >&2
-  exit 1
-fi
-
-rm -rf "$out" && mkdir -p "$out"
-pids=()
-cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null; done; wait 2>/dev/null; }
-trap cleanup EXIT
-. "$(dirname "$0")/net_common.sh" # wait_file, derived_ms
+. "$(dirname "$0")/net_common.sh"
+needs_numpy make_wf_scenario.py
+in_netns "$0" "$@"
+start_run "$out"
 DEADLINE_MS=$(derived_ms "$DKF_NODE" $DEADLINE_FLOOR_MS 40)
 # lock-step at most one step per 2 x the slowest start of dkf-node, as in
 # net_faults.sh (its PACE): a node given up on cannot be outrun

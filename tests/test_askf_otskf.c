@@ -83,7 +83,7 @@ static void load_model(model_t *s, const json_t *model, size_t k)
     test_json_mat(test_json_model_at(model, "F", k), s->F, CAP, &s->mF);
     test_json_mat(test_json_model_at(model, "Q", k), s->Q, CAP, &s->mQ);
     test_json_mat(test_json_model_at(model, "H", k), s->H, CAP, &s->mH);
-    test_json_mat(test_json_model_at(model, "A", k), s->A, CAP, &s->mA);
+    test_json_mat(test_json_model_at(model, "D", k), s->A, CAP, &s->mA);
     test_json_mat(test_json_model_at(model, "R", k), s->R, CAP, &s->mR);
     test_json_mat(test_json_model_at(model, "B", k), s->B, CAP, &s->mB);
     test_json_mat(test_json_model_at(model, "Rd", k), s->Rd, CAP, &s->mRd);

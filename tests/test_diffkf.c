@@ -49,7 +49,7 @@ static void load_model(model_t *s, const json_t *dynamics, const json_t *sensor,
     test_json_mat(test_json_model_at(dynamics, "F", k), s->F, CAP, &s->mF);
     test_json_mat(test_json_model_at(dynamics, "Q", k), s->Q, CAP, &s->mQ);
     test_json_mat(test_json_model_at(sensor, "H", k), s->H, CAP, &s->mH);
-    test_json_mat(test_json_model_at(sensor, "A", k), s->A, CAP, &s->mA);
+    test_json_mat(test_json_model_at(sensor, "D", k), s->A, CAP, &s->mA);
     test_json_mat(test_json_model_at(sensor, "R", k), s->R, CAP, &s->mR);
     test_json_mat(test_json_model_at(sensor, "B", k), s->B, CAP, &s->mB);
     test_json_mat(test_json_model_at(sensor, "Rd", k), s->Rd, CAP, &s->mRd);

@@ -88,21 +88,27 @@ def rename(objs, renames):
 
 
 def convert(root):
-    """The number of objects renamed in root (in place), or a message if mixed."""
+    """root in the library's letters, in place; False if it had no old letter.
+    Raises ValueError if it mixes both conventions."""
     lay = layout(root)
     renames, old_only, new_only = LETTERS[lay]
     objs = matrix_objects(root, lay)
     old, new = first_letter(objs, old_only), first_letter(objs, new_only)
     if old is None:
-        return 0
+        return False
     if new is not None:
-        return "the library's letters (%s) mixed with the old ones (%s)" % (new, old)
+        raise ValueError("the library's letters (%s) mixed with the old ones (%s)" % (new, old))
     rename(objs, renames)
-    return len(objs)
+    return True
 
 
 def refuse_constant(name):
     raise ValueError("%s is not JSON" % name)
+
+
+def fail(path, msg, status):
+    print("convert_letters.py: %s: %s" % (path, msg), file=sys.stderr)
+    return status
 
 
 def main():
@@ -118,19 +124,21 @@ def main():
             text = f.read()
         root = json.loads(text, parse_constant=refuse_constant)
     except (OSError, ValueError) as e:
-        print("convert_letters.py: %s: %s" % (args.input, e), file=sys.stderr)
-        return 2
+        return fail(args.input, e, 2)
     if not isinstance(root, dict):
-        print("convert_letters.py: %s: not a JSON object" % args.input, file=sys.stderr)
-        return 2
-    done = convert(root)
-    if isinstance(done, str):
-        print("convert_letters.py: %s: %s" % (args.input, done), file=sys.stderr)
-        return 1
+        return fail(args.input, "not a JSON object", 2)
+    try:
+        done = convert(root)
+    except ValueError as e:
+        return fail(args.input, e, 1)
     if done:
+        newline = "\n" if text.endswith("\n") or args.indent is not None else ""
         sep = (",", ":") if args.indent is None else (",", ": ")
-        text = json.dumps(root, separators=sep, indent=args.indent, ensure_ascii=True) + \
-            ("\n" if text.endswith("\n") or args.indent is not None else "")
+        try:  # a number beyond a double's range would be written Infinity
+            text = json.dumps(root, separators=sep, indent=args.indent, allow_nan=False)
+        except ValueError:
+            return fail(args.input, "a number out of a double's range", 2)
+        text += newline
     if done or args.output is not None:
         with open(args.output or args.input, "w", encoding="utf-8") as f:
             f.write(text)

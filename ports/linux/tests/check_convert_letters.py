@@ -9,12 +9,13 @@ back, one layout each, and a time-varying seed-004 file (`A_prev`, ...), and
 tests/cases/old_letter_A.json as it is. For each, the converter's output
 must be
 * byte for byte the shipped vector it came from (the shipped files are the
-  converter's output: keys in place, numbers and strings as they were);
+  converter's output: keys in place, numbers and strings as they were), the
+  same bytes again from a second conversion;
 * read by dkf-run with no notice on stderr, where the old file has one;
 * run by dkf-run to the same output file, bit for bit, as the old file;
-and converting it again must give the same bytes; --indent 2 writes the
-same document indented. A file mixing the two conventions is refused (exit 1)
-and nothing is written.
+* left as it is by a conversion in place.
+--indent 2 writes the same document indented. A file mixing the two
+conventions is refused (exit 1) and nothing is written.
 """
 import copy
 import json
@@ -67,8 +68,8 @@ def read(path):
         return f.read()
 
 
-def convert(src, dst):
-    return subprocess.run([sys.executable, CONVERT, src, dst], capture_output=True, text=True)
+def convert(*paths):
+    return subprocess.run([sys.executable, CONVERT] + list(paths), capture_output=True, text=True)
 
 
 def run(dkf_run, opts, directory, name):
@@ -95,8 +96,11 @@ def check(dkf_run, out, tag, old_path, opts, expected=None):
     if expected is not None:
         assert read(new_path) == expected, "%s: not the expected bytes" % tag
     again = os.path.join(out, tag, "again.json")
-    assert convert(new_path, again).returncode == 0
-    assert read(again) == read(new_path), "%s: converting twice changed the bytes" % tag
+    assert convert(os.path.join(olddir, name), again).returncode == 0
+    assert read(again) == read(new_path), "%s: a second conversion gave other bytes" % tag
+    stamp = os.stat(new_path).st_mtime_ns
+    assert convert(new_path).returncode == 0
+    assert os.stat(new_path).st_mtime_ns == stamp, "%s: a converted file rewritten" % tag
     out_old, err_old = run(dkf_run, opts, olddir, name)
     out_new, err_new = run(dkf_run, opts, newdir, name)
     assert "deprecated letters" in err_old, (tag, err_old)

@@ -125,7 +125,7 @@ static void load_step(step_model_t *sm, const json_t *model, size_t l, size_t k,
         const json_t *s = json_array_get(sens, i);
         sens_buf_t *b = &sm->s[i];
         test_json_mat(test_json_model_at(s, "H", kmeas), b->H, CAP, &b->mH);
-        test_json_mat(test_json_model_at(s, "A", kmeas), b->A, CAP, &b->mA);
+        test_json_mat(test_json_model_at(s, "D", kmeas), b->A, CAP, &b->mA);
         test_json_mat(test_json_model_at(s, "R", kmeas), b->R, CAP, &b->mR);
         test_json_mat(test_json_model_at(s, "B", k), b->B, CAP, &b->mB);
         test_json_mat(test_json_model_at(s, "Rd", k), b->Rd, CAP, &b->mRd);

@@ -57,7 +57,7 @@ static void test_info_matches_lif_vector(void **state)
     json_t *root = test_load_vector("infofusion/lif_central_fusion.json");
     const json_t *c = json_array_get(test_json_get(root, "cases"), 0);
     const json_t *steps = test_json_get(c, "steps");
-    const json_t *Cs = test_json_get(c, "C"), *Rs = test_json_get(c, "R");
+    const json_t *Cs = test_json_get(c, "H"), *Rs = test_json_get(c, "R");
     size_t ns = json_array_size(Cs), j, s;
     dkf_real_t x0d[N], P0d[N * N], Fd[N * N], Qd[N * N], Cd[SENSORS][MS * N],
         Rd[SENSORS][MS * MS], zd[MS], id[SENSORS][N], Id[SENSORS][N * N];

@@ -55,10 +55,10 @@ static const json_t *model_at(const json_t *root, const json_t *st, const char *
 
 static void load_step(model_t *s, const json_t *root, const json_t *st, dkf_uif_kind_t kind)
 {
-    test_json_mat(model_at(root, st, "A_prev", "A"), s->A, CAP, &s->mA);
+    test_json_mat(model_at(root, st, "F_prev", "F"), s->A, CAP, &s->mA);
     test_json_mat(model_at(root, st, "G_prev", "G"), s->G, CAP, &s->mG);
     test_json_mat(model_at(root, st, "Q_prev", "Q"), s->Q, CAP, &s->mQ);
-    test_json_mat(model_at(root, st, "C", "C"), s->C, CAP, &s->mC);
+    test_json_mat(model_at(root, st, "H", "H"), s->C, CAP, &s->mC);
     test_json_mat(model_at(root, st, "R", "R"), s->R, CAP, &s->mR);
     test_json_mat(test_json_get(test_json_get(st, "inputs"), "y"), s->y, CAP, &s->my);
     s->dyn.F = &s->mA;
@@ -68,7 +68,7 @@ static void load_step(model_t *s, const json_t *root, const json_t *st, dkf_uif_
     s->meas.R = &s->mR;
     s->meas.D = NULL;
     if (kind != DKF_UIF_NRTSF) {
-        test_json_mat(model_at(root, st, "H", "H"), s->H, CAP, &s->mH);
+        test_json_mat(model_at(root, st, "D", "D"), s->H, CAP, &s->mH);
         s->meas.D = &s->mH;
     }
 }

@@ -114,9 +114,9 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
         tw_weights(c, c->alpha, NULL, json_object_get(root, "alpha_diffusion_sparse"));
         c->has_weights = 1;
     }
-    tw_flat_real(test_json_get(model, "A"), c->A, TW_N * TW_N);
-    tw_flat_real(test_json_get(model, "B"), c->B, TW_N * TW_P);
-    tw_flat_real(test_json_get(model, "Sv"), c->Sv, TW_N * TW_N);
+    tw_flat_real(test_json_get(model, "F"), c->A, TW_N * TW_N);
+    tw_flat_real(test_json_get(model, "G"), c->B, TW_N * TW_P);
+    tw_flat_real(test_json_get(model, "Q"), c->Sv, TW_N * TW_N);
     tw_flat_real(test_json_get(test_json_get(root, "init"), "x0"), c->x0, TW_N);
     tw_flat_real(test_json_get(test_json_get(root, "init"), "P0"), c->P0, TW_N * TW_N);
     c->mA = test_view(TW_N, TW_N, c->A);
@@ -129,7 +129,7 @@ static inline void tw_load(tw_case_t *c, const json_t *root)
     c->model.Q = &c->mSv;
     for (l = 0; l < c->N; ++l) {
         tw_flat_real(json_array_get(test_json_get(model, "H"), l), c->H[l], TW_M * TW_N);
-        tw_flat_real(json_array_get(test_json_get(model, "Sw"), l), c->Sw[l], TW_M * TW_M);
+        tw_flat_real(json_array_get(test_json_get(model, "R"), l), c->Sw[l], TW_M * TW_M);
         c->mH[l] = test_view(TW_M, TW_N, c->H[l]);
         c->mSw[l] = test_view(TW_M, TW_M, c->Sw[l]);
     }

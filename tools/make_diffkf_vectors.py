@@ -292,6 +292,11 @@ def tolist(a):
     return [[float(v) for v in row] for row in a]
 
 
+# A sensor's matrices: (the file's key, the library's letter; this code's, the
+# paper's letter). Only the feedthrough differs: the paper's A is D.
+SENSOR_KEYS = (("H", "H"), ("D", "A"), ("R", "R"), ("B", "B"), ("Rd", "Rd"))
+
+
 def per_k(lst):
     return {"per_k": [tolist(m) for m in lst]}
 
@@ -311,7 +316,7 @@ def write_vector(name, scenario, seed, N, model, ys, x00, P00_local, P00_central
         "dims": {"m": int(len(x00)), "n_i": [int(s["H"][0].shape[0]) for s in model.sensors],
                  "p_i": [int(s["A"][0].shape[1]) for s in model.sensors]},
         "model": {"F": per_k(model.F), "Q": per_k(model.Q),
-                  "sensors": [{key: per_k(s[key]) for key in ("H", "A", "R", "B", "Rd")}
+                  "sensors": [{fkey: per_k(s[key]) for fkey, key in SENSOR_KEYS}
                               for s in model.sensors]},
         "init": {"x00": tolist(x00), "P00_local": [tolist(P) for P in P00_local],
                  "P00_central": tolist(P00_central)},
@@ -352,7 +357,7 @@ def check_ex3():
 
     mod = d["model"]
     model = Model([mat(mod["F"], k) for k in range(T)], [mat(mod["Q"], k) for k in range(T)],
-                  [{key: [mat(s[key], k) for k in range(T)] for key in ("H", "A", "R", "B", "Rd")}
+                  [{key: [mat(s[fkey], k) for k in range(T)] for fkey, key in SENSOR_KEYS}
                    for s in mod["sensors"]])
     ys = [[None] + [np.array(v, float) for v in y["values"]] for y in d["y"]]
     x00 = np.array(d["init"]["x00"], float)

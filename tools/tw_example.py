@@ -74,16 +74,6 @@ def psd_factor(S):
     return V * np.sqrt(np.clip(w, 0, None))
 
 
-# The seed-003 vectors' letters A, B, Sv, Sw are the library's F, G, Q, R
-# (docs/reference/scenario-format.md, "Letters").
-VECTOR_LETTERS = {"A": "F", "B": "G", "Sv": "Q", "Sw": "R"}
-
-
-def library_letters(model):
-    """model with the vectors' letters renamed to the library's."""
-    return {VECTOR_LETTERS.get(k, k): v for k, v in model.items()}
-
-
 def simulate(base, T, seed):
     """x_n (n = 0..T), y_{l,n} (n = 1..T), z."""
     rng = np.random.default_rng(seed)
@@ -175,7 +165,6 @@ def main(argv=None):
     os.makedirs(work, exist_ok=True)
     with open(args.graph) as f:
         base = json.load(f)
-    base["model"] = library_letters(base["model"])
     N, E = len(base["model"]["H"]), len(base["graph"]["edges"])
     log("graph %s: %d nodes, %d edges; %d runs x %d steps, eta = %d" %
         (os.path.basename(args.graph), N, E, runs, T, args.eta))

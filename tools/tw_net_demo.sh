@@ -54,7 +54,6 @@ import json, sys
 sys.path.insert(0, sys.argv[3])
 import tw_example
 base = json.load(open(sys.argv[1]))
-base["model"] = tw_example.library_letters(base["model"])
 x, y, z = tw_example.simulate(base, 100, 3)
 json.dump(tw_example.scenario(base, x, y, z, 100, 10), open(sys.argv[2], "w"))
 PY

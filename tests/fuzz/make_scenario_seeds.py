@@ -120,10 +120,10 @@ def main():
     for st in c["steps"]:
         st["y"][1] = [st["y"][1][0], -1.0]
     seeds["wf_generated_mixed_m.json"] = d
-    # a steps file whose model has no C, H (the reader then sizes y as one
+    # a steps file whose model has no H, D (the reader then sizes y as one
     # value per step): y of one value
     d = steps("tests/vectors/uif/s004_rtsf.json")
-    for key in ("C", "H"):
+    for key in ("H", "D"):
         d["model"].pop(key)
     for st in d["steps"]:
         st["inputs"]["y"] = st["inputs"]["y"][:1]

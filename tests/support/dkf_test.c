@@ -467,7 +467,7 @@ void test_ui_model_at(test_ui_step_t *s, const json_t *dynamics, const json_t *s
     test_json_mat(test_json_model_at(dynamics, "F", k), s->F, sq, &s->Fm);
     test_json_mat(test_json_model_at(dynamics, "Q", k), s->Q, sq, &s->Qm);
     test_json_mat(test_json_model_at(sensor, "H", k), s->H, sq, &s->Hm);
-    test_json_mat(test_json_model_at(sensor, "A", k), s->A, sq, &s->Am);
+    test_json_mat(test_json_model_at(sensor, "D", k), s->A, sq, &s->Am);
     test_json_mat(test_json_model_at(sensor, "R", k), s->R, sq, &s->Rm);
     test_json_mat(test_json_model_at(sensor, "B", k), s->B, sq, &s->Bm);
     test_json_mat(test_json_model_at(sensor, "Rd", k), s->Rd, sq, &s->Rdm);

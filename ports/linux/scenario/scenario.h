@@ -14,7 +14,7 @@
  *    (below, "Weighted-fusion cases layout");
  *  - steps (the seed-003/004 uif golden-vector layout): top-level `steps[]`
  *    with `k`/`n`, `inputs` and `truth` (see "Steps layout" below); with a
- *    `graph` key it is the network layout (seed 003: per-node H, Sw, y).
+ *    `graph` key it is the network layout (seed 003: per-node H, R, y).
  *
  * The reader knows these layouts and no filter: which filter runs on a file
  * is the runner registry's business (registry.h). Its files, one per
@@ -45,7 +45,7 @@ typedef enum {
     DKF_SCN_LAYOUT_CANONICAL = 0, /* model / init / y (diffkf vectors) */
     DKF_SCN_LAYOUT_CASES = 1,     /* cases[].steps[] (infofusion vectors) */
     DKF_SCN_LAYOUT_STEPS = 2,     /* steps[].inputs, one sensor (seed-004 uif vectors) */
-    DKF_SCN_LAYOUT_NETWORK = 3,   /* steps[].inputs with a graph: per-node H, Sw, y
+    DKF_SCN_LAYOUT_NETWORK = 3,   /* steps[].inputs with a graph: per-node H, R, y
                                    * (seed-003 vectors); s->net holds the graph */
     DKF_SCN_LAYOUT_NLCASES = 4,   /* cases[] with a nonlinear model (built-in family or
                                    * expressions) per node (seed-001 vectors); s->nl
@@ -163,7 +163,7 @@ typedef struct {
  *   steps[j].inputs.<M>       -> model <M> per_k, entry at k = steps[j].k
  *   steps[j].inputs.<M>_prev  -> model <M> per_k, entry at k - 1
  *   steps[j].inputs.y         -> sensor 0's y_k (seed 004) / node l's y (seed 003)
- *   model.H[l], model.Sw[l]   -> sensor l's H, Sw (seed 003)
+ *   model.H[l], model.R[l]    -> sensor l's H, R (seed 003)
  *   steps[j].truth.x          -> truth x_k; truth.d / d_prev / z_prev -> truth_u
  * Steps run k = k_first .. k_first + steps - 1 (k_first = steps[0].k, 0 or 1);
  * `expected` is ignored. */

@@ -23,3 +23,12 @@ foreach(_case IN LISTS _dkf_cases)
     COMMAND ${CMAKE_CURRENT_SOURCE_DIR}/tests/run_case.sh $<TARGET_FILE:dkf-run> ${_case})
   set_tests_properties(dkf_run_case_${_name} PROPERTIES TIMEOUT 30)
 endforeach()
+
+# tools/convert_letters.py: an old file of every linear layout converted is
+# the shipped vector byte for byte, read with no notice, and dkf-run's output
+# is bit for bit the old file's (docs/decisions.md item 54).
+add_test(NAME convert_letters
+  COMMAND ${Python3_EXECUTABLE} ${CMAKE_CURRENT_SOURCE_DIR}/tests/check_convert_letters.py
+          $<TARGET_FILE:dkf-run> ${PROJECT_SOURCE_DIR}/tests/vectors
+          ${CMAKE_CURRENT_SOURCE_DIR}/tests/cases ${CMAKE_CURRENT_BINARY_DIR}/convert_letters)
+set_tests_properties(convert_letters PROPERTIES TIMEOUT 120 LABELS "cli;once")

@@ -5,10 +5,9 @@ independent computation: the same filter restarted on constant-model files.
     check_piecewise.py DKF_RUN VECTOR_DIR OUTDIR {rtsf|nrtsf_df|nrtsf|tw1} [TOL]
 
 The model is M_a up to step K and M_b after (every matrix changes: F, G,
-Q, H, D, R for seed 004; F, G, Q and every node's H, R for seed 003; the
-vectors read in the library's letters). The time-varying file gives it as
-per-step `inputs` (F_prev, ... at every
-step) and has no `model` at all. The reference runs dkf-run twice on constant-model files:
+Q, H, D, R for seed 004; F, G, Q and every node's H, R for seed 003). The
+time-varying file gives it as per-step `inputs` (F_prev, ... at every step)
+and has no `model` at all. The reference runs dkf-run twice on constant-model files:
 
 * nrtsf, tw1 ((x0, P0) = x_{0|0}; (x_{k|k}, P_{k|k}) is the whole state
   carried between steps, d / z are estimated afresh): M_a for steps 1..K,
@@ -35,8 +34,6 @@ import numpy as np
 import os
 import subprocess
 import sys
-
-from make_steps_cases import library_letters
 
 TOL = 1e-12
 K = 12
@@ -92,7 +89,7 @@ def main():
     if len(sys.argv) > 5:
         TOL = float(sys.argv[5])
     os.makedirs(out, exist_ok=True)
-    doc = library_letters(json.load(open(os.path.join(vdir, VECTOR[flt]))))
+    doc = json.load(open(os.path.join(vdir, VECTOR[flt])))
     label = LABEL[flt]
     factor = {"F": 0.97, "G": 1.2, "Q": 2.0}
     if flt == "tw1":

@@ -18,35 +18,9 @@ import os
 import sys
 
 
-# The vectors' letters renamed to the library's: seed 004 A, C, H = F, H, D
-# (H first), seed 003 A, B, Sv, Sw = F, G, Q, R, the infofusion cases' C = H.
-S004 = (("H", "D"), ("C", "H"), ("A", "F"))
-S003 = (("A", "F"), ("B", "G"), ("Sv", "Q"), ("Sw", "R"))
-CASES = (("C", "H"),)
-
-
-def rename(obj, pairs):
-    for old, new in pairs:
-        for suffix in ("", "_prev"):
-            if old + suffix in obj:
-                obj[new + suffix] = obj.pop(old + suffix)
-
-
-def library_letters(doc):
-    """doc (a vector read as it is) with the library's letters, in place."""
-    if "cases" in doc:
-        for c in doc["cases"]:
-            rename(c, CASES)
-        return doc
-    pairs = S003 if "graph" in doc else S004
-    for obj in [doc["model"]] + [st["inputs"] for st in doc["steps"]]:
-        rename(obj, pairs)
-    return doc
-
-
 def load(vdir, name):
     with open(os.path.join(vdir, name)) as f:
-        return library_letters(json.load(f))
+        return json.load(f)
 
 
 def save(outdir, name, doc):

@@ -82,8 +82,7 @@ def masked_dkf(scn, keep, P00=None, sensors_used=None):
     F = lambda k: mat(m["F"], k)
     Q = lambda k: mat(m["Q"], k)
     H = lambda k: np.vstack([mat(sensors[i]["H"], k) for i in idx])
-    # D: the library's letter; A: the diffkf vectors' (docs/reference/scenario-format.md, "Letters")
-    feed = [sensors[i]["D"] if "D" in sensors[i] else sensors[i]["A"] for i in idx]
+    feed = [sensors[i]["D"] for i in idx]
     A = lambda k: blkdiag([mat(D, k) for D in feed])
     B = lambda k: blkdiag([mat(sensors[i]["B"], k) for i in idx])
     Rd = lambda k: blkdiag([mat(sensors[i]["Rd"], k) for i in idx])

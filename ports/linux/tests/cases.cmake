@@ -1,6 +1,7 @@
 # ports/linux/tests/cases.cmake - dkf-run as a user meets it: its streamed
-# output, and scenario files as test cases. Included by
-# ports/linux/CMakeLists.txt.
+# output, and its tests as data: the refused inputs and failed runs of
+# tests/cases/, the comparisons with the vectors of tests/runs.table.
+# Included by ports/linux/CMakeLists.txt.
 
 # --output streams: --every, --format csv, no file after a failed run, and
 # memory that does not grow with the steps (docs/decisions.md item 50). Peak

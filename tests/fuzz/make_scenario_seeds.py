@@ -3,7 +3,7 @@
 each layout the reader accepts (the weighted-fusion cases of seed 002 too),
 cut from a golden vector of tests/vectors/
 to 3 steps without its expected outputs, the reproducers of the reader bugs
-of the hardening work, plus the small refused files of ports/linux/tests/bad/
+of the hardening work, plus the small refused files of ports/linux/tests/cases/
 (docs/guide/fuzzing.md).
 
 usage: make_scenario_seeds.py [OUT_DIR]

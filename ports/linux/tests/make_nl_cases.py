@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the generated nonlinear-cases test inputs of ports/linux/CMakeLists.txt.
+"""Writes the generated nonlinear-cases test inputs of tests/runs.table and tests/cases/.
 
     make_nl_cases.py VECTOR_DIR SCENARIO_DIR OUTDIR
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes the generated test inputs of ports/linux/CMakeLists.txt into OUTDIR.
+"""Writes the generated test inputs of tests/runs.table and tests/cases/ into OUTDIR.
 
     make_steps_cases.py VECTOR_DIR OUTDIR
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Writes the generated seed-002 inputs of the wfusion tests from the
-vector tests/vectors/infofusion/s2_weighted_fusion.json (ports/linux/
-CMakeLists.txt, "seed 002"):
+vector tests/vectors/infofusion/s2_weighted_fusion.json (tests/runs.table
+and tests/cases/, "Seed 002"):
 
   wf_generated.json      the case as a generated scenario would be: per step
                          only t and y, no x_true, no steady_state (the same

@@ -103,10 +103,13 @@ for c in "${configs[@]}"; do
 done
 
 if [[ "${DKF_SKIP_BOOTSTRAP:-0}" != 1 ]]; then
+  boot_start=$SECONDS
   if ! tools/bootstrap.sh; then
     echo "run_tests: FAILED: tools/bootstrap.sh could not provide the build dependencies" >&2
     exit 1
   fi
+  # the dependencies' minutes on a bare machine, apart from the test command's own
+  echo "[bootstrap] dependencies ready ($((SECONDS - boot_start)) s, not in the times below)"
 fi
 
 total_pass=0

@@ -149,6 +149,38 @@ int dkf_scn_store(dkf_scn_ctx_t *c, const char *path, const dkf_scn_block_t *b, 
     return 0;
 }
 
+/* A non-empty list of at most max entries: its length into *n. */
+int dkf_scn_list_len(dkf_scn_ctx_t *c, const json_t *j, const char *path, const char *what,
+                     const char *unit, unsigned long max, size_t *n)
+{
+    if (j == NULL) return dkf_scn_fail(c, path, "missing key");
+    if (!json_is_array(j) || json_array_size(j) == 0)
+        return dkf_scn_fail(c, path, "expected a non-empty list of %s, got %s", what,
+                            json_is_array(j) ? "an empty list" : dkf_scn_json_kind(j));
+    if (json_array_size(j) > max)
+        return dkf_scn_fail(c, path, "%zu %s, more than the %lu allowed", json_array_size(j),
+                            unit, max);
+    *n = json_array_size(j);
+    return 0;
+}
+
+/* Row `row` of b = the vector j: its length is b->dim, which len_of names. */
+int dkf_scn_store_vector(dkf_scn_ctx_t *c, const json_t *j, const char *path,
+                         const dkf_scn_block_t *b, size_t row, const char *len_of)
+{
+    double *v;
+    size_t len;
+    int rc;
+    if (dkf_scn_parse_vector(c, j, path, &len, &v) != 0) return -1;
+    if (len_of != NULL && len != b->dim)
+        rc = dkf_scn_fail(c, path, "expected a vector of %zu values (%s), got %zu", b->dim,
+                          len_of, len);
+    else
+        rc = dkf_scn_store(c, path, b, row, v, len);
+    free(v);
+    return rc;
+}
+
 /* A non-empty list of numbers. */
 int dkf_scn_parse_vector(dkf_scn_ctx_t *c, const json_t *j, const char *path, size_t *len,
                          double **out)
@@ -312,13 +344,8 @@ static int parse_matrix_list(dkf_scn_ctx_t *c, const json_t *j, const char *path
     size_t i, n;
     dkf_scn_block_t b;
     char p[DKF_SCN_PATH_LEN];
-    if (!json_is_array(j) || json_array_size(j) == 0)
-        return dkf_scn_fail(c, path, "expected a non-empty list of matrices, got %s",
-                            dkf_scn_json_kind(j));
-    n = json_array_size(j);
-    if (n > DKF_SCN_MAX_TIMES)
-        return dkf_scn_fail(c, path, "%zu matrices, more than the %lu allowed", n,
-                            DKF_SCN_MAX_TIMES);
+    if (dkf_scn_list_len(c, j, path, "matrices", "matrices", DKF_SCN_MAX_TIMES, &n) != 0)
+        return -1;
     for (i = 0; i < n; ++i) {
         dkf_scn_subidx(p, path, i);
         if (dkf_scn_stack_matrix(c, m, &b, i, n, json_array_get(j, i), p) != 0) return -1;
@@ -411,24 +438,12 @@ int dkf_scn_parse_series(dkf_scn_ctx_t *c, const json_t *j, const char *path, co
     if (dkf_scn_check_keys(c, j, path, known, NULL) != 0) return -1;
     jv = json_object_get(j, vkey);
     dkf_scn_subkey(p, path, vkey);
-    if (jv == NULL) return dkf_scn_fail(c, p, "missing key");
-    if (!json_is_array(jv) || json_array_size(jv) == 0)
-        return dkf_scn_fail(c, p, "expected a non-empty list of vectors, got %s",
-                            dkf_scn_json_kind(jv));
-    n = json_array_size(jv);
-    if (n > DKF_SCN_MAX_TIMES)
-        return dkf_scn_fail(c, p, "%zu entries, more than the %lu allowed", n, DKF_SCN_MAX_TIMES);
+    if (dkf_scn_list_len(c, jv, p, "vectors", "entries", DKF_SCN_MAX_TIMES, &n) != 0) return -1;
     k = dkf_scn_calloc(c, n, sizeof *k);
     if (k == NULL || dkf_scn_block_alloc(c, &v, n, dim, p) != 0) goto bad;
     for (i = 0; i < n; ++i) {
-        size_t len;
-        double *e;
-        int rc;
         dkf_scn_subidx(pi, p, i);
-        if (dkf_scn_parse_vector(c, json_array_get(jv, i), pi, &len, &e) != 0) goto bad;
-        rc = dkf_scn_store(c, pi, &v, i, e, len);
-        free(e);
-        if (rc != 0) goto bad;
+        if (dkf_scn_store_vector(c, json_array_get(jv, i), pi, &v, i, NULL) != 0) goto bad;
     }
     jk = json_object_get(j, "k");
     dkf_scn_subkey(p, path, "k");

@@ -92,6 +92,16 @@ int dkf_scn_block_alloc(dkf_scn_ctx_t *c, dkf_scn_block_t *b, size_t count, size
 /* Row `row` of b = src[0..len-1]: refused unless row < count and len == dim. */
 int dkf_scn_store(dkf_scn_ctx_t *c, const char *path, const dkf_scn_block_t *b, size_t row,
                   const double *src, size_t len);
+/* j (at path) a non-empty list of at most max entries, its length into *n;
+ * else "missing key", "expected a non-empty list of WHAT, got ..." or
+ * "N UNIT, more than the MAX allowed". */
+int dkf_scn_list_len(dkf_scn_ctx_t *c, const json_t *j, const char *path, const char *what,
+                     const char *unit, unsigned long max, size_t *n);
+/* Row `row` of b = the vector j (at path), of b->dim values: another length
+ * is refused as "expected a vector of DIM values (LEN_OF), got LEN", len_of
+ * naming what sets the length (e.g. "the rows of H[1]"; NULL: no name). */
+int dkf_scn_store_vector(dkf_scn_ctx_t *c, const json_t *j, const char *path,
+                         const dkf_scn_block_t *b, size_t row, const char *len_of);
 int dkf_scn_parse_vector(dkf_scn_ctx_t *c, const json_t *j, const char *path, size_t *len,
                          double **out);
 int dkf_scn_parse_matrix(dkf_scn_ctx_t *c, const json_t *j, const char *path, size_t *rows,

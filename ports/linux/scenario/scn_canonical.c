@@ -148,15 +148,10 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
             return dkf_scn_fail(c, "y", "not allowed together with runs (give runs[i].y)");
         if (json_object_get(root, "truth") != NULL)
             return dkf_scn_fail(c, "truth", "not allowed together with runs (give runs[i].truth)");
-        if (!json_is_array(runs) || json_array_size(runs) == 0)
-            return dkf_scn_fail(c, "runs",
-                                "expected a non-empty list of {\"y\": ..., \"truth\": ...} "
-                                "objects, got %s", dkf_scn_json_kind(runs));
+        if (dkf_scn_list_len(c, runs, "runs", "{\"y\": ..., \"truth\": ...} objects", "runs",
+                             DKF_SCN_MAX_RUNS, &nruns) != 0)
+            return -1;
         s->has_runs = 1;
-        nruns = json_array_size(runs);
-        if (nruns > DKF_SCN_MAX_RUNS)
-            return dkf_scn_fail(c, "runs", "%zu runs, more than the %lu allowed", nruns,
-                                DKF_SCN_MAX_RUNS);
     } else if (yj == NULL) {
         return dkf_scn_fail(c, "y", "missing key");
     }
@@ -167,15 +162,10 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
     sensors = json_object_get(model, "sensors");
     if (parse_mat_object(c, &s->model, model, "model", "sensors") != 0) return -1;
     if (sensors != NULL) {
-        if (!json_is_array(sensors) || json_array_size(sensors) == 0)
-            return dkf_scn_fail(c, "model.sensors",
-                                "expected a non-empty list of sensor objects, got %s",
-                                dkf_scn_json_kind(sensors));
+        if (dkf_scn_list_len(c, sensors, "model.sensors", "sensor objects", "sensors",
+                             DKF_SCN_MAX_SENSORS, &s->nsensors) != 0)
+            return -1;
         s->multi = 1;
-        s->nsensors = json_array_size(sensors);
-        if (s->nsensors > DKF_SCN_MAX_SENSORS)
-            return dkf_scn_fail(c, "model.sensors", "%zu sensors, more than the %lu allowed",
-                                s->nsensors, DKF_SCN_MAX_SENSORS);
     } else {
         s->nsensors = 1;
     }

@@ -282,23 +282,13 @@ static int steps_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t 
             goto done;
         }
         for (i = 0; i < s->nsensors; ++i) {
-            size_t len;
-            double *v;
-            int st;
             if (tw)
                 dkf_scn_subidx(pi, p, i);
             else
                 dkf_scn_pathf(pi, "%s", p);
-            if (dkf_scn_parse_vector(c, tw ? json_array_get(y, i) : y, pi, &len, &v) != 0)
+            if (dkf_scn_store_vector(c, tw ? json_array_get(y, i) : y, pi, &yb[i], j,
+                                     "the rows of H") != 0)
                 goto done;
-            if (len != yb[i].dim)
-                st = dkf_scn_fail(c, pi,
-                                  "expected a vector of %zu values (the rows of H), got %zu",
-                                  yb[i].dim, len);
-            else
-                st = dkf_scn_store(c, pi, &yb[i], j, v, len);
-            free(v);
-            if (st != 0) goto done;
             s->sensors[i].yk[j] = s->k_first + (long)j;
         }
     }
@@ -450,13 +440,9 @@ int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root)
         dkf_scn_check_keys(c, model, "model", model_keys, NULL) != 0 ||
         dkf_scn_check_keys(c, json_object_get(root, "graph"), "graph", graph_keys, NULL) != 0)
         return -1;
-    if (!json_is_array(steps) || json_array_size(steps) == 0)
-        return dkf_scn_fail(c, "steps", "expected a non-empty list of step objects, got %s",
-                            dkf_scn_json_kind(steps));
-    N = s->steps = json_array_size(steps);
-    if (N > DKF_SCN_MAX_STEPS)
-        return dkf_scn_fail(c, "steps", "%zu steps, more than the %lu allowed", N,
-                            DKF_SCN_MAX_STEPS);
+    if (dkf_scn_list_len(c, steps, "steps", "step objects", "steps", DKF_SCN_MAX_STEPS, &N) != 0)
+        return -1;
+    s->steps = N;
     for (j = 0; j < N; ++j) {
         char p[DKF_SCN_PATH_LEN];
         if (steps_time(c, json_array_get(steps, j), j, &k) != 0) return -1;

@@ -15,6 +15,9 @@ static const char *const top_keys[] = {"cases", NULL};
 static const char *const case_keys[] = {"x0", "P0", "Q", "H", "R", "steps", "truth", "held_out",
                                         NULL};
 static const char *const step_keys[] = {"k", "F", "Q", "z", "expected", NULL};
+/* steps[j].z: one vector per sensor, of H[i]'s rows. */
+static const dkf_scn_case_steps_t measured = {"k", "z", step_keys, "sensor, as H",
+                                              "the rows of H"};
 
 static int select_case(dkf_scn_ctx_t *c, const json_t *cases, const char *sel, size_t *idx)
 {
@@ -102,8 +105,8 @@ static int cases_init(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, con
 }
 
 /* Every sensor's y series of N steps (sensor i's m set), blocks y[i]. */
-int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
-                          const char *cpath)
+static int cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
+                         const char *cpath)
 {
     size_t i;
     for (i = 0; i < s->nsensors; ++i) {
@@ -116,77 +119,117 @@ int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn
     return 0;
 }
 
-/* steps[j] (of the case at cpath): an object whose time key tkey ("k",
- * "t") is j + 1 and whose data key dkey ("z", "y") is returned (its key
- * path in pd); NULL after the message. */
-const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                 const char *cpath, const char *tkey, const char *dkey,
-                                 const char *const *known, char *pd)
+/* steps[j] (of the case at cpath): an object of how's keys whose time key
+ * is j + 1; its data key's value is returned (its key path in pd), NULL
+ * after the message. */
+static const json_t *cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
+                                const char *cpath, const dkf_scn_case_steps_t *how, char *pd)
 {
     const json_t *st = json_array_get(steps, j), *d;
     char p[DKF_SCN_PATH_LEN];
     long k;
     dkf_scn_pathf(p, "%s.steps[%zu]", cpath, j);
     if (!json_is_object(st)) {
-        dkf_scn_fail(c, p, "expected an object {%s, %s}, got %s", tkey, dkey,
+        dkf_scn_fail(c, p, "expected an object {%s, %s}, got %s", how->tkey, how->dkey,
                      dkf_scn_json_kind(st));
         return NULL;
     }
-    if (dkf_scn_check_keys(c, st, p, known, NULL) != 0) return NULL;
-    dkf_scn_subkey(pd, p, tkey);
-    if (json_object_get(st, tkey) == NULL) {
+    if (dkf_scn_check_keys(c, st, p, how->known, NULL) != 0) return NULL;
+    dkf_scn_subkey(pd, p, how->tkey);
+    if (json_object_get(st, how->tkey) == NULL) {
         dkf_scn_fail(c, pd, "missing key");
         return NULL;
     }
-    if (dkf_scn_get_integer(c, json_object_get(st, tkey), pd, 0.0, DKF_SCN_MAX_TIME, &k) != 0)
+    if (dkf_scn_get_integer(c, json_object_get(st, how->tkey), pd, 0.0, DKF_SCN_MAX_TIME, &k) !=
+        0)
         return NULL;
     if (k != (long)j + 1) {
-        dkf_scn_fail(c, pd, "expected %zu (steps list %s = 1..N), got %ld", j + 1, tkey, k);
+        dkf_scn_fail(c, pd, "expected %zu (steps list %s = 1..N), got %ld", j + 1, how->tkey, k);
         return NULL;
     }
-    d = json_object_get(st, dkey);
-    dkf_scn_subkey(pd, p, dkey);
+    d = json_object_get(st, how->dkey);
+    dkf_scn_subkey(pd, p, how->dkey);
     if (d == NULL) dkf_scn_fail(c, pd, "missing key");
     return d;
 }
 
-static int cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
-                              const char *cpath)
+const json_t *dkf_scn_cases_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
+                                  const char *cpath)
+{
+    const json_t *steps = json_object_get(cj, "steps");
+    char p[DKF_SCN_PATH_LEN];
+    dkf_scn_subkey(p, cpath, "steps");
+    if (dkf_scn_list_len(c, steps, p, "steps", "steps", DKF_SCN_MAX_STEPS, &s->steps) != 0)
+        return NULL;
+    return steps;
+}
+
+int dkf_scn_cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
+                               const char *cpath, const dkf_scn_case_steps_t *how)
 {
     size_t j, i, N = json_array_size(steps);
-    char pz[DKF_SCN_PATH_LEN];
+    char pd[DKF_SCN_PATH_LEN], pdi[DKF_SCN_PATH_LEN], len_of[DKF_SCN_PATH_LEN];
     dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
     int rc = -1;
     if (y == NULL) return -1;
-    for (i = 0; i < s->nsensors; ++i) s->sensors[i].m = dkf_scn_sensor_model(s, i, "H")->rows;
-    if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
+    if (cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
     for (j = 0; j < N; ++j) {
-        const json_t *z;
-        const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", step_keys, pz)) == NULL)
-            goto done;
-        if (!json_is_array(z) || json_array_size(z) != s->nsensors) {
-            dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per sensor), got %s",
-                         s->nsensors, dkf_scn_json_kind(z));
+        const json_t *d = cases_step(c, steps, j, cpath, how, pd);
+        if (d == NULL) goto done;
+        if (how->per != NULL && (!json_is_array(d) || json_array_size(d) != s->nsensors)) {
+            if (json_is_array(d))
+                dkf_scn_fail(c, pd, "expected a list of %zu measurements (one per %s), got %zu",
+                             s->nsensors, how->per, json_array_size(d));
+            else
+                dkf_scn_fail(c, pd, "expected a list of %zu measurements (one per %s), got %s",
+                             s->nsensors, how->per, dkf_scn_json_kind(d));
             goto done;
         }
         for (i = 0; i < s->nsensors; ++i) {
-            char pzi[DKF_SCN_PATH_LEN];
-            size_t len;
-            double *v;
-            int st_rc;
-            dkf_scn_subidx(pzi, pz, i);
-            if (dkf_scn_parse_vector(c, json_array_get(z, i), pzi, &len, &v) != 0) goto done;
-            st_rc = dkf_scn_store(c, pzi, &y[i], j, v, len);
-            free(v);
-            if (st_rc != 0) goto done;
-            s->sensors[i].yk[j] = k;
+            if (how->per != NULL) {
+                dkf_scn_subidx(pdi, pd, i);
+                dkf_scn_subidx(len_of, how->len_of, i);
+            } else {
+                dkf_scn_pathf(pdi, "%s", pd);
+                dkf_scn_pathf(len_of, "%s", how->len_of);
+            }
+            if (dkf_scn_store_vector(c, how->per != NULL ? json_array_get(d, i) : d, pdi, &y[i], j,
+                                     len_of) != 0)
+                goto done;
+            s->sensors[i].yk[j] = (long)j + 1;
         }
     }
     rc = 0;
 done:
     free(y);
     return rc;
+}
+
+int dkf_scn_cases_truth(dkf_scn_ctx_t *c, const json_t *list, const char *path, size_t dim,
+                        const char *len_of, long k0, size_t *count, long **kout, double **vout)
+{
+    size_t j, N;
+    dkf_scn_block_t b = {NULL, 0, 0};
+    char p[DKF_SCN_PATH_LEN];
+    if (dkf_scn_list_len(c, list, path, "vectors", "entries", DKF_SCN_MAX_TIMES, &N) != 0)
+        return -1;
+    if ((*kout = dkf_scn_calloc(c, N, sizeof **kout)) == NULL) return -1;
+    if (dkf_scn_block_alloc(c, &b, N, dim, path) != 0) return -1;
+    *vout = b.v;
+    for (j = 0; j < N; ++j) {
+        const json_t *e = json_array_get(list, j);
+        double one;
+        dkf_scn_subidx(p, path, j);
+        if (json_is_number(e) && dim == 1) {
+            one = json_number_value(e);
+            if (dkf_scn_store(c, p, &b, j, &one, 1) != 0) return -1;
+        } else if (dkf_scn_store_vector(c, e, p, &b, j, len_of) != 0) {
+            return -1;
+        }
+        (*kout)[j] = k0 + (long)j;
+    }
+    *count = N;
+    return 0;
 }
 
 int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, const char *sel)
@@ -212,16 +255,8 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     if (dkf_scn_check_keys(c, cj, cpath, case_keys, NULL) != 0) return -1;
     s->multi = 1;
 
-    steps = json_object_get(cj, "steps");
+    if ((steps = dkf_scn_cases_steps(c, s, cj, cpath)) == NULL) return -1;
     dkf_scn_subkey(p, cpath, "steps");
-    if (steps == NULL) return dkf_scn_fail(c, p, "missing key");
-    if (!json_is_array(steps) || json_array_size(steps) == 0)
-        return dkf_scn_fail(c, p, "expected a non-empty list of steps, got %s",
-                            dkf_scn_json_kind(steps));
-    s->steps = json_array_size(steps);
-    if (s->steps > DKF_SCN_MAX_STEPS)
-        return dkf_scn_fail(c, p, "%zu steps, more than the %lu allowed", s->steps,
-                            DKF_SCN_MAX_STEPS);
     if (!json_is_object(json_array_get(steps, 0)))
         return dkf_scn_fail(c, p, "expected a list of step objects");
     if (cases_model(c, s, cj, steps, cpath, "F") != 0) return -1;
@@ -233,13 +268,9 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     dkf_scn_subkey(pr, cpath, "R");
     if (C == NULL) return dkf_scn_fail(c, p, "missing key");
     if (R == NULL) return dkf_scn_fail(c, pr, "missing key");
-    if (!json_is_array(C) || json_array_size(C) == 0)
-        return dkf_scn_fail(c, p, "expected a non-empty list of sensor matrices, got %s",
-                            dkf_scn_json_kind(C));
-    s->nsensors = json_array_size(C);
-    if (s->nsensors > DKF_SCN_MAX_SENSORS)
-        return dkf_scn_fail(c, p, "%zu sensors, more than the %lu allowed", s->nsensors,
-                            DKF_SCN_MAX_SENSORS);
+    if (dkf_scn_list_len(c, C, p, "sensor matrices", "sensors", DKF_SCN_MAX_SENSORS,
+                         &s->nsensors) != 0)
+        return -1;
     if (!json_is_array(R) || json_array_size(R) != s->nsensors)
         return dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per H), got %s",
                             s->nsensors,
@@ -251,7 +282,8 @@ int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root, 
     }
     if (cases_init(c, s, cj, cpath, "x0", "x00") != 0) return -1;
     if (cases_init(c, s, cj, cpath, "P0", "P00") != 0) return -1;
-    if (cases_measurements(c, s, steps, cpath) != 0) return -1;
+    for (i = 0; i < s->nsensors; ++i) s->sensors[i].m = dkf_scn_sensor_model(s, i, "H")->rows;
+    if (dkf_scn_cases_measurements(c, s, steps, cpath, &measured) != 0) return -1;
     if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
     dkf_scn_adopt_y(s, 0);
     dkf_scn_pathf(p, "%s.H[%%zu]", cpath);

@@ -35,6 +35,10 @@ static const char *const case_keys[] = {"model", "node_models", "init", "init_pe
 static const char *const init_keys[] = {"x0", "Px0", "d0", "Pd0", "Pxd0", NULL};
 static const char *const step_keys[] = {"k", "z", "expected", "expected_per_node", NULL};
 static const char *const truth_keys[] = {"X", "omega", "W_process", "V_meas", NULL};
+/* steps[j].z: the model's g values (single node) or one such list per node. */
+static const dkf_scn_case_steps_t one_node = {"k", "z", step_keys, NULL, "the model's g"};
+static const dkf_scn_case_steps_t per_node = {"k", "z", step_keys, "node, as node_models",
+                                              "the g of node_models"};
 
 /* v must be a list; 1 if it is an empty one (or a list of empty lists). */
 static int is_empty_list(const json_t *v)
@@ -134,92 +138,6 @@ static int node_model(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t i, const json_
     return 0;
 }
 
-/* steps[j].z: one list (single node) or N lists (network), m_i values each. */
-static int measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
-                        const char *cpath)
-{
-    size_t j, i, N = json_array_size(steps);
-    char pz[DKF_SCN_PATH_LEN], pzi[DKF_SCN_PATH_LEN];
-    dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
-    int rc = -1;
-    if (y == NULL) return -1;
-    if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
-    for (j = 0; j < N; ++j) {
-        const json_t *z;
-        const long k = (long)j + 1;
-        if ((z = dkf_scn_cases_step(c, steps, j, cpath, "k", "z", step_keys, pz)) == NULL)
-            goto done;
-        if (s->nl->network && (!json_is_array(z) || json_array_size(z) != s->nsensors)) {
-            dkf_scn_fail(c, pz, "expected a list of %zu measurements (one per node), got %s",
-                         s->nsensors, dkf_scn_json_kind(z));
-            goto done;
-        }
-        for (i = 0; i < s->nsensors; ++i) {
-            const json_t *zi = s->nl->network ? json_array_get(z, i) : z;
-            size_t len;
-            double *v;
-            int st_rc;
-            if (s->nl->network)
-                dkf_scn_subidx(pzi, pz, i);
-            else
-                dkf_scn_pathf(pzi, "%s", pz);
-            if (dkf_scn_parse_vector(c, zi, pzi, &len, &v) != 0) goto done;
-            if (len != s->sensors[i].m) {
-                free(v);
-                dkf_scn_fail(c, pzi, "expected %zu values (the model's g), got %zu",
-                             s->sensors[i].m, len);
-                goto done;
-            }
-            st_rc = dkf_scn_store(c, pzi, &y[i], j, v, len);
-            free(v);
-            if (st_rc != 0) goto done;
-            s->sensors[i].yk[j] = k;
-        }
-    }
-    rc = 0;
-done:
-    free(y);
-    return rc;
-}
-
-/* A list of vectors of dim values into a fresh series at k = k0, k0 + 1, ... */
-static int vector_series(dkf_scn_ctx_t *c, const json_t *list, const char *path, size_t dim,
-                         long k0, size_t *count, long **kout, double **vout)
-{
-    size_t j, N;
-    dkf_scn_block_t b = {NULL, 0, 0};
-    char p[DKF_SCN_PATH_LEN];
-    if (!json_is_array(list) || json_array_size(list) == 0)
-        return dkf_scn_fail(c, path, "expected a non-empty list, got %s", dkf_scn_json_kind(list));
-    N = json_array_size(list);
-    if (N > DKF_SCN_MAX_TIMES)
-        return dkf_scn_fail(c, path, "%zu entries, more than the %lu allowed", N,
-                            (unsigned long)DKF_SCN_MAX_TIMES);
-    if ((*kout = dkf_scn_calloc(c, N, sizeof **kout)) == NULL) return -1;
-    if (dkf_scn_block_alloc(c, &b, N, dim, path) != 0) return -1;
-    *vout = b.v;
-    for (j = 0; j < N; ++j) {
-        const json_t *e = json_array_get(list, j);
-        double *v, one;
-        size_t len = 1;
-        int rc;
-        dkf_scn_subidx(p, path, j);
-        if (json_is_number(e)) {
-            one = json_number_value(e);
-            v = &one;
-            rc = dkf_scn_store(c, p, &b, j, v, len);
-        } else {
-            if (dkf_scn_parse_vector(c, e, p, &len, &v) != 0) return -1;
-            rc = dkf_scn_store(c, p, &b, j, v, len);
-            free(v);
-        }
-        if (rc != 0) return -1;
-        (*kout)[j] = k0 + (long)j;
-    }
-    *count = N;
-    return 0;
-}
-
 /* x_true / d_true (k = 1..N) or truth {X, omega} (k = 0..N); optional. */
 static int nl_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath)
 {
@@ -238,12 +156,13 @@ static int nl_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const
         dj = dt;
         dkf_scn_subkey(p, cpath, "x_true");
     }
-    if (xt != NULL &&
-        vector_series(c, xt, p, s->n, k0, &s->ntruth, &s->truth_k, &s->truth_x) != 0)
+    if (xt != NULL && dkf_scn_cases_truth(c, xt, p, s->n, "the length of x0", k0, &s->ntruth,
+                                          &s->truth_k, &s->truth_x) != 0)
         return -1;
     if (dj != NULL && s->nl->p > 0) {
         dkf_scn_subkey(p, cpath, k0 == 0 ? "truth.omega" : "d_true");
-        if (vector_series(c, dj, p, s->nl->p, k0, &s->ntruth_u, &s->truth_u_k, &s->truth_u) != 0)
+        if (dkf_scn_cases_truth(c, dj, p, s->nl->p, "the length of d0", k0, &s->ntruth_u,
+                                &s->truth_u_k, &s->truth_u) != 0)
             return -1;
         s->m_u = s->nl->p;
         snprintf(s->truth_u_key, sizeof s->truth_u_key, "%s", k0 == 0 ? "omega" : "d");
@@ -305,9 +224,9 @@ static int consensus(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, cons
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
                          const char *cpath)
 {
-    const json_t *steps = json_object_get(cj, "steps"), *models, *inits;
+    const json_t *steps, *models, *inits;
     const int network = json_object_get(cj, "node_models") != NULL;
-    char p[DKF_SCN_PATH_LEN], pm[DKF_SCN_PATH_LEN], pi[DKF_SCN_PATH_LEN];
+    char pm[DKF_SCN_PATH_LEN], pi[DKF_SCN_PATH_LEN];
     size_t i, N;
 
     s->layout = DKF_SCN_LAYOUT_NLCASES;
@@ -325,13 +244,9 @@ int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     if (inits == NULL) return dkf_scn_fail(c, pi, "missing key");
     N = 1;
     if (network) {
-        if (!json_is_array(models) || json_array_size(models) == 0)
-            return dkf_scn_fail(c, pm, "expected a non-empty list of node models, got %s",
-                                dkf_scn_json_kind(models));
-        N = json_array_size(models);
-        if (N > DKF_SCN_MAX_SENSORS)
-            return dkf_scn_fail(c, pm, "%zu nodes, more than the %lu allowed", N,
-                                DKF_SCN_MAX_SENSORS);
+        if (dkf_scn_list_len(c, models, pm, "node models", "nodes", DKF_SCN_MAX_SENSORS, &N) !=
+            0)
+            return -1;
         if (!json_is_array(inits) || json_array_size(inits) != N)
             return dkf_scn_fail(c, pi, "expected a list of %zu initial estimates (one per "
                                 "node), got %s", N, dkf_scn_json_kind(inits));
@@ -340,16 +255,7 @@ int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     if ((s->sensors = dkf_scn_calloc(c, N, sizeof *s->sensors)) == NULL) return -1;
     if ((s->nl->models = dkf_scn_calloc(c, N, sizeof *s->nl->models)) == NULL) return -1;
 
-    dkf_scn_subkey(p, cpath, "steps");
-    if (steps == NULL) return dkf_scn_fail(c, p, "missing key");
-    if (!json_is_array(steps) || json_array_size(steps) == 0)
-        return dkf_scn_fail(c, p, "expected a non-empty list of steps, got %s",
-                            dkf_scn_json_kind(steps));
-    s->steps = json_array_size(steps);
-    if (s->steps > DKF_SCN_MAX_STEPS)
-        return dkf_scn_fail(c, p, "%zu steps, more than the %lu allowed", s->steps,
-                            DKF_SCN_MAX_STEPS);
-
+    if ((steps = dkf_scn_cases_steps(c, s, cj, cpath)) == NULL) return -1;
     for (i = 0; i < N; ++i) {
         char ip[DKF_SCN_PATH_LEN], mp[DKF_SCN_PATH_LEN];
         if (network) {
@@ -364,7 +270,8 @@ int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
             return -1;
     }
     if (network && consensus(c, s, cj, cpath) != 0) return -1;
-    if (measurements(c, s, steps, cpath) != 0) return -1;
+    if (dkf_scn_cases_measurements(c, s, steps, cpath, network ? &per_node : &one_node) != 0)
+        return -1;
     if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
     dkf_scn_adopt_y(s, 0);
     if (nl_truth(c, s, cj, cpath) != 0) return -1;

@@ -27,6 +27,9 @@ static const char *const case_keys[] = {"Phi", "Gamma", "Qe", "H", "R", "H_signa
                                         "P0", "steps", "x_true", "steady_state", "held_out",
                                         NULL};
 static const char *const step_keys[] = {"t", "y", "expected", NULL};
+/* steps[t-1].y: one vector per sensor, of H[i]'s rows. */
+static const dkf_scn_case_steps_t measured = {"t", "y", step_keys, "sensor, as H",
+                                              "the rows of H"};
 
 #include <float.h>
 #include <math.h>
@@ -108,13 +111,9 @@ static int wf_sensors(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, con
     dkf_scn_subkey(pr, cpath, "R");
     if (H == NULL) return dkf_scn_fail(c, ph, "missing key");
     if (R == NULL) return dkf_scn_fail(c, pr, "missing key");
-    if (!json_is_array(H) || json_array_size(H) == 0)
-        return dkf_scn_fail(c, ph, "expected a non-empty list of sensor matrices H_i, got %s",
-                            dkf_scn_json_kind(H));
-    l = json_array_size(H);
-    if (l > DKF_SCN_MAX_SENSORS)
-        return dkf_scn_fail(c, ph, "%zu sensors, more than the %lu allowed", l,
-                            DKF_SCN_MAX_SENSORS);
+    if (dkf_scn_list_len(c, H, ph, "sensor matrices H_i", "sensors", DKF_SCN_MAX_SENSORS, &l) !=
+        0)
+        return -1;
     if (!json_is_array(R) || json_array_size(R) != l)
         return json_is_array(R)
                    ? dkf_scn_fail(c, pr, "expected a list of %zu matrices (one per H_i), got "
@@ -148,61 +147,11 @@ static int wf_sensors(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, con
     return 0;
 }
 
-/* steps[j]: an object with t = j + 1 and y, a list of l measurements of
- * m_i values each (sensor i's y at t). */
-static int wf_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
-                           const char *cpath)
-{
-    size_t j, i, N = json_array_size(steps);
-    char py[DKF_SCN_PATH_LEN];
-    dkf_scn_block_t *y = dkf_scn_calloc(c, s->nsensors, sizeof *y);
-    int rc = -1;
-    if (y == NULL) return -1;
-    if (dkf_scn_cases_alloc_y(c, s, N, y, cpath) != 0) goto done;
-    for (j = 0; j < N; ++j) {
-        const json_t *yj = dkf_scn_cases_step(c, steps, j, cpath, "t", "y", step_keys, py);
-        if (yj == NULL) goto done;
-        if (!json_is_array(yj) || json_array_size(yj) != s->nsensors) {
-            if (json_is_array(yj))
-                dkf_scn_fail(c, py, "expected a list of %zu measurements (one per sensor, as "
-                             "H), got %zu", s->nsensors, json_array_size(yj));
-            else
-                dkf_scn_fail(c, py, "expected a list of %zu measurements (one per sensor, as "
-                             "H), got %s", s->nsensors, dkf_scn_json_kind(yj));
-            goto done;
-        }
-        for (i = 0; i < s->nsensors; ++i) {
-            char pyi[DKF_SCN_PATH_LEN];
-            size_t len;
-            double *v;
-            int st_rc;
-            dkf_scn_subidx(pyi, py, i);
-            if (dkf_scn_parse_vector(c, json_array_get(yj, i), pyi, &len, &v) != 0) goto done;
-            if (len != s->sensors[i].m) {
-                free(v);
-                dkf_scn_fail(c, pyi, "expected a vector of %zu values (the rows of H[%zu]), "
-                             "got %zu", s->sensors[i].m, i, len);
-                goto done;
-            }
-            st_rc = dkf_scn_store(c, pyi, &y[i], j, v, len);
-            free(v);
-            if (st_rc != 0) goto done;
-            s->sensors[i].yk[j] = (long)j + 1; /* t, checked = j + 1 */
-        }
-    }
-    rc = 0;
-done:
-    free(y);
-    return rc;
-}
-
 /* x_true: N + 1 states of n values (k = 0..N), optional. */
 static int wf_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const char *cpath)
 {
     const json_t *xt = json_object_get(cj, "x_true");
-    dkf_scn_block_t b = {NULL, 0, 0};
-    char p[DKF_SCN_PATH_LEN], pj[DKF_SCN_PATH_LEN];
-    size_t j, N;
+    char p[DKF_SCN_PATH_LEN];
     dkf_scn_subkey(p, cpath, "x_true");
     if (xt == NULL || json_is_null(xt)) return 0;
     if (!json_is_array(xt))
@@ -211,28 +160,8 @@ static int wf_truth(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj, const
     if (json_array_size(xt) != s->steps + 1)
         return dkf_scn_fail(c, p, "expected %zu states (k = 0..%zu, one more than the "
                             "steps), got %zu", s->steps + 1, s->steps, json_array_size(xt));
-    N = json_array_size(xt);
-    if ((s->truth_k = dkf_scn_calloc(c, N, sizeof *s->truth_k)) == NULL) return -1;
-    if (dkf_scn_block_alloc(c, &b, N, s->n, p) != 0) return -1;
-    s->truth_x = b.v;
-    s->ntruth = N;
-    for (j = 0; j < N; ++j) {
-        double *v;
-        size_t len;
-        int rc;
-        dkf_scn_subidx(pj, p, j);
-        if (dkf_scn_parse_vector(c, json_array_get(xt, j), pj, &len, &v) != 0) return -1;
-        if (len != s->n) {
-            free(v);
-            return dkf_scn_fail(c, pj, "expected a vector of %zu values (the rows of Phi), got "
-                                "%zu", s->n, len);
-        }
-        rc = dkf_scn_store(c, pj, &b, j, v, len);
-        free(v);
-        if (rc != 0) return -1;
-        s->truth_k[j] = (long)j;
-    }
-    return 0;
+    return dkf_scn_cases_truth(c, xt, p, s->n, "the rows of Phi", 0, &s->ntruth, &s->truth_k,
+                               &s->truth_x);
 }
 
 int dkf_scn_is_wfcase(const json_t *cj)
@@ -244,7 +173,7 @@ int dkf_scn_is_wfcase(const json_t *cj)
 int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
                          const char *cpath)
 {
-    const json_t *steps = json_object_get(cj, "steps"), *x0 = json_object_get(cj, "x_hat0");
+    const json_t *steps, *x0 = json_object_get(cj, "x_hat0");
     const dkf_scn_mat_t *F, *G, *Qe, *P0;
     dkf_scn_mat_t *x;
     char p[DKF_SCN_PATH_LEN];
@@ -286,16 +215,8 @@ int dkf_scn_load_wfcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
     x->cols = 1;
     if (wf_sensors(c, s, cj, cpath) != 0) return -1;
 
-    dkf_scn_subkey(p, cpath, "steps");
-    if (steps == NULL) return dkf_scn_fail(c, p, "missing key");
-    if (!json_is_array(steps) || json_array_size(steps) == 0)
-        return dkf_scn_fail(c, p, "expected a non-empty list of steps, got %s",
-                            dkf_scn_json_kind(steps));
-    s->steps = json_array_size(steps);
-    if (s->steps > DKF_SCN_MAX_STEPS)
-        return dkf_scn_fail(c, p, "%zu steps, more than the %lu allowed", s->steps,
-                            DKF_SCN_MAX_STEPS);
-    if (wf_measurements(c, s, steps, cpath) != 0) return -1;
+    if ((steps = dkf_scn_cases_steps(c, s, cj, cpath)) == NULL) return -1;
+    if (dkf_scn_cases_measurements(c, s, steps, cpath, &measured) != 0) return -1;
     if (dkf_scn_alloc_runs(c, s, 1) != 0) return -1;
     dkf_scn_adopt_y(s, 0);
     if (wf_truth(c, s, cj, cpath) != 0) return -1;

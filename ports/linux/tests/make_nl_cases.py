@@ -25,7 +25,9 @@ scenarios (SCENARIO_DIR/nl_*_expr.json):
   bad_*.json         one deliberate error each, refused with one line (the
                      bad_nl_node_*, n_plus_p and cf_f ones from
                      nl_mixed_expr.json: what a network of different
-                     sensors still may not have)
+                     sensors still may not have; bad_nl_z_nodes,
+                     z_node_len and no_nodes from df_dnertsif.json's
+                     first case)
 """
 import copy
 import json
@@ -139,6 +141,7 @@ def main():
     bad("bad_nl_div0.json",
         lambda c: c["model"]["expr"]["f"].__setitem__(2, "0.9*x3/(x1 - x1)"))
     bad("bad_nl_z_len.json", lambda c: c["steps"][3].__setitem__("z", [0.1, 0.2]))
+    bad("bad_nl_truth_len.json", lambda c: c["x_true"].__setitem__(5, [0.1, 0.2]))
     bad("bad_nl_init.json", lambda c: c["init"].__setitem__("Px0", [[0.1, 0], [0, 0.1]]))
     bad("bad_nl_asym.json", lambda c: c["init"]["Px0"][0].__setitem__(1, 0.05))
     bad("bad_nl_family.json",
@@ -156,6 +159,15 @@ def main():
     q = copy.deepcopy(net)
     q["node_models"][2]["Q"] = [[2 * v for v in row] for row in q["node_models"][2]["Q"]]
     write(out, "bad_nl_cf_q.json", {"cases": [q]})
+    z = copy.deepcopy(net)
+    z["steps"][2]["z"].pop()
+    write(out, "bad_nl_z_nodes.json", {"cases": [z]})
+    z = copy.deepcopy(net)
+    z["steps"][1]["z"][2] = [1.0, 2.0]
+    write(out, "bad_nl_z_node_len.json", {"cases": [z]})
+    z = copy.deepcopy(net)
+    z["node_models"] = []
+    write(out, "bad_nl_no_nodes.json", {"cases": [z]})
     net["W"] = net["W"][:3]
     write(out, "bad_nl_w_shape.json", {"cases": [net]})
 

@@ -11,6 +11,9 @@ and tests/cases/, "Seed 002"):
   bad_wf_y_missing.json  steps[4] without y
   bad_wf_R_count.json    4 R for 5 H (a sensor count that disagrees)
   bad_wf_y_count.json    steps[2].y of 4 measurements for 5 sensors
+  bad_wf_y_len.json      steps[3].y[2] of 2 values (H[2] has 1 row)
+  bad_wf_truth_len.json  x_true[7] of 3 values (n = 4)
+  bad_wf_no_steps.json   steps = []
   bad_wf_big.json        12 sensors of n = 4: n l + n = 52 > DKF_MAX_DIM (48)
   bad_wf_selftune_form.json  Phi[0][1] = 0.9: not the observer form of dkf/selftune.h
   wf_long.json           4000 steps simulated from the case's model (x(0) = 0,
@@ -84,6 +87,9 @@ def main():
     write("bad_wf_y_missing.json", lambda c: c["steps"][4].pop("y"))
     write("bad_wf_R_count.json", lambda c: c["R"].pop())
     write("bad_wf_y_count.json", lambda c: c["steps"][2]["y"].pop())
+    write("bad_wf_y_len.json", lambda c: c["steps"][3]["y"].__setitem__(2, [0.1, 0.2]))
+    write("bad_wf_truth_len.json", lambda c: c["x_true"].__setitem__(7, c["x_true"][7][:3]))
+    write("bad_wf_no_steps.json", lambda c: c.__setitem__("steps", []))
     write("bad_wf_big.json", big)
     write("bad_wf_selftune_form.json", lambda c: c["Phi"][0].__setitem__(1, 0.9))
 

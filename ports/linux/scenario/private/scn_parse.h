@@ -9,7 +9,8 @@
  *   scn_check.c      the checks every layout shares (shapes, times,
  *                    covariances) and the filters' pre-start queries
  *   scn_canonical.c  the canonical layout (model / init / y or runs)
- *   scn_cases.c      the cases layout (infofusion vectors)
+ *   scn_cases.c      the cases layout (infofusion vectors), and the steps,
+ *                    measurements and truth every cases layout reads alike
  *   scn_steps.c      the steps layout (steps[].inputs; seed-004 vectors) and
  *                    its network form (seed-003 vectors: per-node H, Sw, y)
  *   scn_network.c    the network form's graph, weights and eta
@@ -68,17 +69,34 @@ int dkf_scn_load_canonical(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *ro
 int dkf_scn_load_cases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root,
                        const char *sel);
 int dkf_scn_load_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *root);
-/* The cases layouts' measurements (scn_cases.c): every sensor's y series
- * of N steps (each sensor's m set) into blocks y[0..nsensors-1], and
- * steps[j] of the case at cpath checked (an object whose time key tkey,
- * "k" or "t", is j + 1, with no key outside known): its data key dkey
- * ("z", "y") with that key's path in pd, or NULL after the message (every
- * cases layout's step list). */
-int dkf_scn_cases_alloc_y(dkf_scn_ctx_t *c, dkf_scenario_t *s, size_t N, dkf_scn_block_t *y,
-                          const char *cpath);
-const json_t *dkf_scn_cases_step(dkf_scn_ctx_t *c, const json_t *steps, size_t j,
-                                 const char *cpath, const char *tkey, const char *dkey,
-                                 const char *const *known, char *pd);
+/* ---- what every cases layout shares (scn_cases.c) ---- */
+/* Case cj's steps (at cpath.steps): a non-empty list of at most
+ * DKF_SCN_MAX_STEPS (s->steps set), or NULL after the message. */
+const json_t *dkf_scn_cases_steps(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,
+                                  const char *cpath);
+/* How a cases layout's steps carry the measurements. */
+typedef struct {
+    const char *tkey;          /* the time key, "k" or "t": steps[j] has j + 1 */
+    const char *dkey;          /* the data key, "z" or "y" */
+    const char *const *known;  /* every key a step may have (NULL-terminated) */
+    const char *per;           /* the data is a list of one vector per sensor, named in
+                                * messages "one per PER" ("sensor, as H"); NULL: the
+                                * one sensor's vector */
+    const char *len_of;        /* what sets sensor i's m, named in messages ("the rows
+                                * of H", with per then "the rows of H[i]") */
+} dkf_scn_case_steps_t;
+/* Every sensor's y series from steps (each sensor's m set): sensor i's y at
+ * k = j + 1 from steps[j] of the case at cpath, read as how says. Refused:
+ * "PATH.steps[j].DKEY: expected a list of L measurements (one per PER),
+ * got ..." and "PATH.steps[j].DKEY[i]: expected a vector of M values
+ * (LEN_OF[i]), got ..." (with the time key's and the vectors' own). */
+int dkf_scn_cases_measurements(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *steps,
+                               const char *cpath, const dkf_scn_case_steps_t *how);
+/* A truth series at path: a non-empty list of vectors of dim values (a
+ * number stands for a vector of one; len_of names what sets dim) into a
+ * fresh series at k = k0, k0 + 1, ... */
+int dkf_scn_cases_truth(dkf_scn_ctx_t *c, const json_t *list, const char *path, size_t dim,
+                        const char *len_of, long k0, size_t *count, long **kout, double **vout);
 /* Case cj (at cpath) of a cases file whose case has `model` or
  * `node_models` (the nonlinear cases layout). */
 int dkf_scn_load_nlcases(dkf_scn_ctx_t *c, dkf_scenario_t *s, const json_t *cj,

@@ -29,6 +29,7 @@
 
 #include "dkf/uif.h"
 #include "dkf_test.h"
+#include "uif_paper.h"
 
 #define MAXN 6
 #define MAXP 4
@@ -545,41 +546,40 @@ static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t p, size_t m, si
  * double, 1.2e-3 float); the derivation (docs/design/derivation-seed003-004.md) measured <= 7e-14 in double. */
 static void test_uif_unbiased_zero_noise(void **state)
 {
+    static const struct {
+        const char *name, *dwhat;
+        dkf_uif_kind_t kind;
+        size_t n, p, m, rh, rg; /* zero_noise_run's */
+        int g_in_row_h;
+        uint64_t seed;
+    } runs[] = {
+        /* RTSF, full-rank H */
+        {"RTSF", "input", DKF_UIF_RTSF, 4, 2, 5, 2, 2, 0, 11},
+        /* NRTSF-DF, rank H = 2 < p = 3 and G = G1 T (null(H) in null(G)): the
+         * input has a component in null(H), which the filter cannot see and
+         * does not need */
+        {"NRTSF-DF", "input (estimable)", DKF_UIF_NRTSF_DF, 5, 3, 5, 2, 0, 1, 12},
+        /* NRTSF-DF, rank H = 1 of p = 2 */
+        {"NRTSF-DF r1", "input (estimable)", DKF_UIF_NRTSF_DF, 6, 2, 5, 1, 0, 1, 13},
+        /* NRTSF, rank G = 2 < p = 3 */
+        {"NRTSF", "input (estimable)", DKF_UIF_NRTSF, 5, 3, 5, 0, 2, 0, 14},
+        /* NRTSF, full-rank G */
+        {"NRTSF r=m", "input", DKF_UIF_NRTSF, 6, 2, 5, 0, 2, 0, 15},
+    };
     double xe, de;
     const double tol = 1e4 * TEST_EPS;
+    size_t c;
     (void)state;
-    /* RTSF, full-rank H */
-    zero_noise_run(DKF_UIF_RTSF, 4, 2, 5, 2, 2, 0, 11, &xe, &de);
-    print_message("RTSF        zero noise: state %.2e, input %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 2 < p = 3 and G = G1 T (null(H) in null(G)): the
-     * input has a component in null(H), which the filter cannot see and
-     * does not need */
-    zero_noise_run(DKF_UIF_NRTSF_DF, 5, 3, 5, 2, 0, 1, 12, &xe, &de);
-    print_message("NRTSF-DF    zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 1 of p = 2 */
-    zero_noise_run(DKF_UIF_NRTSF_DF, 6, 2, 5, 1, 0, 1, 13, &xe, &de);
-    print_message("NRTSF-DF r1 zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF, rank G = 2 < p = 3 */
-    zero_noise_run(DKF_UIF_NRTSF, 5, 3, 5, 0, 2, 0, 14, &xe, &de);
-    print_message("NRTSF       zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF, full-rank G */
-    zero_noise_run(DKF_UIF_NRTSF, 6, 2, 5, 0, 2, 0, 15, &xe, &de);
-    print_message("NRTSF r=m   zero noise: state %.2e, input %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
+    for (c = 0; c < sizeof runs / sizeof runs[0]; ++c) {
+        zero_noise_run(runs[c].kind, runs[c].n, runs[c].p, runs[c].m, runs[c].rh, runs[c].rg,
+                       runs[c].g_in_row_h, runs[c].seed, &xe, &de);
+        print_message("%-11s zero noise: state %.2e, %s %.2e\n", runs[c].name, xe, runs[c].dwhat,
+                      de);
+        assert_true(xe <= tol && de <= tol);
+    }
 }
 
-/* ---- the paper's example: estimability and the bias flag ---------------- */
-
-static const double PA[25] = {0.5, 2, 0, 0, 0, 0, 0.2, 1, 0, 1, 0, 0, 0.3, 0, 1,
-                              0,   0, 0, 0.7, 1, 0, 0, 0, 0, 0.1};
-static const double PG[15] = {1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PH[15] = {0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PR[25] = {1e-2, 0, 0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2,
-                              0,    0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2};
+/* ---- the paper's example (uif_paper.h): estimability and the bias flag -- */
 
 static void paper_model(model_t *s, int with_h)
 {

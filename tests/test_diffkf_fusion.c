@@ -517,16 +517,22 @@ typedef struct {
     test_rng_t rng;
 } hworld_t;
 
+/* Node i's measurement, m_i N(0, 1) draws from w's rng, in y; its view. */
+static dkf_mat_t h_draw_y(hworld_t *w, size_t i, dkf_real_t *y)
+{
+    double tmp[HM];
+    test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
+    test_to_real(y, tmp, w->h.m[i]);
+    return test_view(w->h.m[i], 1, y);
+}
+
 static void h_start(hworld_t *w)
 {
     dkf_diffkf_fc_fault_t fault;
     dkf_real_t y[HM];
-    double tmp[HM];
     size_t i;
     for (i = 0; i < w->h.l; ++i) {
-        dkf_mat_t my = test_view(w->h.m[i], 1, y);
-        test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
-        test_to_real(y, tmp, w->h.m[i]);
+        dkf_mat_t my = h_draw_y(w, i, y);
         assert_int_equal(dkf_diffkf_init(&w->loc[i], HN, w->h.m[i], w->h.p[i], w->loc_store[i],
                                          H_LOC_LEN, &w->h.mx0, &w->h.mP0),
                          DKF_OK);
@@ -552,12 +558,9 @@ static void h_world(hworld_t *w, size_t l, const size_t *m, const size_t *p, uin
 static void h_nodes_step(hworld_t *w)
 {
     dkf_real_t y[HM];
-    double tmp[HM];
     size_t i;
     for (i = 0; i < w->h.l; ++i) {
-        dkf_mat_t my = test_view(w->h.m[i], 1, y);
-        test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
-        test_to_real(y, tmp, w->h.m[i]);
+        dkf_mat_t my = h_draw_y(w, i, y);
         assert_int_equal(dkf_diffkf_step(&w->loc[i], &w->h.dyn[i], &w->h.sens[i].meas, &my),
                          DKF_OK);
         assert_int_equal(dkf_diffkf_msg_fill(&w->msgs[i], (uint16_t)i, &w->loc[i]), DKF_OK);

@@ -83,13 +83,6 @@ static void test_kf_matches_ex1_vector(void **state)
 
 /* ---- an independent double-precision reference ------------------------ */
 
-static void ref_transpose(double *T, const double *A, size_t r, size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) T[j * r + i] = A[i * c + j];
-}
-
 /* Textbook KF step in double: x = F x; P = F P F^T + Q; K = P H^T S^{-1};
  * x += K (y - H x); P -= K H P. */
 static void ref_kf_step(double *x, double *P, const double *F, const double *Q, const double *H,
@@ -100,11 +93,11 @@ static void ref_kf_step(double *x, double *P, const double *F, const double *Q, 
     size_t i;
     test_ref_mul(xn, F, x, n, n, 1);
     memcpy(x, xn, n * sizeof *x);
-    ref_transpose(Ft, F, n, n);
+    test_ref_transpose(Ft, F, n, n);
     test_ref_mul(t, F, P, n, n, n);
     test_ref_mul(P, t, Ft, n, n, n);
     for (i = 0; i < n * n; ++i) P[i] += Q[i];
-    ref_transpose(Ht, H, m, n);
+    test_ref_transpose(Ht, H, m, n);
     test_ref_mul(PHt, P, Ht, n, n, m);
     test_ref_mul(S, H, PHt, m, n, m);
     for (i = 0; i < m * m; ++i) S[i] += R[i];

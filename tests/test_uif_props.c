@@ -48,13 +48,6 @@ static void dmul(double *C, const double *A, const double *B, size_t r, size_t k
     test_ref_mul(C, A, B, r, k, c);
 }
 
-static void dtr(double *At, const double *A, size_t r, size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
-}
-
 static double dyadic(test_rng_t *r, double scale)
 {
     return floor(8.0 * scale * test_rng_normal(r) + 0.5) / 8.0;
@@ -349,12 +342,12 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         for (i = 0; i < q; ++i) xd[i] = i < n ? f->x[i] : f->d[i - n];
         dmul(xp, AG, xd, n, q, 1);
         dmul(JA, AG, J, n, q, q);
-        dtr(AGt, AG, n, q);
+        test_ref_transpose(AGt, AG, n, q);
         dmul(Pp, JA, AGt, n, q, n);
         for (i = 0; i < n * n; ++i) Pp[i] += s->Q[i];
     }
     dmul(t1, s->C, Pp, m, n, n);
-    dtr(t2, s->C, m, n);
+    test_ref_transpose(t2, s->C, m, n);
     dmul(Rt, t1, t2, m, n, m);
     for (i = 0; i < m * m; ++i) Rt[i] += s->R[i];
     test_ref_inverse_double(Rti, Rt, m);
@@ -369,7 +362,7 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         dmul(e, K, yt, n, m, 1);
         for (i = 0; i < n; ++i) f->x[i] = xp[i] + e[i];
         dmul(t1, K, Rt, n, m, m);
-        dtr(t2, K, n, m);
+        test_ref_transpose(t2, K, n, m);
         dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         return;
@@ -377,7 +370,7 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
     appendix_frd(Hbar, T, s->H, m, p, r);
     { /* Pdbar = (Hbar^T R~^-1 Hbar)^-1, Mbar = Pdbar Hbar^T R~^-1 (28) */
         double Hbt[CAP], HR[CAP], S[CAP];
-        dtr(Hbt, Hbar, m, r);
+        test_ref_transpose(Hbt, Hbar, m, r);
         dmul(HR, Hbt, Rti, r, m, m);
         dmul(S, HR, Hbar, r, m, r);
         test_ref_inverse_double(Pdb, S, r);
@@ -393,18 +386,18 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         dmul(t2, t1, Hbt, m, r, m);
         for (i = 0; i < m * m; ++i) t2[i] = Rt[i] - t2[i];
         dmul(t1, K, t2, n, m, m);
-        dtr(t2, K, n, m);
+        test_ref_transpose(t2, K, n, m);
         dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         /* T^+ = T^T (T T^T)^-1; d = T^+ dbar, Pd = T^+ Pdbar T^+T,
          * Pxd = -K Hbar Pdbar T^+T */
-        dtr(Tt, T, r, p);
+        test_ref_transpose(Tt, T, r, p);
         dmul(t1, T, Tt, r, p, r);
         test_ref_inverse_double(t2, t1, r);
         dmul(Tp, Tt, t2, p, r, r);
         dmul(f->d, Tp, db, p, r, 1);
         dmul(t1, Tp, Pdb, p, r, r);
-        dtr(t2, Tp, p, r);
+        test_ref_transpose(t2, Tp, p, r);
         dmul(f->Pd, t1, t2, p, r, p);
         dmul(t1, K, Hbar, n, m, r);
         dmul(t3, t1, Pdb, n, r, r);
@@ -455,7 +448,7 @@ static void test_uif_nrtsf_df_rank_changes_match_reference(void **state)
         } else {
             double Hbar[CAP], T[CAP], Tt[CAP], t1[CAP], t2[CAP], Tp[CAP];
             appendix_frd(Hbar, T, s.H, m, p, r);
-            dtr(Tt, T, r, p);
+            test_ref_transpose(Tt, T, r, p);
             dmul(t1, T, Tt, r, p, r);
             test_ref_inverse_double(t2, t1, r);
             dmul(Tp, Tt, t2, p, r, r);

@@ -105,6 +105,13 @@ void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t 
         }
 }
 
+void test_ref_transpose(double *At, const double *A, size_t r, size_t c)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
 void test_ref_inverse(long double *Ainv, long double *W, size_t n)
 {
     size_t i, j, k;
@@ -391,6 +398,23 @@ void test_dchol(double *L, const double *A, size_t n)
             double t = A[i * n + j];
             for (k = 0; k < j; ++k) t -= L[i * n + k] * L[j * n + k];
             L[i * n + j] = s > 0.0 ? t / L[j * n + j] : 0.0;
+        }
+    }
+}
+
+void test_dchol_solve(const double *L, double *B, size_t n, size_t c)
+{
+    size_t i, j, l;
+    for (j = 0; j < c; ++j) {
+        for (i = 0; i < n; ++i) {
+            double s = B[i * c + j];
+            for (l = 0; l < i; ++l) s -= L[i * n + l] * B[l * c + j];
+            B[i * c + j] = s / L[i * n + i];
+        }
+        for (i = n; i-- > 0;) {
+            double s = B[i * c + j];
+            for (l = i + 1; l < n; ++l) s -= L[l * n + i] * B[l * c + j];
+            B[i * c + j] = s / L[i * n + i];
         }
     }
 }

@@ -46,6 +46,9 @@ void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale
  * independent of the library's Cholesky; a zero pivot gives a zero column
  * (a singular Q), a negative one fails the test. */
 void test_dchol(double *L, const double *A, size_t n);
+/* Solves (L L^T) X = B in place for the lower n x n L of test_dchol (no
+ * zero pivot) and B n x c: forward then back substitution, in double. */
+void test_dchol_solve(const double *L, double *B, size_t n, size_t c);
 /* x (n) = L z with z ~ N(0, I) drawn first (n normals, in order). */
 void test_draw(test_rng_t *r, double *x, const double *L, size_t n);
 /* e^T S^{-1} e for the SPD S (k x k, k <= DKF_MAX_DIM), in double (the
@@ -59,6 +62,8 @@ double test_nees(const double *e, const double *S, size_t k);
  * Cholesky kernels claim, bit for bit (test_mat_chol_lu, test_kernels_wide). */
 void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n);
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
+/* At (c x r) = A^T for A r x c, doubles. */
+void test_ref_transpose(double *At, const double *A, size_t r, size_t c);
 /* Ainv = A^{-1} (n x n) by Gauss-Jordan with partial pivoting in long
  * double: an independent reference for a nonsingular A (a zero pivot fails
  * the test). W holds A on entry and is overwritten. */

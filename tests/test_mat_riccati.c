@@ -209,6 +209,17 @@ static void set_d(dkf_real_t *dst, const double *src, size_t k)
     test_to_real(dst, src, k);
 }
 
+/* The DARE's model in rF, rH, rQ, rR from doubles: F, Q n x n, H m x n,
+ * R m x m. */
+static void set_model(size_t n, size_t m, const double *F, const double *H, const double *Q,
+                      const double *R)
+{
+    set_d(rF, F, n * n);
+    set_d(rH, H, m * n);
+    set_d(rQ, Q, n * n);
+    set_d(rR, R, m * m);
+}
+
 /* ---- scalar closed form ---------------------------------------------------- */
 
 /* Positive root of h^2 x^2 + b x - q r = 0, b = r - q h^2 - a^2 r. */
@@ -281,10 +292,7 @@ static void random_model(test_rng_t *g, size_t n, size_t m, double s)
     test_rand_spd(g, R, m, 10.0, 1.0);
     for (i = 0; i < m; ++i)
         for (j = 0; j < i; ++j) R[i * m + j] = R[j * m + i];
-    set_d(rF, F, n * n);
-    set_d(rH, H, m * n);
-    set_d(rQ, Q, n * n);
-    set_d(rR, R, m * m);
+    set_model(n, m, F, H, Q, R);
 }
 
 static long double spectral_radius_bound_gt1(size_t n)
@@ -352,10 +360,7 @@ static void seed002_model(const json_t *c, size_t s, double *r)
                 for (m = 0; m < 2; ++m) q += Gam[i * 2 + l] * Qe[l * 2 + m] * Gam[j * 2 + m];
             Q[i * 4 + j] = q;
         }
-    set_d(rF, F, 16);
-    set_d(rH, H, 4);
-    set_d(rQ, Q, 16);
-    rR[0] = (dkf_real_t)*r;
+    set_model(4, 1, F, H, Q, r);
 }
 
 static void test_dare_seed002(void **state)
@@ -407,10 +412,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[9] = {1.1, 0.2, 0, 0, 0.9, 0.3, 0.1, 0, 0.5};
         static const double H[3] = {1, 0, 0};
         static const double Q[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = (dkf_real_t)1e-10;
+        set_model(3, 1, F, H, Q, (const double[1]){1e-10});
         (void)solve_check(3, 1, "R = 1e-10", &it);
     }
     /* Q nearly singular: rank one plus 1e-9 I */
@@ -420,10 +422,7 @@ static void test_dare_ill_marginal(void **state)
         double Q[9];
         size_t i;
         for (i = 0; i < 9; ++i) Q[i] = (i == 0 ? 1.0 : 0.0) + (i % 4 == 0 ? 1e-9 : 0.0);
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = 1;
+        set_model(3, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(3, 1, "Q rank 1 + 1e-9 I", &it);
     }
     /* large ||X||: a weakly observed mode at 0.9999 with big Q */
@@ -431,10 +430,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[4] = {0.9999, 0, 0, 0.5};
         static const double H[2] = {1e-3, 1};
         static const double Q[4] = {1e4, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(2, 1, "large ||X|| (1e4 Q, 0.9999)", &it);
         print_message("  max|X| = %.4g\n", (double)rX[0]);
         assert_true(rX[0] > (dkf_real_t)1e5);
@@ -453,10 +449,7 @@ static void test_dare_ill_marginal(void **state)
         Q2[1] = Q2[2] = 0;
         Q2[3] = 1e-6;
         R1 = 1;
-        set_d(rF, F2, 4);
-        set_d(rH, H2, 2);
-        set_d(rQ, Q2, 4);
-        rR[0] = (dkf_real_t)R1;
+        set_model(2, 1, F2, H2, Q2, &R1);
         (void)solve_check(2, 1, "rho(F) = 0.999 rotation", &it);
     }
     /* spectral radius 0.999 unobserved (detectable: closed loop keeps 0.999) */
@@ -464,10 +457,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[4] = {0.999, 0.3, 0, 0.5};
         static const double H[2] = {0, 1};
         static const double Q[4] = {1, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(2, 1, "rho 0.999 unobserved mode", &it);
         assert_true(it >= 12); /* 0.999^(2^k) reaches EPS only for 2^k ~ 1e4..4e4 */
     }
@@ -476,10 +466,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[9] = {1.05, 0.4, 0, 0, 0.6, 0.2, 0, 0, -0.3};
         static const double H[3] = {1, 0, 1};
         static const double Q[9] = {0.5, 0.1, 0, 0.1, 0.5, 0, 0, 0, 0.5};
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = (dkf_real_t)0.3;
+        set_model(3, 1, F, H, Q, (const double[1]){0.3});
         (void)solve_check(3, 1, "eigenvalue 1.05 detectable", &it);
     }
 }
@@ -511,10 +498,7 @@ static void base2(void)
     static const double H[4] = {1, 0, 0, 1};
     static const double Q[4] = {1, 0.2, 0.2, 1};
     static const double R[4] = {1, 0.1, 0.1, 2};
-    set_d(rF, F, 4);
-    set_d(rH, H, 4);
-    set_d(rQ, Q, 4);
-    set_d(rR, R, 4);
+    set_model(2, 2, F, H, Q, R);
 }
 
 static void test_dare_statuses(void **state)
@@ -530,10 +514,7 @@ static void test_dare_statuses(void **state)
         static const double F[4] = {1.2, 0, 0, 0.5};
         static const double H[2] = {0, 1};
         static const double Q[4] = {1, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         dare_fails(2, 1, DKF_ERR_UNSTABLE, "not detectable, excited");
         /* the same mode not excited (Q = diag(0, 1)): a finite X exists
          * (zero on that mode) but F (I - K H) keeps the 1.2: refused */
@@ -553,10 +534,7 @@ static void test_dare_statuses(void **state)
         F[1] = -sin(th);
         F[2] = sin(th);
         F[3] = cos(th);
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         dare_fails(2, 1, DKF_ERR_UNSTABLE, "rotation, Q = 0");
         /* the rotation beside an excited, observed stable mode (Q = 0 on
          * the rotation only): H_k is nonzero on the stable block, stays
@@ -569,13 +547,9 @@ static void test_dare_statuses(void **state)
             F3[4] = cos(th);
             F3[8] = 0.5;
             Q3[8] = 1;
-            set_d(rF, F3, 9);
-            set_d(rH, H3, 3);
-            set_d(rQ, Q3, 9);
+            set_model(3, 1, F3, H3, Q3, (const double[1]){1});
             dare_fails(3, 1, DKF_ERR_UNSTABLE, "rotation unreachable beside a stable mode");
-            set_d(rF, F, 4);
-            set_d(rH, H, 2);
-            set_d(rQ, Q, 4);
+            set_model(2, 1, F, H, Q, (const double[1]){1});
         }
         /* the same with Q = 0 but a stable F: X = 0 is stabilising */
         rF[0] = rF[3] = (dkf_real_t)(0.5 * cos(th));

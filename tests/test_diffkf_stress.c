@@ -83,6 +83,8 @@ static void test_diffkf_pinned(void **state)
         assert_int_equal(dkf_diffkf_start(&b.f, NULL, NULL, &s.meas, &s.ym), DKF_OK);
         for (j = 0; j < json_array_size(steps); ++j) {
             const json_t *st = json_array_get(steps, j);
+            const test_out_t out[NOUT] = {{"xf", b.f.xf.data, n}, {"Pf", b.f.Pf.data, n * n},
+                                          {"xn", b.f.xn.data, n}, {"Pn", b.f.Pn.data, n * n}};
             const double k = json_number_value(test_json_get(st, "cond_M"));
             const double rho = json_number_value(test_json_get(st, "rho"));
             dkf_status_t rc;
@@ -97,10 +99,7 @@ static void test_diffkf_pinned(void **state)
                 break;
             }
             assert_int_equal(rc, DKF_OK);
-            test_note_rel_err(&w[0], test_json_get(st, "xf"), b.f.xf.data, n);
-            test_note_rel_err(&w[1], test_json_get(st, "Pf"), b.f.Pf.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "xn"), b.f.xn.data, n);
-            test_note_rel_err(&w[3], test_json_get(st, "Pn"), b.f.Pn.data, n * n);
+            test_note_rel_errs(w, st, out, NOUT);
             assert_true(test_psd_within(b.f.Pf.data, n, 4.0 * NX * TEST_EPS));
             assert_true(test_psd_within(b.f.Pn.data, n, 4.0 * NX * TEST_EPS));
         }

@@ -146,6 +146,9 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
                          DKF_OK);
         for (j = 0; j < json_array_size(steps) && !refused; ++j) {
             const json_t *st = json_array_get(steps, j);
+            const test_out_t out[NOUT] = {{"x", b.f.x.data, n}, {"P", b.f.Px.data, n * n},
+                                          {"d", b.f.d.data, p}, {"Pd", b.f.Pd.data, p * p},
+                                          {"Pxd", b.f.Pxd.data, n * p}};
             const double k = json_number_value(test_json_get(st, "cond_H"));
             const double rho = json_number_value(test_json_get(st, "rho"));
             dkf_status_t rc;
@@ -164,11 +167,7 @@ static void run_cases(const json_t *root, dkf_uif_kind_t kind,
             }
             assert_int_equal(rc, DKF_OK);
             if (rank != NULL) assert_int_equal(b.f.rank, json_integer_value(rank));
-            test_note_rel_err(&w[0], test_json_get(st, "x"), b.f.x.data, n);
-            test_note_rel_err(&w[1], test_json_get(st, "P"), b.f.Px.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "d"), b.f.d.data, p);
-            test_note_rel_err(&w[3], test_json_get(st, "Pd"), b.f.Pd.data, p * p);
-            test_note_rel_err(&w[4], test_json_get(st, "Pxd"), b.f.Pxd.data, n * p);
+            test_note_rel_errs(w, st, out, NOUT);
             assert_true(test_psd_within(b.f.Px.data, n, 4.0 * NX * TEST_EPS));
             assert_true(test_psd_within(b.f.Pd.data, p, 4.0 * NX * TEST_EPS));
         }

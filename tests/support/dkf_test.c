@@ -368,6 +368,13 @@ void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, 
     if (!(e <= *worst)) *worst = e;
 }
 
+void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k)
+{
+    size_t i;
+    for (i = 0; i < k; ++i)
+        test_note_rel_err(&worst[i], test_json_get(st, out[i].key), out[i].got, out[i].len);
+}
+
 void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
                                size_t k, const double *ext, const double *seen)
 {

@@ -164,6 +164,16 @@ const json_t *test_json_case(const json_t *root, const char *name);
  * test_rel_err(got, ref)) with the reference node ref of len numbers
  * (fails the test on another count). */
 void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, size_t len);
+/* One output of a stress test's step: the len reals at got against the
+ * step node's `key`. */
+typedef struct {
+    const char *key;
+    const dkf_real_t *got;
+    size_t len;
+} test_out_t;
+/* test_note_rel_err(&worst[i], st's out[i].key, out[i].got, out[i].len)
+ * for each of the k outputs. */
+void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k);
 /* For each of the k outputs what[i]: worst[i] <= ext[i] ("external",
  * skipped if ext is NULL or ext[i] <= 0) and worst[i] <= 4 seen[i]
  * ("regression": 4x the worst observed; skipped if seen is NULL or

@@ -72,8 +72,8 @@ static void test_diffkf_pinned(void **state)
         const size_t len = DKF_DIFFKF_STATE_LEN(n, m, p);
         dkf_real_t xs[NX], Ps[NX * NX];
         dkf_mat_t x0, P0;
-        double w[NOUT] = {0, 0, 0, 0}, rk2 = 0, ext, ev[NOUT];
-        size_t j, i;
+        double w[NOUT] = {0, 0, 0, 0}, rk2 = 0, ext;
+        size_t j;
         test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
         test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
         assert_int_equal(dkf_diffkf_init(&b.f, n, m, p, b.f_storage,
@@ -104,12 +104,8 @@ static void test_diffkf_pinned(void **state)
             assert_true(test_psd_within(b.f.Pn.data, n, 4.0 * NX * TEST_EPS));
         }
         ext = 10.0 * (double)(n + p) * rk2 * TEST_EPS;
-        print_message("%s (%zu steps): worst rel error xf %.3e Pf %.3e xn %.3e Pn %.3e "
-                      "(rho cond^2 %.3g, bound %.3e)\n",
-                      names[c], j, w[0], w[1], w[2], w[3], rk2, ext);
-        for (i = 0; i < NOUT; ++i) ev[i] = ext < 1 ? ext : 0; /* vacuous in float */
-        test_assert_stress_bounds(names[c], what, w, NOUT, ev,
-                                  DKF_JOSEPH || DKF_USE_FLOAT ? seen[c] : NULL);
+        test_stress_verdict(names[c], j, what, w, NOUT, rk2, ext,
+                            DKF_JOSEPH || DKF_USE_FLOAT ? seen[c] : NULL);
     }
     json_decref(root);
 }

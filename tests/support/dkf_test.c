@@ -392,6 +392,25 @@ void test_assert_stress_bounds(const char *who, const char *const what[], const 
     }
 }
 
+void test_stress_verdict(const char *who, size_t steps, const char *const what[],
+                         const double *worst, size_t k, double rk2, double ext,
+                         const double *seen)
+{
+    char line[256];
+    double ev[8];
+    size_t i, used;
+    assert_true(k <= 8);
+    used = (size_t)snprintf(line, sizeof line, "%s (%zu steps): worst rel error", who, steps);
+    for (i = 0; i < k; ++i) {
+        if (used < sizeof line)
+            used += (size_t)snprintf(line + used, sizeof line - used, " %s %.3e", what[i],
+                                     worst[i]);
+        ev[i] = ext < 1 ? ext : 0;
+    }
+    print_message("%s (rho cond^2 %.3g, bound %.3e)\n", line, rk2, ext);
+    test_assert_stress_bounds(who, what, worst, k, ev, seen);
+}
+
 void test_dchol(double *L, const double *A, size_t n)
 {
     size_t i, j, k;

@@ -180,5 +180,13 @@ void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, 
  * seen[i] < 0). Failures name who and what[i]. */
 void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
                                size_t k, const double *ext, const double *seen);
+/* The verdict on stress case `who` after `steps` steps: prints the worst
+ * error of each output what[i] with rk2 (the case's largest rho cond^2)
+ * and the external bound ext, then test_assert_stress_bounds with ext for
+ * every output (skipped when ext >= 1: vacuous, as in float) and seen.
+ * k <= 8. */
+void test_stress_verdict(const char *who, size_t steps, const char *const what[],
+                         const double *worst, size_t k, double rk2, double ext,
+                         const double *seen);
 
 #endif /* DKF_TEST_H */

@@ -368,6 +368,32 @@ void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, 
     if (!(e <= *worst)) *worst = e;
 }
 
+/* obj[key] as a size, 0 if obj has no key. */
+static size_t size_or_0(const json_t *obj, const char *key)
+{
+    return json_object_get(obj, key) != NULL ? test_json_size(obj, key) : 0;
+}
+
+void test_stress_cases(const char *rel, const char *const names[], size_t k,
+                       void (*run)(const test_stress_case_t *sc, size_t i))
+{
+    static test_stress_case_t sc;
+    json_t *root = test_load_vector(rel);
+    size_t i;
+    for (i = 0; i < k; ++i) {
+        sc.name = names[i];
+        sc.node = test_json_case(root, names[i]);
+        sc.steps = test_json_get(sc.node, "steps");
+        sc.n = test_json_size(sc.node, "n");
+        sc.m = size_or_0(sc.node, "m");
+        sc.p = size_or_0(sc.node, "p");
+        test_json_mat(test_json_get(sc.node, "x0"), sc.x0, TEST_UI_CAP, &sc.mx0);
+        test_json_mat(test_json_get(sc.node, "P0"), sc.P0, TEST_UI_CAP * TEST_UI_CAP, &sc.mP0);
+        run(&sc, i);
+    }
+    json_decref(root);
+}
+
 void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k)
 {
     size_t i;

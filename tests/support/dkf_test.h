@@ -174,6 +174,20 @@ typedef struct {
 /* test_note_rel_err(&worst[i], st's out[i].key, out[i].got, out[i].len)
  * for each of the k outputs. */
 void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k);
+/* A case of a stress vector file: its node and steps, the sizes its "n",
+ * "m" and "p" give (0 where absent; each file says what they mean), and its
+ * prior "x0", "P0" (n <= TEST_UI_CAP) with views on them. */
+typedef struct {
+    const json_t *node, *steps;
+    const char *name;
+    size_t n, m, p;
+    dkf_real_t x0[TEST_UI_CAP], P0[TEST_UI_CAP * TEST_UI_CAP];
+    dkf_mat_t mx0, mP0;
+} test_stress_case_t;
+/* Loads the vector file rel and calls run(case, i) on its cases names[i],
+ * i = 0..k-1, in order. */
+void test_stress_cases(const char *rel, const char *const names[], size_t k,
+                       void (*run)(const test_stress_case_t *sc, size_t i));
 /* For each of the k outputs what[i]: worst[i] <= ext[i] ("external",
  * skipped if ext is NULL or ext[i] <= 0) and worst[i] <= 4 seen[i]
  * ("regression": 4x the worst observed; skipped if seen is NULL or

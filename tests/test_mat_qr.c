@@ -296,13 +296,12 @@ static void setup_bufs(qr_bufs_t *b)
 /* Every output buffer still holds the sentinel (A, B are inputs). */
 static void assert_untouched(const qr_bufs_t *b, const qr_bufs_t *before)
 {
-    assert_memory_equal(b->QR, before->QR, sizeof b->QR);
-    assert_memory_equal(b->tau, before->tau, sizeof b->tau);
-    assert_memory_equal(b->Q, before->Q, sizeof b->Q);
-    assert_memory_equal(b->R, before->R, sizeof b->R);
-    assert_memory_equal(b->X, before->X, sizeof b->X);
-    assert_memory_equal(b->A, before->A, sizeof b->A);
-    assert_memory_equal(b->B, before->B, sizeof b->B);
+    static const test_member_t all[] = {
+        TEST_MEMBER(qr_bufs_t, QR), TEST_MEMBER(qr_bufs_t, tau), TEST_MEMBER(qr_bufs_t, Q),
+        TEST_MEMBER(qr_bufs_t, R),  TEST_MEMBER(qr_bufs_t, X),   TEST_MEMBER(qr_bufs_t, A),
+        TEST_MEMBER(qr_bufs_t, B),
+    };
+    test_assert_same_members(b, before, all, sizeof all / sizeof all[0]);
 }
 
 static void test_qr_errors(void **state)

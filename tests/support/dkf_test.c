@@ -200,6 +200,15 @@ void test_fill(dkf_real_t *p, size_t n, dkf_real_t v)
     for (i = 0; i < n; ++i) p[i] = v;
 }
 
+void test_assert_same_members(const void *got, const void *want, const test_member_t *m, size_t k)
+{
+    const unsigned char *g = (const unsigned char *)got, *w = (const unsigned char *)want;
+    size_t i;
+    for (i = 0; i < k; ++i)
+        if (memcmp(g + m[i].offset, w + m[i].offset, m[i].size) != 0)
+            fail_msg("%s changed", m[i].name);
+}
+
 double test_orth_err(const dkf_real_t *Q, size_t r, size_t k)
 {
     double m = 0.0;

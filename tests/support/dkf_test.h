@@ -90,6 +90,16 @@ void test_fill(dkf_real_t *p, size_t n, dkf_real_t v);
 /* max |Q^T Q - I| for the r x k Q, in double. */
 double test_orth_err(const dkf_real_t *Q, size_t r, size_t k);
 
+/* A member of a struct of buffers (TEST_MEMBER), for test_assert_same_members. */
+typedef struct {
+    const char *name;
+    size_t offset, size;
+} test_member_t;
+#define TEST_MEMBER(type, member) {#member, offsetof(type, member), sizeof(((type *)0)->member)}
+/* Fails the test, naming the member, unless each of the k members m[] of
+ * *got is bit-identical to that of *want. */
+void test_assert_same_members(const void *got, const void *want, const test_member_t *m, size_t k);
+
 /* Asserts `call` returns `st` and leaves the n reals at `out` bit-identical;
  * `snap` is caller scratch of at least n reals. */
 #define TEST_FAILS_UNTOUCHED(snap, st, call, out, n) \

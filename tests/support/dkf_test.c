@@ -265,6 +265,16 @@ json_t *test_json_get(const json_t *obj, const char *key)
     return v;
 }
 
+void test_load_run_vector(test_run_vector_t *v, const char *rel, const char *filter)
+{
+    v->root = test_load_vector(rel);
+    v->model = test_json_get(v->root, "model");
+    v->init = test_json_get(v->root, "init");
+    v->yv = test_json_get(test_json_get(v->root, "y"), "values");
+    v->N = json_array_size(test_json_get(v->root, "k"));
+    v->out = test_json_get(test_json_get(v->root, "outputs"), filter);
+}
+
 size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows, size_t *cols)
 {
     size_t r = 1, c = 1, i, j;

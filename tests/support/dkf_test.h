@@ -146,6 +146,15 @@ size_t test_json_flatten(const json_t *node, double *out, size_t cap);
 size_t test_json_size(const json_t *obj, const char *key);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
+/* A filter's run in a vector file of tests/vectors/diffkf/: the root (the
+ * caller's to json_decref), its "model", "init" and y "values", the
+ * number N of steps (the length of "k") and outputs[filter]. */
+typedef struct {
+    json_t *root;
+    const json_t *model, *init, *yv, *out;
+    size_t N;
+} test_run_vector_t;
+void test_load_run_vector(test_run_vector_t *v, const char *rel, const char *filter);
 
 /* ---- one step of an unknown-input model (dkf/ui_model.h) from a vector -- */
 #include "dkf/ui_model.h"

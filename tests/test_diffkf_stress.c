@@ -65,6 +65,7 @@ static void diffkf_case(const test_stress_case_t *sc, size_t c)
     const size_t len = DKF_DIFFKF_STATE_LEN(n, m, p);
     double w[NOUT] = {0, 0, 0, 0}, rk2 = 0, ext;
     size_t j;
+    assert_true(m > 0 && p > 0); /* the case gives "m" and "p" */
     assert_int_equal(dkf_diffkf_init(&b.f, n, m, p, b.f_storage, DKF_DIFFKF_STORAGE_LEN(n, m, p),
                                      &sc->mx0, &sc->mP0),
                      DKF_OK);

@@ -128,6 +128,7 @@ static void aug_case(const test_stress_case_t *sc, size_t c)
     errs_t wa = {{0, 0, 0, 0}, 0, 0}, wo = {{0, 0, 0, 0}, 0, 0};
     int ots_live = 1; /* 0 once a float OTSKF step was refused */
     size_t j;
+    assert_true(m > 0 && p > 0); /* the case gives "m" and "p" */
     test_json_mat(test_json_get(sc->node, "d0"), ds, NM, &d0);
     test_json_mat(test_json_get(sc->node, "Pd0"), Pds, NM * NM, &Pd0);
     assert_int_equal(dkf_askf_init(&b.askf, n, m, p, b.askf_storage, DKF_ASKF_STORAGE_LEN(n, m, p),

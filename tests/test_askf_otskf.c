@@ -68,25 +68,22 @@ static void compare(const char *what, const dkf_real_t *got, size_t cnt_got, con
 }
 
 typedef struct {
-    json_t *root;
-    const json_t *model, *init, *yv;
-    size_t N;
+    test_run_vector_t v; /* root, model, init, yv, N, out */
     dkf_real_t x0[NMAX], P0[CAP], d0[PMAX], Pd0[CAP];
     dkf_mat_t mx0, mP0, md0, mPd0;
 } ex1_t;
 
-static void ex1_load(ex1_t *e)
+/* ex1_single.json's run of `filter` and its prior. */
+static void ex1_load(ex1_t *e, const char *filter)
 {
-    e->root = test_load_vector("diffkf/ex1_single.json");
-    e->model = test_json_get(e->root, "model");
-    e->init = test_json_get(e->root, "init");
-    e->yv = test_json_get(test_json_get(e->root, "y"), "values");
-    e->N = json_array_size(test_json_get(e->root, "k"));
-    assert_true(e->N == 50);
-    test_json_mat(test_json_get(e->init, "x00"), e->x0, NMAX, &e->mx0);
-    test_json_mat(test_json_get(e->init, "P00"), e->P0, CAP, &e->mP0);
-    test_json_mat(test_json_get(e->init, "d00"), e->d0, PMAX, &e->md0);
-    test_json_mat(test_json_get(e->init, "Pd00"), e->Pd0, CAP, &e->mPd0);
+    const json_t *init;
+    test_load_run_vector(&e->v, "diffkf/ex1_single.json", filter);
+    init = e->v.init;
+    assert_true(e->v.N == 50);
+    test_json_mat(test_json_get(init, "x00"), e->x0, NMAX, &e->mx0);
+    test_json_mat(test_json_get(init, "P00"), e->P0, CAP, &e->mP0);
+    test_json_mat(test_json_get(init, "d00"), e->d0, PMAX, &e->md0);
+    test_json_mat(test_json_get(init, "Pd00"), e->Pd0, CAP, &e->mPd0);
 }
 
 /* seed 000 Example 1, ASKF with d00 = (5,5): step k predicts with the
@@ -101,26 +98,26 @@ static void test_askf_matches_ex1_vector(void **state)
     dkf_mat_t x, mPx;
     size_t j, n, m, p, N;
     (void)state;
-    ex1_load(&e);
-    out = test_json_get(test_json_get(e.root, "outputs"), "ASKF");
+    ex1_load(&e, "ASKF");
+    out = e.v.out;
     test_reset_worst_rel();
-    test_ui_model_at(&md, e.model, e.model, 0);
+    test_ui_model_at(&md, e.v.model, e.v.model, 0);
     n = md.Fm.rows, m = md.Hm.rows, p = md.Bm.rows, N = n + p;
     mPx = test_view(n, n, Px);
     assert_int_equal(dkf_askf_init(&b.a, n, m, p, b.a_storage, DKF_ASKF_STORAGE_LEN(NMAX, MMAX, PMAX),
                                    &e.mx0, &e.mP0, &e.md0, &e.mPd0, NULL),
                      DKF_OK);
-    for (j = 0; j < e.N; ++j) {
+    for (j = 0; j < e.v.N; ++j) {
         const size_t k = j + 1;
-        test_ui_model_at(&md, e.model, e.model, k - 1);
+        test_ui_model_at(&md, e.v.model, e.v.model, k - 1);
         assert_int_equal(dkf_askf_predict(&b.a, &md.dyn), DKF_OK);
         assert_int_equal(dkf_askf_state(&b.a, &x, &mPx), DKF_OK);
         compare("ASKF Xp", b.a.kf.x.data, N, out, "Xp", j);
         compare("ASKF PXp", b.a.kf.P.data, N * N, out, "PXp", j);
         compare("ASKF xp", x.data, n, out, "xp", j);
         compare("ASKF Pp", Px, n * n, out, "Pp", j);
-        test_ui_model_at(&md, e.model, e.model, k);
-        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.ym); /* y_k */
+        test_ui_model_at(&md, e.v.model, e.v.model, k);
+        test_json_mat(json_array_get(e.v.yv, j), md.y, MMAX, &md.ym); /* y_k */
         assert_int_equal(dkf_askf_update(&b.a, &md.meas, &md.ym), DKF_OK);
         assert_int_equal(dkf_askf_state(&b.a, &x, &mPx), DKF_OK);
         compare("ASKF Xf", b.a.kf.x.data, N, out, "Xf", j);
@@ -129,7 +126,7 @@ static void test_askf_matches_ex1_vector(void **state)
         compare("ASKF Pf", Px, n * n, out, "Pf", j);
     }
     print_message("ASKF ex1: worst relative error %.3e\n", test_worst_rel());
-    json_decref(e.root);
+    json_decref(e.v.root);
 }
 
 /* The same with the OTSKF, every intermediate of docs/design/derivation-seed000.md §5 included. */
@@ -141,18 +138,18 @@ static void test_otskf_matches_ex1_vector(void **state)
     const json_t *out;
     size_t j, n, m, p;
     (void)state;
-    ex1_load(&e);
-    out = test_json_get(test_json_get(e.root, "outputs"), "OTSKF");
+    ex1_load(&e, "OTSKF");
+    out = e.v.out;
     test_reset_worst_rel();
-    test_ui_model_at(&md, e.model, e.model, 0);
+    test_ui_model_at(&md, e.v.model, e.v.model, 0);
     n = md.Fm.rows, m = md.Hm.rows, p = md.Bm.rows;
     assert_int_equal(dkf_otskf_init(&b.o, n, m, p, b.o_storage,
                                     DKF_OTSKF_STORAGE_LEN(NMAX, MMAX, PMAX), &e.mx0, &e.mP0,
                                     &e.md0, &e.mPd0),
                      DKF_OK);
-    for (j = 0; j < e.N; ++j) {
+    for (j = 0; j < e.v.N; ++j) {
         const size_t k = j + 1;
-        test_ui_model_at(&md, e.model, e.model, k - 1);
+        test_ui_model_at(&md, e.v.model, e.v.model, k - 1);
         assert_int_equal(dkf_otskf_predict(&b.o, &md.dyn), DKF_OK);
         compare("OTSKF xtp", b.o.xt.data, n, out, "xtp", j);
         compare("OTSKF Pxp", b.o.Px.data, n * n, out, "Pxp", j);
@@ -161,8 +158,8 @@ static void test_otskf_matches_ex1_vector(void **state)
         compare("OTSKF U", b.o.U.data, n * p, out, "U", j);
         compare("OTSKF xp", b.o.x.data, n, out, "xp", j);
         compare("OTSKF Pp", b.o.P.data, n * n, out, "Pp", j);
-        test_ui_model_at(&md, e.model, e.model, k);
-        test_json_mat(json_array_get(e.yv, j), md.y, MMAX, &md.ym); /* y_k */
+        test_ui_model_at(&md, e.v.model, e.v.model, k);
+        test_json_mat(json_array_get(e.v.yv, j), md.y, MMAX, &md.ym); /* y_k */
         assert_int_equal(dkf_otskf_update(&b.o, &md.meas, &md.ym), DKF_OK);
         compare("OTSKF xtf", b.o.xt.data, n, out, "xtf", j);
         compare("OTSKF Pxf", b.o.Px.data, n * n, out, "Pxf", j);
@@ -173,7 +170,7 @@ static void test_otskf_matches_ex1_vector(void **state)
         compare("OTSKF Pf", b.o.P.data, n * n, out, "Pf", j);
     }
     print_message("OTSKF ex1: worst relative error %.3e\n", test_worst_rel());
-    json_decref(e.root);
+    json_decref(e.v.root);
 }
 
 /* ---- random fully time-varying models ----------------------------------- */

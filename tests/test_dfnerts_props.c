@@ -141,6 +141,13 @@ static void net_make(dkf_dfnerts_variant_t v)
     net_make_kind(DKF_NERTS_DNERTSIF, v);
 }
 
+/* One step of nt on the scenario S (its models, Q, R, z and W) with Tp
+ * consensus rounds and the given scale; the step's status. */
+static dkf_status_t s_step(dkf_dfnerts_net_t *nt, size_t Tp, dkf_real_t scale)
+{
+    return dkf_dfnerts_net_step(nt, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, Tp, scale);
+}
+
 /* Truth: x_{k} = F x_{k-1} + G d_{k-1} + w, z_l = H_l x_k + D_l d_k + v_l. */
 static void truth_step(test_rng_t *rng, double *x, size_t k)
 {
@@ -188,9 +195,7 @@ static void test_central_info_p0(void **state)
     test_reset_worst_rel();
     for (k = 1; k <= STEPS; ++k) {
         truth_step(&rng, x, k);
-        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 2,
-                                              (dkf_real_t)NN),
-                         DKF_OK);
+        assert_int_equal(s_step(&net, 2, (dkf_real_t)NN), DKF_OK);
         assert_int_equal(dkf_info_predict(&inf, &(dkf_kf_dyn_t){&mF, &S.mQ[0]}), DKF_OK);
         for (l = 0; l < NN; ++l)
             assert_int_equal(dkf_info_contribution(&mi[l], &mI[l],
@@ -243,9 +248,7 @@ static void central_joint(dkf_nerts_kind_t kind, const char *name, int mixed)
         truth_step(&rng, x, k);
         for (l = 0, off = 0; l < NN; off += S.m[l], ++l)
             memcpy(zst + off, S.z[l], S.m[l] * sizeof S.z[l][0]);
-        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 2,
-                                              (dkf_real_t)NN),
-                         DKF_OK);
+        assert_int_equal(s_step(&net, 2, (dkf_real_t)NN), DKF_OK);
         assert_int_equal(dkf_nerts_step(&cf, &stacked, NULL, &S.mQ[0], NULL, &mRst, &mzst),
                          DKF_OK);
         for (l = 0; l < NN; ++l) {
@@ -479,12 +482,8 @@ static void test_restart_rejoins(void **state)
     test_rng_seed(&rng, 12004);
     for (k = 1; k <= 10; ++k) {
         truth_step(&rng, x, k);
-        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
-                                              (dkf_real_t)NN),
-                         DKF_OK);
-        assert_int_equal(dkf_dfnerts_net_step(&ref, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
-                                              (dkf_real_t)NN),
-                         DKF_OK);
+        assert_int_equal(s_step(&net, 5, (dkf_real_t)NN), DKF_OK);
+        assert_int_equal(s_step(&ref, 5, (dkf_real_t)NN), DKF_OK);
         if (k == 5) {
             const dkf_nerts_t *f = &nodes[2].f;
             memcpy(cx, f->x.data, sizeof cx);
@@ -526,9 +525,7 @@ static void test_rejoin_from_packet(void **state)
     test_rng_seed(&rng, 12005);
     for (k = 1; k <= 4; ++k) {
         truth_step(&rng, x, k);
-        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
-                                              (dkf_real_t)NN),
-                         DKF_OK);
+        assert_int_equal(s_step(&net, 5, (dkf_real_t)NN), DKF_OK);
     }
     memset(badpkt, 0, sizeof badpkt);
     snap_all(NN);
@@ -545,9 +542,7 @@ static void test_rejoin_from_packet(void **state)
     assert_memory_equal(nodes[2].f.Pd.data, nodes[1].f.Pd.data, DP * DP * sizeof(dkf_real_t));
     assert_memory_equal(nodes[2].f.Pxd.data, nodes[1].f.Pxd.data, XN * DP * sizeof(dkf_real_t));
     truth_step(&rng, x, 5);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 5,
-                                          (dkf_real_t)NN),
-                     DKF_OK);
+    assert_int_equal(s_step(&net, 5, (dkf_real_t)NN), DKF_OK);
 }
 
 /* ---- statuses and untouched nodes ---------------------------------------- */
@@ -566,25 +561,15 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     net_make(variant);
     test_rng_seed(&rng, 12003);
     truth_step(&rng, x, 1);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_OK);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_OK);
     truth_step(&rng, x, 2);
 
     snap_all(NN);
     /* arguments */
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 0,
-                                          DKF_R(1.0)),
-                     DKF_ERR_ARG);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W,
-                                          (size_t)DKF_DFNERTS_MAX_TP + 1, DKF_R(1.0)),
-                     DKF_ERR_ARG);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(0.0)),
-                     DKF_ERR_ARG);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          (dkf_real_t)NAN),
-                     DKF_ERR_ARG);
+    assert_int_equal(s_step(&net, 0, DKF_R(1.0)), DKF_ERR_ARG);
+    assert_int_equal(s_step(&net, (size_t)DKF_DFNERTS_MAX_TP + 1, DKF_R(1.0)), DKF_ERR_ARG);
+    assert_int_equal(s_step(&net, 3, DKF_R(0.0)), DKF_ERR_ARG);
+    assert_int_equal(s_step(&net, 3, (dkf_real_t)NAN), DKF_ERR_ARG);
     memcpy(Wbad, S.W, sizeof Wbad);
     Wbad[0] += DKF_R(0.25);
     assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, Wbad, 3,
@@ -593,48 +578,34 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
     assert_all_untouched("bad arguments", NN);
     /* bad input at the last node: the nodes before it ran their local step */
     S.z[NN - 1][0] = (dkf_real_t)NAN;
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_NONFINITE);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_NONFINITE);
     assert_all_untouched("z NaN at the last node", NN);
     S.z[NN - 1][0] = DKF_R(0.5);
     S.ctx[2].fail_h = 1;
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_MODEL);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_MODEL);
     assert_all_untouched("failing h at node 2", NN);
     S.ctx[2].fail_h = 0;
     S.R[1][0] = DKF_R(-1.0);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_NOT_SPD);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_NOT_SPD);
     assert_all_untouched("R not SPD at node 1", NN);
     S.R[1][0] = (dkf_real_t)dfn_R[1][0];
     /* another node's sizes at the last node (m = 1): z, R, the model */
     S.mz[NN - 1] = S.mz[0];
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_DIM);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_DIM);
     assert_all_untouched("node 0's z at node 3", NN);
     S.mz[NN - 1] = test_view(S.m[NN - 1], 1, S.z[NN - 1]);
     S.mR[NN - 1] = S.mR[0];
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_DIM);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_DIM);
     assert_all_untouched("node 0's R at node 3", NN);
     S.mR[NN - 1] = test_view(S.m[NN - 1], S.m[NN - 1], S.R[NN - 1]);
     {
         const dkf_nl_model_t own = S.md[NN - 1];
         S.md[NN - 1] = S.md[0];
-        assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                              DKF_R(1.0)),
-                         DKF_ERR_DIM);
+        assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_DIM);
         assert_all_untouched("node 0's model at node 3", NN);
         S.md[NN - 1] = own;
     }
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_OK);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_OK);
     snap_all(NN);
 
     /* the node API out of order */
@@ -693,9 +664,7 @@ static void errors_run(dkf_dfnerts_variant_t variant, size_t p)
                                             &S.mz[1], DKF_R(1.0), NULL),
                      DKF_OK);
     snap_all(NN);
-    assert_int_equal(dkf_dfnerts_net_step(&net, S.md, NULL, S.mQ, NULL, S.mR, S.mz, S.W, 3,
-                                          DKF_R(1.0)),
-                     DKF_ERR_STATE);
+    assert_int_equal(s_step(&net, 3, DKF_R(1.0)), DKF_ERR_STATE);
     assert_all_untouched("net step with a node pending", NN);
     assert_int_equal(dkf_dfnerts_node_cancel(&nodes[1]), DKF_OK);
 }

@@ -87,15 +87,13 @@ static void run_against(dkf_box_t *b, const json_t *root, const json_t *dynamics
 static void test_diffkf_matches_ex1_vector(void **state)
 {
     static dkf_box_t b;
-    json_t *root = test_load_vector("diffkf/ex1_single.json");
-    const json_t *model = test_json_get(root, "model");
+    test_run_vector_t v;
     (void)state;
+    test_load_run_vector(&v, "diffkf/ex1_single.json", "DKF");
     test_reset_worst_rel();
-    run_against(&b, root, model, model, test_json_get(test_json_get(root, "y"), "values"),
-                test_json_get(test_json_get(root, "init"), "P00"),
-                test_json_get(test_json_get(root, "outputs"), "DKF"));
+    run_against(&b, v.root, v.model, v.model, v.yv, test_json_get(v.init, "P00"), v.out);
     print_message("worst relative error %.3e\n", test_worst_rel());
-    json_decref(root);
+    json_decref(v.root);
 }
 
 /* ex3: each sensor's local DKF (outputs.local[i]). */

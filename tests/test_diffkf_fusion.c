@@ -371,36 +371,22 @@ static void run_scenario(const char *file)
     json_decref(sc.root);
 }
 
-static void test_fc_ex3_vector(void **state)
+/* The vector scenarios, one test each (FC_VECTOR_TEST in main):
+ *  - diffkf/ex3_multi.json: the paper's Example 3;
+ *  - own scenarios (tools/make_diffkf_vectors.py): tv3_multi.json, 3 sensors,
+ *    n=5, (m,p) = (3,2),(2,2),(4,1); tv4_multi.json, 4 sensors, n=3,
+ *    (1,1),(2,1),(3,2),(2,2), time-varying F and Q; both with time-varying
+ *    H and A, B != I, local priors != central;
+ *  - cond6_multi.json: the paper's condition for its (30)-(36) holds here
+ *    (every H^i and the stacked H, 5 x 6, of full row rank;
+ *    docs/design/diffkf-fusion.md §10): the general centre is exact there
+ *    too, so no second centre is chosen for it. 3 sensors, n = 6, (m,p) =
+ *    (2,1),(2,2),(1,1), time-varying F, Q, H, A and B. */
+static void test_fc_vector(void **state)
 {
-    (void)state;
-    run_scenario("diffkf/ex3_multi.json");
+    run_scenario((const char *)*state);
 }
-
-/* Own scenarios (tools/make_diffkf_vectors.py): 3 sensors, n=5, (m,p) =
- * (3,2),(2,2),(4,1); 4 sensors, n=3, (1,1),(2,1),(3,2),(2,2), time-varying
- * F and Q; both with time-varying H and A, B != I, local priors != central. */
-static void test_fc_tv3_vector(void **state)
-{
-    (void)state;
-    run_scenario("diffkf/tv3_multi.json");
-}
-
-static void test_fc_tv4_vector(void **state)
-{
-    (void)state;
-    run_scenario("diffkf/tv4_multi.json");
-}
-
-/* The paper's condition for its (30)-(36) holds here (every H^i and the
- * stacked H, 5 x 6, of full row rank; docs/design/diffkf-fusion.md §10): the general
- * centre is exact there too, so no second centre is chosen for it. 3 sensors,
- * n = 6, (m,p) = (2,1),(2,2),(1,1), time-varying F, Q, H, A and B. */
-static void test_fc_cond6_vector(void **state)
-{
-    (void)state;
-    run_scenario("diffkf/cond6_multi.json");
-}
+#define FC_VECTOR_TEST(name, file) {#name, test_fc_vector, NULL, NULL, (void *)(file)}
 
 /* ---- stacking helpers -------------------------------------------------------- */
 
@@ -531,16 +517,22 @@ typedef struct {
     test_rng_t rng;
 } hworld_t;
 
+/* Node i's measurement, m_i N(0, 1) draws from w's rng, in y; its view. */
+static dkf_mat_t h_draw_y(hworld_t *w, size_t i, dkf_real_t *y)
+{
+    double tmp[HM];
+    test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
+    test_to_real(y, tmp, w->h.m[i]);
+    return test_view(w->h.m[i], 1, y);
+}
+
 static void h_start(hworld_t *w)
 {
     dkf_diffkf_fc_fault_t fault;
     dkf_real_t y[HM];
-    double tmp[HM];
     size_t i;
     for (i = 0; i < w->h.l; ++i) {
-        dkf_mat_t my = test_view(w->h.m[i], 1, y);
-        test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
-        test_to_real(y, tmp, w->h.m[i]);
+        dkf_mat_t my = h_draw_y(w, i, y);
         assert_int_equal(dkf_diffkf_init(&w->loc[i], HN, w->h.m[i], w->h.p[i], w->loc_store[i],
                                          H_LOC_LEN, &w->h.mx0, &w->h.mP0),
                          DKF_OK);
@@ -553,16 +545,22 @@ static void h_start(hworld_t *w)
     assert_int_equal(dkf_diffkf_fc_start(&w->fc, &w->h.mF, &w->h.mQ, w->h.sens, &fault), DKF_OK);
 }
 
+/* w on hmodel(l, m, p, model_seed), its rng seeded with rng_seed, started. */
+static void h_world(hworld_t *w, size_t l, const size_t *m, const size_t *p, uint64_t model_seed,
+                    uint64_t rng_seed)
+{
+    hmodel(&w->h, l, m, p, model_seed);
+    test_rng_seed(&w->rng, rng_seed);
+    h_start(w);
+}
+
 /* Every node steps on fresh random data and writes its message. */
 static void h_nodes_step(hworld_t *w)
 {
     dkf_real_t y[HM];
-    double tmp[HM];
     size_t i;
     for (i = 0; i < w->h.l; ++i) {
-        dkf_mat_t my = test_view(w->h.m[i], 1, y);
-        test_rand_gauss(&w->rng, tmp, w->h.m[i], 1);
-        test_to_real(y, tmp, w->h.m[i]);
+        dkf_mat_t my = h_draw_y(w, i, y);
         assert_int_equal(dkf_diffkf_step(&w->loc[i], &w->h.dyn[i], &w->h.sens[i].meas, &my),
                          DKF_OK);
         assert_int_equal(dkf_diffkf_msg_fill(&w->msgs[i], (uint16_t)i, &w->loc[i]), DKF_OK);
@@ -741,13 +739,9 @@ static void test_fc_message_validation_and_atomicity(void **state)
     dkf_diffkf_msg_t keep;
     size_t k;
     (void)state;
-    hmodel(&w.h, 3, m, p, 21);
-    test_rng_seed(&w.rng, 5);
-    h_start(&w);
+    h_world(&w, 3, m, p, 21, 5);
     /* the twin is built the same way (its views point into its own storage) */
-    hmodel(&twin.h, 3, m, p, 21);
-    test_rng_seed(&twin.rng, 5);
-    h_start(&twin);
+    h_world(&twin, 3, m, p, 21, 5);
     for (k = 1; k <= 6; ++k) {
         h_nodes_step(&w);
         h_nodes_step(&twin);
@@ -829,9 +823,7 @@ static void test_fc_step_rank_failure(void **state)
     dkf_diffkf_fc_fault_t f;
     size_t k;
     (void)state;
-    hmodel(&w.h, 2, m, p, 31);
-    test_rng_seed(&w.rng, 9);
-    h_start(&w);
+    h_world(&w, 2, m, p, 31, 9);
     for (k = 1; k <= 4; ++k) {
         if (k == 3) {
             /* the model at k + 1 = 4 (used by step 3) and from then on */
@@ -1148,12 +1140,8 @@ static void test_fc_degraded_atomicity(void **state)
     dkf_diffkf_msg_t keep;
     size_t len, r;
     (void)state;
-    hmodel(&w.h, 3, m, p, 61);
-    test_rng_seed(&w.rng, 6);
-    h_start(&w);
-    hmodel(&twin.h, 3, m, p, 61);
-    test_rng_seed(&twin.rng, 6);
-    h_start(&twin);
+    h_world(&w, 3, m, p, 61, 6);
+    h_world(&twin, 3, m, p, 61, 6);
     h_nodes_step(&w);
     h_nodes_step(&twin);
 
@@ -1404,12 +1392,8 @@ static void test_steady_fc(void **state)
     double worst = 0;
     size_t k, settled = 0, reused = 0;
     (void)state;
-    hmodel(&a.h, 3, m, p, 51);
-    hmodel(&b.h, 3, m, p, 51);
-    test_rng_seed(&a.rng, 53);
-    test_rng_seed(&b.rng, 53);
-    h_start(&a);
-    h_start(&b);
+    h_world(&a, 3, m, p, 51, 53);
+    h_world(&b, 3, m, p, 51, 53);
     assert_int_equal(dkf_diffkf_fc_set_steady(&a.fc, (dkf_real_t)STEADY_TOL), DKF_OK);
     for (k = 1; k <= K; ++k) {
         if (k == 340) { /* node 0's R from step 340's model (time 341) on */
@@ -1472,10 +1456,10 @@ int main(void)
         cmocka_unit_test(test_cond_str),
         cmocka_unit_test(test_stack_helpers),
         cmocka_unit_test(test_msg_fill_checks),
-        cmocka_unit_test(test_fc_ex3_vector),
-        cmocka_unit_test(test_fc_tv3_vector),
-        cmocka_unit_test(test_fc_tv4_vector),
-        cmocka_unit_test(test_fc_cond6_vector),
+        FC_VECTOR_TEST(test_fc_ex3_vector, "diffkf/ex3_multi.json"),
+        FC_VECTOR_TEST(test_fc_tv3_vector, "diffkf/tv3_multi.json"),
+        FC_VECTOR_TEST(test_fc_tv4_vector, "diffkf/tv4_multi.json"),
+        FC_VECTOR_TEST(test_fc_cond6_vector, "diffkf/cond6_multi.json"),
         cmocka_unit_test(test_fc_setup_conditions),
         cmocka_unit_test(test_fc_message_validation_and_atomicity),
         cmocka_unit_test(test_fc_step_rank_failure),

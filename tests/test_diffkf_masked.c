@@ -47,44 +47,6 @@
 
 /* ---- double-precision helpers (independent of the library) ----------------- */
 
-/* Cholesky of the SPD n x n A in place (lower), 0 on success. */
-static int dchol(double *A, size_t n)
-{
-    size_t i, j, l;
-    for (i = 0; i < n; ++i)
-        for (j = 0; j <= i; ++j) {
-            double s = A[i * n + j];
-            for (l = 0; l < j; ++l) s -= A[i * n + l] * A[j * n + l];
-            if (i == j) {
-                if (!(s > 0)) return -1;
-                A[i * n + i] = sqrt(s);
-            } else {
-                A[i * n + j] = s / A[j * n + j];
-            }
-        }
-    for (i = 0; i < n; ++i)
-        for (j = i + 1; j < n; ++j) A[i * n + j] = 0;
-    return 0;
-}
-
-/* Solves (L L^T) X = B in place, B n x c. */
-static void dchol_solve(const double *Lc, double *B, size_t n, size_t c)
-{
-    size_t i, j, l;
-    for (j = 0; j < c; ++j) {
-        for (i = 0; i < n; ++i) {
-            double s = B[i * c + j];
-            for (l = 0; l < i; ++l) s -= Lc[i * n + l] * B[l * c + j];
-            B[i * c + j] = s / Lc[i * n + i];
-        }
-        for (i = n; i-- > 0;) {
-            double s = B[i * c + j];
-            for (l = i + 1; l < n; ++l) s -= Lc[l * n + i] * B[l * c + j];
-            B[i * c + j] = s / Lc[i * n + i];
-        }
-    }
-}
-
 /* Inverse of the n x n A (Gauss-Jordan, partial pivoting). */
 static void dinv(double *Ai, const double *A, size_t n)
 {
@@ -113,21 +75,11 @@ static void dinv(double *Ai, const double *A, size_t n)
 /* A^+ = (A^T A)^{-1} A^T for A m x p of full column rank. */
 static void dpinv(double *Ap, const double *A, size_t m, size_t p)
 {
-    double AtA[NP * NP] = {0}, Inv[NP * NP];
-    size_t i, j, l;
-    for (i = 0; i < p; ++i)
-        for (j = 0; j < p; ++j) {
-            double s = 0;
-            for (l = 0; l < m; ++l) s += A[l * p + i] * A[l * p + j];
-            AtA[i * p + j] = s;
-        }
+    double At[NP * NY], AtA[NP * NP], Inv[NP * NP];
+    test_ref_transpose(At, A, m, p);
+    test_ref_mul(AtA, At, A, p, m, p);
     dinv(Inv, AtA, p);
-    for (i = 0; i < p; ++i)
-        for (j = 0; j < m; ++j) {
-            double s = 0;
-            for (l = 0; l < p; ++l) s += Inv[i * p + l] * A[j * p + l];
-            Ap[i * m + j] = s;
-        }
+    test_ref_mul(Ap, Inv, At, p, p, m);
 }
 
 /* ---- the random model and its affine maps ----------------------------------- */
@@ -152,13 +104,7 @@ typedef struct {
 /* Row block dst (r x ND) = M (r x c) src (c x ND). */
 static void map_mul(double *dst, const double *M, const double *src, size_t r, size_t c)
 {
-    size_t i, j, l;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < ND; ++j) {
-            double s = 0;
-            for (l = 0; l < c; ++l) s += M[i * c + l] * src[l * ND + j];
-            dst[i * ND + j] = s;
-        }
+    test_ref_mul(dst, M, src, r, c, ND);
 }
 
 /* dst (r x ND) += Lc (r x r) on the primitive columns [col, col + r). */
@@ -174,10 +120,12 @@ static void spd(test_rng_t *rng, double *A, size_t n, double scale)
     test_rand_spd(rng, A, n, 10.0, scale);
 }
 
+/* Lc = chol(A) for the SPD n x n A: every pivot positive. */
 static void chol_of(double *Lc, const double *A, size_t n)
 {
-    memcpy(Lc, A, n * n * sizeof *A);
-    assert_int_equal(dchol(Lc, n), 0);
+    size_t i;
+    test_dchol(Lc, A, n);
+    for (i = 0; i < n; ++i) assert_true(Lc[i * n + i] > 0);
 }
 
 static void build_world(world_t *w, uint64_t seed, size_t n, size_t m, size_t p)
@@ -316,7 +264,8 @@ static void make_masks(world_t *w, uint64_t seed)
  * keep: x = mx + Cxz Czz^{-1} (zr - mzr), P = Cxx - Cxz Czz^{-1} Czx. */
 static void batch(const world_t *w, size_t t, size_t kz, double *x, double *P)
 {
-    static double Zr[NS * NP][ND], Czz[NS * NP * NS * NP], Czx[NS * NP * NX];
+    static double Zr[NS * NP][ND], Czz[NS * NP * NS * NP], Lzz[NS * NP * NS * NP],
+        Czx[NS * NP * NX];
     double dz[NS * NP], v[NS * NP];
     const size_t n = w->n;
     size_t r = 0, k, i, j, l;
@@ -348,15 +297,15 @@ static void batch(const world_t *w, size_t t, size_t kz, double *x, double *P)
             Czx[i * n + j] = s;
         }
     }
-    assert_int_equal(dchol(Czz, r), 0);
+    chol_of(Lzz, Czz, r);
     memcpy(v, dz, r * sizeof(double));
-    dchol_solve(Czz, v, r, 1);
+    test_dchol_solve(Lzz, v, r, 1);
     for (i = 0; i < n; ++i)
         for (j = 0; j < r; ++j) x[i] += Czx[j * n + i] * v[j];
     {
         static double X[NS * NP * NX];
         memcpy(X, Czx, r * n * sizeof(double));
-        dchol_solve(Czz, X, r, n); /* Czz^{-1} Czx */
+        test_dchol_solve(Lzz, X, r, n); /* Czz^{-1} Czx */
         for (i = 0; i < n; ++i)
             for (j = 0; j < n; ++j) {
                 double s = 0;

@@ -54,65 +54,55 @@ typedef struct {
     DKF_DIFFKF_DECLARE(, f, NX, MX, NX);
 } dkf_box_t;
 
-static void test_diffkf_pinned(void **state)
+/* One case: every step against the reference, then the bounds. */
+static void diffkf_case(const test_stress_case_t *sc, size_t c)
 {
-    static const char *names[] = {"diffkf_n3_m4", "diffkf_n4_m4"};
     static const char *const what[NOUT] = {"xf", "Pf", "xn", "Pn"};
     static dkf_box_t b;
     static test_ui_step_t s;
     static dkf_real_t snap[DKF_DIFFKF_STATE_LEN(NX, MX, NX)];
-    json_t *root = test_load_vector("stress/diffkf.json");
-    size_t c;
-    (void)state;
-    for (c = 0; c < 2; ++c) {
-        const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = test_json_size(cs, "n");
-        const size_t m = test_json_size(cs, "m");
-        const size_t p = test_json_size(cs, "p");
-        const size_t len = DKF_DIFFKF_STATE_LEN(n, m, p);
-        dkf_real_t xs[NX], Ps[NX * NX];
-        dkf_mat_t x0, P0;
-        double w[NOUT] = {0, 0, 0, 0}, rk2 = 0, ext, ev[NOUT];
-        size_t j, i;
-        test_json_mat(test_json_get(cs, "x0"), xs, NX, &x0);
-        test_json_mat(test_json_get(cs, "P0"), Ps, NX * NX, &P0);
-        assert_int_equal(dkf_diffkf_init(&b.f, n, m, p, b.f_storage,
-                                         DKF_DIFFKF_STORAGE_LEN(n, m, p), &x0, &P0),
-                         DKF_OK);
-        test_load_ui_step(&s, test_json_get(cs, "meas1"), 0);
-        assert_int_equal(dkf_diffkf_start(&b.f, NULL, NULL, &s.meas, &s.ym), DKF_OK);
-        for (j = 0; j < json_array_size(steps); ++j) {
-            const json_t *st = json_array_get(steps, j);
-            const double k = json_number_value(test_json_get(st, "cond_M"));
-            const double rho = json_number_value(test_json_get(st, "rho"));
-            dkf_status_t rc;
-            if (rho * k * k > rk2) rk2 = rho * k * k;
-            test_load_ui_step(&s, st, 1);
-            memcpy(snap, b.f_storage, len * sizeof *snap);
-            rc = dkf_diffkf_step(&b.f, &s.dyn, &s.meas, &s.ym);
-            if (rc == DKF_ERR_NOT_SPD && (DKF_USE_FLOAT || !DKF_JOSEPH)) {
-                /* allowed where the bound exceeds 1: the filter unchanged */
-                print_message("%s step %zu: refused (NOT_SPD)\n", names[c], j);
-                assert_memory_equal(snap, b.f_storage, len * sizeof *snap);
-                break;
-            }
-            assert_int_equal(rc, DKF_OK);
-            test_note_rel_err(&w[0], test_json_get(st, "xf"), b.f.xf.data, n);
-            test_note_rel_err(&w[1], test_json_get(st, "Pf"), b.f.Pf.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "xn"), b.f.xn.data, n);
-            test_note_rel_err(&w[3], test_json_get(st, "Pn"), b.f.Pn.data, n * n);
-            assert_true(test_psd_within(b.f.Pf.data, n, 4.0 * NX * TEST_EPS));
-            assert_true(test_psd_within(b.f.Pn.data, n, 4.0 * NX * TEST_EPS));
+    const size_t n = sc->n, m = sc->m, p = sc->p;
+    const size_t len = DKF_DIFFKF_STATE_LEN(n, m, p);
+    double w[NOUT] = {0, 0, 0, 0}, rk2 = 0, ext;
+    size_t j;
+    assert_true(m > 0 && p > 0); /* the case gives "m" and "p" */
+    assert_int_equal(dkf_diffkf_init(&b.f, n, m, p, b.f_storage, DKF_DIFFKF_STORAGE_LEN(n, m, p),
+                                     &sc->mx0, &sc->mP0),
+                     DKF_OK);
+    test_load_ui_step(&s, test_json_get(sc->node, "meas1"), 0);
+    assert_int_equal(dkf_diffkf_start(&b.f, NULL, NULL, &s.meas, &s.ym), DKF_OK);
+    for (j = 0; j < json_array_size(sc->steps); ++j) {
+        const json_t *st = json_array_get(sc->steps, j);
+        const test_out_t out[NOUT] = {{"xf", b.f.xf.data, n}, {"Pf", b.f.Pf.data, n * n},
+                                      {"xn", b.f.xn.data, n}, {"Pn", b.f.Pn.data, n * n}};
+        const double k = json_number_value(test_json_get(st, "cond_M"));
+        const double rho = json_number_value(test_json_get(st, "rho"));
+        dkf_status_t rc;
+        if (rho * k * k > rk2) rk2 = rho * k * k;
+        test_load_ui_step(&s, st, 1);
+        memcpy(snap, b.f_storage, len * sizeof *snap);
+        rc = dkf_diffkf_step(&b.f, &s.dyn, &s.meas, &s.ym);
+        if (rc == DKF_ERR_NOT_SPD && (DKF_USE_FLOAT || !DKF_JOSEPH)) {
+            /* allowed where the bound exceeds 1: the filter unchanged */
+            print_message("%s step %zu: refused (NOT_SPD)\n", sc->name, j);
+            assert_memory_equal(snap, b.f_storage, len * sizeof *snap);
+            break;
         }
-        ext = 10.0 * (double)(n + p) * rk2 * TEST_EPS;
-        print_message("%s (%zu steps): worst rel error xf %.3e Pf %.3e xn %.3e Pn %.3e "
-                      "(rho cond^2 %.3g, bound %.3e)\n",
-                      names[c], j, w[0], w[1], w[2], w[3], rk2, ext);
-        for (i = 0; i < NOUT; ++i) ev[i] = ext < 1 ? ext : 0; /* vacuous in float */
-        test_assert_stress_bounds(names[c], what, w, NOUT, ev,
-                                  DKF_JOSEPH || DKF_USE_FLOAT ? seen[c] : NULL);
+        assert_int_equal(rc, DKF_OK);
+        test_note_rel_errs(w, st, out, NOUT);
+        assert_true(test_psd_within(b.f.Pf.data, n, 4.0 * NX * TEST_EPS));
+        assert_true(test_psd_within(b.f.Pn.data, n, 4.0 * NX * TEST_EPS));
     }
-    json_decref(root);
+    ext = 10.0 * (double)(n + p) * rk2 * TEST_EPS;
+    test_stress_verdict(sc->name, j, what, w, NOUT, rk2, ext,
+                        DKF_JOSEPH || DKF_USE_FLOAT ? seen[c] : NULL);
+}
+
+static void test_diffkf_pinned(void **state)
+{
+    static const char *const names[] = {"diffkf_n3_m4", "diffkf_n4_m4"};
+    (void)state;
+    test_stress_cases("stress/diffkf.json", names, 2, diffkf_case);
 }
 
 int main(void)

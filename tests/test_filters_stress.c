@@ -118,77 +118,75 @@ static const double seen_aug[2][2][4] = {{{1.03e-12, 6.9e-16, 8.9e-13, 4.5e-15},
                                           {3.7e-11, 8.8e-8, 7.7e-11, 8.7e-8}}};
 #endif
 
-static void test_askf_otskf_pinned(void **state)
+/* One case through the ASKF and the OTSKF, then the bounds of each. */
+static void aug_case(const test_stress_case_t *sc, size_t c)
 {
-    static const char *names[] = {"aug_n2_p1", "aug_n3_p2"};
     static aug_box_t b;
-    json_t *root = test_load_vector("stress/aug.json");
-    size_t c;
-    (void)state;
-    for (c = 0; c < 2; ++c) {
-        const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = test_json_size(cs, "n");
-        const size_t m = test_json_size(cs, "m");
-        const size_t p = test_json_size(cs, "p");
-        dkf_real_t xs[NM], Ps[NM * NM], ds[NM], Pds[NM * NM], Px[NM * NM], Pd[NM * NM];
-        dkf_mat_t x0, P0, d0, Pd0, xv, dv, Pxv = test_view(n, n, Px), Pdv = test_view(p, p, Pd);
-        errs_t wa = {{0, 0, 0, 0}, 0, 0}, wo = {{0, 0, 0, 0}, 0, 0};
-        int ots_live = 1; /* 0 once a float OTSKF step was refused */
-        size_t j;
-        test_json_mat(test_json_get(cs, "x0"), xs, NM, &x0);
-        test_json_mat(test_json_get(cs, "P0"), Ps, NM * NM, &P0);
-        test_json_mat(test_json_get(cs, "d0"), ds, NM, &d0);
-        test_json_mat(test_json_get(cs, "Pd0"), Pds, NM * NM, &Pd0);
-        assert_int_equal(dkf_askf_init(&b.askf, n, m, p, b.askf_storage,
-                                       DKF_ASKF_STORAGE_LEN(n, m, p), &x0, &P0, &d0, &Pd0, NULL),
-                         DKF_OK);
-        assert_int_equal(dkf_otskf_init(&b.otskf, n, m, p, b.otskf_storage,
-                                        DKF_OTSKF_STORAGE_LEN(n, m, p), &x0, &P0, &d0, &Pd0),
-                         DKF_OK);
-        for (j = 0; j < json_array_size(steps); ++j) {
-            const json_t *st = json_array_get(steps, j);
-            static test_ui_step_t s;
-            const int has_dyn = json_object_get(st, "F") != NULL;
-            test_load_ui_step(&s, st, has_dyn);
-            if (has_dyn) assert_int_equal(dkf_askf_predict(&b.askf, &s.dyn), DKF_OK);
-            assert_int_equal(dkf_askf_update(&b.askf, &s.meas, &s.ym), DKF_OK);
-            assert_int_equal(dkf_askf_state(&b.askf, &xv, &Pxv), DKF_OK);
-            assert_int_equal(dkf_askf_input(&b.askf, &dv, &Pdv), DKF_OK);
-            compare_aug(&wa, st, xv.data, Px, dv.data, Pd, n, p);
-            if (ots_live) {
-                static dkf_real_t snap[DKF_OTSKF_STATE_LEN(3, 2)];
-                const size_t len = DKF_OTSKF_STATE_LEN(n, p);
-                dkf_status_t sp = DKF_OK, su;
+    const size_t n = sc->n, m = sc->m, p = sc->p;
+    dkf_real_t ds[NM], Pds[NM * NM], Px[NM * NM], Pd[NM * NM];
+    dkf_mat_t d0, Pd0, xv, dv, Pxv = test_view(n, n, Px), Pdv = test_view(p, p, Pd);
+    errs_t wa = {{0, 0, 0, 0}, 0, 0}, wo = {{0, 0, 0, 0}, 0, 0};
+    int ots_live = 1; /* 0 once a float OTSKF step was refused */
+    size_t j;
+    assert_true(m > 0 && p > 0); /* the case gives "m" and "p" */
+    test_json_mat(test_json_get(sc->node, "d0"), ds, NM, &d0);
+    test_json_mat(test_json_get(sc->node, "Pd0"), Pds, NM * NM, &Pd0);
+    assert_int_equal(dkf_askf_init(&b.askf, n, m, p, b.askf_storage, DKF_ASKF_STORAGE_LEN(n, m, p),
+                                   &sc->mx0, &sc->mP0, &d0, &Pd0, NULL),
+                     DKF_OK);
+    assert_int_equal(dkf_otskf_init(&b.otskf, n, m, p, b.otskf_storage,
+                                    DKF_OTSKF_STORAGE_LEN(n, m, p), &sc->mx0, &sc->mP0, &d0,
+                                    &Pd0),
+                     DKF_OK);
+    for (j = 0; j < json_array_size(sc->steps); ++j) {
+        const json_t *st = json_array_get(sc->steps, j);
+        static test_ui_step_t s;
+        const int has_dyn = json_object_get(st, "F") != NULL;
+        test_load_ui_step(&s, st, has_dyn);
+        if (has_dyn) assert_int_equal(dkf_askf_predict(&b.askf, &s.dyn), DKF_OK);
+        assert_int_equal(dkf_askf_update(&b.askf, &s.meas, &s.ym), DKF_OK);
+        assert_int_equal(dkf_askf_state(&b.askf, &xv, &Pxv), DKF_OK);
+        assert_int_equal(dkf_askf_input(&b.askf, &dv, &Pdv), DKF_OK);
+        compare_aug(&wa, st, xv.data, Px, dv.data, Pd, n, p);
+        if (ots_live) {
+            static dkf_real_t snap[DKF_OTSKF_STATE_LEN(3, 2)];
+            const size_t len = DKF_OTSKF_STATE_LEN(n, p);
+            dkf_status_t sp = DKF_OK, su;
+            memcpy(snap, b.otskf_storage, len * sizeof *snap);
+            if (has_dyn) sp = dkf_otskf_predict(&b.otskf, &s.dyn);
+            su = sp == DKF_OK ? dkf_otskf_update(&b.otskf, &s.meas, &s.ym) : sp;
+            if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD && sp == DKF_OK) {
+                /* refused: the state is that after the predict, which
+                 * succeeded; check the update left it alone by
+                 * repeating it */
                 memcpy(snap, b.otskf_storage, len * sizeof *snap);
-                if (has_dyn) sp = dkf_otskf_predict(&b.otskf, &s.dyn);
-                su = sp == DKF_OK ? dkf_otskf_update(&b.otskf, &s.meas, &s.ym) : sp;
-                if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD && sp == DKF_OK) {
-                    /* refused: the state is that after the predict, which
-                     * succeeded; check the update left it alone by
-                     * repeating it */
-                    memcpy(snap, b.otskf_storage, len * sizeof *snap);
-                    assert_int_equal(dkf_otskf_update(&b.otskf, &s.meas, &s.ym), su);
-                    assert_memory_equal(snap, b.otskf_storage, len * sizeof *snap);
-                } else if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD) {
-                    assert_memory_equal(snap, b.otskf_storage, len * sizeof *snap);
-                }
-                if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD) {
-                    print_message("%s step %zu: float OTSKF refused (NOT_SPD)\n", names[c], j);
-                    ots_live = 0;
-                } else {
-                    assert_int_equal(su, DKF_OK);
-                    compare_aug(&wo, st, b.otskf.x.data, b.otskf.P.data, b.otskf.d.data,
-                                b.otskf.Pd.data, n, p);
-                    assert_true(test_psd_within(b.otskf.Px.data, n, 4.0 * NM * TEST_EPS));
-                }
+                assert_int_equal(dkf_otskf_update(&b.otskf, &s.meas, &s.ym), su);
+                assert_memory_equal(snap, b.otskf_storage, len * sizeof *snap);
+            } else if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD) {
+                assert_memory_equal(snap, b.otskf_storage, len * sizeof *snap);
+            }
+            if (DKF_USE_FLOAT && su == DKF_ERR_NOT_SPD) {
+                print_message("%s step %zu: float OTSKF refused (NOT_SPD)\n", sc->name, j);
+                ots_live = 0;
+            } else {
+                assert_int_equal(su, DKF_OK);
+                compare_aug(&wo, st, b.otskf.x.data, b.otskf.P.data, b.otskf.d.data,
+                            b.otskf.Pd.data, n, p);
+                assert_true(test_psd_within(b.otskf.Px.data, n, 4.0 * NM * TEST_EPS));
             }
         }
-        check_errs(c == 0 ? "ASKF n2p1" : "ASKF n3p2", &wa, n + p, m, wa.kappa2, seen_aug[c][0]);
-        if (ots_live)
-            check_errs(c == 0 ? "OTSKF n2p1" : "OTSKF n3p2", &wo, n, m, wo.rho_kappa,
-                       seen_aug[c][1]);
     }
-    json_decref(root);
+    check_errs(c == 0 ? "ASKF n2p1" : "ASKF n3p2", &wa, n + p, m, wa.kappa2, seen_aug[c][0]);
+    if (ots_live)
+        check_errs(c == 0 ? "OTSKF n2p1" : "OTSKF n3p2", &wo, n, m, wo.rho_kappa,
+                   seen_aug[c][1]);
+}
+
+static void test_askf_otskf_pinned(void **state)
+{
+    static const char *const names[] = {"aug_n2_p1", "aug_n3_p2"};
+    (void)state;
+    test_stress_cases("stress/aug.json", names, 2, aug_case);
 }
 
 /* ---- information filter -------------------------------------------------- */
@@ -204,63 +202,61 @@ static const double seen_info[2][2] = {{5.9e-6, 5.1e-6}, {3.8e-4, 3.7e-4}};
 static const double seen_info[2][2] = {{1.2e-14, 2.2e-14}, {8.2e-13, 6.2e-13}};
 #endif
 
+/* One case: the two sensors fused every step, against the reference. */
+static void info_case(const test_stress_case_t *sc, size_t c)
+{
+    static info_box_t b;
+    const size_t n = sc->n;
+    dkf_real_t F[NM * NM], Q[NM * NM];
+    dkf_real_t C[NM * NM], R[NM * NM], z[NM], work[DKF_INFO_CONTRIB_WORK(NM, NM)];
+    dkf_real_t iv[2][NM], Im[2][NM * NM];
+    dkf_mat_t Fm, Qm, Cm, Rm, zm, ivm[2], Imm[2];
+    double r[NM * NM], ex = 0, eP = 0, k2 = 0, ext;
+    size_t j, s;
+    assert_int_equal(
+        dkf_info_init(&b.f, n, b.f_storage, DKF_INFO_STORAGE_LEN(n), &sc->mx0, &sc->mP0), DKF_OK);
+    for (j = 0; j < json_array_size(sc->steps); ++j) {
+        const json_t *st = json_array_get(sc->steps, j), *sens = test_json_get(st, "sensors");
+        const double k = json_number_value(test_json_get(st, "cond_H"));
+        if (k * k > k2) k2 = k * k;
+        if (json_object_get(st, "F") != NULL) {
+            test_json_mat(test_json_get(st, "F"), F, NM * NM, &Fm);
+            test_json_mat(test_json_get(st, "Q"), Q, NM * NM, &Qm);
+            assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&Fm, &Qm}), DKF_OK);
+        }
+        for (s = 0; s < 2; ++s) {
+            const json_t *se = json_array_get(sens, s);
+            test_json_mat(test_json_get(se, "C"), C, NM * NM, &Cm);
+            test_json_mat(test_json_get(se, "R"), R, NM * NM, &Rm);
+            test_json_mat(test_json_get(se, "z"), z, NM, &zm);
+            ivm[s] = test_view(n, 1, iv[s]);
+            Imm[s] = test_view(n, n, Im[s]);
+            assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &(dkf_kf_meas_t){&Cm, &Rm}, &zm, work),
+                             DKF_OK);
+            assert_true(test_psd_within(Im[s], n, 4.0 * NM * TEST_EPS));
+        }
+        assert_int_equal(dkf_info_fuse(&b.f, ivm, Imm, 2), DKF_OK);
+        test_json_array(test_json_get(st, "x"), r, NM * NM, NULL, NULL);
+        if (!(test_rel_err(b.f.x.data, r, n) <= ex)) ex = test_rel_err(b.f.x.data, r, n);
+        test_json_array(test_json_get(st, "P"), r, NM * NM, NULL, NULL);
+        if (!(test_rel_err(b.f.P.data, r, n * n) <= eP))
+            eP = test_rel_err(b.f.P.data, r, n * n);
+        assert_true(test_psd_within(b.f.P.data, n, 4.0 * NM * TEST_EPS));
+    }
+    ext = 10.0 * (double)(2 * n) * k2 * TEST_EPS;
+    print_message("info n%zu: worst rel error x %.3e P %.3e (cond^2 %.3g, bound %.3e)\n", n,
+                  ex, eP, k2, ext);
+    test_assert_below("info x external", ex, ext);
+    test_assert_below("info P external", eP, ext);
+    test_assert_below("info x regression", ex, 4 * seen_info[c][0]);
+    test_assert_below("info P regression", eP, 4 * seen_info[c][1]);
+}
+
 static void test_info_pinned(void **state)
 {
-    static const char *names[] = {"info_n4", "info_n6"};
-    static info_box_t b;
-    json_t *root = test_load_vector("stress/info.json");
-    size_t c;
+    static const char *const names[] = {"info_n4", "info_n6"};
     (void)state;
-    for (c = 0; c < 2; ++c) {
-        const json_t *cs = test_json_case(root, names[c]), *steps = test_json_get(cs, "steps");
-        const size_t n = test_json_size(cs, "n");
-        dkf_real_t xs[NM], Ps[NM * NM], F[NM * NM], Q[NM * NM];
-        dkf_real_t C[NM * NM], R[NM * NM], z[NM], work[DKF_INFO_CONTRIB_WORK(NM, NM)];
-        dkf_real_t iv[2][NM], Im[2][NM * NM];
-        dkf_mat_t x0, P0, Fm, Qm, Cm, Rm, zm, ivm[2], Imm[2];
-        double r[NM * NM], ex = 0, eP = 0, k2 = 0, ext;
-        size_t j, s;
-        test_json_mat(test_json_get(cs, "x0"), xs, NM, &x0);
-        test_json_mat(test_json_get(cs, "P0"), Ps, NM * NM, &P0);
-        assert_int_equal(dkf_info_init(&b.f, n, b.f_storage, DKF_INFO_STORAGE_LEN(n), &x0, &P0),
-                         DKF_OK);
-        for (j = 0; j < json_array_size(steps); ++j) {
-            const json_t *st = json_array_get(steps, j), *sens = test_json_get(st, "sensors");
-            const double k = json_number_value(test_json_get(st, "cond_H"));
-            if (k * k > k2) k2 = k * k;
-            if (json_object_get(st, "F") != NULL) {
-                test_json_mat(test_json_get(st, "F"), F, NM * NM, &Fm);
-                test_json_mat(test_json_get(st, "Q"), Q, NM * NM, &Qm);
-                assert_int_equal(dkf_info_predict(&b.f, &(dkf_kf_dyn_t){&Fm, &Qm}), DKF_OK);
-            }
-            for (s = 0; s < 2; ++s) {
-                const json_t *se = json_array_get(sens, s);
-                test_json_mat(test_json_get(se, "C"), C, NM * NM, &Cm);
-                test_json_mat(test_json_get(se, "R"), R, NM * NM, &Rm);
-                test_json_mat(test_json_get(se, "z"), z, NM, &zm);
-                ivm[s] = test_view(n, 1, iv[s]);
-                Imm[s] = test_view(n, n, Im[s]);
-                assert_int_equal(dkf_info_contribution(&ivm[s], &Imm[s], &(dkf_kf_meas_t){&Cm, &Rm}, &zm, work),
-                                 DKF_OK);
-                assert_true(test_psd_within(Im[s], n, 4.0 * NM * TEST_EPS));
-            }
-            assert_int_equal(dkf_info_fuse(&b.f, ivm, Imm, 2), DKF_OK);
-            test_json_array(test_json_get(st, "x"), r, NM * NM, NULL, NULL);
-            if (!(test_rel_err(b.f.x.data, r, n) <= ex)) ex = test_rel_err(b.f.x.data, r, n);
-            test_json_array(test_json_get(st, "P"), r, NM * NM, NULL, NULL);
-            if (!(test_rel_err(b.f.P.data, r, n * n) <= eP))
-                eP = test_rel_err(b.f.P.data, r, n * n);
-            assert_true(test_psd_within(b.f.P.data, n, 4.0 * NM * TEST_EPS));
-        }
-        ext = 10.0 * (double)(2 * n) * k2 * TEST_EPS;
-        print_message("info n%zu: worst rel error x %.3e P %.3e (cond^2 %.3g, bound %.3e)\n", n,
-                      ex, eP, k2, ext);
-        test_assert_below("info x external", ex, ext);
-        test_assert_below("info P external", eP, ext);
-        test_assert_below("info x regression", ex, 4 * seen_info[c][0]);
-        test_assert_below("info P regression", eP, 4 * seen_info[c][1]);
-    }
-    json_decref(root);
+    test_stress_cases("stress/info.json", names, 2, info_case);
 }
 
 /* ---- an indefinite covariance is refused, the filter untouched ----------- */

@@ -45,50 +45,40 @@ static void compare_step(const char *what, const dkf_real_t *got, const json_t *
 static void test_kf_matches_ex1_vector(void **state)
 {
     static kf_box_t b;
-    json_t *root = test_load_vector("diffkf/ex1_single.json");
-    const json_t *model = test_json_get(root, "model");
-    const json_t *init = test_json_get(root, "init");
-    const json_t *out = test_json_get(test_json_get(root, "outputs"), "KF");
-    const json_t *yv = test_json_get(test_json_get(root, "y"), "values");
-    size_t N = json_array_size(test_json_get(root, "k")), j;
+    test_run_vector_t v;
+    size_t j;
     dkf_real_t xs[NMAX], Ps[NMAX * NMAX], Fs[NMAX * NMAX], Qs[NMAX * NMAX], Hs[NMAX * NMAX],
         Rs[NMAX * NMAX], ys[NMAX];
     dkf_mat_t x0, P0, F, Q, H, R, y;
     (void)state;
+    test_load_run_vector(&v, "diffkf/ex1_single.json", "KF");
     test_reset_worst_rel();
-    test_json_mat(test_json_get(init, "x00"), xs, NMAX, &x0);
-    test_json_mat(test_json_get(init, "P00"), Ps, NMAX * NMAX, &P0);
+    test_json_mat(test_json_get(v.init, "x00"), xs, NMAX, &x0);
+    test_json_mat(test_json_get(v.init, "P00"), Ps, NMAX * NMAX, &P0);
     assert_int_equal(dkf_kf_init(&b.kf, x0.rows, MMAX, b.kf_storage,
                                  DKF_KF_STORAGE_LEN(NMAX, MMAX), &x0, &P0),
                      DKF_OK);
-    assert_true(N == 50);
-    for (j = 0; j < N; ++j) {
+    assert_true(v.N == 50);
+    for (j = 0; j < v.N; ++j) {
         size_t k = j + 1;
-        test_json_mat(test_json_model_at(model, "F", k - 1), Fs, NMAX * NMAX, &F);
-        test_json_mat(test_json_model_at(model, "Q", k - 1), Qs, NMAX * NMAX, &Q);
-        test_json_mat(test_json_model_at(model, "H", k), Hs, NMAX * NMAX, &H);
-        test_json_mat(test_json_model_at(model, "R", k), Rs, NMAX * NMAX, &R);
+        test_json_mat(test_json_model_at(v.model, "F", k - 1), Fs, NMAX * NMAX, &F);
+        test_json_mat(test_json_model_at(v.model, "Q", k - 1), Qs, NMAX * NMAX, &Q);
+        test_json_mat(test_json_model_at(v.model, "H", k), Hs, NMAX * NMAX, &H);
+        test_json_mat(test_json_model_at(v.model, "R", k), Rs, NMAX * NMAX, &R);
         /* y lists y_1..y_{N+1}; entry j is y_{j+1} */
-        test_json_mat(json_array_get(yv, j), ys, NMAX, &y);
+        test_json_mat(json_array_get(v.yv, j), ys, NMAX, &y);
         assert_int_equal(dkf_kf_predict(&b.kf, &(dkf_kf_dyn_t){&F, &Q}, NULL), DKF_OK);
-        compare_step("KF xp", b.kf.x.data, test_json_get(out, "xp"), j);
-        compare_step("KF Pp", b.kf.P.data, test_json_get(out, "Pp"), j);
+        compare_step("KF xp", b.kf.x.data, test_json_get(v.out, "xp"), j);
+        compare_step("KF Pp", b.kf.P.data, test_json_get(v.out, "Pp"), j);
         assert_int_equal(dkf_kf_update(&b.kf, &(dkf_kf_meas_t){&H, &R}, &y), DKF_OK);
-        compare_step("KF xf", b.kf.x.data, test_json_get(out, "xf"), j);
-        compare_step("KF Pf", b.kf.P.data, test_json_get(out, "Pf"), j);
+        compare_step("KF xf", b.kf.x.data, test_json_get(v.out, "xf"), j);
+        compare_step("KF Pf", b.kf.P.data, test_json_get(v.out, "Pf"), j);
     }
-    json_decref(root);
+    json_decref(v.root);
     print_message("worst relative error %.3e\n", test_worst_rel());
 }
 
 /* ---- an independent double-precision reference ------------------------ */
-
-static void ref_transpose(double *T, const double *A, size_t r, size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) T[j * r + i] = A[i * c + j];
-}
 
 /* Textbook KF step in double: x = F x; P = F P F^T + Q; K = P H^T S^{-1};
  * x += K (y - H x); P -= K H P. */
@@ -100,11 +90,11 @@ static void ref_kf_step(double *x, double *P, const double *F, const double *Q, 
     size_t i;
     test_ref_mul(xn, F, x, n, n, 1);
     memcpy(x, xn, n * sizeof *x);
-    ref_transpose(Ft, F, n, n);
+    test_ref_transpose(Ft, F, n, n);
     test_ref_mul(t, F, P, n, n, n);
     test_ref_mul(P, t, Ft, n, n, n);
     for (i = 0; i < n * n; ++i) P[i] += Q[i];
-    ref_transpose(Ht, H, m, n);
+    test_ref_transpose(Ht, H, m, n);
     test_ref_mul(PHt, P, Ht, n, n, m);
     test_ref_mul(S, H, PHt, m, n, m);
     for (i = 0; i < m * m; ++i) S[i] += R[i];

@@ -101,6 +101,18 @@ static void update(double *worst, double r)
     if (!(r <= *worst)) *worst = r;
 }
 
+/* trial(g, n, cond) TRIALS times for every size and condition number, all
+ * drawing from one generator seeded with seed. */
+static void sweep(uint64_t seed, void (*trial)(test_rng_t *g, size_t n, double cond))
+{
+    test_rng_t g;
+    size_t si, ci, t;
+    test_rng_seed(&g, seed);
+    for (si = 0; si < NSIZES; ++si)
+        for (ci = 0; ci < NCONDS; ++ci)
+            for (t = 0; t < TRIALS; ++t) trial(&g, sizes[si], conds[ci]);
+}
+
 /* ---- Cholesky ------------------------------------------------------------------ */
 
 static void test_chol_closed_form(void **state)
@@ -176,107 +188,107 @@ static void solve_residual(long double *R, double *bound, const double *A, const
         }
 }
 
-static void test_chol_residuals(void **state)
+/* One random SPD A of size n and condition cond: chol, chol_solve,
+ * chol_inverse and spd_inverse against their bounds, aliasing. */
+static void chol_trial(test_rng_t *g, size_t n, double cond)
 {
     static long double res[MAXSQ];
     static double llt[MAXSQ];
-    test_rng_t g;
-    size_t si, ci, t, i, j;
-    (void)state;
-    test_rng_seed(&g, 21);
-    for (si = 0; si < NSIZES; ++si)
-        for (ci = 0; ci < NCONDS; ++ci)
-            for (t = 0; t < TRIALS; ++t) {
-                const size_t n = sizes[si];
-                dkf_mat_t A = DKF_MAT(n, n, ra), L = DKF_MAT(n, n, rl), B = DKF_MAT(n, NRHS, rb),
-                          X = DKF_MAT(n, NRHS, rx), Inv = DKF_MAT(n, n, ry);
-                double r, cond = conds[ci];
-                spd_pair(&g, ra, da, n, cond);
-                test_fill(rl, n * n, SENTINEL);
-                assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
-                test_to_double(dl, rl, n * n);
-                for (i = 0; i < n; ++i) {
-                    assert_true(rl[i * n + i] > 0);
-                    for (j = i + 1; j < n; ++j) assert_true(rl[i * n + j] == 0);
-                }
-                /* Theorem 10.3: A + dA = L L^T, |dA| <= gamma_{n+1}|L||L^T|;
-                 * +1 for the reciprocal pivots. |L||L^T|_ij <= sqrt(a_ii a_jj)
-                 * (1 + O(u)), so this is ~ n EPS ||A|| whatever cond is. */
-                chol_residual(res, llt, da, dl, n);
-                r = ratio_to_bound(res, llt, n * n, (double)(n + 2));
-                update(&worst_chol, r);
-                assert_true(r <= 1.0);
+    size_t i, j;
+    dkf_mat_t A = DKF_MAT(n, n, ra), L = DKF_MAT(n, n, rl), B = DKF_MAT(n, NRHS, rb),
+              X = DKF_MAT(n, NRHS, rx), Inv = DKF_MAT(n, n, ry);
+    double r;
+    spd_pair(g, ra, da, n, cond);
+    test_fill(rl, n * n, SENTINEL);
+    assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
+    test_to_double(dl, rl, n * n);
+    for (i = 0; i < n; ++i) {
+        assert_true(rl[i * n + i] > 0);
+        for (j = i + 1; j < n; ++j) assert_true(rl[i * n + j] == 0);
+    }
+    /* Theorem 10.3: A + dA = L L^T, |dA| <= gamma_{n+1}|L||L^T|;
+     * +1 for the reciprocal pivots. |L||L^T|_ij <= sqrt(a_ii a_jj)
+     * (1 + O(u)), so this is ~ n EPS ||A|| whatever cond is. */
+    chol_residual(res, llt, da, dl, n);
+    r = ratio_to_bound(res, llt, n * n, (double)(n + 2));
+    update(&worst_chol, r);
+    assert_true(r <= 1.0);
 
-                /* Theorem 10.4: (A + dA) X = B, |dA| <= gamma_{3n+1}|L||L^T|;
-                 * +2 for the reciprocals in factor and solves. */
-                rand_pair(&g, rb, db, n, NRHS);
-                assert_int_equal(dkf_mat_chol_solve(&X, &L, &B), DKF_OK);
-                test_to_double(dx, rx, n * NRHS);
-                solve_residual(res, dbound, da, dx, db, llt, n, NRHS);
-                r = ratio_to_bound(res, dbound, n * NRHS, (double)(3 * n + 3));
-                update(&worst_chol_solve, r);
-                assert_true(r <= 1.0);
-                /* in place: X == B gives the same bits */
-                memcpy(ry, rb, n * NRHS * sizeof(dkf_real_t));
-                {
-                    dkf_mat_t Y = DKF_MAT(n, NRHS, ry);
-                    assert_int_equal(dkf_mat_chol_solve(&Y, &L, &Y), DKF_OK);
-                    assert_memory_equal(ry, rx, n * NRHS * sizeof(dkf_real_t));
-                }
+    /* Theorem 10.4: (A + dA) X = B, |dA| <= gamma_{3n+1}|L||L^T|;
+     * +2 for the reciprocals in factor and solves. */
+    rand_pair(g, rb, db, n, NRHS);
+    assert_int_equal(dkf_mat_chol_solve(&X, &L, &B), DKF_OK);
+    test_to_double(dx, rx, n * NRHS);
+    solve_residual(res, dbound, da, dx, db, llt, n, NRHS);
+    r = ratio_to_bound(res, dbound, n * NRHS, (double)(3 * n + 3));
+    update(&worst_chol_solve, r);
+    assert_true(r <= 1.0);
+    /* in place: X == B gives the same bits */
+    memcpy(ry, rb, n * NRHS * sizeof(dkf_real_t));
+    {
+        dkf_mat_t Y = DKF_MAT(n, NRHS, ry);
+        assert_int_equal(dkf_mat_chol_solve(&Y, &L, &Y), DKF_OK);
+        assert_memory_equal(ry, rx, n * NRHS * sizeof(dkf_real_t));
+    }
 
-                /* Inverse. Forward error (Higham sec. 14.2-14.3: triangular
-                 * inversion, then the product M^T M): ||X - A^{-1}||_2 <=
-                 * c n u kappa ||A^{-1}||_2. The eigenvalues of A lie in
-                 * [1, cond], so ||A^{-1}||_2 = 1 and kappa = cond; the max
-                 * norm is below the 2-norm. Asserted as 2 n EPS cond against a
-                 * long double Gauss-Jordan reference.
-                 * Residual: theory only gives ||AX - I|| <= ||A|| ||X - A^{-1}||
-                 * ~ n u cond^2 for this method; the usual behaviour is
-                 * ~ n u cond and that is what is asserted (2 n EPS cond,
-                 * observed ratio printed below, ~0.25 at most), so a change
-                 * that loses the usual accuracy is caught. */
-                test_fill(ry, n * n, SENTINEL);
-                assert_int_equal(dkf_mat_chol_inverse(&Inv, &L), DKF_OK);
-                for (i = 0; i < n; ++i)
-                    for (j = 0; j < i; ++j) assert_true(ry[i * n + j] == ry[j * n + i]);
-                test_to_double(dx, ry, n * n);
-                {
-                    static long double W[MAXSQ];
-                    for (i = 0; i < n * n; ++i) W[i] = da[i];
-                    test_ref_inverse(res, W, n); /* long double: independent */
-                }
-                {
-                    double worst = 0, fwd = 0;
-                    size_t k;
-                    for (i = 0; i < n; ++i)
-                        for (j = 0; j < n; ++j) {
-                            long double acc = i == j ? -1.0L : 0.0L;
-                            double e = (double)fabsl((long double)dx[i * n + j] - res[i * n + j]);
-                            for (k = 0; k < n; ++k) acc += (long double)da[i * n + k] * dx[k * n + j];
-                            if (fabsl(acc) > worst) worst = (double)fabsl(acc);
-                            if (e > fwd) fwd = e;
-                        }
-                    r = fwd / ((double)n * TEST_EPS * cond);
-                    update(&worst_spd_fwd, r);
-                    assert_true(r <= 2.0);
-                    r = worst / ((double)n * TEST_EPS * cond);
-                    update(&worst_spd_inv, r);
-                    assert_true(r <= 2.0);
-                }
-                /* spd_inverse (out of place and in place) is the same computation */
-                {
-                    dkf_mat_t Z = DKF_MAT(n, n, rx);
-                    assert_int_equal(dkf_mat_spd_inverse(&Z, &A, rw), DKF_OK);
-                    assert_memory_equal(rx, ry, n * n * sizeof(dkf_real_t));
-                    assert_int_equal(dkf_mat_spd_inverse(&A, &A, rw), DKF_OK);
-                    assert_memory_equal(ra, ry, n * n * sizeof(dkf_real_t));
-                }
-                /* L may alias A: same bits as out of place */
-                spd_pair(&g, ra, da, n, cond);
-                assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
-                assert_int_equal(dkf_mat_chol(&A, &A, rw), DKF_OK);
-                assert_memory_equal(ra, rl, n * n * sizeof(dkf_real_t));
+    /* Inverse. Forward error (Higham sec. 14.2-14.3: triangular
+     * inversion, then the product M^T M): ||X - A^{-1}||_2 <=
+     * c n u kappa ||A^{-1}||_2. The eigenvalues of A lie in
+     * [1, cond], so ||A^{-1}||_2 = 1 and kappa = cond; the max
+     * norm is below the 2-norm. Asserted as 2 n EPS cond against a
+     * long double Gauss-Jordan reference.
+     * Residual: theory only gives ||AX - I|| <= ||A|| ||X - A^{-1}||
+     * ~ n u cond^2 for this method; the usual behaviour is
+     * ~ n u cond and that is what is asserted (2 n EPS cond,
+     * observed ratio printed below, ~0.25 at most), so a change
+     * that loses the usual accuracy is caught. */
+    test_fill(ry, n * n, SENTINEL);
+    assert_int_equal(dkf_mat_chol_inverse(&Inv, &L), DKF_OK);
+    for (i = 0; i < n; ++i)
+        for (j = 0; j < i; ++j) assert_true(ry[i * n + j] == ry[j * n + i]);
+    test_to_double(dx, ry, n * n);
+    {
+        static long double W[MAXSQ];
+        for (i = 0; i < n * n; ++i) W[i] = da[i];
+        test_ref_inverse(res, W, n); /* long double: independent */
+    }
+    {
+        double worst = 0, fwd = 0;
+        size_t k;
+        for (i = 0; i < n; ++i)
+            for (j = 0; j < n; ++j) {
+                long double acc = i == j ? -1.0L : 0.0L;
+                double e = (double)fabsl((long double)dx[i * n + j] - res[i * n + j]);
+                for (k = 0; k < n; ++k) acc += (long double)da[i * n + k] * dx[k * n + j];
+                if (fabsl(acc) > worst) worst = (double)fabsl(acc);
+                if (e > fwd) fwd = e;
             }
+        r = fwd / ((double)n * TEST_EPS * cond);
+        update(&worst_spd_fwd, r);
+        assert_true(r <= 2.0);
+        r = worst / ((double)n * TEST_EPS * cond);
+        update(&worst_spd_inv, r);
+        assert_true(r <= 2.0);
+    }
+    /* spd_inverse (out of place and in place) is the same computation */
+    {
+        dkf_mat_t Z = DKF_MAT(n, n, rx);
+        assert_int_equal(dkf_mat_spd_inverse(&Z, &A, rw), DKF_OK);
+        assert_memory_equal(rx, ry, n * n * sizeof(dkf_real_t));
+        assert_int_equal(dkf_mat_spd_inverse(&A, &A, rw), DKF_OK);
+        assert_memory_equal(ra, ry, n * n * sizeof(dkf_real_t));
+    }
+    /* L may alias A: same bits as out of place */
+    spd_pair(g, ra, da, n, cond);
+    assert_int_equal(dkf_mat_chol(&L, &A, rw), DKF_OK);
+    assert_int_equal(dkf_mat_chol(&A, &A, rw), DKF_OK);
+    assert_memory_equal(ra, rl, n * n * sizeof(dkf_real_t));
+}
+
+static void test_chol_residuals(void **state)
+{
+    (void)state;
+    sweep(21, chol_trial);
     print_message("chol: worst |A - LL^T| / ((n+2) EPS |L||L^T|) = %.3g\n", worst_chol);
     print_message("chol_solve: worst |B - AX| / ((3n+3) EPS |L||L^T||X|) = %.3g\n",
                   worst_chol_solve);
@@ -535,93 +547,93 @@ static void lu_residual(long double *R, double *M, const double *A, const double
         }
 }
 
-static void test_lu_residuals(void **state)
+/* One random general A of size n and condition cond: lu, lu_solve and
+ * inverse against their bounds, aliasing. */
+static void lu_trial(test_rng_t *g, size_t n, double cond)
 {
     static long double res[MAXSQ];
     static double M[MAXSQ];
-    test_rng_t g;
-    size_t si, ci, t, i, j;
+    size_t i, j;
+    dkf_mat_t A = DKF_MAT(n, n, ra), LU = DKF_MAT(n, n, rl),
+              B = DKF_MAT(n, NRHS, rb), X = DKF_MAT(n, NRHS, rx),
+              Inv = DKF_MAT(n, n, ry);
+    double r;
+    unsigned char seen[MAXN];
+    general_pair(g, ra, da, n, cond);
+    assert_int_equal(dkf_mat_lu(&LU, piv, &A, rw), DKF_OK);
+    test_to_double(dl, rl, n * n);
+    /* piv is a permutation; partial pivoting keeps |L_ij| <= 1 */
+    memset(seen, 0, sizeof seen);
+    for (i = 0; i < n; ++i) {
+        assert_true(piv[i] < n && !seen[piv[i]]);
+        seen[piv[i]] = 1;
+        for (j = 0; j < i; ++j) assert_true(fabs(dl[i * n + j]) <= 1.0);
+    }
+    /* Theorem 9.3: P A + dA = L U, |dA| <= gamma_n |L||U|; +1 for
+     * the reciprocal pivot. */
+    lu_residual(res, M, da, dl, piv, n);
+    {
+        /* M is in A's row order; compare with res in P A's order */
+        static double Mp[MAXSQ];
+        for (i = 0; i < n; ++i)
+            for (j = 0; j < n; ++j) Mp[i * n + j] = M[piv[i] * n + j];
+        r = ratio_to_bound(res, Mp, n * n, (double)(n + 1));
+    }
+    update(&worst_lu, r);
+    assert_true(r <= 1.0);
+
+    /* Theorem 9.4: (A + dA) X = B, |dA| <= gamma_{3n} P^T|L||U|;
+     * +2 for the reciprocals. */
+    rand_pair(g, rb, db, n, NRHS);
+    assert_int_equal(dkf_mat_lu_solve(&X, &LU, piv, &B), DKF_OK);
+    test_to_double(dx, rx, n * NRHS);
+    solve_residual(res, dbound, da, dx, db, M, n, NRHS);
+    r = ratio_to_bound(res, dbound, n * NRHS, (double)(3 * n + 2));
+    update(&worst_lu_solve, r);
+    assert_true(r <= 1.0);
+    {
+        dkf_mat_t Y = DKF_MAT(n, NRHS, ry);
+        memcpy(ry, rb, n * NRHS * sizeof(dkf_real_t));
+        assert_int_equal(dkf_mat_lu_solve(&Y, &LU, piv, &Y), DKF_OK);
+        assert_memory_equal(ry, rx, n * NRHS * sizeof(dkf_real_t));
+    }
+
+    /* Inverse, column by column: column j solves A x = e_j, so
+     * Theorem 9.4 bounds |A X - I| <= gamma_{3n+2} P^T|L||U||X|
+     * componentwise. Normwise that is ~ n EPS cond: with
+     * ||A||_2 = 1, ||A X - I|| <= c n EPS ||X|| ~ c n EPS cond. */
+    test_fill(ry, n * n, SENTINEL);
+    assert_int_equal(dkf_mat_inverse(&Inv, &A, piv2, rw), DKF_OK);
+    assert_memory_equal(piv2, piv, n * sizeof(size_t));
+    test_to_double(dx, ry, n * n);
+    for (i = 0; i < n * n; ++i) db[i] = (i / n == i % n) ? 1.0 : 0.0;
+    solve_residual(res, dbound, da, dx, db, M, n, n);
+    r = ratio_to_bound(res, dbound, n * n, (double)(3 * n + 2));
+    update(&worst_inv_comp, r);
+    assert_true(r <= 1.0);
+    {
+        double worst = 0;
+        for (i = 0; i < n * n; ++i)
+            if (fabsl(res[i]) > worst) worst = (double)fabsl(res[i]);
+        r = worst / ((double)n * TEST_EPS * cond);
+        update(&worst_inv_norm, r);
+        assert_true(r <= 2.0);
+    }
+    /* in place */
+    assert_int_equal(dkf_mat_inverse(&A, &A, piv2, rw), DKF_OK);
+    assert_memory_equal(ra, ry, n * n * sizeof(dkf_real_t));
+    /* LU may alias A */
+    general_pair(g, ra, da, n, cond);
+    assert_int_equal(dkf_mat_lu(&LU, piv, &A, rw), DKF_OK);
+    assert_int_equal(dkf_mat_lu(&A, piv2, &A, rw), DKF_OK);
+    assert_memory_equal(ra, rl, n * n * sizeof(dkf_real_t));
+    assert_memory_equal(piv2, piv, n * sizeof(size_t));
+}
+
+static void test_lu_residuals(void **state)
+{
     (void)state;
-    test_rng_seed(&g, 22);
-    for (si = 0; si < NSIZES; ++si)
-        for (ci = 0; ci < NCONDS; ++ci)
-            for (t = 0; t < TRIALS; ++t) {
-                const size_t n = sizes[si];
-                dkf_mat_t A = DKF_MAT(n, n, ra), LU = DKF_MAT(n, n, rl),
-                          B = DKF_MAT(n, NRHS, rb), X = DKF_MAT(n, NRHS, rx),
-                          Inv = DKF_MAT(n, n, ry);
-                double r, cond = conds[ci];
-                unsigned char seen[MAXN];
-                general_pair(&g, ra, da, n, cond);
-                assert_int_equal(dkf_mat_lu(&LU, piv, &A, rw), DKF_OK);
-                test_to_double(dl, rl, n * n);
-                /* piv is a permutation; partial pivoting keeps |L_ij| <= 1 */
-                memset(seen, 0, sizeof seen);
-                for (i = 0; i < n; ++i) {
-                    assert_true(piv[i] < n && !seen[piv[i]]);
-                    seen[piv[i]] = 1;
-                    for (j = 0; j < i; ++j) assert_true(fabs(dl[i * n + j]) <= 1.0);
-                }
-                /* Theorem 9.3: P A + dA = L U, |dA| <= gamma_n |L||U|; +1 for
-                 * the reciprocal pivot. */
-                lu_residual(res, M, da, dl, piv, n);
-                {
-                    /* M is in A's row order; compare with res in P A's order */
-                    static double Mp[MAXSQ];
-                    for (i = 0; i < n; ++i)
-                        for (j = 0; j < n; ++j) Mp[i * n + j] = M[piv[i] * n + j];
-                    r = ratio_to_bound(res, Mp, n * n, (double)(n + 1));
-                }
-                update(&worst_lu, r);
-                assert_true(r <= 1.0);
-
-                /* Theorem 9.4: (A + dA) X = B, |dA| <= gamma_{3n} P^T|L||U|;
-                 * +2 for the reciprocals. */
-                rand_pair(&g, rb, db, n, NRHS);
-                assert_int_equal(dkf_mat_lu_solve(&X, &LU, piv, &B), DKF_OK);
-                test_to_double(dx, rx, n * NRHS);
-                solve_residual(res, dbound, da, dx, db, M, n, NRHS);
-                r = ratio_to_bound(res, dbound, n * NRHS, (double)(3 * n + 2));
-                update(&worst_lu_solve, r);
-                assert_true(r <= 1.0);
-                {
-                    dkf_mat_t Y = DKF_MAT(n, NRHS, ry);
-                    memcpy(ry, rb, n * NRHS * sizeof(dkf_real_t));
-                    assert_int_equal(dkf_mat_lu_solve(&Y, &LU, piv, &Y), DKF_OK);
-                    assert_memory_equal(ry, rx, n * NRHS * sizeof(dkf_real_t));
-                }
-
-                /* Inverse, column by column: column j solves A x = e_j, so
-                 * Theorem 9.4 bounds |A X - I| <= gamma_{3n+2} P^T|L||U||X|
-                 * componentwise. Normwise that is ~ n EPS cond: with
-                 * ||A||_2 = 1, ||A X - I|| <= c n EPS ||X|| ~ c n EPS cond. */
-                test_fill(ry, n * n, SENTINEL);
-                assert_int_equal(dkf_mat_inverse(&Inv, &A, piv2, rw), DKF_OK);
-                assert_memory_equal(piv2, piv, n * sizeof(size_t));
-                test_to_double(dx, ry, n * n);
-                for (i = 0; i < n * n; ++i) db[i] = (i / n == i % n) ? 1.0 : 0.0;
-                solve_residual(res, dbound, da, dx, db, M, n, n);
-                r = ratio_to_bound(res, dbound, n * n, (double)(3 * n + 2));
-                update(&worst_inv_comp, r);
-                assert_true(r <= 1.0);
-                {
-                    double worst = 0;
-                    for (i = 0; i < n * n; ++i)
-                        if (fabsl(res[i]) > worst) worst = (double)fabsl(res[i]);
-                    r = worst / ((double)n * TEST_EPS * cond);
-                    update(&worst_inv_norm, r);
-                    assert_true(r <= 2.0);
-                }
-                /* in place */
-                assert_int_equal(dkf_mat_inverse(&A, &A, piv2, rw), DKF_OK);
-                assert_memory_equal(ra, ry, n * n * sizeof(dkf_real_t));
-                /* LU may alias A */
-                general_pair(&g, ra, da, n, cond);
-                assert_int_equal(dkf_mat_lu(&LU, piv, &A, rw), DKF_OK);
-                assert_int_equal(dkf_mat_lu(&A, piv2, &A, rw), DKF_OK);
-                assert_memory_equal(ra, rl, n * n * sizeof(dkf_real_t));
-                assert_memory_equal(piv2, piv, n * sizeof(size_t));
-            }
+    sweep(22, lu_trial);
     print_message("lu: worst |PA - LU| / ((n+1) EPS |L||U|) = %.3g\n", worst_lu);
     print_message("lu_solve: worst |B - AX| / ((3n+2) EPS P^T|L||U||X|) = %.3g\n",
                   worst_lu_solve);

@@ -144,33 +144,13 @@ static void test_qr_in_place(void **state)
     }
 }
 
-/* Solves the c x c SPD system M x = b in place by Cholesky, in double. */
-static void ref_spd_solve(double *M, double *b, size_t c, size_t k)
+/* Solves the c x c SPD system M x = b (x c x k) in place by Cholesky, in
+ * double. */
+static void ref_spd_solve(const double *M, double *b, size_t c, size_t k)
 {
-    size_t i, j, l, col;
-    for (j = 0; j < c; ++j) {
-        double d = M[j * c + j];
-        for (l = 0; l < j; ++l) d -= M[j * c + l] * M[j * c + l];
-        d = sqrt(d);
-        M[j * c + j] = d;
-        for (i = j + 1; i < c; ++i) {
-            double acc = M[i * c + j];
-            for (l = 0; l < j; ++l) acc -= M[i * c + l] * M[j * c + l];
-            M[i * c + j] = acc / d;
-        }
-    }
-    for (col = 0; col < k; ++col) {
-        for (i = 0; i < c; ++i) {
-            double acc = b[i * k + col];
-            for (l = 0; l < i; ++l) acc -= M[i * c + l] * b[l * k + col];
-            b[i * k + col] = acc / M[i * c + i];
-        }
-        for (i = c; i-- > 0;) {
-            double acc = b[i * k + col];
-            for (l = i + 1; l < c; ++l) acc -= M[l * c + i] * b[l * k + col];
-            b[i * k + col] = acc / M[i * c + i];
-        }
-    }
+    static double L[MAXN * MAXN];
+    test_dchol(L, M, c);
+    test_dchol_solve(L, b, c, k);
 }
 
 /* Least squares vs the normal equations A^T A x = A^T b solved in double
@@ -185,7 +165,7 @@ static void ref_spd_solve(double *M, double *b, size_t c, size_t k)
 static void test_qr_solve_least_squares(void **state)
 {
     static const shape_t ls[] = {{1, 1}, {4, 4}, {6, 3}, {12, 5}, {30, 10}, {48, 48}, {48, 7}};
-    static double Ad[MAXN * MAXN], Bd[MAXN * 4], M[MAXN * MAXN], x[MAXN * 4];
+    static double Ad[MAXN * MAXN], At[MAXN * MAXN], Bd[MAXN * 4], M[MAXN * MAXN], x[MAXN * 4];
     static dkf_real_t A[MAXN * MAXN], B[MAXN * 4], X[MAXN * 4],
         work[DKF_MAT_QR_SOLVE_WORK(MAXN, MAXN)];
     const size_t k = 3;
@@ -208,18 +188,10 @@ static void test_qr_solve_least_squares(void **state)
         test_to_double(Bd, B, r * k);
         assert_int_equal(dkf_mat_qr_solve(&mX, &mA, &mB, work), DKF_OK);
 
-        for (i = 0; i < c; ++i)
-            for (j = 0; j < c; ++j) {
-                double acc = 0.0;
-                for (l = 0; l < r; ++l) acc += Ad[l * c + i] * Ad[l * c + j];
-                M[i * c + j] = acc;
-            }
-        for (i = 0; i < c; ++i)
-            for (j = 0; j < k; ++j) {
-                double acc = 0.0;
-                for (l = 0; l < r; ++l) acc += Ad[l * c + i] * Bd[l * k + j];
-                x[i * k + j] = acc;
-            }
+        /* the normal equations A^T A x = A^T b */
+        test_ref_transpose(At, Ad, r, c);
+        test_ref_mul(M, At, Ad, c, r, c);
+        test_ref_mul(x, At, Bd, c, r, k);
         ref_spd_solve(M, x, c, k);
 
         for (j = 0; j < k; ++j) {
@@ -324,13 +296,12 @@ static void setup_bufs(qr_bufs_t *b)
 /* Every output buffer still holds the sentinel (A, B are inputs). */
 static void assert_untouched(const qr_bufs_t *b, const qr_bufs_t *before)
 {
-    assert_memory_equal(b->QR, before->QR, sizeof b->QR);
-    assert_memory_equal(b->tau, before->tau, sizeof b->tau);
-    assert_memory_equal(b->Q, before->Q, sizeof b->Q);
-    assert_memory_equal(b->R, before->R, sizeof b->R);
-    assert_memory_equal(b->X, before->X, sizeof b->X);
-    assert_memory_equal(b->A, before->A, sizeof b->A);
-    assert_memory_equal(b->B, before->B, sizeof b->B);
+    static const test_member_t all[] = {
+        TEST_MEMBER(qr_bufs_t, QR), TEST_MEMBER(qr_bufs_t, tau), TEST_MEMBER(qr_bufs_t, Q),
+        TEST_MEMBER(qr_bufs_t, R),  TEST_MEMBER(qr_bufs_t, X),   TEST_MEMBER(qr_bufs_t, A),
+        TEST_MEMBER(qr_bufs_t, B),
+    };
+    test_assert_same_members(b, before, all, sizeof all / sizeof all[0]);
 }
 
 static void test_qr_errors(void **state)

@@ -14,7 +14,7 @@
  *    F (I - K H) built in long double from the returned X must have
  *    ||Phi^(2^j)||_1 <= 1/2 for some j (so rho < 1), X symmetric, PSD;
  *  - seed 002's example against tests/vectors/infofusion/s2_weighted_fusion.json
- *    (cases[0].steady_state.Sigma_pred, hard-coded below);
+ *    (the model and cases[0].steady_state.Sigma_pred, read from the file);
  *  - ill-conditioned and marginal cases, every error status, outputs
  *    untouched on every error (bytes), the exact work size (no write past
  *    DKF_MAT_*_WORK reals).
@@ -209,6 +209,17 @@ static void set_d(dkf_real_t *dst, const double *src, size_t k)
     test_to_real(dst, src, k);
 }
 
+/* The DARE's model in rF, rH, rQ, rR from doubles: F, Q n x n, H m x n,
+ * R m x m. */
+static void set_model(size_t n, size_t m, const double *F, const double *H, const double *Q,
+                      const double *R)
+{
+    set_d(rF, F, n * n);
+    set_d(rH, H, m * n);
+    set_d(rQ, Q, n * n);
+    set_d(rR, R, m * m);
+}
+
 /* ---- scalar closed form ---------------------------------------------------- */
 
 /* Positive root of h^2 x^2 + b x - q r = 0, b = r - q h^2 - a^2 r. */
@@ -281,10 +292,7 @@ static void random_model(test_rng_t *g, size_t n, size_t m, double s)
     test_rand_spd(g, R, m, 10.0, 1.0);
     for (i = 0; i < m; ++i)
         for (j = 0; j < i; ++j) R[i * m + j] = R[j * m + i];
-    set_d(rF, F, n * n);
-    set_d(rH, H, m * n);
-    set_d(rQ, Q, n * n);
-    set_d(rR, R, m * m);
+    set_model(n, m, F, H, Q, R);
 }
 
 static long double spectral_radius_bound_gt1(size_t n)
@@ -327,61 +335,48 @@ static void test_dare_random(void **state)
 
 /* ---- seed 002's example ------------------------------------------------------ */
 
-/* cases[0].steady_state.Sigma_pred of tests/vectors/infofusion/
- * s2_weighted_fusion.json (the file's digits, 17 significant), sensors
- * 1..5 with R = 0.1 .. 0.5. */
-static const double seed002_sigma[5][16] = {
-    {1.9874387286748645, -0.07020087292017035, -0.3378553254185641, 0.28128063265107917,
-     -0.07020087292017035, 0.2948504820176592, 0.10543350358242112, -0.12426988014657156,
-     -0.3378553254185641, 0.10543350358242112, 0.4579600528373273, -0.1012011439188725,
-     0.28128063265107917, -0.12426988014657156, -0.1012011439188725, 0.11256119613662463},
-    {2.1707539104853892, -0.13160905775732976, -0.3158302513865793, 0.27825350699578094,
-     -0.13160905775732976, 0.3184716986175292, 0.09957813614328936, -0.12286562372226953,
-     -0.3158302513865793, 0.09957813614328936, 0.4617384114656721, -0.10157751926564888,
-     0.27825350699578094, -0.12286562372226953, -0.10157751926564888, 0.11301629095905721},
-    {2.325784947710679, -0.18644603119901734, -0.2982734704802648, 0.2747844567621907,
-     -0.18644603119901734, 0.3404700397545595, 0.0947613711441562, -0.12141758298997421,
-     -0.2982734704802648, 0.0947613711441562, 0.46477908012356367, -0.10200973060586516,
-     0.2747844567621907, -0.12141758298997421, -0.10200973060586516, 0.11341570747067392},
-    {2.4629754549675242, -0.23690387996367765, -0.2835786679262082, 0.27120167855622546,
-     -0.23690387996367765, 0.36132070423742163, 0.09063933428092405, -0.11998365603243058,
-     -0.2835786679262082, 0.09063933428092405, 0.4673339924763152, -0.10245251689780818,
-     0.27120167855622546, -0.11998365603243058, -0.10245251689780818, 0.11377847093121013},
-    {2.587575622572954, -0.28413443992094456, -0.27091405574184196, 0.2676334796356876,
-     -0.28413443992094456, 0.3812855970905479, 0.08702599748861328, -0.11858503075792576,
-     -0.27091405574184196, 0.08702599748861328, 0.4695379559229223, -0.10288858793470168,
-     0.2676334796356876, -0.11858503075792576, -0.10288858793470168, 0.11411353386265341},
-};
-
-static void seed002_model(double r)
+/* The numbers of node, flattened into out; there must be exactly n. */
+static void get_n(double *out, const json_t *node, size_t n)
 {
-    static const double F[16] = {1.5, 1, 0, 0, -0.56, 0, 0, 0, 0, 0, 0.7, 1, 0, 0, -0.5, 0};
-    static const double Gam[8] = {1, 0, 0.4, 0, 0, 1, 0, 0};
-    static const double Qe[2] = {0.8, 0.3};
-    static const double H[4] = {1, 0, 1, 0};
-    double Q[16];
-    size_t i, j, l;
+    assert_int_equal(test_json_flatten(node, out, n), n);
+}
+
+/* The model of sensor s of cases[0] of tests/vectors/infofusion/
+ * s2_weighted_fusion.json: F = Phi, Q = Gamma Qe Gamma^T, H[s], R[s]
+ * (R = 0.1 .. 0.5 for sensors 1..5); *r is that R. */
+static void seed002_model(const json_t *c, size_t s, double *r)
+{
+    double F[16], Gam[8], Qe[4], H[4], Q[16];
+    size_t i, j, l, m;
+    get_n(F, test_json_get(c, "Phi"), 16);
+    get_n(Gam, test_json_get(c, "Gamma"), 8);
+    get_n(Qe, test_json_get(c, "Qe"), 4);
+    get_n(H, json_array_get(test_json_get(c, "H"), s), 4);
+    get_n(r, json_array_get(test_json_get(c, "R"), s), 1);
     for (i = 0; i < 4; ++i)
         for (j = 0; j < 4; ++j) {
-            double s = 0;
-            for (l = 0; l < 2; ++l) s += Gam[i * 2 + l] * Qe[l] * Gam[j * 2 + l];
-            Q[i * 4 + j] = s;
+            double q = 0;
+            for (l = 0; l < 2; ++l)
+                for (m = 0; m < 2; ++m) q += Gam[i * 2 + l] * Qe[l * 2 + m] * Gam[j * 2 + m];
+            Q[i * 4 + j] = q;
         }
-    set_d(rF, F, 16);
-    set_d(rH, H, 4);
-    set_d(rQ, Q, 16);
-    rR[0] = (dkf_real_t)r;
+    set_model(4, 1, F, H, Q, r);
 }
 
 static void test_dare_seed002(void **state)
 {
+    json_t *root = test_load_vector("infofusion/s2_weighted_fusion.json");
+    const json_t *c = json_array_get(test_json_get(root, "cases"), 0);
+    const json_t *sig = test_json_get(test_json_get(c, "steady_state"), "Sigma_pred");
     size_t s;
     (void)state;
+    assert_int_equal(json_array_size(sig), 5);
     for (s = 0; s < 5; ++s) {
-        const double *want = seed002_sigma[s];
-        double emax = test_max_abs(want, 16), err, bound;
+        double want[16], emax, err, bound, r;
         int it;
-        seed002_model(0.1 * (double)(s + 1));
+        get_n(want, json_array_get(sig, s), 16);
+        emax = test_max_abs(want, 16);
+        seed002_model(c, s, &r);
         (void)solve_check(4, 1, "seed 002 sensor", &it);
         err = test_max_abs_diff(rX, want, 16);
 #if DKF_USE_FLOAT
@@ -394,7 +389,7 @@ static void test_dare_seed002(void **state)
 #endif
         print_message("seed 002 sensor %zu (R = %.1f): max|X - Sigma_pred| = %.3g "
                       "(%.3g relative to max|expected| %.4g; bound %.3g), %d doublings\n",
-                      s + 1, 0.1 * (double)(s + 1), err, err / emax, emax, bound, it);
+                      s + 1, r, err, err / emax, emax, bound, it);
         test_assert_below("seed 002 Sigma_pred", err, bound);
         upd(&worst_seed002, err / emax);
 #if !DKF_USE_FLOAT
@@ -402,6 +397,7 @@ static void test_dare_seed002(void **state)
         test_assert_below("seed 002 Sigma_pred (tight)", err / emax, 64.0 * TEST_EPS);
 #endif
     }
+    json_decref(root);
 }
 
 /* ---- ill-conditioned and marginal --------------------------------------------- */
@@ -416,10 +412,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[9] = {1.1, 0.2, 0, 0, 0.9, 0.3, 0.1, 0, 0.5};
         static const double H[3] = {1, 0, 0};
         static const double Q[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = (dkf_real_t)1e-10;
+        set_model(3, 1, F, H, Q, (const double[1]){1e-10});
         (void)solve_check(3, 1, "R = 1e-10", &it);
     }
     /* Q nearly singular: rank one plus 1e-9 I */
@@ -429,10 +422,7 @@ static void test_dare_ill_marginal(void **state)
         double Q[9];
         size_t i;
         for (i = 0; i < 9; ++i) Q[i] = (i == 0 ? 1.0 : 0.0) + (i % 4 == 0 ? 1e-9 : 0.0);
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = 1;
+        set_model(3, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(3, 1, "Q rank 1 + 1e-9 I", &it);
     }
     /* large ||X||: a weakly observed mode at 0.9999 with big Q */
@@ -440,10 +430,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[4] = {0.9999, 0, 0, 0.5};
         static const double H[2] = {1e-3, 1};
         static const double Q[4] = {1e4, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(2, 1, "large ||X|| (1e4 Q, 0.9999)", &it);
         print_message("  max|X| = %.4g\n", (double)rX[0]);
         assert_true(rX[0] > (dkf_real_t)1e5);
@@ -462,10 +449,7 @@ static void test_dare_ill_marginal(void **state)
         Q2[1] = Q2[2] = 0;
         Q2[3] = 1e-6;
         R1 = 1;
-        set_d(rF, F2, 4);
-        set_d(rH, H2, 2);
-        set_d(rQ, Q2, 4);
-        rR[0] = (dkf_real_t)R1;
+        set_model(2, 1, F2, H2, Q2, &R1);
         (void)solve_check(2, 1, "rho(F) = 0.999 rotation", &it);
     }
     /* spectral radius 0.999 unobserved (detectable: closed loop keeps 0.999) */
@@ -473,10 +457,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[4] = {0.999, 0.3, 0, 0.5};
         static const double H[2] = {0, 1};
         static const double Q[4] = {1, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         (void)solve_check(2, 1, "rho 0.999 unobserved mode", &it);
         assert_true(it >= 12); /* 0.999^(2^k) reaches EPS only for 2^k ~ 1e4..4e4 */
     }
@@ -485,10 +466,7 @@ static void test_dare_ill_marginal(void **state)
         static const double F[9] = {1.05, 0.4, 0, 0, 0.6, 0.2, 0, 0, -0.3};
         static const double H[3] = {1, 0, 1};
         static const double Q[9] = {0.5, 0.1, 0, 0.1, 0.5, 0, 0, 0, 0.5};
-        set_d(rF, F, 9);
-        set_d(rH, H, 3);
-        set_d(rQ, Q, 9);
-        rR[0] = (dkf_real_t)0.3;
+        set_model(3, 1, F, H, Q, (const double[1]){0.3});
         (void)solve_check(3, 1, "eigenvalue 1.05 detectable", &it);
     }
 }
@@ -520,10 +498,7 @@ static void base2(void)
     static const double H[4] = {1, 0, 0, 1};
     static const double Q[4] = {1, 0.2, 0.2, 1};
     static const double R[4] = {1, 0.1, 0.1, 2};
-    set_d(rF, F, 4);
-    set_d(rH, H, 4);
-    set_d(rQ, Q, 4);
-    set_d(rR, R, 4);
+    set_model(2, 2, F, H, Q, R);
 }
 
 static void test_dare_statuses(void **state)
@@ -539,10 +514,7 @@ static void test_dare_statuses(void **state)
         static const double F[4] = {1.2, 0, 0, 0.5};
         static const double H[2] = {0, 1};
         static const double Q[4] = {1, 0, 0, 1};
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         dare_fails(2, 1, DKF_ERR_UNSTABLE, "not detectable, excited");
         /* the same mode not excited (Q = diag(0, 1)): a finite X exists
          * (zero on that mode) but F (I - K H) keeps the 1.2: refused */
@@ -562,10 +534,7 @@ static void test_dare_statuses(void **state)
         F[1] = -sin(th);
         F[2] = sin(th);
         F[3] = cos(th);
-        set_d(rF, F, 4);
-        set_d(rH, H, 2);
-        set_d(rQ, Q, 4);
-        rR[0] = 1;
+        set_model(2, 1, F, H, Q, (const double[1]){1});
         dare_fails(2, 1, DKF_ERR_UNSTABLE, "rotation, Q = 0");
         /* the rotation beside an excited, observed stable mode (Q = 0 on
          * the rotation only): H_k is nonzero on the stable block, stays
@@ -578,13 +547,9 @@ static void test_dare_statuses(void **state)
             F3[4] = cos(th);
             F3[8] = 0.5;
             Q3[8] = 1;
-            set_d(rF, F3, 9);
-            set_d(rH, H3, 3);
-            set_d(rQ, Q3, 9);
+            set_model(3, 1, F3, H3, Q3, (const double[1]){1});
             dare_fails(3, 1, DKF_ERR_UNSTABLE, "rotation unreachable beside a stable mode");
-            set_d(rF, F, 4);
-            set_d(rH, H, 2);
-            set_d(rQ, Q, 4);
+            set_model(2, 1, F, H, Q, (const double[1]){1});
         }
         /* the same with Q = 0 but a stable F: X = 0 is stabilising */
         rF[0] = rF[3] = (dkf_real_t)(0.5 * cos(th));

@@ -634,14 +634,12 @@ typedef struct {
 
 static void assert_untouched(const svd_bufs_t *b, const svd_bufs_t *ref)
 {
-    assert_memory_equal(b->A, ref->A, sizeof b->A);
-    assert_memory_equal(b->U, ref->U, sizeof b->U);
-    assert_memory_equal(b->s, ref->s, sizeof b->s);
-    assert_memory_equal(b->V, ref->V, sizeof b->V);
-    assert_memory_equal(b->X, ref->X, sizeof b->X);
-    assert_memory_equal(b->Abar, ref->Abar, sizeof b->Abar);
-    assert_memory_equal(b->T, ref->T, sizeof b->T);
-    assert_int_equal(b->rank, ref->rank);
+    static const test_member_t all[] = {
+        TEST_MEMBER(svd_bufs_t, A), TEST_MEMBER(svd_bufs_t, U),    TEST_MEMBER(svd_bufs_t, s),
+        TEST_MEMBER(svd_bufs_t, V), TEST_MEMBER(svd_bufs_t, X),    TEST_MEMBER(svd_bufs_t, Abar),
+        TEST_MEMBER(svd_bufs_t, T), TEST_MEMBER(svd_bufs_t, rank),
+    };
+    test_assert_same_members(b, ref, all, sizeof all / sizeof all[0]);
 }
 
 static void test_svd_errors(void **state)

@@ -88,13 +88,31 @@ static double spectrum(test_rng_t *g, double *lambda, size_t n, size_t low, doub
 /* P with eigenvalues 1 .. 1e-3 (random order), one of them, at a random
  * place, replaced by v = -a delta of that P: delta = 4 n eps tr and
  * tr = rest + v give v = -c rest / (1 + c), c = 4 a n eps. */
-static void with_lambda_min(test_rng_t *g, double *lambda, size_t n, double a)
+static void with_lambda_min(test_rng_t *g, size_t n, double a)
 {
+    double lambda[NMAX];
     const double c = 4.0 * a * (double)n * TEST_EPS;
     const size_t z = (size_t)(test_rng_uniform(g) * (double)n);
     const double rest = spectrum(g, lambda, n, 0, 0.0) - lambda[z];
     lambda[z] = -c * rest / (1.0 + c);
     with_eigenvalues(g, lambda, n);
+}
+
+/* P with eigenvalues 1 .. 1e-3 (random order), the last `zeros` of them
+ * replaced by 0. */
+static void with_zeros(test_rng_t *g, size_t n, size_t zeros)
+{
+    double lambda[NMAX];
+    (void)spectrum(g, lambda, n, zeros, 0.0);
+    with_eigenvalues(g, lambda, n);
+}
+
+/* P = I (n x n). */
+static void identity(size_t n)
+{
+    size_t i;
+    memset(P, 0, sizeof P);
+    for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
 }
 
 /* The verdict of dkf__psd_within_rounding, which reads P's lower
@@ -121,20 +139,17 @@ static size_t cap(void)
 static void test_psd_singular_accepted(void **state)
 {
     test_rng_t g;
-    double lambda[NMAX];
     size_t k, s;
     (void)state;
     test_rng_seed(&g, 0x5eed0001u);
     for (k = 0; k < cap(); ++k) {
         const size_t n = sizes[k];
         for (s = 0; s < SEEDS; ++s) {
-            (void)spectrum(&g, lambda, n, 1, 0.0); /* one zero eigenvalue */
-            with_eigenvalues(&g, lambda, n);
+            with_zeros(&g, n, 1); /* one zero eigenvalue */
             if (!check(n)) fail_msg("n=%zu seed %zu: PSD, lambda_min = 0, refused", n, s);
-            (void)spectrum(&g, lambda, n, (n + 1) / 2, 0.0); /* half of them 0 */
-            with_eigenvalues(&g, lambda, n);
+            with_zeros(&g, n, (n + 1) / 2); /* half of them 0 */
             if (!check(n)) fail_msg("n=%zu seed %zu: PSD of rank %zu refused", n, s, n / 2);
-            with_lambda_min(&g, lambda, n, 0.125);
+            with_lambda_min(&g, n, 0.125);
             if (!check(n)) fail_msg("n=%zu seed %zu: lambda_min = -delta/8 refused", n, s);
         }
         memset(P, 0, sizeof P);
@@ -145,7 +160,6 @@ static void test_psd_singular_accepted(void **state)
 static void test_indefinite_refused(void **state)
 {
     test_rng_t g;
-    double lambda[NMAX];
     size_t k, s;
     (void)state;
     test_rng_seed(&g, 0x5eed0002u);
@@ -153,7 +167,7 @@ static void test_indefinite_refused(void **state)
         const size_t n = sizes[k];
         if (n == 1) continue; /* the one eigenvalue is the trace: test_negative_diagonal_... */
         for (s = 0; s < SEEDS; ++s) {
-            with_lambda_min(&g, lambda, n, 2.0);
+            with_lambda_min(&g, n, 2.0);
             if (check(n)) fail_msg("n=%zu seed %zu: lambda_min = -2 delta accepted", n, s);
         }
     }
@@ -165,8 +179,7 @@ static void test_negative_diagonal_and_trace(void **state)
     (void)state;
     for (k = 0; k < cap(); ++k) {
         const size_t n = sizes[k];
-        memset(P, 0, sizeof P);
-        for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+        identity(n);
         P[(n - 1) * n + n - 1] = DKF_R(-0.5); /* the last pivot */
         assert_false(check(n));
         for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(-1.0); /* tr < 0: delta < 0 */
@@ -180,7 +193,6 @@ static void test_negative_diagonal_and_trace(void **state)
 static void test_lower_triangle_read(void **state)
 {
     test_rng_t g;
-    double lambda[NMAX];
     size_t k, i, j;
     (void)state;
     test_rng_seed(&g, 0x5eed0003u);
@@ -188,14 +200,12 @@ static void test_lower_triangle_read(void **state)
         const size_t n = sizes[k];
         if (n < 2) continue;
         /* PSD lower triangle, huge upper: still accepted */
-        (void)spectrum(&g, lambda, n, 1, 0.0);
-        with_eigenvalues(&g, lambda, n);
+        with_zeros(&g, n, 1);
         for (i = 0; i < n; ++i)
             for (j = i + 1; j < n; ++j) P[i * n + j] = DKF_R(1e3);
         if (!check(n)) fail_msg("n=%zu: the upper triangle was read (PSD refused)", n);
         /* indefinite lower triangle (P(1,0) = 2 max diag), identity's upper */
-        memset(P, 0, sizeof P);
-        for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+        identity(n);
         P[1 * n + 0] = DKF_R(2.0);
         if (check(n)) fail_msg("n=%zu: the upper triangle was read (indefinite accepted)", n);
     }
@@ -220,7 +230,6 @@ static void test_nonfinite_refused(void **state)
 {
     const dkf_real_t bad[3] = {(dkf_real_t)NAN, (dkf_real_t)INFINITY, -(dkf_real_t)INFINITY};
     test_rng_t g;
-    double lambda[NMAX];
     size_t k, i, j, b, base;
     (void)state;
     test_rng_seed(&g, 0x5eed0004u);
@@ -228,11 +237,9 @@ static void test_nonfinite_refused(void **state)
         const size_t n = sizes[k];
         for (base = 0; base < 2; ++base) {
             if (base == 0) { /* PSD, one zero eigenvalue */
-                (void)spectrum(&g, lambda, n, 1, 0.0);
-                with_eigenvalues(&g, lambda, n);
+                with_zeros(&g, n, 1);
             } else { /* I */
-                memset(P, 0, sizeof P);
-                for (i = 0; i < n; ++i) P[i * n + i] = DKF_R(1.0);
+                identity(n);
             }
             assert_true(check(n));
             for (i = 0; i < n; ++i)
@@ -264,7 +271,6 @@ static void test_scale_invariant(void **state)
 #endif
     static const double a_of[] = {0.0, 0.125, 2.0}; /* lambda_min = -a delta */
     test_rng_t g;
-    double lambda[NMAX];
     size_t k, s, q, x, i;
     (void)state;
     test_rng_seed(&g, 0x5eed0006u);
@@ -275,10 +281,9 @@ static void test_scale_invariant(void **state)
                 const int want = a_of[q] < 1.0;
                 if (n == 1 && !want) continue; /* as in test_indefinite_refused */
                 if (a_of[q] == 0.0) {
-                    (void)spectrum(&g, lambda, n, 1, 0.0);
-                    with_eigenvalues(&g, lambda, n);
+                    with_zeros(&g, n, 1);
                 } else {
-                    with_lambda_min(&g, lambda, n, a_of[q]);
+                    with_lambda_min(&g, n, a_of[q]);
                 }
                 memcpy(P0, P, n * n * sizeof *P);
                 for (x = 0; x < sizeof ex / sizeof ex[0]; ++x) {

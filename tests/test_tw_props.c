@@ -37,12 +37,9 @@ static void load(const char *file)
 static void run_central(void)
 {
     size_t k;
-    assert_int_equal(dkf_tw_node_init(&central, TW_N, TW_M, TW_P, central_storage, NODE_LEN, &C.mx0,
-                                      &C.mP0),
-                     DKF_OK);
+    tw_central_init(&C, &central, central_storage, NODE_LEN);
     for (k = 0; k < C.steps; ++k) {
-        tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
+        tw_central_step(&C, &central, k);
         test_to_double(ref_x[k], central.x.data, TW_N);
         test_to_double(ref_P[k], central.P.data, TW_N * TW_N);
         test_to_double(ref_z[k], central.d.data, TW_P);

@@ -74,13 +74,10 @@ static void test_tw_report_200node(void **state)
     assert_int_equal(dkf_graph_weights_metropolis(W, &C.g), DKF_OK);
     assert_int_equal(dkf_graph_weights_uniform(alpha, &C.g), DKF_OK);
 
-    assert_int_equal(dkf_tw_node_init(&central, TW_N, TW_M, TW_P, central_storage,
-                                      sizeof central_storage / sizeof central_storage[0], &C.mx0,
-                                      &C.mP0),
-                     DKF_OK);
+    tw_central_init(&C, &central, central_storage,
+                    sizeof central_storage / sizeof central_storage[0]);
     for (k = 0; k < C.steps; ++k) {
-        tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
+        tw_central_step(&C, &central, k);
         accumulate(&a1, &central, k);
     }
 

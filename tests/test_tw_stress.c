@@ -120,6 +120,11 @@ static void test_tw_central_pinned(void **state)
                          DKF_OK);
         for (j = 0; j < json_array_size(steps); ++j) {
             const json_t *st = json_array_get(steps, j);
+            const test_out_t out[NOUT] = {{"x", b.nd.x.data, n},
+                                          {"P", b.nd.P.data, n * n},
+                                          {"z", b.nd.d.data, p},
+                                          {"Phi_post", b.nd.Phi_post.data, n * n},
+                                          {"S", b.nd.S.data, p * p}};
             const double k = json_number_value(test_json_get(st, "cond_H"));
             double Sr[PX * PX];
             if (k * k > k2) k2 = k * k;
@@ -127,11 +132,7 @@ static void test_tw_central_pinned(void **state)
             if (cond_spd2(Sr, p) > cS) cS = cond_spd2(Sr, p);
             load_step(&s, st);
             assert_int_equal(dkf_tw_central_step(&b.nd, &s.md, s.sn, s.ym, NS), DKF_OK);
-            test_note_rel_err(&w[0], test_json_get(st, "x"), b.nd.x.data, n);
-            test_note_rel_err(&w[1], test_json_get(st, "P"), b.nd.P.data, n * n);
-            test_note_rel_err(&w[2], test_json_get(st, "z"), b.nd.d.data, p);
-            test_note_rel_err(&w[3], test_json_get(st, "Phi_post"), b.nd.Phi_post.data, n * n);
-            test_note_rel_err(&w[4], test_json_get(st, "S"), b.nd.S.data, p * p);
+            test_note_rel_errs(w, st, out, NOUT);
             assert_true(test_psd_within(b.nd.P.data, n, 4.0 * NX * TEST_EPS));
         }
         ext[0] = 100.0 * (double)(n + NS * ML) * k2 * TEST_EPS;

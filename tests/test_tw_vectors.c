@@ -107,13 +107,10 @@ static void run_alg1(const char *file)
     size_t k, fields = 0;
     tw_load(&C, root);
     test_reset_worst_rel();
-    assert_int_equal(dkf_tw_node_init(&central, TW_N, TW_M, TW_P, central_storage,
-                                      sizeof central_storage / sizeof central_storage[0], &C.mx0,
-                                      &C.mP0),
-                     DKF_OK);
+    tw_central_init(&C, &central, central_storage,
+                    sizeof central_storage / sizeof central_storage[0]);
     for (k = 0; k < C.steps; ++k) {
-        tw_sensors_at(&C, k);
-        assert_int_equal(dkf_tw_central_step(&central, &C.model, C.sens, C.my, C.N), DKF_OK);
+        tw_central_step(&C, &central, k);
         assert_int_equal(central.k, k + 1);
         fields += compare_block("alg1", k + 1, expected_at(k, "alg1"), &central, 1);
     }

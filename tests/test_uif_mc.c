@@ -10,12 +10,14 @@
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 
 #include <cmocka.h>
 
 #include "dkf/uif.h"
 #include "dkf_test.h"
+#include "uif_paper.h"
 
 #define N 5
 #define P 3
@@ -27,12 +29,7 @@ typedef struct {
     DKF_UIF_DECLARE(, f, N, M, P);
 } box_t;
 
-static const double PA[25] = {0.5, 2, 0, 0, 0, 0, 0.2, 1, 0, 1, 0, 0, 0.3, 0, 1,
-                              0,   0, 0, 0.7, 1, 0, 0, 0, 0, 0.1};
-static const double PG[15] = {1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PH[15] = {0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PR[25] = {1e-2, 0, 0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2,
-                              0,    0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2};
+/* the system of uif_paper.h; P0 = 0.1 I */
 #define P0_DIAG 0.1
 
 /* Two-sided 99.9 % band of chi2(nu) / R (Wilson-Hilferty, accurate to a
@@ -168,41 +165,55 @@ static void check_band(const char *what, double value, double dof)
     assert_true(value >= lo && value <= hi);
 }
 
-/* RTSF (paper system with H[3][0] = 1): state, input, and joint [x; d]
- * NEES (the joint one checks the cross-covariance Pxd). */
+/* The unbiased configurations: the state NEES, the NEES of the d_dof
+ * estimable input components and, for RTSF, the joint [x; d] NEES (which
+ * checks the cross-covariance Pxd), each inside its band. */
+typedef struct {
+    const char *name, *d_what;
+    dkf_uif_kind_t kind;
+    double h30, d1amp; /* monte_carlo's */
+    size_t d_dof;
+} unbiased_t;
+
+static const unbiased_t unbiased[] = {
+    /* RTSF on the paper system with H[3][0] = 1 */
+    {"RTSF", "RTSF d", DKF_UIF_RTSF, 1.0, 1.0, 3},
+    /* NRTSF-DF on the paper's rank-2 H with d_1 = 0 (derivation §7) */
+    {"NRTSF-DF (d1 = 0)", "NRTSF-DF (d1 = 0) d2, d3", DKF_UIF_NRTSF_DF, 0.0, 0.0, 2},
+    /* NRTSF on the paper system with H = 0 (unbiased for every d) */
+    {"NRTSF", "NRTSF d1, d2 (delayed)", DKF_UIF_NRTSF, 0.0, 1.0, 2},
+};
+
+static void check_unbiased(const unbiased_t *c)
+{
+    char what[64];
+    mc_t r;
+    monte_carlo(c->kind, c->h30, c->d1amp, &r);
+    assert_int_equal(r.d_dof, c->d_dof);
+    snprintf(what, sizeof what, "%s x", c->name);
+    check_band(what, r.x_nees, 5);
+    check_band(c->d_what, r.d_nees, (double)c->d_dof);
+    if (c->kind == DKF_UIF_RTSF) check_band("RTSF [x; d]", r.j_nees, 8);
+    print_message("%s x NEES/n averaged over steps 10..%d: %.3f\n", c->name, STEPS - 1,
+                  r.x_avg / 5);
+}
+
 static void test_uif_mc_rtsf(void **state)
 {
-    mc_t r;
     (void)state;
-    monte_carlo(DKF_UIF_RTSF, 1.0, 1.0, &r);
-    check_band("RTSF x", r.x_nees, 5);
-    check_band("RTSF d", r.d_nees, 3);
-    check_band("RTSF [x; d]", r.j_nees, 8);
-    print_message("RTSF x NEES/n averaged over steps 10..%d: %.3f\n", STEPS - 1, r.x_avg / 5);
+    check_unbiased(&unbiased[0]);
 }
 
-/* NRTSF-DF on the paper's rank-2 H with d_1 = 0 (unbiased; derivation §7). */
 static void test_uif_mc_nrtsf_df_unbiased(void **state)
 {
-    mc_t r;
     (void)state;
-    monte_carlo(DKF_UIF_NRTSF_DF, 0.0, 0.0, &r);
-    assert_int_equal(r.d_dof, 2);
-    check_band("NRTSF-DF (d1 = 0) x", r.x_nees, 5);
-    check_band("NRTSF-DF (d1 = 0) d2, d3", r.d_nees, 2);
-    print_message("NRTSF-DF x NEES/n averaged over steps 10..%d: %.3f\n", STEPS - 1, r.x_avg / 5);
+    check_unbiased(&unbiased[1]);
 }
 
-/* NRTSF on the paper system with H = 0 (unbiased for every d). */
 static void test_uif_mc_nrtsf(void **state)
 {
-    mc_t r;
     (void)state;
-    monte_carlo(DKF_UIF_NRTSF, 0.0, 1.0, &r);
-    assert_int_equal(r.d_dof, 2);
-    check_band("NRTSF x", r.x_nees, 5);
-    check_band("NRTSF d1, d2 (delayed)", r.d_nees, 2);
-    print_message("NRTSF x NEES/n averaged over steps 10..%d: %.3f\n", STEPS - 1, r.x_avg / 5);
+    check_unbiased(&unbiased[2]);
 }
 
 /* The paper's own NRTSF-DF example, d_1 = sin: flagged, and indeed

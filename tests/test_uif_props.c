@@ -29,6 +29,7 @@
 
 #include "dkf/uif.h"
 #include "dkf_test.h"
+#include "uif_paper.h"
 
 #define MAXN 6
 #define MAXP 4
@@ -45,13 +46,6 @@ typedef struct {
 static void dmul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c)
 {
     test_ref_mul(C, A, B, r, k, c);
-}
-
-static void dtr(double *At, const double *A, size_t r, size_t c)
-{
-    size_t i, j;
-    for (i = 0; i < r; ++i)
-        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
 }
 
 static double dyadic(test_rng_t *r, double scale)
@@ -348,12 +342,12 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         for (i = 0; i < q; ++i) xd[i] = i < n ? f->x[i] : f->d[i - n];
         dmul(xp, AG, xd, n, q, 1);
         dmul(JA, AG, J, n, q, q);
-        dtr(AGt, AG, n, q);
+        test_ref_transpose(AGt, AG, n, q);
         dmul(Pp, JA, AGt, n, q, n);
         for (i = 0; i < n * n; ++i) Pp[i] += s->Q[i];
     }
     dmul(t1, s->C, Pp, m, n, n);
-    dtr(t2, s->C, m, n);
+    test_ref_transpose(t2, s->C, m, n);
     dmul(Rt, t1, t2, m, n, m);
     for (i = 0; i < m * m; ++i) Rt[i] += s->R[i];
     test_ref_inverse_double(Rti, Rt, m);
@@ -368,7 +362,7 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         dmul(e, K, yt, n, m, 1);
         for (i = 0; i < n; ++i) f->x[i] = xp[i] + e[i];
         dmul(t1, K, Rt, n, m, m);
-        dtr(t2, K, n, m);
+        test_ref_transpose(t2, K, n, m);
         dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         return;
@@ -376,7 +370,7 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
     appendix_frd(Hbar, T, s->H, m, p, r);
     { /* Pdbar = (Hbar^T R~^-1 Hbar)^-1, Mbar = Pdbar Hbar^T R~^-1 (28) */
         double Hbt[CAP], HR[CAP], S[CAP];
-        dtr(Hbt, Hbar, m, r);
+        test_ref_transpose(Hbt, Hbar, m, r);
         dmul(HR, Hbt, Rti, r, m, m);
         dmul(S, HR, Hbar, r, m, r);
         test_ref_inverse_double(Pdb, S, r);
@@ -392,18 +386,18 @@ static void ref_df_step(ref_t *f, const model_t *s, const double *y, size_t r, i
         dmul(t2, t1, Hbt, m, r, m);
         for (i = 0; i < m * m; ++i) t2[i] = Rt[i] - t2[i];
         dmul(t1, K, t2, n, m, m);
-        dtr(t2, K, n, m);
+        test_ref_transpose(t2, K, n, m);
         dmul(t3, t1, t2, n, m, n);
         for (i = 0; i < n * n; ++i) f->Px[i] = Pp[i] - t3[i];
         /* T^+ = T^T (T T^T)^-1; d = T^+ dbar, Pd = T^+ Pdbar T^+T,
          * Pxd = -K Hbar Pdbar T^+T */
-        dtr(Tt, T, r, p);
+        test_ref_transpose(Tt, T, r, p);
         dmul(t1, T, Tt, r, p, r);
         test_ref_inverse_double(t2, t1, r);
         dmul(Tp, Tt, t2, p, r, r);
         dmul(f->d, Tp, db, p, r, 1);
         dmul(t1, Tp, Pdb, p, r, r);
-        dtr(t2, Tp, p, r);
+        test_ref_transpose(t2, Tp, p, r);
         dmul(f->Pd, t1, t2, p, r, p);
         dmul(t1, K, Hbar, n, m, r);
         dmul(t3, t1, Pdb, n, r, r);
@@ -454,7 +448,7 @@ static void test_uif_nrtsf_df_rank_changes_match_reference(void **state)
         } else {
             double Hbar[CAP], T[CAP], Tt[CAP], t1[CAP], t2[CAP], Tp[CAP];
             appendix_frd(Hbar, T, s.H, m, p, r);
-            dtr(Tt, T, r, p);
+            test_ref_transpose(Tt, T, r, p);
             dmul(t1, T, Tt, r, p, r);
             test_ref_inverse_double(t2, t1, r);
             dmul(Tp, Tt, t2, p, r, r);
@@ -545,41 +539,40 @@ static void zero_noise_run(dkf_uif_kind_t kind, size_t n, size_t p, size_t m, si
  * double, 1.2e-3 float); the derivation (docs/design/derivation-seed003-004.md) measured <= 7e-14 in double. */
 static void test_uif_unbiased_zero_noise(void **state)
 {
+    static const struct {
+        const char *name, *dwhat;
+        dkf_uif_kind_t kind;
+        size_t n, p, m, rh, rg; /* zero_noise_run's */
+        int g_in_row_h;
+        uint64_t seed;
+    } runs[] = {
+        /* RTSF, full-rank H */
+        {"RTSF", "input", DKF_UIF_RTSF, 4, 2, 5, 2, 2, 0, 11},
+        /* NRTSF-DF, rank H = 2 < p = 3 and G = G1 T (null(H) in null(G)): the
+         * input has a component in null(H), which the filter cannot see and
+         * does not need */
+        {"NRTSF-DF", "input (estimable)", DKF_UIF_NRTSF_DF, 5, 3, 5, 2, 0, 1, 12},
+        /* NRTSF-DF, rank H = 1 of p = 2 */
+        {"NRTSF-DF r1", "input (estimable)", DKF_UIF_NRTSF_DF, 6, 2, 5, 1, 0, 1, 13},
+        /* NRTSF, rank G = 2 < p = 3 */
+        {"NRTSF", "input (estimable)", DKF_UIF_NRTSF, 5, 3, 5, 0, 2, 0, 14},
+        /* NRTSF, full-rank G */
+        {"NRTSF r=m", "input", DKF_UIF_NRTSF, 6, 2, 5, 0, 2, 0, 15},
+    };
     double xe, de;
     const double tol = 1e4 * TEST_EPS;
+    size_t c;
     (void)state;
-    /* RTSF, full-rank H */
-    zero_noise_run(DKF_UIF_RTSF, 4, 2, 5, 2, 2, 0, 11, &xe, &de);
-    print_message("RTSF        zero noise: state %.2e, input %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 2 < p = 3 and G = G1 T (null(H) in null(G)): the
-     * input has a component in null(H), which the filter cannot see and
-     * does not need */
-    zero_noise_run(DKF_UIF_NRTSF_DF, 5, 3, 5, 2, 0, 1, 12, &xe, &de);
-    print_message("NRTSF-DF    zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF-DF, rank H = 1 of p = 2 */
-    zero_noise_run(DKF_UIF_NRTSF_DF, 6, 2, 5, 1, 0, 1, 13, &xe, &de);
-    print_message("NRTSF-DF r1 zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF, rank G = 2 < p = 3 */
-    zero_noise_run(DKF_UIF_NRTSF, 5, 3, 5, 0, 2, 0, 14, &xe, &de);
-    print_message("NRTSF       zero noise: state %.2e, input (estimable) %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
-    /* NRTSF, full-rank G */
-    zero_noise_run(DKF_UIF_NRTSF, 6, 2, 5, 0, 2, 0, 15, &xe, &de);
-    print_message("NRTSF r=m   zero noise: state %.2e, input %.2e\n", xe, de);
-    assert_true(xe <= tol && de <= tol);
+    for (c = 0; c < sizeof runs / sizeof runs[0]; ++c) {
+        zero_noise_run(runs[c].kind, runs[c].n, runs[c].p, runs[c].m, runs[c].rh, runs[c].rg,
+                       runs[c].g_in_row_h, runs[c].seed, &xe, &de);
+        print_message("%-11s zero noise: state %.2e, %s %.2e\n", runs[c].name, xe, runs[c].dwhat,
+                      de);
+        assert_true(xe <= tol && de <= tol);
+    }
 }
 
-/* ---- the paper's example: estimability and the bias flag ---------------- */
-
-static const double PA[25] = {0.5, 2, 0, 0, 0, 0, 0.2, 1, 0, 1, 0, 0, 0.3, 0, 1,
-                              0,   0, 0, 0.7, 1, 0, 0, 0, 0, 0.1};
-static const double PG[15] = {1, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PH[15] = {0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0};
-static const double PR[25] = {1e-2, 0, 0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2,
-                              0,    0, 5e-3, 0, 0, 1e-2, 0, 0, 3e-3, 0, 0, 1e-2};
+/* ---- the paper's example (uif_paper.h): estimability and the bias flag -- */
 
 static void paper_model(model_t *s, int with_h)
 {

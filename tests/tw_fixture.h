@@ -155,4 +155,20 @@ static inline void tw_sensors_at(tw_case_t *c, size_t k)
     }
 }
 
+/* The centralized filter (Algorithm 1) in nd, on storage of len reals,
+ * from c's prior. */
+static inline void tw_central_init(const tw_case_t *c, dkf_tw_node_t *nd, dkf_real_t *storage,
+                                   size_t len)
+{
+    assert_int_equal(dkf_tw_node_init(nd, TW_N, TW_M, TW_P, storage, len, &c->mx0, &c->mP0),
+                     DKF_OK);
+}
+
+/* Step k of the centralized filter nd on every node's data of c. */
+static inline void tw_central_step(tw_case_t *c, dkf_tw_node_t *nd, size_t k)
+{
+    tw_sensors_at(c, k);
+    assert_int_equal(dkf_tw_central_step(nd, &c->model, c->sens, c->my, c->N), DKF_OK);
+}
+
 #endif /* TW_FIXTURE_H */

@@ -46,6 +46,15 @@ static inline uint8_t fz_byte(fz_t *z) { return z->i < z->n ? z->d[z->i++] : 0; 
 static inline int fz_more(const fz_t *z) { return z->i < z->n; }
 /* 1 + (a byte mod hi): a dimension in [1, hi]. */
 static inline size_t fz_dim(fz_t *z, size_t hi) { return 1 + (size_t)(fz_byte(z) % hi); }
+/* The sizes n, m, p of an unknown-input harness, fz_dim each, in that
+ * byte order. */
+static inline void fz_nmp(fz_t *z, size_t *n, size_t *m, size_t *p, size_t nmax, size_t mmax,
+                          size_t pmax)
+{
+    *n = fz_dim(z, nmax);
+    *m = fz_dim(z, mmax);
+    *p = fz_dim(z, pmax);
+}
 
 /* A real: mostly small values in [-4, 4] (so that models stay valid
  * often enough to reach deep states), else the special values. */

@@ -27,9 +27,7 @@ static int sym;
 
 static void decode(fz_t *z)
 {
-    n = fz_dim(z, NMAX);
-    m = fz_dim(z, MMAX);
-    p = fz_dim(z, PMAX);
+    fz_nmp(z, &n, &m, &p, NMAX, MMAX, PMAX);
     sym = fz_kf_prior(z, &x0, &P0, n);
     cklen = 0;
 }

@@ -22,9 +22,7 @@ static int sym;
 static void decode(fz_t *z)
 {
     fz_mat_t *const prior_m[] = {&x0, &P0, &d0, &Pd0};
-    n = fz_dim(z, NMAX);
-    m = fz_dim(z, MMAX);
-    p = fz_dim(z, PMAX);
+    fz_nmp(z, &n, &m, &p, NMAX, MMAX, PMAX);
     sym = fz_ui_prior(z, prior_m, n, p);
 }
 

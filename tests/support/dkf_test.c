@@ -105,6 +105,13 @@ void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t 
         }
 }
 
+void test_ref_transpose(double *At, const double *A, size_t r, size_t c)
+{
+    size_t i, j;
+    for (i = 0; i < r; ++i)
+        for (j = 0; j < c; ++j) At[j * r + i] = A[i * c + j];
+}
+
 void test_ref_inverse(long double *Ainv, long double *W, size_t n)
 {
     size_t i, j, k;
@@ -193,6 +200,15 @@ void test_fill(dkf_real_t *p, size_t n, dkf_real_t v)
     for (i = 0; i < n; ++i) p[i] = v;
 }
 
+void test_assert_same_members(const void *got, const void *want, const test_member_t *m, size_t k)
+{
+    const unsigned char *g = (const unsigned char *)got, *w = (const unsigned char *)want;
+    size_t i;
+    for (i = 0; i < k; ++i)
+        if (memcmp(g + m[i].offset, w + m[i].offset, m[i].size) != 0)
+            fail_msg("%s changed", m[i].name);
+}
+
 double test_orth_err(const dkf_real_t *Q, size_t r, size_t k)
 {
     double m = 0.0;
@@ -247,6 +263,16 @@ json_t *test_json_get(const json_t *obj, const char *key)
         fail();
     }
     return v;
+}
+
+void test_load_run_vector(test_run_vector_t *v, const char *rel, const char *filter)
+{
+    v->root = test_load_vector(rel);
+    v->model = test_json_get(v->root, "model");
+    v->init = test_json_get(v->root, "init");
+    v->yv = test_json_get(test_json_get(v->root, "y"), "values");
+    v->N = json_array_size(test_json_get(v->root, "k"));
+    v->out = test_json_get(test_json_get(v->root, "outputs"), filter);
 }
 
 size_t test_json_array(const json_t *node, double *out, size_t cap, size_t *rows, size_t *cols)
@@ -361,6 +387,39 @@ void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, 
     if (!(e <= *worst)) *worst = e;
 }
 
+/* obj[key] as a size, 0 if obj has no key. */
+static size_t size_or_0(const json_t *obj, const char *key)
+{
+    return json_object_get(obj, key) != NULL ? test_json_size(obj, key) : 0;
+}
+
+void test_stress_cases(const char *rel, const char *const names[], size_t k,
+                       void (*run)(const test_stress_case_t *sc, size_t i))
+{
+    static test_stress_case_t sc;
+    json_t *root = test_load_vector(rel);
+    size_t i;
+    for (i = 0; i < k; ++i) {
+        sc.name = names[i];
+        sc.node = test_json_case(root, names[i]);
+        sc.steps = test_json_get(sc.node, "steps");
+        sc.n = test_json_size(sc.node, "n");
+        sc.m = size_or_0(sc.node, "m");
+        sc.p = size_or_0(sc.node, "p");
+        test_json_mat(test_json_get(sc.node, "x0"), sc.x0, TEST_UI_CAP, &sc.mx0);
+        test_json_mat(test_json_get(sc.node, "P0"), sc.P0, TEST_UI_CAP * TEST_UI_CAP, &sc.mP0);
+        run(&sc, i);
+    }
+    json_decref(root);
+}
+
+void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k)
+{
+    size_t i;
+    for (i = 0; i < k; ++i)
+        test_note_rel_err(&worst[i], test_json_get(st, out[i].key), out[i].got, out[i].len);
+}
+
 void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
                                size_t k, const double *ext, const double *seen)
 {
@@ -378,6 +437,25 @@ void test_assert_stress_bounds(const char *who, const char *const what[], const 
     }
 }
 
+void test_stress_verdict(const char *who, size_t steps, const char *const what[],
+                         const double *worst, size_t k, double rk2, double ext,
+                         const double *seen)
+{
+    char line[256];
+    double ev[8];
+    size_t i, used;
+    assert_true(k <= 8);
+    used = (size_t)snprintf(line, sizeof line, "%s (%zu steps): worst rel error", who, steps);
+    for (i = 0; i < k; ++i) {
+        if (used < sizeof line)
+            used += (size_t)snprintf(line + used, sizeof line - used, " %s %.3e", what[i],
+                                     worst[i]);
+        ev[i] = ext < 1 ? ext : 0;
+    }
+    print_message("%s (rho cond^2 %.3g, bound %.3e)\n", line, rk2, ext);
+    test_assert_stress_bounds(who, what, worst, k, ev, seen);
+}
+
 void test_dchol(double *L, const double *A, size_t n)
 {
     size_t i, j, k;
@@ -391,6 +469,23 @@ void test_dchol(double *L, const double *A, size_t n)
             double t = A[i * n + j];
             for (k = 0; k < j; ++k) t -= L[i * n + k] * L[j * n + k];
             L[i * n + j] = s > 0.0 ? t / L[j * n + j] : 0.0;
+        }
+    }
+}
+
+void test_dchol_solve(const double *L, double *B, size_t n, size_t c)
+{
+    size_t i, j, l;
+    for (j = 0; j < c; ++j) {
+        for (i = 0; i < n; ++i) {
+            double s = B[i * c + j];
+            for (l = 0; l < i; ++l) s -= L[i * n + l] * B[l * c + j];
+            B[i * c + j] = s / L[i * n + i];
+        }
+        for (i = n; i-- > 0;) {
+            double s = B[i * c + j];
+            for (l = i + 1; l < n; ++l) s -= L[l * n + i] * B[l * c + j];
+            B[i * c + j] = s / L[i * n + i];
         }
     }
 }

@@ -46,6 +46,9 @@ void test_rand_spd(test_rng_t *r, double *A, size_t n, double cond, double scale
  * independent of the library's Cholesky; a zero pivot gives a zero column
  * (a singular Q), a negative one fails the test. */
 void test_dchol(double *L, const double *A, size_t n);
+/* Solves (L L^T) X = B in place for the lower n x n L of test_dchol (no
+ * zero pivot) and B n x c: forward then back substitution, in double. */
+void test_dchol_solve(const double *L, double *B, size_t n, size_t c);
 /* x (n) = L z with z ~ N(0, I) drawn first (n normals, in order). */
 void test_draw(test_rng_t *r, double *x, const double *L, size_t n);
 /* e^T S^{-1} e for the SPD S (k x k, k <= DKF_MAX_DIM), in double (the
@@ -59,6 +62,8 @@ double test_nees(const double *e, const double *S, size_t k);
  * Cholesky kernels claim, bit for bit (test_mat_chol_lu, test_kernels_wide). */
 void test_textbook_chol(dkf_real_t *L, const dkf_real_t *A, size_t n);
 void test_ref_mul(double *C, const double *A, const double *B, size_t r, size_t k, size_t c);
+/* At (c x r) = A^T for A r x c, doubles. */
+void test_ref_transpose(double *At, const double *A, size_t r, size_t c);
 /* Ainv = A^{-1} (n x n) by Gauss-Jordan with partial pivoting in long
  * double: an independent reference for a nonsingular A (a zero pivot fails
  * the test). W holds A on entry and is overwritten. */
@@ -84,6 +89,16 @@ dkf_mat_t test_view(size_t rows, size_t cols, dkf_real_t *data);
 void test_fill(dkf_real_t *p, size_t n, dkf_real_t v);
 /* max |Q^T Q - I| for the r x k Q, in double. */
 double test_orth_err(const dkf_real_t *Q, size_t r, size_t k);
+
+/* A member of a struct of buffers (TEST_MEMBER), for test_assert_same_members. */
+typedef struct {
+    const char *name;
+    size_t offset, size;
+} test_member_t;
+#define TEST_MEMBER(type, member) {#member, offsetof(type, member), sizeof(((type *)0)->member)}
+/* Fails the test, naming the member, unless each of the k members m[] of
+ * *got is bit-identical to that of *want. */
+void test_assert_same_members(const void *got, const void *want, const test_member_t *m, size_t k);
 
 /* Asserts `call` returns `st` and leaves the n reals at `out` bit-identical;
  * `snap` is caller scratch of at least n reals. */
@@ -131,6 +146,15 @@ size_t test_json_flatten(const json_t *node, double *out, size_t cap);
 size_t test_json_size(const json_t *obj, const char *key);
 /* json_object_get that fails the test when the key is missing. */
 json_t *test_json_get(const json_t *obj, const char *key);
+/* A filter's run in a vector file of tests/vectors/diffkf/: the root (the
+ * caller's to json_decref), its "model", "init" and y "values", the
+ * number N of steps (the length of "k") and outputs[filter]. */
+typedef struct {
+    json_t *root;
+    const json_t *model, *init, *yv, *out;
+    size_t N;
+} test_run_vector_t;
+void test_load_run_vector(test_run_vector_t *v, const char *rel, const char *filter);
 
 /* ---- one step of an unknown-input model (dkf/ui_model.h) from a vector -- */
 #include "dkf/ui_model.h"
@@ -159,11 +183,43 @@ const json_t *test_json_case(const json_t *root, const char *name);
  * test_rel_err(got, ref)) with the reference node ref of len numbers
  * (fails the test on another count). */
 void test_note_rel_err(double *worst, const json_t *ref, const dkf_real_t *got, size_t len);
+/* One output of a stress test's step: the len reals at got against the
+ * step node's `key`. */
+typedef struct {
+    const char *key;
+    const dkf_real_t *got;
+    size_t len;
+} test_out_t;
+/* test_note_rel_err(&worst[i], st's out[i].key, out[i].got, out[i].len)
+ * for each of the k outputs. */
+void test_note_rel_errs(double *worst, const json_t *st, const test_out_t *out, size_t k);
+/* A case of a stress vector file: its node and steps, the sizes its "n",
+ * "m" and "p" give (0 where absent; each file says what they mean), and its
+ * prior "x0", "P0" (n <= TEST_UI_CAP) with views on them. */
+typedef struct {
+    const json_t *node, *steps;
+    const char *name;
+    size_t n, m, p;
+    dkf_real_t x0[TEST_UI_CAP], P0[TEST_UI_CAP * TEST_UI_CAP];
+    dkf_mat_t mx0, mP0;
+} test_stress_case_t;
+/* Loads the vector file rel and calls run(case, i) on its cases names[i],
+ * i = 0..k-1, in order. */
+void test_stress_cases(const char *rel, const char *const names[], size_t k,
+                       void (*run)(const test_stress_case_t *sc, size_t i));
 /* For each of the k outputs what[i]: worst[i] <= ext[i] ("external",
  * skipped if ext is NULL or ext[i] <= 0) and worst[i] <= 4 seen[i]
  * ("regression": 4x the worst observed; skipped if seen is NULL or
  * seen[i] < 0). Failures name who and what[i]. */
 void test_assert_stress_bounds(const char *who, const char *const what[], const double *worst,
                                size_t k, const double *ext, const double *seen);
+/* The verdict on stress case `who` after `steps` steps: prints the worst
+ * error of each output what[i] with rk2 (the case's largest rho cond^2)
+ * and the external bound ext, then test_assert_stress_bounds with ext for
+ * every output (skipped when ext >= 1: vacuous, as in float) and seen.
+ * k <= 8. */
+void test_stress_verdict(const char *who, size_t steps, const char *const what[],
+                         const double *worst, size_t k, double rk2, double ext,
+                         const double *seen);
 
 #endif /* DKF_TEST_H */

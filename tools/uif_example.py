@@ -184,6 +184,14 @@ def fmt(v, w=6, p=3):
     return " ".join("%*.*f" % (w, p, a) for a in v)
 
 
+def case_grid(plt, third):
+    """A 3 x 3 figure, one column per plotted case (the third titled `third`): fig, ax and
+    the (case, title) pairs."""
+    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
+    return fig, ax, [("nrtsf_df_sin", "NRTSF-DF d1=sin"), ("nrtsf_df_zero", "NRTSF-DF d1=0"),
+                     ("nrtsf", third)]
+
+
 def label_grid(ax):
     """The 3 x 3 grid's legend (top left) and k axis labels (bottom row)."""
     ax[0, 0].legend(fontsize=7)
@@ -195,10 +203,8 @@ def plots(outdir, run0, d_sin):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
-    for c, (key, title) in enumerate([("nrtsf_df_sin", "NRTSF-DF d1=sin"),
-                                      ("nrtsf_df_zero", "NRTSF-DF d1=0"),
-                                      ("nrtsf", "NRTSF (H=0), d_{k-1|k}")]):
+    fig, ax, cases = case_grid(plt, "NRTSF (H=0), d_{k-1|k}")
+    for c, (key, title) in enumerate(cases):
         x, d, out, k0, nrtsf = run0[key]
         ks = np.arange(k0, K)
         dt = d[:, ks - 1] if nrtsf else d[:, ks]
@@ -213,10 +219,8 @@ def plots(outdir, run0, d_sin):
     label_grid(ax)
     ec.save_figure(plt, fig, outdir, "fig_uif_inputs.png")
 
-    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
-    for c, (key, title) in enumerate([("nrtsf_df_sin", "NRTSF-DF d1=sin"),
-                                      ("nrtsf_df_zero", "NRTSF-DF d1=0"),
-                                      ("nrtsf", "NRTSF (H=0)")]):
+    fig, ax, cases = case_grid(plt, "NRTSF (H=0)")
+    for c, (key, title) in enumerate(cases):
         x, d, out, k0, nrtsf = run0[key]
         ks = np.arange(k0, K)
         xs = np.array(out["x"])

@@ -54,11 +54,18 @@ total_ir() {
   sed -n 's/^\(summary\|totals\): *\([0-9]*\).*/\2/p' "$1" | head -n1
 }
 
-# callgrind runs of: exe case steps -> output file name
-cg_run() {
-  local exe="$1" c="$2" s="$3" f="$4"
-  valgrind --tool=callgrind --callgrind-out-file="$f" -q \
-    "$exe" --case "$c" --steps "$s" --repeats 1 >/dev/null
+# Instructions per step of `exe args...`: two callgrind runs, one repeat
+# each, with --steps $steps and --steps 0 (outputs PREFIX.S and PREFIX.0);
+# prints (Ir(S) - Ir(0)) / S to one decimal.
+ir_per_step() {
+  local f="$1"
+  shift
+  valgrind --tool=callgrind --callgrind-out-file="$f.S" -q \
+    "$@" --steps "$steps" --repeats 1 >/dev/null
+  valgrind --tool=callgrind --callgrind-out-file="$f.0" -q \
+    "$@" --steps 0 --repeats 1 >/dev/null
+  awk -v a="$(total_ir "$f.S")" -v z="$(total_ir "$f.0")" -v s="$steps" \
+    'BEGIN { printf "%.1f", (a - z) / s }'
 }
 
 printf "%-4s %-4s %-7s %-7s %12s %12s %12s %8s %8s\n" \
@@ -69,11 +76,7 @@ for t in $types; do
     for c in 0 1 2; do
       declare -A per=()
       for e in $exes; do
-        cg_run "$b/bench/$e" "$c" "$steps" "$out/$e.$t.$f.$c.S"
-        cg_run "$b/bench/$e" "$c" 0 "$out/$e.$t.$f.$c.0"
-        a="$(total_ir "$out/$e.$t.$f.$c.S")"
-        z="$(total_ir "$out/$e.$t.$f.$c.0")"
-        per[$e]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+        per[$e]="$(ir_per_step "$out/$e.$t.$f.$c" "$b/bench/$e" --case "$c")"
       done
       nm="$(awk -v c="$c" 'BEGIN { split("4 2,8 4,12 6", v, ","); print v[c + 1] }')"
       awk -v nm="$nm" -v t="$t" -v fo="$f" -v d="${per[bench_kf]}" -v e2="${per[bench_kf_eigen_O2]}" \
@@ -92,13 +95,7 @@ for t in $types; do
   b="$("$here/build_bench.sh" "$t" "${forms%% *}")"
   declare -A per=()
   for flt in dkf askf otskf; do
-    valgrind --tool=callgrind --callgrind-out-file="$out/uif.$flt.$t.S" -q \
-      "$b/bench/bench_uif" --filter "$flt" --steps "$steps" --repeats 1 >/dev/null
-    valgrind --tool=callgrind --callgrind-out-file="$out/uif.$flt.$t.0" -q \
-      "$b/bench/bench_uif" --filter "$flt" --steps 0 --repeats 1 >/dev/null
-    a="$(total_ir "$out/uif.$flt.$t.S")"
-    z="$(total_ir "$out/uif.$flt.$t.0")"
-    per[$flt]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+    per[$flt]="$(ir_per_step "$out/uif.$flt.$t" "$b/bench/bench_uif" --filter "$flt")"
   done
   awk -v t="$t" -v d="${per[dkf]}" -v a="${per[askf]}" -v o="${per[otskf]}" 'BEGIN {
     printf "%-7s %12.1f %12.1f %12.1f   1 : %.2f : %.2f\n", t, d, a, o, a / d, o / d
@@ -112,13 +109,7 @@ for t in $types; do
   b="$("$here/build_bench.sh" "$t" "${forms%% *}")"
   declare -A per=()
   for flt in nertsif ekf dnertsif ckf; do
-    valgrind --tool=callgrind --callgrind-out-file="$out/nerts.$flt.$t.S" -q \
-      "$b/bench/bench_nerts" --filter "$flt" --steps "$steps" --repeats 1 >/dev/null
-    valgrind --tool=callgrind --callgrind-out-file="$out/nerts.$flt.$t.0" -q \
-      "$b/bench/bench_nerts" --filter "$flt" --steps 0 --repeats 1 >/dev/null
-    a="$(total_ir "$out/nerts.$flt.$t.S")"
-    z="$(total_ir "$out/nerts.$flt.$t.0")"
-    per[$flt]="$(awk -v a="$a" -v z="$z" -v s="$steps" 'BEGIN { printf "%.1f", (a - z) / s }')"
+    per[$flt]="$(ir_per_step "$out/nerts.$flt.$t" "$b/bench/bench_nerts" --filter "$flt")"
   done
   awk -v t="$t" -v a="${per[nertsif]}" -v e="${per[ekf]}" -v d="${per[dnertsif]}" -v c="${per[ckf]}" 'BEGIN {
     printf "%-7s %12.1f %12.1f %12.1f %12.1f   %11.2f %12.2f\n", t, a, e, d, c, a / e, d / c

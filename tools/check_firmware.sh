@@ -59,35 +59,19 @@ check_real() {
   heap=$(arm-none-eabi-nm "$elf" | awk '{print $NF}' | grep -E "$heap_re" || true)
   lib_heap=$(arm-none-eabi-nm -u "$bdir/dkf/libdkf.a" 2>/dev/null | awk '{print $NF}' |
              grep -E "$heap_re" || true)
-  if [[ -z "$heap$lib_heap" ]]; then
-    pass "m4-$variant no heap symbols in dkf_m4.elf or libdkf.a"
-  else
-    fail "m4-$variant heap symbols linked: $(echo $heap $lib_heap)"
-  fi
+  # shellcheck disable=SC2086 # the symbols, one word each
+  heap_verdict "m4-$variant no heap symbols in dkf_m4.elf or libdkf.a" "m4-$variant" \
+    $heap $lib_heap
 
-  echo "-- arm-none-eabi-size"
-  arm-none-eabi-size "$elf"
-  echo "-- bytes per input in the image (from the linker map)"
-  python3 tools/map_summary.py "$bdir/dkf_m4.map"
+  image_sizes "$elf" "$bdir/dkf_m4.map" "" " in the image"
   echo "-- libdkf.a objects (arm-none-eabi-size -t)"
   arm-none-eabi-size -t "$bdir/dkf/libdkf.a" | sed 's/^/  /'
 
   echo "-- worst-case stack (bytes; frame sizes in parentheses)"
-  local stack_out
-  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" --skip dkf_m4_nerts.dir "$bdir" \
-                   dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler 2>&1); then
-    echo "$stack_out" | sed 's/^/  /'
-    local worst
-    worst=$(echo "$stack_out" | awk '$1 ~ /^dkf_kf_/ { if ($2 > w) w = $2 } END { print w + 0 }')
-    if (( worst > 0 && worst <= budget )); then
-      pass "m4-$variant filter stack ${worst} B <= budget ${budget} B"
-    else
-      fail "m4-$variant filter stack ${worst} B (budget ${budget} B)"
-    fi
-  else
-    echo "$stack_out" | sed 's/^/  /'
-    fail "m4-$variant stack analysis (recursion, indirect call or dynamic frame)"
-  fi
+  stack_verdict "m4-$variant filter" \
+    "m4-$variant stack analysis (recursion, indirect call or dynamic frame)" '^dkf_kf_' \
+    --elf "$elf" --skip dkf_m4_nerts.dir "$bdir" \
+    dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler
 
   check_nerts_image "$variant" "$bdir"
 
@@ -116,37 +100,61 @@ check_real() {
   fi
 }
 
+# PASS $1 when no heap symbol was linked (the arguments after $2), else FAIL
+# "$2 heap symbols linked: ...".
+heap_verdict() {
+  local ok=$1 bad=$2
+  shift 2
+  if (( $# == 0 )); then
+    pass "$ok"
+  else
+    fail "$bad heap symbols linked: $*"
+  fi
+}
+
+# The image $1's size and its bytes per input from its linker map $2; $3
+# starts both headings, $4 ends the second's first words.
+image_sizes() {
+  echo "-- ${3}arm-none-eabi-size"
+  arm-none-eabi-size "$1"
+  echo "-- ${3}bytes per input${4} (from the linker map)"
+  python3 tools/map_summary.py "$2"
+}
+
+# tools/stack_usage.py with the arguments after the third, indented: PASS
+# or FAIL "$1 stack N B" against the budget, N the deepest of the calls
+# matching $3; FAIL $2 when the analysis fails.
+stack_verdict() {
+  local what=$1 broken=$2 re=$3 out worst
+  shift 3
+  if out=$(python3 tools/stack_usage.py "$@" 2>&1); then
+    echo "$out" | sed 's/^/  /'
+    worst=$(echo "$out" | awk -v re="$re" '$1 ~ re { if ($2 > w) w = $2 } END { print w + 0 }')
+    if (( worst > 0 && worst <= budget )); then
+      pass "$what stack ${worst} B <= budget ${budget} B"
+    else
+      fail "$what stack ${worst} B (budget ${budget} B)"
+    fi
+  else
+    echo "$out" | sed 's/^/  /'
+    fail "$broken"
+  fi
+}
+
 # The second image, one seed-001 DNERTSIF node (ports/cortex-m4/nerts_demo.c):
 # no heap, its size, and the stack of the node's calls with the model's
 # callbacks as the only targets of the library's indirect calls.
 check_nerts_image() {
   local variant=$1 bdir=$2
-  local elf=$bdir/dkf_m4_nerts.elf heap stack_out worst
+  local elf=$bdir/dkf_m4_nerts.elf heap
   heap=$(arm-none-eabi-nm "$elf" | awk '{print $NF}' | grep -E "$heap_re" || true)
-  if [[ -z "$heap" ]]; then
-    pass "m4-$variant DNERTSIF image: no heap symbols"
-  else
-    fail "m4-$variant DNERTSIF image: heap symbols linked: $(echo $heap)"
-  fi
-  echo "-- DNERTSIF node image: arm-none-eabi-size"
-  arm-none-eabi-size "$elf"
-  echo "-- DNERTSIF node image: bytes per input (from the linker map)"
-  python3 tools/map_summary.py "$bdir/dkf_m4_nerts.map"
+  # shellcheck disable=SC2086 # the symbols, one word each
+  heap_verdict "m4-$variant DNERTSIF image: no heap symbols" "m4-$variant DNERTSIF image:" $heap
+  image_sizes "$elf" "$bdir/dkf_m4_nerts.map" "DNERTSIF node image: " ""
   echo "-- DNERTSIF node image: worst-case stack (the model's f, h, y_diff as the indirect targets)"
-  if stack_out=$(python3 tools/stack_usage.py --elf "$elf" --indirect ct_f,radar_h,wrap_diff \
-                   --skip CMakeFiles/dkf_m4.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run \
-                   Reset_Handler 2>&1); then
-    echo "$stack_out" | sed 's/^/  /'
-    worst=$(echo "$stack_out" | awk '$1 ~ /^dkf_nerts_/ { if ($2 > w) w = $2 } END { print w + 0 }')
-    if (( worst > 0 && worst <= budget )); then
-      pass "m4-$variant DNERTSIF node stack ${worst} B <= budget ${budget} B"
-    else
-      fail "m4-$variant DNERTSIF node stack ${worst} B (budget ${budget} B)"
-    fi
-  else
-    echo "$stack_out" | sed 's/^/  /'
-    fail "m4-$variant DNERTSIF node stack analysis"
-  fi
+  stack_verdict "m4-$variant DNERTSIF node" "m4-$variant DNERTSIF node stack analysis" \
+    '^dkf_nerts_' --elf "$elf" --indirect ct_f,radar_h,wrap_diff \
+    --skip CMakeFiles/dkf_m4.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run Reset_Handler
 }
 
 echo "arm-none-eabi-gcc: $(arm-none-eabi-gcc --version | head -1)"

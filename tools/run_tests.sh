@@ -329,10 +329,23 @@ ctest_verdict() {
   record "$cfg" $((total - failed)) "$failed" ""
 }
 
+# The counts of the last "NAME: P passed, F failed" line of log $2 into the
+# caller's p and f (f at least 1 when the script's exit status $3 was not 0);
+# returns 1 when the log has no such line (the script did not finish).
+passed_failed() {
+  local line
+  line=$(grep -E "^$1: [0-9]+ passed, [0-9]+ failed\$" "$2" | tail -1)
+  [[ -n $line ]] || return 1
+  p=$(echo "$line" | sed -E "s/$1: ([0-9]+) passed, ([0-9]+) failed/\\1/")
+  f=$(echo "$line" | sed -E "s/$1: ([0-9]+) passed, ([0-9]+) failed/\\2/")
+  if (( $3 != 0 && f == 0 )); then f=1; fi
+  return 0
+}
+
 run_firmware() {
   step_t0=$SECONDS
   say firmware "Cortex-M4F image (tools/check_firmware.sh)"
-  local log=$ROOT/build/run_tests.firmware.log rc line p f
+  local log=$ROOT/build/run_tests.firmware.log line p f
   mkdir -p "$ROOT/build"
   # Progress: its section headers and every PASS/FAIL line; the sizes and
   # stack tables stay in the log.
@@ -340,17 +353,12 @@ run_firmware() {
     while IFS= read -r line; do
       [[ $line =~ ^(==|PASS:|FAIL:) ]] && say firmware "$line"
     done
-  rc=${PIPESTATUS[0]}
-  line=$(grep -E '^firmware: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
-  if [[ -z "$line" ]]; then
+  if ! passed_failed firmware "$log" "${PIPESTATUS[0]}"; then
     first_build_errors firmware "$log"
     echo "run_tests: FAILED: firmware check did not finish (log: $log)"
     record firmware 0 1 "check aborted"
     return
   fi
-  p=$(echo "$line" | sed -E 's/firmware: ([0-9]+) passed, ([0-9]+) failed/\1/')
-  f=$(echo "$line" | sed -E 's/firmware: ([0-9]+) passed, ([0-9]+) failed/\2/')
-  if (( rc != 0 && f == 0 )); then f=1; fi
   (( f > 0 )) && echo "run_tests: FAILED: $f firmware check(s) (see FAIL: lines above; log: $log)"
   record firmware "$p" "$f" "checks, not ctest"
 }
@@ -358,23 +366,18 @@ run_firmware() {
 run_fuzz() {
   step_t0=$SECONDS
   say fuzz "libFuzzer harnesses (tools/run_fuzz.sh)"
-  local log=$ROOT/build/run_tests.fuzz.log rc line p f
+  local log=$ROOT/build/run_tests.fuzz.log line p f
   mkdir -p "$ROOT/build"
   # Progress: the build header, one line per harness and the first line of
   # each failure; libFuzzer's own output stays in build/fuzz/logs/.
   DKF_JOBS=$JOBS FUZZ_SECONDS=${FUZZ_SECONDS:-10} FUZZ_JOBS=$JOBS tools/run_fuzz.sh 2>&1 |
     tee "$log" |
     while IFS= read -r line; do say fuzz "$line"; done
-  rc=${PIPESTATUS[0]}
-  line=$(grep -E '^fuzz: [0-9]+ passed, [0-9]+ failed$' "$log" | tail -1)
-  if [[ -z "$line" ]]; then
+  if ! passed_failed fuzz "$log" "${PIPESTATUS[0]}"; then
     echo "run_tests: FAILED: fuzz run did not finish (log: $log)"
     record fuzz 0 1 "run aborted"
     return
   fi
-  p=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\1/')
-  f=$(echo "$line" | sed -E 's/fuzz: ([0-9]+) passed, ([0-9]+) failed/\2/')
-  if (( rc != 0 && f == 0 )); then f=1; fi
   (( f > 0 )) && echo "run_tests: FAILED: $f fuzz harness(es) (see FAIL lines above; log: $log)"
   record fuzz "$p" "$f" "harnesses, not ctest"
 }

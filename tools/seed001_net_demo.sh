@@ -20,14 +20,11 @@
 # same bits), packets and reals per node per step, wall time.
 # Exit 0 only if every process run equals the in-process one.
 set -euo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-build=$root/build/seed001-demo
-do_build=1 steps=100 inproc=0
+steps=100
 # URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
-# wall_since, demo_auth_exit
-. "$root/ports/linux/net/tests/net_common.sh"
-demo_options seed001_net_demo.sh 22 "$@"
+# demo_timed, demo_processes, demo_auth_exit
+. "$(dirname "$0")/../ports/linux/net/tests/net_common.sh"
+demo_options seed001_net_demo.sh 21 seed001-demo "$@"
 
 # ---- inside the namespace (--inner): every radar its own process ---------------------
 if [[ ${#inner[@]} -gt 0 && ${DKF_S001_DEMO_INNER:-0} == 1 ]]; then
@@ -49,14 +46,13 @@ demo_mode seed001_net_demo.sh radar "the in-process filters" "$out"
 
 "$run" --filter cf_dnertsf --case 0 --quiet --output "$out/cf.json" "$scn"
 for cs in 0 1; do
-  t0=$(date +%s.%N)
-  "$run" --filter df_dnertsif --case $cs --quiet --output "$out/inproc$cs.json" "$scn"
-  wall_since "$t0" "$out/inproc$cs.wall"
+  demo_timed "$out/inproc$cs.wall" \
+    "$run" --filter df_dnertsif --case $cs --quiet --output "$out/inproc$cs.json" "$scn"
   if [[ $mode == udpm ]]; then
     echo "== DF-DNERTSIF case $cs: 12 dkf-tw-node processes over $URL (namespace), T_p = 45"
-    DKF_S001_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $cs "$out/proc$cs" "$node" \
-      "$out/keys" ||
-      echo "seed001_net_demo.sh: a node process failed (see $out/proc$cs/node*.log)"
+    demo_processes seed001_net_demo.sh DKF_S001_DEMO_INNER \
+      "a node process failed (see $out/proc$cs/node*.log)" \
+      "$scn" $cs "$out/proc$cs" "$node" "$out/keys"
   fi
 done
 

@@ -20,7 +20,6 @@ jackknife standard error of our ARMSE over the runs, so "agrees" means within
 3 standard errors. Writes DIR/table1.json, DIR/seed001_rmse.png (position
 RMSE against k) and DIR/seed001_turn_rate.png (the turn-rate estimate).
 """
-import argparse
 import json
 import os
 import subprocess
@@ -32,6 +31,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import example_common as ec  # noqa: E402
 import seed001_model as sm  # noqa: E402
 
 ALGS = [  # name, filter, file (ui or ckf), case index (0: s = 1, 1: s = N), per node
@@ -52,14 +52,6 @@ PAPER = {"CF-DNERTSF": (0.1900, 0.2631, 0.0015, 0.0009),
          "DF-DNERTSIF N-scaled s=N": (0.1905, 0.2866, 0.0012, 0.0011),
          "DF-CKF literal s=1": (1.4471, 0.9902, 1.4237, 0.3802),
          "DF-CKF N-scaled s=N": (1.4471, 0.9902, 1.4237, 0.3802)}
-
-
-def find_dkf_run(root):
-    for b in ("build/double", "build", "build/ci-double"):
-        p = os.path.join(root, b, "ports/linux/dkf-run")
-        if os.access(p, os.X_OK):
-            return p
-    return None
 
 
 class Progress:
@@ -123,22 +115,12 @@ def jackknife_se(err2):
 
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--runs", type=int, default=50)
-    ap.add_argument("--tp", type=int, default=45)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--dkf-run", default=None)
-    ap.add_argument("--out-dir", default=os.path.join(root, "build", "seed001"))
-    ap.add_argument("--no-plots", action="store_true")
-    ap.add_argument("--no-verdict", action="store_true",
-                    help="exit 0 even if a value is off the derivation's (docs/design/derivation-seed001-002.md) (a smoke run of a few runs)")
+    ap = ec.seed_parser(__doc__, root, "seed001", (("--runs", 50), ("--tp", 45)),
+                        "exit 0 even if a value is off the derivation's (docs/design/derivation-seed001-002.md) (a smoke run of a few runs)")
     a = ap.parse_args()
     if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000 or not 1 <= a.jobs <= 64:
         ap.error("--runs in 2..1000, --tp in 1..10000, --jobs in 1..64")
-    dkf_run = a.dkf_run or find_dkf_run(root)
-    if dkf_run is None:
-        sys.exit("seed001_table1: no dkf-run found; build first (tools/run_tests.sh) or give --dkf-run")
-    os.makedirs(a.out_dir, exist_ok=True)
+    dkf_run = ec.seed_dkf_run(a, root, "seed001_table1")
     prog = Progress(a.runs, f"seed 001 Table 1: {a.runs} runs x 5 filters, T_p = {a.tp}")
     results = [None] * a.runs
     with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(a.jobs) as pool:

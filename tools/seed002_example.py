@@ -31,7 +31,6 @@ Writes DIR/seed002.json and (unless --no-plots) DIR/seed002_variance.png,
 DIR/seed002_selftune_params.png, DIR/seed002_selftune_gap.png. Exit 1 if a
 verdict fails (unless --no-verdict, for smoke runs).
 """
-import argparse
 import json
 import os
 import subprocess
@@ -43,7 +42,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import make_wf_scenario as wfs  # noqa: E402
-from seed001_table1 import Progress, find_dkf_run  # noqa: E402
+import example_common as ec  # noqa: E402
+from seed001_table1 import Progress  # noqa: E402
 
 L = 5
 R = [0.1 * (i + 1) for i in range(L)]
@@ -83,13 +83,19 @@ def dkf_run(exe, flt, path, out):
     return next(iter(doc["outputs"].values()))
 
 
+def simulated_file(tmp, fname, name, seed, steps, P0):
+    """A run of steps simulated with default_rng(seed), written as scenario `name` to
+    tmp/fname: (x_true, the file's path)."""
+    xs, ys = simulate(np.random.default_rng(seed), steps, P0)
+    path = os.path.join(tmp, fname)
+    with open(path, "w") as f:
+        json.dump(scenario(xs, ys, P0, name), f)
+    return xs, path
+
+
 def signal_errors(exe, tmp, r, steps, P0):
     """One Monte-Carlo run: squared signal errors and theoretical variances per t."""
-    rng = np.random.default_rng(2002 + r)
-    xs, ys = simulate(rng, steps, P0)
-    path = os.path.join(tmp, f"run{r}.json")
-    with open(path, "w") as f:
-        json.dump(scenario(xs, ys, P0, f"mc{r}"), f)
+    xs, path = simulated_file(tmp, f"run{r}.json", f"mc{r}", 2002 + r, steps, P0)
     s = xs[1:, 0]
     loc = dkf_run(exe, "local_kf", path, path + ".loc")
     sca = dkf_run(exe, "fusion_scalar", path, path + ".sca")
@@ -116,25 +122,14 @@ def batch_se(e2, batches=40):
 
 def main():
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--runs", type=int, default=2000)
-    ap.add_argument("--steps", type=int, default=60)
-    ap.add_argument("--long", type=int, default=20000)
-    ap.add_argument("--st-steps", type=int, default=8000)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--dkf-run", default=None)
-    ap.add_argument("--out-dir", default=os.path.join(root, "build", "seed002"))
-    ap.add_argument("--no-plots", action="store_true")
-    ap.add_argument("--no-verdict", action="store_true",
-                    help="exit 0 even if a value is off (a smoke run of a few runs)")
+    ap = ec.seed_parser(__doc__, root, "seed002",
+                        (("--runs", 2000), ("--steps", 60), ("--long", 20000), ("--st-steps", 8000)),
+                        "exit 0 even if a value is off (a smoke run of a few runs)")
     a = ap.parse_args()
     if not (2 <= a.runs <= 100000 and 2 <= a.steps <= 100000 and 200 <= a.long <= 1000000
             and 100 <= a.st_steps <= 1000000 and 1 <= a.jobs <= 64):
         ap.error("--runs 2..1e5, --steps 2..1e5, --long 200..1e6, --st-steps 100..1e6, --jobs 1..64")
-    exe = a.dkf_run or find_dkf_run(root)
-    if exe is None:
-        sys.exit("seed002_example: no dkf-run found; build first (tools/run_tests.sh) or give --dkf-run")
-    os.makedirs(a.out_dir, exist_ok=True)
+    exe = ec.seed_dkf_run(a, root, "seed002_example")
     F, G, Qe = np.array(wfs.PHI), np.array(wfs.GAMMA), np.array(wfs.QE)
     P0 = wfs.stationary(F, G @ Qe @ G.T)
     verdicts = []
@@ -143,10 +138,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         # ---- 1. steady state and the long run --------------------------------------
         sys.stderr.write(f"seed 002: steady state and one {a.long}-step run ...\n")
-        xs, ys = simulate(np.random.default_rng(2002), a.long, P0)
-        path = os.path.join(tmp, "long.json")
-        with open(path, "w") as f:
-            json.dump(scenario(xs, ys, P0, "long"), f)
+        xs, path = simulated_file(tmp, "long.json", "long", 2002, a.long, P0)
         st = dkf_run(exe, "fusion_steady", path, path + ".st")
         cen = dkf_run(exe, "central_kf", path, path + ".cen")
         steady = {"P_Sii": [st["P_S"][i][i] for i in range(L)], "w": st["w"],
@@ -213,10 +205,7 @@ def main():
 
         # ---- 3. self-tuning -----------------------------------------------------------------
         sys.stderr.write(f"seed 002: self-tuning run of {a.st_steps} steps ...\n")
-        xs, ys = simulate(np.random.default_rng(2003), a.st_steps, P0)
-        path = os.path.join(tmp, "st.json")
-        with open(path, "w") as f:
-            json.dump(scenario(xs, ys, P0, "selftune"), f)
+        xs, path = simulated_file(tmp, "st.json", "selftune", 2003, a.st_steps, P0)
         stt = dkf_run(exe, "fusion_selftune", path, path + ".stt")
         opt = dkf_run(exe, "fusion_scalar", path, path + ".opt")
     ah = np.array(stt["a_hat"])

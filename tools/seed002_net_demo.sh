@@ -22,14 +22,11 @@
 # fused (scalar, matrix) and centralized MSE. Exit 0 only if the process run
 # equals the in-process one and every step fused all 5 sensors.
 set -euo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-build=$root/build/seed002-demo
-do_build=1 steps=2000 inproc=0
+steps=2000
 # URL, demo_options, demo_build, demo_require, demo_mode, loopback_only, start_run,
-# wall_since
-. "$root/ports/linux/net/tests/net_common.sh"
-demo_options seed002_net_demo.sh 24 "$@"
+# wall_since, demo_processes
+. "$(dirname "$0")/../ports/linux/net/tests/net_common.sh"
+demo_options seed002_net_demo.sh 23 seed002-demo "$@"
 [[ $steps =~ ^[0-9]+$ ]] && (( steps >= 50 && steps <= 100000 )) ||
   { echo "seed002_net_demo.sh: --steps must be 50..100000" >&2; exit 2; }
 
@@ -80,8 +77,8 @@ for f in fusion_scalar fusion_matrix local_kf central_kf; do
 done
 if [[ $mode == udpm ]]; then
   echo "== seed 002: dkf-sim + 5 dkf-node --filter local_kf + dkf-fusion over $URL (namespace), $steps steps"
-  DKF_S002_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/proc" "$bin" ||
-    echo "seed002_net_demo.sh: a process failed (see $out/proc/*.log)"
+  demo_processes seed002_net_demo.sh DKF_S002_DEMO_INNER "a process failed (see $out/proc/*.log)" \
+    "$scn" "$out/proc" "$bin"
 fi
 
 python3 - "$mode" "$out" "$scn" <<'PY'

@@ -39,6 +39,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import example_common as ec  # noqa: E402
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_GRAPH = os.path.join(HERE, "..", "tests", "vectors", "uif", "s003_200node_alg1.json")
 
@@ -299,9 +302,7 @@ def main(argv=None):
     ax.set_title("Alg 3 -> Alg 1 (200 nodes, 732 edges, 10 steps)", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "fig_tw_gap_eta.png"), dpi=72)
-    plt.close(fig)
+    ec.save_figure(plt, fig, args.out, "fig_tw_gap_eta.png")
 
     fig, ax = plt.subplots(1, 3, figsize=(11, 3.4))
     n_axis = np.arange(1, T + 1)
@@ -314,9 +315,7 @@ def main(argv=None):
         ax[i].grid(alpha=0.3)
     ax[0].set_yscale("log")
     ax[0].legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "fig_tw_rmse_time.png"), dpi=72)
-    plt.close(fig)
+    ec.save_figure(plt, fig, args.out, "fig_tw_rmse_time.png")
 
     fig, ax = plt.subplots(figsize=(5, 3.4))
     ax.semilogx(eta_rmse, [eta_input[e] for e in eta_rmse], "ro-", label="Alg 3 (dkf)")
@@ -328,9 +327,7 @@ def main(argv=None):
     ax.set_ylabel("input RMSE")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "fig_tw_eta_rmse.png"), dpi=72)
-    plt.close(fig)
+    ec.save_figure(plt, fig, args.out, "fig_tw_eta_rmse.png")
 
     # ---- checks that do not depend on luck ------------------------------------------------
     gaps = [gap[e]["vec_rule_max"] for e in eta_gap]
@@ -346,17 +343,11 @@ def main(argv=None):
         ("gap non-increasing over the eta sweep down to the rounding floor %g" % floor,
          all(b <= a * 1.01 for a, b in zip(gaps, gaps[1:]) if a > floor)),
     ]
-    for f in ("fig_tw_gap_eta.png", "fig_tw_rmse_time.png", "fig_tw_eta_rmse.png"):
-        checks.append(("wrote " + f, os.path.getsize(os.path.join(args.out, f)) > 1000))
-    for c, ok in checks:
-        print("check: %-72s %s" % (c, "ok" if ok else "FAILED"))
+    checks += ec.wrote_checks(args.out, ("fig_tw_gap_eta.png", "fig_tw_rmse_time.png",
+                                         "fig_tw_eta_rmse.png"))
+    ec.print_checks(checks, 72)
     log("done in %.1f s" % (time.time() - t0))
-    bad = [c for c, ok in checks if not ok]
-    if bad:
-        print("CHECKS FAILED: " + "; ".join(bad))
-        return 1
-    print("CHECKS PASSED")
-    return 0
+    return ec.verdict(checks)
 
 
 if __name__ == "__main__":

@@ -21,15 +21,12 @@
 # packets and reals sent per node per step, retransmissions, wall time.
 # Exit 0 only if every process run equals the in-process one.
 set -euo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-build=$root/build/tw-net-demo
-do_build=1 nodes=36 steps=40 inproc=0
-tools=$root/ports/linux/net/tests
+nodes=36 steps=40
 # URL, demo_options, demo_tw_programs, demo_mode, loopback_only, start_run, run_tw_nodes,
-# wall_since, demo_auth_exit
-. "$tools/net_common.sh"
-demo_options tw_net_demo.sh 24 "$@"
+# demo_timed, demo_processes, demo_auth_exit
+. "$(dirname "$0")/../ports/linux/net/tests/net_common.sh"
+demo_options tw_net_demo.sh 22 tw-net-demo "$@"
+tools=$root/ports/linux/net/tests
 
 # ---- inside the namespace (--inner): every node its own process --------------------
 if [[ ${#inner[@]} -gt 0 && ${DKF_TW_DEMO_INNER:-0} == 1 ]]; then
@@ -63,17 +60,15 @@ demo_mode tw_net_demo.sh node "the in-process simulation (dkf-run --filter tw2|t
 
 rows=()
 for alg in 2 3; do
-  t0=$(date +%s.%N)
-  "$run" --filter tw$alg --quiet --output "$out/inproc$alg.json" "$scn"
-  wall_since "$t0" "$out/inproc$alg.wall"
-  t0=$(date +%s.%N)
-  "$run" --filter tw$alg --quiet --metrics-only --output "$out/big$alg.json" "$big"
-  wall_since "$t0" "$out/big$alg.wall"
+  demo_timed "$out/inproc$alg.wall" \
+    "$run" --filter tw$alg --quiet --output "$out/inproc$alg.json" "$scn"
+  demo_timed "$out/big$alg.wall" \
+    "$run" --filter tw$alg --quiet --metrics-only --output "$out/big$alg.json" "$big"
   if [[ $mode == udpm ]]; then
     echo "== alg $alg: $nodes dkf-tw-node processes over $URL (namespace)"
-    DKF_TW_DEMO_INNER=1 "$here/netns.sh" exec -- "$0" --inner "$scn" $alg "$out/proc$alg" "$node" \
-      "$out/keys" ||
-      echo "tw_net_demo.sh: a node process failed (see $out/proc$alg/node*.log)"
+    demo_processes tw_net_demo.sh DKF_TW_DEMO_INNER \
+      "a node process failed (see $out/proc$alg/node*.log)" \
+      "$scn" $alg "$out/proc$alg" "$node" "$out/keys"
     python3 "$tools/tw_check.py" --scenario "$scn" --alg $alg --nodes-dir "$out/proc$alg" \
       --runner "$out/inproc$alg.json" --runner-rel 0 --json > "$out/proc$alg.check" || true
   fi

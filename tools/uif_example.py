@@ -39,6 +39,9 @@ import time
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import example_common as ec  # noqa: E402
+
 K = 100
 A = [[0.5, 2, 0, 0, 0], [0, 0.2, 1, 0, 1], [0, 0, 0.3, 0, 1], [0, 0, 0, 0.7, 1],
      [0, 0, 0, 0, 0.1]]
@@ -181,14 +184,27 @@ def fmt(v, w=6, p=3):
     return " ".join("%*.*f" % (w, p, a) for a in v)
 
 
+def case_grid(plt, third):
+    """A 3 x 3 figure, one column per plotted case (the third titled `third`): fig, ax and
+    the (case, title) pairs."""
+    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
+    return fig, ax, [("nrtsf_df_sin", "NRTSF-DF d1=sin"), ("nrtsf_df_zero", "NRTSF-DF d1=0"),
+                     ("nrtsf", third)]
+
+
+def label_grid(ax):
+    """The 3 x 3 grid's legend (top left) and k axis labels (bottom row)."""
+    ax[0, 0].legend(fontsize=7)
+    for a in ax[2]:
+        a.set_xlabel("k", fontsize=8)
+
+
 def plots(outdir, run0, d_sin):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
-    for c, (key, title) in enumerate([("nrtsf_df_sin", "NRTSF-DF d1=sin"),
-                                      ("nrtsf_df_zero", "NRTSF-DF d1=0"),
-                                      ("nrtsf", "NRTSF (H=0), d_{k-1|k}")]):
+    fig, ax, cases = case_grid(plt, "NRTSF (H=0), d_{k-1|k}")
+    for c, (key, title) in enumerate(cases):
         x, d, out, k0, nrtsf = run0[key]
         ks = np.arange(k0, K)
         dt = d[:, ks - 1] if nrtsf else d[:, ks]
@@ -200,17 +216,11 @@ def plots(outdir, run0, d_sin):
             a.plot(ks, ds[:, i], "r-", lw=0.9, label="estimate")
             a.set_title("%s: d%d (%s)" % (title, i + 1, EST[est[i]]), fontsize=8)
             a.tick_params(labelsize=7)
-    ax[0, 0].legend(fontsize=7)
-    for a in ax[2]:
-        a.set_xlabel("k", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(outdir, "fig_uif_inputs.png"), dpi=72)
-    plt.close(fig)
+    label_grid(ax)
+    ec.save_figure(plt, fig, outdir, "fig_uif_inputs.png")
 
-    fig, ax = plt.subplots(3, 3, figsize=(10, 7), sharex=True)
-    for c, (key, title) in enumerate([("nrtsf_df_sin", "NRTSF-DF d1=sin"),
-                                      ("nrtsf_df_zero", "NRTSF-DF d1=0"),
-                                      ("nrtsf", "NRTSF (H=0)")]):
+    fig, ax, cases = case_grid(plt, "NRTSF (H=0)")
+    for c, (key, title) in enumerate(cases):
         x, d, out, k0, nrtsf = run0[key]
         ks = np.arange(k0, K)
         xs = np.array(out["x"])
@@ -223,12 +233,8 @@ def plots(outdir, run0, d_sin):
                            alpha=0.15, lw=0, label="+-2 sqrt(Px)")
             a.set_title("%s: x%d" % (title, i + 1), fontsize=8)
             a.tick_params(labelsize=7)
-    ax[0, 0].legend(fontsize=7)
-    for a in ax[2]:
-        a.set_xlabel("k", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(outdir, "fig_uif_states.png"), dpi=72)
-    plt.close(fig)
+    label_grid(ax)
+    ec.save_figure(plt, fig, outdir, "fig_uif_states.png")
 
 
 def main(argv=None):
@@ -359,17 +365,10 @@ def main(argv=None):
                    a["rtsf_paper"].refused[0] == 3 and "rank" in a["rtsf_paper"].refused[1]))
     checks.append(("every estimate finite", all(a[c[0]].finite for c in CASES
                                                 if c[0] != "rtsf_paper")))
-    for f in ("fig_uif_inputs.png", "fig_uif_states.png"):
-        checks.append(("wrote " + f, os.path.getsize(os.path.join(args.out, f)) > 1000))
-    bad = [c for c, ok in checks if not ok]
-    for c, ok in checks:
-        print("check: %-70s %s" % (c, "ok" if ok else "FAILED"))
+    checks += ec.wrote_checks(args.out, ("fig_uif_inputs.png", "fig_uif_states.png"))
+    ec.print_checks(checks, 70)
     print("uif_example: %.1f s" % (time.time() - t0), file=sys.stderr)
-    if bad:
-        print("CHECKS FAILED: " + "; ".join(bad))
-        return 1
-    print("CHECKS PASSED")
-    return 0
+    return ec.verdict(checks)
 
 
 if __name__ == "__main__":

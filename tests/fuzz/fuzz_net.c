@@ -82,6 +82,16 @@ static void node_msg(const uint8_t *d, size_t n)
     FUZZ_REQUIRE(memcmp(&meta, &meta2, sizeof meta) == 0);
 }
 
+/* Before a decode: no rejection counted, out filled with 0xa5 bytes (a
+ * decoder that refuses must leave them), keep and again the same. */
+static void poison(dkf_net_rejects_t *rej, void *out, void *keep, void *again, size_t size)
+{
+    memset(rej, 0, sizeof *rej);
+    memset(out, 0xa5, size);
+    memcpy(keep, out, size);
+    memcpy(again, out, size);
+}
+
 /* The decode / untouched / re-encode checks of one codec.h type T whose
  * decoder is dkf_net_decode_<name>(buf, len, &ex, &out, &rej). */
 #define FUZZ_NET_TYPE(fn, T, name)                                                  \
@@ -92,9 +102,7 @@ static void node_msg(const uint8_t *d, size_t n)
         dkf_net_rejects_t rej;                                                      \
         dkf_net_verdict_t v;                                                        \
         size_t len;                                                                 \
-        memset(&rej, 0, sizeof rej);                                                \
-        memset(&out, 0xa5, sizeof out);                                             \
-        keep = again = out;                                                         \
+        poison(&rej, &out, &keep, &again, sizeof out);                              \
         v = dkf_net_decode_##name(d, n, &ex, &out, &rej);                           \
         if (!accepted(&rej, v, &out, &keep, sizeof out)) return;                    \
         FUZZ_REQUIRE(dkf_net_encode_##name(re, sizeof re, &len, &out) == 0);        \
@@ -114,9 +122,7 @@ static void status(const uint8_t *d, size_t n)
     dkf_net_rejects_t rej;
     dkf_net_verdict_t v;
     size_t len;
-    memset(&rej, 0, sizeof rej);
-    memset(&out, 0xa5, sizeof out);
-    keep = again = out;
+    poison(&rej, &out, &keep, &again, sizeof out);
     static const dkf_net_from_t node1 = {1, DKF_NET_ROLE_NODE, 1},
                                 centre = {1, DKF_NET_ROLE_FUSION, -1};
     v = dkf_net_decode_status(d, n, NULL, &out, &rej);
@@ -141,9 +147,7 @@ static void tw(const uint8_t *d, size_t n, int alg)
     dkf_net_rejects_t rej;
     dkf_net_verdict_t v;
     size_t len;
-    memset(&rej, 0, sizeof rej);
-    memset(&out, 0xa5, sizeof out);
-    keep = again = out;
+    poison(&rej, &out, &keep, &again, sizeof out);
     /* the channel: none (any node), or node 1's */
     v = dkf_net_twa_decode(d, n, &c, n % 2 ? 1 : -1, &out, &rej);
     if (!accepted(&rej, v, &out, &keep, sizeof out)) return;

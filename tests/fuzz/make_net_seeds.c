@@ -53,6 +53,14 @@ static int accepted(int sel, const void *data, size_t len)
 }
 
 /* A seed the receivers must accept. */
+/* The seeds' envelope: one time, the model id, sequence number seq. */
+static void set_meta(dkf_net_meta_t *meta, int64_t seq)
+{
+    meta->utime = 1700000000000000LL;
+    meta->model_id = FUZZ_NET_MODEL_ID;
+    meta->seq = seq;
+}
+
 static void put_ok(const char *name, int sel, const void *data, size_t len)
 {
     if (!accepted(sel, data, len)) {
@@ -94,9 +102,7 @@ static void node_msgs(void)
     }
     prev = msg;
     prev.k = 6;
-    meta.utime = 1700000000000000LL;
-    meta.model_id = FUZZ_NET_MODEL_ID;
-    meta.seq = 6;
+    set_meta(&meta, 6);
     meta.meas_utime = 1700000000000100LL;
     meta.epoch = 0;
     meta.k_start = 1;
@@ -117,9 +123,7 @@ static void meas_truth_status(void)
     dkf_net_status_t st;
     size_t len;
     memset(&m, 0, sizeof m);
-    m.meta.utime = 1700000000000000LL;
-    m.meta.model_id = FUZZ_NET_MODEL_ID;
-    m.meta.seq = 2;
+    set_meta(&m.meta, 2);
     m.node = 2;
     m.k = 3;
     m.m = fuzz_net_m[2];
@@ -156,9 +160,7 @@ static void fused(void)
     size_t i, len;
     unsigned char *nn;
     memset(&f, 0, sizeof f);
-    f.meta.utime = 1700000000000000LL;
-    f.meta.model_id = FUZZ_NET_MODEL_ID;
-    f.meta.seq = 4;
+    set_meta(&f.meta, 4);
     f.k = 5;
     f.degraded = 1;
     f.revision = 1;

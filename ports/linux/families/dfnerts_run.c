@@ -172,13 +172,10 @@ static int bind_data(df_runner_t *u, char *err, size_t errlen)
 static dkf_runner_t *df_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
-    df_runner_t *u = calloc(1, sizeof *u);
+    df_runner_t *u = dkf_runner_calloc(sizeof *u, s, err, errlen, rc);
     size_t len;
     dkf_status_t st;
-    if (u == NULL) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        return NULL;
-    }
+    if (u == NULL) return NULL;
     u->fl = fl;
     u->s = s;
     u->impl = *(const dkf_df_impl_t *)fl->impl;

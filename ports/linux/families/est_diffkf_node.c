@@ -46,7 +46,6 @@ static dkf_node_filter_t *node_create(const dkf_filter_t *f, const dkf_scenario_
                                       char *err, size_t errlen)
 {
     dkf_node_filter_t *nf = calloc(1, sizeof *nf);
-    dkf_status_t st;
     (void)f;
     if (nf == NULL || dkf_sensor_model_init(&nf->md, s, id) != 0) goto oom;
     nf->store_len = DKF_DIFFKF_STORAGE_LEN(s->n, nf->md.m, nf->md.p);
@@ -57,17 +56,10 @@ static dkf_node_filter_t *node_create(const dkf_filter_t *f, const dkf_scenario_
     nf->id = id;
     dkf_scn_to_real(nf->x0, dkf_scn_at(dkf_scn_init(s, "x00"), 0), s->n);
     dkf_scn_to_real(nf->P0, dkf_scn_P00_local(s, id), s->n * s->n);
-    if ((st = node_init(nf)) != DKF_OK) {
-        snprintf(err, errlen, "%s: node %zu: dkf_diffkf_init failed: %s (%d)", s->file, id,
-                 dkf_status_str(st), (int)st);
-        node_destroy(nf);
-        return NULL;
-    }
-    return nf;
+    return dkf_host_node_created(nf, node_destroy, s, id, "dkf_diffkf_init", node_init(nf), err,
+                                 errlen);
 oom:
-    snprintf(err, errlen, "node %zu: out of memory", id);
-    node_destroy(nf);
-    return NULL;
+    return dkf_host_node_created(nf, node_destroy, s, id, NULL, DKF_OK, err, errlen);
 }
 
 /* Loads the dynamics at kd and the sensor model at km, and y. */

@@ -54,7 +54,6 @@ static dkf_node_filter_t *node_create(const dkf_filter_t *f, const dkf_scenario_
                                       char *err, size_t errlen)
 {
     dkf_node_filter_t *nf = calloc(1, sizeof *nf);
-    dkf_status_t st;
     (void)f;
     if (nf == NULL) goto oom;
     if (dkf_wf_model_load(s, &nf->md, err, errlen) != 0) {
@@ -67,17 +66,10 @@ static dkf_node_filter_t *node_create(const dkf_filter_t *f, const dkf_scenario_
     nf->m = nf->md.m[id];
     nf->store_len = DKF_WFUSION_LOCAL_STORAGE_LEN(nf->n, nf->m);
     if ((nf->store = calloc(nf->store_len, sizeof *nf->store)) == NULL) goto oom;
-    if ((st = node_init(nf)) != DKF_OK) {
-        snprintf(err, errlen, "%s: node %zu: dkf_wfusion_local_init failed: %s (%d)", s->file,
-                 id, dkf_status_str(st), (int)st);
-        node_destroy(nf);
-        return NULL;
-    }
-    return nf;
+    return dkf_host_node_created(nf, node_destroy, s, id, "dkf_wfusion_local_init",
+                                 node_init(nf), err, errlen);
 oom:
-    snprintf(err, errlen, "node %zu: out of memory", id);
-    node_destroy(nf);
-    return NULL;
+    return dkf_host_node_created(nf, node_destroy, s, id, NULL, DKF_OK, err, errlen);
 }
 
 /* Local step k on y_i(k): xp = F_{k-1} x(k-1|k-1) kept for the payload. */

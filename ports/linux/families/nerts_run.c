@@ -217,13 +217,10 @@ static dkf_status_t start(nerts_runner_t *u, size_t len)
 static dkf_runner_t *nerts_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                   const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
-    nerts_runner_t *u = calloc(1, sizeof *u);
+    nerts_runner_t *u = dkf_runner_calloc(sizeof *u, s, err, errlen, rc);
     size_t len, extra, i;
     dkf_status_t st;
-    if (u == NULL) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        return NULL;
-    }
+    if (u == NULL) return NULL;
     u->fl = fl;
     u->s = s;
     u->impl = *(const nerts_impl_t *)fl->impl;

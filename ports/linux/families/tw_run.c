@@ -485,11 +485,8 @@ static void tw_destroy(dkf_runner_t *r)
 static dkf_runner_t *tw_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
-    tw_runner_t *t = calloc(1, sizeof *t);
-    if (t == NULL) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        return NULL;
-    }
+    tw_runner_t *t = dkf_runner_calloc(sizeof *t, s, err, errlen, rc);
+    if (t == NULL) return NULL;
     t->fl = fl;
     t->s = s;
     t->o = tw_opts(fl, o);

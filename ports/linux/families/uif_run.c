@@ -164,13 +164,10 @@ static void uif_destroy(dkf_runner_t *r)
 static dkf_runner_t *uif_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                 const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
-    uif_runner_t *u = calloc(1, sizeof *u);
+    uif_runner_t *u = dkf_runner_calloc(sizeof *u, s, err, errlen, rc);
     size_t len, i, dmax;
     dkf_status_t st;
-    if (u == NULL) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        return NULL;
-    }
+    if (u == NULL) return NULL;
     u->fl = fl;
     u->s = s;
     u->kind = *(const dkf_uif_kind_t *)fl->impl;

@@ -447,12 +447,9 @@ static int central_step(wf_runner_t *u, char *err, size_t errlen, long k)
 static dkf_runner_t *wf_create(const dkf_filter_t *fl, const dkf_run_opts_t *o,
                                const dkf_scenario_t *s, char *err, size_t errlen, int *rc)
 {
-    wf_runner_t *u = calloc(1, sizeof *u);
+    wf_runner_t *u = dkf_runner_calloc(sizeof *u, s, err, errlen, rc);
     dkf_status_t st;
-    if (u == NULL) {
-        *rc = dkf_failf(err, errlen, DKF_EXIT_USAGE, "%s: out of memory", s->file);
-        return NULL;
-    }
+    if (u == NULL) return NULL;
     u->fl = fl;
     u->s = s;
     u->kind = *(const wf_kind_t *)fl->impl;

@@ -130,6 +130,10 @@ struct dkf_family {
     const dkf_run_optset_t *options;
 };
 
+/* A family's create starts with this: calloc(1, size) of its runner, or
+ * NULL with *rc = DKF_EXIT_USAGE and err "FILE: out of memory". */
+void *dkf_runner_calloc(size_t size, const dkf_scenario_t *s, char *err, size_t errlen, int *rc);
+
 /* ---- a family's sensor-node role ----------------------------------------------
  * What one networked sensor node computes: its local filter, fed its own
  * measurements one time at a time, whose estimate after every step goes to

@@ -14,6 +14,7 @@
 #include "auth.h"
 #include "model.h"
 #include "net.h"
+#include "report.h"
 
 volatile sig_atomic_t dkf_cli_stop = 0;
 
@@ -101,37 +102,89 @@ int dkf_cli_expired(int64_t start_mono_us, double timeout_s)
     return timeout_s > 0 && (double)(dkf_net_mono_us() - start_mono_us) >= timeout_s * 1e6;
 }
 
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, unsigned ports,
-                 const char *path, long run, dkf_scenario_t **s, dkf_net_t **net)
+void dkf_cli_opts_init(dkf_cli_opts_t *o, const char *prefix)
+{
+    memset(o, 0, sizeof *o);
+    o->url = DKF_NET_DEFAULT_URL;
+    o->prefix = prefix;
+    o->hb_ms = DKF_NET_HEARTBEAT_US / 1000;
+}
+
+/* Takes c (with arg) into o if it is a shared option: 1 when it was one,
+ * 0 when it is not, -1 after printing why its value is bad. */
+static int shared_opt(const char *prog, int c, const char *arg, dkf_cli_opts_t *o)
+{
+    switch (c) {
+    case 'u': o->url = arg; return 1;
+    case 'p': o->prefix = arg; return 1;
+    case 't': return dkf_cli_num(prog, "--timeout", arg, 0, 1e7, &o->timeout) ? -1 : 1;
+    case 'H': return dkf_cli_num(prog, "--heartbeat-ms", arg, 1, 1e7, &o->hb_ms) ? -1 : 1;
+    case 'K': o->key_dir = arg; return 1;
+    case 'R': o->ready = arg; return 1;
+    case 'L': o->ports |= DKF_CLI_SPLIT; return 1;
+    case 'Y': o->ports |= DKF_CLI_DIRECT; return 1;
+    case 'q': o->quiet = 1; return 1;
+    default: return 0;
+    }
+}
+
+int dkf_cli_getopt(const char *prog, int argc, char **argv, const char *shortopts,
+                   const struct option *longopts, void (*usage)(FILE *), dkf_cli_opts_t *o)
+{
+    int c, shared;
+    opterr = 0;
+    do {
+        c = getopt_long(argc, argv, shortopts, longopts, NULL);
+        if (c == -1) return DKF_CLI_END;
+        if (c == 'h') {
+            usage(stdout);
+            return DKF_CLI_HELP;
+        }
+        if (c == '?' || c == ':') {
+            dkf_cli_bad_option(prog, argc, argv, optind, optopt);
+            return DKF_CLI_BAD;
+        }
+        shared = shared_opt(prog, c, optarg, o);
+    } while (shared > 0);
+    return shared < 0 ? DKF_CLI_BAD : c;
+}
+
+int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, long run,
+                 uint32_t self, dkf_scenario_t **s, dkf_net_t **net)
 {
     char err[256];
-    if (strlen(prefix) == 0 || strlen(prefix) > 24) {
-        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, prefix);
+    int st;
+    if (strlen(o->prefix) == 0 || strlen(o->prefix) > 24) {
+        fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, o->prefix);
         return DKF_EXIT_USAGE;
     }
-    if (dkf_net_check_url(url, err, sizeof err) != 0) {
+    if (dkf_net_check_url(o->url, err, sizeof err) != 0) {
         fprintf(stderr, "%s: %s\n", prog, err);
         return DKF_EXIT_USAGE;
     }
     *s = dkf_cli_scenario(prog, path, run);
     if (*s == NULL) return DKF_EXIT_USAGE;
-    *net = dkf_net_open(url, err, sizeof err);
+    *net = dkf_net_open(o->url, err, sizeof err);
     if (*net == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_scenario_free(*s);
         *s = NULL;
         return DKF_EXIT_RUN;
     }
-    if (((ports & DKF_CLI_SPLIT) && dkf_net_split(*net, err, sizeof err) != 0) ||
-        ((ports & DKF_CLI_DIRECT) && dkf_net_direct(*net, err, sizeof err) != 0)) {
+    if (((o->ports & DKF_CLI_SPLIT) && dkf_net_split(*net, err, sizeof err) != 0) ||
+        ((o->ports & DKF_CLI_DIRECT) && dkf_net_direct(*net, err, sizeof err) != 0)) {
         fprintf(stderr, "%s: %s\n", prog, err);
+        st = DKF_EXIT_USAGE;
+    } else {
+        st = dkf_cli_auth(prog, o->key_dir, *net, self, (*s)->nsensors);
+    }
+    if (st != DKF_EXIT_OK) {
         dkf_net_close(*net);
         dkf_scenario_free(*s);
         *net = NULL;
         *s = NULL;
-        return DKF_EXIT_USAGE;
     }
-    return DKF_EXIT_OK;
+    return st;
 }
 
 /* Installs what dkf_auth_open* made of key_dir (NULL: that failed, err says

@@ -1,7 +1,7 @@
 /*
- * cli.h - what dkf-sim, dkf-node and dkf-fusion share: signals, option
- * parsing helpers, scenario loading, files. Every error is one line
- * "PROG: problem" on stderr.
+ * cli.h - what dkf-sim, dkf-node, dkf-fusion and dkf-tw-node share: signals,
+ * the shared options and their parsing, scenario loading, files. Every error
+ * is one line "PROG: problem" on stderr.
  *
  * Exit statuses (DKF_EXIT_*, util.h): 0 done, 2 bad options or input,
  * 3 a run failure (core call failed, a peer failed, a wait timed out),
@@ -10,8 +10,10 @@
 #ifndef DKF_NET_CLI_H
 #define DKF_NET_CLI_H
 
+#include <getopt.h>
 #include <signal.h>
 #include <stdint.h>
+#include <stdio.h>
 
 #include <jansson.h>
 
@@ -37,18 +39,64 @@ void dkf_cli_bad_option(const char *prog, int argc, char **argv, int optind_now,
  * the network (dkf_net_check_scenario). NULL after printing the error. */
 dkf_scenario_t *dkf_cli_scenario(const char *prog, const char *path, long run);
 
-/* The transport options of dkf_cli_open (a bit set). */
+/* The transport options (a bit set; dkf_cli_opts_t.ports). */
 #define DKF_CLI_SPLIT 1u  /* --split-ports: dkf_net_split */
 #define DKF_CLI_DIRECT 2u /* --direct-recv: dkf_net_direct */
 
+/* The options the network programs share. A program lists in its
+ * getopt_long table the ones it takes (DKF_CLI_LONGOPTS_*; short letters
+ * u p t q h), fills the defaults with dkf_cli_opts_init and reads its
+ * options with dkf_cli_getopt. */
+typedef struct {
+    const char *url;     /* -u, --url (default DKF_NET_DEFAULT_URL) */
+    const char *prefix;  /* -p, --prefix */
+    const char *key_dir; /* --key-dir DIR (NULL: unauthenticated) */
+    const char *ready;   /* --ready-file F (NULL: none) */
+    double timeout;      /* -t, --timeout S in [0, 1e7] (0: never) */
+    double hb_ms;        /* --heartbeat-ms MS in [1, 1e7] */
+    unsigned ports;      /* --split-ports, --direct-recv (DKF_CLI_*) */
+    int quiet;           /* -q, --quiet */
+} dkf_cli_opts_t;
+
+/* --url, --prefix, --timeout, --key-dir, --quiet, --help: every program's. */
+#define DKF_CLI_LONGOPTS_NET                                                                    \
+    {"url", required_argument, NULL, 'u'}, {"prefix", required_argument, NULL, 'p'},           \
+        {"timeout", required_argument, NULL, 't'}, {"key-dir", required_argument, NULL, 'K'},  \
+        {"quiet", no_argument, NULL, 'q'}, {"help", no_argument, NULL, 'h'}
+/* --split-ports and --direct-recv (DKF_CLI_PORTS_USAGE). */
+#define DKF_CLI_LONGOPTS_PORTS                                                                  \
+    {"split-ports", no_argument, NULL, 'L'}, {"direct-recv", no_argument, NULL, 'Y'}
+#define DKF_CLI_LONGOPT_DIRECT {"direct-recv", no_argument, NULL, 'Y'}
+#define DKF_CLI_LONGOPT_READY {"ready-file", required_argument, NULL, 'R'}
+#define DKF_CLI_LONGOPT_HEARTBEAT {"heartbeat-ms", required_argument, NULL, 'H'}
+
+/* The defaults: DKF_NET_DEFAULT_URL, prefix, DKF_NET_HEARTBEAT_US, the rest
+ * 0 or NULL. */
+void dkf_cli_opts_init(dkf_cli_opts_t *o, const char *prefix);
+
+/* What dkf_cli_getopt returns instead of an option of the program's own. */
+#define DKF_CLI_END (-1)  /* no more options (optind: the first operand) */
+#define DKF_CLI_HELP (-2) /* --help: usage(stdout) has been called */
+#define DKF_CLI_BAD (-3)  /* a bad option or value: said on stderr */
+
+/* getopt_long (opterr = 0) over the program's table: takes the shared
+ * options into o and answers --help with usage(stdout); returns the next
+ * option of the program's own, or DKF_CLI_END, DKF_CLI_HELP, DKF_CLI_BAD. */
+int dkf_cli_getopt(const char *prog, int argc, char **argv, const char *shortopts,
+                   const struct option *longopts, void (*usage)(FILE *), dkf_cli_opts_t *o);
+
+/* The exit status after dkf_cli_getopt returned c < 0 other than
+ * DKF_CLI_END: DKF_EXIT_OK after --help, else DKF_EXIT_USAGE. */
+#define DKF_CLI_EXIT(c) ((c) == DKF_CLI_HELP ? DKF_EXIT_OK : DKF_EXIT_USAGE)
+
 /* The set-up dkf-sim, dkf-node and dkf-fusion share: checks --prefix
  * (1..24 characters) and the URL (dkf_net_check_url), loads the scenario
- * (dkf_cli_scenario) and opens the transport with the options in ports
- * (DKF_CLI_*). On success *s and *net are set and DKF_EXIT_OK is
- * returned; otherwise the error has been printed, nothing is left open,
- * and the exit status to return is given. */
-int dkf_cli_open(const char *prog, const char *prefix, const char *url, unsigned ports,
-                 const char *path, long run, dkf_scenario_t **s, dkf_net_t **net);
+ * (dkf_cli_scenario), opens the transport with o->ports and authenticates
+ * as `self` (dkf_cli_auth with o->key_dir). On success *s and *net are set
+ * and DKF_EXIT_OK is returned; otherwise the error has been printed,
+ * nothing is left open, and the exit status to return is given. */
+int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, long run,
+                 uint32_t self, dkf_scenario_t **s, dkf_net_t **net);
 
 /* The usage lines of --split-ports and --direct-recv. */
 #define DKF_CLI_PORTS_USAGE                                                                 \

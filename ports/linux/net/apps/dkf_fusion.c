@@ -66,65 +66,42 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
-        {"url", required_argument, NULL, 'u'},       {"prefix", required_argument, NULL, 'p'},
+        DKF_CLI_LONGOPTS_NET, DKF_CLI_LONGOPTS_PORTS, DKF_CLI_LONGOPT_READY,
+        DKF_CLI_LONGOPT_HEARTBEAT,
         {"deadline-ms", required_argument, NULL, 'd'}, {"output", required_argument, NULL, 'o'},
-        {"journal", required_argument, NULL, 'j'},
-        {"heartbeat-ms", required_argument, NULL, 'H'}, {"timeout", required_argument, NULL, 't'},
-        {"ready-file", required_argument, NULL, 'R'}, {"quiet", no_argument, NULL, 'q'},
-        {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
-        {"steady", required_argument, NULL, 'S'},
-        {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
-    const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL, *out = NULL;
-    const char *key_dir = NULL;
-    unsigned ports = 0;
+        {"journal", required_argument, NULL, 'j'},     {"steady", required_argument, NULL, 'S'},
+        {NULL, 0, NULL, 0}};
+    dkf_cli_opts_t co;
+    const char *out = NULL;
     const char *jpath = NULL;
     char jdefault[4096];
     FILE *jf = NULL;
-    double deadline_ms = DKF_NET_DEADLINE_US / 1000, hb_ms = DKF_NET_HEARTBEAT_US / 1000;
-    double timeout = 0, steady = 0;
-    int quiet = 0, c, code;
+    double deadline_ms = DKF_NET_DEADLINE_US / 1000;
+    double steady = 0;
+    int c, code;
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s;
     dkf_net_t *net;
     dkf_net_fusion_t *fu;
     int64_t start;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":u:p:d:o:j:t:qh", longopts, NULL)) != -1) {
+    dkf_cli_opts_init(&co, DKF_NET_PREFIX);
+    while ((c = dkf_cli_getopt(prog, argc, argv, ":u:p:d:o:j:t:qh", longopts, usage, &co)) > 0) {
         switch (c) {
-        case 'u': url = optarg; break;
-        case 'p': prefix = optarg; break;
         case 'd': if (dkf_cli_num(prog, "--deadline-ms", optarg, 1, 1e8, &deadline_ms)) return DKF_EXIT_USAGE; break;
         case 'o': out = optarg; break;
         case 'j': jpath = optarg; break;
-        case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
-        case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
-        case 'R': ready = optarg; break;
-        case 'K': key_dir = optarg; break;
-        case 'L': ports |= DKF_CLI_SPLIT; break;
-        case 'Y': ports |= DKF_CLI_DIRECT; break;
         case 'S': if (dkf_cli_num(prog, "--steady", optarg, 0, 0.5, &steady)) return DKF_EXIT_USAGE; break;
-        case 'q': quiet = 1; break;
-        case 'h': usage(stdout); return DKF_EXIT_OK;
-        default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
     }
+    if (c != DKF_CLI_END) return DKF_CLI_EXIT(c);
     if (optind != argc - 1) {
         fprintf(stderr, "%s: expected one SCENARIO file (see --help)\n", prog);
         return DKF_EXIT_USAGE;
     }
-    {
-        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], 0, &s, &net);
-        if (st != DKF_EXIT_OK) return st;
-        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_FUSION, 0),
-                          s->nsensors);
-        if (st != DKF_EXIT_OK) {
-            dkf_net_close(net);
-            dkf_scenario_free(s);
-            return st;
-        }
-    }
-    fu = dkf_net_fusion_create(net, s, prefix, (int64_t)(deadline_ms * 1000), err, sizeof err);
+    code = dkf_cli_open(prog, &co, argv[optind], 0, dkf_auth_signer(DKF_NET_ROLE_FUSION, 0), &s,
+                        &net);
+    if (code != DKF_EXIT_OK) return code;
+    fu = dkf_net_fusion_create(net, s, co.prefix, (int64_t)(deadline_ms * 1000), err, sizeof err);
     if (fu != NULL && steady > 0 && dkf_net_fusion_steady(fu, steady) != 0) {
         snprintf(err, sizeof err, "--steady: a weighted-fusion centre has no gain to settle");
         dkf_net_fusion_free(fu);
@@ -153,12 +130,12 @@ int main(int argc, char **argv)
     }
     dkf_cli_signals();
     start = dkf_net_mono_us();
-    dkf_net_fusion_tick(fu, start, (int64_t)(hb_ms * 1000));
-    if (ready != NULL && dkf_cli_touch(prog, ready) != 0) dkf_cli_stop = 1;
+    dkf_net_fusion_tick(fu, start, (int64_t)(co.hb_ms * 1000));
+    if (co.ready != NULL && dkf_cli_touch(prog, co.ready) != 0) dkf_cli_stop = 1;
     while (!dkf_cli_stop && dkf_net_fusion_state(fu) == DKF_NET_RUNNING &&
-           !dkf_cli_expired(start, timeout)) {
+           !dkf_cli_expired(start, co.timeout)) {
         if (dkf_net_handle(net, 10) < 0) break;
-        dkf_net_fusion_tick(fu, dkf_net_mono_us(), (int64_t)(hb_ms * 1000));
+        dkf_net_fusion_tick(fu, dkf_net_mono_us(), (int64_t)(co.hb_ms * 1000));
     }
     code = dkf_net_fusion_state(fu) == DKF_NET_DONE     ? DKF_EXIT_OK
            : dkf_net_fusion_state(fu) == DKF_NET_FAILED ? DKF_EXIT_RUN
@@ -178,7 +155,7 @@ int main(int argc, char **argv)
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
         json_decref(doc);
     }
-    if (!quiet) {
+    if (!co.quiet) {
         const dkf_net_counts_t *cn = dkf_net_fusion_counts(fu);
         fprintf(stderr, "%s: %s at k=%ld/%zu; degraded %lld, messages accepted %lld, rejected "
                 "%lld, stale %lld\n", prog,

@@ -84,33 +84,27 @@ static void usage(FILE *f)
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
-        {"id", required_argument, NULL, 'i'},       {"url", required_argument, NULL, 'u'},
-        {"filter", required_argument, NULL, 'f'},
-        {"prefix", required_argument, NULL, 'p'},   {"heartbeat-ms", required_argument, NULL, 'H'},
-        {"timeout", required_argument, NULL, 't'},  {"ready-file", required_argument, NULL, 'R'},
-        {"quiet", no_argument, NULL, 'q'},          {"help", no_argument, NULL, 'h'},
-        {"drop", required_argument, NULL, 'D'},     {"dup", required_argument, NULL, 'U'},
-        {"reorder", required_argument, NULL, 'O'},  {"seed", required_argument, NULL, 'S'},
-        {"exit-at", required_argument, NULL, 'X'},  {"join-at", required_argument, NULL, 'J'},
-        {"epoch", required_argument, NULL, 'E'},    {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
-        {NULL, 0, NULL, 0}};
+        DKF_CLI_LONGOPTS_NET, DKF_CLI_LONGOPTS_PORTS, DKF_CLI_LONGOPT_READY,
+        DKF_CLI_LONGOPT_HEARTBEAT,
+        {"id", required_argument, NULL, 'i'},      {"filter", required_argument, NULL, 'f'},
+        {"drop", required_argument, NULL, 'D'},    {"dup", required_argument, NULL, 'U'},
+        {"reorder", required_argument, NULL, 'O'}, {"seed", required_argument, NULL, 'S'},
+        {"exit-at", required_argument, NULL, 'X'}, {"join-at", required_argument, NULL, 'J'},
+        {"epoch", required_argument, NULL, 'E'},   {NULL, 0, NULL, 0}};
     dkf_net_faults_t fx;
+    dkf_cli_opts_t co;
     double seed = 0, exit_at = 0, join_at = 0, epoch = 0;
-    const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *ready = NULL;
-    const char *key_dir = NULL;
-    unsigned ports = 0;
     const dkf_filter_t *filter = dkf_registry_find("dkf");
-    double id = -1, hb_ms = DKF_NET_HEARTBEAT_US / 1000, timeout = 0;
-    int quiet = 0, c, code;
+    double id = -1;
+    int c, code;
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s;
     dkf_net_t *net;
     dkf_net_node_t *nd;
     int64_t start;
     memset(&fx, 0, sizeof fx);
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":i:f:u:p:t:qh", longopts, NULL)) != -1) {
+    dkf_cli_opts_init(&co, DKF_NET_PREFIX);
+    while ((c = dkf_cli_getopt(prog, argc, argv, ":i:f:u:p:t:qh", longopts, usage, &co)) > 0) {
         switch (c) {
         case 'i': if (dkf_cli_num(prog, "--id", optarg, 0, 1e6, &id)) return DKF_EXIT_USAGE; break;
         case 'f':
@@ -121,14 +115,6 @@ int main(int argc, char **argv)
                 return DKF_EXIT_USAGE;
             }
             break;
-        case 'u': url = optarg; break;
-        case 'p': prefix = optarg; break;
-        case 'H': if (dkf_cli_num(prog, "--heartbeat-ms", optarg, 1, 1e7, &hb_ms)) return DKF_EXIT_USAGE; break;
-        case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
-        case 'R': ready = optarg; break;
-        case 'K': key_dir = optarg; break;
-        case 'L': ports |= DKF_CLI_SPLIT; break;
-        case 'Y': ports |= DKF_CLI_DIRECT; break;
         case 'D': if (dkf_cli_num(prog, "--drop", optarg, 0, 100, &fx.drop_pct)) return DKF_EXIT_USAGE; break;
         case 'U': if (dkf_cli_num(prog, "--dup", optarg, 0, 100, &fx.dup_pct)) return DKF_EXIT_USAGE; break;
         case 'O': if (dkf_cli_num(prog, "--reorder", optarg, 0, 100, &fx.reorder_pct)) return DKF_EXIT_USAGE; break;
@@ -136,11 +122,9 @@ int main(int argc, char **argv)
         case 'X': if (dkf_cli_num(prog, "--exit-at", optarg, 1, 1e9, &exit_at)) return DKF_EXIT_USAGE; break;
         case 'J': if (dkf_cli_num(prog, "--join-at", optarg, 1, 1e9, &join_at)) return DKF_EXIT_USAGE; break;
         case 'E': if (dkf_cli_num(prog, "--epoch", optarg, 0, 1e6, &epoch)) return DKF_EXIT_USAGE; break;
-        case 'q': quiet = 1; break;
-        case 'h': usage(stdout); return DKF_EXIT_OK;
-        default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
     }
+    if (c != DKF_CLI_END) return DKF_CLI_EXIT(c);
     if (id < 0) {
         fprintf(stderr, "%s: --id: missing (see --help)\n", prog);
         return DKF_EXIT_USAGE;
@@ -159,18 +143,10 @@ int main(int argc, char **argv)
                                                                   : "expected one SCENARIO file");
         return DKF_EXIT_USAGE;
     }
-    {
-        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], 0, &s, &net);
-        if (st != DKF_EXIT_OK) return st;
-        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_NODE, (size_t)id),
-                          s->nsensors);
-        if (st != DKF_EXIT_OK) {
-            dkf_net_close(net);
-            dkf_scenario_free(s);
-            return st;
-        }
-    }
-    nd = dkf_net_node_create(net, s, filter, (size_t)id, prefix, err, sizeof err);
+    code = dkf_cli_open(prog, &co, argv[optind], 0,
+                        dkf_auth_signer(DKF_NET_ROLE_NODE, (size_t)id), &s, &net);
+    if (code != DKF_EXIT_OK) return code;
+    nd = dkf_net_node_create(net, s, filter, (size_t)id, co.prefix, err, sizeof err);
     if (nd == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_net_close(net);
@@ -180,18 +156,18 @@ int main(int argc, char **argv)
     dkf_net_node_faults(nd, &fx);
     dkf_cli_signals();
     start = dkf_net_mono_us();
-    dkf_net_node_tick(nd, start, (int64_t)(hb_ms * 1000));
-    if (ready != NULL && dkf_cli_touch(prog, ready) != 0) dkf_cli_stop = 1;
+    dkf_net_node_tick(nd, start, (int64_t)(co.hb_ms * 1000));
+    if (co.ready != NULL && dkf_cli_touch(prog, co.ready) != 0) dkf_cli_stop = 1;
     while (!dkf_cli_stop && dkf_net_node_state(nd) != DKF_NET_DONE &&
            dkf_net_node_state(nd) != DKF_NET_FAILED && !dkf_net_node_exited(nd) &&
-           !dkf_cli_expired(start, timeout)) {
+           !dkf_cli_expired(start, co.timeout)) {
         if (dkf_net_handle(net, 20) < 0) break;
-        dkf_net_node_tick(nd, dkf_net_mono_us(), (int64_t)(hb_ms * 1000));
+        dkf_net_node_tick(nd, dkf_net_mono_us(), (int64_t)(co.hb_ms * 1000));
     }
     leave_realtime();
     if (dkf_net_node_exited(nd)) {
         /* a crash, as asked: no final status, no summary but this line */
-        if (!quiet) fprintf(stderr, "%s %ld: %s\n", prog, (long)id, dkf_net_node_error(nd));
+        if (!co.quiet) fprintf(stderr, "%s %ld: %s\n", prog, (long)id, dkf_net_node_error(nd));
         dkf_net_node_free(nd);
         dkf_net_close(net);
         dkf_scenario_free(s);
@@ -204,7 +180,7 @@ int main(int argc, char **argv)
     }
     dkf_net_node_report(nd);
     if (code == DKF_EXIT_RUN) fprintf(stderr, "%s: %s\n", prog, dkf_net_node_error(nd));
-    if (!quiet) {
+    if (!co.quiet) {
         const dkf_net_counts_t *cn = dkf_net_node_counts(nd);
         int64_t dr, du, re;
         dkf_net_node_fault_counts(nd, &dr, &du, &re);

@@ -92,38 +92,31 @@ static int has_fused(dkf_net_sim_t *sim, long k)
 int main(int argc, char **argv)
 {
     static const struct option longopts[] = {
+        DKF_CLI_LONGOPTS_NET, DKF_CLI_LONGOPTS_PORTS,
         {"rate", required_argument, NULL, 'r'},      {"lockstep", no_argument, NULL, 'l'},
-        {"url", required_argument, NULL, 'u'},       {"prefix", required_argument, NULL, 'p'},
         {"run", required_argument, NULL, 'n'},       {"wait-ready", required_argument, NULL, 'w'},
         {"no-wait", no_argument, NULL, 'W'},         {"step-timeout", required_argument, NULL, 's'},
-        {"timeout", required_argument, NULL, 't'},   {"quiet", no_argument, NULL, 'q'},
-        {"optional-node", required_argument, NULL, 'O'}, {"key-dir", required_argument, NULL, 'K'},
-        {"split-ports", no_argument, NULL, 'L'},    {"direct-recv", no_argument, NULL, 'Y'},
-        {"help", no_argument, NULL, 'h'},            {NULL, 0, NULL, 0}};
-    const char *url = DKF_NET_DEFAULT_URL, *prefix = DKF_NET_PREFIX, *key_dir = NULL;
-    unsigned ports = 0;
+        {"optional-node", required_argument, NULL, 'O'}, {NULL, 0, NULL, 0}};
+    dkf_cli_opts_t co;
     double optional[DKF_NET_MAX_NODES];
     size_t noptional = 0, oi;
-    double rate = 0, run = 0, wait_ready = 10, step_timeout = 10, timeout = 0;
-    int lockstep = 0, no_wait = 0, quiet = 0, c, code = DKF_EXIT_OK;
+    double rate = 0, run = 0, wait_ready = 10, step_timeout = 10;
+    int lockstep = 0, no_wait = 0, c, code = DKF_EXIT_OK;
     char err[DKF_SCN_ERR_LEN];
     dkf_scenario_t *s;
     dkf_net_t *net;
     dkf_net_sim_t *sim;
     int64_t start, next;
     long j, last;
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":r:lu:p:t:qh", longopts, NULL)) != -1) {
+    dkf_cli_opts_init(&co, DKF_NET_PREFIX);
+    while ((c = dkf_cli_getopt(prog, argc, argv, ":r:lu:p:t:qh", longopts, usage, &co)) > 0) {
         switch (c) {
         case 'r': if (dkf_cli_num(prog, "--rate", optarg, 1e-3, 1e6, &rate)) return DKF_EXIT_USAGE; break;
         case 'l': lockstep = 1; break;
-        case 'u': url = optarg; break;
-        case 'p': prefix = optarg; break;
         case 'n': if (dkf_cli_num(prog, "--run", optarg, 0, 1e9, &run)) return DKF_EXIT_USAGE; break;
         case 'w': if (dkf_cli_num(prog, "--wait-ready", optarg, 0, 1e6, &wait_ready)) return DKF_EXIT_USAGE; break;
         case 'W': no_wait = 1; break;
         case 's': if (dkf_cli_num(prog, "--step-timeout", optarg, 0.001, 1e6, &step_timeout)) return DKF_EXIT_USAGE; break;
-        case 't': if (dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &timeout)) return DKF_EXIT_USAGE; break;
         case 'O':
             if (noptional == DKF_NET_MAX_NODES ||
                 dkf_cli_num(prog, "--optional-node", optarg, 0, DKF_NET_MAX_NODES - 1,
@@ -131,14 +124,9 @@ int main(int argc, char **argv)
                 return DKF_EXIT_USAGE;
             ++noptional;
             break;
-        case 'q': quiet = 1; break;
-        case 'K': key_dir = optarg; break;
-        case 'L': ports |= DKF_CLI_SPLIT; break;
-        case 'Y': ports |= DKF_CLI_DIRECT; break;
-        case 'h': usage(stdout); return DKF_EXIT_OK;
-        default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return DKF_EXIT_USAGE;
         }
     }
+    if (c != DKF_CLI_END) return DKF_CLI_EXIT(c);
     if (rate <= 0 && !lockstep) {
         fprintf(stderr, "%s: give --rate HZ, --lockstep or both (see --help)\n", prog);
         return DKF_EXIT_USAGE;
@@ -152,17 +140,10 @@ int main(int argc, char **argv)
                 optind != argc - 1 ? "expected one SCENARIO file" : "--run: expected an integer");
         return DKF_EXIT_USAGE;
     }
-    {
-        int st = dkf_cli_open(prog, prefix, url, ports, argv[optind], (long)run, &s, &net);
-        if (st != DKF_EXIT_OK) return st;
-        st = dkf_cli_auth(prog, key_dir, net, dkf_auth_signer(DKF_NET_ROLE_SIM, 0), s->nsensors);
-        if (st != DKF_EXIT_OK) {
-            dkf_net_close(net);
-            dkf_scenario_free(s);
-            return st;
-        }
-    }
-    sim = dkf_net_sim_create(net, s, prefix, err, sizeof err);
+    code = dkf_cli_open(prog, &co, argv[optind], (long)run, dkf_auth_signer(DKF_NET_ROLE_SIM, 0),
+                        &s, &net);
+    if (code != DKF_EXIT_OK) return code;
+    sim = dkf_net_sim_create(net, s, co.prefix, err, sizeof err);
     if (sim == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_net_close(net);
@@ -183,7 +164,7 @@ int main(int argc, char **argv)
     start = dkf_net_mono_us();
     dkf_net_sim_tick(sim, start, 0);
     if (!no_wait)
-        code = wait_for(net, sim, is_ready, 0, wait_ready, start, timeout, "peers");
+        code = wait_for(net, sim, is_ready, 0, wait_ready, start, co.timeout, "peers");
     last = dkf_net_sim_last(sim);
     next = dkf_net_mono_us();
     for (j = 1; code == DKF_EXIT_OK && j <= last; ++j) {
@@ -193,7 +174,7 @@ int main(int argc, char **argv)
             break;
         }
         if (lockstep && j >= 2)
-            code = wait_for(net, sim, has_fused, j - 1, step_timeout, start, timeout,
+            code = wait_for(net, sim, has_fused, j - 1, step_timeout, start, co.timeout,
                             "fused estimate");
         if (code == DKF_EXIT_OK && rate > 0) {
             /* paced: keep handling (status, fused) until the next tick; in
@@ -216,10 +197,10 @@ int main(int argc, char **argv)
     }
     /* paced: wait for the last fused step as well (unless told not to wait) */
     if (code == DKF_EXIT_OK && !lockstep && !no_wait)
-        code = wait_for(net, sim, has_fused, last - 1, step_timeout, start, timeout,
+        code = wait_for(net, sim, has_fused, last - 1, step_timeout, start, co.timeout,
                         "fused estimate");
     dkf_net_sim_report(sim, code == DKF_EXIT_OK ? DKF_NET_DONE : DKF_NET_FAILED);
-    if (!quiet) {
+    if (!co.quiet) {
         const dkf_net_counts_t *cn = dkf_net_sim_counts(sim);
         fprintf(stderr, "%s: %s; published %lld measurements, fused steps seen up to k=%ld\n",
                 prog, code == DKF_EXIT_OK ? "done" : code == DKF_EXIT_STOPPED ? "stopped" : "failed",

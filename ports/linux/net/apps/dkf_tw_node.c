@@ -65,9 +65,10 @@ static void usage(FILE *f)
 }
 
 typedef struct {
-    double id, alg, eta, round_to, start_to, retry_ms, timeout, drop, seed;
-    const char *url, *prefix, *output, *ready, *scn, *filter, *case_sel, *key_dir;
-    int quiet, join, direct;
+    dkf_cli_opts_t co; /* --url, --prefix, --timeout, --key-dir, --ready-file, ... */
+    double id, alg, eta, round_to, start_to, retry_ms, drop, seed;
+    const char *output, *scn, *filter, *case_sel;
+    int join;
 } opts_t;
 
 static int prefix_ok(const char *p)
@@ -83,28 +84,23 @@ static int prefix_ok(const char *p)
 static int parse(int argc, char **argv, opts_t *o)
 {
     static const struct option lo[] = {
+        DKF_CLI_LONGOPTS_NET, DKF_CLI_LONGOPT_DIRECT, DKF_CLI_LONGOPT_READY,
         {"id", required_argument, NULL, 'i'},          {"alg", required_argument, NULL, 'a'},
         {"eta", required_argument, NULL, 'e'},         {"output", required_argument, NULL, 'o'},
-        {"url", required_argument, NULL, 'u'},         {"prefix", required_argument, NULL, 'p'},
-        {"round-timeout", required_argument, NULL, 'R'}, {"start-timeout", required_argument, NULL, 'S'},
-        {"retry-ms", required_argument, NULL, 'M'},    {"timeout", required_argument, NULL, 't'},
-        {"drop", required_argument, NULL, 'D'},        {"seed", required_argument, NULL, 'Z'},
-        {"ready-file", required_argument, NULL, 'F'},  {"quiet", no_argument, NULL, 'q'},
-        {"help", no_argument, NULL, 'h'},              {"filter", required_argument, NULL, 'f'},
+        {"round-timeout", required_argument, NULL, 'T'}, {"start-timeout", required_argument, NULL, 'S'},
+        {"retry-ms", required_argument, NULL, 'M'},    {"drop", required_argument, NULL, 'D'},
+        {"seed", required_argument, NULL, 'Z'},        {"filter", required_argument, NULL, 'f'},
         {"case", required_argument, NULL, 'c'},        {"join", no_argument, NULL, 'J'},
-        {"key-dir", required_argument, NULL, 'K'},     {"direct-recv", no_argument, NULL, 'Y'},
         {NULL, 0, NULL, 0}};
-    int c;
+    int c, bad = 0;
     memset(o, 0, sizeof *o);
+    dkf_cli_opts_init(&o->co, "DKF_TW");
     o->id = o->alg = o->eta = -1;
     o->round_to = 2;
     o->start_to = 10;
     o->retry_ms = 50;
-    o->url = DKF_NET_DEFAULT_URL;
-    o->prefix = "DKF_TW";
-    opterr = 0;
-    while ((c = getopt_long(argc, argv, ":i:a:f:c:e:o:u:p:t:qh", lo, NULL)) != -1) {
-        int bad = 0;
+    while (!bad && (c = dkf_cli_getopt(prog, argc, argv, ":i:a:f:c:e:o:u:p:t:qh", lo, usage,
+                                       &o->co)) > 0) {
         switch (c) {
         case 'i': bad = dkf_cli_num(prog, "--id", optarg, 0, 1e6, &o->id); break;
         case 'a': bad = dkf_cli_num(prog, "--alg", optarg, 2, 3, &o->alg); break;
@@ -113,23 +109,15 @@ static int parse(int argc, char **argv, opts_t *o)
         case 'c': o->case_sel = optarg; break;
         case 'J': o->join = 1; break;
         case 'o': o->output = optarg; break;
-        case 'u': o->url = optarg; break;
-        case 'p': o->prefix = optarg; break;
-        case 'R': bad = dkf_cli_num(prog, "--round-timeout", optarg, 1e-3, 1e6, &o->round_to); break;
+        case 'T': bad = dkf_cli_num(prog, "--round-timeout", optarg, 1e-3, 1e6, &o->round_to); break;
         case 'S': bad = dkf_cli_num(prog, "--start-timeout", optarg, 1e-3, 1e6, &o->start_to); break;
         case 'M': bad = dkf_cli_num(prog, "--retry-ms", optarg, 1, 1e6, &o->retry_ms); break;
-        case 't': bad = dkf_cli_num(prog, "--timeout", optarg, 0, 1e7, &o->timeout); break;
         case 'D': bad = dkf_cli_num(prog, "--drop", optarg, 0, 100, &o->drop); break;
         case 'Z': bad = dkf_cli_num(prog, "--seed", optarg, 0, 4e9, &o->seed); break;
-        case 'F': o->ready = optarg; break;
-        case 'K': o->key_dir = optarg; break;
-        case 'Y': o->direct = 1; break;
-        case 'q': o->quiet = 1; break;
-        case 'h': usage(stdout); exit(DKF_EXIT_OK);
-        default: dkf_cli_bad_option(prog, argc, argv, optind, optopt); return -1;
         }
-        if (bad) return -1;
     }
+    if (bad || c == DKF_CLI_BAD) return -1;
+    if (c == DKF_CLI_HELP) exit(DKF_EXIT_OK);
     if (o->alg >= 0 && o->filter != NULL) {
         fprintf(stderr, "%s: --alg and --filter: give one\n", prog);
         return -1;
@@ -146,9 +134,9 @@ static int parse(int argc, char **argv, opts_t *o)
         fprintf(stderr, "%s: --eta: only for --alg 3 (tw3)\n", prog);
         return -1;
     }
-    if (!prefix_ok(o->prefix)) {
+    if (!prefix_ok(o->co.prefix)) {
         fprintf(stderr, "%s: --prefix %s: letters, digits and _ only (at most 32)\n", prog,
-                o->prefix);
+                o->co.prefix);
         return -1;
     }
     o->scn = argv[optind];
@@ -233,7 +221,7 @@ static int run(const opts_t *o, ctx_t *x)
     const char *what;
     while (st == DKF_RA_RUNNING || st == DKF_RA_LINGER || st == DKF_RA_JOINING) {
         int64_t now = dkf_net_mono_us(), w = dkf_ra_wait_us(ra, now) / 1000;
-        if (dkf_cli_stop || dkf_cli_expired(t0, o->timeout)) break;
+        if (dkf_cli_stop || dkf_cli_expired(t0, o->co.timeout)) break;
         if (dkf_net_drain(x->net, (int)(w > 100 ? 100 : w)) < 0) {
             fprintf(stderr, "%s: node %.0f: LCM receive failed\n", prog, o->id);
             st = DKF_NET_TWA_FAILED;
@@ -253,7 +241,7 @@ static int run(const opts_t *o, ctx_t *x)
     }
     if (write_result(o, x, what, (double)(dkf_net_mono_us() - t0) * 1e-6) != 0 && code == 0)
         code = DKF_EXIT_RUN;
-    if (!o->quiet) {
+    if (!o->co.quiet) {
         const dkf_ra_counters_t *c = dkf_ra_counters(ra);
         fprintf(stderr,
                 "%s: node %.0f %s: %s, %zu steps (%lu degraded), sent %lu (%lu "
@@ -300,7 +288,7 @@ static int authenticate(const opts_t *o, ctx_t *x)
 {
     size_t deg;
     const size_t *row = dkf_ra_row(x->ag.ra, &deg);
-    return dkf_cli_auth_edges(prog, o->key_dir, x->net, (size_t)o->id, row, deg);
+    return dkf_cli_auth_edges(prog, o->co.key_dir, x->net, (size_t)o->id, row, deg);
 }
 
 int main(int argc, char **argv)
@@ -318,10 +306,10 @@ int main(int argc, char **argv)
         return DKF_EXIT_USAGE;
     }
     memset(&x, 0, sizeof x);
-    x.prefix = o.prefix;
+    x.prefix = o.co.prefix;
     x.drop = o.drop;
     x.rng = (uint64_t)o.seed * 1000003ULL + (uint64_t)o.id;
-    dkf_ra_chan(x.chan, o.prefix, (size_t)o.id);
+    dkf_ra_chan(x.chan, o.co.prefix, (size_t)o.id);
     ao.send = send_own;
     ao.user = &x;
     ao.round_timeout_us = (int64_t)(o.round_to * 1e6);
@@ -329,20 +317,20 @@ int main(int argc, char **argv)
     ao.retry_us = (int64_t)(o.retry_ms * 1e3);
     if (make_agent(&o, s, &ao, &x.ag, err, sizeof err) != 0) {
         fprintf(stderr, "%s: %s\n", prog, err);
-    } else if (dkf_ra_neighbours_regex(x.ag.ra, o.prefix, sub, sizeof sub) != 0) {
+    } else if (dkf_ra_neighbours_regex(x.ag.ra, o.co.prefix, sub, sizeof sub) != 0) {
         fprintf(stderr, "%s: node %.0f: no neighbours, or too many for one subscription\n", prog,
                 o.id);
-    } else if ((x.net = dkf_net_open(o.url, err, sizeof err)) == NULL) {
+    } else if ((x.net = dkf_net_open(o.co.url, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         code = DKF_EXIT_RUN;
-    } else if (o.direct && dkf_net_direct(x.net, err, sizeof err) != 0) {
+    } else if ((o.co.ports & DKF_CLI_DIRECT) && dkf_net_direct(x.net, err, sizeof err) != 0) {
         fprintf(stderr, "%s: %s\n", prog, err); /* e.g. a memq:// URL */
     } else if ((code = authenticate(&o, &x)) != DKF_EXIT_OK) {
         /* said by dkf_cli_auth_edges */
     } else if (dkf_net_subscribe(x.net, sub, on_packet, &x) != 0) {
         fprintf(stderr, "%s: %s: cannot subscribe\n", prog, sub);
         code = DKF_EXIT_RUN;
-    } else if (o.ready != NULL && dkf_cli_touch(prog, o.ready) != 0) {
+    } else if (o.co.ready != NULL && dkf_cli_touch(prog, o.co.ready) != 0) {
         code = DKF_EXIT_RUN;
     } else {
         code = run(&o, &x);

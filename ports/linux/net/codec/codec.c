@@ -254,6 +254,18 @@ static int finite_all(const double *v, size_t n)
     return 0;
 }
 
+/* The envelope of a message's wire struct w from the meta m (encoding). */
+#define WIRE_PUT_META(w, m) ((w).utime = (m).utime, (w).model_id = (m).model_id, (w).seq = (m).seq)
+
+/* The meta of a decoded measurement, truth or fused estimate (no meas_utime). */
+static void get_meta(dkf_net_meta_t *m, int64_t utime, int64_t model_id, int64_t seq)
+{
+    m->utime = utime;
+    m->model_id = model_id;
+    m->seq = seq;
+    m->meas_utime = 0;
+}
+
 static int encoded(int r, size_t *len)
 {
     if (r < 0) return -1;
@@ -277,11 +289,9 @@ int dkf_net_encode_node_msg(void *buf, size_t cap, size_t *len, const dkf_diffkf
         pf[i] = meta->has_prev ? (double)prev->xf[i] : 0.0;
         pp[i] = meta->has_prev ? (double)prev->xp[i] : 0.0;
     }
-    w.utime = meta->utime;
-    w.model_id = meta->model_id;
+    WIRE_PUT_META(w, *meta);
     w.node = (int32_t)msg->node;
     w.k = (int32_t)msg->k;
-    w.seq = meta->seq;
     w.meas_utime = meta->meas_utime;
     w.n = (int32_t)msg->n;
     w.xf = xf;
@@ -372,11 +382,9 @@ int dkf_net_encode_meas(void *buf, size_t cap, size_t *len, const dkf_net_meas_t
 {
     dkf_lcm_measurement_t w;
     if (meas->m == 0 || meas->m > DKF_NET_MAX_VEC || cap > 0x7fffffff) return -1;
-    w.utime = meas->meta.utime;
-    w.model_id = meas->meta.model_id;
+    WIRE_PUT_META(w, meas->meta);
     w.node = (int32_t)meas->node;
     w.k = (int32_t)meas->k;
-    w.seq = meas->meta.seq;
     w.m = (int32_t)meas->m;
     w.y = (double *)meas->y;
     return encoded(dkf_lcm_measurement_t_encode(buf, 0, (int)cap, &w), len);
@@ -396,10 +404,7 @@ dkf_net_verdict_t dkf_net_decode_meas(const void *buf, size_t len, const dkf_net
         v = DKF_NET_REJ_DIM;
     if (v == DKF_NET_ACCEPT && finite_all(w.y, (size_t)m)) v = DKF_NET_REJ_NONFINITE;
     if (v == DKF_NET_ACCEPT) {
-        meas->meta.utime = w.utime;
-        meas->meta.model_id = w.model_id;
-        meas->meta.seq = w.seq;
-        meas->meta.meas_utime = 0;
+        get_meta(&meas->meta, w.utime, w.model_id, w.seq);
         meas->node = (size_t)w.node;
         meas->k = w.k;
         meas->m = (size_t)m;
@@ -415,10 +420,8 @@ int dkf_net_encode_truth(void *buf, size_t cap, size_t *len, const dkf_net_truth
 {
     dkf_lcm_truth_t w;
     if (t->n == 0 || t->n > DKF_NET_MAX_VEC || cap > 0x7fffffff) return -1;
-    w.utime = t->meta.utime;
-    w.model_id = t->meta.model_id;
+    WIRE_PUT_META(w, t->meta);
     w.k = (int32_t)t->k;
-    w.seq = t->meta.seq;
     w.n = (int32_t)t->n;
     w.x = (double *)t->x;
     return encoded(dkf_lcm_truth_t_encode(buf, 0, (int)cap, &w), len);
@@ -438,10 +441,7 @@ dkf_net_verdict_t dkf_net_decode_truth(const void *buf, size_t len, const dkf_ne
     else if (w.k < 0 || w.k > ex->kmax) v = DKF_NET_REJ_STEP;
     else if (finite_all(w.x, (size_t)n)) v = DKF_NET_REJ_NONFINITE;
     if (v == DKF_NET_ACCEPT) {
-        t->meta.utime = w.utime;
-        t->meta.model_id = w.model_id;
-        t->meta.seq = w.seq;
-        t->meta.meas_utime = 0;
+        get_meta(&t->meta, w.utime, w.model_id, w.seq);
         t->k = w.k;
         t->n = (size_t)n;
         memcpy(t->x, w.x, (size_t)n * sizeof(double));
@@ -461,10 +461,8 @@ int dkf_net_encode_fused(void *buf, size_t cap, size_t *len, const dkf_net_fused
         cap > 0x7fffffff)
         return -1;
     for (i = 0; i < f->nnodes; ++i) contributed[i] = f->contributed[i] ? 1 : 0;
-    w.utime = f->meta.utime;
-    w.model_id = f->meta.model_id;
+    WIRE_PUT_META(w, f->meta);
     w.k = (int32_t)f->k;
-    w.seq = f->meta.seq;
     w.status = f->degraded ? DKF_LCM_FUSED_T_DEGRADED : DKF_LCM_FUSED_T_COMPLETE;
     w.nnodes = (int32_t)f->nnodes;
     w.contributed = contributed;
@@ -513,10 +511,7 @@ dkf_net_verdict_t dkf_net_decode_fused(const void *buf, size_t len, const dkf_ne
     if (v == DKF_NET_ACCEPT && (finite_all(w.xf, (size_t)n) || finite_all(w.xp, (size_t)n)))
         v = DKF_NET_REJ_NONFINITE;
     if (v == DKF_NET_ACCEPT) {
-        f->meta.utime = w.utime;
-        f->meta.model_id = w.model_id;
-        f->meta.seq = w.seq;
-        f->meta.meas_utime = 0;
+        get_meta(&f->meta, w.utime, w.model_id, w.seq);
         f->k = w.k;
         f->degraded = w.status == DKF_LCM_FUSED_T_DEGRADED;
         f->revision = w.revision;

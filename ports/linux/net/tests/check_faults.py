@@ -29,9 +29,14 @@ fast the loss of information is forgotten).
 """
 import argparse
 import json
+import os
 import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), *[os.pardir] * 4,
+                                "tools"))
+from make_diffkf_vectors import blkdiag  # noqa: E402  (the vectors' reference code)
 
 
 def mat(spec, k):
@@ -60,18 +65,6 @@ def prior(scn, which, i=0):
     if which == "local" and "P00_local" in init:
         return np.array(init["P00_local"][i], dtype=float)
     return np.array(init["P00"], dtype=float)
-
-
-def blkdiag(mats):
-    r = sum(x.shape[0] for x in mats)
-    c = sum(x.shape[1] for x in mats)
-    D = np.zeros((r, c))
-    i = j = 0
-    for x in mats:
-        D[i:i + x.shape[0], j:j + x.shape[1]] = x
-        i += x.shape[0]
-        j += x.shape[1]
-    return D
 
 
 def masked_dkf(scn, keep, P00=None, sensors_used=None):

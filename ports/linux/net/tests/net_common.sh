@@ -110,13 +110,19 @@ derived_ms() {
 
 # ---- the demos (tools/*_net_demo.sh) --------------------------------------------------
 
-# demo_options NAME HELP_LAST ARGS...: the options of every demo: --build-dir
-# DIR into build, --no-build (do_build=0), --steps T into steps, --in-process
-# (inproc=1), --nodes N into nodes (a demo that has set nodes), -h/--help (the
-# script's lines 2..HELP_LAST), and --inner: the arguments after it into
-# inner (the processes inside the namespace). Anything else: exit 2.
+# demo_options NAME HELP_LAST BUILD ARGS...: here and root (the demo's folder
+# and the repository), the defaults build=$root/build/BUILD, do_build=1,
+# inproc=0, then the options of every demo: --build-dir DIR into build,
+# --no-build (do_build=0), --steps T into steps, --in-process (inproc=1),
+# --nodes N into nodes (a demo that has set nodes), -h/--help (the script's
+# lines 2..HELP_LAST), and --inner: the arguments after it into inner (the
+# processes inside the namespace). Anything else: exit 2.
 demo_options() {
-  local name=$1 help_last=$2; shift 2
+  local name=$1 help_last=$2
+  here=$(cd "$(dirname "$0")" && pwd)
+  root=$(dirname "$here")
+  build=$root/build/$3 do_build=1 inproc=0
+  shift 3
   inner=()
   while [[ $# -gt 0 ]]; do
     case $1 in
@@ -210,3 +216,21 @@ demo_auth_exit() {
 
 # wall_since T0 FILE: the seconds since T0 (date +%s.%N) into FILE.
 wall_since() { echo "$(date +%s.%N) - $1" | bc > "$2"; }
+
+# demo_timed WALL CMD...: runs CMD and writes its wall time in seconds to WALL.
+demo_timed() {
+  local wall=$1 t0
+  shift
+  t0=$(date +%s.%N)
+  "$@"
+  wall_since "$t0" "$wall"
+}
+
+# demo_processes NAME VAR FAILED ARGS...: the demo again inside a private
+# network namespace (tools/netns.sh) as VAR=1 "$0" --inner ARGS..., where it
+# runs its processes; "NAME: FAILED" if one of them failed.
+demo_processes() {
+  local name=$1 var=$2 failed=$3
+  shift 3
+  env "$var=1" "$root/tools/netns.sh" exec -- "$0" --inner "$@" || echo "$name: $failed"
+}

@@ -140,3 +140,30 @@ def test_filters_in_threads_give_the_sequential_bits(mod):
         t.join()
     for w, g in zip(want, got):
         assert same_bits(w[0], g[0]) and same_bits(w[1], g[1])
+
+
+def test_a_running_filter_refuses_other_threads(mod):
+    """While filter() runs without the GIL, a call on the same object from
+    another thread raises RuntimeError; a read that gets through sees the
+    state before or after the run, never one in between."""
+    dkfm, _ = mod
+    md = rand_model(np.random.default_rng(30), 12, 6, 6000)
+    kf = make(dkfm, md, stacked=True)
+    before = kf.x.tobytes()
+    want = make(dkfm, md, stacked=True).filter(md["Y"])
+    got = []
+    t = threading.Thread(target=lambda: got.append(kf.filter(md["Y"])))
+    t.start()
+    seen = set()
+    refused = 0
+    while t.is_alive():
+        try:
+            seen.add(kf.x.tobytes())
+        except RuntimeError as e:
+            assert "running filter() in another thread" in str(e)
+            refused += 1
+    t.join()
+    after = kf.x.tobytes()
+    assert seen <= {before, after}
+    assert same_bits(got[0][0], want[0]) and after == want[0][-1].tobytes()
+    print(f"{refused} calls refused while filter() ran")

@@ -9,10 +9,13 @@
 
 #include <cmath>
 #include <cstring>
+#include <algorithm>
+#include <initializer_list>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "dkf/info.h"
 #include "dkf/kf.h"
 #include "dkf/status.h"
 
@@ -134,13 +137,6 @@ Mat vector_arg(nb::handle obj, const char *call, const char *name, size_t n)
     return v;
 }
 
-bool all_finite(const real *p, size_t len)
-{
-    for (size_t i = 0; i < len; ++i)
-        if (!std::isfinite(p[i])) return false;
-    return true;
-}
-
 dkf_mat_t view(size_t rows, size_t cols, const real *p)
 {
     // The core takes inputs as const dkf_mat_t * and never writes them.
@@ -158,15 +154,174 @@ OutArray new_array(size_t ndim, const size_t *shape)
     return a;
 }
 
+// ---- pieces the filters share ---------------------------------------------
+
+// An input named in an error message, if it is not finite.
+struct Named {
+    const char *name;
+    const real *p;
+    size_t len;
+    bool nan_missing; // a measurement: its NaNs are missing values, not errors
+};
+
+// The first of the inputs with a NaN or an infinity (a measurement: with an
+// infinity), or nullptr.
+const char *first_nonfinite(std::initializer_list<Named> inputs)
+{
+    for (const Named &in : inputs) {
+        if (!in.p) continue;
+        for (size_t i = 0; i < in.len; ++i) {
+            if (in.nan_missing ? std::isinf(in.p[i]) : !std::isfinite(in.p[i])) return in.name;
+        }
+    }
+    return nullptr;
+}
+
+// A NONFINITE status's detail: the input to blame, or an overflow.
+std::string nonfinite_detail(const char *culprit)
+{
+    if (!culprit) return "the step overflowed";
+    return std::string(culprit) + " not finite" +
+           (culprit[0] == 'y' || culprit[0] == 'z'
+                ? " (a NaN is a missing value, an infinity is refused)"
+                : "");
+}
+
+// A failed init: the status with the matrix it concerns.
+[[noreturn]] void raise_init(dkf_status_t st, const char *call, const Mat &x, const Mat &P,
+                             const std::string &sizes)
+{
+    const char *culprit = nullptr;
+    std::string detail;
+    if (st == DKF_ERR_NOT_SPD) {
+        culprit = "P0", detail = "P0 not SPD";
+    } else if (st == DKF_ERR_NONFINITE) {
+        culprit = first_nonfinite({{"x0", x.p, x.rows, false}, {"P0", P.p, P.rows * P.cols, false}});
+        detail = nonfinite_detail(culprit);
+    } else if (st == DKF_ERR_CAPACITY) {
+        detail = sizes + ": each must be at most DKF_MAX_DIM = " + std::to_string(DKF_MAX_DIM);
+    }
+    raise_status(st, call, -1, culprit, detail);
+}
+
+// A model matrix the constructor was given: one, or a stack of one per step.
+struct Stored {
+    std::vector<real> data;
+    size_t count = 0, rows = 0, cols = 0;
+    bool stacked = false;
+};
+
+Stored store(const Mat &m)
+{
+    Stored s;
+    s.data.assign(m.p, m.p + m.count * m.rows * m.cols);
+    s.count = m.count;
+    s.rows = m.rows;
+    s.cols = m.cols;
+    s.stacked = m.stacked;
+    return s;
+}
+
+Mat stored(const Stored &s)
+{
+    Mat m;
+    m.p = s.data.data();
+    m.count = s.count;
+    m.stacked = s.stacked;
+    m.rows = s.rows;
+    m.cols = s.cols;
+    return m;
+}
+
+// The constructor's matrix for a single step: refused when it is a stack.
+Mat constant(const Stored &s, const char *call, const char *name)
+{
+    if (s.stacked) {
+        value_error(call, std::string(name) + " was given as a stack (T, ., .): pass " + name +
+                              "= to this call, or run filter()");
+    }
+    return stored(s);
+}
+
+// T of the stacks among ms (0 if none), ValueError if they differ.
+size_t stack_length(std::initializer_list<const Stored *> ms, const char *call)
+{
+    size_t T = 0;
+    for (const Stored *s : ms) {
+        if (!s->stacked) continue;
+        if (T && s->count != T) value_error(call, "the stacked model matrices differ in length T");
+        T = s->count;
+    }
+    return T;
+}
+
+// A stack given to filter() must have one entry per row of Y.
+void check_stack(const Mat &m, size_t T, const char *call, const std::string &name)
+{
+    if (m.stacked && m.count != T) {
+        value_error(call, name + " is a stack of " + std::to_string(m.count) + ", Y has T = " +
+                              std::to_string(T) + " rows");
+    }
+}
+
+OutArray copy_out(const real *p, size_t ndim, const size_t *shape)
+{
+    OutArray a = new_array(ndim, shape);
+    size_t len = 1;
+    for (size_t i = 0; i < ndim; ++i) len *= shape[i];
+    std::memcpy(a.data(), p, len * sizeof(real));
+    return a;
+}
+
+// The measured components of (y, H, R) (docs/decisions.md item 57): a NaN
+// in y marks that component missing. Returns how many are measured, k; when
+// 0 < k < m, ys, Hs, Rs (m_max, m_max n, m_max^2 reals) hold y, the rows of
+// H and the rows and columns of R of the measured components, and *y, *H,
+// *R point there. No Python.
+size_t select_measured(const real **y, const real **H, const real **R, size_t m, size_t n,
+                       real *ys, real *Hs, real *Rs)
+{
+    const real *y0 = *y, *H0 = *H, *R0 = *R;
+    size_t k = 0;
+    for (size_t i = 0; i < m; ++i) k += std::isnan(y0[i]) ? 0 : 1;
+    if (k == 0 || k == m) return k;
+    size_t a = 0;
+    for (size_t i = 0; i < m; ++i) {
+        if (std::isnan(y0[i])) continue;
+        ys[a] = y0[i];
+        std::memcpy(Hs + a * n, H0 + i * n, n * sizeof(real));
+        size_t b = 0;
+        for (size_t j = 0; j < m; ++j)
+            if (!std::isnan(y0[j])) Rs[a * k + b++] = R0[i * m + j];
+        ++a;
+    }
+    *y = ys, *H = Hs, *R = Rs;
+    return k;
+}
+
+// An object one thread uses at a time: filter() marks it busy while it
+// runs without the GIL, and every other call then raises RuntimeError.
+class Guarded {
+protected:
+    bool busy_ = false;
+    void not_busy(const char *call) const
+    {
+        if (busy_) {
+            throw std::runtime_error(std::string(call) +
+                                     ": the filter is running filter() in another thread");
+        }
+    }
+};
+
 // ---- KalmanFilter ---------------------------------------------------------
 
-// The inputs of one step and what a failure names (messages of raise_status).
+// The inputs of one step (the messages of a failure name them).
 struct StepIn {
     const real *F, *Q, *u, *H, *R, *y;
     size_t m;
 };
 
-class KalmanFilter {
+class KalmanFilter : Guarded {
 public:
     KalmanFilter(nb::handle F, nb::handle Q, nb::handle H, nb::handle R, nb::handle x0,
                  nb::handle P0, nb::handle m_max)
@@ -180,13 +335,7 @@ public:
         Mat h = matrix_arg(H, call, "H", 0, n_, true);
         H_ = store(h);
         R_ = store(matrix_arg(R, call, "R", h.rows, h.rows, true));
-        T_ = 0;
-        for (const Stored *s : {&F_, &Q_, &H_, &R_}) {
-            if (!s->stacked) continue;
-            if (T_ && s->count != T_)
-                value_error(call, "the stacked model matrices differ in length T");
-            T_ = s->count;
-        }
+        stack_length({&F_, &Q_, &H_, &R_}, call);
         m_max_ = h.rows;
         if (!m_max.is_none()) {
             long mm = nb::cast<long>(m_max);
@@ -202,18 +351,8 @@ public:
         dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
         dkf_status_t st = dkf_kf_init(&kf_, n_, m_max_, storage_.data(), storage_.size(), &xm, &Pm);
         if (st != DKF_OK) {
-            const char *culprit = nullptr;
-            std::string detail;
-            if (st == DKF_ERR_NOT_SPD) {
-                culprit = "P0", detail = "P0 not SPD";
-            } else if (st == DKF_ERR_NONFINITE) {
-                culprit = !all_finite(x.p, n_) ? "x0" : "P0";
-                detail = std::string(culprit) + " not finite";
-            } else if (st == DKF_ERR_CAPACITY) {
-                detail = "n = " + std::to_string(n_) + ", m_max = " + std::to_string(m_max_) +
-                         ": each must be at most DKF_MAX_DIM = " + std::to_string(DKF_MAX_DIM);
-            }
-            raise_status(st, call, -1, culprit, detail);
+            raise_init(st, call, x, P,
+                       "n = " + std::to_string(n_) + ", m_max = " + std::to_string(m_max_));
         }
     }
     KalmanFilter(const KalmanFilter &) = delete;
@@ -237,10 +376,7 @@ public:
         static const char *call = "KalmanFilter.update";
         not_busy(call);
         Mat h = H.is_none() ? constant(H_, call, "H") : matrix_arg(H, call, "H", 0, n_, false);
-        if (h.rows > m_max_) {
-            value_error(call, "H has " + std::to_string(h.rows) + " rows, above m_max = " +
-                                  std::to_string(m_max_));
-        }
+        check_m(h, call);
         Mat r = R.is_none() ? constant(R_, call, "R")
                             : matrix_arg(R, call, "R", h.rows, h.rows, false);
         if (r.rows != h.rows) value_error(call, "R must be (m, m) with m = H's rows");
@@ -257,10 +393,7 @@ public:
         Mat f = F.is_none() ? stored(F_) : matrix_arg(F, call, "F", n_, n_, true);
         Mat q = Q.is_none() ? stored(Q_) : matrix_arg(Q, call, "Q", n_, n_, true);
         Mat h = H.is_none() ? stored(H_) : matrix_arg(H, call, "H", 0, n_, true);
-        if (h.rows > m_max_) {
-            value_error(call, "H has " + std::to_string(h.rows) + " rows, above m_max = " +
-                                  std::to_string(m_max_));
-        }
+        check_m(h, call);
         Mat r = R.is_none() ? stored(R_) : matrix_arg(R, call, "R", h.rows, h.rows, true);
         if (r.rows != h.rows) value_error(call, "R must be (m, m) with m = H's rows");
         InArray ya = as_array(Y, call, "Y");
@@ -269,15 +402,10 @@ public:
                                   shape_str(ya));
         }
         const size_t T = ya.shape(0);
-        const Mat *ms[4] = {&f, &q, &h, &r};
-        static const char *names[4] = {"F", "Q", "H", "R"};
-        for (int i = 0; i < 4; ++i) {
-            if (ms[i]->stacked && ms[i]->count != T) {
-                value_error(call, std::string(names[i]) + " is a stack of " +
-                                      std::to_string(ms[i]->count) + ", Y has T = " +
-                                      std::to_string(T) + " rows");
-            }
-        }
+        check_stack(f, T, call, "F");
+        check_stack(q, T, call, "Q");
+        check_stack(h, T, call, "H");
+        check_stack(r, T, call, "R");
         const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_};
         OutArray X = new_array(2, xs), P = new_array(3, ps);
         real *Xo = X.data(), *Po = P.data();
@@ -285,8 +413,8 @@ public:
 
         // Run on the live filter; a failure at step t restores it as it was
         // before the call (the struct and all of its storage, byte for byte).
-        dkf_kf_t saved_kf = kf_;
-        std::vector<real> saved(storage_);
+        const dkf_kf_t saved_kf = kf_;
+        const std::vector<real> saved(storage_);
         dkf_status_t st = DKF_OK;
         size_t t = 0;
         bool in_predict = true;
@@ -319,67 +447,25 @@ public:
     {
         not_busy("KalmanFilter.x");
         const size_t shape[1] = {n_};
-        OutArray a = new_array(1, shape);
-        std::memcpy(a.data(), kf_.x.data, n_ * sizeof(real));
-        return a;
+        return copy_out(kf_.x.data, 1, shape);
     }
 
     OutArray P() const
     {
         not_busy("KalmanFilter.P");
         const size_t shape[2] = {n_, n_};
-        OutArray a = new_array(2, shape);
-        std::memcpy(a.data(), kf_.P.data, n_ * n_ * sizeof(real));
-        return a;
+        return copy_out(kf_.P.data, 2, shape);
     }
 
     size_t n() const { return n_; }
     size_t m_max() const { return m_max_; }
 
 private:
-    struct Stored {
-        std::vector<real> data;
-        size_t count = 0, rows = 0, cols = 0;
-        bool stacked = false;
-    };
-
-    static Stored store(const Mat &m)
+    void check_m(const Mat &h, const char *call) const
     {
-        Stored s;
-        s.data.assign(m.p, m.p + m.count * m.rows * m.cols);
-        s.count = m.count;
-        s.rows = m.rows;
-        s.cols = m.cols;
-        s.stacked = m.stacked;
-        return s;
-    }
-
-    static Mat stored(const Stored &s)
-    {
-        Mat m;
-        m.p = s.data.data();
-        m.count = s.count;
-        m.stacked = s.stacked;
-        m.rows = s.rows;
-        m.cols = s.cols;
-        return m;
-    }
-
-    // The constructor's matrix for a single step: refused when it is a stack.
-    static Mat constant(const Stored &s, const char *call, const char *name)
-    {
-        if (s.stacked) {
-            value_error(call, std::string(name) + " was given as a stack (T, ., .): pass " +
-                                  name + "= to this call, or run filter()");
-        }
-        return stored(s);
-    }
-
-    void not_busy(const char *call) const
-    {
-        if (busy_) {
-            throw std::runtime_error(std::string(call) +
-                                     ": the filter is running filter() in another thread");
+        if (h.rows > m_max_) {
+            value_error(call, "H has " + std::to_string(h.rows) + " rows, above m_max = " +
+                                  std::to_string(m_max_));
         }
     }
 
@@ -391,31 +477,13 @@ private:
         return dkf_kf_predict(&kf_, &dyn, in.u ? &u : nullptr);
     }
 
-    // One measurement update. A NaN in y marks that component missing: the
-    // update uses the other rows of y, H and the rows and columns of R (the
-    // marginal of the measurement noise); a y of NaN only is no update
-    // (docs/decisions.md item 57). No Python.
+    // One measurement update of the measured components; none measured:
+    // no update. No Python.
     dkf_status_t step_update(const StepIn &in)
     {
-        const size_t m = in.m;
-        size_t k = 0;
-        for (size_t i = 0; i < m; ++i) k += std::isnan(in.y[i]) ? 0 : 1;
-        if (k == 0) return DKF_OK;
         const real *H = in.H, *R = in.R, *y = in.y;
-        if (k < m) {
-            size_t a = 0;
-            for (size_t i = 0; i < m; ++i) {
-                if (std::isnan(in.y[i])) continue;
-                ys_[a] = in.y[i];
-                std::memcpy(&Hs_[a * n_], in.H + i * n_, n_ * sizeof(real));
-                size_t b = 0;
-                for (size_t j = 0; j < m; ++j) {
-                    if (!std::isnan(in.y[j])) Rs_[a * k + b++] = in.R[i * m + j];
-                }
-                ++a;
-            }
-            H = Hs_.data(), R = Rs_.data(), y = ys_.data();
-        }
+        const size_t k = select_measured(&y, &H, &R, in.m, n_, ys_.data(), Hs_.data(), Rs_.data());
+        if (k == 0) return DKF_OK;
         dkf_mat_t Hm = view(k, n_, H), Rm = view(k, k, R), ym = view(k, 1, y);
         dkf_kf_meas_t meas = {&Hm, &Rm};
         return dkf_kf_update(&kf_, &meas, &ym);
@@ -428,40 +496,355 @@ private:
         const char *culprit = nullptr;
         std::string detail;
         if (st == DKF_ERR_NONFINITE) {
-            if (predict) {
-                culprit = !all_finite(in.F, n_ * n_) ? "F"
-                          : !all_finite(in.Q, n_ * n_) ? "Q"
-                          : (in.u && !all_finite(in.u, n_)) ? "u"
-                                                             : nullptr;
-            } else {
-                bool y_inf = false;
-                for (size_t i = 0; i < in.m; ++i) y_inf = y_inf || std::isinf(in.y[i]);
-                culprit = y_inf ? "y"
-                          : !all_finite(in.H, in.m * n_) ? "H"
-                          : !all_finite(in.R, in.m * in.m) ? "R"
-                                                           : nullptr;
-            }
-            detail = culprit ? std::string(culprit) + " not finite" +
-                                   (culprit[0] == 'y' ? " (a NaN is a missing value, an "
-                                                        "infinity is refused)"
-                                                      : "")
-                             : std::string("the step overflowed");
+            culprit = predict ? first_nonfinite({{"F", in.F, n_ * n_, false},
+                                                 {"Q", in.Q, n_ * n_, false},
+                                                 {"u", in.u, n_, false}})
+                              : first_nonfinite({{"y", in.y, in.m, true},
+                                                 {"H", in.H, in.m * n_, false},
+                                                 {"R", in.R, in.m * in.m, false}});
+            detail = nonfinite_detail(culprit);
         } else if (st == DKF_ERR_NOT_SPD) {
             culprit = predict ? "Q" : "R";
             detail = predict ? "the new P = F P F^T + Q is not PSD (Q indefinite?)"
                              : "S = H P H^T + R is not SPD, or the new P is not PSD "
                                "(R indefinite?)";
         }
-        std::string where = std::string(predict ? "predict" : "update");
-        if (step >= 0) detail = where + ": " + detail;
+        if (step >= 0) detail = std::string(predict ? "predict: " : "update: ") + detail;
         raise_status(st, call, step, culprit, detail);
     }
 
-    size_t n_ = 0, m_max_ = 0, T_ = 0;
+    size_t n_ = 0, m_max_ = 0;
     std::vector<real> storage_, Hs_, Rs_, ys_;
     dkf_kf_t kf_;
     Stored F_, Q_, H_, R_;
-    bool busy_ = false;
+};
+
+// ---- InformationFilter ----------------------------------------------------
+
+// A sensor's measurement model and data for one step.
+struct Sensor {
+    const real *H, *R, *z;
+    size_t m;
+};
+
+// A sequence argument of L per-sensor matrices (each one, or a stack).
+std::vector<Mat> sensor_mats(nb::handle seq, const char *call, const char *name, size_t L,
+                             const std::vector<size_t> &rows, size_t n)
+{
+    if (!nb::isinstance<nb::sequence>(seq) || nb::isinstance<nb::str>(seq))
+        throw nb::type_error((std::string(call) + ": " + name + " must be a sequence of arrays, "
+                              "one per sensor").c_str());
+    nb::sequence sq = nb::borrow<nb::sequence>(seq);
+    if (nb::len(sq) != L) {
+        value_error(call, std::string(name) + " has " + std::to_string(nb::len(sq)) +
+                              " entries, Z has " + std::to_string(L) + " sensors");
+    }
+    std::vector<Mat> out;
+    for (size_t j = 0; j < L; ++j) {
+        const std::string nm = std::string(name) + "[" + std::to_string(j) + "]";
+        out.push_back(matrix_arg(sq[j], call, nm.c_str(), rows.empty() ? 0 : rows[j],
+                                 n ? n : rows[j], true));
+    }
+    return out;
+}
+
+// (i, I) of one sensor, computed by dkf_info_contribution on the measured
+// components of z (none: i = 0, I = 0, and *measured = false). No Python.
+struct Contributor {
+    std::vector<real> work, zs, Hs, Rs;
+    size_t n = 0;
+    explicit Contributor(size_t n_, size_t m_max)
+        : work(DKF_INFO_CONTRIB_WORK(n_, m_max)), zs(m_max), Hs(m_max * n_), Rs(m_max * m_max),
+          n(n_)
+    {
+    }
+    dkf_status_t operator()(real *i, real *I, const Sensor &s, bool *measured)
+    {
+        const real *z = s.z, *H = s.H, *R = s.R;
+        const size_t k = select_measured(&z, &H, &R, s.m, n, zs.data(), Hs.data(), Rs.data());
+        *measured = k > 0;
+        if (k == 0) {
+            std::fill(i, i + n, real(0));
+            std::fill(I, I + n * n, real(0));
+            return DKF_OK;
+        }
+        dkf_mat_t im = view(n, 1, i), Im = view(n, n, I);
+        dkf_mat_t Hm = view(k, n, H), Rm = view(k, k, R), zm = view(k, 1, z);
+        dkf_kf_meas_t meas = {&Hm, &Rm};
+        return dkf_info_contribution(&im, &Im, &meas, &zm, work.data());
+    }
+};
+
+// What a failed contribution names.
+[[noreturn]] void raise_contribution(dkf_status_t st, const char *call, long step, long sensor,
+                                     const Sensor &s, size_t n)
+{
+    const char *culprit = nullptr;
+    std::string detail;
+    if (st == DKF_ERR_NONFINITE) {
+        culprit = first_nonfinite(
+            {{"z", s.z, s.m, true}, {"H", s.H, s.m * n, false}, {"R", s.R, s.m * s.m, false}});
+        detail = nonfinite_detail(culprit);
+    } else if (st == DKF_ERR_NOT_SPD) {
+        culprit = "R", detail = "R not SPD";
+    }
+    if (sensor >= 0) detail = "sensor " + std::to_string(sensor) + ": " + detail;
+    raise_status(st, call, step, culprit, detail);
+}
+
+std::vector<size_t> sensor_dims(const std::vector<Mat> &H)
+{
+    std::vector<size_t> m;
+    for (const Mat &h : H) m.push_back(h.rows);
+    return m;
+}
+
+size_t largest(const std::vector<size_t> &v)
+{
+    size_t a = 1;
+    for (size_t x : v) a = x > a ? x : a;
+    return a;
+}
+
+nb::tuple info_contribution(nb::handle z, nb::handle H, nb::handle R)
+{
+    static const char *call = "info_contribution";
+    Mat h = matrix_arg(H, call, "H", 0, 0, false);
+    Mat r = matrix_arg(R, call, "R", h.rows, h.rows, false);
+    Mat zz = vector_arg(z, call, "z", h.rows);
+    const size_t n = h.cols, is[1] = {n}, Is[2] = {n, n};
+    OutArray i = new_array(1, is), I = new_array(2, Is);
+    Contributor contribute(n, h.rows);
+    Sensor s = {h.p, r.p, zz.p, h.rows};
+    bool measured;
+    dkf_status_t st = contribute(i.data(), I.data(), s, &measured);
+    if (st != DKF_OK) raise_contribution(st, call, -1, -1, s, n);
+    return nb::make_tuple(i, I);
+}
+
+class InformationFilter : Guarded {
+public:
+    InformationFilter(nb::handle F, nb::handle Q, nb::handle x0, nb::handle P0)
+    {
+        static const char *call = "InformationFilter";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        F_ = store(matrix_arg(F, call, "F", n_, n_, true));
+        Q_ = store(matrix_arg(Q, call, "Q", n_, n_, true));
+        stack_length({&F_, &Q_}, call);
+        storage_.assign(DKF_INFO_STORAGE_LEN(n_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st = dkf_info_init(&f_, n_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st != DKF_OK) raise_init(st, call, x, P, "n = " + std::to_string(n_));
+    }
+    InformationFilter(const InformationFilter &) = delete;
+    InformationFilter &operator=(const InformationFilter &) = delete;
+
+    void predict(nb::handle F, nb::handle Q)
+    {
+        static const char *call = "InformationFilter.predict";
+        not_busy(call);
+        Mat f = F.is_none() ? constant(F_, call, "F") : matrix_arg(F, call, "F", n_, n_, false);
+        Mat q = Q.is_none() ? constant(Q_, call, "Q") : matrix_arg(Q, call, "Q", n_, n_, false);
+        dkf_status_t st = step_predict(f.p, q.p);
+        if (st != DKF_OK) raise_predict(st, call, -1, f.p, q.p);
+    }
+
+    void update(nb::handle z, nb::handle H, nb::handle R)
+    {
+        static const char *call = "InformationFilter.update";
+        not_busy(call);
+        Mat h = matrix_arg(H, call, "H", 0, n_, false);
+        Mat r = matrix_arg(R, call, "R", h.rows, h.rows, false);
+        Mat zz = vector_arg(z, call, "z", h.rows);
+        Contributor contribute(n_, h.rows);
+        std::vector<real> i(n_), I(n_ * n_);
+        Sensor s = {h.p, r.p, zz.p, h.rows};
+        bool measured;
+        dkf_status_t st = contribute(i.data(), I.data(), s, &measured);
+        if (st != DKF_OK) raise_contribution(st, call, -1, -1, s, n_);
+        if (!measured) return;
+        st = step_fuse(i.data(), I.data(), 1);
+        if (st != DKF_OK) raise_fuse(st, call, -1, i.data(), I.data(), 1);
+    }
+
+    void fuse(nb::handle i, nb::handle I)
+    {
+        static const char *call = "InformationFilter.fuse";
+        not_busy(call);
+        InArray ia = as_array(i, call, "i"), Ia = as_array(I, call, "I");
+        const bool one = ia.ndim() == 1;
+        const size_t L = one ? 1 : (ia.ndim() == 2 ? ia.shape(0) : 0);
+        const bool ok = (one && ia.shape(0) == n_ && Ia.ndim() == 2 && Ia.shape(0) == n_ &&
+                         Ia.shape(1) == n_) ||
+                        (!one && ia.ndim() == 2 && ia.shape(1) == n_ && Ia.ndim() == 3 &&
+                         Ia.shape(0) == L && Ia.shape(1) == n_ && Ia.shape(2) == n_);
+        if (!ok) {
+            value_error(call, "i, I must be (n,), (n, n) or (L, n), (L, n, n) with n = " +
+                                  std::to_string(n_) + ", got " + shape_str(ia) + ", " +
+                                  shape_str(Ia));
+        }
+        if (L == 0) return;
+        dkf_status_t st = step_fuse(ia.data(), Ia.data(), L);
+        if (st != DKF_OK) raise_fuse(st, call, -1, ia.data(), Ia.data(), L);
+    }
+
+    nb::tuple filter(nb::handle Z, nb::handle H, nb::handle R, nb::handle F, nb::handle Q)
+    {
+        static const char *call = "InformationFilter.filter";
+        not_busy(call);
+        if (!nb::isinstance<nb::sequence>(Z) || nb::isinstance<nb::str>(Z))
+            throw nb::type_error("InformationFilter.filter: Z must be a sequence of arrays "
+                                 "(T, m_j), one per sensor");
+        nb::sequence zs = nb::borrow<nb::sequence>(Z);
+        const size_t L = nb::len(zs);
+        std::vector<InArray> za;
+        for (size_t j = 0; j < L; ++j) {
+            const std::string nm = "Z[" + std::to_string(j) + "]";
+            za.push_back(as_array(zs[j], call, nm.c_str()));
+            if (za[j].ndim() != 2 || (j && za[j].shape(0) != za[0].shape(0))) {
+                value_error(call, nm + " must be (T, m_j) with the T of Z[0], got shape " +
+                                      shape_str(za[j]));
+            }
+        }
+        const size_t T = L ? za[0].shape(0) : 0;
+        std::vector<size_t> m;
+        for (size_t j = 0; j < L; ++j) m.push_back(za[j].shape(1));
+        std::vector<Mat> h = sensor_mats(H, call, "H", L, m, n_);
+        std::vector<Mat> r = sensor_mats(R, call, "R", L, m, 0);
+        Mat f = F.is_none() ? stored(F_) : matrix_arg(F, call, "F", n_, n_, true);
+        Mat q = Q.is_none() ? stored(Q_) : matrix_arg(Q, call, "Q", n_, n_, true);
+        check_stack(f, T, call, "F");
+        check_stack(q, T, call, "Q");
+        for (size_t j = 0; j < L; ++j) {
+            check_stack(h[j], T, call, "H[" + std::to_string(j) + "]");
+            check_stack(r[j], T, call, "R[" + std::to_string(j) + "]");
+        }
+        const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_};
+        OutArray X = new_array(2, xs), P = new_array(3, ps);
+        real *Xo = X.data(), *Po = P.data();
+        Contributor contribute(n_, largest(m));
+        std::vector<real> i(L * n_ + 1), I(L * n_ * n_ + 1);
+
+        const dkf_info_t saved_f = f_;
+        const std::vector<real> saved(storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        long failed_sensor = -1;
+        int phase = 0; // 0 predict, 1 contribution, 2 fuse
+        size_t used = 0;
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 0; t < T && st == DKF_OK; ++t) {
+                phase = 0;
+                st = step_predict(f.at(t), q.at(t));
+                if (st != DKF_OK) break;
+                phase = 1;
+                used = 0;
+                for (size_t j = 0; j < L; ++j) {
+                    Sensor s = {h[j].at(t), r[j].at(t), za[j].data() + t * m[j], m[j]};
+                    bool measured;
+                    st = contribute(&i[used * n_], &I[used * n_ * n_], s, &measured);
+                    if (st != DKF_OK) {
+                        failed_sensor = static_cast<long>(j);
+                        break;
+                    }
+                    used += measured ? 1 : 0;
+                }
+                if (st != DKF_OK) break;
+                phase = 2;
+                if (used) st = step_fuse(i.data(), I.data(), used);
+                if (st != DKF_OK) break;
+                std::memcpy(Xo + t * n_, f_.x.data, n_ * sizeof(real));
+                std::memcpy(Po + t * n_ * n_, f_.P.data, n_ * n_ * sizeof(real));
+            }
+            if (st != DKF_OK) {
+                f_ = saved_f;
+                std::memcpy(storage_.data(), saved.data(), saved.size() * sizeof(real));
+            }
+        }
+        busy_ = false;
+        if (st != DKF_OK) {
+            const long step = static_cast<long>(t);
+            if (phase == 0) raise_predict(st, call, step, f.at(t), q.at(t));
+            if (phase == 1) {
+                const size_t j = static_cast<size_t>(failed_sensor);
+                Sensor s = {h[j].at(t), r[j].at(t), za[j].data() + t * m[j], m[j]};
+                raise_contribution(st, call, step, failed_sensor, s, n_);
+            }
+            raise_fuse(st, call, step, i.data(), I.data(), used);
+        }
+        return nb::make_tuple(X, P);
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    OutArray x() const { return get(f_.x, "InformationFilter.x"); }
+    OutArray P() const { return get(f_.P, "InformationFilter.P"); }
+    OutArray y() const { return get(f_.y, "InformationFilter.y"); }
+    OutArray Y() const { return get(f_.Y, "InformationFilter.Y"); }
+    size_t n() const { return n_; }
+
+private:
+    dkf_status_t step_predict(const real *F, const real *Q)
+    {
+        dkf_mat_t Fm = view(n_, n_, F), Qm = view(n_, n_, Q);
+        dkf_kf_dyn_t dyn = {&Fm, &Qm};
+        return dkf_info_predict(&f_, &dyn);
+    }
+
+    // L contributions, i (L n reals) and I (L n^2 reals). No Python.
+    dkf_status_t step_fuse(const real *i, const real *I, size_t L)
+    {
+        std::vector<dkf_mat_t> iv(L), Iv(L);
+        for (size_t j = 0; j < L; ++j) {
+            iv[j] = view(n_, 1, i + j * n_);
+            Iv[j] = view(n_, n_, I + j * n_ * n_);
+        }
+        return dkf_info_fuse(&f_, iv.data(), Iv.data(), L);
+    }
+
+    [[noreturn]] void raise_predict(dkf_status_t st, const char *call, long step, const real *F,
+                                    const real *Q) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"F", F, n_ * n_, false}, {"Q", Q, n_ * n_, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = "Q", detail = "the new P = F P F^T + Q is not SPD (Q indefinite?)";
+        }
+        if (step >= 0) detail = "predict: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    [[noreturn]] void raise_fuse(dkf_status_t st, const char *call, long step, const real *i,
+                                 const real *I, size_t L) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"i", i, L * n_, false}, {"I", I, L * n_ * n_, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = "I", detail = "Y + sum I is not SPD (an indefinite contribution?)";
+        }
+        if (step >= 0) detail = "fuse: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0;
+    std::vector<real> storage_;
+    dkf_info_t f_;
+    Stored F_, Q_;
 };
 
 } // namespace DKF_PY_NS
@@ -501,5 +884,37 @@ NB_MODULE(DKF_PY_MODULE, m)
         .def("__repr__", [](const KalmanFilter &k) {
             return "<dkf KalmanFilter n=" + std::to_string(k.n()) +
                    " m_max=" + std::to_string(k.m_max()) + " " DKF_PY_DTYPE ">";
+        });
+
+    m.def("info_contribution", &info_contribution, nb::arg("z"), nb::arg("H"), nb::arg("R"),
+          "A sensor's information contribution (i, I) = (H^T R^-1 z, H^T R^-1 H) "
+          "(dkf_info_contribution); NaN components of z are missing.");
+
+    nb::class_<InformationFilter>(m, "InformationFilter",
+                                  "Linear information filter with exact multi-sensor fusion "
+                                  "(dkf/info.h).")
+        .def(nb::init<nb::handle, nb::handle, nb::handle, nb::handle>(), nb::arg("F"),
+             nb::arg("Q"), nb::arg("x0"), nb::arg("P0"))
+        .def("predict", &InformationFilter::predict, nb::arg("F") = nb::none(),
+             nb::arg("Q") = nb::none(), "Time update P = F P F^T + Q, x = F x; Y = P^-1, y = Y x.")
+        .def("update", &InformationFilter::update, nb::arg("z"), nb::arg("H"), nb::arg("R"),
+             "One sensor's measurement: its contribution, fused.")
+        .def("fuse", &InformationFilter::fuse, nb::arg("i"), nb::arg("I"),
+             "Y += sum I[j], y += sum i[j]; then P = Y^-1, x = P y.")
+        .def("filter", &InformationFilter::filter, nb::arg("Z"), nb::arg("H"), nb::arg("R"),
+             nb::kw_only(), nb::arg("F") = nb::none(), nb::arg("Q") = nb::none(),
+             "Per step t: a predict, each sensor's contribution from Z[j][t], one fuse; in one "
+             "call without the GIL. Returns (X (T, n), P (T, n, n)).")
+        .def_prop_ro("x", &InformationFilter::x, nb::rv_policy::take_ownership,
+                     "The state estimate (n,), a copy.")
+        .def_prop_ro("P", &InformationFilter::P, nb::rv_policy::take_ownership,
+                     "Its error covariance (n, n), a copy.")
+        .def_prop_ro("y", &InformationFilter::y, nb::rv_policy::take_ownership,
+                     "The information vector Y x (n,), a copy.")
+        .def_prop_ro("Y", &InformationFilter::Y, nb::rv_policy::take_ownership,
+                     "The information matrix P^-1 (n, n), a copy.")
+        .def_prop_ro("n", &InformationFilter::n)
+        .def("__repr__", [](const InformationFilter &f) {
+            return "<dkf InformationFilter n=" + std::to_string(f.n()) + " " DKF_PY_DTYPE ">";
         });
 }

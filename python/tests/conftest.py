@@ -77,3 +77,9 @@ def rel_err(got, ref) -> float:
     """max |got - ref| / max(1, max |ref|)."""
     ref = np.asarray(ref, dtype=np.float64)
     return float(np.max(np.abs(np.asarray(got, dtype=np.float64) - ref)) / max(1.0, np.max(np.abs(ref))))
+
+
+def same_bits(a, b) -> bool:
+    """The same dtype, shape and bytes."""
+    a, b = np.asarray(a), np.asarray(b)
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()

@@ -6,12 +6,7 @@ import threading
 import numpy as np
 import pytest
 
-from conftest import rand_model
-
-
-def same_bits(a, b) -> bool:
-    a, b = np.asarray(a), np.asarray(b)
-    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+from conftest import rand_model, same_bits
 
 
 def make(dkfm, md, stacked):

@@ -8,7 +8,7 @@ docs/guide/python.md is the guide.
 from __future__ import annotations
 
 from . import _dkf_double
-from ._dkf_double import InformationFilter, KalmanFilter, info_contribution
+from ._dkf_double import DifferenceKF, InformationFilter, KalmanFilter, info_contribution
 from ._errors import (
     AliasError,
     ArgError,
@@ -34,6 +34,7 @@ MAX_DIM: int = _dkf_double.MAX_DIM
 __all__ = [
     "KalmanFilter",
     "InformationFilter",
+    "DifferenceKF",
     "info_contribution",
     "Error",
     "NullError",

@@ -6,6 +6,9 @@ import numpy as np
 import numpy.typing as npt
 
 _D = TypeVar("_D", np.float32, np.float64)
+_A = npt.ArrayLike
+_O = Optional[npt.ArrayLike]
+_Out = npt.NDArray[_D]
 
 class KalmanFilterBase(Generic[_D]):
     """Linear Kalman filter, covariance form (dkf/kf.h).
@@ -15,46 +18,22 @@ class KalmanFilterBase(Generic[_D]):
     """
 
     def __init__(
-        self,
-        F: npt.ArrayLike,
-        Q: npt.ArrayLike,
-        H: npt.ArrayLike,
-        R: npt.ArrayLike,
-        x0: npt.ArrayLike,
-        P0: npt.ArrayLike,
-        *,
-        m_max: Optional[int] = None,
+        self, F: _A, Q: _A, H: _A, R: _A, x0: _A, P0: _A, *, m_max: Optional[int] = None
     ) -> None: ...
-    def predict(
-        self,
-        F: Optional[npt.ArrayLike] = None,
-        Q: Optional[npt.ArrayLike] = None,
-        u: Optional[npt.ArrayLike] = None,
-    ) -> None:
+    def predict(self, F: _O = None, Q: _O = None, u: _O = None) -> None:
         """x = F x + u, P = F P F^T + Q (the constructor's F, Q unless given)."""
-    def update(
-        self,
-        y: npt.ArrayLike,
-        H: Optional[npt.ArrayLike] = None,
-        R: Optional[npt.ArrayLike] = None,
-    ) -> None:
+    def update(self, y: _A, H: _O = None, R: _O = None) -> None:
         """The measurement update with y (m,); a NaN component is missing."""
     def filter(
-        self,
-        Y: npt.ArrayLike,
-        *,
-        F: Optional[npt.ArrayLike] = None,
-        Q: Optional[npt.ArrayLike] = None,
-        H: Optional[npt.ArrayLike] = None,
-        R: Optional[npt.ArrayLike] = None,
-    ) -> Tuple[npt.NDArray[_D], npt.NDArray[_D]]:
+        self, Y: _A, *, F: _O = None, Q: _O = None, H: _O = None, R: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D]]:
         """A predict and an update per row of Y (T, m), in one call without
         the GIL: the filtered X (T, n) and P (T, n, n)."""
     @property
-    def x(self) -> npt.NDArray[_D]:
+    def x(self) -> _Out[_D]:
         """The state estimate (n,), a copy."""
     @property
-    def P(self) -> npt.NDArray[_D]:
+    def P(self) -> _Out[_D]:
         """Its error covariance (n, n), a copy."""
     @property
     def n(self) -> int: ...
@@ -68,35 +47,61 @@ class InformationFilterBase(Generic[_D]):
     x0 (n,), P0 (n, n) SPD.
     """
 
-    def __init__(
-        self, F: npt.ArrayLike, Q: npt.ArrayLike, x0: npt.ArrayLike, P0: npt.ArrayLike
-    ) -> None: ...
-    def predict(
-        self, F: Optional[npt.ArrayLike] = None, Q: Optional[npt.ArrayLike] = None
-    ) -> None:
+    def __init__(self, F: _A, Q: _A, x0: _A, P0: _A) -> None: ...
+    def predict(self, F: _O = None, Q: _O = None) -> None:
         """P = F P F^T + Q, x = F x; Y = P^-1, y = Y x."""
-    def update(self, z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike) -> None:
+    def update(self, z: _A, H: _A, R: _A) -> None:
         """One sensor's measurement z (m,): its contribution, fused."""
-    def fuse(self, i: npt.ArrayLike, I: npt.ArrayLike) -> None:
+    def fuse(self, i: _A, I: _A) -> None:
         """Contributions i (n,) or (L, n), I (n, n) or (L, n, n): Y += sum I, y += sum i."""
     def filter(
-        self,
-        Z: Sequence[npt.ArrayLike],
-        H: Sequence[npt.ArrayLike],
-        R: Sequence[npt.ArrayLike],
-        *,
-        F: Optional[npt.ArrayLike] = None,
-        Q: Optional[npt.ArrayLike] = None,
-    ) -> Tuple[npt.NDArray[_D], npt.NDArray[_D]]:
+        self, Z: Sequence[_A], H: Sequence[_A], R: Sequence[_A], *, F: _O = None, Q: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D]]:
         """Per step t: a predict, each sensor j's contribution from Z[j][t]
         (T, m_j), one fuse, in one call without the GIL: X (T, n), P (T, n, n)."""
     @property
-    def x(self) -> npt.NDArray[_D]: ...
+    def x(self) -> _Out[_D]: ...
     @property
-    def P(self) -> npt.NDArray[_D]: ...
+    def P(self) -> _Out[_D]: ...
     @property
-    def y(self) -> npt.NDArray[_D]: ...
+    def y(self) -> _Out[_D]: ...
     @property
-    def Y(self) -> npt.NDArray[_D]: ...
+    def Y(self) -> _Out[_D]: ...
     @property
     def n(self) -> int: ...
+
+class DifferenceKFBase(Generic[_D]):
+    """The Difference Kalman filter with unknown inputs (dkf/diffkf.h).
+
+    x0 (n,), P0 (n, n) SPD: (x_{0|0}, P_{0|0}), or the prior of time 1
+    (start() without F0, Q0; filter(prior=True)). m, p: the measurement and
+    unknown-input dimensions.
+    """
+
+    def __init__(self, x0: _A, P0: _A, *, m: int, p: int) -> None: ...
+    def start(self, y1: _A, H: _A, D: _A, R: _A, *, F0: _O = None, Q0: _O = None) -> None:
+        """x_{1|0} = F0 x0 (P likewise), and y_1 with its model (H, D, R at time 1)."""
+    def step(
+        self, y_next: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A
+    ) -> None:
+        """y_{k+1} with the dynamics at k and the model at k+1: x_{k|k}, x_{k+1|k}."""
+    def filter(
+        self, Y: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A, prior: bool = False
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """start() with Y[0] = y_1, then step() per further row, in one call
+        without the GIL: XF, PF (x_{k|k}) and XN, PN (x_{k+1|k}), k = 1..T-1."""
+    xf: _Out[_D]
+    Pf: _Out[_D]
+    xn: _Out[_D]
+    Pn: _Out[_D]
+    xp: _Out[_D]
+    z: _Out[_D]
+    dz: _Out[_D]
+    J: _Out[_D]
+    L: _Out[_D]
+    K: _Out[_D]
+    k: int
+    started: bool
+    n: int
+    m: int
+    p: int

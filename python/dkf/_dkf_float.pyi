@@ -4,7 +4,7 @@ from typing import Tuple
 import numpy as np
 import numpy.typing as npt
 
-from ._api import InformationFilterBase, KalmanFilterBase
+from ._api import DifferenceKFBase, InformationFilterBase, KalmanFilterBase
 
 dtype: str
 MAX_DIM: int
@@ -14,6 +14,7 @@ def _status_str(status: int) -> str: ...
 
 class KalmanFilter(KalmanFilterBase[np.float32]): ...
 class InformationFilter(InformationFilterBase[np.float32]): ...
+class DifferenceKF(DifferenceKFBase[np.float32]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "dkf/diffkf.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
 #include "dkf/status.h"
@@ -299,6 +300,34 @@ size_t select_measured(const real **y, const real **H, const real **R, size_t m,
     return k;
 }
 
+// A filter struct and its storage as they were before a filter() run, put
+// back when a step fails (the struct and every real, byte for byte).
+template <class S> class Undo {
+public:
+    Undo(S &obj, std::vector<real> &storage)
+        : obj_(obj), storage_(storage), saved_obj_(obj), saved_(storage)
+    {
+    }
+    void restore()
+    {
+        obj_ = saved_obj_;
+        std::memcpy(storage_.data(), saved_.data(), saved_.size() * sizeof(real));
+    }
+
+private:
+    S &obj_;
+    std::vector<real> &storage_;
+    const S saved_obj_;
+    const std::vector<real> saved_;
+};
+
+// Row t of an output array of matrices shaped like M: M's reals.
+void put_row(real *out, size_t t, const dkf_mat_t &M)
+{
+    const size_t len = M.rows * M.cols;
+    std::memcpy(out + t * len, M.data, len * sizeof(real));
+}
+
 // An object one thread uses at a time: filter() marks it busy while it
 // runs without the GIL, and every other call then raises RuntimeError.
 class Guarded {
@@ -411,10 +440,8 @@ public:
         real *Xo = X.data(), *Po = P.data();
         const real *yp = ya.data();
 
-        // Run on the live filter; a failure at step t restores it as it was
-        // before the call (the struct and all of its storage, byte for byte).
-        const dkf_kf_t saved_kf = kf_;
-        const std::vector<real> saved(storage_);
+        // Run on the live filter; a failure at step t puts it back as it was.
+        Undo<dkf_kf_t> undo(kf_, storage_);
         dkf_status_t st = DKF_OK;
         size_t t = 0;
         bool in_predict = true;
@@ -430,13 +457,10 @@ public:
                 in_predict = false;
                 st = step_update(in);
                 if (st != DKF_OK) break;
-                std::memcpy(Xo + t * n_, kf_.x.data, n_ * sizeof(real));
-                std::memcpy(Po + t * n_ * n_, kf_.P.data, n_ * n_ * sizeof(real));
+                put_row(Xo, t, kf_.x);
+                put_row(Po, t, kf_.P);
             }
-            if (st != DKF_OK) {
-                kf_ = saved_kf;
-                std::memcpy(storage_.data(), saved.data(), saved.size() * sizeof(real));
-            }
+            if (st != DKF_OK) undo.restore();
         }
         busy_ = false;
         if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in, in_predict);
@@ -728,8 +752,7 @@ public:
         Contributor contribute(n_, largest(m));
         std::vector<real> i(L * n_ + 1), I(L * n_ * n_ + 1);
 
-        const dkf_info_t saved_f = f_;
-        const std::vector<real> saved(storage_);
+        Undo<dkf_info_t> undo(f_, storage_);
         dkf_status_t st = DKF_OK;
         size_t t = 0;
         long failed_sensor = -1;
@@ -758,13 +781,10 @@ public:
                 phase = 2;
                 if (used) st = step_fuse(i.data(), I.data(), used);
                 if (st != DKF_OK) break;
-                std::memcpy(Xo + t * n_, f_.x.data, n_ * sizeof(real));
-                std::memcpy(Po + t * n_ * n_, f_.P.data, n_ * n_ * sizeof(real));
+                put_row(Xo, t, f_.x);
+                put_row(Po, t, f_.P);
             }
-            if (st != DKF_OK) {
-                f_ = saved_f;
-                std::memcpy(storage_.data(), saved.data(), saved.size() * sizeof(real));
-            }
+            if (st != DKF_OK) undo.restore();
         }
         busy_ = false;
         if (st != DKF_OK) {
@@ -847,6 +867,202 @@ private:
     Stored F_, Q_;
 };
 
+// ---- DifferenceKF ---------------------------------------------------------
+
+// The model of one DKF step: dynamics at k, measurement model at k + 1.
+struct DkfStep {
+    const real *F, *Q, *B, *Rd, *H, *D, *R, *y;
+};
+
+class DifferenceKF : Guarded {
+public:
+    DifferenceKF(nb::handle x0, nb::handle P0, size_t m, size_t p)
+    {
+        static const char *call = "DifferenceKF";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows, m_ = m, p_ = p;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        if (m == 0 || p == 0) value_error(call, "m and p must be positive");
+        storage_.assign(DKF_DIFFKF_STORAGE_LEN(n_, m_, p_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st =
+            dkf_diffkf_init(&f_, n_, m_, p_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st != DKF_OK) {
+            raise_init(st, call, x, P,
+                       "n = " + std::to_string(n_) + ", m = " + std::to_string(m_) +
+                           ", p = " + std::to_string(p_));
+        }
+    }
+    DifferenceKF(const DifferenceKF &) = delete;
+    DifferenceKF &operator=(const DifferenceKF &) = delete;
+
+    void start(nb::handle y1, nb::handle H, nb::handle D, nb::handle R, nb::handle F0,
+               nb::handle Q0)
+    {
+        static const char *call = "DifferenceKF.start";
+        not_busy(call);
+        Mat h = matrix_arg(H, call, "H", m_, n_, false), d = matrix_arg(D, call, "D", m_, p_, false),
+            r = matrix_arg(R, call, "R", m_, m_, false);
+        Mat y = vector_arg(y1, call, "y1", m_);
+        if (F0.is_none() != Q0.is_none()) value_error(call, "give both F0 and Q0, or neither");
+        Mat f, q;
+        if (!F0.is_none()) {
+            f = matrix_arg(F0, call, "F0", n_, n_, false);
+            q = matrix_arg(Q0, call, "Q0", n_, n_, false);
+        }
+        DkfStep in = {f.p, q.p, nullptr, nullptr, h.p, d.p, r.p, y.p};
+        dkf_status_t st = do_start(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, true);
+    }
+
+    void step(nb::handle y_next, nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd,
+              nb::handle H, nb::handle D, nb::handle R)
+    {
+        static const char *call = "DifferenceKF.step";
+        not_busy(call);
+        Mat f = matrix_arg(F, call, "F", n_, n_, false), q = matrix_arg(Q, call, "Q", n_, n_, false),
+            b = matrix_arg(B, call, "B", p_, p_, false),
+            rd = matrix_arg(Rd, call, "Rd", p_, p_, false),
+            h = matrix_arg(H, call, "H", m_, n_, false), d = matrix_arg(D, call, "D", m_, p_, false),
+            r = matrix_arg(R, call, "R", m_, m_, false);
+        Mat y = vector_arg(y_next, call, "y_next", m_);
+        DkfStep in = {f.p, q.p, b.p, rd.p, h.p, d.p, r.p, y.p};
+        dkf_status_t st = do_step(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, false);
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd,
+                     nb::handle H, nb::handle D, nb::handle R, bool prior)
+    {
+        static const char *call = "DifferenceKF.filter";
+        not_busy(call);
+        if (f_.priv.started) {
+            raise_status(DKF_ERR_STATE, call, -1, nullptr,
+                         "filter() runs a filter from its start: this one has started");
+        }
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != m_ || ya.shape(0) < 1) {
+            value_error(call, "Y must be (T, " + std::to_string(m_) + ") with T >= 1, got shape " +
+                                  shape_str(ya));
+        }
+        const size_t T = ya.shape(0);
+        Mat f = matrix_arg(F, call, "F", n_, n_, true), q = matrix_arg(Q, call, "Q", n_, n_, true),
+            b = matrix_arg(B, call, "B", p_, p_, true),
+            rd = matrix_arg(Rd, call, "Rd", p_, p_, true),
+            h = matrix_arg(H, call, "H", m_, n_, true), d = matrix_arg(D, call, "D", m_, p_, true),
+            r = matrix_arg(R, call, "R", m_, m_, true);
+        static const char *names[7] = {"F", "Q", "B", "Rd", "H", "D", "R"};
+        const Mat *ms[7] = {&f, &q, &b, &rd, &h, &d, &r};
+        for (int i = 0; i < 7; ++i) {
+            if (ms[i]->stacked && ms[i]->count != T + 1) {
+                value_error(call, std::string(names[i]) + " is a stack of " +
+                                      std::to_string(ms[i]->count) +
+                                      ": a stack has one matrix per time 0..T, T + 1 = " +
+                                      std::to_string(T + 1));
+            }
+        }
+        const size_t S = T - 1, xs[2] = {S, n_}, ps[3] = {S, n_, n_};
+        OutArray XF = new_array(2, xs), PF = new_array(3, ps), XN = new_array(2, xs),
+                 PN = new_array(3, ps);
+        real *xf = XF.data(), *pf = PF.data(), *xn = XN.data(), *pn = PN.data();
+        const real *yp = ya.data();
+
+        Undo<dkf_diffkf_t> undo(f_, storage_);
+        dkf_status_t st;
+        size_t t = 0;
+        DkfStep in = {prior ? nullptr : f.at(0), prior ? nullptr : q.at(0), nullptr, nullptr,
+                      h.at(1), d.at(1), r.at(1), yp};
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            st = do_start(in);
+            for (t = st == DKF_OK ? 1 : 0; st == DKF_OK && t < T; ++t) {
+                in = {f.at(t), q.at(t), b.at(t), rd.at(t), h.at(t + 1), d.at(t + 1), r.at(t + 1),
+                      yp + t * m_};
+                st = do_step(in);
+                if (st != DKF_OK) break;
+                put_row(xf, t - 1, f_.xf);
+                put_row(pf, t - 1, f_.Pf);
+                put_row(xn, t - 1, f_.xn);
+                put_row(pn, t - 1, f_.Pn);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        // t = 0: the start failed; t >= 1: the step of time k = t (y_next = Y[t])
+        if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in, t == 0);
+        return nb::make_tuple(XF, PF, XN, PN);
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    size_t n() const { return n_; }
+    size_t m() const { return m_; }
+    size_t p() const { return p_; }
+    size_t k() const { return f_.k; }
+    bool started() const { return f_.priv.started != 0; }
+    const dkf_diffkf_t &state() const { return f_; }
+
+private:
+    // No Python in either (filter() runs them without the GIL).
+    dkf_status_t do_start(const DkfStep &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), H = view(m_, n_, in.H),
+                  D = view(m_, p_, in.D), R = view(m_, m_, in.R), y = view(m_, 1, in.y);
+        dkf_ui_meas_t meas = {&H, &D, &R};
+        return dkf_diffkf_start(&f_, in.F ? &F : nullptr, in.Q ? &Q : nullptr, &meas, &y);
+    }
+
+    dkf_status_t do_step(const DkfStep &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), B = view(p_, p_, in.B),
+                  Rd = view(p_, p_, in.Rd), H = view(m_, n_, in.H), D = view(m_, p_, in.D),
+                  R = view(m_, m_, in.R), y = view(m_, 1, in.y);
+        dkf_ui_dyn_t dyn = {&F, &Q, &B, &Rd};
+        dkf_ui_meas_t meas = {&H, &D, &R};
+        return dkf_diffkf_step(&f_, &dyn, &meas, &y);
+    }
+
+    [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step, const DkfStep &in,
+                                 bool start) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"y", in.y, m_, false},
+                                       {"F", in.F, n_ * n_, false},
+                                       {"Q", in.Q, n_ * n_, false},
+                                       {"B", in.B, p_ * p_, false},
+                                       {"Rd", in.Rd, p_ * p_, false},
+                                       {"H", in.H, m_ * n_, false},
+                                       {"D", in.D, m_ * p_, false},
+                                       {"R", in.R, m_ * m_, false}});
+            detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
+        } else if (st == DKF_ERR_RANK) {
+            culprit = "D", detail = "D lacks full column rank";
+        } else if (st == DKF_ERR_SINGULAR) {
+            culprit = "B", detail = "B is singular";
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = start ? "the prior P = F0 P0 F0^T + Q0 is not SPD (Q0 indefinite?)"
+                           : "L_k is not SPD, or P_{k|k} or P_{k+1|k} is not PSD (Q, R or Rd "
+                             "indefinite?)";
+        } else if (st == DKF_ERR_STATE) {
+            detail = "call start() before step()";
+        }
+        if (step >= 0) detail = std::string(start ? "start: " : "step: ") + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0, m_ = 0, p_ = 0;
+    std::vector<real> storage_;
+    dkf_diffkf_t f_;
+};
+
 } // namespace DKF_PY_NS
 
 NB_MODULE(DKF_PY_MODULE, m)
@@ -917,4 +1133,57 @@ NB_MODULE(DKF_PY_MODULE, m)
         .def("__repr__", [](const InformationFilter &f) {
             return "<dkf InformationFilter n=" + std::to_string(f.n()) + " " DKF_PY_DTYPE ">";
         });
+
+    using D = DifferenceKF;
+    nb::class_<DifferenceKF> dkf_cls(m, "DifferenceKF",
+                             "The Difference Kalman filter with unknown inputs (dkf/diffkf.h).");
+    dkf_cls.def(nb::init<nb::handle, nb::handle, size_t, size_t>(), nb::arg("x0"), nb::arg("P0"),
+             nb::kw_only(), nb::arg("m"), nb::arg("p"))
+        .def("start", &D::start, nb::arg("y1"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             nb::kw_only(), nb::arg("F0") = nb::none(), nb::arg("Q0") = nb::none(),
+             "Predicts x_{1|0} with F0, Q0 (or takes x0, P0 as that prior without them) and "
+             "takes y_1 with its model.")
+        .def("step", &D::step, nb::arg("y_next"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+             nb::arg("B"), nb::arg("Rd"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             "One step with y_{k+1}: the dynamics at k (F, Q, B, Rd), the model at k+1 "
+             "(H, D, R); gives x_{k|k} and x_{k+1|k}.")
+        .def("filter", &D::filter, nb::arg("Y"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+             nb::arg("B"), nb::arg("Rd"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             nb::arg("prior") = false,
+             "start() with Y[0] = y_1, then a step per further row, in one call without the GIL; "
+             "returns (XF, PF, XN, PN) for k = 1..T-1.")
+        .def_prop_ro("k", &D::k, "The time of xf.")
+        .def_prop_ro("started", &D::started)
+        .def_prop_ro("n", &D::n)
+        .def_prop_ro("m", &D::m)
+        .def_prop_ro("p", &D::p)
+        .def("__repr__", [](const D &f) {
+            return "<dkf DifferenceKF n=" + std::to_string(f.n()) + " m=" + std::to_string(f.m()) +
+                   " p=" + std::to_string(f.p()) + " k=" + std::to_string(f.k()) +
+                   " " DKF_PY_DTYPE ">";
+        });
+    // The estimates and the last step's quantities, as copies.
+    static const struct {
+        const char *name;
+        dkf_mat_t dkf_diffkf_t::*mat;
+        const char *doc;
+    } dkf_fields[] = {
+        {"xf", &dkf_diffkf_t::xf, "x_{k|k} (n,), a copy."},
+        {"Pf", &dkf_diffkf_t::Pf, "P_{k|k} (n, n), a copy."},
+        {"xn", &dkf_diffkf_t::xn, "x_{k+1|k} (n,), a copy."},
+        {"Pn", &dkf_diffkf_t::Pn, "P_{k+1|k} (n, n), a copy."},
+        {"xp", &dkf_diffkf_t::xp, "x_{k|k-1} (n,), a copy."},
+        {"z", &dkf_diffkf_t::z, "The last step's z_k (p,)."},
+        {"dz", &dkf_diffkf_t::dz, "Its innovation (p,)."},
+        {"J", &dkf_diffkf_t::J, "J_k (n, p)."},
+        {"L", &dkf_diffkf_t::L, "L_k (p, p)."},
+        {"K", &dkf_diffkf_t::K, "K_k (n, p)."},
+    };
+    for (const auto &fd : dkf_fields) {
+        const auto mat = fd.mat;
+        const std::string call = std::string("DifferenceKF.") + fd.name;
+        dkf_cls.def_prop_ro(
+            fd.name, [mat, call](const D &f) { return f.get(f.state().*mat, call.c_str()); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
 }

@@ -7,8 +7,8 @@ docs/guide/python.md is the guide.
 
 from __future__ import annotations
 
-from . import _dkf_double
-from ._dkf_double import DifferenceKF, InformationFilter, KalmanFilter, info_contribution
+from ._dkf_double import *  # noqa: F403 (the classes, dtype, MAX_DIM)
+from ._dkf_double import __all__ as _core
 from ._errors import (
     AliasError,
     ArgError,
@@ -28,14 +28,7 @@ from ._errors import (
     WeightsError,
 )
 
-dtype = _dkf_double.dtype
-MAX_DIM: int = _dkf_double.MAX_DIM
-
-__all__ = [
-    "KalmanFilter",
-    "InformationFilter",
-    "DifferenceKF",
-    "info_contribution",
+__all__ = list(_core) + [
     "Error",
     "NullError",
     "DimError",
@@ -52,6 +45,4 @@ __all__ = [
     "WeightsError",
     "ModelError",
     "UnstableError",
-    "dtype",
-    "MAX_DIM",
 ]

@@ -1,6 +1,6 @@
 # The classes of dkf and dkf.float32, generic in the real type (a stub-only
 # module: _dkf_double.pyi and _dkf_float.pyi instantiate it).
-from typing import Generic, Optional, Sequence, Tuple, TypeVar
+from typing import Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -70,7 +70,22 @@ class InformationFilterBase(Generic[_D]):
     @property
     def n(self) -> int: ...
 
-class DifferenceKFBase(Generic[_D]):
+class _DkfEstimates(Generic[_D]):
+    """A Difference KF's estimates and last step (copies): x_{k|k}, P_{k|k},
+    x_{k+1|k}, P_{k+1|k}, x_{k|k-1}, z_k, dz_k, J_k, L_k, K_k."""
+
+    xf: _Out[_D]
+    Pf: _Out[_D]
+    xn: _Out[_D]
+    Pn: _Out[_D]
+    xp: _Out[_D]
+    z: _Out[_D]
+    dz: _Out[_D]
+    J: _Out[_D]
+    L: _Out[_D]
+    K: _Out[_D]
+
+class DifferenceKFBase(_DkfEstimates[_D]):
     """The Difference Kalman filter with unknown inputs (dkf/diffkf.h).
 
     x0 (n,), P0 (n, n) SPD: (x_{0|0}, P_{0|0}), or the prior of time 1
@@ -90,18 +105,43 @@ class DifferenceKFBase(Generic[_D]):
     ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
         """start() with Y[0] = y_1, then step() per further row, in one call
         without the GIL: XF, PF (x_{k|k}) and XN, PN (x_{k+1|k}), k = 1..T-1."""
-    xf: _Out[_D]
-    Pf: _Out[_D]
-    xn: _Out[_D]
-    Pn: _Out[_D]
-    xp: _Out[_D]
-    z: _Out[_D]
-    dz: _Out[_D]
-    J: _Out[_D]
-    L: _Out[_D]
-    K: _Out[_D]
     k: int
     started: bool
     n: int
     m: int
     p: int
+    def message(self) -> Tuple[int, _Out[_D], _Out[_D]]:
+        """The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step."""
+
+class DiffKFFusionCentreBase(_DkfEstimates[_D]):
+    """The distributed Difference KF's fusion centre (dkf/diffkf_fusion.h).
+
+    x0 (n,), P0 (n, n): the central prior; m, p: each sensor's measurement
+    and unknown-input dimensions; P0_local: each node's prior covariance
+    (None: P0). A sensor is a dict of B, Rd, H, D, R; a message is a node's
+    DifferenceKF.message().
+    """
+
+    def __init__(
+        self,
+        x0: _A,
+        P0: _A,
+        *,
+        m: Sequence[int],
+        p: Sequence[int],
+        P0_local: Optional[Sequence[Optional[_A]]] = None,
+    ) -> None: ...
+    def start(self, F0: _A, Q0: _A, sensors: Sequence[Mapping[str, _A]]) -> None: ...
+    def step(
+        self,
+        F: _A,
+        Q: _A,
+        sensors: Sequence[Mapping[str, _A]],
+        messages: Sequence[Tuple[int, _A, _A]],
+    ) -> None: ...
+    def recovered(self, node: int) -> Tuple[_Out[_D], _Out[_D]]: ...
+    k: int
+    n: int
+    l: int
+    m: List[int]
+    p: List[int]

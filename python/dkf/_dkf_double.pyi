@@ -4,7 +4,7 @@ from typing import Tuple
 import numpy as np
 import numpy.typing as npt
 
-from ._api import DifferenceKFBase, InformationFilterBase, KalmanFilterBase
+from ._api import DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase, KalmanFilterBase
 
 dtype: str
 MAX_DIM: int
@@ -15,6 +15,7 @@ def _status_str(status: int) -> str: ...
 class KalmanFilter(KalmanFilterBase[np.float64]): ...
 class InformationFilter(InformationFilterBase[np.float64]): ...
 class DifferenceKF(DifferenceKFBase[np.float64]): ...
+class DiffKFFusionCentre(DiffKFFusionCentreBase[np.float64]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike

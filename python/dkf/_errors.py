@@ -11,7 +11,8 @@ class Error(Exception):
     status: the dkf_status_t value (negative); call: the method, e.g.
     "KalmanFilter.update"; step: the step of filter() that failed (its row
     of Y, from 0) or None; matrix: the input the status concerns ("P0",
-    "R", ...) or None.
+    "R", ...) or None; node: the sensor a fusion centre's failure names, or
+    None.
     """
 
     status: int = 0
@@ -23,11 +24,13 @@ class Error(Exception):
         call: Optional[str] = None,
         step: Optional[int] = None,
         matrix: Optional[str] = None,
+        node: Optional[int] = None,
     ) -> None:
         super().__init__(message)
         self.call = call
         self.step = step
         self.matrix = matrix
+        self.node = node
 
 
 class NullError(Error):
@@ -149,12 +152,13 @@ def _make(
     step: Optional[int],
     matrix: Optional[str],
     detail: str,
+    node: Optional[int] = None,
 ) -> Error:
     """The exception the extension raises for a failed call (status < 0)."""
     cls = BY_STATUS.get(status, Error)
     where = call if step is None else f"{call}, step {step}"
     message = f"{where}: {text}" + (f": {detail}" if detail else "")
-    e = cls(message, call=call, step=step, matrix=matrix)
+    e = cls(message, call=call, step=step, matrix=matrix, node=node)
     if cls is Error:
         e.status = status
     return e

@@ -6,6 +6,7 @@
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
 
 #include <cmath>
 #include <cstring>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "dkf/diffkf.h"
+#include "dkf/diffkf_fusion.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
 #include "dkf/status.h"
@@ -40,14 +42,16 @@ using OutArray = nb::ndarray<nb::numpy, real>;
 
 // Raises the dkf.Error subclass of status st. call: "KalmanFilter.update";
 // step: the step of filter() or -1; matrix: the input the status concerns
-// or nullptr; detail: what failed, in the model's words.
+// or nullptr; detail: what failed, in the model's words; node: the sensor a
+// fusion centre's fault names, or -1.
 [[noreturn]] void raise_status(dkf_status_t st, const char *call, long step, const char *matrix,
-                               const std::string &detail)
+                               const std::string &detail, long node = -1)
 {
     nb::object make = nb::module_::import_("dkf._errors").attr("_make");
     nb::object exc = make(static_cast<int>(st), dkf_status_str(st), call,
                           step < 0 ? nb::object(nb::none()) : nb::object(nb::int_(step)),
-                          matrix ? nb::object(nb::str(matrix)) : nb::object(nb::none()), detail);
+                          matrix ? nb::object(nb::str(matrix)) : nb::object(nb::none()), detail,
+                          node < 0 ? nb::object(nb::none()) : nb::object(nb::int_(node)));
     PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
     throw nb::python_error();
 }
@@ -1001,6 +1005,22 @@ public:
         const size_t shape[2] = {M.rows, M.cols};
         return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
     }
+    // The node message {k, x_{k|k}, x_{k|k-1}} of dkf/diffkf_fusion.h.
+    nb::tuple message() const
+    {
+        static const char *call = "DifferenceKF.message";
+        not_busy(call);
+        dkf_diffkf_msg_t msg;
+        dkf_status_t st = dkf_diffkf_msg_fill(&msg, 0, &f_);
+        if (st != DKF_OK) {
+            raise_status(st, call, -1, nullptr,
+                         st == DKF_ERR_STATE ? "no step yet: the first message follows step 1"
+                                             : "");
+        }
+        const size_t shape[1] = {n_};
+        return nb::make_tuple(static_cast<size_t>(msg.k), copy_out(msg.xf, 1, shape),
+                              copy_out(msg.xp, 1, shape));
+    }
     size_t n() const { return n_; }
     size_t m() const { return m_; }
     size_t p() const { return p_; }
@@ -1063,6 +1083,224 @@ private:
     dkf_diffkf_t f_;
 };
 
+// ---- DiffKFFusionCentre ----------------------------------------------------
+
+// A fusion centre's failure: the status, the condition and the node.
+[[noreturn]] void raise_fc(dkf_status_t st, const char *call, const dkf_diffkf_fc_fault_t &fault)
+{
+    const long node =
+        fault.node == DKF_DIFFKF_FC_NO_NODE ? -1 : static_cast<long>(fault.node);
+    const char *matrix = nullptr;
+    switch (fault.which) {
+    case DKF_DIFFKF_FC_D_RANK: matrix = "D"; break;
+    case DKF_DIFFKF_FC_B_SINGULAR: matrix = "B"; break;
+    case DKF_DIFFKF_FC_PRIOR: matrix = node < 0 ? "P0" : "P0_local"; break;
+    case DKF_DIFFKF_FC_MSG_NODE:
+    case DKF_DIFFKF_FC_MSG_STEP:
+    case DKF_DIFFKF_FC_MSG_DIM:
+    case DKF_DIFFKF_FC_MSG_NONFINITE: matrix = "messages"; break;
+    default: break;
+    }
+    std::string detail = dkf_diffkf_fc_cond_str(fault.which);
+    if (node >= 0) detail = "node " + std::to_string(node) + ": " + detail;
+    raise_status(st, call, -1, matrix, detail, node);
+}
+
+class DiffKFFusionCentre : Guarded {
+public:
+    DiffKFFusionCentre(nb::handle x0, nb::handle P0, std::vector<size_t> m, std::vector<size_t> p,
+                       nb::handle P0_local)
+        : m_(std::move(m)), p_(std::move(p))
+    {
+        static const char *call = "DiffKFFusionCentre";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        l_ = m_.size();
+        if (l_ == 0 || p_.size() != l_)
+            value_error(call, "m and p must list the same number (>= 1) of sensors");
+        std::vector<Mat> locals(l_);
+        std::vector<dkf_mat_t> Pl(l_);
+        std::vector<const dkf_mat_t *> Plp(l_, nullptr);
+        if (!P0_local.is_none()) {
+            std::vector<Mat> given = sequence_of(P0_local, call, "P0_local");
+            for (size_t i = 0; i < l_; ++i) {
+                if (!given[i].p) continue;
+                Pl[i] = view(n_, n_, given[i].p);
+                Plp[i] = &Pl[i];
+            }
+            locals = std::move(given);
+        }
+        // 0 for dimensions the centre refuses: its init then names the fault.
+        const size_t len = dkf_diffkf_fc_storage_len(n_, l_, m_.data(), p_.data());
+        nodes_.assign(l_, dkf_diffkf_fc_node_t());
+        storage_.assign(len ? len : 1, real(0));
+        std::memset(&fc_, 0, sizeof fc_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_init(&fc_, nodes_.data(), l_, n_, m_.data(), p_.data(),
+                                             storage_.data(), len ? len : 1, &xm, &Pm, Plp.data(),
+                                             &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+        if (len == 0) { // not reached: init refuses what the sizing refuses
+            raise_status(DKF_ERR_CAPACITY, call, -1, nullptr, "dimensions the centre refuses");
+        }
+    }
+    DiffKFFusionCentre(const DiffKFFusionCentre &) = delete;
+    DiffKFFusionCentre &operator=(const DiffKFFusionCentre &) = delete;
+
+    void start(nb::handle F0, nb::handle Q0, nb::handle sensors)
+    {
+        static const char *call = "DiffKFFusionCentre.start";
+        not_busy(call);
+        Mat f = matrix_arg(F0, call, "F0", n_, n_, false), q = matrix_arg(Q0, call, "Q0", n_, n_, false);
+        Sensors s = sensor_args(sensors, call, false);
+        dkf_mat_t Fm = view(n_, n_, f.p), Qm = view(n_, n_, q.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_start(&fc_, &Fm, &Qm, s.c.data(), &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+    }
+
+    void step(nb::handle F, nb::handle Q, nb::handle sensors, nb::handle messages)
+    {
+        static const char *call = "DiffKFFusionCentre.step";
+        not_busy(call);
+        Mat f = matrix_arg(F, call, "F", n_, n_, false), q = matrix_arg(Q, call, "Q", n_, n_, false);
+        Sensors s = sensor_args(sensors, call, true);
+        std::vector<dkf_diffkf_msg_t> msgs = message_args(messages, call);
+        dkf_mat_t Fm = view(n_, n_, f.p), Qm = view(n_, n_, q.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_step(&fc_, &Fm, &Qm, s.c.data(), msgs.data(), &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+    }
+
+    nb::tuple recovered(size_t i) const
+    {
+        static const char *call = "DiffKFFusionCentre.recovered";
+        not_busy(call);
+        if (i >= l_) value_error(call, "node " + std::to_string(i) + " of " + std::to_string(l_));
+        const size_t shape[1] = {p_[i]};
+        return nb::make_tuple(copy_out(nodes_[i].z.data, 1, shape),
+                              copy_out(nodes_[i].dz.data, 1, shape));
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    const dkf_diffkf_t &central() const { return fc_.central; }
+    size_t k() const { return fc_.k; }
+    size_t n() const { return n_; }
+    size_t l() const { return l_; }
+    std::vector<size_t> m() const { return m_; }
+    std::vector<size_t> p() const { return p_; }
+
+private:
+    // The views of every sensor's matrices (kept alive by the Mats).
+    struct Sensors {
+        std::vector<Mat> mats;
+        std::vector<dkf_mat_t> v;
+        std::vector<dkf_diffkf_sensor_t> c;
+    };
+
+    // A sequence of l matrices (n, n) or None.
+    std::vector<Mat> sequence_of(nb::handle seq, const char *call, const char *name) const
+    {
+        if (!nb::isinstance<nb::sequence>(seq) || nb::len(seq) != l_) {
+            value_error(call, std::string(name) + " must be a sequence of " + std::to_string(l_) +
+                                  " matrices (or None)");
+        }
+        std::vector<Mat> out(l_);
+        nb::sequence sq = nb::borrow<nb::sequence>(seq);
+        for (size_t i = 0; i < l_; ++i) {
+            if (sq[i].is_none()) continue;
+            const std::string nm = std::string(name) + "[" + std::to_string(i) + "]";
+            out[i] = matrix_arg(sq[i], call, nm.c_str(), n_, n_, false);
+        }
+        return out;
+    }
+
+    // sensors: a sequence of l mappings with B, H, D, R (and Rd in a step).
+    Sensors sensor_args(nb::handle sensors, const char *call, bool with_Rd) const
+    {
+        if (!nb::isinstance<nb::sequence>(sensors) || nb::len(sensors) != l_) {
+            value_error(call, "sensors must be a sequence of " + std::to_string(l_) +
+                                  " dicts with B, Rd, H, D, R");
+        }
+        nb::sequence sq = nb::borrow<nb::sequence>(sensors);
+        Sensors s;
+        s.mats.reserve(5 * l_);
+        s.v.resize(5 * l_);
+        s.c.resize(l_);
+        static const char *keys[5] = {"B", "Rd", "H", "D", "R"};
+        for (size_t i = 0; i < l_; ++i) {
+            if (!nb::isinstance<nb::dict>(sq[i]))
+                throw nb::type_error((std::string(call) + ": sensors[" + std::to_string(i) +
+                                      "] must be a dict").c_str());
+            nb::dict d = nb::borrow<nb::dict>(sq[i]);
+            const size_t rows[5] = {p_[i], p_[i], m_[i], m_[i], m_[i]};
+            const size_t cols[5] = {p_[i], p_[i], n_, p_[i], m_[i]};
+            for (size_t j = 0; j < 5; ++j) {
+                const std::string nm = "sensors[" + std::to_string(i) + "][\"" + keys[j] + "\"]";
+                if (!d.contains(keys[j])) {
+                    if (j == 1 && !with_Rd) {
+                        s.mats.emplace_back();
+                        continue;
+                    }
+                    value_error(call, nm + " is missing");
+                }
+                s.mats.push_back(matrix_arg(d[keys[j]], call, nm.c_str(), rows[j], cols[j], false));
+                s.v[5 * i + j] = view(rows[j], cols[j], s.mats.back().p);
+            }
+            dkf_mat_t *v = &s.v[5 * i];
+            s.c[i].B = &v[0];
+            s.c[i].Rd = s.mats[5 * i + 1].p ? &v[1] : nullptr;
+            s.c[i].meas.H = &v[2];
+            s.c[i].meas.D = &v[3];
+            s.c[i].meas.R = &v[4];
+        }
+        return s;
+    }
+
+    // messages: a sequence of l tuples (k, xf, xp), DifferenceKF.message()'s.
+    std::vector<dkf_diffkf_msg_t> message_args(nb::handle messages, const char *call) const
+    {
+        if (!nb::isinstance<nb::sequence>(messages) || nb::len(messages) != l_) {
+            value_error(call, "messages must be a sequence of " + std::to_string(l_) +
+                                  " tuples (k, xf, xp)");
+        }
+        nb::sequence sq = nb::borrow<nb::sequence>(messages);
+        std::vector<dkf_diffkf_msg_t> out(l_);
+        for (size_t i = 0; i < l_; ++i) {
+            const std::string nm = "messages[" + std::to_string(i) + "]";
+            nb::object item = sq[i];
+            if (!nb::isinstance<nb::sequence>(item) || nb::len(item) != 3)
+                value_error(call, nm + " must be a tuple (k, xf, xp)");
+            nb::sequence t = nb::borrow<nb::sequence>(item);
+            long k = nb::cast<long>(t[0]);
+            if (k < 0 || static_cast<unsigned long>(k) > 0xffffffffUL)
+                value_error(call, nm + ": k must be in [0, 2^32)");
+            Mat xf = vector_arg(t[1], call, (nm + " xf").c_str(), n_);
+            Mat xp = vector_arg(t[2], call, (nm + " xp").c_str(), n_);
+            std::memset(&out[i], 0, sizeof out[i]);
+            out[i].node = static_cast<uint16_t>(i);
+            out[i].k = static_cast<uint32_t>(k);
+            out[i].n = static_cast<uint16_t>(n_);
+            std::memcpy(out[i].xf, xf.p, n_ * sizeof(real));
+            std::memcpy(out[i].xp, xp.p, n_ * sizeof(real));
+        }
+        return out;
+    }
+
+    size_t n_ = 0, l_ = 0;
+    std::vector<size_t> m_, p_;
+    std::vector<dkf_diffkf_fc_node_t> nodes_;
+    std::vector<real> storage_;
+    dkf_diffkf_fc_t fc_;
+};
+
 } // namespace DKF_PY_NS
 
 NB_MODULE(DKF_PY_MODULE, m)
@@ -1072,6 +1310,9 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.attr("dtype") = DKF_PY_DTYPE;
     m.attr("MAX_DIM") = DKF_MAX_DIM;
     m.attr("JOSEPH") = DKF_JOSEPH;
+    // What dkf and dkf.float32 export of this module.
+    m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
+                                       "DifferenceKF", "DiffKFFusionCentre", "dtype", "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
@@ -1184,6 +1425,43 @@ NB_MODULE(DKF_PY_MODULE, m)
         const std::string call = std::string("DifferenceKF.") + fd.name;
         dkf_cls.def_prop_ro(
             fd.name, [mat, call](const D &f) { return f.get(f.state().*mat, call.c_str()); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
+
+    dkf_cls.def("message", &D::message,
+                "The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step.");
+
+    using C = DiffKFFusionCentre;
+    nb::class_<C> fc_cls(m, "DiffKFFusionCentre",
+                         "The fusion centre of the distributed Difference KF "
+                         "(dkf/diffkf_fusion.h): the centralized estimate from the nodes' "
+                         "messages.");
+    fc_cls.def(nb::init<nb::handle, nb::handle, std::vector<size_t>, std::vector<size_t>,
+                        nb::handle>(),
+               nb::arg("x0"), nb::arg("P0"), nb::kw_only(), nb::arg("m"), nb::arg("p"),
+               nb::arg("P0_local") = nb::none())
+        .def("start", &C::start, nb::arg("F0"), nb::arg("Q0"), nb::arg("sensors"),
+             "As every node's start: F0, Q0 and each sensor's B, H, D, R at time 1.")
+        .def("step", &C::step, nb::arg("F"), nb::arg("Q"), nb::arg("sensors"),
+             nb::arg("messages"),
+             "Step k = self.k + 1: F_k, Q_k, each sensor's B, Rd (at k) and H, D, R (at k+1), "
+             "and each node's message of step k.")
+        .def("recovered", &C::recovered, nb::arg("node"),
+             "(z, dz) of the node recovered in the last step.")
+        .def_prop_ro("k", &C::k, "The time of xf (0 before the first step).")
+        .def_prop_ro("n", &C::n)
+        .def_prop_ro("l", &C::l)
+        .def_prop_ro("m", &C::m)
+        .def_prop_ro("p", &C::p)
+        .def("__repr__", [](const C &c) {
+            return "<dkf DiffKFFusionCentre n=" + std::to_string(c.n()) + " l=" +
+                   std::to_string(c.l()) + " k=" + std::to_string(c.k()) + " " DKF_PY_DTYPE ">";
+        });
+    for (const auto &fd : dkf_fields) {
+        const auto mat = fd.mat;
+        const std::string call = std::string("DiffKFFusionCentre.") + fd.name;
+        fc_cls.def_prop_ro(
+            fd.name, [mat, call](const C &c) { return c.get(c.central().*mat, call.c_str()); },
             nb::rv_policy::take_ownership, fd.doc);
     }
 }

@@ -16,7 +16,7 @@ from conftest import rand_model
 def test_two_modules_two_real_types():
     assert dkf.dtype == "float64" and dkf.float32.dtype == "float32"
     assert dkf.KalmanFilter is not dkf.float32.KalmanFilter
-    assert dkf._dkf_double.__file__ != dkf.float32._dkf_float.__file__
+    assert dkf._dkf_double.__file__ != dkf._dkf_float.__file__
     assert dkf.MAX_DIM == dkf.float32.MAX_DIM == 48
 
 

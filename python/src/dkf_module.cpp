@@ -8,9 +8,9 @@
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <algorithm>
 #include <initializer_list>
 #include <memory>
 #include <string>
@@ -618,13 +618,6 @@ struct Contributor {
     }
     if (sensor >= 0) detail = "sensor " + std::to_string(sensor) + ": " + detail;
     raise_status(st, call, step, culprit, detail);
-}
-
-std::vector<size_t> sensor_dims(const std::vector<Mat> &H)
-{
-    std::vector<size_t> m;
-    for (const Mat &h : H) m.push_back(h.rows);
-    return m;
 }
 
 size_t largest(const std::vector<size_t> &v)

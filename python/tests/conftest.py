@@ -1,4 +1,4 @@
-"""Shared helpers of the Python package's tests: the repository's golden
+"""What the Python package's tests share: the repository's golden
 vectors, random models with fixed seeds, and an independent numpy Kalman
 filter (the oracle: textbook equations, no dkf code)."""
 

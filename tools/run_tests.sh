@@ -12,6 +12,10 @@
 #                    the configuration; every other one runs `ctest -LE once`.
 #                    Its network tests (-L net) run after the others, 4 at a
 #                    time, reported as double:net
+#   python           the Python package (docs/guide/python.md): a venv in
+#                    build/python/venv (reused), `pip install` of the tree into
+#                    it (its CMake build in build/python/build, incremental;
+#                    warnings are errors) and its pytest suite, python/tests
 #   float            DKF_REAL=float (the Eigen peer at -O2 only)
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
 #                    -DNDEBUG; the others RelWithDebInfo: -O2 without -g, ASan -Og -g)
@@ -59,7 +63,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
+all_configs=(double python float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
   demo)
 configs=()
 for a in "$@"; do
@@ -96,7 +100,7 @@ ctest_args() { echo "${cfg_ctest[$1]--LE once}"; }
 GEN=()
 command -v ninja >/dev/null && GEN=(-G Ninja)
 for c in "${configs[@]}"; do
-  if [[ -z "${cfg_args[$c]+x}" && "$c" != firmware && "$c" != fuzz && "$c" != demo ]]; then
+  if [[ -z "${cfg_args[$c]+x}" && ! "$c" =~ ^(firmware|fuzz|demo|python)$ ]]; then
     echo "run_tests: unknown configuration '$c' (known: ${all_configs[*]})" >&2
     exit 2
   fi
@@ -382,6 +386,70 @@ run_fuzz() {
   record fuzz "$p" "$f" "harnesses, not ctest"
 }
 
+# The Python package: venv (reused), pip install of the tree, pytest. Each
+# step bounded by `timeout`; pytest's "N passed, M failed" is the count.
+run_python() {
+  step_t0=$SECONDS
+  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv rc line p f t
+  local deps=(scikit-build-core nanobind numpy pytest)
+  mkdir -p "$bdir"
+  if [[ ! -x $venv/bin/python ]]; then
+    say python "create the venv ($venv)"
+    if ! python3 -m venv "$venv" >"$bdir/run_tests.venv.log" 2>&1; then
+      rm -rf "$venv"
+      echo "run_tests: FAILED: python3 -m venv did not work (log: $bdir/run_tests.venv.log); run:"
+      echo "  sudo apt-get install -y python3-venv"
+      record python 0 1 "no venv"
+      return
+    fi
+  fi
+  if ! "$venv/bin/python" -c 'import scikit_build_core, nanobind, numpy, pytest' 2>/dev/null; then
+    say python "pip install ${deps[*]}"
+    if ! timeout 600 "$venv/bin/pip" install -q --disable-pip-version-check "${deps[@]}" \
+        >"$bdir/run_tests.deps.log" 2>&1; then
+      tail -5 "$bdir/run_tests.deps.log"
+      echo "run_tests: FAILED: python: the venv's packages did not install (log: $bdir/run_tests.deps.log)"
+      record python 0 1 "pip install failed"
+      return
+    fi
+  fi
+  # FilterPy is a test oracle only: without it that test is skipped, and says so
+  if ! "$venv/bin/python" -c 'import filterpy' 2>/dev/null &&
+     ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check filterpy \
+       >>"$bdir/run_tests.deps.log" 2>&1; then
+    say python "filterpy did not install (log: $bdir/run_tests.deps.log): its comparison is skipped"
+  fi
+  t=$SECONDS
+  say python "pip install . (build in $bdir/build)"
+  timeout 1200 "$venv/bin/pip" install -v --no-build-isolation --disable-pip-version-check \
+    -C build-dir="$bdir/build" -C cmake.define.DKF_PY_WERROR=ON "$ROOT" 2>&1 |
+    sed -u 's/^ *//' | progress_build python "$bdir/run_tests.build.log"
+  if (( PIPESTATUS[0] != 0 )); then
+    first_build_errors python "$bdir/run_tests.build.log"
+    echo "run_tests: FAILED: python: pip install . did not build (log: $bdir/run_tests.build.log)"
+    record python 0 1 "build failed"
+    return
+  fi
+  t_build=$((SECONDS - t)) t=$SECONDS
+  say python "pytest python/tests"
+  (cd "$ROOT/python/tests" && timeout 600 "$venv/bin/python" -m pytest -p no:cacheprovider -q -rs) \
+    >"$bdir/run_tests.pytest.log" 2>&1
+  rc=$?
+  t_test=$((SECONDS - t))
+  line=$(grep -E '^=* ?[0-9]+ (passed|failed)' "$bdir/run_tests.pytest.log" | tail -1)
+  p=$(echo "$line" | sed -nE 's/.*\b([0-9]+) passed.*/\1/p')
+  f=$(echo "$line" | sed -nE 's/.*\b([0-9]+) failed.*/\1/p')
+  p=${p:-0} f=${f:-0}
+  if (( rc != 0 && f == 0 )); then f=1; fi
+  say python "pytest: ${line:-no result line}"
+  if (( f > 0 )); then
+    grep -E '^(FAILED|ERROR) ' "$bdir/run_tests.pytest.log" | head -5
+    echo "run_tests: FAILED: python: pytest exited $rc (log: $bdir/run_tests.pytest.log)"
+  fi
+  grep -E '^SKIPPED' "$bdir/run_tests.pytest.log" | head -3
+  record python "$p" "$f" "pytest, not ctest"
+}
+
 run_demo() {
   step_t0=$SECONDS
   # double-dim1024 is the demo's build (double, DKF_MAX_DIM = 1024) when this
@@ -416,6 +484,7 @@ for c in "${configs[@]}"; do
     firmware) run_firmware ;;
     fuzz) run_fuzz ;;
     demo) run_demo ;;
+    python) run_python ;;
     *) run_ctest_config "$c" ;;
   esac
 done

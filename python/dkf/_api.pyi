@@ -1,0 +1,147 @@
+# The classes of dkf and dkf.float32, generic in the real type (a stub-only
+# module: _dkf_double.pyi and _dkf_float.pyi instantiate it).
+from typing import Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
+
+import numpy as np
+import numpy.typing as npt
+
+_D = TypeVar("_D", np.float32, np.float64)
+_A = npt.ArrayLike
+_O = Optional[npt.ArrayLike]
+_Out = npt.NDArray[_D]
+
+class KalmanFilterBase(Generic[_D]):
+    """Linear Kalman filter, covariance form (dkf/kf.h).
+
+    F (n, n), Q (n, n), H (m, n), R (m, m): one matrix, or a stack
+    (T, ., .) of one per step for filter(). x0 (n,), P0 (n, n) SPD.
+    """
+
+    def __init__(
+        self, F: _A, Q: _A, H: _A, R: _A, x0: _A, P0: _A, *, m_max: Optional[int] = None
+    ) -> None: ...
+    def predict(self, F: _O = None, Q: _O = None, u: _O = None) -> None:
+        """x = F x + u, P = F P F^T + Q (the constructor's F, Q unless given)."""
+    def update(self, y: _A, H: _O = None, R: _O = None) -> None:
+        """The measurement update with y (m,); a NaN component is missing."""
+    def filter(
+        self, Y: _A, *, F: _O = None, Q: _O = None, H: _O = None, R: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D]]:
+        """A predict and an update per row of Y (T, m), in one call without
+        the GIL: the filtered X (T, n) and P (T, n, n)."""
+    @property
+    def x(self) -> _Out[_D]:
+        """The state estimate (n,), a copy."""
+    @property
+    def P(self) -> _Out[_D]:
+        """Its error covariance (n, n), a copy."""
+    @property
+    def n(self) -> int: ...
+    @property
+    def m_max(self) -> int: ...
+
+class InformationFilterBase(Generic[_D]):
+    """Linear information filter with exact multi-sensor fusion (dkf/info.h).
+
+    F (n, n), Q (n, n): one matrix, or a stack (T, ., .) for filter().
+    x0 (n,), P0 (n, n) SPD.
+    """
+
+    def __init__(self, F: _A, Q: _A, x0: _A, P0: _A) -> None: ...
+    def predict(self, F: _O = None, Q: _O = None) -> None:
+        """P = F P F^T + Q, x = F x; Y = P^-1, y = Y x."""
+    def update(self, z: _A, H: _A, R: _A) -> None:
+        """One sensor's measurement z (m,): its contribution, fused."""
+    def fuse(self, i: _A, I: _A) -> None:
+        """Contributions i (n,) or (L, n), I (n, n) or (L, n, n): Y += sum I, y += sum i."""
+    def filter(
+        self, Z: Sequence[_A], H: Sequence[_A], R: Sequence[_A], *, F: _O = None, Q: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D]]:
+        """Per step t: a predict, each sensor j's contribution from Z[j][t]
+        (T, m_j), one fuse, in one call without the GIL: X (T, n), P (T, n, n)."""
+    @property
+    def x(self) -> _Out[_D]: ...
+    @property
+    def P(self) -> _Out[_D]: ...
+    @property
+    def y(self) -> _Out[_D]: ...
+    @property
+    def Y(self) -> _Out[_D]: ...
+    @property
+    def n(self) -> int: ...
+
+class _DkfEstimates(Generic[_D]):
+    """A Difference KF's estimates and last step (copies): x_{k|k}, P_{k|k},
+    x_{k+1|k}, P_{k+1|k}, x_{k|k-1}, z_k, dz_k, J_k, L_k, K_k."""
+
+    xf: _Out[_D]
+    Pf: _Out[_D]
+    xn: _Out[_D]
+    Pn: _Out[_D]
+    xp: _Out[_D]
+    z: _Out[_D]
+    dz: _Out[_D]
+    J: _Out[_D]
+    L: _Out[_D]
+    K: _Out[_D]
+
+class DifferenceKFBase(_DkfEstimates[_D]):
+    """The Difference Kalman filter with unknown inputs (dkf/diffkf.h).
+
+    x0 (n,), P0 (n, n) SPD: (x_{0|0}, P_{0|0}), or the prior of time 1
+    (start() without F0, Q0; filter(prior=True)). m, p: the measurement and
+    unknown-input dimensions.
+    """
+
+    def __init__(self, x0: _A, P0: _A, *, m: int, p: int) -> None: ...
+    def start(self, y1: _A, H: _A, D: _A, R: _A, *, F0: _O = None, Q0: _O = None) -> None:
+        """x_{1|0} = F0 x0 (P likewise), and y_1 with its model (H, D, R at time 1)."""
+    def step(
+        self, y_next: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A
+    ) -> None:
+        """y_{k+1} with the dynamics at k and the model at k+1: x_{k|k}, x_{k+1|k}."""
+    def filter(
+        self, Y: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A, prior: bool = False
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """start() with Y[0] = y_1, then step() per further row, in one call
+        without the GIL: XF, PF (x_{k|k}) and XN, PN (x_{k+1|k}), k = 1..T-1."""
+    k: int
+    started: bool
+    n: int
+    m: int
+    p: int
+    def message(self) -> Tuple[int, _Out[_D], _Out[_D]]:
+        """The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step."""
+
+class DiffKFFusionCentreBase(_DkfEstimates[_D]):
+    """The distributed Difference KF's fusion centre (dkf/diffkf_fusion.h).
+
+    x0 (n,), P0 (n, n): the central prior; m, p: each sensor's measurement
+    and unknown-input dimensions; P0_local: each node's prior covariance
+    (None: P0). A sensor is a dict of B, Rd, H, D, R; a message is a node's
+    DifferenceKF.message().
+    """
+
+    def __init__(
+        self,
+        x0: _A,
+        P0: _A,
+        *,
+        m: Sequence[int],
+        p: Sequence[int],
+        P0_local: Optional[Sequence[Optional[_A]]] = None,
+    ) -> None: ...
+    def start(self, F0: _A, Q0: _A, sensors: Sequence[Mapping[str, _A]]) -> None: ...
+    def step(
+        self,
+        F: _A,
+        Q: _A,
+        sensors: Sequence[Mapping[str, _A]],
+        messages: Sequence[Tuple[int, _A, _A]],
+    ) -> None: ...
+    def recovered(self, node: int) -> Tuple[_Out[_D], _Out[_D]]: ...
+    k: int
+    n: int
+    l: int
+    m: List[int]
+    p: List[int]

@@ -1,0 +1,23 @@
+# dkf's classes over the core built in double (python/src/dkf_module.cpp).
+from typing import Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+from ._api import DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase, KalmanFilterBase
+
+dtype: str
+MAX_DIM: int
+JOSEPH: int
+
+def _status_str(status: int) -> str: ...
+
+class KalmanFilter(KalmanFilterBase[np.float64]): ...
+class InformationFilter(InformationFilterBase[np.float64]): ...
+class DifferenceKF(DifferenceKFBase[np.float64]): ...
+class DiffKFFusionCentre(DiffKFFusionCentreBase[np.float64]): ...
+
+def info_contribution(
+    z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """A sensor's (i, I) = (H^T R^-1 z, H^T R^-1 H); NaN components of z are missing."""

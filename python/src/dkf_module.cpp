@@ -1,0 +1,1460 @@
+// python/src/dkf_module.cpp - the extension module dkf._dkf_double or
+// dkf._dkf_float (DKF_PY_MODULE), over the core built in that real type
+// (python/CMakeLists.txt). The filters are the core's: this file checks
+// and converts arguments, calls dkf_*, and turns a status into a dkf.Error
+// (python/dkf/_errors.py). docs/guide/python.md is the user's guide.
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dkf/diffkf.h"
+#include "dkf/diffkf_fusion.h"
+#include "dkf/info.h"
+#include "dkf/kf.h"
+#include "dkf/status.h"
+
+namespace nb = nanobind;
+
+#if DKF_USE_FLOAT
+#define DKF_PY_NS dkf_py_float
+#define DKF_PY_DTYPE "float32"
+#else
+#define DKF_PY_NS dkf_py_double
+#define DKF_PY_DTYPE "float64"
+#endif
+
+namespace DKF_PY_NS {
+
+using real = dkf_real_t;
+using InArray = nb::ndarray<const real, nb::c_contig, nb::device::cpu>;
+using OutArray = nb::ndarray<nb::numpy, real>;
+
+// ---- errors -------------------------------------------------------------
+
+// Raises the dkf.Error subclass of status st. call: "KalmanFilter.update";
+// step: the step of filter() or -1; matrix: the input the status concerns
+// or nullptr; detail: what failed, in the model's words; node: the sensor a
+// fusion centre's fault names, or -1.
+[[noreturn]] void raise_status(dkf_status_t st, const char *call, long step, const char *matrix,
+                               const std::string &detail, long node = -1)
+{
+    nb::object make = nb::module_::import_("dkf._errors").attr("_make");
+    nb::object exc = make(static_cast<int>(st), dkf_status_str(st), call,
+                          step < 0 ? nb::object(nb::none()) : nb::object(nb::int_(step)),
+                          matrix ? nb::object(nb::str(matrix)) : nb::object(nb::none()), detail,
+                          node < 0 ? nb::object(nb::none()) : nb::object(nb::int_(node)));
+    PyErr_SetObject(reinterpret_cast<PyObject *>(Py_TYPE(exc.ptr())), exc.ptr());
+    throw nb::python_error();
+}
+
+[[noreturn]] void value_error(const char *call, const std::string &what)
+{
+    throw nb::value_error((std::string(call) + ": " + what).c_str());
+}
+
+std::string shape_str(const InArray &a)
+{
+    std::string s = "(";
+    for (size_t i = 0; i < a.ndim(); ++i) {
+        if (i) s += ", ";
+        s += std::to_string(a.shape(i));
+    }
+    return s + (a.ndim() == 1 ? ",)" : ")");
+}
+
+// ---- arguments ------------------------------------------------------------
+
+// obj as a C-contiguous array of real: as it is when it already is one,
+// else through dkf._convert.as_real (other real dtypes, sequences; TypeError
+// for anything else).
+InArray as_array(nb::handle obj, const char *call, const char *name)
+{
+    InArray out;
+    if (nb::try_cast(obj, out, false)) return out;
+    nb::object conv =
+        nb::module_::import_("dkf._convert").attr("as_real")(obj, call, name, DKF_PY_DTYPE);
+    if (!nb::try_cast(conv, out, false))
+        throw nb::type_error((std::string(call) + ": " + name + ": not convertible").c_str());
+    return out;
+}
+
+// A matrix argument: one (rows, cols) matrix, or a stack (T, rows, cols)
+// of one per step (count = T). rows or cols 0: any (taken from the array).
+struct Mat {
+    InArray keep;      // holds the data alive (empty for stored models)
+    const real *p = nullptr;
+    size_t count = 0;  // 1 for one matrix, T for a stack
+    bool stacked = false;
+    size_t rows = 0, cols = 0;
+    const real *at(size_t t) const { return p + (stacked ? t : 0) * rows * cols; }
+};
+
+Mat matrix_arg(nb::handle obj, const char *call, const char *name, size_t rows, size_t cols,
+               bool stack_ok)
+{
+    Mat m;
+    m.keep = as_array(obj, call, name);
+    const size_t nd = m.keep.ndim();
+    if (nd != 2 && !(stack_ok && nd == 3)) {
+        value_error(call, std::string(name) + " must be " + (stack_ok ? "2-D or 3-D" : "2-D") +
+                              ", got shape " + shape_str(m.keep));
+    }
+    m.stacked = nd == 3;
+    m.count = m.stacked ? m.keep.shape(0) : 1;
+    m.rows = m.keep.shape(nd - 2);
+    m.cols = m.keep.shape(nd - 1);
+    if ((rows && m.rows != rows) || (cols && m.cols != cols) || m.rows == 0 || m.cols == 0) {
+        value_error(call, std::string(name) + " must be (" + (rows ? std::to_string(rows) : "m") +
+                              ", " + (cols ? std::to_string(cols) : "n") + ")" +
+                              (stack_ok ? " or a stack (T, ., .)" : "") + ", got shape " +
+                              shape_str(m.keep));
+    }
+    m.p = m.keep.data();
+    return m;
+}
+
+// A vector argument of length n (0: any): shape (n,) or (n, 1).
+Mat vector_arg(nb::handle obj, const char *call, const char *name, size_t n)
+{
+    Mat v;
+    v.keep = as_array(obj, call, name);
+    const size_t nd = v.keep.ndim();
+    const bool ok = (nd == 1 || (nd == 2 && v.keep.shape(1) == 1)) && v.keep.shape(0) > 0 &&
+                    (n == 0 || v.keep.shape(0) == n);
+    if (!ok) {
+        value_error(call, std::string(name) + " must be (" + (n ? std::to_string(n) : "n") +
+                              ",) or (" + (n ? std::to_string(n) : "n") + ", 1), got shape " +
+                              shape_str(v.keep));
+    }
+    v.count = 1;
+    v.rows = v.keep.shape(0);
+    v.cols = 1;
+    v.p = v.keep.data();
+    return v;
+}
+
+dkf_mat_t view(size_t rows, size_t cols, const real *p)
+{
+    // The core takes inputs as const dkf_mat_t * and never writes them.
+    dkf_mat_t m = {rows, cols, const_cast<real *>(p)};
+    return m;
+}
+
+OutArray new_array(size_t ndim, const size_t *shape)
+{
+    size_t len = 1;
+    for (size_t i = 0; i < ndim; ++i) len *= shape[i];
+    std::unique_ptr<real[]> buf(new real[len ? len : 1]);
+    nb::capsule owner(buf.get(), [](void *p) noexcept { delete[] static_cast<real *>(p); });
+    OutArray a(buf.release(), ndim, shape, owner);
+    return a;
+}
+
+// ---- pieces the filters share ---------------------------------------------
+
+// An input named in an error message, if it is not finite.
+struct Named {
+    const char *name;
+    const real *p;
+    size_t len;
+    bool nan_missing; // a measurement: its NaNs are missing values, not errors
+};
+
+// The first of the inputs with a NaN or an infinity (a measurement: with an
+// infinity), or nullptr.
+const char *first_nonfinite(std::initializer_list<Named> inputs)
+{
+    for (const Named &in : inputs) {
+        if (!in.p) continue;
+        for (size_t i = 0; i < in.len; ++i) {
+            if (in.nan_missing ? std::isinf(in.p[i]) : !std::isfinite(in.p[i])) return in.name;
+        }
+    }
+    return nullptr;
+}
+
+// A NONFINITE status's detail: the input to blame, or an overflow.
+std::string nonfinite_detail(const char *culprit)
+{
+    if (!culprit) return "the step overflowed";
+    return std::string(culprit) + " not finite" +
+           (culprit[0] == 'y' || culprit[0] == 'z'
+                ? " (a NaN is a missing value, an infinity is refused)"
+                : "");
+}
+
+// A failed init: the status with the matrix it concerns.
+[[noreturn]] void raise_init(dkf_status_t st, const char *call, const Mat &x, const Mat &P,
+                             const std::string &sizes)
+{
+    const char *culprit = nullptr;
+    std::string detail;
+    if (st == DKF_ERR_NOT_SPD) {
+        culprit = "P0", detail = "P0 not SPD";
+    } else if (st == DKF_ERR_NONFINITE) {
+        culprit = first_nonfinite({{"x0", x.p, x.rows, false}, {"P0", P.p, P.rows * P.cols, false}});
+        detail = nonfinite_detail(culprit);
+    } else if (st == DKF_ERR_CAPACITY) {
+        detail = sizes + ": each must be at most DKF_MAX_DIM = " + std::to_string(DKF_MAX_DIM);
+    }
+    raise_status(st, call, -1, culprit, detail);
+}
+
+// A model matrix the constructor was given: one, or a stack of one per step.
+struct Stored {
+    std::vector<real> data;
+    size_t count = 0, rows = 0, cols = 0;
+    bool stacked = false;
+};
+
+Stored store(const Mat &m)
+{
+    Stored s;
+    s.data.assign(m.p, m.p + m.count * m.rows * m.cols);
+    s.count = m.count;
+    s.rows = m.rows;
+    s.cols = m.cols;
+    s.stacked = m.stacked;
+    return s;
+}
+
+Mat stored(const Stored &s)
+{
+    Mat m;
+    m.p = s.data.data();
+    m.count = s.count;
+    m.stacked = s.stacked;
+    m.rows = s.rows;
+    m.cols = s.cols;
+    return m;
+}
+
+// The constructor's matrix for a single step: refused when it is a stack.
+Mat constant(const Stored &s, const char *call, const char *name)
+{
+    if (s.stacked) {
+        value_error(call, std::string(name) + " was given as a stack (T, ., .): pass " + name +
+                              "= to this call, or run filter()");
+    }
+    return stored(s);
+}
+
+// T of the stacks among ms (0 if none), ValueError if they differ.
+size_t stack_length(std::initializer_list<const Stored *> ms, const char *call)
+{
+    size_t T = 0;
+    for (const Stored *s : ms) {
+        if (!s->stacked) continue;
+        if (T && s->count != T) value_error(call, "the stacked model matrices differ in length T");
+        T = s->count;
+    }
+    return T;
+}
+
+// A stack given to filter() must have one entry per row of Y.
+void check_stack(const Mat &m, size_t T, const char *call, const std::string &name)
+{
+    if (m.stacked && m.count != T) {
+        value_error(call, name + " is a stack of " + std::to_string(m.count) + ", Y has T = " +
+                              std::to_string(T) + " rows");
+    }
+}
+
+OutArray copy_out(const real *p, size_t ndim, const size_t *shape)
+{
+    OutArray a = new_array(ndim, shape);
+    size_t len = 1;
+    for (size_t i = 0; i < ndim; ++i) len *= shape[i];
+    std::memcpy(a.data(), p, len * sizeof(real));
+    return a;
+}
+
+// The measured components of (y, H, R) (docs/decisions.md item 57): a NaN
+// in y marks that component missing. Returns how many are measured, k; when
+// 0 < k < m, ys, Hs, Rs (m_max, m_max n, m_max^2 reals) hold y, the rows of
+// H and the rows and columns of R of the measured components, and *y, *H,
+// *R point there. No Python.
+size_t select_measured(const real **y, const real **H, const real **R, size_t m, size_t n,
+                       real *ys, real *Hs, real *Rs)
+{
+    const real *y0 = *y, *H0 = *H, *R0 = *R;
+    size_t k = 0;
+    for (size_t i = 0; i < m; ++i) k += std::isnan(y0[i]) ? 0 : 1;
+    if (k == 0 || k == m) return k;
+    size_t a = 0;
+    for (size_t i = 0; i < m; ++i) {
+        if (std::isnan(y0[i])) continue;
+        ys[a] = y0[i];
+        std::memcpy(Hs + a * n, H0 + i * n, n * sizeof(real));
+        size_t b = 0;
+        for (size_t j = 0; j < m; ++j)
+            if (!std::isnan(y0[j])) Rs[a * k + b++] = R0[i * m + j];
+        ++a;
+    }
+    *y = ys, *H = Hs, *R = Rs;
+    return k;
+}
+
+// A filter struct and its storage as they were before a filter() run, put
+// back when a step fails (the struct and every real, byte for byte).
+template <class S> class Undo {
+public:
+    Undo(S &obj, std::vector<real> &storage)
+        : obj_(obj), storage_(storage), saved_obj_(obj), saved_(storage)
+    {
+    }
+    void restore()
+    {
+        obj_ = saved_obj_;
+        std::memcpy(storage_.data(), saved_.data(), saved_.size() * sizeof(real));
+    }
+
+private:
+    S &obj_;
+    std::vector<real> &storage_;
+    const S saved_obj_;
+    const std::vector<real> saved_;
+};
+
+// Row t of an output array of matrices shaped like M: M's reals.
+void put_row(real *out, size_t t, const dkf_mat_t &M)
+{
+    const size_t len = M.rows * M.cols;
+    std::memcpy(out + t * len, M.data, len * sizeof(real));
+}
+
+// An object one thread uses at a time: filter() marks it busy while it
+// runs without the GIL, and every other call then raises RuntimeError.
+class Guarded {
+protected:
+    bool busy_ = false;
+    void not_busy(const char *call) const
+    {
+        if (busy_) {
+            throw std::runtime_error(std::string(call) +
+                                     ": the filter is running filter() in another thread");
+        }
+    }
+};
+
+// ---- KalmanFilter ---------------------------------------------------------
+
+// The inputs of one step (the messages of a failure name them).
+struct StepIn {
+    const real *F, *Q, *u, *H, *R, *y;
+    size_t m;
+};
+
+class KalmanFilter : Guarded {
+public:
+    KalmanFilter(nb::handle F, nb::handle Q, nb::handle H, nb::handle R, nb::handle x0,
+                 nb::handle P0, nb::handle m_max)
+    {
+        static const char *call = "KalmanFilter";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        F_ = store(matrix_arg(F, call, "F", n_, n_, true));
+        Q_ = store(matrix_arg(Q, call, "Q", n_, n_, true));
+        Mat h = matrix_arg(H, call, "H", 0, n_, true);
+        H_ = store(h);
+        R_ = store(matrix_arg(R, call, "R", h.rows, h.rows, true));
+        stack_length({&F_, &Q_, &H_, &R_}, call);
+        m_max_ = h.rows;
+        if (!m_max.is_none()) {
+            long mm = nb::cast<long>(m_max);
+            if (mm < static_cast<long>(h.rows))
+                value_error(call, "m_max must be at least H's rows, " + std::to_string(h.rows));
+            m_max_ = static_cast<size_t>(mm);
+        }
+        storage_.assign(DKF_KF_STORAGE_LEN(n_, m_max_), real(0));
+        Hs_.assign(m_max_ * n_, real(0));
+        Rs_.assign(m_max_ * m_max_, real(0));
+        ys_.assign(m_max_, real(0));
+        std::memset(&kf_, 0, sizeof kf_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st = dkf_kf_init(&kf_, n_, m_max_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st != DKF_OK) {
+            raise_init(st, call, x, P,
+                       "n = " + std::to_string(n_) + ", m_max = " + std::to_string(m_max_));
+        }
+    }
+    KalmanFilter(const KalmanFilter &) = delete;
+    KalmanFilter &operator=(const KalmanFilter &) = delete;
+
+    void predict(nb::handle F, nb::handle Q, nb::handle u)
+    {
+        static const char *call = "KalmanFilter.predict";
+        not_busy(call);
+        Mat f = F.is_none() ? constant(F_, call, "F") : matrix_arg(F, call, "F", n_, n_, false);
+        Mat q = Q.is_none() ? constant(Q_, call, "Q") : matrix_arg(Q, call, "Q", n_, n_, false);
+        Mat uu;
+        if (!u.is_none()) uu = vector_arg(u, call, "u", n_);
+        StepIn in = {f.p, q.p, uu.p, nullptr, nullptr, nullptr, 0};
+        dkf_status_t st = step_predict(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, true);
+    }
+
+    void update(nb::handle y, nb::handle H, nb::handle R)
+    {
+        static const char *call = "KalmanFilter.update";
+        not_busy(call);
+        Mat h = H.is_none() ? constant(H_, call, "H") : matrix_arg(H, call, "H", 0, n_, false);
+        check_m(h, call);
+        Mat r = R.is_none() ? constant(R_, call, "R")
+                            : matrix_arg(R, call, "R", h.rows, h.rows, false);
+        if (r.rows != h.rows) value_error(call, "R must be (m, m) with m = H's rows");
+        Mat yy = vector_arg(y, call, "y", h.rows);
+        StepIn in = {nullptr, nullptr, nullptr, h.p, r.p, yy.p, h.rows};
+        dkf_status_t st = step_update(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, false);
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle Q, nb::handle H, nb::handle R)
+    {
+        static const char *call = "KalmanFilter.filter";
+        not_busy(call);
+        Mat f = F.is_none() ? stored(F_) : matrix_arg(F, call, "F", n_, n_, true);
+        Mat q = Q.is_none() ? stored(Q_) : matrix_arg(Q, call, "Q", n_, n_, true);
+        Mat h = H.is_none() ? stored(H_) : matrix_arg(H, call, "H", 0, n_, true);
+        check_m(h, call);
+        Mat r = R.is_none() ? stored(R_) : matrix_arg(R, call, "R", h.rows, h.rows, true);
+        if (r.rows != h.rows) value_error(call, "R must be (m, m) with m = H's rows");
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != h.rows) {
+            value_error(call, "Y must be (T, " + std::to_string(h.rows) + "), got shape " +
+                                  shape_str(ya));
+        }
+        const size_t T = ya.shape(0);
+        check_stack(f, T, call, "F");
+        check_stack(q, T, call, "Q");
+        check_stack(h, T, call, "H");
+        check_stack(r, T, call, "R");
+        const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_};
+        OutArray X = new_array(2, xs), P = new_array(3, ps);
+        real *Xo = X.data(), *Po = P.data();
+        const real *yp = ya.data();
+
+        // Run on the live filter; a failure at step t puts it back as it was.
+        Undo<dkf_kf_t> undo(kf_, storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        bool in_predict = true;
+        StepIn in = {};
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 0; t < T; ++t) {
+                in = {f.at(t), q.at(t), nullptr, h.at(t), r.at(t), yp + t * h.rows, h.rows};
+                in_predict = true;
+                st = step_predict(in);
+                if (st != DKF_OK) break;
+                in_predict = false;
+                st = step_update(in);
+                if (st != DKF_OK) break;
+                put_row(Xo, t, kf_.x);
+                put_row(Po, t, kf_.P);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in, in_predict);
+        return nb::make_tuple(X, P);
+    }
+
+    OutArray x() const
+    {
+        not_busy("KalmanFilter.x");
+        const size_t shape[1] = {n_};
+        return copy_out(kf_.x.data, 1, shape);
+    }
+
+    OutArray P() const
+    {
+        not_busy("KalmanFilter.P");
+        const size_t shape[2] = {n_, n_};
+        return copy_out(kf_.P.data, 2, shape);
+    }
+
+    size_t n() const { return n_; }
+    size_t m_max() const { return m_max_; }
+
+private:
+    void check_m(const Mat &h, const char *call) const
+    {
+        if (h.rows > m_max_) {
+            value_error(call, "H has " + std::to_string(h.rows) + " rows, above m_max = " +
+                                  std::to_string(m_max_));
+        }
+    }
+
+    // One time update; no Python (filter() runs it without the GIL).
+    dkf_status_t step_predict(const StepIn &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), u = view(n_, 1, in.u);
+        dkf_kf_dyn_t dyn = {&F, &Q};
+        return dkf_kf_predict(&kf_, &dyn, in.u ? &u : nullptr);
+    }
+
+    // One measurement update of the measured components; none measured:
+    // no update. No Python.
+    dkf_status_t step_update(const StepIn &in)
+    {
+        const real *H = in.H, *R = in.R, *y = in.y;
+        const size_t k = select_measured(&y, &H, &R, in.m, n_, ys_.data(), Hs_.data(), Rs_.data());
+        if (k == 0) return DKF_OK;
+        dkf_mat_t Hm = view(k, n_, H), Rm = view(k, k, R), ym = view(k, 1, y);
+        dkf_kf_meas_t meas = {&Hm, &Rm};
+        return dkf_kf_update(&kf_, &meas, &ym);
+    }
+
+    // The dkf.Error of a failed step, naming the matrix where one is to blame.
+    [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step, const StepIn &in,
+                                 bool predict) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = predict ? first_nonfinite({{"F", in.F, n_ * n_, false},
+                                                 {"Q", in.Q, n_ * n_, false},
+                                                 {"u", in.u, n_, false}})
+                              : first_nonfinite({{"y", in.y, in.m, true},
+                                                 {"H", in.H, in.m * n_, false},
+                                                 {"R", in.R, in.m * in.m, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = predict ? "Q" : "R";
+            detail = predict ? "the new P = F P F^T + Q is not PSD (Q indefinite?)"
+                             : "S = H P H^T + R is not SPD, or the new P is not PSD "
+                               "(R indefinite?)";
+        }
+        if (step >= 0) detail = std::string(predict ? "predict: " : "update: ") + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0, m_max_ = 0;
+    std::vector<real> storage_, Hs_, Rs_, ys_;
+    dkf_kf_t kf_;
+    Stored F_, Q_, H_, R_;
+};
+
+// ---- InformationFilter ----------------------------------------------------
+
+// A sensor's measurement model and data for one step.
+struct Sensor {
+    const real *H, *R, *z;
+    size_t m;
+};
+
+// A sequence argument of L per-sensor matrices (each one, or a stack).
+std::vector<Mat> sensor_mats(nb::handle seq, const char *call, const char *name, size_t L,
+                             const std::vector<size_t> &rows, size_t n)
+{
+    if (!nb::isinstance<nb::sequence>(seq) || nb::isinstance<nb::str>(seq))
+        throw nb::type_error((std::string(call) + ": " + name + " must be a sequence of arrays, "
+                              "one per sensor").c_str());
+    nb::sequence sq = nb::borrow<nb::sequence>(seq);
+    if (nb::len(sq) != L) {
+        value_error(call, std::string(name) + " has " + std::to_string(nb::len(sq)) +
+                              " entries, Z has " + std::to_string(L) + " sensors");
+    }
+    std::vector<Mat> out;
+    for (size_t j = 0; j < L; ++j) {
+        const std::string nm = std::string(name) + "[" + std::to_string(j) + "]";
+        out.push_back(matrix_arg(sq[j], call, nm.c_str(), rows.empty() ? 0 : rows[j],
+                                 n ? n : rows[j], true));
+    }
+    return out;
+}
+
+// (i, I) of one sensor, computed by dkf_info_contribution on the measured
+// components of z (none: i = 0, I = 0, and *measured = false). No Python.
+struct Contributor {
+    std::vector<real> work, zs, Hs, Rs;
+    size_t n = 0;
+    explicit Contributor(size_t n_, size_t m_max)
+        : work(DKF_INFO_CONTRIB_WORK(n_, m_max)), zs(m_max), Hs(m_max * n_), Rs(m_max * m_max),
+          n(n_)
+    {
+    }
+    dkf_status_t operator()(real *i, real *I, const Sensor &s, bool *measured)
+    {
+        const real *z = s.z, *H = s.H, *R = s.R;
+        const size_t k = select_measured(&z, &H, &R, s.m, n, zs.data(), Hs.data(), Rs.data());
+        *measured = k > 0;
+        if (k == 0) {
+            std::fill(i, i + n, real(0));
+            std::fill(I, I + n * n, real(0));
+            return DKF_OK;
+        }
+        dkf_mat_t im = view(n, 1, i), Im = view(n, n, I);
+        dkf_mat_t Hm = view(k, n, H), Rm = view(k, k, R), zm = view(k, 1, z);
+        dkf_kf_meas_t meas = {&Hm, &Rm};
+        return dkf_info_contribution(&im, &Im, &meas, &zm, work.data());
+    }
+};
+
+// What a failed contribution names.
+[[noreturn]] void raise_contribution(dkf_status_t st, const char *call, long step, long sensor,
+                                     const Sensor &s, size_t n)
+{
+    const char *culprit = nullptr;
+    std::string detail;
+    if (st == DKF_ERR_NONFINITE) {
+        culprit = first_nonfinite(
+            {{"z", s.z, s.m, true}, {"H", s.H, s.m * n, false}, {"R", s.R, s.m * s.m, false}});
+        detail = nonfinite_detail(culprit);
+    } else if (st == DKF_ERR_NOT_SPD) {
+        culprit = "R", detail = "R not SPD";
+    }
+    if (sensor >= 0) detail = "sensor " + std::to_string(sensor) + ": " + detail;
+    raise_status(st, call, step, culprit, detail);
+}
+
+size_t largest(const std::vector<size_t> &v)
+{
+    size_t a = 1;
+    for (size_t x : v) a = x > a ? x : a;
+    return a;
+}
+
+nb::tuple info_contribution(nb::handle z, nb::handle H, nb::handle R)
+{
+    static const char *call = "info_contribution";
+    Mat h = matrix_arg(H, call, "H", 0, 0, false);
+    Mat r = matrix_arg(R, call, "R", h.rows, h.rows, false);
+    Mat zz = vector_arg(z, call, "z", h.rows);
+    const size_t n = h.cols, is[1] = {n}, Is[2] = {n, n};
+    OutArray i = new_array(1, is), I = new_array(2, Is);
+    Contributor contribute(n, h.rows);
+    Sensor s = {h.p, r.p, zz.p, h.rows};
+    bool measured;
+    dkf_status_t st = contribute(i.data(), I.data(), s, &measured);
+    if (st != DKF_OK) raise_contribution(st, call, -1, -1, s, n);
+    return nb::make_tuple(i, I);
+}
+
+class InformationFilter : Guarded {
+public:
+    InformationFilter(nb::handle F, nb::handle Q, nb::handle x0, nb::handle P0)
+    {
+        static const char *call = "InformationFilter";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        F_ = store(matrix_arg(F, call, "F", n_, n_, true));
+        Q_ = store(matrix_arg(Q, call, "Q", n_, n_, true));
+        stack_length({&F_, &Q_}, call);
+        storage_.assign(DKF_INFO_STORAGE_LEN(n_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st = dkf_info_init(&f_, n_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st != DKF_OK) raise_init(st, call, x, P, "n = " + std::to_string(n_));
+    }
+    InformationFilter(const InformationFilter &) = delete;
+    InformationFilter &operator=(const InformationFilter &) = delete;
+
+    void predict(nb::handle F, nb::handle Q)
+    {
+        static const char *call = "InformationFilter.predict";
+        not_busy(call);
+        Mat f = F.is_none() ? constant(F_, call, "F") : matrix_arg(F, call, "F", n_, n_, false);
+        Mat q = Q.is_none() ? constant(Q_, call, "Q") : matrix_arg(Q, call, "Q", n_, n_, false);
+        dkf_status_t st = step_predict(f.p, q.p);
+        if (st != DKF_OK) raise_predict(st, call, -1, f.p, q.p);
+    }
+
+    void update(nb::handle z, nb::handle H, nb::handle R)
+    {
+        static const char *call = "InformationFilter.update";
+        not_busy(call);
+        Mat h = matrix_arg(H, call, "H", 0, n_, false);
+        Mat r = matrix_arg(R, call, "R", h.rows, h.rows, false);
+        Mat zz = vector_arg(z, call, "z", h.rows);
+        Contributor contribute(n_, h.rows);
+        std::vector<real> i(n_), I(n_ * n_);
+        Sensor s = {h.p, r.p, zz.p, h.rows};
+        bool measured;
+        dkf_status_t st = contribute(i.data(), I.data(), s, &measured);
+        if (st != DKF_OK) raise_contribution(st, call, -1, -1, s, n_);
+        if (!measured) return;
+        st = step_fuse(i.data(), I.data(), 1);
+        if (st != DKF_OK) raise_fuse(st, call, -1, i.data(), I.data(), 1);
+    }
+
+    void fuse(nb::handle i, nb::handle I)
+    {
+        static const char *call = "InformationFilter.fuse";
+        not_busy(call);
+        InArray ia = as_array(i, call, "i"), Ia = as_array(I, call, "I");
+        const bool one = ia.ndim() == 1;
+        const size_t L = one ? 1 : (ia.ndim() == 2 ? ia.shape(0) : 0);
+        const bool ok = (one && ia.shape(0) == n_ && Ia.ndim() == 2 && Ia.shape(0) == n_ &&
+                         Ia.shape(1) == n_) ||
+                        (!one && ia.ndim() == 2 && ia.shape(1) == n_ && Ia.ndim() == 3 &&
+                         Ia.shape(0) == L && Ia.shape(1) == n_ && Ia.shape(2) == n_);
+        if (!ok) {
+            value_error(call, "i, I must be (n,), (n, n) or (L, n), (L, n, n) with n = " +
+                                  std::to_string(n_) + ", got " + shape_str(ia) + ", " +
+                                  shape_str(Ia));
+        }
+        if (L == 0) return;
+        dkf_status_t st = step_fuse(ia.data(), Ia.data(), L);
+        if (st != DKF_OK) raise_fuse(st, call, -1, ia.data(), Ia.data(), L);
+    }
+
+    nb::tuple filter(nb::handle Z, nb::handle H, nb::handle R, nb::handle F, nb::handle Q)
+    {
+        static const char *call = "InformationFilter.filter";
+        not_busy(call);
+        if (!nb::isinstance<nb::sequence>(Z) || nb::isinstance<nb::str>(Z))
+            throw nb::type_error("InformationFilter.filter: Z must be a sequence of arrays "
+                                 "(T, m_j), one per sensor");
+        nb::sequence zs = nb::borrow<nb::sequence>(Z);
+        const size_t L = nb::len(zs);
+        std::vector<InArray> za;
+        for (size_t j = 0; j < L; ++j) {
+            const std::string nm = "Z[" + std::to_string(j) + "]";
+            za.push_back(as_array(zs[j], call, nm.c_str()));
+            if (za[j].ndim() != 2 || (j && za[j].shape(0) != za[0].shape(0))) {
+                value_error(call, nm + " must be (T, m_j) with the T of Z[0], got shape " +
+                                      shape_str(za[j]));
+            }
+        }
+        const size_t T = L ? za[0].shape(0) : 0;
+        std::vector<size_t> m;
+        for (size_t j = 0; j < L; ++j) m.push_back(za[j].shape(1));
+        std::vector<Mat> h = sensor_mats(H, call, "H", L, m, n_);
+        std::vector<Mat> r = sensor_mats(R, call, "R", L, m, 0);
+        Mat f = F.is_none() ? stored(F_) : matrix_arg(F, call, "F", n_, n_, true);
+        Mat q = Q.is_none() ? stored(Q_) : matrix_arg(Q, call, "Q", n_, n_, true);
+        check_stack(f, T, call, "F");
+        check_stack(q, T, call, "Q");
+        for (size_t j = 0; j < L; ++j) {
+            check_stack(h[j], T, call, "H[" + std::to_string(j) + "]");
+            check_stack(r[j], T, call, "R[" + std::to_string(j) + "]");
+        }
+        const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_};
+        OutArray X = new_array(2, xs), P = new_array(3, ps);
+        real *Xo = X.data(), *Po = P.data();
+        Contributor contribute(n_, largest(m));
+        std::vector<real> i(L * n_ + 1), I(L * n_ * n_ + 1);
+
+        Undo<dkf_info_t> undo(f_, storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        long failed_sensor = -1;
+        int phase = 0; // 0 predict, 1 contribution, 2 fuse
+        size_t used = 0;
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 0; t < T && st == DKF_OK; ++t) {
+                phase = 0;
+                st = step_predict(f.at(t), q.at(t));
+                if (st != DKF_OK) break;
+                phase = 1;
+                used = 0;
+                for (size_t j = 0; j < L; ++j) {
+                    Sensor s = {h[j].at(t), r[j].at(t), za[j].data() + t * m[j], m[j]};
+                    bool measured;
+                    st = contribute(&i[used * n_], &I[used * n_ * n_], s, &measured);
+                    if (st != DKF_OK) {
+                        failed_sensor = static_cast<long>(j);
+                        break;
+                    }
+                    used += measured ? 1 : 0;
+                }
+                if (st != DKF_OK) break;
+                phase = 2;
+                if (used) st = step_fuse(i.data(), I.data(), used);
+                if (st != DKF_OK) break;
+                put_row(Xo, t, f_.x);
+                put_row(Po, t, f_.P);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) {
+            const long step = static_cast<long>(t);
+            if (phase == 0) raise_predict(st, call, step, f.at(t), q.at(t));
+            if (phase == 1) {
+                const size_t j = static_cast<size_t>(failed_sensor);
+                Sensor s = {h[j].at(t), r[j].at(t), za[j].data() + t * m[j], m[j]};
+                raise_contribution(st, call, step, failed_sensor, s, n_);
+            }
+            raise_fuse(st, call, step, i.data(), I.data(), used);
+        }
+        return nb::make_tuple(X, P);
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    OutArray x() const { return get(f_.x, "InformationFilter.x"); }
+    OutArray P() const { return get(f_.P, "InformationFilter.P"); }
+    OutArray y() const { return get(f_.y, "InformationFilter.y"); }
+    OutArray Y() const { return get(f_.Y, "InformationFilter.Y"); }
+    size_t n() const { return n_; }
+
+private:
+    dkf_status_t step_predict(const real *F, const real *Q)
+    {
+        dkf_mat_t Fm = view(n_, n_, F), Qm = view(n_, n_, Q);
+        dkf_kf_dyn_t dyn = {&Fm, &Qm};
+        return dkf_info_predict(&f_, &dyn);
+    }
+
+    // L contributions, i (L n reals) and I (L n^2 reals). No Python.
+    dkf_status_t step_fuse(const real *i, const real *I, size_t L)
+    {
+        std::vector<dkf_mat_t> iv(L), Iv(L);
+        for (size_t j = 0; j < L; ++j) {
+            iv[j] = view(n_, 1, i + j * n_);
+            Iv[j] = view(n_, n_, I + j * n_ * n_);
+        }
+        return dkf_info_fuse(&f_, iv.data(), Iv.data(), L);
+    }
+
+    [[noreturn]] void raise_predict(dkf_status_t st, const char *call, long step, const real *F,
+                                    const real *Q) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"F", F, n_ * n_, false}, {"Q", Q, n_ * n_, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = "Q", detail = "the new P = F P F^T + Q is not SPD (Q indefinite?)";
+        }
+        if (step >= 0) detail = "predict: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    [[noreturn]] void raise_fuse(dkf_status_t st, const char *call, long step, const real *i,
+                                 const real *I, size_t L) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"i", i, L * n_, false}, {"I", I, L * n_ * n_, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = "I", detail = "Y + sum I is not SPD (an indefinite contribution?)";
+        }
+        if (step >= 0) detail = "fuse: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0;
+    std::vector<real> storage_;
+    dkf_info_t f_;
+    Stored F_, Q_;
+};
+
+// ---- DifferenceKF ---------------------------------------------------------
+
+// The model of one DKF step: dynamics at k, measurement model at k + 1.
+struct DkfStep {
+    const real *F, *Q, *B, *Rd, *H, *D, *R, *y;
+};
+
+class DifferenceKF : Guarded {
+public:
+    DifferenceKF(nb::handle x0, nb::handle P0, size_t m, size_t p)
+    {
+        static const char *call = "DifferenceKF";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows, m_ = m, p_ = p;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        if (m == 0 || p == 0) value_error(call, "m and p must be positive");
+        storage_.assign(DKF_DIFFKF_STORAGE_LEN(n_, m_, p_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st =
+            dkf_diffkf_init(&f_, n_, m_, p_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st != DKF_OK) {
+            raise_init(st, call, x, P,
+                       "n = " + std::to_string(n_) + ", m = " + std::to_string(m_) +
+                           ", p = " + std::to_string(p_));
+        }
+    }
+    DifferenceKF(const DifferenceKF &) = delete;
+    DifferenceKF &operator=(const DifferenceKF &) = delete;
+
+    void start(nb::handle y1, nb::handle H, nb::handle D, nb::handle R, nb::handle F0,
+               nb::handle Q0)
+    {
+        static const char *call = "DifferenceKF.start";
+        not_busy(call);
+        Mat h = matrix_arg(H, call, "H", m_, n_, false), d = matrix_arg(D, call, "D", m_, p_, false),
+            r = matrix_arg(R, call, "R", m_, m_, false);
+        Mat y = vector_arg(y1, call, "y1", m_);
+        if (F0.is_none() != Q0.is_none()) value_error(call, "give both F0 and Q0, or neither");
+        Mat f, q;
+        if (!F0.is_none()) {
+            f = matrix_arg(F0, call, "F0", n_, n_, false);
+            q = matrix_arg(Q0, call, "Q0", n_, n_, false);
+        }
+        DkfStep in = {f.p, q.p, nullptr, nullptr, h.p, d.p, r.p, y.p};
+        dkf_status_t st = do_start(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, true);
+    }
+
+    void step(nb::handle y_next, nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd,
+              nb::handle H, nb::handle D, nb::handle R)
+    {
+        static const char *call = "DifferenceKF.step";
+        not_busy(call);
+        Mat f = matrix_arg(F, call, "F", n_, n_, false), q = matrix_arg(Q, call, "Q", n_, n_, false),
+            b = matrix_arg(B, call, "B", p_, p_, false),
+            rd = matrix_arg(Rd, call, "Rd", p_, p_, false),
+            h = matrix_arg(H, call, "H", m_, n_, false), d = matrix_arg(D, call, "D", m_, p_, false),
+            r = matrix_arg(R, call, "R", m_, m_, false);
+        Mat y = vector_arg(y_next, call, "y_next", m_);
+        DkfStep in = {f.p, q.p, b.p, rd.p, h.p, d.p, r.p, y.p};
+        dkf_status_t st = do_step(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in, false);
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd,
+                     nb::handle H, nb::handle D, nb::handle R, bool prior)
+    {
+        static const char *call = "DifferenceKF.filter";
+        not_busy(call);
+        if (f_.priv.started) {
+            raise_status(DKF_ERR_STATE, call, -1, nullptr,
+                         "filter() runs a filter from its start: this one has started");
+        }
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != m_ || ya.shape(0) < 1) {
+            value_error(call, "Y must be (T, " + std::to_string(m_) + ") with T >= 1, got shape " +
+                                  shape_str(ya));
+        }
+        const size_t T = ya.shape(0);
+        Mat f = matrix_arg(F, call, "F", n_, n_, true), q = matrix_arg(Q, call, "Q", n_, n_, true),
+            b = matrix_arg(B, call, "B", p_, p_, true),
+            rd = matrix_arg(Rd, call, "Rd", p_, p_, true),
+            h = matrix_arg(H, call, "H", m_, n_, true), d = matrix_arg(D, call, "D", m_, p_, true),
+            r = matrix_arg(R, call, "R", m_, m_, true);
+        static const char *names[7] = {"F", "Q", "B", "Rd", "H", "D", "R"};
+        const Mat *ms[7] = {&f, &q, &b, &rd, &h, &d, &r};
+        for (int i = 0; i < 7; ++i) {
+            if (ms[i]->stacked && ms[i]->count != T + 1) {
+                value_error(call, std::string(names[i]) + " is a stack of " +
+                                      std::to_string(ms[i]->count) +
+                                      ": a stack has one matrix per time 0..T, T + 1 = " +
+                                      std::to_string(T + 1));
+            }
+        }
+        const size_t S = T - 1, xs[2] = {S, n_}, ps[3] = {S, n_, n_};
+        OutArray XF = new_array(2, xs), PF = new_array(3, ps), XN = new_array(2, xs),
+                 PN = new_array(3, ps);
+        real *xf = XF.data(), *pf = PF.data(), *xn = XN.data(), *pn = PN.data();
+        const real *yp = ya.data();
+
+        Undo<dkf_diffkf_t> undo(f_, storage_);
+        dkf_status_t st;
+        size_t t = 0;
+        DkfStep in = {prior ? nullptr : f.at(0), prior ? nullptr : q.at(0), nullptr, nullptr,
+                      h.at(1), d.at(1), r.at(1), yp};
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            st = do_start(in);
+            for (t = st == DKF_OK ? 1 : 0; st == DKF_OK && t < T; ++t) {
+                in = {f.at(t), q.at(t), b.at(t), rd.at(t), h.at(t + 1), d.at(t + 1), r.at(t + 1),
+                      yp + t * m_};
+                st = do_step(in);
+                if (st != DKF_OK) break;
+                put_row(xf, t - 1, f_.xf);
+                put_row(pf, t - 1, f_.Pf);
+                put_row(xn, t - 1, f_.xn);
+                put_row(pn, t - 1, f_.Pn);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        // t = 0: the start failed; t >= 1: the step of time k = t (y_next = Y[t])
+        if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in, t == 0);
+        return nb::make_tuple(XF, PF, XN, PN);
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    // The node message {k, x_{k|k}, x_{k|k-1}} of dkf/diffkf_fusion.h.
+    nb::tuple message() const
+    {
+        static const char *call = "DifferenceKF.message";
+        not_busy(call);
+        dkf_diffkf_msg_t msg;
+        dkf_status_t st = dkf_diffkf_msg_fill(&msg, 0, &f_);
+        if (st != DKF_OK) {
+            raise_status(st, call, -1, nullptr,
+                         st == DKF_ERR_STATE ? "no step yet: the first message follows step 1"
+                                             : "");
+        }
+        const size_t shape[1] = {n_};
+        return nb::make_tuple(static_cast<size_t>(msg.k), copy_out(msg.xf, 1, shape),
+                              copy_out(msg.xp, 1, shape));
+    }
+    size_t n() const { return n_; }
+    size_t m() const { return m_; }
+    size_t p() const { return p_; }
+    size_t k() const { return f_.k; }
+    bool started() const { return f_.priv.started != 0; }
+    const dkf_diffkf_t &state() const { return f_; }
+
+private:
+    // No Python in either (filter() runs them without the GIL).
+    dkf_status_t do_start(const DkfStep &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), H = view(m_, n_, in.H),
+                  D = view(m_, p_, in.D), R = view(m_, m_, in.R), y = view(m_, 1, in.y);
+        dkf_ui_meas_t meas = {&H, &D, &R};
+        return dkf_diffkf_start(&f_, in.F ? &F : nullptr, in.Q ? &Q : nullptr, &meas, &y);
+    }
+
+    dkf_status_t do_step(const DkfStep &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), B = view(p_, p_, in.B),
+                  Rd = view(p_, p_, in.Rd), H = view(m_, n_, in.H), D = view(m_, p_, in.D),
+                  R = view(m_, m_, in.R), y = view(m_, 1, in.y);
+        dkf_ui_dyn_t dyn = {&F, &Q, &B, &Rd};
+        dkf_ui_meas_t meas = {&H, &D, &R};
+        return dkf_diffkf_step(&f_, &dyn, &meas, &y);
+    }
+
+    [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step, const DkfStep &in,
+                                 bool start) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"y", in.y, m_, false},
+                                       {"F", in.F, n_ * n_, false},
+                                       {"Q", in.Q, n_ * n_, false},
+                                       {"B", in.B, p_ * p_, false},
+                                       {"Rd", in.Rd, p_ * p_, false},
+                                       {"H", in.H, m_ * n_, false},
+                                       {"D", in.D, m_ * p_, false},
+                                       {"R", in.R, m_ * m_, false}});
+            detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
+        } else if (st == DKF_ERR_RANK) {
+            culprit = "D", detail = "D lacks full column rank";
+        } else if (st == DKF_ERR_SINGULAR) {
+            culprit = "B", detail = "B is singular";
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = start ? "the prior P = F0 P0 F0^T + Q0 is not SPD (Q0 indefinite?)"
+                           : "L_k is not SPD, or P_{k|k} or P_{k+1|k} is not PSD (Q, R or Rd "
+                             "indefinite?)";
+        } else if (st == DKF_ERR_STATE) {
+            detail = "call start() before step()";
+        }
+        if (step >= 0) detail = std::string(start ? "start: " : "step: ") + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0, m_ = 0, p_ = 0;
+    std::vector<real> storage_;
+    dkf_diffkf_t f_;
+};
+
+// ---- DiffKFFusionCentre ----------------------------------------------------
+
+// A fusion centre's failure: the status, the condition and the node.
+[[noreturn]] void raise_fc(dkf_status_t st, const char *call, const dkf_diffkf_fc_fault_t &fault)
+{
+    const long node =
+        fault.node == DKF_DIFFKF_FC_NO_NODE ? -1 : static_cast<long>(fault.node);
+    const char *matrix = nullptr;
+    switch (fault.which) {
+    case DKF_DIFFKF_FC_D_RANK: matrix = "D"; break;
+    case DKF_DIFFKF_FC_B_SINGULAR: matrix = "B"; break;
+    case DKF_DIFFKF_FC_PRIOR: matrix = node < 0 ? "P0" : "P0_local"; break;
+    case DKF_DIFFKF_FC_MSG_NODE:
+    case DKF_DIFFKF_FC_MSG_STEP:
+    case DKF_DIFFKF_FC_MSG_DIM:
+    case DKF_DIFFKF_FC_MSG_NONFINITE: matrix = "messages"; break;
+    default: break;
+    }
+    std::string detail = dkf_diffkf_fc_cond_str(fault.which);
+    if (node >= 0) detail = "node " + std::to_string(node) + ": " + detail;
+    raise_status(st, call, -1, matrix, detail, node);
+}
+
+class DiffKFFusionCentre : Guarded {
+public:
+    DiffKFFusionCentre(nb::handle x0, nb::handle P0, std::vector<size_t> m, std::vector<size_t> p,
+                       nb::handle P0_local)
+        : m_(std::move(m)), p_(std::move(p))
+    {
+        static const char *call = "DiffKFFusionCentre";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        l_ = m_.size();
+        if (l_ == 0 || p_.size() != l_)
+            value_error(call, "m and p must list the same number (>= 1) of sensors");
+        std::vector<Mat> locals(l_);
+        std::vector<dkf_mat_t> Pl(l_);
+        std::vector<const dkf_mat_t *> Plp(l_, nullptr);
+        if (!P0_local.is_none()) {
+            std::vector<Mat> given = sequence_of(P0_local, call, "P0_local");
+            for (size_t i = 0; i < l_; ++i) {
+                if (!given[i].p) continue;
+                Pl[i] = view(n_, n_, given[i].p);
+                Plp[i] = &Pl[i];
+            }
+            locals = std::move(given);
+        }
+        // 0 for dimensions the centre refuses: its init then names the fault.
+        const size_t len = dkf_diffkf_fc_storage_len(n_, l_, m_.data(), p_.data());
+        nodes_.assign(l_, dkf_diffkf_fc_node_t());
+        storage_.assign(len ? len : 1, real(0));
+        std::memset(&fc_, 0, sizeof fc_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_init(&fc_, nodes_.data(), l_, n_, m_.data(), p_.data(),
+                                             storage_.data(), len ? len : 1, &xm, &Pm, Plp.data(),
+                                             &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+        if (len == 0) { // not reached: init refuses what the sizing refuses
+            raise_status(DKF_ERR_CAPACITY, call, -1, nullptr, "dimensions the centre refuses");
+        }
+    }
+    DiffKFFusionCentre(const DiffKFFusionCentre &) = delete;
+    DiffKFFusionCentre &operator=(const DiffKFFusionCentre &) = delete;
+
+    void start(nb::handle F0, nb::handle Q0, nb::handle sensors)
+    {
+        static const char *call = "DiffKFFusionCentre.start";
+        not_busy(call);
+        Mat f = matrix_arg(F0, call, "F0", n_, n_, false), q = matrix_arg(Q0, call, "Q0", n_, n_, false);
+        Sensors s = sensor_args(sensors, call, false);
+        dkf_mat_t Fm = view(n_, n_, f.p), Qm = view(n_, n_, q.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_start(&fc_, &Fm, &Qm, s.c.data(), &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+    }
+
+    void step(nb::handle F, nb::handle Q, nb::handle sensors, nb::handle messages)
+    {
+        static const char *call = "DiffKFFusionCentre.step";
+        not_busy(call);
+        Mat f = matrix_arg(F, call, "F", n_, n_, false), q = matrix_arg(Q, call, "Q", n_, n_, false);
+        Sensors s = sensor_args(sensors, call, true);
+        std::vector<dkf_diffkf_msg_t> msgs = message_args(messages, call);
+        dkf_mat_t Fm = view(n_, n_, f.p), Qm = view(n_, n_, q.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_step(&fc_, &Fm, &Qm, s.c.data(), msgs.data(), &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+    }
+
+    nb::tuple recovered(size_t i) const
+    {
+        static const char *call = "DiffKFFusionCentre.recovered";
+        not_busy(call);
+        if (i >= l_) value_error(call, "node " + std::to_string(i) + " of " + std::to_string(l_));
+        const size_t shape[1] = {p_[i]};
+        return nb::make_tuple(copy_out(nodes_[i].z.data, 1, shape),
+                              copy_out(nodes_[i].dz.data, 1, shape));
+    }
+
+    OutArray get(const dkf_mat_t &M, const char *call) const
+    {
+        not_busy(call);
+        const size_t shape[2] = {M.rows, M.cols};
+        return copy_out(M.data, M.cols == 1 ? 1 : 2, shape);
+    }
+    const dkf_diffkf_t &central() const { return fc_.central; }
+    size_t k() const { return fc_.k; }
+    size_t n() const { return n_; }
+    size_t l() const { return l_; }
+    std::vector<size_t> m() const { return m_; }
+    std::vector<size_t> p() const { return p_; }
+
+private:
+    // The views of every sensor's matrices (kept alive by the Mats).
+    struct Sensors {
+        std::vector<Mat> mats;
+        std::vector<dkf_mat_t> v;
+        std::vector<dkf_diffkf_sensor_t> c;
+    };
+
+    // A sequence of l matrices (n, n) or None.
+    std::vector<Mat> sequence_of(nb::handle seq, const char *call, const char *name) const
+    {
+        if (!nb::isinstance<nb::sequence>(seq) || nb::len(seq) != l_) {
+            value_error(call, std::string(name) + " must be a sequence of " + std::to_string(l_) +
+                                  " matrices (or None)");
+        }
+        std::vector<Mat> out(l_);
+        nb::sequence sq = nb::borrow<nb::sequence>(seq);
+        for (size_t i = 0; i < l_; ++i) {
+            if (sq[i].is_none()) continue;
+            const std::string nm = std::string(name) + "[" + std::to_string(i) + "]";
+            out[i] = matrix_arg(sq[i], call, nm.c_str(), n_, n_, false);
+        }
+        return out;
+    }
+
+    // sensors: a sequence of l mappings with B, H, D, R (and Rd in a step).
+    Sensors sensor_args(nb::handle sensors, const char *call, bool with_Rd) const
+    {
+        if (!nb::isinstance<nb::sequence>(sensors) || nb::len(sensors) != l_) {
+            value_error(call, "sensors must be a sequence of " + std::to_string(l_) +
+                                  " dicts with B, Rd, H, D, R");
+        }
+        nb::sequence sq = nb::borrow<nb::sequence>(sensors);
+        Sensors s;
+        s.mats.reserve(5 * l_);
+        s.v.resize(5 * l_);
+        s.c.resize(l_);
+        static const char *keys[5] = {"B", "Rd", "H", "D", "R"};
+        for (size_t i = 0; i < l_; ++i) {
+            if (!nb::isinstance<nb::dict>(sq[i]))
+                throw nb::type_error((std::string(call) + ": sensors[" + std::to_string(i) +
+                                      "] must be a dict").c_str());
+            nb::dict d = nb::borrow<nb::dict>(sq[i]);
+            const size_t rows[5] = {p_[i], p_[i], m_[i], m_[i], m_[i]};
+            const size_t cols[5] = {p_[i], p_[i], n_, p_[i], m_[i]};
+            for (size_t j = 0; j < 5; ++j) {
+                const std::string nm = "sensors[" + std::to_string(i) + "][\"" + keys[j] + "\"]";
+                if (!d.contains(keys[j])) {
+                    if (j == 1 && !with_Rd) {
+                        s.mats.emplace_back();
+                        continue;
+                    }
+                    value_error(call, nm + " is missing");
+                }
+                s.mats.push_back(matrix_arg(d[keys[j]], call, nm.c_str(), rows[j], cols[j], false));
+                s.v[5 * i + j] = view(rows[j], cols[j], s.mats.back().p);
+            }
+            dkf_mat_t *v = &s.v[5 * i];
+            s.c[i].B = &v[0];
+            s.c[i].Rd = s.mats[5 * i + 1].p ? &v[1] : nullptr;
+            s.c[i].meas.H = &v[2];
+            s.c[i].meas.D = &v[3];
+            s.c[i].meas.R = &v[4];
+        }
+        return s;
+    }
+
+    // messages: a sequence of l tuples (k, xf, xp), DifferenceKF.message()'s.
+    std::vector<dkf_diffkf_msg_t> message_args(nb::handle messages, const char *call) const
+    {
+        if (!nb::isinstance<nb::sequence>(messages) || nb::len(messages) != l_) {
+            value_error(call, "messages must be a sequence of " + std::to_string(l_) +
+                                  " tuples (k, xf, xp)");
+        }
+        nb::sequence sq = nb::borrow<nb::sequence>(messages);
+        std::vector<dkf_diffkf_msg_t> out(l_);
+        for (size_t i = 0; i < l_; ++i) {
+            const std::string nm = "messages[" + std::to_string(i) + "]";
+            nb::object item = sq[i];
+            if (!nb::isinstance<nb::sequence>(item) || nb::len(item) != 3)
+                value_error(call, nm + " must be a tuple (k, xf, xp)");
+            nb::sequence t = nb::borrow<nb::sequence>(item);
+            long k = nb::cast<long>(t[0]);
+            if (k < 0 || static_cast<unsigned long>(k) > 0xffffffffUL)
+                value_error(call, nm + ": k must be in [0, 2^32)");
+            Mat xf = vector_arg(t[1], call, (nm + " xf").c_str(), n_);
+            Mat xp = vector_arg(t[2], call, (nm + " xp").c_str(), n_);
+            std::memset(&out[i], 0, sizeof out[i]);
+            out[i].node = static_cast<uint16_t>(i);
+            out[i].k = static_cast<uint32_t>(k);
+            out[i].n = static_cast<uint16_t>(n_);
+            std::memcpy(out[i].xf, xf.p, n_ * sizeof(real));
+            std::memcpy(out[i].xp, xp.p, n_ * sizeof(real));
+        }
+        return out;
+    }
+
+    size_t n_ = 0, l_ = 0;
+    std::vector<size_t> m_, p_;
+    std::vector<dkf_diffkf_fc_node_t> nodes_;
+    std::vector<real> storage_;
+    dkf_diffkf_fc_t fc_;
+};
+
+} // namespace DKF_PY_NS
+
+NB_MODULE(DKF_PY_MODULE, m)
+{
+    using namespace DKF_PY_NS;
+    m.doc() = "dkf's filters over the core built in " DKF_PY_DTYPE " (docs/guide/python.md)";
+    m.attr("dtype") = DKF_PY_DTYPE;
+    m.attr("MAX_DIM") = DKF_MAX_DIM;
+    m.attr("JOSEPH") = DKF_JOSEPH;
+    // What dkf and dkf.float32 export of this module.
+    m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
+                                       "DifferenceKF", "DiffKFFusionCentre", "dtype", "MAX_DIM");
+    m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
+
+    nb::class_<KalmanFilter>(m, "KalmanFilter",
+                             "Linear Kalman filter, covariance form (dkf/kf.h).")
+        .def(nb::init<nb::handle, nb::handle, nb::handle, nb::handle, nb::handle, nb::handle,
+                      nb::handle>(),
+             nb::arg("F"), nb::arg("Q"), nb::arg("H"), nb::arg("R"), nb::arg("x0"), nb::arg("P0"),
+             nb::kw_only(), nb::arg("m_max") = nb::none())
+        .def("predict", &KalmanFilter::predict, nb::arg("F") = nb::none(),
+             nb::arg("Q") = nb::none(), nb::arg("u") = nb::none(),
+             "Time update x = F x + u, P = F P F^T + Q.")
+        .def("update", &KalmanFilter::update, nb::arg("y"), nb::arg("H") = nb::none(),
+             nb::arg("R") = nb::none(),
+             "Measurement update with y; NaN components of y are missing.")
+        .def("filter", &KalmanFilter::filter, nb::arg("Y"), nb::kw_only(),
+             nb::arg("F") = nb::none(), nb::arg("Q") = nb::none(), nb::arg("H") = nb::none(),
+             nb::arg("R") = nb::none(),
+             "Runs a predict and an update per row of Y (T, m) in one call without the GIL; "
+             "returns (X (T, n), P (T, n, n)), the filtered estimates.")
+        .def_prop_ro("x", &KalmanFilter::x, nb::rv_policy::take_ownership,
+                     "The state estimate (n,), a copy.")
+        .def_prop_ro("P", &KalmanFilter::P, nb::rv_policy::take_ownership,
+                     "Its error covariance (n, n), a copy.")
+        .def_prop_ro("n", &KalmanFilter::n)
+        .def_prop_ro("m_max", &KalmanFilter::m_max)
+        .def("__repr__", [](const KalmanFilter &k) {
+            return "<dkf KalmanFilter n=" + std::to_string(k.n()) +
+                   " m_max=" + std::to_string(k.m_max()) + " " DKF_PY_DTYPE ">";
+        });
+
+    m.def("info_contribution", &info_contribution, nb::arg("z"), nb::arg("H"), nb::arg("R"),
+          "A sensor's information contribution (i, I) = (H^T R^-1 z, H^T R^-1 H) "
+          "(dkf_info_contribution); NaN components of z are missing.");
+
+    nb::class_<InformationFilter>(m, "InformationFilter",
+                                  "Linear information filter with exact multi-sensor fusion "
+                                  "(dkf/info.h).")
+        .def(nb::init<nb::handle, nb::handle, nb::handle, nb::handle>(), nb::arg("F"),
+             nb::arg("Q"), nb::arg("x0"), nb::arg("P0"))
+        .def("predict", &InformationFilter::predict, nb::arg("F") = nb::none(),
+             nb::arg("Q") = nb::none(), "Time update P = F P F^T + Q, x = F x; Y = P^-1, y = Y x.")
+        .def("update", &InformationFilter::update, nb::arg("z"), nb::arg("H"), nb::arg("R"),
+             "One sensor's measurement: its contribution, fused.")
+        .def("fuse", &InformationFilter::fuse, nb::arg("i"), nb::arg("I"),
+             "Y += sum I[j], y += sum i[j]; then P = Y^-1, x = P y.")
+        .def("filter", &InformationFilter::filter, nb::arg("Z"), nb::arg("H"), nb::arg("R"),
+             nb::kw_only(), nb::arg("F") = nb::none(), nb::arg("Q") = nb::none(),
+             "Per step t: a predict, each sensor's contribution from Z[j][t], one fuse; in one "
+             "call without the GIL. Returns (X (T, n), P (T, n, n)).")
+        .def_prop_ro("x", &InformationFilter::x, nb::rv_policy::take_ownership,
+                     "The state estimate (n,), a copy.")
+        .def_prop_ro("P", &InformationFilter::P, nb::rv_policy::take_ownership,
+                     "Its error covariance (n, n), a copy.")
+        .def_prop_ro("y", &InformationFilter::y, nb::rv_policy::take_ownership,
+                     "The information vector Y x (n,), a copy.")
+        .def_prop_ro("Y", &InformationFilter::Y, nb::rv_policy::take_ownership,
+                     "The information matrix P^-1 (n, n), a copy.")
+        .def_prop_ro("n", &InformationFilter::n)
+        .def("__repr__", [](const InformationFilter &f) {
+            return "<dkf InformationFilter n=" + std::to_string(f.n()) + " " DKF_PY_DTYPE ">";
+        });
+
+    using D = DifferenceKF;
+    nb::class_<DifferenceKF> dkf_cls(m, "DifferenceKF",
+                             "The Difference Kalman filter with unknown inputs (dkf/diffkf.h).");
+    dkf_cls.def(nb::init<nb::handle, nb::handle, size_t, size_t>(), nb::arg("x0"), nb::arg("P0"),
+             nb::kw_only(), nb::arg("m"), nb::arg("p"))
+        .def("start", &D::start, nb::arg("y1"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             nb::kw_only(), nb::arg("F0") = nb::none(), nb::arg("Q0") = nb::none(),
+             "Predicts x_{1|0} with F0, Q0 (or takes x0, P0 as that prior without them) and "
+             "takes y_1 with its model.")
+        .def("step", &D::step, nb::arg("y_next"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+             nb::arg("B"), nb::arg("Rd"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             "One step with y_{k+1}: the dynamics at k (F, Q, B, Rd), the model at k+1 "
+             "(H, D, R); gives x_{k|k} and x_{k+1|k}.")
+        .def("filter", &D::filter, nb::arg("Y"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+             nb::arg("B"), nb::arg("Rd"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+             nb::arg("prior") = false,
+             "start() with Y[0] = y_1, then a step per further row, in one call without the GIL; "
+             "returns (XF, PF, XN, PN) for k = 1..T-1.")
+        .def_prop_ro("k", &D::k, "The time of xf.")
+        .def_prop_ro("started", &D::started)
+        .def_prop_ro("n", &D::n)
+        .def_prop_ro("m", &D::m)
+        .def_prop_ro("p", &D::p)
+        .def("__repr__", [](const D &f) {
+            return "<dkf DifferenceKF n=" + std::to_string(f.n()) + " m=" + std::to_string(f.m()) +
+                   " p=" + std::to_string(f.p()) + " k=" + std::to_string(f.k()) +
+                   " " DKF_PY_DTYPE ">";
+        });
+    // The estimates and the last step's quantities, as copies.
+    static const struct {
+        const char *name;
+        dkf_mat_t dkf_diffkf_t::*mat;
+        const char *doc;
+    } dkf_fields[] = {
+        {"xf", &dkf_diffkf_t::xf, "x_{k|k} (n,), a copy."},
+        {"Pf", &dkf_diffkf_t::Pf, "P_{k|k} (n, n), a copy."},
+        {"xn", &dkf_diffkf_t::xn, "x_{k+1|k} (n,), a copy."},
+        {"Pn", &dkf_diffkf_t::Pn, "P_{k+1|k} (n, n), a copy."},
+        {"xp", &dkf_diffkf_t::xp, "x_{k|k-1} (n,), a copy."},
+        {"z", &dkf_diffkf_t::z, "The last step's z_k (p,)."},
+        {"dz", &dkf_diffkf_t::dz, "Its innovation (p,)."},
+        {"J", &dkf_diffkf_t::J, "J_k (n, p)."},
+        {"L", &dkf_diffkf_t::L, "L_k (p, p)."},
+        {"K", &dkf_diffkf_t::K, "K_k (n, p)."},
+    };
+    for (const auto &fd : dkf_fields) {
+        const auto mat = fd.mat;
+        const std::string call = std::string("DifferenceKF.") + fd.name;
+        dkf_cls.def_prop_ro(
+            fd.name, [mat, call](const D &f) { return f.get(f.state().*mat, call.c_str()); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
+
+    dkf_cls.def("message", &D::message,
+                "The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step.");
+
+    using C = DiffKFFusionCentre;
+    nb::class_<C> fc_cls(m, "DiffKFFusionCentre",
+                         "The fusion centre of the distributed Difference KF "
+                         "(dkf/diffkf_fusion.h): the centralized estimate from the nodes' "
+                         "messages.");
+    fc_cls.def(nb::init<nb::handle, nb::handle, std::vector<size_t>, std::vector<size_t>,
+                        nb::handle>(),
+               nb::arg("x0"), nb::arg("P0"), nb::kw_only(), nb::arg("m"), nb::arg("p"),
+               nb::arg("P0_local") = nb::none())
+        .def("start", &C::start, nb::arg("F0"), nb::arg("Q0"), nb::arg("sensors"),
+             "As every node's start: F0, Q0 and each sensor's B, H, D, R at time 1.")
+        .def("step", &C::step, nb::arg("F"), nb::arg("Q"), nb::arg("sensors"),
+             nb::arg("messages"),
+             "Step k = self.k + 1: F_k, Q_k, each sensor's B, Rd (at k) and H, D, R (at k+1), "
+             "and each node's message of step k.")
+        .def("recovered", &C::recovered, nb::arg("node"),
+             "(z, dz) of the node recovered in the last step.")
+        .def_prop_ro("k", &C::k, "The time of xf (0 before the first step).")
+        .def_prop_ro("n", &C::n)
+        .def_prop_ro("l", &C::l)
+        .def_prop_ro("m", &C::m)
+        .def_prop_ro("p", &C::p)
+        .def("__repr__", [](const C &c) {
+            return "<dkf DiffKFFusionCentre n=" + std::to_string(c.n()) + " l=" +
+                   std::to_string(c.l()) + " k=" + std::to_string(c.k()) + " " DKF_PY_DTYPE ">";
+        });
+    for (const auto &fd : dkf_fields) {
+        const auto mat = fd.mat;
+        const std::string call = std::string("DiffKFFusionCentre.") + fd.name;
+        fc_cls.def_prop_ro(
+            fd.name, [mat, call](const C &c) { return c.get(c.central().*mat, call.c_str()); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
+}

@@ -14,7 +14,8 @@ docs/results/footprint.md ("The image on an emulated Cortex-M4F"):
   vector    the double image's dkf outputs match each vector at the
             vectors' tolerance (rel 1e-9, tests/vectors/diffkf/README.md)
   refused   a model above the image's capacity (n = 9; 5 sensors) exits 2,
-            a filter failure (D = 0: rank) exits 3, as dkf-run's statuses
+            a filter failure (D = 0: rank) exits 3, as dkf-run's statuses; an
+            input file cut short exits 2
   report    instructions per step, stack, flash and RAM of the DKF node
             (ex1_single: n = 4, m = 2, p = 2) and the KF (n = 4, m = 2) in
             float and double
@@ -174,6 +175,21 @@ def check_refused(image, tmp):
                % (rc, want, what, "" if not err else " [%s]" % err.splitlines()[0]))
 
 
+def check_truncated(image, tmp):
+    """The image refuses an input file that ends early (every read is checked)."""
+    sys.path.insert(0, os.path.join(ROOT, "tools"))
+    import m4_run
+    data = m4_run.pack(m4_run.Scenario(NODE_VECTOR, 0), "dkf", "f")
+    work = os.path.join(tmp, "truncated")
+    os.makedirs(work, exist_ok=True)
+    for what, blob in (("a record cut short", data[:len(data) - 4]),
+                       ("the header cut short", data[:10])):
+        with open(os.path.join(work, "m4_in.bin"), "wb") as f:
+            f.write(blob)
+        rc = m4_run.run_qemu("qemu-system-arm", image, work, 120, quiet=True)
+        report(rc == 2, "m4 refuses an input file with %s: exit %d (want 2)" % (what, rc))
+
+
 def size_of(image):
     p = subprocess.run(["arm-none-eabi-size", image], capture_output=True, text=True)
     text, data, bss = (int(x) for x in p.stdout.splitlines()[1].split()[:3])
@@ -223,6 +239,7 @@ def main():
         if a.double_image:
             check_vectors(a.double_image, tmp)
         check_refused(a.float_image, tmp)
+        check_truncated(a.float_image, tmp)
         images = [("float", a.float_image)]
         if a.double_image:
             images.append(("double", a.double_image))

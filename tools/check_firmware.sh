@@ -16,8 +16,8 @@
 #             qemu-system-arm -M mps2-an386 (tools/m4_check.py): on every
 #             tests/vectors/diffkf vector, kf and dkf, its output equals the
 #             host float dkf-run's bit for bit; the double image's matches
-#             the vectors (rel 1e-9); a refused model and a failing filter
-#             make tools/m4_run.sh exit 2 and 3; then the instructions per
+#             the vectors (rel 1e-9); a refused model, an input cut short and
+#             a failing filter make it exit 2, 2 and 3; then the instructions per
 #             step, stack, flash and RAM of the DKF node and the KF
 # and prints arm-none-eabi-size. Builds go to build/m4-<real>/ (reused); the
 # host float dkf-run to build/m4-host-float.

@@ -19,6 +19,7 @@ pkgs=(
   gcc-arm-linux-gnueabihf libc6-dev-armhf-cross
   gcc-aarch64-linux-gnu libc6-dev-arm64-cross
   qemu-user
+  qemu-system-arm  # the node image on an emulated Cortex-M4F (tools/m4_run.sh, mps2-an386)
   libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind libsodium-dev  # libsodium: node-message MACs (ports/linux/net/transport/auth.c)
   clang-14 libclang-rt-14-dev  # libFuzzer + sanitizer runtimes (tools/run_fuzz.sh)
   python3 python3-pip python3-venv  # python3-venv: the Python package's tests (run_tests.sh python)

@@ -12,7 +12,15 @@
 #   host-run  the image's filter code (demo.c), built for the host against a
 #             host library of the same real type, reproduces the reference
 #             (not for -nochecks: the checks do not change any number)
-# and prints arm-none-eabi-size. Builds go to build/m4-<real>/ (reused).
+#   qemu      (with float) the node image dkf_m4_qemu.elf runs under
+#             qemu-system-arm -M mps2-an386 (tools/m4_check.py): on every
+#             tests/vectors/diffkf vector, kf and dkf, its output equals the
+#             host float dkf-run's bit for bit; the double image's matches
+#             the vectors (rel 1e-9); a refused model, an input cut short and
+#             a failing filter make it exit 2, 2 and 3; then the instructions per
+#             step, stack, flash and RAM of the DKF node and the KF
+# and prints arm-none-eabi-size. Builds go to build/m4-<real>/ (reused); the
+# host float dkf-run to build/m4-host-float.
 # The last line is "firmware: N passed, M failed"; exit status 1 if M > 0.
 #
 # usage: tools/check_firmware.sh [float] [double] [float-nochecks] [double-nochecks]
@@ -56,11 +64,12 @@ check_real() {
   fi
 
   local heap lib_heap
-  heap=$(arm-none-eabi-nm "$elf" | awk '{print $NF}' | grep -E "$heap_re" || true)
+  heap=$(arm-none-eabi-nm "$elf" "$bdir/dkf_m4_qemu.elf" | awk '{print $NF}' |
+         grep -E "$heap_re" || true)
   lib_heap=$(arm-none-eabi-nm -u "$bdir/dkf/libdkf.a" 2>/dev/null | awk '{print $NF}' |
              grep -E "$heap_re" || true)
   # shellcheck disable=SC2086 # the symbols, one word each
-  heap_verdict "m4-$variant no heap symbols in dkf_m4.elf or libdkf.a" "m4-$variant" \
+  heap_verdict "m4-$variant no heap symbols in dkf_m4.elf, dkf_m4_qemu.elf or libdkf.a" "m4-$variant" \
     $heap $lib_heap
 
   image_sizes "$elf" "$bdir/dkf_m4.map" "" " in the image"
@@ -70,16 +79,19 @@ check_real() {
   echo "-- worst-case stack (bytes; frame sizes in parentheses)"
   stack_verdict "m4-$variant filter" \
     "m4-$variant stack analysis (recursion, indirect call or dynamic frame)" '^dkf_kf_' \
-    --elf "$elf" --skip dkf_m4_nerts.dir "$bdir" \
+    --elf "$elf" --skip dkf_m4_nerts.dir --skip dkf_m4_qemu.dir "$bdir" \
     dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler
 
   check_nerts_image "$variant" "$bdir"
 
-  # The same demo.c on the host, against a host library of the same type.
+  # The same demo.c on the host, against a host library of the same type
+  # (the float build also has dkf-run, the reference of the qemu check).
   [[ $checks == ON ]] || return
-  if cmake -S . -B "$hdir" -DDKF_REAL="$real" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=OFF \
+  local ports=OFF targets=(dkf)
+  [[ $real == float ]] && ports=ON targets=(dkf dkf-run)
+  if cmake -S . -B "$hdir" -DDKF_REAL="$real" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=$ports \
        -DDKF_BUILD_BENCH=OFF >"$hdir.configure.log" 2>&1 &&
-     cmake --build "$hdir" -j"$jobs" --target dkf >"$hdir.build.log" 2>&1 &&
+     cmake --build "$hdir" -j"$jobs" --target "${targets[@]}" >"$hdir.build.log" 2>&1 &&
      cc -std=c99 -Wall -Wextra -Wpedantic -Werror -O2 -DDKF_USE_FLOAT=$([[ $real == float ]] && echo 1 || echo 0) \
        -Iinclude -Iports/cortex-m4 ports/cortex-m4/demo.c ports/cortex-m4/host_main.c \
        "$hdir/libdkf.a" -lm -o "$hdir/m4_demo_host" 2>"$hdir.demo.log" &&
@@ -154,7 +166,43 @@ check_nerts_image() {
   echo "-- DNERTSIF node image: worst-case stack (the model's f, h, y_diff as the indirect targets)"
   stack_verdict "m4-$variant DNERTSIF node" "m4-$variant DNERTSIF node stack analysis" \
     '^dkf_nerts_' --elf "$elf" --indirect ct_f,radar_h,wrap_diff \
-    --skip CMakeFiles/dkf_m4.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run Reset_Handler
+    --skip CMakeFiles/dkf_m4.dir --skip dkf_m4_qemu.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run Reset_Handler
+}
+
+# The node image under QEMU (tools/m4_check.py): its PASS/FAIL lines count
+# here. Needs the float variant (its image and the host float dkf-run);
+# the double image joins when the double variant was built.
+check_qemu() {
+  local fimg=$ROOT/build/m4-float/dkf_m4_qemu.elf dimg=$ROOT/build/m4-double/dkf_m4_qemu.elf
+  local dkf_run=$ROOT/build/m4-host-float/ports/linux/dkf-run out line
+  echo "== the node image on an emulated Cortex-M4F (qemu-system-arm -M mps2-an386)"
+  if ! command -v qemu-system-arm >/dev/null 2>&1; then
+    if [[ "$(id -u)" == 0 ]]; then
+      DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+        qemu-system-arm >/dev/null 2>&1 || true
+    fi
+    if ! command -v qemu-system-arm >/dev/null 2>&1; then
+      echo "qemu-system-arm is missing; install it with:"
+      echo "  sudo apt-get install -y --no-install-recommends qemu-system-arm"
+      fail "qemu-system-arm missing"
+      return
+    fi
+  fi
+  if [[ ! -f $fimg || ! -x $dkf_run ]]; then
+    fail "qemu check: $fimg or $dkf_run not built (see above)"
+    return
+  fi
+  local args=(--dkf-run "$dkf_run" --float-image "$fimg")
+  [[ " ${reals[*]} " == *" double "* && -f $dimg ]] && args+=(--double-image "$dimg")
+  out=$(python3 tools/m4_check.py "${args[@]}" 2>&1)
+  echo "$out"
+  while IFS= read -r line; do
+    case $line in
+      PASS:*) passed=$((passed + 1)) ;;
+      FAIL:*) failed=$((failed + 1)) ;;
+    esac
+  done <<<"$out"
+  if ! grep -q '^PASS:' <<<"$out"; then fail "qemu check: tools/m4_check.py ran no check"; fi
 }
 
 echo "arm-none-eabi-gcc: $(arm-none-eabi-gcc --version | head -1)"
@@ -162,5 +210,6 @@ mkdir -p build
 for r in "${reals[@]}"; do
   check_real "$r"
 done
+[[ " ${reals[*]} " == *" float "* ]] && check_qemu
 echo "firmware: $passed passed, $failed failed"
 (( failed == 0 ))

@@ -31,7 +31,9 @@
 #                    under qemu-aarch64 (cmake/toolchain-aarch64-linux-gnu.cmake):
 #                    the kernels' vector code as NEON
 #   firmware         Cortex-M4F image, float and double: -Werror build, no
-#                    heap symbols, sizes, worst-case stack (check_firmware.sh)
+#                    heap symbols, sizes, worst-case stack; the node image under
+#                    qemu-system-arm -M mps2-an386, bit for bit against the host
+#                    float dkf-run on the diffkf vectors (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
 #                    UBSan for FUZZ_SECONDS (here 10) each, two at a time
 #                    (tools/run_fuzz.sh; the long run: docs/guide/fuzzing.md)

@@ -14,13 +14,18 @@
 #include <initializer_list>
 #include <memory>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
+#include "dkf/askf.h"
 #include "dkf/diffkf.h"
 #include "dkf/diffkf_fusion.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
+#include "dkf/otskf.h"
 #include "dkf/status.h"
+#include "dkf/uif.h"
 
 namespace nb = nanobind;
 
@@ -866,10 +871,86 @@ private:
 
 // ---- DifferenceKF ---------------------------------------------------------
 
-// The model of one DKF step: dynamics at k, measurement model at k + 1.
+// The model of one step of a filter with a modelled unknown input
+// (dkf/ui_model.h's dkf_ui_dyn_t and dkf_ui_meas_t) and its measurement:
+// the DKF's dynamics at k and model at k + 1; the ASKF's and the OTSKF's
+// predict and update. A null pointer is an input the call does not take.
 struct DkfStep {
     const real *F, *Q, *B, *Rd, *H, *D, *R, *y;
 };
+
+// The core's views of a DkfStep (n states, m measurements, p inputs).
+struct UiViews {
+    dkf_mat_t F, Q, B, Rd, H, D, R, y;
+    dkf_ui_dyn_t dyn;
+    dkf_ui_meas_t meas;
+    UiViews(const DkfStep &in, size_t n, size_t m, size_t p)
+        : F(view(n, n, in.F)), Q(view(n, n, in.Q)), B(view(p, p, in.B)), Rd(view(p, p, in.Rd)),
+          H(view(m, n, in.H)), D(view(m, p, in.D)), R(view(m, m, in.R)), y(view(m, 1, in.y)),
+          dyn{&F, &Q, &B, &Rd}, meas{&H, &D, &R}
+    {
+    }
+    UiViews(const UiViews &) = delete;
+    UiViews &operator=(const UiViews &) = delete;
+};
+
+// The first input of a DkfStep that is not finite, or nullptr.
+const char *ui_culprit(const DkfStep &in, size_t n, size_t m, size_t p)
+{
+    return first_nonfinite({{"y", in.y, m, false},
+                            {"F", in.F, n * n, false},
+                            {"Q", in.Q, n * n, false},
+                            {"B", in.B, p * p, false},
+                            {"Rd", in.Rd, p * p, false},
+                            {"H", in.H, m * n, false},
+                            {"D", in.D, m * p, false},
+                            {"R", in.R, m * m, false}});
+}
+
+// filter()'s model arguments of a filter indexed by time: each one matrix
+// or a stack of `len` (one per time), ValueError otherwise.
+void check_time_stacks(std::initializer_list<std::pair<const char *, const Mat *>> ms, size_t len,
+                       const char *call, const char *times)
+{
+    for (const auto &nm : ms) {
+        if (nm.second->stacked && nm.second->count != len) {
+            value_error(call, std::string(nm.first) + " is a stack of " +
+                                  std::to_string(nm.second->count) + ": a stack has one matrix per time " +
+                                  times + ", " + std::to_string(len));
+        }
+    }
+}
+
+// filter()'s model of a filter with a modelled unknown input: F, Q, B, Rd,
+// H, D, R, each one matrix or a stack of one per time 0..T (`times`
+// entries, the golden vectors' per_k).
+struct UiModel {
+    Mat F, Q, B, Rd, H, D, R;
+    UiModel(nb::handle F_, nb::handle Q_, nb::handle B_, nb::handle Rd_, nb::handle H_,
+            nb::handle D_, nb::handle R_, const char *call, size_t n, size_t m, size_t p,
+            size_t times)
+        : F(matrix_arg(F_, call, "F", n, n, true)), Q(matrix_arg(Q_, call, "Q", n, n, true)),
+          B(matrix_arg(B_, call, "B", p, p, true)), Rd(matrix_arg(Rd_, call, "Rd", p, p, true)),
+          H(matrix_arg(H_, call, "H", m, n, true)), D(matrix_arg(D_, call, "D", m, p, true)),
+          R(matrix_arg(R_, call, "R", m, m, true))
+    {
+        check_time_stacks({{"F", &F}, {"Q", &Q}, {"B", &B}, {"Rd", &Rd}, {"H", &H}, {"D", &D},
+                           {"R", &R}},
+                          times, call, "0..T, T + 1 =");
+    }
+    // The dynamics at time k and the measurement model at time j, with y.
+    DkfStep at(size_t k, size_t j, const real *y) const
+    {
+        return {F.at(k), Q.at(k), B.at(k), Rd.at(k), H.at(j), D.at(j), R.at(j), y};
+    }
+};
+
+// A matrix of the core as a new array: (rows,) for a vector, else (rows, cols).
+OutArray mat_out(const dkf_mat_t &M, bool vector)
+{
+    const size_t shape[2] = {M.rows, M.cols};
+    return copy_out(M.data, vector ? 1 : 2, shape);
+}
 
 class DifferenceKF : Guarded {
 public:
@@ -944,21 +1025,7 @@ public:
                                   shape_str(ya));
         }
         const size_t T = ya.shape(0);
-        Mat f = matrix_arg(F, call, "F", n_, n_, true), q = matrix_arg(Q, call, "Q", n_, n_, true),
-            b = matrix_arg(B, call, "B", p_, p_, true),
-            rd = matrix_arg(Rd, call, "Rd", p_, p_, true),
-            h = matrix_arg(H, call, "H", m_, n_, true), d = matrix_arg(D, call, "D", m_, p_, true),
-            r = matrix_arg(R, call, "R", m_, m_, true);
-        static const char *names[7] = {"F", "Q", "B", "Rd", "H", "D", "R"};
-        const Mat *ms[7] = {&f, &q, &b, &rd, &h, &d, &r};
-        for (int i = 0; i < 7; ++i) {
-            if (ms[i]->stacked && ms[i]->count != T + 1) {
-                value_error(call, std::string(names[i]) + " is a stack of " +
-                                      std::to_string(ms[i]->count) +
-                                      ": a stack has one matrix per time 0..T, T + 1 = " +
-                                      std::to_string(T + 1));
-            }
-        }
+        const UiModel md(F, Q, B, Rd, H, D, R, call, n_, m_, p_, T + 1);
         const size_t S = T - 1, xs[2] = {S, n_}, ps[3] = {S, n_, n_};
         OutArray XF = new_array(2, xs), PF = new_array(3, ps), XN = new_array(2, xs),
                  PN = new_array(3, ps);
@@ -968,15 +1035,15 @@ public:
         Undo<dkf_diffkf_t> undo(f_, storage_);
         dkf_status_t st;
         size_t t = 0;
-        DkfStep in = {prior ? nullptr : f.at(0), prior ? nullptr : q.at(0), nullptr, nullptr,
-                      h.at(1), d.at(1), r.at(1), yp};
+        DkfStep in = md.at(0, 1, yp);
+        in.B = in.Rd = nullptr;
+        if (prior) in.F = in.Q = nullptr;
         busy_ = true;
         {
             nb::gil_scoped_release unlocked;
             st = do_start(in);
             for (t = st == DKF_OK ? 1 : 0; st == DKF_OK && t < T; ++t) {
-                in = {f.at(t), q.at(t), b.at(t), rd.at(t), h.at(t + 1), d.at(t + 1), r.at(t + 1),
-                      yp + t * m_};
+                in = md.at(t, t + 1, yp + t * m_);
                 st = do_step(in);
                 if (st != DKF_OK) break;
                 put_row(xf, t - 1, f_.xf);
@@ -1025,20 +1092,14 @@ private:
     // No Python in either (filter() runs them without the GIL).
     dkf_status_t do_start(const DkfStep &in)
     {
-        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), H = view(m_, n_, in.H),
-                  D = view(m_, p_, in.D), R = view(m_, m_, in.R), y = view(m_, 1, in.y);
-        dkf_ui_meas_t meas = {&H, &D, &R};
-        return dkf_diffkf_start(&f_, in.F ? &F : nullptr, in.Q ? &Q : nullptr, &meas, &y);
+        UiViews v(in, n_, m_, p_);
+        return dkf_diffkf_start(&f_, in.F ? &v.F : nullptr, in.Q ? &v.Q : nullptr, &v.meas, &v.y);
     }
 
     dkf_status_t do_step(const DkfStep &in)
     {
-        dkf_mat_t F = view(n_, n_, in.F), Q = view(n_, n_, in.Q), B = view(p_, p_, in.B),
-                  Rd = view(p_, p_, in.Rd), H = view(m_, n_, in.H), D = view(m_, p_, in.D),
-                  R = view(m_, m_, in.R), y = view(m_, 1, in.y);
-        dkf_ui_dyn_t dyn = {&F, &Q, &B, &Rd};
-        dkf_ui_meas_t meas = {&H, &D, &R};
-        return dkf_diffkf_step(&f_, &dyn, &meas, &y);
+        UiViews v(in, n_, m_, p_);
+        return dkf_diffkf_step(&f_, &v.dyn, &v.meas, &v.y);
     }
 
     [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step, const DkfStep &in,
@@ -1047,14 +1108,7 @@ private:
         const char *culprit = nullptr;
         std::string detail;
         if (st == DKF_ERR_NONFINITE) {
-            culprit = first_nonfinite({{"y", in.y, m_, false},
-                                       {"F", in.F, n_ * n_, false},
-                                       {"Q", in.Q, n_ * n_, false},
-                                       {"B", in.B, p_ * p_, false},
-                                       {"Rd", in.Rd, p_ * p_, false},
-                                       {"H", in.H, m_ * n_, false},
-                                       {"D", in.D, m_ * p_, false},
-                                       {"R", in.R, m_ * m_, false}});
+            culprit = ui_culprit(in, n_, m_, p_);
             detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
         } else if (st == DKF_ERR_RANK) {
             culprit = "D", detail = "D lacks full column rank";
@@ -1294,6 +1348,477 @@ private:
     dkf_diffkf_fc_t fc_;
 };
 
+// ---- ASKF and OTSKF ---------------------------------------------------------
+
+// What differs between the ASKF (dkf/askf.h) and the OTSKF (dkf/otskf.h):
+// both predict with dkf_ui_dyn_t and update with dkf_ui_meas_t.
+struct AskfOps {
+    using S = dkf_askf_t;
+    static constexpr const char *name = "ASKF";
+    static size_t storage_len(size_t n, size_t m, size_t p) { return DKF_ASKF_STORAGE_LEN(n, m, p); }
+    static dkf_status_t init(S *f, size_t n, size_t m, size_t p, real *st, size_t len,
+                             const dkf_mat_t *x0, const dkf_mat_t *P0, const dkf_mat_t *d0,
+                             const dkf_mat_t *Pd0, const dkf_mat_t *Pxd0)
+    {
+        return dkf_askf_init(f, n, m, p, st, len, x0, P0, d0, Pd0, Pxd0);
+    }
+    static dkf_status_t predict(S *f, const dkf_ui_dyn_t *dyn) { return dkf_askf_predict(f, dyn); }
+    static dkf_status_t update(S *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
+    {
+        return dkf_askf_update(f, meas, y);
+    }
+    // x (n), its covariance (n n), d (p), its covariance (p p): the blocks of X, P^a.
+    static void read(const S &f, real *x, real *P, real *d, real *Pd)
+    {
+        dkf_mat_t xv, dv, Pm = view(f.n, f.n, P), Pdm = view(f.p, f.p, Pd);
+        (void)dkf_askf_state(&f, &xv, &Pm);
+        (void)dkf_askf_input(&f, &dv, &Pdm);
+        std::memcpy(x, xv.data, f.n * sizeof(real));
+        std::memcpy(d, dv.data, f.p * sizeof(real));
+    }
+};
+
+struct OtskfOps {
+    using S = dkf_otskf_t;
+    static constexpr const char *name = "OTSKF";
+    static size_t storage_len(size_t n, size_t m, size_t p) { return DKF_OTSKF_STORAGE_LEN(n, m, p); }
+    static dkf_status_t init(S *f, size_t n, size_t m, size_t p, real *st, size_t len,
+                             const dkf_mat_t *x0, const dkf_mat_t *P0, const dkf_mat_t *d0,
+                             const dkf_mat_t *Pd0, const dkf_mat_t *)
+    {
+        return dkf_otskf_init(f, n, m, p, st, len, x0, P0, d0, Pd0);
+    }
+    static dkf_status_t predict(S *f, const dkf_ui_dyn_t *dyn) { return dkf_otskf_predict(f, dyn); }
+    static dkf_status_t update(S *f, const dkf_ui_meas_t *meas, const dkf_mat_t *y)
+    {
+        return dkf_otskf_update(f, meas, y);
+    }
+    static void read(const S &f, real *x, real *P, real *d, real *Pd)
+    {
+        std::memcpy(x, f.x.data, f.n * sizeof(real));
+        std::memcpy(P, f.P.data, f.n * f.n * sizeof(real));
+        std::memcpy(d, f.d.data, f.p * sizeof(real));
+        std::memcpy(Pd, f.Pd.data, f.p * f.p * sizeof(real));
+    }
+};
+
+// True when every component of y (m reals) is NaN: a missing measurement.
+bool all_nan(const real *y, size_t m)
+{
+    for (size_t i = 0; i < m; ++i)
+        if (!std::isnan(y[i])) return false;
+    return true;
+}
+
+// The ASKF or the OTSKF: a predict with the dynamics at k - 1 (F, Q, B, Rd)
+// and an update with y_k and the model at k (H, D, R), as the C API's.
+template <class Ops> class UiKF : Guarded {
+public:
+    using S = typename Ops::S;
+
+    UiKF(nb::handle x0, nb::handle P0, nb::handle d0, nb::handle Pd0, size_t m, nb::handle Pxd0)
+    {
+        const char *call = Ops::name;
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows, m_ = m;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        Mat d = vector_arg(d0, call, "d0", 0);
+        p_ = d.rows;
+        Mat Pd = matrix_arg(Pd0, call, "Pd0", p_, p_, false);
+        Mat Pxd;
+        if (!Pxd0.is_none()) Pxd = matrix_arg(Pxd0, call, "Pxd0", n_, p_, false);
+        if (m == 0) value_error(call, "m must be positive");
+        storage_.assign(Ops::storage_len(n_, m_, p_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p), dm = view(p_, 1, d.p),
+                  Pdm = view(p_, p_, Pd.p), Pxdm = view(n_, p_, Pxd.p);
+        dkf_status_t st = Ops::init(&f_, n_, m_, p_, storage_.data(), storage_.size(), &xm, &Pm,
+                                    &dm, &Pdm, Pxd.p ? &Pxdm : nullptr);
+        if (st == DKF_OK) return;
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NOT_SPD) {
+            culprit = "P0", detail = "the prior covariance of [x; d] (P0, Pd0, Pxd0) is not SPD";
+        } else if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"x0", x.p, n_, false}, {"P0", P.p, n_ * n_, false},
+                                       {"d0", d.p, p_, false}, {"Pd0", Pd.p, p_ * p_, false},
+                                       {"Pxd0", Pxd.p, n_ * p_, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_CAPACITY) {
+            detail = "n = " + std::to_string(n_) + ", m = " + std::to_string(m_) + ", p = " +
+                     std::to_string(p_) + ": n + p and m must be at most DKF_MAX_DIM = " +
+                     std::to_string(DKF_MAX_DIM);
+        }
+        raise_status(st, call, -1, culprit, detail);
+    }
+    UiKF(const UiKF &) = delete;
+    UiKF &operator=(const UiKF &) = delete;
+
+    void predict(nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd)
+    {
+        const std::string call = std::string(Ops::name) + ".predict";
+        not_busy(call.c_str());
+        Mat f = matrix_arg(F, call.c_str(), "F", n_, n_, false),
+            q = matrix_arg(Q, call.c_str(), "Q", n_, n_, false),
+            b = matrix_arg(B, call.c_str(), "B", p_, p_, false),
+            rd = matrix_arg(Rd, call.c_str(), "Rd", p_, p_, false);
+        DkfStep in = {f.p, q.p, b.p, rd.p, nullptr, nullptr, nullptr, nullptr};
+        dkf_status_t st = do_predict(in);
+        if (st != DKF_OK) raise_step(st, call.c_str(), -1, in, true);
+    }
+
+    void update(nb::handle y, nb::handle H, nb::handle D, nb::handle R)
+    {
+        const std::string call = std::string(Ops::name) + ".update";
+        not_busy(call.c_str());
+        Mat h = matrix_arg(H, call.c_str(), "H", m_, n_, false),
+            d = matrix_arg(D, call.c_str(), "D", m_, p_, false),
+            r = matrix_arg(R, call.c_str(), "R", m_, m_, false);
+        Mat yy = vector_arg(y, call.c_str(), "y", m_);
+        DkfStep in = {nullptr, nullptr, nullptr, nullptr, h.p, d.p, r.p, yy.p};
+        dkf_status_t st = do_update(in);
+        if (st != DKF_OK) raise_step(st, call.c_str(), -1, in, false);
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle Q, nb::handle B, nb::handle Rd,
+                     nb::handle H, nb::handle D, nb::handle R)
+    {
+        const std::string name = std::string(Ops::name) + ".filter";
+        const char *call = name.c_str();
+        not_busy(call);
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != m_) {
+            value_error(call, "Y must be (T, " + std::to_string(m_) + "), got shape " +
+                                  shape_str(ya));
+        }
+        const size_t T = ya.shape(0);
+        const UiModel md(F, Q, B, Rd, H, D, R, call, n_, m_, p_, T + 1);
+        const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_}, ds[2] = {T, p_}, pds[3] = {T, p_, p_};
+        OutArray X = new_array(2, xs), P = new_array(3, ps), Dd = new_array(2, ds),
+                 Pd = new_array(3, pds);
+        real *xo = X.data(), *po = P.data(), *dout = Dd.data(), *pdo = Pd.data();
+        const real *yp = ya.data();
+
+        Undo<S> undo(f_, storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        bool in_predict = true;
+        DkfStep in = {};
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            // step t: y_{t+1} = Y[t], the dynamics at t, the model at t + 1
+            for (t = 0; t < T; ++t) {
+                in = md.at(t, t + 1, yp + t * m_);
+                in_predict = true;
+                st = do_predict(in);
+                if (st != DKF_OK) break;
+                in_predict = false;
+                st = do_update(in);
+                if (st != DKF_OK) break;
+                Ops::read(f_, xo + t * n_, po + t * n_ * n_, dout + t * p_, pdo + t * p_ * p_);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in, in_predict);
+        return nb::make_tuple(X, P, Dd, Pd);
+    }
+
+    // The estimates x, P (of x), d, Pd (of d) as new arrays.
+    nb::tuple estimate(const char *what) const
+    {
+        not_busy(what);
+        const size_t xs[1] = {n_}, ps[2] = {n_, n_}, ds[1] = {p_}, pds[2] = {p_, p_};
+        OutArray x = new_array(1, xs), P = new_array(2, ps), d = new_array(1, ds),
+                 Pd = new_array(2, pds);
+        Ops::read(f_, x.data(), P.data(), d.data(), Pd.data());
+        return nb::make_tuple(x, P, d, Pd);
+    }
+    OutArray field(const dkf_mat_t &M, const char *what, bool vector) const
+    {
+        not_busy(what);
+        return mat_out(M, vector);
+    }
+    const S &state() const { return f_; }
+    size_t n() const { return n_; }
+    size_t m() const { return m_; }
+    size_t p() const { return p_; }
+
+private:
+    // No Python in either (filter() runs them without the GIL).
+    dkf_status_t do_predict(const DkfStep &in)
+    {
+        UiViews v(in, n_, m_, p_);
+        return Ops::predict(&f_, &v.dyn);
+    }
+
+    // An all-NaN y is a missing measurement: no update.
+    dkf_status_t do_update(const DkfStep &in)
+    {
+        if (all_nan(in.y, m_)) return DKF_OK;
+        UiViews v(in, n_, m_, p_);
+        return Ops::update(&f_, &v.meas, &v.y);
+    }
+
+    [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step, const DkfStep &in,
+                                 bool predict) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = ui_culprit(in, n_, m_, p_);
+            detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
+            if (culprit && culprit[0] == 'y') {
+                detail += " (an all-NaN y is a missing measurement; a partly missing one is "
+                          "refused: the filter's m is fixed)";
+            }
+        } else if (st == DKF_ERR_RANK) {
+            culprit = "D", detail = "D lacks full column rank";
+        } else if (st == DKF_ERR_SINGULAR) {
+            culprit = "B", detail = "B is singular";
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = predict ? "the predicted covariance is not PSD (Q or Rd indefinite?)"
+                             : "the innovation covariance is not SPD, or the updated covariance "
+                               "not PSD (R indefinite?)";
+        }
+        if (step >= 0) detail = std::string(predict ? "predict: " : "update: ") + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0, m_ = 0, p_ = 0;
+    std::vector<real> storage_;
+    S f_;
+};
+
+using ASKF = UiKF<AskfOps>;
+using OTSKF = UiKF<OtskfOps>;
+
+// ---- UIF: RTSF, NRTSF-DF, NRTSF ---------------------------------------------
+
+// The model of one dkf_uif_step: the dynamics from k - 1 (F, G, Q; null at
+// an RTSF / NRTSF-DF filter's first step), the model at k (H, D, R; D null
+// for the NRTSF) and y_k.
+struct UifStep {
+    const real *F, *G, *Q, *H, *D, *R, *y;
+};
+
+class UIF : Guarded {
+public:
+    UIF(nb::handle x0, nb::handle P0, size_t m, size_t p, const std::string &kind)
+    {
+        static const char *call = "UIF";
+        if (kind == "RTSF") {
+            kind_ = DKF_UIF_RTSF;
+        } else if (kind == "NRTSF_DF") {
+            kind_ = DKF_UIF_NRTSF_DF;
+        } else if (kind == "NRTSF") {
+            kind_ = DKF_UIF_NRTSF;
+        } else {
+            value_error(call, "kind must be \"RTSF\", \"NRTSF_DF\" or \"NRTSF\", got \"" + kind + "\"");
+        }
+        kind_name_ = kind;
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows, m_ = m, p_ = p;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        if (m == 0 || p == 0) value_error(call, "m and p must be positive");
+        storage_.assign(DKF_UIF_STORAGE_LEN(n_, m_, p_), real(0));
+        std::memset(&f_, 0, sizeof f_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p);
+        dkf_status_t st =
+            dkf_uif_init(&f_, kind_, n_, m_, p_, storage_.data(), storage_.size(), &xm, &Pm);
+        if (st == DKF_ERR_RANK) {
+            raise_status(st, call, -1, "D",
+                         "the RTSF needs rank D = p, impossible with m = " + std::to_string(m_) +
+                             " < p = " + std::to_string(p_) + " (NRTSF_DF takes any D)");
+        }
+        if (st != DKF_OK) {
+            raise_init(st, call, x, P,
+                       "n = " + std::to_string(n_) + ", m = " + std::to_string(m_) +
+                           ", p = " + std::to_string(p_));
+        }
+    }
+    UIF(const UIF &) = delete;
+    UIF &operator=(const UIF &) = delete;
+
+    void step(nb::handle y, nb::handle H, nb::handle R, nb::handle D, nb::handle F, nb::handle G,
+              nb::handle Q)
+    {
+        static const char *call = "UIF.step";
+        not_busy(call);
+        const bool nf = F.is_none(), ng = G.is_none(), nq = Q.is_none();
+        if (nf != ng || nf != nq) value_error(call, "give all of F, G, Q, or none");
+        check_D(D.is_none(), call);
+        Mat h = matrix_arg(H, call, "H", m_, n_, false), r = matrix_arg(R, call, "R", m_, m_, false);
+        Mat d, f, g, q;
+        if (!D.is_none()) d = matrix_arg(D, call, "D", m_, p_, false);
+        if (!nf) {
+            f = matrix_arg(F, call, "F", n_, n_, false);
+            g = matrix_arg(G, call, "G", n_, p_, false);
+            q = matrix_arg(Q, call, "Q", n_, n_, false);
+        }
+        Mat yy = vector_arg(y, call, "y", m_);
+        UifStep in = {f.p, g.p, q.p, h.p, d.p, r.p, yy.p};
+        dkf_status_t st = do_step(in);
+        if (st != DKF_OK) raise_step(st, call, -1, in);
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle G, nb::handle Q, nb::handle H,
+                     nb::handle R, nb::handle D)
+    {
+        static const char *call = "UIF.filter";
+        not_busy(call);
+        if (f_.k != 0) {
+            raise_status(DKF_ERR_STATE, call, -1, nullptr,
+                         "filter() runs a filter from its start: this one has taken " +
+                             std::to_string(f_.k) + " steps");
+        }
+        check_D(D.is_none(), call);
+        const size_t first = kind_ == DKF_UIF_NRTSF ? 1 : 0;
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != m_ || ya.shape(0) < first + 1) {
+            value_error(call, "Y must be (T, " + std::to_string(m_) + ") with T >= " +
+                                  std::to_string(first + 1) + ", got shape " + shape_str(ya));
+        }
+        const size_t T = ya.shape(0);
+        Mat f = matrix_arg(F, call, "F", n_, n_, true), g = matrix_arg(G, call, "G", n_, p_, true),
+            q = matrix_arg(Q, call, "Q", n_, n_, true), h = matrix_arg(H, call, "H", m_, n_, true),
+            r = matrix_arg(R, call, "R", m_, m_, true), d;
+        if (!D.is_none()) d = matrix_arg(D, call, "D", m_, p_, true);
+        check_time_stacks({{"F", &f}, {"G", &g}, {"Q", &q}, {"H", &h}, {"R", &r}, {"D", &d}}, T,
+                          call, "0..T-1, T =");
+        const size_t S = T - first, xs[2] = {S, n_}, ps[3] = {S, n_, n_}, ds[2] = {S, p_},
+                     pds[3] = {S, p_, p_};
+        OutArray X = new_array(2, xs), P = new_array(3, ps), Dd = new_array(2, ds),
+                 Pd = new_array(3, pds);
+        real *xo = X.data(), *po = P.data(), *dout = Dd.data(), *pdo = Pd.data();
+        const real *yp = ya.data();
+
+        Undo<dkf_uif_t> undo(f_, storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = first;
+        UifStep in = {};
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            // step t: y_t = Y[t], the dynamics at t - 1 (none at t = 0), the model at t
+            for (t = first; t < T; ++t) {
+                in = {t ? f.at(t - 1) : nullptr, t ? g.at(t - 1) : nullptr,
+                      t ? q.at(t - 1) : nullptr, h.at(t), d.p ? d.at(t) : nullptr, r.at(t),
+                      yp + t * m_};
+                st = do_step(in);
+                if (st != DKF_OK) break;
+                const size_t row = t - first;
+                put_row(xo, row, f_.x);
+                put_row(po, row, f_.Px);
+                put_row(dout, row, f_.d);
+                put_row(pdo, row, f_.Pd);
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) raise_step(st, call, static_cast<long>(t), in);
+        return nb::make_tuple(X, P, Dd, Pd);
+    }
+
+    OutArray field(const dkf_mat_t &M, const char *what, bool vector) const
+    {
+        not_busy(what);
+        return mat_out(M, vector);
+    }
+    std::vector<int> estimable() const
+    {
+        not_busy("UIF.estimable");
+        return std::vector<int>(f_.estimable, f_.estimable + p_);
+    }
+    const dkf_uif_t &state() const { return f_; }
+    const std::string &kind() const { return kind_name_; }
+    size_t n() const { return n_; }
+    size_t m() const { return m_; }
+    size_t p() const { return p_; }
+
+private:
+    void check_D(bool none, const char *call) const
+    {
+        if (kind_ == DKF_UIF_NRTSF && !none)
+            value_error(call, "the NRTSF has no feedthrough: D must be None");
+        if (kind_ != DKF_UIF_NRTSF && none)
+            value_error(call, "D is required (" + kind_name_ + ")");
+    }
+
+    // No Python (filter() runs it without the GIL).
+    dkf_status_t do_step(const UifStep &in)
+    {
+        dkf_mat_t F = view(n_, n_, in.F), G = view(n_, p_, in.G), Q = view(n_, n_, in.Q),
+                  H = view(m_, n_, in.H), D = view(m_, p_, in.D), R = view(m_, m_, in.R),
+                  y = view(m_, 1, in.y);
+        dkf_uif_dyn_t dyn = {&F, &G, &Q};
+        dkf_ui_meas_t meas = {&H, in.D ? &D : nullptr, &R};
+        return dkf_uif_step(&f_, in.F ? &dyn : nullptr, &meas, &y);
+    }
+
+    [[noreturn]] void raise_step(dkf_status_t st, const char *call, long step,
+                                 const UifStep &in) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"y", in.y, m_, false},
+                                       {"F", in.F, n_ * n_, false},
+                                       {"G", in.G, n_ * p_, false},
+                                       {"Q", in.Q, n_ * n_, false},
+                                       {"H", in.H, m_ * n_, false},
+                                       {"D", in.D, m_ * p_, false},
+                                       {"R", in.R, m_ * m_, false}});
+            detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
+        } else if (st == DKF_ERR_RANK) {
+            if (kind_ == DKF_UIF_RTSF) {
+                culprit = "D", detail = "D lacks full column rank p (NRTSF_DF takes any D)";
+            } else if (kind_ == DKF_UIF_NRTSF_DF) {
+                culprit = "D", detail = "Dbar^T R~^-1 Dbar is numerically singular";
+            } else {
+                culprit = "G", detail = "rank(H Gbar) < rank G: the input is not seen";
+            }
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = "R~ = H P H^T + R is not SPD, or the new P is not PSD (Q or R indefinite?)";
+        } else if (st == DKF_ERR_STATE) {
+            detail = f_.k == 0 && kind_ != DKF_UIF_NRTSF
+                         ? "the first step takes no F, G, Q (x0, P0 are the prior of x_0)"
+                         : "this step needs F, G, Q";
+        }
+        if (step >= 0) detail = "step: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    dkf_uif_kind_t kind_ = DKF_UIF_RTSF;
+    std::string kind_name_;
+    size_t n_ = 0, m_ = 0, p_ = 0;
+    std::vector<real> storage_;
+    dkf_uif_t f_;
+};
+
+// A read-only property per matrix of a filter's C struct S: a copy.
+template <class S> struct Field {
+    const char *name;
+    dkf_mat_t S::*mat;
+    bool vector;
+    const char *doc;
+};
+
+template <class K, class S, size_t N>
+void def_fields(nb::class_<K> &cls, const char *cls_name, const Field<S> (&fields)[N])
+{
+    for (const Field<S> &fd : fields) {
+        const auto mat = fd.mat;
+        const bool vec = fd.vector;
+        const std::string call = std::string(cls_name) + "." + fd.name;
+        cls.def_prop_ro(
+            fd.name,
+            [mat, vec, call](const K &f) { return f.field(f.state().*mat, call.c_str(), vec); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
+}
+
 } // namespace DKF_PY_NS
 
 NB_MODULE(DKF_PY_MODULE, m)
@@ -1305,7 +1830,8 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.attr("JOSEPH") = DKF_JOSEPH;
     // What dkf and dkf.float32 export of this module.
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
-                                       "DifferenceKF", "DiffKFFusionCentre", "dtype", "MAX_DIM");
+                                       "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
+                                       "dtype", "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
@@ -1457,4 +1983,116 @@ NB_MODULE(DKF_PY_MODULE, m)
             fd.name, [mat, call](const C &c) { return c.get(c.central().*mat, call.c_str()); },
             nb::rv_policy::take_ownership, fd.doc);
     }
+
+    // ASKF and OTSKF: the same calls; their own constructors and fields.
+    auto bind_uikf = [&m](auto *tag, const char *name, const char *doc) {
+        using K = std::remove_pointer_t<decltype(tag)>;
+        nb::class_<K> cls(m, name, doc);
+        cls.def("predict", &K::predict, nb::arg("F"), nb::arg("Q"), nb::arg("B"), nb::arg("Rd"),
+                "Time update with the dynamics at k - 1: x = F x, d = B d; Q, Rd their noises.")
+            .def("update", &K::update, nb::arg("y"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+                 "Measurement update with y_k = H x + D d + v, R = cov(v); an all-NaN y is no "
+                 "update.")
+            .def("filter", &K::filter, nb::arg("Y"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+                 nb::arg("B"), nb::arg("Rd"), nb::arg("H"), nb::arg("D"), nb::arg("R"),
+                 "Per row t of Y (T, m): a predict with the dynamics at t and an update with "
+                 "y_{t+1} = Y[t] and the model at t + 1 (a stack has T + 1 entries, times 0..T), "
+                 "in one call without the GIL; returns (X (T, n), P (T, n, n), D (T, p), "
+                 "Pd (T, p, p)).")
+            .def_prop_ro("n", &K::n)
+            .def_prop_ro("m", &K::m)
+            .def_prop_ro("p", &K::p)
+            .def("__repr__", [name](const K &f) {
+                return std::string("<dkf ") + name + " n=" + std::to_string(f.n()) +
+                       " m=" + std::to_string(f.m()) + " p=" + std::to_string(f.p()) +
+                       " " DKF_PY_DTYPE ">";
+            });
+        static const char *const est_names[4] = {"x", "P", "d", "Pd"};
+        static const char *const est_docs[4] = {
+            "The state estimate x (n,), a copy.", "Its error covariance (n, n), a copy.",
+            "The input estimate d (p,), a copy.", "Its error covariance (p, p), a copy."};
+        for (size_t i = 0; i < 4; ++i) {
+            const std::string call = std::string(name) + "." + est_names[i];
+            cls.def_prop_ro(
+                est_names[i],
+                [i, call](const K &f) { return nb::object(f.estimate(call.c_str())[i]); },
+                est_docs[i]);
+        }
+        return cls;
+    };
+
+    auto askf = bind_uikf(static_cast<ASKF *>(nullptr), "ASKF",
+                          "The augmented-state Kalman filter on [x; d] (dkf/askf.h).");
+    askf.def(nb::init<nb::handle, nb::handle, nb::handle, nb::handle, size_t, nb::handle>(),
+             nb::arg("x0"), nb::arg("P0"), nb::arg("d0"), nb::arg("Pd0"), nb::kw_only(),
+             nb::arg("m"), nb::arg("Pxd0") = nb::none())
+        .def_prop_ro(
+            "X", [](const ASKF &f) { return f.field(f.state().kf.x, "ASKF.X", true); },
+            nb::rv_policy::take_ownership, "The augmented estimate [x; d] (n + p,), a copy.")
+        .def_prop_ro(
+            "PX", [](const ASKF &f) { return f.field(f.state().kf.P, "ASKF.PX", false); },
+            nb::rv_policy::take_ownership, "Its covariance P^a (n + p, n + p), a copy.");
+
+    auto otskf = bind_uikf(static_cast<OTSKF *>(nullptr), "OTSKF",
+                           "The optimal two-stage Kalman filter (dkf/otskf.h).");
+    otskf.def(
+        "__init__",
+        [](OTSKF *self, nb::handle x0, nb::handle P0, nb::handle d0, nb::handle Pd0, size_t mm) {
+            new (self) OTSKF(x0, P0, d0, Pd0, mm, nb::none());
+        },
+        nb::arg("x0"), nb::arg("P0"), nb::arg("d0"), nb::arg("Pd0"), nb::kw_only(), nb::arg("m"));
+    static const Field<dkf_otskf_t> otskf_fields[] = {
+        {"xt", &dkf_otskf_t::xt, true, "The bias-free estimate x~ (n,), a copy."},
+        {"Px", &dkf_otskf_t::Px, false, "Its covariance P^x (n, n), a copy."},
+        {"U", &dkf_otskf_t::U, false, "The blending matrix U_k of the last predict (n, p)."},
+        {"V", &dkf_otskf_t::V, false, "The blending matrix V_k of the last update (n, p)."},
+    };
+    def_fields(otskf, "OTSKF", otskf_fields);
+
+    nb::class_<UIF> uif(m, "UIF",
+                        "Joint state and unknown-input filters of dkf/uif.h: RTSF, NRTSF_DF, "
+                        "NRTSF (kind).");
+    uif.def(nb::init<nb::handle, nb::handle, size_t, size_t, const std::string &>(),
+            nb::arg("x0"), nb::arg("P0"), nb::kw_only(), nb::arg("m"), nb::arg("p"),
+            nb::arg("kind"))
+        .def("step", &UIF::step, nb::arg("y"), nb::kw_only(), nb::arg("H"), nb::arg("R"),
+             nb::arg("D") = nb::none(), nb::arg("F") = nb::none(), nb::arg("G") = nb::none(),
+             nb::arg("Q") = nb::none(),
+             "One step with y_k and the model at k (H, D, R), and the dynamics from k - 1 "
+             "(F, G, Q), which an RTSF or NRTSF_DF filter's first step does not take.")
+        .def("filter", &UIF::filter, nb::arg("Y"), nb::kw_only(), nb::arg("F"), nb::arg("G"),
+             nb::arg("Q"), nb::arg("H"), nb::arg("R"), nb::arg("D") = nb::none(),
+             "The steps of times 0..T-1 (NRTSF: 1..T-1), y_t = Y[t], a stack indexed by the "
+             "time (T entries), in one call without the GIL; returns (X, Px, D, Pd), one row "
+             "per step.")
+        .def_prop_ro("estimable", &UIF::estimable,
+                     "Per input component: 2 estimated, 1 only in a combination, 0 not at all.")
+        .def_prop_ro("rank", [](const UIF &f) { return f.state().rank; })
+        .def_prop_ro("bias_risk", [](const UIF &f) { return f.state().bias_risk != 0; })
+        .def_prop_ro("bias_steps", [](const UIF &f) { return f.state().bias_steps; })
+        .def_prop_ro("k", [](const UIF &f) { return f.state().k; }, "Steps taken.")
+        .def_prop_ro("kind", &UIF::kind)
+        .def_prop_ro("n", &UIF::n)
+        .def_prop_ro("m", &UIF::m)
+        .def_prop_ro("p", &UIF::p)
+        .def("__repr__", [](const UIF &f) {
+            return "<dkf UIF " + f.kind() + " n=" + std::to_string(f.n()) + " m=" +
+                   std::to_string(f.m()) + " p=" + std::to_string(f.p()) + " k=" +
+                   std::to_string(f.state().k) + " " DKF_PY_DTYPE ">";
+        });
+    static const Field<dkf_uif_t> uif_fields[] = {
+        {"x", &dkf_uif_t::x, true, "x_{k|k} (n,), a copy."},
+        {"Px", &dkf_uif_t::Px, false, "Its error covariance (n, n), a copy."},
+        {"d", &dkf_uif_t::d, true, "d_{k|k} (NRTSF: d_{k-1|k}) (p,), a copy."},
+        {"Pd", &dkf_uif_t::Pd, false, "The covariance of d - proj d (p, p), a copy."},
+        {"Pxd", &dkf_uif_t::Pxd, false, "The cross covariance of the errors of x and d (n, p)."},
+        {"x_pred", &dkf_uif_t::x_pred, true, "x_{k|k-1} of the last step (n,)."},
+        {"P_pred", &dkf_uif_t::P_pred, false, "P_{k|k-1} of the last step (n, n)."},
+        {"Rtilde", &dkf_uif_t::Rtilde, false, "R~ = H P_{k|k-1} H^T + R (m, m)."},
+        {"K", &dkf_uif_t::K, false, "P_{k|k-1} H^T R~^-1 (n, m)."},
+        {"L", &dkf_uif_t::L, false, "The state gain (n, m)."},
+        {"M", &dkf_uif_t::M, false, "The input gain (p, m)."},
+        {"proj", &dkf_uif_t::proj, false, "The projector onto the estimable inputs (p, p)."},
+    };
+    def_fields(uif, "UIF", uif_fields);
 }

@@ -145,3 +145,79 @@ class DiffKFFusionCentreBase(_DkfEstimates[_D]):
     l: int
     m: List[int]
     p: List[int]
+
+class _UiKFBase(Generic[_D]):
+    """The calls of ASKF and OTSKF: x0 (n,), P0 (n, n), d0 (p,), Pd0 (p, p)
+    the prior of x_0 and d_0; m the measurement dimension."""
+
+    def predict(self, F: _A, Q: _A, B: _A, Rd: _A) -> None:
+        """Time update with the dynamics at k - 1: x = F x + w, d = B d + wd."""
+    def update(self, y: _A, H: _A, D: _A, R: _A) -> None:
+        """y_k = H x + D d + v (m,), R = cov(v); an all-NaN y is no update."""
+    def filter(
+        self, Y: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Per row t of Y (T, m): a predict with the dynamics at t, an update
+        with Y[t] and the model at t + 1 (stacks: T + 1 entries, times 0..T),
+        in one call without the GIL: X (T, n), P (T, n, n), D (T, p), Pd (T, p, p)."""
+    x: _Out[_D]
+    P: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    n: int
+    m: int
+    p: int
+
+class ASKFBase(_UiKFBase[_D]):
+    """The augmented-state Kalman filter on [x; d] (dkf/askf.h)."""
+
+    def __init__(self, x0: _A, P0: _A, d0: _A, Pd0: _A, *, m: int, Pxd0: _O = None) -> None: ...
+    X: _Out[_D]
+    PX: _Out[_D]
+
+class OTSKFBase(_UiKFBase[_D]):
+    """The optimal two-stage Kalman filter (dkf/otskf.h)."""
+
+    def __init__(self, x0: _A, P0: _A, d0: _A, Pd0: _A, *, m: int) -> None: ...
+    xt: _Out[_D]
+    Px: _Out[_D]
+    U: _Out[_D]
+    V: _Out[_D]
+
+class UIFBase(Generic[_D]):
+    """Joint state and unknown-input filters (dkf/uif.h), kind "RTSF",
+    "NRTSF_DF" or "NRTSF". x0 (n,), P0 (n, n): the prior of x_0 (RTSF,
+    NRTSF_DF) or x_{0|0} (NRTSF); m measurements, p unknown inputs."""
+
+    def __init__(self, x0: _A, P0: _A, *, m: int, p: int, kind: str) -> None: ...
+    def step(
+        self, y: _A, *, H: _A, R: _A, D: _O = None, F: _O = None, G: _O = None, Q: _O = None
+    ) -> None:
+        """y_k with the model at k (H, D, R; D None for the NRTSF) and the
+        dynamics from k - 1 (F, G, Q; none at an RTSF / NRTSF_DF first step)."""
+    def filter(
+        self, Y: _A, *, F: _A, G: _A, Q: _A, H: _A, R: _A, D: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """The steps of times 0..T-1 (NRTSF: 1..T-1) with y_t = Y[t], stacks
+        indexed by the time: X, Px, D, Pd, one row per step."""
+    x: _Out[_D]
+    Px: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    Pxd: _Out[_D]
+    x_pred: _Out[_D]
+    P_pred: _Out[_D]
+    Rtilde: _Out[_D]
+    K: _Out[_D]
+    L: _Out[_D]
+    M: _Out[_D]
+    proj: _Out[_D]
+    rank: int
+    estimable: List[int]
+    bias_risk: bool
+    bias_steps: int
+    k: int
+    kind: str
+    n: int
+    m: int
+    p: int

@@ -23,9 +23,12 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/info.h"
 #include "dkf/kf.h"
+#include "dkf/mat_riccati.h"
 #include "dkf/otskf.h"
+#include "dkf/selftune.h"
 #include "dkf/status.h"
 #include "dkf/uif.h"
+#include "dkf/wfusion.h"
 
 namespace nb = nanobind;
 
@@ -570,7 +573,7 @@ std::vector<Mat> sensor_mats(nb::handle seq, const char *call, const char *name,
     nb::sequence sq = nb::borrow<nb::sequence>(seq);
     if (nb::len(sq) != L) {
         value_error(call, std::string(name) + " has " + std::to_string(nb::len(sq)) +
-                              " entries, Z has " + std::to_string(L) + " sensors");
+                              " entries, one per sensor: " + std::to_string(L));
     }
     std::vector<Mat> out;
     for (size_t j = 0; j < L; ++j) {
@@ -1797,6 +1800,550 @@ private:
     dkf_uif_t f_;
 };
 
+// ---- WeightedFusion ----------------------------------------------------------
+
+// A sequence of l optional vectors (n,) (None: that sensor absent), or None.
+struct OptVectors {
+    std::vector<Mat> keep;
+    std::vector<dkf_mat_t> v;
+    std::vector<const dkf_mat_t *> p;
+    bool given = false;
+};
+
+OptVectors opt_vectors(nb::handle seq, const char *call, const char *name,
+                       const std::vector<size_t> &len, bool none_ok)
+{
+    OptVectors o;
+    if (seq.is_none()) return o;
+    const size_t l = len.size();
+    if (!nb::isinstance<nb::sequence>(seq) || nb::isinstance<nb::str>(seq) || nb::len(seq) != l) {
+        value_error(call, std::string(name) + " must be a sequence of " + std::to_string(l) +
+                              " vectors, one per sensor");
+    }
+    nb::sequence sq = nb::borrow<nb::sequence>(seq);
+    o.given = true;
+    o.keep.resize(l);
+    o.v.resize(l);
+    o.p.assign(l, nullptr);
+    for (size_t i = 0; i < l; ++i) {
+        nb::object item = sq[i];
+        if (item.is_none() && none_ok) continue;
+        const std::string nm = std::string(name) + "[" + std::to_string(i) + "]";
+        o.keep[i] = vector_arg(item, call, nm.c_str(), len[i]);
+        o.v[i] = view(len[i], 1, o.keep[i].p);
+        o.p[i] = &o.v[i];
+    }
+    return o;
+}
+
+class WeightedFusion : Guarded {
+public:
+    WeightedFusion(nb::handle x0, nb::handle P0, nb::handle Hs, std::vector<size_t> m)
+        : m_(std::move(m))
+    {
+        static const char *call = "WeightedFusion";
+        Mat x = vector_arg(x0, call, "x0", 0);
+        n_ = x.rows;
+        Mat P = matrix_arg(P0, call, "P0", n_, n_, false);
+        Mat hs = vector_arg(Hs, call, "Hs", n_);
+        l_ = m_.size();
+        if (l_ == 0) value_error(call, "m must list at least one sensor");
+        const size_t len = dkf_wfusion_storage_len(n_, l_, m_.data());
+        if (len == 0) {
+            raise_status(DKF_ERR_CAPACITY, call, -1, nullptr,
+                         "n = " + std::to_string(n_) + ", l = " + std::to_string(l_) +
+                             ": n l + n and each m_i must be at most DKF_MAX_DIM = " +
+                             std::to_string(DKF_MAX_DIM) + ", each m_i positive");
+        }
+        nodes_.assign(l_, dkf_wfusion_local_t());
+        storage_.assign(len, real(0));
+        std::memset(&fu_, 0, sizeof fu_);
+        dkf_mat_t xm = view(n_, 1, x.p), Pm = view(n_, n_, P.p), Hm = view(1, n_, hs.p);
+        dkf_status_t st = dkf_wfusion_init(&fu_, n_, l_, m_.data(), nodes_.data(), storage_.data(),
+                                           len, &Hm, &xm, &Pm);
+        if (st != DKF_OK) raise_init(st, call, x, P, "n = " + std::to_string(n_));
+    }
+    WeightedFusion(const WeightedFusion &) = delete;
+    WeightedFusion &operator=(const WeightedFusion &) = delete;
+
+    void step(nb::handle F, nb::handle Q, nb::handle H, nb::handle R, nb::handle y)
+    {
+        static const char *call = "WeightedFusion.step";
+        not_busy(call);
+        Model md(*this, F, Q, H, R, call, false);
+        OptVectors yv = opt_vectors(y, call, "y", m_, false);
+        dkf_status_t st = md.step(*this, 0, yv.given ? yv.v.data() : nullptr);
+        if (st != DKF_OK) raise_model(st, call, -1, md, 0, yv.given ? yv.v.data() : nullptr);
+    }
+
+    void steady(nb::handle F, nb::handle Q, nb::handle H, nb::handle R)
+    {
+        static const char *call = "WeightedFusion.steady";
+        not_busy(call);
+        Model md(*this, F, Q, H, R, call, false);
+        md.bind(0);
+        Undo undo(*this);
+        dkf_status_t st = dkf_wfusion_steady(&fu_, &md.dyn, md.meas.data());
+        if (st != DKF_OK) {
+            undo.restore(); // the local filters are switched one by one
+            raise_model(st, call, -1, md, 0, nullptr);
+        }
+    }
+
+    nb::tuple fuse_scalar(nb::handle x)
+    {
+        static const char *call = "WeightedFusion.fuse_scalar";
+        not_busy(call);
+        OptVectors xv = opt_vectors(x, call, "x", std::vector<size_t>(l_, n_), true);
+        dkf_status_t st = dkf_wfusion_fuse_scalar(&fu_, xv.given ? xv.p.data() : nullptr);
+        if (st != DKF_OK) raise_fuse(st, call, -1);
+        return nb::make_tuple(static_cast<double>(fu_.s0), static_cast<double>(fu_.PS0));
+    }
+
+    nb::tuple fuse_matrix(nb::handle x)
+    {
+        static const char *call = "WeightedFusion.fuse_matrix";
+        not_busy(call);
+        OptVectors xv = opt_vectors(x, call, "x", std::vector<size_t>(l_, n_), true);
+        dkf_status_t st = dkf_wfusion_fuse_matrix(&fu_, xv.given ? xv.p.data() : nullptr);
+        if (st != DKF_OK) raise_fuse(st, call, -1);
+        return nb::make_tuple(mat_out(fu_.xf, true), mat_out(fu_.Pf, false));
+    }
+
+    nb::tuple filter(nb::handle Y, nb::handle F, nb::handle Q, nb::handle H, nb::handle R)
+    {
+        static const char *call = "WeightedFusion.filter";
+        not_busy(call);
+        if (!nb::isinstance<nb::sequence>(Y) || nb::isinstance<nb::str>(Y) || nb::len(Y) != l_) {
+            value_error(call, "Y must be a sequence of " + std::to_string(l_) +
+                                  " arrays (T, m_i), one per sensor");
+        }
+        nb::sequence ys = nb::borrow<nb::sequence>(Y);
+        std::vector<InArray> ya;
+        for (size_t i = 0; i < l_; ++i) {
+            const std::string nm = "Y[" + std::to_string(i) + "]";
+            ya.push_back(as_array(ys[i], call, nm.c_str()));
+            if (ya[i].ndim() != 2 || ya[i].shape(1) != m_[i] || ya[i].shape(0) != ya[0].shape(0)) {
+                value_error(call, nm + " must be (T, " + std::to_string(m_[i]) +
+                                      ") with the T of Y[0], got shape " + shape_str(ya[i]));
+            }
+        }
+        const size_t T = ya[0].shape(0);
+        Model md(*this, F, Q, H, R, call, true);
+        md.check(T, call);
+        const size_t xs[2] = {T, n_}, ps[3] = {T, n_, n_}, ss[1] = {T};
+        OutArray X = new_array(2, xs), P = new_array(3, ps), S0 = new_array(1, ss),
+                 PS0 = new_array(1, ss);
+        real *xo = X.data(), *po = P.data(), *so = S0.data(), *pso = PS0.data();
+        std::vector<dkf_mat_t> yv(l_);
+
+        Undo undo(*this);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        int phase = 0; // 0 the step, 1 the fusions
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 0; t < T; ++t) {
+                for (size_t i = 0; i < l_; ++i) yv[i] = view(m_[i], 1, ya[i].data() + t * m_[i]);
+                phase = 0;
+                st = md.step(*this, t, yv.data());
+                if (st != DKF_OK) break;
+                phase = 1;
+                st = dkf_wfusion_fuse_scalar(&fu_, nullptr);
+                if (st == DKF_OK) st = dkf_wfusion_fuse_matrix(&fu_, nullptr);
+                if (st != DKF_OK) break;
+                put_row(xo, t, fu_.xf);
+                put_row(po, t, fu_.Pf);
+                so[t] = fu_.s0;
+                pso[t] = fu_.PS0;
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) {
+            if (phase == 1) raise_fuse(st, call, static_cast<long>(t));
+            raise_model(st, call, static_cast<long>(t), md, t, yv.data());
+        }
+        return nb::make_tuple(X, P, S0, PS0);
+    }
+
+    OutArray field(const dkf_mat_t &M, const char *what, bool vector) const
+    {
+        not_busy(what);
+        return mat_out(M, vector);
+    }
+    // The local filters' matrices `mat`, stacked (l, rows[, cols]).
+    OutArray locals(dkf_mat_t dkf_wfusion_local_t::*mat, bool vector, const char *what) const
+    {
+        not_busy(what);
+        const dkf_mat_t &M0 = nodes_[0].*mat;
+        const size_t shape[3] = {l_, M0.rows, M0.cols};
+        OutArray a = new_array(vector ? 2 : 3, shape);
+        for (size_t i = 0; i < l_; ++i) put_row(a.data(), i, nodes_[i].*mat);
+        return a;
+    }
+    nb::list gains() const
+    {
+        not_busy("WeightedFusion.K");
+        nb::list out;
+        for (size_t i = 0; i < l_; ++i) out.append(mat_out(nodes_[i].K, false));
+        return out;
+    }
+    const dkf_wfusion_t &state() const { return fu_; }
+    size_t n() const { return n_; }
+    size_t l() const { return l_; }
+    const std::vector<size_t> &m() const { return m_; }
+
+private:
+    // The object's state, put back when a call fails part way.
+    class Undo {
+    public:
+        explicit Undo(WeightedFusion &w)
+            : w_(w), fu_(w.fu_), nodes_(w.nodes_), storage_(w.storage_)
+        {
+        }
+        void restore()
+        {
+            w_.fu_ = fu_;
+            std::copy(nodes_.begin(), nodes_.end(), w_.nodes_.begin());
+            std::copy(storage_.begin(), storage_.end(), w_.storage_.begin());
+        }
+
+    private:
+        WeightedFusion &w_;
+        const dkf_wfusion_t fu_;
+        const std::vector<dkf_wfusion_local_t> nodes_;
+        const std::vector<real> storage_;
+    };
+
+    // The model of the calls: F, Q and each sensor's H_i, R_i (one matrix
+    // or, for filter(), a stack of one per step).
+    struct Model {
+        Mat F, Q;
+        std::vector<Mat> H, R;
+        dkf_mat_t Fm, Qm;
+        std::vector<dkf_mat_t> Hm, Rm;
+        dkf_kf_dyn_t dyn;
+        std::vector<dkf_kf_meas_t> meas;
+        Model(const WeightedFusion &w, nb::handle F_, nb::handle Q_, nb::handle H_, nb::handle R_,
+              const char *call, bool stack_ok)
+            : F(matrix_arg(F_, call, "F", w.n_, w.n_, stack_ok)),
+              Q(matrix_arg(Q_, call, "Q", w.n_, w.n_, stack_ok)),
+              H(sensor_mats(H_, call, "H", w.l_, w.m_, w.n_)),
+              R(sensor_mats(R_, call, "R", w.l_, w.m_, 0)), Hm(w.l_), Rm(w.l_), meas(w.l_)
+        {
+            for (size_t i = 0; i < w.l_ && !stack_ok; ++i) {
+                if (H[i].stacked || R[i].stacked)
+                    value_error(call, "H[i] and R[i] must be one matrix each (stacks: filter())");
+            }
+        }
+        void check(size_t T, const char *call) const
+        {
+            check_stack(F, T, call, "F");
+            check_stack(Q, T, call, "Q");
+            for (size_t i = 0; i < H.size(); ++i) {
+                check_stack(H[i], T, call, "H[" + std::to_string(i) + "]");
+                check_stack(R[i], T, call, "R[" + std::to_string(i) + "]");
+            }
+        }
+        // The views of step t. No Python.
+        void bind(size_t t)
+        {
+            const size_t n = F.rows;
+            Fm = view(n, n, F.at(t)), Qm = view(n, n, Q.at(t));
+            dyn = {&Fm, &Qm};
+            for (size_t i = 0; i < H.size(); ++i) {
+                Hm[i] = view(H[i].rows, n, H[i].at(t));
+                Rm[i] = view(R[i].rows, R[i].rows, R[i].at(t));
+                meas[i] = {&Hm[i], &Rm[i]};
+            }
+        }
+        dkf_status_t step(WeightedFusion &w, size_t t, const dkf_mat_t *y)
+        {
+            bind(t);
+            return dkf_wfusion_step(&w.fu_, &dyn, meas.data(), y);
+        }
+    };
+
+    [[noreturn]] void raise_model(dkf_status_t st, const char *call, long step, const Model &md,
+                                  size_t t, const dkf_mat_t *y) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        long node = -1;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"F", md.F.at(t), n_ * n_, false},
+                                       {"Q", md.Q.at(t), n_ * n_, false}});
+            for (size_t i = 0; i < l_ && !culprit; ++i) {
+                culprit = first_nonfinite({{"y", y ? y[i].data : nullptr, m_[i], false},
+                                           {"H", md.H[i].at(t), m_[i] * n_, false},
+                                           {"R", md.R[i].at(t), m_[i] * m_[i], false}});
+                if (culprit) node = static_cast<long>(i);
+            }
+            detail = culprit ? std::string(culprit) + " not finite" : "the step overflowed";
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = "H Sigma H^T + R is not SPD, or a covariance is not PSD (Q or R indefinite?)";
+        } else if (st == DKF_ERR_UNSTABLE) {
+            detail = "no stabilising DARE solution ((F, H_i) not detectable?) or the cross "
+                     "covariances' Stein equation does not contract";
+        } else if (st == DKF_ERR_NO_CONVERGENCE) {
+            detail = "the doubling did not converge";
+        }
+        if (node >= 0) detail = "sensor " + std::to_string(node) + ": " + detail;
+        raise_status(st, call, step, culprit, detail, node);
+    }
+
+    [[noreturn]] void raise_fuse(dkf_status_t st, const char *call, long step) const
+    {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_ARG) {
+            culprit = "x", detail = "no sensor present";
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = "the joint covariance of the present sensors is indefinite";
+        } else if (st == DKF_ERR_NONFINITE) {
+            culprit = "x", detail = "x not finite";
+        }
+        if (step >= 0) detail = "fuse: " + detail;
+        raise_status(st, call, step, culprit, detail);
+    }
+
+    size_t n_ = 0, l_ = 0;
+    std::vector<size_t> m_;
+    std::vector<dkf_wfusion_local_t> nodes_;
+    std::vector<real> storage_;
+    dkf_wfusion_t fu_;
+};
+
+// ---- SelfTuning ----------------------------------------------------------------
+
+class SelfTuning : Guarded {
+public:
+    SelfTuning(size_t L, nb::handle sigma_v2, nb::handle p, double sigma_xi2, size_t na, size_t nc,
+               size_t lags, size_t t_min, double root_max, double rho_max, double sigma_w2_min,
+               nb::handle a0, double c0, double sigma_w2_0)
+    {
+        static const char *call = "SelfTuning";
+        dkf_selftune_cfg_t cfg;
+        (void)dkf_selftune_config_default(&cfg);
+        Mat sv = vector_arg(sigma_v2, call, "sigma_v2", L);
+        sv2_.assign(sv.p, sv.p + L);
+        if (!p.is_none()) {
+            Mat pv = vector_arg(p, call, "p", 0);
+            p_.assign(pv.p, pv.p + pv.rows);
+        }
+        cfg.na = na, cfg.np = p_.size(), cfg.nc = nc, cfg.lags = lags, cfg.t_min = t_min;
+        cfg.L = L;
+        cfg.p = p_.empty() ? nullptr : p_.data();
+        cfg.sigma_xi2 = static_cast<real>(sigma_xi2);
+        cfg.sigma_v2 = sv2_.data();
+        cfg.root_max = static_cast<real>(root_max);
+        cfg.rho_max = static_cast<real>(rho_max);
+        cfg.sigma_w2_min = static_cast<real>(sigma_w2_min);
+        if (!a0.is_none()) {
+            Mat av = vector_arg(a0, call, "a0", na);
+            if (na > DKF_SELFTUNE_MAX_NA) value_error(call, "na above DKF_SELFTUNE_MAX_NA");
+            std::copy(av.p, av.p + na, cfg.a0);
+        }
+        cfg.c0 = static_cast<real>(c0);
+        cfg.sigma_w2_0 = static_cast<real>(sigma_w2_0);
+        const size_t len = dkf_selftune_storage_len(na, cfg.np, nc, lags);
+        storage_.assign(len ? len : 1, real(0));
+        std::memset(&id_, 0, sizeof id_);
+        dkf_status_t st = dkf_selftune_init(&id_, &cfg, storage_.data(), len);
+        if (st != DKF_OK) {
+            raise_status(st, call, -1, nullptr,
+                         "a configuration outside the limits of dkf/selftune.h (na 1..4, np 0..4, "
+                         "nc 0 or 1 below na, lags na + nc..32, L >= 1, a stable P, variances "
+                         ">= 0, root_max in (0, 1], rho_max in (0, 0.5), sigma_w2_min > 0)");
+        }
+        L_ = L, lags_ = lags;
+        (void)dkf_selftune_model_dim(&id_, &nx_);
+    }
+    SelfTuning(const SelfTuning &) = delete;
+    SelfTuning &operator=(const SelfTuning &) = delete;
+
+    void update(nb::handle y)
+    {
+        static const char *call = "SelfTuning.update";
+        not_busy(call);
+        Mat yv = vector_arg(y, call, "y", L_);
+        dkf_status_t st = dkf_selftune_update(&id_, yv.p);
+        if (st != DKF_OK) raise_update(st, call, -1, yv.p);
+    }
+
+    // Per row of Y (T, L): an update; the accepted a (T, na), c_1 (T,),
+    // sigma_w^2 (T,) after each.
+    nb::tuple filter(nb::handle Y)
+    {
+        static const char *call = "SelfTuning.filter";
+        not_busy(call);
+        InArray ya = as_array(Y, call, "Y");
+        if (ya.ndim() != 2 || ya.shape(1) != L_) {
+            value_error(call, "Y must be (T, " + std::to_string(L_) + "), got shape " +
+                                  shape_str(ya));
+        }
+        const size_t T = ya.shape(0), na = id_.priv.na, as[2] = {T, na}, ss[1] = {T};
+        OutArray A = new_array(2, as), C = new_array(1, ss), S = new_array(1, ss);
+        real *ao = A.data(), *co = C.data(), *so = S.data();
+        const real *yp = ya.data();
+        Undo<dkf_selftune_t> undo(id_, storage_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 0;
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 0; t < T; ++t) {
+                st = dkf_selftune_update(&id_, yp + t * L_);
+                if (st != DKF_OK) break;
+                dkf_selftune_est_t e;
+                (void)dkf_selftune_estimate(&id_, &e);
+                std::copy(e.a, e.a + na, ao + t * na);
+                co[t] = e.c1;
+                so[t] = e.sigma_w2;
+            }
+            if (st != DKF_OK) undo.restore();
+        }
+        busy_ = false;
+        if (st != DKF_OK) raise_update(st, call, static_cast<long>(t), yp + t * L_);
+        return nb::make_tuple(A, C, S);
+    }
+
+    nb::dict estimate() const
+    {
+        not_busy("SelfTuning.estimate");
+        dkf_selftune_est_t e;
+        (void)dkf_selftune_estimate(&id_, &e);
+        const size_t na[1] = {e.na};
+        nb::dict d;
+        d["a"] = copy_out(e.a, 1, na);
+        d["c1"] = static_cast<double>(e.c1);
+        d["sigma_w2"] = static_cast<double>(e.sigma_w2);
+        d["ready"] = e.ready != 0;
+        d["guard"] = static_cast<int>(e.guard);
+        d["t"] = e.t;
+        d["t_accepted"] = e.t_accepted;
+        d["a_raw"] = copy_out(e.a_raw, 1, na);
+        d["c1_raw"] = static_cast<double>(e.c1_raw);
+        d["sigma_w2_raw"] = static_cast<double>(e.sigma_w2_raw);
+        d["rho_raw"] = static_cast<double>(e.rho_raw);
+        return d;
+    }
+
+    OutArray autocov(bool noise) const
+    {
+        not_busy(noise ? "SelfTuning.noise_autocov" : "SelfTuning.autocov");
+        const size_t shape[1] = {lags_ + 1};
+        OutArray r = new_array(1, shape);
+        if (noise)
+            (void)dkf_selftune_noise_autocov(&id_, r.data(), lags_ + 1);
+        else
+            (void)dkf_selftune_autocov(&id_, r.data(), lags_ + 1);
+        return r;
+    }
+
+    // The observer-form (F, Q) of the accepted estimate.
+    nb::tuple model() const
+    {
+        not_busy("SelfTuning.model");
+        dkf_selftune_est_t e;
+        (void)dkf_selftune_estimate(&id_, &e);
+        const size_t shape[2] = {nx_, nx_};
+        OutArray F = new_array(2, shape), Q = new_array(2, shape);
+        dkf_mat_t Fm = view(nx_, nx_, F.data()), Qm = view(nx_, nx_, Q.data());
+        (void)dkf_selftune_model(&id_, &e, &Fm, &Qm);
+        return nb::make_tuple(F, Q);
+    }
+    size_t L() const { return L_; }
+    size_t n() const { return nx_; }
+
+private:
+    [[noreturn]] void raise_update(dkf_status_t st, const char *call, long step,
+                                   const real *y) const
+    {
+        const char *culprit = first_nonfinite({{"y", y, L_, false}});
+        raise_status(st, call, step, culprit,
+                     culprit ? "y not finite" : "the statistics overflowed");
+    }
+
+    size_t L_ = 0, lags_ = 0, nx_ = 0;
+    std::vector<real> sv2_, p_, storage_;
+    dkf_selftune_t id_;
+};
+
+// ---- dare, stein -------------------------------------------------------------------
+
+OutArray dare(nb::handle F, nb::handle H, nb::handle Q, nb::handle R)
+{
+    static const char *call = "dare";
+    Mat f = matrix_arg(F, call, "F", 0, 0, false);
+    const size_t n = f.rows;
+    if (f.cols != n) value_error(call, "F must be square, got shape " + shape_str(f.keep));
+    Mat h = matrix_arg(H, call, "H", 0, n, false);
+    Mat q = matrix_arg(Q, call, "Q", n, n, false), r = matrix_arg(R, call, "R", h.rows, h.rows, false);
+    const size_t m = h.rows, shape[2] = {n, n};
+    if (n > DKF_MAX_DIM || m > DKF_MAX_DIM) {
+        raise_status(DKF_ERR_CAPACITY, call, -1, nullptr,
+                     "n and m must be at most DKF_MAX_DIM = " + std::to_string(DKF_MAX_DIM));
+    }
+    OutArray X = new_array(2, shape);
+    std::vector<real> work(DKF_MAT_DARE_WORK(n, m));
+    dkf_mat_t Xm = view(n, n, X.data()), Fm = view(n, n, f.p), Hm = view(m, n, h.p),
+              Qm = view(n, n, q.p), Rm = view(m, m, r.p);
+    dkf_status_t st = dkf_mat_dare(&Xm, &Fm, &Hm, &Qm, &Rm, work.data());
+    if (st != DKF_OK) {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"F", f.p, n * n, false}, {"H", h.p, m * n, false},
+                                       {"Q", q.p, n * n, false}, {"R", r.p, m * m, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            detail = "R not SPD, or Q not symmetric PSD";
+        } else if (st == DKF_ERR_UNSTABLE) {
+            detail = "no stabilising solution: (F, H) not detectable, or a mode on the unit "
+                     "circle that Q does not reach or H does not see";
+        } else if (st == DKF_ERR_NO_CONVERGENCE) {
+            detail = "no convergence within DKF_MAT_DOUBLING_MAX_ITER doublings";
+        }
+        raise_status(st, call, -1, culprit, detail);
+    }
+    return X;
+}
+
+OutArray stein(nb::handle A, nb::handle B, nb::handle C)
+{
+    static const char *call = "stein";
+    Mat c = matrix_arg(C, call, "C", 0, 0, false);
+    const size_t r = c.rows, k = c.cols, shape[2] = {r, k};
+    Mat a = matrix_arg(A, call, "A", r, r, false), b = matrix_arg(B, call, "B", k, k, false);
+    if (r > DKF_MAX_DIM || k > DKF_MAX_DIM) {
+        raise_status(DKF_ERR_CAPACITY, call, -1, nullptr,
+                     "C's dimensions must be at most DKF_MAX_DIM = " + std::to_string(DKF_MAX_DIM));
+    }
+    OutArray X = new_array(2, shape);
+    std::vector<real> work(DKF_MAT_STEIN_WORK(r, k));
+    dkf_mat_t Xm = view(r, k, X.data()), Am = view(r, r, a.p), Bm = view(k, k, b.p),
+              Cm = view(r, k, c.p);
+    dkf_status_t st = dkf_mat_stein(&Xm, &Am, &Bm, &Cm, work.data());
+    if (st != DKF_OK) {
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"A", a.p, r * r, false}, {"B", b.p, k * k, false},
+                                       {"C", c.p, r * k, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_UNSTABLE) {
+            detail = "rho(A) rho(B) >= 1: the series does not contract";
+        } else if (st == DKF_ERR_NO_CONVERGENCE) {
+            detail = "no convergence within DKF_MAT_DOUBLING_MAX_ITER doublings";
+        }
+        raise_status(st, call, -1, culprit, detail);
+    }
+    return X;
+}
+
 // A read-only property per matrix of a filter's C struct S: a copy.
 template <class S> struct Field {
     const char *name;
@@ -1831,7 +2378,8 @@ NB_MODULE(DKF_PY_MODULE, m)
     // What dkf and dkf.float32 export of this module.
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
                                        "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
-                                       "dtype", "MAX_DIM");
+                                       "WeightedFusion", "SelfTuning", "dare", "stein", "dtype",
+                                       "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
@@ -2095,4 +2643,105 @@ NB_MODULE(DKF_PY_MODULE, m)
         {"proj", &dkf_uif_t::proj, false, "The projector onto the estimable inputs (p, p)."},
     };
     def_fields(uif, "UIF", uif_fields);
+
+    using W = WeightedFusion;
+    nb::class_<W> wf(m, "WeightedFusion",
+                     "Weighted fusion of local Kalman filters with their cross covariances "
+                     "(dkf/wfusion.h).");
+    wf.def(nb::init<nb::handle, nb::handle, nb::handle, std::vector<size_t>>(), nb::arg("x0"),
+           nb::arg("P0"), nb::arg("Hs"), nb::kw_only(), nb::arg("m"))
+        .def("step", &W::step, nb::arg("F"), nb::arg("Q"), nb::arg("H"), nb::arg("R"),
+             nb::arg("y") = nb::none(),
+             "Every local filter's step with the model F, Q and H[i], R[i] and y[i] (y None: the "
+             "gains alone), then the cross covariances.")
+        .def("steady", &W::steady, nb::arg("F"), nb::arg("Q"), nb::arg("H"), nb::arg("R"),
+             "Switches every local filter and the cross covariances to the steady state.")
+        .def("fuse_scalar", &W::fuse_scalar, nb::arg("x") = nb::none(),
+             "Scalar-weight fusion of the signal Hs x over the sensors present (x[i] not None; "
+             "x None: every local estimate); returns (s0, PS0).")
+        .def("fuse_matrix", &W::fuse_matrix, nb::arg("x") = nb::none(),
+             "Matrix-weight fusion of x over the same choice of sensors; returns (xf, Pf).")
+        .def("filter", &W::filter, nb::arg("Y"), nb::kw_only(), nb::arg("F"), nb::arg("Q"),
+             nb::arg("H"), nb::arg("R"),
+             "Per step t: step() with Y[i][t], fuse_scalar(), fuse_matrix(), in one call without "
+             "the GIL; returns (XF (T, n), PF (T, n, n), S0 (T,), PS0 (T,)).")
+        .def_prop_ro("K", &W::gains, "Each local gain K_i (n, m_i) of the last step, a list.")
+        .def_prop_ro("s0", [](const W &w) { return static_cast<double>(w.state().s0); })
+        .def_prop_ro("PS0", [](const W &w) { return static_cast<double>(w.state().PS0); })
+        .def_prop_ro("w_unique", [](const W &w) { return w.state().w_unique != 0; })
+        .def_prop_ro("A_unique", [](const W &w) { return w.state().A_unique != 0; })
+        .def_prop_ro("used", [](const W &w) { return w.state().used; })
+        .def_prop_ro("t", [](const W &w) { return static_cast<size_t>(w.state().t); })
+        .def_prop_ro("steady_state", [](const W &w) { return w.state().steady != 0; })
+        .def_prop_ro("n", &W::n)
+        .def_prop_ro("l", &W::l)
+        .def_prop_ro("m", &W::m)
+        .def("__repr__", [](const W &w) {
+            return "<dkf WeightedFusion n=" + std::to_string(w.n()) + " l=" +
+                   std::to_string(w.l()) + " t=" + std::to_string(w.state().t) +
+                   " " DKF_PY_DTYPE ">";
+        });
+    static const Field<dkf_wfusion_t> wf_fields[] = {
+        {"Pj", &dkf_wfusion_t::Pj, false, "The joint covariance (P_ij) (n l, n l), a copy."},
+        {"Hs", &dkf_wfusion_t::Hs, false, "The signal row (1, n)."},
+        {"PS", &dkf_wfusion_t::PS, false, "(Hs P_ij Hs^T) of the last scalar fusion (l, l)."},
+        {"w", &dkf_wfusion_t::w, true, "The scalar weights (l,) (0 for an absent sensor)."},
+        {"A", &dkf_wfusion_t::A, false, "The matrix weights [A_1 ... A_l] (n, n l)."},
+        {"xf", &dkf_wfusion_t::xf, true, "The matrix-fused estimate (n,)."},
+        {"Pf", &dkf_wfusion_t::Pf, false, "Its error covariance (n, n)."},
+    };
+    def_fields(wf, "WeightedFusion", wf_fields);
+    static const struct {
+        const char *name;
+        dkf_mat_t dkf_wfusion_local_t::*mat;
+        bool vector;
+        const char *doc;
+    } wf_locals[] = {
+        {"x_local", &dkf_wfusion_local_t::x, true, "Each x_i(t|t), stacked (l, n)."},
+        {"P_local", &dkf_wfusion_local_t::P, false, "Each P_i(t|t), stacked (l, n, n)."},
+        {"Sigma_pred", &dkf_wfusion_local_t::Sp, false, "Each Sigma_i(t|t-1) (l, n, n)."},
+        {"Psi", &dkf_wfusion_local_t::Psi, false, "Each Psi_i = (I - K_i H_i) F (l, n, n)."},
+        {"J", &dkf_wfusion_local_t::J, false, "Each J_i = I - K_i H_i (l, n, n)."},
+    };
+    for (const auto &fd : wf_locals) {
+        const auto mat = fd.mat;
+        const bool vec = fd.vector;
+        const std::string call = std::string("WeightedFusion.") + fd.name;
+        wf.def_prop_ro(
+            fd.name, [mat, vec, call](const W &w) { return w.locals(mat, vec, call.c_str()); },
+            nb::rv_policy::take_ownership, fd.doc);
+    }
+
+    nb::class_<SelfTuning>(m, "SelfTuning",
+                           "Self-tuning identifier of seed 002's signal model (dkf/selftune.h).")
+        .def(nb::init<size_t, nb::handle, nb::handle, double, size_t, size_t, size_t, size_t,
+                      double, double, double, nb::handle, double, double>(),
+             nb::kw_only(), nb::arg("L"), nb::arg("sigma_v2"), nb::arg("p") = nb::none(),
+             nb::arg("sigma_xi2") = 0.0, nb::arg("na") = 2, nb::arg("nc") = 1,
+             nb::arg("lags") = 5, nb::arg("t_min") = 50, nb::arg("root_max") = 0.99,
+             nb::arg("rho_max") = 0.499, nb::arg("sigma_w2_min") = 1e-3,
+             nb::arg("a0") = nb::none(), nb::arg("c0") = 0.0, nb::arg("sigma_w2_0") = 1.0)
+        .def("update", &SelfTuning::update, nb::arg("y"),
+             "One time step with the L measurements y (L,).")
+        .def("filter", &SelfTuning::filter, nb::arg("Y"),
+             "An update per row of Y (T, L) in one call without the GIL; returns the accepted "
+             "(a (T, na), c1 (T,), sigma_w2 (T,)) after each.")
+        .def("estimate", &SelfTuning::estimate,
+             "The accepted estimate, the last step's guard and its raw estimate, a dict.")
+        .def("autocov", [](const SelfTuning &s) { return s.autocov(false); },
+             nb::rv_policy::take_ownership, "r_ybar(0..K) of the steps fed so far.")
+        .def("noise_autocov", [](const SelfTuning &s) { return s.autocov(true); },
+             nb::rv_policy::take_ownership, "r_eta(0..K), computed at construction.")
+        .def("model", &SelfTuning::model,
+             "The observer-form (F, Q) of the accepted estimate, n = na + max(np, 1).")
+        .def_prop_ro("L", &SelfTuning::L)
+        .def_prop_ro("n", &SelfTuning::n);
+
+    m.def("dare", &dare, nb::arg("F"), nb::arg("H"), nb::arg("Q"), nb::arg("R"),
+          nb::rv_policy::take_ownership,
+          "The stabilising solution X of the filtering DARE X = F X F^T - F X H^T (H X H^T + "
+          "R)^-1 H X F^T + Q (dkf_mat_dare): the steady predictor covariance.");
+    m.def("stein", &stein, nb::arg("A"), nb::arg("B"), nb::arg("C"),
+          nb::rv_policy::take_ownership,
+          "The solution X of the Stein equation X = A X B^T + C (dkf_mat_stein).");
 }

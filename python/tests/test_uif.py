@@ -171,15 +171,21 @@ def test_filter_failure_names_the_step_and_undoes_it(mod):
     before = (f.x.tobytes(), f.Px.tobytes(), f.k)
     Yb = Y.copy()
     Yb[6, 2] = np.inf
-    with pytest.raises(dkf.NonFiniteError, match=r"^UIF.filter, step 6: .*y not finite") as info:
+    refused = [
+        (Yb, model, dkf.NonFiniteError, r"^UIF.filter, step 6: .*y not finite"),
+        (Y, {**model, "F": np.stack([model["F"]] * 3)}, ValueError,
+         "a stack has one matrix per time 0..T-1"),
+    ]
+    for Yr, md, exc, pattern in refused:
+        with pytest.raises(exc, match=pattern) as info:
+            f.filter(Yr, **md)
+        assert (f.x.tobytes(), f.Px.tobytes(), f.k) == before
+    with pytest.raises(dkf.NonFiniteError) as info:
         f.filter(Yb, **model)
-    assert info.value.step == 6 and info.value.matrix == "y"
-    with pytest.raises(ValueError, match="a stack has one matrix per time 0..T-1"):
-        f.filter(Y, **{**model, "F": np.stack([model["F"]] * 3)})
+    assert (info.value.step, info.value.matrix) == (6, "y")
     with pytest.raises(ValueError, match="kind must be"):
         m.UIF(x0, P0, m=5, p=3, kind="rtsf")
     with pytest.raises(dkf.RankError):
         m.UIF(x0, P0, m=2, p=3, kind="RTSF")
-    assert (f.x.tobytes(), f.Px.tobytes(), f.k) == before
     f.filter(Y, **model)
     assert f.k == Y.shape[0]

@@ -83,3 +83,19 @@ def test_errors(mod):
         m.stein(np.eye(2), np.eye(2), np.ones((2, 3)))
     with pytest.raises(ValueError):
         m.dare(np.ones((2, 3)), H, np.eye(2), R)
+
+
+def test_stein_closed_forms(mod):
+    """tests/test_mat_riccati.c's closed forms: A nilpotent gives C + A C B^T
+    exactly; the scalar Lyapunov x = a^2 x + 1 at a = 0.999; rho(A) rho(B) =
+    1 exactly is not a contraction."""
+    m, dt = mod
+    X = m.stein(np.array([[0.0, 2.0], [0.0, 0.0]]), np.diag([3.0, 0.5]),
+                np.array([[1.0, 2.0], [3.0, 4.0]]))
+    assert X.tolist() == [[19.0, 6.0], [3.0, 4.0]]
+    a = dt(0.999)
+    x = m.stein(np.array([[a]]), np.array([[a]]), np.ones((1, 1)))
+    want = 1.0 / (1.0 - float(a) * float(a))
+    assert abs(float(x[0, 0]) - want) / want <= 2048 * np.finfo(dt).eps
+    with pytest.raises(dkf.UnstableError):
+        m.stein(np.diag([2.0, 0.3]), np.array([[0.5]]), np.ones((2, 1)))

@@ -1,6 +1,6 @@
 # The classes of dkf and dkf.float32, generic in the real type (a stub-only
 # module: _dkf_double.pyi and _dkf_float.pyi instantiate it).
-from typing import Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
+from typing import Dict, Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -145,3 +145,159 @@ class DiffKFFusionCentreBase(_DkfEstimates[_D]):
     l: int
     m: List[int]
     p: List[int]
+
+class _UiKFBase(Generic[_D]):
+    """The calls of ASKF and OTSKF: x0 (n,), P0 (n, n), d0 (p,), Pd0 (p, p)
+    the prior of x_0 and d_0; m the measurement dimension."""
+
+    def predict(self, F: _A, Q: _A, B: _A, Rd: _A) -> None:
+        """Time update with the dynamics at k - 1: x = F x + w, d = B d + wd."""
+    def update(self, y: _A, H: _A, D: _A, R: _A) -> None:
+        """y_k = H x + D d + v (m,), R = cov(v); an all-NaN y is no update."""
+    def filter(
+        self, Y: _A, *, F: _A, Q: _A, B: _A, Rd: _A, H: _A, D: _A, R: _A
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Per row t of Y (T, m): a predict with the dynamics at t, an update
+        with Y[t] and the model at t + 1 (stacks: T + 1 entries, times 0..T),
+        in one call without the GIL: X (T, n), P (T, n, n), D (T, p), Pd (T, p, p)."""
+    x: _Out[_D]
+    P: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    n: int
+    m: int
+    p: int
+
+class ASKFBase(_UiKFBase[_D]):
+    """The augmented-state Kalman filter on [x; d] (dkf/askf.h)."""
+
+    def __init__(self, x0: _A, P0: _A, d0: _A, Pd0: _A, *, m: int, Pxd0: _O = None) -> None: ...
+    X: _Out[_D]
+    PX: _Out[_D]
+
+class OTSKFBase(_UiKFBase[_D]):
+    """The optimal two-stage Kalman filter (dkf/otskf.h)."""
+
+    def __init__(self, x0: _A, P0: _A, d0: _A, Pd0: _A, *, m: int) -> None: ...
+    xt: _Out[_D]
+    Px: _Out[_D]
+    U: _Out[_D]
+    V: _Out[_D]
+
+class UIFBase(Generic[_D]):
+    """Joint state and unknown-input filters (dkf/uif.h), kind "RTSF",
+    "NRTSF_DF" or "NRTSF". x0 (n,), P0 (n, n): the prior of x_0 (RTSF,
+    NRTSF_DF) or x_{0|0} (NRTSF); m measurements, p unknown inputs."""
+
+    def __init__(self, x0: _A, P0: _A, *, m: int, p: int, kind: str) -> None: ...
+    def step(
+        self, y: _A, *, H: _A, R: _A, D: _O = None, F: _O = None, G: _O = None, Q: _O = None
+    ) -> None:
+        """y_k with the model at k (H, D, R; D None for the NRTSF) and the
+        dynamics from k - 1 (F, G, Q; none at an RTSF / NRTSF_DF first step)."""
+    def filter(
+        self, Y: _A, *, F: _A, G: _A, Q: _A, H: _A, R: _A, D: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """The steps of times 0..T-1 (NRTSF: 1..T-1) with y_t = Y[t], stacks
+        indexed by the time: X, Px, D, Pd, one row per step."""
+    x: _Out[_D]
+    Px: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    Pxd: _Out[_D]
+    x_pred: _Out[_D]
+    P_pred: _Out[_D]
+    Rtilde: _Out[_D]
+    K: _Out[_D]
+    L: _Out[_D]
+    M: _Out[_D]
+    proj: _Out[_D]
+    rank: int
+    estimable: List[int]
+    bias_risk: bool
+    bias_steps: int
+    k: int
+    kind: str
+    n: int
+    m: int
+    p: int
+
+class WeightedFusionBase(Generic[_D]):
+    """Weighted fusion of local Kalman filters with their cross covariances
+    (dkf/wfusion.h). x0 (n,), P0 (n, n): the common prior; Hs (n,) the
+    signal row; m each sensor's measurement dimension."""
+
+    def __init__(self, x0: _A, P0: _A, Hs: _A, *, m: Sequence[int]) -> None: ...
+    def step(
+        self, F: _A, Q: _A, H: Sequence[_A], R: Sequence[_A], y: Optional[Sequence[_A]] = None
+    ) -> None:
+        """Every local filter's step (y None: the gains alone), then the P_ij."""
+    def steady(self, F: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]) -> None:
+        """Every local filter and P_ij at the steady state (DARE, Stein)."""
+    def fuse_scalar(self, x: Optional[Sequence[Optional[_A]]] = None) -> Tuple[float, float]:
+        """Scalar-weight fusion of s = Hs x over the sensors present: (s0, PS0)."""
+    def fuse_matrix(
+        self, x: Optional[Sequence[Optional[_A]]] = None
+    ) -> Tuple[_Out[_D], _Out[_D]]:
+        """Matrix-weight fusion of x over the sensors present: (xf, Pf)."""
+    def filter(
+        self, Y: Sequence[_A], *, F: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Per step: step(), fuse_scalar(), fuse_matrix(); XF, PF, S0, PS0."""
+    K: List[_Out[_D]]
+    x_local: _Out[_D]
+    P_local: _Out[_D]
+    Sigma_pred: _Out[_D]
+    Psi: _Out[_D]
+    J: _Out[_D]
+    Pj: _Out[_D]
+    Hs: _Out[_D]
+    PS: _Out[_D]
+    w: _Out[_D]
+    A: _Out[_D]
+    xf: _Out[_D]
+    Pf: _Out[_D]
+    s0: float
+    PS0: float
+    w_unique: bool
+    A_unique: bool
+    used: int
+    t: int
+    steady_state: bool
+    n: int
+    l: int
+    m: List[int]
+
+class SelfTuningBase(Generic[_D]):
+    """Self-tuning identifier of seed 002's signal model (dkf/selftune.h)."""
+
+    def __init__(
+        self,
+        *,
+        L: int,
+        sigma_v2: _A,
+        p: _O = None,
+        sigma_xi2: float = 0.0,
+        na: int = 2,
+        nc: int = 1,
+        lags: int = 5,
+        t_min: int = 50,
+        root_max: float = 0.99,
+        rho_max: float = 0.499,
+        sigma_w2_min: float = 1e-3,
+        a0: _O = None,
+        c0: float = 0.0,
+        sigma_w2_0: float = 1.0,
+    ) -> None: ...
+    def update(self, y: _A) -> None:
+        """One time step with the L measurements y (L,)."""
+    def filter(self, Y: _A) -> Tuple[_Out[_D], _Out[_D], _Out[_D]]:
+        """An update per row of Y (T, L): the accepted a (T, na), c1, sigma_w2 (T,)."""
+    def estimate(self) -> Dict[str, object]:
+        """a, c1, sigma_w2, ready, guard, t, t_accepted and the raw estimate."""
+    def autocov(self) -> _Out[_D]: ...
+    def noise_autocov(self) -> _Out[_D]: ...
+    def model(self) -> Tuple[_Out[_D], _Out[_D]]:
+        """The observer-form (F, Q) of the accepted estimate."""
+    L: int
+    n: int

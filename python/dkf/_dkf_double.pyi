@@ -4,7 +4,8 @@ from typing import Tuple
 import numpy as np
 import numpy.typing as npt
 
-from ._api import DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase, KalmanFilterBase
+from ._api import ASKFBase, DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase
+from ._api import KalmanFilterBase, OTSKFBase, SelfTuningBase, UIFBase, WeightedFusionBase
 
 dtype: str
 MAX_DIM: int
@@ -16,8 +17,21 @@ class KalmanFilter(KalmanFilterBase[np.float64]): ...
 class InformationFilter(InformationFilterBase[np.float64]): ...
 class DifferenceKF(DifferenceKFBase[np.float64]): ...
 class DiffKFFusionCentre(DiffKFFusionCentreBase[np.float64]): ...
+class ASKF(ASKFBase[np.float64]): ...
+class OTSKF(OTSKFBase[np.float64]): ...
+class UIF(UIFBase[np.float64]): ...
+class WeightedFusion(WeightedFusionBase[np.float64]): ...
+class SelfTuning(SelfTuningBase[np.float64]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """A sensor's (i, I) = (H^T R^-1 z, H^T R^-1 H); NaN components of z are missing."""
+
+def dare(
+    F: npt.ArrayLike, H: npt.ArrayLike, Q: npt.ArrayLike, R: npt.ArrayLike
+) -> npt.NDArray[np.float64]:
+    """The stabilising solution of the filtering DARE (dkf_mat_dare)."""
+
+def stein(A: npt.ArrayLike, B: npt.ArrayLike, C: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """The solution X of X = A X B^T + C (dkf_mat_stein)."""

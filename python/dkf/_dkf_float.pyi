@@ -4,7 +4,8 @@ from typing import Tuple
 import numpy as np
 import numpy.typing as npt
 
-from ._api import DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase, KalmanFilterBase
+from ._api import ASKFBase, DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase
+from ._api import KalmanFilterBase, OTSKFBase, SelfTuningBase, UIFBase, WeightedFusionBase
 
 dtype: str
 MAX_DIM: int
@@ -16,8 +17,21 @@ class KalmanFilter(KalmanFilterBase[np.float32]): ...
 class InformationFilter(InformationFilterBase[np.float32]): ...
 class DifferenceKF(DifferenceKFBase[np.float32]): ...
 class DiffKFFusionCentre(DiffKFFusionCentreBase[np.float32]): ...
+class ASKF(ASKFBase[np.float32]): ...
+class OTSKF(OTSKFBase[np.float32]): ...
+class UIF(UIFBase[np.float32]): ...
+class WeightedFusion(WeightedFusionBase[np.float32]): ...
+class SelfTuning(SelfTuningBase[np.float32]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike
 ) -> Tuple[npt.NDArray[np.float32], npt.NDArray[np.float32]]:
     """A sensor's (i, I) = (H^T R^-1 z, H^T R^-1 H); NaN components of z are missing."""
+
+def dare(
+    F: npt.ArrayLike, H: npt.ArrayLike, Q: npt.ArrayLike, R: npt.ArrayLike
+) -> npt.NDArray[np.float32]:
+    """The stabilising solution of the filtering DARE (dkf_mat_dare)."""
+
+def stein(A: npt.ArrayLike, B: npt.ArrayLike, C: npt.ArrayLike) -> npt.NDArray[np.float32]:
+    """The solution X of X = A X B^T + C (dkf_mat_stein)."""

@@ -83,3 +83,28 @@ def same_bits(a, b) -> bool:
     """The same dtype, shape and bytes."""
     a, b = np.asarray(a), np.asarray(b)
     return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def poker(rng: np.random.Generator):
+    """poke(a, v): a copy of a with one entry, chosen by rng, set to v."""
+
+    def poke(a, v):
+        a = np.array(a, copy=True)
+        a.flat[int(rng.integers(a.size))] = v
+        return a
+
+    return poke
+
+
+def assert_refused_untouched(bad, rng, state, want, cls_name):
+    """Each (call, exception, matrix) of bad, in an order rng draws, raises
+    its exception (a dkf.Error naming matrix, status and the class's call)
+    and leaves state() == want."""
+    for k in rng.permutation(len(bad)):
+        call, exc, matrix = bad[k]
+        with pytest.raises(exc) as info:
+            call()
+        if issubclass(exc, dkf.Error):
+            assert info.value.matrix == matrix and info.value.status == exc.status, str(info.value)
+            assert info.value.call.startswith(cls_name + ".")
+        assert state() == want, k

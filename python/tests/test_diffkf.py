@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dkf
-from conftest import load_vector, model_at, rel_err, same_bits
+from conftest import assert_refused_untouched, load_vector, model_at, poker, rel_err, same_bits
 
 # tests/test_diffkf.c's tolerances: double, the vectors' 1e-9; float, L_k
 # is a sum of four covariances with differences of nearly equal terms,
@@ -110,10 +110,7 @@ def test_failures_leave_the_filter_bit_identical(mod, seed):
     def with_(**kw):
         return {**s, **kw}
 
-    def poke(a, v):
-        a = a.copy()
-        a.flat[int(rng.integers(a.size))] = v
-        return a
+    poke = poker(rng)
 
     n = x0.size
     bad = [
@@ -129,14 +126,7 @@ def test_failures_leave_the_filter_bit_identical(mod, seed):
          ValueError, None),
         (lambda: f.filter(Y, **model), dkf.StateError, None),
     ]
-    for k in rng.permutation(len(bad)):
-        call, exc, matrix = bad[k]
-        with pytest.raises(exc) as info:
-            call()
-        if issubclass(exc, dkf.Error):
-            assert info.value.matrix == matrix and info.value.status == exc.status, str(info.value)
-            assert info.value.call.startswith("DifferenceKF.")
-        assert state(f) == want, k
+    assert_refused_untouched(bad, rng, lambda: state(f), want, "DifferenceKF")
     for g in (f, twin):
         g.step(Y[2], **s)
     assert state(f) == state(twin)

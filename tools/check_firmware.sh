@@ -20,7 +20,7 @@
 #             a failing filter make it exit 2, 2 and 3; then the instructions per
 #             step, stack, flash and RAM of the DKF node and the KF
 # and prints arm-none-eabi-size. Builds go to build/m4-<real>/ (reused); the
-# host float dkf-run to build/m4-host-float.
+# host float dkf-run to build/m4-host-float (or DKF_M4_HOST_DKF_RUN: see below).
 # The last line is "firmware: N passed, M failed"; exit status 1 if M > 0.
 #
 # usage: tools/check_firmware.sh [float] [double] [float-nochecks] [double-nochecks]
@@ -30,6 +30,10 @@ ROOT=$PWD
 reals=("$@")
 (( ${#reals[@]} )) || reals=(float double float-nochecks)
 budget=${DKF_M4_STACK_BUDGET:-4096}
+# The host float dkf-run the qemu check compares with: DKF_M4_HOST_DKF_RUN
+# (tools/run_tests.sh passes its float configuration's, the same sources
+# and options), else one built in build/m4-host-float.
+host_dkf_run=${DKF_M4_HOST_DKF_RUN:-}
 jobs=${DKF_JOBS:-2}
 passed=0
 failed=0
@@ -88,7 +92,7 @@ check_real() {
   # (the float build also has dkf-run, the reference of the qemu check).
   [[ $checks == ON ]] || return
   local ports=OFF targets=(dkf)
-  [[ $real == float ]] && ports=ON targets=(dkf dkf-run)
+  [[ $real == float && -z $host_dkf_run ]] && ports=ON targets=(dkf dkf-run)
   if cmake -S . -B "$hdir" -DDKF_REAL="$real" -DDKF_BUILD_TESTS=OFF -DDKF_BUILD_PORTS=$ports \
        -DDKF_BUILD_BENCH=OFF >"$hdir.configure.log" 2>&1 &&
      cmake --build "$hdir" -j"$jobs" --target "${targets[@]}" >"$hdir.build.log" 2>&1 &&
@@ -174,7 +178,7 @@ check_nerts_image() {
 # the double image joins when the double variant was built.
 check_qemu() {
   local fimg=$ROOT/build/m4-float/dkf_m4_qemu.elf dimg=$ROOT/build/m4-double/dkf_m4_qemu.elf
-  local dkf_run=$ROOT/build/m4-host-float/ports/linux/dkf-run out line
+  local dkf_run=${host_dkf_run:-$ROOT/build/m4-host-float/ports/linux/dkf-run} out line
   echo "== the node image on an emulated Cortex-M4F (qemu-system-arm -M mps2-an386)"
   if ! command -v qemu-system-arm >/dev/null 2>&1; then
     if [[ "$(id -u)" == 0 ]]; then

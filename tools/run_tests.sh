@@ -355,7 +355,12 @@ run_firmware() {
   mkdir -p "$ROOT/build"
   # Progress: its section headers and every PASS/FAIL line; the sizes and
   # stack tables stay in the log.
-  DKF_JOBS=$JOBS tools/check_firmware.sh 2>&1 | tee "$log" |
+  # The float configuration's dkf-run, when it ran here, is the qemu check's
+  # reference (the same sources and options; no third host build)
+  local ref=()
+  [[ " ${configs[*]} " == *" float "* && -x $ROOT/build/float/ports/linux/dkf-run ]] &&
+    ref=(DKF_M4_HOST_DKF_RUN="$ROOT/build/float/ports/linux/dkf-run")
+  env "${ref[@]}" DKF_JOBS=$JOBS tools/check_firmware.sh 2>&1 | tee "$log" |
     while IFS= read -r line; do
       [[ $line =~ ^(==|PASS:|FAIL:) ]] && say firmware "$line"
     done

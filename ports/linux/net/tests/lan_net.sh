@@ -19,11 +19,16 @@
 #           centralized DKF (check_faults.py --all-complete), every datagram
 #           authenticated, nothing refused; datagrams crossed the bridge; a node
 #           given another host's key directory refuses to start
-#   loss    nftables in every host namespace drops P = 5 % of the UDP datagrams
-#           going out and P % of those coming in (numgen random mod 100 < P),
-#           paced at 50 Hz: every step published, fused == the masked centralized
+#   loss    nftables in every host namespace drops P = 3 % of the UDP datagrams
+#           going out of eth0 and P % of those coming in (numgen random mod 100
+#           < P; the netdev egress and ingress hooks of eth0: lost on the wire,
+#           as a LAN loses them, whereas a drop in the output hook would fail
+#           the sender's sendto with EPERM), paced at 50 Hz: every step published, fused == the masked centralized
 #           DKF given the rows the centre used (check_faults.py), drops counted
-#           at every host. A node whose y_{N+1} was dropped never finishes step
+#           at every host, node messages recovered from their successor's copy
+#           and nodes restarted after a lost measurement (the draws are the
+#           kernel's, not seeded: every assertion holds for any draw but these
+#           two counts, which are 0 with a probability below 1e-30). A node whose y_{N+1} was dropped never finishes step
 #           N: once the centre is done it is stopped (exit 4 accepted here only)
 #   cut     paced at 50 Hz; host 3 is cut off the bridge (its veth moved off
 #           br0, eth0 stays up) after step 30 for 0.6 s and reconnected: its
@@ -42,7 +47,7 @@ set -uo pipefail
 mode=$1 out=$2
 T=60           # per-process timeout, seconds
 HOSTS=4 NODES=12 PER=4 # host 0: the centre and the simulator; host h > 0: nodes PER*(h-1)..
-LOSS=5         # loss mode: % of the UDP datagrams dropped each way at every host
+LOSS=3         # loss mode: % of the UDP datagrams dropped each way at every host
 BR=dkflan-br
 
 . "$(dirname "$0")/net_common.sh"
@@ -65,7 +70,11 @@ mount -t tmpfs -o mode=0755 dkflan /run/netns || { echo "FAIL: cannot mount /run
 loopback_only FAIL || exit 1 # our own network namespace: nothing but lo before we start
 
 hostns() { echo "dkflan-h$1"; }
-on() { local h=$1; shift; ip netns exec "$(hostns "$h")" "$@"; } # ON HOST CMD...
+# on HOST CMD...: CMD in the host's network namespace. A process started in the
+# background is `nsenter --net=$(netns HOST) CMD... &` (nsenter execs CMD, so $!
+# is the program's pid, whereas a function put in the background is a subshell).
+netns() { echo "/run/netns/$(hostns "$1")"; }
+on() { local h=$1; shift; nsenter --net="$(netns "$h")" "$@"; }
 
 lan_down() {
   local h
@@ -132,7 +141,7 @@ clock_of() { # WHO: the --clock-offset-ms options of fusion, sim or node I (cloc
 }
 
 fusion() { # TAG
-  on 0 "$DKF_FUSION" --url "$URL" --lan --key-dir "$out/keys" --timeout $T \
+  nsenter --net="$(netns 0)" "$DKF_FUSION" --url "$URL" --lan --key-dir "$out/keys" --timeout $T \
     --deadline-ms "$DEADLINE_MS" $(clock_of fusion) --ready-file "$out/$1.fusion.ready" \
     --output "$out/$1.fused.json" "$scn" 2>"$out/$1.fusion.log" & pids+=($!); fpid=$!
   wait_file "$out/$1.fusion.ready" $T
@@ -143,7 +152,7 @@ nodes() { # TAG: nodes 0..NODES-1 on their hosts, each with its host's keys; set
   npids=()
   for ((i = 0; i < NODES; ++i)); do
     h=$(host_of $i)
-    on "$h" "$DKF_NODE" --url "$URL" --lan --key-dir "$out/keys-h$h" --id $i --timeout $T \
+    nsenter --net="$(netns "$h")" "$DKF_NODE" --url "$URL" --lan --key-dir "$out/keys-h$h" --id $i --timeout $T \
       $(clock_of $i) --ready-file "$out/$1.n$i.ready" "$scn" 2>"$out/$1.n$i.log" & pids+=($!)
     npids+=($!)
   done
@@ -217,6 +226,37 @@ case "$mode" in
     grep -q 'node-5.key' "$out/wrongkey.log" && (( r == 2 )) ||
       { echo "FAIL: node 5 on host 1 (exit $r):"; cat "$out/wrongkey.log"; exit 1; }
     echo "node 5 refused on host 1: $(cat "$out/wrongkey.log")"
+    ;;
+  loss)
+    for ((h = 0; h < HOSTS; ++h)); do
+      on $h nft -f - <<EOF || { echo "FAIL: nft on host $h"; exit 1; }
+table netdev dkflan {
+  chain in { type filter hook ingress device "eth0" priority 0; policy accept;
+    ip protocol udp numgen random mod 100 < $LOSS counter drop; }
+  chain out { type filter hook egress device "eth0" priority 0; policy accept;
+    ip protocol udp numgen random mod 100 < $LOSS counter drop; }
+}
+EOF
+    done
+    fusion run || exit 1
+    nodes run || exit 1
+    sim run "${PACED[@]}" || exit 1
+    finish run 1 || exit 1
+    check run || exit 1
+    # both kinds of loss happened: a node message lost and recovered from the next
+    # one's copy of its payload, a measurement lost and its node restarted (mirrored)
+    "$DKF_PYTHON" - "$out/run.fused.json" <<'PY' || exit 1
+import json, sys
+f = json.load(open(sys.argv[1]))["counters"]["faults"]
+assert f["recovered_by_redundancy"] > 0 and f["restarts_applied"] > 0, f
+print(f"node messages recovered from the next one's copy: {f['recovered_by_redundancy']}, "
+      f"node restarts after a lost measurement mirrored: {f['restarts_applied']}")
+PY
+    for ((h = 0; h < HOSTS; ++h)); do
+      d=$(on $h nft list table netdev dkflan | grep -o 'packets [0-9]*' | awk '{ s += $2 } END { print s + 0 }')
+      echo "host $h: $d UDP datagrams dropped by nftables"
+      (( d > 0 )) || { echo "FAIL: nothing dropped at host $h"; exit 1; }
+    done
     ;;
   *)
     echo "lan_net.sh: $mode: unknown mode" >&2; exit 2

@@ -258,6 +258,25 @@ PY
       (( d > 0 )) || { echo "FAIL: nothing dropped at host $h"; exit 1; }
     done
     ;;
+  cut)
+    fusion run || exit 1
+    nodes run || exit 1
+    sim run "${PACED[@]}" & spid=$!
+    journal=$out/run.fused.json.jsonl # a header line, then a line per step computed
+    for ((i = 0; i < 3000; ++i)); do
+      [[ -e $journal ]] && (( $(wc -l <"$journal") > 30 )) && break
+      sleep 0.01
+    done
+    ip -n $BR link set veth3 nomaster || exit 1
+    echo "host 3 cut off the bridge (the centre's journal: $(( $(wc -l <"$journal") - 1 )) steps)"
+    sleep 0.6
+    ip -n $BR link set veth3 master br0 || exit 1
+    echo "host 3 reconnected (the centre's journal: $(( $(wc -l <"$journal") - 1 )) steps)"
+    wait $spid || exit 1
+    finish run || exit 1
+    check run --always "$(seq -s, 0 $((2 * PER - 1)))" \
+      --rejoined "$(seq -s, $((2 * PER)) $((NODES - 1)))" || exit 1
+    ;;
   *)
     echo "lan_net.sh: $mode: unknown mode" >&2; exit 2
     ;;

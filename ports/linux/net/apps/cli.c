@@ -126,6 +126,10 @@ static int shared_opt(const char *prog, int c, const char *arg, dkf_cli_opts_t *
     case 'q': o->quiet = 1; return 1;
     case DKF_CLI_OPT_LAN: o->lan = 1; return 1;
     case DKF_CLI_OPT_INSECURE: o->insecure = 1; return 1;
+    case DKF_CLI_OPT_CLOCK:
+        if (dkf_cli_num(prog, "--clock-offset-ms", arg, -1e9, 1e9, &o->clock_ms)) return -1;
+        dkf_net_clock_set_offset_us((int64_t)llround(o->clock_ms * 1000));
+        return 1;
     default: return 0;
     }
 }
@@ -289,6 +293,12 @@ json_t *dkf_cli_rx_json(const dkf_net_t *net)
                      "fragments", (json_int_t)rx.fragments, "malformed",
                      (json_int_t)rx.malformed, "unmatched", (json_int_t)rx.unmatched,
                      "rcvbuf", (json_int_t)rx.rcvbuf);
+}
+
+json_t *dkf_cli_clock_json(void)
+{
+    return json_pack("{s:s, s:I}", "latency_us", "CLOCK_REALTIME", "offset_us",
+                     (json_int_t)dkf_net_clock_offset_us());
 }
 
 json_t *dkf_cli_auth_json(const dkf_net_t *net)

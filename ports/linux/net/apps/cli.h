@@ -58,28 +58,33 @@ typedef struct {
     int quiet;           /* -q, --quiet */
     int lan;             /* --lan: udpm ttl=1 allowed (DKF_NET_LAN), keys required */
     int insecure;        /* --insecure: --lan without keys, said at every start */
+    double clock_ms;     /* --clock-offset-ms MS (tests; clock.h), set when read */
 } dkf_cli_opts_t;
 
 /* The codes of the shared options without a letter (above any character). */
 #define DKF_CLI_OPT_LAN 0x101
 #define DKF_CLI_OPT_INSECURE 0x102
+#define DKF_CLI_OPT_CLOCK 0x103
 
-/* --url, --prefix, --timeout, --key-dir, --lan, --insecure, --quiet, --help:
- * every program's. */
+/* --url, --prefix, --timeout, --key-dir, --lan, --insecure,
+ * --clock-offset-ms, --quiet, --help: every program's. */
 #define DKF_CLI_LONGOPTS_NET                                                                    \
     {"url", required_argument, NULL, 'u'}, {"prefix", required_argument, NULL, 'p'},           \
         {"timeout", required_argument, NULL, 't'}, {"key-dir", required_argument, NULL, 'K'},  \
         {"lan", no_argument, NULL, DKF_CLI_OPT_LAN},                                           \
         {"insecure", no_argument, NULL, DKF_CLI_OPT_INSECURE},                                 \
+        {"clock-offset-ms", required_argument, NULL, DKF_CLI_OPT_CLOCK},                       \
         {"quiet", no_argument, NULL, 'q'}, {"help", no_argument, NULL, 'h'}
 
-/* The usage lines of --lan and --insecure (every program). */
+/* The usage lines of --lan, --insecure and --clock-offset-ms (every program). */
 #define DKF_CLI_LAN_USAGE                                                                   \
     "      --lan               several hosts on one segment: also accept udpm ttl=1 (one\n"   \
     "                          hop, never routed); needs --key-dir (docs/guide/network.md,\n" \
     "                          Several hosts)\n"                                               \
     "      --insecure          with --lan: run without --key-dir, unauthenticated (said\n"    \
-    "                          on stderr at every start)\n"
+    "                          on stderr at every start)\n"                                   \
+    "      --clock-offset-ms MS  (tests) run as if this host's wall clock were MS ms\n"      \
+    "                          ahead (negative: behind); stamps and receive times shift\n"
 /* --split-ports and --direct-recv (DKF_CLI_PORTS_USAGE). */
 #define DKF_CLI_LONGOPTS_PORTS                                                                  \
     {"split-ports", no_argument, NULL, 'L'}, {"direct-recv", no_argument, NULL, 'Y'}
@@ -145,6 +150,12 @@ int dkf_cli_auth(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, uint
  * (auth.h, DKA2). */
 int dkf_cli_auth_edges(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, size_t self,
                        const size_t *row, size_t deg);
+
+/* {"latency_us": "CLOCK_REALTIME", "offset_us": the --clock-offset-ms in
+ * us}: the clock of a result file's latencies (this process's wall clock
+ * minus the stamps of the processes whose data it used, each on its own
+ * host's clock) and this process's test offset to it (clock.h). */
+json_t *dkf_cli_clock_json(void);
 
 /* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
  * (mode "off" without one): the result file's "auth". */

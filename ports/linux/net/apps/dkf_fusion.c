@@ -154,6 +154,7 @@ int main(int argc, char **argv)
         json_t *doc = dkf_net_fusion_result(fu);
         json_object_set_new(doc, "auth", dkf_cli_auth_json(net));
         json_object_set_new(doc, "receive", dkf_cli_rx_json(net));
+        json_object_set_new(doc, "clock", dkf_cli_clock_json());
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
         json_decref(doc);
     }

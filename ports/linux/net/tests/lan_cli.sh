@@ -12,6 +12,7 @@
 #   ttl=2 with --lan --insecure             refused (exit 2): "ttl must be 0 or 1"
 #   --insecure without --lan                refused (exit 2)
 #   --lan --insecure --key-dir KEYS         refused (exit 2)
+#   --clock-offset-ms out of range          refused (exit 2)
 #
 # KEYGEN_ARGS: dkf-keygen's arguments before DIR and NODES ("" or "--edges")
 # and NODES, e.g. "2" or "--edges 6". Environment: DKF_KEYGEN.
@@ -58,5 +59,6 @@ expect ttl2-lan 2 "ttl must be 0 or 1" --url 'udpm://239.255.76.67:7667?ttl=2' -
 expect insecure-nolan 2 "--insecure: only with --lan" --url memq:// --insecure
 expect insecure-keys 2 "--insecure and --key-dir: give one" --url memq:// --lan --insecure \
   --key-dir "$out/keys"
+expect clock-bad 2 "--clock-offset-ms 1e10: expected a number" --url memq:// --clock-offset-ms 1e10
 if (( fails )); then echo "FAIL: $fails of $n"; exit 1; fi
 echo "PASS: $name: $n of $n"

@@ -34,11 +34,12 @@
 #           br0, eth0 stays up) after step 30 for 0.6 s and reconnected: its
 #           nodes rejoin (contribute again at step N), every node of hosts 1
 #           and 2 contributes at every step, fused == the masked centralized DKF
-#   clock   as hosts, with every process's clock off by its own amount
-#           (--clock-offset-ms: the centre -60 s, dkf-sim +3 s, the nodes
-#           -7..+4 s): the fused estimates identical (bit for bit) to those of
-#           a run without offsets; the centre's result file names the clock
-#           of its latencies and its offset
+#   clock   as hosts, twice: without offsets, then with every process's clock
+#           off by its own amount (--clock-offset-ms: the centre -3600 s,
+#           dkf-sim +600 s, node i (i - 7) s): both runs complete, the fused
+#           estimates identical (bit for bit); the centre's result file names the
+#           clock of its latencies and its offset, and its latencies moved by
+#           the offsets' difference
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_KEYGEN DKF_PYTHON
 # DKF_NETNS DKF_GEN DKF_CHECK DKF_REL. Exit 77 (skip) when not root, without
@@ -134,8 +135,8 @@ CLK=() # clock mode: --clock-offset-ms of each process (clock_of)
 clock_of() { # WHO: the --clock-offset-ms options of fusion, sim or node I (clock mode)
   (( ${#CLK[@]} )) || return 0
   case $1 in
-    fusion) echo --clock-offset-ms -60000 ;;
-    sim) echo --clock-offset-ms 3000 ;;
+    fusion) echo --clock-offset-ms -3600000 ;;
+    sim) echo --clock-offset-ms 600000 ;;
     *) echo --clock-offset-ms $(( ($1 * 1000) - 7000 )) ;;
   esac
 }
@@ -276,6 +277,35 @@ PY
     finish run || exit 1
     check run --always "$(seq -s, 0 $((2 * PER - 1)))" \
       --rejoined "$(seq -s, $((2 * PER)) $((NODES - 1)))" || exit 1
+    ;;
+  clock)
+    for tag in ref off; do # the same run without, then with the offsets
+      [[ $tag == off ]] && CLK=(on)
+      fusion $tag || exit 1
+      nodes $tag || exit 1
+      sim $tag "${LOCKSTEP[@]}" || exit 1
+      finish $tag || exit 1
+    done
+    check ref --all-complete --no-rejects || exit 1
+    check off --all-complete --no-rejects --compare "$out/ref.fused.json" || exit 1
+    # The centre's latencies: its wall clock minus dkf-sim's measurement stamps.
+    # With its clock 3600 s behind and dkf-sim's 600 s ahead they move by
+    # -4200 s; no latency of a run can exceed its processes' timeout (T).
+    "$DKF_PYTHON" - "$out/ref.fused.json" "$out/off.fused.json" $T <<'PY' || exit 1
+import json, statistics, sys
+ref, off = (json.load(open(p)) for p in sys.argv[1:3])
+T = float(sys.argv[3]) * 1e6
+assert ref["clock"] == {"latency_us": "CLOCK_REALTIME", "offset_us": 0}, ref["clock"]
+assert off["clock"] == {"latency_us": "CLOCK_REALTIME", "offset_us": -3600 * 10**6}, off["clock"]
+lr = [v for v in ref["latency_us"]["last"] if v != -1]
+lo = [v for v in off["latency_us"]["last"] if v != -1]
+assert len(lr) == len(lo) == ref["N"], (len(lr), len(lo))
+assert all(abs(v) < T for v in lr), "a latency beyond the timeout without offsets"
+assert all(abs(v + 4200e6) < T for v in lo), "latencies not on the offset clocks"
+print(f"clock: {off['clock']}; median latency {statistics.median(lr) / 1e3:.1f} ms without "
+      f"offsets, {statistics.median(lo) / 1e6:.3f} s with them (the centre 3600 s behind, "
+      f"dkf-sim 600 s ahead); fused estimates identical")
+PY
     ;;
   *)
     echo "lan_net.sh: $mode: unknown mode" >&2; exit 2

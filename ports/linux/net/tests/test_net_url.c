@@ -200,6 +200,45 @@ static void test_memq_round_trip(void **state)
     dkf_net_close(net);
 }
 
+/* The test clock offset (--clock-offset-ms): dkf_net_now_us and the receive
+ * times a handler gets move by it together; the monotonic clock does not. */
+static int64_t got_utime;
+static void on_stamp(const char *channel, const dkf_net_from_t *from, const void *data,
+                     size_t len, int64_t t, void *user)
+{
+    (void)channel;
+    (void)from;
+    (void)data;
+    (void)len;
+    (void)user;
+    got_utime = t;
+}
+
+static void test_clock_offset(void **state)
+{
+    const int64_t off = 1000000000000; /* 11.6 days */
+    char err[DKF_NET_ERR_LEN] = "";
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    int64_t before, after, m0;
+    (void)state;
+    assert_non_null(net);
+    assert_int_equal(dkf_net_clock_offset_us(), 0);
+    assert_int_equal(dkf_net_subscribe(net, "DKF_TEST", on_stamp, NULL), 0);
+    before = dkf_net_now_us();
+    m0 = dkf_net_mono_us();
+    dkf_net_clock_set_offset_us(off);
+    assert_int_equal(dkf_net_clock_offset_us(), off);
+    assert_true(dkf_net_mono_us() - m0 < off / 2);
+    assert_int_equal(dkf_net_publish(net, "DKF_TEST", "abc", 3), 0);
+    assert_int_equal(dkf_net_drain(net, 100), 1);
+    after = dkf_net_now_us();
+    assert_true(got_utime >= before + off);
+    assert_true(got_utime <= after);
+    dkf_net_clock_set_offset_us(0);
+    assert_true(dkf_net_now_us() < after - off / 2);
+    dkf_net_close(net);
+}
+
 /* Split ports and direct receive need a udpm URL (their tests over sockets
  * are the namespace tests net_udpm_ex3_split and _direct): memq is refused,
  * and nothing changes for it. */
@@ -232,6 +271,7 @@ int main(void)
         cmocka_unit_test(test_lan_scope),
         cmocka_unit_test(test_open_scope),
         cmocka_unit_test(test_memq_round_trip),
+        cmocka_unit_test(test_clock_offset),
         cmocka_unit_test(test_split_needs_udpm),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

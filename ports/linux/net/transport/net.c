@@ -311,10 +311,12 @@ static void deliver(const struct sub *s, const char *channel, const void *data, 
     s->fn(channel, &from, data, len, recv_utime, s->user);
 }
 
-/* LCM's handler: deliver. */
+/* LCM's handler: deliver, with LCM's receive time (CLOCK_REALTIME) on
+ * dkf_net_now_us's clock (clock.h: its test offset). */
 static void dispatch(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
-    deliver(user, channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
+    deliver(user, channel, rbuf->data, rbuf->data_size,
+            rbuf->recv_utime + dkf_net_clock_offset_us());
 }
 
 /* Direct: the socket of a lane, opened on first use as LCM opens its
@@ -362,7 +364,7 @@ static int direct_socket(dkf_net_t *net, int lane)
 }
 
 /* The kernel's receive time of a datagram (SO_TIMESTAMP, as LCM reports
- * it), or now if the message carries none. */
+ * it), or now if the message carries none, on dkf_net_now_us's clock. */
 static int64_t recv_time(struct msghdr *mh)
 {
     struct cmsghdr *c;
@@ -371,7 +373,8 @@ static int64_t recv_time(struct msghdr *mh)
         if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP &&
             c->cmsg_len >= CMSG_LEN(sizeof tv)) {
             memcpy(&tv, CMSG_DATA(c), sizeof tv);
-            return (int64_t)tv.tv_sec * 1000000 + (int64_t)tv.tv_usec;
+            return (int64_t)tv.tv_sec * 1000000 + (int64_t)tv.tv_usec +
+                   dkf_net_clock_offset_us();
         }
     return dkf_net_now_us();
 }

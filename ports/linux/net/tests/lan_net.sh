@@ -262,7 +262,8 @@ PY
   cut)
     fusion run || exit 1
     nodes run || exit 1
-    sim run "${PACED[@]}" & spid=$!
+    nsenter --net="$(netns 0)" "$DKF_SIM" --url "$URL" --lan --key-dir "$out/keys" --timeout $T \
+      "${PACED[@]}" "$scn" 2>"$out/run.sim.log" & pids+=($!); spid=$!
     journal=$out/run.fused.json.jsonl # a header line, then a line per step computed
     for ((i = 0; i < 3000; ++i)); do
       [[ -e $journal ]] && (( $(wc -l <"$journal") > 30 )) && break
@@ -273,7 +274,7 @@ PY
     sleep 0.6
     ip -n $BR link set veth3 master br0 || exit 1
     echo "host 3 reconnected (the centre's journal: $(( $(wc -l <"$journal") - 1 )) steps)"
-    wait $spid || exit 1
+    wait $spid || { echo "FAIL: dkf-sim exited $?"; cat "$out/run.sim.log"; exit 1; }
     finish run || exit 1
     check run --always "$(seq -s, 0 $((2 * PER - 1)))" \
       --rejoined "$(seq -s, $((2 * PER)) $((NODES - 1)))" || exit 1

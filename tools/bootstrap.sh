@@ -23,6 +23,7 @@ pkgs=(
   libeigen3-dev liblcm-dev liblcm-bin libglib2.0-dev valgrind libsodium-dev  # libsodium: node-message MACs (ports/linux/net/transport/auth.c)
   clang-14 libclang-rt-14-dev  # libFuzzer + sanitizer runtimes (tools/run_fuzz.sh)
   python3 python3-pip python3-venv  # python3-venv: the Python package's tests (run_tests.sh python)
+  iproute2 nftables  # the emulated several-host network test (ports/linux/net/tests/lan_net.sh)
 )
 # Target (armhf, arm64) builds of the unit-test libraries, via Debian multiarch.
 foreign_archs=(armhf arm64)

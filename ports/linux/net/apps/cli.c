@@ -124,6 +124,12 @@ static int shared_opt(const char *prog, int c, const char *arg, dkf_cli_opts_t *
     case 'L': o->ports |= DKF_CLI_SPLIT; return 1;
     case 'Y': o->ports |= DKF_CLI_DIRECT; return 1;
     case 'q': o->quiet = 1; return 1;
+    case DKF_CLI_OPT_LAN: o->lan = 1; return 1;
+    case DKF_CLI_OPT_INSECURE: o->insecure = 1; return 1;
+    case DKF_CLI_OPT_CLOCK:
+        if (dkf_cli_num(prog, "--clock-offset-ms", arg, -1e9, 1e9, &o->clock_ms)) return -1;
+        dkf_net_clock_set_offset_us((int64_t)llround(o->clock_ms * 1000));
+        return 1;
     default: return 0;
     }
 }
@@ -149,6 +155,38 @@ int dkf_cli_getopt(const char *prog, int argc, char **argv, const char *shortopt
     return shared < 0 ? DKF_CLI_BAD : c;
 }
 
+int dkf_cli_check_net(const char *prog, const dkf_cli_opts_t *o)
+{
+    char err[DKF_NET_ERR_LEN];
+    if (dkf_net_check_url_scope(o->url, o->lan ? DKF_NET_LAN : DKF_NET_HOST, err, sizeof err) !=
+        0) {
+        fprintf(stderr, "%s: %s\n", prog, err);
+        return DKF_EXIT_USAGE;
+    }
+    if (o->insecure && !o->lan) {
+        fprintf(stderr, "%s: --insecure: only with --lan (without it the run stays on this "
+                "host)\n", prog);
+        return DKF_EXIT_USAGE;
+    }
+    if (o->insecure && o->key_dir != NULL) {
+        fprintf(stderr, "%s: --insecure and --key-dir: give one\n", prog);
+        return DKF_EXIT_USAGE;
+    }
+    if (o->lan && o->key_dir == NULL && !o->insecure) {
+        fprintf(stderr, "%s: --lan without --key-dir: refused: on a shared segment anyone "
+                "could speak for any process of this run; give the keys (dkf-keygen; "
+                "docs/guide/network.md, Several hosts), or --insecure to run unauthenticated\n",
+                prog);
+        return DKF_EXIT_USAGE;
+    }
+    return DKF_EXIT_OK;
+}
+
+dkf_net_t *dkf_cli_net_open(const dkf_cli_opts_t *o, char *err, size_t errlen)
+{
+    return dkf_net_open_scope(o->url, o->lan ? DKF_NET_LAN : DKF_NET_HOST, err, errlen);
+}
+
 int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, long run,
                  uint32_t self, dkf_scenario_t **s, dkf_net_t **net)
 {
@@ -158,13 +196,10 @@ int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, lo
         fprintf(stderr, "%s: --prefix %s: expected 1..24 characters\n", prog, o->prefix);
         return DKF_EXIT_USAGE;
     }
-    if (dkf_net_check_url(o->url, err, sizeof err) != 0) {
-        fprintf(stderr, "%s: %s\n", prog, err);
-        return DKF_EXIT_USAGE;
-    }
+    if (dkf_cli_check_net(prog, o) != DKF_EXIT_OK) return DKF_EXIT_USAGE;
     *s = dkf_cli_scenario(prog, path, run);
     if (*s == NULL) return DKF_EXIT_USAGE;
-    *net = dkf_net_open(o->url, err, sizeof err);
+    *net = dkf_cli_net_open(o, err, sizeof err);
     if (*net == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         dkf_scenario_free(*s);
@@ -176,7 +211,7 @@ int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, lo
         fprintf(stderr, "%s: %s\n", prog, err);
         st = DKF_EXIT_USAGE;
     } else {
-        st = dkf_cli_auth(prog, o->key_dir, *net, self, (*s)->nsensors);
+        st = dkf_cli_auth(prog, o, *net, self, (*s)->nsensors);
     }
     if (st != DKF_EXIT_OK) {
         dkf_net_close(*net);
@@ -187,39 +222,47 @@ int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, lo
     return st;
 }
 
-/* Installs what dkf_auth_open* made of key_dir (NULL: that failed, err says
- * why); without key_dir says it runs unauthenticated. Exit status. */
-static int install_auth(const char *prog, const char *key_dir, dkf_net_t *net, dkf_auth_t *a,
+/* Installs what dkf_auth_open* made of o->key_dir (NULL: that failed, err
+ * says why); without key_dir says it runs unauthenticated (--lan
+ * --insecure: on the segment). Exit status. */
+static int install_auth(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, dkf_auth_t *a,
                         const char *err)
 {
-    if (key_dir == NULL) {
+    if (o->key_dir == NULL && o->lan) {
+        fprintf(stderr, "%s: UNAUTHENTICATED on the LAN (--insecure): anyone on the local "
+                "segment can speak for any process of this run (docs/guide/network.md, "
+                "Several hosts)\n", prog);
+        return DKF_EXIT_OK;
+    }
+    if (o->key_dir == NULL) {
         fprintf(stderr, "%s: UNAUTHENTICATED: no --key-dir, so anyone on the multicast group "
                 "can speak for any process of this run (docs/guide/network.md, Authentication)\n",
                 prog);
         return DKF_EXIT_OK;
     }
     if (a == NULL) {
-        fprintf(stderr, "%s: --key-dir %s: %s\n", prog, key_dir, err);
+        fprintf(stderr, "%s: --key-dir %s: %s\n", prog, o->key_dir, err);
         return DKF_EXIT_USAGE;
     }
     dkf_net_set_auth(net, a);
     return DKF_EXIT_OK;
 }
 
-int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
+int dkf_cli_auth(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, uint32_t self,
                  size_t nodes)
 {
     char err[4200] = "";
-    dkf_auth_t *a = key_dir ? dkf_auth_open(key_dir, self, nodes, err, sizeof err) : NULL;
-    return install_auth(prog, key_dir, net, a, err);
+    dkf_auth_t *a = o->key_dir ? dkf_auth_open(o->key_dir, self, nodes, err, sizeof err) : NULL;
+    return install_auth(prog, o, net, a, err);
 }
 
-int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, size_t self,
+int dkf_cli_auth_edges(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, size_t self,
                        const size_t *row, size_t deg)
 {
     char err[4200] = "";
-    dkf_auth_t *a = key_dir ? dkf_auth_open_edges(key_dir, self, row, deg, err, sizeof err) : NULL;
-    return install_auth(prog, key_dir, net, a, err);
+    dkf_auth_t *a =
+        o->key_dir ? dkf_auth_open_edges(o->key_dir, self, row, deg, err, sizeof err) : NULL;
+    return install_auth(prog, o, net, a, err);
 }
 
 void dkf_cli_print_refusals(const char *prog, const dkf_net_rejects_t *why, const dkf_net_t *net)
@@ -250,6 +293,12 @@ json_t *dkf_cli_rx_json(const dkf_net_t *net)
                      "fragments", (json_int_t)rx.fragments, "malformed",
                      (json_int_t)rx.malformed, "unmatched", (json_int_t)rx.unmatched,
                      "rcvbuf", (json_int_t)rx.rcvbuf);
+}
+
+json_t *dkf_cli_clock_json(void)
+{
+    return json_pack("{s:s, s:I}", "latency_us", "CLOCK_REALTIME", "offset_us",
+                     (json_int_t)dkf_net_clock_offset_us());
 }
 
 json_t *dkf_cli_auth_json(const dkf_net_t *net)

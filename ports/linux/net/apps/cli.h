@@ -56,13 +56,35 @@ typedef struct {
     double hb_ms;        /* --heartbeat-ms MS in [1, 1e7] */
     unsigned ports;      /* --split-ports, --direct-recv (DKF_CLI_*) */
     int quiet;           /* -q, --quiet */
+    int lan;             /* --lan: udpm ttl=1 allowed (DKF_NET_LAN), keys required */
+    int insecure;        /* --insecure: --lan without keys, said at every start */
+    double clock_ms;     /* --clock-offset-ms MS (tests; clock.h), set when read */
 } dkf_cli_opts_t;
 
-/* --url, --prefix, --timeout, --key-dir, --quiet, --help: every program's. */
+/* The codes of the shared options without a letter (above any character). */
+#define DKF_CLI_OPT_LAN 0x101
+#define DKF_CLI_OPT_INSECURE 0x102
+#define DKF_CLI_OPT_CLOCK 0x103
+
+/* --url, --prefix, --timeout, --key-dir, --lan, --insecure,
+ * --clock-offset-ms, --quiet, --help: every program's. */
 #define DKF_CLI_LONGOPTS_NET                                                                    \
     {"url", required_argument, NULL, 'u'}, {"prefix", required_argument, NULL, 'p'},           \
         {"timeout", required_argument, NULL, 't'}, {"key-dir", required_argument, NULL, 'K'},  \
+        {"lan", no_argument, NULL, DKF_CLI_OPT_LAN},                                           \
+        {"insecure", no_argument, NULL, DKF_CLI_OPT_INSECURE},                                 \
+        {"clock-offset-ms", required_argument, NULL, DKF_CLI_OPT_CLOCK},                       \
         {"quiet", no_argument, NULL, 'q'}, {"help", no_argument, NULL, 'h'}
+
+/* The usage lines of --lan, --insecure and --clock-offset-ms (every program). */
+#define DKF_CLI_LAN_USAGE                                                                   \
+    "      --lan               several hosts on one segment: also accept udpm ttl=1 (one\n"   \
+    "                          hop, never routed); needs --key-dir (docs/guide/network.md,\n" \
+    "                          Several hosts)\n"                                               \
+    "      --insecure          with --lan: run without --key-dir, unauthenticated (said\n"    \
+    "                          on stderr at every start)\n"                                   \
+    "      --clock-offset-ms MS  (tests) run as if this host's wall clock were MS ms\n"      \
+    "                          ahead (negative: behind); stamps and receive times shift\n"
 /* --split-ports and --direct-recv (DKF_CLI_PORTS_USAGE). */
 #define DKF_CLI_LONGOPTS_PORTS                                                                  \
     {"split-ports", no_argument, NULL, 'L'}, {"direct-recv", no_argument, NULL, 'Y'}
@@ -89,12 +111,22 @@ int dkf_cli_getopt(const char *prog, int argc, char **argv, const char *shortopt
  * DKF_CLI_END: DKF_EXIT_OK after --help, else DKF_EXIT_USAGE. */
 #define DKF_CLI_EXIT(c) ((c) == DKF_CLI_HELP ? DKF_EXIT_OK : DKF_EXIT_USAGE)
 
+/* The URL in o's scope (dkf_net_check_url_scope: DKF_NET_LAN with --lan)
+ * and the authentication options: --lan needs --key-dir or --insecure,
+ * --insecure needs --lan and no --key-dir. DKF_EXIT_OK, or DKF_EXIT_USAGE
+ * after printing why in one line. */
+int dkf_cli_check_net(const char *prog, const dkf_cli_opts_t *o);
+
+/* dkf_net_open_scope of o->url in o's scope (dkf_cli_check_net has passed). */
+dkf_net_t *dkf_cli_net_open(const dkf_cli_opts_t *o, char *err, size_t errlen);
+
 /* The set-up dkf-sim, dkf-node and dkf-fusion share: checks --prefix
- * (1..24 characters) and the URL (dkf_net_check_url), loads the scenario
- * (dkf_cli_scenario), opens the transport with o->ports and authenticates
- * as `self` (dkf_cli_auth with o->key_dir). On success *s and *net are set
- * and DKF_EXIT_OK is returned; otherwise the error has been printed,
- * nothing is left open, and the exit status to return is given. */
+ * (1..24 characters), the URL and the authentication options
+ * (dkf_cli_check_net), loads the scenario (dkf_cli_scenario), opens the
+ * transport with o->ports and authenticates as `self` (dkf_cli_auth). On
+ * success *s and *net are set and DKF_EXIT_OK is returned; otherwise the
+ * error has been printed, nothing is left open, and the exit status to
+ * return is given. */
 int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, long run,
                  uint32_t self, dkf_scenario_t **s, dkf_net_t **net);
 
@@ -107,16 +139,23 @@ int dkf_cli_open(const char *prog, const dkf_cli_opts_t *o, const char *path, lo
     "                          (one wake-up per datagram; docs/guide/network.md, Direct receive)\n"
 
 /* --key-dir: net signs and verifies as `self` (auth.h: dkf_auth_signer)
- * of a network of `nodes` nodes, with the keys in key_dir. key_dir NULL:
- * unauthenticated, said in one line on stderr (never silently).
- * DKF_EXIT_OK, or DKF_EXIT_USAGE after printing why. */
-int dkf_cli_auth(const char *prog, const char *key_dir, dkf_net_t *net, uint32_t self,
+ * of a network of `nodes` nodes, with the keys in o->key_dir. No key_dir:
+ * unauthenticated, said in one line on stderr (never silently; with --lan
+ * --insecure a line that says so). DKF_EXIT_OK, or DKF_EXIT_USAGE after
+ * printing why. */
+int dkf_cli_auth(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, uint32_t self,
                  size_t nodes);
 
 /* The same for graph node `self` with the edge keys of its graph row
  * (auth.h, DKA2). */
-int dkf_cli_auth_edges(const char *prog, const char *key_dir, dkf_net_t *net, size_t self,
+int dkf_cli_auth_edges(const char *prog, const dkf_cli_opts_t *o, dkf_net_t *net, size_t self,
                        const size_t *row, size_t deg);
+
+/* {"latency_us": "CLOCK_REALTIME", "offset_us": the --clock-offset-ms in
+ * us}: the clock of a result file's latencies (this process's wall clock
+ * minus the stamps of the processes whose data it used, each on its own
+ * host's clock) and this process's test offset to it (clock.h). */
+json_t *dkf_cli_clock_json(void);
 
 /* {"mode": ..., "datagrams": {verdict: count}} of net's authenticator
  * (mode "off" without one): the result file's "auth". */

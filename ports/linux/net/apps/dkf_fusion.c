@@ -33,7 +33,8 @@ static void usage(FILE *f)
             "every replayed step again (revision > 0). Exits after step N.\n"
             "\n"
             "  -u, --url URL           LCM URL (default %s);\n"
-            "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
+            "                          only udpm://239.x.y.z...?ttl=0 (--lan: or ttl=1) or\n"
+            "                          memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
             "  -d, --deadline-ms MS    per-step deadline (default %d)\n"
             "  -o, --output FILE       write the result (JSON: k, outputs.fused.{xf,xp,Pf,Pp},\n"
@@ -50,6 +51,7 @@ static void usage(FILE *f)
             DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
+            DKF_CLI_LAN_USAGE
             "      --ready-file F      create F once subscribed (for scripts)\n"
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
@@ -152,6 +154,7 @@ int main(int argc, char **argv)
         json_t *doc = dkf_net_fusion_result(fu);
         json_object_set_new(doc, "auth", dkf_cli_auth_json(net));
         json_object_set_new(doc, "receive", dkf_cli_rx_json(net));
+        json_object_set_new(doc, "clock", dkf_cli_clock_json());
         if (dkf_cli_write_json(prog, out, doc) != 0) code = DKF_EXIT_RUN;
         json_decref(doc);
     }

@@ -55,13 +55,15 @@ static void usage(FILE *f)
             "  -f, --filter NAME       the filter whose node role to run (default dkf;\n"
             "                          the filters with one: %s)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
-            "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
+            "                          only udpm://239.x.y.z...?ttl=0 (--lan: or ttl=1) or\n"
+            "                          memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
             "      --heartbeat-ms MS   status period (default %d)\n"
             "  -t, --timeout S         give up after S seconds (default 0: never)\n"
             DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
+            DKF_CLI_LAN_USAGE
             "      --join-at K         start on the first measurement y_j with j >= K\n"
             "                          (default: the first one received; a late node)\n"
             "      --epoch E           epoch of this start (a restarted node: previous + 1)\n"

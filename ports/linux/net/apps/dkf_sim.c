@@ -34,7 +34,8 @@ static void usage(FILE *f)
             "                          then cannot outpace a node the centre gave up on:\n"
             "                          docs/design/network.md, Faults)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
-            "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
+            "                          only udpm://239.x.y.z...?ttl=0 (--lan: or ttl=1) or\n"
+            "                          memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default %s)\n"
             "      --run R             Monte-Carlo run of the file to publish (default 0)\n"
             "      --wait-ready S      how long to wait for the peers (default 10)\n"
@@ -46,6 +47,7 @@ static void usage(FILE *f)
             DKF_CLI_PORTS_USAGE
             "      --key-dir DIR       authenticate every datagram with the keys in DIR\n"
             "                          (dkf-keygen; without it: unauthenticated, said on stderr)\n"
+            DKF_CLI_LAN_USAGE
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
             "Exit: 0 every step published (and, unless --no-wait, fused), 2 bad options or\n"

@@ -42,7 +42,8 @@ static void usage(FILE *f)
             "  -e, --eta N             Algorithm 3: consensus iterations (default: the file's)\n"
             "  -o, --output FILE       write the estimates per step and the counters (JSON)\n"
             "  -u, --url URL           LCM URL (default %s);\n"
-            "                          only udpm://239.x.y.z...?ttl=0 or memq:// are accepted\n"
+            "                          only udpm://239.x.y.z...?ttl=0 (--lan: or ttl=1) or\n"
+            "                          memq:// are accepted\n"
             "  -p, --prefix P          channel prefix (default DKF_TW; letters, digits, _)\n"
             "      --round-timeout S   give up waiting for a neighbour's packet after S s\n"
             "                          (default 2); the round completes without it\n"
@@ -57,6 +58,7 @@ static void usage(FILE *f)
             "      --key-dir DIR       authenticate every packet with the edge keys in DIR\n"
             "                          (dkf-keygen --edges; without it: unauthenticated,\n"
             "                          said on stderr)\n"
+            DKF_CLI_LAN_USAGE
             "  -q, --quiet             no summary line\n"
             "  -h, --help              this text\n"
             "Exit: 0 every step done (degraded steps are marked in the output), 2 bad\n"
@@ -288,7 +290,7 @@ static int authenticate(const opts_t *o, ctx_t *x)
 {
     size_t deg;
     const size_t *row = dkf_ra_row(x->ag.ra, &deg);
-    return dkf_cli_auth_edges(prog, o->co.key_dir, x->net, (size_t)o->id, row, deg);
+    return dkf_cli_auth_edges(prog, &o->co, x->net, (size_t)o->id, row, deg);
 }
 
 int main(int argc, char **argv)
@@ -299,7 +301,8 @@ int main(int argc, char **argv)
     dkf_scenario_t *s;
     char err[DKF_SCN_ERR_LEN], sub[4096];
     int code = DKF_EXIT_USAGE;
-    if (parse(argc, argv, &o) != 0) return DKF_EXIT_USAGE;
+    if (parse(argc, argv, &o) != 0 || dkf_cli_check_net(prog, &o.co) != DKF_EXIT_OK)
+        return DKF_EXIT_USAGE;
     dkf_cli_signals();
     if ((s = dkf_scenario_load(o.scn, o.case_sel, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
@@ -320,7 +323,7 @@ int main(int argc, char **argv)
     } else if (dkf_ra_neighbours_regex(x.ag.ra, o.co.prefix, sub, sizeof sub) != 0) {
         fprintf(stderr, "%s: node %.0f: no neighbours, or too many for one subscription\n", prog,
                 o.id);
-    } else if ((x.net = dkf_net_open(o.co.url, err, sizeof err)) == NULL) {
+    } else if ((x.net = dkf_cli_net_open(&o.co, err, sizeof err)) == NULL) {
         fprintf(stderr, "%s: %s\n", prog, err);
         code = DKF_EXIT_RUN;
     } else if ((o.co.ports & DKF_CLI_DIRECT) && dkf_net_direct(x.net, err, sizeof err) != 0) {

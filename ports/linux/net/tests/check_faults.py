@@ -23,7 +23,8 @@ Checks (exit 1 on the first failure, with the numbers):
   * steps before the first lost row equal the full-data filter (they are the
     same filter);
   * the expectations given (--all-complete, --degraded K,..., --absent NODE:FROM:TO,
-    --rejected REASON=COUNT, --min-revised R, --no-rejects).
+    --rejected REASON=COUNT, --min-revised R, --no-rejects, --always NODE,...,
+    --rejoined NODE,...).
 Prints the distance to the full-data filter after the last lost row (how
 fast the loss of information is forgotten).
 """
@@ -210,6 +211,11 @@ def main():
                     help="FUSED is a dkf-fusion journal (JSON lines): check the steps 1..K it holds")
     ap.add_argument("--others-complete", type=int, action="append", default=[],
                     help="NODE: every other node contributes at every step")
+    ap.add_argument("--always", default=None,
+                    help="NODE,NODE,...: each of these nodes contributes at every step")
+    ap.add_argument("--rejoined", default=None,
+                    help="NODE,NODE,...: each of these nodes is missing from a step and "
+                         "contributes again at the last one")
     ap.add_argument("--complete-from", type=int, default=None, help="K: every step >= K complete")
     ap.add_argument("--complete-once-heard", action="store_true",
                     help="every step after the one at which the last node was first heard is complete")
@@ -264,6 +270,19 @@ def main():
         if bad:
             fail(f"steps {bad[:10]}{'...' if len(bad) > 10 else ''}: a node other than {node} is missing")
         print(f"every node but {node} contributes at every step")
+    for node in (int(v) for v in a.always.split(",")) if a.always else ():
+        bad = [j + 1 for j in range(Np) if node not in keep[j]]
+        if bad:
+            fail(f"node {node} missing from steps {bad[:10]}{'...' if len(bad) > 10 else ''}")
+    if a.always:
+        print(f"nodes {a.always} contribute at every step")
+    for node in (int(v) for v in a.rejoined.split(",")) if a.rejoined else ():
+        gone = [j + 1 for j in range(Np) if node not in keep[j]]
+        if not gone or node not in keep[Np - 1]:
+            fail(f"node {node}: missing from steps {gone[:10]}, at the last step "
+                 f"{'present' if node in keep[Np - 1] else 'missing'}: not a rejoin")
+        print(f"node {node} missing from {len(gone)} steps ({gone[0]}..{gone[-1]}), "
+              f"contributing again at step {Np}")
     if a.complete_from is not None:
         bad = [k for k in lost if k >= a.complete_from]
         if bad:

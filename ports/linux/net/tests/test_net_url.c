@@ -1,7 +1,7 @@
 /*
  * LCM URL safety (net.h): only memq:// and udpm:// to a 239.0.0.0/8 group
- * with ttl=0 (exactly once) are accepted; dkf_net_open refuses the rest
- * before LCM is touched.
+ * with ttl=0 (exactly once) are accepted, with --lan (scope DKF_NET_LAN)
+ * ttl=1 too; dkf_net_open refuses the rest before LCM is touched.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -96,6 +96,80 @@ static void test_open_refuses(void **state)
     assert_non_null(strstr(err, "239.0.0.0/8"));
 }
 
+/* Scope DKF_NET_LAN (--lan): ttl=1 as well as ttl=0, nothing further; the
+ * other rules unchanged. Scope DKF_NET_HOST is dkf_net_check_url's. */
+static void test_lan_scope(void **state)
+{
+    static const char *const ok[] = {
+        "udpm://239.255.76.67:7667?ttl=1",
+        "udpm://239.255.76.67:7667?ttl=0",
+        "udpm://239.1.2.3?recv_buf_size=2097152&ttl=1",
+        "memq://",
+    };
+    static const struct {
+        const char *url, *why;
+    } bad[] = {
+        {"udpm://239.255.76.67:7667?ttl=2", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=9", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=10", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=255", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=01", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=-1", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=1&ttl=2", "ttl must be 0 or 1"},
+        {"udpm://239.255.76.67:7667?ttl=1&ttl=1", "exactly once"},
+        {"udpm://239.255.76.67:7667", "exactly once"},
+        {"udpm://224.0.0.1:7667?ttl=1", "239.0.0.0/8"},
+        {"udpm://239.255.76.67:0?ttl=1", "bad port"},
+        {"tcpq://127.0.0.1:7700", "only udpm"},
+    };
+    char err[DKF_NET_ERR_LEN];
+    size_t i;
+    (void)state;
+    for (i = 0; i < sizeof ok / sizeof ok[0]; ++i) {
+        err[0] = '\0';
+        if (dkf_net_check_url_scope(ok[i], DKF_NET_LAN, err, sizeof err) != 0)
+            fail_msg("--lan: %s refused: %s", ok[i], err);
+    }
+    for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+        err[0] = '\0';
+        if (dkf_net_check_url_scope(bad[i].url, DKF_NET_LAN, err, sizeof err) == 0)
+            fail_msg("--lan: %s accepted", bad[i].url);
+        if (strstr(err, bad[i].why) == NULL)
+            fail_msg("--lan: %s: message '%s' lacks '%s'", bad[i].url, err, bad[i].why);
+        assert_null(strchr(err, '\n'));
+        assert_non_null(strstr(err, bad[i].url));
+    }
+    /* without --lan ttl=1 stays refused, and the message names the way out */
+    assert_int_equal(dkf_net_check_url_scope(ok[0], DKF_NET_HOST, err, sizeof err), -1);
+    assert_non_null(strstr(err, "ttl must be 0 ("));
+    assert_non_null(strstr(err, "--lan"));
+    assert_int_equal(dkf_net_check_url(ok[0], err, sizeof err), -1);
+    assert_int_equal(dkf_net_check_url_scope(ok[1], DKF_NET_HOST, err, sizeof err), 0);
+    /* no other scope */
+    assert_int_equal(dkf_net_check_url_scope(ok[1], 2, err, sizeof err), -1);
+    assert_non_null(strstr(err, "scope"));
+    assert_int_equal(dkf_net_check_url_scope(ok[1], -1, err, sizeof err), -1);
+    assert_int_equal(dkf_net_check_url_scope(NULL, DKF_NET_LAN, err, sizeof err), -1);
+}
+
+/* dkf_net_open_scope applies the scope's check (no LCM instance is created
+ * for a refused URL); memq:// opens in either. */
+static void test_open_scope(void **state)
+{
+    char err[DKF_NET_ERR_LEN] = "";
+    dkf_net_t *net;
+    (void)state;
+    assert_null(dkf_net_open_scope("udpm://239.255.76.67:7667?ttl=2", DKF_NET_LAN, err, sizeof err));
+    assert_non_null(strstr(err, "ttl must be 0 or 1"));
+    assert_null(dkf_net_open_scope("udpm://239.255.76.67:7667?ttl=1", DKF_NET_HOST, err,
+                                   sizeof err));
+    assert_non_null(strstr(err, "ttl must be 0 ("));
+    net = dkf_net_open_scope("memq://", DKF_NET_LAN, err, sizeof err);
+    assert_non_null(net);
+    dkf_net_close(net);
+}
+
 /* memq:// opens, and a message published is delivered to a subscriber. */
 static int got;
 static void on_msg(const char *channel, const dkf_net_from_t *from, const void *data, size_t len,
@@ -123,6 +197,45 @@ static void test_memq_round_trip(void **state)
     assert_true(dkf_net_drain(net, 100) >= 1);
     assert_int_equal(got, 1);
     assert_int_equal(dkf_net_handle(net, 0), 0);
+    dkf_net_close(net);
+}
+
+/* The test clock offset (--clock-offset-ms): dkf_net_now_us and the receive
+ * times a handler gets move by it together; the monotonic clock does not. */
+static int64_t got_utime;
+static void on_stamp(const char *channel, const dkf_net_from_t *from, const void *data,
+                     size_t len, int64_t t, void *user)
+{
+    (void)channel;
+    (void)from;
+    (void)data;
+    (void)len;
+    (void)user;
+    got_utime = t;
+}
+
+static void test_clock_offset(void **state)
+{
+    const int64_t off = 1000000000000; /* 11.6 days */
+    char err[DKF_NET_ERR_LEN] = "";
+    dkf_net_t *net = dkf_net_open("memq://", err, sizeof err);
+    int64_t before, after, m0;
+    (void)state;
+    assert_non_null(net);
+    assert_int_equal(dkf_net_clock_offset_us(), 0);
+    assert_int_equal(dkf_net_subscribe(net, "DKF_TEST", on_stamp, NULL), 0);
+    before = dkf_net_now_us();
+    m0 = dkf_net_mono_us();
+    dkf_net_clock_set_offset_us(off);
+    assert_int_equal(dkf_net_clock_offset_us(), off);
+    assert_true(dkf_net_mono_us() - m0 < off / 2);
+    assert_int_equal(dkf_net_publish(net, "DKF_TEST", "abc", 3), 0);
+    assert_int_equal(dkf_net_drain(net, 100), 1);
+    after = dkf_net_now_us();
+    assert_true(got_utime >= before + off);
+    assert_true(got_utime <= after);
+    dkf_net_clock_set_offset_us(0);
+    assert_true(dkf_net_now_us() < after - off / 2);
     dkf_net_close(net);
 }
 
@@ -155,7 +268,10 @@ int main(void)
         cmocka_unit_test(test_accepts_safe_urls),
         cmocka_unit_test(test_refuses_unsafe_urls),
         cmocka_unit_test(test_open_refuses),
+        cmocka_unit_test(test_lan_scope),
+        cmocka_unit_test(test_open_scope),
         cmocka_unit_test(test_memq_round_trip),
+        cmocka_unit_test(test_clock_offset),
         cmocka_unit_test(test_split_needs_udpm),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

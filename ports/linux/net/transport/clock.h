@@ -9,8 +9,15 @@
 
 #include <stdint.h>
 
-/* CLOCK_REALTIME: microseconds since the epoch. */
+/* CLOCK_REALTIME: microseconds since the epoch (plus the offset below). */
 int64_t dkf_net_now_us(void);
+
+/* A test option (the programs' --clock-offset-ms; docs/guide/network.md,
+ * "Several hosts"): from now on dkf_net_now_us reads CLOCK_REALTIME +
+ * offset_us, as on a host whose clock is that far off, and the transport
+ * (net.h) reports its receive times on the same clock. 0 by default. */
+void dkf_net_clock_set_offset_us(int64_t offset_us);
+int64_t dkf_net_clock_offset_us(void);
 /* CLOCK_MONOTONIC: microseconds since an arbitrary start. */
 int64_t dkf_net_mono_us(void);
 

@@ -41,6 +41,7 @@ struct dkf_net {
     lcm_t *lane[LANES];    /* split: an instance per lane, opened when first used */
     unsigned char read_lane[LANES]; /* split: a subscription reads this lane */
     int split;
+    int scope;             /* DKF_NET_HOST or DKF_NET_LAN: the URL check of the lanes' */
     char url[128];         /* the URL, for the lanes' (split) */
     dkf_auth_t *auth;      /* NULL: unauthenticated (dkf_net_set_auth) */
     unsigned char *out;    /* message + trailer being published (auth only) */
@@ -92,33 +93,49 @@ static int check_group(const char *host, size_t len)
     return (np == 4 && part[0] == 239) ? 0 : -1;
 }
 
-/* Checks the options after '?': ttl must appear exactly once, equal to 0. */
-static int check_options(const char *url, const char *opt, char *err, size_t errlen)
+/* Checks the options after '?': ttl must appear exactly once, equal to 0,
+ * or in scope DKF_NET_LAN to 0 or 1 (canonical: one digit). */
+static int check_options(const char *url, const char *opt, int scope, char *err, size_t errlen)
 {
+    const char max = scope == DKF_NET_LAN ? '1' : '0';
     int nttl = 0;
     while (opt != NULL && *opt != '\0') {
         const char *end = strchr(opt, '&');
         size_t len = end ? (size_t)(end - opt) : strlen(opt);
         if (len >= 4 && strncmp(opt, "ttl=", 4) == 0) {
             ++nttl;
-            if (len != 5 || opt[4] != '0')
-                return fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not leave "
-                            "this host; docs/guide/network.md)", url);
+            if (len != 5 || opt[4] < '0' || opt[4] > max)
+                return scope == DKF_NET_LAN
+                           ? fail(err, errlen, "%s: refused: ttl must be 0 or 1 with --lan (one "
+                                  "hop: the local segment, never routed; docs/guide/network.md, "
+                                  "Several hosts)", url)
+                           : fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not "
+                                  "leave this host; --lan allows ttl=1: docs/guide/network.md, "
+                                  "Several hosts)", url);
         }
         opt = end ? end + 1 : NULL;
     }
     if (nttl != 1)
-        return fail(err, errlen, "%s: refused: a udpm URL must say ttl=0 exactly once", url);
+        return fail(err, errlen, "%s: refused: a udpm URL must say ttl=0%s exactly once", url,
+                    scope == DKF_NET_LAN ? " or ttl=1" : "");
     return 0;
 }
 
 int dkf_net_check_url(const char *url, char *err, size_t errlen)
 {
+    return dkf_net_check_url_scope(url, DKF_NET_HOST, err, errlen);
+}
+
+int dkf_net_check_url_scope(const char *url, int scope, char *err, size_t errlen)
+{
     const char *host, *q, *colon, *hend;
     if (url == NULL) return fail(err, errlen, "(null): refused: no LCM URL");
+    if (scope != DKF_NET_HOST && scope != DKF_NET_LAN)
+        return fail(err, errlen, "%s: refused: unknown scope %d", url, scope);
     if (strcmp(url, "memq://") == 0) return 0;
     if (strncmp(url, "udpm://", 7) != 0)
-        return fail(err, errlen, "%s: refused: only udpm:// (ttl=0) and memq:// are allowed", url);
+        return fail(err, errlen, "%s: refused: only udpm:// (ttl=0%s) and memq:// are allowed",
+                    url, scope == DKF_NET_LAN ? " or 1" : "");
     host = url + 7;
     q = strchr(host, '?');
     hend = q ? q : host + strlen(host);
@@ -128,13 +145,18 @@ int dkf_net_check_url(const char *url, char *err, size_t errlen)
                     "239.0.0.0/8", url);
     if (colon != NULL && parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535) < 0)
         return fail(err, errlen, "%s: refused: bad port", url);
-    return check_options(url, q ? q + 1 : NULL, err, errlen);
+    return check_options(url, q ? q + 1 : NULL, scope, err, errlen);
 }
 
 dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
 {
+    return dkf_net_open_scope(url, DKF_NET_HOST, err, errlen);
+}
+
+dkf_net_t *dkf_net_open_scope(const char *url, int scope, char *err, size_t errlen)
+{
     dkf_net_t *net;
-    if (dkf_net_check_url(url, err, errlen) != 0) return NULL;
+    if (dkf_net_check_url_scope(url, scope, err, errlen) != 0) return NULL;
     net = calloc(1, sizeof *net);
     if (net == NULL) {
         fail(err, errlen, "%s: out of memory", url);
@@ -148,6 +170,7 @@ dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
         return NULL;
     }
     net->lane[0] = net->lcm;
+    net->scope = scope;
     snprintf(net->url, sizeof net->url, "%s", url);
     return net;
 }
@@ -207,7 +230,7 @@ static int lane_of(const dkf_net_t *net, const char *channel)
 }
 
 /* The instance of a lane, opened on first use (split): the URL with the
- * lane's port, checked again (its options, ttl=0 among them, are the
+ * lane's port, checked again (its options, its ttl among them, are the
  * URL's). NULL if LCM cannot open it. */
 static lcm_t *lane_lcm(dkf_net_t *net, int lane)
 {
@@ -218,8 +241,8 @@ static lcm_t *lane_lcm(dkf_net_t *net, int lane)
     if (net->lane[lane] != NULL) return net->lane[lane];
     port = udpm_port(net->url, &glen);
     snprintf(url, sizeof url, "%s%.*s:%ld%s", "udpm://", (int)glen, net->url + 7, port + lane,
-             q ? q : ""); /* the URL's options: its ttl=0 */
-    if (dkf_net_check_url(url, err, sizeof err) != 0) return NULL;
+             q ? q : ""); /* the URL's options: its ttl */
+    if (dkf_net_check_url_scope(url, net->scope, err, sizeof err) != 0) return NULL;
     net->lane[lane] = lcm_create(url);
     return net->lane[lane];
 }
@@ -288,10 +311,12 @@ static void deliver(const struct sub *s, const char *channel, const void *data, 
     s->fn(channel, &from, data, len, recv_utime, s->user);
 }
 
-/* LCM's handler: deliver. */
+/* LCM's handler: deliver, with LCM's receive time (CLOCK_REALTIME) on
+ * dkf_net_now_us's clock (clock.h: its test offset). */
 static void dispatch(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
-    deliver(user, channel, rbuf->data, rbuf->data_size, rbuf->recv_utime);
+    deliver(user, channel, rbuf->data, rbuf->data_size,
+            rbuf->recv_utime + dkf_net_clock_offset_us());
 }
 
 /* Direct: the socket of a lane, opened on first use as LCM opens its
@@ -339,7 +364,7 @@ static int direct_socket(dkf_net_t *net, int lane)
 }
 
 /* The kernel's receive time of a datagram (SO_TIMESTAMP, as LCM reports
- * it), or now if the message carries none. */
+ * it), or now if the message carries none, on dkf_net_now_us's clock. */
 static int64_t recv_time(struct msghdr *mh)
 {
     struct cmsghdr *c;
@@ -348,7 +373,8 @@ static int64_t recv_time(struct msghdr *mh)
         if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SCM_TIMESTAMP &&
             c->cmsg_len >= CMSG_LEN(sizeof tv)) {
             memcpy(&tv, CMSG_DATA(c), sizeof tv);
-            return (int64_t)tv.tv_sec * 1000000 + (int64_t)tv.tv_usec;
+            return (int64_t)tv.tv_sec * 1000000 + (int64_t)tv.tv_usec +
+                   dkf_net_clock_offset_us();
         }
     return dkf_net_now_us();
 }

@@ -11,8 +11,10 @@
  *                                          TTL 0 (never routed off the host)
  *
  * Every other provider, a udpm group outside 239.0.0.0/8, and a udpm URL
- * whose ttl is missing or not 0 are refused (docs/guide/network.md says how to
- * run on several machines, which needs a source change on purpose).
+ * whose ttl is missing or not 0 are refused. In scope DKF_NET_LAN (the
+ * programs' --lan, which also requires authentication: docs/guide/network.md,
+ * "Several hosts"; docs/decisions.md, item 65) ttl=1 is allowed as well: one
+ * hop, the local segment, never routed; ttl > 1 stays refused.
  * Integer returns: 0 success, -1 failure with a one-line message in err.
  */
 #ifndef DKF_NET_H
@@ -35,11 +37,22 @@ typedef struct dkf_net dkf_net_t;
 typedef void (*dkf_net_handler_t)(const char *channel, const dkf_net_from_t *from,
                                   const void *data, size_t len, int64_t recv_utime, void *user);
 
-/* 0 if url is allowed (see above), else -1 with the reason in err. */
-int dkf_net_check_url(const char *url, char *err, size_t errlen);
+/* Where a URL may reach (see above). */
+#define DKF_NET_HOST 0 /* this host only: udpm ttl=0 */
+#define DKF_NET_LAN 1  /* the local segment too: udpm ttl=0 or ttl=1 */
 
-/* Checks url, then creates the LCM instance. NULL + err on failure. */
+/* 0 if url is allowed in scope DKF_NET_HOST (see above), else -1 with the
+ * reason in err. */
+int dkf_net_check_url(const char *url, char *err, size_t errlen);
+/* The same in scope DKF_NET_HOST or DKF_NET_LAN (any other is refused). */
+int dkf_net_check_url_scope(const char *url, int scope, char *err, size_t errlen);
+
+/* Checks url (scope DKF_NET_HOST), then creates the LCM instance. NULL +
+ * err on failure. */
 dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen);
+/* The same in scope DKF_NET_HOST or DKF_NET_LAN (split ports' lanes are
+ * checked in it too). */
+dkf_net_t *dkf_net_open_scope(const char *url, int scope, char *err, size_t errlen);
 void dkf_net_close(dkf_net_t *net);
 
 /* Split ports (udpm only; before any subscription): the node messages

@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# lan_cli.sh OUTDIR KEYGEN_ARGS SCENARIO PROGRAM [ARGS...] - the --lan and
+# --insecure options of one network program (docs/guide/network.md, "Several
+# hosts"), with no socket opened: every run that is accepted uses memq://,
+# every udpm:// URL is one the program must refuse before opening anything.
+#
+#   --lan without --key-dir                 refused (exit 2), one line saying why
+#   --lan --insecure                        accepted, "UNAUTHENTICATED on the LAN"
+#                                           on stderr (exit 4: --timeout)
+#   --lan --key-dir KEYS                    accepted, nothing said of authentication
+#   ttl=1 without --lan                     refused (exit 2): "ttl must be 0 ("
+#   ttl=2 with --lan --insecure             refused (exit 2): "ttl must be 0 or 1"
+#   --insecure without --lan                refused (exit 2)
+#   --lan --insecure --key-dir KEYS         refused (exit 2)
+#   --clock-offset-ms out of range          refused (exit 2)
+#
+# KEYGEN_ARGS: dkf-keygen's arguments before DIR and NODES ("" or "--edges")
+# and NODES, e.g. "2" or "--edges 6". Environment: DKF_KEYGEN.
+set -uo pipefail
+out=$1 keygen_args=$2 scn=$3
+shift 3
+prog=("$@")
+name=$(basename "$1")
+rm -rf "$out" && mkdir -p "$out"
+read -r -a kg <<<"$keygen_args"
+"$DKF_KEYGEN" "${kg[@]:0:${#kg[@]}-1}" "$out/keys" "${kg[-1]}" || { echo "FAIL: dkf-keygen"; exit 1; }
+fails=0 n=0
+
+# expect TAG RC PATTERN OPTIONS...: PROGRAM OPTIONS SCENARIO exits RC and its
+# stderr has PATTERN (fixed string; "" = none of "UNAUTHENTICATED")
+expect() {
+  local tag=$1 want=$2 pat=$3 rc
+  shift 3
+  ((++n))
+  "${prog[@]}" "$@" "$scn" >"$out/$tag.out" 2>"$out/$tag.err"
+  rc=$?
+  if [[ $rc != "$want" ]]; then
+    echo "FAIL: $name $*: exit $rc, want $want"; cat "$out/$tag.err"; ((++fails)); return
+  fi
+  if [[ -n $pat ]] && ! grep -qF -- "$pat" "$out/$tag.err"; then
+    echo "FAIL: $name $*: stderr lacks '$pat':"; cat "$out/$tag.err"; ((++fails)); return
+  fi
+  if [[ -z $pat ]] && grep -q UNAUTHENTICATED "$out/$tag.err"; then
+    echo "FAIL: $name $*: says it is unauthenticated:"; cat "$out/$tag.err"; ((++fails)); return
+  fi
+  if [[ $want == 2 && $(wc -l <"$out/$tag.err") != 1 ]]; then
+    echo "FAIL: $name $*: the refusal is not one line:"; cat "$out/$tag.err"; ((++fails)); return
+  fi
+  echo "ok: $name $* -> exit $rc${pat:+, '$pat'}"
+}
+
+T=(--timeout 0.3)
+expect lan-nokeys 2 "--lan without --key-dir: refused" --url memq:// --lan
+expect lan-insecure 4 "UNAUTHENTICATED on the LAN (--insecure)" --url memq:// --lan --insecure "${T[@]}"
+expect lan-keys 4 "" --url memq:// --lan --key-dir "$out/keys" "${T[@]}"
+expect ttl1-nolan 2 "ttl must be 0 (" --url 'udpm://239.255.76.67:7667?ttl=1'
+expect ttl1-nolan-keys 2 "ttl must be 0 (" --url 'udpm://239.255.76.67:7667?ttl=1' --key-dir "$out/keys"
+expect ttl2-lan 2 "ttl must be 0 or 1" --url 'udpm://239.255.76.67:7667?ttl=2' --lan --insecure
+expect insecure-nolan 2 "--insecure: only with --lan" --url memq:// --insecure
+expect insecure-keys 2 "--insecure and --key-dir: give one" --url memq:// --lan --insecure \
+  --key-dir "$out/keys"
+expect clock-bad 2 "--clock-offset-ms 1e10: expected a number" --url memq:// --clock-offset-ms 1e10
+if (( fails )); then echo "FAIL: $fails of $n"; exit 1; fi
+echo "PASS: $name: $n of $n"

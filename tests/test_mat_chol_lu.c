@@ -55,8 +55,6 @@ static const size_t sizes[] = {1, 2, 3, 4, 6, 8, 12, 24, SIZE_TOP};
 #define NSIZES (sizeof sizes / sizeof sizes[0])
 #define TRIALS 3
 
-
-
 /* Random SPD matrix of condition number cond in the library type, and the
  * exact double image of the rounded values. */
 static void spd_pair(test_rng_t *g, dkf_real_t *a, double *ad, size_t n, double cond)
@@ -69,7 +67,7 @@ static void spd_pair(test_rng_t *g, dkf_real_t *a, double *ad, size_t n, double 
 /* Random general matrix with singular values log-spaced in [1/cond, 1]. */
 static void general_pair(test_rng_t *g, dkf_real_t *a, double *ad, size_t n, double cond)
 {
-    double s[MAXN];
+    double s[MAXN] = {0}; /* initialised: GCC -O3 cannot see that n >= 1 */
     size_t i;
     for (i = 0; i < n; ++i) s[i] = n > 1 ? pow(cond, -(double)i / (double)(n - 1)) : 1.0;
     test_mat_with_singular_values(g, ad, n, n, s);

@@ -44,6 +44,7 @@
 #include "dkf/diffkf.h"
 #include "dkf/diffkf_fusion.h"
 #include "semihost.h"
+#include "stack.h"
 
 /* Capacity: one sensor of the golden vectors' size (qemu_main.c's). */
 #define LV_MAX_N 8
@@ -78,27 +79,6 @@ static dkf_real_t x00[LV_MAX_N], P00[LV_MAX_N * LV_MAX_N];
 DKF_DIFFKF_DECLARE(static, node, LV_MAX_N, LV_MAX_M, LV_MAX_P);
 static dkf_diffkf_msg_t msg;
 static int in_fd = -1, out_fd = -1;
-
-/* ---- the stack: painted at entry, scanned at the end (qemu_main.c's way) -- */
-
-extern uint32_t _sstack[], _estack[];
-#define LV_PAINT 0xC5C5C5C5u
-
-__attribute__((noinline)) static void stack_paint(void)
-{
-    volatile uint32_t here = 0u;
-    uint32_t *q = _sstack;
-    const uintptr_t lim = (uintptr_t)&here - 256u;
-    while ((uintptr_t)q < lim) *q++ = LV_PAINT;
-    (void)here;
-}
-
-static uint32_t stack_used(void)
-{
-    const uint32_t *q = _sstack;
-    while (q < _estack && *q == LV_PAINT) ++q;
-    return (uint32_t)((uintptr_t)_estack - (uintptr_t)q);
-}
 
 /* ---- the pipes ----------------------------------------------------------- */
 
@@ -252,7 +232,7 @@ int main(void)
 {
     uint32_t started = 0u, last = 0u; /* last: the filter's time (start k0 - 1, then each step) */
 
-    stack_paint();
+    m4_stack_paint();
     if ((in_fd = sh_open("m4_live.in", 0)) < 0) refuse(LV_EXIT_INPUT, "cannot open m4_live.in", 0u, 0u, 0u);
     if ((out_fd = sh_open("m4_live.out", 1)) < 0) {
         out_fd = -1;
@@ -282,7 +262,7 @@ int main(void)
             last = k;
         }
     }
-    send(LV_OUT_BYE, last, stack_used(), NULL, 0);
+    send(LV_OUT_BYE, last, m4_stack_used(), NULL, 0);
     (void)sh_close(out_fd);
     (void)sh_close(in_fd);
     sh_exit(0);

@@ -7,7 +7,8 @@
  *
  * The bridge makes two named pipes in QEMU's working directory and the
  * image opens them by semihosting (SYS_OPEN, target=native): it reads
- * m4_live.in and writes m4_live.out (docs/decisions.md, decision 68).
+ * m4_live.in and writes m4_live.out (docs/decisions.md, decision 68; the
+ * words of the frames: live_frames.h).
  * Every integer is a 32-bit word, every real the image's dkf_real_t, both
  * in the target's byte order (little-endian, as the host's).
  *
@@ -43,6 +44,7 @@
 
 #include "dkf/diffkf.h"
 #include "dkf/diffkf_fusion.h"
+#include "live_frames.h"
 #include "semihost.h"
 #include "stack.h"
 
@@ -52,16 +54,6 @@
 #define LV_MAX_P 2
 #define LV_MAX_K 1000000000u
 
-#define LV_MAGIC_IN 0x314C4B44u  /* "DKL1" */
-#define LV_MAGIC_OUT 0x314D4B44u /* "DKM1" */
-#define LV_IN_START 1u
-#define LV_IN_STEP 2u
-#define LV_IN_END 3u
-#define LV_OUT_READY 0u
-#define LV_OUT_STARTED 1u
-#define LV_OUT_MSG 2u
-#define LV_OUT_REFUSED 3u
-#define LV_OUT_BYE 4u
 
 #define LV_EXIT_INPUT 2
 #define LV_EXIT_RUN 3
@@ -233,10 +225,10 @@ int main(void)
     uint32_t started = 0u, last = 0u; /* last: the filter's time (start k0 - 1, then each step) */
 
     m4_stack_paint();
-    if ((in_fd = sh_open("m4_live.in", 0)) < 0) refuse(LV_EXIT_INPUT, "cannot open m4_live.in", 0u, 0u, 0u);
-    if ((out_fd = sh_open("m4_live.out", 1)) < 0) {
+    if ((in_fd = sh_open(LV_PIPE_IN, 0)) < 0) refuse(LV_EXIT_INPUT, "cannot open " LV_PIPE_IN, 0u, 0u, 0u);
+    if ((out_fd = sh_open(LV_PIPE_OUT, 1)) < 0) {
         out_fd = -1;
-        refuse(LV_EXIT_INPUT, "cannot open m4_live.out", 0u, 0u, 0u);
+        refuse(LV_EXIT_INPUT, "cannot open " LV_PIPE_OUT, 0u, 0u, 0u);
     }
     read_header();
     send(LV_OUT_READY, 0u, n, NULL, 0);

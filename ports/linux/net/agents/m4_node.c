@@ -3,9 +3,10 @@
  * QEMU as a child process, the two named pipes, the frames of
  * ports/cortex-m4/live_main.c.
  */
-#define _POSIX_C_SOURCE 200809L /* mkdtemp, O_CLOEXEC, nanosleep */
+#define _XOPEN_SOURCE 700 /* realpath; POSIX 2008: mkdtemp, O_CLOEXEC, nanosleep */
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -37,6 +38,7 @@ struct dkf_node_filter {
     pid_t qemu;              /* 0: not running */
     int in_fd, out_fd;
     char dir[64];            /* QEMU's working directory, the pipes' */
+    char image[PATH_MAX];    /* conf->image, absolute */
     json_t *k, *xf, *xp;     /* every message */
     long stack_bytes;        /* -1 until the goodbye */
 };
@@ -202,7 +204,7 @@ static int spawn(dkf_node_filter_t *nf, char *err, size_t errlen)
 {
     const char *argv[] = {nf->conf->qemu, "-M", "mps2-an386", "-display", "none", "-monitor",
                           "none", "-serial", "none", "-semihosting-config",
-                          "enable=on,target=native", "-kernel", nf->conf->image, NULL};
+                          "enable=on,target=native", "-kernel", nf->image, NULL};
     pid_t pid = fork();
     if (pid < 0) {
         fail_msg(err, errlen, nf, "fork: %s", strerror(errno));
@@ -236,7 +238,7 @@ static int connect_pipes(dkf_node_filter_t *nf, char *err, size_t errlen)
             nf->qemu = 0;
             fail_msg(err, errlen, nf, "qemu-system-arm ended before opening its input (status "
                      "%d; is %s a dkf_m4_live image?)", WIFEXITED(status) ? WEXITSTATUS(status) : -1,
-                     nf->conf->image);
+                     nf->image);
             return -1;
         }
         if (mono_ms() > end) {
@@ -308,6 +310,11 @@ static dkf_node_filter_t *m4_create(const dkf_filter_t *f, const dkf_scenario_t 
     nf->frame_len = 2 * nf->n * nf->n + 2 * nf->p * nf->p + nf->m * nf->n + nf->m * nf->m +
                     nf->m * nf->p + nf->m;
     nf->frame = calloc(nf->frame_len, sizeof *nf->frame);
+    if (realpath(nf->conf->image, nf->image) == NULL) {
+        fail_msg(err, errlen, nf, "%s: %s", nf->conf->image, strerror(errno));
+        m4_destroy(nf);
+        return NULL;
+    }
     snprintf(nf->dir, sizeof nf->dir, "/tmp/dkf-m4-XXXXXX");
     if (nf->frame == NULL || mkdtemp(nf->dir) == NULL) {
         fail_msg(err, errlen, nf, "%s", nf->frame == NULL ? "out of memory" : strerror(errno));

@@ -11,7 +11,7 @@
  * its signature, its epochs and restarts are dkf-node's: dkf-m4-bridge is
  * dkf-node with the filter's arithmetic done on the emulated processor.
  *
- *   dkf_m4_conf_t conf = {"qemu-system-arm", "/abs/dkf_m4_live.elf", 10.0, NULL};
+ *   dkf_m4_conf_t conf = {"qemu-system-arm", "dkf_m4_live.elf", 10.0, NULL};
  *   dkf_family_t fam; dkf_filter_t f;
  *   dkf_m4_filter(&conf, &fam, &f);
  *   nd = dkf_net_node_create(net, s, &f, id, prefix, err, sizeof err);
@@ -26,7 +26,7 @@
 
 typedef struct {
     const char *qemu;        /* the qemu-system-arm to run */
-    const char *image;       /* dkf_m4_live.elf, an absolute path (QEMU runs elsewhere) */
+    const char *image;       /* dkf_m4_live.elf */
     double timeout_s;        /* the longest wait for the image's answer to a frame */
     dkf_node_filter_t *live; /* set by the role's create: the running image */
 } dkf_m4_conf_t;

@@ -9,7 +9,8 @@
  *   dkf-m4-bridge --id 1 --image build/m4-double/dkf_m4_live.elf \
  *                 --key-dir keys --output m4.json SCENARIO.json
  */
-#define _XOPEN_SOURCE 700 /* realpath */
+#define _POSIX_C_SOURCE 200809L /* access */
+#include <errno.h>
 #include <getopt.h>
 #include <limits.h>
 #include <stdio.h>
@@ -96,7 +97,6 @@ static int parse(int argc, char **argv, dkf_m4_conf_t *conf, dkf_cli_opts_t *co,
         {"id", required_argument, NULL, 'i'},      {"image", required_argument, NULL, 'I'},
         {"qemu", required_argument, NULL, 'Q'},    {"m4-timeout", required_argument, NULL, 'T'},
         {"output", required_argument, NULL, 'o'},  {NULL, 0, NULL, 0}};
-    static char image[PATH_MAX];
     double num = -1;
     const char *bad = NULL;
     int c;
@@ -124,11 +124,10 @@ static int parse(int argc, char **argv, dkf_m4_conf_t *conf, dkf_cli_opts_t *co,
                 conf->qemu);
         return DKF_EXIT_USAGE;
     }
-    if (realpath(conf->image, image) == NULL) {
-        fprintf(stderr, "%s: --image %s: no such file\n", prog, conf->image);
+    if (access(conf->image, R_OK) != 0) {
+        fprintf(stderr, "%s: --image %s: %s\n", prog, conf->image, strerror(errno));
         return DKF_EXIT_USAGE;
     }
-    conf->image = image;
     *id = (long)num;
     return DKF_EXIT_OK;
 }

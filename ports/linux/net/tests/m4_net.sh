@@ -9,14 +9,17 @@
 #      refusal frame and exit status 2, a step frame before any start, a
 #      frame whose byte count is not its dimensions' and a header of
 #      another real type: every length from the bridge is checked before use;
-#   2. authenticated (dkf-keygen, --key-dir everywhere): dkf-sim --lockstep,
+#   2. m4_role_check: for every sensor, the image's node role (started at
+#      k = 1, restarted at k = 20 as after a gap) gives dkf-node's messages
+#      bit for bit;
+#   3. authenticated (dkf-keygen, --key-dir everywhere): dkf-sim --lockstep,
 #      dkf-fusion, dkf-node for node 0 and dkf-m4-bridge for the last node;
 #      fused == the vector's central within DKF_REL, every step complete
 #      with every node, nothing rejected, every datagram authenticated; the
 #      image's messages equal the vector's node messages within DKF_REL.
 #
 # Environment (set by ctest): DKF_SIM DKF_NODE DKF_FUSION DKF_KEYGEN
-# DKF_M4_BRIDGE DKF_M4_BUILD DKF_SRC DKF_REAL DKF_PYTHON DKF_COMPARE
+# DKF_M4_BRIDGE DKF_M4_ROLE_CHECK DKF_M4_BUILD DKF_SRC DKF_REAL DKF_PYTHON DKF_COMPARE
 # DKF_NETNS DKF_REL. Exit 77 (skip) when not root, or when qemu-system-arm
 # is missing, or arm-none-eabi-gcc and a built image both are (said which).
 set -uo pipefail
@@ -87,8 +90,13 @@ good = all([
 sys.exit(0 if good else 1)
 PY
 
-# ---- 2. the live network ------------------------------------------------------------
+# ---- 2. the image's node role == the host's (dkf-node's), bit for bit, every sensor -----
 nodes=$("$DKF_PYTHON" -c 'import json,sys; print(len(json.load(open(sys.argv[1]))["model"]["sensors"]))' "$scn")
+for ((i = 0; i < nodes; ++i)); do
+  "$DKF_M4_ROLE_CHECK" "$image" "$scn" $i 20 0 || exit 1
+done
+
+# ---- 3. the live network ------------------------------------------------------------
 m4=$((nodes - 1))
 keys=$out/keys
 "$DKF_KEYGEN" "$keys" "$nodes" || { echo "FAIL: dkf-keygen"; exit 1; }

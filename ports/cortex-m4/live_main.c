@@ -126,16 +126,11 @@ static void get(void *buf, size_t len, const char *what)
     }
 }
 
-static uint32_t get_word(const char *what)
+/* A word in lo..hi, else a refusal naming it. */
+static uint32_t get_dim(const char *what, uint32_t lo, uint32_t hi)
 {
     uint32_t v;
     get(&v, sizeof v, what);
-    return v;
-}
-
-static uint32_t get_dim(const char *what, uint32_t lo, uint32_t hi)
-{
-    uint32_t v = get_word(what);
     if (v < lo || v > hi) refuse(LV_EXIT_INPUT, what, v, 0u, 0u);
     return v;
 }
@@ -143,7 +138,7 @@ static uint32_t get_dim(const char *what, uint32_t lo, uint32_t hi)
 static void read_header(void)
 {
     uint32_t hi;
-    if (get_word("header: magic") != LV_MAGIC_IN) refuse(LV_EXIT_INPUT, "header: magic", 0u, 0u, 0u);
+    (void)get_dim("header: magic", LV_MAGIC_IN, LV_MAGIC_IN);
     (void)get_dim("header: bytes per real (this image's)", (uint32_t)sizeof(dkf_real_t),
                   (uint32_t)sizeof(dkf_real_t));
     n = get_dim("n outside 1..8 (the image's capacity)", 1u, LV_MAX_N);
@@ -234,14 +229,14 @@ int main(void)
     send(LV_OUT_READY, 0u, n, NULL, 0);
     for (;;) {
         const uint32_t kind = get_dim("frame: kind (1 start, 2 step, 3 end)", LV_IN_START, LV_IN_END);
-        const uint32_t k = get_word("frame: k");
-        const uint32_t bytes = get_word("frame: bytes");
+        const uint32_t k = get_dim("frame: k outside 0..10^9", 0u, LV_MAX_K);
+        const uint32_t bytes = get_dim("frame: bytes above its dimensions'", 0u, rec_bytes());
         if (kind == LV_IN_END) {
             if (bytes != 0u) refuse(LV_EXIT_INPUT, "end frame: bytes (0)", bytes, k, 0u);
             break;
         }
         if (bytes != rec_bytes()) refuse(LV_EXIT_INPUT, "frame: bytes (its dimensions')", bytes, k, 0u);
-        if (k < 1u || k > LV_MAX_K) refuse(LV_EXIT_INPUT, "frame: k outside 1..10^9", k, k, 0u);
+        if (k < 1u) refuse(LV_EXIT_INPUT, "frame: k of a start or step (1..10^9)", k, k, 0u);
         if (kind == LV_IN_STEP && (!started || k != last + 1u))
             refuse(LV_EXIT_INPUT, "step frame: k (not the step after the filter's)", k, k, 0u);
         read_rec();

@@ -6,8 +6,8 @@
 #
 #   1. the live node image (ports/cortex-m4, dkf_m4_live.elf of this build's
 #      DKF_REAL, built in $DKF_M4_BUILD when arm-none-eabi-gcc is here) refuses, with its
-#      refusal frame and exit status 2, a step frame before any start, a
-#      frame whose byte count is not its dimensions' and a header of
+#      refusal frame and exit status 2, a step frame before any start,
+#      frames whose byte count is above or below their dimensions' and a header of
 #      another real type: every length from the bridge is checked before use;
 #   2. m4_role_check: for every sensor, the image's node role (started at
 #      k = 1, restarted at k = 20 as after a gap) gives dkf-node's messages
@@ -84,7 +84,8 @@ def run(tag, header_real, frames):
 body = struct.pack(f"<{rec_reals}{rf}", *([1.0] * rec_reals))
 good = all([
     run("step-before-start", rs, [struct.pack("<3I", 2, 1, len(body)) + body]),
-    run("bytes", rs, [struct.pack("<3I", 1, 1, len(body) + rs) + body]),
+    run("bytes-long", rs, [struct.pack("<3I", 1, 1, len(body) + rs) + body]),
+    run("bytes-short", rs, [struct.pack("<3I", 1, 1, len(body) - rs) + body]),
     run("real-type", 12 - rs, []),
 ])
 sys.exit(0 if good else 1)

@@ -68,12 +68,12 @@ check_real() {
   fi
 
   local heap lib_heap
-  heap=$(arm-none-eabi-nm "$elf" "$bdir/dkf_m4_qemu.elf" | awk '{print $NF}' |
+  heap=$(arm-none-eabi-nm "$elf" "$bdir/dkf_m4_qemu.elf" "$bdir/dkf_m4_live.elf" | awk '{print $NF}' |
          grep -E "$heap_re" || true)
   lib_heap=$(arm-none-eabi-nm -u "$bdir/dkf/libdkf.a" 2>/dev/null | awk '{print $NF}' |
              grep -E "$heap_re" || true)
   # shellcheck disable=SC2086 # the symbols, one word each
-  heap_verdict "m4-$variant no heap symbols in dkf_m4.elf, dkf_m4_qemu.elf or libdkf.a" "m4-$variant" \
+  heap_verdict "m4-$variant no heap symbols in dkf_m4.elf, dkf_m4_qemu.elf, dkf_m4_live.elf or libdkf.a" "m4-$variant" \
     $heap $lib_heap
 
   image_sizes "$elf" "$bdir/dkf_m4.map" "" " in the image"
@@ -83,7 +83,7 @@ check_real() {
   echo "-- worst-case stack (bytes; frame sizes in parentheses)"
   stack_verdict "m4-$variant filter" \
     "m4-$variant stack analysis (recursion, indirect call or dynamic frame)" '^dkf_kf_' \
-    --elf "$elf" --skip dkf_m4_nerts.dir --skip dkf_m4_qemu.dir "$bdir" \
+    --elf "$elf" --skip dkf_m4_nerts.dir --skip dkf_m4_qemu.dir --skip dkf_m4_live.dir "$bdir" \
     dkf_kf_init dkf_kf_predict dkf_kf_update m4_demo_run Reset_Handler
 
   check_nerts_image "$variant" "$bdir"
@@ -170,7 +170,7 @@ check_nerts_image() {
   echo "-- DNERTSIF node image: worst-case stack (the model's f, h, y_diff as the indirect targets)"
   stack_verdict "m4-$variant DNERTSIF node" "m4-$variant DNERTSIF node stack analysis" \
     '^dkf_nerts_' --elf "$elf" --indirect ct_f,radar_h,wrap_diff \
-    --skip CMakeFiles/dkf_m4.dir --skip dkf_m4_qemu.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run Reset_Handler
+    --skip CMakeFiles/dkf_m4.dir --skip dkf_m4_qemu.dir --skip dkf_m4_live.dir "$bdir" dkf_nerts_init dkf_nerts_step m4_nerts_run Reset_Handler
 }
 
 # The node image under QEMU (tools/m4_check.py): its PASS/FAIL lines count

@@ -25,6 +25,10 @@
 # from the same measurements, max |fused - central| (must be <= 1e-9
 # relative), node messages sent / lost / rejected, and the latency p50/p99
 # from a measurement's publication to the fused estimate's publication.
+# With qemu-system-arm (and arm-none-eabi-gcc to build the image), Example 3
+# runs once more with node 1 on an emulated Cortex-M4F: ports/cortex-m4's live
+# node image fed and published by dkf-m4-bridge (row m4node; docs/guide/network.md,
+# "A firmware node in the network"); without them the row says why it was skipped.
 # Exit 0 only if every fused step is complete and equals the central one.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
@@ -51,7 +55,7 @@ done
 
 # ---- inside the namespace: one scenario, every process separate -------------
 if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
-  scn=$1 out=$2 bin=$3 rate=$4 keys=$5
+  scn=$1 out=$2 bin=$3 rate=$4 keys=$5 m4img=${6:-}
   # node messages and each node's measurements on ports of their own: a process
   # wakes only for what it reads (docs/guide/network.md, "Split ports"); each reads its
   # sockets itself, one wake-up per datagram instead of LCM's two ("Direct receive")
@@ -72,7 +76,10 @@ if [[ ${1:-} != "" && ${DKF_DEMO_INNER:-0} == 1 ]]; then
   "${rt[@]}" "$bin/dkf-fusion" --url "$URL" --timeout 120 --quiet "${opts[@]}" --ready-file "$out.fusion.ready" \
     --output "$out.fused.json" "$scn" & pids+=($!); fpid=$!
   for ((i = 0; i < nodes; ++i)); do
-    "${rt[@]}" "$bin/dkf-node" --url "$URL" --id $i --timeout 120 --quiet "${opts[@]}" "$scn" & pids+=($!)
+    node=("$bin/dkf-node")
+    # the m4node row: the last node on the emulated Cortex-M4F (dkf-m4-bridge)
+    [[ -n $m4img && $i == $((nodes - 1)) ]] && node=("$bin/dkf-m4-bridge" --image "$m4img")
+    "${rt[@]}" "${node[@]}" --url "$URL" --id $i --timeout 120 --quiet "${opts[@]}" "$scn" & pids+=($!)
   done
   for ((i = 0; i < 1000; ++i)); do [[ -e $out.fusion.ready ]] && break; sleep 0.01; done
   pace=(--rate "$rate")
@@ -96,7 +103,7 @@ if (( do_build )); then
   cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release -DDKF_MAX_DIM="$maxdim" >/dev/null
   # every program of this demo and of the three below (their own builds are then no-ops)
   cmake --build "$build" -j2 --target dkf-run dkf-sim dkf-node dkf-fusion dkf-net-local \
-    dkf-keygen dkf-tw-node 2>&1 | progress_build build "$build/net_demo.build.log"
+    dkf-keygen dkf-tw-node dkf-m4-bridge 2>&1 | progress_build build "$build/net_demo.build.log"
   (( PIPESTATUS[0] == 0 )) || { echo "net_demo.sh: the build failed (see $build/net_demo.build.log)" >&2; exit 2; }
   say build "done"
 fi
@@ -158,6 +165,33 @@ for e in "${scenarios[@]}"; do
   "$run" --filter dkf --quiet --output "$out/$tag.central.json" "$scn"
 done
 
+# ---- m4node: Example 3 again, node 1 on the emulated Cortex-M4F ---------------------
+# (docs/guide/network.md, "A firmware node in the network"): ports/cortex-m4's live image
+# of this build's DKF_REAL under qemu-system-arm, fed and published by dkf-m4-bridge
+m4skip=""
+if ! command -v qemu-system-arm >/dev/null; then m4skip="no qemu-system-arm"
+elif [[ $mode != udpm ]]; then m4skip="needs the multicast processes (root)"
+elif [[ ! -x $bin/dkf-m4-bridge ]]; then m4skip="$bin/dkf-m4-bridge not built"
+else
+  m4dir=$build/m4-live
+  real=$(sed -n 's/^DKF_REAL:[A-Z]*=//p' "$build/CMakeCache.txt")
+  if command -v arm-none-eabi-gcc >/dev/null &&
+     { [[ -f $m4dir/CMakeCache.txt ]] || cmake -S "$root/ports/cortex-m4" -B "$m4dir" -DDKF_REAL="${real:-double}"; } \
+       >"$m4dir.log" 2>&1 && cmake --build "$m4dir" -j2 --target dkf_m4_live >>"$m4dir.log" 2>&1; then
+    tag=m4node scn=$root/tests/vectors/diffkf/ex3_multi.json
+    echo "== $tag: Example 3, node 1 on the emulated Cortex-M4F (qemu-system-arm -M mps2-an386)"
+    rm -f "$out/$tag".*.ready "$out/$tag.fused.json"
+    "$bin/dkf-keygen" "$out/keys-$tag" 2
+    DKF_DEMO_INNER=1 DKF_DEMO_RT=$realtime "$here/netns.sh" exec -- "$0" --inner "$scn" "$out/$tag" "$bin" "$rate" \
+      "$out/keys-$tag" "$m4dir/dkf_m4_live.elf"
+    "$run" --filter dkf --quiet --output "$out/$tag.central.json" "$scn"
+    scenarios+=("$tag:$scn")
+  else
+    m4skip="the live image did not build (arm-none-eabi-gcc; $m4dir.log)"
+  fi
+fi
+export DKF_DEMO_M4="m4node" DKF_DEMO_M4_SKIP="$m4skip"
+
 # ---- the table ------------------------------------------------------------------
 python3 - "$mode" "$rate" "$out" "${scenarios[@]}" <<'PY'
 import json, os, sys
@@ -166,6 +200,7 @@ mode, rate, out = sys.argv[1], sys.argv[2], sys.argv[3]
 inproc = set(os.environ.get("DKF_DEMO_INPROC", "").split())
 lockstep = set(os.environ.get("DKF_DEMO_LOCKSTEP", "").split())
 rates = dict(e.split(":", 1) for e in os.environ.get("DKF_DEMO_RATES", "").split())
+m4 = set(os.environ.get("DKF_DEMO_M4", "").split())
 ok = True
 rows, parts, auths = [], [], []
 for e in sys.argv[4:]:
@@ -199,7 +234,8 @@ for e in sys.argv[4:]:
                  sent, lost, rej, degraded, p50, p99,
                  ("ok" if good else "FAIL") + ("" if procs else " (one process, memq://)")
                  + (" (lock step)" if procs and tag in lockstep else "")
-                 + (f" ({rates[tag]} Hz)" if procs and tag in rates else "")))
+                 + (f" ({rates[tag]} Hz)" if procs and tag in rates else "")
+                 + (" (node 1 on the emulated Cortex-M4F)" if tag in m4 else "")))
     lp = fu["latency_us"]["last_parts"]
     parts.append((tag, procs, [("last", fu["latency_us"]["last"])] + [(w, lp[w]) for w in
                                                               ("arrive", "wait", "compute", "publish")]))
@@ -212,6 +248,8 @@ print(f"{hdr[0]:<9}{hdr[1]:>6}{hdr[2]:>5}{hdr[3]:>12}{hdr[4]:>14}{hdr[5]:>20}{hd
 for r in rows:
     lat = (f"{r[10]:10.3f} ms{r[11]:7.3f} ms" if r[10] is not None else f"{'-':>13}{'-':>9}")
     print(f"{r[0]:<9}{r[1]:>6}{r[2]:>5}{r[3]:>12.6f}{r[4]:>14.6f}{r[5]:>20.2e}{r[6]:>6}{r[7]:>6}{r[8]:>9}{r[9]:>9}{lat}  {r[12]}")
+if os.environ.get("DKF_DEMO_M4_SKIP"):
+    print(f"{'m4node':<9}  skipped: {os.environ['DKF_DEMO_M4_SKIP']}")
 print("(max|fused-central| is relative: max|a-b| / max(1, max|b|) over xf, xp, Pf, Pp;"
       " sent/lost/rejected count node messages at the fusion centre; degraded: steps not"
       " complete in the end (docs/design/network.md, Faults);"

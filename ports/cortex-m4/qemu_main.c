@@ -25,6 +25,7 @@
 #include "dkf/diffkf_fusion.h"
 #include "dkf/kf.h"
 #include "semihost.h"
+#include "stack.h"
 
 /* Capacity (the golden vectors need n <= 6, up to 4 sensors of m_i <= 4,
  * p_i <= 2). */
@@ -154,28 +155,6 @@ static void ticks_add(qm_ticks_t *t, uint32_t d)
 static void spin(uint32_t n)
 {
     __asm__ volatile("1: subs %0, %0, #1\n\tbne 1b" : "+r"(n) : : "cc");
-}
-
-/* ---- the stack: painted at entry, scanned at the end ---------------------- */
-
-extern uint32_t _sstack[], _estack[];
-#define QM_PAINT 0xC5C5C5C5u
-
-/* Paints from the bottom of the stack to 256 bytes below this frame. */
-__attribute__((noinline)) static void stack_paint(void)
-{
-    volatile uint32_t here = 0u;
-    uint32_t *p = _sstack;
-    const uintptr_t lim = (uintptr_t)&here - 256u;
-    while ((uintptr_t)p < lim) *p++ = QM_PAINT;
-    (void)here;
-}
-
-static uint32_t stack_used(void)
-{
-    const uint32_t *p = _sstack;
-    while (p < _estack && *p == QM_PAINT) ++p;
-    return (uint32_t)((uintptr_t)_estack - (uintptr_t)p);
 }
 
 /* ---- input --------------------------------------------------------------- */
@@ -523,7 +502,7 @@ int main(void)
     uint32_t k, t0, calib, used;
     size_t j;
 
-    stack_paint();
+    m4_stack_paint();
     systick_start();
     t0 = SYST_CVR;
     spin(QM_CALIB_LOOPS);
@@ -557,12 +536,12 @@ int main(void)
         }
     }
 
-    used = stack_used();
+    used = m4_stack_used();
     put_word(QM_MAGIC_STATS);
     put_word(calib);
     put_word(2u * QM_CALIB_LOOPS);
     put_word(used);
-    put_word((uint32_t)((uintptr_t)_estack - (uintptr_t)_sstack));
+    put_word(m4_stack_size());
     put_word((uint32_t)nslots);
     for (j = 0; j < nslots; ++j) {
         put_word(ticks[j].steps);
@@ -574,7 +553,7 @@ int main(void)
     out_flush();
     if (sh_close(out_fd) != 0 || out_failed) fail(QM_EXIT_IO, "cannot write m4_out.bin", 0u);
     (void)sh_close(in_fd);
-    if (used >= (uint32_t)((uintptr_t)_estack - (uintptr_t)_sstack))
+    if (used >= m4_stack_size())
         fail(QM_EXIT_RUN, "stack overflow: bytes used", used);
     sh_exit(0);
     return 0;

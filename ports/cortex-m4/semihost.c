@@ -43,6 +43,18 @@ int sh_read(int handle, void *buf, size_t len)
     return sh_call(SYS_READ, block) == 0 ? 0 : -1;
 }
 
+long sh_read_part(int handle, void *buf, size_t len)
+{
+    uint32_t block[3];
+    int left;
+    block[0] = (uint32_t)handle;
+    block[1] = (uint32_t)(uintptr_t)buf;
+    block[2] = (uint32_t)len;
+    left = sh_call(SYS_READ, block);
+    if (left < 0 || (size_t)left > len) return -1;
+    return (long)(len - (size_t)left);
+}
+
 int sh_write(int handle, const void *buf, size_t len)
 {
     uint32_t block[3];

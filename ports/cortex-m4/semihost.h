@@ -17,6 +17,10 @@
 int sh_open(const char *name, int write);
 /* Reads exactly len bytes; 0 if all were read, -1 otherwise. */
 int sh_read(int handle, void *buf, size_t len);
+/* Reads at most len bytes: the number read (0 at the end of the file or
+ * when the writer of a pipe has closed it), or -1. A pipe may return fewer
+ * bytes than asked for while more are on their way. */
+long sh_read_part(int handle, void *buf, size_t len);
 /* Writes len bytes; 0 if all were written, -1 otherwise. */
 int sh_write(int handle, const void *buf, size_t len);
 int sh_close(int handle);

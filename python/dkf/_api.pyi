@@ -301,3 +301,73 @@ class SelfTuningBase(Generic[_D]):
         """The observer-form (F, Q) of the accepted estimate."""
     L: int
     n: int
+
+class _TWFields(Generic[_D]):
+    """The estimates and the last step's intermediates of dkf/tw.h's node
+    (the network's stacked (N, ...)), copies."""
+
+    x: _Out[_D]
+    P: _Out[_D]
+    d: _Out[_D]
+    phi: _Out[_D]
+    Phi: _Out[_D]
+    I: _Out[_D]
+    i: _Out[_D]
+    phi_post: _Out[_D]
+    Phi_post: _Out[_D]
+    S: _Out[_D]
+    Gpost: _Out[_D]
+    psi: _Out[_D]
+    Ploc: _Out[_D]
+    k: int
+
+class TWCentralBase(_TWFields[_D]):
+    """The centralised two-stage filter with unknown inputs, Algorithm 1 of
+    dkf/tw.h (seed 003). x0 (n,), P0 (n, n): x_{0|0}, P_{0|0}; each sensor
+    measures at most m_max values; p unknown inputs."""
+
+    def __init__(self, x0: _A, P0: _A, *, m_max: int, p: int) -> None: ...
+    def step(
+        self, y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]
+    ) -> None:
+        """y_k of every sensor with its H, R and the dynamics from k - 1; a
+        NaN component of y is missing, an all-NaN sensor adds nothing."""
+    def filter(
+        self, Y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with y_t = Y[l][t] (Y[l] (T, m_l); row 0 not read),
+        stacks indexed by the time: X (T-1, n), P (T-1, n, n), D (T-1, p)."""
+    n: int
+    m_max: int
+    p: int
+
+class TWNetworkBase(_TWFields[_D]):
+    """The diffusion (Algorithm 2) and consensus (Algorithm 3) two-stage
+    filters with unknown inputs of dkf/tw.h over one graph: adjacency
+    (N, N) symmetric, nonzero for a link; weights dense (N, N), zero off
+    the graph. Every field is every node's, stacked (N, ...)."""
+
+    def __init__(self, x0: _A, P0: _A, *, adjacency: _A, m_max: int, p: int) -> None: ...
+    def diffusion_step(
+        self, y: Sequence[_A], *, alpha: _A, F: _A, G: _A, Q: _A, H: Sequence[_A],
+        R: Sequence[_A]
+    ) -> None:
+        """Algorithm 2's step; alpha row-stochastic and >= 0 on the graph."""
+    def consensus_step(
+        self, y: Sequence[_A], *, W: _A, eta: int, F: _A, G: _A, Q: _A, H: Sequence[_A],
+        R: Sequence[_A]
+    ) -> None:
+        """Algorithm 3's step; W doubly stochastic and >= 0, eta iterations."""
+    def filter(
+        self, Y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A],
+        alpha: _O = None, W: _O = None, eta: Optional[int] = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 of the diffusion (alpha) or the consensus (W, eta):
+        X (T-1, N, n), P (T-1, N, n, n), D (T-1, N, p)."""
+    adjacency: _Out[_D]
+    N: int
+    n: int
+    m_max: int
+    p: int
+    reals_sent: int
+    broadcasts: int

@@ -1,6 +1,6 @@
 # The classes of dkf and dkf.float32, generic in the real type (a stub-only
 # module: _dkf_double.pyi and _dkf_float.pyi instantiate it).
-from typing import Dict, Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
+from typing import Any, Callable, Dict, Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -371,3 +371,95 @@ class TWNetworkBase(_TWFields[_D]):
     p: int
     reals_sent: int
     broadcasts: int
+
+class NLModelBase(Generic[_D]):
+    """A nonlinear model with unknown inputs (dkf/nl_model.h) of Python
+    callables: x' = f(x, d, u), y = h(x, d, u), each taking arrays (n,),
+    (p,), (q,) and returning (n,) or (m,); f_jac -> (Fx (n, n), Fd (n, p)),
+    h_jac -> (Hx (m, n), Hd (m, p)), or None (forward differences in the
+    core). angles: the channels of y that are bearings (innovations
+    wrapped into [-pi, pi)). An exception in a callable fails the step
+    with dkf.ModelError, the exception its __cause__."""
+
+    def __init__(
+        self, f: Callable[..., _A], h: Callable[..., _A], *, n: int, m: int, p: int, q: int = 0,
+        f_jac: Optional[Callable[..., Tuple[_A, _A]]] = None,
+        h_jac: Optional[Callable[..., Tuple[_A, _A]]] = None, angles: Sequence[int] = ()
+    ) -> None: ...
+    n: int
+    m: int
+    p: int
+    q: int
+    angles: List[int]
+    f: Callable[..., _A]
+    h: Callable[..., _A]
+    f_jac: Optional[Callable[..., Tuple[_A, _A]]]
+    h_jac: Optional[Callable[..., Tuple[_A, _A]]]
+
+class _NertsFields(Generic[_D]):
+    """dkf/nerts.h's views, copies (DFNERTS: every node's, stacked (N, ...);
+    the ones whose size depends on m a list, one array per node)."""
+
+    x: _Out[_D]
+    Px: _Out[_D]
+    x_pred: _Out[_D]
+    P_pred: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    Pxd: _Out[_D]
+    Y_pred: _Out[_D]
+    y_pred: _Out[_D]
+    Fx: _Out[_D]
+    Fd: _Out[_D]
+    z_hat: Any
+    nu: Any
+    h_c: Any
+    Hx: Any
+    R_tilde: Any
+    Pzz: Any
+    Pxz: Any
+    Hd: Any
+    C: Any
+    Rbar: Any
+    Rbar_inv: Any
+    M: Any
+    d_loc: _Out[_D]
+    Pd_loc: _Out[_D]
+    Pxd_loc: _Out[_D]
+    i: _Out[_D]
+    I: _Out[_D]
+    Y: _Out[_D]
+    y: _Out[_D]
+    k: int
+
+class NERTSBase(_NertsFields[_D]):
+    """Seed 001's single-node joint state and unknown-input filters
+    (dkf/nerts.h), kind "NERTSF", "NERTSIF" (EKF), "DNERTSF" or "DNERTSIF"
+    (cubature). x0 (n,), P0 (n, n), d0 (p,), Pd0 (p, p), Pxd0 (n, p; None:
+    0): x_{0|0} and the input's prior (all None with p = 0)."""
+
+    def __init__(
+        self, model: Any, x0: _A, P0: _A, *, kind: str, d0: _O = None, Pd0: _O = None,
+        Pxd0: _O = None
+    ) -> None: ...
+    def predict(self, *, Q: _A, u: _O = None) -> None:
+        """Phase 1: the time update with Q and the known input u_{k-1}."""
+    def local(self, z: _A, *, R: _A, u: _O = None) -> None:
+        """Phase 2: the local statistics of z_k."""
+    def update(self) -> None:
+        """Phase 3: the filter's own measurement update."""
+    def commit_info(self, Y: _A, y: _A) -> None:
+        """Phase 3 with a given information pair (information kinds)."""
+    def step(self, z: _A, *, Q: _A, R: _A, u_prev: _O = None, u: _O = None) -> None:
+        """The three phases in one call."""
+    def filter(
+        self, Z: _A, *, Q: _A, R: _A, U: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with z_t = Z[t] (Z[0] not read), Q[t - 1], R[t]
+        (one matrix or a stack indexed by the time): X, Px, D, Pd."""
+    phase: int
+    kind: str
+    model: Any
+    n: int
+    m: int
+    p: int

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "dkf/graph.h"
 #include "dkf/mat.h"
 #include "dkf/status.h"
 
@@ -144,8 +145,25 @@ std::vector<Mat> sensor_mats(nb::handle seq, const char *call, const char *name,
 size_t largest(const std::vector<size_t> &v);
 OutArray mat_out(const dkf_mat_t &M, bool vector);
 
+// A graph given as an adjacency array (N, N), nonzero for a link, as the
+// adjacency lists of dkf/graph.h (python/src/tw.cpp); weights as dense (N, N)
+// arrays, zero off the graph. Not to be copied once bound (g points into it).
+struct GraphArg {
+    std::vector<size_t> start, nbr;
+    dkf_graph_t g;
+    size_t N = 0;
+    void bind(nb::handle adjacency, const char *call);
+    std::vector<real> weights(nb::handle w, const char *call, const char *name) const;
+    OutArray adjacency() const;
+};
+
+// filter() of a filter indexed by the time runs only from its start (its
+// stacks' index is the time): dkf.StateError after k steps (tw.cpp).
+void check_unstarted(size_t k, const char *call);
+
 // The registration of the bindings each further file defines.
 void register_tw(nb::module_ &m);
+void register_nerts(nb::module_ &m);
 
 } // namespace DKF_PY_NS
 

@@ -2284,9 +2284,11 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
                                        "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
                                        "WeightedFusion", "SelfTuning", "dare", "stein", "TWCentral",
-                                       "TWNetwork", "dtype", "MAX_DIM");
+                                       "TWNetwork", "NLModel", "NERTS", "dtype",
+                                       "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
     register_tw(m);
+    register_nerts(m);
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
                              "Linear Kalman filter, covariance form (dkf/kf.h).")

@@ -270,6 +270,7 @@ public:
     {
         static const char *call = "TWCentral.filter";
         not_busy(call);
+        check_unstarted(nd_.k, call);
         NodeArgs a = node_args(Y, H, R, call, n_, m_max_, 0, true);
         Dyn d = dyn_args(F, G, Q, call, n_, p_, true);
         check_T(a, d, call);
@@ -332,33 +333,13 @@ public:
         static const char *call = "TWNetwork";
         Prior pr(x0, P0, m_max, p, call);
         n_ = pr.n, m_max_ = m_max, p_ = p;
-        Mat A = matrix_arg(adjacency, call, "adjacency", 0, 0, false);
-        N_ = A.rows;
-        if (A.cols != N_) {
-            value_error(call, "adjacency must be square (N, N), got shape " + shape_str(A.keep));
-        }
-        // The neighbourhoods, self included (dkf/graph.h); a nonzero entry is a link.
-        start_.assign(1, 0);
-        for (size_t i = 0; i < N_; ++i) {
-            for (size_t j = 0; j < N_; ++j) {
-                const real v = A.p[i * N_ + j];
-                if (!std::isfinite(v))
-                    value_error(call, "adjacency[" + std::to_string(i) + ", " +
-                                          std::to_string(j) + "] is not finite");
-                if (i == j || v != 0) nbr_.push_back(j);
-            }
-            start_.push_back(nbr_.size());
-        }
-        std::memset(&g_, 0, sizeof g_);
-        dkf_status_t st = dkf_graph_init(&g_, N_, start_.data(), nbr_.data());
-        if (st == DKF_ERR_GRAPH)
-            raise_status(st, call, -1, "adjacency", "adjacency not symmetric");
-        if (st != DKF_OK) raise_status(st, call, -1, "adjacency", "");
+        graph_.bind(adjacency, call);
+        N_ = graph_.N;
         nodes_.resize(N_);
         std::memset(nodes_.data(), 0, N_ * sizeof(dkf_tw_node_t));
         storage_.assign(DKF_TW_NET_STORAGE_LEN(N_, n_, m_max_, p_), real(0));
         std::memset(&net_, 0, sizeof net_);
-        pr.check(dkf_tw_net_init(&net_, &g_, nodes_.data(), n_, m_max_, p_, storage_.data(),
+        pr.check(dkf_tw_net_init(&net_, &graph_.g, nodes_.data(), n_, m_max_, p_, storage_.data(),
                                  storage_.size(), &pr.xm, &pr.Pm));
     }
     TWNetwork(const TWNetwork &) = delete;
@@ -383,6 +364,7 @@ public:
     {
         static const char *call = "TWNetwork.filter";
         not_busy(call);
+        check_unstarted(k(), call);
         const bool diffusion = !alpha.is_none();
         if (diffusion == !W.is_none())
             value_error(call, "give alpha (diffusion) or W and eta (consensus), not both");
@@ -436,16 +418,7 @@ public:
         for (size_t l = 0; l < N_; ++l) put_row(out.data(), l, nodes_[l].*mat);
         return out;
     }
-    OutArray adjacency() const
-    {
-        const size_t shape[2] = {N_, N_};
-        OutArray out = new_array(2, shape);
-        std::fill(out.data(), out.data() + N_ * N_, real(0));
-        for (size_t i = 0; i < N_; ++i)
-            for (size_t e = start_[i]; e < start_[i + 1]; ++e)
-                if (nbr_[e] != i) out.data()[i * N_ + nbr_[e]] = real(1);
-        return out;
-    }
+    OutArray adjacency() const { return graph_.adjacency(); }
     const dkf_tw_net_t &net() const { return net_; }
     size_t k() const { return nodes_[0].k; }
     size_t N() const { return N_; }
@@ -454,28 +427,9 @@ public:
     size_t p() const { return p_; }
 
 private:
-    // A dense (N, N) weight matrix as the core's nnz weights along the graph;
-    // ValueError for a nonzero entry off the graph.
     std::vector<real> weights(nb::handle w, const char *call, const char *name) const
     {
-        Mat m = matrix_arg(w, call, name, N_, N_, false);
-        std::vector<real> out;
-        for (size_t i = 0; i < N_; ++i) {
-            size_t e = start_[i];
-            for (size_t j = 0; j < N_; ++j) {
-                const real v = m.p[i * N_ + j];
-                if (e < start_[i + 1] && nbr_[e] == j) {
-                    out.push_back(v);
-                    ++e;
-                } else if (v != 0) {
-                    raise_status(DKF_ERR_GRAPH, call, -1, name,
-                                 std::string(name) + "[" + std::to_string(i) + ", " +
-                                     std::to_string(j) + "] is nonzero where the graph has no "
-                                     "link");
-                }
-            }
-        }
-        return out;
+        return graph_.weights(w, call, name);
     }
 
     void one_step(const char *call, nb::handle y, nb::handle F, nb::handle G, nb::handle Q,
@@ -506,8 +460,7 @@ private:
     }
 
     size_t N_ = 0, n_ = 0, m_max_ = 0, p_ = 0;
-    std::vector<size_t> start_, nbr_;
-    dkf_graph_t g_;
+    GraphArg graph_;
     std::vector<dkf_tw_node_t> nodes_;
     std::vector<real> storage_;
     dkf_tw_net_t net_;
@@ -538,6 +491,77 @@ const TwField tw_fields[] = {
 };
 
 } // namespace
+
+void check_unstarted(size_t k, const char *call)
+{
+    if (k != 0) {
+        raise_status(DKF_ERR_STATE, call, -1, nullptr,
+                     "filter() runs a filter from its start: this one has taken " +
+                         std::to_string(k) + " steps");
+    }
+}
+
+// ---- a graph argument (declared in common.h) ---------------------------------
+
+void GraphArg::bind(nb::handle adjacency, const char *call)
+{
+    Mat A = matrix_arg(adjacency, call, "adjacency", 0, 0, false);
+    N = A.rows;
+    if (A.cols != N) {
+        value_error(call, "adjacency must be square (N, N), got shape " + shape_str(A.keep));
+    }
+    // The neighbourhoods, self included (dkf/graph.h); a nonzero entry is a link.
+    start.assign(1, 0);
+    nbr.clear();
+    for (size_t i = 0; i < N; ++i) {
+        for (size_t j = 0; j < N; ++j) {
+            const real v = A.p[i * N + j];
+            if (!std::isfinite(v))
+                value_error(call, "adjacency[" + std::to_string(i) + ", " + std::to_string(j) +
+                                      "] is not finite");
+            if (i == j || v != 0) nbr.push_back(j);
+        }
+        start.push_back(nbr.size());
+    }
+    std::memset(&g, 0, sizeof g);
+    dkf_status_t st = dkf_graph_init(&g, N, start.data(), nbr.data());
+    if (st == DKF_ERR_GRAPH) raise_status(st, call, -1, "adjacency", "adjacency not symmetric");
+    if (st != DKF_OK) raise_status(st, call, -1, "adjacency", "");
+}
+
+// A dense (N, N) weight matrix as the core's nnz weights along the graph;
+// dkf.GraphError for a nonzero entry off the graph.
+std::vector<real> GraphArg::weights(nb::handle w, const char *call, const char *name) const
+{
+    Mat m = matrix_arg(w, call, name, N, N, false);
+    std::vector<real> out;
+    for (size_t i = 0; i < N; ++i) {
+        size_t e = start[i];
+        for (size_t j = 0; j < N; ++j) {
+            const real v = m.p[i * N + j];
+            if (e < start[i + 1] && nbr[e] == j) {
+                out.push_back(v);
+                ++e;
+            } else if (v != 0) {
+                raise_status(DKF_ERR_GRAPH, call, -1, name,
+                             std::string(name) + "[" + std::to_string(i) + ", " +
+                                 std::to_string(j) + "] is nonzero where the graph has no link");
+            }
+        }
+    }
+    return out;
+}
+
+OutArray GraphArg::adjacency() const
+{
+    const size_t shape[2] = {N, N};
+    OutArray out = new_array(2, shape);
+    std::fill(out.data(), out.data() + N * N, real(0));
+    for (size_t i = 0; i < N; ++i)
+        for (size_t e = start[i]; e < start[i + 1]; ++e)
+            if (nbr[e] != i) out.data()[i * N + nbr[e]] = real(1);
+    return out;
+}
 
 void register_tw(nb::module_ &m)
 {

@@ -176,8 +176,7 @@ def test_failures_leave_the_filters_bit_identical(mod, seed):
          dkf.RankError, "G"),
         (lambda: c.step(y, **{**model, "H": model["H"][:5]}), ValueError, None),
         (lambda: c.step([np.ones(3)] * 6, **model), dkf.CapacityError, "y"),
-        (lambda: c.filter(Y, **{**model, "F": np.stack([model["F"]] * 3)}), ValueError, None),
-        (lambda: c.filter(Y[:1] + [Y[0][:, :1]] * 5, **model), ValueError, None),
+        (lambda: c.filter(Y, **model), dkf.StateError, None),
     ]
     assert_refused_untouched(bad, rng, state, want, "TWCentral")
 
@@ -189,8 +188,6 @@ def test_failures_leave_the_filters_bit_identical(mod, seed):
     i, j = np.argwhere(A + np.eye(6) == 0)[0]  # two nodes without a link
     off = w["W"].copy()
     off[i, j] = off[j, i] = 0.1
-    Yb = [y.copy() for y in Y]
-    Yb[2][4, 0] = np.inf
     bad = [
         (lambda: net.consensus_step(bad_y, W=w["W"], eta=3, **model), dkf.NonFiniteError, "y"),
         (lambda: net.consensus_step(y, W=w["alpha"] * 1.5, eta=3, **model), dkf.WeightsError, "W"),
@@ -200,15 +197,32 @@ def test_failures_leave_the_filters_bit_identical(mod, seed):
         (lambda: net.consensus_step(y, W=w["W"], eta=10**7, **model), dkf.ArgError, "eta"),
         (lambda: net.diffusion_step(y, alpha=w["alpha"], **{**model, "Q": -np.eye(4)}),
          dkf.NotSPDError, None),
-        (lambda: net.filter(Yb, W=w["W"], eta=3, **model), dkf.NonFiniteError, "y"),
-        (lambda: net.filter(Y, W=w["W"], alpha=w["alpha"], **model), ValueError, None),
-        (lambda: net.filter(Y, W=w["W"], **model), ValueError, None),
+        (lambda: net.filter(Y, W=w["W"], eta=3, **model), dkf.StateError, None),
         (lambda: net.diffusion_step(y[:5], alpha=w["alpha"], **model), ValueError, None),
     ]
     assert_refused_untouched(bad, rng, nstate, want, "TWNetwork")
-    with pytest.raises(dkf.NonFiniteError) as info:
-        net.filter(Yb, W=w["W"], eta=3, **model)
-    assert info.value.step == 4 and nstate() == want
+
+
+def test_filter_refusals_name_the_step_and_undo_it(mod):
+    m, _ = mod
+    x0, P0, model, A, w, Y, _ = load("s003_6node")
+    Yb = [y.copy() for y in Y]
+    Yb[2][4, 0] = np.inf
+    net = m.TWNetwork(x0, P0, adjacency=A, m_max=2, p=2)
+    c = m.TWCentral(x0, P0, m_max=2, p=2)
+    before = (net.x.tobytes(), net.P.tobytes(), net.k, c.x.tobytes(), c.k)
+    for call, exc, pattern in [
+        (lambda: net.filter(Yb, W=w["W"], eta=3, **model), dkf.NonFiniteError,
+         r"^TWNetwork.filter, step 4: .*node 2: y not finite"),
+        (lambda: c.filter(Yb, **model), dkf.NonFiniteError, r"^TWCentral.filter, step 4: "),
+        (lambda: net.filter(Y, W=w["W"], alpha=w["alpha"], **model), ValueError, "not both"),
+        (lambda: net.filter(Y, W=w["W"], **model), ValueError, "needs eta"),
+        (lambda: c.filter(Y, **{**model, "F": np.stack([model["F"]] * 3)}), ValueError, "F is a"),
+        (lambda: c.filter(Y[:1] + [Y[0][:, :1]] * 5, **model), ValueError, None),
+    ]:
+        with pytest.raises(exc, match=pattern):
+            call()
+        assert (net.x.tobytes(), net.P.tobytes(), net.k, c.x.tobytes(), c.k) == before
 
 
 def test_graph_refusals(mod):

@@ -463,3 +463,35 @@ class NERTSBase(_NertsFields[_D]):
     n: int
     m: int
     p: int
+
+class DFNERTSBase(_NertsFields[_D]):
+    """Seed 001's consensus network (dkf/dfnerts.h): DF-DNERTSIF (kind
+    "DNERTSIF"), its EKF form ("NERTSIF"), DF-CKF (models with p = 0);
+    variant "paper" (Algorithm 3) or "joint". models: one NLModel per
+    node; the prior one for all nodes or one per node."""
+
+    def __init__(
+        self, models: Sequence[Any], x0: Any, P0: Any, *, adjacency: _A, kind: str = "DNERTSIF",
+        variant: str = "paper", d0: Any = None, Pd0: Any = None, Pxd0: Any = None
+    ) -> None: ...
+    def step(
+        self, z: Sequence[_A], *, Q: Any, R: Sequence[_A], W: _A, Tp: int, scale: float = 1.0,
+        u_prev: _O = None, u: _O = None
+    ) -> None:
+        """Every node's local step, Tp consensus rounds with W (N, N),
+        commit; Q one matrix for all nodes or one per node."""
+    def filter(
+        self, Z: Sequence[_A], *, Q: Any, R: Sequence[_A], W: _A, Tp: int, scale: float = 1.0,
+        U: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with z_t = Z[l][t]: X (T-1, N, n), Px, D, Pd."""
+    adjacency: _Out[_D]
+    N: int
+    n: int
+    m: List[int]
+    p: int
+    kind: str
+    variant: str
+    models: List[Any]
+    reals_sent: int
+    broadcasts: int

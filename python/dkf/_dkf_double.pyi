@@ -6,7 +6,7 @@ import numpy.typing as npt
 
 from ._api import ASKFBase, DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase
 from ._api import KalmanFilterBase, OTSKFBase, SelfTuningBase, UIFBase, WeightedFusionBase
-from ._api import NERTSBase, NLModelBase, TWCentralBase, TWNetworkBase
+from ._api import DFNERTSBase, NERTSBase, NLModelBase, TWCentralBase, TWNetworkBase
 
 dtype: str
 MAX_DIM: int
@@ -27,6 +27,7 @@ class TWCentral(TWCentralBase[np.float64]): ...
 class TWNetwork(TWNetworkBase[np.float64]): ...
 class NLModel(NLModelBase[np.float64]): ...
 class NERTS(NERTSBase[np.float64]): ...
+class DFNERTS(DFNERTSBase[np.float64]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike

@@ -2284,7 +2284,7 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
                                        "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
                                        "WeightedFusion", "SelfTuning", "dare", "stein", "TWCentral",
-                                       "TWNetwork", "NLModel", "NERTS", "dtype",
+                                       "TWNetwork", "NLModel", "NERTS", "DFNERTS", "dtype",
                                        "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
     register_tw(m);

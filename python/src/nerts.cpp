@@ -1,6 +1,7 @@
 // python/src/nerts.cpp - seed 001's nonlinear filters: the model NLModel
-// (dkf/nl_model.h's callback table calling Python) and NERTS (dkf/nerts.h:
-// NERTSF, NERTSIF, DNERTSF, DNERTSIF). docs/guide/python.md, "Nonlinear
+// (dkf/nl_model.h's callback table calling Python), NERTS (dkf/nerts.h:
+// NERTSF, NERTSIF, DNERTSF, DNERTSIF) and the consensus network DFNERTS
+// (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF). docs/guide/python.md, "Nonlinear
 // filters"; docs/decisions.md item 66.
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "common.h"
+#include "dkf/dfnerts.h"
 #include "dkf/nerts.h"
 
 namespace DKF_PY_NS {
@@ -563,6 +565,315 @@ const NertsField nerts_fields[] = {
     {"y", &dkf_nerts_t::y, true, false},
 };
 
+// ---- DFNERTS -----------------------------------------------------------------
+
+// A per-node argument: one value for every node, or a sequence of N.
+std::vector<nb::handle> per_node(nb::handle a, size_t N, size_t single_ndim, const char *call,
+                                 const char *name)
+{
+    std::vector<nb::handle> out(N, a);
+    if (a.is_none()) return out;
+    bool seq = nb::isinstance<nb::list>(a) || nb::isinstance<nb::tuple>(a);
+    if (!seq) {
+        InArray arr = as_array(a, call, name);
+        seq = arr.ndim() == single_ndim + 1;
+    }
+    if (!seq) return out;
+    nb::sequence s = nb::borrow<nb::sequence>(a);
+    if (nb::len(s) != N) {
+        value_error(call, std::string(name) + " has " + std::to_string(nb::len(s)) +
+                              " entries, one per node: " + std::to_string(N));
+    }
+    for (size_t l = 0; l < N; ++l) out[l] = s[l];
+    return out;
+}
+
+class DFNERTS : Guarded {
+public:
+    DFNERTS(nb::handle models, nb::handle x0, nb::handle P0, nb::handle adjacency,
+            const std::string &kind, const std::string &variant, nb::handle d0, nb::handle Pd0,
+            nb::handle Pxd0)
+    {
+        static const char *call = "DFNERTS";
+        graph_.bind(adjacency, call);
+        N_ = graph_.N;
+        const dkf_nerts_kind_t k = nerts_kind(kind, call, true);
+        kind_name_ = kind;
+        if (variant == "paper") {
+            variant_ = DKF_DFNERTS_PAPER;
+        } else if (variant == "joint") {
+            variant_ = DKF_DFNERTS_JOINT;
+        } else {
+            value_error(call, "variant must be \"paper\" or \"joint\", got \"" + variant + "\"");
+        }
+        variant_name_ = variant;
+        if (!nb::isinstance<nb::sequence>(models) || nb::len(models) != N_)
+            value_error(call, "models must be a sequence of N = " + std::to_string(N_) +
+                                  " NLModel, one per node");
+        nb::sequence ms = nb::borrow<nb::sequence>(models);
+        for (size_t l = 0; l < N_; ++l) {
+            model_objs_.push_back(nb::borrow(ms[l]));
+            models_.push_back(&nb::cast<NLModel &>(ms[l]));
+            tables_.push_back(models_[l]->table());
+            m_.push_back(models_[l]->m());
+            if (models_[l]->n() != models_[0]->n() || models_[l]->p() != models_[0]->p() ||
+                models_[l]->q() != models_[0]->q())
+                value_error(call, "the nodes' models differ in n, p or q");
+        }
+        n_ = models_[0]->n(), p_ = models_[0]->p();
+        std::vector<nb::handle> xs = per_node(x0, N_, 1, call, "x0"),
+                                Ps = per_node(P0, N_, 2, call, "P0"),
+                                ds = per_node(d0, N_, 1, call, "d0"),
+                                Pds = per_node(Pd0, N_, 2, call, "Pd0"),
+                                Pxds = per_node(Pxd0, N_, 2, call, "Pxd0");
+        std::vector<NlPrior> pr(N_);
+        std::vector<dkf_mat_t> xm(N_), Pm(N_), dm(N_), Pdm(N_), Pxdm(N_);
+        for (size_t l = 0; l < N_; ++l) {
+            nl_prior(pr[l], xs[l], Ps[l], ds[l], Pds[l], Pxds[l], n_, p_, call);
+            xm[l] = pr[l].xm, Pm[l] = pr[l].Pm, dm[l] = pr[l].dm, Pdm[l] = pr[l].Pdm,
+            Pxdm[l] = pr[l].Pxdm;
+        }
+        nodes_.resize(N_);
+        std::memset(nodes_.data(), 0, N_ * sizeof(dkf_dfnerts_node_t));
+        const size_t len = dkf_dfnerts_net_storage_len(N_, n_, m_.data(), p_);
+        if (!len) raise_status(DKF_ERR_CAPACITY, call, -1, nullptr, "a dimension out of range");
+        storage_.assign(len, real(0));
+        std::memset(&net_, 0, sizeof net_);
+        dkf_status_t st = dkf_dfnerts_net_init(
+            &net_, &graph_.g, nodes_.data(), k, variant_, n_, m_.data(), p_, storage_.data(),
+            storage_.size(), xm.data(), Pm.data(), p_ ? dm.data() : nullptr,
+            p_ ? Pdm.data() : nullptr, p_ ? Pxdm.data() : nullptr);
+        if (st != DKF_OK) raise_nl_init(st, call, pr[0], n_, largest(m_), p_);
+    }
+    DFNERTS(const DFNERTS &) = delete;
+    DFNERTS &operator=(const DFNERTS &) = delete;
+
+    void step(nb::handle z, nb::handle Q, nb::handle R, nb::handle W, size_t Tp, real scale,
+              nb::handle u_prev, nb::handle u)
+    {
+        static const char *call = "DFNERTS.step";
+        not_busy(call);
+        Args a = args(z, Q, R, call, false);
+        std::vector<real> w = graph_.weights(W, call, "W");
+        const size_t nq = models_[0]->q();
+        Mat up = input_arg(u_prev, call, "u_prev", nq), uu = input_arg(u, call, "u", nq);
+        clear_errors();
+        dkf_status_t st = do_step(a, 0, w.data(), Tp, scale, up.p, uu.p);
+        if (st != DKF_OK) raise_net(st, call, -1, a, 0, up.p, uu.p);
+    }
+
+    nb::tuple filter(nb::handle Z, nb::handle Q, nb::handle R, nb::handle W, size_t Tp,
+                     real scale, nb::handle U)
+    {
+        static const char *call = "DFNERTS.filter";
+        not_busy(call);
+        check_unstarted(k(), call);
+        Args a = args(Z, Q, R, call, true);
+        std::vector<real> w = graph_.weights(W, call, "W");
+        const size_t T = a.T, nq = models_[0]->q();
+        Mat ua;
+        if (nq) {
+            if (U.is_none()) value_error(call, "U (T, q) is required: the models have q > 0");
+            ua = matrix_arg(U, call, "U", T, nq, false);
+        } else if (!U.is_none()) {
+            value_error(call, "U must be None: the models have q = 0");
+        }
+        const size_t S = T - 1, xs[3] = {S, N_, n_}, ps[4] = {S, N_, n_, n_},
+                     ds[3] = {S, N_, p_}, pds[4] = {S, N_, p_, p_};
+        OutArray X = new_array(3, xs), P = new_array(4, ps), D = new_array(3, ds),
+                 Pd = new_array(4, pds);
+        Undo<dkf_dfnerts_net_t> undo(net_, storage_);
+        const std::vector<dkf_dfnerts_node_t> saved_nodes(nodes_);
+        dkf_status_t st = DKF_OK;
+        size_t t = 1;
+        clear_errors();
+        busy_ = true;
+        {
+            nb::gil_scoped_release unlocked;
+            for (t = 1; t < T; ++t) {
+                st = do_step(a, t, w.data(), Tp, scale, nq ? ua.p + (t - 1) * nq : nullptr,
+                             nq ? ua.p + t * nq : nullptr);
+                if (st != DKF_OK) break;
+                for (size_t l = 0; l < N_; ++l) {
+                    const dkf_nerts_t &f = nodes_[l].f;
+                    put_row(X.data(), (t - 1) * N_ + l, f.x);
+                    put_row(P.data(), (t - 1) * N_ + l, f.Px);
+                    if (p_) {
+                        put_row(D.data(), (t - 1) * N_ + l, f.d);
+                        put_row(Pd.data(), (t - 1) * N_ + l, f.Pd);
+                    }
+                }
+            }
+            if (st != DKF_OK) {
+                undo.restore();
+                std::copy(saved_nodes.begin(), saved_nodes.end(), nodes_.begin());
+            }
+        }
+        busy_ = false;
+        if (st != DKF_OK) {
+            raise_net(st, call, static_cast<long>(t), a, t, nq ? ua.p + (t - 1) * nq : nullptr,
+                      nq ? ua.p + t * nq : nullptr);
+        }
+        return nb::make_tuple(X, P, D, Pd);
+    }
+
+    // A field of every node: stacked (N, ...), or a list where it depends on m.
+    nb::object field(const NertsField &fd, const char *what) const
+    {
+        not_busy(what);
+        if (fd.m_dep) {
+            nb::list out;
+            for (size_t l = 0; l < N_; ++l) out.append(mat_out(nodes_[l].f.*(fd.mat), fd.vector));
+            return out;
+        }
+        const dkf_mat_t &M0 = nodes_[0].f.*(fd.mat);
+        const size_t shape[3] = {N_, M0.rows, M0.cols};
+        OutArray out = new_array(fd.vector ? 2 : 3, shape);
+        for (size_t l = 0; l < N_; ++l) put_row(out.data(), l, nodes_[l].f.*(fd.mat));
+        return nb::cast(out);
+    }
+    const dkf_dfnerts_net_t &net() const { return net_; }
+    OutArray adjacency() const { return graph_.adjacency(); }
+    size_t k() const { return nodes_[0].f.k; }
+    size_t N() const { return N_; }
+    size_t n() const { return n_; }
+    size_t p() const { return p_; }
+    const std::vector<size_t> &m() const { return m_; }
+    const std::string &kind() const { return kind_name_; }
+    const std::string &variant() const { return variant_name_; }
+    int traverse(visitproc visit, void *arg) const
+    {
+        for (const nb::object &o : model_objs_) Py_VISIT(o.ptr());
+        return 0;
+    }
+    void clear()
+    {
+        busy_ = true;
+        for (nb::object &o : model_objs_) o = nb::object();
+    }
+    nb::list models() const
+    {
+        nb::list l;
+        for (const nb::object &o : model_objs_) l.append(o);
+        return l;
+    }
+
+private:
+    // z (or Z (T, m_l)), Q, R of every node; Q one matrix (or stack) for all
+    // or one per node.
+    struct Args {
+        std::vector<Mat> z, Q, R;
+        size_t T = 1;
+    };
+
+    Args args(nb::handle z, nb::handle Q, nb::handle R, const char *call, bool series) const
+    {
+        Args a;
+        if (!nb::isinstance<nb::sequence>(z) || nb::len(z) != N_) {
+            value_error(call, std::string(series ? "Z" : "z") + " must be a sequence of N = " +
+                                  std::to_string(N_) + " entries, one per node");
+        }
+        nb::sequence zs = nb::borrow<nb::sequence>(z);
+        std::vector<nb::handle> qs = per_node(Q, N_, series ? 3 : 2, call, "Q");
+        if (!nb::isinstance<nb::sequence>(R) || nb::len(R) != N_)
+            value_error(call, "R must be a sequence of N = " + std::to_string(N_) + " matrices");
+        nb::sequence rs = nb::borrow<nb::sequence>(R);
+        for (size_t l = 0; l < N_; ++l) {
+            const std::string sfx = "[" + std::to_string(l) + "]";
+            if (series) {
+                Mat v = matrix_arg(zs[l], call, ("Z" + sfx).c_str(), 0, m_[l], false);
+                if (l && v.rows != a.z[0].rows)
+                    value_error(call, "Z" + sfx + " must have the T of Z[0]");
+                if (v.rows < 2) value_error(call, "Z needs T >= 2 rows (Z[l][0] is not read)");
+                a.z.push_back(v);
+            } else {
+                a.z.push_back(vector_arg(zs[l], call, ("z" + sfx).c_str(), m_[l]));
+            }
+            a.Q.push_back(matrix_arg(qs[l], call, ("Q" + sfx).c_str(), n_, n_, series));
+            a.R.push_back(matrix_arg(rs[l], call, ("R" + sfx).c_str(), m_[l], m_[l], series));
+        }
+        if (series) {
+            a.T = a.z[0].rows;
+            for (size_t l = 0; l < N_; ++l) {
+                check_stack(a.Q[l], a.T, call, "Q");
+                check_stack(a.R[l], a.T, call, "R[" + std::to_string(l) + "]");
+            }
+        }
+        return a;
+    }
+
+    const real *z_at(const Args &a, size_t l, size_t t) const
+    {
+        return a.z[l].p + (a.T > 1 ? t * m_[l] : 0);
+    }
+
+    // Step t (0 for a single step): z_t, Q of time t - 1, R of time t. The
+    // GIL may be released.
+    dkf_status_t do_step(const Args &a, size_t t, const real *w, size_t Tp, real scale,
+                         const real *up, const real *u)
+    {
+        std::vector<dkf_mat_t> Qm(N_), Rm(N_), zm(N_);
+        for (size_t l = 0; l < N_; ++l) {
+            Qm[l] = view(n_, n_, a.Q[l].at(t ? t - 1 : 0));
+            Rm[l] = view(m_[l], m_[l], a.R[l].at(t));
+            zm[l] = view(m_[l], 1, z_at(a, l, t));
+        }
+        return dkf_dfnerts_net_step(&net_, tables_.data(), up, Qm.data(), u, Rm.data(), zm.data(),
+                                    w, Tp, scale);
+    }
+
+    void clear_errors()
+    {
+        for (NLModel *m : models_) m->clear_error();
+    }
+
+    [[noreturn]] void raise_net(dkf_status_t st, const char *call, long step, const Args &a,
+                                size_t t, const real *up, const real *u)
+    {
+        if (st == DKF_ERR_WEIGHTS)
+            raise_status(st, call, step, "W", "W must be doubly stochastic and >= 0 on the graph");
+        if (st == DKF_ERR_ARG) {
+            raise_status(st, call, step, nullptr,
+                         "Tp in [1, " + std::to_string(DKF_DFNERTS_MAX_TP) +
+                             "] and a finite scale > 0");
+        }
+        // The node to blame: the one whose model raised, or whose input is not finite.
+        PhaseIn in;
+        in.n = n_, in.q = models_[0]->q(), in.u_prev = up, in.u = u;
+        size_t blame = 0;
+        for (size_t l = 0; l < N_; ++l) {
+            PhaseIn c = in;
+            c.z = z_at(a, l, t), c.Q = a.Q[l].at(t ? t - 1 : 0), c.R = a.R[l].at(t), c.m = m_[l];
+            const bool model_failed = st == DKF_ERR_MODEL && models_[l]->has_error();
+            const bool bad_input =
+                st == DKF_ERR_NONFINITE &&
+                first_nonfinite({{"z", c.z, c.m, false}, {"Q", c.Q, n_ * n_, false},
+                                 {"R", c.R, c.m * c.m, false}});
+            if (model_failed || bad_input) {
+                blame = l;
+                in = c;
+                in.node = static_cast<long>(l);
+                break;
+            }
+        }
+        if (in.node < 0) in.z = z_at(a, 0, t), in.m = m_[0];
+        NLModel &md = *models_[blame];
+        raise_nerts(st, call, step, in, md);
+    }
+
+    size_t N_ = 0, n_ = 0, p_ = 0;
+    std::vector<size_t> m_;
+    std::string kind_name_, variant_name_;
+    dkf_dfnerts_variant_t variant_ = DKF_DFNERTS_PAPER;
+    std::vector<nb::object> model_objs_;
+    std::vector<NLModel *> models_;
+    std::vector<dkf_nl_model_t> tables_;
+    GraphArg graph_;
+    std::vector<dkf_dfnerts_node_t> nodes_;
+    std::vector<real> storage_;
+    dkf_dfnerts_net_t net_;
+};
+
 // tp_traverse and tp_clear of a class T with traverse() and clear().
 template <class T> int gc_traverse(PyObject *self, visitproc visit, void *arg)
 {
@@ -654,6 +965,45 @@ void register_nerts(nb::module_ &m)
             fd.name,
             [mat, vec, name](const NERTS &f) { return f.field(f.state().*mat, name.c_str(), vec); },
             nb::rv_policy::take_ownership);
+    }
+
+    nb::class_<DFNERTS> d(m, "DFNERTS",
+                          "Seed 001's consensus network (dkf/dfnerts.h): DF-DNERTSIF, its EKF "
+                          "form, and DF-CKF (p = 0), every node with its own model.",
+                          nb::type_slots(GcSlots<DFNERTS>::slots));
+    d.def(nb::init<nb::handle, nb::handle, nb::handle, nb::handle, const std::string &,
+                   const std::string &, nb::handle, nb::handle, nb::handle>(),
+          nb::arg("models"), nb::arg("x0"), nb::arg("P0"), nb::kw_only(), nb::arg("adjacency"),
+          nb::arg("kind") = "DNERTSIF", nb::arg("variant") = "paper", nb::arg("d0") = nb::none(),
+          nb::arg("Pd0") = nb::none(), nb::arg("Pxd0") = nb::none())
+        .def("step", &DFNERTS::step, nb::arg("z"), nb::kw_only(), nb::arg("Q"), nb::arg("R"),
+             nb::arg("W"), nb::arg("Tp"), nb::arg("scale") = 1.0, nb::arg("u_prev") = nb::none(),
+             nb::arg("u") = nb::none(),
+             "One step of every node: local, Tp consensus rounds with W, commit.")
+        .def("filter", &DFNERTS::filter, nb::arg("Z"), nb::kw_only(), nb::arg("Q"), nb::arg("R"),
+             nb::arg("W"), nb::arg("Tp"), nb::arg("scale") = 1.0, nb::arg("U") = nb::none(),
+             "Steps 1..T-1 with z_t = Z[l][t] in one call without the GIL; returns (X, Px, D, "
+             "Pd) with a node axis after the time.")
+        .def_prop_ro("adjacency", &DFNERTS::adjacency, nb::rv_policy::take_ownership)
+        .def_prop_ro("k", &DFNERTS::k, "Steps taken.")
+        .def_prop_ro("N", &DFNERTS::N)
+        .def_prop_ro("n", &DFNERTS::n)
+        .def_prop_ro("m", &DFNERTS::m)
+        .def_prop_ro("p", &DFNERTS::p)
+        .def_prop_ro("kind", &DFNERTS::kind)
+        .def_prop_ro("variant", &DFNERTS::variant)
+        .def_prop_ro("models", &DFNERTS::models)
+        .def_prop_ro("reals_sent", [](const DFNERTS &f) { return f.net().reals_sent; })
+        .def_prop_ro("broadcasts", [](const DFNERTS &f) { return f.net().broadcasts; })
+        .def("__repr__", [](const DFNERTS &f) {
+            return "<dkf DFNERTS " + f.kind() + " " + f.variant() + " N=" + std::to_string(f.N()) +
+                   " n=" + std::to_string(f.n()) + " p=" + std::to_string(f.p()) +
+                   " " DKF_PY_DTYPE ">";
+        });
+    for (const NertsField &fd : nerts_fields) {
+        const std::string name = std::string("DFNERTS.") + fd.name;
+        const NertsField f2 = fd;
+        d.def_prop_ro(fd.name, [f2, name](const DFNERTS &f) { return f.field(f2, name.c_str()); });
     }
 }
 

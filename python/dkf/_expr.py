@@ -1,6 +1,6 @@
 """Expression models: an NLModel from strings in the syntax of a scenario's
 `"expr"` model (docs/guide/nl-models.md), parsed by sympy and compiled to
-numpy by sympy's lambdify (docs/decisions.md item 66).
+numpy by sympy's lambdify (docs/decisions.md item 69).
 
 The variables are x1..xn (n = len(f)) and d1..dp; the functions those of
 the scenario's expressions: + - * / ^ (power), parentheses, sin cos tan

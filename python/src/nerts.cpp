@@ -2,7 +2,7 @@
 // (dkf/nl_model.h's callback table calling Python), NERTS (dkf/nerts.h:
 // NERTSF, NERTSIF, DNERTSF, DNERTSIF) and the consensus network DFNERTS
 // (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF). docs/guide/python.md, "Nonlinear
-// filters"; docs/decisions.md item 66.
+// filters"; docs/decisions.md item 69.
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 

@@ -420,12 +420,16 @@ run_python() {
       return
     fi
   fi
-  # FilterPy is a test oracle only: without it that test is skipped, and says so
-  if ! "$venv/bin/python" -c 'import filterpy' 2>/dev/null &&
-     ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check filterpy \
-       >>"$bdir/run_tests.deps.log" 2>&1; then
-    say python "filterpy did not install (log: $bdir/run_tests.deps.log): its comparison is skipped"
-  fi
+  # FilterPy and Stone Soup are test oracles only: without one its tests are
+  # skipped, and say so
+  local oracle
+  for oracle in filterpy stonesoup; do
+    if ! "$venv/bin/python" -c "import $oracle" 2>/dev/null &&
+       ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check "$oracle" \
+         >>"$bdir/run_tests.deps.log" 2>&1; then
+      say python "$oracle did not install (log: $bdir/run_tests.deps.log): its comparisons are skipped"
+    fi
+  done
   t=$SECONDS
   say python "pip install . (build in $bdir/build)"
   timeout 1200 "$venv/bin/pip" install -v --no-build-isolation --disable-pip-version-check \

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from ._dkf_double import *  # noqa: F403 (the classes, dtype, MAX_DIM)
 from ._dkf_double import __all__ as _core
+from ._dkf_double import NLModel as _NLModel
+from ._expr import for_module as _for_module
 from ._errors import (
     AliasError,
     ArgError,
@@ -28,7 +30,10 @@ from ._errors import (
     WeightsError,
 )
 
+expr_model = _for_module(_NLModel)
+
 __all__ = list(_core) + [
+    "expr_model",
     "Error",
     "NullError",
     "DimError",

@@ -1,6 +1,6 @@
 # The classes of dkf and dkf.float32, generic in the real type (a stub-only
 # module: _dkf_double.pyi and _dkf_float.pyi instantiate it).
-from typing import Dict, Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
+from typing import Any, Callable, Dict, Generic, List, Mapping, Optional, Sequence, Tuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -301,3 +301,197 @@ class SelfTuningBase(Generic[_D]):
         """The observer-form (F, Q) of the accepted estimate."""
     L: int
     n: int
+
+class _TWFields(Generic[_D]):
+    """The estimates and the last step's intermediates of dkf/tw.h's node
+    (the network's stacked (N, ...)), copies."""
+
+    x: _Out[_D]
+    P: _Out[_D]
+    d: _Out[_D]
+    phi: _Out[_D]
+    Phi: _Out[_D]
+    I: _Out[_D]
+    i: _Out[_D]
+    phi_post: _Out[_D]
+    Phi_post: _Out[_D]
+    S: _Out[_D]
+    Gpost: _Out[_D]
+    psi: _Out[_D]
+    Ploc: _Out[_D]
+    k: int
+
+class TWCentralBase(_TWFields[_D]):
+    """The centralised two-stage filter with unknown inputs, Algorithm 1 of
+    dkf/tw.h (seed 003). x0 (n,), P0 (n, n): x_{0|0}, P_{0|0}; each sensor
+    measures at most m_max values; p unknown inputs."""
+
+    def __init__(self, x0: _A, P0: _A, *, m_max: int, p: int) -> None: ...
+    def step(
+        self, y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]
+    ) -> None:
+        """y_k of every sensor with its H, R and the dynamics from k - 1; a
+        NaN component of y is missing, an all-NaN sensor adds nothing."""
+    def filter(
+        self, Y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A]
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with y_t = Y[l][t] (Y[l] (T, m_l); row 0 not read),
+        stacks indexed by the time: X (T-1, n), P (T-1, n, n), D (T-1, p)."""
+    n: int
+    m_max: int
+    p: int
+
+class TWNetworkBase(_TWFields[_D]):
+    """The diffusion (Algorithm 2) and consensus (Algorithm 3) two-stage
+    filters with unknown inputs of dkf/tw.h over one graph: adjacency
+    (N, N) symmetric, nonzero for a link; weights dense (N, N), zero off
+    the graph. Every field is every node's, stacked (N, ...)."""
+
+    def __init__(self, x0: _A, P0: _A, *, adjacency: _A, m_max: int, p: int) -> None: ...
+    def diffusion_step(
+        self, y: Sequence[_A], *, alpha: _A, F: _A, G: _A, Q: _A, H: Sequence[_A],
+        R: Sequence[_A]
+    ) -> None:
+        """Algorithm 2's step; alpha row-stochastic and >= 0 on the graph."""
+    def consensus_step(
+        self, y: Sequence[_A], *, W: _A, eta: int, F: _A, G: _A, Q: _A, H: Sequence[_A],
+        R: Sequence[_A]
+    ) -> None:
+        """Algorithm 3's step; W doubly stochastic and >= 0, eta iterations."""
+    def filter(
+        self, Y: Sequence[_A], *, F: _A, G: _A, Q: _A, H: Sequence[_A], R: Sequence[_A],
+        alpha: _O = None, W: _O = None, eta: Optional[int] = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 of the diffusion (alpha) or the consensus (W, eta):
+        X (T-1, N, n), P (T-1, N, n, n), D (T-1, N, p)."""
+    adjacency: _Out[_D]
+    N: int
+    n: int
+    m_max: int
+    p: int
+    reals_sent: int
+    broadcasts: int
+
+class NLModelBase(Generic[_D]):
+    """A nonlinear model with unknown inputs (dkf/nl_model.h) of Python
+    callables: x' = f(x, d, u), y = h(x, d, u), each taking arrays (n,),
+    (p,), (q,) and returning (n,) or (m,); f_jac -> (Fx (n, n), Fd (n, p)),
+    h_jac -> (Hx (m, n), Hd (m, p)), or None (forward differences in the
+    core). angles: the channels of y that are bearings (innovations
+    wrapped into [-pi, pi)). An exception in a callable fails the step
+    with dkf.ModelError, the exception its __cause__."""
+
+    def __init__(
+        self, f: Callable[..., _A], h: Callable[..., _A], *, n: int, m: int, p: int, q: int = 0,
+        f_jac: Optional[Callable[..., Tuple[_A, _A]]] = None,
+        h_jac: Optional[Callable[..., Tuple[_A, _A]]] = None, angles: Sequence[int] = ()
+    ) -> None: ...
+    n: int
+    m: int
+    p: int
+    q: int
+    angles: List[int]
+    f: Callable[..., _A]
+    h: Callable[..., _A]
+    f_jac: Optional[Callable[..., Tuple[_A, _A]]]
+    h_jac: Optional[Callable[..., Tuple[_A, _A]]]
+
+class _NertsFields(Generic[_D]):
+    """dkf/nerts.h's views, copies (DFNERTS: every node's, stacked (N, ...);
+    the ones whose size depends on m a list, one array per node)."""
+
+    x: _Out[_D]
+    Px: _Out[_D]
+    x_pred: _Out[_D]
+    P_pred: _Out[_D]
+    d: _Out[_D]
+    Pd: _Out[_D]
+    Pxd: _Out[_D]
+    Y_pred: _Out[_D]
+    y_pred: _Out[_D]
+    Fx: _Out[_D]
+    Fd: _Out[_D]
+    z_hat: Any
+    nu: Any
+    h_c: Any
+    Hx: Any
+    R_tilde: Any
+    Pzz: Any
+    Pxz: Any
+    Hd: Any
+    C: Any
+    Rbar: Any
+    Rbar_inv: Any
+    M: Any
+    d_loc: _Out[_D]
+    Pd_loc: _Out[_D]
+    Pxd_loc: _Out[_D]
+    i: _Out[_D]
+    I: _Out[_D]
+    Y: _Out[_D]
+    y: _Out[_D]
+    k: int
+
+class NERTSBase(_NertsFields[_D]):
+    """Seed 001's single-node joint state and unknown-input filters
+    (dkf/nerts.h), kind "NERTSF", "NERTSIF" (EKF), "DNERTSF" or "DNERTSIF"
+    (cubature). x0 (n,), P0 (n, n), d0 (p,), Pd0 (p, p), Pxd0 (n, p; None:
+    0): x_{0|0} and the input's prior (all None with p = 0)."""
+
+    def __init__(
+        self, model: Any, x0: _A, P0: _A, *, kind: str, d0: _O = None, Pd0: _O = None,
+        Pxd0: _O = None
+    ) -> None: ...
+    def predict(self, *, Q: _A, u: _O = None) -> None:
+        """Phase 1: the time update with Q and the known input u_{k-1}."""
+    def local(self, z: _A, *, R: _A, u: _O = None) -> None:
+        """Phase 2: the local statistics of z_k."""
+    def update(self) -> None:
+        """Phase 3: the filter's own measurement update."""
+    def commit_info(self, Y: _A, y: _A) -> None:
+        """Phase 3 with a given information pair (information kinds)."""
+    def step(self, z: _A, *, Q: _A, R: _A, u_prev: _O = None, u: _O = None) -> None:
+        """The three phases in one call."""
+    def filter(
+        self, Z: _A, *, Q: _A, R: _A, U: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with z_t = Z[t] (Z[0] not read), Q[t - 1], R[t]
+        (one matrix or a stack indexed by the time): X, Px, D, Pd."""
+    phase: int
+    kind: str
+    model: Any
+    n: int
+    m: int
+    p: int
+
+class DFNERTSBase(_NertsFields[_D]):
+    """Seed 001's consensus network (dkf/dfnerts.h): DF-DNERTSIF (kind
+    "DNERTSIF"), its EKF form ("NERTSIF"), DF-CKF (models with p = 0);
+    variant "paper" (Algorithm 3) or "joint". models: one NLModel per
+    node; the prior one for all nodes or one per node."""
+
+    def __init__(
+        self, models: Sequence[Any], x0: Any, P0: Any, *, adjacency: _A, kind: str = "DNERTSIF",
+        variant: str = "paper", d0: Any = None, Pd0: Any = None, Pxd0: Any = None
+    ) -> None: ...
+    def step(
+        self, z: Sequence[_A], *, Q: Any, R: Sequence[_A], W: _A, Tp: int, scale: float = 1.0,
+        u_prev: _O = None, u: _O = None
+    ) -> None:
+        """Every node's local step, Tp consensus rounds with W (N, N),
+        commit; Q one matrix for all nodes or one per node."""
+    def filter(
+        self, Z: Sequence[_A], *, Q: Any, R: Sequence[_A], W: _A, Tp: int, scale: float = 1.0,
+        U: _O = None
+    ) -> Tuple[_Out[_D], _Out[_D], _Out[_D], _Out[_D]]:
+        """Steps 1..T-1 with z_t = Z[l][t]: X (T-1, N, n), Px, D, Pd."""
+    adjacency: _Out[_D]
+    N: int
+    n: int
+    m: List[int]
+    p: int
+    kind: str
+    variant: str
+    models: List[Any]
+    reals_sent: int
+    broadcasts: int

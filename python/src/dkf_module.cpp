@@ -30,21 +30,9 @@
 #include "dkf/uif.h"
 #include "dkf/wfusion.h"
 
-namespace nb = nanobind;
-
-#if DKF_USE_FLOAT
-#define DKF_PY_NS dkf_py_float
-#define DKF_PY_DTYPE "float32"
-#else
-#define DKF_PY_NS dkf_py_double
-#define DKF_PY_DTYPE "float64"
-#endif
+#include "common.h"
 
 namespace DKF_PY_NS {
-
-using real = dkf_real_t;
-using InArray = nb::ndarray<const real, nb::c_contig, nb::device::cpu>;
-using OutArray = nb::ndarray<nb::numpy, real>;
 
 // ---- errors -------------------------------------------------------------
 
@@ -53,7 +41,7 @@ using OutArray = nb::ndarray<nb::numpy, real>;
 // or nullptr; detail: what failed, in the model's words; node: the sensor a
 // fusion centre's fault names, or -1.
 [[noreturn]] void raise_status(dkf_status_t st, const char *call, long step, const char *matrix,
-                               const std::string &detail, long node = -1)
+                               const std::string &detail, long node)
 {
     nb::object make = nb::module_::import_("dkf._errors").attr("_make");
     nb::object exc = make(static_cast<int>(st), dkf_status_str(st), call,
@@ -94,17 +82,6 @@ InArray as_array(nb::handle obj, const char *call, const char *name)
         throw nb::type_error((std::string(call) + ": " + name + ": not convertible").c_str());
     return out;
 }
-
-// A matrix argument: one (rows, cols) matrix, or a stack (T, rows, cols)
-// of one per step (count = T). rows or cols 0: any (taken from the array).
-struct Mat {
-    InArray keep;      // holds the data alive (empty for stored models)
-    const real *p = nullptr;
-    size_t count = 0;  // 1 for one matrix, T for a stack
-    bool stacked = false;
-    size_t rows = 0, cols = 0;
-    const real *at(size_t t) const { return p + (stacked ? t : 0) * rows * cols; }
-};
 
 Mat matrix_arg(nb::handle obj, const char *call, const char *name, size_t rows, size_t cols,
                bool stack_ok)
@@ -169,14 +146,6 @@ OutArray new_array(size_t ndim, const size_t *shape)
 
 // ---- pieces the filters share ---------------------------------------------
 
-// An input named in an error message, if it is not finite.
-struct Named {
-    const char *name;
-    const real *p;
-    size_t len;
-    bool nan_missing; // a measurement: its NaNs are missing values, not errors
-};
-
 // The first of the inputs with a NaN or an infinity (a measurement: with an
 // infinity), or nullptr.
 const char *first_nonfinite(std::initializer_list<Named> inputs)
@@ -216,13 +185,6 @@ std::string nonfinite_detail(const char *culprit)
     }
     raise_status(st, call, -1, culprit, detail);
 }
-
-// A model matrix the constructor was given: one, or a stack of one per step.
-struct Stored {
-    std::vector<real> data;
-    size_t count = 0, rows = 0, cols = 0;
-    bool stacked = false;
-};
 
 Stored store(const Mat &m)
 {
@@ -312,47 +274,12 @@ size_t select_measured(const real **y, const real **H, const real **R, size_t m,
     return k;
 }
 
-// A filter struct and its storage as they were before a filter() run, put
-// back when a step fails (the struct and every real, byte for byte).
-template <class S> class Undo {
-public:
-    Undo(S &obj, std::vector<real> &storage)
-        : obj_(obj), storage_(storage), saved_obj_(obj), saved_(storage)
-    {
-    }
-    void restore()
-    {
-        obj_ = saved_obj_;
-        std::memcpy(storage_.data(), saved_.data(), saved_.size() * sizeof(real));
-    }
-
-private:
-    S &obj_;
-    std::vector<real> &storage_;
-    const S saved_obj_;
-    const std::vector<real> saved_;
-};
-
 // Row t of an output array of matrices shaped like M: M's reals.
 void put_row(real *out, size_t t, const dkf_mat_t &M)
 {
     const size_t len = M.rows * M.cols;
     std::memcpy(out + t * len, M.data, len * sizeof(real));
 }
-
-// An object one thread uses at a time: filter() marks it busy while it
-// runs without the GIL, and every other call then raises RuntimeError.
-class Guarded {
-protected:
-    bool busy_ = false;
-    void not_busy(const char *call) const
-    {
-        if (busy_) {
-            throw std::runtime_error(std::string(call) +
-                                     ": the filter is running filter() in another thread");
-        }
-    }
-};
 
 // ---- KalmanFilter ---------------------------------------------------------
 
@@ -2344,28 +2271,6 @@ OutArray stein(nb::handle A, nb::handle B, nb::handle C)
     return X;
 }
 
-// A read-only property per matrix of a filter's C struct S: a copy.
-template <class S> struct Field {
-    const char *name;
-    dkf_mat_t S::*mat;
-    bool vector;
-    const char *doc;
-};
-
-template <class K, class S, size_t N>
-void def_fields(nb::class_<K> &cls, const char *cls_name, const Field<S> (&fields)[N])
-{
-    for (const Field<S> &fd : fields) {
-        const auto mat = fd.mat;
-        const bool vec = fd.vector;
-        const std::string call = std::string(cls_name) + "." + fd.name;
-        cls.def_prop_ro(
-            fd.name,
-            [mat, vec, call](const K &f) { return f.field(f.state().*mat, call.c_str(), vec); },
-            nb::rv_policy::take_ownership, fd.doc);
-    }
-}
-
 } // namespace DKF_PY_NS
 
 NB_MODULE(DKF_PY_MODULE, m)
@@ -2378,9 +2283,12 @@ NB_MODULE(DKF_PY_MODULE, m)
     // What dkf and dkf.float32 export of this module.
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
                                        "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
-                                       "WeightedFusion", "SelfTuning", "dare", "stein", "dtype",
+                                       "WeightedFusion", "SelfTuning", "dare", "stein", "TWCentral",
+                                       "TWNetwork", "NLModel", "NERTS", "DFNERTS", "dtype",
                                        "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
+    register_tw(m);
+    register_nerts(m);
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
                              "Linear Kalman filter, covariance form (dkf/kf.h).")

@@ -27,6 +27,8 @@ from ._errors import (
     UnstableError,
     WeightsError,
 )
+from ._scenario import SUPPORTED_FILTERS, run_scenario
+from ._simulate import simulate
 
 __all__ = list(_core) + [
     "Error",
@@ -45,4 +47,7 @@ __all__ = list(_core) + [
     "WeightsError",
     "ModelError",
     "UnstableError",
+    "run_scenario",
+    "SUPPORTED_FILTERS",
+    "simulate",
 ]

@@ -1,0 +1,188 @@
+"""dkf.run_scenario against dkf-run: the same document, number for number.
+
+The C runner is located through the environment variable DKF_RUN (the
+path of a built dkf-run; tools/run_tests.sh sets it when the double build
+has one); without it the comparisons are skipped with a message. The tests
+that need no dkf-run (refusals, the old letters) always run.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+import dkf
+
+from conftest import ROOT, VECTORS
+
+# Every canonical-layout file the repository ships.
+CANONICAL = sorted((VECTORS / "diffkf").glob("*.json")) + [ROOT / "scenarios" / "demo_cv2d.json"]
+FILTERS = list(dkf.SUPPORTED_FILTERS)
+
+
+def dkf_run_path() -> str:
+    path = os.environ.get("DKF_RUN")
+    if not path:
+        pytest.skip("DKF_RUN is not set (the path of a built dkf-run): no comparison with the C "
+                    "runner")
+    if not os.access(path, os.X_OK):
+        pytest.fail("DKF_RUN=%s is not an executable" % path)
+    return path
+
+
+def dkf_run(scenario: str, filt: str, out: Path, *extra: str) -> "subprocess.CompletedProcess[str]":
+    return subprocess.run([dkf_run_path(), "--filter", filt, "--quiet", "--output", str(out),
+                           *extra, scenario], capture_output=True, text=True, check=False)
+
+
+def same(a, b, path: str = "") -> None:
+    """a and b equal: the same keys, lists, strings, and every number the
+    same double (the sign of a zero too)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict), path
+        assert sorted(a) == sorted(b), "%s: keys %s != %s" % (path, sorted(a), sorted(b))
+        for key in a:
+            same(a[key], b[key], "%s.%s" % (path, key))
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), "%s: list lengths" % path
+        for i, (x, y) in enumerate(zip(a, b)):
+            same(x, y, "%s[%d]" % (path, i))
+    elif isinstance(a, float) or isinstance(b, float):
+        assert isinstance(a, (int, float)) and isinstance(b, (int, float)), path
+        assert float(a).hex() == float(b).hex(), "%s: %r != %r" % (path, a, b)
+    else:
+        assert a == b and type(a) is type(b), "%s: %r != %r" % (path, a, b)
+
+
+def rel(p: Path) -> str:
+    return str(p.relative_to(ROOT))
+
+
+@pytest.mark.parametrize("filt", FILTERS)
+@pytest.mark.parametrize("scn", CANONICAL, ids=lambda p: p.stem)
+def test_equals_dkf_run(scn: Path, filt: str, tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "out.json"
+    r = dkf_run(rel(scn), filt, out)
+    if r.returncode == 2:  # a refusal of the file for this filter: Python refuses it too
+        with pytest.raises(ValueError):
+            dkf.run_scenario(rel(scn), filter=filt)
+        return
+    assert r.returncode == 0, r.stderr
+    with open(out, encoding="utf-8") as f:
+        expected = json.load(f)
+    same(dkf.run_scenario(rel(scn), filter=filt), expected)
+
+
+def test_every_shipped_file_and_filter_compared(monkeypatch, tmp_path: Path) -> None:
+    """The comparison above is not vacuous: dkf-run runs most pairs."""
+    monkeypatch.chdir(ROOT)
+    ran = sum(dkf_run(rel(s), f, tmp_path / "o.json").returncode == 0
+              for s in CANONICAL for f in FILTERS)
+    assert ran >= 19
+
+
+def test_dict_and_run_and_options(monkeypatch, tmp_path: Path) -> None:
+    monkeypatch.chdir(ROOT)
+    scn = rel(VECTORS / "diffkf" / "ex1_single.json")
+    with open(scn, encoding="utf-8") as f:
+        doc = json.load(f)
+    # a dict gives the file's numbers; the name is the caller's
+    same(dkf.run_scenario(doc, filter="askf", name=scn), dkf.run_scenario(scn, filter="askf"))
+    # --d00 / --Pd00-scale
+    r = dkf_run(scn, "otskf", tmp_path / "o.json", "--d00", "0.5,-0.5", "--Pd00-scale", "3")
+    assert r.returncode == 0, r.stderr
+    with open(tmp_path / "o.json", encoding="utf-8") as f:
+        same(dkf.run_scenario(scn, filter="otskf", d00=[0.5, -0.5], Pd00_scale=3.0), json.load(f))
+    # a Monte-Carlo file: run 1 of runs
+    runs = copy.deepcopy(doc)
+    y, truth = runs.pop("y"), runs.pop("truth", None)
+    y2 = copy.deepcopy(y)
+    y2["values"] = [[v + 0.25 for v in row] for row in y2["values"]]
+    runs["runs"] = [{"y": y}, {"y": y2}]
+    if truth is not None:
+        runs["runs"][0]["truth"] = truth
+    path = tmp_path / "runs.json"
+    path.write_text(json.dumps(runs))
+    r = dkf_run(str(path), "kf", tmp_path / "o.json", "--run", "1")
+    assert r.returncode == 0, r.stderr
+    with open(tmp_path / "o.json", encoding="utf-8") as f:
+        one = json.load(f)
+    same(dkf.run_scenario(str(path), filter="kf", run=1), one)
+    assert one["outputs"]["KF"]["xf"] != dkf.run_scenario(str(path), filter="kf")["outputs"][
+        "KF"]["xf"]
+
+
+def old_letters(doc: dict) -> dict:
+    """The canonical layout in the old letters: D written A."""
+    old = copy.deepcopy(doc)
+    for obj in [old["model"]] + old["model"].get("sensors", []):
+        if "D" in obj:
+            obj["A"] = obj.pop("D")
+    return old
+
+
+@pytest.mark.parametrize("name", ["ex1_single", "tv3_multi"])
+def test_old_letters_read_as_the_new(name: str) -> None:
+    with open(VECTORS / "diffkf" / (name + ".json"), encoding="utf-8") as f:
+        doc = json.load(f)
+    old = old_letters(doc)
+    assert "A" in json.dumps(old["model"]) and '"D"' not in json.dumps(old["model"])
+    same(dkf.run_scenario(old, filter="dkf"), dkf.run_scenario(doc, filter="dkf"))
+    mixed = copy.deepcopy(doc)
+    target = mixed["model"]["sensors"][0] if "sensors" in mixed["model"] else mixed["model"]
+    target["A"] = target["D"]
+    with pytest.raises(ValueError, match="A and D"):
+        dkf.run_scenario(mixed, filter="dkf")
+
+
+def test_old_letters_equal_dkf_run(tmp_path: Path) -> None:
+    with open(VECTORS / "diffkf" / "tv3_multi.json", encoding="utf-8") as f:
+        old = old_letters(json.load(f))
+    path = tmp_path / "old.json"
+    path.write_text(json.dumps(old))
+    r = dkf_run(str(path), "dkf", tmp_path / "o.json")
+    assert r.returncode == 0 and "deprecated letters" in r.stderr, r.stderr
+    with open(tmp_path / "o.json", encoding="utf-8") as f:
+        same(dkf.run_scenario(str(path), filter="dkf"), json.load(f))
+
+
+def test_refusals() -> None:
+    ex1 = VECTORS / "diffkf" / "ex1_single.json"
+    with pytest.raises(ValueError, match="filter 'rtsf'.*dkf-run"):
+        dkf.run_scenario(ex1, filter="rtsf")
+    with pytest.raises(ValueError, match="steps: run_scenario reads the canonical layout"):
+        dkf.run_scenario(VECTORS / "uif" / "s004_rtsf.json", filter="kf")
+    with pytest.raises(ValueError, match="cases: run_scenario reads the canonical layout"):
+        dkf.run_scenario(VECTORS / "infofusion" / "lif_central_fusion.json", filter="info")
+    with pytest.raises(ValueError, match="single-sensor"):
+        dkf.run_scenario(VECTORS / "diffkf" / "tv3_multi.json", filter="askf")
+    with pytest.raises(ValueError, match="only for askf and otskf"):
+        dkf.run_scenario(ex1, filter="kf", d00=[0.0])
+    with pytest.raises(ValueError, match="run 2"):
+        dkf.run_scenario(ex1, filter="kf", run=2)
+    with open(ex1, encoding="utf-8") as f:
+        doc = json.load(f)
+    doc["model"]["Fx"] = doc["model"]["F"]
+    with pytest.raises(ValueError, match="model.Fx: unknown key"):
+        dkf.run_scenario(doc, filter="kf")
+    doc = json.loads(ex1.read_text())
+    doc["init"]["P00"] = [[1.0, 2.0], [2.0, 1.0]] if len(doc["init"]["x00"]) == 2 else [[-1.0]]
+    with pytest.raises((dkf.Error, ValueError)):
+        dkf.run_scenario(doc, filter="kf")
+
+
+def test_floats_compare_exactly() -> None:
+    """same() is strict: one ulp, or a zero's sign, is a difference."""
+    with pytest.raises(AssertionError):
+        same({"a": [1.0]}, {"a": [math.nextafter(1.0, 2.0)]})
+    with pytest.raises(AssertionError):
+        same([0.0], [-0.0])
+    with pytest.raises(AssertionError):
+        same({"a": 1}, {"b": 1})

@@ -1,0 +1,106 @@
+"""dkf.simulate: a scenario (truth and measurements) drawn from a linear model.
+
+The model is the canonical layout's (docs/reference/scenario-format.md):
+x_{k+1} = F_k x_k + v_k, v_k ~ N(0, Q_k); sensor i measures
+y^i_k = H^i_k x_k + D^i_k d^i_k + w^i_k, w^i_k ~ N(0, R^i_k), where its unknown
+input, if it has a D, follows d^i_{k+1} = B^i_k d^i_k + wd^i_k,
+wd^i_k ~ N(0, Rd^i_k). The result is a scenario dict that dkf-run and
+dkf.run_scenario read as it is.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+from typing import Any, Dict, List, Optional, Union
+
+import numpy as np
+
+from ._scenario import _Scenario
+
+
+def _draw(rng: np.random.Generator, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    # numpy's SVD method: a positive semidefinite cov (a Q with zero blocks) is fine
+    return rng.multivariate_normal(mean, cov)
+
+
+def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
+             seed: Optional[int] = None) -> Dict[str, Any]:
+    """A scenario of `steps` steps drawn from `model`, with numpy's default_rng(seed).
+
+    model: a dict (or the path of a JSON file) with the canonical layout's
+    "model" and "init" (docs/reference/scenario-format.md): F, Q and H, R (one
+    sensor) or "sensors": [{H, R, ...}, ...], each matrix a bare matrix,
+    {"const": M} or {"per_k": [M_0, M_1, ...]} (entries up to k = steps + 1);
+    optionally per sensor D, B, Rd (an unknown input d^i with
+    d_{k+1} = B d_k + wd_k, entering y^i through D). init: x00 and P00 (or
+    P00_central): x_0 ~ N(x00, P00); d^i_0 ~ N(d00, Pd00) when init has them
+    (one sensor), else d^i_0 = 0.
+
+    Returns a scenario: the model's "model" and "init", "N" = steps, "seed",
+    "y" (k = 1..steps + 1, so the Difference KF has its y_{N+1}) and "truth"
+    (x for k = 0..steps + 1, and the inputs: "d" for one sensor,
+    "d_stacked" for several).
+    """
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ValueError("simulate: steps %r: expected an integer >= 1" % (steps,))
+    if isinstance(model, dict):
+        doc = model
+    else:
+        with open(os.fspath(model), encoding="utf-8") as fh:
+            doc = json.load(fh)
+    if not isinstance(doc, dict) or "model" not in doc or "init" not in doc:
+        raise ValueError("simulate: expected a dict with the scenario keys \"model\" and "
+                         "\"init\"")
+    base = {"model": doc["model"], "init": doc["init"], "N": steps}
+    L = len(doc["model"]["sensors"]) if isinstance(doc["model"], dict) and isinstance(
+        doc["model"].get("sensors"), list) else 1
+    # the reader's checks and matrices, over a placeholder y
+    probe = dict(base)
+    probe["y"] = [{"k": [], "values": []}] * L if "sensors" in doc["model"] else {
+        "k": [], "values": []}
+    s = _Scenario(probe, "simulate", 0)
+    n = s.n
+    rng = np.random.default_rng(seed)
+    P0 = s.P00_central()
+    x = _draw(rng, s.init["x00"].reshape(-1), P0)
+    has_d = [("D" in s.sensors[i] or "D" in s.model) for i in range(L)]
+    d: List[np.ndarray] = []
+    for i in range(L):
+        p = s.sensor("D", i).shape[1] if has_d[i] else 0
+        if p and "d00" in s.init and "Pd00" in s.init and L == 1:
+            d.append(_draw(rng, s.init["d00"].reshape(-1), s.init["Pd00"]))
+        else:
+            d.append(np.zeros(p))
+    truth_x = [x]
+    truth_d = [np.concatenate(d) if d else np.zeros(0)]
+    ys: List[List[List[float]]] = [[] for _ in range(L)]
+    for k in range(1, steps + 2):
+        x = s.mat("F").at(k - 1) @ x + _draw(rng, np.zeros(n), s.mat("Q").at(k - 1))
+        for i in range(L):
+            if has_d[i]:
+                p = d[i].shape[0]
+                d[i] = s.sensor("B", i).at(k - 1) @ d[i] + _draw(rng, np.zeros(p),
+                                                                  s.sensor("Rd", i).at(k - 1))
+        for i in range(L):
+            H, R = s.sensor("H", i).at(k), s.sensor("R", i).at(k)
+            y = H @ x + _draw(rng, np.zeros(H.shape[0]), R)
+            if has_d[i]:
+                y = y + s.sensor("D", i).at(k) @ d[i]
+            ys[i].append(y.tolist())
+        truth_x.append(x)
+        truth_d.append(np.concatenate(d) if d else np.zeros(0))
+    ks = list(range(1, steps + 2))
+    ylist = [{"k": ks, "values": v} for v in ys]
+    out = copy.deepcopy(base)
+    out["generator"] = "dkf.simulate(steps=%d, seed=%r)" % (steps, seed)
+    if seed is not None:
+        out["seed"] = seed
+    out["y"] = ylist if "sensors" in doc["model"] else ylist[0]
+    truth: Dict[str, Any] = {"k": list(range(0, steps + 2)), "x": [t.tolist() for t in truth_x]}
+    if any(has_d):
+        truth["d" if L == 1 and "sensors" not in doc["model"] else "d_stacked"] = [
+            t.tolist() for t in truth_d]
+    out["truth"] = truth
+    return out

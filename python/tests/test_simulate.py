@@ -1,0 +1,102 @@
+"""dkf.simulate: scenarios that dkf-run and dkf.run_scenario read, reproducible by seed."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import dkf
+
+from test_scenario import dkf_run, same
+
+# Two position/velocity sensors, each with a drifting bias on its position
+# channel (a random walk: B = 1), and a constant-velocity state.
+TWO = {
+    "model": {
+        "F": [[1.0, 1.0], [0.0, 1.0]],
+        "Q": [[0.01, 0.0], [0.0, 0.01]],
+        "B": [[1.0]],
+        "Rd": [[0.001]],
+        "sensors": [
+            {"H": [[1.0, 0.0], [0.0, 1.0]], "R": [[0.5, 0.0], [0.0, 0.2]],
+             "D": [[1.0], [0.0]]},
+            {"H": [[1.0, 0.0], [0.0, 1.0]], "R": [[0.3, 0.05], [0.05, 0.4]],
+             "D": [[1.0], [0.0]]},
+        ],
+    },
+    "init": {"x00": [0.0, 1.0], "P00": [[1.0, 0.0], [0.0, 1.0]]},
+}
+
+ONE = {
+    "model": {
+        "F": {"const": [[1.0, 1.0], [0.0, 1.0]]},
+        "Q": {"per_k": [[[0.01 * (1 + k % 3), 0.0], [0.0, 0.01]] for k in range(12)]},
+        "H": [[1.0, 0.0], [0.0, 1.0]],
+        "R": [[0.5, 0.0], [0.0, 0.2]],
+        "D": [[1.0], [0.5]],
+        "B": [[0.9]],
+        "Rd": [[0.01]],
+    },
+    "init": {"x00": [0.0, 1.0], "P00": [[1.0, 0.0], [0.0, 1.0]], "d00": [0.3],
+             "Pd00": [[0.1]]},
+}
+
+
+def test_shape_and_seed() -> None:
+    s = dkf.simulate(TWO, 20, seed=7)
+    assert s["N"] == 20 and s["seed"] == 7
+    assert len(s["y"]) == 2 and s["y"][0]["k"] == list(range(1, 22))
+    assert np.array(s["y"][1]["values"]).shape == (21, 2)
+    assert s["truth"]["k"] == list(range(0, 22))
+    assert np.array(s["truth"]["x"]).shape == (22, 2)
+    assert np.array(s["truth"]["d_stacked"]).shape == (22, 2)
+    assert s["model"] == TWO["model"] and s["init"] == TWO["init"]
+    assert dkf.simulate(TWO, 20, seed=7) == s
+    assert dkf.simulate(TWO, 20, seed=8)["y"] != s["y"]
+    # the truth follows the model: x_k - F x_{k-1} is the process noise, small here
+    x = np.array(s["truth"]["x"])
+    F = np.array(TWO["model"]["F"])
+    assert np.abs(x[1:] - x[:-1] @ F.T).max() < 1.0
+    # sensor 0's position channel carries its bias: y - H x - D d is the noise
+    d = np.array(s["truth"]["d_stacked"])[1:, 0]
+    y0 = np.array(s["y"][0]["values"])
+    resid = y0[:, 0] - x[1:, 0] - d
+    assert abs(resid.mean()) < 0.5 and 0.2 < resid.var() < 1.2
+
+
+def test_refusals() -> None:
+    with pytest.raises(ValueError, match="steps"):
+        dkf.simulate(TWO, 0)
+    with pytest.raises(ValueError, match="model"):
+        dkf.simulate({"init": TWO["init"]}, 5)
+    bad = json.loads(json.dumps(TWO))
+    del bad["model"]["sensors"][0]["H"]
+    with pytest.raises(ValueError, match=r"model.sensors\[0\].H: missing key"):
+        dkf.simulate(bad, 5)
+    short = json.loads(json.dumps(ONE))
+    with pytest.raises(ValueError, match="Q.per_k.*k = 12"):
+        dkf.simulate(short, 12)  # needs Q_0..Q_12
+
+
+@pytest.mark.parametrize("model,filters", [(TWO, ["kf", "info", "dkf"]),
+                                           (ONE, ["kf", "info", "dkf", "askf", "otskf"])],
+                         ids=["two_sensors", "one_sensor"])
+def test_loads_in_dkf_run_and_run_scenario(model, filters, tmp_path: Path) -> None:
+    scn = tmp_path / "scn.json"
+    scn.write_text(json.dumps(dkf.simulate(model, 10, seed=3)))
+    for filt in filters:
+        out = tmp_path / ("%s.json" % filt)
+        r = dkf_run(str(scn), filt, out)
+        assert r.returncode == 0, r.stderr
+        with open(out, encoding="utf-8") as f:
+            same(dkf.run_scenario(str(scn), filter=filt), json.load(f))
+
+
+def test_model_from_a_file(tmp_path: Path) -> None:
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(ONE))
+    assert dkf.simulate(str(path), 5, seed=1) == dkf.simulate(ONE, 5, seed=1)
+    assert "d" in dkf.simulate(ONE, 5, seed=1)["truth"]

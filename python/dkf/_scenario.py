@@ -26,7 +26,7 @@ _NEEDS_UI = ("dkf", "askf", "otskf")
 _INPUT_PRIOR = ("askf", "otskf")
 
 SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS)
-"""The --filter names run_scenario runs (the canonical layout)."""
+"""The --filter names run_scenario runs (the canonical layout; kf and info the cases layout too)."""
 
 # The keys of the canonical layout (scn_canonical.c); the vector files' own
 # top-level keys are accepted and ignored, strings are comments.
@@ -39,6 +39,11 @@ _INIT_KEYS = {"x00", "P00", "P00_local", "P00_central", "d00", "Pd00"}
 
 def _fail(file: str, path: str, what: str) -> ValueError:
     return ValueError("%s: %s: %s" % (file, path, what) if path else "%s: %s" % (file, what))
+
+
+def _comment(v: Any) -> bool:
+    """A string, or a list of strings: a comment, which the reader skips."""
+    return isinstance(v, str) or (isinstance(v, list) and all(isinstance(x, str) for x in v))
 
 
 class _Mat:
@@ -147,10 +152,10 @@ class _Scenario:
         self.file = file
         if "cases" in doc or "steps" in doc:
             raise _fail(file, "cases" if "cases" in doc else "steps",
-                        "run_scenario reads the canonical layout only; run this file with "
-                        "dkf-run")
+                        "run_scenario reads the canonical and the linear cases layouts; run "
+                        "this file with dkf-run")
         for key, v in doc.items():
-            if key not in _TOP_KEYS | _TOP_IGNORED and not isinstance(v, str):
+            if key not in _TOP_KEYS | _TOP_IGNORED and not _comment(v):
                 raise _fail(file, key, "unknown key")
         for key in ("model", "init"):
             if not isinstance(doc.get(key), dict):
@@ -274,6 +279,93 @@ class _Scenario:
 
     def P00_central(self) -> np.ndarray:
         return self.init.get("P00_central", self.init.get("P00"))  # type: ignore[return-value]
+
+
+_CASE_KEYS = {"name", "x0", "P0", "Q", "H", "R", "steps", "truth", "held_out"}
+_STEP_KEYS = {"k", "F", "Q", "z", "expected"}
+# the cases layout's output names (estimator.c's cases_names)
+_CASE_NAMES = {"xp": "x_pred", "Pp": "P_pred", "xf": "x", "Pf": "P", "yp": "y_pred",
+               "Yp": "Y_pred", "yf": "y", "Yf": "Y"}
+
+
+def _from_case(doc: Dict[str, Any], file: str, case: Union[int, str, None]) -> Tuple[Dict[str, Any], str]:
+    """The selected case of a cases-layout document as a canonical one (scn_cases.c), and its
+    name."""
+    cases = doc["cases"]
+    if not isinstance(cases, list) or not cases:
+        raise _fail(file, "cases", "expected a non-empty list of cases")
+    if case is None:
+        idx = 0
+    else:
+        names = [c.get("name") if isinstance(c, dict) else None for c in cases]
+        if case in names:
+            idx = names.index(case)
+        elif isinstance(case, int) or (isinstance(case, str) and case.isdigit()):
+            idx = int(case)
+            if idx >= len(cases):
+                raise _fail(file, "cases", "case index %d out of range (file has %d)"
+                            % (idx, len(cases)))
+        else:
+            raise _fail(file, "cases", "no case named '%s' (use a name or an index 0..%d)"
+                        % (case, len(cases) - 1))
+    cpath = "cases[%d]" % idx
+    cj = cases[idx]
+    if not isinstance(cj, dict):
+        raise _fail(file, cpath, "expected an object")
+    if "model" in cj or "node_models" in cj or "Phi" in cj:
+        raise _fail(file, cpath, "a nonlinear or weighted-fusion case: run_scenario reads the "
+                    "canonical and the linear cases layouts only; run this file with dkf-run")
+    if "C" in cj:
+        if "H" in cj:
+            raise _fail(file, cpath, "C and H: the old and the library's letter for one "
+                        "matrix; give one")
+        cj = {("H" if key == "C" else key): v for key, v in cj.items()}
+    for key, v in cj.items():
+        if key not in _CASE_KEYS and not isinstance(v, str):
+            raise _fail(file, "%s.%s" % (cpath, key), "unknown key")
+    steps = cj.get("steps")
+    if not isinstance(steps, list) or not steps or not all(isinstance(t, dict) for t in steps):
+        raise _fail(file, cpath + ".steps", "expected a list of step objects")
+    for j, t in enumerate(steps):
+        for key, v in t.items():
+            if key not in _STEP_KEYS and not isinstance(v, str):
+                raise _fail(file, "%s.steps[%d].%s" % (cpath, j, key), "unknown key")
+        if t.get("k") != j + 1:
+            raise _fail(file, "%s.steps[%d].k" % (cpath, j),
+                        "expected %d (steps list k = 1..N)" % (j + 1))
+    model: Dict[str, Any] = {}
+    for name in ("F", "Q"):  # from every step (step k's propagates k-1 -> k) or the case
+        if name in steps[0]:
+            if any(name not in t for t in steps):
+                raise _fail(file, "%s.steps[].%s" % (cpath, name),
+                            "missing key (step 0 has it, so every step needs it)")
+            model[name] = {"per_k": [t[name] for t in steps]}
+        elif name in cj:
+            model[name] = cj[name]
+        else:
+            raise _fail(file, "%s.%s" % (cpath, name),
+                        "missing key (give it in the case or in every step)")
+    for key in ("H", "R", "x0", "P0"):
+        if key not in cj:
+            raise _fail(file, "%s.%s" % (cpath, key), "missing key")
+    H, R = cj["H"], cj["R"]
+    if not isinstance(H, list) or not H or not isinstance(R, list) or len(R) != len(H):
+        raise _fail(file, cpath + ".R", "expected a list of matrices, one per H")
+    model["sensors"] = [{"H": h, "R": r} for h, r in zip(H, R)]
+    ks = list(range(1, len(steps) + 1))
+    y = []
+    for i in range(len(H)):
+        vals = []
+        for j, t in enumerate(steps):
+            z = t.get("z")
+            if not isinstance(z, list) or len(z) != len(H):
+                raise _fail(file, "%s.steps[%d].z" % (cpath, j),
+                            "expected a list of %d measurements (one per sensor, as H)" % len(H))
+            vals.append(z[i])
+        y.append({"k": ks, "values": vals})
+    name = cj.get("name")
+    return ({"model": model, "init": {"x00": cj["x0"], "P00": cj["P0"]}, "y": y,
+             "N": len(steps)}, name if isinstance(name, str) else "")
 
 
 class _Group:
@@ -473,18 +565,20 @@ def _plain(v: Any) -> Any:
 
 def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
                  run: int = 0, *, d00: Optional[Sequence[float]] = None,
-                 Pd00_scale: Optional[float] = None,
+                 Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
                  name: Optional[str] = None) -> Dict[str, Any]:
     """Run filter `filter` over a scenario; the dict `dkf-run --output` writes.
 
     scenario: a path to a scenario JSON file, or the scenario as a dict
-    (docs/reference/scenario-format.md, canonical layout). filter: one of
+    (docs/reference/scenario-format.md: the canonical layout, or the linear
+    cases layout with kf and info). filter: one of
     SUPPORTED_FILTERS ("kf", "info", "dkf", "askf", "otskf"). run: the
     Monte-Carlo run (dkf-run --run). d00, Pd00_scale: dkf-run's --d00 and
-    --Pd00-scale (askf, otskf). name: the document's "scenario" (default:
-    the path as given, "<dict>" for a dict).
+    --Pd00-scale (askf, otskf). case: a cases-layout file's case, a name or
+    an index (dkf-run --case; default 0). name: the document's "scenario"
+    (default: the path as given, "<dict>" for a dict).
 
-    Returns {"scenario", "filter", "real", "k", "outputs"}, every number
+    Returns {"scenario", ("case",) "filter", "real", "k", "outputs"}, every number
     the one dkf-run writes. A file this runner cannot read (another layout,
     a filter it does not run) raises ValueError naming it; a failed filter
     call raises the dkf.Error of the call.
@@ -507,6 +601,13 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     if Pd00_scale is not None and not (np.isfinite(Pd00_scale) and Pd00_scale > 0):
         raise ValueError("run_scenario: Pd00_scale %r: expected a finite number > 0"
                          % (Pd00_scale,))
+    case_name = None
+    if isinstance(doc, dict) and "cases" in doc and "steps" not in doc:
+        if run != 0:
+            raise _fail(file, "--run %d" % run, "the file has 1 run (0..0)")
+        doc, case_name = _from_case(doc, file, case)
+    elif case is not None:
+        raise _fail(file, "cases", "case given but the file has no cases")
     s = _Scenario(doc, file, run)
     if filter in _INPUT_PRIOR:
         if s.multi:
@@ -536,6 +637,8 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     outputs: Dict[str, Any] = {}
     for label, e in ests:
         ser = dict(e.series)
+        if case_name is not None:
+            ser = {_CASE_NAMES.get(key, key): v for key, v in ser.items()}
         for key in ("messages", "fc_recovered"):
             if key in ser:
                 outputs[key] = ser.pop(key)
@@ -543,5 +646,9 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
             outputs.setdefault("local", []).append(ser)
         else:
             outputs[label] = ser
-    return _plain({"scenario": file, "filter": filter, "real": "double",
-                   "k": list(range(1, s.steps + 1)), "outputs": outputs})
+    head: Dict[str, Any] = {"scenario": file}
+    if case_name is not None:
+        head["case"] = case_name
+    head.update({"filter": filter, "real": "double", "k": list(range(1, s.steps + 1)),
+                 "outputs": outputs})
+    return _plain(head)

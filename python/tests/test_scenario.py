@@ -80,6 +80,31 @@ def test_equals_dkf_run(scn: Path, filt: str, tmp_path: Path, monkeypatch) -> No
     same(dkf.run_scenario(rel(scn), filter=filt), expected)
 
 
+LIF = VECTORS / "infofusion" / "lif_central_fusion.json"
+LIF_CASES = [c.get("name", "") for c in json.loads(LIF.read_text(encoding="utf-8"))["cases"]]
+
+
+@pytest.mark.parametrize("filt", ["kf", "info"])
+@pytest.mark.parametrize("case", range(len(LIF_CASES)))
+def test_cases_layout_equals_dkf_run(case: int, filt: str, tmp_path: Path, monkeypatch) -> None:
+    """Every case of the cases-layout vector, by index and by name, and in the old letter C."""
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "out.json"
+    r = dkf_run(rel(LIF), filt, out, "--case", str(case))
+    assert r.returncode == 0, r.stderr
+    with open(out, encoding="utf-8") as f:
+        expected = json.load(f)
+    assert "case" in expected
+    same(dkf.run_scenario(rel(LIF), filter=filt, case=case), expected)
+    if LIF_CASES[case]:
+        by_name = dkf.run_scenario(rel(LIF), filter=filt, case=LIF_CASES[case])
+        same(by_name, expected)
+    doc = json.loads(LIF.read_text(encoding="utf-8"))
+    for c in doc["cases"]:
+        c["C"] = c.pop("H")
+    same(dkf.run_scenario(doc, filter=filt, case=case, name=rel(LIF)), expected)
+
+
 def test_every_shipped_file_and_filter_compared(monkeypatch, tmp_path: Path) -> None:
     """The comparison above is not vacuous: dkf-run runs most pairs."""
     monkeypatch.chdir(ROOT)
@@ -157,10 +182,19 @@ def test_refusals() -> None:
     ex1 = VECTORS / "diffkf" / "ex1_single.json"
     with pytest.raises(ValueError, match="filter 'rtsf'.*dkf-run"):
         dkf.run_scenario(ex1, filter="rtsf")
-    with pytest.raises(ValueError, match="steps: run_scenario reads the canonical layout"):
+    with pytest.raises(ValueError, match="steps: run_scenario reads the canonical and the linear"):
         dkf.run_scenario(VECTORS / "uif" / "s004_rtsf.json", filter="kf")
-    with pytest.raises(ValueError, match="cases: run_scenario reads the canonical layout"):
-        dkf.run_scenario(VECTORS / "infofusion" / "lif_central_fusion.json", filter="info")
+    with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):
+        dkf.run_scenario(VECTORS / "infofusion" / "nertsif.json", filter="info")
+    with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):
+        dkf.run_scenario(VECTORS / "infofusion" / "s2_weighted_fusion.json", filter="kf")
+    lif = VECTORS / "infofusion" / "lif_central_fusion.json"
+    with pytest.raises(ValueError, match="no case named 'nope'"):
+        dkf.run_scenario(lif, filter="info", case="nope")
+    with pytest.raises(ValueError, match=r"model.sensors\[0\].D: missing key"):
+        dkf.run_scenario(lif, filter="dkf")
+    with pytest.raises(ValueError, match="case given but the file has no cases"):
+        dkf.run_scenario(ex1, filter="kf", case=0)
     with pytest.raises(ValueError, match="single-sensor"):
         dkf.run_scenario(VECTORS / "diffkf" / "tv3_multi.json", filter="askf")
     with pytest.raises(ValueError, match="only for askf and otskf"):

@@ -29,14 +29,21 @@ def _write(doc: Dict[str, Any], path: str) -> None:
         fh.write("\n")
 
 
+def _xf(ser: Any) -> Optional[List[List[float]]]:
+    """x_{k|k} of one estimator's series: `xf` (canonical layout) or `x` (cases, steps)."""
+    if not isinstance(ser, dict):
+        return None
+    return ser.get("xf", ser.get("x"))
+
+
 def _estimates(out: Dict[str, Any]) -> List[Tuple[str, List[List[float]]]]:
     """(label, x_{k|k} per step) of every estimator of a run_scenario document."""
     found = []
     for label, ser in out.get("outputs", {}).items():
         if label == "local":
-            found += [("local[%d]" % i, s["xf"]) for i, s in enumerate(ser) if "xf" in s]
-        elif isinstance(ser, dict) and "xf" in ser:
-            found.append((label, ser["xf"]))
+            found += [("local[%d]" % i, _xf(s)) for i, s in enumerate(ser) if _xf(s)]
+        elif _xf(ser):
+            found.append((label, _xf(ser)))
     return found
 
 
@@ -55,7 +62,7 @@ def _plot(args: argparse.Namespace) -> int:
         out = json.load(fh)
     est = _estimates(out)
     if not est:
-        print("python -m dkf plot: %s: no estimates (outputs.*.xf) to plot" % args.out_json,
+        print("python -m dkf plot: %s: no estimates (outputs.*.xf or .x) to plot" % args.out_json,
               file=sys.stderr)
         return 2
     truth = None

@@ -25,8 +25,12 @@ _FUSED = ("info", "dkf")  # the kinds with a fused estimator (several sensors)
 _NEEDS_UI = ("dkf", "askf", "otskf")
 _INPUT_PRIOR = ("askf", "otskf")
 
-SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS)
-"""The --filter names run_scenario runs (the canonical layout; kf and info the cases layout too)."""
+_UIF = ("rtsf", "nrtsf_df", "nrtsf")  # the seed-004 steps layout (_steps.py)
+
+SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF
+"""The --filter names run_scenario runs: kf, info, dkf, askf, otskf over the
+canonical layout (kf and info the linear cases layout too); rtsf, nrtsf_df,
+nrtsf over the seed-004 steps layout."""
 
 # The keys of the canonical layout (scn_canonical.c); the vector files' own
 # top-level keys are accepted and ignored, strings are comments.
@@ -112,7 +116,8 @@ def _numbers(file: str, path: str, value: Any, depth: int) -> np.ndarray:
     return A
 
 
-def _series(file: str, path: str, value: Any, vkey: str, dim: Optional[int]) -> Dict[int, np.ndarray]:
+def _series(file: str, path: str, value: Any, vkey: str,
+            dim: Optional[int]) -> Dict[int, np.ndarray]:
     if not isinstance(value, dict) or vkey not in value:
         raise _fail(file, path, 'expected {"k": [...], "%s": [...]}' % vkey)
     vals = value[vkey]
@@ -288,7 +293,8 @@ _CASE_NAMES = {"xp": "x_pred", "Pp": "P_pred", "xf": "x", "Pf": "P", "yp": "y_pr
                "Yp": "Y_pred", "yf": "y", "Yf": "Y"}
 
 
-def _from_case(doc: Dict[str, Any], file: str, case: Union[int, str, None]) -> Tuple[Dict[str, Any], str]:
+def _from_case(doc: Dict[str, Any], file: str,
+               case: Union[int, str, None]) -> Tuple[Dict[str, Any], str]:
     """The selected case of a cases-layout document as a canonical one (scn_cases.c), and its
     name."""
     cases = doc["cases"]
@@ -583,7 +589,7 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     a filter it does not run) raises ValueError naming it; a failed filter
     call raises the dkf.Error of the call.
     """
-    if filter not in _LABELS:
+    if filter not in SUPPORTED_FILTERS:
         raise ValueError("run_scenario: filter %r: not run from Python (this runner takes %s; "
                          "dkf-run runs the others)" % (filter, ", ".join(SUPPORTED_FILTERS)))
     if isinstance(scenario, dict):
@@ -601,6 +607,19 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     if Pd00_scale is not None and not (np.isfinite(Pd00_scale) and Pd00_scale > 0):
         raise ValueError("run_scenario: Pd00_scale %r: expected a finite number > 0"
                          % (Pd00_scale,))
+    steps_layout = isinstance(doc, dict) and "steps" in doc and "y" not in doc and "runs" not in doc
+    if steps_layout and filter not in _UIF:
+        raise _fail(file, "steps", "filter %s reads the canonical or the cases layout, not this "
+                    "file's steps layout (run it with %s)" % (filter, ", ".join(_UIF)))
+    if filter in _UIF and not steps_layout:
+        raise _fail(file, "steps", "missing key (filter %s reads the seed-004 steps layout)"
+                    % filter)
+    if steps_layout:
+        if run != 0 or case is not None or d00 is not None or Pd00_scale is not None:
+            raise _fail(file, "steps", "run, case, d00 and Pd00_scale: not for the steps layout")
+        from ._steps import run_uif  # (it imports this module's reader)
+
+        return run_uif(doc, file, filter)
     case_name = None
     if isinstance(doc, dict) and "cases" in doc and "steps" not in doc:
         if run != 0:

@@ -9,10 +9,11 @@ centre, and a plain Kalman filter for comparison (docs/guide/python.md,
 A target moves along a line with a nearly constant velocity, x = [position,
 velocity]. Two sensors measure its position, each with a bias of its own
 that drifts (d_{k+1} = 0.8 d_k + wd_k: a bias of a standard deviation of
-1.18 that wanders over a few steps, five times the sensors' noise). The plain KF on both sensors' measurements knows
-nothing of the biases and takes them for position; the Difference KF removes each sensor's bias by
-differencing its measurements, and the fusion centre combines the two nodes'
-messages into the centralized Difference-KF estimate.
+1.18 that wanders over a few steps, five times the sensors' noise). The
+plain KF on both sensors' measurements knows nothing of the biases and
+takes them for position; the Difference KF removes each sensor's bias by
+differencing its measurements, and the fusion centre combines the two
+nodes' messages into the centralized Difference-KF estimate.
 
 The script checks what the guide says and exits 1 if one does not hold:
 the fused estimate's position RMSE is below the plain KF's and below each

@@ -78,3 +78,17 @@ def test_plot_needs_estimates(tmp_path: Path, capsys) -> None:
     empty = write(tmp_path / "e.json", {"k": [1], "outputs": {}})
     assert main(["plot", empty, "-o", str(tmp_path / "x.png")]) == 2
     assert "no estimates" in capsys.readouterr().err
+
+
+def test_plot_steps_layout(tmp_path: Path) -> None:
+    """A steps-layout output (x, not xf) plots too, and its "k" from 0."""
+    pytest.importorskip("matplotlib", reason="matplotlib is not installed: plot not tested")
+    from conftest import VECTORS
+
+    out = str(tmp_path / "out.json")
+    assert main(["run", str(VECTORS / "uif" / "s004_rtsf.json"), "--filter", "rtsf", "-o",
+                 out]) == 0
+    png = tmp_path / "x.png"
+    assert main(["plot", out, "-o", str(png)]) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+

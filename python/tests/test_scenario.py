@@ -105,6 +105,79 @@ def test_cases_layout_equals_dkf_run(case: int, filt: str, tmp_path: Path, monke
     same(dkf.run_scenario(doc, filter=filt, case=case, name=rel(LIF)), expected)
 
 
+UIF_FILES = sorted((VECTORS / "uif").glob("s004_*.json"))
+
+
+@pytest.mark.parametrize("filt", ["rtsf", "nrtsf_df", "nrtsf"])
+@pytest.mark.parametrize("scn", UIF_FILES, ids=lambda p: p.stem)
+def test_steps_layout_equals_dkf_run(scn: Path, filt: str, tmp_path: Path, monkeypatch) -> None:
+    """Every seed-004 vector with every UIF filter: equal where dkf-run runs it, refused
+    where it refuses."""
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "out.json"
+    r = dkf_run(rel(scn), filt, out)
+    if r.returncode == 2:
+        with pytest.raises(ValueError):
+            dkf.run_scenario(rel(scn), filter=filt)
+        return
+    if r.returncode == 3:  # a filter call failed: the same call fails from Python
+        assert "rank condition" in r.stderr
+        with pytest.raises(dkf.RankError):
+            dkf.run_scenario(rel(scn), filter=filt)
+        return
+    assert r.returncode == 0, r.stderr
+    with open(out, encoding="utf-8") as f:
+        same(dkf.run_scenario(rel(scn), filter=filt), json.load(f))
+
+
+def per_step(doc: dict) -> dict:
+    """The seed-004 model written per step: F, G, Q as *_prev (k >= 1), H, D, R at k."""
+    tv = copy.deepcopy(doc)
+    model = tv.pop("model")
+    tv["model"] = None
+    for t in tv["steps"]:
+        for key in ("H", "D", "R"):
+            if key in model:
+                t["inputs"][key] = model[key]
+        if t["k"] >= 1:
+            for key in ("F", "G", "Q"):
+                t["inputs"][key + "_prev"] = model[key]
+    return tv
+
+
+def old_steps_letters(doc: dict) -> dict:
+    """Seed 004 in the paper's letters: F, H, D written A, C, H."""
+    old = copy.deepcopy(doc)
+    for obj in [old["model"]] + [t["inputs"] for t in old["steps"]]:
+        for new, was in (("F", "A"), ("H", "C"), ("D", "H")):
+            for suffix in ("", "_prev"):
+                if new + suffix in obj:
+                    obj["tmp_" + was + suffix] = obj.pop(new + suffix)
+        for key in [k for k in obj if k.startswith("tmp_")]:
+            obj[key[4:]] = obj.pop(key)
+    return old
+
+
+@pytest.mark.parametrize("form", ["per_step", "old_letters"])
+@pytest.mark.parametrize("name,filt", [("s004_rtsf", "rtsf"), ("s004_nrtsf_df", "nrtsf_df"),
+                                       ("s004_nrtsf", "nrtsf")])
+def test_steps_layout_forms(name: str, filt: str, form: str, tmp_path: Path) -> None:
+    """The model given per step, and the old letters: the constant model's output, as dkf-run
+    gives it."""
+    with open(VECTORS / "uif" / (name + ".json"), encoding="utf-8") as f:
+        doc = json.load(f)
+    other = per_step(doc) if form == "per_step" else old_steps_letters(doc)
+    path = tmp_path / "tv.json"
+    path.write_text(json.dumps(other))
+    r = dkf_run(str(path), filt, tmp_path / "o.json")
+    assert r.returncode == 0, r.stderr
+    with open(tmp_path / "o.json", encoding="utf-8") as f:
+        expected = json.load(f)
+    got = dkf.run_scenario(str(path), filter=filt)
+    same(got, expected)
+    same(got["outputs"], dkf.run_scenario(doc, filter=filt)["outputs"])
+
+
 def test_every_shipped_file_and_filter_compared(monkeypatch, tmp_path: Path) -> None:
     """The comparison above is not vacuous: dkf-run runs most pairs."""
     monkeypatch.chdir(ROOT)
@@ -180,10 +253,14 @@ def test_old_letters_equal_dkf_run(tmp_path: Path) -> None:
 
 def test_refusals() -> None:
     ex1 = VECTORS / "diffkf" / "ex1_single.json"
-    with pytest.raises(ValueError, match="filter 'rtsf'.*dkf-run"):
-        dkf.run_scenario(ex1, filter="rtsf")
-    with pytest.raises(ValueError, match="steps: run_scenario reads the canonical and the linear"):
+    with pytest.raises(ValueError, match="filter 'tw1'.*dkf-run"):
+        dkf.run_scenario(ex1, filter="tw1")
+    with pytest.raises(ValueError, match="steps: filter kf reads the canonical or the cases"):
         dkf.run_scenario(VECTORS / "uif" / "s004_rtsf.json", filter="kf")
+    with pytest.raises(ValueError, match="steps: missing key .filter rtsf"):
+        dkf.run_scenario(ex1, filter="rtsf")
+    with pytest.raises(ValueError, match="graph: a seed-003 network file"):
+        dkf.run_scenario(VECTORS / "uif" / "s003_6node.json", filter="rtsf")
     with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):
         dkf.run_scenario(VECTORS / "infofusion" / "nertsif.json", filter="info")
     with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):

@@ -26,11 +26,15 @@ _NEEDS_UI = ("dkf", "askf", "otskf")
 _INPUT_PRIOR = ("askf", "otskf")
 
 _UIF = ("rtsf", "nrtsf_df", "nrtsf")  # the seed-004 steps layout (_steps.py)
+# seed 002's weighted-fusion cases (_wfcases.py)
+_WF = ("local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady", "central_kf")
 
-SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF
+SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _WF
 """The --filter names run_scenario runs: kf, info, dkf, askf, otskf over the
-canonical layout (kf and info the linear cases layout too); rtsf, nrtsf_df,
-nrtsf over the seed-004 steps layout."""
+canonical layout (kf and info the linear and weighted-fusion cases too);
+rtsf, nrtsf_df, nrtsf over the seed-004 steps layout; local_kf,
+fusion_scalar, fusion_matrix, fusion_steady, central_kf over seed 002's
+weighted-fusion cases."""
 
 # The keys of the canonical layout (scn_canonical.c); the vector files' own
 # top-level keys are accepted and ignored, strings are comments.
@@ -294,9 +298,9 @@ _CASE_NAMES = {"xp": "x_pred", "Pp": "P_pred", "xf": "x", "Pf": "P", "yp": "y_pr
 
 
 def _from_case(doc: Dict[str, Any], file: str,
-               case: Union[int, str, None]) -> Tuple[Dict[str, Any], str]:
-    """The selected case of a cases-layout document as a canonical one (scn_cases.c), and its
-    name."""
+               case: Union[int, str, None]) -> Tuple[Dict[str, Any], str, bool]:
+    """The selected case of a cases-layout document as a canonical one (scn_cases.c,
+    scn_wfcases.c), its name, and whether it is a weighted-fusion case."""
     cases = doc["cases"]
     if not isinstance(cases, list) or not cases:
         raise _fail(file, "cases", "expected a non-empty list of cases")
@@ -318,9 +322,15 @@ def _from_case(doc: Dict[str, Any], file: str,
     cj = cases[idx]
     if not isinstance(cj, dict):
         raise _fail(file, cpath, "expected an object")
-    if "model" in cj or "node_models" in cj or "Phi" in cj:
-        raise _fail(file, cpath, "a nonlinear or weighted-fusion case: run_scenario reads the "
-                    "canonical and the linear cases layouts only; run this file with dkf-run")
+    if "model" in cj or "node_models" in cj:
+        raise _fail(file, cpath, "a nonlinear case: run_scenario does not run the nonlinear "
+                    "filters; run this file with dkf-run")
+    cname = cj.get("name")
+    cname = cname if isinstance(cname, str) else ""
+    from ._wfcases import canonical, is_wfcase  # (it imports this module's reader)
+
+    if is_wfcase(cj):
+        return canonical(cj, file, cpath), cname, True
     if "C" in cj:
         if "H" in cj:
             raise _fail(file, cpath, "C and H: the old and the library's letter for one "
@@ -369,9 +379,8 @@ def _from_case(doc: Dict[str, Any], file: str,
                             "expected a list of %d measurements (one per sensor, as H)" % len(H))
             vals.append(z[i])
         y.append({"k": ks, "values": vals})
-    name = cj.get("name")
     return ({"model": model, "init": {"x00": cj["x0"], "P00": cj["P0"]}, "y": y,
-             "N": len(steps)}, name if isinstance(name, str) else "")
+             "N": len(steps)}, cname, False)
 
 
 class _Group:
@@ -620,13 +629,26 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
         from ._steps import run_uif  # (it imports this module's reader)
 
         return run_uif(doc, file, filter)
-    case_name = None
+    case_name, wf = None, False
     if isinstance(doc, dict) and "cases" in doc and "steps" not in doc:
         if run != 0:
             raise _fail(file, "--run %d" % run, "the file has 1 run (0..0)")
-        doc, case_name = _from_case(doc, file, case)
+        doc, case_name, wf = _from_case(doc, file, case)
     elif case is not None:
         raise _fail(file, "cases", "case given but the file has no cases")
+    if filter in _WF and not wf:
+        raise _fail(file, "cases", "filter %s reads a weighted-fusion case (Phi, Gamma, Qe, "
+                    "H_signal: seed 002)" % filter)
+    if wf and filter not in _WF + ("kf", "info"):
+        raise _fail(file, "cases", "filter %s reads the canonical or a linear cases layout, "
+                    "not this weighted-fusion case (run it with %s, kf or info)"
+                    % (filter, ", ".join(_WF)))
+    if wf:
+        from ._wfcases import run_wfusion
+
+        if filter in _WF:
+            return run_wfusion(doc, file, case_name or "", filter)
+        doc = {key: v for key, v in doc.items() if key != "_Hs"}
     s = _Scenario(doc, file, run)
     if filter in _INPUT_PRIOR:
         if s.multi:
@@ -656,7 +678,7 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     outputs: Dict[str, Any] = {}
     for label, e in ests:
         ser = dict(e.series)
-        if case_name is not None:
+        if case_name is not None and not wf:
             ser = {_CASE_NAMES.get(key, key): v for key, v in ser.items()}
         for key in ("messages", "fc_recovered"):
             if key in ser:

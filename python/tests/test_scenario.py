@@ -13,6 +13,7 @@ import json
 import math
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -81,6 +82,37 @@ def test_equals_dkf_run(scn: Path, filt: str, tmp_path: Path, monkeypatch) -> No
 
 
 LIF = VECTORS / "infofusion" / "lif_central_fusion.json"
+WF = VECTORS / "infofusion" / "s2_weighted_fusion.json"
+
+
+def test_generated_weighted_fusion_case(tmp_path: Path) -> None:
+    """A scenario of tools/make_wf_scenario.py (t and y only, 3 sensors): as dkf-run."""
+    scn = tmp_path / "wf.json"
+    subprocess.run([sys.executable, str(ROOT / "tools" / "make_wf_scenario.py"), "--steps",
+                    "40", "--sensors", "3", "--seed", "5", "--out", str(scn)], check=True)
+    for filt in ("local_kf", "fusion_steady", "central_kf"):
+        r = dkf_run(str(scn), filt, tmp_path / "o.json")
+        assert r.returncode == 0, r.stderr
+        with open(tmp_path / "o.json", encoding="utf-8") as f:
+            same(dkf.run_scenario(str(scn), filter=filt), json.load(f))
+
+
+def lif_path() -> Path:
+    return LIF
+
+
+@pytest.mark.parametrize("filt", ["local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady",
+                                  "central_kf", "kf", "info"])
+def test_weighted_fusion_case_equals_dkf_run(filt: str, tmp_path: Path, monkeypatch) -> None:
+    """Seed 002's vector with every wfusion filter run from Python (fusion_selftune is
+    dkf-run's), and the linear estimators on it."""
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "out.json"
+    r = dkf_run(rel(WF), filt, out)
+    assert r.returncode == 0, r.stderr
+    with open(out, encoding="utf-8") as f:
+        expected = json.load(f)
+    same(dkf.run_scenario(rel(WF), filter=filt), expected)
 LIF_CASES = [c.get("name", "") for c in json.loads(LIF.read_text(encoding="utf-8"))["cases"]]
 
 
@@ -261,10 +293,15 @@ def test_refusals() -> None:
         dkf.run_scenario(ex1, filter="rtsf")
     with pytest.raises(ValueError, match="graph: a seed-003 network file"):
         dkf.run_scenario(VECTORS / "uif" / "s003_6node.json", filter="rtsf")
-    with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):
+    with pytest.raises(ValueError, match="a nonlinear case"):
         dkf.run_scenario(VECTORS / "infofusion" / "nertsif.json", filter="info")
-    with pytest.raises(ValueError, match="nonlinear or weighted-fusion case"):
-        dkf.run_scenario(VECTORS / "infofusion" / "s2_weighted_fusion.json", filter="kf")
+    wf = VECTORS / "infofusion" / "s2_weighted_fusion.json"
+    with pytest.raises(ValueError, match="not this weighted-fusion case"):
+        dkf.run_scenario(wf, filter="dkf")
+    with pytest.raises(ValueError, match="filter fusion_scalar reads a weighted-fusion case"):
+        dkf.run_scenario(lif_path(), filter="fusion_scalar")
+    with pytest.raises(ValueError, match="filter 'fusion_selftune'.*dkf-run"):
+        dkf.run_scenario(wf, filter="fusion_selftune")
     lif = VECTORS / "infofusion" / "lif_central_fusion.json"
     with pytest.raises(ValueError, match="no case named 'nope'"):
         dkf.run_scenario(lif, filter="info", case="nope")

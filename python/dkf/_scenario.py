@@ -436,6 +436,7 @@ class _Est:
     def __init__(self, kind: str, s: _Scenario, idx: Sequence[int], P0: np.ndarray,
                  fused: bool, opts: Dict[str, Any]) -> None:
         self.kind, self.s, self.fused = kind, s, fused
+        self.core = core = opts["core"]
         self.series: Dict[str, list] = {}
         ui = kind in _NEEDS_UI
         self.groups = [_Group(s, [i], ui) for i in idx] if fused else [_Group(s, idx, ui)]
@@ -444,26 +445,26 @@ class _Est:
         g = self.groups[0]
         if kind == "kf":
             m0 = g.meas(1)
-            self.f = _core.KalmanFilter(F=F0, Q=Q0, H=m0["H"], R=m0["R"], x0=x0, P0=P0)
+            self.f = core.KalmanFilter(F=F0, Q=Q0, H=m0["H"], R=m0["R"], x0=x0, P0=P0)
         elif kind == "info":
-            self.f = _core.InformationFilter(F=F0, Q=Q0, x0=x0, P0=P0)
+            self.f = core.InformationFilter(F=F0, Q=Q0, x0=x0, P0=P0)
         elif kind in _INPUT_PRIOR:
             d00 = opts.get("d00")
             d0 = (np.asarray(d00, dtype=np.float64) if d00 is not None
                   else s.init["d00"].reshape(-1))
             scale = opts.get("Pd00_scale") or 1.0
             Pd0 = np.asarray(scale * s.init["Pd00"], dtype=np.float64)
-            cls = _core.ASKF if kind == "askf" else _core.OTSKF
+            cls = core.ASKF if kind == "askf" else core.OTSKF
             self.f = cls(x0, P0, d0, Pd0, m=g.m)
         elif not fused:  # dkf, stacked: start with F_0, Q_0 and y_1
-            self.f = _core.DifferenceKF(x0, P0, m=g.m, p=g.p)
+            self.f = core.DifferenceKF(x0, P0, m=g.m, p=g.p)
             m1 = g.meas(1)
             self.f.start(m1["y"], m1["H"], m1["D"], m1["R"], F0=F0, Q0=Q0)
         else:  # dkf, fused: a node filter per sensor and the fusion centre
             self.nodes = []
             for gi, i in zip(self.groups, idx):
-                self.nodes.append(_core.DifferenceKF(x0, s.P00_local(i), m=gi.m, p=gi.p))
-            self.f = _core.DiffKFFusionCentre(
+                self.nodes.append(core.DifferenceKF(x0, s.P00_local(i), m=gi.m, p=gi.p))
+            self.f = core.DiffKFFusionCentre(
                 x0, P0, m=[gi.m for gi in self.groups], p=[gi.p for gi in self.groups],
                 P0_local=[s.P00_local(i) for i in idx])
             sensors = []
@@ -514,7 +515,7 @@ class _Est:
         if self.kind == "kf":
             f.update(meas[0]["y"], H=meas[0]["H"], R=meas[0]["R"])
         elif self.kind == "info":
-            contrib = [_core.info_contribution(mi["y"], mi["H"], mi["R"]) for mi in meas]
+            contrib = [self.core.info_contribution(mi["y"], mi["H"], mi["R"]) for mi in meas]
             if self.fused:
                 ser.setdefault("i", []).append([np.reshape(c[0], -1).tolist() for c in contrib])
                 ser.setdefault("I", []).append([np.reshape(c[1], (n, n)).tolist()
@@ -567,6 +568,11 @@ class _Est:
             ser.setdefault("fc_recovered", []).append(rec)
 
 
+def real_name(core: Any) -> str:
+    """dkf-run's "real" of a core module: "double" or "float"."""
+    return "float" if core.dtype == "float32" else "double"
+
+
 def _plain(v: Any) -> Any:
     """Arrays inside dicts and lists as lists of floats."""
     if isinstance(v, np.ndarray):
@@ -598,6 +604,15 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     a filter it does not run) raises ValueError naming it; a failed filter
     call raises the dkf.Error of the call.
     """
+    return run_with(_core, scenario, filter, run, d00=d00, Pd00_scale=Pd00_scale, case=case,
+                    name=name)
+
+
+def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
+             run: int = 0, *, d00: Optional[Sequence[float]] = None,
+             Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
+             name: Optional[str] = None) -> Dict[str, Any]:
+    """run_scenario over the filters of `core` (_dkf_double or _dkf_float)."""
     if filter not in SUPPORTED_FILTERS:
         raise ValueError("run_scenario: filter %r: not run from Python (this runner takes %s; "
                          "dkf-run runs the others)" % (filter, ", ".join(SUPPORTED_FILTERS)))
@@ -628,7 +643,7 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
             raise _fail(file, "steps", "run, case, d00 and Pd00_scale: not for the steps layout")
         from ._steps import run_uif  # (it imports this module's reader)
 
-        return run_uif(doc, file, filter)
+        return run_uif(core, doc, file, filter)
     case_name, wf = None, False
     if isinstance(doc, dict) and "cases" in doc and "steps" not in doc:
         if run != 0:
@@ -647,7 +662,7 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
         from ._wfcases import run_wfusion
 
         if filter in _WF:
-            return run_wfusion(doc, file, case_name or "", filter)
+            return run_wfusion(core, doc, file, case_name or "", filter)
         doc = {key: v for key, v in doc.items() if key != "_Hs"}
     s = _Scenario(doc, file, run)
     if filter in _INPUT_PRIOR:
@@ -661,7 +676,7 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
         for key in (("Pd00",) if d00 is not None else ("d00", "Pd00")):
             if key not in s.init:
                 raise _fail(file, "init." + key, "missing key (filter %s needs it)" % filter)
-    opts = {"d00": d00, "Pd00_scale": Pd00_scale}
+    opts = {"d00": d00, "Pd00_scale": Pd00_scale, "core": core}
     P0c = s.P00_central()
     L = len(s.sensors)
     if not s.multi:
@@ -690,6 +705,6 @@ def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filte
     head: Dict[str, Any] = {"scenario": file}
     if case_name is not None:
         head["case"] = case_name
-    head.update({"filter": filter, "real": "double", "k": list(range(1, s.steps + 1)),
+    head.update({"filter": filter, "real": real_name(core), "k": list(range(1, s.steps + 1)),
                  "outputs": outputs})
     return _plain(head)

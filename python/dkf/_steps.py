@@ -13,8 +13,7 @@ from typing import Any, Dict, List, Optional
 
 import numpy as np
 
-from . import _dkf_double as _core
-from ._scenario import _Mat, _comment, _fail, _numbers
+from ._scenario import _Mat, _comment, _fail, _numbers, real_name
 
 UIF_LABELS = {"rtsf": "RTSF", "nrtsf_df": "NRTSF_DF", "nrtsf": "NRTSF"}
 _LETTERS = ("F", "G", "Q", "H", "D", "R")
@@ -128,7 +127,7 @@ def _put(series: Dict[str, list], key: str, A: Any, as_matrix: bool = False) -> 
     series.setdefault(key, []).append(A.tolist())
 
 
-def run_uif(doc: Dict[str, Any], file: str, filter: str) -> Dict[str, Any]:
+def run_uif(core: Any, doc: Dict[str, Any], file: str, filter: str) -> Dict[str, Any]:
     """The document dkf-run --filter rtsf|nrtsf_df|nrtsf writes for a seed-004 file."""
     s = _Steps(doc, file)
     kind = UIF_LABELS[filter]
@@ -146,7 +145,7 @@ def run_uif(doc: Dict[str, Any], file: str, filter: str) -> Dict[str, Any]:
         if s.times[0] != 0:
             raise _fail(file, "steps[0].k", "filter %s starts at k = 0 ((x0, P0) is the prior "
                         "of x_0), got %d" % (filter, s.times[0]))
-    f = _core.UIF(s.x0.reshape(-1), s.P0, m=s.at("H", 0).shape[0], p=s.first("G").shape[1],
+    f = core.UIF(s.x0.reshape(-1), s.P0, m=s.at("H", 0).shape[0], p=s.first("G").shape[1],
                   kind=kind)
     ser: Dict[str, list] = {}
     for j, k in enumerate(s.times):
@@ -166,5 +165,5 @@ def run_uif(doc: Dict[str, Any], file: str, filter: str) -> Dict[str, Any]:
         ser.setdefault("estimable", []).append([int(e) for e in f.estimable])
         ser.setdefault("bias_risk", []).append(int(f.bias_risk))
         ser.setdefault("bias_steps", []).append(int(f.bias_steps))
-    return {"scenario": file, "filter": filter, "real": "double", "k": list(s.times),
+    return {"scenario": file, "filter": filter, "real": real_name(core), "k": list(s.times),
             "outputs": {UIF_LABELS[filter]: ser}}

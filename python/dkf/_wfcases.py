@@ -14,8 +14,7 @@ from typing import Any, Dict, List, Tuple
 
 import numpy as np
 
-from . import _dkf_double as _core
-from ._scenario import _fail, _matrix, _numbers
+from ._scenario import _fail, _matrix, _numbers, real_name
 
 WF_LABELS = {"local_kf": "LOCAL_KF", "fusion_scalar": "FUSION_SCALAR",
              "fusion_matrix": "FUSION_MATRIX", "fusion_steady": "FUSION_STEADY",
@@ -86,7 +85,8 @@ def _blocks(A: np.ndarray, n: int, rows: int, cols: int) -> List[Any]:
             for i in range(rows)]
 
 
-def run_wfusion(doc: Dict[str, Any], file: str, case_name: str, filter: str) -> Dict[str, Any]:
+def run_wfusion(core: Any, doc: Dict[str, Any], file: str, case_name: str,
+                filter: str) -> Dict[str, Any]:
     """The document dkf-run --filter <wfusion filter> writes for a weighted-fusion case."""
     n = len(doc["init"]["x00"])
     F = _matrix(file, "Phi", doc["model"]["F"])
@@ -99,7 +99,7 @@ def run_wfusion(doc: Dict[str, Any], file: str, case_name: str, filter: str) -> 
     l = len(H)
     x0 = _numbers(file, "x_hat0", doc["init"]["x00"], 1)
     P0 = _matrix(file, "P0", doc["init"]["P00"])
-    w = _core.WeightedFusion(x0, P0, Hs.reshape(-1), m=m)
+    w = core.WeightedFusion(x0, P0, Hs.reshape(-1), m=m)
     ser: Dict[str, Any] = {}
     once: Dict[str, Any] = {}
     kf = None
@@ -109,8 +109,9 @@ def run_wfusion(doc: Dict[str, Any], file: str, case_name: str, filter: str) -> 
         for Ri, mi in zip(R, m):
             Rc[r0:r0 + mi, r0:r0 + mi] = Ri
             r0 += mi
-        kf = _core.KalmanFilter(F=F, Q=Q, H=Hc, R=Rc, x0=x0, P0=P0)
-    hs = Hs.reshape(-1).tolist()
+        kf = core.KalmanFilter(F=F, Q=Q, H=Hc, R=Rc, x0=x0, P0=P0)
+    # s_local sums Hs_j x_j in double over the core's reals (wfusion_run.c's per_node)
+    hs = Hs.reshape(-1).astype(core.dtype).astype(np.float64).tolist()
 
     def put(dst: Dict[str, Any], key: str, value: Any, steady: bool) -> None:
         if steady:
@@ -181,5 +182,5 @@ def run_wfusion(doc: Dict[str, Any], file: str, case_name: str, filter: str) -> 
             put(ser, "steps_s_fused", float(w.s0), False)
             put(ser, "steps_x_fused_matrix", np.reshape(w.xf, -1).tolist(), False)
     once.update(ser)
-    return {"scenario": file, "case": case_name, "filter": filter, "real": "double",
+    return {"scenario": file, "case": case_name, "filter": filter, "real": real_name(core),
             "k": list(range(1, N + 1)), "outputs": {WF_LABELS[filter]: once}}

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 import dkf
+import dkf.float32
 
 from conftest import ROOT, VECTORS
 
@@ -27,19 +28,29 @@ CANONICAL = sorted((VECTORS / "diffkf").glob("*.json")) + [ROOT / "scenarios" / 
 FILTERS = list(dkf.SUPPORTED_FILTERS)
 
 
-def dkf_run_path() -> str:
-    path = os.environ.get("DKF_RUN")
+def built_exe(var: str, what: str) -> str:
+    """The executable environment variable var names; the test is skipped without it."""
+    path = os.environ.get(var)
     if not path:
-        pytest.skip("DKF_RUN is not set (the path of a built dkf-run): no comparison with the C "
-                    "runner")
+        pytest.skip("%s is not set (the path of %s): no comparison with it" % (var, what))
     if not os.access(path, os.X_OK):
-        pytest.fail("DKF_RUN=%s is not an executable" % path)
+        pytest.fail("%s=%s is not an executable" % (var, path))
     return path
 
 
-def dkf_run(scenario: str, filt: str, out: Path, *extra: str) -> "subprocess.CompletedProcess[str]":
-    return subprocess.run([dkf_run_path(), "--filter", filt, "--quiet", "--output", str(out),
-                           *extra, scenario], capture_output=True, text=True, check=False)
+def dkf_run_path() -> str:
+    return built_exe("DKF_RUN", "a built dkf-run")
+
+
+def dkf_run_float_path() -> str:
+    return built_exe("DKF_RUN_FLOAT", "a dkf-run built with DKF_REAL=float")
+
+
+def dkf_run(scenario: str, filt: str, out: Path, *extra: str,
+            exe: "str | None" = None) -> "subprocess.CompletedProcess[str]":
+    return subprocess.run([exe or dkf_run_path(), "--filter", filt, "--quiet", "--output",
+                           str(out), *extra, scenario], capture_output=True, text=True,
+                          check=False)
 
 
 def same(a, b, path: str = "") -> None:
@@ -334,3 +345,35 @@ def test_floats_compare_exactly() -> None:
         same([0.0], [-0.0])
     with pytest.raises(AssertionError):
         same({"a": 1}, {"b": 1})
+
+
+FLOAT_CASES = ([(p, f, ()) for p in CANONICAL for f in ("kf", "info", "dkf", "askf", "otskf")]
+               + [(LIF, f, ()) for f in ("kf", "info")]
+               + [(p, f, ()) for p in UIF_FILES for f in ("rtsf", "nrtsf_df", "nrtsf")]
+               + [(WF, f, ()) for f in ("local_kf", "fusion_scalar", "fusion_matrix",
+                                        "fusion_steady", "central_kf", "kf")])
+
+
+@pytest.mark.parametrize("scn,filt,extra", FLOAT_CASES,
+                         ids=["%s-%s" % (c[0].stem, c[1]) for c in FLOAT_CASES])
+def test_float32_equals_float_dkf_run(scn: Path, filt: str, extra, tmp_path: Path,
+                                      monkeypatch) -> None:
+    """dkf.float32.run_scenario: the float build's dkf-run, number for number."""
+    exe = dkf_run_float_path()
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "out.json"
+    r = dkf_run(rel(scn), filt, out, *extra, exe=exe)
+    if r.returncode == 2:
+        with pytest.raises(ValueError):
+            dkf.float32.run_scenario(rel(scn), filter=filt)
+        return
+    if r.returncode == 3:
+        with pytest.raises(dkf.Error):
+            dkf.float32.run_scenario(rel(scn), filter=filt)
+        return
+    assert r.returncode == 0, r.stderr
+    with open(out, encoding="utf-8") as f:
+        expected = json.load(f)
+    assert expected["real"] == "float"
+    same(dkf.float32.run_scenario(rel(scn), filter=filt), expected)
+

@@ -17,7 +17,7 @@ from typing import Any, Dict, List, Optional, Union
 
 import numpy as np
 
-from ._scenario import _Scenario
+from ._scenario import _Mat, _Scenario
 
 
 def _draw(rng: np.random.Generator, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
@@ -42,6 +42,13 @@ def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
     "y" (k = 1..steps + 1, so the Difference KF has its y_{N+1}) and "truth"
     (x for k = 0..steps + 1, and the inputs: "d" for one sensor,
     "d_stacked" for several).
+
+    A model with G (one sensor, constant matrices: x_{k+1} = F x_k + G d_k
+    + w_k, y_k = H x_k + D d_k + v_k, the input drawn from B, Rd and
+    init d00, Pd00 or 0) gives the seed-004 steps layout instead, which
+    the filters rtsf and nrtsf_df read (steps k = 0..steps - 1), or without D
+    nrtsf (k = 1..steps): "init" {x0, P0}, "model" {F, G, Q, H, D, R} and
+    per step "inputs" {y} and "truth" {x, d} (nrtsf: {x, d_prev}).
     """
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError("simulate: steps %r: expected an integer >= 1" % (steps,))
@@ -53,6 +60,8 @@ def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
     if not isinstance(doc, dict) or "model" not in doc or "init" not in doc:
         raise ValueError("simulate: expected a dict with the scenario keys \"model\" and "
                          "\"init\"")
+    if isinstance(doc["model"], dict) and "G" in doc["model"]:
+        return _simulate_steps(doc, steps, seed)
     base = {"model": doc["model"], "init": doc["init"], "N": steps}
     L = len(doc["model"]["sensors"]) if isinstance(doc["model"], dict) and isinstance(
         doc["model"].get("sensors"), list) else 1
@@ -104,3 +113,71 @@ def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
             t.tolist() for t in truth_d]
     out["truth"] = truth
     return out
+
+
+_STEPS_MODEL = ("F", "G", "Q", "H", "D", "R")
+
+
+def _simulate_steps(doc: Dict[str, Any], steps: int, seed: Optional[int]) -> Dict[str, Any]:
+    """A model with G: a seed-004 steps-layout scenario (rtsf, nrtsf_df; nrtsf without D)."""
+    model, init = doc["model"], doc["init"]
+    for key, v in model.items():
+        if key not in _STEPS_MODEL + ("B", "Rd") and not isinstance(v, str):
+            raise ValueError("simulate: model.%s: unknown key of a model with G (F, G, Q, H, "
+                             "D, R and the input's B, Rd)" % key)
+    for key in ("F", "G", "Q", "H", "R", "B", "Rd"):
+        if key not in model:
+            raise ValueError("simulate: model.%s: missing key (a model with G needs F, G, Q, "
+                             "H, R, and B, Rd to draw its input d)" % key)
+    mats = {}
+    for key in model:
+        if isinstance(model[key], str):
+            continue
+        m = _Mat("simulate", "model." + key, model[key])
+        if m.const is None:
+            raise ValueError("simulate: model.%s: per_k: a model with G is constant in time "
+                             "(the steps layout's model)" % key)
+        mats[key] = m.const
+    for key in ("x00", "P00"):
+        if key not in init:
+            raise ValueError("simulate: init.%s: missing key" % key)
+    F, G, Q, H, R, B, Rd = (mats[k] for k in ("F", "G", "Q", "H", "R", "B", "Rd"))
+    D = mats.get("D")
+    n, p = F.shape[0], G.shape[1]
+    if G.shape[0] != n or H.shape[1] != n or B.shape != (p, p) or Rd.shape != (p, p) or (
+            D is not None and D.shape != (H.shape[0], p)):
+        raise ValueError("simulate: model: shapes disagree (F n x n, G n x p, H m x n, D m x p, "
+                         "B and Rd p x p)")
+    x00 = np.array(init["x00"], dtype=np.float64).reshape(-1)
+    P00 = np.array(init["P00"], dtype=np.float64)
+    rng = np.random.default_rng(seed)
+    x = _draw(rng, x00, P00)
+    d = (_draw(rng, np.array(init["d00"], dtype=np.float64).reshape(-1),
+               np.array(init["Pd00"], dtype=np.float64))
+         if "d00" in init and "Pd00" in init else np.zeros(p))
+    k0 = 0 if D is not None else 1  # rtsf, nrtsf_df update with y_0; nrtsf starts at 1
+    out_steps = []
+    for k in range(0, steps + k0):
+        if k > 0:
+            x, d_prev = F @ x + G @ d + _draw(rng, np.zeros(n), Q), d
+            d = B @ d + _draw(rng, np.zeros(p), Rd)
+        y = H @ x + _draw(rng, np.zeros(H.shape[0]), R)
+        if D is not None:
+            y = y + D @ d
+        if k >= k0:
+            truth = {"x": x.tolist()}
+            if D is not None:
+                truth["d"] = d.tolist()
+            else:
+                truth["d_prev"] = d_prev.tolist()  # nrtsf's d at step k is d_{k-1|k}
+            out_steps.append({"k": k, "inputs": {"y": y.tolist()}, "truth": truth})
+    out: Dict[str, Any] = {
+        "generator": "dkf.simulate(steps=%d, seed=%r): x_{k+1} = F x_k + G d_k + w_k, "
+                     "d_{k+1} = B d_k + wd_k" % (steps, seed),
+        "init": {"x0": init["x00"], "P0": init["P00"]},
+        "model": {key: model[key] for key in _STEPS_MODEL if key in model},
+        "steps": out_steps}
+    if seed is not None:
+        out["seed"] = seed
+    return out
+

@@ -100,3 +100,64 @@ def test_model_from_a_file(tmp_path: Path) -> None:
     path.write_text(json.dumps(ONE))
     assert dkf.simulate(str(path), 5, seed=1) == dkf.simulate(ONE, 5, seed=1)
     assert "d" in dkf.simulate(ONE, 5, seed=1)["truth"]
+
+
+# An unknown input entering the state (G) and the measurement (D): seed 004's model.
+WITH_G = {
+    "model": {
+        "F": [[0.9, 0.1], [0.0, 0.95]],
+        "G": [[1.0], [0.5]],
+        "Q": [[0.01, 0.0], [0.0, 0.01]],
+        "H": [[1.0, 0.0], [0.0, 1.0]],
+        "D": [[0.5], [1.0]],
+        "R": [[0.04, 0.0], [0.0, 0.09]],
+        "B": [[0.8]],
+        "Rd": [[0.2]],
+    },
+    "init": {"x00": [1.0, -1.0], "P00": [[0.5, 0.0], [0.0, 0.5]]},
+}
+
+
+@pytest.mark.parametrize("feedthrough,filters", [(True, ["rtsf", "nrtsf_df"]),
+                                                 (False, ["nrtsf"])],
+                         ids=["with_D", "without_D"])
+def test_with_G_is_a_steps_scenario(feedthrough, filters, tmp_path: Path) -> None:
+    model = json.loads(json.dumps(WITH_G))
+    if not feedthrough:
+        del model["model"]["D"]
+    s = dkf.simulate(model, 15, seed=11)
+    assert [t["k"] for t in s["steps"]] == (list(range(0, 15)) if feedthrough
+                                             else list(range(1, 16)))
+    assert set(s["model"]) == ({"F", "G", "Q", "H", "D", "R"} if feedthrough
+                               else {"F", "G", "Q", "H", "R"})
+    assert set(s["steps"][3]["truth"]) == ({"x", "d"} if feedthrough else {"x", "d_prev"})
+    scn = tmp_path / "scn.json"
+    scn.write_text(json.dumps(s))
+    for filt in filters:
+        out = tmp_path / ("%s.json" % filt)
+        r = dkf_run(str(scn), filt, out)
+        assert r.returncode == 0, r.stderr
+        with open(out, encoding="utf-8") as f:
+            expected = json.load(f)
+        same(dkf.run_scenario(str(scn), filter=filt), expected)
+
+
+def test_with_G_the_input_estimate_tracks_the_truth() -> None:
+    """The RTSF's input estimate follows the simulated input (the simulation means what it
+    says): its error is well below the input's own spread."""
+    s = dkf.simulate(WITH_G, 200, seed=3)
+    out = dkf.run_scenario(s, filter="rtsf")["outputs"]["RTSF"]
+    d_hat = np.array(out["d"]).reshape(-1)
+    d = np.array([t["truth"]["d"] for t in s["steps"]]).reshape(-1)
+    assert np.sqrt(np.mean((d_hat - d) ** 2)) < 0.5 * np.std(d)
+
+
+def test_with_G_refusals() -> None:
+    bad = json.loads(json.dumps(WITH_G))
+    del bad["model"]["B"]
+    with pytest.raises(ValueError, match="model.B: missing key"):
+        dkf.simulate(bad, 5)
+    bad = json.loads(json.dumps(WITH_G))
+    bad["model"]["F"] = {"per_k": [WITH_G["model"]["F"]] * 10}
+    with pytest.raises(ValueError, match="constant in time"):
+        dkf.simulate(bad, 5)

@@ -47,6 +47,15 @@ def _estimates(out: Dict[str, Any]) -> List[Tuple[str, List[List[float]]]]:
     return found
 
 
+def _truth(scn: Dict[str, Any]) -> Optional[Dict[str, Any]]:
+    """A scenario's true states {k, x}: its `truth`, or the steps layout's per step."""
+    if "truth" in scn:
+        return scn["truth"]
+    per = [(t["k"], t["truth"]["x"]) for t in scn.get("steps", [])
+           if isinstance(t, dict) and "x" in t.get("truth", {})]
+    return {"k": [k for k, _ in per], "x": [x for _, x in per]} if per else None
+
+
 def _plot(args: argparse.Namespace) -> int:
     try:
         import matplotlib
@@ -68,7 +77,7 @@ def _plot(args: argparse.Namespace) -> int:
     truth = None
     if args.scenario:
         with open(args.scenario, encoding="utf-8") as fh:
-            truth = json.load(fh).get("truth")
+            truth = _truth(json.load(fh))
     ks = out["k"]
     n = len(est[0][1][0])
     fig, axes = plt.subplots(n, 1, figsize=(8, 2.2 * n), sharex=True, squeeze=False)

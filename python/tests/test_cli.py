@@ -91,4 +91,15 @@ def test_plot_steps_layout(tmp_path: Path) -> None:
     png = tmp_path / "x.png"
     assert main(["plot", out, "-o", str(png)]) == 0
     assert png.read_bytes()[:4] == b"\x89PNG"
+    # with the steps file's own truth (per step) beside the estimate
+    from test_simulate import WITH_G
+
+    scn = write(tmp_path / "g.json", dkf.simulate(WITH_G, 20, seed=1))
+    assert main(["run", scn, "--filter", "nrtsf_df", "-o", out]) == 0
+    assert main(["plot", out, "--scenario", scn, "-o", str(tmp_path / "g.png")]) == 0
+    from dkf.__main__ import _truth
+
+    t = _truth(json.loads(Path(scn).read_text()))
+    assert t["k"] == list(range(0, 20)) and len(t["x"]) == 20
+    assert _truth(dkf.simulate(TWO, 4, seed=1))["k"] == list(range(0, 6))
 

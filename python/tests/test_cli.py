@@ -103,3 +103,19 @@ def test_plot_steps_layout(tmp_path: Path) -> None:
     assert t["k"] == list(range(0, 20)) and len(t["x"]) == 20
     assert _truth(dkf.simulate(TWO, 4, seed=1))["k"] == list(range(0, 6))
 
+
+def test_run_options(tmp_path: Path) -> None:
+    """--case, --d00 and --Pd00-scale reach run_scenario (dkf-run's options of those names)."""
+    from conftest import VECTORS
+
+    out = tmp_path / "o.json"
+    ex1 = str(VECTORS / "diffkf" / "ex1_single.json")
+    assert main(["run", ex1, "--filter", "askf", "--d00", "0.5,-0.5", "--Pd00-scale", "3",
+                 "-o", str(out)]) == 0
+    assert json.loads(out.read_text()) == dkf.run_scenario(ex1, filter="askf", d00=[0.5, -0.5],
+                                                           Pd00_scale=3.0)
+    assert json.loads(out.read_text()) != dkf.run_scenario(ex1, filter="askf")
+    lif = str(VECTORS / "infofusion" / "lif_central_fusion.json")
+    assert main(["run", lif, "--filter", "info", "--case", "0", "-o", str(out)]) == 0
+    assert json.loads(out.read_text()) == dkf.run_scenario(lif, filter="info", case="0")
+

@@ -6,14 +6,16 @@ filters are the bindings' (the C core), and the glue here makes the calls of
 the C runner (ports/linux/runner/estimator.c, ports/linux/families/est_*.c)
 in the same order with the same matrices, so the dict equals the document
 `dkf-run --filter NAME --output OUT.json SCENARIO` writes, number for number
-(docs/decisions.md item 67).
+(docs/decisions.md item 67). This module reads the canonical and the linear
+cases layouts and runs the estimator families; _steps.py runs the seed-004
+steps layout, _wfcases.py seed 002's weighted-fusion cases.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 

@@ -10,7 +10,7 @@ outputs.<LABEL>).
 
 from __future__ import annotations
 
-from typing import Any, Dict, List, Tuple
+from typing import Any, Dict, List
 
 import numpy as np
 

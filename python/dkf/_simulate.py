@@ -10,10 +10,12 @@ dkf.run_scenario read as it is.
 
 from __future__ import annotations
 
+import ast
 import copy
 import json
+import math
 import os
-from typing import Any, Dict, List, Optional, Union
+from typing import Any, Callable, Dict, List, Optional, Union
 
 import numpy as np
 
@@ -49,6 +51,13 @@ def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
     the filters rtsf and nrtsf_df read (steps k = 0..steps - 1), or without D
     nrtsf (k = 1..steps): "init" {x0, P0}, "model" {F, G, Q, H, D, R} and
     per step "inputs" {y} and "truth" {x, d} (nrtsf: {x, d_prev}).
+
+    A model with "expr" (the nonlinear cases' expression model, f and g in
+    x1..xn, d1..dp: docs/guide/nl-models.md; arithmetic only) and init x0,
+    Px0, d0, Pd0 (Pxd0) gives a one-case nonlinear-cases scenario:
+    x_k = f(x_{k-1}, d_{k-1}) + w, d_k = B d_{k-1} + wd (B, Rd in model:
+    default I and 0), z_k = g(x_k, d_k) + v, with x_true, d_true for
+    k = 1..steps, for dkf-run's nonlinear filters (nertsif, ...).
     """
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError("simulate: steps %r: expected an integer >= 1" % (steps,))
@@ -62,6 +71,8 @@ def simulate(model: Union[str, "os.PathLike[str]", Dict[str, Any]], steps: int,
                          "\"init\"")
     if isinstance(doc["model"], dict) and "G" in doc["model"]:
         return _simulate_steps(doc, steps, seed)
+    if isinstance(doc["model"], dict) and "expr" in doc["model"]:
+        return _simulate_expr(doc, steps, seed)
     base = {"model": doc["model"], "init": doc["init"], "N": steps}
     L = len(doc["model"]["sensors"]) if isinstance(doc["model"], dict) and isinstance(
         doc["model"].get("sensors"), list) else 1
@@ -181,3 +192,104 @@ def _simulate_steps(doc: Dict[str, Any], steps: int, seed: Optional[int]) -> Dic
         out["seed"] = seed
     return out
 
+
+
+# ---- expression models (the nonlinear cases' model.expr, muparser's syntax) ----
+
+_FUNCS = {name: getattr(math, name) for name in (
+    "sin", "cos", "tan", "asin", "acos", "atan", "sinh", "cosh", "tanh", "asinh", "acosh",
+    "atanh", "exp", "sqrt", "atan2", "hypot")}
+_FUNCS.update({"ln": math.log, "log": math.log, "log10": math.log10, "log2": math.log2,
+               "abs": abs, "sign": lambda v: float((v > 0) - (v < 0)), "rint": round,
+               "min": min, "max": max, "sum": lambda *v: sum(v),
+               "avg": lambda *v: sum(v) / len(v)})
+_NODES = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Call, ast.Name, ast.Constant, ast.Load,
+          ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
+
+
+def _compile_expr(text: str, names: List[str], path: str) -> Any:
+    """muparser's arithmetic (+ - * / ^, the functions above, pi) as a Python code object;
+    comparisons and `c ? a : b` are refused (simulate evaluates only the arithmetic)."""
+    if not isinstance(text, str) or "?" in text or any(c in text for c in "<>=!&|"):
+        raise ValueError("simulate: %s: %r: simulate evaluates arithmetic expressions only "
+                         "(no comparisons or c ? a : b)" % (path, text))
+    try:
+        tree = ast.parse(text.replace("^", "**"), mode="eval")
+    except SyntaxError:
+        raise ValueError("simulate: %s: %r: not an expression" % (path, text)) from None
+    for node in ast.walk(tree):
+        if not isinstance(node, _NODES):
+            raise ValueError("simulate: %s: %r: %s not allowed" % (path, text,
+                                                                  type(node).__name__))
+        if isinstance(node, ast.Name) and node.id not in names and node.id not in _FUNCS and (
+                node.id != "pi"):
+            raise ValueError("simulate: %s: %r: unknown variable or function %r (variables: "
+                             "%s)" % (path, text, node.id, ", ".join(names)))
+        if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name)
+                                               and node.func.id in _FUNCS):
+            raise ValueError("simulate: %s: %r: unknown function" % (path, text))
+    return compile(tree, path, "eval")
+
+
+def _expr_fn(exprs: Any, names: List[str], path: str) -> Callable[[Dict[str, float]], np.ndarray]:
+    if not isinstance(exprs, list) or not exprs:
+        raise ValueError("simulate: %s: expected a list of expressions" % path)
+    code = [_compile_expr(e, names, "%s[%d]" % (path, i)) for i, e in enumerate(exprs)]
+    env = dict(_FUNCS, pi=math.pi, __builtins__={})
+
+    def fn(values: Dict[str, float]) -> np.ndarray:
+        scope = dict(env, **values)
+        return np.array([float(eval(c, scope)) for c in code])  # noqa: S307 (checked AST)
+
+    return fn
+
+
+def _simulate_expr(doc: Dict[str, Any], steps: int, seed: Optional[int]) -> Dict[str, Any]:
+    """A model.expr (a nonlinear case): x_k = f(x_{k-1}, d_{k-1}) + w, z_k = g(x_k, d_k) + v,
+    d_k = B d_{k-1} + wd; a one-case nonlinear-cases scenario."""
+    model, init = doc["model"], doc["init"]
+    for key in ("x0", "Px0", "d0", "Pd0"):
+        if key not in init:
+            raise ValueError("simulate: init.%s: missing key (a model.expr needs x0, Px0, d0, "
+                             "Pd0)" % key)
+    x0 = np.array(init["x0"], dtype=np.float64).reshape(-1)
+    d0 = np.array(init["d0"], dtype=np.float64).reshape(-1)
+    n, p = x0.shape[0], d0.shape[0]
+    names = ["x%d" % (i + 1) for i in range(n)] + ["d%d" % (i + 1) for i in range(p)]
+    expr = model["expr"]
+    f = _expr_fn(expr.get("f"), names, "model.expr.f")
+    g = _expr_fn(expr.get("g"), names, "model.expr.g")
+    Q = np.array(model["Q"], dtype=np.float64)
+    R = np.array(model["R"], dtype=np.float64)
+    B = np.array(model.get("B", np.eye(p)), dtype=np.float64).reshape(p, p)
+    Rd = np.array(model.get("Rd", np.zeros((p, p))), dtype=np.float64).reshape(p, p)
+    P = np.zeros((n + p, n + p))
+    P[:n, :n] = np.array(init["Px0"], dtype=np.float64)
+    P[n:, n:] = np.array(init["Pd0"], dtype=np.float64).reshape(p, p)
+    if p and "Pxd0" in init and np.size(init["Pxd0"]):
+        P[:n, n:] = np.array(init["Pxd0"], dtype=np.float64).reshape(n, p)
+        P[n:, :n] = P[:n, n:].T
+    rng = np.random.default_rng(seed)
+    xd = _draw(rng, np.concatenate([x0, d0]), P)
+    x, d = xd[:n], xd[n:]
+    xs, ds, zs = [], [], []
+
+    def at(xv: np.ndarray, dv: np.ndarray) -> Dict[str, float]:
+        return dict(zip(names, [float(v) for v in np.concatenate([xv, dv])]))
+
+    for k in range(1, steps + 1):
+        x = f(at(x, d)) + _draw(rng, np.zeros(n), Q)
+        d = B @ d + (_draw(rng, np.zeros(p), Rd) if p else np.zeros(0))
+        z = g(at(x, d)) + _draw(rng, np.zeros(R.shape[0]), R)
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+            raise ValueError("simulate: step k=%d: the model gave a value that is not finite"
+                             % k)
+        xs.append(x.tolist())
+        ds.append(d.tolist())
+        zs.append({"k": k, "z": z.tolist()})
+    out_model = {key: v for key, v in model.items() if key not in ("B", "Rd")}
+    case = {"name": "simulated", "model": out_model, "init": init, "x_true": xs,
+            "d_true": ds, "steps": zs}
+    out: Dict[str, Any] = {"description": "dkf.simulate(steps=%d, seed=%r) of a model.expr"
+                           % (steps, seed), "cases": [case]}
+    return out

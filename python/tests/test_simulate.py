@@ -161,3 +161,50 @@ def test_with_G_refusals() -> None:
     bad["model"]["F"] = {"per_k": [WITH_G["model"]["F"]] * 10}
     with pytest.raises(ValueError, match="constant in time"):
         dkf.simulate(bad, 5)
+
+
+def nl_model() -> dict:
+    """The expression model of scenarios/nl_lin_x_sin_d_expr.json (seed 001's lin_x_sin_d),
+    its input a random walk."""
+    from conftest import ROOT
+
+    case = json.loads((ROOT / "scenarios" / "nl_lin_x_sin_d_expr.json").read_text())["cases"][0]
+    model = dict(case["model"], B=[[1.0]], Rd=[[0.01]])
+    return {"model": model, "init": case["init"]}
+
+
+def test_expression_model_runs_in_dkf_run(tmp_path: Path) -> None:
+    s = dkf.simulate(nl_model(), 300, seed=9)
+    case = s["cases"][0]
+    assert [t["k"] for t in case["steps"]] == list(range(1, 301))
+    assert "B" not in case["model"] and "Rd" not in case["model"]
+    # x_k - f(x_{k-1}, d_{k-1}) is the process noise: its covariance is Q
+    x, d = np.array(case["x_true"]), np.array(case["d_true"])
+    f = np.stack([x[:-1, 0] + 0.1 * x[:-1, 1],
+                  0.95 * x[:-1, 1] + 0.1 * x[:-1, 2] + 0.1 * np.sin(d[:-1, 0]),
+                  0.9 * x[:-1, 2] + 0.05 * np.sin(d[:-1, 0])], axis=1)
+    cov = np.cov((x[1:] - f).T)
+    Q = np.array(case["model"]["Q"])
+    assert np.allclose(np.diag(cov), np.diag(Q), rtol=0.3)
+    scn = tmp_path / "nl.json"
+    scn.write_text(json.dumps(s))
+    r = dkf_run(str(scn), "nertsif", tmp_path / "o.json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads((tmp_path / "o.json").read_text())
+    xf = np.array(out["outputs"]["NERTSIF"]["x"])
+    assert np.sqrt(np.mean((xf - x) ** 2)) < np.sqrt(np.mean(x ** 2))  # it tracks the truth
+
+
+def test_expression_refusals() -> None:
+    m = nl_model()
+    m["model"]["expr"] = dict(m["model"]["expr"], g=["x1", "x3 + 0.5*d2", "x1 + x2 + d1"])
+    with pytest.raises(ValueError, match=r"model.expr.g\[1\].*unknown variable or function 'd2'"):
+        dkf.simulate(m, 5)
+    m = nl_model()
+    m["model"]["expr"] = dict(m["model"]["expr"], f=["x1 > 0 ? 1 : 0", "x2", "x3"])
+    with pytest.raises(ValueError, match="arithmetic expressions only"):
+        dkf.simulate(m, 5)
+    m = nl_model()
+    m["model"]["expr"] = dict(m["model"]["expr"], f=["__import__('os')", "x2", "x3"])
+    with pytest.raises(ValueError, match="unknown"):
+        dkf.simulate(m, 5)

@@ -6,7 +6,7 @@ filters are the bindings' (the C core), and the glue here makes the calls of
 the C runner (ports/linux/runner/estimator.c, ports/linux/families/est_*.c)
 in the same order with the same matrices, so the dict equals the document
 `dkf-run --filter NAME --output OUT.json SCENARIO` writes, number for number
-(docs/decisions.md item 67). This module reads the canonical and the linear
+(docs/decisions.md item 70). This module reads the canonical and the linear
 cases layouts and runs the estimator families; _steps.py runs the seed-004
 steps layout, _wfcases.py seed 002's weighted-fusion cases.
 """

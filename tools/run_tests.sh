@@ -443,7 +443,12 @@ run_python() {
   fi
   t_build=$((SECONDS - t)) t=$SECONDS
   say python "pytest python/tests"
-  (cd "$ROOT/python/tests" && timeout 600 "$venv/bin/python" -m pytest -p no:cacheprovider -q -rs) \
+  # test_scenario.py compares dkf.run_scenario with the double build's dkf-run (DKF_RUN),
+  # dkf.float32.run_scenario with the float build's (DKF_RUN_FLOAT)
+  (cd "$ROOT/python/tests" && { [[ ! -x $ROOT/build/double/ports/linux/dkf-run ]] ||
+    export DKF_RUN=$ROOT/build/double/ports/linux/dkf-run; } &&
+    { [[ ! -x $ROOT/build/float/ports/linux/dkf-run ]] ||
+    export DKF_RUN_FLOAT=$ROOT/build/float/ports/linux/dkf-run; } && timeout 600 "$venv/bin/python" -m pytest -p no:cacheprovider -q -rs) \
     >"$bdir/run_tests.pytest.log" 2>&1
   rc=$?
   t_test=$((SECONDS - t))

@@ -7,6 +7,9 @@ docs/guide/python.md is the guide.
 
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError as _NotFound
+from importlib.metadata import version as _version
+
 from ._dkf_double import *  # noqa: F403 (the classes, dtype, MAX_DIM)
 from ._dkf_double import __all__ as _core
 from ._dkf_double import NLModel as _NLModel
@@ -29,8 +32,15 @@ from ._errors import (
     UnstableError,
     WeightsError,
 )
+from ._scenario import SUPPORTED_FILTERS, run_scenario
+from ._simulate import simulate
 
 expr_model = _for_module(_NLModel)
+
+try:
+    __version__ = _version("dkf")  # the package's version: dkf/version.h's (pyproject.toml)
+except _NotFound:  # imported from a source tree without installing
+    __version__ = "unknown"
 
 __all__ = list(_core) + [
     "expr_model",
@@ -50,4 +60,7 @@ __all__ = list(_core) + [
     "WeightsError",
     "ModelError",
     "UnstableError",
+    "run_scenario",
+    "SUPPORTED_FILTERS",
+    "simulate",
 ]

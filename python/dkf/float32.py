@@ -6,10 +6,26 @@ type differs. The float32 and float64 modules may be used in one process.
 
 from __future__ import annotations
 
+import os
+from typing import Any, Dict, Optional, Sequence, Union
+
 from ._dkf_float import *  # noqa: F403 (the classes, dtype, MAX_DIM)
 from ._dkf_float import NLModel as _NLModel
 from ._dkf_float import __all__ as _core
 from ._expr import for_module as _for_module
 
 expr_model = _for_module(_NLModel)
-__all__ = list(_core) + ["expr_model"]
+__all__ = list(_core) + ["expr_model", "run_scenario"]
+
+
+def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
+                 run: int = 0, *, d00: Optional[Sequence[float]] = None,
+                 Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
+                 name: Optional[str] = None) -> Dict[str, Any]:
+    """dkf.run_scenario over the core built in float: the document of a float dkf-run
+    ("real": "float"), every number that build's."""
+    from . import _dkf_float
+    from ._scenario import run_with
+
+    return run_with(_dkf_float, scenario, filter, run, d00=d00, Pd00_scale=Pd00_scale,
+                    case=case, name=name)

@@ -10,7 +10,7 @@ import pytest
 
 import dkf
 import dkf.float32
-from conftest import rand_model
+from conftest import ROOT, rand_model
 
 
 def test_two_modules_two_real_types():
@@ -67,3 +67,12 @@ def test_properties_are_copies(mod):
     P[:] = 99.0
     assert not np.any(kf.x == 99.0) and not np.any(kf.P == 99.0)
     assert kf.n == 3 and kf.m_max == 1
+
+
+def test_version_is_the_headers():
+    """dkf.__version__ is the version dkf/version.h states (pyproject.toml reads it there)."""
+    import re
+    text = (ROOT / "include" / "dkf" / "version.h").read_text()
+    parts = [re.search(r"#define DKF_VERSION_%s (\d+)" % k, text).group(1)
+             for k in ("MAJOR", "MINOR", "PATCH")]
+    assert dkf.__version__ == ".".join(parts)

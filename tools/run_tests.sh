@@ -12,11 +12,13 @@
 #                    the configuration; every other one runs `ctest -LE once`.
 #                    Its network tests (-L net) run after the others, 4 at a
 #                    time, reported as double:net
+#   float            DKF_REAL=float (the Eigen peer at -O2 only)
 #   python           the Python package (docs/guide/python.md): a venv in
 #                    build/python/venv (reused), `pip install` of the tree into
 #                    it (its CMake build in build/python/build, incremental;
-#                    warnings are errors) and its pytest suite, python/tests
-#   float            DKF_REAL=float (the Eigen peer at -O2 only)
+#                    warnings are errors) and its pytest suite, python/tests;
+#                    the venv's packages install in the background from the
+#                    start, and the tests compare with double's and float's dkf-run
 #   double-nojoseph  DKF_REAL=double, DKF_JOSEPH=OFF, built Release (-O3
 #                    -DNDEBUG; the others RelWithDebInfo: -O2 without -g, ASan -Og -g)
 #   double-asan      DKF_REAL=double, DKF_SANITIZE=ON (ASan + UBSan)
@@ -35,7 +37,7 @@
 #                    qemu-system-arm -M mps2-an386, bit for bit against the host
 #                    float dkf-run on the diffkf vectors (check_firmware.sh)
 #   fuzz             every tests/fuzz harness under clang libFuzzer + ASan +
-#                    UBSan for FUZZ_SECONDS (here 10) each, two at a time
+#                    UBSan for FUZZ_SECONDS (here 6) each, two at a time
 #                    (tools/run_fuzz.sh; the long run: docs/guide/fuzzing.md)
 #   demo             the README's demo (tools/net_demo.sh) on the programs of
 #                    double-dim1024 (the demo's DKF_MAX_DIM; its own build in
@@ -49,7 +51,7 @@
 # env:   DKF_JOBS=2        parallel build/test jobs
 #        DKF_KEEP_GOING=1  run the remaining configurations after a failure
 #        DKF_SKIP_BOOTSTRAP=1  do not run tools/bootstrap.sh first
-#        FUZZ_SECONDS=10   each fuzz harness's time in the fuzz configuration
+#        FUZZ_SECONDS=6    each fuzz harness's time in the fuzz configuration
 # Builds use Ninja (from tools/bootstrap.sh; make if it is missing). The end
 # is a table of each configuration's configure, build and test seconds.
 # The last line is "N passed, M failed" summed over all configurations (a
@@ -65,7 +67,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
 JOBS=${DKF_JOBS:-2}
-all_configs=(double python float double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
+all_configs=(double float python double-nojoseph double-asan double-dim1024 clang fuzz qemu-arm-float qemu-arm64-double firmware
   demo)
 configs=()
 for a in "$@"; do
@@ -381,7 +383,7 @@ run_fuzz() {
   mkdir -p "$ROOT/build"
   # Progress: the build header, one line per harness and the first line of
   # each failure; libFuzzer's own output stays in build/fuzz/logs/.
-  DKF_JOBS=$JOBS FUZZ_SECONDS=${FUZZ_SECONDS:-10} FUZZ_JOBS=$JOBS tools/run_fuzz.sh 2>&1 |
+  DKF_JOBS=$JOBS FUZZ_SECONDS=${FUZZ_SECONDS:-6} FUZZ_JOBS=$JOBS tools/run_fuzz.sh 2>&1 |
     tee "$log" |
     while IFS= read -r line; do say fuzz "$line"; done
   if ! passed_failed fuzz "$log" "${PIPESTATUS[0]}"; then
@@ -395,41 +397,56 @@ run_fuzz() {
 
 # The Python package: venv (reused), pip install of the tree, pytest. Each
 # step bounded by `timeout`; pytest's "N passed, M failed" is the count.
-run_python() {
-  step_t0=$SECONDS
-  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv rc line p f t
+# The venv and its packages (downloads, mostly): started in the background
+# at the beginning of the run, so that run_python finds them ready. Its
+# status: 0 ready, 1 no venv, 2 a package did not install.
+python_env() {
+  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv oracle
   local deps=(scikit-build-core nanobind numpy pytest)
   mkdir -p "$bdir"
-  if [[ ! -x $venv/bin/python ]]; then
-    say python "create the venv ($venv)"
-    if ! python3 -m venv "$venv" >"$bdir/run_tests.venv.log" 2>&1; then
-      rm -rf "$venv"
-      echo "run_tests: FAILED: python3 -m venv did not work (log: $bdir/run_tests.venv.log); run:"
-      echo "  sudo apt-get install -y python3-venv"
-      record python 0 1 "no venv"
-      return
-    fi
+  if [[ ! -x $venv/bin/python ]] && ! python3 -m venv "$venv" >"$bdir/run_tests.venv.log" 2>&1; then
+    rm -rf "$venv"
+    echo "run_tests: FAILED: python3 -m venv did not work (log: $bdir/run_tests.venv.log); run:"
+    echo "  sudo apt-get install -y python3-venv"
+    return 1
   fi
-  if ! "$venv/bin/python" -c 'import scikit_build_core, nanobind, numpy, pytest' 2>/dev/null; then
-    say python "pip install ${deps[*]}"
-    if ! timeout 600 "$venv/bin/pip" install -q --disable-pip-version-check "${deps[@]}" \
-        >"$bdir/run_tests.deps.log" 2>&1; then
-      tail -5 "$bdir/run_tests.deps.log"
-      echo "run_tests: FAILED: python: the venv's packages did not install (log: $bdir/run_tests.deps.log)"
-      record python 0 1 "pip install failed"
-      return
-    fi
+  if ! "$venv/bin/python" -c 'import scikit_build_core, nanobind, numpy, pytest' 2>/dev/null &&
+     ! timeout 600 "$venv/bin/pip" install -q --disable-pip-version-check "${deps[@]}" \
+         >"$bdir/run_tests.deps.log" 2>&1; then
+    tail -5 "$bdir/run_tests.deps.log"
+    echo "run_tests: FAILED: python: the venv's packages did not install (log: $bdir/run_tests.deps.log)"
+    return 2
   fi
   # FilterPy and Stone Soup are test oracles only: without one its tests are
   # skipped, and say so
-  local oracle
   for oracle in filterpy stonesoup; do
     if ! "$venv/bin/python" -c "import $oracle" 2>/dev/null &&
        ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check "$oracle" \
          >>"$bdir/run_tests.deps.log" 2>&1; then
-      say python "$oracle did not install (log: $bdir/run_tests.deps.log): its comparisons are skipped"
+      echo "[python] $oracle did not install (log: $bdir/run_tests.deps.log): its comparisons are skipped"
     fi
   done
+  return 0
+}
+
+run_python() {
+  step_t0=$SECONDS
+  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv rc line p f t
+  if [[ -n ${python_env_pid:-} ]]; then
+    say python "the venv and its packages (prepared since the start of the run)"
+    wait "$python_env_pid"
+    rc=$?
+    cat "$bdir/run_tests.env.out"
+  else
+    say python "the venv and its packages ($venv)"
+    python_env
+    rc=$?
+  fi
+  case $rc in
+    0) ;;
+    1) record python 0 1 "no venv"; return ;;
+    *) record python 0 1 "pip install failed"; return ;;
+  esac
   t=$SECONDS
   say python "pip install . (build in $bdir/build)"
   timeout 1200 "$venv/bin/pip" install -v --no-build-isolation --disable-pip-version-check \
@@ -491,6 +508,11 @@ run_demo() {
 }
 
 start=$SECONDS
+if [[ " ${configs[*]} " == *" python "* ]]; then
+  mkdir -p "$ROOT/build/python"
+  python_env >"$ROOT/build/python/run_tests.env.out" 2>&1 &
+  python_env_pid=$!
+fi
 for c in "${configs[@]}"; do
   if (( stop )); then
     summary+=("$(printf '%-16s %6s %6s  %s' "$c" - - "not run (earlier failure; DKF_KEEP_GOING=1 runs all)")")

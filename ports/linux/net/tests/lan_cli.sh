@@ -15,8 +15,13 @@
 #   --clock-offset-ms out of range          refused (exit 2)
 #
 # KEYGEN_ARGS: dkf-keygen's arguments before DIR and NODES ("" or "--edges")
-# and NODES, e.g. "2" or "--edges 6". Environment: DKF_KEYGEN.
+# and NODES, e.g. "2" or "--edges 6". Environment: DKF_KEYGEN, DKF_NETNS.
+# Every program runs in a network namespace of its own with only the loopback
+# device (net_common.sh's in_netns), so a URL accepted by mistake reaches
+# nothing; exit 77 (skip) where one cannot be made (not root).
 set -uo pipefail
+. "$(dirname "$0")/net_common.sh"
+in_netns "$0" "$@"
 out=$1 keygen_args=$2 scn=$3
 shift 3
 prog=("$@")

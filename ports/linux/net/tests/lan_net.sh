@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # lan_net.sh MODE OUTDIR - dkf-sim, dkf-fusion and 12 dkf-node processes on an
 # emulated LAN of several hosts (docs/guide/network.md, "Several hosts"):
-# every process runs with --lan and keys over udpm://239.255.76.67:7667?ttl=1.
+# every process runs with --lan and keys over udpm at ttl=1 (one hop), and
+# only inside the namespaces this script makes (below).
 #
 # The LAN: 4 host namespaces (dkflan-h0..h3), each with one veth (eth0,
 # 10.201.0.<h+1>/24, the route 239.0.0.0/8 dev eth0) into a bridge (br0) that

@@ -12,6 +12,14 @@ measured) it times, per step:
   filterpy    filterpy.kalman.KalmanFilter's predict() + update(z), if
               FilterPy is installed
 
+and the plain cubature Kalman filter (dkf.NERTS kind DNERTSF with p = 0) at
+n = 4, m = 2 (the same track, measured in range and bearing), per step:
+
+  ckf_jit      filter(Z) with the model compiled by dkf.jit_model (numba)
+  ckf_python   filter(Z) with the model as Python callables (dkf.NLModel)
+  ckf_filterpy filterpy.kalman.CubatureKalmanFilter's predict() + update(z)
+               on the same model (numpy callables)
+
 and prints one run's medians and their ratios, and the Python overhead
 of a step (loop - C). Timings are reported, never asserted.
 
@@ -23,13 +31,14 @@ usage: bench/python_speed.py [--steps T] [--repeats R] [--bench-kf PATH] [--quic
                  build/*/bench/bench_kf that exists; bench/build_bench.sh double
                  builds the first)
   --quick        200 steps, 1 run: a smoke run (the numbers mean little)
-Needs the package dkf (pip install .) and numpy.
+Needs the package dkf (pip install .) and numpy; numba for ckf_jit.
 """
 
 from __future__ import annotations
 
 import argparse
 import glob
+import math
 import os
 import statistics
 import subprocess
@@ -106,6 +115,72 @@ def time_filterpy(md, Y, repeats):
     return median_ns_per_step(run, len(Y), repeats)
 
 
+def ckf_model(T: int):
+    """The track of model() measured in range and bearing from the origin:
+    f, h as fill-in functions (dkf.jit_model's form), Q, R, the prior and
+    T measurements."""
+    dt = 0.1
+    F1 = np.array([[1.0, dt], [0.0, 1.0]])
+    F = np.kron(np.eye(2), F1)
+    Q = np.kron(np.eye(2), 0.05 * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]))
+    R = np.diag([0.1, 0.001])
+
+    def f(x, d, u, out):
+        out[0], out[1], out[2], out[3] = x[0] + dt * x[1], x[1], x[2] + dt * x[3], x[3]
+
+    def h(x, d, u, y):
+        y[0], y[1] = math.sqrt(x[0] * x[0] + x[2] * x[2]), math.atan2(x[2], x[0])
+
+    rng = np.random.default_rng(43)
+    x = np.array([10.0, 1.0, 5.0, -0.5])
+    Z = np.zeros((T + 1, 2))  # row 0 is not read (x0 is x_{0|0})
+    for t in range(1, T + 1):
+        x = F @ x + rng.multivariate_normal(np.zeros(4), Q)
+        Z[t] = [math.hypot(x[0], x[2]), math.atan2(x[2], x[0])] + rng.normal(size=2) * [
+            math.sqrt(0.1), math.sqrt(0.001)]
+    return dict(f=f, h=h, F=F, Q=Q, R=R, x0=np.array([10.0, 1.0, 5.0, -0.5]), P0=np.eye(4)), Z
+
+
+def time_ckf(model, md, Z, repeats):
+    def run():
+        dkf.NERTS(model, md["x0"], md["P0"], kind="DNERTSF").filter(Z, Q=md["Q"], R=md["R"])
+
+    return median_ns_per_step(run, len(Z) - 1, repeats)
+
+
+def ckf_python_model(md):
+    def call(fill, size):
+        def g(x, d, u):
+            out = np.empty(size)
+            fill(x, d, u, out)
+            return out
+        return g
+
+    return dkf.NLModel(call(md["f"], 4), call(md["h"], 2), n=4, m=2, p=0, angles=[1])
+
+
+def time_ckf_filterpy(md, Z, repeats):
+    try:
+        from filterpy.kalman import CubatureKalmanFilter
+    except ImportError:
+        return None
+    F = md["F"]
+
+    def hx(x):
+        return np.array([math.hypot(x[0], x[2]), math.atan2(x[2], x[0])])
+
+    rows = [z.reshape(2, 1) for z in Z[1:]]
+
+    def run():
+        f = CubatureKalmanFilter(dim_x=4, dim_z=2, dt=0.1, hx=hx, fx=lambda x, dt: F @ x)
+        f.x, f.P, f.Q, f.R = md["x0"].copy(), md["P0"].copy(), md["Q"], md["R"]
+        for z in rows:
+            f.predict()
+            f.update(z)
+
+    return median_ns_per_step(run, len(rows), repeats)
+
+
 def find_bench_kf(given):
     if given:
         return given if os.access(given, os.X_OK) else None
@@ -140,13 +215,22 @@ def main() -> int:
     path = find_bench_kf(a.bench_kf)
     rows["C"] = time_c(path, a.steps, a.repeats) if path else None
     rows["filterpy"] = time_filterpy(md, Y, a.repeats)
+    cm, Z = ckf_model(a.steps)
+    try:
+        rows["ckf_jit"] = time_ckf(dkf.jit_model(cm["f"], cm["h"], n=4, m=2, angles=[1]), cm, Z,
+                                   a.repeats)
+    except ImportError:  # numba is not installed
+        rows["ckf_jit"] = None
+    slow = Z[: min(len(Z), 2001)]  # the CKFs that call Python: fewer steps
+    rows["ckf_python"] = time_ckf(ckf_python_model(cm), cm, slow, a.repeats)
+    rows["ckf_filterpy"] = time_ckf_filterpy(cm, slow, a.repeats)
 
     print(f"# python_speed: n = 4, m = 2, T = {a.steps}, median of {a.repeats}; dkf "
           f"{dkf.dtype} (Joseph form {dkf._dkf_double.JOSEPH}), numpy {np.__version__}, Python "
           f"{sys.version.split()[0]}")
     print(f"# C: {path or 'bench_kf not found (bench/build_bench.sh double builds it)'}")
     for name, ns in rows.items():
-        print(f"{name:9s} {'-' if ns is None else f'{ns:10.1f}'} ns/step")
+        print(f"{name:12s} {'-' if ns is None else f'{ns:10.1f}'} ns/step")
 
     def ratio(x, y):
         if rows[x] is None or rows[y] is None:
@@ -154,7 +238,8 @@ def main() -> int:
         return f"{x} / {y}: {rows[x] / rows[y]:.2f}"
 
     for x, y in (("filter", "C"), ("loop", "C"), ("loop", "filter"), ("filterpy", "loop"),
-                 ("filterpy", "filter")):
+                 ("filterpy", "filter"), ("ckf_python", "ckf_jit"),
+                 ("ckf_filterpy", "ckf_jit"), ("ckf_filterpy", "ckf_python")):
         print(ratio(x, y))
     if rows["C"] is not None:
         print(f"Python overhead of a predict() + update(y): {rows['loop'] - rows['C']:.1f} ns "

@@ -288,7 +288,9 @@ static dkf_status_t local_ekf(const dkf_nerts_t *f, layout_t *L, const dkf_nl_mo
     return DKF_OK;
 }
 
-/* Cubature: Hd (eq 44, with Hx) at (x_pred, d), h_c = h(x_pred, d); the 2n
+/* Cubature: Hd (eq 44, with Hx) at (x_pred, d) when there is an input
+ * (p > 0; without one the cubature rule needs no Jacobian, and Hx is not
+ * computed), h_c = h(x_pred, d); the 2n
  * points of N(x_pred, P_pred) through h, unwrapped around h_c by y_diff
  * (43); their mean z_bar (45, before the input term) into z_hat, Pzz,
  * Pxz (46)-(47); C = Pxz^T P_pred^{-1} (50) and the statistical
@@ -302,8 +304,8 @@ static dkf_status_t local_cubature(const dkf_nerts_t *f, layout_t *L, const dkf_
     dkf_real_t *S = L->w[0], *V = L->w[1], *Ct = L->w[2];
     dkf_real_t *inv = L->v[0], *pt = L->v[1], *v = L->v[2];
     size_t l, a;
-    DKF_TRY(dkf_nl_h_jacobian(md, f->k + 1, s->x_pred, input_arg(s->d, p), u, s->Hx, s->Hd,
-                              L->jac));
+    if (p > 0)
+        DKF_TRY(dkf_nl_h_jacobian(md, f->k + 1, s->x_pred, s->d, u, s->Hx, s->Hd, L->jac));
     DKF_TRY(call_h(md, f->k + 1, s->x_pred, s->d, u, s->h_c));
     if (dkf__chol(S, inv, s->P_pred, n) != 0) return DKF_ERR_NOT_SPD;
     cubature_offsets(L->pts, S, n);

@@ -417,13 +417,13 @@ python_env() {
     echo "run_tests: FAILED: python: the venv's packages did not install (log: $bdir/run_tests.deps.log)"
     return 2
   fi
-  # FilterPy and Stone Soup are test oracles only: without one its tests are
-  # skipped, and say so
-  for oracle in filterpy stonesoup; do
+  # FilterPy and Stone Soup are test oracles only, numba the optional
+  # dependency of dkf.jit_model: without one its tests are skipped, and say so
+  for oracle in filterpy stonesoup numba; do
     if ! "$venv/bin/python" -c "import $oracle" 2>/dev/null &&
        ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check "$oracle" \
          >>"$bdir/run_tests.deps.log" 2>&1; then
-      echo "[python] $oracle did not install (log: $bdir/run_tests.deps.log): its comparisons are skipped"
+      echo "[python] $oracle did not install (log: $bdir/run_tests.deps.log): its tests are skipped"
     fi
   done
   return 0

@@ -60,7 +60,7 @@
  *   Cubature (DNERTSF / DNERTSIF): 2(n + p) points of N([x; d], joint
  *     covariance) through f: x_pred = mean, P_pred = sample cov + Q
  *     (38)-(42); Hd at (x_pred, d) (eq 44: callback or forward
- *     differences); 2n points re-drawn from N(x_pred, P_pred),
+ *     differences; not with p = 0, which needs no Jacobian); 2n points re-drawn from N(x_pred, P_pred),
  *     Z_l = h(x_l, d) - Hd d, z_hat = mean, Pzz, Pxz the sample (cross)
  *     covariances (43)-(47), R_tilde = Pzz + R (the printed (46) lacks
  *     + R); C = Pxz^T P_pred^{-1} (50),
@@ -181,7 +181,8 @@ typedef struct {
     dkf_mat_t z_hat;    /* predicted measurement (input part removed), m x 1 */
     dkf_mat_t nu;       /* innovation y_diff(z, z_hat), m x 1 */
     dkf_mat_t h_c;      /* h(x_pred, d) (cubature: the images' unwrap centre), m x 1 */
-    dkf_mat_t Hx;       /* dh/dx at (x_pred, d) (the paper's C_k, eq 8), m x n */
+    dkf_mat_t Hx;       /* dh/dx at (x_pred, d) (the paper's C_k, eq 8), m x n;
+                         * the cubature kinds compute it with Hd, so not when p = 0 */
     dkf_mat_t R_tilde;  /* m x m */
     dkf_mat_t Pzz;      /* cubature sample covariance (EKF: Hx P_pred Hx^T), m x m */
     dkf_mat_t Pxz;      /* n x m */

@@ -14,6 +14,7 @@ from ._dkf_double import *  # noqa: F403 (the classes, dtype, MAX_DIM)
 from ._dkf_double import __all__ as _core
 from ._dkf_double import NLModel as _NLModel
 from ._expr import for_module as _for_module
+from ._jit import for_module as _jit_for_module
 from ._errors import (
     AliasError,
     ArgError,
@@ -36,6 +37,7 @@ from ._scenario import SUPPORTED_FILTERS, run_scenario
 from ._simulate import simulate
 
 expr_model = _for_module(_NLModel)
+jit_model = _jit_for_module(_NLModel, "float64")
 
 try:
     __version__ = _version("dkf")  # the package's version: dkf/version.h's (pyproject.toml)
@@ -44,6 +46,7 @@ except _NotFound:  # imported from a source tree without installing
 
 __all__ = list(_core) + [
     "expr_model",
+    "jit_model",
     "Error",
     "NullError",
     "DimError",

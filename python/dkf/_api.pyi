@@ -386,15 +386,28 @@ class NLModelBase(Generic[_D]):
         f_jac: Optional[Callable[..., Tuple[_A, _A]]] = None,
         h_jac: Optional[Callable[..., Tuple[_A, _A]]] = None, angles: Sequence[int] = ()
     ) -> None: ...
+    @staticmethod
+    def native(
+        f: Any, h: Any, *, n: int, m: int, p: int, q: int = 0, f_jac: Any = None,
+        h_jac: Any = None, angles: Sequence[int] = (), ctx: Optional[int] = None
+    ) -> Any:
+        """The model of native functions of the core's callback types
+        (dkf/nl_model.h): `int f(void *ctx, size_t k, const real *x, const
+        real *d, const real *u, real *x_next)`, h likewise, the Jacobians
+        with two outputs (Fx, Fd / Hx, Hd). Each an address (int), an object
+        with `address` (a numba cfunc) or a ctypes function; they run
+        without the GIL; a non-zero return fails the step with
+        dkf.ModelError ("model.h returned 7")."""
+    native_model: bool
     n: int
     m: int
     p: int
     q: int
     angles: List[int]
-    f: Callable[..., _A]
-    h: Callable[..., _A]
-    f_jac: Optional[Callable[..., Tuple[_A, _A]]]
-    h_jac: Optional[Callable[..., Tuple[_A, _A]]]
+    f: Any
+    h: Any
+    f_jac: Any
+    h_jac: Any
 
 class _NertsFields(Generic[_D]):
     """dkf/nerts.h's views, copies (DFNERTS: every node's, stacked (N, ...);

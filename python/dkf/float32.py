@@ -13,9 +13,11 @@ from ._dkf_float import *  # noqa: F403 (the classes, dtype, MAX_DIM)
 from ._dkf_float import NLModel as _NLModel
 from ._dkf_float import __all__ as _core
 from ._expr import for_module as _for_module
+from ._jit import for_module as _jit_for_module
 
 expr_model = _for_module(_NLModel)
-__all__ = list(_core) + ["expr_model", "run_scenario"]
+jit_model = _jit_for_module(_NLModel, "float32")
+__all__ = list(_core) + ["expr_model", "jit_model", "run_scenario"]
 
 
 def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,

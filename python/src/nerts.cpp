@@ -7,6 +7,7 @@
 #include <nanobind/stl/vector.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -28,8 +29,24 @@ namespace {
 // a result of the wrong shape, is kept in `error` and the callback fails,
 // so the step fails with DKF_ERR_MODEL and the filter's call raises
 // dkf.ModelError from it.
+//
+// NLModel.native makes the same model of native functions of the core's
+// callback types (dkf/nl_model.h, with the caller's ctx): a numba cfunc, a
+// cffi or ctypes function, the address of any C function. They run without
+// the GIL; a non-zero return is kept (which one, the value) as the Python
+// callables' exceptions are (docs/decisions.md item 72).
+using NativeFn = int (*)(void *, size_t, const real *, const real *, const real *, real *);
+using NativeJac = int (*)(void *, size_t, const real *, const real *, const real *, real *,
+                          real *);
+
 class NLModel {
 public:
+    struct Native {
+        NativeFn f = nullptr, h = nullptr;
+        NativeJac f_jac = nullptr, h_jac = nullptr;
+        void *ctx = nullptr;
+    };
+
     NLModel(nb::object f, nb::object h, size_t n, size_t m, size_t p, size_t q, nb::object f_jac,
             nb::object h_jac, std::vector<size_t> angles)
         : f_(std::move(f)), h_(std::move(h)), f_jac_(std::move(f_jac)), h_jac_(std::move(h_jac)),
@@ -48,12 +65,56 @@ public:
         table_.h = cb_h;
         table_.f_jac = f_jac_.is_none() ? nullptr : cb_f_jac;
         table_.h_jac = h_jac_.is_none() ? nullptr : cb_h_jac;
+        set_angles(m);
+        check(call);
+    }
+    // The native model: the same table, its callbacks calling `nat`'s
+    // functions; f, h, f_jac, h_jac are the Python objects given (kept
+    // alive: a numba cfunc's code lives as long as its object).
+    NLModel(const Native &nat, nb::object f, nb::object h, size_t n, size_t m, size_t p, size_t q,
+            nb::object f_jac, nb::object h_jac, std::vector<size_t> angles)
+        : f_(std::move(f)), h_(std::move(h)), f_jac_(std::move(f_jac)), h_jac_(std::move(h_jac)),
+          angles_(std::move(angles)), nat_(nat)
+    {
+        std::memset(&table_, 0, sizeof table_);
+        table_.ctx = this;
+        table_.n = n, table_.m = m, table_.p = p, table_.q = q;
+        table_.f = nat_f;
+        table_.h = nat_h;
+        table_.f_jac = nat.f_jac ? nat_f_jac : nullptr;
+        table_.h_jac = nat.h_jac ? nat_h_jac : nullptr;
+        set_angles(m);
+        check("NLModel.native");
+    }
+
+    // NLModel.native's arguments: each function an address (int), or an
+    // object with one (a numba cfunc's `address`, a ctypes function).
+    static NLModel *native(nb::object f, nb::object h, size_t n, size_t m, size_t p, size_t q,
+                           nb::object f_jac, nb::object h_jac, std::vector<size_t> angles,
+                           nb::object ctx)
+    {
+        Native nat;
+        nat.f = reinterpret_cast<NativeFn>(address(f, "f", false));
+        nat.h = reinterpret_cast<NativeFn>(address(h, "h", false));
+        nat.f_jac = reinterpret_cast<NativeJac>(address(f_jac, "f_jac", true));
+        nat.h_jac = reinterpret_cast<NativeJac>(address(h_jac, "h_jac", true));
+        nat.ctx = address(ctx, "ctx", true);
+        return new NLModel(nat, std::move(f), std::move(h), n, m, p, q, std::move(f_jac),
+                           std::move(h_jac), std::move(angles));
+    }
+
+private:
+    void set_angles(size_t m)
+    {
         is_angle_.assign(m, 0);
         for (size_t a : angles_) {
-            if (a >= m) value_error(call, "angles: index " + std::to_string(a) + " >= m");
+            if (a >= m) value_error("NLModel", "angles: index " + std::to_string(a) + " >= m");
             is_angle_[a] = 1;
         }
         table_.y_diff = angles_.empty() ? nullptr : cb_y_diff;
+    }
+    void check(const char *call)
+    {
         dkf_status_t st = dkf_nl_model_check(&table_);
         if (st != DKF_OK) {
             raise_status(st, call, -1, nullptr,
@@ -61,10 +122,13 @@ public:
                              std::to_string(DKF_MAX_DIM));
         }
     }
+
+public:
     NLModel(const NLModel &) = delete;
     NLModel &operator=(const NLModel &) = delete;
 
     const dkf_nl_model_t &table() const { return table_; }
+    bool is_native() const { return nat_.f != nullptr; }
     size_t n() const { return table_.n; }
     size_t m() const { return table_.m; }
     size_t p() const { return table_.p; }
@@ -75,17 +139,27 @@ public:
     nb::object f_jac() const { return f_jac_; }
     nb::object h_jac() const { return h_jac_; }
 
-    // The exception of the last failed callback (none: an empty object), and
-    // which callback it was; taking it clears it. With the GIL.
-    nb::object take_error(std::string *which)
+    // What the last failed callback did, "model.f raised ValueError: ..."
+    // (its exception in *cause) or, native, "model.f returned 3"; taking it
+    // clears it. With the GIL.
+    std::string take_failure(nb::object *cause)
     {
-        nb::object e = std::move(error_);
-        error_ = nb::object();
-        *which = which_;
-        return e;
+        std::string what = "model.";
+        if (nat_rc_) {
+            what += std::string(nat_which_) + " returned " + std::to_string(nat_rc_);
+        } else {
+            *cause = std::move(error_);
+            what += which_ + " raised";
+            if (cause->is_valid()) {
+                what += " " + std::string(nb::str(cause->type().attr("__name__")).c_str()) + ": " +
+                        std::string(nb::str(*cause).c_str());
+            }
+        }
+        clear_error();
+        return what;
     }
-    void clear_error() { error_ = nb::object(); }
-    bool has_error() const { return error_.is_valid(); }
+    void clear_error() { error_ = nb::object(), nat_rc_ = 0; }
+    bool has_error() const { return error_.is_valid() || nat_rc_ != 0; }
 
     // Garbage collection: the callables may refer back to this model (a
     // lambda's globals holding it), a cycle that only the collector breaks.
@@ -186,6 +260,64 @@ private:
         return M.invoke(M.h_jac_, "h_jac", x, d, u,
                         [&](nb::handle r) { put_pair(r, "model.h_jac", M.table_.m, n, p, Hx, Hd); });
     }
+    // The native callbacks: nat_'s function with the caller's ctx; a
+    // non-zero return is kept for the error (a failed step is one call's).
+    int native_result(int rc, const char *which)
+    {
+        if (rc) nat_which_ = which, nat_rc_ = rc;
+        return rc;
+    }
+    static int nat_f(void *ctx, size_t k, const real *x, const real *d, const real *u, real *xn)
+    {
+        NLModel &M = self(ctx);
+        return M.native_result(M.nat_.f(M.nat_.ctx, k, x, d, u, xn), "f");
+    }
+    static int nat_h(void *ctx, size_t k, const real *x, const real *d, const real *u, real *y)
+    {
+        NLModel &M = self(ctx);
+        return M.native_result(M.nat_.h(M.nat_.ctx, k, x, d, u, y), "h");
+    }
+    static int nat_f_jac(void *ctx, size_t k, const real *x, const real *d, const real *u,
+                         real *Fx, real *Fd)
+    {
+        NLModel &M = self(ctx);
+        return M.native_result(M.nat_.f_jac(M.nat_.ctx, k, x, d, u, Fx, Fd), "f_jac");
+    }
+    static int nat_h_jac(void *ctx, size_t k, const real *x, const real *d, const real *u,
+                         real *Hx, real *Hd)
+    {
+        NLModel &M = self(ctx);
+        return M.native_result(M.nat_.h_jac(M.nat_.ctx, k, x, d, u, Hx, Hd), "h_jac");
+    }
+    // A native function's address: an int, or an object's `address` (a
+    // numba cfunc), or a ctypes function pointer's. None: null (optional
+    // ones only).
+    static void *address(const nb::object &o, const char *name, bool optional)
+    {
+        const std::string what = std::string("NLModel.native: ") + name;
+        if (o.is_none()) {
+            if (optional) return nullptr;
+            throw nb::type_error((what + " is required").c_str());
+        }
+        nb::object a = o;
+        if (nb::hasattr(o, "address")) {
+            a = o.attr("address");
+        } else if (!PyLong_Check(o.ptr())) {
+            nb::module_ ctypes = nb::module_::import_("ctypes");
+            if (!nb::isinstance(o, ctypes.attr("_CFuncPtr")))
+                throw nb::type_error((what + ": an address (int), an object with `address` (a "
+                                             "numba cfunc) or a ctypes function")
+                                         .c_str());
+            a = ctypes.attr("cast")(o, ctypes.attr("c_void_p")).attr("value");
+        }
+        if (!PyLong_Check(a.ptr())) throw nb::type_error((what + ": address is not an int").c_str());
+        void *p = PyLong_AsVoidPtr(a.ptr());
+        if (PyErr_Occurred()) throw nb::python_error();
+        if (!p && !optional)
+            throw nb::value_error((what + ": address 0").c_str());
+        return p;
+    }
+
     // a - b, the angle channels wrapped into [-pi, pi) (fmod is exact).
     static void cb_y_diff(void *ctx, const real *a, const real *b, real *out)
     {
@@ -207,6 +339,11 @@ private:
     dkf_nl_model_t table_;
     nb::object error_;
     std::string which_;
+    Native nat_;
+    // A native callback's non-zero return (0: none) and its name: atomic,
+    // as native callbacks run without the GIL, in any thread.
+    std::atomic<int> nat_rc_{0};
+    std::atomic<const char *> nat_which_{""};
 };
 
 // ---- statuses --------------------------------------------------------------
@@ -223,14 +360,10 @@ struct PhaseIn {
                               NLModel &model)
 {
     const char *culprit = nullptr;
-    std::string detail, which;
+    std::string detail;
     nb::object cause;
     if (st == DKF_ERR_MODEL) {
-        cause = model.take_error(&which);
-        detail = "model." + which + " raised" +
-                 (cause.is_valid() ? " " + std::string(nb::str(cause.type().attr("__name__")).c_str()) +
-                                         ": " + std::string(nb::str(cause).c_str())
-                                   : std::string());
+        detail = model.take_failure(&cause);
     } else if (st == DKF_ERR_NONFINITE) {
         culprit = first_nonfinite({{"z", in.z, in.m, false},
                                    {"Q", in.Q, in.n * in.n, false},
@@ -907,6 +1040,19 @@ void register_nerts(nb::module_ &m)
              nb::arg("f"), nb::arg("h"), nb::kw_only(), nb::arg("n"), nb::arg("m"), nb::arg("p"),
              nb::arg("q") = 0, nb::arg("f_jac") = nb::none(), nb::arg("h_jac") = nb::none(),
              nb::arg("angles") = std::vector<size_t>())
+        .def_static("native", &NLModel::native, nb::arg("f").none(), nb::arg("h").none(),
+                    nb::kw_only(),
+                    nb::arg("n"), nb::arg("m"), nb::arg("p"), nb::arg("q") = 0,
+                    nb::arg("f_jac") = nb::none(), nb::arg("h_jac") = nb::none(),
+                    nb::arg("angles") = std::vector<size_t>(), nb::arg("ctx") = nb::none(),
+                    nb::rv_policy::take_ownership,
+                    "The model of native functions of the core's callback types "
+                    "(dkf/nl_model.h): `int f(void *ctx, size_t k, const real *x, const real *d, "
+                    "const real *u, real *x_next)`, h likewise, the Jacobians with two outputs. "
+                    "Each an address, a numba cfunc or a ctypes function; they run without the "
+                    "GIL. dkf.jit_model makes one from Python functions.")
+        .def_prop_ro("native_model", [](const NLModel &md) { return md.is_native(); },
+                     "True for a model of native functions (NLModel.native)")
         .def_prop_ro("n", &NLModel::n)
         .def_prop_ro("m", &NLModel::m)
         .def_prop_ro("p", &NLModel::p)

@@ -29,9 +29,10 @@ Cases, all on the same simulated runs:
 
 Writes into --out (default build/uif-example): tables.md, results.json,
 fig_uif_inputs.png, fig_uif_states.png (unless --no-plots), and the scenario
-files of run 0 (work/), which dkf-run reads as they are. Progress goes to stderr. Prints "CHECKS PASSED" when the checks
-that do not depend on luck hold (estimability masks, exact zeros of the
-unestimable inputs, bias flag counts, RTSF refusal, finite values).
+files of run 0 (work/), which dkf-run reads as they are. Progress goes to
+stderr. Prints "CHECKS PASSED" when the checks that do not depend on luck
+hold (estimability masks, exact zeros of the unestimable inputs, bias flag
+counts, RTSF refusal, finite values).
 Exit status: 0 ok; 1 a check failed; 2 bad arguments, no package or a filter failure.
 """
 import argparse

@@ -7,6 +7,7 @@ import json
 import re
 import runpy
 
+import numpy as np
 import pytest
 
 import dkf
@@ -72,7 +73,7 @@ def test_uif_example_plots(tmp_path, capsys) -> None:
         assert data[:4] == b"\x89PNG" and len(data) > 1000
 
 
-def test_uif_example_without_the_filters_refusal_fails(tmp_path, monkeypatch, capsys) -> None:
+def test_uif_example_fails_when_rtsf_is_not_refused(tmp_path, monkeypatch, capsys) -> None:
     """The exit status follows the refusal: an RTSF that ran on the paper's H fails."""
     main = uif_main()
     real = main.__globals__["run_filter"]
@@ -86,8 +87,6 @@ def test_uif_example_without_the_filters_refusal_fails(tmp_path, monkeypatch, ca
 
 def _first_scenario(main, key):
     g = main.__globals__
-    import numpy as np
-
     case = [c for c in g["CASES"] if c[0] == key][0]
     d = g["inputs"](case[3])
     x, y = g["simulate"](np.random.default_rng(4), d, case[4])

@@ -91,3 +91,32 @@ def _first_scenario(main, key):
     d = g["inputs"](case[3])
     x, y = g["simulate"](np.random.default_rng(4), d, case[4])
     return g["scenario"](key, x, y, d, case[4], case[5])
+
+
+def _printed(text: str):
+    """A number as the docs print it (bold allowed) and half a unit of its last digit."""
+    t = text.strip().strip("*")
+    dec = len(t.split(".")[1]) if "." in t else 0
+    return float(t), 0.5 * 10.0 ** -dec
+
+
+def test_uif_results_page_is_the_tools_output(tmp_path, capsys) -> None:
+    """docs/results/uif-results.md's accuracy table (200 runs) is the tool's output as
+    printed: RMSE, the filter's sqrt(P) and NEES_x/n of every case."""
+    assert uif_main()(["--no-plots", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    res = json.loads((tmp_path / "results.json").read_text())["cases"]
+    doc = (ROOT / "docs" / "results" / "uif-results.md").read_text(encoding="utf-8")
+    table = doc.split("## 2. Accuracy (200 runs", 1)[1].split("\n## ", 1)[0]
+    rows = [[c.strip() for c in ln.strip("|").split("|")] for ln in table.splitlines()
+            if ln.startswith("| ") and ("| RMSE |" in ln or "| filter √P |" in ln)]
+    order = ["nrtsf_df_sin", "nrtsf_df_zero", "nrtsf", "rtsf_full"]
+    assert len(rows) == 2 * len(order)
+    for i, key in enumerate(order):
+        c = res[key]
+        for row, values in ((rows[2 * i], c["rmse_x"] + c["rmse_d"] + [c["nees_x_over_n"]]),
+                            (rows[2 * i + 1], c["sqrtP_x"] + c["sqrtPd"])):
+            assert len(row) >= 2 + len(values) and row[2 + len(values):] in ([], [""])
+            for cell, v in zip(row[2:], values):
+                want, tol = _printed(cell)
+                assert abs(v - want) <= tol + 1e-12, (key, row[1], cell, v)

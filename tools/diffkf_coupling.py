@@ -17,6 +17,10 @@ tolerance.
   tools/diffkf_coupling.py                  # n = 4, N = 24, 30 steps
   tools/diffkf_coupling.py --n 2 --nodes 40 --check
 
+The recursion stays numpy, not the Python package's DifferenceKF: it is an
+independent check of the claim, from the equations, and the ctests run it
+with the system python3 (docs/decisions.md item 74).
+
 --check exits 1 unless the rank is (k + 1) n at k = 1, 2, 3 (the exact growth;
 needs 4n <= the block's size) and reaches at least 4n: the coupling is no
 fixed rank-2n term.

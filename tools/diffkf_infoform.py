@@ -23,6 +23,10 @@ max|a - b| / max(1, max|b|) over every step:
   u^i_k shares v_k and is coloured in time) and, as a control, on plain Kalman
   filters of the same network, where it must hold to rounding.
 
+The filters stay numpy, not the Python package: an independent test oracle
+from the equations, run by the ctest with the system python3
+(docs/decisions.md item 74).
+
 --check exits 1 unless literal is <= EQUAL on cond6 and on tv3 (so the paper's
 condition is sufficient, not necessary: S's rank decides) and >= 1e-3 on tv4,
 exact is <= EQUAL on all three, the Kalman control is <= EQUAL and the

@@ -17,7 +17,9 @@ C library:
   noise; no recursion) that checks the centralized x_{k|k}, P_{k|k} and
   x_{k+1|k}, P_{k+1|k}.
 
-It also re-runs ex3_multi.json's model and data and checks our numbers
+The filters are written here in numpy on purpose, not taken from the Python
+package: this is an independent test oracle of the C core (docs/decisions.md
+item 74). It also re-runs ex3_multi.json's model and data and checks our numbers
 against that file. Usage: python3 tools/make_diffkf_vectors.py [--check-only]
 Requires numpy. Deterministic (fixed seeds).
 """

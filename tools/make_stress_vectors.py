@@ -25,6 +25,10 @@ Regimes (docs/decisions.md, "The covariance update"):
 Numbers are written with 17 significant digits (the reference rounded to
 double: 1e-17 relative, far below every tolerance).
 
+The filters are written here in mpmath on purpose, not taken from the
+Python package: this is an independent test oracle of the C core
+(docs/decisions.md item 74).
+
 Usage: python3 tools/make_stress_vectors.py [--check-only]
 Requires mpmath and numpy (Debian python3-mpmath, python3-numpy).
 Deterministic (fixed seeds).

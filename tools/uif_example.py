@@ -1,13 +1,18 @@
 #!/usr/bin/env python3
 """Seed-004 example (Hua, Wang, Zhao 2021, Section 5) through the C filters.
 
-    tools/uif_example.py --dkf-run build/double/ports/linux/dkf-run          # full (200 runs)
-    tools/uif_example.py --dkf-run ... --quick                               # smoke test
+    tools/uif_example.py                      # full (200 runs)
+    tools/uif_example.py --quick              # smoke test (python/tests/test_tools.py)
+    tools/uif_example.py --float32            # the core built in float (dkf.float32)
+    tools/uif_example.py --no-plots           # the tables and checks only (no matplotlib)
 
-This script only SIMULATES the paper's system (numpy, fixed seeds), writes
-each run as a steps-layout scenario (the layout of the seed-004 vectors,
-docs/reference/scenario-format.md) and does the statistics; every estimate comes from
-the C library through `dkf-run --filter rtsf|nrtsf_df|nrtsf`.
+Needs the Python package (`pip install .`, docs/guide/python.md). This script
+only SIMULATES the paper's system (numpy, fixed seeds: its inputs are fixed
+signals, which dkf.simulate does not draw), makes each run a steps-layout
+scenario (the layout of the seed-004 vectors, docs/reference/scenario-format.md)
+and does the statistics; every estimate comes from the C library through
+`dkf.run_scenario(scenario, filter="rtsf"|"nrtsf_df"|"nrtsf")`, which gives
+what `dkf-run --filter` writes, bit for bit.
 
 System (paper §5 as corrected by docs/design/derivation-seed003-004.md §5, = the vectors' model):
 A (5x5, row 5 = [0 0 0 0 0.1]), G = [e1 e3 0], C = I5, H = [e3 e2 0]
@@ -19,21 +24,21 @@ Cases, all on the same simulated runs:
   NRTSF-DF, d1 = sin    the paper's Fig. 2-4 (d1 unestimable; biased, derivation §8)
   NRTSF-DF, d1 = 0      the case where the paper's claim holds
   NRTSF (H = 0)         the paper's Fig. 5-7, d_{k-1|k} (d3 unestimable)
-  RTSF, paper H         refused: rank H = 2 < m = 3 (exit 3 from dkf-run)
+  RTSF, paper H         refused: rank H = 2 < m = 3 (dkf.RankError; dkf-run exits 3)
   RTSF, H[3][0] = 1     full-rank feedthrough baseline (all inputs estimable)
 
 Writes into --out (default build/uif-example): tables.md, results.json,
-fig_uif_inputs.png, fig_uif_states.png, and the scenario files of run 0
-(work/). Progress goes to stderr. Prints "CHECKS PASSED" when the checks
-that do not depend on luck hold (estimability masks, exact zeros of the
-unestimable inputs, bias flag counts, RTSF refusal, finite values).
-Exit status: 0 ok; 1 a check failed; 2 bad arguments or a dkf-run failure.
+fig_uif_inputs.png, fig_uif_states.png (unless --no-plots), and the scenario
+files of run 0 (work/), which dkf-run reads as they are. Progress goes to
+stderr. Prints "CHECKS PASSED" when the checks that do not depend on luck
+hold (estimability masks, exact zeros of the unestimable inputs, bias flag
+counts, RTSF refusal, finite values).
+Exit status: 0 ok; 1 a check failed; 2 bad arguments, no package or a filter failure.
 """
 import argparse
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 
@@ -105,15 +110,9 @@ def scenario(name, x, y, d, feedthrough, nrtsf):
             "init": {"x0": X0, "P0": P0}, "model": model, "steps": steps}
 
 
-def run_filter(dkf_run, filt, path, out):
-    """dkf-run on one file; returns (exit status, stderr, outputs.<LABEL> or None)."""
-    p = subprocess.run([dkf_run, "--filter", filt, "--quiet", "--output", out, path],
-                       capture_output=True, text=True)
-    if p.returncode != 0:
-        return p.returncode, p.stderr.strip(), None
-    with open(out) as f:
-        doc = json.load(f)
-    return 0, "", doc["outputs"][filt.upper()]
+def run_filter(dkf, filt, scn):
+    """The filter over one scenario: outputs.<LABEL> of dkf-run's document."""
+    return dkf.run_scenario(scn, filter=filt, name=scn["name"])["outputs"][filt.upper()]
 
 
 CASES = [  # key, title, filter, d1 = sin?, feedthrough H, NRTSF layout
@@ -239,16 +238,25 @@ def plots(outdir, run0, d_sin):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--dkf-run", required=True, help="path of the dkf-run executable")
     ap.add_argument("--out", default="build/uif-example", help="output directory")
     ap.add_argument("--runs", type=int, default=200, help="Monte-Carlo runs (default 200)")
     ap.add_argument("--seed", type=int, default=4, help="base seed (run r uses seed + r)")
     ap.add_argument("--quick", action="store_true", help="10 runs (smoke test)")
+    ap.add_argument("--float32", action="store_true", help="the filters of dkf.float32")
+    ap.add_argument("--no-plots", action="store_true", help="no figures (no matplotlib needed)")
     args = ap.parse_args(argv)
     runs = 10 if args.quick else args.runs
     if runs < 1:
         print("uif_example: --runs must be >= 1", file=sys.stderr)
         return 2
+    try:
+        import dkf
+        import dkf.float32
+    except ImportError:
+        print("uif_example: needs the Python package dkf (pip install .; docs/guide/python.md)",
+              file=sys.stderr)
+        return 2
+    mod = dkf.float32 if args.float32 else dkf
     work = os.path.join(args.out, "work")
     os.makedirs(work, exist_ok=True)
 
@@ -268,23 +276,24 @@ def main(argv=None):
                 rng.bit_generator.state = state
                 sims[fkey] = simulate(rng, d, fth if fth is not None else np.zeros((5, 3)))
             x, y = sims[fkey]
-            path = os.path.join(work, "%s%s.json" % (key, "" if r == 0 else "_cur"))
-            with open(path, "w") as f:
-                json.dump(scenario(key, x, y, d, fth, nrtsf), f)
-            outp = os.path.join(work, "%s_out%s.json" % (key, "" if r == 0 else "_cur"))
-            rc, err, out = run_filter(args.dkf_run, filt, path, outp)
+            scn = scenario(key, x, y, d, fth, nrtsf)
+            if r == 0:  # run 0's files, for dkf-run or a look
+                with open(os.path.join(work, key + ".json"), "w") as f:
+                    json.dump(scn, f)
             acc = accs[key]
-            if key == "rtsf_paper":
-                acc.refused = (rc, err)
-                acc.runs += 1
-                if rc != 3:
-                    print("uif_example: RTSF on the paper's H: expected a refusal (exit 3), got "
-                          "exit %d %s" % (rc, err), file=sys.stderr)
-                    return 1
-                continue
-            if rc != 0:
-                print("uif_example: dkf-run failed (exit %d): %s" % (rc, err), file=sys.stderr)
+            try:
+                out = run_filter(mod, filt, scn)
+            except dkf.Error as e:
+                if key == "rtsf_paper" and isinstance(e, dkf.RankError):
+                    acc.refused = str(e)
+                    acc.runs += 1
+                    continue
+                print("uif_example: %s failed: %s" % (filt, e), file=sys.stderr)
                 return 2
+            if key == "rtsf_paper":
+                print("uif_example: RTSF on the paper's H: expected a refusal (dkf.RankError), "
+                      "it ran", file=sys.stderr)
+                return 1
             accumulate(acc, out, x, d, 1 if nrtsf else 0, nrtsf)
             if r == 0:
                 run0[key] = (x, d, out, 1 if nrtsf else 0, nrtsf)
@@ -294,8 +303,9 @@ def main(argv=None):
                   (r + 1, runs, el, el / (r + 1) * (runs - r - 1)), file=sys.stderr)
 
     # ---- tables -------------------------------------------------------------------------
-    lines = ["# Seed-004 example through dkf-run (%d runs, seed %d..%d)" %
-             (runs, args.seed, args.seed + runs - 1), ""]
+    lines = ["# Seed-004 example through dkf.run_scenario (%d runs, seed %d..%d, %s)" %
+             (runs, args.seed, args.seed + runs - 1, "float" if args.float32 else "double"),
+             ""]
     lines += ["## Which inputs are estimable (dkf_uif_t.estimable, every step of every run)", "",
               "| case | filter | rank | d1 | d2 | d3 | unestimable d_i returned as exactly 0 |",
               "|---|---|---|---|---|---|---|"]
@@ -304,8 +314,8 @@ def main(argv=None):
     for key, title, filt, sin, fth, nrtsf in CASES:
         acc = accs[key]
         if key == "rtsf_paper":
-            lines.append("| %s | rtsf | 2 | refused | refused | refused | dkf-run exit %d: `%s` |"
-                         % (title, acc.refused[0], acc.refused[1].split(": ", 2)[-1]))
+            lines.append("| %s | rtsf | 2 | refused | refused | refused | dkf.RankError: `%s` |"
+                         % (title, acc.refused))
             continue
         est = [EST[e] for e in acc.est]
         zeros = ", ".join("d%d" % (i + 1) for i in range(3) if acc.d_zero[i]) or "-"
@@ -346,7 +356,8 @@ def main(argv=None):
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump(results, f, indent=1)
     print("\n".join(lines))
-    plots(args.out, run0, inputs(True))
+    if not args.no_plots:
+        plots(args.out, run0, inputs(True))
 
     # ---- checks that do not depend on luck ------------------------------------------------
     a = accs
@@ -361,11 +372,12 @@ def main(argv=None):
     checks.append(("bias flag: NRTSF-DF every step after the first; NRTSF, RTSF never",
                    set(a["nrtsf_df_sin"].bias_steps) == {K - 1}
                    and set(a["nrtsf"].bias_steps) == {0} and set(a["rtsf_full"].bias_steps) == {0}))
-    checks.append(("RTSF refuses the paper's H (exit 3, rank condition)",
-                   a["rtsf_paper"].refused[0] == 3 and "rank" in a["rtsf_paper"].refused[1]))
+    checks.append(("RTSF refuses the paper's H (dkf.RankError, rank condition)",
+                   a["rtsf_paper"].refused is not None and "rank" in a["rtsf_paper"].refused))
     checks.append(("every estimate finite", all(a[c[0]].finite for c in CASES
                                                 if c[0] != "rtsf_paper")))
-    checks += ec.wrote_checks(args.out, ("fig_uif_inputs.png", "fig_uif_states.png"))
+    if not args.no_plots:
+        checks += ec.wrote_checks(args.out, ("fig_uif_inputs.png", "fig_uif_states.png"))
     ec.print_checks(checks, 70)
     print("uif_example: %.1f s" % (time.time() - t0), file=sys.stderr)
     return ec.verdict(checks)

@@ -70,21 +70,25 @@ def model(T: int):
     return dict(F=F, Q=Q, H=H, R=R, x0=np.zeros(4), P0=10.0 * np.eye(4)), Y
 
 
-def median_ns_per_step(run, steps: int, repeats: int) -> float:
-    times = []
+def interleaved_medians(runs, repeats: int):
+    """runs: name -> (run, steps). Each round times every run once, in turn,
+    so that a change in the machine's load touches all of them alike; the
+    median ns per step of each over the rounds."""
+    times = {name: [] for name in runs}
     for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        run()
-        times.append((time.perf_counter_ns() - t0) / steps)
-    return statistics.median(times)
+        for name, (run, steps) in runs.items():
+            t0 = time.perf_counter_ns()
+            run()
+            times[name].append((time.perf_counter_ns() - t0) / steps)
+    return {name: statistics.median(t) for name, t in times.items()}
 
 
-def time_filter(md, Y, repeats):
+def time_filter(md, Y):
     kf = dkf.KalmanFilter(**md)
-    return median_ns_per_step(lambda: kf.filter(Y), len(Y), repeats)
+    return (lambda: kf.filter(Y)), len(Y)
 
 
-def time_loop(md, Y, repeats):
+def time_loop(md, Y):
     kf = dkf.KalmanFilter(**md)
     rows = list(Y)  # the rows as arrays, made once (not part of a step)
 
@@ -94,10 +98,10 @@ def time_loop(md, Y, repeats):
             predict()
             update(y)
 
-    return median_ns_per_step(run, len(Y), repeats)
+    return run, len(Y)
 
 
-def time_filterpy(md, Y, repeats):
+def time_filterpy(md, Y):
     try:
         from filterpy.kalman import KalmanFilter
     except ImportError:
@@ -112,7 +116,7 @@ def time_filterpy(md, Y, repeats):
             f.predict()
             f.update(z)
 
-    return median_ns_per_step(run, len(Y), repeats)
+    return run, len(Y)
 
 
 def ckf_model(T: int):
@@ -141,11 +145,11 @@ def ckf_model(T: int):
     return dict(f=f, h=h, F=F, Q=Q, R=R, x0=np.array([10.0, 1.0, 5.0, -0.5]), P0=np.eye(4)), Z
 
 
-def time_ckf(model, md, Z, repeats):
+def time_ckf(model, md, Z):
     def run():
         dkf.NERTS(model, md["x0"], md["P0"], kind="DNERTSF").filter(Z, Q=md["Q"], R=md["R"])
 
-    return median_ns_per_step(run, len(Z) - 1, repeats)
+    return run, len(Z) - 1
 
 
 def ckf_python_model(md):
@@ -159,7 +163,7 @@ def ckf_python_model(md):
     return dkf.NLModel(call(md["f"], 4), call(md["h"], 2), n=4, m=2, p=0, angles=[1])
 
 
-def time_ckf_filterpy(md, Z, repeats):
+def time_ckf_filterpy(md, Z):
     try:
         from filterpy.kalman import CubatureKalmanFilter
     except ImportError:
@@ -178,7 +182,7 @@ def time_ckf_filterpy(md, Z, repeats):
             f.predict()
             f.update(z)
 
-    return median_ns_per_step(run, len(rows), repeats)
+    return run, len(rows)
 
 
 def find_bench_kf(given):
@@ -209,21 +213,25 @@ def main() -> int:
     if a.quick:
         a.steps, a.repeats = 200, 1
     md, Y = model(a.steps)
-    rows = {}
-    rows["filter"] = time_filter(md, Y, a.repeats)
-    rows["loop"] = time_loop(md, Y, a.repeats)
+    cm, Z = ckf_model(a.steps)
+    slow = Z[: min(len(Z), 2001)]  # the CKFs that call Python: fewer steps
+    runs = {"filter": time_filter(md, Y), "loop": time_loop(md, Y)}
+    fp = time_filterpy(md, Y)
+    if fp is not None:
+        runs["filterpy"] = fp
+    try:
+        runs["ckf_jit"] = time_ckf(dkf.jit_model(cm["f"], cm["h"], n=4, m=2, angles=[1]), cm, Z)
+    except ImportError:  # numba is not installed
+        pass
+    runs["ckf_python"] = time_ckf(ckf_python_model(cm), cm, slow)
+    fp = time_ckf_filterpy(cm, slow)
+    if fp is not None:
+        runs["ckf_filterpy"] = fp
+    rows = dict.fromkeys(["filter", "loop", "C", "filterpy", "ckf_jit", "ckf_python",
+                          "ckf_filterpy"])
+    rows.update(interleaved_medians(runs, a.repeats))
     path = find_bench_kf(a.bench_kf)
     rows["C"] = time_c(path, a.steps, a.repeats) if path else None
-    rows["filterpy"] = time_filterpy(md, Y, a.repeats)
-    cm, Z = ckf_model(a.steps)
-    try:
-        rows["ckf_jit"] = time_ckf(dkf.jit_model(cm["f"], cm["h"], n=4, m=2, angles=[1]), cm, Z,
-                                   a.repeats)
-    except ImportError:  # numba is not installed
-        rows["ckf_jit"] = None
-    slow = Z[: min(len(Z), 2001)]  # the CKFs that call Python: fewer steps
-    rows["ckf_python"] = time_ckf(ckf_python_model(cm), cm, slow, a.repeats)
-    rows["ckf_filterpy"] = time_ckf_filterpy(cm, slow, a.repeats)
 
     print(f"# python_speed: n = 4, m = 2, T = {a.steps}, median of {a.repeats}; dkf "
           f"{dkf.dtype} (Joseph form {dkf._dkf_double.JOSEPH}), numpy {np.__version__}, Python "

@@ -217,3 +217,40 @@ def test_jit_ckf_equals_the_python_ckf():
     a = dkf.NERTS(jm, x0, P0, kind="DNERTSF").filter(Z, Q=Q, R=R)
     b = dkf.NERTS(py, x0, P0, kind="DNERTSF").filter(Z, Q=Q, R=R)
     assert all(same_bits(u, v) for u, v in zip(a, b))
+
+
+def test_one_native_model_in_two_threads():
+    """python.md, "Threads": one jit model serves filters in several threads
+    at once (filter() without the GIL); each result the same bits as the
+    same filter run alone."""
+    import threading
+
+    def f(x, d, u, out):
+        out[0], out[1], out[2], out[3] = x[0] + 0.1 * x[1], x[1], x[2] + 0.1 * x[3], x[3]
+
+    def h(x, d, u, y):
+        y[0], y[1] = math.sqrt(x[0] * x[0] + x[2] * x[2]), math.atan2(x[2], x[0])
+
+    jm = dkf.jit_model(f, h, n=4, m=2, angles=[1])
+    rng = np.random.default_rng(9)
+    Zs = [np.column_stack([20 + rng.normal(size=3000), 0.3 + 0.01 * rng.normal(size=3000)])
+          for _ in range(4)]
+    x0, P0 = np.array([15.0, 1.0, 5.0, -0.5]), np.eye(4)
+    Q, R = 0.01 * np.eye(4), np.diag([0.1, 0.001])
+
+    def run(Z):
+        return dkf.NERTS(jm, x0, P0, kind="DNERTSF").filter(Z, Q=Q, R=R)
+
+    alone = [run(Z) for Z in Zs]
+    together = [None] * len(Zs)
+
+    def worker(i):
+        together[i] = run(Zs[i])
+
+    threads = [threading.Thread(target=worker, args=(i,)) for i in range(len(Zs))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for a, b in zip(alone, together):
+        assert all(same_bits(u, v) for u, v in zip(a, b))

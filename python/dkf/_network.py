@@ -359,7 +359,9 @@ def run_tw(core: Any, doc: Dict[str, Any], file: str, filter: str, eta: Optional
                  np.asarray(central.x, dtype=np.float64).tolist(),
                  np.asarray(central.d, dtype=np.float64).tolist())
     out: Dict[str, Any] = {"scenario": file, "filter": filter, "real": real_name(core),
-                           "k": list(s.times), "outputs": {TW_LABELS[filter]: ser}}
+                           "k": list(s.times)}
+    if ser:  # (tw1 --metrics-only without truth records nothing: dkf-run writes no outputs)
+        out["outputs"] = {TW_LABELS[filter]: ser}
     if alg == 3:
         out["eta"] = eta
     if net is None:  # every node sends its info packet to the centre once per step

@@ -139,10 +139,19 @@ def test_network_options(tmp_path: Path, monkeypatch) -> None:
     assert three["eta"] == 3
     assert three["outputs"]["alg3"]["x"] != dkf.run_scenario(six, filter="tw3")["outputs"][
         "alg3"]["x"]
+    no_truth = load(SIX)
+    for t in no_truth["steps"]:
+        del t["truth"]
+    path = tmp_path / "no_truth.json"
+    path.write_text(json.dumps(no_truth))
     for filt in TW:
         got = dkf.run_scenario(six, filter=filt, metrics_only=True)
         same(got, expected_of(six, filt, tmp_path / "o.json", "--metrics-only"))
         assert "x" not in got["outputs"][LABEL[filt]] and "mse_x" in got["outputs"][LABEL[filt]]
+        # without truth: the gaps (tw2, tw3) or nothing at all (tw1)
+        got = dkf.run_scenario(str(path), filter=filt, metrics_only=True)
+        same(got, expected_of(str(path), filt, tmp_path / "o.json", "--metrics-only"))
+        assert ("outputs" in got) == (filt != "tw1")
 
 
 def test_network_refusals() -> None:
@@ -260,11 +269,15 @@ def test_float32_equals_float_dkf_run(scn: Path, filt: str, tmp_path: Path,
     same(dkf.float32.run_scenario(rel(scn), filter=filt), expected)
 
 
-def test_float32_selftune_long(wf_long: Path, tmp_path: Path) -> None:
+def test_float32_selftune_long_and_options(wf_long: Path, tmp_path: Path, monkeypatch) -> None:
     exe = dkf_run_float_path()
     path = str(wf_long / "wf_120.json")
     same(dkf.float32.run_scenario(path, filter="fusion_selftune"),
          expected_of(path, "fusion_selftune", tmp_path / "o.json", exe=exe))
+    monkeypatch.chdir(ROOT)
+    six = rel(SIX)
+    same(dkf.float32.run_scenario(six, filter="tw3", eta=4, metrics_only=True),
+         expected_of(six, "tw3", tmp_path / "o.json", "--eta", "4", "--metrics-only", exe=exe))
 
 
 def test_default_weights_are_the_librarys(mod) -> None:

@@ -56,6 +56,8 @@ def dkf_run(scenario: str, filt: str, out: Path, *extra: str,
 def same(a, b, path: str = "") -> None:
     """a and b equal: the same keys, lists, strings, and every number the
     same double (the sign of a zero too)."""
+    if not path and json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True):
+        return  # one text: every float's repr, which names its double, is the same
     if isinstance(a, dict):
         assert isinstance(b, dict), path
         assert sorted(a) == sorted(b), "%s: keys %s != %s" % (path, sorted(a), sorted(b))

@@ -17,11 +17,10 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ._scenario import _comment, _fail, _numbers, real_name
+from ._scenario import TW_MAX_ETA, _comment, _fail, _numbers, real_name
 from ._steps import _Steps
 
 TW_LABELS = {"tw1": "alg1", "tw2": "alg2", "tw3": "alg3"}
-_MAX_ETA = 1000000  # DKF_TW_MAX_ETA
 
 # (the JSON key, the bindings' property): the paper's names (z = d, G = Gpost,
 # Q / Ups = I, vphi = i), tw_run.c's fields1..3
@@ -64,8 +63,8 @@ class _Net(_Steps):
         self.W = self._weights(doc, "W_consensus")
         eta = doc.get("eta")
         if eta is not None and (isinstance(eta, bool) or not isinstance(eta, (int, float))
-                                or eta != int(eta) or not 0 <= eta <= _MAX_ETA):
-            raise _fail(file, "eta", "expected an integer in 0..%d" % _MAX_ETA)
+                                or eta != int(eta) or not 0 <= eta <= TW_MAX_ETA):
+            raise _fail(file, "eta", "expected an integer in 0..%d" % TW_MAX_ETA)
         self.eta = None if eta is None else int(eta)
         truth = [t.get("truth") or {} for t in doc["steps"]]
         self.truth_x = self._truth(truth, ("x",), self.n)

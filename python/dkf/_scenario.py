@@ -34,6 +34,8 @@ _TW = ("tw1", "tw2", "tw3")  # the seed-003 network layout (_network.py)
 _WF = ("local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady", "fusion_selftune",
        "central_kf")
 
+TW_MAX_ETA = 1000000  # DKF_TW_MAX_ETA (dkf/tw.h): the largest eta of tw3
+
 SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _TW + _WF
 """The --filter names run_scenario runs: kf, info, dkf, askf, otskf over the
 canonical layout (kf and info the linear and weighted-fusion cases too);
@@ -643,8 +645,9 @@ def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]]
         raise ValueError("run_scenario: Pd00_scale %r: expected a finite number > 0"
                          % (Pd00_scale,))
     if eta is not None and (filter != "tw3" or isinstance(eta, bool) or not isinstance(eta, int)
-                            or not 0 <= eta <= 1000000):
-        raise ValueError("run_scenario: eta %r: only for tw3, an integer in 0..1000000" % (eta,))
+                            or not 0 <= eta <= TW_MAX_ETA):
+        raise ValueError("run_scenario: eta %r: only for tw3, an integer in 0..%d"
+                         % (eta, TW_MAX_ETA))
     if metrics_only and filter not in _TW:
         raise ValueError("run_scenario: metrics_only: only for tw1, tw2, tw3")
     steps_layout = isinstance(doc, dict) and "steps" in doc and "y" not in doc and "runs" not in doc

@@ -1,7 +1,8 @@
 """python -m dkf: simulate a scenario, run a filter over it, plot the result.
 
     python -m dkf simulate MODEL.json --steps N [--seed S] -o SCN.json
-    python -m dkf run SCN.json --filter NAME [--run R] [--case C] [--d00 ..] -o OUT.json
+    python -m dkf run SCN.json --filter NAME [--run R] [--case C] [--d00 ..] [--eta N]
+                      [--metrics-only] -o OUT.json
     python -m dkf plot OUT.json [--scenario SCN.json] [-o PNG]
 
 `simulate` is dkf.simulate, `run` dkf.run_scenario (the document dkf-run
@@ -110,12 +111,16 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--seed", type=int, default=None, help="numpy default_rng seed")
     s.add_argument("-o", "--output", required=True, help="SCN.json to write")
     r = sub.add_parser("run", help="run a filter over a scenario (dkf.run_scenario)")
-    r.add_argument("scenario", help="SCN.json (canonical layout)")
+    r.add_argument("scenario", help="SCN.json (a layout of dkf.SUPPORTED_FILTERS' filters)")
     r.add_argument("--filter", "-f", required=True, choices=SUPPORTED_FILTERS)
     r.add_argument("--run", "-r", type=int, default=0, help="Monte-Carlo run (default 0)")
     r.add_argument("--case", "-c", help="cases layout: the case, a name or an index (default 0)")
     r.add_argument("--d00", help="askf/otskf: d_{0|0} instead of init.d00, A,B,...")
     r.add_argument("--Pd00-scale", type=float, help="askf/otskf: P_{d0|0} = S * init.Pd00")
+    r.add_argument("--eta", type=int, help="tw3: consensus iterations per ACF (overrides the "
+                   "file's eta)")
+    r.add_argument("--metrics-only", action="store_true",
+                   help="tw1-3: record only the per-step metrics")
     r.add_argument("-o", "--output", required=True, help="OUT.json to write")
     g = sub.add_parser("plot", help="plot x_{k|k} of every estimator of OUT.json")
     g.add_argument("out_json", metavar="OUT.json")
@@ -132,7 +137,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         elif args.command == "run":
             d00 = [float(v) for v in args.d00.split(",")] if args.d00 is not None else None
             _write(run_scenario(args.scenario, filter=args.filter, run=args.run, case=args.case,
-                                d00=d00, Pd00_scale=args.Pd00_scale), args.output)
+                                d00=d00, Pd00_scale=args.Pd00_scale, eta=args.eta,
+                                metrics_only=args.metrics_only), args.output)
         else:
             return _plot(args)
     except Error as e:

@@ -371,6 +371,7 @@ class TWNetworkBase(_TWFields[_D]):
     p: int
     reals_sent: int
     broadcasts: int
+    steps: int
 
 class NLModelBase(Generic[_D]):
     """A nonlinear model with unknown inputs (dkf/nl_model.h) of Python

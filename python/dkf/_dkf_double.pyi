@@ -41,3 +41,12 @@ def dare(
 
 def stein(A: npt.ArrayLike, B: npt.ArrayLike, C: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """The solution X of X = A X B^T + C (dkf_mat_stein)."""
+
+def graph_weights_uniform(adjacency: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """w_ij = 1 / |N_i| on the graph, (N, N) (dkf_graph_weights_uniform)."""
+
+def graph_weights_metropolis(adjacency: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Metropolis-Hastings weights on the graph, (N, N) (dkf_graph_weights_metropolis)."""
+
+def graph_weights_max_degree(adjacency: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """Max-degree weights on the graph, (N, N) (dkf_graph_weights_max_degree)."""

@@ -8,7 +8,8 @@ in the same order with the same matrices, so the dict equals the document
 `dkf-run --filter NAME --output OUT.json SCENARIO` writes, number for number
 (docs/decisions.md item 70). This module reads the canonical and the linear
 cases layouts and runs the estimator families; _steps.py runs the seed-004
-steps layout, _wfcases.py seed 002's weighted-fusion cases.
+steps layout, _network.py the seed-003 network layout, _wfcases.py seed
+002's weighted-fusion cases.
 """
 
 from __future__ import annotations
@@ -28,15 +29,20 @@ _NEEDS_UI = ("dkf", "askf", "otskf")
 _INPUT_PRIOR = ("askf", "otskf")
 
 _UIF = ("rtsf", "nrtsf_df", "nrtsf")  # the seed-004 steps layout (_steps.py)
+_TW = ("tw1", "tw2", "tw3")  # the seed-003 network layout (_network.py)
 # seed 002's weighted-fusion cases (_wfcases.py)
-_WF = ("local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady", "central_kf")
+_WF = ("local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady", "fusion_selftune",
+       "central_kf")
 
-SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _WF
+TW_MAX_ETA = 1000000  # DKF_TW_MAX_ETA (dkf/tw.h): the largest eta of tw3
+
+SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _TW + _WF
 """The --filter names run_scenario runs: kf, info, dkf, askf, otskf over the
 canonical layout (kf and info the linear and weighted-fusion cases too);
-rtsf, nrtsf_df, nrtsf over the seed-004 steps layout; local_kf,
-fusion_scalar, fusion_matrix, fusion_steady, central_kf over seed 002's
-weighted-fusion cases."""
+rtsf, nrtsf_df, nrtsf over the seed-004 steps layout; tw1, tw2, tw3 over the
+seed-003 network layout; local_kf, fusion_scalar, fusion_matrix,
+fusion_steady, fusion_selftune, central_kf over seed 002's weighted-fusion
+cases."""
 
 # The keys of the canonical layout (scn_canonical.c); the vector files' own
 # top-level keys are accepted and ignored, strings are comments.
@@ -589,31 +595,36 @@ def _plain(v: Any) -> Any:
 def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
                  run: int = 0, *, d00: Optional[Sequence[float]] = None,
                  Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
-                 name: Optional[str] = None) -> Dict[str, Any]:
+                 name: Optional[str] = None, eta: Optional[int] = None,
+                 metrics_only: bool = False) -> Dict[str, Any]:
     """Run filter `filter` over a scenario; the dict `dkf-run --output` writes.
 
     scenario: a path to a scenario JSON file, or the scenario as a dict
-    (docs/reference/scenario-format.md: the canonical layout, or the linear
-    cases layout with kf and info). filter: one of
-    SUPPORTED_FILTERS ("kf", "info", "dkf", "askf", "otskf"). run: the
-    Monte-Carlo run (dkf-run --run). d00, Pd00_scale: dkf-run's --d00 and
-    --Pd00-scale (askf, otskf). case: a cases-layout file's case, a name or
-    an index (dkf-run --case; default 0). name: the document's "scenario"
-    (default: the path as given, "<dict>" for a dict).
+    (docs/reference/scenario-format.md: the canonical layout, the linear
+    cases layout with kf and info, the seed-004 steps layout, the seed-003
+    network layout, seed 002's weighted-fusion cases). filter: one of
+    SUPPORTED_FILTERS. run: the Monte-Carlo run (dkf-run --run). d00,
+    Pd00_scale: dkf-run's --d00 and --Pd00-scale (askf, otskf). case: a
+    cases-layout file's case, a name or an index (dkf-run --case; default
+    0). name: the document's "scenario" (default: the path as given,
+    "<dict>" for a dict). eta, metrics_only: dkf-run's --eta (tw3) and
+    --metrics-only (tw1, tw2, tw3).
 
-    Returns {"scenario", ("case",) "filter", "real", "k", "outputs"}, every number
-    the one dkf-run writes. A file this runner cannot read (another layout,
-    a filter it does not run) raises ValueError naming it; a failed filter
-    call raises the dkf.Error of the call.
+    Returns {"scenario", ("case",) "filter", "real", "k", "outputs"} (tw1-3
+    also "communication", tw3 "eta"), every number the one dkf-run writes. A
+    file this runner cannot read (another layout, a filter it does not run)
+    raises ValueError naming it; a failed filter call raises the dkf.Error
+    of the call.
     """
     return run_with(_core, scenario, filter, run, d00=d00, Pd00_scale=Pd00_scale, case=case,
-                    name=name)
+                    name=name, eta=eta, metrics_only=metrics_only)
 
 
 def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
              run: int = 0, *, d00: Optional[Sequence[float]] = None,
              Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
-             name: Optional[str] = None) -> Dict[str, Any]:
+             name: Optional[str] = None, eta: Optional[int] = None,
+             metrics_only: bool = False) -> Dict[str, Any]:
     """run_scenario over the filters of `core` (_dkf_double or _dkf_float)."""
     if filter not in SUPPORTED_FILTERS:
         raise ValueError("run_scenario: filter %r: not run from Python (this runner takes %s; "
@@ -633,13 +644,25 @@ def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]]
     if Pd00_scale is not None and not (np.isfinite(Pd00_scale) and Pd00_scale > 0):
         raise ValueError("run_scenario: Pd00_scale %r: expected a finite number > 0"
                          % (Pd00_scale,))
+    if eta is not None and (filter != "tw3" or isinstance(eta, bool) or not isinstance(eta, int)
+                            or not 0 <= eta <= TW_MAX_ETA):
+        raise ValueError("run_scenario: eta %r: only for tw3, an integer in 0..%d"
+                         % (eta, TW_MAX_ETA))
+    if metrics_only and filter not in _TW:
+        raise ValueError("run_scenario: metrics_only: only for tw1, tw2, tw3")
     steps_layout = isinstance(doc, dict) and "steps" in doc and "y" not in doc and "runs" not in doc
-    if steps_layout and filter not in _UIF:
+    if steps_layout and filter not in _UIF + _TW:
         raise _fail(file, "steps", "filter %s reads the canonical or the cases layout, not this "
-                    "file's steps layout (run it with %s)" % (filter, ", ".join(_UIF)))
-    if filter in _UIF and not steps_layout:
-        raise _fail(file, "steps", "missing key (filter %s reads the seed-004 steps layout)"
-                    % filter)
+                    "file's steps layout (run it with %s)" % (filter, ", ".join(_UIF + _TW)))
+    if filter in _UIF + _TW and not steps_layout:
+        raise _fail(file, "steps", "missing key (filter %s reads the seed-00%d steps layout)"
+                    % (filter, 3 if filter in _TW else 4))
+    if steps_layout and filter in _TW:
+        if run != 0 or case is not None or d00 is not None or Pd00_scale is not None:
+            raise _fail(file, "steps", "run, case, d00 and Pd00_scale: not for the steps layout")
+        from ._network import run_tw  # (it imports this module's reader)
+
+        return run_tw(core, doc, file, filter, eta=eta, metrics_only=metrics_only)
     if steps_layout:
         if run != 0 or case is not None or d00 is not None or Pd00_scale is not None:
             raise _fail(file, "steps", "run, case, d00 and Pd00_scale: not for the steps layout")
@@ -665,7 +688,7 @@ def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]]
 
         if filter in _WF:
             return run_wfusion(core, doc, file, case_name or "", filter)
-        doc = {key: v for key, v in doc.items() if key != "_Hs"}
+        doc = {key: v for key, v in doc.items() if not key.startswith("_")}
     s = _Scenario(doc, file, run)
     if filter in _INPUT_PRIOR:
         if s.multi:

@@ -9,16 +9,13 @@ as a vector (put_mat), proj always as a matrix.
 
 from __future__ import annotations
 
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 import numpy as np
 
 from ._scenario import _Mat, _comment, _fail, _numbers, real_name
 
 UIF_LABELS = {"rtsf": "RTSF", "nrtsf_df": "NRTSF_DF", "nrtsf": "NRTSF"}
-_LETTERS = ("F", "G", "Q", "H", "D", "R")
-# seed 004's old letters: A, C, H = F, H, D (H renamed first)
-_OLD = (("H", "D"), ("C", "H"), ("A", "F"))
 
 
 def _has(obj: Dict[str, Any], letters) -> Optional[str]:
@@ -29,9 +26,9 @@ def _has(obj: Dict[str, Any], letters) -> Optional[str]:
     return None
 
 
-def _renamed(obj: Dict[str, Any]) -> Dict[str, Any]:
+def _renamed(obj: Dict[str, Any], pairs) -> Dict[str, Any]:
     out = dict(obj)
-    for old, new in _OLD:
+    for old, new in pairs:
         for suffix in ("", "_prev"):
             if old + suffix in out:
                 out[new + suffix] = out.pop(old + suffix)
@@ -39,13 +36,17 @@ def _renamed(obj: Dict[str, Any]) -> Dict[str, Any]:
 
 
 class _Steps:
-    """A seed-004 steps-layout file: model (constant), per-step inputs, init."""
+    """A seed-004 steps-layout file: model (constant), per-step inputs, init
+    (scn_steps.c; the network form of seed 003 is _network.py's _Net)."""
+
+    # seed 004's old letters: A, C, H = F, H, D (H renamed first); the letters
+    # only the old and only the new convention have (scn_letters.c)
+    OLD = (("H", "D"), ("C", "H"), ("A", "F"))
+    OLD_ONLY, NEW_ONLY = ("A", "C"), ("F", "D")
+    NODE_KEYS: Tuple[str, ...] = ()  # the network's per-node matrices (lists of N)
 
     def __init__(self, doc: Dict[str, Any], file: str) -> None:
         self.file = file
-        if "graph" in doc:
-            raise _fail(file, "graph", "a seed-003 network file: run_scenario does not run "
-                        "tw1, tw2, tw3; run this file with dkf-run")
         steps = doc["steps"]
         if not isinstance(steps, list) or not steps or not all(isinstance(t, dict)
                                                                 for t in steps):
@@ -53,15 +54,27 @@ class _Steps:
         model = doc.get("model") or {}
         inputs = [t.get("inputs") or {} for t in steps]
         objs = [("model", model)] + [("steps[%d].inputs" % j, i) for j, i in enumerate(inputs)]
-        old = next(("%s.%s" % (p, k) for p, o in objs for k in [_has(o, ("A", "C"))] if k), None)
-        new = next(("%s.%s" % (p, k) for p, o in objs for k in [_has(o, ("F", "D"))] if k), None)
+        old = next(("%s.%s" % (p, k) for p, o in objs for k in [_has(o, self.OLD_ONLY)] if k),
+                   None)
+        new = next(("%s.%s" % (p, k) for p, o in objs for k in [_has(o, self.NEW_ONLY)] if k),
+                   None)
         if old and new:
             raise _fail(file, old, "old letters beside the library's (%s): give one" % new)
         if old:
-            model = _renamed(model)
-            inputs = [_renamed(i) for i in inputs]
+            model = _renamed(model, self.OLD)
+            inputs = [_renamed(i, self.OLD) for i in inputs]
+        given = {key for key, v in model.items() if v is not None and not _comment(v)}
+        for j, i in enumerate(inputs):  # a matrix in one place: the model or the steps
+            for key, v in i.items():
+                base = key[:-5] if key.endswith("_prev") else key
+                if key == "y" or v is None or _comment(v):
+                    continue
+                if base in given or key != base and any(base in o for o in inputs):
+                    raise _fail(file, "steps[%d].inputs.%s" % (j, key), "also given as model.%s "
+                                "or as another step input (give one)" % base)
         self.model = {key: _Mat(file, "model." + key, v) for key, v in model.items()
-                      if v is not None and not _comment(v)}
+                      if v is not None and not _comment(v) and key not in self.NODE_KEYS}
+        self.node_model = {key: model[key] for key in self.NODE_KEYS if key in model}
         self.inputs = inputs
         init = doc.get("init")
         if not isinstance(init, dict) or "x0" not in init or "P0" not in init:
@@ -70,9 +83,9 @@ class _Steps:
         self.P0 = _numbers(file, "init.P0", init["P0"], 2)
         self.times: List[int] = []
         for j, t in enumerate(steps):
-            k = t.get("k")
+            k = t.get("k", t.get("n"))  # seed 004's k, seed 003's n
             if isinstance(k, bool) or not isinstance(k, int):
-                raise _fail(file, "steps[%d].k" % j, "missing key or not an integer")
+                raise _fail(file, "steps[%d].k" % j, "missing key (k, or n) or not an integer")
             if j == 0 and k not in (0, 1):
                 raise _fail(file, "steps[0].k", "expected 0 or 1, got %d" % k)
             if j > 0 and k != self.times[-1] + 1:
@@ -129,6 +142,9 @@ def _put(series: Dict[str, list], key: str, A: Any, as_matrix: bool = False) -> 
 
 def run_uif(core: Any, doc: Dict[str, Any], file: str, filter: str) -> Dict[str, Any]:
     """The document dkf-run --filter rtsf|nrtsf_df|nrtsf writes for a seed-004 file."""
+    if "graph" in doc:
+        raise _fail(file, "graph", "filter %s needs a seed-004 file (model F, G, Q, H, D, R), "
+                    "not a seed-003 network (run it with tw1, tw2, tw3)" % filter)
     s = _Steps(doc, file)
     kind = UIF_LABELS[filter]
     if filter == "nrtsf":

@@ -1,11 +1,13 @@
 """run_scenario's weighted-fusion cases (seed 002): the model, and the wfusion
-filters local_kf, fusion_scalar, fusion_matrix, fusion_steady, central_kf.
+filters local_kf, fusion_scalar, fusion_matrix, fusion_steady,
+fusion_selftune, central_kf.
 
 The C side is ports/linux/scenario/scn_wfcases.c (the reader: Q = Gamma Qe
 Gamma^T summed in double in one order, the upper triangle mirrored) and
 ports/linux/families/wfusion_run.c (every filter runs the local filters and
 both fusions at every step; each records its own keys under
-outputs.<LABEL>).
+outputs.<LABEL>). fusion_selftune feeds dkf.SelfTuning every y_i(t) and
+steps the fusion on the observer-form model of its current estimate.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from ._scenario import _fail, _matrix, _numbers, real_name
 
 WF_LABELS = {"local_kf": "LOCAL_KF", "fusion_scalar": "FUSION_SCALAR",
              "fusion_matrix": "FUSION_MATRIX", "fusion_steady": "FUSION_STEADY",
-             "central_kf": "CENTRAL_KF"}
+             "fusion_selftune": "FUSION_SELFTUNE", "central_kf": "CENTRAL_KF"}
 _CASE_KEYS = {"name", "Phi", "Gamma", "Qe", "H", "R", "H_signal", "x_hat0", "P0", "steps",
               "x_true", "steady_state", "held_out"}
 
@@ -77,7 +79,74 @@ def canonical(cj: Dict[str, Any], file: str, cpath: str) -> Dict[str, Any]:
     return {"model": {"F": cj["Phi"], "Q": gamma_q(G, Qe),
                       "sensors": [{"H": h, "R": r} for h, r in zip(H, R)]},
             "init": {"x00": cj["x_hat0"], "P00": cj["P0"]}, "y": y, "N": len(steps),
-            "_Hs": cj["H_signal"]}
+            "_Hs": cj["H_signal"], "_Gamma": G, "_Qe": Qe}
+
+
+def _selftune(core: Any, doc: Dict[str, Any], file: str, F: np.ndarray, Q: np.ndarray,
+              H: List[np.ndarray], R: List[np.ndarray], Hs: np.ndarray) -> Any:
+    """The identifier of the case's self-tuning form (wfusion_run.c's st_setup): its
+    orders from H_i = (1 0..0 1 0..0), P(q^-1) from Phi's noise block, sigma_xi^2 = Qe[1][1],
+    sigma_v^2 = R_i; the file's model checked to be the observer form of its own a, c_1,
+    sigma_w^2 = Qe[0][0] up to the real type's rounding."""
+    n, l = F.shape[0], len(H)
+    G, Qe = doc["_Gamma"], doc["_Qe"]
+    na = 0
+    for i, Hi in enumerate(H):
+        row = Hi[0].tolist()
+        nz = [j for j in range(1, n) if row[j] != 0.0]
+        if (Hi.shape[0] != 1 or row[0] != 1.0 or len(nz) != 1 or row[nz[0]] != 1.0
+                or (i > 0 and nz[0] != na)):
+            raise _fail(file, "H[%d]" % i, "filter fusion_selftune needs every H_i = (1 0..0 1 "
+                        "0..0) (y_i = s + eta + v_i, one row; the same for every sensor)")
+        na = nz[0]
+    np_ = n - na
+    if na > 4 or np_ > 4:
+        raise _fail(file, "H", "filter fusion_selftune identifies A of order na = %d with P of "
+                    "order %d: at most 4 and 4" % (na, np_))
+    hs = Hs.reshape(-1).tolist()
+    if n > 1 and (hs[0] != 1.0 or any(v != 0.0 for v in hs[1:])):
+        raise _fail(file, "H_signal", "filter fusion_selftune needs H_signal = (1 0..0) (s = the "
+                    "first state)")
+    if G.shape[1] != 2:
+        raise _fail(file, "Gamma", "filter fusion_selftune needs two noises (w, xi), got %d "
+                    "columns" % G.shape[1])
+    nc = 1 if na > 1 else 0
+    real = np.dtype(core.dtype).type
+    p = [float(real(-F[na + j, na])) for j in range(np_)]
+    sxi2 = float(real(Qe[1, 1]))
+    st = core.SelfTuning(L=l, sigma_v2=[float(Ri[0, 0]) for Ri in R], p=p or None,
+                         sigma_xi2=float(Qe[1, 1]), na=na, nc=nc, lags=max(5, na + nc))
+    # the observer form of the file's own a, c_1, sigma_w^2 (dkf_selftune_model's)
+    a = [float(real(-F[j, 0])) for j in range(na)]
+    c1 = float(real(G[1, 0])) if nc else 0.0
+    sw2 = float(real(Qe[0, 0]))
+    ne = max(np_, 1)
+    Fo, Qo = np.zeros((na + ne, na + ne)), np.zeros((na + ne, na + ne))
+    for i in range(na):
+        Fo[i, 0] = -a[i]
+        if i + 1 < na:
+            Fo[i, i + 1] = 1.0
+    for i in range(ne):
+        Fo[na + i, na] = -p[i] if np_ else 0.0
+        if i + 1 < ne:
+            Fo[na + i, na + i + 1] = 1.0
+    gam = [1.0, c1 if nc else 0.0] + [0.0] * na
+    for i in range(na):
+        for j in range(na):
+            Qo[i, j] = (gam[i] * sw2) * gam[j]
+    Qo[na, na] = sxi2
+    eps = float(np.finfo(core.dtype).eps)
+    if Fo.shape != F.shape:
+        raise _fail(file, "Phi", "filter fusion_selftune: the observer form of na = %d, np = %d "
+                    "is %dx%d, the case's Phi %dx%d" % (na, np_, Fo.shape[0], Fo.shape[1], n, n))
+    scale = max(1.0, float(np.max(np.maximum(np.abs(F), np.abs(Q)))))
+    worst = float(np.max(np.maximum(np.abs(Fo - F), np.abs(Qo - Q))))
+    if not worst <= 64.0 * eps * scale:
+        raise _fail(file, "Phi", "filter fusion_selftune needs the observer form of "
+                    "dkf/selftune.h (F = blkdiag([-a | I; 0], [-p | I; 0]), Gamma = blkdiag([1; "
+                    "c_1; 0..], [1; 0..]), Qe = diag(sigma_w^2, sigma_xi^2)): off by %.3g"
+                    % worst)
+    return st
 
 
 def _blocks(A: np.ndarray, n: int, rows: int, cols: int) -> List[Any]:
@@ -153,6 +222,7 @@ def run_wfusion(core: Any, doc: Dict[str, Any], file: str, case_name: str,
             put(dst, "x_fused_matrix", np.reshape(w.xf, -1).tolist(), steady)
         put(dst, "P0_matrix", np.asarray(w.Pf).tolist(), steady)
 
+    st = _selftune(core, doc, file, F, Q, H, R, Hs) if filter == "fusion_selftune" else None
     if filter == "fusion_steady":
         w.steady(F, Q, H, R)
         w.fuse_scalar()
@@ -163,10 +233,23 @@ def run_wfusion(core: Any, doc: Dict[str, Any], file: str, case_name: str,
     N = doc["N"]
     for t in range(1, N + 1):
         y = [np.asarray(doc["y"][i]["values"][t - 1], dtype=np.float64) for i in range(l)]
-        w.step(F, Q, H, R, y)
+        if st is not None:  # the identifier on y(t), the step on its estimate's model
+            st.update([yi[0] for yi in y])
+            est = st.estimate()
+            Ft, Qt = st.model()
+            w.step(Ft, Qt, H, R, y)
+        else:
+            w.step(F, Q, H, R, y)
         w.fuse_scalar()
         w.fuse_matrix()
-        if kf is not None:
+        if st is not None:
+            put(ser, "a_hat", np.asarray(est["a"]).tolist(), False)
+            put(ser, "c1_hat", est["c1"], False)
+            put(ser, "sigma_w2_hat", est["sigma_w2"], False)
+            put(ser, "guard", int(est["guard"]), False)
+            scalar(ser, False)
+            put(ser, "x_fused_matrix", np.reshape(w.xf, -1).tolist(), False)
+        elif kf is not None:
             kf.predict(F=F, Q=Q)
             kf.update(np.concatenate(y))
             put(ser, "x_central", np.reshape(kf.x, -1).tolist(), False)

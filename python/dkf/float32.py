@@ -23,11 +23,12 @@ __all__ = list(_core) + ["expr_model", "jit_model", "run_scenario"]
 def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,
                  run: int = 0, *, d00: Optional[Sequence[float]] = None,
                  Pd00_scale: Optional[float] = None, case: Union[int, str, None] = None,
-                 name: Optional[str] = None) -> Dict[str, Any]:
+                 name: Optional[str] = None, eta: Optional[int] = None,
+                 metrics_only: bool = False) -> Dict[str, Any]:
     """dkf.run_scenario over the core built in float: the document of a float dkf-run
     ("real": "float"), every number that build's."""
     from . import _dkf_float
     from ._scenario import run_with
 
     return run_with(_dkf_float, scenario, filter, run, d00=d00, Pd00_scale=Pd00_scale,
-                    case=case, name=name)
+                    case=case, name=name, eta=eta, metrics_only=metrics_only)

@@ -2284,8 +2284,9 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.attr("__all__") = nb::make_tuple("KalmanFilter", "InformationFilter", "info_contribution",
                                        "DifferenceKF", "DiffKFFusionCentre", "ASKF", "OTSKF", "UIF",
                                        "WeightedFusion", "SelfTuning", "dare", "stein", "TWCentral",
-                                       "TWNetwork", "NLModel", "NERTS", "DFNERTS", "dtype",
-                                       "MAX_DIM");
+                                       "TWNetwork", "graph_weights_uniform",
+                                       "graph_weights_metropolis", "graph_weights_max_degree",
+                                       "NLModel", "NERTS", "DFNERTS", "dtype", "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
     register_tw(m);
     register_nerts(m);

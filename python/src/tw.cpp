@@ -421,6 +421,7 @@ public:
     OutArray adjacency() const { return graph_.adjacency(); }
     const dkf_tw_net_t &net() const { return net_; }
     size_t k() const { return nodes_[0].k; }
+    size_t steps() const { return net_.steps; }
     size_t N() const { return N_; }
     size_t n() const { return n_; }
     size_t m_max() const { return m_max_; }
@@ -563,8 +564,50 @@ OutArray GraphArg::adjacency() const
     return out;
 }
 
+// The weights a dkf_graph_weights_* function gives on the graph of
+// adjacency, as a dense (N, N) array, zero off the graph.
+static OutArray graph_weights(nb::handle adjacency, const char *call,
+                              dkf_status_t (*make)(dkf_real_t *, const dkf_graph_t *))
+{
+    GraphArg g;
+    g.bind(adjacency, call);
+    std::vector<real> w(g.nbr.size());
+    const dkf_status_t st = make(w.data(), &g.g);
+    if (st != DKF_OK) raise_status(st, call, -1, "adjacency", "");
+    const size_t shape[2] = {g.N, g.N};
+    OutArray out = new_array(2, shape);
+    std::fill(out.data(), out.data() + g.N * g.N, real(0));
+    for (size_t i = 0; i < g.N; ++i)
+        for (size_t e = g.start[i]; e < g.start[i + 1]; ++e) out.data()[i * g.N + g.nbr[e]] = w[e];
+    return out;
+}
+
 void register_tw(nb::module_ &m)
 {
+    using WeightsFn = dkf_status_t (*)(dkf_real_t *, const dkf_graph_t *);
+    static const struct {
+        const char *name;
+        WeightsFn make;
+        const char *doc;
+    } weight_fns[] = {
+        {"graph_weights_uniform", dkf_graph_weights_uniform,
+         "Uniform weights w_ij = 1 / |N_i| on the graph (self included), (N, N): the default "
+         "alpha of the diffusion (dkf_graph_weights_uniform)."},
+        {"graph_weights_metropolis", dkf_graph_weights_metropolis,
+         "Metropolis-Hastings weights w_ij = 1 / (1 + max(d_i, d_j)), w_ii = 1 - the others, "
+         "(N, N): the default W of the consensus (dkf_graph_weights_metropolis)."},
+        {"graph_weights_max_degree", dkf_graph_weights_max_degree,
+         "Max-degree weights w_ij = 1 / (1 + d_max), w_ii = 1 - d_i / (1 + d_max), (N, N) "
+         "(dkf_graph_weights_max_degree)."},
+    };
+    for (const auto &fn : weight_fns) {
+        const char *name = fn.name;
+        const WeightsFn make = fn.make;
+        m.def(
+            name, [name, make](nb::handle A) { return graph_weights(A, name, make); },
+            nb::arg("adjacency"), nb::rv_policy::take_ownership, fn.doc);
+    }
+
     nb::class_<TWCentral> c(m, "TWCentral",
                             "The centralised two-stage filter with unknown inputs, Algorithm 1 of "
                             "dkf/tw.h (seed 003).");
@@ -627,6 +670,9 @@ void register_tw(nb::module_ &m)
                      "Reals broadcast, summed over nodes and steps.")
         .def_prop_ro("broadcasts", [](const TWNetwork &f) { return f.net().broadcasts; },
                      "Broadcasts, summed over nodes and steps.")
+        .def_prop_ro("steps", &TWNetwork::steps,
+                     "Steps the communication counters cover (per node per step: reals_sent / "
+                     "(N steps)).")
         .def("__repr__", [](const TWNetwork &f) {
             return "<dkf TWNetwork N=" + std::to_string(f.N()) + " n=" + std::to_string(f.n()) +
                    " m_max=" + std::to_string(f.m_max()) + " p=" + std::to_string(f.p()) +

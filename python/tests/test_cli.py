@@ -105,7 +105,8 @@ def test_plot_steps_layout(tmp_path: Path) -> None:
 
 
 def test_run_options(tmp_path: Path) -> None:
-    """--case, --d00 and --Pd00-scale reach run_scenario (dkf-run's options of those names)."""
+    """--case, --d00, --Pd00-scale, --eta and --metrics-only reach run_scenario (dkf-run's
+    options of those names)."""
     from conftest import VECTORS
 
     out = tmp_path / "o.json"
@@ -119,3 +120,9 @@ def test_run_options(tmp_path: Path) -> None:
     assert main(["run", lif, "--filter", "info", "--case", "0", "-o", str(out)]) == 0
     assert json.loads(out.read_text()) == dkf.run_scenario(lif, filter="info", case="0")
 
+    six = str(VECTORS / "uif" / "s003_6node.json")
+    assert main(["run", six, "--filter", "tw3", "--eta", "3", "--metrics-only", "-o",
+                 str(out)]) == 0
+    assert json.loads(out.read_text()) == dkf.run_scenario(six, filter="tw3", eta=3,
+                                                           metrics_only=True)
+    assert json.loads(out.read_text())["eta"] == 3

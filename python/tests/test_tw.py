@@ -123,7 +123,7 @@ def test_filter_equals_its_steps(mod):
             getattr(b, call)(at(Y, t), **kw, **model)
             assert same_bits(X[t - 1], b.x) and same_bits(P[t - 1], b.P), (call, t)
             assert same_bits(D[t - 1], b.d)
-        assert a.k == b.k == T - 1 and a.reals_sent == b.reals_sent
+        assert a.k == b.k == a.steps == b.steps == T - 1 and a.reals_sent == b.reals_sent
 
 
 def test_nan_is_a_missing_component(mod):
@@ -183,7 +183,7 @@ def test_failures_leave_the_filters_bit_identical(mod, seed):
     net = m.TWNetwork(x0, P0, adjacency=A, m_max=2, p=2)
     net.consensus_step(at(Y, 1), W=w["W"], eta=3, **model)
     nstate = lambda: (tuple(getattr(net, a).tobytes() for a in fields), net.k,  # noqa: E731
-                      net.reals_sent, net.broadcasts)
+                      net.reals_sent, net.broadcasts, net.steps)
     want = nstate()
     i, j = np.argwhere(A + np.eye(6) == 0)[0]  # two nodes without a link
     off = w["W"].copy()

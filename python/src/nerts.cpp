@@ -1253,7 +1253,8 @@ void register_dfnerts_node(nb::module_ &m)
              "The prior from a neighbour's packet, the posterior at step k (variant paper with "
              "p > 0: the input's d0, Pd0).")
         .def_prop_ro("pkt", &N::pkt, nb::rv_policy::take_ownership,
-                     "The node's current packet (pkt_len,), a copy.")
+                     "The node's current packet (pkt_len,), a copy: after a commit the "
+                     "consensus pair it committed from (after cancel(), the dropped step's).")
         .def_prop_ro("pkt_len", [](const N &f) { return f.node().pkt_len; })
         .def_prop_ro("q", [](const N &f) { return f.node().q; }, "n (paper) or n + p (joint).")
         .def_prop_ro("tau", [](const N &f) { return f.node().tau; }, "Rounds mixed.")

@@ -9,7 +9,7 @@ import pytest
 
 import dkf
 from conftest import assert_refused_untouched, poker, same_bits
-from test_dfnerts import PER_M, case, load
+from test_dfnerts import PER_M, armed_case, case, load
 
 # the views compared bit for bit (the m-dependent ones included)
 VIEWS = ("x", "Px", "d", "Pd", "Pxd", "x_pred", "P_pred", "Y_pred", "y_pred", "i", "I", "Y",
@@ -203,17 +203,8 @@ def test_refused_calls_leave_the_node_bit_identical(mod, seed):
 
 def test_a_callback_exception_fails_local(mod):
     m, _ = mod
-    c = case("s1_4node_Tp3_scale1")
-    models, pri, A, run, Z = load(m, c)
-    inner = models[3]
-    armed = []
-
-    def h(x, d, u):
-        if armed:
-            raise OverflowError("node 3's sensor")
-        return inner.h(x, d, u)
-
-    model = m.NLModel(inner.f, h, n=4, m=3, p=1, angles=[1])
+    models, pri, A, run, Z, armed = armed_case(m)
+    model = models[3]
     nd = m.DFNERTSNode(model, **{k: v[3] for k, v in pri.items()})
     assert nd.model is model and "DFNERTSNode DNERTSIF paper" in repr(nd)
     nd.local(Z[3][1], Q=run["Q"][3], R=run["R"][3])

@@ -1,8 +1,8 @@
 // python/src/nerts.cpp - seed 001's nonlinear filters: the model NLModel
 // (dkf/nl_model.h's callback table calling Python), NERTS (dkf/nerts.h:
-// NERTSF, NERTSIF, DNERTSF, DNERTSIF) and the consensus network DFNERTS
-// (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF). docs/guide/python.md, "Nonlinear
-// filters"; docs/decisions.md item 69.
+// NERTSF, NERTSIF, DNERTSF, DNERTSIF), the consensus network DFNERTS
+// (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF) and one node of it, DFNERTSNode.
+// docs/guide/python.md, "Nonlinear filters"; docs/decisions.md items 69, 73.
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 

@@ -112,6 +112,15 @@ class DifferenceKFBase(_DkfEstimates[_D]):
     p: int
     def message(self) -> Tuple[int, _Out[_D], _Out[_D]]:
         """The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step."""
+    def set_steady(self, tol: float) -> None:
+        """The steady gain of a time-invariant model: tol in [0, 1), 0 off."""
+    def set_time(self, k: int) -> None:
+        """The time k of xf (a filter restarted at k_start: set_time(k_start - 1))."""
+    def save(self) -> _Out[_D]:
+        """A checkpoint, a new 1-D array of the module's dtype."""
+    def restore(self, buf: _Out[_D]) -> None:
+        """Back to save()'s checkpoint buf; a refused buffer changes nothing."""
+    steady: bool
 
 class DiffKFFusionCentreBase(_DkfEstimates[_D]):
     """The distributed Difference KF's fusion centre (dkf/diffkf_fusion.h).
@@ -139,7 +148,29 @@ class DiffKFFusionCentreBase(_DkfEstimates[_D]):
         sensors: Sequence[Mapping[str, _A]],
         messages: Sequence[Tuple[int, _A, _A]],
     ) -> None: ...
+    def step_partial(
+        self,
+        F: _A,
+        Q: _A,
+        sensors: Sequence[Mapping[str, _A]],
+        messages: Sequence[Optional[Tuple[int, _A, _A]]],
+    ) -> List[bool]:
+        """step() with messages[i] None for a missing message (the masked
+        central gain); returns whether each node's z entered the estimate."""
+    def restart_node(
+        self, node: int, k_start: int, P_prior: _A, sensor: Mapping[str, _A]
+    ) -> None:
+        """Node `node` restarted at k_start = self.k + 1 from P_prior, with
+        its H, D, R at k_start."""
+    def set_steady(self, tol: float) -> None:
+        """The steady gain of the central filter and every replica."""
+    def save(self) -> _Out[_D]:
+        """A checkpoint of the whole centre, a new 1-D array."""
+    def restore(self, buf: _Out[_D]) -> None:
+        """Back to save()'s checkpoint buf; a refused buffer changes nothing."""
     def recovered(self, node: int) -> Tuple[_Out[_D], _Out[_D]]: ...
+    synced: List[bool]
+    steady: bool
     k: int
     n: int
     l: int
@@ -509,3 +540,42 @@ class DFNERTSBase(_NertsFields[_D]):
     models: List[Any]
     reals_sent: int
     broadcasts: int
+
+class DFNERTSNodeBase(_NertsFields[_D]):
+    """One node of seed 001's consensus network (dkf/dfnerts.h's node API):
+    its own NLModel and prior; its packets in and out as arrays."""
+
+    def __init__(
+        self, model: Any, x0: _A, P0: _A, *, kind: str = "DNERTSIF", variant: str = "paper",
+        d0: _O = None, Pd0: _O = None, Pxd0: _O = None
+    ) -> None: ...
+    def local(
+        self, z: _A, *, Q: _A, R: _A, scale: float = 1.0, u_prev: _O = None, u: _O = None
+    ) -> _Out[_D]:
+        """Time update and local statistics of z; returns the tau = 0 packet."""
+    def mix(self, pkts: Sequence[_A], w: _A) -> _Out[_D]:
+        """One round over the neighbourhood's packets (its own among them)
+        with the weights w; returns the next packet."""
+    def commit(self) -> None:
+        """The posterior from the current packet."""
+    def cancel(self) -> None:
+        """Drops the pending step."""
+    def restart(
+        self, k: int, x0: _A, P0: _A, *, d0: _O = None, Pd0: _O = None, Pxd0: _O = None
+    ) -> None:
+        """A new prior, the posterior at step k."""
+    def rejoin(self, k: int, pkt: _A, *, d0: _O = None, Pd0: _O = None) -> None:
+        """The prior from a neighbour's packet, the posterior at step k."""
+    pkt: _Out[_D]
+    pkt_len: int
+    q: int
+    tau: int
+    pending: bool
+    scale: float
+    k: int
+    n: int
+    m: int
+    p: int
+    kind: str
+    variant: str
+    model: Any

@@ -6,7 +6,8 @@ import numpy.typing as npt
 
 from ._api import ASKFBase, DiffKFFusionCentreBase, DifferenceKFBase, InformationFilterBase
 from ._api import KalmanFilterBase, OTSKFBase, SelfTuningBase, UIFBase, WeightedFusionBase
-from ._api import DFNERTSBase, NERTSBase, NLModelBase, TWCentralBase, TWNetworkBase
+from ._api import DFNERTSBase, DFNERTSNodeBase, NERTSBase, NLModelBase, TWCentralBase
+from ._api import TWNetworkBase
 
 dtype: str
 MAX_DIM: int
@@ -28,6 +29,7 @@ class TWNetwork(TWNetworkBase[np.float64]): ...
 class NLModel(NLModelBase[np.float64]): ...
 class NERTS(NERTSBase[np.float64]): ...
 class DFNERTS(DFNERTSBase[np.float64]): ...
+class DFNERTSNode(DFNERTSNodeBase[np.float64]): ...
 
 def info_contribution(
     z: npt.ArrayLike, H: npt.ArrayLike, R: npt.ArrayLike

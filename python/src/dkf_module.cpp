@@ -882,6 +882,60 @@ OutArray mat_out(const dkf_mat_t &M, bool vector)
     return copy_out(M.data, vector ? 1 : 2, shape);
 }
 
+// ---- checkpoints -------------------------------------------------------------
+
+// A checkpoint argument: save()'s array, 1-D, of the module's dtype. Another
+// dtype is refused, not converted: a checkpoint holds a filter's reals bit
+// for bit, and its header does not say the real type (docs/decisions.md
+// item 73).
+Mat checkpoint_arg(nb::handle buf, const char *call)
+{
+    std::string dt;
+    if (!nb::hasattr(buf, "dtype") || !nb::try_cast(buf.attr("dtype").attr("name"), dt) ||
+        dt != DKF_PY_DTYPE) {
+        throw nb::type_error((std::string(call) + ": buf must be an array of " DKF_PY_DTYPE
+                                                  ", as save() gives, got " +
+                              (dt.empty() ? nb::cast<std::string>(buf.type().attr("__name__"))
+                                          : "dtype " + dt))
+                                 .c_str());
+    }
+    Mat b;
+    b.keep = as_array(buf, call, "buf");
+    if (b.keep.ndim() != 1 || b.keep.shape(0) == 0)
+        value_error(call, "buf must be 1-D and not empty, got shape " + shape_str(b.keep));
+    b.p = b.keep.data();
+    b.rows = b.keep.shape(0);
+    b.cols = b.count = 1;
+    return b;
+}
+
+// A refused restore: the buffer's fault (the object is unchanged).
+[[noreturn]] void raise_restore(dkf_status_t st, const char *call, size_t len, size_t need)
+{
+    std::string detail;
+    switch (st) {
+    case DKF_ERR_CAPACITY:
+        detail = "buf has " + std::to_string(len) + " reals, a checkpoint of this object " +
+                 std::to_string(need);
+        break;
+    case DKF_ERR_ARG: detail = "buf is not a checkpoint of this class (tag or header)"; break;
+    case DKF_ERR_DIM: detail = "buf is a checkpoint of other dimensions"; break;
+    case DKF_ERR_NONFINITE: detail = "buf holds a NaN or an infinity"; break;
+    default: break;
+    }
+    raise_status(st, call, -1, "buf", detail);
+}
+
+// A new array of len reals that save(buf, len) fills.
+template <class Save> OutArray checkpoint_out(size_t len, const char *call, Save save)
+{
+    const size_t shape[1] = {len};
+    OutArray a = new_array(1, shape);
+    const dkf_status_t st = save(a.data(), len);
+    if (st != DKF_OK) raise_status(st, call, -1, nullptr, "");
+    return a;
+}
+
 class DifferenceKF : Guarded {
 public:
     DifferenceKF(nb::handle x0, nb::handle P0, size_t m, size_t p)
@@ -1011,6 +1065,40 @@ public:
         return nb::make_tuple(static_cast<size_t>(msg.k), copy_out(msg.xf, 1, shape),
                               copy_out(msg.xp, 1, shape));
     }
+    // The steady gain (dkf_diffkf_set_steady): tol in [0, 1), 0 off.
+    void set_steady(double tol)
+    {
+        static const char *call = "DifferenceKF.set_steady";
+        not_busy(call);
+        dkf_status_t st = dkf_diffkf_set_steady(&f_, static_cast<real>(tol));
+        if (st != DKF_OK) raise_status(st, call, -1, nullptr, "tol must be in [0, 1)");
+    }
+    // The time k of xf (dkf_diffkf_set_time): a filter restarted at k_start
+    // takes set_time(k_start - 1) after its start.
+    void set_time(size_t k)
+    {
+        static const char *call = "DifferenceKF.set_time";
+        not_busy(call);
+        dkf_status_t st = dkf_diffkf_set_time(&f_, k);
+        if (st != DKF_OK) raise_status(st, call, -1, nullptr, "");
+    }
+    OutArray save() const
+    {
+        static const char *call = "DifferenceKF.save";
+        not_busy(call);
+        return checkpoint_out(dkf_diffkf_checkpoint_len(&f_), call, [this](real *b, size_t len) {
+            return dkf_diffkf_save(&f_, b, len);
+        });
+    }
+    void restore(nb::handle buf)
+    {
+        static const char *call = "DifferenceKF.restore";
+        not_busy(call);
+        Mat b = checkpoint_arg(buf, call);
+        dkf_status_t st = dkf_diffkf_restore(&f_, b.p, b.rows);
+        if (st != DKF_OK) raise_restore(st, call, b.rows, dkf_diffkf_checkpoint_len(&f_));
+    }
+    bool steady() const { return f_.steady != 0; }
     size_t n() const { return n_; }
     size_t m() const { return m_; }
     size_t p() const { return p_; }
@@ -1151,6 +1239,95 @@ public:
         if (st != DKF_OK) raise_fc(st, call, fault);
     }
 
+    // A step with some messages absent (None): dkf_diffkf_fc_step_partial.
+    // Returns contributed: node i's z entered the fused estimate.
+    std::vector<bool> step_partial(nb::handle F, nb::handle Q, nb::handle sensors,
+                                   nb::handle messages)
+    {
+        static const char *call = "DiffKFFusionCentre.step_partial";
+        not_busy(call);
+        Mat f = matrix_arg(F, call, "F", n_, n_, false), q = matrix_arg(Q, call, "Q", n_, n_, false);
+        Sensors s = sensor_args(sensors, call, true);
+        std::vector<unsigned char> present(l_, 0), contributed(l_, 0);
+        std::vector<dkf_diffkf_msg_t> msgs = message_args(messages, call, present.data());
+        dkf_mat_t Fm = view(n_, n_, f.p), Qm = view(n_, n_, q.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_step_partial(&fc_, &Fm, &Qm, s.c.data(), msgs.data(),
+                                                     present.data(), contributed.data(), &fault);
+        if (st != DKF_OK) raise_fc(st, call, fault);
+        return std::vector<bool>(contributed.begin(), contributed.end());
+    }
+
+    // Node `node` restarted its filter at k_start = self.k + 1 from the prior
+    // covariance P_prior, with its model at k_start: dkf_diffkf_fc_restart_node.
+    void restart_node(size_t node, size_t k_start, nb::handle P_prior, nb::handle sensor)
+    {
+        static const char *call = "DiffKFFusionCentre.restart_node";
+        not_busy(call);
+        if (node >= l_) {
+            raise_status(DKF_ERR_ARG, call, -1, nullptr,
+                         "node " + std::to_string(node) + ": the centre has " +
+                             std::to_string(l_) + " nodes", static_cast<long>(node));
+        }
+        Mat P = matrix_arg(P_prior, call, "P_prior", n_, n_, false);
+        Sensors s;
+        s.mats.reserve(5);
+        s.v.resize(5);
+        s.c.resize(1);
+        sensor_into(s, 0, sensor, node, "sensor", call, false);
+        dkf_mat_t Pm = view(n_, n_, P.p);
+        dkf_diffkf_fc_fault_t fault;
+        dkf_status_t st = dkf_diffkf_fc_restart_node(&fc_, node, k_start, &Pm, s.c.data(), &fault);
+        if (st == DKF_OK) return;
+        if (fault.which == DKF_DIFFKF_FC_SEQUENCE) {
+            raise_status(st, call, -1, nullptr,
+                         "node " + std::to_string(node) + ": k_start must be self.k + 1 = " +
+                             std::to_string(fc_.k + 1) + (fc_.priv.started ? "" : ", after start()"),
+                         static_cast<long>(node));
+        }
+        if (fault.which == DKF_DIFFKF_FC_PRIOR) {
+            raise_status(st, call, -1, "P_prior",
+                         "node " + std::to_string(node) + ": " + dkf_diffkf_fc_cond_str(fault.which),
+                         static_cast<long>(node));
+        }
+        raise_fc(st, call, fault);
+    }
+
+    void set_steady(double tol)
+    {
+        static const char *call = "DiffKFFusionCentre.set_steady";
+        not_busy(call);
+        dkf_status_t st = dkf_diffkf_fc_set_steady(&fc_, static_cast<real>(tol));
+        if (st != DKF_OK) raise_status(st, call, -1, nullptr, "tol must be in [0, 1)");
+    }
+
+    OutArray save() const
+    {
+        static const char *call = "DiffKFFusionCentre.save";
+        not_busy(call);
+        return checkpoint_out(dkf_diffkf_fc_checkpoint_len(&fc_), call,
+                              [this](real *b, size_t len) { return dkf_diffkf_fc_save(&fc_, b, len); });
+    }
+
+    void restore(nb::handle buf)
+    {
+        static const char *call = "DiffKFFusionCentre.restore";
+        not_busy(call);
+        Mat b = checkpoint_arg(buf, call);
+        dkf_status_t st = dkf_diffkf_fc_restore(&fc_, b.p, b.rows);
+        if (st != DKF_OK) raise_restore(st, call, b.rows, dkf_diffkf_fc_checkpoint_len(&fc_));
+    }
+
+    // Each node's replica carries its true dz: its next message is recovered.
+    std::vector<bool> synced() const
+    {
+        not_busy("DiffKFFusionCentre.synced");
+        std::vector<bool> out(l_);
+        for (size_t i = 0; i < l_; ++i) out[i] = nodes_[i].sync != 0;
+        return out;
+    }
+    bool steady() const { return fc_.central.steady != 0; }
+
     nb::tuple recovered(size_t i) const
     {
         static const char *call = "DiffKFFusionCentre.recovered";
@@ -1211,58 +1388,69 @@ private:
         s.mats.reserve(5 * l_);
         s.v.resize(5 * l_);
         s.c.resize(l_);
-        static const char *keys[5] = {"B", "Rd", "H", "D", "R"};
         for (size_t i = 0; i < l_; ++i) {
-            if (!nb::isinstance<nb::dict>(sq[i]))
-                throw nb::type_error((std::string(call) + ": sensors[" + std::to_string(i) +
-                                      "] must be a dict").c_str());
-            nb::dict d = nb::borrow<nb::dict>(sq[i]);
-            const size_t rows[5] = {p_[i], p_[i], m_[i], m_[i], m_[i]};
-            const size_t cols[5] = {p_[i], p_[i], n_, p_[i], m_[i]};
-            for (size_t j = 0; j < 5; ++j) {
-                const std::string nm = "sensors[" + std::to_string(i) + "][\"" + keys[j] + "\"]";
-                if (!d.contains(keys[j])) {
-                    if (j == 1 && !with_Rd) {
-                        s.mats.emplace_back();
-                        continue;
-                    }
-                    value_error(call, nm + " is missing");
-                }
-                s.mats.push_back(matrix_arg(d[keys[j]], call, nm.c_str(), rows[j], cols[j], false));
-                s.v[5 * i + j] = view(rows[j], cols[j], s.mats.back().p);
-            }
-            dkf_mat_t *v = &s.v[5 * i];
-            s.c[i].B = &v[0];
-            s.c[i].Rd = s.mats[5 * i + 1].p ? &v[1] : nullptr;
-            s.c[i].meas.H = &v[2];
-            s.c[i].meas.D = &v[3];
-            s.c[i].meas.R = &v[4];
+            const std::string nm = "sensors[" + std::to_string(i) + "]";
+            sensor_into(s, i, sq[i], i, nm, call, true, with_Rd);
         }
         return s;
     }
 
-    // messages: a sequence of l tuples (k, xf, xp), DifferenceKF.message()'s.
-    std::vector<dkf_diffkf_msg_t> message_args(nb::handle messages, const char *call) const
+    // Entry j of s: sensor i's dict (named `name`) of B, Rd, H, D, R; B
+    // (with_B) and Rd (with_Rd) optional where the call does not use them.
+    void sensor_into(Sensors &s, size_t j, nb::handle item, size_t i, const std::string &name,
+                     const char *call, bool with_B, bool with_Rd = false) const
+    {
+        static const char *keys[5] = {"B", "Rd", "H", "D", "R"};
+        if (!nb::isinstance<nb::dict>(item))
+            throw nb::type_error((std::string(call) + ": " + name + " must be a dict").c_str());
+        nb::dict d = nb::borrow<nb::dict>(item);
+        const size_t rows[5] = {p_[i], p_[i], m_[i], m_[i], m_[i]};
+        const size_t cols[5] = {p_[i], p_[i], n_, p_[i], m_[i]};
+        const bool needed[5] = {with_B, with_Rd, true, true, true};
+        for (size_t e = 0; e < 5; ++e) {
+            const std::string nm = name + "[\"" + keys[e] + "\"]";
+            if (!d.contains(keys[e])) {
+                if (needed[e]) value_error(call, nm + " is missing");
+                s.mats.emplace_back();
+                continue;
+            }
+            s.mats.push_back(matrix_arg(d[keys[e]], call, nm.c_str(), rows[e], cols[e], false));
+            s.v[5 * j + e] = view(rows[e], cols[e], s.mats.back().p);
+        }
+        dkf_mat_t *v = &s.v[5 * j];
+        s.c[j].B = s.mats[5 * j].p ? &v[0] : nullptr;
+        s.c[j].Rd = s.mats[5 * j + 1].p ? &v[1] : nullptr;
+        s.c[j].meas.H = &v[2];
+        s.c[j].meas.D = &v[3];
+        s.c[j].meas.R = &v[4];
+    }
+
+    // messages: a sequence of l tuples (k, xf, xp), DifferenceKF.message()'s;
+    // with present (step_partial), None for an absent message (present[i] = 0).
+    std::vector<dkf_diffkf_msg_t> message_args(nb::handle messages, const char *call,
+                                               unsigned char *present = nullptr) const
     {
         if (!nb::isinstance<nb::sequence>(messages) || nb::len(messages) != l_) {
             value_error(call, "messages must be a sequence of " + std::to_string(l_) +
-                                  " tuples (k, xf, xp)");
+                                  " tuples (k, xf, xp)" + (present ? " or None" : ""));
         }
         nb::sequence sq = nb::borrow<nb::sequence>(messages);
         std::vector<dkf_diffkf_msg_t> out(l_);
         for (size_t i = 0; i < l_; ++i) {
             const std::string nm = "messages[" + std::to_string(i) + "]";
             nb::object item = sq[i];
+            std::memset(&out[i], 0, sizeof out[i]);
+            out[i].node = static_cast<uint16_t>(i);
+            if (present && item.is_none()) continue;
+            if (present) present[i] = 1;
             if (!nb::isinstance<nb::sequence>(item) || nb::len(item) != 3)
-                value_error(call, nm + " must be a tuple (k, xf, xp)");
+                value_error(call, nm + " must be a tuple (k, xf, xp)" + (present ? " or None" : ""));
             nb::sequence t = nb::borrow<nb::sequence>(item);
             long k = nb::cast<long>(t[0]);
             if (k < 0 || static_cast<unsigned long>(k) > 0xffffffffUL)
                 value_error(call, nm + ": k must be in [0, 2^32)");
             Mat xf = vector_arg(t[1], call, (nm + " xf").c_str(), n_);
             Mat xp = vector_arg(t[2], call, (nm + " xp").c_str(), n_);
-            std::memset(&out[i], 0, sizeof out[i]);
-            out[i].node = static_cast<uint16_t>(i);
             out[i].k = static_cast<uint32_t>(k);
             out[i].n = static_cast<uint16_t>(n_);
             std::memcpy(out[i].xf, xf.p, n_ * sizeof(real));
@@ -2286,10 +2474,12 @@ NB_MODULE(DKF_PY_MODULE, m)
                                        "WeightedFusion", "SelfTuning", "dare", "stein", "TWCentral",
                                        "TWNetwork", "graph_weights_uniform",
                                        "graph_weights_metropolis", "graph_weights_max_degree",
-                                       "NLModel", "NERTS", "DFNERTS", "dtype", "MAX_DIM");
+                                       "NLModel", "NERTS", "DFNERTS", "DFNERTSNode", "dtype",
+                                       "MAX_DIM");
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
     register_tw(m);
     register_nerts(m);
+    register_dfnerts_node(m);
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
                              "Linear Kalman filter, covariance form (dkf/kf.h).")
@@ -2405,7 +2595,16 @@ NB_MODULE(DKF_PY_MODULE, m)
     }
 
     dkf_cls.def("message", &D::message,
-                "The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step.");
+                "The node message (k, x_{k|k}, x_{k|k-1}) for DiffKFFusionCentre.step.")
+        .def("set_steady", &D::set_steady, nb::arg("tol"),
+             "The steady gain of a time-invariant model: tol in [0, 1), 0 off.")
+        .def("set_time", &D::set_time, nb::arg("k"),
+             "Sets the time k of xf (a filter restarted at k_start: set_time(k_start - 1)).")
+        .def("save", &D::save, nb::rv_policy::take_ownership,
+             "A checkpoint of the filter, a new 1-D array of the module's dtype.")
+        .def("restore", &D::restore, nb::arg("buf"),
+             "Back to the checkpoint buf (save()'s); a refused buffer changes nothing.")
+        .def_prop_ro("steady", &D::steady, "The last step reused the settled gain.");
 
     using C = DiffKFFusionCentre;
     nb::class_<C> fc_cls(m, "DiffKFFusionCentre",
@@ -2422,6 +2621,23 @@ NB_MODULE(DKF_PY_MODULE, m)
              nb::arg("messages"),
              "Step k = self.k + 1: F_k, Q_k, each sensor's B, Rd (at k) and H, D, R (at k+1), "
              "and each node's message of step k.")
+        .def("step_partial", &C::step_partial, nb::arg("F"), nb::arg("Q"), nb::arg("sensors"),
+             nb::arg("messages"),
+             "As step() with messages[i] None for a node whose message is missing: the masked "
+             "central gain. Returns contributed, per node whether its z entered the estimate.")
+        .def("restart_node", &C::restart_node, nb::arg("node"), nb::arg("k_start"),
+             nb::arg("P_prior"), nb::arg("sensor"),
+             "Node `node` restarted its filter at k_start = self.k + 1 from the prior covariance "
+             "P_prior, with its H, D, R at k_start (sensor, a dict).")
+        .def("set_steady", &C::set_steady, nb::arg("tol"),
+             "The steady gain for the central filter and every replica: tol in [0, 1), 0 off.")
+        .def("save", &C::save, nb::rv_policy::take_ownership,
+             "A checkpoint of the whole centre, a new 1-D array of the module's dtype.")
+        .def("restore", &C::restore, nb::arg("buf"),
+             "Back to the checkpoint buf (save()'s); a refused buffer changes nothing.")
+        .def_prop_ro("synced", &C::synced,
+                     "Per node: its replica is in sync, so its next message is recovered.")
+        .def_prop_ro("steady", &C::steady, "The last step reused the settled gain.")
         .def("recovered", &C::recovered, nb::arg("node"),
              "(z, dz) of the node recovered in the last step.")
         .def_prop_ro("k", &C::k, "The time of xf (0 before the first step).")

@@ -1,8 +1,8 @@
 // python/src/nerts.cpp - seed 001's nonlinear filters: the model NLModel
 // (dkf/nl_model.h's callback table calling Python), NERTS (dkf/nerts.h:
-// NERTSF, NERTSIF, DNERTSF, DNERTSIF) and the consensus network DFNERTS
-// (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF). docs/guide/python.md, "Nonlinear
-// filters"; docs/decisions.md item 69.
+// NERTSF, NERTSIF, DNERTSF, DNERTSIF), the consensus network DFNERTS
+// (dkf/dfnerts.h: DF-DNERTSIF, DF-CKF) and one node of it, DFNERTSNode.
+// docs/guide/python.md, "Nonlinear filters"; docs/decisions.md items 69, 73.
 #include <nanobind/stl/string.h>
 #include <nanobind/stl/vector.h>
 
@@ -472,16 +472,49 @@ void nl_prior(NlPrior &pr, nb::handle x0, nb::handle P0, nb::handle d0, nb::hand
 
 // ---- NERTS -------------------------------------------------------------------
 
-class NERTS : Guarded {
+// A filter of one NLModel (NERTS, DFNERTSNode): the model it holds for the
+// garbage collector, its kind, and the copies of its dkf_nerts_t views.
+class OneModel : protected Guarded {
+public:
+    OutArray field(const dkf_mat_t &M, const char *what, bool vector) const
+    {
+        not_busy(what);
+        return mat_out(M, vector);
+    }
+    const std::string &kind() const { return kind_name_; }
+    nb::object model() const { return model_obj_; }
+    int traverse(visitproc visit, void *arg) const
+    {
+        Py_VISIT(model_obj_.ptr());
+        return 0;
+    }
+    // (only an unreachable filter is cleared: busy refuses any later call)
+    void clear()
+    {
+        busy_ = true;
+        model_obj_ = nb::object();
+    }
+
+protected:
+    void hold(nb::handle model, const std::string &kind)
+    {
+        model_obj_ = nb::borrow(model);
+        model_ = &nb::cast<NLModel &>(model);
+        kind_name_ = kind;
+    }
+    nb::object model_obj_;
+    NLModel *model_ = nullptr;
+    std::string kind_name_;
+};
+
+class NERTS : public OneModel {
 public:
     NERTS(nb::handle model, nb::handle x0, nb::handle P0, const std::string &kind, nb::handle d0,
           nb::handle Pd0, nb::handle Pxd0)
     {
         static const char *call = "NERTS";
-        model_obj_ = nb::borrow(model);
-        model_ = &nb::cast<NLModel &>(model);
+        hold(model, kind);
         kind_ = nerts_kind(kind, call, false);
-        kind_name_ = kind;
         const size_t n = model_->n(), m = model_->m(), p = model_->p();
         NlPrior pr;
         nl_prior(pr, x0, P0, d0, Pd0, Pxd0, n, p, call);
@@ -613,25 +646,7 @@ public:
         return nb::make_tuple(X, P, D, Pd);
     }
 
-    OutArray field(const dkf_mat_t &M, const char *what, bool vector) const
-    {
-        not_busy(what);
-        return mat_out(M, vector);
-    }
     const dkf_nerts_t &state() const { return f_; }
-    const std::string &kind() const { return kind_name_; }
-    nb::object model() const { return model_obj_; }
-    int traverse(visitproc visit, void *arg) const
-    {
-        Py_VISIT(model_obj_.ptr());
-        return 0;
-    }
-    // (only an unreachable filter is cleared: busy refuses any later call)
-    void clear()
-    {
-        busy_ = true;
-        model_obj_ = nb::object();
-    }
 
 private:
     PhaseIn in(const real *z, const real *Q, const real *R, const real *up, const real *u) const
@@ -649,10 +664,7 @@ private:
         return dkf_nerts_step(&f_, &model_->table(), up, &Qm, u, &Rm, &zm);
     }
 
-    nb::object model_obj_;
-    NLModel *model_ = nullptr;
     dkf_nerts_kind_t kind_ = DKF_NERTS_NERTSF;
-    std::string kind_name_;
     std::vector<real> storage_;
     dkf_nerts_t f_;
 };
@@ -697,6 +709,20 @@ const NertsField nerts_fields[] = {
     {"Y", &dkf_nerts_t::Y, false, false},
     {"y", &dkf_nerts_t::y, true, false},
 };
+
+// Registers the views of dkf_nerts_t as properties of K (K::state()).
+template <class K> void def_nerts_views(nb::class_<K> &c, const char *cls)
+{
+    for (const NertsField &fd : nerts_fields) {
+        const auto mat = fd.mat;
+        const bool vec = fd.vector;
+        const std::string name = std::string(cls) + "." + fd.name;
+        c.def_prop_ro(
+            fd.name,
+            [mat, vec, name](const K &f) { return f.field(f.state().*mat, name.c_str(), vec); },
+            nb::rv_policy::take_ownership);
+    }
+}
 
 // ---- DFNERTS -----------------------------------------------------------------
 
@@ -1103,15 +1129,7 @@ void register_nerts(nb::module_ &m)
                    std::to_string(f.state().m) + " p=" + std::to_string(f.state().p) +
                    " " DKF_PY_DTYPE ">";
         });
-    for (const NertsField &fd : nerts_fields) {
-        const auto mat = fd.mat;
-        const bool vec = fd.vector;
-        const std::string name = std::string("NERTS.") + fd.name;
-        c.def_prop_ro(
-            fd.name,
-            [mat, vec, name](const NERTS &f) { return f.field(f.state().*mat, name.c_str(), vec); },
-            nb::rv_policy::take_ownership);
-    }
+    def_nerts_views(c, "NERTS");
 
     nb::class_<DFNERTS> d(m, "DFNERTS",
                           "Seed 001's consensus network (dkf/dfnerts.h): DF-DNERTSIF, its EKF "
@@ -1151,6 +1169,257 @@ void register_nerts(nb::module_ &m)
         const NertsField f2 = fd;
         d.def_prop_ro(fd.name, [f2, name](const DFNERTS &f) { return f.field(f2, name.c_str()); });
     }
+}
+
+} // namespace DKF_PY_NS
+
+// ---- DFNERTSNode: one node of a DFNERTS network ----------------------------------
+
+namespace DKF_PY_NS {
+
+namespace {
+
+// One node of the consensus network (dkf/dfnerts.h's node API): the caller
+// carries its packets to and from the neighbours, as a node of a real
+// network does; DFNERTS steps all the nodes in-process with the same calls.
+class DFNERTSNode : public OneModel {
+public:
+    DFNERTSNode(nb::handle model, nb::handle x0, nb::handle P0, const std::string &kind,
+                const std::string &variant, nb::handle d0, nb::handle Pd0, nb::handle Pxd0)
+    {
+        static const char *call = "DFNERTSNode";
+        hold(model, kind);
+        const dkf_nerts_kind_t k = nerts_kind(kind, call, true);
+        if (variant != "paper" && variant != "joint")
+            value_error(call, "variant must be \"paper\" or \"joint\", got \"" + variant + "\"");
+        variant_name_ = variant;
+        const dkf_dfnerts_variant_t v = variant == "joint" ? DKF_DFNERTS_JOINT : DKF_DFNERTS_PAPER;
+        const size_t n = model_->n(), m = model_->m(), p = model_->p();
+        NlPrior pr;
+        nl_prior(pr, x0, P0, d0, Pd0, Pxd0, n, p, call);
+        storage_.assign(DKF_DFNERTS_NODE_STORAGE_LEN(n, m, p), real(0));
+        std::memset(&nd_, 0, sizeof nd_);
+        dkf_status_t st = dkf_dfnerts_node_init(&nd_, k, v, n, m, p, storage_.data(),
+                                                storage_.size(), &pr.xm, &pr.Pm,
+                                                pr.has_d ? &pr.dm : nullptr,
+                                                pr.has_d ? &pr.Pdm : nullptr,
+                                                pr.has_d ? &pr.Pxdm : nullptr);
+        if (st != DKF_OK) raise_nl_init(st, call, pr, n, m, p);
+    }
+    DFNERTSNode(const DFNERTSNode &) = delete;
+    DFNERTSNode &operator=(const DFNERTSNode &) = delete;
+
+    // Time update and local statistics of z; returns the tau = 0 packet.
+    OutArray local(nb::handle z, nb::handle Q, nb::handle R, double scale, nb::handle u_prev,
+                   nb::handle u)
+    {
+        static const char *call = "DFNERTSNode.local";
+        not_busy(call);
+        const size_t n = nd_.n, m = nd_.m, nq = model_->q();
+        Mat zz = vector_arg(z, call, "z", m);
+        Mat q = matrix_arg(Q, call, "Q", n, n, false);
+        Mat r = matrix_arg(R, call, "R", m, m, false);
+        Mat up = input_arg(u_prev, call, "u_prev", nq), uu = input_arg(u, call, "u", nq);
+        dkf_mat_t Qm = view(n, n, q.p), Rm = view(m, m, r.p), zm = view(m, 1, zz.p);
+        model_->clear_error();
+        dkf_status_t st = dkf_dfnerts_node_local(&nd_, &model_->table(), up.p, &Qm, uu.p, &Rm,
+                                                 &zm, static_cast<real>(scale), nullptr);
+        if (st == DKF_ERR_ARG)
+            raise_status(st, call, -1, nullptr, "scale must be finite and > 0");
+        if (st != DKF_OK) {
+            PhaseIn in;
+            in.z = zz.p, in.Q = q.p, in.R = r.p, in.u_prev = up.p, in.u = uu.p;
+            in.n = n, in.m = m, in.q = nq;
+            raise_nerts(st, call, -1, in, *model_);
+        }
+        return pkt();
+    }
+
+    // One consensus round over the packets of the neighbourhood (its own
+    // among them) with the weights w; returns the node's next packet.
+    OutArray mix(nb::handle pkts, nb::handle w)
+    {
+        static const char *call = "DFNERTSNode.mix";
+        not_busy(call);
+        if (!nb::isinstance<nb::sequence>(pkts) || nb::len(pkts) == 0)
+            value_error(call, "pkts must be a non-empty sequence of packets");
+        nb::sequence sq = nb::borrow<nb::sequence>(pkts);
+        const size_t count = nb::len(sq);
+        std::vector<Mat> in(count);
+        std::vector<const real *> ptr(count);
+        for (size_t e = 0; e < count; ++e) {
+            const std::string nm = "pkts[" + std::to_string(e) + "]";
+            in[e] = vector_arg(sq[e], call, nm.c_str(), nd_.pkt_len);
+            ptr[e] = in[e].p;
+        }
+        Mat wa = vector_arg(w, call, "w", count);
+        dkf_status_t st = dkf_dfnerts_node_mix(&nd_, ptr.data(), wa.p, count, nullptr);
+        if (st == DKF_OK) return pkt();
+        std::string detail;
+        const char *culprit = nullptr;
+        if (st == DKF_ERR_STATE) {
+            detail = "no pending step: call local() first";
+        } else if (st == DKF_ERR_NONFINITE) {
+            for (size_t e = 0; e < count && !culprit; ++e)
+                if (first_nonfinite({{"pkts", in[e].p, nd_.pkt_len, false}}))
+                    culprit = "pkts", detail = "pkts[" + std::to_string(e) + "] not finite";
+            if (!culprit && first_nonfinite({{"w", wa.p, count, false}}))
+                culprit = "w", detail = "w not finite";
+            if (!culprit) detail = "the mixed packet overflowed";
+        }
+        raise_status(st, call, -1, culprit, detail);
+    }
+
+    void commit()
+    {
+        static const char *call = "DFNERTSNode.commit";
+        not_busy(call);
+        dkf_status_t st = dkf_dfnerts_node_commit(&nd_);
+        if (st == DKF_OK) return;
+        std::string detail;
+        if (st == DKF_ERR_STATE)
+            detail = nd_.pending ? "no round mixed yet: mix() at least once" : "no pending step";
+        else if (st == DKF_ERR_NOT_SPD)
+            detail = "the agreed information matrix, or the mixed joint covariance of (x, d), is "
+                     "not positive definite";
+        else if (st == DKF_ERR_NONFINITE)
+            detail = "the posterior overflowed";
+        raise_status(st, call, -1, nullptr, detail);
+    }
+
+    void cancel()
+    {
+        static const char *call = "DFNERTSNode.cancel";
+        not_busy(call);
+        dkf_status_t st = dkf_dfnerts_node_cancel(&nd_);
+        if (st != DKF_OK) raise_status(st, call, -1, nullptr, "no pending step");
+    }
+
+    // A new prior, the posterior at step k (a node that restarts).
+    void restart(size_t k, nb::handle x0, nb::handle P0, nb::handle d0, nb::handle Pd0,
+                 nb::handle Pxd0)
+    {
+        static const char *call = "DFNERTSNode.restart";
+        not_busy(call);
+        NlPrior pr;
+        nl_prior(pr, x0, P0, d0, Pd0, Pxd0, nd_.n, nd_.p, call);
+        dkf_status_t st = dkf_dfnerts_node_restart(&nd_, k, &pr.xm, &pr.Pm,
+                                                   pr.has_d ? &pr.dm : nullptr,
+                                                   pr.has_d ? &pr.Pdm : nullptr,
+                                                   pr.has_d ? &pr.Pxdm : nullptr);
+        if (st != DKF_OK) raise_nl_init(st, call, pr, nd_.n, nd_.m, nd_.p);
+    }
+
+    // A prior from a neighbour's packet pkt (variant paper with p > 0: the
+    // input's d0, Pd0 too), the posterior at step k.
+    void rejoin(size_t k, nb::handle pkt_in, nb::handle d0, nb::handle Pd0)
+    {
+        static const char *call = "DFNERTSNode.rejoin";
+        not_busy(call);
+        const size_t p = nd_.p;
+        Mat pk = vector_arg(pkt_in, call, "pkt", nd_.pkt_len);
+        const bool paper_d = nd_.variant == DKF_DFNERTS_PAPER && p > 0;
+        if (!paper_d && (!d0.is_none() || !Pd0.is_none()))
+            value_error(call, "d0 and Pd0 must be None: the packet holds the input (joint) or "
+                              "p = 0");
+        if (paper_d && (d0.is_none() || Pd0.is_none()))
+            value_error(call, "d0 and Pd0 are required: variant paper with p > 0");
+        Mat d, Pd;
+        dkf_mat_t dm, Pdm;
+        if (paper_d) {
+            d = vector_arg(d0, call, "d0", p);
+            Pd = matrix_arg(Pd0, call, "Pd0", p, p, false);
+            dm = view(p, 1, d.p), Pdm = view(p, p, Pd.p);
+        }
+        dkf_status_t st =
+            dkf_dfnerts_node_rejoin(&nd_, k, pk.p, paper_d ? &dm : nullptr, paper_d ? &Pdm : nullptr);
+        if (st == DKF_OK) return;
+        const char *culprit = nullptr;
+        std::string detail;
+        if (st == DKF_ERR_NONFINITE) {
+            culprit = first_nonfinite({{"pkt", pk.p, nd_.pkt_len, false},
+                                       {"d0", d.p, paper_d ? p : 0, false},
+                                       {"Pd0", Pd.p, paper_d ? p * p : 0, false}});
+            detail = nonfinite_detail(culprit);
+        } else if (st == DKF_ERR_NOT_SPD) {
+            culprit = paper_d ? nullptr : "pkt";
+            detail = paper_d ? "the packet's information matrix, or the prior's joint covariance "
+                               "with Pd0, is not positive definite"
+                             : "the packet's information matrix is not positive definite";
+        }
+        raise_status(st, call, -1, culprit, detail);
+    }
+
+    OutArray pkt() const
+    {
+        not_busy("DFNERTSNode.pkt");
+        const size_t shape[1] = {nd_.pkt_len};
+        return copy_out(nd_.pkt, 1, shape);
+    }
+    const dkf_nerts_t &state() const { return nd_.f; }
+    const dkf_dfnerts_node_t &node() const { return nd_; }
+    const std::string &variant() const { return variant_name_; }
+
+private:
+    std::string variant_name_;
+    std::vector<real> storage_;
+    dkf_dfnerts_node_t nd_;
+};
+
+} // namespace
+
+void register_dfnerts_node(nb::module_ &m)
+{
+    using N = DFNERTSNode;
+    nb::class_<N> c(m, "DFNERTSNode",
+                    "One node of seed 001's consensus network (dkf/dfnerts.h's node API): its "
+                    "packets in and out as arrays, for a node of a real network.",
+                    nb::type_slots(GcSlots<N>::slots));
+    c.def(nb::init<nb::handle, nb::handle, nb::handle, const std::string &, const std::string &,
+                   nb::handle, nb::handle, nb::handle>(),
+          nb::arg("model"), nb::arg("x0"), nb::arg("P0"), nb::kw_only(), nb::arg("kind") = "DNERTSIF",
+          nb::arg("variant") = "paper", nb::arg("d0") = nb::none(), nb::arg("Pd0") = nb::none(),
+          nb::arg("Pxd0") = nb::none())
+        .def("local", &N::local, nb::arg("z"), nb::kw_only(), nb::arg("Q"), nb::arg("R"),
+             nb::arg("scale") = 1.0, nb::arg("u_prev") = nb::none(), nb::arg("u") = nb::none(),
+             nb::rv_policy::take_ownership,
+             "Time update and local statistics of z; the step is pending. Returns the tau = 0 "
+             "packet to send.")
+        .def("mix", &N::mix, nb::arg("pkts"), nb::arg("w"), nb::rv_policy::take_ownership,
+             "One consensus round: sum_e w[e] pkts[e] over the neighbourhood's packets (its own "
+             "among them), plus s times its contribution in the first round. Returns the next "
+             "packet to send.")
+        .def("commit", &N::commit, "The posterior from the current packet (after a round).")
+        .def("cancel", &N::cancel, "Drops the pending step: the node as before local().")
+        .def("restart", &N::restart, nb::arg("k"), nb::arg("x0"), nb::arg("P0"), nb::kw_only(),
+             nb::arg("d0") = nb::none(), nb::arg("Pd0") = nb::none(), nb::arg("Pxd0") = nb::none(),
+             "A new prior, the posterior at step k; drops a pending step.")
+        .def("rejoin", &N::rejoin, nb::arg("k"), nb::arg("pkt"), nb::kw_only(),
+             nb::arg("d0") = nb::none(), nb::arg("Pd0") = nb::none(),
+             "The prior from a neighbour's packet, the posterior at step k (variant paper with "
+             "p > 0: the input's d0, Pd0).")
+        .def_prop_ro("pkt", &N::pkt, nb::rv_policy::take_ownership,
+                     "The node's current packet (pkt_len,), a copy: after a commit the "
+                     "consensus pair it committed from (after cancel(), the dropped step's).")
+        .def_prop_ro("pkt_len", [](const N &f) { return f.node().pkt_len; })
+        .def_prop_ro("q", [](const N &f) { return f.node().q; }, "n (paper) or n + p (joint).")
+        .def_prop_ro("tau", [](const N &f) { return f.node().tau; }, "Rounds mixed.")
+        .def_prop_ro("pending", [](const N &f) { return f.node().pending != 0; })
+        .def_prop_ro("scale", [](const N &f) { return static_cast<double>(f.node().scale); })
+        .def_prop_ro("k", [](const N &f) { return f.state().k; }, "Steps committed.")
+        .def_prop_ro("n", [](const N &f) { return f.node().n; })
+        .def_prop_ro("m", [](const N &f) { return f.node().m; })
+        .def_prop_ro("p", [](const N &f) { return f.node().p; })
+        .def_prop_ro("kind", &N::kind)
+        .def_prop_ro("variant", &N::variant)
+        .def_prop_ro("model", &N::model)
+        .def("__repr__", [](const N &f) {
+            return "<dkf DFNERTSNode " + f.kind() + " " + f.variant() + " n=" +
+                   std::to_string(f.node().n) + " m=" + std::to_string(f.node().m) + " p=" +
+                   std::to_string(f.node().p) + " k=" + std::to_string(f.state().k) +
+                   " " DKF_PY_DTYPE ">";
+        });
+    def_nerts_views(c, "DFNERTSNode");
 }
 
 } // namespace DKF_PY_NS

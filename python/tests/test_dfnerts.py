@@ -144,10 +144,10 @@ def test_failures_leave_the_network_bit_identical(mod, seed):
     assert (info.value.step, info.value.node, info.value.matrix) == (3, 1, "z") and fresh.k == 0
 
 
-def test_a_nodes_callback_exception_fails_the_step(mod):
-    m, _ = mod
-    c = case("s1_4node_Tp3_scale1")
-    models, pri, A, run, Z = load(m, c)
+def armed_case(m):
+    """Case s1_4node_Tp3_scale1 whose node 3's h raises OverflowError once
+    `armed` (returned last) is not empty."""
+    models, pri, A, run, Z = load(m, case("s1_4node_Tp3_scale1"))
     inner = models[3]
     armed = []
 
@@ -157,6 +157,12 @@ def test_a_nodes_callback_exception_fails_the_step(mod):
         return inner.h(x, d, u)
 
     models[3] = m.NLModel(inner.f, h, n=4, m=3, p=1, angles=[1])
+    return models, pri, A, run, Z, armed
+
+
+def test_a_nodes_callback_exception_fails_the_step(mod):
+    m, _ = mod
+    models, pri, A, run, Z, armed = armed_case(m)
     x0, P0 = pri.pop("x0"), pri.pop("P0")
     net = m.DFNERTS(models, x0, P0, adjacency=A, **pri)
     assert (net.kind, net.variant, net.m) == ("DNERTSIF", "paper", [3, 3, 3, 3])

@@ -401,7 +401,7 @@ run_fuzz() {
 # at the beginning of the run, so that run_python finds them ready. Its
 # status: 0 ready, 1 no venv, 2 a package did not install.
 python_env() {
-  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv oracle
+  local bdir=$ROOT/build/python venv=$ROOT/build/python/venv oracle what
   local deps=(scikit-build-core nanobind numpy pytest)
   mkdir -p "$bdir"
   if [[ ! -x $venv/bin/python ]] && ! python3 -m venv "$venv" >"$bdir/run_tests.venv.log" 2>&1; then
@@ -418,12 +418,14 @@ python_env() {
     return 2
   fi
   # FilterPy and Stone Soup are test oracles only, numba the optional
-  # dependency of dkf.jit_model: without one its tests are skipped, and say so
-  for oracle in filterpy stonesoup numba; do
+  # dependency of dkf.jit_model: without one its tests are skipped, and say
+  # so; pytest-xdist runs the tests two at a time (without it, one)
+  for oracle in filterpy stonesoup numba xdist; do
     if ! "$venv/bin/python" -c "import $oracle" 2>/dev/null &&
-       ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check "$oracle" \
+       ! timeout 300 "$venv/bin/pip" install -q --disable-pip-version-check "${oracle/xdist/pytest-xdist}" \
          >>"$bdir/run_tests.deps.log" 2>&1; then
-      echo "[python] $oracle did not install (log: $bdir/run_tests.deps.log): its tests are skipped"
+      if [[ $oracle == xdist ]]; then what="pytest runs one test at a time"; else what="its tests are skipped"; fi
+      echo "[python] $oracle did not install (log: $bdir/run_tests.deps.log): $what"
     fi
   done
   return 0
@@ -459,13 +461,15 @@ run_python() {
     return
   fi
   t_build=$((SECONDS - t)) t=$SECONDS
-  say python "pytest python/tests"
+  local two=()
+  "$venv/bin/python" -c 'import xdist' 2>/dev/null && two=(-n 2)
+  say python "pytest python/tests ${two[*]}"
   # test_scenario.py compares dkf.run_scenario with the double build's dkf-run (DKF_RUN),
   # dkf.float32.run_scenario with the float build's (DKF_RUN_FLOAT)
   (cd "$ROOT/python/tests" && { [[ ! -x $ROOT/build/double/ports/linux/dkf-run ]] ||
     export DKF_RUN=$ROOT/build/double/ports/linux/dkf-run; } &&
     { [[ ! -x $ROOT/build/float/ports/linux/dkf-run ]] ||
-    export DKF_RUN_FLOAT=$ROOT/build/float/ports/linux/dkf-run; } && timeout 600 "$venv/bin/python" -m pytest -p no:cacheprovider -q -rs) \
+    export DKF_RUN_FLOAT=$ROOT/build/float/ports/linux/dkf-run; } && timeout 600 "$venv/bin/python" -m pytest -p no:cacheprovider -q -rs "${two[@]}") \
     >"$bdir/run_tests.pytest.log" 2>&1
   rc=$?
   t_test=$((SECONDS - t))

@@ -164,6 +164,7 @@ void check_unstarted(size_t k, const char *call);
 // The registration of the bindings each further file defines.
 void register_tw(nb::module_ &m);
 void register_nerts(nb::module_ &m);
+void register_nlm_builtin(nb::module_ &m);
 
 } // namespace DKF_PY_NS
 

@@ -2289,6 +2289,7 @@ NB_MODULE(DKF_PY_MODULE, m)
     m.def("_status_str", [](int st) { return dkf_status_str(static_cast<dkf_status_t>(st)); });
     register_tw(m);
     register_nerts(m);
+    register_nlm_builtin(m);
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
                              "Linear Kalman filter, covariance form (dkf/kf.h).")

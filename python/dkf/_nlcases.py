@@ -474,7 +474,7 @@ def run_nl(core: Any, doc: Dict[str, Any], file: str, case: Union[int, str, None
     """The document dkf-run --filter <filter> writes for a nonlinear case."""
     if filter not in NL_LABELS and filter not in DF_LABELS:
         raise _fail(file, "cases", "filter %s reads the canonical or a linear cases layout, not "
-                    "this nonlinear case (run it with %s)"
+                    "a nonlinear case (run it with %s)"
                     % (filter, ", ".join(list(NL_LABELS) + list(DF_LABELS))))
     c = _Case(core, doc, file, case)
     if filter in DF_LABELS and not c.network:

@@ -283,22 +283,27 @@ class _Case:
         return out
 
     def _consensus(self, cj: Dict[str, Any]) -> None:
+        """scn_nlcases.c's consensus(): W's entries as triplets (a dense W's
+        nonzero ones), the graph `edges` or W's links i < j, Tp, scale."""
         file, cpath, N = self.file, self.cpath, len(self.nodes)
-        W = np.zeros((N, N))
+        trip: List[Tuple[int, int, float]] = []
         if "W" in cj and "W_sparse" in cj:
             raise _fail(file, cpath + ".W", "W and W_sparse: give one")
         if "W" in cj:
-            W = _numbers(file, cpath + ".W", cj["W"], 2)
-            if W.shape != (N, N):
+            Wd = _numbers(file, cpath + ".W", cj["W"], 2)
+            if Wd.shape != (N, N):
                 raise _fail(file, cpath + ".W", "expected %d x %d" % (N, N))
+            trip = [(i, j, float(Wd[i, j])) for i in range(N) for j in range(N) if Wd[i, j] != 0]
         elif "W_sparse" in cj:
-            for t, e in enumerate(cj["W_sparse"] if isinstance(cj["W_sparse"], list) else [None]):
+            sp = cj["W_sparse"]
+            for t, e in enumerate(sp if isinstance(sp, list) and sp else [None]):
                 if not (isinstance(e, list) and len(e) == 3 and all(
                         isinstance(x, (int, float)) and not isinstance(x, bool) for x in e)
                         and e[0] == int(e[0]) and e[1] == int(e[1])
                         and 0 <= e[0] < N and 0 <= e[1] < N):
-                    raise _fail(file, "%s.W_sparse[%d]" % (cpath, t), "expected [i, j, w]")
-                W[int(e[0]), int(e[1])] = float(e[2])
+                    raise _fail(file, "%s.W_sparse[%d]" % (cpath, t), "expected [i, j, w] with "
+                                "node indices 0..%d" % (N - 1))
+                trip.append((int(e[0]), int(e[1]), float(e[2])))
         else:
             raise _fail(file, cpath + ".W", "missing key (the %d x %d consensus weights)"
                         % (N, N))
@@ -309,15 +314,24 @@ class _Case:
                         isinstance(x, int) and not isinstance(x, bool) and 0 <= x < N for x in e)
                     for e in edges):
                 raise _fail(file, cpath + ".edges", "expected a list of [i, j] node pairs")
-            pairs = [tuple(e) for e in edges]
+            pairs = [(e[0], e[1]) for e in edges]
         else:
-            pairs = [(i, j) for i in range(N) for j in range(i + 1, N) if W[i, j] != 0]
+            pairs = [(i, j) for i, j, _ in trip if i < j]
         adj = np.zeros((N, N))
         for a, b in pairs:
             if a == b or adj[a, b]:
                 raise _fail(file, cpath + ".edges", "not a simple undirected graph (a self loop "
                             "or a repeated edge)")
             adj[a, b] = adj[b, a] = 1
+        W = np.zeros((N, N))
+        for i, j, v in trip:
+            if i != j and not adj[i, j]:
+                raise _fail(file, cpath + (".W" if "W" in cj else ".W_sparse"), "entry (%d, %d) "
+                            "is not a link of the graph" % (i, j))
+            if W[i, j] != 0 or not np.isfinite(v):
+                raise _fail(file, cpath + ".W_sparse", "entry (%d, %d) given twice or not "
+                            "finite" % (i, j))
+            W[i, j] = v
         self.adjacency, self.W, self.E = adj, W, len(pairs)
         tp = cj.get("Tp")
         if tp is None:

@@ -43,12 +43,17 @@ BUILTIN_CASES = [pc for p in BUILTIN for pc in cases(p)]
 EXPR_CASES = [pc for p in EXPR for pc in cases(p)]
 
 
+def arg(scn: Path) -> str:
+    """A shipped file relative to the root (the tests run there), another as it is."""
+    return rel(scn) if ROOT in scn.parents else str(scn)
+
+
 def compare(mod: Any, scn: Path, case: int, filt: str, out: Path, exe: "str | None") -> Any:
     """dkf-run's document, or None after checking that Python refuses what dkf-run refuses."""
-    r = dkf_run(rel(scn), filt, out, "--case", str(case), exe=exe)
+    r = dkf_run(arg(scn), filt, out, "--case", str(case), exe=exe)
     if r.returncode == 2:
         with pytest.raises(ValueError):
-            mod.run_scenario(rel(scn), filter=filt, case=case)
+            mod.run_scenario(arg(scn), filter=filt, case=case)
         return None
     assert r.returncode == 0, r.stderr
     with open(out, encoding="utf-8") as f:
@@ -254,3 +259,26 @@ def test_refusals(monkeypatch) -> None:
         dkf.run_scenario(bad, filter="nertsif")
     for filt in NL_FILTERS:
         assert filt in dkf.SUPPORTED_FILTERS
+
+
+def test_sparse_weights_and_the_graph_of_w_equal_dkf_run(tmp_path: Path, monkeypatch) -> None:
+    """A network case with W_sparse and no edges (the graph of W's links), and
+    one with W dense and no edges: as dkf-run reads them."""
+    with open(VECTORS / "infofusion" / "df_dnertsif.json", encoding="utf-8") as f:
+        doc = json.load(f)
+    case = doc["cases"][0]
+    case["steps"] = case["steps"][:3]
+    W = case["W"]
+    sparse = copy.deepcopy(case)
+    del sparse["W"], sparse["edges"]
+    sparse["W_sparse"] = [[i, j, v] for i, row in enumerate(W) for j, v in enumerate(row) if v]
+    dense = copy.deepcopy(case)
+    del dense["edges"]
+    for variant in (sparse, dense):
+        scn = tmp_path / "net.json"
+        scn.write_text(json.dumps({"cases": [variant]}))
+        expected = compare(dkf, scn, 0, "df_dnertsif", tmp_path / "o.json", None)
+        assert expected is not None
+        got = dkf.run_scenario(str(scn), filter="df_dnertsif")
+        same(got, expected)
+        assert got["communication"]["edges"] == len(case["edges"])

@@ -15,6 +15,8 @@ from ._dkf_double import __all__ as _core
 from ._dkf_double import NLModel as _NLModel
 from ._expr import for_module as _for_module
 from ._jit import for_module as _jit_for_module
+from ._nlm import for_module as _nlm_for_module
+from . import _dkf_double as _this_core
 from ._errors import (
     AliasError,
     ArgError,
@@ -38,6 +40,7 @@ from ._simulate import simulate
 
 expr_model = _for_module(_NLModel)
 jit_model = _jit_for_module(_NLModel, "float64")
+builtin_model = _nlm_for_module(_this_core)
 
 try:
     __version__ = _version("dkf")  # the package's version: dkf/version.h's (pyproject.toml)
@@ -47,6 +50,7 @@ except _NotFound:  # imported from a source tree without installing
 __all__ = list(_core) + [
     "expr_model",
     "jit_model",
+    "builtin_model",
     "Error",
     "NullError",
     "DimError",

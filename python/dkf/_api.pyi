@@ -579,3 +579,45 @@ class DFNERTSNodeBase(_NertsFields[_D]):
     kind: str
     variant: str
     model: Any
+class NlmFamilyBase:
+    """A built-in model family's C model (dkf-run's nlm_family.c and the
+    callbacks of nlm_model.c); dkf.builtin_model wraps it in NLModel.native."""
+
+    def __init__(
+        self,
+        family: str,
+        *,
+        n: int,
+        m: int,
+        p: int,
+        A: Sequence[float],
+        b: Sequence[float],
+        C: Sequence[float],
+        H: Sequence[float],
+        T: float,
+        phi_gain: float,
+        omega_fixed: float,
+        sensor_xy: Sequence[float],
+        angles: Optional[Sequence[int]],
+        path: str,
+    ) -> None: ...
+    def eval_f(self, x: Sequence[float], d: Sequence[float]) -> List[float]: ...
+    m: int
+    angles: List[int]
+    R_default: List[float]
+    failure: str
+    ctx: int
+    f: int
+    h: int
+    f_jac: int
+    h_jac: int
+
+class NlmStackBase:
+    """The nodes' built-in C models stacked (dkf_nerts_stack)."""
+
+    def __init__(self, families: List[NlmFamilyBase]) -> None: ...
+    ctx: int
+    f: int
+    h: int
+    f_jac: int
+    h_jac: int

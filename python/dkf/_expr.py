@@ -86,7 +86,9 @@ def _compile(sympy, rows, where, local, args):
     else:
         exprs = [_parse(sympy, e, f"{where}[{i}]", local) for i, e in enumerate(rows)]
     fn = sympy.lambdify(args, exprs, modules=[_NUMPY, "numpy"])
-    return lambda x, d: np.array(fn(x, d), dtype=np.float64)
+    # in double for either core, as dkf-run's muparser (numpy would keep float32)
+    return lambda x, d: np.array(fn(np.asarray(x, dtype=np.float64),
+                                    np.asarray(d, dtype=np.float64)), dtype=np.float64)
 
 
 def build(NLModel, f: Sequence[str], g: Sequence[str], *, p: int,

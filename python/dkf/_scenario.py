@@ -33,16 +33,20 @@ _TW = ("tw1", "tw2", "tw3")  # the seed-003 network layout (_network.py)
 # seed 002's weighted-fusion cases (_wfcases.py)
 _WF = ("local_kf", "fusion_scalar", "fusion_matrix", "fusion_steady", "fusion_selftune",
        "central_kf")
+# seed 001's nonlinear cases (_nlcases.py)
+_NL = ("nertsf", "nertsif", "dnertsf", "dnertsif", "cf_dnertsf", "df_dnertsif", "df_ckf",
+       "df_dnertsif_joint")
 
 TW_MAX_ETA = 1000000  # DKF_TW_MAX_ETA (dkf/tw.h): the largest eta of tw3
 
-SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _TW + _WF
+SUPPORTED_FILTERS: Tuple[str, ...] = tuple(_LABELS) + _UIF + _TW + _WF + _NL
 """The --filter names run_scenario runs: kf, info, dkf, askf, otskf over the
 canonical layout (kf and info the linear and weighted-fusion cases too);
 rtsf, nrtsf_df, nrtsf over the seed-004 steps layout; tw1, tw2, tw3 over the
 seed-003 network layout; local_kf, fusion_scalar, fusion_matrix,
 fusion_steady, fusion_selftune, central_kf over seed 002's weighted-fusion
-cases."""
+cases; nertsf, nertsif, dnertsf, dnertsif, cf_dnertsf, df_dnertsif, df_ckf,
+df_dnertsif_joint over seed 001's nonlinear cases."""
 
 # The keys of the canonical layout (scn_canonical.c); the vector files' own
 # top-level keys are accepted and ignored, strings are comments.
@@ -305,10 +309,8 @@ _CASE_NAMES = {"xp": "x_pred", "Pp": "P_pred", "xf": "x", "Pf": "P", "yp": "y_pr
                "Yp": "Y_pred", "yf": "y", "Yf": "Y"}
 
 
-def _from_case(doc: Dict[str, Any], file: str,
-               case: Union[int, str, None]) -> Tuple[Dict[str, Any], str, bool]:
-    """The selected case of a cases-layout document as a canonical one (scn_cases.c,
-    scn_wfcases.c), its name, and whether it is a weighted-fusion case."""
+def _case_index(doc: Dict[str, Any], file: str, case: Union[int, str, None]) -> int:
+    """The index of the case `case` (a name, an index, None: 0) of a cases-layout document."""
     cases = doc["cases"]
     if not isinstance(cases, list) or not cases:
         raise _fail(file, "cases", "expected a non-empty list of cases")
@@ -326,13 +328,18 @@ def _from_case(doc: Dict[str, Any], file: str,
         else:
             raise _fail(file, "cases", "no case named '%s' (use a name or an index 0..%d)"
                         % (case, len(cases) - 1))
+    return idx
+
+
+def _from_case(doc: Dict[str, Any], file: str,
+               case: Union[int, str, None]) -> Tuple[Dict[str, Any], str, bool]:
+    """The selected case of a cases-layout document as a canonical one (scn_cases.c,
+    scn_wfcases.c), its name, and whether it is a weighted-fusion case."""
+    idx = _case_index(doc, file, case)
     cpath = "cases[%d]" % idx
-    cj = cases[idx]
+    cj = doc["cases"][idx]
     if not isinstance(cj, dict):
         raise _fail(file, cpath, "expected an object")
-    if "model" in cj or "node_models" in cj:
-        raise _fail(file, cpath, "a nonlinear case: run_scenario does not run the nonlinear "
-                    "filters; run this file with dkf-run")
     cname = cj.get("name")
     cname = cname if isinstance(cname, str) else ""
     from ._wfcases import canonical, is_wfcase  # (it imports this module's reader)
@@ -673,9 +680,19 @@ def run_with(core: Any, scenario: Union[str, "os.PathLike[str]", Dict[str, Any]]
     if isinstance(doc, dict) and "cases" in doc and "steps" not in doc:
         if run != 0:
             raise _fail(file, "--run %d" % run, "the file has 1 run (0..0)")
+        from ._nlcases import is_nlcase, run_nl  # (it imports this module)
+
+        if is_nlcase(doc, file, case):
+            return run_nl(core, doc, file, case, filter)
+        if filter in _NL:
+            raise _fail(file, "cases", "filter %s reads a nonlinear case (model or "
+                        "node_models)" % filter)
         doc, case_name, wf = _from_case(doc, file, case)
     elif case is not None:
         raise _fail(file, "cases", "case given but the file has no cases")
+    if filter in _NL and case_name is None:
+        raise _fail(file, "cases", "missing key (filter %s reads seed 001's nonlinear cases)"
+                    % filter)
     if filter in _WF and not wf:
         raise _fail(file, "cases", "filter %s reads a weighted-fusion case (Phi, Gamma, Qe, "
                     "H_signal: seed 002)" % filter)

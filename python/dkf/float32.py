@@ -14,10 +14,13 @@ from ._dkf_float import NLModel as _NLModel
 from ._dkf_float import __all__ as _core
 from ._expr import for_module as _for_module
 from ._jit import for_module as _jit_for_module
+from ._nlm import for_module as _nlm_for_module
+from . import _dkf_float as _this_core
 
 expr_model = _for_module(_NLModel)
 jit_model = _jit_for_module(_NLModel, "float32")
-__all__ = list(_core) + ["expr_model", "jit_model", "run_scenario"]
+builtin_model = _nlm_for_module(_this_core)
+__all__ = list(_core) + ["expr_model", "jit_model", "builtin_model", "run_scenario"]
 
 
 def run_scenario(scenario: Union[str, "os.PathLike[str]", Dict[str, Any]], filter: str,

@@ -165,6 +165,7 @@ void check_unstarted(size_t k, const char *call);
 void register_tw(nb::module_ &m);
 void register_nerts(nb::module_ &m);
 void register_dfnerts_node(nb::module_ &m);
+void register_nlm_builtin(nb::module_ &m);
 
 } // namespace DKF_PY_NS
 

@@ -2480,6 +2480,7 @@ NB_MODULE(DKF_PY_MODULE, m)
     register_tw(m);
     register_nerts(m);
     register_dfnerts_node(m);
+    register_nlm_builtin(m);
 
     nb::class_<KalmanFilter>(m, "KalmanFilter",
                              "Linear Kalman filter, covariance form (dkf/kf.h).")

@@ -32,39 +32,10 @@
 
 #include <jansson.h>
 
-#include "dkf/nl_model.h"
+#include "nlm_model.h" /* dkf_nlm_t, its callbacks, the families' arithmetic */
 
 /* Longest expression string accepted (characters). */
 #define DKF_NLM_EXPR_MAX 4096
-
-typedef struct dkf_nlm dkf_nlm_t;
-
-/* What a source implements, in double (nlm.c converts from and to
- * dkf_real_t and checks every value for finiteness). f_jac / h_jac NULL:
- * the core's forward differences (DKF_NL_FD_STEP, dkf/config.h). Each
- * returns 0, or -1 after writing its reason with dkf_nlm_set_failure. */
-typedef struct {
-    int (*f)(dkf_nlm_t *m, const double *x, const double *d, double *x_next);
-    int (*h)(dkf_nlm_t *m, const double *x, const double *d, double *z);
-    int (*f_jac)(dkf_nlm_t *m, const double *x, const double *d, double *Fx, double *Fd);
-    int (*h_jac)(dkf_nlm_t *m, const double *x, const double *d, double *Hx, double *Hd);
-    void (*destroy)(void *impl);
-} dkf_nlm_ops_t;
-
-struct dkf_nlm {
-    dkf_nl_model_t model;  /* the core's table (model.ctx = this struct) */
-    size_t n, m, p;        /* state, measurement, unknown input */
-    double *Q;             /* n x n, row-major (model.Q) */
-    double *R;             /* m x m (model.R, or the family's default) */
-    unsigned char angle[DKF_MAX_DIM]; /* 1: channel i of g is an angle */
-    size_t nangles;
-    char source[32];       /* "expr" or the family name */
-    char *path;            /* the model object's key path, for messages */
-    const dkf_nlm_ops_t *ops;
-    void *impl;            /* the source's own data */
-    char failure[256];     /* the last callback failure, "" if none */
-    double *jac_a, *jac_b; /* the Jacobians' blocks in double: max(n, m) x n, x max(p, 1) */
-};
 
 struct dkf_scn_ctx; /* scn_values.h */
 
@@ -75,16 +46,6 @@ struct dkf_scn_ctx; /* scn_values.h */
  * NULL with a "FILE: KEY: problem" line in err. */
 dkf_nlm_t *dkf_nlm_load(const json_t *j, const char *file, const char *path, size_t n, size_t p,
                         const double *x0, const double *d0, char *err, size_t errlen);
-void dkf_nlm_free(dkf_nlm_t *m);
-
-/* The reason the last callback of m failed ("" if none). */
-const char *dkf_nlm_failure(const dkf_nlm_t *m);
-
-/* For the sources: printf-style reason of a failing callback. */
-#if defined(__GNUC__)
-__attribute__((format(printf, 2, 3)))
-#endif
-void dkf_nlm_set_failure(dkf_nlm_t *m, const char *fmt, ...);
 
 /* The sources' loaders (nlm_builtin.c, nlm_expr.c): fill m->ops, m->impl,
  * m->m, m->angle and (built-in defaults) m->R from j. 0 or -1 (message
@@ -92,8 +53,5 @@ void dkf_nlm_set_failure(dkf_nlm_t *m, const char *fmt, ...);
 int dkf_nlm_load_builtin(struct dkf_scn_ctx *c, dkf_nlm_t *m, const json_t *j, const char *path);
 int dkf_nlm_load_expr(struct dkf_scn_ctx *c, dkf_nlm_t *m, const json_t *expr, const char *path,
                       const double *x0, const double *d0);
-
-/* The names of the built-in families, ", "-separated (for messages). */
-const char *dkf_nlm_builtin_names(void);
 
 #endif /* DKF_HOST_NLM_H */

@@ -591,6 +591,55 @@ static void test_runtime_failure(void **state)
     dkf_nlm_free(m);
 }
 
+/* A built-in family made without JSON (nlm_model.h, as the Python package
+ * makes it) is the loaded model: the same f, h, Jacobians, bearings and
+ * default R, bit for bit (the 12-sensor stacked radar, no R in the file). */
+static void test_family_without_json(void **state)
+{
+    dkf_scenario_t *s = load(VEC "dnertsif_single.json", "1");
+    const dkf_nlm_t *ref = s->nl->models[0];
+    const dkf_nlm_family_t *rb = ref->impl;
+    dkf_nlm_t *m = calloc(1, sizeof *m);
+    dkf_nlm_family_t *b = calloc(1, sizeof *b);
+    static double J1[2][DKF_MAX_DIM * DKF_MAX_DIM], J2[2][DKF_MAX_DIM];
+    double x[4] = {3.0, -1.5, 20.0, 0.75}, d[1] = {0.04}, o1[DKF_MAX_DIM], o2[DKF_MAX_DIM];
+    int w;
+    (void)state;
+    assert_non_null(m);
+    assert_non_null(b);
+    m->path = calloc(1, 8);
+    assert_non_null(m->path);
+    assert_int_equal(dkf_nlm_family_index("s1_radar_stacked"), 2);
+    assert_int_equal(dkf_nlm_family_index("s1_radr"), -1);
+    m->n = 4, m->p = 1, m->impl = b;
+    b->T = 1.0, b->gain = 10.0, b->L = rb->L, b->per = 3;
+    memcpy(b->sxy, rb->sxy, sizeof b->sxy);
+    dkf_nlm_s1_layout(m, b);
+    assert_int_equal(m->m, ref->m);
+    assert_memory_equal(m->angle, ref->angle, sizeof m->angle);
+    m->R = calloc(m->m * m->m, sizeof *m->R);
+    assert_non_null(m->R);
+    dkf_nlm_s1_default_R(m->R, m->m, b);
+    assert_memory_equal(m->R, ref->R, m->m * m->m * sizeof *m->R);
+    assert_int_equal(dkf_nlm_finish(m), 0);
+    assert_ptr_equal(m->model.y_diff, ref->model.y_diff);
+    assert_int_equal(call_f(m, x, d, o1), 0);
+    assert_int_equal(call_f(ref, x, d, o2), 0);
+    assert_memory_equal(o1, o2, 4 * sizeof *o1);
+    assert_int_equal(call_h(m, x, d, o1), 0);
+    assert_int_equal(call_h(ref, x, d, o2), 0);
+    assert_memory_equal(o1, o2, m->m * sizeof *o1);
+    for (w = 0; w < 2; ++w) {
+        const size_t r = w == 0 ? 4 : m->m;
+        assert_int_equal(call_jac(m, w, x, d, J1[0], J2[0]), 0);
+        assert_int_equal(call_jac(ref, w, x, d, J1[1], J2[1]), 0);
+        assert_memory_equal(J1[0], J1[1], r * 4 * sizeof(double));
+        assert_memory_equal(J2[0], J2[1], r * sizeof(double));
+    }
+    dkf_nlm_free(m);
+    dkf_scenario_free(s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -603,6 +652,7 @@ int main(void)
         cmocka_unit_test(test_expr_errors),
         cmocka_unit_test(test_expr_minimal),
         cmocka_unit_test(test_runtime_failure),
+        cmocka_unit_test(test_family_without_json),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -298,7 +298,7 @@ def test_old_letters_equal_dkf_run(tmp_path: Path) -> None:
 
 def test_refusals() -> None:
     ex1 = VECTORS / "diffkf" / "ex1_single.json"
-    with pytest.raises(ValueError, match="filter 'nertsif'.*dkf-run"):
+    with pytest.raises(ValueError, match="cases: missing key .filter nertsif reads seed 001"):
         dkf.run_scenario(ex1, filter="nertsif")
     with pytest.raises(ValueError, match="steps: missing key .filter tw1 reads the seed-003"):
         dkf.run_scenario(ex1, filter="tw1")

@@ -1,9 +1,11 @@
 """What the example scripts (seed001_table1.py, seed002_example.py,
 tw_example.py, uif_example.py) share: the options of the seed examples,
-finding dkf-run, saving a figure, and the closing list of checks."""
+finding dkf-run or the Python package, a progress line, saving a figure,
+and the closing list of checks."""
 import argparse
 import os
 import sys
+import time
 
 
 def find_dkf_run(root):
@@ -15,15 +17,17 @@ def find_dkf_run(root):
     return None
 
 
-def seed_parser(doc, root, out_name, own, verdict_help):
+def seed_parser(doc, root, out_name, own, verdict_help, dkf_run=True):
     """The seed examples' parser: the script's own integer options (own: (name,
-    default) pairs), then --jobs, --dkf-run, --out-dir (root/build/out_name),
-    --no-plots and --no-verdict."""
+    default) pairs), then --jobs and --dkf-run (only with dkf_run: a script
+    that starts dkf-run processes), --out-dir (root/build/out_name), --no-plots
+    and --no-verdict."""
     ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     for name, default in own:
         ap.add_argument(name, type=int, default=default)
-    ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--dkf-run", default=None)
+    if dkf_run:
+        ap.add_argument("--jobs", type=int, default=2)
+        ap.add_argument("--dkf-run", default=None)
     ap.add_argument("--out-dir", default=os.path.join(root, "build", out_name))
     ap.add_argument("--no-plots", action="store_true")
     ap.add_argument("--no-verdict", action="store_true", help=verdict_help)
@@ -38,6 +42,38 @@ def seed_dkf_run(a, root, prog):
         sys.exit(f"{prog}: no dkf-run found; build first (tools/run_tests.sh) or give --dkf-run")
     os.makedirs(a.out_dir, exist_ok=True)
     return exe
+
+
+def package(prog):
+    """The Python package dkf, its dkf.float32 imported; None, saying so on
+    stderr, where it is not installed."""
+    try:
+        import dkf
+        import dkf.float32  # noqa: F401
+    except ImportError:
+        print(f"{prog}: needs the Python package dkf (pip install .; docs/guide/python.md)",
+              file=sys.stderr)
+        return None
+    return dkf
+
+
+class Progress:
+    """A progress line on stderr: done / total, elapsed and estimated seconds left."""
+
+    def __init__(self, total, what):
+        self.total, self.done, self.what, self.t0 = total, 0, what, time.time()
+
+    def step(self):
+        self.done += 1
+        w = 30
+        f = int(w * self.done / self.total)
+        el = time.time() - self.t0
+        eta = el / self.done * (self.total - self.done)
+        sys.stderr.write(f"\r{self.what} [{'#' * f}{'.' * (w - f)}] {self.done}/{self.total} "
+                         f"{el:5.0f} s, ~{eta:4.0f} s left")
+        if self.done == self.total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
 
 
 def save_figure(plt, fig, outdir, name):

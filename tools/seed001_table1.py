@@ -1,15 +1,21 @@
 #!/usr/bin/env python3
-"""Seed 001's Table 1, reproduced by driving dkf's C filters through dkf-run.
+"""Seed 001's Table 1, reproduced with dkf's C filters through the Python package.
 
-  tools/seed001_table1.py [--runs 50] [--tp 45] [--jobs 2] [--out-dir DIR]
+  tools/seed001_table1.py [--runs 50] [--tp 45] [--float32] [--out-dir DIR] [--no-plots]
 
-For each Monte-Carlo run m (tools/seed001_model.py: default_rng(20140001 + m),
-draws x_hat_0, w, v; the 12 radars; 100 steps) it writes the scenario and runs
-  CF-DNERTSF            dkf-run --filter cf_dnertsf (the 36-dim stacked filter)
-  DF-DNERTSIF literal   --filter df_dnertsif, scale s = 1 (the paper's Alg. 3)
-  DF-DNERTSIF N-scaled  --filter df_dnertsif, s = N = 12
-  DF-CKF literal / N    --filter df_ckf (p = 0, omega frozen at -3 deg/s)
-all from the same data, T_p = --tp on the 4-neighbour grid with Metropolis W.
+Needs the Python package (pip install ., docs/guide/python.md). For each
+Monte-Carlo run m (tools/seed001_model.py: default_rng(20140001 + m), draws
+x_hat_0, w, v; the 12 radars; 100 steps) it makes the scenario and runs
+  CF-DNERTSF            dkf.run_scenario(scn, filter="cf_dnertsf") (the 36-dim stacked filter)
+  DF-DNERTSIF literal   filter="df_dnertsif", scale s = 1 (the paper's Alg. 3)
+  DF-DNERTSIF N-scaled  filter="df_dnertsif", s = N = 12
+  DF-CKF literal / N    filter="df_ckf" (p = 0, omega frozen at -3 deg/s)
+all from the same data, T_p = --tp on the 4-neighbour grid with Metropolis W;
+run_scenario gives what dkf-run --filter writes for the same file, bit for bit.
+The runs go one after the other in this process: most of a run's time is
+run_scenario's Python glue (it records every output of every node and step),
+which holds the GIL, so threads would not run them side by side. --float32
+runs the filters of dkf.float32.
 
 ARMSE = mean over k = 1..100 of RMSE_k (the root of the mean over the runs of
 the squared position / velocity error), DRMSE = its variance over k (ddof 1);
@@ -19,14 +25,12 @@ values of docs/design/infofusion.md (which used the same set-up and seeds), with
 jackknife standard error of our ARMSE over the runs, so "agrees" means within
 3 standard errors. Writes DIR/table1.json, DIR/seed001_rmse.png (position
 RMSE against k) and DIR/seed001_turn_rate.png (the turn-rate estimate).
+Exit status: 0 ok; 1 a value off the reference's (unless --no-verdict); 2 bad
+arguments or no package.
 """
 import json
 import os
-import subprocess
 import sys
-import tempfile
-import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -34,12 +38,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import example_common as ec  # noqa: E402
 import seed001_model as sm  # noqa: E402
 
-ALGS = [  # name, filter, file (ui or ckf), case index (0: s = 1, 1: s = N), per node
-    ("CF-DNERTSF", "cf_dnertsf", "ui", 1, False),
-    ("DF-DNERTSIF literal s=1", "df_dnertsif", "ui", 0, True),
-    ("DF-DNERTSIF N-scaled s=N", "df_dnertsif", "ui", 1, True),
-    ("DF-CKF literal s=1", "df_ckf", "ckf", 0, True),
-    ("DF-CKF N-scaled s=N", "df_ckf", "ckf", 1, True),
+ALGS = [  # name, filter, scale s, per node (the DF-CKF's nodes are df_ckf's: p = 0)
+    ("CF-DNERTSF", "cf_dnertsf", 12.0, False),
+    ("DF-DNERTSIF literal s=1", "df_dnertsif", 1.0, True),
+    ("DF-DNERTSIF N-scaled s=N", "df_dnertsif", 12.0, True),
+    ("DF-CKF literal s=1", "df_ckf", 1.0, True),
+    ("DF-CKF N-scaled s=N", "df_ckf", 12.0, True),
 ]
 # ARMSE pos, vel; DRMSE pos, vel
 NOTE = {"CF-DNERTSF": (0.1116, 0.2069, 0.00020, 0.00032),
@@ -54,49 +58,22 @@ PAPER = {"CF-DNERTSF": (0.1900, 0.2631, 0.0015, 0.0009),
          "DF-CKF N-scaled s=N": (1.4471, 0.9902, 1.4237, 0.3802)}
 
 
-class Progress:
-    def __init__(self, total, what):
-        self.total, self.done, self.what, self.t0 = total, 0, what, time.time()
-
-    def step(self):
-        self.done += 1
-        w = 30
-        f = int(w * self.done / self.total)
-        el = time.time() - self.t0
-        eta = el / self.done * (self.total - self.done)
-        sys.stderr.write(f"\r{self.what} [{'#' * f}{'.' * (w - f)}] {self.done}/{self.total} "
-                         f"{el:5.0f} s, ~{eta:4.0f} s left")
-        if self.done == self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
-
-
-def run_one(dkf_run, tmp, m, tp):
-    """Every algorithm on run m: {name: (x [steps, nodes, 4], d [steps, nodes, p])}, truth."""
+def run_one(mod, m, tp):
+    """Every algorithm on run m: {name: (x [steps, nodes, 4], d [steps, nodes, 1] or None)},
+    and the truth."""
     x_hat0, X, Z = sm.draw_run(m)
-    files = {}
-    for kind, ckf in (("ui", False), ("ckf", True)):
-        cases = [sm.network_case(f"run{m}_{kind}_s{int(s)}", x_hat0, X, Z, tp, s, ckf=ckf)
-                 for s in (1.0, 12.0)]
-        files[kind] = os.path.join(tmp, f"run{m}_{kind}.json")
-        with open(files[kind], "w") as f:
-            json.dump(sm.scenario_file(cases, "seed001_table1.py"), f)
     out = {}
-    for name, flt, kind, case, per_node in ALGS:
-        o = os.path.join(tmp, f"run{m}_{flt}_{case}.json")
-        subprocess.run([dkf_run, "--filter", flt, "--case", str(case), "--quiet", "--output", o,
-                        files[kind]], check=True)
-        doc = json.load(open(o))
+    for name, flt, s, per_node in ALGS:
+        ckf = flt == "df_ckf"
+        case = sm.network_case(f"run{m}_{flt}_s{int(s)}", x_hat0, X, Z, tp, s, ckf=ckf)
+        doc = mod.run_scenario(sm.scenario_file([case], "seed001_table1.py"), filter=flt)
         res = next(iter(doc["outputs"].values()))
         x = np.array(res["x"], dtype=float)
-        d = np.array(res["d"], dtype=float) if res.get("d") and kind == "ui" else None
+        d = None if ckf else np.array(res["d"], dtype=float)
         if not per_node:
             x = x[:, None, :]
             d = d[:, None, :] if d is not None else None
         out[name] = (x, d)
-        os.remove(o)
-    for f in files.values():
-        os.remove(f)
     return out, X
 
 
@@ -113,24 +90,29 @@ def jackknife_se(err2):
     return np.sqrt((R - 1) / R * ((loo - loo.mean()) ** 2).sum())
 
 
-def main():
+def main(argv=None):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = ec.seed_parser(__doc__, root, "seed001", (("--runs", 50), ("--tp", 45)),
-                        "exit 0 even if a value is off the derivation's (docs/design/derivation-seed001-002.md) (a smoke run of a few runs)")
-    a = ap.parse_args()
-    if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000 or not 1 <= a.jobs <= 64:
-        ap.error("--runs in 2..1000, --tp in 1..10000, --jobs in 1..64")
-    dkf_run = ec.seed_dkf_run(a, root, "seed001_table1")
-    prog = Progress(a.runs, f"seed 001 Table 1: {a.runs} runs x 5 filters, T_p = {a.tp}")
-    results = [None] * a.runs
-    with tempfile.TemporaryDirectory() as tmp, ThreadPoolExecutor(a.jobs) as pool:
-        futs = {pool.submit(run_one, dkf_run, tmp, m, a.tp): m for m in range(a.runs)}
-        for fu in futs:
-            results[futs[fu]] = fu.result()
-            prog.step()
+                        "exit 0 even if a value is off the derivation's (docs/design/"
+                        "derivation-seed001-002.md) (a smoke run of a few runs)", dkf_run=False)
+    ap.add_argument("--float32", action="store_true", help="the filters of dkf.float32")
+    a = ap.parse_args(argv)
+    if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000:
+        ap.error("--runs in 2..1000, --tp in 1..10000")
+    dkf = ec.package("seed001_table1")
+    if dkf is None:
+        return 2
+    mod = dkf.float32 if a.float32 else dkf
+    real = "float" if a.float32 else "double"
+    os.makedirs(a.out_dir, exist_ok=True)
+    prog = ec.Progress(a.runs, f"seed 001 Table 1: {a.runs} runs x 5 filters, T_p = {a.tp}")
+    results = []
+    for m in range(a.runs):
+        results.append(run_one(mod, m, a.tp))
+        prog.step()
     table = {}
     curves = {}
-    for name, _, kind, _, _ in ALGS:
+    for name, flt, _, _ in ALGS:
         xs = np.stack([r[0][name][0] for r in results])        # [runs, steps, nodes, 4]
         X = np.stack([r[1][1:] for r in results])[:, :, None, :]  # [runs, steps, 1, 4]
         e = xs - X
@@ -145,14 +127,15 @@ def main():
                        "node_spread_ARMSE_pos": float(ap_.max() - ap_.min()),
                        "note": NOTE[name], "paper": PAPER[name]}
         curves[name] = rp.mean(axis=1)
-        if kind == "ui":
+        if flt != "df_ckf":
             ds = np.stack([r[0][name][1] for r in results])  # [runs, steps, nodes, 1]
             curves[name + " omega"] = ds[..., 0].mean(axis=(0, 2))
-    print(f"\nseed 001 Table 1 ({a.runs} Monte-Carlo runs, T_p = {a.tp}, dkf's C filters)")
+    print(f"\nseed 001 Table 1 ({a.runs} Monte-Carlo runs, T_p = {a.tp}, "
+          f"dkf's C filters in {real})")
     print(f"{'algorithm':26s} {'ARMSE pos':>16s} {'ARMSE vel':>16s} {'DRMSE pos':>10s} "
           f"{'DRMSE vel':>10s}   note (pos / vel)   paper (pos / vel)  agrees")
     ok_all = True
-    for name, _, _, _, _ in ALGS:
+    for name, _, _, _ in ALGS:
         t = table[name]
         n = t["note"]
         ok = (abs(t["ARMSE_pos"] - n[0]) <= 3 * t["se_ARMSE_pos"] + 5e-5 and
@@ -167,14 +150,14 @@ def main():
     print(f"(DF: averaged over the 12 nodes; largest node spread of ARMSE pos {spread:.2g}; "
           f"+- = jackknife standard error over the runs)")
     with open(os.path.join(a.out_dir, "table1.json"), "w") as f:
-        json.dump({"runs": a.runs, "tp": a.tp, "table": table}, f, indent=1)
+        json.dump({"runs": a.runs, "tp": a.tp, "real": real, "table": table}, f, indent=1)
     if not a.no_plots:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
         k = np.arange(1, sm.STEPS + 1)
         fig, ax = plt.subplots(figsize=(8, 4.5))
-        for name, _, _, _, _ in ALGS:
+        for name, _, _, _ in ALGS:
             ax.semilogy(k, curves[name], label=name)
         ax.set_xlabel("k")
         ax.set_ylabel("position RMSE")

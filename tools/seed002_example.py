@@ -43,7 +43,6 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import make_wf_scenario as wfs  # noqa: E402
 import example_common as ec  # noqa: E402
-from seed001_table1 import Progress  # noqa: E402
 
 L = 5
 R = [0.1 * (i + 1) for i in range(L)]
@@ -169,7 +168,7 @@ def main():
         res["long_run"] = {"steps": a.long, "burn_in": burn, "mse": long_mse}
 
         # ---- 2. Monte-Carlo over runs ----------------------------------------------------
-        prog = Progress(a.runs, f"seed 002 Monte-Carlo: {a.runs} runs x {a.steps} steps x 4 filters")
+        prog = ec.Progress(a.runs, f"seed 002 Monte-Carlo: {a.runs} runs x {a.steps} steps x 4 filters")
         out = [None] * a.runs
         with ThreadPoolExecutor(a.jobs) as pool:
             futs = {pool.submit(signal_errors, exe, tmp, r, a.steps, P0): r for r in range(a.runs)}

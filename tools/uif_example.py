@@ -249,12 +249,8 @@ def main(argv=None):
     if runs < 1:
         print("uif_example: --runs must be >= 1", file=sys.stderr)
         return 2
-    try:
-        import dkf
-        import dkf.float32
-    except ImportError:
-        print("uif_example: needs the Python package dkf (pip install .; docs/guide/python.md)",
-              file=sys.stderr)
+    dkf = ec.package("uif_example")
+    if dkf is None:
         return 2
     mod = dkf.float32 if args.float32 else dkf
     work = os.path.join(args.out, "work")

@@ -120,3 +120,108 @@ def test_uif_results_page_is_the_tools_output(tmp_path, capsys) -> None:
             for cell, v in zip(row[2:], values):
                 want, tol = _printed(cell)
                 assert abs(v - want) <= tol + 1e-12, (key, row[1], cell, v)
+
+
+# ---- tools/seed001_table1.py: seed 001's Table 1 (the ctest seed001_table1_smoke before) ----
+
+SEED001 = ROOT / "tools" / "seed001_table1.py"
+SEED001_ROWS = ["CF-DNERTSF", "DF-DNERTSIF literal s=1", "DF-DNERTSIF N-scaled s=N",
+                "DF-CKF literal s=1", "DF-CKF N-scaled s=N"]
+
+
+def seed001_globals():
+    return runpy.run_path(str(SEED001), run_name="seed001_table1")
+
+
+def seed001_rows(out: str):
+    """The table's rows as printed: the algorithm's name, then the values."""
+    return [ln for ln in out.splitlines() if ln.split("  ")[0].strip() in SEED001_ROWS]
+
+
+@pytest.mark.parametrize("real", ["double", "float"])
+def test_seed001_table1_smoke(real, tmp_path, capsys) -> None:
+    """tools/seed001_table1.py --runs 2 --tp 3 as a user runs it: every filter, the table
+    printed (values not judged at 2 runs) and table1.json written, in both real types."""
+    args = ["--runs", "2", "--tp", "3", "--no-verdict", "--no-plots", "--out-dir",
+            str(tmp_path)] + (["--float32"] if real == "float" else [])
+    assert seed001_globals()["main"](args) == 0
+    out = capsys.readouterr().out
+    assert "dkf's C filters in %s" % real in out
+    rows = seed001_rows(out)
+    assert [r.split("  ")[0].strip() for r in rows] == SEED001_ROWS
+    res = json.loads((tmp_path / "table1.json").read_text())
+    assert (res["runs"], res["tp"], res["real"]) == (2, 3, real)
+    assert list(res["table"]) == SEED001_ROWS
+    for t in res["table"].values():
+        for key in ("ARMSE_pos", "ARMSE_vel", "DRMSE_pos", "DRMSE_vel", "se_ARMSE_pos",
+                    "se_ARMSE_vel"):
+            assert np.isfinite(t[key]) and t[key] > 0, key
+        assert t["agrees_with_note"] in (True, False)
+
+
+def test_seed001_table1_plots(tmp_path, capsys) -> None:
+    """The ctest's pass condition: the last row, then the plots written."""
+    pytest.importorskip("matplotlib", reason="matplotlib is not installed: the plots not tested")
+    args = ["--runs", "2", "--tp", "3", "--no-verdict", "--out-dir", str(tmp_path)]
+    assert seed001_globals()["main"](args) == 0
+    assert re.search(r"DF-CKF N-scaled s=N.*plots:", capsys.readouterr().out, re.S)
+    for name in ("seed001_rmse.png", "seed001_turn_rate.png"):
+        data = (tmp_path / name).read_bytes()
+        assert data[:4] == b"\x89PNG" and len(data) > 1000
+
+
+def test_seed001_table1_verdict(tmp_path, capsys) -> None:
+    """Without --no-verdict the exit status follows the comparison with the reference:
+    2 runs at T_p = 3 are far from the 50-run values at T_p = 45."""
+    args = ["--runs", "2", "--tp", "3", "--no-plots", "--out-dir", str(tmp_path)]
+    assert seed001_globals()["main"](args) == 1
+    assert any(r.endswith("NO") for r in seed001_rows(capsys.readouterr().out))
+    res = json.loads((tmp_path / "table1.json").read_text())
+    assert not all(t["agrees_with_note"] for t in res["table"].values())
+
+
+def test_seed001_table1_estimates_are_dkf_runs(tmp_path) -> None:
+    """The tool's estimates of run 0 (T_p = 3) are dkf-run's on the same scenario, bit for
+    bit: every filter's x and d."""
+    from test_scenario import dkf_run, same
+
+    g = seed001_globals()
+    sm = g["sm"]
+    est, _ = g["run_one"](dkf, 0, 3)
+    x_hat0, X, Z = sm.draw_run(0)
+    for name, flt, s, per_node in g["ALGS"]:
+        case = sm.network_case("c", x_hat0, X, Z, 3, s, ckf=flt == "df_ckf")
+        scn = tmp_path / "scn.json"
+        scn.write_text(json.dumps(sm.scenario_file([case], "test")))
+        p = dkf_run(str(scn), flt, tmp_path / "out.json")
+        assert p.returncode == 0, p.stderr
+        ref = json.loads((tmp_path / "out.json").read_text())["outputs"][flt.upper()]
+        x, d = est[name]
+        same((x if per_node else x[:, 0]).tolist(), ref["x"], name + ".x")
+        if d is not None:
+            same((d if per_node else d[:, 0]).tolist(), ref["d"], name + ".d")
+
+
+def test_seed001_table1_is_the_designs_table(tmp_path, capsys) -> None:
+    """docs/design/infofusion.md's Table 1 (50 runs, T_p = 45, double) is the tool's
+    output as printed, and every row agrees with the reference."""
+    assert seed001_globals()["main"](["--no-plots", "--out-dir", str(tmp_path)]) == 0
+    capsys.readouterr()
+    res = json.loads((tmp_path / "table1.json").read_text())
+    doc = (ROOT / "docs" / "design" / "infofusion.md").read_text(encoding="utf-8")
+    text = doc.split("## Seed 001's Table 1, reproduced", 1)[1].split("\n## ", 1)[0]
+    rows = [[c.strip() for c in ln.strip("|").split("|")] for ln in text.splitlines()
+            if ln.startswith("| DF-") or ln.startswith("| CF-")]
+    assert len(rows) == len(SEED001_ROWS)
+    for row, name in zip(rows, SEED001_ROWS):
+        t = res["table"][name]
+        assert t["agrees_with_note"], name
+        cells = [c for pm in row[1:3] for c in pm.split("±")] + row[3:5]
+        values = [t["ARMSE_pos"], t["se_ARMSE_pos"], t["ARMSE_vel"], t["se_ARMSE_vel"],
+                  t["DRMSE_pos"], t["DRMSE_vel"]]
+        for cell, v in zip(cells, values):
+            want, tol = _printed(cell)
+            assert abs(v - want) <= tol + 1e-12, (name, cell, v)
+    spread = re.search(r"spread in ARMSE pos is at most ([0-9.]+)e-4", " ".join(text.split()))
+    want, tol = _printed(spread.group(1))
+    assert abs(max(t["node_spread_ARMSE_pos"] for t in res["table"].values()) * 1e4 - want) <= tol

@@ -1,47 +1,30 @@
 """What the example scripts (seed001_table1.py, seed002_example.py,
-tw_example.py, uif_example.py) share: the options of the seed examples,
-finding dkf-run or the Python package, a progress line, saving a figure,
-and the closing list of checks."""
+tw_example.py, uif_example.py) share: their options, finding the Python
+package, a progress line, saving a figure, and the closing list of checks."""
 import argparse
 import os
 import sys
 import time
 
 
-def find_dkf_run(root):
-    """The dkf-run of the usual build trees under root, or None."""
-    for b in ("build/double", "build", "build/ci-double"):
-        p = os.path.join(root, b, "ports/linux/dkf-run")
-        if os.access(p, os.X_OK):
-            return p
-    return None
+def package_options(ap):
+    """The options of every example that runs the filters through the Python
+    package: --float32 (the filters of dkf.float32) and --no-plots."""
+    ap.add_argument("--float32", action="store_true", help="the filters of dkf.float32")
+    ap.add_argument("--no-plots", action="store_true", help="no figures (no matplotlib needed)")
 
 
-def seed_parser(doc, root, out_name, own, verdict_help, dkf_run=True):
+def seed_parser(doc, root, out_name, own, verdict_help):
     """The seed examples' parser: the script's own integer options (own: (name,
-    default) pairs), then --jobs and --dkf-run (only with dkf_run: a script
-    that starts dkf-run processes), --out-dir (root/build/out_name), --no-plots
-    and --no-verdict."""
+    default) pairs), then --out-dir (root/build/out_name), package_options'
+    --float32 and --no-plots, and --no-verdict."""
     ap = argparse.ArgumentParser(description=doc.split("\n")[0])
     for name, default in own:
         ap.add_argument(name, type=int, default=default)
-    if dkf_run:
-        ap.add_argument("--jobs", type=int, default=2)
-        ap.add_argument("--dkf-run", default=None)
     ap.add_argument("--out-dir", default=os.path.join(root, "build", out_name))
-    ap.add_argument("--no-plots", action="store_true")
+    package_options(ap)
     ap.add_argument("--no-verdict", action="store_true", help=verdict_help)
     return ap
-
-
-def seed_dkf_run(a, root, prog):
-    """The dkf-run to use (--dkf-run, else find_dkf_run; exits if none), with
-    --out-dir created."""
-    exe = a.dkf_run or find_dkf_run(root)
-    if exe is None:
-        sys.exit(f"{prog}: no dkf-run found; build first (tools/run_tests.sh) or give --dkf-run")
-    os.makedirs(a.out_dir, exist_ok=True)
-    return exe
 
 
 def package(prog):
@@ -55,6 +38,13 @@ def package(prog):
               file=sys.stderr)
         return None
     return dkf
+
+
+def package_module(a, prog):
+    """The module whose filters the example runs: dkf.float32 with --float32
+    (package_options), else dkf; None, saying so on stderr, without the package."""
+    dkf = package(prog)
+    return None if dkf is None else dkf.float32 if a.float32 else dkf
 
 
 class Progress:

@@ -94,15 +94,13 @@ def main(argv=None):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = ec.seed_parser(__doc__, root, "seed001", (("--runs", 50), ("--tp", 45)),
                         "exit 0 even if a value is off the derivation's (docs/design/"
-                        "derivation-seed001-002.md) (a smoke run of a few runs)", dkf_run=False)
-    ap.add_argument("--float32", action="store_true", help="the filters of dkf.float32")
+                        "derivation-seed001-002.md) (a smoke run of a few runs)")
     a = ap.parse_args(argv)
     if not 2 <= a.runs <= 1000 or not 1 <= a.tp <= 10000:
         ap.error("--runs in 2..1000, --tp in 1..10000")
-    dkf = ec.package("seed001_table1")
-    if dkf is None:
+    mod = ec.package_module(a, "seed001_table1")
+    if mod is None:
         return 2
-    mod = dkf.float32 if a.float32 else dkf
     real = "float" if a.float32 else "double"
     os.makedirs(a.out_dir, exist_ok=True)
     prog = ec.Progress(a.runs, f"seed 001 Table 1: {a.runs} runs x 5 filters, T_p = {a.tp}")

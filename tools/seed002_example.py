@@ -1,17 +1,23 @@
 #!/usr/bin/env python3
-"""Seed 002's example, reproduced by driving dkf's C filters through dkf-run.
+"""Seed 002's example, reproduced by driving dkf's C filters through the Python package.
 
   tools/seed002_example.py [--runs 2000] [--steps 60] [--long 20000] [--st-steps 8000]
-                           [--jobs 2] [--out-dir DIR] [--dkf-run PATH] [--no-plots] [--no-verdict]
+                           [--out-dir DIR] [--float32] [--no-plots] [--no-verdict]
+
+Needs the Python package (`pip install .`, docs/guide/python.md): every
+estimate is `dkf.run_scenario(scenario, filter=...)`'s (`dkf.float32`'s with
+--float32), which gives what `dkf-run --filter` writes, bit for bit; this
+script simulates (numpy), makes each run a weighted-fusion case
+(tools/make_wf_scenario.py's layout) and does the statistics.
 
 The model (docs/design/weighted-fusion.md): the AR(2)/MA(1) signal s plus the common
 coloured noise eta of the paper, 5 sensors y_i = s + eta + v_i with
 sigma_vi^2 = 0.1 .. 0.5, in the observer form of tools/make_wf_scenario.py
 (common prior x_hat0 = 0, P0 = the stationary covariance, x(0) ~ N(0, P0)).
 
-1. Steady state: `dkf-run --filter fusion_steady` (DARE + Stein in the C core)
+1. Steady state: the filter fusion_steady (DARE + Stein in the C core)
    gives the local variances P_Sii, the scalar weights, P_S0 and the
-   matrix-fused H_s P0 H_s^T; `--filter central_kf` on a long run the
+   matrix-fused H_s P0 H_s^T; central_kf on a long run the
    centralized steady variance. Compared with the paper's / reference derivation's (docs/design/derivation-seed001-002.md)
    five-digit values.
 2. Monte-Carlo (--runs runs of --steps steps, numpy default_rng(2002 + r)):
@@ -29,14 +35,11 @@ sigma_vi^2 = 0.1 .. 0.5, in the observer form of tools/make_wf_scenario.py
 
 Writes DIR/seed002.json and (unless --no-plots) DIR/seed002_variance.png,
 DIR/seed002_selftune_params.png, DIR/seed002_selftune_gap.png. Exit 1 if a
-verdict fails (unless --no-verdict, for smoke runs).
+verdict fails (unless --no-verdict, for smoke runs), 2 without the package.
 """
 import json
 import os
-import subprocess
 import sys
-import tempfile
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -74,33 +77,24 @@ def scenario(xs, ys, P0, name):
                     "seed-002 example (tools/seed002_example.py)")
 
 
-def dkf_run(exe, flt, path, out):
-    subprocess.run([exe, "--filter", flt, "--quiet", "--output", out, path], check=True)
-    with open(out) as f:
-        doc = json.load(f)
-    os.remove(out)
-    return next(iter(doc["outputs"].values()))
+def run_filter(mod, flt, scn):
+    """The filter over one scenario: outputs.<LABEL> of dkf-run's document."""
+    return next(iter(mod.run_scenario(scn, filter=flt)["outputs"].values()))
 
 
-def simulated_file(tmp, fname, name, seed, steps, P0):
-    """A run of steps simulated with default_rng(seed), written as scenario `name` to
-    tmp/fname: (x_true, the file's path)."""
+def simulated(name, seed, steps, P0):
+    """A run of steps simulated with default_rng(seed) as scenario `name`: (x_true, the
+    scenario)."""
     xs, ys = simulate(np.random.default_rng(seed), steps, P0)
-    path = os.path.join(tmp, fname)
-    with open(path, "w") as f:
-        json.dump(scenario(xs, ys, P0, name), f)
-    return xs, path
+    return xs, scenario(xs, ys, P0, name)
 
 
-def signal_errors(exe, tmp, r, steps, P0):
+def signal_errors(mod, r, steps, P0):
     """One Monte-Carlo run: squared signal errors and theoretical variances per t."""
-    xs, path = simulated_file(tmp, f"run{r}.json", f"mc{r}", 2002 + r, steps, P0)
+    xs, scn = simulated(f"mc{r}", 2002 + r, steps, P0)
     s = xs[1:, 0]
-    loc = dkf_run(exe, "local_kf", path, path + ".loc")
-    sca = dkf_run(exe, "fusion_scalar", path, path + ".sca")
-    mat = dkf_run(exe, "fusion_matrix", path, path + ".mat")
-    cen = dkf_run(exe, "central_kf", path, path + ".cen")
-    os.remove(path)
+    loc, sca, mat, cen = (run_filter(mod, f, scn)
+                          for f in ("local_kf", "fusion_scalar", "fusion_matrix", "central_kf"))
     e2 = {f"local {i + 1}": (np.array(loc["s_local"])[:, i] - s) ** 2 for i in range(L)}
     th = {f"local {i + 1}": np.array(loc["P_ij"])[:, i, i, 0, 0] for i in range(L)}
     e2["scalar-fused"] = (np.array(sca["s_fused"]) - s) ** 2
@@ -119,94 +113,94 @@ def batch_se(e2, batches=40):
     return m.std(ddof=1) / np.sqrt(batches)
 
 
-def main():
+def main(argv=None):
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     ap = ec.seed_parser(__doc__, root, "seed002",
                         (("--runs", 2000), ("--steps", 60), ("--long", 20000), ("--st-steps", 8000)),
                         "exit 0 even if a value is off (a smoke run of a few runs)")
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     if not (2 <= a.runs <= 100000 and 2 <= a.steps <= 100000 and 200 <= a.long <= 1000000
-            and 100 <= a.st_steps <= 1000000 and 1 <= a.jobs <= 64):
-        ap.error("--runs 2..1e5, --steps 2..1e5, --long 200..1e6, --st-steps 100..1e6, --jobs 1..64")
-    exe = ec.seed_dkf_run(a, root, "seed002_example")
+            and 100 <= a.st_steps <= 1000000):
+        ap.error("--runs 2..1e5, --steps 2..1e5, --long 200..1e6, --st-steps 100..1e6")
+    mod = ec.package_module(a, "seed002_example")
+    if mod is None:
+        return 2
+    os.makedirs(a.out_dir, exist_ok=True)
     F, G, Qe = np.array(wfs.PHI), np.array(wfs.GAMMA), np.array(wfs.QE)
     P0 = wfs.stationary(F, G @ Qe @ G.T)
     verdicts = []
     res = {"paper": PAPER}
 
-    with tempfile.TemporaryDirectory() as tmp:
-        # ---- 1. steady state and the long run --------------------------------------
-        sys.stderr.write(f"seed 002: steady state and one {a.long}-step run ...\n")
-        xs, path = simulated_file(tmp, "long.json", "long", 2002, a.long, P0)
-        st = dkf_run(exe, "fusion_steady", path, path + ".st")
-        cen = dkf_run(exe, "central_kf", path, path + ".cen")
-        steady = {"P_Sii": [st["P_S"][i][i] for i in range(L)], "w": st["w"],
-                  "P_S0": st["P_S0"], "matrix": st["P0_matrix"][0][0],
-                  "central": cen["P_central"][-1][0][0]}
-        res["steady"] = steady
-        print("\nseed 002 steady state (dkf: DARE + Stein)   dkf       paper/note  agrees (5 digits)")
-        for key in ("P_Sii", "w", "P_S0", "matrix", "central"):
-            got, want = np.atleast_1d(steady[key]), np.atleast_1d(PAPER[key])
-            dig = 4 if key == "w" else 5
-            ok = bool(np.all(np.abs(np.round(got, dig) - want) <= 0.5 * 10 ** -dig + 1e-12))
-            verdicts.append((f"steady {key}", ok))
-            print(f"  {key:8s} {' '.join(f'{v:.{dig}f}' for v in got):44s} "
-                  f"{' '.join(f'{v:.{dig}f}' for v in want):44s} {'yes' if ok else 'NO'}")
-        # stationary errors of the steady filters: time-averaged MSE over the long run
-        s = xs[1:, 0]
-        burn = 100
-        long_mse = {}
-        e_st = (np.array(st["steps_s_fused"]) - s)[burn:] ** 2
-        e_mat = (np.array(st["steps_x_fused_matrix"])[:, 0] - s)[burn:] ** 2
-        e_loc = (np.array(st["steps_x_local"])[:, :, 0] - s[:, None])[burn:] ** 2
-        e_cen = (np.array(cen["x_central"])[:, 0] - s)[burn:] ** 2
-        for name, e2, th in ([(f"local {i + 1}", e_loc[:, i], steady["P_Sii"][i]) for i in range(L)]
-                             + [("scalar-fused", e_st, steady["P_S0"]),
-                                ("matrix-fused", e_mat, steady["matrix"]),
-                                ("centralized", e_cen, steady["central"])]):
-            long_mse[name] = {"mse": float(e2.mean()), "se": float(batch_se(e2)), "theory": th}
-        res["long_run"] = {"steps": a.long, "burn_in": burn, "mse": long_mse}
+    # ---- 1. steady state and the long run --------------------------------------
+    sys.stderr.write(f"seed 002: steady state and one {a.long}-step run ...\n")
+    xs, scn = simulated("long", 2002, a.long, P0)
+    st = run_filter(mod, "fusion_steady", scn)
+    cen = run_filter(mod, "central_kf", scn)
+    steady = {"P_Sii": [st["P_S"][i][i] for i in range(L)], "w": st["w"],
+              "P_S0": st["P_S0"], "matrix": st["P0_matrix"][0][0],
+              "central": cen["P_central"][-1][0][0]}
+    res["steady"] = steady
+    print("\nseed 002 steady state (dkf: DARE + Stein)   dkf       paper/note  agrees (5 digits)")
+    for key in ("P_Sii", "w", "P_S0", "matrix", "central"):
+        got, want = np.atleast_1d(steady[key]), np.atleast_1d(PAPER[key])
+        dig = 4 if key == "w" else 5
+        ok = bool(np.all(np.abs(np.round(got, dig) - want) <= 0.5 * 10 ** -dig + 1e-12))
+        verdicts.append((f"steady {key}", ok))
+        print(f"  {key:8s} {' '.join(f'{v:.{dig}f}' for v in got):44s} "
+              f"{' '.join(f'{v:.{dig}f}' for v in want):44s} {'yes' if ok else 'NO'}")
+    # stationary errors of the steady filters: time-averaged MSE over the long run
+    s = xs[1:, 0]
+    burn = 100
+    long_mse = {}
+    e_st = (np.array(st["steps_s_fused"]) - s)[burn:] ** 2
+    e_mat = (np.array(st["steps_x_fused_matrix"])[:, 0] - s)[burn:] ** 2
+    e_loc = (np.array(st["steps_x_local"])[:, :, 0] - s[:, None])[burn:] ** 2
+    e_cen = (np.array(cen["x_central"])[:, 0] - s)[burn:] ** 2
+    for name, e2, th in ([(f"local {i + 1}", e_loc[:, i], steady["P_Sii"][i]) for i in range(L)]
+                         + [("scalar-fused", e_st, steady["P_S0"]),
+                            ("matrix-fused", e_mat, steady["matrix"]),
+                            ("centralized", e_cen, steady["central"])]):
+        long_mse[name] = {"mse": float(e2.mean()), "se": float(batch_se(e2)), "theory": th}
+    res["long_run"] = {"steps": a.long, "burn_in": burn, "mse": long_mse}
 
-        # ---- 2. Monte-Carlo over runs ----------------------------------------------------
-        prog = ec.Progress(a.runs, f"seed 002 Monte-Carlo: {a.runs} runs x {a.steps} steps x 4 filters")
-        out = [None] * a.runs
-        with ThreadPoolExecutor(a.jobs) as pool:
-            futs = {pool.submit(signal_errors, exe, tmp, r, a.steps, P0): r for r in range(a.runs)}
-            for fu in futs:
-                out[futs[fu]] = fu.result()
-                prog.step()
-        names = list(out[0][0].keys())
-        emp = {n: np.mean([o[0][n] for o in out], axis=0) for n in names}
-        theo = {n: out[0][1][n] for n in names}  # the same in every run (data-independent)
-        se_rel = np.sqrt(2.0 / a.runs)
-        print(f"\nseed 002 Monte-Carlo, {a.runs} runs: signal error variance at t = {a.steps} "
-              f"(s.e. {100 * se_rel:.1f} % of theory) and the {a.long}-step time average")
-        print(f"  {'estimator':13s} {'empirical':>10s} {'theory':>9s} {'z':>6s}   "
-              f"{'long-run MSE':>12s} {'+- s.e.':>8s} {'theory':>9s}")
-        mc = {}
-        for n in names:
-            e, t = float(emp[n][-1]), float(theo[n][-1])
-            z = (e - t) / (t * se_rel)
-            lm = long_mse[n]
-            mc[n] = {"empirical": emp[n].tolist(), "theory": theo[n].tolist(), "z_last": z}
-            print(f"  {n:13s} {e:10.5f} {t:9.5f} {z:6.2f}   {lm['mse']:12.5f} {lm['se']:8.5f} "
-                  f"{lm['theory']:9.5f}")
-            if n in ("scalar-fused", "matrix-fused", "centralized"):
-                verdicts.append((f"MC {n} within 3 s.e.", abs(z) <= 3))
-                verdicts.append((f"long-run {n} within 3 s.e.",
-                                 abs(lm["mse"] - lm["theory"]) <= 3 * lm["se"]))
-        chain = bool(np.all(theo["centralized"] <= theo["matrix-fused"] + 1e-12) and
-                     np.all(theo["matrix-fused"] <= theo["scalar-fused"] + 1e-12) and
-                     np.all(theo["scalar-fused"] <=
-                            np.min([theo[f"local {i + 1}"] for i in range(L)], axis=0) + 1e-12))
-        verdicts.append(("central <= matrix <= scalar <= min local at every t", chain))
-        res["monte_carlo"] = {"runs": a.runs, "steps": a.steps, "series": mc}
+    # ---- 2. Monte-Carlo over runs ----------------------------------------------------
+    prog = ec.Progress(a.runs, f"seed 002 Monte-Carlo: {a.runs} runs x {a.steps} steps x 4 filters")
+    out = []
+    for r in range(a.runs):
+        out.append(signal_errors(mod, r, a.steps, P0))
+        prog.step()
+    names = list(out[0][0].keys())
+    emp = {n: np.mean([o[0][n] for o in out], axis=0) for n in names}
+    theo = {n: out[0][1][n] for n in names}  # the same in every run (data-independent)
+    se_rel = np.sqrt(2.0 / a.runs)
+    print(f"\nseed 002 Monte-Carlo, {a.runs} runs: signal error variance at t = {a.steps} "
+          f"(s.e. {100 * se_rel:.1f} % of theory) and the {a.long}-step time average")
+    print(f"  {'estimator':13s} {'empirical':>10s} {'theory':>9s} {'z':>6s}   "
+          f"{'long-run MSE':>12s} {'+- s.e.':>8s} {'theory':>9s}")
+    mc = {}
+    for n in names:
+        e, t = float(emp[n][-1]), float(theo[n][-1])
+        z = (e - t) / (t * se_rel)
+        lm = long_mse[n]
+        mc[n] = {"empirical": emp[n].tolist(), "theory": theo[n].tolist(), "z_last": z}
+        print(f"  {n:13s} {e:10.5f} {t:9.5f} {z:6.2f}   {lm['mse']:12.5f} {lm['se']:8.5f} "
+              f"{lm['theory']:9.5f}")
+        if n in ("scalar-fused", "matrix-fused", "centralized"):
+            verdicts.append((f"MC {n} within 3 s.e.", abs(z) <= 3))
+            verdicts.append((f"long-run {n} within 3 s.e.",
+                             abs(lm["mse"] - lm["theory"]) <= 3 * lm["se"]))
+    chain = bool(np.all(theo["centralized"] <= theo["matrix-fused"] + 1e-12) and
+                 np.all(theo["matrix-fused"] <= theo["scalar-fused"] + 1e-12) and
+                 np.all(theo["scalar-fused"] <=
+                        np.min([theo[f"local {i + 1}"] for i in range(L)], axis=0) + 1e-12))
+    verdicts.append(("central <= matrix <= scalar <= min local at every t", chain))
+    res["monte_carlo"] = {"runs": a.runs, "steps": a.steps, "series": mc}
 
-        # ---- 3. self-tuning -----------------------------------------------------------------
-        sys.stderr.write(f"seed 002: self-tuning run of {a.st_steps} steps ...\n")
-        xs, path = simulated_file(tmp, "st.json", "selftune", 2003, a.st_steps, P0)
-        stt = dkf_run(exe, "fusion_selftune", path, path + ".stt")
-        opt = dkf_run(exe, "fusion_scalar", path, path + ".opt")
+    # ---- 3. self-tuning -----------------------------------------------------------------
+    sys.stderr.write(f"seed 002: self-tuning run of {a.st_steps} steps ...\n")
+    xs, scn = simulated("selftune", 2003, a.st_steps, P0)
+    stt = run_filter(mod, "fusion_selftune", scn)
+    opt = run_filter(mod, "fusion_scalar", scn)
     ah = np.array(stt["a_hat"])
     est = {"a1": ah[:, 0], "a2": ah[:, 1], "c1": np.array(stt["c1_hat"]),
            "sigma_w2": np.array(stt["sigma_w2_hat"])}
@@ -273,9 +267,8 @@ def main():
               f"seed002_selftune_gap.png")
     bad = [w for w, ok in verdicts if not ok]
     print("\nverdicts: " + ("all hold" if not bad else "FAILED: " + "; ".join(bad)))
-    if bad and not a.no_verdict:
-        sys.exit(1)
+    return 1 if bad and not a.no_verdict else 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,22 +1,28 @@
 #!/usr/bin/env python3
 """Seed-003 example (Talebi & Werner, Section IV) on the 200-node graph, through the C filters.
 
-    tools/tw_example.py --dkf-run build/double/ports/linux/dkf-run           # full (~3 min)
-    tools/tw_example.py --dkf-run ... --quick                                # smoke test
+    tools/tw_example.py                       # full (30 runs, ~2.5 min)
+    tools/tw_example.py --quick               # smoke test (python/tests/test_tools.py)
+    tools/tw_example.py --float32             # the core built in float (dkf.float32)
+    tools/tw_example.py --no-plots            # the tables and checks only (no matplotlib)
 
-This script only SIMULATES the system (numpy, fixed seeds) and does the
-statistics. Every estimate comes from the C library through
-`dkf-run --filter tw1|tw2|tw3 --metrics-only`: Algorithm 1 is
-dkf_tw_central_step, Algorithms 2 and 3 run the whole graph (200 nodes,
-732 edges) in process with dkf_tw_net_*; dkf-run also computes the
-per-step metrics (squared errors against the truth, NEES, node spread, gap
-to Algorithm 1 run alongside on the same data). Nothing of the filters is
-re-implemented here.
+Running it needs the Python package (`pip install .`, docs/guide/python.md);
+its simulation does not (`simulate` and `scenario` need numpy only: the
+network tests import them with the system python3). This script only
+SIMULATES the system (numpy, fixed seeds) and does the statistics. Every
+estimate comes from the C library through
+`dkf.run_scenario(scenario, filter="tw1"|"tw2"|"tw3", metrics_only=True)`,
+which gives what `dkf-run --filter tw1|tw2|tw3 --metrics-only` writes, bit for
+bit: Algorithm 1 is dkf_tw_central_step, Algorithms 2 and 3 run the whole
+graph (200 nodes, 732 edges) in process with dkf_tw_net_*; the runner also
+computes the per-step metrics (squared errors against the truth, NEES, node
+spread, gap to Algorithm 1 run alongside on the same data) in dkf-run's
+order. Nothing of the filters is re-implemented here.
 
 Data: the graph, A, B, Sigma_v, H_l and Sigma_w,l are read from the vector
 file tests/vectors/uif/s003_200node_alg1.json (random geometric graph in the
-unit square, 732 edges, generator seed 2024: docs/design/derivation-seed003-004.md §7); the files written
-here give no weights, so dkf-run uses the library's uniform alpha = 1/|N_l|
+unit square, 732 edges, generator seed 2024: docs/design/derivation-seed003-004.md §7); the scenarios made
+here give no weights, so the runner uses the library's uniform alpha = 1/|N_l|
 and Metropolis W, the derivation's choice. Protocol (derivation §7): P0 = I (x_0 ~ N(0,
 I), x_{0|0} = 0), T = 500 steps, z1 = 1 on n in [50, 200), -0.5 on [200,
 350), else 0; z2 = 0.8 sin(2 pi n / 200); eta = 10; RMSE = root mean over
@@ -24,16 +30,16 @@ runs, nodes and components, averaged over n = 51..T.
 
 Outputs (--out, default build/tw-example): tables.md, results.json,
 fig_tw_gap_eta.png (||Alg3 - Alg1|| against eta, log scale),
-fig_tw_rmse_time.png (RMSE against time), fig_tw_eta_rmse.png, and the
-scenario of run 0 (work/). Progress on stderr. Prints "CHECKS PASSED" when
-the checks that do not depend on luck hold. Exit: 0 ok, 1 a check failed,
-2 bad arguments or a dkf-run failure.
+fig_tw_rmse_time.png (RMSE against time), fig_tw_eta_rmse.png (unless
+--no-plots), and the scenario of run 0 (work/run0.json), which dkf-run reads
+as it is. Progress on stderr. Prints "CHECKS PASSED" when the checks that do
+not depend on luck hold. Exit: 0 ok, 1 a check failed, 2 bad arguments, no
+package or a filter failure.
 """
 import argparse
 import json
 import math
 import os
-import subprocess
 import sys
 import time
 
@@ -111,21 +117,15 @@ def scenario(base, x, y, z, T, eta):
             "steps": steps}
 
 
-real = {"type": "double"}
-
-
-def dkf_run(exe, path, filt, out, eta=None):
-    cmd = [exe, "--filter", filt, "--quiet", "--metrics-only", "--output", out]
-    if eta is not None:
-        cmd += ["--eta", str(eta)]
-    p = subprocess.run(cmd + [path], capture_output=True, text=True)
-    if p.returncode != 0:
-        raise RuntimeError("dkf-run %s failed (exit %d): %s" % (filt, p.returncode,
-                                                                 p.stderr.strip()))
-    with open(out) as f:
-        doc = json.load(f)
-    real["type"] = doc.get("real", "double")
-    return doc["outputs"]["alg" + filt[-1]], doc["communication"]
+def run_filter(mod, scn, filt, eta=None, name=None):
+    """The filter over one scenario (a dict or a file), its metrics only:
+    (outputs.algN, communication, real) of dkf-run's document."""
+    import dkf
+    try:
+        doc = mod.run_scenario(scn, filter=filt, eta=eta, metrics_only=True, name=name)
+    except (dkf.Error, ValueError) as e:  # a filter call, or a file the runner refuses
+        raise RuntimeError("%s failed: %s: %s" % (filt, type(e).__name__, e)) from e
+    return doc["outputs"]["alg" + filt[-1]], doc["communication"], doc["real"]
 
 
 def rmse_rows(acc, first):
@@ -143,9 +143,54 @@ def rmse_rows(acc, first):
     return per, avg
 
 
+def plots(outdir, T, runs, gap, per, avg, eta_input):
+    """The three figures (needs matplotlib)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    eta_gap, eta_rmse = list(gap), list(eta_input)
+    fig, ax = plt.subplots(figsize=(6, 4))
+    es = np.array(eta_gap)
+    ax.loglog(es, [gap[e]["vec_rule_max"] for e in eta_gap], "o-", label="max-rule gap")
+    ax.loglog(es, [gap[e]["rel_norm_max"] for e in eta_gap], "s-", label="relative-norm gap")
+    ax.loglog(es, [gap[e]["rms"] for e in eta_gap], "^-", label="RMS ||x3 - x1||")
+    ne = sorted(NOTE_GAP)
+    ax.loglog(ne, [NOTE_GAP[e] for e in ne], "kx", ms=9, label="derivation §6(d)")
+    ax.set_xlabel("consensus iterations eta")
+    ax.set_ylabel("gap to Algorithm 1")
+    ax.set_title("Alg 3 -> Alg 1 (200 nodes, 732 edges, 10 steps)", fontsize=9)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    ec.save_figure(plt, fig, outdir, "fig_tw_gap_eta.png")
+
+    fig, ax = plt.subplots(1, 3, figsize=(11, 3.4))
+    n_axis = np.arange(1, T + 1)
+    for a, col in (("alg1", "k"), ("alg2", "g"), ("alg3", "r")):
+        for i, q in enumerate(("position", "velocity", "input")):
+            ax[i].plot(n_axis, per[a][q], col + "-", lw=0.8, label=a)
+    for i, q in enumerate(("position", "velocity", "input z")):
+        ax[i].set_title("RMSE %s (%d runs, all nodes)" % (q, runs), fontsize=9)
+        ax[i].set_xlabel("n")
+        ax[i].grid(alpha=0.3)
+    ax[0].set_yscale("log")
+    ax[0].legend(fontsize=7)
+    ec.save_figure(plt, fig, outdir, "fig_tw_rmse_time.png")
+
+    fig, ax = plt.subplots(figsize=(5, 3.4))
+    ax.semilogx(eta_rmse, [eta_input[e] for e in eta_rmse], "ro-", label="Alg 3 (dkf)")
+    ne = sorted(NOTE_ETA_INPUT)
+    ax.semilogx(ne, [NOTE_ETA_INPUT[e] for e in ne], "kx", label="derivation §7")
+    ax.axhline(avg["alg1"]["input"], color="k", ls="--", lw=0.8, label="Alg 1")
+    ax.axhline(avg["alg2"]["input"], color="g", ls="--", lw=0.8, label="Alg 2")
+    ax.set_xlabel("eta")
+    ax.set_ylabel("input RMSE")
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3, which="both")
+    ec.save_figure(plt, fig, outdir, "fig_tw_eta_rmse.png")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--dkf-run", required=True, help="path of the dkf-run executable")
     ap.add_argument("--graph", default=DEFAULT_GRAPH,
                     help="seed-003 vector file giving graph and sensors (default: the 200-node one)")
     ap.add_argument("--out", default="build/tw-example", help="output directory")
@@ -154,10 +199,14 @@ def main(argv=None):
     ap.add_argument("--eta", type=int, default=10, help="consensus iterations (default 10)")
     ap.add_argument("--seed", type=int, default=3, help="base seed (run r uses seed + r)")
     ap.add_argument("--quick", action="store_true", help="2 runs x 60 steps, short sweeps")
+    ec.package_options(ap)
     args = ap.parse_args(argv)
     runs, T = (2, 60) if args.quick else (args.runs, args.steps)
     if runs < 1 or T < 2:
         print("tw_example: --runs >= 1 and --steps >= 2 needed", file=sys.stderr)
+        return 2
+    mod = ec.package_module(args, "tw_example")
+    if mod is None:
         return 2
     first = min(51, T)
     eta_gap = [1, 10, 100, 1000] if args.quick else [1, 2, 3, 5, 10, 20, 30, 50, 100, 200, 300,
@@ -176,7 +225,7 @@ def main(argv=None):
     # ---- 1. ||Alg3 - Alg1|| against eta on the vector file's own 10 steps ------------
     gap = {}
     for i, eta in enumerate(eta_gap):
-        out, _ = dkf_run(args.dkf_run, args.graph, "tw3", os.path.join(work, "gap.json"), eta)
+        out, _, real = run_filter(mod, args.graph, "tw3", eta)
         gap[eta] = {"vec_rule_max": max(out["gap_x_vec_rule"]),
                     "rel_norm_max": max(out["gap_x_rel_max"]),
                     "rms": math.sqrt(float(np.mean(out["gap_x"])))}
@@ -190,11 +239,13 @@ def main(argv=None):
     eta_acc = {e: None for e in eta_rmse}
     for r in range(runs):
         x, y, z = simulate(base, T, args.seed + r)
-        path = os.path.join(work, "run0.json" if r == 0 else "run_cur.json")
-        with open(path, "w") as f:
-            json.dump(scenario(base, x, y, z, T, args.eta), f)
+        scn = scenario(base, x, y, z, T, args.eta)
+        name = "run%d" % r
+        if r == 0:  # run 0's file, for dkf-run or a look
+            with open(os.path.join(work, "run0.json"), "w") as f:
+                json.dump(scn, f)
         for a, filt in (("alg1", "tw1"), ("alg2", "tw2"), ("alg3", "tw3")):
-            out, c = dkf_run(args.dkf_run, path, filt, os.path.join(work, a + ".json"))
+            out, c, _ = run_filter(mod, scn, filt, name=name)
             comm[a] = c
             acc = accs[a]
             if acc is None:
@@ -212,7 +263,7 @@ def main(argv=None):
                 acc["gap_x"] = acc["gap_x"] + np.array(out["gap_x"])
         if r < eta_rmse_runs:
             for eta in eta_rmse:
-                out, _ = dkf_run(args.dkf_run, path, "tw3", os.path.join(work, "eta.json"), eta)
+                out, _, _ = run_filter(mod, scn, "tw3", eta, name=name)
                 mz = np.array(out["mse_z"])
                 e = eta_acc[eta]
                 eta_acc[eta] = (mz if e is None else e + mz)
@@ -227,7 +278,7 @@ def main(argv=None):
                  for eta in eta_rmse}
 
     # ---- tables ---------------------------------------------------------------------------
-    L = ["# Seed-003 example through dkf-run: %d nodes, %d edges, %d runs x %d steps, eta = %d"
+    L = ["# Seed-003 example through dkf.run_scenario: %d nodes, %d edges, %d runs x %d steps, eta = %d"
          % (N, E, runs, T, args.eta), "",
          "RMSE = sqrt(mean over runs and nodes of ||e||^2) of the block (state: 4 components, "
          "position x1 x2, velocity x3 x4, input z1 z2), averaged over n = %d..%d; node spread "
@@ -279,59 +330,19 @@ def main(argv=None):
     with open(os.path.join(args.out, "tables.md"), "w") as f:
         f.write("\n".join(L) + "\n")
     print("\n".join(L))
-    res = {"real": real["type"], "runs": runs, "steps": T, "eta": args.eta, "N": N, "edges": E, "avg": avg,
+    res = {"real": real, "runs": runs, "steps": T, "eta": args.eta, "N": N, "edges": E, "avg": avg,
            "communication": comm, "gap": {str(k): v for k, v in gap.items()},
            "eta_input_rmse": {str(k): v for k, v in eta_input.items()},
            "per_step": {a: {k: v.tolist() for k, v in per[a].items()} for a in per}}
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump(res, f, indent=1)
 
-    # ---- plots -------------------------------------------------------------------------
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6, 4))
-    es = np.array(eta_gap)
-    ax.loglog(es, [gap[e]["vec_rule_max"] for e in eta_gap], "o-", label="max-rule gap")
-    ax.loglog(es, [gap[e]["rel_norm_max"] for e in eta_gap], "s-", label="relative-norm gap")
-    ax.loglog(es, [gap[e]["rms"] for e in eta_gap], "^-", label="RMS ||x3 - x1||")
-    ne = sorted(NOTE_GAP)
-    ax.loglog(ne, [NOTE_GAP[e] for e in ne], "kx", ms=9, label="derivation §6(d)")
-    ax.set_xlabel("consensus iterations eta")
-    ax.set_ylabel("gap to Algorithm 1")
-    ax.set_title("Alg 3 -> Alg 1 (200 nodes, 732 edges, 10 steps)", fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    ec.save_figure(plt, fig, args.out, "fig_tw_gap_eta.png")
-
-    fig, ax = plt.subplots(1, 3, figsize=(11, 3.4))
-    n_axis = np.arange(1, T + 1)
-    for a, col in (("alg1", "k"), ("alg2", "g"), ("alg3", "r")):
-        for i, q in enumerate(("position", "velocity", "input")):
-            ax[i].plot(n_axis, per[a][q], col + "-", lw=0.8, label=a)
-    for i, q in enumerate(("position", "velocity", "input z")):
-        ax[i].set_title("RMSE %s (%d runs, all nodes)" % (q, runs), fontsize=9)
-        ax[i].set_xlabel("n")
-        ax[i].grid(alpha=0.3)
-    ax[0].set_yscale("log")
-    ax[0].legend(fontsize=7)
-    ec.save_figure(plt, fig, args.out, "fig_tw_rmse_time.png")
-
-    fig, ax = plt.subplots(figsize=(5, 3.4))
-    ax.semilogx(eta_rmse, [eta_input[e] for e in eta_rmse], "ro-", label="Alg 3 (dkf)")
-    ne = sorted(NOTE_ETA_INPUT)
-    ax.semilogx(ne, [NOTE_ETA_INPUT[e] for e in ne], "kx", label="derivation §7")
-    ax.axhline(avg["alg1"]["input"], color="k", ls="--", lw=0.8, label="Alg 1")
-    ax.axhline(avg["alg2"]["input"], color="g", ls="--", lw=0.8, label="Alg 2")
-    ax.set_xlabel("eta")
-    ax.set_ylabel("input RMSE")
-    ax.legend(fontsize=7)
-    ax.grid(alpha=0.3, which="both")
-    ec.save_figure(plt, fig, args.out, "fig_tw_eta_rmse.png")
+    if not args.no_plots:
+        plots(args.out, T, runs, gap, per, avg, eta_input)
 
     # ---- checks that do not depend on luck ------------------------------------------------
     gaps = [gap[e]["vec_rule_max"] for e in eta_gap]
-    floor = 1e-4 if real["type"] == "float" else 1e-12  # rounding floor of the gap
+    floor = 1e-4 if real == "float" else 1e-12  # rounding floor of the gap
     checks = [
         ("every metric finite", finite and all(np.isfinite(gaps))),
         ("reals per node per step: Alg 1 %d, Alg 2 %d, Alg 3 %d (n = 4, eta = %d)" %
@@ -343,8 +354,9 @@ def main(argv=None):
         ("gap non-increasing over the eta sweep down to the rounding floor %g" % floor,
          all(b <= a * 1.01 for a, b in zip(gaps, gaps[1:]) if a > floor)),
     ]
-    checks += ec.wrote_checks(args.out, ("fig_tw_gap_eta.png", "fig_tw_rmse_time.png",
-                                         "fig_tw_eta_rmse.png"))
+    if not args.no_plots:
+        checks += ec.wrote_checks(args.out, ("fig_tw_gap_eta.png", "fig_tw_rmse_time.png",
+                                             "fig_tw_eta_rmse.png"))
     ec.print_checks(checks, 72)
     log("done in %.1f s" % (time.time() - t0))
     return ec.verdict(checks)

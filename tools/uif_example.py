@@ -242,8 +242,7 @@ def main(argv=None):
     ap.add_argument("--runs", type=int, default=200, help="Monte-Carlo runs (default 200)")
     ap.add_argument("--seed", type=int, default=4, help="base seed (run r uses seed + r)")
     ap.add_argument("--quick", action="store_true", help="10 runs (smoke test)")
-    ap.add_argument("--float32", action="store_true", help="the filters of dkf.float32")
-    ap.add_argument("--no-plots", action="store_true", help="no figures (no matplotlib needed)")
+    ec.package_options(ap)
     args = ap.parse_args(argv)
     runs = 10 if args.quick else args.runs
     if runs < 1:

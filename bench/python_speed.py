@@ -8,7 +8,8 @@ measured) it times, per step:
   loop        kf.predict(); kf.update(Y[t]) from Python, T times
   C           the C library's own loop of dkf_kf_predict + dkf_kf_update:
               bench_kf --case 0 (n = 4, m = 2, its own model of that size;
-              the step's cost does not depend on the values)
+              the step's cost does not depend on the values), run once a
+              round like the others
   filterpy    filterpy.kalman.KalmanFilter's predict() + update(z), if
               FilterPy is installed
 
@@ -71,12 +72,19 @@ def model(T: int):
 
 
 def interleaved_medians(runs, repeats: int):
-    """runs: name -> (run, steps). Each round times every run once, in turn,
-    so that a change in the machine's load touches all of them alike; the
-    median ns per step of each over the rounds."""
+    """runs: name -> (run, steps), or (measure, None) for a run that reports
+    its own ns per step. Each round times every run once, in turn, so that a
+    change in the machine's load touches all of them alike; the median ns
+    per step of each over the rounds. A timed run follows an untimed one of
+    its own (caches and branch predictors warm, as bench_kf's own timing
+    has them after its calibration)."""
     times = {name: [] for name in runs}
     for _ in range(repeats):
         for name, (run, steps) in runs.items():
+            if steps is None:
+                times[name].append(run())
+                continue
+            run()
             t0 = time.perf_counter_ns()
             run()
             times[name].append((time.perf_counter_ns() - t0) / steps)
@@ -193,14 +201,19 @@ def find_bench_kf(given):
     return next((c for c in cands if os.access(c, os.X_OK)), None)
 
 
-def time_c(path, steps, repeats):
-    """bench_kf's median ns per step at case 0, and its line."""
-    out = subprocess.run([path, "--case", "0", "--steps", str(steps), "--repeats", str(repeats)],
-                         check=True, capture_output=True, text=True).stdout.split()
-    # "dkf <type> <n> <m> <ns> <steps> <repeats> <checksum>"
-    if out[0] != "dkf" or out[1] != "double" or out[2:4] != ["4", "2"]:
-        raise SystemExit(f"python_speed: {path}: not a double bench_kf at n = 4, m = 2: {out}")
-    return float(out[4])
+def time_c(path, steps):
+    """A round of the C loop: bench_kf's median ns per step at case 0 over 5
+    runs of T steps (its own timing, without the process's start)."""
+
+    def measure():
+        out = subprocess.run([path, "--case", "0", "--steps", str(steps), "--repeats", "5"],
+                             check=True, capture_output=True, text=True).stdout.split()
+        # "dkf <type> <n> <m> <ns> <steps> <repeats> <checksum>"
+        if out[0] != "dkf" or out[1] != "double" or out[2:4] != ["4", "2"]:
+            raise SystemExit(f"python_speed: {path}: not a double bench_kf at n = 4, m = 2: {out}")
+        return float(out[4])
+
+    return measure, None
 
 
 def main() -> int:
@@ -215,7 +228,10 @@ def main() -> int:
     md, Y = model(a.steps)
     cm, Z = ckf_model(a.steps)
     slow = Z[: min(len(Z), 2001)]  # the CKFs that call Python: fewer steps
+    path = find_bench_kf(a.bench_kf)
     runs = {"filter": time_filter(md, Y), "loop": time_loop(md, Y)}
+    if path:
+        runs["C"] = time_c(path, a.steps)
     fp = time_filterpy(md, Y)
     if fp is not None:
         runs["filterpy"] = fp
@@ -230,8 +246,6 @@ def main() -> int:
     rows = dict.fromkeys(["filter", "loop", "C", "filterpy", "ckf_jit", "ckf_python",
                           "ckf_filterpy"])
     rows.update(interleaved_medians(runs, a.repeats))
-    path = find_bench_kf(a.bench_kf)
-    rows["C"] = time_c(path, a.steps, a.repeats) if path else None
 
     print(f"# python_speed: n = 4, m = 2, T = {a.steps}, median of {a.repeats}; dkf "
           f"{dkf.dtype} (Joseph form {dkf._dkf_double.JOSEPH}), numpy {np.__version__}, Python "

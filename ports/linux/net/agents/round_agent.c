@@ -13,8 +13,9 @@
 /* My packets of the last HISTORY rounds are kept to answer a neighbour that
  * still waits in one of them (its retransmits ask): a node that joined
  * from one neighbour's last round may find another neighbour a few rounds
- * further on, at most the graph's diameter, and must be able to catch up
- * without a round timeout. */
+ * further on, and must be able to catch up without a round timeout. That
+ * neighbour, which had given it up, waits for it again while its history
+ * holds the rounds the node lacks (dkf_ra_receive). */
 #define HISTORY 16
 /* DONE packets a finished node still sends once it awaits nothing (retry_us apart) */
 #define GRACE 5
@@ -36,6 +37,8 @@ struct dkf_ra {
     long T;                     /* steps * rounds */
     size_t k;                   /* step in progress (1..steps), steps + 1 when finished */
     size_t k_first;             /* the first step run (1, or after a join) */
+    size_t join_k, join_e;      /* joining: the newest step k whose last round a
+                                 * neighbour (row position join_e) sent, in cur; 0: none */
     int state;
     int64_t round_start, last_pub, linger_start;
     int64_t grace_start;        /* linger: when nothing was awaited any more (0: not yet) */
@@ -248,24 +251,40 @@ int dkf_ra_join(dkf_ra_t *a, int64_t now_us)
     return a->state;
 }
 
-/* Joining: the neighbour at row position e sent packet p; join after the
- * last round of its step if there is a step after it. */
-static void try_join(dkf_ra_t *a, long e, const dkf_net_tw_pkt_t *p, int64_t now)
+/* Joining: the neighbour at row position e sent packet p. A packet of the
+ * last round of a step with a step after it, newer than the one kept, is
+ * kept for the join (in cur, unused until then). */
+static void join_candidate(dkf_ra_t *a, long e, const dkf_net_tw_pkt_t *p)
 {
-    const size_t R = a->cfg.ex.rounds;
-    size_t k;
-    if (p->kind == DKF_NET_TW_KIND_DONE || (size_t)p->round + 1 != R ||
-        (size_t)p->k >= a->cfg.ex.steps)
+    if (p->kind == DKF_NET_TW_KIND_DONE || (size_t)p->round + 1 != a->cfg.ex.rounds ||
+        (size_t)p->k >= a->cfg.ex.steps || (size_t)p->k <= a->join_k)
         return;
-    k = (size_t)p->k;
-    if (a->cfg.ops->rejoin(a->cfg.filter, k, p->v, a->next, a->err, sizeof a->err) != 0) {
-        fail(a);
-        return;
-    }
+    a->join_k = (size_t)p->k;
+    a->join_e = (size_t)e;
+    memcpy(a->cur, p->v, p->len * sizeof p->v[0]);
+}
+
+/* Joins after step join_k from the kept packet: at a poll, so from the
+ * newest one of everything received before it (a backlog in the receive
+ * queue, read at once, does not start the node from an old step). */
+static int join(dkf_ra_t *a, int64_t now)
+{
+    const size_t k = a->join_k;
+    if (a->cfg.ops->rejoin(a->cfg.filter, k, a->cur, a->next, a->err, sizeof a->err) != 0)
+        return fail(a);
     a->state = DKF_RA_RUNNING;
     a->k = a->k_first = k + 1;
-    a->heard[e] = now;
-    (void)enter_round(a, (long)(k * R), a->next, now);
+    a->heard[a->join_e] = now;
+    return enter_round(a, (long)(k * a->cfg.ex.rounds), a->next, now);
+}
+
+/* The history slot of my packet of round t, or -1. */
+static long history_slot(const dkf_ra_t *a, long t)
+{
+    long s;
+    for (s = 0; s < HISTORY; ++s)
+        if (a->hist_t[s] == t) return s;
+    return -1;
 }
 
 /* Row position of node j, or -1. */
@@ -295,7 +314,7 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
     }
     ++a->cnt.received;
     if (a->state == DKF_RA_JOINING) {
-        try_join(a, e, &p, now_us);
+        join_candidate(a, e, &p);
         return v;
     }
     if (p.kind == DKF_NET_TW_KIND_DONE || (p.k - 1) * (long)a->cfg.ex.rounds + p.round <= a->t + 1)
@@ -316,16 +335,21 @@ dkf_net_verdict_t dkf_ra_receive(dkf_ra_t *a, long chan_node, const void *data, 
         memcpy(a->nx + (size_t)e * a->pkt, p.v, p.len * sizeof p.v[0]);
         a->have_nx[e] = 1;
     } else if (t < a->t) {
-        int kind;
-        size_t plen, s;
+        const long s = history_slot(a, t);
         ++a->cnt.stale;
+        /* a neighbour I gave up is heard again behind me (it joined, or it
+         * fell back): it is waited for again from this round on. It cannot
+         * send a packet of this round before it has caught up, which it does
+         * through my answers while my history holds round t (and so every
+         * round after it); not waited for, it would stay behind for good. */
+        if (s >= 0) a->absent[e] = 0;
         /* the neighbour still waits in a round I left: it may lack mine */
-        for (s = 0; p.retransmit && s < HISTORY; ++s)
-            if (a->hist_t[s] == t) {
-                shape(a, t, &kind, &plen);
-                (void)publish(a, t, kind, a->hist + s * a->pkt, a->hist_len[s], 2, now_us);
-                break;
-            }
+        if (s >= 0 && p.retransmit) {
+            int kind;
+            size_t plen;
+            shape(a, t, &kind, &plen);
+            (void)publish(a, t, kind, a->hist + (size_t)s * a->pkt, a->hist_len[s], 2, now_us);
+        }
     } else {
         ++a->cnt.ahead;
     }
@@ -366,6 +390,7 @@ static int linger_over(const dkf_ra_t *a, int64_t now)
 int dkf_ra_poll(dkf_ra_t *a, int64_t now_us)
 {
     size_t e;
+    if (a->state == DKF_RA_JOINING && a->join_k > 0) join(a, now_us);
     while (a->state == DKF_RA_RUNNING) {
         if (!round_ready(a)) {
             if (now_us < deadline(a)) break;
@@ -401,7 +426,7 @@ int dkf_ra_poll(dkf_ra_t *a, int64_t now_us)
 int64_t dkf_ra_wait_us(const dkf_ra_t *a, int64_t now_us)
 {
     int64_t w = a->last_pub + a->o.retry_us - now_us;
-    if (a->state == DKF_RA_JOINING) return a->o.retry_us;
+    if (a->state == DKF_RA_JOINING) return a->join_k > 0 ? 0 : a->o.retry_us;
     if (a->state == DKF_RA_RUNNING && deadline(a) - now_us < w) w = deadline(a) - now_us;
     if (a->state == DKF_RA_LINGER && a->linger_start + a->o.round_timeout_us - now_us < w)
         w = a->linger_start + a->o.round_timeout_us - now_us;

@@ -16,10 +16,13 @@
  * round started and since that neighbour was last heard from (the first
  * round: the start timeout); then the neighbour is marked absent and the
  * round completes without it (have[e] = 0), the step is recorded degraded
- * and later rounds do not wait for it until it is heard again. A node that
- * waits retry_us without completing its round re-publishes its packet
- * (flagged retransmit); a neighbour one round ahead answers with its packet
- * of that round. After the last step a node publishes DONE and lingers,
+ * and later rounds do not wait for it until it is heard again: a packet of
+ * this round or the next, or one of an earlier round that the node can
+ * still answer (below; a neighbour that joined or fell behind, which then
+ * is waited for while it catches up). A node that waits retry_us without
+ * completing its round re-publishes its packet (flagged retransmit); a
+ * neighbour further on answers with its packet of that round (it keeps its
+ * last 16). After the last step a node publishes DONE and lingers,
  * answering retransmits, until every present neighbour is DONE or the round
  * timeout has passed. Time is passed in (monotonic microseconds), so tests
  * drive the deadlines with a fake clock.
@@ -105,9 +108,12 @@ void dkf_ra_free(dkf_ra_t *a);
 int dkf_ra_start(dkf_ra_t *a, int64_t now_us);
 /* Instead of dkf_ra_start, for a node (re)started while its neighbours
  * run: publishes nothing until it receives a neighbour's packet of the last
- * round of some step k < steps; then ops->rejoin takes its prior from it
- * and the node runs from step k + 1 (its neighbours, which had given it up,
- * take its packets again from that round on). DKF_RA_JOINING, or
+ * round of some step k < steps; then the next dkf_ra_poll joins from the
+ * newest such packet received by then (the largest k: a backlog read at
+ * once does not start the node from an old step): ops->rejoin takes its
+ * prior from it and the node runs from step k + 1 (its neighbours, which
+ * had given it up, take its packets again from that round on; one already
+ * further on waits for it while it catches up). DKF_RA_JOINING, or
  * DKF_RA_FAILED if the ops have no rejoin. */
 int dkf_ra_join(dkf_ra_t *a, int64_t now_us);
 /* Takes one message from the channel of node chan_node (-1: any). */

@@ -32,10 +32,12 @@
  *                   (w_lj F_l: the row still sums to 1).
  * The step is recorded as degraded with the missing node ids. Later rounds
  * do not wait for an absent neighbour (its packet is used if it arrives
- * before the others; then it is present again). Lost packets: a node that
- * waits retry_ms without completing its round re-publishes its packet
- * (flagged retransmit); a neighbour that is one round ahead answers such a
- * retransmit with its packet of that round (it keeps the last two).
+ * before the others; then it is present again, as it is when a packet of an
+ * earlier round that the node can still answer shows it behind: it is
+ * waited for while it catches up). Lost packets: a node that waits retry_ms
+ * without completing its round re-publishes its packet (flagged
+ * retransmit); a neighbour further on answers such a retransmit with its
+ * packet of that round (it keeps its last 16, round_agent.c).
  * After the last step a node publishes DONE and lingers, answering
  * retransmits, until every present neighbour is DONE or round_timeout.
  */

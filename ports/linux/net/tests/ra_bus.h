@@ -1,7 +1,9 @@
 /*
  * ra_bus.h - an in-memory network for round agents (round_agent.h) in one
  * test process: a publication of node `from` reaches every other node of
- * from's graph row, in publication order; the clock is the caller's.
+ * from's graph row, in publication order; the clock is the caller's. A
+ * node's deliveries can be held back (hold[i] = 1) and released later in
+ * their order, as a receive queue that a descheduled process drains late.
  * Header-only (test helpers for test_round_agent and test_df_agent).
  */
 #ifndef DKF_TEST_RA_BUS_H
@@ -34,7 +36,9 @@ struct ra_bus {
     size_t deg[RA_BUS_MAX_NODES];
     dkf_ra_t *agent[RA_BUS_MAX_NODES];   /* NULL: the node is not running */
     ra_port_t port[RA_BUS_MAX_NODES];
+    unsigned char hold[RA_BUS_MAX_NODES]; /* 1: deliveries to the node wait (ra_bus_release) */
     ra_msg_t *head, *tail;
+    ra_msg_t *held, *held_tail;          /* held deliveries, oldest first */
     unsigned long rejected;              /* deliveries an agent refused */
 };
 
@@ -85,6 +89,13 @@ static int64_t ra_bus_run(ra_bus_t *b, int64_t now, int64_t tick, int64_t until)
             ra_msg_t *m = b->head;
             b->head = m->next;
             if (b->head == NULL) b->tail = NULL;
+            if (b->hold[m->to]) {
+                m->next = NULL;
+                if (b->held_tail) b->held_tail->next = m;
+                else b->held = m;
+                b->held_tail = m;
+                continue;
+            }
             if (b->agent[m->to] != NULL &&
                 dkf_ra_receive(b->agent[m->to], (long)m->from, m->data, m->len, now) !=
                     DKF_NET_ACCEPT)
@@ -100,6 +111,18 @@ static int64_t ra_bus_run(ra_bus_t *b, int64_t now, int64_t tick, int64_t until)
         if (!busy) break;
     }
     return now;
+}
+
+/* Node i's deliveries flow again: the held ones come first, before
+ * everything queued since (deliveries to a node still held are held again). */
+static inline void ra_bus_release(ra_bus_t *b, size_t i)
+{
+    b->hold[i] = 0;
+    if (b->held == NULL) return;
+    b->held_tail->next = b->head;
+    if (b->head == NULL) b->tail = b->held_tail;
+    b->head = b->held;
+    b->held = b->held_tail = NULL;
 }
 
 #endif /* DKF_TEST_RA_BUS_H */

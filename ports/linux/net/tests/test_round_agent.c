@@ -9,7 +9,13 @@
  *   - the counters add up (one first publication per round and node);
  *   - a node that never starts: after the start timeout its neighbour
  *     completes the round without it (have[e] = 0), every step of that
- *     neighbour is degraded with the node missing, and it finishes.
+ *     neighbour is degraded with the node missing, and it finishes;
+ *   - a node that joins late from a backlog of its receive queue (held
+ *     deliveries, read at once): it joins from the newest last round of a
+ *     step in the backlog, while its neighbour, which gave it up, is
+ *     already further on. The neighbour hears it again behind itself,
+ *     waits for it while it catches up through the neighbour's answers,
+ *     and takes its packets in every later step (none of them degraded).
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -24,7 +30,7 @@
 #include "round_agent.h"
 
 #define NN 3
-#define STEPS 2
+#define STEPS 4
 #define ROUNDS 3
 
 static const size_t rows[NN][NN] = {{0, 1}, {0, 1, 2}, {1, 2}};
@@ -68,7 +74,17 @@ static int avg_complete(void *filter, size_t k, size_t r, const dkf_real_t *rx, 
     return 1;
 }
 
-static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete, NULL};
+/* Joining after step k: the neighbour's value of its last round is the prior. */
+static int avg_rejoin(void *filter, size_t k, const dkf_real_t *pkt, dkf_real_t *next, char *err,
+                      size_t errlen)
+{
+    avg_t *f = filter;
+    (void)k;
+    f->v = pkt[0];
+    return avg_begin(filter, k + 1, next, err, errlen);
+}
+
+static const dkf_ra_ops_t avg_ops = {avg_begin, avg_complete, avg_rejoin};
 
 static ra_bus_t bus;
 
@@ -185,11 +201,96 @@ static void test_silent_node_degrades_its_neighbour(void **state)
     dkf_ra_free(a[1]);
 }
 
+/* Nodes 0 and 1 start and node 2 joins, its deliveries held back until
+ * node 1 has entered `rounds` rounds (its first publications count them);
+ * then node 2 reads the backlog at once, and all run to the end. Node 1's
+ * round at the release. */
+static unsigned long late_join(avg_t *f, dkf_ra_t **a, unsigned long rounds)
+{
+    int64_t now = 0;
+    size_t i;
+    unsigned long r1;
+    memset(&bus, 0, sizeof bus);
+    for (i = 0; i < NN; ++i) a[i] = make(i, &f[i]);
+    bus.hold[2] = 1; /* node 2 does not read its queue yet */
+    assert_int_equal(dkf_ra_start(a[0], 0), DKF_RA_RUNNING);
+    assert_int_equal(dkf_ra_start(a[1], 0), DKF_RA_RUNNING);
+    assert_int_equal(dkf_ra_join(a[2], 0), DKF_RA_JOINING);
+    /* nodes 0 and 1 give node 2 up after the start timeout and run on */
+    while (dkf_ra_counters(a[1])->reals_sent < rounds && now < 1000000)
+        now = ra_bus_run(&bus, now, 10, now + 10);
+    r1 = dkf_ra_counters(a[1])->reals_sent - 1;
+    assert_int_equal(dkf_ra_counters(a[1])->absent_marks, 1);
+    ra_bus_release(&bus, 2);
+    ra_bus_run(&bus, now, 10, now + 1000000);
+    for (i = 0; i < NN; ++i) {
+        if (dkf_ra_state(a[i]) != DKF_RA_FINISHED)
+            fail_msg("node %zu: state %d after %zu steps", i, dkf_ra_state(a[i]),
+                     dkf_ra_steps_done(a[i]));
+        assert_int_equal(dkf_ra_steps_done(a[i]), STEPS);
+    }
+    return r1;
+}
+
+/* After late_join: node 2 joined in step `first`, and caught up through
+ * node 1's answers while node 1 waited for it: node 2 took node 1's packet
+ * in every round it ran; node 1 went without node 2's until some round of
+ * step `first` at the latest, then took them all (no later step degraded,
+ * no round timed out on node 2 again). */
+static void check_caught_up(const avg_t *f, dkf_ra_t **a, size_t first)
+{
+    size_t i, j, t;
+    assert_int_equal(dkf_ra_first_step(a[2]), first);
+    for (j = 1; j < first; ++j) assert_true(dkf_ra_step_degraded(a[1], j));
+    for (j = first + 1; j <= STEPS; ++j) assert_false(dkf_ra_step_degraded(a[1], j));
+    for (t = 0; t < (first - 1) * ROUNDS; ++t) assert_false(f[1].full[t]);
+    for (t = 0; t + 1 < STEPS * ROUNDS; ++t)
+        if (f[1].full[t]) assert_true(f[1].full[t + 1]);
+    for (t = (first - 1) * ROUNDS; t < STEPS * ROUNDS; ++t) assert_true(f[2].full[t]);
+    assert_int_equal(dkf_ra_counters(a[1])->absent_marks, 1);
+    assert_true(dkf_ra_counters(a[1])->answers > 0);
+    assert_int_equal(dkf_ra_counters(a[2])->degraded_steps, 0);
+    assert_int_equal(dkf_ra_counters(a[2])->absent_marks, 0);
+    for (i = 0; i < NN; ++i) dkf_ra_free(a[i]);
+}
+
+/* Node 1 is in step 2 when node 2 reads its backlog, so node 2 joins from
+ * step 1's last round, at least a round behind node 1, which had given it
+ * up and must wait for it again (without the wait node 2 stayed behind for
+ * good and node 1 was degraded in every step). */
+static void test_joiner_behind_is_waited_for(void **state)
+{
+    avg_t f[NN];
+    dkf_ra_t *a[NN];
+    unsigned long r1;
+    (void)state;
+    r1 = late_join(f, a, ROUNDS + 2);
+    assert_true(r1 >= ROUNDS + 1 && r1 + 1 < 2 * ROUNDS); /* step 2's last round not sent */
+    assert_true(dkf_ra_step_degraded(a[1], 2)); /* node 1 had left the join round */
+    assert_false(f[1].full[ROUNDS]);
+    check_caught_up(f, a, 2);
+}
+
+/* Node 1 has sent step 2's last round as well when node 2 reads its
+ * backlog: node 2 joins from that one, the newest, not from step 1's. */
+static void test_joiner_takes_the_newest_last_round(void **state)
+{
+    avg_t f[NN];
+    dkf_ra_t *a[NN];
+    unsigned long r1;
+    (void)state;
+    r1 = late_join(f, a, 2 * ROUNDS + 1);
+    assert_true(r1 >= 2 * ROUNDS && r1 + 1 < 3 * ROUNDS); /* step 3's last round not sent */
+    check_caught_up(f, a, 3);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_averages_bit_for_bit),
         cmocka_unit_test(test_silent_node_degrades_its_neighbour),
+        cmocka_unit_test(test_joiner_behind_is_waited_for),
+        cmocka_unit_test(test_joiner_takes_the_newest_last_round),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -256,8 +256,8 @@ static void check_caught_up(const avg_t *f, dkf_ra_t **a, size_t first)
 
 /* Node 1 is in step 2 when node 2 reads its backlog, so node 2 joins from
  * step 1's last round, at least a round behind node 1, which had given it
- * up and must wait for it again (without the wait node 2 stayed behind for
- * good and node 1 was degraded in every step). */
+ * up and must wait for it again (not waited for, node 2 would stay behind
+ * for good and node 1 be degraded in every step). */
 static void test_joiner_behind_is_waited_for(void **state)
 {
     avg_t f[NN];

@@ -34,10 +34,11 @@
 #   df_rejoin   the 12 radars (100 steps, T_p 45, s = 12) with node 5 started
 #               0.5 s late with --join, while the others still wait for it in
 #               step 1 (a start timeout derived from the load, at least 2 s):
-#               it joins after a step k (the first whose last round it
-#               hears), runs every later step, its neighbours are degraded
-#               only before it joined, and its last estimate agrees with
-#               node 0's
+#               it joins after a step k (the newest whose last round it
+#               has read when it next polls), runs every later step, its
+#               neighbours are degraded only before it joined (those
+#               already further on wait while it catches up), and its last
+#               estimate agrees with node 0's
 # Direct receive (dkf-tw-node --direct-recv, net.h: dkf_net_direct):
 #   direct      vec6 (Algorithms 2 and 3) and df4's first case with every
 #               process reading its socket itself: == dkf-run bit for bit, and

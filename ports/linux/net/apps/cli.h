@@ -56,7 +56,7 @@ typedef struct {
     double hb_ms;        /* --heartbeat-ms MS in [1, 1e7] */
     unsigned ports;      /* --split-ports, --direct-recv (DKF_CLI_*) */
     int quiet;           /* -q, --quiet */
-    int lan;             /* --lan: udpm ttl=1 allowed (DKF_NET_LAN), keys required */
+    int lan;             /* --lan: the ttl=0 URL opened with ttl=1 (DKF_NET_LAN), keys required */
     int insecure;        /* --insecure: --lan without keys, said at every start */
     double clock_ms;     /* --clock-offset-ms MS (tests; clock.h), set when read */
 } dkf_cli_opts_t;
@@ -78,9 +78,9 @@ typedef struct {
 
 /* The usage lines of --lan, --insecure and --clock-offset-ms (every program). */
 #define DKF_CLI_LAN_USAGE                                                                   \
-    "      --lan               several hosts on one segment: also accept udpm ttl=1 (one\n"   \
-    "                          hop, never routed); needs --key-dir (docs/guide/network.md,\n" \
-    "                          Several hosts)\n"                                               \
+    "      --lan               several hosts on one segment: the udpm URL (ttl=0) is\n"      \
+    "                          opened with one hop (ttl=1, never routed); needs --key-dir\n" \
+    "                          (docs/guide/network.md, Several hosts)\n"                     \
     "      --insecure          with --lan: run without --key-dir, unauthenticated (said\n"    \
     "                          on stderr at every start)\n"                                   \
     "      --clock-offset-ms MS  (tests) run as if this host's wall clock were MS ms\n"      \

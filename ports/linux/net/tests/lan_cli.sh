@@ -2,14 +2,15 @@
 # lan_cli.sh OUTDIR KEYGEN_ARGS SCENARIO PROGRAM [ARGS...] - the --lan and
 # --insecure options of one network program (docs/guide/network.md, "Several
 # hosts"), with no socket opened: every run that is accepted uses memq://,
-# every udpm:// URL is one the program must refuse before opening anything.
+# the one udpm:// URL is one the program must refuse before opening anything.
 #
 #   --lan without --key-dir                 refused (exit 2), one line saying why
 #   --lan --insecure                        accepted, "UNAUTHENTICATED on the LAN"
 #                                           on stderr (exit 4: --timeout)
 #   --lan --key-dir KEYS                    accepted, nothing said of authentication
-#   ttl=1 without --lan                     refused (exit 2): "ttl must be 0 ("
-#   ttl=2 with --lan --insecure             refused (exit 2): "ttl must be 0 or 1"
+#   a URL saying ttl=0 twice, with --lan    refused (exit 2): "ttl=0 exactly once"
+#                                           (--lan checks the URL as without it;
+#                                           every other ttl: test_net_url.c)
 #   --insecure without --lan                refused (exit 2)
 #   --lan --insecure --key-dir KEYS         refused (exit 2)
 #   --clock-offset-ms out of range          refused (exit 2)
@@ -58,9 +59,8 @@ T=(--timeout 0.3)
 expect lan-nokeys 2 "--lan without --key-dir: refused" --url memq:// --lan
 expect lan-insecure 4 "UNAUTHENTICATED on the LAN (--insecure)" --url memq:// --lan --insecure "${T[@]}"
 expect lan-keys 4 "" --url memq:// --lan --key-dir "$out/keys" "${T[@]}"
-expect ttl1-nolan 2 "ttl must be 0 (" --url 'udpm://239.255.76.67:7667?ttl=1'
-expect ttl1-nolan-keys 2 "ttl must be 0 (" --url 'udpm://239.255.76.67:7667?ttl=1' --key-dir "$out/keys"
-expect ttl2-lan 2 "ttl must be 0 or 1" --url 'udpm://239.255.76.67:7667?ttl=2' --lan --insecure
+expect ttl-twice-lan 2 "ttl=0 exactly once" --url 'udpm://239.255.76.67:7667?ttl=0&ttl=0' --lan \
+  --insecure
 expect insecure-nolan 2 "--insecure: only with --lan" --url memq:// --insecure
 expect insecure-keys 2 "--insecure and --key-dir: give one" --url memq:// --lan --insecure \
   --key-dir "$out/keys"

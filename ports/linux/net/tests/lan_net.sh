@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # lan_net.sh MODE OUTDIR - dkf-sim, dkf-fusion and 12 dkf-node processes on an
 # emulated LAN of several hosts (docs/guide/network.md, "Several hosts"):
-# every process runs with --lan and keys over udpm at ttl=1 (one hop), and
-# only inside the namespaces this script makes (below).
+# every process runs with --lan and keys over a ttl=0 udpm URL, which --lan
+# sends with one hop (ttl=1; with ttl=0 nothing would cross the bridge, so the
+# run passing shows it), and only inside the namespaces this script makes.
 #
 # The LAN: 4 host namespaces (dkflan-h0..h3), each with one veth (eth0,
 # 10.201.0.<h+1>/24, the route 239.0.0.0/8 dev eth0) into a bridge (br0) that
@@ -53,7 +54,7 @@ LOSS=3         # loss mode: % of the UDP datagrams dropped each way at every hos
 BR=dkflan-br
 
 . "$(dirname "$0")/net_common.sh"
-URL='udpm://239.255.76.67:7667?ttl=1'
+URL='udpm://239.255.76.67:7667?ttl=0' # --lan sends it with one hop (ttl=1): across the bridge
 
 # ---- outside: the checks, then the rest in a private mount + network namespace ----------
 if [[ ${DKF_IN_LAN:-0} != 1 ]]; then

@@ -1,7 +1,8 @@
 /*
  * LCM URL safety (net.h): only memq:// and udpm:// to a 239.0.0.0/8 group
- * with ttl=0 (exactly once) are accepted, with --lan (scope DKF_NET_LAN)
- * ttl=1 too; dkf_net_open refuses the rest before LCM is touched.
+ * with ttl=0 (exactly once) are accepted, in every scope; with --lan (scope
+ * DKF_NET_LAN) LCM opens that URL with ttl=1; dkf_net_open refuses the rest
+ * before LCM is touched.
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -96,72 +97,81 @@ static void test_open_refuses(void **state)
     assert_non_null(strstr(err, "239.0.0.0/8"));
 }
 
-/* Scope DKF_NET_LAN (--lan): ttl=1 as well as ttl=0, nothing further; the
- * other rules unchanged. Scope DKF_NET_HOST is dkf_net_check_url's. */
+/* Scope DKF_NET_LAN (--lan): the URLs and refusals of scope DKF_NET_HOST
+ * (a URL never says more than ttl=0, with or without --lan); LCM is given
+ * the URL with ttl=1 in scope DKF_NET_LAN, unchanged in DKF_NET_HOST. */
 static void test_lan_scope(void **state)
 {
-    static const char *const ok[] = {
-        "udpm://239.255.76.67:7667?ttl=1",
-        "udpm://239.255.76.67:7667?ttl=0",
-        "udpm://239.1.2.3?recv_buf_size=2097152&ttl=1",
-        "memq://",
+    static const struct {
+        const char *url, *lan;
+    } ok[] = {
+        {"udpm://239.255.76.67:7667?ttl=0", "udpm://239.255.76.67:7667?ttl=1"},
+        {"udpm://239.1.2.3?recv_buf_size=2097152&ttl=0",
+         "udpm://239.1.2.3?recv_buf_size=2097152&ttl=1"},
+        {"udpm://239.1.2.3?ttl=0&recv_buf_size=100000", "udpm://239.1.2.3?ttl=1&recv_buf_size=100000"},
+        {"memq://", "memq://"},
     };
     static const struct {
         const char *url, *why;
     } bad[] = {
-        {"udpm://239.255.76.67:7667?ttl=2", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=9", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=10", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=255", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=01", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=-1", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=1&ttl=2", "ttl must be 0 or 1"},
-        {"udpm://239.255.76.67:7667?ttl=1&ttl=1", "exactly once"},
+        {"udpm://239.255.76.67:7667?ttl=1", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=2", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=255", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=01", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=0&ttl=1", "ttl must be 0 ("},
+        {"udpm://239.255.76.67:7667?ttl=0&ttl=0", "exactly once"},
         {"udpm://239.255.76.67:7667", "exactly once"},
-        {"udpm://224.0.0.1:7667?ttl=1", "239.0.0.0/8"},
-        {"udpm://239.255.76.67:0?ttl=1", "bad port"},
+        {"udpm://224.0.0.1:7667?ttl=0", "239.0.0.0/8"},
+        {"udpm://239.255.76.67:0?ttl=0", "bad port"},
         {"tcpq://127.0.0.1:7700", "only udpm"},
     };
-    char err[DKF_NET_ERR_LEN];
+    char err[DKF_NET_ERR_LEN], out[128];
     size_t i;
+    int scope;
     (void)state;
     for (i = 0; i < sizeof ok / sizeof ok[0]; ++i) {
         err[0] = '\0';
-        if (dkf_net_check_url_scope(ok[i], DKF_NET_LAN, err, sizeof err) != 0)
-            fail_msg("--lan: %s refused: %s", ok[i], err);
+        if (dkf_net_lcm_url(ok[i].url, DKF_NET_LAN, out, sizeof out, err, sizeof err) != 0)
+            fail_msg("--lan: %s refused: %s", ok[i].url, err);
+        assert_string_equal(out, ok[i].lan);
+        assert_int_equal(dkf_net_lcm_url(ok[i].url, DKF_NET_HOST, out, sizeof out, err,
+                                         sizeof err), 0);
+        assert_string_equal(out, ok[i].url);
     }
-    for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
-        err[0] = '\0';
-        if (dkf_net_check_url_scope(bad[i].url, DKF_NET_LAN, err, sizeof err) == 0)
-            fail_msg("--lan: %s accepted", bad[i].url);
-        if (strstr(err, bad[i].why) == NULL)
-            fail_msg("--lan: %s: message '%s' lacks '%s'", bad[i].url, err, bad[i].why);
-        assert_null(strchr(err, '\n'));
-        assert_non_null(strstr(err, bad[i].url));
-    }
-    /* without --lan ttl=1 stays refused, and the message names the way out */
-    assert_int_equal(dkf_net_check_url_scope(ok[0], DKF_NET_HOST, err, sizeof err), -1);
-    assert_non_null(strstr(err, "ttl must be 0 ("));
+    for (scope = DKF_NET_HOST; scope <= DKF_NET_LAN; ++scope)
+        for (i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
+            err[0] = '\0';
+            if (dkf_net_check_url_scope(bad[i].url, scope, err, sizeof err) == 0)
+                fail_msg("scope %d: %s accepted", scope, bad[i].url);
+            if (strstr(err, bad[i].why) == NULL)
+                fail_msg("scope %d: %s: message '%s' lacks '%s'", scope, bad[i].url, err,
+                         bad[i].why);
+            assert_null(strchr(err, '\n'));
+            assert_non_null(strstr(err, bad[i].url));
+            assert_int_equal(dkf_net_lcm_url(bad[i].url, scope, out, sizeof out, err, sizeof err),
+                             -1);
+        }
+    /* a ttl other than 0 names the way to several hosts */
+    assert_int_equal(dkf_net_check_url(bad[0].url, err, sizeof err), -1);
     assert_non_null(strstr(err, "--lan"));
-    assert_int_equal(dkf_net_check_url(ok[0], err, sizeof err), -1);
-    assert_int_equal(dkf_net_check_url_scope(ok[1], DKF_NET_HOST, err, sizeof err), 0);
-    /* no other scope */
-    assert_int_equal(dkf_net_check_url_scope(ok[1], 2, err, sizeof err), -1);
+    /* too long for the output, no other scope */
+    assert_int_equal(dkf_net_lcm_url(ok[0].url, DKF_NET_LAN, out, 10, err, sizeof err), -1);
+    assert_int_equal(dkf_net_check_url_scope(ok[0].url, 2, err, sizeof err), -1);
     assert_non_null(strstr(err, "scope"));
-    assert_int_equal(dkf_net_check_url_scope(ok[1], -1, err, sizeof err), -1);
+    assert_int_equal(dkf_net_check_url_scope(ok[0].url, -1, err, sizeof err), -1);
     assert_int_equal(dkf_net_check_url_scope(NULL, DKF_NET_LAN, err, sizeof err), -1);
 }
 
-/* dkf_net_open_scope applies the scope's check (no LCM instance is created
- * for a refused URL); memq:// opens in either. */
+/* dkf_net_open_scope applies the check in either scope (no LCM instance is
+ * created for a refused URL); memq:// opens in either. */
 static void test_open_scope(void **state)
 {
     char err[DKF_NET_ERR_LEN] = "";
     dkf_net_t *net;
     (void)state;
-    assert_null(dkf_net_open_scope("udpm://239.255.76.67:7667?ttl=2", DKF_NET_LAN, err, sizeof err));
-    assert_non_null(strstr(err, "ttl must be 0 or 1"));
+    assert_null(dkf_net_open_scope("udpm://239.255.76.67:7667?ttl=1", DKF_NET_LAN, err, sizeof err));
+    assert_non_null(strstr(err, "ttl must be 0 ("));
     assert_null(dkf_net_open_scope("udpm://239.255.76.67:7667?ttl=1", DKF_NET_HOST, err,
                                    sizeof err));
     assert_non_null(strstr(err, "ttl must be 0 ("));

@@ -41,7 +41,7 @@ struct dkf_net {
     lcm_t *lane[LANES];    /* split: an instance per lane, opened when first used */
     unsigned char read_lane[LANES]; /* split: a subscription reads this lane */
     int split;
-    int scope;             /* DKF_NET_HOST or DKF_NET_LAN: the URL check of the lanes' */
+    int scope;             /* DKF_NET_HOST or DKF_NET_LAN: how the lanes are opened */
     char url[128];         /* the URL, for the lanes' (split) */
     dkf_auth_t *auth;      /* NULL: unauthenticated (dkf_net_set_auth) */
     unsigned char *out;    /* message + trailer being published (auth only) */
@@ -94,30 +94,24 @@ static int check_group(const char *host, size_t len)
 }
 
 /* Checks the options after '?': ttl must appear exactly once, equal to 0,
- * or in scope DKF_NET_LAN to 0 or 1 (canonical: one digit). */
-static int check_options(const char *url, const char *opt, int scope, char *err, size_t errlen)
+ * in every scope (--lan's one hop is dkf_net_lcm_url's, never the URL's). */
+static int check_options(const char *url, const char *opt, char *err, size_t errlen)
 {
-    const char max = scope == DKF_NET_LAN ? '1' : '0';
     int nttl = 0;
     while (opt != NULL && *opt != '\0') {
         const char *end = strchr(opt, '&');
         size_t len = end ? (size_t)(end - opt) : strlen(opt);
         if (len >= 4 && strncmp(opt, "ttl=", 4) == 0) {
             ++nttl;
-            if (len != 5 || opt[4] < '0' || opt[4] > max)
-                return scope == DKF_NET_LAN
-                           ? fail(err, errlen, "%s: refused: ttl must be 0 or 1 with --lan (one "
-                                  "hop: the local segment, never routed; docs/guide/network.md, "
-                                  "Several hosts)", url)
-                           : fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not "
-                                  "leave this host; --lan allows ttl=1: docs/guide/network.md, "
-                                  "Several hosts)", url);
+            if (len != 5 || opt[4] != '0')
+                return fail(err, errlen, "%s: refused: ttl must be 0 (multicast must not leave "
+                            "this host; for several hosts give --lan, which sends one hop: "
+                            "docs/guide/network.md, Several hosts)", url);
         }
         opt = end ? end + 1 : NULL;
     }
     if (nttl != 1)
-        return fail(err, errlen, "%s: refused: a udpm URL must say ttl=0%s exactly once", url,
-                    scope == DKF_NET_LAN ? " or ttl=1" : "");
+        return fail(err, errlen, "%s: refused: a udpm URL must say ttl=0 exactly once", url);
     return 0;
 }
 
@@ -134,8 +128,7 @@ int dkf_net_check_url_scope(const char *url, int scope, char *err, size_t errlen
         return fail(err, errlen, "%s: refused: unknown scope %d", url, scope);
     if (strcmp(url, "memq://") == 0) return 0;
     if (strncmp(url, "udpm://", 7) != 0)
-        return fail(err, errlen, "%s: refused: only udpm:// (ttl=0%s) and memq:// are allowed",
-                    url, scope == DKF_NET_LAN ? " or 1" : "");
+        return fail(err, errlen, "%s: refused: only udpm:// (ttl=0) and memq:// are allowed", url);
     host = url + 7;
     q = strchr(host, '?');
     hend = q ? q : host + strlen(host);
@@ -145,7 +138,22 @@ int dkf_net_check_url_scope(const char *url, int scope, char *err, size_t errlen
                     "239.0.0.0/8", url);
     if (colon != NULL && parse_dec(colon + 1, (size_t)(hend - colon - 1), 1, 65535) < 0)
         return fail(err, errlen, "%s: refused: bad port", url);
-    return check_options(url, q ? q + 1 : NULL, scope, err, errlen);
+    return check_options(url, q ? q + 1 : NULL, err, errlen);
+}
+
+int dkf_net_lcm_url(const char *url, int scope, char *out, size_t outlen, char *err,
+                    size_t errlen)
+{
+    const char *opt;
+    if (dkf_net_check_url_scope(url, scope, err, errlen) != 0) return -1;
+    if (strlen(url) >= outlen) return fail(err, errlen, "%s: URL too long", url);
+    strcpy(out, url);
+    if (scope != DKF_NET_LAN || (opt = strchr(out, '?')) == NULL) return 0;
+    /* the one "ttl=0" option (checked above) becomes ttl=1: one hop */
+    ++opt;
+    while (strncmp(opt, "ttl=", 4) != 0) opt = strchr(opt, '&') + 1;
+    out[opt - out + 4] = '1';
+    return 0;
 }
 
 dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
@@ -156,13 +164,14 @@ dkf_net_t *dkf_net_open(const char *url, char *err, size_t errlen)
 dkf_net_t *dkf_net_open_scope(const char *url, int scope, char *err, size_t errlen)
 {
     dkf_net_t *net;
-    if (dkf_net_check_url_scope(url, scope, err, errlen) != 0) return NULL;
+    char lcm_url[sizeof net->url];
+    if (dkf_net_lcm_url(url, scope, lcm_url, sizeof lcm_url, err, errlen) != 0) return NULL;
     net = calloc(1, sizeof *net);
     if (net == NULL) {
         fail(err, errlen, "%s: out of memory", url);
         return NULL;
     }
-    net->lcm = lcm_create(url);
+    net->lcm = lcm_create(lcm_url);
     if (net->lcm == NULL) {
         free(net);
         fail(err, errlen, "%s: cannot open LCM (is there a multicast route? docs/guide/network.md)",
@@ -230,11 +239,12 @@ static int lane_of(const dkf_net_t *net, const char *channel)
 }
 
 /* The instance of a lane, opened on first use (split): the URL with the
- * lane's port, checked again (its options, its ttl among them, are the
- * URL's). NULL if LCM cannot open it. */
+ * lane's port, checked again and opened as dkf_net_open_scope opens the
+ * URL (its options, its ttl among them, are the URL's). NULL if LCM cannot
+ * open it. */
 static lcm_t *lane_lcm(dkf_net_t *net, int lane)
 {
-    char url[sizeof net->url + 8], err[DKF_NET_ERR_LEN];
+    char url[sizeof net->url + 8], lcm_url[sizeof url], err[DKF_NET_ERR_LEN];
     const char *q = strchr(net->url, '?');
     size_t glen;
     long port;
@@ -242,8 +252,9 @@ static lcm_t *lane_lcm(dkf_net_t *net, int lane)
     port = udpm_port(net->url, &glen);
     snprintf(url, sizeof url, "%s%.*s:%ld%s", "udpm://", (int)glen, net->url + 7, port + lane,
              q ? q : ""); /* the URL's options: its ttl */
-    if (dkf_net_check_url_scope(url, net->scope, err, sizeof err) != 0) return NULL;
-    net->lane[lane] = lcm_create(url);
+    if (dkf_net_lcm_url(url, net->scope, lcm_url, sizeof lcm_url, err, sizeof err) != 0)
+        return NULL;
+    net->lane[lane] = lcm_create(lcm_url);
     return net->lane[lane];
 }
 

@@ -11,10 +11,11 @@
  *                                          TTL 0 (never routed off the host)
  *
  * Every other provider, a udpm group outside 239.0.0.0/8, and a udpm URL
- * whose ttl is missing or not 0 are refused. In scope DKF_NET_LAN (the
- * programs' --lan, which also requires authentication: docs/guide/network.md,
- * "Several hosts"; docs/decisions.md, item 65) ttl=1 is allowed as well: one
- * hop, the local segment, never routed; ttl > 1 stays refused.
+ * whose ttl is missing or not 0 are refused, in every scope. In scope
+ * DKF_NET_LAN (the programs' --lan, which also requires authentication:
+ * docs/guide/network.md, "Several hosts"; docs/decisions.md, items 65 and
+ * 78) the same ttl=0 URL is opened with ttl=1: one hop, the local segment,
+ * never routed. No URL a user writes says more than ttl=0.
  * Integer returns: 0 success, -1 failure with a one-line message in err.
  */
 #ifndef DKF_NET_H
@@ -39,13 +40,17 @@ typedef void (*dkf_net_handler_t)(const char *channel, const dkf_net_from_t *fro
 
 /* Where a URL may reach (see above). */
 #define DKF_NET_HOST 0 /* this host only: udpm ttl=0 */
-#define DKF_NET_LAN 1  /* the local segment too: udpm ttl=0 or ttl=1 */
+#define DKF_NET_LAN 1  /* the local segment too: the ttl=0 URL opened with ttl=1 */
 
 /* 0 if url is allowed in scope DKF_NET_HOST (see above), else -1 with the
  * reason in err. */
 int dkf_net_check_url(const char *url, char *err, size_t errlen);
 /* The same in scope DKF_NET_HOST or DKF_NET_LAN (any other is refused). */
 int dkf_net_check_url_scope(const char *url, int scope, char *err, size_t errlen);
+/* The URL LCM is given for url in scope (url checked first): url itself, or
+ * in scope DKF_NET_LAN with its ttl=0 made ttl=1. 0, or -1 with err. */
+int dkf_net_lcm_url(const char *url, int scope, char *out, size_t outlen, char *err,
+                    size_t errlen);
 
 /* Checks url (scope DKF_NET_HOST), then creates the LCM instance. NULL +
  * err on failure. */
